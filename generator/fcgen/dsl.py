@@ -1,0 +1,385 @@
+"""Problem description: frozen dataclasses, validated on construction.
+
+Every value is checked in ``__post_init__`` so a bad problem fails at the earliest layer with one
+:class:`ProblemError` that names the field and the allowed range.
+"""
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass, field, fields, replace
+from typing import Union
+
+
+class ProblemError(ValueError):
+    """An invalid problem description: names the field and the allowed range."""
+
+
+def _check(ok: bool, name: str, value, allowed: str) -> None:
+    if not ok:
+        raise ProblemError(f"{name} = {value!r} is invalid: allowed {allowed}")
+
+
+def _finite(name: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ProblemError(f"{name} = {value!r} is invalid: allowed a finite real number") from None
+    _check(math.isfinite(v), name, value, "a finite real number")
+    return v
+
+
+def _positive(name: str, value) -> None:
+    _check(_finite(name, value) > 0, name, value, "> 0")
+
+
+def _nonneg(name: str, value) -> None:
+    _check(_finite(name, value) >= 0, name, value, ">= 0")
+
+
+def _vec(name: str, value, n: int, check=_nonneg) -> None:
+    _check(isinstance(value, tuple) and len(value) == n, name, value, f"a tuple of {n} numbers")
+    for i, v in enumerate(value):
+        check(f"{name}[{i}]", v)
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """Kinematic single-track vehicle; reference point is the rear axle (SPEC section 1)."""
+
+    l_f: float = 1.7
+    l_r: float = 1.7
+    l_f_ch: float = 2.0
+    l_r_ch: float = 2.0
+    w_ch: float = 1.9
+    m: float = 1160.0
+    c_air: float = 0.5 * 0.29 * 2.07 * 1.29
+    c_roll: float = 0.015 * 1160.0 * 9.81
+
+    def __post_init__(self) -> None:
+        for f in ("l_f", "l_r", "l_f_ch", "l_r_ch", "w_ch", "m"):
+            _positive(f"vehicle.{f}", getattr(self, f))
+        _nonneg("vehicle.c_air", self.c_air)
+        _nonneg("vehicle.c_roll", self.c_roll)
+
+    @property
+    def l(self) -> float:
+        """Wheelbase."""
+        return self.l_f + self.l_r
+
+    @property
+    def l_ch(self) -> float:
+        """Chassis length."""
+        return self.l_f_ch + self.l_r_ch
+
+    @property
+    def r_cover(self) -> float:
+        """Radius of the one circle covering the chassis."""
+        return math.hypot(self.l_ch / 2, self.w_ch / 2)
+
+
+@dataclass(frozen=True)
+class Wind:
+    """Wind speed and the direction it comes from."""
+
+    v: float = 20.0
+    phi: float = 0.0
+
+    def __post_init__(self) -> None:
+        _nonneg("wind.v", self.v)
+        _finite("wind.phi", self.phi)
+
+
+@dataclass(frozen=True)
+class Horizon:
+    """N shooting intervals of length dt."""
+
+    N: int = 40
+    dt: float = 0.1
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.N, int) and not isinstance(self.N, bool) and 1 <= self.N <= 500,
+               "horizon.N", self.N, "an integer in [1, 500]")
+        _check(_finite("horizon.dt", self.dt) > 0 and self.dt <= 10, "horizon.dt", self.dt, "(0, 10] s")
+
+
+@dataclass(frozen=True)
+class Weights:
+    """Least-squares weights (paper Table II); stage weights ``q`` and ``r`` are multiplied by dt once."""
+
+    q: tuple[float, ...] = (1.0, 500.0, 1e3, 1e3, 1e4)
+    q_N: tuple[float, ...] = (10.0, 90.0, 100.0, 10.0, 10.0)
+    r: tuple[float, ...] = (1e-3, 2e6)
+
+    def __post_init__(self) -> None:
+        _vec("weights.q", self.q, 5)
+        _vec("weights.q_N", self.q_N, 5)
+        _vec("weights.r", self.r, 2)
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Tracking reference: s_ref,k = s0 + k dt v_ref, lateral n_ref, alpha_ref = delta_ref = 0."""
+
+    v_ref: float = 40.0
+    n_ref: float = 0.0
+
+    def __post_init__(self) -> None:
+        _nonneg("reference.v_ref", self.v_ref)
+        _finite("reference.n_ref", self.n_ref)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Box bounds (paper Table I); the road bounds are on the ego's n."""
+
+    F_d_max: float = 1e4
+    r_max: float = 0.39
+    delta_max: float = 0.3
+    v_min: float = 0.0
+    v_max: float = 40.0
+    alpha_max: float = math.pi / 4
+    n_min: float = -10.0
+    n_max: float = 10.0
+    a_lat_max: float = 5.0
+    v_N_max: float = 15.0
+
+    def __post_init__(self) -> None:
+        for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
+            _positive(f"bounds.{f}", getattr(self, f))
+        _check(0 < _finite("bounds.alpha_max", self.alpha_max) < math.pi / 2,
+               "bounds.alpha_max", self.alpha_max, "(0, pi/2)")
+        _check(0 <= _finite("bounds.v_min", self.v_min) < _finite("bounds.v_max", self.v_max),
+               "bounds.v_min", self.v_min, f"0 <= v_min < v_max = {self.v_max}")
+        _check(self.v_min <= _finite("bounds.v_N_max", self.v_N_max) <= self.v_max,
+               "bounds.v_N_max", self.v_N_max, f"[v_min, v_max] = [{self.v_min}, {self.v_max}]")
+        _check(_finite("bounds.n_min", self.n_min) < _finite("bounds.n_max", self.n_max),
+               "bounds.n_min", self.n_min, f"< n_max = {self.n_max}")
+
+
+@dataclass(frozen=True)
+class SoftPenalties:
+    """L1 + L2 slack penalties (multiplied by dt per stage); road bounds may be softened too."""
+
+    obstacle_l1: float = 1e6
+    obstacle_l2: float = 1e5
+    a_lat_l1: float = 1e5
+    a_lat_l2: float = 1e4
+    soft_road: bool = False
+    road_l1: float = 1e5
+    road_l2: float = 1e4
+
+    def __post_init__(self) -> None:
+        for f in ("obstacle_l1", "obstacle_l2", "a_lat_l1", "a_lat_l2", "road_l1", "road_l2"):
+            _nonneg(f"soft.{f}", getattr(self, f))
+        _check(isinstance(self.soft_road, bool), "soft.soft_road", self.soft_road, "True or False")
+
+
+# --- formulations (paper Table III) -------------------------------------------------------------
+
+OVERAPPROX = ("fit", "none")
+
+
+@dataclass(frozen=True)
+class Conventional:
+    """5-state Frenet ODE; obstacles over-approximated in (s, n) outside the NLP (``none``: naive, unsafe)."""
+
+    overapprox: str = "fit"
+    margin: float = 0.0
+    kind: str = field(default="conventional", init=False)
+
+    def __post_init__(self) -> None:
+        _check(self.overapprox in OVERAPPROX, "formulation.overapprox", self.overapprox, f"one of {OVERAPPROX}")
+        _nonneg("formulation.margin", self.margin)
+
+    @property
+    def frenet_obstacles(self) -> bool:
+        return True
+
+
+@dataclass(frozen=True)
+class DirectElimination:
+    """5-state Frenet ODE; obstacle constraints on F^-1(s, n, alpha)."""
+
+    kind: str = field(default="direct_elimination", init=False)
+
+    @property
+    def frenet_obstacles(self) -> bool:
+        return False
+
+
+@dataclass(frozen=True)
+class Lifted:
+    """8-state lifted ODE; obstacle constraints on the Cartesian states."""
+
+    kind: str = field(default="lifted", init=False)
+
+    @property
+    def frenet_obstacles(self) -> bool:
+        return False
+
+
+Formulation = Union[Conventional, DirectElimination, Lifted]
+
+
+# --- obstacle models ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Ellipse:
+    """Opponent covered by an ellipse, ego by one circle."""
+
+    kind: str = field(default="ellipse", init=False)
+
+
+@dataclass(frozen=True)
+class CoveringCircles:
+    """n circles along each vehicle's axis (ego uses n_ego, default n)."""
+
+    n: int = 3
+    n_ego: int | None = None
+    kind: str = field(default="covering_circles", init=False)
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.n, int) and 1 <= self.n <= 20, "obstacles.n", self.n, "an integer in [1, 20]")
+        if self.n_ego is not None:
+            _check(isinstance(self.n_ego, int) and 1 <= self.n_ego <= 20, "obstacles.n_ego", self.n_ego,
+                   "an integer in [1, 20]")
+
+    @property
+    def ego_circles(self) -> int:
+        return self.n if self.n_ego is None else self.n_ego
+
+
+@dataclass(frozen=True)
+class SeparatingHyperplane:
+    """Per opponent and stage a hyperplane theta = [t1, t2, t3], t1^2 + t2^2 = 1, separating the vertices."""
+
+    kind: str = field(default="separating_hyperplane", init=False)
+
+
+ObstacleModel = Union[Ellipse, CoveringCircles, SeparatingHyperplane]
+
+
+def circles_cover(l_ch: float, w_ch: float, n: int) -> bool:
+    """True if n circles of radius w/sqrt(2) spread over the axis cover an l x w rectangle (SPEC section 4)."""
+    if n == 1:
+        return True
+    spacing = (l_ch - w_ch) / (n - 1)
+    return spacing <= w_ch + 1e-12
+
+
+@dataclass(frozen=True)
+class Opponents:
+    """Number of opponents and their (common) dimensions."""
+
+    count: int = 3
+    vehicle: Vehicle = Vehicle()
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.count, int) and 0 <= self.count <= 10, "opponents.count", self.count,
+               "an integer in [0, 10]")
+        _check(isinstance(self.vehicle, Vehicle), "opponents.vehicle", self.vehicle, "a Vehicle")
+
+
+@dataclass(frozen=True)
+class QpOptions:
+    """OSQP settings used identically by the Python reference and the generated C."""
+
+    max_iter: int = 4000
+    eps_abs: float = 1e-5
+    eps_rel: float = 1e-5
+    rho: float = 0.1
+    sigma: float = 1e-6
+    alpha: float = 1.6
+    adaptive_rho: bool = False
+    scaling: int = 10
+    check_termination: int = 5
+    warm_start: bool = True
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.max_iter, int) and 1 <= self.max_iter <= 1_000_000, "qp.max_iter", self.max_iter,
+               "an integer in [1, 1e6]")
+        for f in ("eps_abs", "eps_rel"):
+            _check(0 <= _finite(f"qp.{f}", getattr(self, f)) < 1, f"qp.{f}", getattr(self, f), "[0, 1)")
+        _check(self.eps_abs > 0 or self.eps_rel > 0, "qp.eps_abs", self.eps_abs, "> 0 when eps_rel = 0")
+        _positive("qp.rho", self.rho)
+        _positive("qp.sigma", self.sigma)
+        _check(0 < _finite("qp.alpha", self.alpha) < 2, "qp.alpha", self.alpha, "(0, 2)")
+        _check(isinstance(self.scaling, int) and 0 <= self.scaling <= 100, "qp.scaling", self.scaling,
+               "an integer in [0, 100]")
+        _check(isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
+               "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
+
+
+@dataclass(frozen=True)
+class RoadWindow:
+    """The road the solver sees at run time: samples with spacing ds, at most ``samples`` of them."""
+
+    ds: float = 2.0
+    length: float = 280.0
+
+    def __post_init__(self) -> None:
+        _check(0.1 <= _finite("road.ds", self.ds) <= 20, "road.ds", self.ds, "[0.1, 20] m")
+        _check(_finite("road.length", self.length) >= 4 * self.ds, "road.length", self.length, f">= 4 ds = {4*self.ds} m")
+
+    @property
+    def samples(self) -> int:
+        return int(math.ceil(self.length / self.ds)) + 1
+
+
+_NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A complete NMPC problem: what ``fcgen generate`` turns into a C solver."""
+
+    name: str
+    formulation: Formulation = Lifted()
+    obstacles: ObstacleModel = Ellipse()
+    ego: Vehicle = Vehicle()
+    opponents: Opponents = Opponents()
+    wind: Wind = Wind()
+    horizon: Horizon = Horizon()
+    weights: Weights = Weights()
+    reference: Reference = Reference()
+    bounds: Bounds = Bounds()
+    soft: SoftPenalties = SoftPenalties()
+    qp: QpOptions = QpOptions()
+    road: RoadWindow = RoadWindow()
+
+    def __post_init__(self) -> None:
+        _check(isinstance(self.name, str) and bool(_NAME.match(self.name)), "name", self.name,
+               "a C identifier prefix: lower case letter, then [a-z0-9_], at most 31 characters")
+        _check(isinstance(self.formulation, (Conventional, DirectElimination, Lifted)), "formulation",
+               self.formulation, "Conventional(), DirectElimination() or Lifted()")
+        _check(isinstance(self.obstacles, (Ellipse, CoveringCircles, SeparatingHyperplane)), "obstacles",
+               self.obstacles, "Ellipse(), CoveringCircles(n) or SeparatingHyperplane()")
+        for f, t in (("ego", Vehicle), ("opponents", Opponents), ("wind", Wind), ("horizon", Horizon),
+                     ("weights", Weights), ("reference", Reference), ("bounds", Bounds),
+                     ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow)):
+            _check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
+        reach = self.bounds.v_max * self.horizon.N * self.horizon.dt
+        _check(self.road.length >= reach + 4 * self.road.ds, "road.length", self.road.length,
+               f">= v_max*N*dt + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")
+        if isinstance(self.obstacles, CoveringCircles):
+            for who, veh, n in (("opponents", self.opponents.vehicle, self.obstacles.n),
+                                ("ego", self.ego, self.obstacles.ego_circles)):
+                if not circles_cover(veh.l_ch, veh.w_ch, n):
+                    need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
+                    warnings.warn(f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
+                                  f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed", stacklevel=3)
+
+    def with_(self, **changes) -> "Problem":
+        """A copy with some fields replaced (validated again)."""
+        return replace(self, **changes)
+
+
+def describe(obj) -> dict:
+    """A plain, JSON-able description of a DSL object (for run logs and generated READMEs)."""
+    if hasattr(obj, "__dataclass_fields__"):
+        return {f.name: describe(getattr(obj, f.name)) for f in fields(obj)}
+    if isinstance(obj, tuple):
+        return [describe(v) for v in obj]
+    return obj

@@ -1,0 +1,84 @@
+"""Vehicle models (SPEC section 2): Cartesian, Frenet and lifted ODEs with air drag, wind and rolling resistance.
+
+Each ODE is a pure function of CasADi expressions; ``road`` is a callable s -> (kappa, phi_gamma) so the same
+equations serve the NLP (road from a parameter window) and tests (road from a closed form).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import casadi as ca
+
+from .dsl import Vehicle, Wind
+
+NX = {"cartesian": 5, "frenet": 5, "lifted": 8}
+NU = 2
+STATE_NAMES = {
+    "cartesian": ("x", "y", "phi", "v", "delta"),
+    "frenet": ("s", "n", "alpha", "v", "delta"),
+    "lifted": ("s", "n", "alpha", "v", "delta", "x", "y", "phi"),
+}
+CONTROL_NAMES = ("F_d", "r")
+
+RoadFn = Callable[[ca.SX], tuple]
+
+
+def longitudinal(v, phi, F_d, veh: Vehicle, wind: Wind):
+    """v' = (F_d - F_air - c_roll)/m with F_air = c_air v_rel |v_rel|, v_rel = v + v_wind cos(phi - phi_wind)."""
+    v_rel = v + wind.v * ca.cos(phi - wind.phi)
+    return (F_d - veh.c_air * v_rel * ca.fabs(v_rel) - veh.c_roll) / veh.m
+
+
+def a_lat(v, delta, veh: Vehicle):
+    """Lateral acceleration at the rear axle: v^2 tan(delta) / l."""
+    return v * v * ca.tan(delta) / veh.l
+
+
+def cartesian_ode(x, u, veh: Vehicle, wind: Wind):
+    """x^C = [x, y, phi, v, delta]."""
+    _, _, phi, v, delta = ca.vertsplit(x)
+    F_d, r = ca.vertsplit(u)
+    return ca.vertcat(v * ca.cos(phi), v * ca.sin(phi), v * ca.tan(delta) / veh.l,
+                      longitudinal(v, phi, F_d, veh, wind), r)
+
+
+def frenet_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
+    """x^F = [s, n, alpha, v, delta]; the wind sees the heading phi_gamma(s) + alpha."""
+    s, n, alpha, v, delta = ca.vertsplit(x)
+    F_d, r = ca.vertsplit(u)
+    kappa, phi_g = road(s)
+    sdot = v * ca.cos(alpha) / (1 - n * kappa)
+    return ca.vertcat(sdot, v * ca.sin(alpha), v * ca.tan(delta) / veh.l - kappa * sdot,
+                      longitudinal(v, phi_g + alpha, F_d, veh, wind), r)
+
+
+def lifted_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
+    """x^d = [s, n, alpha, v, delta, x, y, phi]: Frenet kinematics plus Cartesian pose; wind uses Cartesian phi."""
+    s, n, alpha, v, delta, px, py, phi = ca.vertsplit(x)
+    F_d, r = ca.vertsplit(u)
+    kappa, _ = road(s)
+    sdot = v * ca.cos(alpha) / (1 - n * kappa)
+    yaw_rate = v * ca.tan(delta) / veh.l
+    return ca.vertcat(sdot, v * ca.sin(alpha), yaw_rate - kappa * sdot,
+                      longitudinal(v, phi, F_d, veh, wind), r,
+                      v * ca.cos(phi), v * ca.sin(phi), yaw_rate)
+
+
+def rk4(f: Callable, x, u, dt: float):
+    """One explicit RK4 step of x' = f(x, u)."""
+    k1 = f(x, u)
+    k2 = f(x + dt / 2 * k1, u)
+    k3 = f(x + dt / 2 * k2, u)
+    k4 = f(x + dt * k3, u)
+    return x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def ode(kind: str, road: RoadFn | None, veh: Vehicle, wind: Wind) -> Callable:
+    """The ODE right-hand side f(x, u) of a state representation by name."""
+    if kind == "cartesian":
+        return lambda x, u: cartesian_ode(x, u, veh, wind)
+    if kind == "frenet":
+        return lambda x, u: frenet_ode(x, u, road, veh, wind)
+    if kind == "lifted":
+        return lambda x, u: lifted_ode(x, u, road, veh, wind)
+    raise ValueError(f"model kind = {kind!r} is invalid: allowed 'cartesian', 'frenet', 'lifted'")

@@ -1,0 +1,201 @@
+"""Obstacle constraints (SPEC section 4) and the conventional formulation's Frenet over-approximation.
+
+Every vehicle shape is described the same way: a centre ``c``, an axis angle, half-length ``L``, half-width ``W``.
+The constraint expressions are written once on that description and work on floats, numpy and CasADi SX;
+rows are ``h >= 0`` (outside), ``h < 0`` inside.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .dsl import CoveringCircles, Ellipse, ObstacleModel, SeparatingHyperplane, Vehicle
+from .road import Road
+
+SQRT2 = math.sqrt(2.0)
+# A conventional (Frenet) shape: centre (s, n), axis angle, half-length, half-width, ego inflation factor.
+FRENET_SHAPE = ("c_s", "c_n", "angle", "L", "W", "f")
+# A Cartesian opponent pose: rear axle and heading.
+CARTESIAN_POSE = ("x", "y", "phi")
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Oriented rectangle: centre, axis angle, half-length, half-width (floats or CasADi expressions)."""
+
+    cx: object
+    cy: object
+    angle: object
+    L: object
+    W: object
+
+
+def _cos(a):
+    return ca.cos(a) if isinstance(a, (ca.SX, ca.MX)) else np.cos(a)
+
+
+def _sin(a):
+    return ca.sin(a) if isinstance(a, (ca.SX, ca.MX)) else np.sin(a)
+
+
+def chassis_shape(x, y, phi, veh: Vehicle) -> Shape:
+    """Chassis rectangle of a vehicle whose rear axle is at (x, y) with heading phi."""
+    c, s = _cos(phi), _sin(phi)
+    return Shape(x + veh.l / 2 * c, y + veh.l / 2 * s, phi, veh.l_ch / 2, veh.w_ch / 2)
+
+
+def vertices(sh: Shape) -> list[tuple]:
+    """The four corners of a shape."""
+    c, s = _cos(sh.angle), _sin(sh.angle)
+    out = []
+    for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1)):
+        out.append((sh.cx + a * sh.L * c - b * sh.W * s, sh.cy + a * sh.L * s + b * sh.W * c))
+    return out
+
+
+def circle_radius(L, W, n: int, cover: bool):
+    """Radius of n circles along the axis: w/sqrt(2) (SPEC), or just large enough to cover when ``cover``."""
+    if n == 1:
+        return (L * L + W * W) ** 0.5
+    if not cover:
+        return SQRT2 * W
+    half_gap = (L - W) / (n - 1)
+    big = ca.fmax(W, half_gap) if isinstance(half_gap, (ca.SX, ca.MX)) else max(W, half_gap)
+    return (W * W + big * big) ** 0.5
+
+
+def circle_centres(sh: Shape, n: int) -> list[tuple]:
+    """n centres spread from -(L - W) to +(L - W) along the axis (one circle: the centre)."""
+    if n == 1:
+        return [(sh.cx, sh.cy)]
+    c, s = _cos(sh.angle), _sin(sh.angle)
+    out = []
+    for i in range(n):
+        d = -(sh.L - sh.W) + 2 * (sh.L - sh.W) * i / (n - 1)
+        out.append((sh.cx + d * c, sh.cy + d * s))
+    return out
+
+
+def ellipse_h(px, py, opp: Shape, r):
+    """Ellipse covering ``opp`` (semi-axes sqrt(2) L, sqrt(2) W) enlarged by r: d^T R D^-2 R^T d - 1."""
+    a, b = SQRT2 * opp.L + r, SQRT2 * opp.W + r
+    c, s = _cos(opp.angle), _sin(opp.angle)
+    dx, dy = px - opp.cx, py - opp.cy
+    e1 = c * dx + s * dy
+    e2 = -s * dx + c * dy
+    return e1 * e1 / (a * a) + e2 * e2 / (b * b) - 1
+
+
+def circles_h(ego: Shape, n_ego: int, opp: Shape, n_opp: int, cover: bool) -> list:
+    """||p_i - p_j||^2 / (r_i + r_j)^2 - 1 for every ego/opponent circle pair (dimensionless)."""
+    r = circle_radius(ego.L, ego.W, n_ego, cover) + circle_radius(opp.L, opp.W, n_opp, cover)
+    rows = []
+    for pi in circle_centres(ego, n_ego):
+        for pj in circle_centres(opp, n_opp):
+            dx, dy = pi[0] - pj[0], pi[1] - pj[1]
+            rows.append((dx * dx + dy * dy) / (r * r) - 1)
+    return rows
+
+
+def hyperplane_h(ego: Shape, opp: Shape, theta, length: float) -> tuple[list, object]:
+    """Separating hyperplane rows: -theta.[p - c_opp, 1] >= 0 (ego corners), theta.[p - c_opp, 1] >= 0 (opponent
+    corners), each divided by ``length``; and the normalization t1^2 + t2^2 - 1 = 0.
+
+    The plane is written relative to the opponent centre so t3 stays of the size of the vehicles.
+    """
+    t1, t2, t3 = theta[0], theta[1], theta[2]
+    rows = []
+    for px, py in vertices(ego):
+        rows.append(-(t1 * (px - opp.cx) + t2 * (py - opp.cy) + t3) / length)
+    for px, py in vertices(opp):
+        rows.append((t1 * (px - opp.cx) + t2 * (py - opp.cy) + t3) / length)
+    return rows, t1 * t1 + t2 * t2 - 1
+
+
+def rows_per_opponent(model: ObstacleModel) -> int:
+    """Soft constraint rows per opponent and stage."""
+    if isinstance(model, Ellipse):
+        return 1
+    if isinstance(model, CoveringCircles):
+        return model.n * model.ego_circles
+    return 8
+
+
+def thetas_per_opponent(model: ObstacleModel) -> int:
+    return 3 if isinstance(model, SeparatingHyperplane) else 0
+
+
+def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float):
+    """(soft rows h >= 0, equality rows == 0) of one opponent at one stage."""
+    if isinstance(model, Ellipse):
+        r = (ego.L * ego.L + ego.W * ego.W) ** 0.5
+        return [ellipse_h(ego.cx, ego.cy, opp, r)], []
+    if isinstance(model, CoveringCircles):
+        return circles_h(ego, model.ego_circles, opp, model.n, cover), []
+    rows, eq = hyperplane_h(ego, opp, theta, length)
+    return rows, [eq]
+
+
+# --- conventional formulation: shapes in (s, n) -------------------------------------------------
+
+def frenet_ego_shape(s, n, alpha, f, veh: Vehicle) -> Shape:
+    """The ego chassis in (s, n), inflated by the Frenet stretch factor f >= 1 (``1 / (1 - |n| kappa)``)."""
+    half_l = veh.l / 2
+    return Shape(s + half_l * _cos(alpha), n + half_l * _sin(alpha), alpha,
+                 f * (veh.l_ch / 2 + half_l) - half_l, f * veh.w_ch / 2)
+
+
+def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin: float,
+                     s_guess: float | None = None, points_per_metre: float = 4.0) -> np.ndarray:
+    """Map the opponent's true rectangle into (s, n) and fit an oriented box around all mapped points.
+
+    Returns ``FRENET_SHAPE`` values. The box axis joins the mapped rear and front centres; the ego inflation
+    factor uses the largest |n| the ego can have next to the box and the largest |kappa| along it.
+    """
+    x, y, phi = (float(v) for v in pose_xyphi)
+    sh = chassis_shape(x, y, phi, opp)
+    corners = vertices(sh)
+    pts = []
+    for i in range(4):
+        p0, p1 = np.array(corners[i]), np.array(corners[(i + 1) % 4])
+        m = max(2, int(math.ceil(np.linalg.norm(p1 - p0) * points_per_metre)))
+        for t in np.linspace(0.0, 1.0, m, endpoint=False):
+            pts.append(p0 + t * (p1 - p0))
+    pts.append(np.array([sh.cx, sh.cy]))
+    c, s = math.cos(phi), math.sin(phi)
+    ends = [np.array([sh.cx - sh.L * c, sh.cy - sh.L * s]), np.array([sh.cx + sh.L * c, sh.cy + sh.L * s])]
+    if s_guess is None:
+        s_guess = road.project(x, y)
+    P = np.array(pts + ends)
+    guess = s_guess + (P - np.array([x, y])) @ np.array([c, s])
+    sp = road.project(P[:, 0], P[:, 1], guess)
+    _, phg, gx, gy, _, _ = road.eval(sp)
+    fr = np.stack([sp, -(P[:, 0] - gx) * np.sin(phg) + (P[:, 1] - gy) * np.cos(phg)], axis=1)
+    rear, front, body = fr[-2], fr[-1], fr[:-2]
+    angle = math.atan2(front[1] - rear[1], front[0] - rear[0])
+    ax = np.array([math.cos(angle), math.sin(angle)])
+    nm = np.array([-ax[1], ax[0]])
+    a, b = body @ ax, body @ nm
+    L = 0.5 * (a.max() - a.min()) + margin
+    W = 0.5 * (b.max() - b.min()) + margin
+    centre = 0.5 * (a.max() + a.min()) * ax + 0.5 * (b.max() + b.min()) * nm
+    reach = ego.l + ego.l_ch + ego.w_ch
+    n_reach = np.abs(body[:, 1]).max() + reach
+    s_lo, s_hi = body[:, 0].min() - reach, body[:, 0].max() + reach
+    sel = (road.s >= s_lo - road.ds) & (road.s <= s_hi + road.ds)
+    k_max = float(np.abs(road.kappa[sel]).max()) if sel.any() else float(np.abs(road.kappa).max())
+    stretch = n_reach * k_max
+    if stretch >= 0.9:
+        raise ValueError(f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre[0]:.1f} m; "
+                         "allowed < 0.9 (the Frenet frame is singular there)")
+    return np.array([centre[0], centre[1], angle, L, W, 1.0 / (1.0 - stretch)])
+
+
+def naive_frenet_shape(frenet_pose, opp: Vehicle) -> np.ndarray:
+    """The Cartesian rectangle used unchanged in (s, n) at the opponent's Frenet pose: naive, unsafe."""
+    s, n, alpha = (float(v) for v in frenet_pose)
+    sh = chassis_shape(s, n, alpha, opp)
+    return np.array([sh.cx, sh.cy, sh.angle, sh.L, sh.W, 1.0])

@@ -1,0 +1,268 @@
+"""A formulation assembled: stage variables, scaled constraint rows, costs and per-stage parameters as CasADi functions.
+
+Stage k holds the variables ``[x_k, u_k, theta_k, sigma_k]`` (no u at N, no theta/sigma at 0). Each stage function
+maps ``(w_k, x_{k+1}, p_k)`` to its rows ``g`` (scaled, so the QP row is ``J z in [L - g, U - g]``), the Jacobian
+``J`` of ``g`` with respect to the *scaled* variables ``z = (w - w_guess) / D`` of stage k and ``x_{k+1}``, and the
+scaled cost gradient ``q``. The QP Hessian is constant (Gauss-Newton of a linear least-squares cost).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from . import models, obstacles as obs
+from .dsl import Conventional, Lifted, Problem, SeparatingHyperplane
+from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
+
+INF = 1e30  # OSQP_INFTY: OSQP treats bounds at or beyond it as infinite
+
+# Typical ranges: the QP is solved in variables divided by these (SPEC section 8: scaling matters most).
+STATE_SCALE = {"s": 10.0, "n": 5.0, "alpha": 0.5, "v": 10.0, "delta": 0.3, "x": 10.0, "y": 10.0, "phi": 0.5}
+CONTROL_SCALE = {"F_d": 1e4, "r": 0.39}
+
+
+@dataclass(frozen=True)
+class StageType:
+    """One of the three stage shapes: first (k = 0), middle (1..N-1), last (N)."""
+
+    name: str
+    var_names: tuple[str, ...]
+    row_names: tuple[str, ...]
+    L: np.ndarray
+    U: np.ndarray
+    D: np.ndarray              # variable scale of w_k
+    P_diag: np.ndarray         # constant scaled Hessian diagonal of w_k
+    q_ds0: np.ndarray          # d q / d s0 (the s-reference moves with the measured s0)
+    fun: ca.Function           # (w, x_next, p) -> (g, J, q)
+    jac_sparsity: ca.Sparsity
+
+    @property
+    def nw(self) -> int:
+        return len(self.var_names)
+
+    @property
+    def nrows(self) -> int:
+        return len(self.row_names)
+
+
+@dataclass(frozen=True)
+class Ocp:
+    """Everything the reference and the code generator need to know about one problem."""
+
+    problem: Problem
+    state_kind: str
+    nx: int
+    nu: int
+    n_theta: int
+    n_sigma: int
+    road_params: RoadWindowParams
+    n_opp_par: int
+    np_stage: int
+    cost_scale: float
+    first: StageType
+    middle: StageType
+    last: StageType
+    dynamics: ca.Function      # (x, u, p) -> x_next: one RK4 step (shift, plant, tests)
+    init_state: ca.Function    # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
+    a_lat: ca.Function         # (x) -> lateral acceleration
+    cost: tuple = field(default=())  # (first, middle, last) unscaled cost functions (w, p) -> J, for IPOPT
+
+    @property
+    def N(self) -> int:
+        return self.problem.horizon.N
+
+    @property
+    def dt(self) -> float:
+        return self.problem.horizon.dt
+
+    def stage(self, k: int) -> StageType:
+        return self.first if k == 0 else self.last if k == self.N else self.middle
+
+    # -- parameter vector of one stage: [road window | x_ref (5) | opponents] --------------------
+    @property
+    def p_road(self) -> slice:
+        return slice(0, self.road_params.size)
+
+    @property
+    def p_ref(self) -> slice:
+        return slice(self.road_params.size, self.road_params.size + 5)
+
+    @property
+    def p_opp(self) -> slice:
+        return slice(self.road_params.size + 5, self.np_stage)
+
+
+def road_window_samples(problem: Problem) -> int:
+    """Samples of the per-stage local road window: from one ds behind s_k to twice the farthest RK4 reach."""
+    reach = 2.0 * problem.bounds.v_max * problem.horizon.dt
+    return int(math.ceil((reach + 2 * problem.road.ds) / problem.road.ds)) + 1
+
+
+def build_ocp(problem: Problem) -> Ocp:
+    """Assemble the CasADi stage functions of a problem (built once; both reference and C use them)."""
+    pb = problem
+    form = pb.formulation
+    lifted = isinstance(form, Lifted)
+    conventional = isinstance(form, Conventional)
+    kind = "lifted" if lifted else "frenet"
+    nx, nu = models.NX[kind], models.NU
+    n_opp = pb.opponents.count
+    model = pb.obstacles
+    n_theta = n_opp * obs.thetas_per_opponent(model)
+    soft_road = pb.soft.soft_road
+    # slacks: a_lat, (road), obstacles
+    n_obs_rows = n_opp * obs.rows_per_opponent(model)
+    n_sigma = 1 + (1 if soft_road else 0) + n_obs_rows
+    rp = RoadWindowParams(road_window_samples(pb))
+    n_opp_par = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE)
+    np_stage = rp.size + 5 + n_opp * n_opp_par
+    dt, N = pb.horizon.dt, pb.horizon.N
+    ego, bnd, soft = pb.ego, pb.bounds, pb.soft
+
+    xs = ca.SX.sym("x", nx)
+    us = ca.SX.sym("u", nu)
+    ths = ca.SX.sym("theta", n_theta)
+    sgs = ca.SX.sym("sigma", n_sigma)
+    xn = ca.SX.sym("x_next", nx)
+    p = ca.SX.sym("p", np_stage)
+    p_road = p[0:rp.size]
+    xref = p[rp.size:rp.size + 5]
+    p_opp = p[rp.size + 5:]
+
+    def road(s):
+        kappa, phi_g, *_ = casadi_road(s, p_road, rp.samples)
+        return kappa, phi_g
+
+    f = models.ode(kind, road, ego, pb.wind)
+    x_next = models.rk4(f, xs, us, dt)
+    Dx = np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]])
+    Du = np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES])
+    Dth = np.ones(n_theta)
+    Dsg = np.ones(n_sigma)
+    names_x = models.STATE_NAMES[kind]
+
+    # --- path constraints at stages 1..N: soft rows (with slack index), equality rows -----------
+    a = models.a_lat(xs[3], xs[4], ego)
+    soft_rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -1.0, INF),
+                 ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, 1.0)]
+    isg = 1
+    if soft_road:
+        sn = STATE_SCALE["n"]
+        soft_rows += [("road_lo", (xs[1] + sgs[isg]) / sn, bnd.n_min / sn, INF),
+                      ("road_hi", (xs[1] - sgs[isg]) / sn, -INF, bnd.n_max / sn)]
+        isg += 1
+    eq_rows = []
+    if conventional:
+        ego_pose = (xs[0], xs[1], xs[2])
+    elif lifted:
+        ego_pose = (xs[5], xs[6], xs[7])
+    else:
+        ego_pose = casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, rp.samples)
+    length = ego.l_ch
+    for j in range(n_opp):
+        pj = p_opp[j * n_opp_par:(j + 1) * n_opp_par]
+        if conventional:
+            opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
+            ego_sh = obs.frenet_ego_shape(*ego_pose, pj[5], ego)
+        else:
+            opp = obs.chassis_shape(pj[0], pj[1], pj[2], pb.opponents.vehicle)
+            ego_sh = obs.chassis_shape(*ego_pose, ego)
+        th = ths[3 * j:3 * j + 3] if n_theta else None
+        rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=length)
+        for r_i, h in enumerate(rows):
+            soft_rows.append((f"opp{j}_h{r_i}", h + sgs[isg], 0.0, INF))
+            isg += 1
+        for e in eqs:
+            eq_rows.append((f"opp{j}_hp_norm", e, 0.0, 0.0))
+    assert isg == n_sigma
+
+    # --- box bounds ------------------------------------------------------------------------------
+    def state_bounds(terminal: bool):
+        out = []
+        for i, nm in enumerate(names_x):
+            lo, hi = {"n": (bnd.n_min, bnd.n_max) if not soft_road else None,
+                      "alpha": (-bnd.alpha_max, bnd.alpha_max),
+                      "v": (bnd.v_min, bnd.v_N_max if terminal else bnd.v_max),
+                      "delta": (-bnd.delta_max, bnd.delta_max)}.get(nm) or (None, None)
+            if lo is not None:
+                out.append((f"bound_{nm}", xs[i] / Dx[i], lo / Dx[i], hi / Dx[i]))
+        return out
+
+    u_bounds = [(f"bound_{nm}", us[i] / Du[i], -lim / Du[i], lim / Du[i])
+                for i, (nm, lim) in enumerate(zip(models.CONTROL_NAMES, (bnd.F_d_max, bnd.r_max)))]
+    sg_bounds = [(f"bound_sigma{i}", sgs[i] / Dsg[i], 0.0, INF) for i in range(n_sigma)]
+    dyn_rows = [(f"dyn_{nm}", (x_next[i] - xn[i]) / Dx[i], 0.0, 0.0) for i, nm in enumerate(names_x)]
+    init_rows = [(f"init_{nm}", xs[i] / Dx[i], 0.0, 0.0) for i, nm in enumerate(names_x)]
+
+    # --- costs (unscaled), slack weights per slack ----------------------------------------------
+    xF = xs[0:5]
+    w = pb.weights
+    q_stage = np.array(w.q) * dt
+    r_stage = np.array(w.r) * dt
+    l1 = np.array([soft.a_lat_l1] + ([soft.road_l1] if soft_road else []) + [soft.obstacle_l1] * n_obs_rows) * dt
+    l2 = np.array([soft.a_lat_l2] + ([soft.road_l2] if soft_road else []) + [soft.obstacle_l2] * n_obs_rows) * dt
+    ex = xF - xref
+    track = ca.sum1(q_stage * ex * ex)
+    track_N = ca.sum1(np.array(w.q_N) * ex * ex)
+    uc = ca.sum1(r_stage * us * us)
+    sc = ca.sum1(l1 * sgs + l2 * sgs * sgs)
+
+    specs = {
+        "first": (ca.vertcat(xs, us), [init_rows, dyn_rows, u_bounds], track + uc, np.r_[Dx, Du]),
+        "middle": (ca.vertcat(xs, us, ths, sgs), [dyn_rows, soft_rows, eq_rows, state_bounds(False), u_bounds,
+                                                  sg_bounds], track + uc + sc, np.r_[Dx, Du, Dth, Dsg]),
+        "last": (ca.vertcat(xs, ths, sgs), [soft_rows, eq_rows, state_bounds(True), sg_bounds],
+                 track_N + sc, np.r_[Dx, Dth, Dsg]),
+    }
+    var_names = {
+        "first": list(names_x) + list(models.CONTROL_NAMES),
+        "middle": list(names_x) + list(models.CONTROL_NAMES) + [f"theta{i}" for i in range(n_theta)]
+        + [f"sigma{i}" for i in range(n_sigma)],
+        "last": list(names_x) + [f"theta{i}" for i in range(n_theta)] + [f"sigma{i}" for i in range(n_sigma)],
+    }
+
+    # cost scale: the largest scaled Hessian entry over all stages becomes 1
+    hess_diag = {}
+    for key, (wk, _, cost, D) in specs.items():
+        H = ca.Function("H", [wk, p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()), np.zeros(np_stage))
+        H = np.array(H)
+        if np.count_nonzero(H - np.diag(np.diag(H))):
+            raise AssertionError("cost Hessian must be diagonal")
+        hess_diag[key] = np.diag(H) * D * D
+    cost_scale = 1.0 / max(float(h.max()) for h in hess_diag.values())
+
+    s_idx = 0  # s is the first state in both representations
+    stage_types = {}
+    costs = {}
+    for key, (wk, groups, cost, D) in specs.items():
+        rows = [r for g in groups for r in g]
+        g = ca.vertcat(*[r[1] for r in rows])
+        J = ca.jacobian(g, ca.vertcat(wk, xn))
+        J = ca.mtimes(J, ca.diag(ca.DM(np.r_[D, Dx])))
+        q = cost_scale * ca.gradient(cost, wk) * D
+        fun = ca.Function(f"stage_{key}", [wk, xn, p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
+        q_ds0 = np.zeros(len(D))
+        # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + k dt v_ref
+        qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
+        q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
+        stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),
+                                     np.array([r[2] for r in rows], dtype=float),
+                                     np.array([r[3] for r in rows], dtype=float), D,
+                                     cost_scale * hess_diag[key], q_ds0, fun, fun.sparsity_out(1))
+        costs[key] = ca.Function(f"cost_{key}", [wk, p], [cost])
+
+    dyn = ca.Function("dynamics", [xs, us, p], [x_next], ["x", "u", "p"], ["x_next"])
+    x0F = ca.SX.sym("x0", 5)
+    if lifted:
+        cart = casadi_to_cartesian(x0F[0], x0F[1], x0F[2], p_road, rp.samples)
+        x0_full = ca.vertcat(x0F, *cart)
+    else:
+        x0_full = x0F
+    init = ca.Function("init_state", [x0F, p], [x0_full], ["x0", "p"], ["x"])
+    alat = ca.Function("a_lat", [xs], [a])
+    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, n_opp_par, np_stage, cost_scale,
+               stage_types["first"], stage_types["middle"], stage_types["last"], dyn, init, alat,
+               (costs["first"], costs["middle"], costs["last"]))

@@ -1,0 +1,85 @@
+"""The paper's configurations as named presets, and loading a problem from a Python file."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, Problem,
+                  ProblemError, SeparatingHyperplane, Vehicle)
+
+CAR = Vehicle()
+TRUCK = Vehicle(l_f=10.0, l_r=10.0, l_f_ch=13.0, l_r_ch=13.0, w_ch=4.0, m=3000.0)
+
+SCENARIOS = ("car", "truck")
+FORMULATIONS = {"conventional": Conventional, "direct_elimination": DirectElimination, "lifted": Lifted}
+OBSTACLES = ("ellipse", "circles", "hyperplane")
+# the paper's circle counts: C1/C3 for cars, C5/C7 for trucks
+DEFAULT_CIRCLES = {"car": 3, "truck": 7}
+SHORT = {"conventional": "conv", "direct_elimination": "de", "lifted": "lift",
+         "ellipse": "el", "circles": "c", "hyperplane": "hp"}
+
+
+def obstacle_model(name: str, scenario: str, circles: int | None = None):
+    """Obstacle model by CLI name: ``ellipse``, ``circles`` (paper default count), ``hyperplane``."""
+    if name == "ellipse":
+        return Ellipse()
+    if name == "circles":
+        return CoveringCircles(circles or DEFAULT_CIRCLES[scenario])
+    if name == "hyperplane":
+        return SeparatingHyperplane()
+    raise ProblemError(f"obstacles = {name!r} is invalid: allowed one of {OBSTACLES}")
+
+
+def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
+                  circles: int | None = None, name: str | None = None, **overrides) -> Problem:
+    """A problem of the paper's experiment (SPEC section 7)."""
+    if scenario not in SCENARIOS:
+        raise ProblemError(f"scenario = {scenario!r} is invalid: allowed one of {SCENARIOS}")
+    if formulation not in FORMULATIONS:
+        raise ProblemError(f"formulation = {formulation!r} is invalid: allowed one of {tuple(FORMULATIONS)}")
+    model = obstacle_model(obstacles, scenario, circles)
+    n_bound = 10.0 if scenario == "truck" else 8.5
+    opp = TRUCK if scenario == "truck" else CAR
+    if name is None:
+        tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
+        name = f"{scenario}_{SHORT[formulation]}_{tag}"
+    return Problem(name=name, formulation=FORMULATIONS[formulation](), obstacles=model, ego=CAR,
+                   opponents=Opponents(3, opp), bounds=Bounds(n_min=-n_bound, n_max=n_bound), **overrides)
+
+
+def preset_names() -> list[str]:
+    """Every preset: ``<scenario>_<formulation>_<obstacles>``."""
+    return [f"{sc}_{f}_{o}" for sc in SCENARIOS for f in FORMULATIONS for o in OBSTACLES]
+
+
+def preset(name: str) -> Problem:
+    """A preset by name, e.g. ``truck_lifted_ellipse``."""
+    for sc in SCENARIOS:
+        for f in FORMULATIONS:
+            for o in OBSTACLES:
+                if name == f"{sc}_{f}_{o}":
+                    return paper_problem(sc, f, o)
+    raise ProblemError(f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())}")
+
+
+def load_problem(spec: str) -> Problem:
+    """A preset name, or a Python file that defines ``problem`` (a Problem) or ``make_problem()``."""
+    path = Path(spec)
+    if spec.endswith(".py"):
+        if not path.is_file():
+            raise ProblemError(f"problem file {spec!r} does not exist")
+        mod_spec = importlib.util.spec_from_file_location(f"fcgen_problem_{path.stem}", path)
+        module = importlib.util.module_from_spec(mod_spec)
+        try:
+            mod_spec.loader.exec_module(module)
+        except ProblemError:
+            raise
+        except Exception as exc:  # a user's file: report, don't crash
+            raise ProblemError(f"problem file {spec!r} failed to load: {type(exc).__name__}: {exc}") from None
+        prob = getattr(module, "problem", None)
+        if prob is None and hasattr(module, "make_problem"):
+            prob = module.make_problem()
+        if not isinstance(prob, Problem):
+            raise ProblemError(f"problem file {spec!r} must define `problem = Problem(...)` or `make_problem()`")
+        return prob
+    return preset(spec)

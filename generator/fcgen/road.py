@@ -1,0 +1,208 @@
+"""Road data, random roads, C1-consistent interpolants (numpy and CasADi from one formula), Frenet transforms.
+
+A road is data: samples of ``kappa``, ``phi_gamma``, ``gamma_x``, ``gamma_y`` on a uniform grid ``s0 + i ds``.
+Between samples ``kappa`` is linear, ``phi_gamma`` cubic Hermite with slope ``kappa`` (so exactly the integral of the
+linear ``kappa``), and ``gamma`` cubic Hermite with slopes ``[cos, sin](phi_gamma)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+
+# --- the one interpolation formula (works on floats, numpy arrays and CasADi SX) ----------------
+
+def _hermite(tau, h, y0, y1, m0, m1):
+    """Cubic Hermite value and d/ds on a segment of length h at local coordinate tau in [0, 1]."""
+    t2 = tau * tau
+    t3 = t2 * tau
+    val = (2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + tau) * h * m0 + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * m1
+    der = ((6 * t2 - 6 * tau) * y0 + (3 * t2 - 4 * tau + 1) * h * m0 + (-6 * t2 + 6 * tau) * y1
+           + (3 * t2 - 2 * tau) * h * m1) / h
+    return val, der
+
+
+def _segment(tau, h, k0, k1, p0, p1, x0, x1, y0, y1, cos, sin):
+    """Road quantities on one segment: kappa, phi_gamma, gamma_x, gamma_y and the tangent [gx', gy']."""
+    kappa = (1 - tau) * k0 + tau * k1
+    phi, _ = _hermite(tau, h, p0, p1, k0, k1)
+    gx, dgx = _hermite(tau, h, x0, x1, cos(p0), cos(p1))
+    gy, dgy = _hermite(tau, h, y0, y1, sin(p0), sin(p1))
+    return kappa, phi, gx, gy, dgx, dgy
+
+
+# --- road data ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Road:
+    """Road samples on the uniform grid ``s0 + i ds``, i = 0..M-1."""
+
+    s0: float
+    ds: float
+    kappa: np.ndarray
+    phi: np.ndarray
+    gx: np.ndarray
+    gy: np.ndarray
+
+    def __post_init__(self) -> None:
+        m = len(self.kappa)
+        if m < 2 or any(len(a) != m for a in (self.phi, self.gx, self.gy)):
+            raise ValueError("road: kappa, phi_gamma, gamma_x, gamma_y must have the same length >= 2")
+        if not (self.ds > 0 and math.isfinite(self.ds)):
+            raise ValueError(f"road.ds = {self.ds!r} is invalid: allowed > 0")
+        for name in ("kappa", "phi", "gx", "gy"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ValueError(f"road.{name} contains NaN or infinite values")
+
+    @classmethod
+    def from_curvature(cls, kappa, ds: float, s0: float = 0.0, x0=(0.0, 0.0, 0.0)) -> "Road":
+        """Integrate the centre line from (x, y, phi) = x0 for piecewise-linear curvature samples.
+
+        ``phi`` is exact (trapezoid of a linear function); ``gamma`` uses 10-point Gauss-Legendre per segment.
+        """
+        kappa = np.asarray(kappa, dtype=float)
+        m = len(kappa)
+        phi = np.empty(m)
+        phi[0] = x0[2]
+        phi[1:] = x0[2] + np.cumsum(ds * 0.5 * (kappa[:-1] + kappa[1:]))
+        nodes, weights = np.polynomial.legendre.leggauss(10)
+        tau = 0.5 * (nodes + 1.0)
+        w = 0.5 * weights
+        k0, k1 = kappa[:-1, None], kappa[1:, None]
+        ph = phi[:-1, None] + ds * (k0 * tau + 0.5 * (k1 - k0) * tau**2)
+        dx = ds * (np.cos(ph) @ w)
+        dy = ds * (np.sin(ph) @ w)
+        gx = np.concatenate([[x0[0]], x0[0] + np.cumsum(dx)])
+        gy = np.concatenate([[x0[1]], x0[1] + np.cumsum(dy)])
+        return cls(float(s0), float(ds), kappa, phi, gx, gy)
+
+    @property
+    def size(self) -> int:
+        return len(self.kappa)
+
+    @property
+    def s(self) -> np.ndarray:
+        return self.s0 + self.ds * np.arange(self.size)
+
+    @property
+    def s_end(self) -> float:
+        return self.s0 + self.ds * (self.size - 1)
+
+    def window(self, s_start: float, samples: int) -> "Road":
+        """The sub-road of ``samples`` samples starting at the last grid point at or before ``s_start``."""
+        i0 = int(math.floor((s_start - self.s0) / self.ds))
+        if i0 < 0 or i0 + samples > self.size:
+            raise ValueError(f"road window [{s_start:.1f}, +{samples} samples] is outside the road "
+                             f"[{self.s0:.1f}, {self.s_end:.1f}]")
+        sl = slice(i0, i0 + samples)
+        return Road(self.s0 + i0 * self.ds, self.ds, self.kappa[sl].copy(), self.phi[sl].copy(),
+                    self.gx[sl].copy(), self.gy[sl].copy())
+
+    # -- numpy evaluation ------------------------------------------------------------------------
+    def _locate(self, s):
+        t = (np.asarray(s, dtype=float) - self.s0) / self.ds
+        i = np.clip(np.floor(t), 0, self.size - 2).astype(int)
+        return i, t - i
+
+    def eval(self, s):
+        """kappa, phi_gamma, gamma_x, gamma_y, gamma_x', gamma_y' at s (numpy, vectorized)."""
+        i, tau = self._locate(s)
+        return _segment(tau, self.ds, self.kappa[i], self.kappa[i + 1], self.phi[i], self.phi[i + 1],
+                        self.gx[i], self.gx[i + 1], self.gy[i], self.gy[i + 1], np.cos, np.sin)
+
+    def to_cartesian(self, s, n, alpha):
+        """Inverse Frenet transform F^-1: (s, n, alpha) -> (x, y, phi)."""
+        _, phi_g, gx, gy, _, _ = self.eval(s)
+        return gx - n * np.sin(phi_g), gy + n * np.cos(phi_g), phi_g + alpha
+
+    def project(self, x, y, s_guess=None, tol: float = 1e-12, max_iter: int = 30):
+        """s* = argmin ||p - gamma(s)||^2 by Newton from a guess (nearest sample if none); vectorized."""
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        if s_guess is None:
+            d2 = (self.gx[None, :] - np.atleast_1d(x)[:, None]) ** 2 + (self.gy[None, :] - np.atleast_1d(y)[:, None]) ** 2
+            s_guess = self.s[np.argmin(d2, axis=1)].reshape(x.shape)
+        s = np.array(s_guess, dtype=float) + np.zeros_like(x)
+        for _ in range(max_iter):
+            # foot point: (gamma(s) - p) . e_t(s) = 0 with e_t = [cos, sin](phi_gamma), the tangent F^-1 uses,
+            # so F(F^-1(.)) is exact; it is the argmin's first-order condition up to interpolation error.
+            kappa, phi_g, gx, gy, dx, dy = self.eval(s)
+            c, sn = np.cos(phi_g), np.sin(phi_g)
+            ex, ey = gx - x, gy - y
+            g = ex * c + ey * sn
+            dg = dx * c + dy * sn + kappa * (-ex * sn + ey * c)
+            step = g / np.where(dg > 0.05, dg, 1.0)
+            s = s - step
+            if np.all(np.abs(step) < tol * np.maximum(1.0, np.abs(s))):
+                break
+        return s if s.ndim else float(s)
+
+    def to_frenet(self, x, y, phi, s_guess=None):
+        """Forward Frenet transform F: (x, y, phi) -> (s, n, alpha) by local projection."""
+        s = self.project(x, y, s_guess)
+        _, phi_g, gx, gy, _, _ = self.eval(s)
+        n = -(x - gx) * np.sin(phi_g) + (y - gy) * np.cos(phi_g)
+        return s, n, phi - phi_g
+
+
+def random_road(seed: int, length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
+                knot_spacing: float = 25.0, s0: float = 0.0) -> Road:
+    """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max)."""
+    rng = np.random.default_rng(seed)
+    knots = rng.uniform(-kappa_max, kappa_max, int(math.ceil(length / knot_spacing)) + 3)
+    s = np.arange(int(math.ceil(length / ds)) + 1) * ds
+    s_knots = np.arange(len(knots)) * knot_spacing
+    raw = np.interp(s, s_knots, knots)
+    width = max(1, int(round(knot_spacing / ds)) | 1)  # odd moving-average width: a convex combination
+    pad = width // 2
+    kappa = np.convolve(np.pad(raw, pad, mode="edge"), np.ones(width) / width, mode="valid")
+    return Road.from_curvature(kappa, ds, s0)
+
+
+def straight_road(length: float = 1600.0, ds: float = 2.0, s0: float = 0.0) -> Road:
+    return Road.from_curvature(np.zeros(int(math.ceil(length / ds)) + 1), ds, s0)
+
+
+# --- CasADi: the same formula on a short local window of samples ---------------------------------
+
+@dataclass(frozen=True)
+class RoadWindowParams:
+    """Layout of a local road window inside a stage's parameter vector: [s_w0, ds, kappa, phi, gx, gy]."""
+
+    samples: int
+
+    @property
+    def size(self) -> int:
+        return 2 + 4 * self.samples
+
+    def pack(self, road: Road, i0: int) -> np.ndarray:
+        sl = slice(i0, i0 + self.samples)
+        return np.concatenate([[road.s0 + i0 * road.ds, road.ds], road.kappa[sl], road.phi[sl], road.gx[sl],
+                               road.gy[sl]])
+
+
+def casadi_road(s, p, samples: int):
+    """kappa, phi_gamma, gamma_x, gamma_y (and the tangent) at symbolic s from a window parameter vector p."""
+    K = samples
+    s_w0, ds = p[0], p[1]
+    arr = [p[2 + j * K: 2 + (j + 1) * K] for j in range(4)]
+    t = (s - s_w0) / ds
+    i = ca.fmin(ca.fmax(ca.floor(t), 0), K - 2)
+    tau = t - i
+
+    def pick(a, off):
+        return sum((i == j) * a[j + off] for j in range(K - 1))
+
+    k0, k1 = pick(arr[0], 0), pick(arr[0], 1)
+    p0, p1 = pick(arr[1], 0), pick(arr[1], 1)
+    x0, x1 = pick(arr[2], 0), pick(arr[2], 1)
+    y0, y1 = pick(arr[3], 0), pick(arr[3], 1)
+    return _segment(tau, ds, k0, k1, p0, p1, x0, x1, y0, y1, ca.cos, ca.sin)
+
+
+def casadi_to_cartesian(s, n, alpha, p, samples: int):
+    """F^-1 on symbolic (s, n, alpha) with a window parameter vector."""
+    _, phi_g, gx, gy, _, _ = casadi_road(s, p, samples)
+    return gx - n * ca.sin(phi_g), gy + n * ca.cos(phi_g), phi_g + alpha

@@ -1,0 +1,1 @@
+"""Closed-loop simulation support: exact collision check, the versioned run log, and run plots."""
