@@ -73,6 +73,7 @@ def test_plot_run_truck_and_no_bounds(tmp_path):
     del meta["n_bound"]
     f = {name: getattr(log, name) for name in log.__dataclass_fields__}
     f["meta"] = meta
+    f["collision"] = np.arange(log.n_states) % 3 == 0  # exercise the collision highlighting
     out = plot_run(RunLog(**f), tmp_path / "truck.png", every=7)
     assert out.stat().st_size > 30_000
     with pytest.raises(ValueError):

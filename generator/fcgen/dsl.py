@@ -287,9 +287,9 @@ class QpOptions:
     """OSQP settings used identically by the Python reference and the generated C."""
 
     max_iter: int = 4000
-    eps_abs: float = 1e-5
-    eps_rel: float = 1e-5
-    rho: float = 0.1
+    eps_abs: float = 1e-3
+    eps_rel: float = 1e-3
+    rho: float = 1.0
     sigma: float = 1e-6
     alpha: float = 1.6
     adaptive_rho: bool = False

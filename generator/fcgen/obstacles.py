@@ -79,24 +79,32 @@ def circle_centres(sh: Shape, n: int) -> list[tuple]:
     return out
 
 
+def _sqrt(v):
+    return ca.sqrt(v) if isinstance(v, (ca.SX, ca.MX)) else np.sqrt(v)
+
+
 def ellipse_h(px, py, opp: Shape, r):
-    """Ellipse covering ``opp`` (semi-axes sqrt(2) L, sqrt(2) W) enlarged by r: d^T R D^-2 R^T d - 1."""
+    """Ellipse covering ``opp`` (semi-axes sqrt(2) L, sqrt(2) W) enlarged by r: sqrt(d^T R D^-2 R^T d) - 1.
+
+    The square root keeps the row's gradient of the size 1/a at every distance (the squared form grows with it
+    and ruins the QP's conditioning); the zero level set and the sign are the paper's.
+    """
     a, b = SQRT2 * opp.L + r, SQRT2 * opp.W + r
     c, s = _cos(opp.angle), _sin(opp.angle)
     dx, dy = px - opp.cx, py - opp.cy
     e1 = c * dx + s * dy
     e2 = -s * dx + c * dy
-    return e1 * e1 / (a * a) + e2 * e2 / (b * b) - 1
+    return _sqrt(e1 * e1 / (a * a) + e2 * e2 / (b * b) + 1e-12) - 1
 
 
 def circles_h(ego: Shape, n_ego: int, opp: Shape, n_opp: int, cover: bool) -> list:
-    """||p_i - p_j||^2 / (r_i + r_j)^2 - 1 for every ego/opponent circle pair (dimensionless)."""
+    """||p_i - p_j|| / (r_i + r_j) - 1 for every ego/opponent circle pair (dimensionless)."""
     r = circle_radius(ego.L, ego.W, n_ego, cover) + circle_radius(opp.L, opp.W, n_opp, cover)
     rows = []
     for pi in circle_centres(ego, n_ego):
         for pj in circle_centres(opp, n_opp):
             dx, dy = pi[0] - pj[0], pi[1] - pj[1]
-            rows.append((dx * dx + dy * dy) / (r * r) - 1)
+            rows.append(_sqrt(dx * dx + dy * dy + 1e-12) / r - 1)
     return rows
 
 

@@ -216,7 +216,7 @@ class RtiSolver:
         self.q_fb = q
         self.solver.update(q=q, l=self.l, u=self.u)
         self.solver.warm_start(x=np.zeros(lay.n), y=self.y)
-        res = self.solver.solve()
+        res = self.solver.solve(raise_error=False)
         self.prepared = False
         st = self.status
         st.qp_status = int(res.info.status_val)

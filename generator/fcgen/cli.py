@@ -1,0 +1,120 @@
+"""The ``fcgen`` command: thin wrappers over the modules; bad input gives a one-line error, never a traceback."""
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+from pathlib import Path
+
+import click
+
+from .dsl import ProblemError
+from .presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem, preset_names
+
+
+def _fail(msg: str) -> None:
+    raise click.ClickException(msg)
+
+
+class _Group(click.Group):
+    """Turn the errors a user can cause into clean CLI errors."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except (ProblemError, ValueError, FileNotFoundError) as exc:
+            raise click.ClickException(str(exc)) from None
+
+
+@click.group(cls=_Group)
+@click.version_option(package_name="fcgen")
+def main() -> None:
+    """fcgen: Frenet-Cartesian obstacle-avoidance NMPC -> static-memory embedded C solver."""
+    warnings.simplefilter("default")
+
+
+def _fmt_summary(s: dict) -> str:
+    t = s["time_total_ms"]
+    return (f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
+            f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
+            f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
+            f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g} | "
+            f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2")
+
+
+@main.command()
+@click.option("--scenario", type=click.Choice(SCENARIOS), default="truck", show_default=True)
+@click.option("--formulation", type=click.Choice(tuple(FORMULATIONS)), default="lifted", show_default=True)
+@click.option("--obstacles", type=click.Choice(OBSTACLES), default="ellipse", show_default=True)
+@click.option("--circles", type=click.IntRange(1, 20), default=None, help="number of covering circles")
+@click.option("--problem", "problem_spec", default=None, help="a preset name or a Python file (overrides the three above)")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--controller", type=click.Choice(["python", "c"]), default="python", show_default=True)
+@click.option("--solver-dir", type=click.Path(file_okay=False), default=None,
+              help="generated solver folder (with --controller c)")
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="write the run log (JSON)")
+@click.option("--plot", type=click.Path(dir_okay=False), default=None, help="write a picture of the run (PNG)")
+def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samples, controller, solver_dir, out, plot):
+    """Run one randomized closed-loop scenario (paper section V) and print its summary."""
+    from .sim.closedloop import run_closed_loop
+    from .sim.runlog import summary
+    from .sim.scenario import make_scenario
+
+    pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
+    sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
+    ctrl = None
+    if controller == "c":
+        from .build import CSolver, build
+        if solver_dir is None:
+            _fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
+        ctrl = CSolver(build(Path(solver_dir)))
+    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
+    s = summary(log)
+    click.echo(f"{pb.name} | {scenario} seed {seed} | {_fmt_summary(s)}")
+    if out:
+        log.to_json(out)
+        click.echo(f"run log written to {out}")
+    if plot:
+        from .sim.plots import plot_run
+        plot_run(log, plot)
+        click.echo(f"plot written to {plot}")
+
+
+@main.command()
+@click.option("--scenario", type=click.Choice(SCENARIOS), default="truck", show_default=True)
+@click.option("--formulations", default="conventional,direct_elimination,lifted", show_default=True)
+@click.option("--obstacles", "obstacle_list", default="ellipse", show_default=True,
+              help="comma-separated: ellipse, circles, hyperplane")
+@click.option("--circles", type=click.IntRange(1, 20), default=None)
+@click.option("--seeds", type=click.IntRange(1, 10000), default=20, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--out", type=click.Path(dir_okay=False), default="results/campaign.json", show_default=True)
+def campaign(scenario, formulations, obstacle_list, circles, seeds, samples, out):
+    """Randomized runs per (formulation, obstacle model): the paper's Table III and progress, as a table."""
+    from .sim.campaign import format_table, run_campaign
+
+    forms = [f.strip() for f in formulations.split(",") if f.strip()]
+    obsl = [o.strip() for o in obstacle_list.split(",") if o.strip()]
+    for f in forms:
+        if f not in FORMULATIONS:
+            _fail(f"--formulations: {f!r} is invalid: allowed {', '.join(FORMULATIONS)}")
+    for o in obsl:
+        if o not in OBSTACLES:
+            _fail(f"--obstacles: {o!r} is invalid: allowed {', '.join(OBSTACLES)}")
+    res = run_campaign(scenario, forms, obsl, seeds, samples, circles=circles, progress=True)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    Path(out).write_text(json.dumps(res, indent=1, sort_keys=True))
+    click.echo(format_table(res))
+    click.echo(f"results written to {out}")
+
+
+@main.command(name="presets")
+def list_presets() -> None:
+    """List the preset problems."""
+    for n in preset_names():
+        click.echo(n)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
