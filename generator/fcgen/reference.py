@@ -196,7 +196,7 @@ class RtiSolver:
         self.A_data = jac[lay.a_src]
         self.l = lay.L - self.g
         self.u = lay.U - self.g
-        self.solver.update(Ax=self.A_data)
+        self.solver.update(Px=lay.P_diag, Ax=self.A_data)
         self.prepared = True
         self.status = Status(time_prepare=time.perf_counter() - t0)
 

@@ -1,0 +1,215 @@
+"""Compile a generated solver folder and load it: ``build()`` runs its Makefile, ``CSolver`` is a ctypes binding.
+
+``CSolver`` implements the closed-loop ``Controller`` protocol (``kind = "c"``) exactly as ``ReferenceController``
+does for the Python reference, plus thin wrappers of the C API for tests and verification. One process shares one
+static workspace per loaded library: loading the same ``.so`` twice gives the same solver state.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from .codegen.generate import EXIT_CODES
+from .codegen.osqp_export import restore_osqp_library
+from .reference import Status
+from .road import Road
+from .sim.closedloop import StepResult
+
+VERIFY_BUILD = "build/verify"
+DEFAULT_BUILD = "build"
+
+
+class BuildError(RuntimeError):
+    """``make`` failed; the message holds its output."""
+
+
+def solver_name(gen_dir: Path) -> str:
+    """The problem name of a generated folder (from its single ``<name>_solver.h``)."""
+    heads = sorted(Path(gen_dir).glob("*_solver.h"))
+    if len(heads) != 1:
+        raise FileNotFoundError(f"{gen_dir}: expected exactly one *_solver.h, found {len(heads)}")
+    return heads[0].name[:-len("_solver.h")]
+
+
+def read_macros(header: Path, name: str) -> dict[str, int]:
+    """Integer ``#define NAME_KEY value`` macros of a generated header, by KEY."""
+    pat = re.compile(rf"^#define {name.upper()}_(\w+) (-?\d+)\b", re.M)
+    return {k: int(v) for k, v in pat.findall(Path(header).read_text())}
+
+
+def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
+          jobs: int | None = None) -> Path:
+    """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the shared library.
+
+    ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``build/verify``, so both
+    variants coexist.
+    """
+    gen_dir = Path(gen_dir)
+    name = solver_name(gen_dir)
+    if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
+        use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
+        restore_osqp_library(gen_dir, use_float)
+    out = VERIFY_BUILD if verify else DEFAULT_BUILD
+    cmd = ["make", "-C", str(gen_dir), f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}",
+           f"VERIFY={int(verify)}"]
+    if cc:
+        cmd.append(f"CC={cc}")
+    if cflags is not None:
+        cmd.append(f"CFLAGS={cflags}")
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise BuildError(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
+    return gen_dir / out / f"lib{name}.so"
+
+
+class CSolver:
+    """ctypes binding of a generated solver's shared library (timed with the library's host clock)."""
+
+    kind = "c"
+
+    def __init__(self, lib_path: Path | str, header: Path | str | None = None):
+        lib_path = Path(lib_path)
+        self.name = lib_path.name[len("lib"):-len(".so")]
+        header = Path(header) if header else self._find_header(lib_path)
+        self.sizes = read_macros(header, self.name)
+        s = self.sizes
+        self.N, self.nx, self.nu = s["N"], s["NX"], s["NU"]
+        self.n_opp, self.n_opp_par = s["NOPP"], s["NOPP_PAR"]
+        self.n, self.m, self.nnz_A = s["QP_N"], s["QP_M"], s["QP_NNZ_A"]
+        self.dtype = np.float32 if s.get("USE_FLOAT") else np.float64
+        self._real = ctypes.c_float if s.get("USE_FLOAT") else ctypes.c_double
+        self.lib = ctypes.CDLL(str(lib_path.resolve()))
+        self._declare()
+        self.init()
+        self._f("set_clock")(ctypes.cast(self._f("host_clock"), ctypes.c_void_p))
+
+    @staticmethod
+    def _find_header(lib_path: Path) -> Path:
+        for d in (lib_path.parent, *lib_path.parents):
+            try:
+                return d / f"{solver_name(d)}_solver.h"
+            except FileNotFoundError:
+                continue
+        raise FileNotFoundError(f"no *_solver.h above {lib_path}")
+
+    @classmethod
+    def from_dir(cls, gen_dir: Path | str, verify: bool = False, **kw) -> "CSolver":
+        """Build a generated folder and load it."""
+        return cls(build(gen_dir, verify=verify, **kw))
+
+    # -- ctypes plumbing ------------------------------------------------------------------------------------------
+    def _f(self, fn: str):
+        return getattr(self.lib, f"{self.name}_{fn}")
+
+    def _declare(self) -> None:
+        R, PR, I = self._real, ctypes.POINTER(self._real), ctypes.c_int
+        PPR = ctypes.POINTER(PR)
+        sig = {"init": ([], I), "set_clock": ([ctypes.c_void_p], None), "set_state": ([PR], I),
+               "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
+               "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
+               "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
+               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None),
+               "host_clock": ([], ctypes.c_double)}
+        for fn, (args, res) in sig.items():
+            f = self._f(fn)
+            f.argtypes, f.restype = args, res
+
+    def _ptr(self, a: np.ndarray):
+        return a.ctypes.data_as(ctypes.POINTER(self._real))
+
+    def _arr(self, v, n: int | None = None) -> np.ndarray:
+        a = np.ascontiguousarray(np.asarray(v, dtype=self.dtype).ravel())
+        if n is not None and a.size != n:
+            raise ValueError(f"expected {n} values, got {a.size}")
+        return a
+
+    # -- thin API -------------------------------------------------------------------------------------------------
+    def init(self) -> int:
+        return self._f("init")()
+
+    def set_state(self, x0) -> int:
+        return self._f("set_state")(self._ptr(self._arr(x0, 5)))
+
+    def set_road(self, road: Road) -> int:
+        arrs = [self._arr(a) for a in (road.kappa, road.phi, road.gx, road.gy)]
+        return self._f("set_road")(road.s0, road.ds, road.size, *map(self._ptr, arrs))
+
+    def set_road_raw(self, s0: float, ds: float, kappa, phi, gx, gy) -> int:
+        arrs = [self._arr(a) for a in (kappa, phi, gx, gy)]
+        return self._f("set_road")(s0, ds, int(arrs[0].size), *map(self._ptr, arrs))
+
+    def set_opponents(self, params) -> int:
+        return self._f("set_opponents")(self._ptr(self._arr(params, (self.N + 1) * self.n_opp * self.n_opp_par)))
+
+    def prepare(self) -> int:
+        return self._f("prepare")()
+
+    def feedback(self) -> int:
+        return self._f("feedback")()
+
+    def reset(self) -> None:
+        self._f("reset")()
+
+    def has_guess(self) -> bool:
+        return bool(self._f("has_guess")())
+
+    def u0(self) -> np.ndarray:
+        u = np.zeros(self.nu, dtype=self.dtype)
+        self._f("get_u0")(self._ptr(u))
+        return u.astype(float)
+
+    def states(self) -> np.ndarray:
+        x = np.zeros((self.N + 1) * self.nx, dtype=self.dtype)
+        self._f("get_states")(self._ptr(x))
+        return x.reshape(self.N + 1, self.nx).astype(float)
+
+    def controls(self) -> np.ndarray:
+        u = np.zeros(self.N * self.nu, dtype=self.dtype)
+        self._f("get_controls")(self._ptr(u))
+        return u.reshape(self.N, self.nu).astype(float)
+
+    def max_slack(self) -> float:
+        return float(self._f("max_slack")())
+
+    def status(self) -> Status:
+        class _St(ctypes.Structure):
+            _fields_ = [("exit_code", ctypes.c_int), ("qp_status", ctypes.c_int), ("qp_iter", ctypes.c_int),
+                        ("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
+        st = _St()
+        self._f("get_status")(ctypes.byref(st))
+        return Status(st.exit_code, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback)
+
+    def get_qp(self) -> dict[str, np.ndarray]:
+        """Copies of the QP data: q, l, u, A_x, P_x, z (OSQP's primal solution), y (dual guess)."""
+        ptrs = [ctypes.POINTER(self._real)() for _ in range(7)]
+        self._f("get_qp")(*[ctypes.byref(p) for p in ptrs])
+        lens = (self.n, self.m, self.m, self.nnz_A, self.n, self.n, self.m)
+        keys = ("q", "l", "u", "A_x", "P_x", "z", "y")
+        return {k: np.ctypeslib.as_array(p, shape=(n,)).astype(float) for k, p, n in zip(keys, ptrs, lens)}
+
+    @staticmethod
+    def code_name(code: int) -> str:
+        return EXIT_CODES[code] if 0 <= code < len(EXIT_CODES) else f"unknown({code})"
+
+    # -- Controller protocol ----------------------------------------------------------------------------------------
+    def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
+        """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
+        rc = self.set_road(road)
+        rc = rc or self.set_opponents(opp)
+        if not rc and not self.has_guess():
+            rc = self.set_state(x0)
+        rc = rc or self.prepare()
+        rc = rc or self.set_state(x0)
+        rc = rc or self.feedback()
+        st = self.status()
+        if rc:
+            return StepResult(np.zeros(2), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                              math.nan)
+        return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                          self.max_slack())

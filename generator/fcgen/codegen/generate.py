@@ -1,0 +1,344 @@
+"""Turn a problem into a complete, static-memory C solver folder.
+
+Steps: build the OCP and its QP layout; emit CasADi C code of the functions the solver needs (every symbol prefixed
+with the problem name); export OSQP's embedded workspace (prefix ``<name>_``); render ``templates/`` with every index
+table computed here. Same problem -> byte-identical files (no time stamps, no absolute paths).
+"""
+from __future__ import annotations
+
+import importlib.resources
+import math
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import casadi as ca
+import jinja2
+import numpy as np
+
+from .. import __version__
+from .. import obstacles as obs
+from ..dsl import Conventional, Problem
+from ..ocp import INF, Ocp, build_ocp
+from ..qp import QpLayout, build_layout
+from ..reference import osqp_settings, theta_init
+from ..sim.closedloop import plant_function
+from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
+
+EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
+              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP")
+"""Exit codes of the generated C API (``<NAME>_<code>``), in enum order: ``EXIT_CODES.index(code)``."""
+
+MODEL_CFLAGS = ("-Wno-unused-parameter",)
+"""Extra flags for the CasADi-generated model file (its functions ignore iw/w/mem) with -Wall -Wextra -Werror."""
+
+MACRO_DOC = {
+    "NX": "states per stage", "NU": "controls per stage [F_d, r]", "N": "shooting intervals",
+    "NOPP": "opponents", "NOPP_PAR": "parameters per opponent and stage",
+    "ROAD_MAX": "road samples set_road accepts at most", "ROAD_WINDOW": "road samples in a stage's local window",
+    "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
+    "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
+    "NNZ_J": "stacked stage-Jacobian nonzeros",
+    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + OSQP workspaces", "USE_FLOAT": "1: generated for float",
+}
+MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
+_HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
+
+
+@dataclass(frozen=True)
+class GenerateInfo:
+    """What :func:`generate` wrote; paths are relative to ``out_dir``."""
+
+    name: str
+    out_dir: Path
+    use_float: bool
+    sizes: dict[str, int]           # the size macros of <name>_solver.h (without the NAME_ prefix)
+    workspace_bytes: int            # static RAM (LP64): solver workspace + OSQP arrays + OSQP structs
+    solver_workspace_bytes: int     # sizeof(<name>_workspace_t) on an LP64 target
+    osqp_array_bytes: int           # OSQP's workspace arrays (all mutable: OSQP emits no const data)
+    osqp_struct_bytes: int          # OSQP's structs (OSQP_STRUCT_BYTES)
+    const_bytes: int                # our static const index tables
+    files: tuple[str, ...]          # our files and the OSQP workspace (committed)
+    library_files: tuple[str, ...]  # OSQP library copy (git-ignored, restorable)
+    osqp: OsqpExport
+
+
+# --- small helpers --------------------------------------------------------------------------------------------
+
+def _c_real(x: float) -> str:
+    """An exact C double literal (shortest round-trip repr)."""
+    x = float(x)
+    if not math.isfinite(x):
+        raise ValueError(f"non-finite constant {x!r} cannot be emitted")
+    return repr(x)
+
+
+def _c_list(values: Sequence, fmt=str, per_line: int = 12) -> str:
+    """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
+    items = [fmt(v) for v in values] or ["0"]
+    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+    return ",\n  ".join(lines)
+
+
+def _templates_dir() -> Path:
+    return Path(str(importlib.resources.files("fcgen") / "templates"))
+
+
+def _write(path: Path, text: str) -> None:
+    data = text.encode()
+    if not path.is_file() or path.read_bytes() != data:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+
+
+# --- CasADi model code ---------------------------------------------------------------------------------------
+
+def _renamed(f: ca.Function, name: str) -> ca.Function:
+    """The same SX algorithm under a new name (checked: identical instruction count)."""
+    x = f.sx_in()
+    g = ca.Function(name, x, f.call(x), f.name_in(), f.name_out())
+    if g.n_instructions() != f.n_instructions():
+        raise AssertionError(f"renaming {f.name()} changed its algorithm")
+    return g
+
+
+def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
+    """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
+    return {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
+            "dynamics": ocp.dynamics, "init_state": ocp.init_state, "theta_init": theta_init(ocp),
+            "plant": plant_function(ocp.problem, ocp.road_params.samples)}
+
+
+def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
+    """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
+    funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
+    opts = {"with_header": True, "casadi_real": real, "casadi_int": "int", "prefix": f"{name}_",
+            "with_export": False, "verbose": False, "include_math": True}
+    with tempfile.TemporaryDirectory() as tmp:
+        cg = ca.CodeGenerator(f"{name}_model.c", opts)
+        for k in MODEL_FUNCTIONS:
+            cg.add(funs[k])
+        cg.generate(str(Path(tmp)) + "/")
+        src = (Path(tmp) / f"{name}_model.c").read_text()
+        hdr = (Path(tmp) / f"{name}_model.h").read_text()
+    # CasADi's runtime helpers (casadi_fmin, casadi_sq, ...) are emitted non-static: make them file-local
+    src = _HELPER_DEF.sub(r"static \1 \2(", src)
+    for text in (src, hdr):
+        if tmp in text or "/tmp" in text:
+            raise AssertionError("CasADi wrote a path into the model code")
+    _write(out_dir / f"{name}_model.c", src)
+    _write(out_dir / f"{name}_model.h", hdr)
+    # the generated code's own work sizes (SX code keeps its work in locals: sz_w there is 0, not f.sz_w())
+    found = re.findall(rf"^#define {name}_(\w+)_SZ_(ARG|RES|IW|W) (\d+)$", hdr, re.M)
+    sz = {(fn, key): int(v) for fn, key, v in found}
+    if {fn for fn, _ in sz} != set(MODEL_FUNCTIONS):
+        raise AssertionError("CasADi header without the expected work-size macros")
+
+    def most(key: str, least: int) -> int:
+        return max(least, *(v for (_, k), v in sz.items() if k == key))
+
+    return {"sz_arg": most("ARG", 3), "sz_res": most("RES", 3), "sz_iw": most("IW", 1), "sz_w": most("W", 1),
+            "functions": [f"{name}_{k}" for k in MODEL_FUNCTIONS]}
+
+
+# --- tables ---------------------------------------------------------------------------------------------------
+
+def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
+    """Per-stage descriptors: function kind and the offsets of its variables, rows, Jacobian, successor state."""
+    N, nx, nu = ocp.N, ocp.nx, ocp.nu
+    v_ref = ocp.problem.reference.v_ref
+    out = []
+    for k in range(N + 1):
+        st = ocp.stage(k)
+        var = int(lay.var_off[k])
+        names = st.var_names
+        out.append({
+            "k": k,
+            "kind": "STAGE_" + st.name.upper(),
+            "var": var,
+            "row": int(lay.row_off[k]),
+            "jac": int(lay.jac_off[k]),
+            "next": int(lay.var_off[k + 1]) if k < N else -1,
+            "s": int(lay.s_vars[k]),
+            "u": var + names.index("F_d") if k < N else -1,
+            "theta": var + nx + nu * (k < N) if (k >= 1 and ocp.n_theta) else -1,
+            "sigma": var + names.index("sigma0") if "sigma0" in names else -1,
+            "s_ref": _c_real(k * ocp.dt * v_ref),  # the reference's s_ref offset, same rounding
+        })
+        assert names[0] == "s" and out[-1]["s"] == var
+        if k < N:
+            assert names[nx:nx + nu] == ("F_d", "r") and out[-1]["u"] == var + nx
+    return out
+
+
+def slack_vars(ocp: Ocp, lay: QpLayout) -> np.ndarray:
+    """Indices of the slack variables of stages 1..N (the reference's ``slacks()``)."""
+    return np.concatenate([np.arange(lay.var_off[k + 1] - ocp.n_sigma, lay.var_off[k + 1])
+                           for k in range(1, ocp.N + 1)]).astype(np.int64)
+
+
+def far_opponent_row(ocp: Ocp) -> np.ndarray:
+    """Parameters of one opponent far away from any ego position on the example's straight road."""
+    pb = ocp.problem
+    if isinstance(pb.formulation, Conventional):
+        return obs.naive_frenet_shape((-1000.0, 500.0, 0.0), pb.opponents.vehicle)
+    return np.array([-1000.0, 500.0, 0.0])
+
+
+# --- sizes -------------------------------------------------------------------------------------------------------
+
+def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
+    """sizeof a C struct of (size, align, count) members, with natural padding."""
+    off, align_max = 0, 1
+    for size, align, count in members:
+        off = -(-off // align) * align + size * count
+        align_max = max(align_max, align)
+    return -(-off // align_max) * align_max
+
+
+OSQP_STRUCT_BYTES = {False: 1928, True: 1788}
+"""OSQP's bookkeeping structs in a workspace (solver, settings, info, vectors, matrices, ...): a fixed set whose size
+does not depend on the problem; measured for osqp 1.1.3 with gcc 12 on x86-64 (LP64), double / float."""
+
+def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
+                      opp_dim: int) -> tuple[list[dict[str, Any]], int]:
+    """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
+    NAME = name.upper()
+    R, I, P = (real_size, real_size), (4, 4), (8, 8)
+
+    def M(key: str, extra: int = 0):  # a dimension written as the public size macro
+        return (f"{NAME}_{key}" + (f" + {extra}" if extra else ""), sizes[key] + extra)
+
+    road, n, m, nnz = M("ROAD_MAX"), M("QP_N"), M("QP_M"), M("QP_NNZ_A")
+    members = [  # (C type, name, dims, (size, align)); a dim is an int or (C expression, int)
+        ("NAME_real_t", "x0", [5], R), ("NAME_real_t", "road_s0", [], R), ("NAME_real_t", "road_ds", [], R),
+        ("NAME_real_t", "road_kappa", [road], R), ("NAME_real_t", "road_phi", [road], R),
+        ("NAME_real_t", "road_gx", [road], R), ("NAME_real_t", "road_gy", [road], R),
+        ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
+        ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
+        ("NAME_real_t", "w_tmp", [n], R), ("NAME_real_t", "y_tmp", [m], R),
+        ("NAME_real_t", "p", [M("N", 1), M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
+        ("NAME_real_t", "g", [m], R), ("NAME_real_t", "jac", [M("NNZ_J")], R),
+        ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
+        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R), ("NAME_real_t", "A_x", [nnz], R),
+        ("NAME_real_t", "xa", [M("NX")], R), ("NAME_real_t", "xb", [M("NX")], R),
+        ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
+        ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
+        ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
+        ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
+        ("const NAME_real_t *", "q_cur", [], P), ("clock_fn_t", "clock", [], P),
+        ("NAME_status_t", "status", [], (32, 8)),
+        ("int", "road_n", [], I), ("int", "road_set", [], I), ("int", "have_x0", [], I),
+        ("int", "have_guess", [], I), ("int", "prepared", [], I),
+    ]
+    size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
+                         for _, _, d, sa in members])
+    rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
+                 "dims": [x[0] if isinstance(x, tuple) else x for x in d]} for t, nm, d, _ in members]
+    return rendered, size
+
+
+_OSQP_ARRAY = re.compile(r"^(OSQPFloat|OSQPInt|QDLDL_int|QDLDL_bool|QDLDL_float)\s+\w+\[(\d+)\]", re.M)
+
+
+def _osqp_array_bytes(workspace_c: str, real_size: int) -> int:
+    sizes = {"OSQPFloat": real_size, "QDLDL_float": real_size, "OSQPInt": 4, "QDLDL_int": 4, "QDLDL_bool": 4}
+    return sum(sizes[t] * int(n) for t, n in _OSQP_ARRAY.findall(workspace_c))
+
+
+# --- the generator -------------------------------------------------------------------------------------------
+
+def _env() -> jinja2.Environment:
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(_templates_dir())), undefined=jinja2.StrictUndefined,
+                              keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
+                              autoescape=False)
+
+
+def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> GenerateInfo:
+    """Write the C solver of ``problem`` into ``out_dir`` (created); returns what was written."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name = problem.name
+    NAME = name.upper()
+    ocp = build_ocp(problem)
+    lay = build_layout(ocp)
+    real = "float" if use_float else "double"
+    real_size = 4 if use_float else 8
+    N, nx, nu = ocp.N, ocp.nx, ocp.nu
+    n_opp, n_opp_par = problem.opponents.count, ocp.n_opp_par
+    rp = ocp.road_params
+
+    work = _write_model(ocp, out_dir, name, real)
+
+    settings = osqp_settings(problem.qp)
+    exp = export_osqp(lay.P_matrix(), lay.A_pattern(np.ones(lay.nnz_A)), np.zeros(lay.n), np.minimum(lay.L, 0.0),
+                      np.maximum(lay.U, 0.0), settings, out_dir, f"{name}_", use_float)
+
+    # -- sizes (public macros) and private dimensions -----------------------------------------------------------
+    sizes = {"NX": nx, "NU": nu, "N": N, "NOPP": n_opp, "NOPP_PAR": n_opp_par, "ROAD_MAX": problem.road.samples,
+             "ROAD_WINDOW": rp.samples, "NP": ocp.np_stage, "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma,
+             "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
+    slacks = slack_vars(ocp, lay)
+    n_opp_all = max(1, n_opp * n_opp_par)
+    index_tables = {"A_SRC": lay.a_src, "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
+                    "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks}
+    top = max(int(np.max(t, initial=0)) for t in index_tables.values())
+    index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
+    real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
+                   "INIT_D": lay.D[:nx]}
+    for t in (lay.L, lay.U):
+        if np.any(np.abs(t) > INF):
+            raise AssertionError("bounds beyond OSQP_INFTY")
+    stages = stage_table(ocp, lay)
+
+    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all)
+    osqp_bytes = _osqp_array_bytes((out_dir / exp.workspace_sources[0]).read_text(), real_size)
+    const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
+                   + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
+    workspace_bytes = ws_bytes + osqp_bytes + OSQP_STRUCT_BYTES[use_float]
+
+    values = {**sizes, "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
+    macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:nx])})"}
+    macros = [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()]
+    opp_names = obs.FRENET_SHAPE if isinstance(problem.formulation, Conventional) else obs.CARTESIAN_POSE
+    ctx = {
+        "name": name, "NAME": NAME, "version": __version__, "real": real, "use_float": use_float,
+        "sizes": sizes, "macros": macros, "exit_codes": list(enumerate(EXIT_CODES)),
+        "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
+        "opp_params": ", ".join(opp_names),
+        "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes, "osqp_array_bytes": osqp_bytes,
+        "osqp_struct_bytes": OSQP_STRUCT_BYTES[use_float],
+        "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
+        "index_ctype": index_ctype, "opp_dim": n_opp_all,
+        "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
+                         for k, v in index_tables.items()},
+        "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},
+        "n_slack": len(slacks), "stages": stages,
+        "p_road": {"S0": 0, "DS": 1, "KAPPA": 2, "PHI": 2 + rp.samples, "GX": 2 + 2 * rp.samples,
+                   "GY": 2 + 3 * rp.samples},
+        "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
+        "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
+        "rho0": _c_real(settings["rho"]), "osqp_infty": _c_real(INF),
+        "osqp": exp, "model_cflags": MODEL_CFLAGS,
+        "osqp_sources": list(exp.library_sources), "osqp_headers": list(exp.library_headers),
+        "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
+        "qp_settings": settings,
+    }
+    env = _env()
+    outputs = {
+        f"{name}_solver.h": "solver.h.j2", f"{name}_solver.c": "solver.c.j2", f"{name}_host.h": "host.h.j2",
+        f"{name}_host.c": "host.c.j2", "main.c": "main.c.j2", "CMakeLists.txt": "CMakeLists.txt.j2",
+        "Makefile": "Makefile.j2", "README.md": "README.md.j2",
+    }
+    for fname, tpl in outputs.items():
+        _write(out_dir / fname, env.get_template(tpl).render(**ctx))
+    lib_files = tuple(restore_osqp_library(out_dir, use_float))
+    files = tuple(sorted([*outputs, f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
+                          *exp.workspace_headers]))
+    return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
+                        workspace_bytes=workspace_bytes, solver_workspace_bytes=ws_bytes,
+                        osqp_array_bytes=osqp_bytes, osqp_struct_bytes=OSQP_STRUCT_BYTES[use_float],
+                        const_bytes=const_bytes, files=files,
+                        library_files=lib_files, osqp=exp)

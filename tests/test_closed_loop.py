@@ -1,0 +1,101 @@
+"""Closed-loop tests (fcgen.sim, SPEC section 7): a quick 30-sample run, and (slow) the paper's truck campaign."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from fcgen.presets import paper_problem
+from fcgen.sim.closedloop import run_closed_loop
+from fcgen.sim.runlog import RunLog, compare, summary
+from fcgen.sim.scenario import OPP_SPEED, make_scenario
+
+
+@pytest.fixture(scope="module")
+def quick_run():
+    pb = paper_problem("truck", "lifted", "ellipse")
+    sc = make_scenario("truck", 0, samples=30)
+    return pb, sc, run_closed_loop(pb, sc)
+
+
+def test_quick_run_is_safe_and_sane(quick_run):
+    pb, sc, log = quick_run
+    s = summary(log)
+    assert s["n_states"] == 31 and s["n_controls"] == 30
+    assert s["n_collision_samples"] == 0 and not log.collision.any()
+    # progress: positive, and at most what 40 m/s would give in 3 s
+    assert 0 < s["progress"] <= 40.0 * 3.0
+    assert s["progress"] == pytest.approx(log.ego_frenet[-1, 0] - sc.x0[0])
+    v = log.ego_frenet[:, 3]
+    assert np.all(v >= 0.0) and np.all(v <= 40.0)
+    assert np.all(np.abs(log.ego_frenet[:, 1]) <= 10.0 + 1e-6)          # truck scenario road bounds
+    # input bounds, up to the QP tolerance: eps_abs = eps_rel = 1e-3 on rows u / u_max (measured: |r| = 0.39045)
+    assert np.all(np.abs(log.control[:, 0]) <= 1e4 * (1 + 3e-3))
+    assert np.all(np.abs(log.control[:, 1]) <= 0.39 * (1 + 3e-3))
+    assert np.all(log.qp_status == 1)                                  # every QP solved
+    assert log.meta["extra"]["exit_codes_nonzero"] == 0
+    np.testing.assert_array_equal(log.ego_frenet[0], sc.x0)
+
+
+def test_quick_run_follows_the_plant_model(quick_run):
+    """The logged trajectory is the Frenet ODE (SPEC section 2, written here in numpy on the road's interpolants)
+    under the logged piecewise-constant controls, up to RK4's error."""
+    pb, sc, log = quick_run
+    road, veh, wind = sc.road, pb.ego, pb.wind
+
+    def rhs(t, x, u):
+        s, n, alpha, v, delta = x
+        kappa, phi_g = (float(a) for a in road.eval(s)[:2])
+        sdot = v * math.cos(alpha) / (1 - n * kappa)
+        v_rel = v + wind.v * math.cos(phi_g + alpha - wind.phi)
+        return [sdot, v * math.sin(alpha), v * math.tan(delta) / veh.l - kappa * sdot,
+                (u[0] - veh.c_air * v_rel * abs(v_rel) - veh.c_roll) / veh.m, u[1]]
+
+    for j in range(30):
+        x_next = solve_ivp(rhs, (0, 0.1), log.ego_frenet[j], args=(log.control[j],), rtol=1e-11, atol=1e-11).y[:, -1]
+        np.testing.assert_allclose(log.ego_frenet[j + 1], x_next, atol=2e-4)
+    # Cartesian log = F^-1 of the Frenet log; opponents drive at 15 m/s along their lane
+    x, y, phi = road.to_cartesian(*log.ego_frenet[:, :3].T)
+    np.testing.assert_allclose(log.ego_cartesian, np.stack([x, y, phi], axis=1), atol=1e-12)
+    np.testing.assert_allclose(np.diff(log.opp_frenet[:, :, 0], axis=0), OPP_SPEED * 0.1, atol=1e-12)
+    np.testing.assert_allclose(log.opp_frenet[:, :, 1], np.broadcast_to(sc.opp_n, (31, 3)))
+
+
+def test_quick_run_log_round_trips_through_json(quick_run, tmp_path):
+    _, _, log = quick_run
+    path = log.to_json(tmp_path / "run.json")
+    back = RunLog.from_json(path)
+    assert all(v == 0.0 for v in compare(log, back).values())
+    assert back.meta == log.meta
+    assert back.meta["formulation"] == "lifted" and back.meta["obstacle_model"] == "ellipse"
+    assert back.to_json_string() == log.to_json_string()
+    assert summary(back) == summary(log)
+
+
+def test_runs_are_reproducible(quick_run):
+    pb, _, log = quick_run
+    again = run_closed_loop(pb, make_scenario("truck", 0, samples=30))
+    d = compare(log, again)
+    for name, val in d.items():
+        if not name.startswith("time_"):
+            assert val == 0.0, name
+
+
+@pytest.mark.slow
+def test_truck_campaign_paper_finding():
+    """20 seeds of the truck scenario, ellipse model: no collisions in any formulation, and both Cartesian-obstacle
+    formulations (direct elimination, lifted) progress further on average than the conventional one (paper Sec. V)."""
+    from fcgen.sim.campaign import format_table, run_campaign
+
+    res = run_campaign("truck", ["conventional", "direct_elimination", "lifted"], ["ellipse"], seeds=20)
+    print()
+    print(format_table(res))
+    by = {c["formulation"]: c for c in res["configs"]}
+    for form, c in by.items():
+        assert c["runs_with_collision"] == 0, (form, c["collision_samples"])
+        assert len(c["progress"]) == 20
+    conv = by["conventional"]["progress_mean"]
+    assert by["lifted"]["progress_mean"] > conv
+    assert by["direct_elimination"]["progress_mean"] > conv

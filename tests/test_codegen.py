@@ -1,0 +1,301 @@
+"""Generated C solver: static memory, prefixed symbols, determinism, C == Python reference, bad inputs, linking."""
+from __future__ import annotations
+
+import hashlib
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fcgen.build import CSolver, build
+from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, generate
+from fcgen.ocp import build_ocp
+from fcgen.presets import paper_problem, preset
+from fcgen.reference import RtiSolver
+from fcgen.road import straight_road
+from fcgen.sim.closedloop import WINDOW_BEHIND, plant_function, run_closed_loop
+from fcgen.sim.scenario import OpponentParams, make_scenario
+
+pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make", "nm")),
+                                reason="needs gcc, make and nm")
+
+PRESET = "truck_lifted_ellipse"
+FORBIDDEN = {"malloc", "calloc", "realloc", "free", "printf", "fprintf", "fopen", "puts", "putchar", "fputs",
+             "fwrite", "sprintf", "snprintf"}
+CODE = {c: i for i, c in enumerate(EXIT_CODES)}
+
+
+@pytest.fixture(scope="module")
+def gen(tmp_path_factory) -> GenerateInfo:
+    return generate(preset(PRESET), tmp_path_factory.mktemp("gen") / "a")
+
+
+@pytest.fixture(scope="module")
+def default_build(gen: GenerateInfo) -> Path:
+    build(gen.out_dir)
+    return gen.out_dir / "build"
+
+
+@pytest.fixture(scope="module")
+def cs(gen: GenerateInfo) -> CSolver:
+    return CSolver(build(gen.out_dir, verify=True))
+
+
+def _hashes(root: Path) -> dict[str, str]:
+    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file() and "build" not in p.relative_to(root).parts}
+
+
+def _nm(args: list[str], obj: Path) -> list[str]:
+    out = subprocess.run(["nm", *args, str(obj)], check=True, capture_output=True, text=True).stdout
+    return [line.split()[-1] for line in out.splitlines() if line.strip()]
+
+
+def _our_objects(gen: GenerateInfo, build_dir: Path) -> list[Path]:
+    obj = build_dir / "obj"
+    return [obj / f"{gen.name}_solver.o", obj / f"{gen.name}_model.o",
+            *(obj / Path(s).with_suffix(".o") for s in gen.osqp.workspace_sources)]
+
+
+# --- static properties ------------------------------------------------------------------------------------------
+
+def test_no_heap_no_stdio(gen: GenerateInfo, default_build: Path) -> None:
+    for obj in _our_objects(gen, default_build):
+        bad = set(_nm(["-u"], obj)) & FORBIDDEN
+        assert not bad, (obj.name, bad)
+
+
+def test_global_symbols_prefixed(gen: GenerateInfo, default_build: Path) -> None:
+    for obj in _our_objects(gen, default_build):
+        names = _nm(["-g", "--defined-only"], obj)
+        assert names, obj.name
+        assert all(n.startswith(f"{gen.name}_") for n in names), (obj.name, [n for n in names
+                                                                            if not n.startswith(gen.name)])
+
+
+def test_workspace_bytes_match_objects(gen: GenerateInfo, default_build: Path) -> None:
+    """NAME_WORKSPACE_BYTES = static RAM of the solver and OSQP workspace objects (x86-64)."""
+    objs = _our_objects(gen, default_build)
+    out = subprocess.run(["size", *map(str, objs)], check=True, capture_output=True, text=True).stdout
+    rows = {Path(line.split()[-1]).name: [int(v) for v in line.split()[:3]] for line in out.splitlines()[1:]}
+    solver = rows[f"{gen.name}_solver.o"]
+    ws = rows[Path(gen.osqp.workspace_sources[0]).with_suffix(".o").name]
+    assert solver[2] == gen.solver_workspace_bytes  # .bss: the workspace struct
+    assert ws[1] + ws[2] == gen.osqp_array_bytes + gen.osqp_struct_bytes
+    assert f"#define {gen.name.upper()}_WORKSPACE_BYTES {gen.workspace_bytes} " in \
+        (gen.out_dir / f"{gen.name}_solver.h").read_text()
+
+
+def test_deterministic(gen: GenerateInfo, tmp_path: Path) -> None:
+    other = generate(preset(PRESET), tmp_path / "elsewhere" / "b")
+    ha, hb = _hashes(gen.out_dir), _hashes(other.out_dir)
+    assert ha == hb
+    assert set(gen.files) | set(gen.library_files) == set(ha)
+    for f in gen.files:
+        text = (other.out_dir / f).read_text()
+        assert str(tmp_path) not in text and "/tmp" not in text, f
+
+
+def test_example_runs(gen: GenerateInfo, default_build: Path) -> None:
+    res = subprocess.run([str(default_build / f"{gen.name}_example")], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "exit 0" in res.stdout
+
+
+# --- C == Python reference ---------------------------------------------------------------------------------------
+
+def _rel(c: np.ndarray, r: np.ndarray) -> float:
+    return float(np.max(np.abs(c - r) / np.maximum(np.abs(r), 1.0), initial=0.0))
+
+
+def test_matches_reference(cs: CSolver) -> None:
+    """Same inputs, sample after sample (shifted guesses): QP data to 1e-12, u0 to 1e-9 (measured: bit-identical)."""
+    pb = preset(PRESET)
+    ocp = build_ocp(pb)
+    ref = RtiSolver(ocp)
+    sc = make_scenario("truck", 3)
+    opp = OpponentParams(pb, sc)
+    plant = plant_function(pb, ocp.road_params.samples)
+    assert cs.init() == 0
+    x, road = sc.x0.copy(), sc.road
+    worst = {}
+    for j in range(8):
+        win, op = road.window(x[0] - WINDOW_BEHIND, pb.road.samples), opp.horizon(j)
+        ref.set_road(win)
+        ref.set_opponents(op)
+        if ref.w is None:
+            ref.set_state(x)
+        ref.prepare()
+        assert cs.set_road(win) == 0 and cs.set_opponents(op) == 0
+        if not cs.has_guess():
+            assert cs.set_state(x) == 0
+        assert cs.prepare() == 0, cs.status()
+        qp = cs.get_qp()
+        for key, r in (("q", ref.q), ("l", ref.l), ("u", ref.u), ("A_x", ref.A_data), ("P_x", ref.lay.P_diag)):
+            worst[key] = max(worst.get(key, 0.0), _rel(qp[key], r))
+        ref.set_state(x)
+        u_ref = ref.feedback()
+        assert cs.set_state(x) == 0 and cs.feedback() == 0, cs.status()
+        st = cs.status()
+        assert st.exit_code == 0 and st.qp_status == ref.status.qp_status and st.qp_iter == ref.status.qp_iter
+        worst["q_fb"] = max(worst.get("q_fb", 0.0), _rel(cs.get_qp()["q"], ref.q_fb))
+        worst["u0"] = max(worst.get("u0", 0.0), _rel(cs.u0(), u_ref))
+        np.testing.assert_allclose(cs.states(), ref.states(), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(cs.controls(), ref.controls(), rtol=1e-9, atol=1e-9)
+        assert cs.max_slack() == pytest.approx(float(np.max(ref.slacks(), initial=0.0)), rel=1e-9, abs=1e-12)
+        i0 = int(math.floor((x[0] - road.s0) / road.ds)) - 1
+        x = np.array(plant(x, u_ref, ocp.road_params.pack(road, i0))).ravel()
+    print("max relative differences C vs Python:", worst)
+    assert all(worst[k] <= 1e-12 for k in ("q", "l", "u", "A_x", "P_x", "q_fb")), worst
+    assert worst["u0"] <= 1e-9, worst
+
+
+def test_controller_protocol(cs: CSolver) -> None:
+    """CSolver.step in the closed loop gives the reference's controls."""
+    pb = preset(PRESET)
+    ocp = build_ocp(pb)
+    sc = make_scenario("truck", 5, samples=6)
+    assert cs.init() == 0
+    log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
+    log_py = run_closed_loop(pb, sc, ocp=ocp)
+    assert log_c.meta["controller"] == "c"
+    assert np.all(log_c.qp_status == log_py.qp_status)
+    np.testing.assert_allclose(log_c.control, log_py.control, rtol=1e-9, atol=1e-9)
+    assert np.all(log_c.time_feedback > 0)
+
+
+# --- bad inputs ----------------------------------------------------------------------------------------------------
+
+def _inputs(cs: CSolver, s_ego: float = 0.0):
+    pb = preset(PRESET)
+    road = straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=s_ego - 20.0)
+    x0 = np.array([s_ego, 1.0, 0.0, 15.0, 0.0])
+    opp = np.zeros((cs.N + 1, cs.n_opp, cs.n_opp_par))
+    opp[..., 0], opp[..., 1] = -1000.0, 500.0  # far away
+    return road, x0, opp
+
+
+def _step_ok(cs: CSolver) -> None:
+    assert cs.prepare() == CODE["OK"]
+    assert cs.feedback() == CODE["OK"]
+    assert np.all(np.isfinite(cs.u0())) and cs.status().exit_code == 0
+
+
+def test_bad_inputs(cs: CSolver) -> None:
+    road, x0, opp = _inputs(cs)
+    assert cs.init() == 0 and not cs.has_guess()
+    # call order
+    assert cs.feedback() == CODE["ERR_NOT_PREPARED"] and cs.status().exit_code == CODE["ERR_NOT_PREPARED"]
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0
+    assert cs.prepare() == CODE["ERR_NO_STATE"] and cs.status().exit_code == CODE["ERR_NO_STATE"]
+    # non-finite state, then a valid one
+    assert cs.set_state([0.0, math.nan, 0.0, 15.0, 0.0]) == CODE["ERR_NONFINITE_STATE"]
+    assert cs.status().exit_code == CODE["ERR_NONFINITE_STATE"]
+    assert cs.prepare() == CODE["ERR_NO_STATE"]
+    assert cs.set_state(x0) == 0
+    # infinite opponent pose, then valid opponents
+    bad = opp.copy()
+    bad[7, 1, 0] = math.inf
+    assert cs.set_opponents(bad) == CODE["ERR_NONFINITE_OPPONENTS"]
+    assert cs.status().exit_code == CODE["ERR_NONFINITE_OPPONENTS"]
+    assert cs.set_opponents(opp) == 0
+    # a road that starts ahead of the ego: the window does not cover the horizon
+    ahead, _, _ = _inputs(cs, s_ego=30.0)
+    assert cs.set_road(ahead) == 0
+    assert cs.prepare() == CODE["ERR_ROAD_WINDOW"] and cs.status().exit_code == CODE["ERR_ROAD_WINDOW"]
+    assert not cs.has_guess()
+    assert cs.feedback() == CODE["ERR_NOT_PREPARED"]
+    # invalid roads are rejected and the previous one kept
+    n = cs.sizes["ROAD_MAX"]
+    assert cs.set_road_raw(0.0, 2.0, *[np.zeros(n + 1)] * 4) == CODE["ERR_ROAD_SIZE"]
+    kappa = np.zeros(n)
+    kappa[3] = math.nan
+    assert cs.set_road_raw(0.0, 2.0, kappa, np.zeros(n), np.arange(n) * 2.0, np.zeros(n)) == CODE["ERR_NONFINITE_ROAD"]
+    assert cs.set_road_raw(0.0, -2.0, *[np.zeros(n)] * 4) == CODE["ERR_ROAD_SIZE"]
+    # a correct call works
+    assert cs.set_road(road) == 0
+    _step_ok(cs)
+    assert cs.has_guess()
+    # after a solve: a bad road for the next sample, then a good one
+    assert cs.set_road(ahead) == 0
+    assert cs.prepare() == CODE["ERR_ROAD_WINDOW"]
+    assert cs.set_road(road) == 0
+    _step_ok(cs)
+    # feedback twice without prepare
+    assert cs.feedback() == CODE["ERR_NOT_PREPARED"]
+    cs.reset()
+    assert not cs.has_guess()
+    _step_ok(cs)
+
+
+def test_step_reports_errors(cs: CSolver) -> None:
+    road, x0, opp = _inputs(cs)
+    assert cs.init() == 0
+    bad = opp.copy()
+    bad[0, 0, 2] = math.nan
+    r = cs.step(x0, road, bad)
+    assert r.exit_code == CODE["ERR_NONFINITE_OPPONENTS"] and np.all(r.u == 0) and math.isnan(r.max_slack)
+    r = cs.step(x0, road, opp)
+    assert r.exit_code == 0 and np.all(np.isfinite(r.u))
+
+
+# --- linking ---------------------------------------------------------------------------------------------------------
+
+TWO_MAIN = r"""
+#include <stdio.h>
+#include "truck_lift_el_solver.h"
+#include "car_de_el_solver.h"
+int main(void) {
+  int rc = truck_lift_el_init() | car_de_el_init();
+  printf("%d %d %d\n", rc, TRUCK_LIFT_EL_QP_N, CAR_DE_EL_QP_N);
+  return rc;
+}
+"""
+
+
+def test_two_solvers_one_binary(gen: GenerateInfo, tmp_path: Path) -> None:
+    """Two solvers (different names, same OSQP configuration) link with one copy of the OSQP library."""
+    other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car")
+    assert other.name == "car_de_el"
+    for g in (gen, other):
+        subprocess.run(["make", "-C", str(g.out_dir), "-j8", "BUILD=build/lib", "lib"], check=True,
+                       capture_output=True, text=True)
+    (tmp_path / "two.c").write_text(TWO_MAIN)
+    exe = tmp_path / "two"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{gen.out_dir}", f"-I{other.out_dir}",
+                    str(tmp_path / "two.c"), str(gen.out_dir / "build/lib" / f"lib{gen.name}.a"),
+                    str(other.out_dir / "build/lib" / f"lib{other.name}.a"),
+                    str(gen.out_dir / "build/lib" / f"lib{gen.name}_osqp.a"), "-lm", "-o", str(exe)],
+                   check=True, capture_output=True, text=True)
+    res = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0 and res.stdout.split()[0] == "0", res.stdout + res.stderr
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+def test_cmake_build(gen: GenerateInfo, tmp_path: Path) -> None:
+    b = tmp_path / "cmake-build"
+    subprocess.run(["cmake", "-S", str(gen.out_dir), "-B", str(b), f"-D{gen.name.upper()}_VERIFY=ON"], check=True,
+                   capture_output=True, text=True)
+    subprocess.run(["cmake", "--build", str(b), "-j8"], check=True, capture_output=True, text=True)
+    assert {f"lib{gen.name}.a", f"lib{gen.name}_osqp.a", f"lib{gen.name}.so"} <= {p.name for p in b.iterdir()}
+    assert subprocess.run([str(b / f"{gen.name}_example")], capture_output=True, timeout=60).returncode == 0
+
+
+def test_float_build(tmp_path: Path) -> None:
+    """use_float: float API, float OSQP, builds with -Werror and solves the example."""
+    info = generate(preset(PRESET), tmp_path / "f", use_float=True)
+    assert "typedef float truck_lift_el_real_t;" in (info.out_dir / "truck_lift_el_solver.h").read_text()
+    assert "#define OSQP_USE_FLOAT" in (info.out_dir / "osqp/lib/osqp_configure.h").read_text()
+    build(info.out_dir)
+    res = subprocess.run([str(info.out_dir / "build" / "truck_lift_el_example")], capture_output=True, timeout=60)
+    assert res.returncode == 0
+
+
+def test_build_restores_osqp_library(tmp_path: Path) -> None:
+    info = generate(paper_problem("car", "lifted", "ellipse", name="car_restore"), tmp_path / "r")
+    shutil.rmtree(info.out_dir / "osqp" / "lib")
+    lib = build(info.out_dir)
+    assert lib.is_file() and (info.out_dir / "osqp/lib/osqp_configure.h").is_file()
