@@ -109,6 +109,42 @@ def campaign(scenario, formulations, obstacle_list, circles, seeds, samples, out
     click.echo(f"results written to {out}")
 
 
+@main.command()
+@click.argument("problem_spec", metavar="PROBLEM")
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True,
+              help="folder to write the solver into (created)")
+@click.option("--float", "use_float", is_flag=True, help="single precision (float) instead of double")
+def generate(problem_spec, out_dir, use_float):
+    """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
+    from .codegen.generate import generate as gen
+
+    pb = load_problem(problem_spec)
+    info = gen(pb, out_dir, use_float=use_float)
+    s = info.sizes
+    click.echo(f"{info.name}: {pb.formulation.kind}, {pb.obstacles.kind}, N = {s['N']}, NX = {s['NX']}, "
+               f"QP {s['QP_N']} variables x {s['QP_M']} rows, {s['QP_NNZ_A']} nonzeros in A")
+    click.echo(f"workspace {info.workspace_bytes} bytes ({info.workspace_bytes / 1024:.1f} KiB; solver "
+               f"{info.solver_workspace_bytes}, OSQP arrays {info.osqp_array_bytes}, OSQP structs "
+               f"{info.osqp_struct_bytes}), const tables {info.const_bytes} bytes")
+    click.echo(f"{len(info.files)} files written to {out_dir} (+ {len(info.library_files)} OSQP library files)")
+
+
+@main.command(name="build")
+@click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("--verify", is_flag=True, help="verification build: no floating-point contraction (-ffp-contract=off)")
+@click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
+@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2)")
+def build_cmd(solver_dir, verify, cc, cflags):
+    """Compile a generated folder: static libraries for firmware, a shared library for Python and the harness."""
+    from .build import BuildError, build
+
+    try:
+        lib = build(Path(solver_dir), verify=verify, cc=cc, cflags=cflags)
+    except BuildError as exc:
+        _fail(str(exc))
+    click.echo(f"built {lib.parent}: {', '.join(sorted(p.name for p in lib.parent.iterdir() if p.is_file() and p.suffix in ('.a', '.so') or p.name.endswith('_example')))}")
+
+
 @main.command(name="presets")
 def list_presets() -> None:
     """List the preset problems."""

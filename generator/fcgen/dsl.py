@@ -187,7 +187,7 @@ class Conventional:
 
     overapprox: str = "fit"
     margin: float = 0.0
-    kind: str = field(default="conventional", init=False)
+    kind: str = field(default="conventional", init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check(self.overapprox in OVERAPPROX, "formulation.overapprox", self.overapprox, f"one of {OVERAPPROX}")
@@ -202,7 +202,7 @@ class Conventional:
 class DirectElimination:
     """5-state Frenet ODE; obstacle constraints on F^-1(s, n, alpha)."""
 
-    kind: str = field(default="direct_elimination", init=False)
+    kind: str = field(default="direct_elimination", init=False, repr=False)
 
     @property
     def frenet_obstacles(self) -> bool:
@@ -213,7 +213,7 @@ class DirectElimination:
 class Lifted:
     """8-state lifted ODE; obstacle constraints on the Cartesian states."""
 
-    kind: str = field(default="lifted", init=False)
+    kind: str = field(default="lifted", init=False, repr=False)
 
     @property
     def frenet_obstacles(self) -> bool:
@@ -229,7 +229,7 @@ Formulation = Union[Conventional, DirectElimination, Lifted]
 class Ellipse:
     """Opponent covered by an ellipse, ego by one circle."""
 
-    kind: str = field(default="ellipse", init=False)
+    kind: str = field(default="ellipse", init=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -238,7 +238,7 @@ class CoveringCircles:
 
     n: int = 3
     n_ego: int | None = None
-    kind: str = field(default="covering_circles", init=False)
+    kind: str = field(default="covering_circles", init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check(isinstance(self.n, int) and 1 <= self.n <= 20, "obstacles.n", self.n, "an integer in [1, 20]")
@@ -255,7 +255,7 @@ class CoveringCircles:
 class SeparatingHyperplane:
     """Per opponent and stage a hyperplane theta = [t1, t2, t3], t1^2 + t2^2 = 1, separating the vertices."""
 
-    kind: str = field(default="separating_hyperplane", init=False)
+    kind: str = field(default="separating_hyperplane", init=False, repr=False)
 
 
 ObstacleModel = Union[Ellipse, CoveringCircles, SeparatingHyperplane]

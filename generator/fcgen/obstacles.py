@@ -161,28 +161,36 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     """Map the opponent's true rectangle into (s, n) and fit an oriented box around all mapped points.
 
     Returns ``FRENET_SHAPE`` values. The box axis joins the mapped rear and front centres; the ego inflation
-    factor uses the largest |n| the ego can have next to the box and the largest |kappa| along it.
+    factor uses the largest n kappa (signed: only the outside of a bend stretches) the ego can meet next to the box.
     """
     x, y, phi = (float(v) for v in pose_xyphi)
     sh = chassis_shape(x, y, phi, opp)
     corners = vertices(sh)
-    pts = []
+    pts, mids = [], []
     for i in range(4):
         p0, p1 = np.array(corners[i]), np.array(corners[(i + 1) % 4])
         m = max(2, int(math.ceil(np.linalg.norm(p1 - p0) * points_per_metre)))
-        for t in np.linspace(0.0, 1.0, m, endpoint=False):
-            pts.append(p0 + t * (p1 - p0))
+        ts = np.linspace(0.0, 1.0, m + 1)
+        pts += [p0 + t * (p1 - p0) for t in ts[:-1]]
+        mids += [p0 + t * (p1 - p0) for t in 0.5 * (ts[:-1] + ts[1:])]
+    n_edge = len(pts)
     pts.append(np.array([sh.cx, sh.cy]))
     c, s = math.cos(phi), math.sin(phi)
     ends = [np.array([sh.cx - sh.L * c, sh.cy - sh.L * s]), np.array([sh.cx + sh.L * c, sh.cy + sh.L * s])]
     if s_guess is None:
         s_guess = road.project(x, y)
-    P = np.array(pts + ends)
+    P = np.array(pts + mids + ends)
     guess = s_guess + (P - np.array([x, y])) @ np.array([c, s])
     sp = road.project(P[:, 0], P[:, 1], guess)
     _, phg, gx, gy, _, _ = road.eval(sp)
     fr = np.stack([sp, -(P[:, 0] - gx) * np.sin(phg) + (P[:, 1] - gy) * np.cos(phg)], axis=1)
-    rear, front, body = fr[-2], fr[-1], fr[:-2]
+    rear, front = fr[-2], fr[-1]
+    body = fr[:n_edge + 1]
+    # the mapped edges are curves: pad by their sag between samples (mid-point distance from the chord), twice
+    edge = fr[:n_edge]
+    mid = fr[n_edge + 1:-2]
+    sag = float(np.max(np.linalg.norm(mid - 0.5 * (edge + np.roll(edge, -1, axis=0)), axis=1)))
+    margin = margin + 2.0 * sag
     angle = math.atan2(front[1] - rear[1], front[0] - rear[0])
     ax = np.array([math.cos(angle), math.sin(angle)])
     nm = np.array([-ax[1], ax[0]])
@@ -191,11 +199,12 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     W = 0.5 * (b.max() - b.min()) + margin
     centre = 0.5 * (a.max() + a.min()) * ax + 0.5 * (b.max() + b.min()) * nm
     reach = ego.l + ego.l_ch + ego.w_ch
-    n_reach = np.abs(body[:, 1]).max() + reach
+    n_hi, n_lo = body[:, 1].max() + reach, body[:, 1].min() - reach
     s_lo, s_hi = body[:, 0].min() - reach, body[:, 0].max() + reach
     sel = (road.s >= s_lo - road.ds) & (road.s <= s_hi + road.ds)
-    k_max = float(np.abs(road.kappa[sel]).max()) if sel.any() else float(np.abs(road.kappa).max())
-    stretch = n_reach * k_max
+    kap = road.kappa[sel] if sel.any() else road.kappa
+    # the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0 (outside of the bend)
+    stretch = max(0.0, n_hi * kap.max(), n_hi * kap.min(), n_lo * kap.max(), n_lo * kap.min())
     if stretch >= 0.9:
         raise ValueError(f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre[0]:.1f} m; "
                          "allowed < 0.9 (the Frenet frame is singular there)")

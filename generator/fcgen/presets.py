@@ -78,7 +78,13 @@ def load_problem(spec: str) -> Problem:
             raise ProblemError(f"problem file {spec!r} failed to load: {type(exc).__name__}: {exc}") from None
         prob = getattr(module, "problem", None)
         if prob is None and hasattr(module, "make_problem"):
-            prob = module.make_problem()
+            try:
+                prob = module.make_problem()
+            except ProblemError:
+                raise
+            except Exception as exc:  # a user's factory: report, don't crash
+                raise ProblemError(f"problem file {spec!r}: make_problem() failed: {type(exc).__name__}: {exc}") \
+                    from None
         if not isinstance(prob, Problem):
             raise ProblemError(f"problem file {spec!r} must define `problem = Problem(...)` or `make_problem()`")
         return prob

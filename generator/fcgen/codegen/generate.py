@@ -6,6 +6,8 @@ table computed here. Same problem -> byte-identical files (no time stamps, no ab
 """
 from __future__ import annotations
 
+import dataclasses
+
 import importlib.resources
 import math
 import re
@@ -250,6 +252,18 @@ def _osqp_array_bytes(workspace_c: str, real_size: int) -> int:
 
 # --- the generator -------------------------------------------------------------------------------------------
 
+def problem_source(obj: Any, indent: int = 0) -> str:
+    """Python source that rebuilds a DSL object: one init field per line, so the folder records its problem."""
+    if not dataclasses.is_dataclass(obj):
+        return repr(obj)
+    pad = " " * (indent + 4)
+    args = [f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}"
+            for f in dataclasses.fields(obj) if f.init]
+    if not args:
+        return f"{type(obj).__name__}()"
+    return f"{type(obj).__name__}(\n" + ",\n".join(args) + ")"
+
+
 def _env() -> jinja2.Environment:
     return jinja2.Environment(loader=jinja2.FileSystemLoader(str(_templates_dir())), undefined=jinja2.StrictUndefined,
                               keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
@@ -334,8 +348,11 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     }
     for fname, tpl in outputs.items():
         _write(out_dir / fname, env.get_template(tpl).render(**ctx))
+    _write(out_dir / "problem.py",
+           f'"""The problem of solver {name!r}, written by fcgen {__version__}: `fcgen verify` and `fcgen bench` '
+           f'load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\nproblem = {problem_source(problem)}\n')
     lib_files = tuple(restore_osqp_library(out_dir, use_float))
-    files = tuple(sorted([*outputs, f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
+    files = tuple(sorted([*outputs, "problem.py", f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
                           *exp.workspace_headers]))
     return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
                         workspace_bytes=workspace_bytes, solver_workspace_bytes=ws_bytes,
