@@ -64,7 +64,7 @@ def test_bound_defaults_are_table_i():
 
 def test_soft_penalty_defaults():
     s = SoftPenalties()
-    assert (s.obstacle_l1, s.obstacle_l2) == (1e6, 1e5)
+    assert (s.obstacle_l1, s.obstacle_l2) == (1e7, 1e6)  # 10x SPEC: see SoftPenalties
     assert (s.a_lat_l1, s.a_lat_l2) == (1e5, 1e4)
     assert s.soft_road is False
 

@@ -227,8 +227,8 @@ def test_cost_weights_apply_dt_exactly_once():
     sig = np.abs(rng.standard_normal(ocp.n_sigma))
     e = x - xref
     q, qN, r = np.array([1, 500, 1e3, 1e3, 1e4]), np.array([10, 90, 100, 10, 10]), np.array([1e-3, 2e6])
-    l1 = np.r_[1e5, [1e6] * 3] * dt
-    l2 = np.r_[1e4, [1e5] * 3] * dt
+    l1 = np.r_[1e5, [1e7] * 3] * dt
+    l2 = np.r_[1e4, [1e6] * 3] * dt
     assert float(ocp.cost[0](np.r_[x, u], p)) == pytest.approx(np.sum(q * dt * e**2) + np.sum(r * dt * u**2), rel=1e-12)
     assert float(ocp.cost[1](np.r_[x, u, sig], p)) == pytest.approx(
         np.sum(q * dt * e**2) + np.sum(r * dt * u**2) + np.sum(l1 * sig + l2 * sig**2), rel=1e-12)

@@ -145,6 +145,59 @@ def build_cmd(solver_dir, verify, cc, cflags):
     click.echo(f"built {lib.parent}: {', '.join(sorted(p.name for p in lib.parent.iterdir() if p.is_file() and p.suffix in ('.a', '.so') or p.name.endswith('_example')))}")
 
 
+@main.command(name="verify")
+@click.argument("solver_dir", type=click.Path(file_okay=False))
+@click.option("--scenario", type=click.Choice(SCENARIOS), default=None,
+              help="default: the problem's own (from its opponent vehicle)")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="write the report (JSON)")
+def verify_cmd(solver_dir, scenario, seed, samples, out):
+    """Compare a generated solver (verification build) with the Python reference, sample by sample."""
+    from .build import BuildError
+    from .verify import verify
+
+    try:
+        rep = verify(Path(solver_dir), scenario=scenario, seed=seed, samples=samples)
+    except BuildError as exc:
+        _fail(str(exc))
+    click.echo(rep.format())
+    if out:
+        rep.to_json(out)
+        click.echo(f"report written to {out}")
+    if not rep.passed:
+        _fail(f"verification failed: {len(rep.failures)} tolerance(s) broken")
+
+
+@main.command(name="bench")
+@click.argument("solver_dir", type=click.Path(file_okay=False))
+@click.option("--scenario", type=click.Choice(SCENARIOS), default=None,
+              help="default: the problem's own (from its opponent vehicle)")
+@click.option("--seeds", type=click.IntRange(1, 10000), default=3, show_default=True, help="seeds 0 .. SEEDS-1")
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--python/--no-python", "python", default=True, show_default=True,
+              help="also run the Python reference for the same figures")
+@click.option("--python-seeds", type=click.IntRange(1, 10000), default=None,
+              help="run the Python reference on fewer seeds (default: all)")
+@click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
+@click.option("--cflags", default=None, help="C flags (default: the Makefile's)")
+@click.option("--out", type=click.Path(dir_okay=False), default=None,
+              help="results file [default: results/bench_<name>.json]")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out):
+    """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference."""
+    from .bench import bench, format_bench, write_results
+    from .build import BuildError
+
+    try:
+        res = bench(Path(solver_dir), scenario=scenario, seeds=seeds, samples=samples, python=python,
+                    python_seeds=python_seeds, cc=cc, cflags=cflags, progress=sys.stderr.isatty())
+    except BuildError as exc:
+        _fail(str(exc))
+    click.echo(format_bench(res))
+    path = write_results(res, out or f"results/bench_{res['solver']}.json")
+    click.echo(f"results written to {path}")
+
+
 @main.command(name="presets")
 def list_presets() -> None:
     """List the preset problems."""

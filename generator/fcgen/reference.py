@@ -19,8 +19,18 @@ from .qp import QpLayout, build_layout
 from .road import Road
 
 
+EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
+              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP")
+"""Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order."""
+
+
 class SolverError(RuntimeError):
     """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(f"{code}: {message}")
+        self.code = code
+        self.exit_code = EXIT_CODES.index(code)
 
 
 @dataclass
@@ -105,7 +115,7 @@ class RtiSolver:
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
         if road.size > self.ocp.problem.road.samples:
-            raise SolverError(f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
+            raise SolverError("ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
         self.road = road
 
     def set_opponents(self, params: np.ndarray) -> None:
@@ -113,27 +123,27 @@ class RtiSolver:
         params = np.asarray(params, dtype=float)
         n_opp = self.ocp.problem.opponents.count
         if params.shape != (self.ocp.N + 1, n_opp, self.ocp.n_opp_par):
-            raise SolverError(f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}")
+            raise SolverError("ERR_NONFINITE_OPPONENTS", f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}")
         if not np.all(np.isfinite(params)):
-            raise SolverError("opponents: NaN or infinite pose")
+            raise SolverError("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
 
     def set_state(self, x0) -> None:
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (5,) or not np.all(np.isfinite(x0)):
-            raise SolverError("state: expected 5 finite values [s, n, alpha, v, delta]")
+            raise SolverError("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
         self.x0 = x0
 
     # -- parameters --------------------------------------------------------------------------------
     def _road_params(self, s: float) -> np.ndarray:
         road, rp = self.road, self.ocp.road_params
         if road is None:
-            raise SolverError("road window not set")
+            raise SolverError("ERR_ROAD_WINDOW", "road window not set")
         if not math.isfinite(s):
-            raise SolverError("non-finite s in the guess")
+            raise SolverError("ERR_NONFINITE_STATE", "non-finite s in the guess")
         i0 = int(math.floor((s - road.s0) / road.ds)) - 1
         if i0 < 0 or i0 + rp.samples > road.size:
-            raise SolverError(f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
+            raise SolverError("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
         return rp.pack(road, i0)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
@@ -149,10 +159,9 @@ class RtiSolver:
     def initial_guess(self) -> None:
         """Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks."""
         if self.x0 is None:
-            raise SolverError("state not set before the first prepare")
+            raise SolverError("ERR_NO_STATE", "state not set before the first prepare")
         ocp, lay = self.ocp, self.lay
         w = np.zeros(lay.n)
-        self.w = w
         self.s0_guess = self.x0[0]
         x = np.array(ocp.init_state(self.x0, self.stage_params(0, self.x0[0]))).ravel()
         for k in range(ocp.N + 1):
@@ -163,6 +172,7 @@ class RtiSolver:
                 w[o + ocp.nx + ocp.nu * (k < ocp.N):][:ocp.n_theta] = np.array(self._theta_init(x, p)).ravel()
             if k < ocp.N:
                 x = np.array(ocp.dynamics(x, np.zeros(ocp.nu), p)).ravel()
+        self.w = w  # only a complete guess is kept
         self.y[:] = 0.0
 
     # -- the two phases -----------------------------------------------------------------------------
@@ -204,9 +214,9 @@ class RtiSolver:
         """Embed the measured x0, solve the QP, take the full step; returns u_0."""
         t0 = time.perf_counter()
         if not self.prepared:
-            raise SolverError("feedback called before prepare")
+            raise SolverError("ERR_NOT_PREPARED", "feedback called before prepare")
         if self.x0 is None:
-            raise SolverError("state not set")
+            raise SolverError("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
         x0_full = np.array(ocp.init_state(self.x0, self.stage_params(0, self.x0[0]))).ravel()
         ir = lay.init_rows
@@ -223,9 +233,9 @@ class RtiSolver:
         st.qp_iter = int(res.info.iter)
         z = res.x
         if z is None or not np.all(np.isfinite(z)):
-            st.exit_code = 3
+            st.exit_code = EXIT_CODES.index("ERR_QP")
             st.time_feedback = time.perf_counter() - t0
-            raise SolverError(f"QP failed (status {st.qp_status})")
+            raise SolverError("ERR_QP", f"QP failed (status {st.qp_status})")
         self.z = z
         self.w = self.w + lay.D * z
         self.y = np.array(res.y)

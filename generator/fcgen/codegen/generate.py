@@ -25,13 +25,10 @@ from .. import obstacles as obs
 from ..dsl import Conventional, Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..reference import osqp_settings, theta_init
+from ..reference import EXIT_CODES, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
 from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
-EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP")
-"""Exit codes of the generated C API (``<NAME>_<code>``), in enum order: ``EXIT_CODES.index(code)``."""
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
 """Extra flags for the CasADi-generated model file (its functions ignore iw/w/mem) with -Wall -Wextra -Werror."""

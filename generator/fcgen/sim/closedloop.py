@@ -62,9 +62,9 @@ class ReferenceController:
             st = sv.status
             return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
                               float(np.max(sv.slacks(), initial=0.0)))
-        except SolverError:
+        except SolverError as exc:
             st = sv.status
-            return StepResult(np.zeros(2), st.exit_code or 1, st.qp_status, st.qp_iter, st.time_prepare,
+            return StepResult(np.zeros(2), exc.exit_code, st.qp_status, st.qp_iter, st.time_prepare,
                               st.time_feedback, math.nan)
 
 

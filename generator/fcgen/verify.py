@@ -1,0 +1,360 @@
+"""Verify a generated solver folder against the Python reference (``fcgen verify``).
+
+Two comparisons on one seeded scenario:
+
+1. **Lockstep**: the Python closed loop (Python plant driven by the Python reference) runs ``samples`` samples; at
+   every sample the C solver (verification build: no floating-point contraction) gets exactly the same measured state,
+   road window and opponent parameters and performs the same calls. After preparation the QP data (``P``, ``q``,
+   ``A`` values, ``l``, ``u``) are compared, after feedback the QP data with ``x0`` embedded, OSQP's primal and dual
+   solution ``z``, ``y``, the SQP iterate (states and controls over the horizon) and ``u0``, plus the exit code, QP
+   status and QP iteration count. The C solver keeps its own warm start, so differences may accumulate.
+2. **Independent closed loops**: the Python plant driven by the C controller vs driven by the Python controller; the
+   largest difference of the ego's trajectory (each Frenet state relative to ``max(1, max |state|)`` over the run).
+
+Differences of arrays are relative: ``max |c - r| / max(1, max |r|)`` with ``r`` the reference; bounds are clipped
+to OSQP's infinity (1e30) on both sides first, as the osqp Python interface does.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .dsl import Problem, ProblemError
+from .ocp import INF, build_ocp
+from .presets import CAR, SCENARIOS, TRUCK, load_problem
+from .reference import RtiSolver, SolverError
+from .sim.closedloop import StepResult, run_closed_loop
+from .sim.scenario import make_scenario
+
+TOL_QP_DATA = 1e-12
+TOL_SOLUTION = 1e-9
+TOL_TRAJECTORY = 1e-6
+
+# (key, group, tolerance, description) in table order
+QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
+    ("P_x", "prepare", TOL_QP_DATA, "P values"),
+    ("q", "prepare", TOL_QP_DATA, "q (before x0)"),
+    ("A_x", "prepare", TOL_QP_DATA, "A values"),
+    ("l", "prepare", TOL_QP_DATA, "l (before x0)"),
+    ("u", "prepare", TOL_QP_DATA, "u (before x0)"),
+    ("q_fb", "feedback", TOL_QP_DATA, "q with x0"),
+    ("l_fb", "feedback", TOL_QP_DATA, "l with x0"),
+    ("u_fb", "feedback", TOL_QP_DATA, "u with x0"),
+    ("z", "feedback", TOL_SOLUTION, "QP primal z"),
+    ("y", "feedback", TOL_SOLUTION, "QP dual y"),
+    ("w", "feedback", TOL_SOLUTION, "iterate x, u"),
+    ("u0", "feedback", TOL_SOLUTION, "first control u0"),
+    ("max_slack", "feedback", TOL_SOLUTION, "max slack"),
+    ("exit_code", "status", 0, "exit code mismatches"),
+    ("qp_status", "status", 0, "QP status mismatches"),
+    ("qp_iter", "status", 0, "QP iteration mismatches"),
+    ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
+    ("cl_control", "closed-loop", TOL_TRAJECTORY, "applied controls"),
+    ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
+    ("cl_exit_code", "closed-loop", 0, "non-zero exit count diff"),
+)
+_COUNTS = {"exit_code", "qp_status", "qp_iter", "cl_qp_iter", "cl_exit_code"}
+
+
+def rel_diff(c, r) -> float:
+    """``max |c - r| / max(1, max |r|)`` (0 for empty arrays; inf if only one side is NaN)."""
+    c = np.asarray(c, dtype=float).ravel()
+    r = np.asarray(r, dtype=float).ravel()
+    if c.shape != r.shape:
+        raise ValueError(f"shape mismatch: C {c.shape} vs reference {r.shape}")
+    if r.size == 0:
+        return 0.0
+    both_nan = np.isnan(c) & np.isnan(r)
+    d = np.where(both_nan, 0.0, np.abs(c - r))
+    d = np.where(np.isnan(d), np.inf, d)
+    scale = max(1.0, float(np.max(np.abs(np.where(np.isfinite(r), r, 0.0)), initial=0.0)))
+    return float(np.max(d)) / scale
+
+
+def _clip(a) -> np.ndarray:
+    return np.clip(np.asarray(a, dtype=float), -INF, INF)
+
+
+@dataclass
+class Check:
+    """One compared quantity: the largest difference over the run, where it occurred, its tolerance."""
+
+    key: str
+    group: str
+    description: str
+    tol: float
+    max_diff: float = 0.0
+    sample: int = -1          # sample of the largest difference (-1: none / all zero)
+    count: int = 0            # for mismatch counts: samples that differ
+    compared: int = 0         # samples compared
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.max_diff <= self.tol)  # NaN fails
+
+    def update(self, diff: float, sample: int) -> None:
+        self.compared += 1
+        if self.key in _COUNTS:
+            if diff:
+                self.count += 1
+                if self.sample < 0:
+                    self.sample = sample
+            self.max_diff = float(self.count)
+            return
+        diff = math.inf if math.isnan(diff) else float(diff)
+        if diff > self.max_diff:
+            self.max_diff, self.sample = diff, sample
+
+
+@dataclass
+class VerifyReport:
+    """Result of ``verify``: one ``Check`` per quantity."""
+
+    solver: str
+    gen_dir: str
+    problem: str
+    scenario: str
+    seed: int
+    samples: int
+    checks: list[Check] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failures(self) -> list[Check]:
+        return [c for c in self.checks if not c.passed]
+
+    def check(self, key: str) -> Check:
+        for c in self.checks:
+            if c.key == key:
+                return c
+        raise KeyError(key)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        for c, cd in zip(self.checks, d["checks"]):
+            cd["passed"] = c.passed
+        d["passed"] = self.passed
+        return d
+
+    def to_json(self, path: Path | str) -> None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=1, sort_keys=True, default=float) + "\n")
+
+    def format(self) -> str:
+        head = (f"verify {self.solver} ({self.gen_dir}): {self.scenario} scenario, seed {self.seed}, "
+                f"{self.samples} samples, C verification build vs Python reference")
+        rows = [("group", "quantity", "max diff", "sample", "tolerance", "result")]
+        for c in self.checks:
+            if c.key in _COUNTS:
+                diff = f"{c.count}/{c.compared}"
+            else:
+                diff = f"{c.max_diff:.3e}"
+            rows.append((c.group, c.description, diff, str(c.sample) if c.sample >= 0 else "-",
+                         f"{c.tol:.0e}" if c.tol else "0", "ok" if c.passed else "FAIL"))
+        w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+        lines = [head]
+        for i, r in enumerate(rows):
+            lines.append("  ".join(s.ljust(w[j]) if j < 2 else s.rjust(w[j]) for j, s in enumerate(r)).rstrip())
+            if i == 0:
+                lines.append("  ".join("-" * x for x in w))
+        lines += [f"note: {n}" for n in self.notes]
+        bad = self.failures
+        lines.append("PASS: all tolerances met" if not bad else
+                     f"FAIL: {len(bad)} tolerance(s) broken: " + ", ".join(f"{c.group}/{c.description}" for c in bad))
+        return "\n".join(lines)
+
+
+# --- the problem and scenario of a folder ------------------------------------------------------------------------
+
+def infer_scenario(problem: Problem) -> str:
+    """``'truck'`` or ``'car'``: the preset opponent vehicle, else the name prefix, else the opponent length."""
+    v = problem.opponents.vehicle
+    if v == TRUCK:
+        return "truck"
+    if v == CAR:
+        return "car"
+    for sc in SCENARIOS:
+        if problem.name.startswith(sc + "_") or problem.name == sc:
+            return sc
+    ego = problem.ego
+    return "truck" if v.l_f_ch + v.l_r_ch > 1.5 * (ego.l_f_ch + ego.l_r_ch) else "car"
+
+
+def load_solver_problem(gen_dir: Path | str) -> tuple[str, Problem]:
+    """The solver name and the Problem of a generated folder (its ``problem.py``); clear errors otherwise."""
+    from .build import solver_name
+    gen_dir = Path(gen_dir)
+    if not gen_dir.is_dir():
+        raise FileNotFoundError(f"{gen_dir}: no such solver folder")
+    try:
+        name = solver_name(gen_dir)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{gen_dir} is not a generated solver folder (no <name>_solver.h; write one with "
+                                f"`fcgen generate PRESET -o DIR`)") from None
+    if not (gen_dir / "problem.py").is_file():
+        raise FileNotFoundError(f"{gen_dir} is not a generated solver folder (no problem.py)")
+    return name, load_problem(str(gen_dir / "problem.py"))
+
+
+def _check_sizes(cs, ref: RtiSolver) -> None:
+    lay = ref.lay
+    if (cs.N, cs.n, cs.m, cs.nnz_A) != (ref.ocp.N, lay.n, lay.m, lay.nnz_A):
+        raise ProblemError(f"solver {cs.name}: C sizes N={cs.N}, n={cs.n}, m={cs.m}, nnz(A)={cs.nnz_A} do not match "
+                           f"its problem.py (N={ref.ocp.N}, n={lay.n}, m={lay.m}, nnz(A)={lay.nnz_A}); regenerate")
+
+
+# --- lockstep -----------------------------------------------------------------------------------------------------
+
+class _Lockstep:
+    """A closed-loop controller: the Python reference drives the plant; the C solver repeats every call in lockstep."""
+
+    kind = "python-reference"
+
+    def __init__(self, ref: RtiSolver, cs, checks: dict[str, Check]):
+        self.ref, self.cs, self.checks = ref, cs, checks
+        self.j = 0
+
+    def _upd(self, key: str, diff: float) -> None:
+        self.checks[key].update(diff, self.j)
+
+    def step(self, x0: np.ndarray, road, opp: np.ndarray) -> StepResult:
+        sv, cs = self.ref, self.cs
+        res = None
+        rc_py = 0
+        # the reference, exactly as ReferenceController.step
+        try:
+            sv.set_road(road)
+            sv.set_opponents(opp)
+            if sv.w is None:
+                sv.set_state(x0)
+            sv.prepare()
+        except SolverError as exc:
+            rc_py = getattr(exc, "exit_code", 0) or 1
+        # the C solver, exactly as CSolver.step
+        rc = cs.set_road(road)
+        rc = rc or cs.set_opponents(opp)
+        if not rc and not cs.has_guess():
+            rc = cs.set_state(x0)
+        rc = rc or cs.prepare()
+        if not rc and not rc_py:
+            qp = cs.get_qp()
+            for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
+                           ("u", _clip(sv.u))):
+                self._upd(key, rel_diff(qp[key], r))
+        if not rc_py:
+            try:
+                sv.set_state(x0)
+                u = sv.feedback()
+                st = sv.status
+                res = StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                                 float(np.max(sv.slacks(), initial=0.0)))
+            except SolverError as exc:
+                rc_py = getattr(exc, "exit_code", 0) or 1
+        if res is None:
+            st = sv.status
+            res = StepResult(np.zeros(2), rc_py, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                             math.nan)
+        if not rc:
+            rc = cs.set_state(x0)
+            rc = rc or cs.feedback()
+        cst = cs.status()
+        self._upd("exit_code", float(rc != rc_py))  # the reference and the C API share EXIT_CODES
+        self._upd("qp_status", float(cst.qp_status != res.qp_status))
+        self._upd("qp_iter", float(cst.qp_iter != res.qp_iter))
+        if not rc and not rc_py:
+            qp = cs.get_qp()
+            self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
+            self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
+            self._upd("u_fb", rel_diff(qp["u"], _clip(sv.u)))
+            self._upd("z", rel_diff(qp["z"], sv.z))
+            self._upd("y", rel_diff(qp["y"], sv.y))
+            w_c = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
+            w_r = np.concatenate([sv.states().ravel(), sv.controls().ravel()])
+            self._upd("w", rel_diff(w_c, w_r))
+            self._upd("u0", rel_diff(cs.u0(), res.u))
+            self._upd("max_slack", rel_diff(cs.max_slack(), res.max_slack))
+        self.j += 1
+        return res
+
+
+def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samples: int = 200,
+           closed_loop: bool = True, build_kw: dict | None = None) -> VerifyReport:
+    """Compare the generated C (verification build) with the Python reference on one seeded scenario.
+
+    ``scenario``: ``'car'`` or ``'truck'``; default from the problem (``infer_scenario``). ``closed_loop=False``
+    skips the second comparison (two independent closed loops).
+    """
+    from .build import CSolver, build
+
+    gen_dir = Path(gen_dir)
+    name, pb = load_solver_problem(gen_dir)
+    if scenario is None:
+        scenario = infer_scenario(pb)
+    if samples < 1:
+        raise ValueError(f"samples = {samples!r} is invalid: allowed an integer >= 1")
+    sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
+    ocp = build_ocp(pb)
+    ref = RtiSolver(ocp)
+    cs = CSolver(build(gen_dir, verify=True, **(build_kw or {})))
+    _check_sizes(cs, ref)
+    rep = VerifyReport(solver=name, gen_dir=str(gen_dir), problem=pb.name, scenario=scenario, seed=seed,
+                       samples=samples)
+    checks = {k: Check(k, g, d, t) for k, g, t, d in QUANTITIES}
+    if cs.init() != 0:
+        raise RuntimeError(f"{name}_init() failed")
+    log_py = run_closed_loop(pb, sc, controller=_Lockstep(ref, cs, checks), ocp=ocp)
+    if closed_loop:
+        if cs.init() != 0:
+            raise RuntimeError(f"{name}_init() failed")
+        log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
+        tr = checks["trajectory"]
+        xa, xb = log_c.ego_frenet, log_py.ego_frenet
+        scale = np.maximum(1.0, np.max(np.abs(xb), axis=0))
+        d = np.abs(xa - xb) / scale
+        d = np.where(np.isnan(d), np.inf, d)
+        per_sample = np.max(d, axis=1)
+        tr.compared = len(per_sample)
+        tr.max_diff = float(np.max(per_sample))
+        tr.sample = int(np.argmax(per_sample)) if tr.max_diff > 0 else -1
+        cc = checks["cl_control"]
+        scale_u = np.maximum(1.0, np.max(np.abs(log_py.control), axis=0))
+        du = np.max(np.abs(log_c.control - log_py.control) / scale_u, axis=1)
+        du = np.where(np.isnan(du), np.inf, du)
+        cc.compared, cc.max_diff = len(du), float(np.max(du, initial=0.0))
+        cc.sample = int(np.argmax(du)) if cc.max_diff > 0 else -1
+        ch = checks["cl_qp_iter"]
+        bad = np.flatnonzero((log_c.qp_iter != log_py.qp_iter) | (log_c.qp_status != log_py.qp_status))
+        ch.compared, ch.count, ch.max_diff = len(log_c.qp_iter), len(bad), float(len(bad))
+        ch.sample = int(bad[0]) if len(bad) else -1
+        ch = checks["cl_exit_code"]  # run logs keep only the number of non-zero exit codes
+        n_c, n_py = log_c.meta["extra"]["exit_codes_nonzero"], log_py.meta["extra"]["exit_codes_nonzero"]
+        ch.compared, ch.count = 1, abs(n_c - n_py)
+        ch.max_diff = float(ch.count)
+        from .sim.runlog import summary
+        s_c, s_py = summary(log_c), summary(log_py)
+        rep.extra = {"progress_c": s_c["progress"], "progress_python": s_py["progress"],
+                     "collisions_c": s_c["n_collision_samples"], "collisions_python": s_py["n_collision_samples"],
+                     "qp_iter_mean_c": s_c["qp_iter_mean"], "qp_iter_mean_python": s_py["qp_iter_mean"]}
+    else:
+        for k in ("trajectory", "cl_control", "cl_qp_iter", "cl_exit_code"):
+            del checks[k]
+        rep.notes.append("independent closed loops skipped")
+    rep.checks = list(checks.values())
+    nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
+    if nz:
+        rep.notes.append(f"the Python reference reported a non-zero exit code on {nz} samples")
+    for k in ("q", "z"):
+        if checks[k].compared < samples:
+            rep.notes.append(f"{checks[k].description}: compared on {checks[k].compared} of {samples} samples "
+                             f"(a solver call failed on the others)")
+    return rep

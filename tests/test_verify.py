@@ -1,0 +1,114 @@
+"""Generated C (verification build) == Python reference, sample by sample (``fcgen verify``); ``fcgen bench``."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from fcgen.cli import main
+from fcgen.codegen.generate import generate
+from fcgen.presets import preset
+from fcgen.verify import QUANTITIES, infer_scenario, verify
+
+pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+
+SAMPLES = 40
+# every formulation with the ellipse, in both scenarios; plus covering circles and separating hyperplanes
+PRESETS = [f"{sc}_{f}_ellipse" for sc in ("car", "truck") for f in ("conventional", "direct_elimination", "lifted")]
+PRESETS += ["car_lifted_circles", "truck_direct_elimination_hyperplane"]
+
+
+@pytest.fixture(scope="module")
+def gen_root(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("verify")
+
+
+def _gen(root: Path, name: str) -> Path:
+    out = root / name
+    if not (out / "problem.py").is_file():
+        generate(preset(name), out)
+    return out
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_verify_preset(gen_root: Path, name: str) -> None:
+    rep = verify(_gen(gen_root, name), samples=SAMPLES)
+    print(rep.format())
+    assert rep.scenario == name.split("_")[0]
+    assert {c.key for c in rep.checks} == {q[0] for q in QUANTITIES}
+    assert all(c.compared == SAMPLES for c in rep.checks if c.group in ("prepare", "feedback", "status"))
+    assert rep.passed, rep.format()
+
+
+def test_infer_scenario() -> None:
+    assert infer_scenario(preset("truck_lifted_circles")) == "truck"
+    assert infer_scenario(preset("car_conventional_hyperplane")) == "car"
+
+
+def test_cli_verify(gen_root: Path, tmp_path: Path) -> None:
+    d = _gen(gen_root, "truck_lifted_ellipse")
+    out = tmp_path / "rep" / "report.json"
+    res = CliRunner().invoke(main, ["verify", str(d), "--samples", "8", "--seed", "1", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "PASS" in res.output and "QP primal z" in res.output
+    rep = json.loads(out.read_text())
+    assert rep["passed"] and rep["samples"] == 8 and rep["seed"] == 1 and rep["scenario"] == "truck"
+    assert all(c["passed"] for c in rep["checks"])
+
+
+def test_cli_verify_not_a_solver(tmp_path: Path) -> None:
+    (tmp_path / "junk.txt").write_text("x")
+    res = CliRunner().invoke(main, ["verify", str(tmp_path)])
+    assert res.exit_code != 0
+    assert "not a generated solver folder" in res.output
+    assert "Traceback" not in res.output
+    res = CliRunner().invoke(main, ["verify", str(tmp_path / "missing")])
+    assert res.exit_code != 0 and "no such solver folder" in res.output
+
+
+def test_cli_verify_fails_on_mismatch(gen_root: Path, tmp_path: Path) -> None:
+    """A folder whose problem.py does not match its C code is reported, not verified."""
+    d = tmp_path / "bad"
+    shutil.copytree(_gen(gen_root, "car_lifted_ellipse"), d, ignore=shutil.ignore_patterns("build"))
+    text = (d / "problem.py").read_text()
+    assert "N=40" in text
+    (d / "problem.py").write_text(text.replace("N=40", "N=30"))
+    res = CliRunner().invoke(main, ["verify", str(d), "--samples", "3"])
+    assert res.exit_code != 0 and "do not match" in res.output, res.output
+
+
+def test_cli_bench(gen_root: Path, tmp_path: Path) -> None:
+    d = _gen(gen_root, "truck_lifted_ellipse")
+    out = tmp_path / "results" / "bench.json"
+    res = CliRunner().invoke(main, ["bench", str(d), "--seeds", "1", "--samples", "20", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "median ms" in res.output and "Python / C" in res.output
+    r = json.loads(out.read_text())
+    for key in ("solver", "problem", "scenario", "seeds", "samples", "c", "python", "speedup_python_over_c", "host"):
+        assert key in r, key
+    assert r["samples"] == 20 and r["seeds"] == [0] and r["scenario"] == "truck"
+    for ctrl in ("c", "python"):
+        c = r[ctrl]
+        assert c["samples"] == 20
+        for phase in ("prepare", "feedback", "total"):
+            t = c["time_ms"][phase]
+            assert 0 < t["median"] <= t["p99"] <= t["max"], (ctrl, phase, t)
+        assert c["time_ms"]["total"]["max"] < 5000
+        assert 0 < c["qp_iter"]["mean"] <= c["qp_iter"]["max"]
+        assert sum(c["qp_status_counts"].values()) == 20
+        q = c["quality"]
+        assert q["progress_mean"] > 0 and q["collision_samples"] == 0
+        assert q["max_slack"] >= 0 and q["max_abs_a_lat"] >= 0
+    assert r["c"]["qp_iter"] == r["python"]["qp_iter"]
+
+
+def test_cli_bench_no_python(gen_root: Path, tmp_path: Path, monkeypatch) -> None:
+    d = _gen(gen_root, "car_lifted_ellipse")
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(main, ["bench", str(d), "--seeds", "1", "--samples", "5", "--no-python"])
+    assert res.exit_code == 0, res.output
+    r = json.loads((tmp_path / "results" / "bench_car_lift_el.json").read_text())
+    assert r["python"] is None and r["c"]["samples"] == 5
