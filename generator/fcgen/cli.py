@@ -129,6 +129,25 @@ def generate(problem_spec, out_dir, use_float):
     click.echo(f"{len(info.files)} files written to {out_dir} (+ {len(info.library_files)} OSQP library files)")
 
 
+@main.command()
+@click.argument("root", type=click.Path(file_okay=False), default="generated")
+@click.option("--check", is_flag=True, help="write nothing; fail if any file would change")
+@click.option("--add", "add", default="", help="comma-separated preset names to add as new folders")
+def regenerate(root, check, add):
+    """Regenerate the checked-in solver folders ROOT/<preset> (byte-for-byte; --check compares only)."""
+    from .codegen.regenerate import regenerate as regen
+
+    names = [n.strip() for n in add.split(",") if n.strip()]
+    res = regen(root, names, check=check)
+    bad = {k: v for k, v in res.items() if v}
+    for name, diffs in res.items():
+        click.echo(f"{name}: " + ("; ".join(diffs[:10]) if diffs else ("identical" if check else "written")))
+    if not res:
+        _fail(f"{root}: no solver folders found")
+    if bad:
+        _fail(f"{len(bad)} folder(s) differ from what fcgen generates; run `fcgen regenerate {root}` and commit")
+
+
 @main.command(name="build")
 @click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
 @click.option("--verify", is_flag=True, help="verification build: no floating-point contraction (-ffp-contract=off)")

@@ -1,0 +1,16 @@
+/* truck_de_el_host.h -- host-side helpers for "truck_de_el" (example, Python binding); not part of the solver. */
+#ifndef TRUCK_DE_EL_HOST_H
+#define TRUCK_DE_EL_HOST_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Monotonic clock in seconds (POSIX clock_gettime); pass it to truck_de_el_set_clock on a host. */
+double truck_de_el_host_clock(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* TRUCK_DE_EL_HOST_H */

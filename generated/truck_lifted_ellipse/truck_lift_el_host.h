@@ -1,0 +1,16 @@
+/* truck_lift_el_host.h -- host-side helpers for "truck_lift_el" (example, Python binding); not part of the solver. */
+#ifndef TRUCK_LIFT_EL_HOST_H
+#define TRUCK_LIFT_EL_HOST_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Monotonic clock in seconds (POSIX clock_gettime); pass it to truck_lift_el_set_clock on a host. */
+double truck_lift_el_host_clock(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* TRUCK_LIFT_EL_HOST_H */
