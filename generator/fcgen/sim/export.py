@@ -122,3 +122,88 @@ def export_scenario(problem: Problem, scenario: Scenario, path: str | PathLike[s
                 _line(f, "opp_params", blk)
         f.write("end\n")
     return path
+
+
+# ----------------------------------------------------------------------------- the C harness firmware_sim/
+
+class HarnessError(RuntimeError):
+    """Building or running the C closed-loop harness failed; the message holds the tool's output."""
+
+
+def harness_source_dir() -> Path:
+    """The ``firmware_sim/`` folder of the source tree (fcgen installed editable from the repository)."""
+    d = Path(__file__).resolve().parents[3] / "firmware_sim"
+    if not (d / "closed_loop.c").is_file() or not (d / "Makefile").is_file():
+        raise FileNotFoundError(f"{d}: the C harness (closed_loop.c, Makefile) is not there; fcgen firmware-sim "
+                                f"needs fcgen installed from its source tree")
+    return d
+
+
+def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str | None = None,
+                  cflags: str | None = None) -> Path:
+    """Build the solver folder (``fcgen.build.build``) and the harness against it; returns the executable.
+
+    The harness goes into ``<solver build>/firmware_sim`` (``build/firmware_sim`` or ``build/verify/firmware_sim``).
+    """
+    import subprocess
+
+    from ..build import DEFAULT_BUILD, VERIFY_BUILD, BuildError, build, solver_name
+
+    solver_dir = Path(solver_dir).resolve()
+    name = solver_name(solver_dir)
+    try:
+        build(solver_dir, verify=verify, cc=cc, cflags=cflags)
+    except BuildError as exc:
+        raise HarnessError(str(exc)) from None
+    lib_dir = solver_dir / (VERIFY_BUILD if verify else DEFAULT_BUILD)
+    out = lib_dir / "firmware_sim"
+    cmd = ["make", "-C", str(harness_source_dir()), f"SOLVER_DIR={solver_dir}", f"SOLVER={name}",
+           f"SOLVER_BUILD={lib_dir}", f"BUILD={out}", f"VERIFY={int(verify)}"]
+    if cc:
+        cmd.append(f"CC={cc}")
+    if cflags is not None:
+        cmd.append(f"CFLAGS={cflags}")
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise HarnessError(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
+    return out / "closed_loop"
+
+
+def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], out: str | PathLike[str],
+                timeout: float | None = None):
+    """Run the harness on a scenario file; returns the run log it wrote (validated by ``RunLog.from_json``)."""
+    import subprocess
+
+    from .runlog import RunLog
+
+    cmd = [str(exe), str(scenario_file), str(out)]
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise HarnessError(f"{' '.join(cmd)}: {exc}") from None
+    if res.returncode != 0:
+        raise HarnessError(f"{' '.join(cmd)} failed (exit {res.returncode}):\n{res.stderr[-4000:]}")
+    return RunLog.from_json(out)
+
+
+def firmware_sim(solver_dir: str | PathLike[str], scenario: str = "truck", seed: int = 0, samples: int = 200,
+                 out: str | PathLike[str] = "run.json", verify: bool = False, cc: str | None = None,
+                 cflags: str | None = None, problem: Problem | None = None):
+    """Build solver and harness, export the scenario, run the C closed loop; returns the run log written to ``out``.
+
+    The problem defaults to the one the folder records (``problem.py``), so data file and compiled solver agree.
+    """
+    from ..build import solver_name
+    from ..presets import load_problem
+    from .scenario import make_scenario
+
+    solver_dir = Path(solver_dir)
+    name = solver_name(solver_dir)
+    if problem is None:
+        problem = load_problem(str(solver_dir / "problem.py"))
+    sc = make_scenario(scenario, seed, n_opp=problem.opponents.count, samples=samples, dt=problem.horizon.dt)
+    exe = build_harness(solver_dir, verify=verify, cc=cc, cflags=cflags)
+    data = exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt"
+    export_scenario(problem, sc, data, samples, solver_name=name)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    return run_harness(exe, data, out)

@@ -45,7 +45,7 @@ __all__ = [
 FORMAT_VERSION = "fcgen-runlog/1"
 
 #: Allowed values of ``meta["controller"]``.
-CONTROLLER_KINDS: tuple[str, ...] = ("python-reference", "c")
+CONTROLLER_KINDS: tuple[str, ...] = ("python-reference", "c", "c-firmware_sim")
 
 #: Keys ``meta`` must contain (more keys are allowed and preserved).
 META_KEYS: tuple[str, ...] = (
