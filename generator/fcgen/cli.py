@@ -217,6 +217,29 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     click.echo(f"results written to {path}")
 
 
+@main.command(name="firmware-sim")
+@click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("--scenario", type=click.Choice(SCENARIOS), default="truck", show_default=True)
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 20000), default=200, show_default=True)
+@click.option("--out", type=click.Path(dir_okay=False), default="run.json", show_default=True,
+              help="run log (JSON) the C harness writes")
+@click.option("--verify", is_flag=True, help="use the verification build (bit-exact with the Python reference)")
+@click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
+@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2)")
+def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflags):
+    """Closed loop in C (firmware_sim/): build SOLVER_DIR and the harness, export the scenario, run, summarize."""
+    from .sim.export import HarnessError, firmware_sim
+    from .sim.runlog import summary
+
+    try:
+        log = firmware_sim(Path(solver_dir), scenario, seed, samples, out, verify=verify, cc=cc, cflags=cflags)
+    except HarnessError as exc:
+        _fail(str(exc))
+    click.echo(f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim | {_fmt_summary(summary(log))}")
+    click.echo(f"run log written to {out}")
+
+
 @main.command(name="presets")
 def list_presets() -> None:
     """List the preset problems."""
