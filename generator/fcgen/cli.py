@@ -240,6 +240,23 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
     click.echo(f"run log written to {out}")
 
 
+@main.command()
+@click.option("--problem", "problem_name", default="truck_lifted_ellipse", show_default=True,
+              help="a preset name (scenario from its prefix)")
+@click.option("--seed", type=click.IntRange(0), default=3, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="runs/demo", show_default=True)
+@click.option("--plot/--no-plot", default=True, show_default=True)
+def demo(problem_name, seed, samples, out_dir, plot):
+    """The main job: generate, build, closed loop in the C harness vs the Python reference, summary."""
+    from .demo import run_demo
+
+    res = run_demo(out_dir, problem_name, seed, samples, plot, echo=click.echo)
+    click.echo(res.format())
+    if not res.matches:
+        _fail("the generated C does not reproduce the Python reference within the tolerance")
+
+
 @main.command(name="presets")
 def list_presets() -> None:
     """List the preset problems."""
