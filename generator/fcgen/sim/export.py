@@ -131,11 +131,10 @@ class HarnessError(RuntimeError):
 
 
 def harness_source_dir() -> Path:
-    """The ``firmware_sim/`` folder of the source tree (fcgen installed editable from the repository)."""
-    d = Path(__file__).resolve().parents[3] / "firmware_sim"
+    """The harness sources ``firmware_sim/`` (shipped in the package; a link to the repository's folder)."""
+    d = Path(__file__).resolve().parents[1] / "firmware_sim"
     if not (d / "closed_loop.c").is_file() or not (d / "Makefile").is_file():
-        raise FileNotFoundError(f"{d}: the C harness (closed_loop.c, Makefile) is not there; fcgen firmware-sim "
-                                f"needs fcgen installed from its source tree")
+        raise FileNotFoundError(f"{d}: the C harness (closed_loop.c, Makefile) is missing from the installation")
     return d
 
 
