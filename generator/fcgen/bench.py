@@ -34,6 +34,17 @@ def _stats_ms(x: np.ndarray) -> dict[str, float]:
             "mean": float(np.mean(ms))}
 
 
+def _makefile_cflags(gen_dir: Path) -> str | None:
+    """The default ``CFLAGS ?= ...`` of a generated Makefile (what a plain ``make`` uses unless $CFLAGS is set)."""
+    import os
+    import re
+    if os.environ.get("CFLAGS"):
+        return os.environ["CFLAGS"]
+    mk = gen_dir / "Makefile"
+    m = re.search(r"^CFLAGS \?= ?(.*)$", mk.read_text(), re.M) if mk.is_file() else None
+    return m.group(1).strip() if m else None
+
+
 def aggregate(logs: list) -> dict:
     """Timing, QP and quality figures over the run logs of one controller."""
     if not logs:
@@ -119,8 +130,8 @@ def bench(gen_dir: Path | str, scenario: str | None = None, seeds: int = 3, samp
         "scenario": scenario,
         "seeds": list(range(seeds)),
         "samples": samples,
-        "build": {"library": str(lib), "variant": "optimized (default)", "cc": cc, "cflags": cflags,
-                  "build_seconds": t_build},
+        "build": {"library": str(lib), "variant": "optimized (default)", "cc": cc,
+                  "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir), "build_seconds": t_build},
         "host": {"machine": platform.machine(), "processor": platform.processor(), "python": platform.python_version(),
                  "system": platform.system()},
         "sizes": {k: cs.sizes[k] for k in ("N", "NX", "QP_N", "QP_M", "QP_NNZ_A") if k in cs.sizes},

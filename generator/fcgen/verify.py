@@ -206,10 +206,14 @@ def load_solver_problem(gen_dir: Path | str) -> tuple[str, Problem]:
     return name, load_problem(str(gen_dir / "problem.py"))
 
 
-def _check_sizes(cs, ref: RtiSolver) -> None:
+def check_sizes(gen_dir: Path, name: str, ref: RtiSolver) -> None:
+    """The sizes in ``<name>_solver.h`` must be those of the problem rebuilt from ``problem.py``."""
+    from .build import read_macros
+    s = read_macros(gen_dir / f"{name}_solver.h", name)
     lay = ref.lay
-    if (cs.N, cs.n, cs.m, cs.nnz_A) != (ref.ocp.N, lay.n, lay.m, lay.nnz_A):
-        raise ProblemError(f"solver {cs.name}: C sizes N={cs.N}, n={cs.n}, m={cs.m}, nnz(A)={cs.nnz_A} do not match "
+    c = tuple(s.get(k) for k in ("N", "QP_N", "QP_M", "QP_NNZ_A"))
+    if c != (ref.ocp.N, lay.n, lay.m, lay.nnz_A):
+        raise ProblemError(f"solver {name}: C sizes N={c[0]}, n={c[1]}, m={c[2]}, nnz(A)={c[3]} do not match "
                            f"its problem.py (N={ref.ocp.N}, n={lay.n}, m={lay.m}, nnz(A)={lay.nnz_A}); regenerate")
 
 
@@ -305,8 +309,8 @@ def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samp
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     ocp = build_ocp(pb)
     ref = RtiSolver(ocp)
+    check_sizes(gen_dir, name, ref)
     cs = CSolver(build(gen_dir, verify=True, **(build_kw or {})))
-    _check_sizes(cs, ref)
     rep = VerifyReport(solver=name, gen_dir=str(gen_dir), problem=pb.name, scenario=scenario, seed=seed,
                        samples=samples)
     checks = {k: Check(k, g, d, t) for k, g, t, d in QUANTITIES}
