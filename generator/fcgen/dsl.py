@@ -290,18 +290,28 @@ class Opponents:
 
 @dataclass(frozen=True)
 class QpOptions:
-    """OSQP settings used identically by the Python reference and the generated C."""
+    """OSQP settings used identically by the Python reference and the generated C.
 
-    max_iter: int = 4000
+    Defaults are the real-time mode (a fixed iteration budget, as RTI uses it): ``max_iter = 80``,
+    ``check_termination = 40`` (a check costs about one iteration), ``scaling = 1`` (one Ruiz pass: prepare
+    0.4 -> 0.15 ms, same convergence as 10 here). ``QpOptions.converged()`` is the quality reference.
+    """
+
+    max_iter: int = 80
     eps_abs: float = 1e-3
     eps_rel: float = 1e-3
     rho: float = 1.0
     sigma: float = 1e-6
     alpha: float = 1.6
     adaptive_rho: bool = False
-    scaling: int = 10
-    check_termination: int = 5
+    scaling: int = 1
+    check_termination: int = 40
     warm_start: bool = True
+
+    @classmethod
+    def converged(cls) -> "QpOptions":
+        """Solve every QP to eps = 1e-5 (up to 4000 iterations): the quality reference for the real-time mode."""
+        return cls(max_iter=4000, eps_abs=1e-5, eps_rel=1e-5, check_termination=5)
 
     def __post_init__(self) -> None:
         _check(isinstance(self.max_iter, int) and 1 <= self.max_iter <= 1_000_000, "qp.max_iter", self.max_iter,
