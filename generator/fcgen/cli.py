@@ -152,7 +152,7 @@ def regenerate(root, check, add):
 @click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
 @click.option("--verify", is_flag=True, help="verification build: no floating-point contraction (-ffp-contract=off)")
 @click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
-@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O3)")
+@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2)")
 def build_cmd(solver_dir, verify, cc, cflags):
     """Compile a generated folder: static libraries for firmware, a shared library for Python and the harness."""
     from .build import BuildError, build
