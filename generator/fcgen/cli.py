@@ -161,7 +161,9 @@ def build_cmd(solver_dir, verify, cc, cflags):
         lib = build(Path(solver_dir), verify=verify, cc=cc, cflags=cflags)
     except BuildError as exc:
         _fail(str(exc))
-    click.echo(f"built {lib.parent}: {', '.join(sorted(p.name for p in lib.parent.iterdir() if p.is_file() and p.suffix in ('.a', '.so') or p.name.endswith('_example')))}")
+    products = sorted(p.name for p in lib.parent.iterdir()
+                      if p.is_file() and (p.suffix in (".a", ".so") or p.name.endswith("_example")))
+    click.echo(f"built {lib.parent}: {', '.join(products)}")
 
 
 @main.command(name="verify")
