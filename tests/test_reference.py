@@ -422,7 +422,7 @@ def test_feedback_before_prepare_raises_and_solver_recovers():
     clean = make_solver(ocp)
     assert np.array_equal(clean.step(X0), u_a)
     assert np.array_equal(clean.step(x1), u_b)
-    assert np.all(np.isfinite(u_b)) and sv.status.qp_status in (1, 2)  # solved (inaccurate at the real-time cap)
+    assert np.all(np.isfinite(u_b)) and sv.status.qp_status in (1, 2)  # solved (or to 10 eps within the cap)
 
 
 def test_nan_state_in_the_first_step_raises_and_solver_recovers():

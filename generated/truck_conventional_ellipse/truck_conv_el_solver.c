@@ -15,7 +15,7 @@
 
 #define SOLVER (&truck_conv_el_solver)
 #define OSQP_INF 1e+30
-#define RHO0 1.0
+#define RHO0 0.2
 #define N_REF 0.0
 #define V_REF 40.0
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
