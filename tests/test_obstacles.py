@@ -174,6 +174,21 @@ def test_separating_hyperplane_rows_by_hand():
     # normalization row
     _, eq = obs.hyperplane_h(ego, opp, [0.6, 0.6, 0.0], length=4.0)
     assert eq == pytest.approx(0.72 - 1)
+    # a margin keeps the ego's vertices that far from the plane: ego rows shift by margin / length, opponent rows not
+    rows_m, _ = obs.hyperplane_h(ego, opp, [-1.0, 0.0, 16.0], length=4.0, margin=0.2)
+    np.testing.assert_allclose(rows_m[:4], [(32 - 16.2) / 4, (32 - 16.2) / 4, (28 - 16.2) / 4, (28 - 16.2) / 4])
+    np.testing.assert_allclose(rows_m[4:], [3 / 4, 3 / 4, 29 / 4, 29 / 4])
+    # an ego vertex 0.1 m from the plane satisfies the exact form but violates a 0.2 m margin
+    near = obs.Shape(18.1, 0.0, 0.0, 2.0, 0.95)      # ego x in [16.1, 20.1]
+    assert min(obs.hyperplane_h(near, opp, [-1.0, 0.0, 16.0], length=4.0)[0]) >= 0
+    assert min(obs.hyperplane_h(near, opp, [-1.0, 0.0, 16.0], length=4.0, margin=0.2)[0]) < 0
+
+
+@pytest.mark.parametrize("margin", [-0.1, 2.5, float("nan")])
+def test_separating_hyperplane_margin_validated(margin):
+    from fcgen.dsl import ProblemError
+    with pytest.raises(ProblemError, match=r"obstacles\.margin"):
+        SeparatingHyperplane(margin=margin)
 
 
 def test_separating_hyperplane_rotated_random():

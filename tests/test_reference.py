@@ -322,7 +322,7 @@ IPOPT_CASES = [  # formulation, obstacle model, ego speed, parked opponent (s, n
     ("direct_elimination", "ellipse", 10.0, 20.0, -5.0),
     ("lifted", "circles", 10.0, 20.0, -3.0),
     ("conventional", "ellipse", 10.0, 24.0, -5.0),
-    ("lifted", "hyperplane", 10.0, 18.0, -2.5),
+    ("lifted", "hyperplane", 10.0, 16.0, -2.5),
 ]
 
 

@@ -108,16 +108,16 @@ def circles_h(ego: Shape, n_ego: int, opp: Shape, n_opp: int, cover: bool) -> li
     return rows
 
 
-def hyperplane_h(ego: Shape, opp: Shape, theta, length: float) -> tuple[list, object]:
+def hyperplane_h(ego: Shape, opp: Shape, theta, length: float, margin: float = 0.0) -> tuple[list, object]:
     """Separating hyperplane rows: -theta.[p - c_opp, 1] >= 0 (ego corners), theta.[p - c_opp, 1] >= 0 (opponent
-    corners), each divided by ``length``; and the normalization t1^2 + t2^2 - 1 = 0.
+    corners), each divided by ``length``, the ego's kept ``margin`` away; and the normalization t1^2 + t2^2 - 1 = 0.
 
     The plane is written relative to the opponent centre so t3 stays of the size of the vehicles.
     """
     t1, t2, t3 = theta[0], theta[1], theta[2]
     rows = []
     for px, py in vertices(ego):
-        rows.append(-(t1 * (px - opp.cx) + t2 * (py - opp.cy) + t3) / length)
+        rows.append((-(t1 * (px - opp.cx) + t2 * (py - opp.cy) + t3) - margin) / length)
     for px, py in vertices(opp):
         rows.append((t1 * (px - opp.cx) + t2 * (py - opp.cy) + t3) / length)
     return rows, t1 * t1 + t2 * t2 - 1
@@ -143,7 +143,7 @@ def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: 
         return [ellipse_h(ego.cx, ego.cy, opp, r)], []
     if isinstance(model, CoveringCircles):
         return circles_h(ego, model.ego_circles, opp, model.n, cover), []
-    rows, eq = hyperplane_h(ego, opp, theta, length)
+    rows, eq = hyperplane_h(ego, opp, theta, length, model.margin)
     return rows, [eq]
 
 
