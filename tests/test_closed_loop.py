@@ -31,11 +31,10 @@ def test_quick_run_is_safe_and_sane(quick_run):
     v = log.ego_frenet[:, 3]
     assert np.all(v >= 0.0) and np.all(v <= 40.0)
     assert np.all(np.abs(log.ego_frenet[:, 1]) <= 10.0 + 1e-6)          # truck scenario road bounds
-    # input bounds, up to the QP tolerance: eps_abs = eps_rel = 1e-3 on rows u / u_max; the cold-started first QP
-    # is inexact under the real-time cap of 60 iterations (measured: |r| = 0.3933; 0.402 with rho = 1)
+    # input bounds, up to the QP tolerance: eps_abs = eps_rel = 1e-3 on rows u / u_max (the cold-started first QP
+    # gets QpOptions.max_iter_cold iterations; capped at 60 it gave |r| = 0.3933)
     assert np.all(np.abs(log.control[:, 0]) <= 1e4 * (1 + 3e-3))
-    assert np.all(np.abs(log.control[1:, 1]) <= 0.39 * (1 + 3e-3))
-    assert abs(log.control[0, 1]) <= 0.39 * (1 + 2e-2)
+    assert np.all(np.abs(log.control[:, 1]) <= 0.39 * (1 + 3e-3))
     # every QP solved, or stopped by the iteration cap (solved_inaccurate / max_iter_reached): none failed
     assert np.all(np.isin(log.qp_status, (1, 2, 7)))
     assert log.meta["extra"]["exit_codes_nonzero"] == 0

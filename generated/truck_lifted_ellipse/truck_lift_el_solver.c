@@ -16,6 +16,8 @@
 #define SOLVER (&truck_lift_el_solver)
 #define OSQP_INF 1e+30
 #define RHO0 0.2
+#define MAX_ITER 60
+#define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
 #define V_REF 40.0
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
@@ -1198,6 +1200,7 @@ typedef struct {
   int have_x0;
   int have_guess;
   int prepared;
+  int cold;
 } truck_lift_el_workspace_t;
 
 static truck_lift_el_workspace_t truck_lift_el_ws;
@@ -1205,6 +1208,13 @@ static truck_lift_el_workspace_t truck_lift_el_ws;
 
 /* ---- helpers --------------------------------------------------------------------------------------------------- */
 static double now(void) { return ws.clock ? ws.clock() : 0.0; }
+
+/* OSQP's iteration budget (the other settings unchanged) */
+static void set_max_iter(OSQPInt n) {
+  OSQPSettings s = *SOLVER->settings;
+  s.max_iter = n;
+  (void)osqp_update_settings(SOLVER, &s);
+}
 
 static int fail(int code) {
   ws.status.exit_code = code;
@@ -1361,7 +1371,9 @@ int truck_lift_el_prepare(void) {
     rc = initial_guess();
     if (rc) return fail(rc); /* no guess is kept */
     ws.have_guess = 1;
+    ws.cold = 1;
   } else {
+    ws.cold = 0;
     for (i = 0; i < TRUCK_LIFT_EL_QP_N; ++i) ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
     for (i = 0; i < TRUCK_LIFT_EL_QP_M; ++i) ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
     copy(ws.w_tmp, ws.w, TRUCK_LIFT_EL_QP_N);
@@ -1411,7 +1423,9 @@ int truck_lift_el_feedback(void) {
   ws.q_cur = ws.q_fb;
   if (osqp_update_data_vec(SOLVER, ws.q_fb, ws.l, ws.u)) return fail(TRUCK_LIFT_EL_ERR_QP);
   (void)osqp_warm_start(SOLVER, ZERO_N, ws.y);
+  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER_COLD);
   rc = (int)osqp_solve(SOLVER);
+  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER);
   ws.prepared = 0;
   ws.status.qp_status = (int)SOLVER->info->status_val;
   ws.status.qp_iter = (int)SOLVER->info->iter;

@@ -301,6 +301,8 @@ class Opponents:
 class QpOptions:
     """OSQP settings used identically by the Python reference and the generated C.
 
+    ``max_iter_cold``: the budget of a cold-started QP (the first after init/reset, no shifted guess; at least
+    ``max_iter``): capped at 60 it left |r| up to 1.6 % beyond its bound at sample 0.
     Defaults are the real-time mode (a fixed iteration budget, as RTI uses it): ``max_iter = 60``,
     ``rho = 0.2``, ``check_termination = 40`` (a check costs about one iteration), ``scaling = 1`` (one Ruiz
     pass: prepare 0.4 -> 0.15 ms, same convergence as 10 here). ``QpOptions.converged()`` is the quality reference.
@@ -319,6 +321,7 @@ class QpOptions:
     scaling: int = 1
     check_termination: int = 40
     warm_start: bool = True
+    max_iter_cold: int = 400
 
     @classmethod
     def converged(cls) -> "QpOptions":
@@ -328,6 +331,8 @@ class QpOptions:
     def __post_init__(self) -> None:
         _check(isinstance(self.max_iter, int) and 1 <= self.max_iter <= 1_000_000, "qp.max_iter", self.max_iter,
                "an integer in [1, 1e6]")
+        _check(isinstance(self.max_iter_cold, int) and 1 <= self.max_iter_cold <= 1_000_000, "qp.max_iter_cold",
+               self.max_iter_cold, "an integer in [1, 1e6]")
         for f in ("eps_abs", "eps_rel"):
             _check(0 <= _finite(f"qp.{f}", getattr(self, f)) < 1, f"qp.{f}", getattr(self, f), "[0, 1)")
         _check(self.eps_abs > 0 or self.eps_rel > 0, "qp.eps_abs", self.eps_abs, "> 0 when eps_rel = 0")

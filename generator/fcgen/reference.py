@@ -53,6 +53,11 @@ def osqp_settings(opts: QpOptions) -> dict:
                 polishing=False, verbose=False)
 
 
+def cold_max_iter(opts: QpOptions) -> int:
+    """Iteration budget of a cold-started QP (no shifted guess): never below the warm one."""
+    return max(opts.max_iter, opts.max_iter_cold)
+
+
 def theta_init(ocp: Ocp) -> ca.Function:
     """Initial separating hyperplanes: normal from the ego centre to the opponent centre, through the midpoint."""
     from . import obstacles as obs
@@ -100,6 +105,7 @@ class RtiSolver:
         self.w: np.ndarray | None = None
         self.y = np.zeros(self.lay.m)
         self.prepared = False
+        self.cold = False
         self.status = Status()
         lay = self.lay
         self.q = np.zeros(lay.n)
@@ -181,6 +187,7 @@ class RtiSolver:
         t0 = time.perf_counter()
         self.prepared = False
         ocp, lay = self.ocp, self.lay
+        self.cold = self.w is None
         if self.w is None:
             self.initial_guess()
         elif shift:
@@ -226,7 +233,12 @@ class RtiSolver:
         self.q_fb = q
         self.solver.update(q=q, l=self.l, u=self.u)
         self.solver.warm_start(x=np.zeros(lay.n), y=self.y)
+        cold = self.cold and cold_max_iter(self.qp_opts) != self.qp_opts.max_iter
+        if cold:
+            self.solver.update_settings(max_iter=cold_max_iter(self.qp_opts))
         res = self.solver.solve(raise_error=False)
+        if cold:
+            self.solver.update_settings(max_iter=self.qp_opts.max_iter)
         self.prepared = False
         st = self.status
         st.qp_status = int(res.info.status_val)

@@ -25,7 +25,7 @@ from .. import obstacles as obs
 from ..dsl import Conventional, Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..reference import EXIT_CODES, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
+from ..reference import EXIT_CODES, cold_max_iter, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
 from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
@@ -230,7 +230,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("const NAME_real_t *", "q_cur", [], P), ("clock_fn_t", "clock", [], P),
         ("NAME_status_t", "status", [], (32, 8)),
         ("int", "road_n", [], I), ("int", "road_set", [], I), ("int", "have_x0", [], I),
-        ("int", "have_guess", [], I), ("int", "prepared", [], I),
+        ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I),
     ]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
@@ -331,7 +331,8 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "rho0": _c_real(settings["rho"]), "osqp_infty": _c_real(INF),
+        "rho0": _c_real(settings["rho"]), "max_iter": settings["max_iter"],
+        "max_iter_cold": cold_max_iter(problem.qp), "osqp_infty": _c_real(INF),
         "osqp": exp, "model_cflags": MODEL_CFLAGS,
         "osqp_sources": list(exp.library_sources), "osqp_headers": list(exp.library_headers),
         "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
