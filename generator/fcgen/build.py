@@ -198,13 +198,16 @@ class CSolver:
         return EXIT_CODES[code] if 0 <= code < len(EXIT_CODES) else f"unknown({code})"
 
     # -- Controller protocol ----------------------------------------------------------------------------------------
-    def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
-        """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
+    def prepare_phase(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> int:
+        """Inputs, then the preparation phase, in the same order as ``ReferenceController``; returns the exit code."""
         rc = self.set_road(road)
         rc = rc or self.set_opponents(opp)
         if not rc and not self.has_guess():
             rc = self.set_state(x0)
-        rc = rc or self.prepare()
+        return rc or self.prepare()
+
+    def feedback_phase(self, x0: np.ndarray, rc: int = 0) -> StepResult:
+        """The measured state, then the feedback phase; ``rc``: the exit code of ``prepare_phase``."""
         rc = rc or self.set_state(x0)
         rc = rc or self.feedback()
         st = self.status()
@@ -213,3 +216,7 @@ class CSolver:
                               math.nan)
         return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
                           self.max_slack())
+
+    def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
+        """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
+        return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))

@@ -26,8 +26,8 @@ import numpy as np
 from .dsl import Problem, ProblemError
 from .ocp import INF, build_ocp
 from .presets import CAR, SCENARIOS, TRUCK, load_problem
-from .reference import RtiSolver, SolverError
-from .sim.closedloop import StepResult, run_closed_loop
+from .reference import RtiSolver
+from .sim.closedloop import ReferenceController, StepResult, run_closed_loop
 from .sim.scenario import make_scenario
 
 TOL_QP_DATA = 1e-12
@@ -226,6 +226,7 @@ class _Lockstep:
 
     def __init__(self, ref: RtiSolver, cs, checks: dict[str, Check]):
         self.ref, self.cs, self.checks = ref, cs, checks
+        self.ref_ctrl = ReferenceController(ref.ocp, ref)
         self.j = 0
 
     def _upd(self, key: str, diff: float) -> None:
@@ -233,49 +234,20 @@ class _Lockstep:
 
     def step(self, x0: np.ndarray, road, opp: np.ndarray) -> StepResult:
         sv, cs = self.ref, self.cs
-        res = None
-        rc_py = 0
-        # the reference, exactly as ReferenceController.step
-        try:
-            sv.set_road(road)
-            sv.set_opponents(opp)
-            if sv.w is None:
-                sv.set_state(x0)
-            sv.prepare()
-        except SolverError as exc:
-            rc_py = getattr(exc, "exit_code", 0) or 1
-        # the C solver, exactly as CSolver.step
-        rc = cs.set_road(road)
-        rc = rc or cs.set_opponents(opp)
-        if not rc and not cs.has_guess():
-            rc = cs.set_state(x0)
-        rc = rc or cs.prepare()
+        # both controllers' own phases, so the call order is the one the closed loop uses
+        rc_py = self.ref_ctrl.prepare_phase(x0, road, opp)
+        rc = cs.prepare_phase(x0, road, opp)
         if not rc and not rc_py:
             qp = cs.get_qp()
             for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
                            ("u", _clip(sv.u))):
                 self._upd(key, rel_diff(qp[key], r))
-        if not rc_py:
-            try:
-                sv.set_state(x0)
-                u = sv.feedback()
-                st = sv.status
-                res = StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                                 float(np.max(sv.slacks(), initial=0.0)))
-            except SolverError as exc:
-                rc_py = getattr(exc, "exit_code", 0) or 1
-        if res is None:
-            st = sv.status
-            res = StepResult(np.zeros(2), rc_py, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                             math.nan)
-        if not rc:
-            rc = cs.set_state(x0)
-            rc = rc or cs.feedback()
-        cst = cs.status()
-        self._upd("exit_code", float(rc != rc_py))  # the reference and the C API share EXIT_CODES
-        self._upd("qp_status", float(cst.qp_status != res.qp_status))
-        self._upd("qp_iter", float(cst.qp_iter != res.qp_iter))
-        if not rc and not rc_py:
+        res = self.ref_ctrl.feedback_phase(x0, rc_py)
+        c_res = cs.feedback_phase(x0, rc)
+        self._upd("exit_code", float(c_res.exit_code != res.exit_code))  # the reference and C share EXIT_CODES
+        self._upd("qp_status", float(c_res.qp_status != res.qp_status))
+        self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
+        if not c_res.exit_code and not res.exit_code:
             qp = cs.get_qp()
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
             self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
@@ -285,8 +257,8 @@ class _Lockstep:
             w_c = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
             w_r = np.concatenate([sv.states().ravel(), sv.controls().ravel()])
             self._upd("w", rel_diff(w_c, w_r))
-            self._upd("u0", rel_diff(cs.u0(), res.u))
-            self._upd("max_slack", rel_diff(cs.max_slack(), res.max_slack))
+            self._upd("u0", rel_diff(c_res.u, res.u))
+            self._upd("max_slack", rel_diff(c_res.max_slack, res.max_slack))
         self.j += 1
         return res
 

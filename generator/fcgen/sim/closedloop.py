@@ -49,7 +49,8 @@ class ReferenceController:
     def __init__(self, ocp: Ocp, solver: RtiSolver | None = None):
         self.solver = solver or RtiSolver(ocp)
 
-    def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
+    def prepare_phase(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> int:
+        """Inputs, then the preparation phase (the state only before the first one); returns the exit code."""
         sv = self.solver
         try:
             sv.set_road(road)
@@ -57,15 +58,27 @@ class ReferenceController:
             if sv.w is None:
                 sv.set_state(x0)
             sv.prepare()
-            sv.set_state(x0)
-            u = sv.feedback()
-            st = sv.status
-            return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                              float(np.max(sv.slacks(), initial=0.0)))
         except SolverError as exc:
-            st = sv.status
-            return StepResult(np.zeros(2), exc.exit_code, st.qp_status, st.qp_iter, st.time_prepare,
-                              st.time_feedback, math.nan)
+            return exc.exit_code
+        return 0
+
+    def feedback_phase(self, x0: np.ndarray, rc: int = 0) -> StepResult:
+        """The measured state, then the feedback phase; ``rc``: the exit code of ``prepare_phase``."""
+        sv = self.solver
+        if not rc:
+            try:
+                sv.set_state(x0)
+                u = sv.feedback()
+                st = sv.status
+                return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                                  float(np.max(sv.slacks(), initial=0.0)))
+            except SolverError as exc:
+                rc = exc.exit_code
+        st = sv.status
+        return StepResult(np.zeros(2), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan)
+
+    def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
+        return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
 
 
 def plant_function(problem: Problem, samples: int) -> ca.Function:
