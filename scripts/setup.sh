@@ -4,27 +4,24 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+apt_install() {  # apt-get install "$@", with sudo when not root
+  local sudo=""; [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  echo "setup: installing $* with apt-get" >&2
+  $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "$@"
+}
+
 need=()
 command -v cc >/dev/null 2>&1 || need+=(gcc libc6-dev)
 command -v make >/dev/null 2>&1 || need+=(make)
 command -v python3 >/dev/null 2>&1 || need+=(python3 python3-venv python3-pip)
-if [ "${#need[@]}" -gt 0 ]; then
-  echo "setup: installing ${need[*]} with apt-get" >&2
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}"
-fi
+if [ "${#need[@]}" -gt 0 ]; then apt_install "${need[@]}"; fi
 
 python3 - <<'PY' || { echo "setup: fcgen needs Python >= 3.11" >&2; exit 1; }
 import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)
 PY
 
 if [ ! -x .venv/bin/python ]; then
-  python3 -m venv .venv 2>/dev/null || {
-    echo "setup: python3 -m venv failed; installing python3-venv" >&2
-    SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-    $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq python3-venv
-    python3 -m venv .venv
-  }
+  python3 -m venv .venv 2>/dev/null || { apt_install python3-venv && python3 -m venv .venv; }
 fi
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e '.[test]'

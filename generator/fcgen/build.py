@@ -43,6 +43,19 @@ def read_macros(header: Path, name: str) -> dict[str, int]:
     return {k: int(v) for k, v in pat.findall(Path(header).read_text())}
 
 
+def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cflags: str | None = None,
+             error: type[Exception] | None = None) -> None:
+    """``make -C folder VAR=value ...`` (plus CC/CFLAGS when given); raises ``error`` with make's output."""
+    cmd = ["make", "-C", str(folder), *variables]
+    if cc:
+        cmd.append(f"CC={cc}")
+    if cflags is not None:
+        cmd.append(f"CFLAGS={cflags}")
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise (error or BuildError)(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
+
+
 def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
           jobs: int | None = None) -> Path:
     """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the shared library.
@@ -56,15 +69,7 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
         use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
         restore_osqp_library(gen_dir, use_float)
     out = VERIFY_BUILD if verify else DEFAULT_BUILD
-    cmd = ["make", "-C", str(gen_dir), f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}",
-           f"VERIFY={int(verify)}"]
-    if cc:
-        cmd.append(f"CC={cc}")
-    if cflags is not None:
-        cmd.append(f"CFLAGS={cflags}")
-    res = subprocess.run(cmd, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise BuildError(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
+    run_make(gen_dir, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags)
     return gen_dir / out / f"lib{name}.so"
 
 

@@ -144,9 +144,7 @@ def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str
 
     The harness goes into ``<solver build>/firmware_sim`` (``build/firmware_sim`` or ``build/verify/firmware_sim``).
     """
-    import subprocess
-
-    from ..build import DEFAULT_BUILD, VERIFY_BUILD, BuildError, build, solver_name
+    from ..build import DEFAULT_BUILD, VERIFY_BUILD, BuildError, build, run_make, solver_name
 
     solver_dir = Path(solver_dir).resolve()
     name = solver_name(solver_dir)
@@ -156,15 +154,8 @@ def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str
         raise HarnessError(str(exc)) from None
     lib_dir = solver_dir / (VERIFY_BUILD if verify else DEFAULT_BUILD)
     out = lib_dir / "firmware_sim"
-    cmd = ["make", "-C", str(harness_source_dir()), f"SOLVER_DIR={solver_dir}", f"SOLVER={name}",
-           f"SOLVER_BUILD={lib_dir}", f"BUILD={out}", f"VERIFY={int(verify)}"]
-    if cc:
-        cmd.append(f"CC={cc}")
-    if cflags is not None:
-        cmd.append(f"CFLAGS={cflags}")
-    res = subprocess.run(cmd, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise HarnessError(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
+    run_make(harness_source_dir(), [f"SOLVER_DIR={solver_dir}", f"SOLVER={name}", f"SOLVER_BUILD={lib_dir}",
+                                    f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags, HarnessError)
     return out / "closed_loop"
 
 
