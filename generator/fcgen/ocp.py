@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 
 from . import models, obstacles as obs
-from .dsl import Conventional, Lifted, Problem, SeparatingHyperplane
+from .dsl import Conventional, Lifted, Problem
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
 
 INF = 1e30  # OSQP_INFTY: OSQP treats bounds at or beyond it as infinite
@@ -119,7 +119,7 @@ def build_ocp(problem: Problem) -> Ocp:
     rp = RoadWindowParams(road_window_samples(pb))
     n_opp_par = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE)
     np_stage = rp.size + 5 + n_opp * n_opp_par
-    dt, N = pb.horizon.dt, pb.horizon.N
+    dt = pb.horizon.dt
     ego, bnd, soft = pb.ego, pb.bounds, pb.soft
 
     xs = ca.SX.sym("x", nx)

@@ -22,7 +22,7 @@ def run_campaign(scenario: str, formulations: list[str], obstacles: list[str], s
             if progress:
                 from tqdm import tqdm
                 seeds_it = tqdm(seeds_it, desc=f"{scenario} {form} {ob}", unit="run")
-            prog, coll, tmean, it_mean, slack, alat = [], [], [], [], [], []
+            prog, coll, it_mean, slack, alat = [], [], [], [], []
             times = []
             for seed in seeds_it:
                 log = run_closed_loop(pb, make_scenario(scenario, seed, samples=samples), ocp=ocp)
