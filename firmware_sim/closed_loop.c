@@ -17,6 +17,9 @@
  * collision flags by the exact separating-axis rectangle test, a_lat = v^2 tan(delta) / l.
  *
  * Compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -I<generated folder> (see the Makefile). Static memory only;
+ * the platform (fs_platform.h) gives the clock: fs_host.c (the solver folder's POSIX clock) on a host,
+ * fs_baremetal.c (startup, SysTick, semihosting command line) on a Cortex-M; stdio is the C library's (newlib's over
+ * semihosting on the bare-metal image), so the same loop runs on both;
  * the per-sample loop reads the sample's inputs (opponent parameters) from the file stream, like sensor data.
  * Exit codes: 0 run completed (whatever the solver returned), 1 usage, 2 bad scenario file, 3 run aborted
  * (road window outside the road), 4 cannot write the log.
@@ -42,7 +45,7 @@
 
 #include FS_STR(S_(_solver).h)
 #include FS_STR(S_(_model).h)
-#include FS_STR(S_(_host).h)
+#include "fs_platform.h"
 
 typedef S_(_real_t) real_t;
 typedef S_(_status_t) status_t;
@@ -698,7 +701,7 @@ int main(int argc, char **argv) {
   K = g_samples;
 
   S_(_init)();
-  S_(_set_clock)(S_(_host_clock));
+  S_(_set_clock)(fs_clock);
   for (i = 0; i < 5; ++i) g_xs[i] = g_x0[i];
 
   for (j = 0; j < K; ++j) {

@@ -56,21 +56,48 @@ def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cf
         raise (error or BuildError)(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
 
 
-def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
-          jobs: int | None = None) -> Path:
-    """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the shared library.
-
-    ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``build/verify``, so both
-    variants coexist.
-    """
+def solver_uses_float(gen_dir: Path | str) -> bool:
+    """Whether a generated folder was generated with ``--float`` (its ``<NAME>_USE_FLOAT`` macro)."""
     gen_dir = Path(gen_dir)
     name = solver_name(gen_dir)
+    return bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
+
+
+def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host") -> Path:
+    """Where ``build`` puts the products of a target: ``build[/<target>][/verify]``."""
+    from .targets import get_target
+    sub = get_target(target).build_subdir
+    return Path(gen_dir) / (f"{sub}/verify" if verify else sub)
+
+
+def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
+          jobs: int | None = None, target: str = "host", extra_cflags: str = "") -> Path:
+    """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the main product.
+
+    Host: everything, returns the shared library. A bare-metal target (``fcgen.targets``): the two static libraries
+    alone, cross-compiled with the target's compiler and CPU flags into ``build/<target>``; returns ``lib<name>.a``.
+    ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``.../verify``, so both
+    variants coexist. ``extra_cflags`` are appended to the flags (e.g. ``-fstack-usage`` for ``footprint``).
+    """
+    from .targets import get_target
+
+    gen_dir = Path(gen_dir)
+    name = solver_name(gen_dir)
+    tgt = get_target(target)
+    use_float = solver_uses_float(gen_dir)
+    tgt.check_precision(use_float)
+    tgt.check_tools()
     if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
-        use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
         restore_osqp_library(gen_dir, use_float)
-    out = VERIFY_BUILD if verify else DEFAULT_BUILD
-    run_make(gen_dir, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags)
-    return gen_dir / out / f"lib{name}.so"
+    out = build_dir(gen_dir, verify, target).relative_to(gen_dir).as_posix()
+    if tgt.bare_metal:
+        cc = cc or tgt.cc
+        cflags = tgt.cflags(cflags if cflags is not None else "-O2")
+    if extra_cflags:
+        cflags = f"{cflags if cflags is not None else '-O2'} {extra_cflags}"
+    run_make(gen_dir, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}",
+                       *tgt.make_variables()], cc, cflags)
+    return gen_dir / out / (f"lib{name}.a" if tgt.bare_metal else f"lib{name}.so")
 
 
 class CSolver:

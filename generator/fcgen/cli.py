@@ -10,6 +10,10 @@ import click
 
 from .dsl import ProblemError
 from .presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem, preset_names
+from .targets import TARGETS
+
+_TARGET = click.option("--target", type=click.Choice(tuple(TARGETS)), default="host", show_default=True,
+                       help="compilation target (fcgen.targets): host or an emulated Cortex-M")
 
 
 def _fail(msg: str) -> None:
@@ -152,13 +156,16 @@ def regenerate(root, check, add):
 @click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
 @click.option("--verify", is_flag=True, help="verification build: no floating-point contraction (-ffp-contract=off)")
 @click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
-@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2)")
-def build_cmd(solver_dir, verify, cc, cflags):
-    """Compile a generated folder: static libraries for firmware, a shared library for Python and the harness."""
+@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2; a target's CPU flags are appended)")
+@_TARGET
+def build_cmd(solver_dir, verify, cc, cflags, target):
+    """Compile a generated folder: static libraries for firmware, a shared library for Python and the harness.
+
+    With a bare-metal --target: the two static libraries alone, cross-compiled, in SOLVER_DIR/build/<target>."""
     from .build import BuildError, build
 
     try:
-        lib = build(Path(solver_dir), verify=verify, cc=cc, cflags=cflags)
+        lib = build(Path(solver_dir), verify=verify, cc=cc, cflags=cflags, target=target)
     except BuildError as exc:
         _fail(str(exc))
     products = sorted(p.name for p in lib.parent.iterdir()
@@ -229,17 +236,32 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
 @click.option("--verify", is_flag=True, help="use the verification build (bit-exact with the Python reference)")
 @click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
 @click.option("--cflags", default=None, help="C flags (default: $CFLAGS or -O2)")
-def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflags):
-    """Closed loop in C (firmware_sim/): build SOLVER_DIR and the harness, export the scenario, run, summarize."""
+@_TARGET
+@click.option("--compare-host", is_flag=True,
+              help="also run the host harness on the same scenario and print the largest differences")
+def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflags, target, compare_host):
+    """Closed loop in C (firmware_sim/): build SOLVER_DIR and the harness, export the scenario, run, summarize.
+
+    With a bare-metal --target the harness is a semihosting image run under QEMU (-icount shift=0)."""
     from .sim.export import HarnessError, firmware_sim
-    from .sim.runlog import summary
+    from .sim.runlog import compare, summary
 
     try:
-        log = firmware_sim(Path(solver_dir), scenario, seed, samples, out, verify=verify, cc=cc, cflags=cflags)
+        log = firmware_sim(Path(solver_dir), scenario, seed, samples, out, verify=verify, cc=cc, cflags=cflags,
+                           target=target)
+        host = None
+        if compare_host:
+            host_out = str(Path(out).with_suffix("")) + ".host.json"
+            host = firmware_sim(Path(solver_dir), scenario, seed, samples, host_out, verify=verify)
     except HarnessError as exc:
         _fail(str(exc))
-    click.echo(f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim | {_fmt_summary(summary(log))}")
+    click.echo(f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | "
+               f"{_fmt_summary(summary(log))}")
     click.echo(f"run log written to {out}")
+    if host is not None:
+        d = {k: v for k, v in compare(log, host).items() if not k.startswith("time")}
+        click.echo(f"{target} vs host (run log {host_out}), max abs differences: "
+                   + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
 
 
 @main.command()

@@ -267,6 +267,18 @@ def _env() -> jinja2.Environment:
                               autoescape=False)
 
 
+def render_template(template: str, **ctx: Any) -> str:
+    """Render one file of ``templates/`` (also used by ``fcgen.targets`` for the linker script)."""
+    return _env().get_template(template).render(version=__version__, **ctx)
+
+
+def toolchain_files(use_float: bool) -> dict[str, str]:
+    """The CMake toolchain files a folder ships: one per bare-metal target that can run its precision."""
+    from ..targets import cross_targets
+    return {f"cmake/arm-none-eabi-{t.name}.cmake": render_template("targets/toolchain.cmake.j2", target=t)
+            for t in cross_targets(use_float)}
+
+
 def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> GenerateInfo:
     """Write the C solver of ``problem`` into ``out_dir`` (created); returns what was written."""
     out_dir = Path(out_dir)
@@ -346,11 +358,15 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     }
     for fname, tpl in outputs.items():
         _write(out_dir / fname, env.get_template(tpl).render(**ctx))
+    toolchains = toolchain_files(use_float)
+    for fname, text in toolchains.items():
+        _write(out_dir / fname, text)
     _write(out_dir / "problem.py",
            f'"""The problem of solver {name!r}, written by fcgen {__version__}: `fcgen verify` and `fcgen bench` '
            f'load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\nproblem = {problem_source(problem)}\n')
     lib_files = tuple(restore_osqp_library(out_dir, use_float))
-    files = tuple(sorted([*outputs, "problem.py", f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
+    files = tuple(sorted([*outputs, *toolchains, "problem.py", f"{name}_model.c", f"{name}_model.h",
+                          *exp.workspace_sources,
                           *exp.workspace_headers]))
     return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
                         workspace_bytes=workspace_bytes, solver_workspace_bytes=ws_bytes,

@@ -9,6 +9,7 @@ plain text, documented in docs/scenario_file.md; doubles are written with ``%.17
 from __future__ import annotations
 
 import math
+import os
 from os import PathLike
 from pathlib import Path
 from typing import TextIO
@@ -139,49 +140,76 @@ def harness_source_dir() -> Path:
 
 
 def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str | None = None,
-                  cflags: str | None = None) -> Path:
+                  cflags: str | None = None, target: str = "host") -> Path:
     """Build the solver folder (``fcgen.build.build``) and the harness against it; returns the executable.
 
-    The harness goes into ``<solver build>/firmware_sim`` (``build/firmware_sim`` or ``build/verify/firmware_sim``).
+    The harness goes into ``<solver build>/firmware_sim`` (``build[/<target>][/verify]/firmware_sim``). For a
+    bare-metal target it is a semihosting image (``closed_loop.elf``) linked with our startup (``fs_baremetal.c``)
+    and the linker script rendered from the target's memory map.
     """
-    from ..build import DEFAULT_BUILD, VERIFY_BUILD, BuildError, build, run_make, solver_name
+    from ..build import BuildError, build, build_dir, run_make, solver_name
+    from ..targets import get_target
 
+    tgt = get_target(target)
     solver_dir = Path(solver_dir).resolve()
     name = solver_name(solver_dir)
     try:
-        build(solver_dir, verify=verify, cc=cc, cflags=cflags)
+        build(solver_dir, verify=verify, cc=cc, cflags=cflags, target=target)
     except BuildError as exc:
         raise HarnessError(str(exc)) from None
-    lib_dir = solver_dir / (VERIFY_BUILD if verify else DEFAULT_BUILD)
+    lib_dir = build_dir(solver_dir, verify, target)
     out = lib_dir / "firmware_sim"
-    run_make(harness_source_dir(), [f"SOLVER_DIR={solver_dir}", f"SOLVER={name}", f"SOLVER_BUILD={lib_dir}",
-                                    f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags, HarnessError)
-    return out / "closed_loop"
+    variables = [f"SOLVER_DIR={solver_dir}", f"SOLVER={name}", f"SOLVER_BUILD={lib_dir}", f"BUILD={out}",
+                 f"VERIFY={int(verify)}"]
+    if tgt.bare_metal:
+        ld = out / f"{tgt.name}.ld"
+        out.mkdir(parents=True, exist_ok=True)
+        text = tgt.linker_script()
+        if not ld.is_file() or ld.read_text() != text:
+            ld.write_text(text)
+        variables += tgt.harness_make_variables(ld)
+        cc = cc or tgt.cc
+    run_make(harness_source_dir(), variables, cc, cflags, HarnessError)
+    return out / ("closed_loop.elf" if tgt.bare_metal else "closed_loop")
 
 
 def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], out: str | PathLike[str],
-                timeout: float | None = None):
-    """Run the harness on a scenario file; returns the run log it wrote (validated by ``RunLog.from_json``)."""
+                timeout: float | None = None, target: str = "host"):
+    """Run the harness on a scenario file (a bare-metal image under QEMU, with ``-icount shift=0``); returns the run
+    log it wrote (validated by ``RunLog.from_json``)."""
     import subprocess
 
+    from ..targets import get_target
     from .runlog import RunLog
 
-    cmd = [str(exe), str(scenario_file), str(out)]
+    tgt = get_target(target)
+    cwd = None
+    if tgt.bare_metal:
+        # semihosting opens the files relative to QEMU's working folder: run there with plain names
+        tgt.check_tools(qemu=True)
+        scenario_file, out = Path(scenario_file).resolve(), Path(out).resolve()
+        cwd = out.parent
+        cmd = tgt.qemu_command(Path(exe).resolve(), [os.path.relpath(scenario_file, cwd), out.name])
+    else:
+        cmd = [str(exe), str(scenario_file), str(out)]
     try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=cwd)
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise HarnessError(f"{' '.join(cmd)}: {exc}") from None
     if res.returncode != 0:
-        raise HarnessError(f"{' '.join(cmd)} failed (exit {res.returncode}):\n{res.stderr[-4000:]}")
+        raise HarnessError(f"{' '.join(cmd)} failed (exit {res.returncode}):\n{res.stdout[-2000:]}"
+                           f"{res.stderr[-4000:]}")
     return RunLog.from_json(out)
 
 
 def firmware_sim(solver_dir: str | PathLike[str], scenario: str = "truck", seed: int = 0, samples: int = 200,
                  out: str | PathLike[str] = "run.json", verify: bool = False, cc: str | None = None,
-                 cflags: str | None = None, problem: Problem | None = None):
+                 cflags: str | None = None, problem: Problem | None = None, target: str = "host",
+                 timeout: float | None = None):
     """Build solver and harness, export the scenario, run the C closed loop; returns the run log written to ``out``.
 
     The problem defaults to the one the folder records (``problem.py``), so data file and compiled solver agree.
+    ``target``: a name of ``fcgen.targets`` (a bare-metal target runs the image under QEMU).
     """
     from ..build import solver_name
     from ..presets import load_problem
@@ -192,8 +220,8 @@ def firmware_sim(solver_dir: str | PathLike[str], scenario: str = "truck", seed:
     if problem is None:
         problem = load_problem(str(solver_dir / "problem.py"))
     sc = make_scenario(scenario, seed, n_opp=problem.opponents.count, samples=samples, dt=problem.horizon.dt)
-    exe = build_harness(solver_dir, verify=verify, cc=cc, cflags=cflags)
+    exe = build_harness(solver_dir, verify=verify, cc=cc, cflags=cflags, target=target)
     data = exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt"
     export_scenario(problem, sc, data, samples, solver_name=name)
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    return run_harness(exe, data, out)
+    return run_harness(exe, data, out, timeout=timeout, target=target)
