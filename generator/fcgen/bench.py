@@ -205,3 +205,75 @@ def format_bench(res: dict) -> str:
         lines.append(f"max |state difference| C (optimized) vs Python closed loops: "
                      f"{res['max_abs_state_diff_c_vs_python']:.3g}")
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- deterministic cost on a target
+
+def _instr_stats(x: np.ndarray) -> dict[str, float]:
+    return {"median": float(np.median(x)), "max": float(np.max(x)), "min": float(np.min(x)),
+            "mean": float(np.mean(x))}
+
+
+def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, seeds: int = 1,
+                 samples: int = 50, timeout: float | None = None) -> dict:
+    """Instructions per prepare and per feedback on an emulated target (``fcgen bench --target``).
+
+    Runs the bare-metal closed loop (``firmware_sim`` image) under QEMU with ``-icount shift=0``: every
+    instruction advances the virtual clock by 1 ns, the harness's clock hook reads SysTick, so the solver's own
+    ``time_prepare`` / ``time_feedback`` times 1e9 are instruction counts (granularity: one SysTick period),
+    independent of the machine's load.
+    """
+    from .sim.export import firmware_sim
+    from .targets import get_target
+
+    tgt = get_target(target)
+    if not tgt.bare_metal:
+        from .targets import TARGETS
+        raise ValueError(f"--target {target}: instruction counts need an emulated target "
+                         f"({', '.join(t for t, v in TARGETS.items() if v.bare_metal)})")
+    gen_dir = Path(gen_dir)
+    name, pb = load_solver_problem(gen_dir)
+    scenario = scenario or infer_scenario(pb)
+    logs = []
+    t0 = time.perf_counter()
+    for seed in range(seeds):
+        out = gen_dir / tgt.build_subdir / "bench" / f"run_{scenario}_seed{seed}_{samples}.json"
+        logs.append(firmware_sim(gen_dir, scenario, seed, samples, out, target=target, timeout=timeout))
+    wall = time.perf_counter() - t0
+    scale = tgt.instructions_per_second
+    tp = np.round(np.concatenate([lg.time_prepare for lg in logs]) * scale)
+    tf = np.round(np.concatenate([lg.time_feedback for lg in logs]) * scale)
+    qi = np.concatenate([lg.qp_iter for lg in logs])
+    agg = aggregate(logs)
+    return {
+        "format": "fcgen-bench-target/1", "solver": name, "gen_dir": str(gen_dir), "target": tgt.name,
+        "target_description": tgt.description, "qemu_machine": tgt.qemu_machine, "cflags": tgt.cflags(),
+        "problem": pb.name, "scenario": scenario, "seeds": list(range(seeds)), "samples": samples,
+        "granularity_instructions": scale / tgt.systick_hz,
+        "instructions": {"prepare": _instr_stats(tp), "feedback": _instr_stats(tf), "total": _instr_stats(tp + tf)},
+        "feedback_per_qp_iteration": float(np.median(tf / np.maximum(qi, 1))),
+        "qp_iter": agg["qp_iter"], "qp_status_counts": agg["qp_status_counts"], "quality": agg["quality"],
+        "wall_seconds": wall,
+    }
+
+
+def format_bench_target(res: dict) -> str:
+    """A text table of ``bench_target`` results (millions of instructions)."""
+    lines = [f"bench {res['solver']} on {res['target']} ({res['target_description']}), QEMU -icount shift=0: "
+             f"{res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, {res['samples']} samples "
+             f"each; granularity {res['granularity_instructions']:.0f} instructions"]
+    rows = [("phase", "median Minstr", "max Minstr", "mean Minstr")]
+    for k in ("prepare", "feedback", "total"):
+        s = res["instructions"][k]
+        rows.append((k, f"{s['median'] / 1e6:.3f}", f"{s['max'] / 1e6:.3f}", f"{s['mean'] / 1e6:.3f}"))
+    w = [max(len(r[i]) for r in rows) for i in range(4)]
+    for i, r in enumerate(rows):
+        lines.append("  ".join(c.ljust(w[j]) if j == 0 else c.rjust(w[j]) for j, c in enumerate(r)))
+        if i == 0:
+            lines.append("  ".join("-" * v for v in w))
+    q = res["quality"]
+    lines.append(f"feedback per QP iteration (median): {res['feedback_per_qp_iteration'] / 1e6:.3f} Minstr | "
+                 f"QP iterations mean {res['qp_iter']['mean']:.1f}, max {res['qp_iter']['max']} | QP status "
+                 + ", ".join(f"{k} {v}" for k, v in res["qp_status_counts"].items())
+                 + f" | progress {q['progress_mean']:.2f} m, collision samples {q['collision_samples']}")
+    return "\n".join(lines)

@@ -63,21 +63,22 @@ def solver_uses_float(gen_dir: Path | str) -> bool:
     return bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
 
 
-def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host") -> Path:
-    """Where ``build`` puts the products of a target: ``build[/<target>][/verify]``."""
+def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host", variant: str | None = None) -> Path:
+    """Where ``build`` puts the products of a target: ``build[/<target>][/<variant>][/verify]``."""
     from .targets import get_target
-    sub = get_target(target).build_subdir
+    sub = get_target(target).build_subdir + (f"/{variant}" if variant else "")
     return Path(gen_dir) / (f"{sub}/verify" if verify else sub)
 
 
 def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
-          jobs: int | None = None, target: str = "host", extra_cflags: str = "") -> Path:
+          jobs: int | None = None, target: str = "host", extra_cflags: str = "", variant: str | None = None) -> Path:
     """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the main product.
 
     Host: everything, returns the shared library. A bare-metal target (``fcgen.targets``): the two static libraries
     alone, cross-compiled with the target's compiler and CPU flags into ``build/<target>``; returns ``lib<name>.a``.
     ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``.../verify``, so both
-    variants coexist. ``extra_cflags`` are appended to the flags (e.g. ``-fstack-usage`` for ``footprint``).
+    variants coexist. ``extra_cflags`` are appended to the flags (e.g. ``-fstack-usage`` for ``footprint``, built
+    apart as ``variant="footprint"``).
     """
     from .targets import get_target
 
@@ -89,7 +90,7 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     tgt.check_tools()
     if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
         restore_osqp_library(gen_dir, use_float)
-    out = build_dir(gen_dir, verify, target).relative_to(gen_dir).as_posix()
+    out = build_dir(gen_dir, verify, target, variant).relative_to(gen_dir).as_posix()
     if tgt.bare_metal:
         cc = cc or tgt.cc
         cflags = tgt.cflags(cflags if cflags is not None else "-O2")

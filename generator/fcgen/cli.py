@@ -210,12 +210,28 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
 @click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
 @click.option("--cflags", default=None, help="C flags (default: the Makefile's)")
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
-              help="results file [default: results/bench_<name>.json]")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out):
-    """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference."""
-    from .bench import bench, format_bench, write_results
-    from .build import BuildError
+              help="results file [default: results/bench_<name>[_<target>].json]")
+@_TARGET
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target):
+    """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference.
 
+    With an emulated --target: instructions per prepare and feedback (median / max) from QEMU -icount; the default
+    then is 1 seed (use --seeds, --samples)."""
+    from .bench import bench, bench_target, format_bench, format_bench_target, write_results
+    from .build import BuildError
+    from .sim.export import HarnessError
+
+    if target != "host":
+        ctx = click.get_current_context()
+        n_seeds = seeds if ctx.get_parameter_source("seeds").name != "DEFAULT" else 1
+        try:
+            res = bench_target(Path(solver_dir), target, scenario=scenario, seeds=n_seeds, samples=samples)
+        except HarnessError as exc:
+            _fail(str(exc))
+        click.echo(format_bench_target(res))
+        path = write_results(res, out or f"results/bench_{res['solver']}_{target}.json")
+        click.echo(f"results written to {path}")
+        return
     try:
         res = bench(Path(solver_dir), scenario=scenario, seeds=seeds, samples=samples, python=python,
                     python_seeds=python_seeds, cc=cc, cflags=cflags, progress=sys.stderr.isatty())
@@ -262,6 +278,30 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
         d = {k: v for k, v in compare(log, host).items() if not k.startswith("time")}
         click.echo(f"{target} vs host (run log {host_out}), max abs differences: "
                    + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
+
+
+@main.command(name="footprint")
+@click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("--target", type=click.Choice(tuple(TARGETS)), default="cortex-m7", show_default=True)
+@click.option("--out", type=click.Path(dir_okay=False), default=None,
+              help="JSON result [default: SOLVER_DIR/build/<target>/footprint/footprint.json]")
+@click.option("--readme", is_flag=True, help="also write the figures into SOLVER_DIR/README.md (its Footprint section)")
+def footprint_cmd(solver_dir, target, out, readme):
+    """Flash, RAM and worst stack of the solver's libraries on a target, per object and in total."""
+    from .build import BuildError
+    from .footprint import fill_readme, footprint, format_footprint, write_footprint
+
+    try:
+        res = footprint(Path(solver_dir), target)
+    except BuildError as exc:
+        _fail(str(exc))
+    click.echo(format_footprint(res))
+    from .build import build_dir
+    path = write_footprint(res, out or build_dir(Path(solver_dir), target=target, variant="footprint")
+                           / "footprint.json")
+    click.echo(f"results written to {path}")
+    if readme:
+        click.echo(f"figures written to {fill_readme(Path(solver_dir), res)}")
 
 
 @main.command()

@@ -119,6 +119,9 @@ class Target:
 
 
 QEMU = "qemu-system-arm"
+README_BEGIN = "<!-- fcgen footprint: begin -->"
+README_END = "<!-- fcgen footprint: end -->"
+"""Markers of the generated README's footprint line (``fcgen footprint --readme`` fills it)."""
 APT_PACKAGES = "gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"
 
 _MPS2_FLASH = Region(0x00000000, 4 * 1024 * 1024)   # ZBT SSRAM1 (code), 4 MiB

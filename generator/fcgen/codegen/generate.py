@@ -27,6 +27,7 @@ from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..reference import EXIT_CODES, cold_max_iter, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
+from ..targets import README_BEGIN, README_END, cross_targets
 from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
 
@@ -274,7 +275,6 @@ def render_template(template: str, **ctx: Any) -> str:
 
 def toolchain_files(use_float: bool) -> dict[str, str]:
     """The CMake toolchain files a folder ships: one per bare-metal target that can run its precision."""
-    from ..targets import cross_targets
     return {f"cmake/arm-none-eabi-{t.name}.cmake": render_template("targets/toolchain.cmake.j2", target=t)
             for t in cross_targets(use_float)}
 
@@ -349,6 +349,8 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "osqp_sources": list(exp.library_sources), "osqp_headers": list(exp.library_headers),
         "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
         "qp_settings": settings,
+        "cross_targets": cross_targets(use_float),
+        "footprint_marker_begin": README_BEGIN, "footprint_marker_end": README_END,
     }
     env = _env()
     outputs = {
