@@ -1,0 +1,233 @@
+"""Cortex-M targets: cross builds, the closed loop on QEMU against the host's, instruction counts, footprint."""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from fcgen.bench import bench_target
+from fcgen.build import build, build_dir
+from fcgen.cli import main
+from fcgen.codegen.generate import GenerateInfo, generate
+from fcgen.footprint import footprint, section_sizes
+from fcgen.presets import preset
+from fcgen.sim.export import firmware_sim
+from fcgen.sim.runlog import compare
+from fcgen.targets import TARGETS, TargetError, get_target
+
+TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-size", "qemu-system-arm", "make", "gcc")
+needs_toolchain = pytest.mark.skipif(any(shutil.which(t) is None for t in TOOLS),
+                                     reason="needs the arm-none-eabi toolchain, QEMU, gcc and make (setup.sh)")
+PRESET = "truck_lifted_ellipse"
+SAMPLES = 25
+SEED = 3
+
+
+# ----------------------------------------------------------------------------- targets as data
+
+def test_target_table() -> None:
+    m7, m4f = get_target("cortex-m7"), get_target("cortex-m4f")
+    assert "-mfpu=fpv5-d16" in m7.cpu_flags and "-mfpu=fpv4-sp-d16" in m4f.cpu_flags
+    assert "-mfloat-abi=hard" in m7.cpu_flags and "-mfloat-abi=hard" in m4f.cpu_flags
+    assert (m7.qemu_machine, m4f.qemu_machine) == ("mps2-an500", "mps2-an386")
+    assert m7.double_fpu and not m4f.double_fpu and not TARGETS["host"].bare_metal
+    with pytest.raises(TargetError, match=r"--target: 'cortex-m9' is invalid: allowed host, cortex-m7, cortex-m4f"):
+        get_target("cortex-m9")
+    m4f.check_precision(True)
+    with pytest.raises(TargetError) as exc:
+        m4f.check_precision(False)
+    assert "\n" not in str(exc.value) and "--float" in str(exc.value)
+
+
+def test_linker_script_memory_map() -> None:
+    """The mps2 boards as QEMU maps them: 4 MiB code SSRAM at 0, 4 MiB data SSRAM at 0x20000000."""
+    text = get_target("cortex-m7").linker_script()
+    assert re.search(r"FLASH \(rx\) *: ORIGIN = 0x00000000, LENGTH = 4194304", text)
+    assert re.search(r"RAM \(rwx\) *: ORIGIN = 0x20000000, LENGTH = 4194304", text)
+    assert "KEEP(*(.vectors))" in text and "> RAM AT > FLASH" in text
+
+
+# ----------------------------------------------------------------------------- builds
+
+@pytest.fixture(scope="module")
+def gen_double(tmp_path_factory) -> GenerateInfo:
+    return generate(preset(PRESET), tmp_path_factory.mktemp("tgt") / "double")
+
+
+@pytest.fixture(scope="module")
+def gen_float(tmp_path_factory) -> GenerateInfo:
+    return generate(preset(PRESET), tmp_path_factory.mktemp("tgt") / "float", use_float=True)
+
+
+def test_double_solver_refused_for_m4f(gen_double) -> None:
+    res = CliRunner().invoke(main, ["build", str(gen_double.out_dir), "--target", "cortex-m4f"])
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    assert res.output.count("\n") == 1 and "no double precision" in res.output and "--float" in res.output
+
+
+def test_toolchain_files_shipped(gen_double, gen_float) -> None:
+    assert sorted(p.name for p in (gen_double.out_dir / "cmake").iterdir()) == ["arm-none-eabi-cortex-m7.cmake"]
+    assert sorted(p.name for p in (gen_float.out_dir / "cmake").iterdir()) == [
+        "arm-none-eabi-cortex-m4f.cmake", "arm-none-eabi-cortex-m7.cmake"]
+
+
+@needs_toolchain
+def test_cross_build_static_libraries_only(gen_double) -> None:
+    lib = build(gen_double.out_dir, target="cortex-m7")
+    out = lib.parent
+    assert out == build_dir(gen_double.out_dir, target="cortex-m7")
+    products = sorted(p.name for p in out.iterdir() if p.is_file() and p.name != "flags.txt")
+    assert products == ["libtruck_lift_el.a", "libtruck_lift_el_osqp.a"]
+    objs = sorted((out / "obj").rglob("*.o"))
+    assert objs and not any("host" in o.name or o.name == "main.o" for o in objs)
+    assert "-fPIC" not in (out / "flags.txt").read_text()
+    hdr = subprocess.run(["arm-none-eabi-readelf", "-hA", str(out / "obj" / "truck_lift_el_solver.o")],
+                         capture_output=True, text=True, check=True).stdout
+    assert "Machine:                           ARM" in hdr
+    assert "Tag_CPU_name: \"7E-M\"" in hdr or "Cortex-M7" in hdr
+    assert "Tag_FP_arch: FPv5/FP-D16 for ARMv8" in hdr and "Tag_ABI_VFP_args: VFP registers" in hdr
+
+
+@needs_toolchain
+def test_plain_make_without_osqp_sources_says_how_to_restore(gen_double, tmp_path) -> None:
+    folder = tmp_path / "copy"
+    shutil.copytree(gen_double.out_dir, folder, ignore=shutil.ignore_patterns("lib", "build"))
+    assert not (folder / "osqp" / "lib").exists()
+    res = subprocess.run(["make", "-C", str(folder), "lib"], capture_output=True, text=True)
+    assert res.returncode != 0
+    err = [ln for ln in res.stderr.splitlines() if "***" in ln]
+    assert len(err) == 1 and "osqp/lib/" in err[0] and "fcgen build ." in err[0]
+
+
+@needs_toolchain
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+def test_cmake_toolchain_file_cross_build(gen_double, tmp_path) -> None:
+    src = gen_double.out_dir
+    bdir = tmp_path / "cmake-m7"
+    subprocess.run(["cmake", "-S", str(src), "-B", str(bdir),
+                    f"-DCMAKE_TOOLCHAIN_FILE={src / 'cmake' / 'arm-none-eabi-cortex-m7.cmake'}"],
+                   capture_output=True, text=True, check=True)
+    cache = (bdir / "CMakeCache.txt").read_text()
+    assert re.search(r"^CMAKE_C_FLAGS:STRING=-O2 -mcpu=cortex-m7 -mthumb -mfloat-abi=hard -mfpu=fpv5-d16$", cache,
+                     re.M)
+    assert "TRUCK_LIFT_EL_HOST:BOOL=OFF" in cache
+    subprocess.run(["cmake", "--build", str(bdir), "-j2"], capture_output=True, text=True, check=True)
+    built = sorted(p.name for p in bdir.iterdir() if p.suffix in (".a", ".so"))
+    assert built == ["libtruck_lift_el.a", "libtruck_lift_el_osqp.a"]
+    sizes = subprocess.run(["arm-none-eabi-size", str(bdir / "libtruck_lift_el.a")], capture_output=True,
+                           text=True, check=True).stdout
+    assert "truck_lift_el_solver.c.obj" in sizes
+
+
+# ----------------------------------------------------------------------------- closed loop under QEMU
+
+def _close(log_t, log_h, atol_state: float) -> None:
+    d = compare(log_t, log_h)
+    print("target vs host, max abs differences:", {k: v for k, v in d.items() if not k.startswith("time")})
+    assert log_t.n_controls == SAMPLES
+    assert d["ego_frenet"] <= atol_state and d["ego_cartesian"] <= atol_state
+    assert np.array_equal(log_t.qp_iter, log_h.qp_iter) and np.array_equal(log_t.qp_status, log_h.qp_status)
+    assert np.array_equal(log_t.collision, log_h.collision)
+    assert log_t.meta["extra"]["exit_codes_nonzero"] == 0
+
+
+@needs_toolchain
+def test_closed_loop_double_on_m7_matches_host(gen_double, tmp_path) -> None:
+    d = gen_double.out_dir
+    log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300)
+    log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
+    _close(log_t, log_h, 1e-6)
+    # the solver's timing hook on the core reads SysTick: under -icount shift=0 a deterministic instruction count
+    assert np.all(log_t.time_prepare > 1e-4) and np.all(log_t.time_feedback > log_t.time_prepare)
+    # a shorter run of the same seed: the same counts up to one SysTick period (40 instructions = 40 ns: the tick's
+    # phase differs, as the shorter data file takes fewer instructions to read)
+    again = firmware_sim(d, "truck", SEED, 4, tmp_path / "m7b.json", target="cortex-m7", timeout=300)
+    np.testing.assert_allclose(again.time_prepare, log_t.time_prepare[:4], rtol=0, atol=40.5e-9)
+    np.testing.assert_allclose(again.time_feedback, log_t.time_feedback[:4], rtol=0, atol=40.5e-9)
+
+
+@needs_toolchain
+def test_closed_loop_float_on_m4f_matches_host(gen_float, tmp_path) -> None:
+    d = gen_float.out_dir
+    log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m4f.json", target="cortex-m4f", timeout=300)
+    log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
+    _close(log_t, log_h, 1e-3)
+
+
+@needs_toolchain
+def test_firmware_sim_cli_target(gen_double, tmp_path) -> None:
+    out = tmp_path / "run.json"
+    res = CliRunner().invoke(main, ["firmware-sim", str(gen_double.out_dir), "--target", "cortex-m7", "--samples",
+                                    "3", "--seed", "1", "--out", str(out), "--compare-host"])
+    assert res.exit_code == 0, res.output
+    assert "C firmware_sim on cortex-m7" in res.output and "cortex-m7 vs host" in res.output
+    assert out.is_file() and (tmp_path / "run.host.json").is_file()
+
+
+@needs_toolchain
+def test_bench_target_instruction_counts(gen_double, tmp_path) -> None:
+    res = bench_target(gen_double.out_dir, "cortex-m7", samples=4, timeout=300)
+    ins = res["instructions"]
+    assert res["granularity_instructions"] == 40.0
+    for phase in ("prepare", "feedback"):
+        assert 0 < ins[phase]["median"] <= ins[phase]["max"]
+        assert ins[phase]["max"] % 40 == 0 and ins[phase]["min"] % 40 == 0  # whole SysTick periods
+    assert ins["feedback"]["median"] > ins["prepare"]["median"]
+    out = tmp_path / "b.json"
+    cli = CliRunner().invoke(main, ["bench", str(gen_double.out_dir), "--target", "cortex-m7", "--samples", "4",
+                                    "--out", str(out)])
+    assert cli.exit_code == 0, cli.output
+    assert re.search(r"^prepare +[\d.]+ +[\d.]+", cli.output, re.M) and out.is_file()
+    import json
+    assert json.loads(out.read_text())["instructions"] == ins  # the same counts again: independent of load
+
+
+# ----------------------------------------------------------------------------- footprint
+
+@needs_toolchain
+def test_footprint_matches_size_tool(gen_double) -> None:
+    res = footprint(gen_double.out_dir, "cortex-m7")
+    obj_dir = build_dir(gen_double.out_dir, target="cortex-m7", variant="footprint") / "obj"
+    objs = [obj_dir / r["object"] for r in res["objects"]]
+    out = subprocess.run(["arm-none-eabi-size", "-B", *map(str, objs)], capture_output=True, text=True,
+                         check=True).stdout.splitlines()[1:]
+    for line, r in zip(out, res["objects"]):
+        text, data, bss = (int(x) for x in line.split()[:3])
+        assert (text, data, bss) == (r["text"] + r["rodata"], r["data"], r["bss"]), r["object"]
+    tot = res["total"]
+    assert tot["ram"] == sum(r["data"] + r["bss"] for r in res["objects"])
+    assert tot["flash"] == sum(r["text"] + r["rodata"] + r["data"] for r in res["objects"])
+    # the solver's workspace is its .bss: at least the struct size the generator computed for LP64 minus pointers
+    solver = next(r for r in res["objects"] if r["object"] == "truck_lift_el_solver.o")
+    assert abs(solver["bss"] - gen_double.solver_workspace_bytes) < 256
+    st = res["stack"]
+    assert st["worst_chain"][0] == st["worst_entry"] and st["worst_bytes"] > 0
+    assert set(st["indirect_targets"]["osqp"]) >= {"solve_linsys_qdldl"}
+    assert "truck_lift_el_stage_middle" in st["indirect_targets"]["solver"]
+    # the chain's sum equals its frames from GCC's .su files (independent of the call-graph parse)
+    frames = {}
+    for su in obj_dir.rglob("*.su"):
+        for ln in su.read_text().splitlines():
+            loc, size, _ = ln.split("\t")
+            frames[loc.rsplit(":", 1)[-1]] = int(size)
+    assert st["worst_bytes"] == sum(frames[f.split(":")[-1]] for f in st["worst_chain"])
+
+
+def test_section_sizes_host_object(tmp_path) -> None:
+    """The ELF reader on a host object: sizes as binutils' size reports them."""
+    if shutil.which("gcc") is None or shutil.which("size") is None:
+        pytest.skip("needs gcc and size")
+    c = tmp_path / "x.c"
+    c.write_text("static int a[100]; int b[3] = {1, 2, 3}; const double k[5] = {1, 2, 3, 4, 5};\n"
+                 "int f(int i) { a[i] = i; return a[i / 2] + b[i % 3] + (int)k[i % 5]; }\n")
+    subprocess.run(["gcc", "-O2", "-c", str(c), "-o", str(tmp_path / "x.o")], check=True)
+    s = section_sizes(tmp_path / "x.o")
+    assert s["bss"] == 400 and s["data"] == 12 and s["rodata"] >= 40
+    text, data, bss = (int(x) for x in subprocess.run(["size", "-B", str(tmp_path / "x.o")], capture_output=True,
+                                                      text=True, check=True).stdout.splitlines()[1].split()[:3])
+    assert (data, bss) == (s["data"], s["bss"]) and text >= s["text"] + s["rodata"]
