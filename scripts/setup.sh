@@ -14,6 +14,15 @@ need=()
 command -v cc >/dev/null 2>&1 || need+=(gcc libc6-dev)
 command -v make >/dev/null 2>&1 || need+=(make)
 command -v python3 >/dev/null 2>&1 || need+=(python3 python3-venv python3-pip)
+# the Cortex-M targets (fcgen build/firmware-sim/bench/footprint --target), the toolchain-file test, static analysis
+command -v arm-none-eabi-gcc >/dev/null 2>&1 || need+=(gcc-arm-none-eabi)
+if ! command -v arm-none-eabi-gcc >/dev/null 2>&1 \
+   || [ "$(arm-none-eabi-gcc -print-file-name=rdimon.specs)" = "rdimon.specs" ]; then
+  need+=(libnewlib-arm-none-eabi)
+fi
+command -v qemu-system-arm >/dev/null 2>&1 || need+=(qemu-system-arm)
+command -v cppcheck >/dev/null 2>&1 || need+=(cppcheck)
+command -v cmake >/dev/null 2>&1 || need+=(cmake)
 if [ "${#need[@]}" -gt 0 ]; then apt_install "${need[@]}"; fi
 
 python3 - <<'PY' || { echo "setup: fcgen needs Python >= 3.11" >&2; exit 1; }
