@@ -67,7 +67,7 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     name = solver_name(gen_dir)
     if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
         use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
-        restore_osqp_library(gen_dir, use_float)
+        restore_osqp_library(gen_dir, use_float, f"{name}_")
     out = VERIFY_BUILD if verify else DEFAULT_BUILD
     run_make(gen_dir, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags)
     return gen_dir / out / f"lib{name}.so"

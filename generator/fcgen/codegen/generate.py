@@ -349,7 +349,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     _write(out_dir / "problem.py",
            f'"""The problem of solver {name!r}, written by fcgen {__version__}: `fcgen verify` and `fcgen bench` '
            f'load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\nproblem = {problem_source(problem)}\n')
-    lib_files = tuple(restore_osqp_library(out_dir, use_float))
+    lib_files = tuple(restore_osqp_library(out_dir, use_float, f"{name}_"))
     files = tuple(sorted([*outputs, "problem.py", f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
                           *exp.workspace_headers]))
     return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
