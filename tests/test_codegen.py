@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, generate
+from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, float_math, generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem, preset
 from fcgen.reference import RtiSolver
@@ -309,6 +310,27 @@ def test_float_build(tmp_path: Path) -> None:
     build(info.out_dir)
     res = subprocess.run([str(info.out_dir / "build" / "truck_lift_el_example")], capture_output=True, timeout=60)
     assert res.returncode == 0
+
+
+def test_float_math_rewrites_literals_and_calls_only() -> None:
+    src = ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fmin(x, y); }\n"
+           "a001=10.; a2=(2.*a004); a3=2.9999999999999999e-01; a4=1e-3+.5; a5=sqrt (a6)+floor(a7); a008=a9[2];\n")
+    out = float_math(src)
+    assert out == ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fminf(x, y); }\n"
+                   "a001=10.f; a2=(2.f*a004); a3=2.9999999999999999e-01f; a4=1e-3f+.5f; a5=sqrtf (a6)+floorf(a7); "
+                   "a008=a9[2];\n")
+
+
+def test_float_model_is_single_precision(tmp_path: Path) -> None:
+    """--float: CasADi's model code calls the float math functions and compiles with -Wdouble-promotion -Werror."""
+    info = generate(paper_problem("car", "lifted", "circles", name="car_fm"), tmp_path / "f", use_float=True)
+    src = (info.out_dir / "car_fm_model.c").read_text()
+    assert re.search(r"\b(sin|cos|tan|sqrt|fabs|fmin|fmax|floor)\(", src) is None
+    assert "sinf(" in src and "cosf(" in src
+    res = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-Wdouble-promotion", "-Wno-unused-parameter",
+                          "-c", str(info.out_dir / "car_fm_model.c"), "-o", str(tmp_path / "m.o")],
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr[-3000:]
 
 
 def test_build_restores_osqp_library(tmp_path: Path) -> None:

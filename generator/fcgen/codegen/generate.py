@@ -110,6 +110,30 @@ def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
 
 
+C_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh",
+          "exp", "expm1", "log", "log1p", "log10", "log2", "pow", "sqrt", "cbrt", "hypot", "fabs", "fmin", "fmax",
+          "floor", "ceil", "round", "trunc", "fmod", "remainder", "copysign", "erf", "erfc", "fma", "lgamma", "tgamma")
+"""The double functions of <math.h> (C99) that have a float counterpart ``<name>f``."""
+_C_MATH_CALL = re.compile(r"\b(" + "|".join(C_MATH) + r")(\s*\()")
+_C_DOUBLE_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)(?![\w.])")
+
+
+def float_math(src: str) -> str:
+    """CasADi's C code in single precision: ``sin`` -> ``sinf``, ... and ``2.`` -> ``2.f`` (CasADi has no option for it;
+    with ``casadi_real = float`` alone it computes in double: every literal and math call promotes).
+
+    Comments are left as they are (a version number like ``3.8.2`` is no literal: the pattern needs a number that
+    neither follows nor precedes a word character or a dot).
+    """
+    out = []
+    for part in re.split(r"(/\*.*?\*/|//[^\n]*)", src, flags=re.S):  # odd parts: comments
+        if part.startswith(("/*", "//")):
+            out.append(part)
+        else:
+            out.append(_C_DOUBLE_LITERAL.sub(r"\1f", _C_MATH_CALL.sub(r"\1f\2", part)))
+    return "".join(out)
+
+
 def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
     """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
     funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
@@ -124,6 +148,8 @@ def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any
         hdr = (Path(tmp) / f"{name}_model.h").read_text()
     # CasADi's runtime helpers (casadi_fmin, casadi_sq, ...) are emitted non-static: make them file-local
     src = _HELPER_DEF.sub(r"static \1 \2(", src)
+    if real == "float":
+        src = float_math(src)
     for text in (src, hdr):
         if tmp in text or "/tmp" in text:
             raise AssertionError("CasADi wrote a path into the model code")
