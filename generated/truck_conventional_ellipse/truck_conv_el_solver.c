@@ -28,6 +28,7 @@
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
 #define OPP_DIM 18 /* N_OPP_ALL, at least 1 */
 #define N_SLACK 160
+#define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
 #define CASADI_SZ_ARG 3
 #define CASADI_SZ_RES 3
@@ -326,6 +327,12 @@ static const index_t A_SRC[2525] = {
   2500, 2501, 2495, 2502, 2503, 2504, 2505, 2496, 2506, 2507, 2508, 2509,
   2497, 2510, 2511, 2512, 2498, 2513, 2514, 2515, 2516, 2517, 2518, 2519,
   2520, 2521, 2522, 2523, 2524
+};
+static const index_t A_CYCLES[42] = {
+  38, 101, 164, 227, 290, 353, 416, 479, 542, 605, 668, 731,
+  794, 857, 920, 983, 1046, 1109, 1172, 1235, 1298, 1361, 1424, 1487,
+  1550, 1613, 1676, 1739, 1802, 1865, 1928, 1991, 2054, 2117, 2180, 2243,
+  2306, 2369, 2432, 2495, 2496, 2497
 };
 static const index_t VAR_SHIFT[445] = {
   7, 8, 9, 10, 11, 12, 13, 18, 19, 20, 21, 22,
@@ -1326,17 +1333,14 @@ typedef struct {
   truck_conv_el_real_t w[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t y[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t s0_guess;
-  truck_conv_el_real_t w_tmp[TRUCK_CONV_EL_QP_N];
-  truck_conv_el_real_t y_tmp[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t p[TRUCK_CONV_EL_N + 1][TRUCK_CONV_EL_NP];
+  truck_conv_el_real_t p[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t p_fb[TRUCK_CONV_EL_NP];
-  truck_conv_el_real_t g[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t jac[TRUCK_CONV_EL_NNZ_J];
+  truck_conv_el_real_t g_init[TRUCK_CONV_EL_NX];
+  truck_conv_el_real_t jac[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t q[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t q_fb[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t l[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t A_x[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t xa[TRUCK_CONV_EL_NX];
   truck_conv_el_real_t xb[TRUCK_CONV_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
@@ -1378,6 +1382,29 @@ static void copy(const truck_conv_el_real_t *src, truck_conv_el_real_t *dst, int
   for (i = 0; i < n; ++i) dst[i] = src[i];
 }
 
+/* v[i] = v[src[i]], i ascending: in place, as src[i] >= i (checked by the generator) */
+static void shift(const index_t *src, truck_conv_el_real_t *v, int n) {
+  int i;
+  for (i = 0; i < n; ++i) v[i] = v[src[i]];
+}
+
+/* The stacked stage Jacobian (stage order) -> A's nonzeros (CSC order), in place: v[i] = v[A_SRC[i]] along each
+ * cycle of the permutation A_SRC (A_CYCLES: one start per cycle). */
+static void jac_to_csc(truck_conv_el_real_t *v) {
+  int c;
+  index_t i, j;
+  truck_conv_el_real_t first;
+  for (c = 0; c < N_A_CYCLES; ++c) {
+    i = A_CYCLES[c];
+    first = v[i];
+    for (j = A_SRC[i]; j != A_CYCLES[c]; j = A_SRC[j]) {
+      v[i] = v[j];
+      i = j;
+    }
+    v[i] = first;
+  }
+}
+
 static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
                   casadi_real *r0, casadi_real *r1, casadi_real *r2) {
   ws.arg[0] = a0;
@@ -1389,14 +1416,20 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
   (void)f(ws.arg, ws.res, ws.iw, ws.cw, 0); /* SX functions cannot fail */
 }
 
-/* The local road window around s (RoadWindowParams.pack with i0 = floor((s - s0) / ds) - 1). */
-static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+/* First sample of the local road window around s (RoadWindowParams.pack: i0 = floor((s - s0) / ds) - 1), or -1
+ * if the road does not cover it. */
+static int window_start(truck_conv_el_real_t s) {
   truck_conv_el_real_t t;
-  int i, i0;
-  if (!ws.road_set || !isfinite(s)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
+  if (!ws.road_set || !isfinite(s)) return -1;
   t = floor((s - ws.road_s0) / ws.road_ds);
-  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
-  i0 = (int)t - 1;
+  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return -1;
+  return (int)t - 1;
+}
+
+/* The local road window around s. */
+static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+  int i, i0 = window_start(s);
+  if (i0 < 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   p[P_ROAD_S0] = ws.road_s0 + (truck_conv_el_real_t)i0 * ws.road_ds;
   p[P_ROAD_DS] = ws.road_ds;
   for (i = 0; i < TRUCK_CONV_EL_ROAD_WINDOW; ++i) {
@@ -1432,11 +1465,11 @@ static int initial_guess(void) {
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
     copy(x, ws.w + STAGES[k].var, TRUCK_CONV_EL_NX);
-    rc = stage_params(ws.p[k], k, x[0]);
+    rc = stage_params(ws.p, k, x[0]);
     if (rc) return rc;
-    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p[k], NULL, ws.w + STAGES[k].theta, NULL, NULL);
+    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p, NULL, ws.w + STAGES[k].theta, NULL, NULL);
     if (STAGES[k].next >= 0) {
-      call3(truck_conv_el_dynamics, x, NULL, ws.p[k], xn, NULL, NULL); /* u = 0 */
+      call3(truck_conv_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
       tmp = x;
       x = xn;
       xn = tmp;
@@ -1496,6 +1529,7 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
 int truck_conv_el_prepare(void) {
   const double t0 = now();
   int i, k, rc;
+  truck_conv_el_real_t g;
   const stage_t *st;
   ws.prepared = 0;
   ws.status.exit_code = TRUCK_CONV_EL_OK;
@@ -1511,31 +1545,33 @@ int truck_conv_el_prepare(void) {
     ws.have_guess = 1;
     ws.cold = 1;
   } else {
+    /* the shifted guess's road windows, checked before anything changes (the guess is shifted in place) */
+    for (k = 0; k <= TRUCK_CONV_EL_N; ++k)
+      if (window_start(ws.w[VAR_SHIFT[STAGES[k].s]]) < 0) return fail(TRUCK_CONV_EL_ERR_ROAD_WINDOW);
     ws.cold = 0;
-    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
-    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
-    copy(ws.w_tmp, ws.w, TRUCK_CONV_EL_QP_N);
-    copy(ws.y_tmp, ws.y, TRUCK_CONV_EL_QP_M);
+    shift(VAR_SHIFT, ws.w, TRUCK_CONV_EL_QP_N);
+    shift(ROW_SHIFT, ws.y, TRUCK_CONV_EL_QP_M);
   }
   ws.s0_guess = ws.w[STAGES[0].s];
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    rc = stage_params(ws.p[k], k, ws.w[STAGES[k].s]);
-    if (rc) return fail(rc);
-  }
+  /* stage k: its parameters, then its function (constraint values g into u, Jacobian, cost gradient) */
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
     st = &STAGES[k];
-    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p[k],
-          ws.g + st->row, ws.jac + st->jac, ws.q + st->var);
+    rc = stage_params(ws.p, k, ws.w[st->s]);
+    if (rc) return fail(rc); /* not reached: every window was checked */
+    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p,
+          ws.u + st->row, ws.jac + st->jac, ws.q + st->var);
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_NNZ_A; ++i) ws.A_x[i] = ws.jac[A_SRC[i]];
+  jac_to_csc(ws.jac);
+  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) ws.g_init[i] = ws.u[INIT_ROWS[i]];
   for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    ws.l[i] = L[i] - ws.g[i];
-    ws.u[i] = U[i] - ws.g[i];
+    g = ws.u[i];
+    ws.l[i] = L[i] - g;
+    ws.u[i] = U[i] - g;
     if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
     if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
   ws.q_cur = ws.q;
-  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) return fail(TRUCK_CONV_EL_ERR_QP);
+  if (qpb_set_matrices(P_DIAG, ws.jac, ws.q)) return fail(TRUCK_CONV_EL_ERR_QP);
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_CONV_EL_OK;
@@ -1552,7 +1588,7 @@ int truck_conv_el_feedback(void) {
   if (rc) return fail(rc);
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, ws.xa, NULL, NULL);
   for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
-    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g[INIT_ROWS[i]];
+    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g_init[i];
     ws.u[INIT_ROWS[i]] = ws.l[INIT_ROWS[i]];
   }
   ds0 = ws.x0[0] - ws.s0_guess;
@@ -1619,7 +1655,7 @@ void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_re
   if (q) *q = ws.q_cur ? ws.q_cur : ws.q;
   if (l) *l = ws.l;
   if (u) *u = ws.u;
-  if (A_x) *A_x = ws.A_x;
+  if (A_x) *A_x = ws.jac;
   if (P_x) *P_x = P_DIAG;
   if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
   if (y) *y = ws.y;

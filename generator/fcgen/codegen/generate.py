@@ -212,6 +212,34 @@ def far_opponent_row(ocp: Ocp) -> np.ndarray:
     return np.array([-1000.0, 500.0, 0.0])
 
 
+def in_place_shift(shift: np.ndarray, what: str) -> np.ndarray:
+    """A shift table ``v[i] = v[shift[i]]`` that can run in place, ascending (``shift[i] >= i``); checked."""
+    shift = np.asarray(shift, dtype=np.int64)
+    if np.any(shift < np.arange(len(shift))):
+        raise AssertionError(f"{what}: shift[i] < i, the shift cannot run in place")
+    return shift
+
+
+def permutation_cycles(src: np.ndarray) -> np.ndarray:
+    """One start index per non-trivial cycle of the permutation ``i -> src[i]`` (to apply ``v[i] = v[src[i]]`` in
+    place: follow each cycle from its start, one saved value per cycle)."""
+    src = np.asarray(src, dtype=np.int64)
+    if sorted(src.tolist()) != list(range(len(src))):
+        raise AssertionError("A_SRC is no permutation of the stacked Jacobian: A_x cannot share its memory")
+    seen = np.zeros(len(src), dtype=bool)
+    starts = []
+    for i0 in range(len(src)):
+        if seen[i0] or src[i0] == i0:
+            seen[i0] = True
+            continue
+        starts.append(i0)
+        i = i0
+        while not seen[i]:
+            seen[i] = True
+            i = int(src[i])
+    return np.array(starts, dtype=np.int64)
+
+
 # --- sizes -------------------------------------------------------------------------------------------------------
 
 def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
@@ -239,11 +267,10 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("NAME_real_t", "road_gx", [road], R), ("NAME_real_t", "road_gy", [road], R),
         ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
         ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
-        ("NAME_real_t", "w_tmp", [n], R), ("NAME_real_t", "y_tmp", [m], R),
-        ("NAME_real_t", "p", [M("N", 1), M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
-        ("NAME_real_t", "g", [m], R), ("NAME_real_t", "jac", [M("NNZ_J")], R),
+        ("NAME_real_t", "p", [M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
+        ("NAME_real_t", "g_init", [M("NX")], R), ("NAME_real_t", "jac", [nnz], R),
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
-        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R), ("NAME_real_t", "A_x", [nnz], R),
+        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R),
         ("NAME_real_t", "xa", [M("NX")], R), ("NAME_real_t", "xb", [M("NX")], R),
         ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
@@ -307,7 +334,12 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
              "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
     slacks = slack_vars(ocp, lay)
     n_opp_all = max(1, n_opp * n_opp_par)
-    index_tables = {"A_SRC": lay.a_src, "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
+    if sizes["NNZ_J"] != sizes["QP_NNZ_A"]:
+        raise AssertionError("stacked Jacobian and A differ in size: A_x cannot share the Jacobian's memory")
+    a_cycles = permutation_cycles(lay.a_src)
+    index_tables = {"A_SRC": lay.a_src, "A_CYCLES": a_cycles,
+                    "VAR_SHIFT": in_place_shift(lay.var_shift, "VAR_SHIFT"),
+                    "ROW_SHIFT": in_place_shift(lay.row_shift, "ROW_SHIFT"),
                     "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks}
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
@@ -336,7 +368,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "index_ctype": index_ctype, "opp_dim": n_opp_all,
+        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},
