@@ -322,15 +322,17 @@ def test_float_math_rewrites_literals_and_calls_only() -> None:
 
 
 def test_float_model_is_single_precision(tmp_path: Path) -> None:
-    """--float: CasADi's model code calls the float math functions and compiles with -Wdouble-promotion -Werror."""
+    """--float: CasADi's model code calls the float math functions; model and solver compile with
+    -Wdouble-promotion -Werror (no float -> double promotion: single-precision arithmetic throughout)."""
     info = generate(paper_problem("car", "lifted", "circles", name="car_fm"), tmp_path / "f", use_float=True)
     src = (info.out_dir / "car_fm_model.c").read_text()
     assert re.search(r"\b(sin|cos|tan|sqrt|fabs|fmin|fmax|floor)\(", src) is None
     assert "sinf(" in src and "cosf(" in src
-    res = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-Wdouble-promotion", "-Wno-unused-parameter",
-                          "-c", str(info.out_dir / "car_fm_model.c"), "-o", str(tmp_path / "m.o")],
-                         capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr[-3000:]
+    objs = [f"build/sp/obj/car_fm_{part}.o" for part in ("model", "solver")]
+    res = subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/sp",
+                          "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", *objs], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    assert all((info.out_dir / o).is_file() for o in objs)
 
 
 def test_build_restores_osqp_library(tmp_path: Path) -> None:

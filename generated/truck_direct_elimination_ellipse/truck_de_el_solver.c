@@ -11,7 +11,8 @@
 #include "truck_de_el_solver.h"
 #include "truck_de_el_model.h"
 
-#define QP_INF 1e+30 /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define QP_INF ((truck_de_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define FLOOR floor /* floor of double */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -1421,7 +1422,7 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
 static int window_start(truck_de_el_real_t s) {
   truck_de_el_real_t t;
   if (!ws.road_set || !isfinite(s)) return -1;
-  t = floor((s - ws.road_s0) / ws.road_ds);
+  t = FLOOR((s - ws.road_s0) / ws.road_ds);
   if (!(t >= 1) || t > ((truck_de_el_real_t)ws.road_n - TRUCK_DE_EL_ROAD_WINDOW + 1)) return -1;
   return (int)t - 1;
 }
@@ -1506,7 +1507,7 @@ int truck_de_el_set_road(truck_de_el_real_t s0, truck_de_el_real_t ds, int n, co
   if (!isfinite(s0) || !isfinite(ds) || !all_finite(kappa, n) || !all_finite(phi_gamma, n) ||
       !all_finite(gamma_x, n) || !all_finite(gamma_y, n))
     return fail(TRUCK_DE_EL_ERR_NONFINITE_ROAD);
-  if (!(ds > 0.0)) return fail(TRUCK_DE_EL_ERR_ROAD_SIZE);
+  if (!(ds > (truck_de_el_real_t)0.0)) return fail(TRUCK_DE_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;

@@ -11,7 +11,8 @@
 #include "truck_lift_el_solver.h"
 #include "truck_lift_el_model.h"
 
-#define QP_INF 1e+30 /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define QP_INF ((truck_lift_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define FLOOR floor /* floor of double */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -1658,7 +1659,7 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
 static int window_start(truck_lift_el_real_t s) {
   truck_lift_el_real_t t;
   if (!ws.road_set || !isfinite(s)) return -1;
-  t = floor((s - ws.road_s0) / ws.road_ds);
+  t = FLOOR((s - ws.road_s0) / ws.road_ds);
   if (!(t >= 1) || t > ((truck_lift_el_real_t)ws.road_n - TRUCK_LIFT_EL_ROAD_WINDOW + 1)) return -1;
   return (int)t - 1;
 }
@@ -1743,7 +1744,7 @@ int truck_lift_el_set_road(truck_lift_el_real_t s0, truck_lift_el_real_t ds, int
   if (!isfinite(s0) || !isfinite(ds) || !all_finite(kappa, n) || !all_finite(phi_gamma, n) ||
       !all_finite(gamma_x, n) || !all_finite(gamma_y, n))
     return fail(TRUCK_LIFT_EL_ERR_NONFINITE_ROAD);
-  if (!(ds > 0.0)) return fail(TRUCK_LIFT_EL_ERR_ROAD_SIZE);
+  if (!(ds > (truck_lift_el_real_t)0.0)) return fail(TRUCK_LIFT_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;

@@ -368,7 +368,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
+        "c_floor": "floorf" if use_float else "floor", "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},
