@@ -191,7 +191,7 @@ def test_deterministic_and_restorable(qp: dict, tmp_path: Path) -> None:
     _export(qp, b)
     ha, hb = _hashes(a), _hashes(b)
     assert ha == hb
-    ws = {f"osqp/{PREFIX}workspace.c", f"osqp/{PREFIX}workspace.h"}
+    ws = {f"osqp/{PREFIX}workspace.c", f"osqp/{PREFIX}workspace.h", f"osqp/{PREFIX}osqp_rename.h"}
     assert set(exp.workspace_sources + exp.workspace_headers) == ws
     assert set(ha) == ws | set(exp.library_sources + exp.library_headers)
     assert all(f.startswith("osqp/lib/") for f in exp.library_sources + exp.library_headers)
@@ -211,6 +211,7 @@ def test_deterministic_and_restorable(qp: dict, tmp_path: Path) -> None:
     assert diff == {"osqp/lib/osqp_configure.h"}
     assert "#define OSQP_USE_FLOAT" in (b / "osqp/lib/osqp_configure.h").read_text()
     assert "#define OSQP_EMBEDDED_MODE 2" in (b / "osqp/lib/osqp_configure.h").read_text()
+    assert f'#include "{PREFIX}osqp_rename.h"' in (b / "osqp/lib/osqp_configure.h").read_text()
 
 
 def _c_ints(text: str, name: str) -> np.ndarray:
@@ -250,6 +251,10 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
         undefined = set(subprocess.run(["nm", "-u", str(obj)], check=True, capture_output=True,
                                        text=True).stdout.split()) - {"U"}
         assert not (undefined & forbidden), (obj.name, undefined & forbidden)
+        defined = subprocess.run(["nm", "-g", "--defined-only", str(obj)], check=True, capture_output=True,
+                                 text=True).stdout.split("\n")
+        names = [f[2] for f in (line.split() for line in defined) if len(f) == 3]
+        assert [n for n in names if not n.startswith(PREFIX)] == [], obj.name  # OSQP's symbols carry the prefix
 
 
 def test_float_build(qp: dict, tmp_path: Path) -> None:

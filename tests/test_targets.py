@@ -126,13 +126,14 @@ def test_cmake_toolchain_file_cross_build(gen_double, tmp_path) -> None:
 
 # ----------------------------------------------------------------------------- closed loop under QEMU
 
-def _close(log_t, log_h, atol_state: float) -> None:
+def _close(log_t, log_h, atol_state: float, same_qp: bool = True) -> None:
     d = compare(log_t, log_h)
     print("target vs host, max abs differences:", {k: v for k, v in d.items() if not k.startswith("time")})
     assert log_t.n_controls == SAMPLES
     assert d["ego_frenet"] <= atol_state and d["ego_cartesian"] <= atol_state
-    assert np.array_equal(log_t.qp_iter, log_h.qp_iter) and np.array_equal(log_t.qp_status, log_h.qp_status)
-    assert np.array_equal(log_t.collision, log_h.collision)
+    if same_qp:
+        assert np.array_equal(log_t.qp_iter, log_h.qp_iter) and np.array_equal(log_t.qp_status, log_h.qp_status)
+    assert np.array_equal(log_t.collision, log_h.collision) and not log_t.collision.any()
     assert log_t.meta["extra"]["exit_codes_nonzero"] == 0
 
 
@@ -156,7 +157,11 @@ def test_closed_loop_float_on_m4f_matches_host(gen_float, tmp_path) -> None:
     d = gen_float.out_dir
     log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m4f.json", target="cortex-m4f", timeout=300)
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
-    _close(log_t, log_h, 1e-3)
+    # single precision: newlib's and glibc's sinf/cosf/... differ in the last bit, the cold-started first QP then
+    # stops at another termination check (160 vs 280 iterations on seed 3) and the runs drift apart by centimetres
+    _close(log_t, log_h, 0.1, same_qp=False)
+    assert np.array_equal(log_t.ego_frenet[0], log_h.ego_frenet[0])
+    np.testing.assert_allclose(log_t.ego_frenet[-1, 0], log_h.ego_frenet[-1, 0], rtol=0, atol=0.1)  # progress
 
 
 @needs_toolchain
@@ -207,7 +212,7 @@ def test_footprint_matches_size_tool(gen_double) -> None:
     assert abs(solver["bss"] - gen_double.solver_workspace_bytes) < 256
     st = res["stack"]
     assert st["worst_chain"][0] == st["worst_entry"] and st["worst_bytes"] > 0
-    assert set(st["indirect_targets"]["osqp"]) >= {"solve_linsys_qdldl"}
+    assert any(f.endswith("solve_linsys_qdldl") for f in st["indirect_targets"]["osqp"])
     assert "truck_lift_el_stage_middle" in st["indirect_targets"]["solver"]
     # the chain's sum equals its frames from GCC's .su files (independent of the call-graph parse)
     frames = {}
@@ -231,3 +236,47 @@ def test_section_sizes_host_object(tmp_path) -> None:
     text, data, bss = (int(x) for x in subprocess.run(["size", "-B", str(tmp_path / "x.o")], capture_output=True,
                                                       text=True, check=True).stdout.splitlines()[1].split()[:3])
     assert (data, bss) == (s["data"], s["bss"]) and text >= s["text"] + s["rodata"]
+
+
+# ----------------------------------------------------------------------------- two solvers in one firmware image
+
+TWO_SOLVERS_C = Path(__file__).parent / "c" / "two_solvers.c"
+
+
+@needs_toolchain
+def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
+    """A double and a float solver (prefixed OSQP each) linked into one Cortex-M7 image run under QEMU: each computes
+    there exactly what it computes in an image of its own."""
+    from fcgen.presets import paper_problem
+    from fcgen.sim.export import harness_source_dir
+
+    other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car", use_float=True)
+    tgt = get_target("cortex-m7")
+    libs = {}
+    for g in (gen_double, other):
+        lib = build(g.out_dir, target=tgt.name)
+        libs[g.name] = [str(lib), str(lib.parent / f"lib{g.name}_osqp.a")]
+        nm = subprocess.run(["arm-none-eabi-nm", "-g", "--defined-only", *libs[g.name]], capture_output=True,
+                            text=True, check=True).stdout
+        syms = [f[2] for f in (ln.split() for ln in nm.splitlines()) if len(f) == 3]
+        assert syms and all(s.startswith(f"{g.name}_") for s in syms)
+    ld = tmp_path / "m7.ld"
+    ld.write_text(tgt.linker_script())
+    fw = harness_source_dir()
+    runs = {}
+    for tag, solvers in (("both", {"A": gen_double, "B": other}), ("a", {"A": gen_double}), ("b", {"B": other})):
+        defs = [d for ab, g in solvers.items() for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")]
+        image = tmp_path / f"two_{tag}.elf"
+        subprocess.run([tgt.cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", *tgt.cpu_flags, *defs,
+                        f"-DFS_SYSTICK_HZ={tgt.systick_hz}", f"-I{fw}", *(f"-I{g.out_dir}" for g in solvers.values()),
+                        str(TWO_SOLVERS_C), str(fw / "fs_baremetal.c"),
+                        *(x for g in solvers.values() for x in libs[g.name]), "-lm", "-T", str(ld), *tgt.link_flags,
+                        "-o", str(image)], check=True, capture_output=True, text=True)
+        res = subprocess.run(tgt.qemu_command(image, [], icount=False), capture_output=True, text=True, timeout=120,
+                             cwd=tmp_path)
+        assert res.returncode == 0, res.stdout + res.stderr
+        runs[tag] = res.stdout.splitlines()
+    assert runs["both"] == runs["a"] + runs["b"] and len(runs["both"]) == 6
+    assert {ln.split()[0] for ln in runs["both"]} == {gen_double.name, other.name}
+    assert all(ln.split()[2] == "0" for ln in runs["both"])
+    assert len({ln.split()[3] for ln in runs["a"]}) == 3  # the solver ran: the samples differ

@@ -10,12 +10,9 @@
 
 #include "truck_conv_el_solver.h"
 #include "truck_conv_el_model.h"
-#include "osqp.h"
-#include "truck_conv_el_workspace.h"
 
-#define SOLVER (&truck_conv_el_solver)
-#define OSQP_INF 1e+30
-#define RHO0 0.2
+#define QP_INF ((truck_conv_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define FLOOR floor /* floor of double */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -32,14 +29,14 @@
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
 #define OPP_DIM 18 /* N_OPP_ALL, at least 1 */
 #define N_SLACK 160
+#define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
 #define CASADI_SZ_ARG 3
 #define CASADI_SZ_RES 3
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
 
-/* compile-time checks: one real type for the API, CasADi and OSQP */
-typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there) */
 typedef char truck_conv_el_check_casadi_real[(sizeof(truck_conv_el_real_t) == sizeof(casadi_real)) ? 1 : -1];
 typedef char check_truck_conv_el_stage_first[(truck_conv_el_stage_first_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_first_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_first_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_first_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_stage_middle[(truck_conv_el_stage_middle_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_middle_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_middle_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_middle_SZ_W <= CASADI_SZ_W) ? 1 : -1];
@@ -331,6 +328,12 @@ static const index_t A_SRC[2525] = {
   2500, 2501, 2495, 2502, 2503, 2504, 2505, 2496, 2506, 2507, 2508, 2509,
   2497, 2510, 2511, 2512, 2498, 2513, 2514, 2515, 2516, 2517, 2518, 2519,
   2520, 2521, 2522, 2523, 2524
+};
+static const index_t A_CYCLES[42] = {
+  38, 101, 164, 227, 290, 353, 416, 479, 542, 605, 668, 731,
+  794, 857, 920, 983, 1046, 1109, 1172, 1235, 1298, 1361, 1424, 1487,
+  1550, 1613, 1676, 1739, 1802, 1865, 1928, 1991, 2054, 2117, 2180, 2243,
+  2306, 2369, 2432, 2495, 2496, 2497
 };
 static const index_t VAR_SHIFT[445] = {
   7, 8, 9, 10, 11, 12, 13, 18, 19, 20, 21, 22,
@@ -971,6 +974,353 @@ static const truck_conv_el_real_t INIT_D[5] = {
 };
 static const truck_conv_el_real_t ZERO_N[TRUCK_CONV_EL_QP_N] = {0};
 
+/* ---- QP backend ------------------------------------------------------------------------------------------------ */
+/* What a backend's qpb_solve produced: generic status (TRUCK_CONV_EL_QP_*), the backend's own status, iterations,
+ * the scaled primal step z (w_new = w + D z) and the row multipliers y (views into the backend's memory). */
+typedef struct {
+  int status;
+  int raw_status;
+  int iter;
+  const truck_conv_el_real_t *z;
+  const truck_conv_el_real_t *y;
+} qpb_result_t;
+
+/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above. */
+/* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_conv_el_solver.c) ------------------------------ */
+#include "osqp.h"
+#include "truck_conv_el_workspace.h"
+
+#define QPB_SOLVER (&truck_conv_el_solver)
+#define QPB_RHO0 0.2
+#define QPB_MAX_ITER 60
+
+typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+
+/* OSQP status_val -> generic QP status (a value OSQP does not define: TRUCK_CONV_EL_QP_OTHER) */
+static const int QPB_STATUS[12] = {
+  [1] = TRUCK_CONV_EL_QP_SOLVED,
+  [2] = TRUCK_CONV_EL_QP_SOLVED_INACCURATE,
+  [3] = TRUCK_CONV_EL_QP_PRIMAL_INFEASIBLE,
+  [4] = TRUCK_CONV_EL_QP_PRIMAL_INFEASIBLE,
+  [5] = TRUCK_CONV_EL_QP_DUAL_INFEASIBLE,
+  [6] = TRUCK_CONV_EL_QP_DUAL_INFEASIBLE,
+  [7] = TRUCK_CONV_EL_QP_MAX_ITER,
+  [8] = TRUCK_CONV_EL_QP_OTHER,
+  [9] = TRUCK_CONV_EL_QP_NONCONVEX,
+  [10] = TRUCK_CONV_EL_QP_OTHER,
+  [11] = TRUCK_CONV_EL_QP_OTHER,
+};
+/* OSQP's exported bounds: l = min(L, 0), u = max(U, 0) */
+static const OSQPFloat QPB_L0[TRUCK_CONV_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  -1.0, -1e+30, 0.0, 0.0, 0.0, -2.0,
+  -1.5707963267948966, 0.0, -1.0, 0.0, 0.0, 0.0,
+  0.0
+};
+static const OSQPFloat QPB_U0[TRUCK_CONV_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 1.0, 1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  1e+30, 1.0, 1e+30, 1e+30, 1e+30, 2.0,
+  1.5707963267948966, 1.5, 1.0, 1e+30, 1e+30, 1e+30,
+  1e+30
+};
+
+/* OSQP's iteration budget (the other settings unchanged) */
+static void qpb_set_max_iter(OSQPInt n) {
+  OSQPSettings s = *QPB_SOLVER->settings;
+  s.max_iter = n;
+  (void)osqp_update_settings(QPB_SOLVER, &s);
+}
+
+/* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
+static void qpb_reset(void) {
+  (void)osqp_update_data_vec(QPB_SOLVER, ZERO_N, QPB_L0, QPB_U0);
+  (void)osqp_update_rho(QPB_SOLVER, QPB_RHO0);
+}
+
+static int qpb_set_matrices(const truck_conv_el_real_t *P_x, const truck_conv_el_real_t *A_x, const truck_conv_el_real_t *q) {
+  (void)q;
+  return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_CONV_EL_QP_N, A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A) != 0;
+}
+
+static int qpb_solve(const truck_conv_el_real_t *q, const truck_conv_el_real_t *l, const truck_conv_el_real_t *u,
+                     const truck_conv_el_real_t *y_warm, int max_iter, qpb_result_t *res) {
+  OSQPInt rc, raw;
+  if (osqp_update_data_vec(QPB_SOLVER, q, l, u)) return 1;
+  (void)osqp_warm_start(QPB_SOLVER, ZERO_N, y_warm);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(max_iter);
+  rc = osqp_solve(QPB_SOLVER);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(QPB_MAX_ITER);
+  raw = QPB_SOLVER->info->status_val;
+  res->raw_status = (int)raw;
+  res->status = (raw > 0 && raw < 12) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
+  res->iter = (int)QPB_SOLVER->info->iter;
+  res->z = QPB_SOLVER->solution->x;
+  res->y = QPB_SOLVER->solution->y;
+  return rc != 0;
+}
+
 /* ---- workspace ------------------------------------------------------------------------------------------------- */
 typedef struct {
   truck_conv_el_real_t x0[5];
@@ -984,17 +1334,14 @@ typedef struct {
   truck_conv_el_real_t w[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t y[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t s0_guess;
-  truck_conv_el_real_t w_tmp[TRUCK_CONV_EL_QP_N];
-  truck_conv_el_real_t y_tmp[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t p[TRUCK_CONV_EL_N + 1][TRUCK_CONV_EL_NP];
+  truck_conv_el_real_t p[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t p_fb[TRUCK_CONV_EL_NP];
-  truck_conv_el_real_t g[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t jac[TRUCK_CONV_EL_NNZ_J];
+  truck_conv_el_real_t g_init[TRUCK_CONV_EL_NX];
+  truck_conv_el_real_t jac[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t q[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t q_fb[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t l[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t A_x[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t xa[TRUCK_CONV_EL_NX];
   truck_conv_el_real_t xb[TRUCK_CONV_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
@@ -1002,6 +1349,7 @@ typedef struct {
   casadi_int iw[CASADI_SZ_IW];
   casadi_real cw[CASADI_SZ_W];
   const truck_conv_el_real_t *q_cur;
+  const truck_conv_el_real_t *qp_z;
   clock_fn_t clock;
   truck_conv_el_status_t status;
   int road_n;
@@ -1017,13 +1365,6 @@ static truck_conv_el_workspace_t truck_conv_el_ws;
 
 /* ---- helpers --------------------------------------------------------------------------------------------------- */
 static double now(void) { return ws.clock ? ws.clock() : 0.0; }
-
-/* OSQP's iteration budget (the other settings unchanged) */
-static void set_max_iter(OSQPInt n) {
-  OSQPSettings s = *SOLVER->settings;
-  s.max_iter = n;
-  (void)osqp_update_settings(SOLVER, &s);
-}
 
 static int fail(int code) {
   ws.status.exit_code = code;
@@ -1042,6 +1383,29 @@ static void copy(const truck_conv_el_real_t *src, truck_conv_el_real_t *dst, int
   for (i = 0; i < n; ++i) dst[i] = src[i];
 }
 
+/* v[i] = v[src[i]], i ascending: in place, as src[i] >= i (checked by the generator) */
+static void shift(const index_t *src, truck_conv_el_real_t *v, int n) {
+  int i;
+  for (i = 0; i < n; ++i) v[i] = v[src[i]];
+}
+
+/* The stacked stage Jacobian (stage order) -> A's nonzeros (CSC order), in place: v[i] = v[A_SRC[i]] along each
+ * cycle of the permutation A_SRC (A_CYCLES: one start per cycle). */
+static void jac_to_csc(truck_conv_el_real_t *v) {
+  int c;
+  index_t i, j;
+  truck_conv_el_real_t first;
+  for (c = 0; c < N_A_CYCLES; ++c) {
+    i = A_CYCLES[c];
+    first = v[i];
+    for (j = A_SRC[i]; j != A_CYCLES[c]; j = A_SRC[j]) {
+      v[i] = v[j];
+      i = j;
+    }
+    v[i] = first;
+  }
+}
+
 static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
                   casadi_real *r0, casadi_real *r1, casadi_real *r2) {
   ws.arg[0] = a0;
@@ -1053,14 +1417,20 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
   (void)f(ws.arg, ws.res, ws.iw, ws.cw, 0); /* SX functions cannot fail */
 }
 
-/* The local road window around s (RoadWindowParams.pack with i0 = floor((s - s0) / ds) - 1). */
-static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+/* First sample of the local road window around s (RoadWindowParams.pack: i0 = floor((s - s0) / ds) - 1), or -1
+ * if the road does not cover it. */
+static int window_start(truck_conv_el_real_t s) {
   truck_conv_el_real_t t;
-  int i, i0;
-  if (!ws.road_set || !isfinite(s)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
-  t = floor((s - ws.road_s0) / ws.road_ds);
-  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
-  i0 = (int)t - 1;
+  if (!ws.road_set || !isfinite(s)) return -1;
+  t = FLOOR((s - ws.road_s0) / ws.road_ds);
+  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return -1;
+  return (int)t - 1;
+}
+
+/* The local road window around s. */
+static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+  int i, i0 = window_start(s);
+  if (i0 < 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   p[P_ROAD_S0] = ws.road_s0 + (truck_conv_el_real_t)i0 * ws.road_ds;
   p[P_ROAD_DS] = ws.road_ds;
   for (i = 0; i < TRUCK_CONV_EL_ROAD_WINDOW; ++i) {
@@ -1096,11 +1466,11 @@ static int initial_guess(void) {
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
     copy(x, ws.w + STAGES[k].var, TRUCK_CONV_EL_NX);
-    rc = stage_params(ws.p[k], k, x[0]);
+    rc = stage_params(ws.p, k, x[0]);
     if (rc) return rc;
-    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p[k], NULL, ws.w + STAGES[k].theta, NULL, NULL);
+    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p, NULL, ws.w + STAGES[k].theta, NULL, NULL);
     if (STAGES[k].next >= 0) {
-      call3(truck_conv_el_dynamics, x, NULL, ws.p[k], xn, NULL, NULL); /* u = 0 */
+      call3(truck_conv_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
       tmp = x;
       x = xn;
       xn = tmp;
@@ -1113,19 +1483,11 @@ static int initial_guess(void) {
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_conv_el_init(void) {
   clock_fn_t clock = ws.clock;
-  int i;
-  OSQPInt rc;
   memset(&ws, 0, sizeof ws);
   ws.clock = clock;
   ws.q_cur = ws.q;
-  /* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    ws.l[i] = L[i] < 0.0 ? L[i] : 0.0;
-    ws.u[i] = U[i] > 0.0 ? U[i] : 0.0;
-  }
-  rc = osqp_update_data_vec(SOLVER, ZERO_N, ws.l, ws.u);
-  rc |= osqp_update_rho(SOLVER, RHO0);
-  return rc ? fail(TRUCK_CONV_EL_ERR_QP) : TRUCK_CONV_EL_OK;
+  qpb_reset();
+  return TRUCK_CONV_EL_OK;
 }
 
 void truck_conv_el_set_clock(double (*clock_seconds)(void)) { ws.clock = clock_seconds; }
@@ -1145,7 +1507,7 @@ int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int
   if (!isfinite(s0) || !isfinite(ds) || !all_finite(kappa, n) || !all_finite(phi_gamma, n) ||
       !all_finite(gamma_x, n) || !all_finite(gamma_y, n))
     return fail(TRUCK_CONV_EL_ERR_NONFINITE_ROAD);
-  if (!(ds > 0.0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
+  if (!(ds > (truck_conv_el_real_t)0.0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;
@@ -1168,10 +1530,12 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
 int truck_conv_el_prepare(void) {
   const double t0 = now();
   int i, k, rc;
+  truck_conv_el_real_t g;
   const stage_t *st;
   ws.prepared = 0;
   ws.status.exit_code = TRUCK_CONV_EL_OK;
   ws.status.qp_status = 0;
+  ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
@@ -1182,32 +1546,33 @@ int truck_conv_el_prepare(void) {
     ws.have_guess = 1;
     ws.cold = 1;
   } else {
+    /* the shifted guess's road windows, checked before anything changes (the guess is shifted in place) */
+    for (k = 0; k <= TRUCK_CONV_EL_N; ++k)
+      if (window_start(ws.w[VAR_SHIFT[STAGES[k].s]]) < 0) return fail(TRUCK_CONV_EL_ERR_ROAD_WINDOW);
     ws.cold = 0;
-    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
-    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
-    copy(ws.w_tmp, ws.w, TRUCK_CONV_EL_QP_N);
-    copy(ws.y_tmp, ws.y, TRUCK_CONV_EL_QP_M);
+    shift(VAR_SHIFT, ws.w, TRUCK_CONV_EL_QP_N);
+    shift(ROW_SHIFT, ws.y, TRUCK_CONV_EL_QP_M);
   }
   ws.s0_guess = ws.w[STAGES[0].s];
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    rc = stage_params(ws.p[k], k, ws.w[STAGES[k].s]);
-    if (rc) return fail(rc);
-  }
+  /* stage k: its parameters, then its function (constraint values g into u, Jacobian, cost gradient) */
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
     st = &STAGES[k];
-    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p[k],
-          ws.g + st->row, ws.jac + st->jac, ws.q + st->var);
+    rc = stage_params(ws.p, k, ws.w[st->s]);
+    if (rc) return fail(rc); /* not reached: every window was checked */
+    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p,
+          ws.u + st->row, ws.jac + st->jac, ws.q + st->var);
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_NNZ_A; ++i) ws.A_x[i] = ws.jac[A_SRC[i]];
+  jac_to_csc(ws.jac);
+  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) ws.g_init[i] = ws.u[INIT_ROWS[i]];
   for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    ws.l[i] = L[i] - ws.g[i];
-    ws.u[i] = U[i] - ws.g[i];
-    if (ws.l[i] < -OSQP_INF) ws.l[i] = -OSQP_INF; /* as the osqp Python interface clips */
-    if (ws.u[i] > OSQP_INF) ws.u[i] = OSQP_INF;
+    g = ws.u[i];
+    ws.l[i] = L[i] - g;
+    ws.u[i] = U[i] - g;
+    if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
+    if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
   ws.q_cur = ws.q;
-  if (osqp_update_data_mat(SOLVER, P_DIAG, OSQP_NULL, TRUCK_CONV_EL_QP_N, ws.A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A))
-    return fail(TRUCK_CONV_EL_ERR_QP);
+  if (qpb_set_matrices(P_DIAG, ws.jac, ws.q)) return fail(TRUCK_CONV_EL_ERR_QP);
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_CONV_EL_OK;
@@ -1217,34 +1582,31 @@ int truck_conv_el_feedback(void) {
   const double t0 = now();
   int i, rc;
   truck_conv_el_real_t ds0;
-  const OSQPFloat *z;
+  qpb_result_t res = {0, 0, 0, NULL, NULL};
   if (!ws.prepared) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
   if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
   if (rc) return fail(rc);
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, ws.xa, NULL, NULL);
   for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
-    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g[INIT_ROWS[i]];
+    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g_init[i];
     ws.u[INIT_ROWS[i]] = ws.l[INIT_ROWS[i]];
   }
   ds0 = ws.x0[0] - ws.s0_guess;
   for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
   ws.q_cur = ws.q_fb;
-  if (osqp_update_data_vec(SOLVER, ws.q_fb, ws.l, ws.u)) return fail(TRUCK_CONV_EL_ERR_QP);
-  (void)osqp_warm_start(SOLVER, ZERO_N, ws.y);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER_COLD);
-  rc = (int)osqp_solve(SOLVER);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER);
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
   ws.prepared = 0;
-  ws.status.qp_status = (int)SOLVER->info->status_val;
-  ws.status.qp_iter = (int)SOLVER->info->iter;
-  z = SOLVER->solution->x;
-  if (rc || !all_finite(z, TRUCK_CONV_EL_QP_N)) {
+  ws.status.qp_status = res.status;
+  ws.status.qp_raw_status = res.raw_status;
+  ws.status.qp_iter = res.iter;
+  if (res.z) ws.qp_z = res.z;
+  if (rc || !res.z || !all_finite(res.z, TRUCK_CONV_EL_QP_N)) {
     ws.status.time_feedback = now() - t0;
     return fail(TRUCK_CONV_EL_ERR_QP);
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * z[i];
-  copy(SOLVER->solution->y, ws.y, TRUCK_CONV_EL_QP_M);
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * res.z[i];
+  copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
   ws.status.exit_code = TRUCK_CONV_EL_OK;
   ws.status.time_feedback = now() - t0;
   return TRUCK_CONV_EL_OK;
@@ -1294,8 +1656,8 @@ void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_re
   if (q) *q = ws.q_cur ? ws.q_cur : ws.q;
   if (l) *l = ws.l;
   if (u) *u = ws.u;
-  if (A_x) *A_x = ws.A_x;
+  if (A_x) *A_x = ws.jac;
   if (P_x) *P_x = P_DIAG;
-  if (z) *z = SOLVER->solution->x;
+  if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
   if (y) *y = ws.y;
 }

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .backends import BACKENDS, backend_module
 from .codegen.generate import EXIT_CODES
-from .codegen.osqp_export import restore_osqp_library
 from .reference import Status
 from .road import Road
 from .sim.closedloop import StepResult
@@ -72,7 +72,7 @@ def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host", v
 
 def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
           jobs: int | None = None, target: str = "host", extra_cflags: str = "", variant: str | None = None) -> Path:
-    """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the main product.
+    """Run ``make`` in a generated folder (restoring the QP backend's library if missing); returns the main product.
 
     Host: everything, returns the shared library. A bare-metal target (``fcgen.targets``): the two static libraries
     alone, cross-compiled with the target's compiler and CPU flags into ``build/<target>``; returns ``lib<name>.a``.
@@ -88,8 +88,8 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     use_float = solver_uses_float(gen_dir)
     tgt.check_precision(use_float)
     tgt.check_tools()
-    if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
-        restore_osqp_library(gen_dir, use_float)
+    for b in BACKENDS:  # each restores its git-ignored library only in a folder that uses it
+        backend_module(b).restore_library(gen_dir, use_float)
     out = build_dir(gen_dir, verify, target, variant).relative_to(gen_dir).as_posix()
     if tgt.bare_metal:
         cc = cc or tgt.cc
@@ -212,14 +212,14 @@ class CSolver:
 
     def status(self) -> Status:
         class _St(ctypes.Structure):
-            _fields_ = [("exit_code", ctypes.c_int), ("qp_status", ctypes.c_int), ("qp_iter", ctypes.c_int),
-                        ("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
+            _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter")] + \
+                [("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
         st = _St()
         self._f("get_status")(ctypes.byref(st))
-        return Status(st.exit_code, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback)
+        return Status(**{f: getattr(st, f) for f, _ in _St._fields_})
 
     def get_qp(self) -> dict[str, np.ndarray]:
-        """Copies of the QP data: q, l, u, A_x, P_x, z (OSQP's primal solution), y (dual guess)."""
+        """Copies of the QP data: q, l, u, A_x, P_x, z (the backend's primal solution), y (dual guess)."""
         ptrs = [ctypes.POINTER(self._real)() for _ in range(7)]
         self._f("get_qp")(*[ctypes.byref(p) for p in ptrs])
         lens = (self.n, self.m, self.m, self.nnz_A, self.n, self.n, self.m)

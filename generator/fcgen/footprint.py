@@ -151,8 +151,10 @@ def address_taken(readelf: str, obj: Path) -> set[str]:
 
 # ----------------------------------------------------------------------------- the command
 
-API_FUNCTIONS = ("init", "set_clock", "set_state", "set_road", "set_opponents", "prepare", "feedback", "get_u0",
-                 "get_states", "get_controls", "max_slack", "get_status", "reset", "has_guess", "get_qp")
+def api_functions(header: Path, name: str) -> list[str]:
+    """The functions ``<name>_solver.h`` declares (without the prefix), in their order."""
+    found = re.findall(rf"^[A-Za-z_][\w ]*?\*?\b{name}_(\w+)\(", Path(header).read_text(), re.M)
+    return list(dict.fromkeys(found))
 
 
 def footprint(gen_dir: Path | str, target: str = "cortex-m7") -> dict:
@@ -181,7 +183,7 @@ def footprint(gen_dir: Path | str, target: str = "cortex-m7") -> dict:
     total = {k: sum(r[k] for r in per_object) for k in (*KEYS, "flash", "ram")}
     stack = {}
     unknown: set[str] = set()
-    for fn in API_FUNCTIONS:
+    for fn in api_functions(gen_dir / f"{name}_solver.h", name):
         d, chain, unk = graph.worst(f"{name}_{fn}")
         unknown |= unk
         stack[fn] = {"bytes": d, "chain": chain, "bytes_direct": graph.worst(f"{name}_{fn}", indirect=False)[0]}
