@@ -280,3 +280,21 @@ def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
     assert {ln.split()[0] for ln in runs["both"]} == {gen_double.name, other.name}
     assert all(ln.split()[2] == "0" for ln in runs["both"])
     assert len({ln.split()[3] for ln in runs["a"]}) == 3  # the solver ran: the samples differ
+
+
+@needs_toolchain
+def test_footprint_cli_json_and_readme(gen_double, tmp_path) -> None:
+    import json
+
+    folder = tmp_path / "copy"
+    shutil.copytree(gen_double.out_dir, folder, ignore=shutil.ignore_patterns("build"))
+    out = tmp_path / "fp.json"
+    res = CliRunner().invoke(main, ["footprint", str(folder), "--target", "cortex-m7", "--out", str(out), "--readme"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    t = data["total"]
+    assert re.search(rf"^total +{t['text']} +{t['rodata']} +{t['data']} +{t['bss']} +{t['flash']} +{t['ram']}$",
+                     res.output, re.M)
+    readme = (folder / "README.md").read_text()
+    assert f"flash {t['flash']} bytes" in readme and f"RAM {t['ram']} bytes" in readme
+    assert f"worst stack {data['stack']['worst_bytes']:.0f} bytes" in readme and "Not measured yet" not in readme

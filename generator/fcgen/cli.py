@@ -10,7 +10,7 @@ import click
 
 from .dsl import ProblemError
 from .presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem, preset_names
-from .targets import TARGETS
+from .targets import TARGETS, get_target
 
 _TARGET = click.option("--target", type=click.Choice(tuple(TARGETS)), default="host", show_default=True,
                        help="compilation target (fcgen.targets): host or an emulated Cortex-M")
@@ -221,7 +221,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     from .build import BuildError
     from .sim.export import HarnessError
 
-    if target != "host":
+    if get_target(target).bare_metal:
         ctx = click.get_current_context()
         n_seeds = seeds if ctx.get_parameter_source("seeds").name != "DEFAULT" else 1
         try:
@@ -273,6 +273,8 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
         _fail(str(exc))
     click.echo(f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | "
                f"{_fmt_summary(summary(log))}")
+    if get_target(target).qemu_machine:
+        click.echo(f"(solver times on {target}: QEMU's virtual clock under -icount shift=0, 1 ns per instruction)")
     click.echo(f"run log written to {out}")
     if host is not None:
         d = {k: v for k, v in compare(log, host).items() if not k.startswith("time")}
