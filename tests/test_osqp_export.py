@@ -261,7 +261,7 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
     kinds = {f[2]: f[1] for f in (line.split() for line in subprocess.run(
         ["nm", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines()) if len(f) == 3}
     assert {kinds[PREFIX + a] for a in CONST_ARRAYS} == {"R"}
-    assert kinds[f"{PREFIX}linsys_L_i"] in "DB" and kinds[f"{PREFIX}data_A_csc_x"] in "DB"
+    assert kinds[f"{PREFIX}linsys_L_x"] in "DB" and kinds[f"{PREFIX}data_A_csc_x"] in "DB"
 
 
 def test_float_build(qp: dict, tmp_path: Path) -> None:

@@ -9032,7 +9032,7 @@ OSQPData truck_de_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_de_el_linsys_L_p[1251] = {
+const OSQPInt truck_de_el_linsys_L_p[1251] = {
   0,
   1,
   2,
@@ -10285,7 +10285,7 @@ OSQPInt truck_de_el_linsys_L_p[1251] = {
   3712,
   3712,
 };
-OSQPInt truck_de_el_linsys_L_i[3712] = {
+const OSQPInt truck_de_el_linsys_L_i[3712] = {
   1244,
   1245,
   3,
@@ -17716,8 +17716,8 @@ OSQPFloat truck_de_el_linsys_L_x[3712] = {
 OSQPCscMatrix truck_de_el_linsys_L = {
   1250,
   1250,
-  truck_de_el_linsys_L_p,
-  truck_de_el_linsys_L_i,
+  (OSQPInt *)truck_de_el_linsys_L_p,
+  (OSQPInt *)truck_de_el_linsys_L_i,
   truck_de_el_linsys_L_x,
   3712,
   -1,

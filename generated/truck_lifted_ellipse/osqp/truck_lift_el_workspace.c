@@ -11579,7 +11579,7 @@ OSQPData truck_lift_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_lift_el_linsys_L_p[1497] = {
+const OSQPInt truck_lift_el_linsys_L_p[1497] = {
   0,
   4,
   5,
@@ -13078,7 +13078,7 @@ OSQPInt truck_lift_el_linsys_L_p[1497] = {
   6430,
   6430,
 };
-OSQPInt truck_lift_el_linsys_L_i[6430] = {
+const OSQPInt truck_lift_el_linsys_L_i[6430] = {
   78,
   1491,
   1492,
@@ -25945,8 +25945,8 @@ OSQPFloat truck_lift_el_linsys_L_x[6430] = {
 OSQPCscMatrix truck_lift_el_linsys_L = {
   1496,
   1496,
-  truck_lift_el_linsys_L_p,
-  truck_lift_el_linsys_L_i,
+  (OSQPInt *)truck_lift_el_linsys_L_p,
+  (OSQPInt *)truck_lift_el_linsys_L_i,
   truck_lift_el_linsys_L_x,
   6430,
   -1,

@@ -19,7 +19,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from .osqp_const import constant_arrays
+from .osqp_const import QDLDL_SOURCE, constant_arrays, qdldl_keep_pattern
 from .osqp_prefix import CONFIGURE_H, prefix_of, prefixed_configure, rename_header, rename_header_name
 
 OSQP_INFTY = 1e30
@@ -145,8 +145,11 @@ def _library_files(gen: Path) -> list[Path]:
 
 
 def _library_bytes(gen: Path, rel: Path, prefix: str) -> bytes:
-    """A library file as written: normalized; ``osqp_configure.h`` includes the prefix's rename header."""
+    """A library file as written: normalized; ``osqp_configure.h`` includes the prefix's rename header; ``qdldl.c``
+    keeps the factor's pattern constant (:func:`qdldl_keep_pattern`)."""
     data = _normalize((gen / rel).read_bytes())
+    if rel.as_posix() == QDLDL_SOURCE:
+        return qdldl_keep_pattern(data)
     return prefixed_configure(data, prefix) if rel.as_posix() == CONFIGURE_H else data
 
 
