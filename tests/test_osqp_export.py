@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "generator"))
+from fcgen.codegen.osqp_const import CONST_ARRAYS  # noqa: E402
 from fcgen.codegen.osqp_export import OsqpExport, export_osqp, restore_osqp_library  # noqa: E402
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
@@ -255,6 +256,12 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
                                  text=True).stdout.split("\n")
         names = [f[2] for f in (line.split() for line in defined) if len(f) == 3]
         assert [n for n in names if not n.startswith(PREFIX)] == [], obj.name  # OSQP's symbols carry the prefix
+    # the arrays OSQP never writes are read-only data (a write would have crashed the solves above)
+    ws_obj = next(o for o in objs if o.name == f"{PREFIX}workspace.o")
+    kinds = {f[2]: f[1] for f in (line.split() for line in subprocess.run(
+        ["nm", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines()) if len(f) == 3}
+    assert {kinds[PREFIX + a] for a in CONST_ARRAYS} == {"R"}
+    assert kinds[f"{PREFIX}linsys_L_x"] in "DB" and kinds[f"{PREFIX}data_A_csc_x"] in "DB"
 
 
 def test_float_build(qp: dict, tmp_path: Path) -> None:

@@ -1630,11 +1630,10 @@ static void shift(const index_t *src, truck_lift_el_real_t *v, int n) {
  * cycle of the permutation A_SRC (A_CYCLES: one start per cycle). */
 static void jac_to_csc(truck_lift_el_real_t *v) {
   int c;
-  index_t i, j;
-  truck_lift_el_real_t first;
   for (c = 0; c < N_A_CYCLES; ++c) {
-    i = A_CYCLES[c];
-    first = v[i];
+    index_t i = A_CYCLES[c];
+    index_t j;
+    const truck_lift_el_real_t first = v[i];
     for (j = A_SRC[i]; j != A_CYCLES[c]; j = A_SRC[j]) {
       v[i] = v[j];
       i = j;
@@ -1767,8 +1766,6 @@ int truck_lift_el_set_opponents(const truck_lift_el_real_t *params) {
 int truck_lift_el_prepare(void) {
   const double t0 = now();
   int i, k, rc;
-  truck_lift_el_real_t g;
-  const stage_t *st;
   ws.prepared = 0;
   ws.status.exit_code = TRUCK_LIFT_EL_OK;
   ws.status.qp_status = 0;
@@ -1793,7 +1790,7 @@ int truck_lift_el_prepare(void) {
   ws.s0_guess = ws.w[STAGES[0].s];
   /* stage k: its parameters, then its function (constraint values g into u, Jacobian, cost gradient) */
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
-    st = &STAGES[k];
+    const stage_t *st = &STAGES[k];
     rc = stage_params(ws.p, k, ws.w[st->s]);
     if (rc) return fail(rc); /* not reached: every window was checked */
     call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p,
@@ -1802,7 +1799,7 @@ int truck_lift_el_prepare(void) {
   jac_to_csc(ws.jac);
   for (i = 0; i < TRUCK_LIFT_EL_NX; ++i) ws.g_init[i] = ws.u[INIT_ROWS[i]];
   for (i = 0; i < TRUCK_LIFT_EL_QP_M; ++i) {
-    g = ws.u[i];
+    const truck_lift_el_real_t g = ws.u[i];
     ws.l[i] = L[i] - g;
     ws.u[i] = U[i] - g;
     if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
@@ -1864,10 +1861,10 @@ void truck_lift_el_get_controls(truck_lift_el_real_t *u) {
 }
 
 truck_lift_el_real_t truck_lift_el_max_slack(void) {
-  truck_lift_el_real_t m = 0.0, v;
+  truck_lift_el_real_t m = 0.0;
   int i;
   for (i = 0; i < N_SLACK; ++i) {
-    v = ws.w[SLACK_VARS[i]];
+    const truck_lift_el_real_t v = ws.w[SLACK_VARS[i]];
     if (v > m || v != v) m = v; /* NaN propagates, as numpy's max */
   }
   return m;

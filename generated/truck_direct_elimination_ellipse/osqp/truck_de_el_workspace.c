@@ -78,7 +78,7 @@ OSQPInfo truck_de_el_info = {
 };
 
 /* Define the data structure */
-OSQPInt truck_de_el_data_P_csc_p[446] = {
+const OSQPInt truck_de_el_data_P_csc_p[446] = {
   0,
   1,
   2,
@@ -526,7 +526,7 @@ OSQPInt truck_de_el_data_P_csc_p[446] = {
   444,
   445,
 };
-OSQPInt truck_de_el_data_P_csc_i[445] = {
+const OSQPInt truck_de_el_data_P_csc_i[445] = {
   0,
   1,
   2,
@@ -1423,8 +1423,8 @@ OSQPFloat truck_de_el_data_P_csc_x[445] = {
 OSQPCscMatrix truck_de_el_data_P_csc = {
   445,
   445,
-  truck_de_el_data_P_csc_p,
-  truck_de_el_data_P_csc_i,
+  (OSQPInt *)truck_de_el_data_P_csc_p,
+  (OSQPInt *)truck_de_el_data_P_csc_i,
   truck_de_el_data_P_csc_x,
   445,
   -1,
@@ -1433,7 +1433,7 @@ OSQPMatrix truck_de_el_data_P = {
   &truck_de_el_data_P_csc,
   1
 };
-OSQPInt truck_de_el_data_A_csc_p[446] = {
+const OSQPInt truck_de_el_data_A_csc_p[446] = {
   0,
   5,
   10,
@@ -1881,7 +1881,7 @@ OSQPInt truck_de_el_data_A_csc_p[446] = {
   2523,
   2525,
 };
-OSQPInt truck_de_el_data_A_csc_i[2525] = {
+const OSQPInt truck_de_el_data_A_csc_i[2525] = {
   0,
   5,
   6,
@@ -6938,8 +6938,8 @@ OSQPFloat truck_de_el_data_A_csc_x[2525] = {
 OSQPCscMatrix truck_de_el_data_A_csc = {
   805,
   445,
-  truck_de_el_data_A_csc_p,
-  truck_de_el_data_A_csc_i,
+  (OSQPInt *)truck_de_el_data_A_csc_p,
+  (OSQPInt *)truck_de_el_data_A_csc_i,
   truck_de_el_data_A_csc_x,
   2525,
   -1,
@@ -9032,7 +9032,7 @@ OSQPData truck_de_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_de_el_linsys_L_p[1251] = {
+const OSQPInt truck_de_el_linsys_L_p[1251] = {
   0,
   1,
   2,
@@ -10285,7 +10285,7 @@ OSQPInt truck_de_el_linsys_L_p[1251] = {
   3712,
   3712,
 };
-OSQPInt truck_de_el_linsys_L_i[3712] = {
+const OSQPInt truck_de_el_linsys_L_i[3712] = {
   1244,
   1245,
   3,
@@ -17716,8 +17716,8 @@ OSQPFloat truck_de_el_linsys_L_x[3712] = {
 OSQPCscMatrix truck_de_el_linsys_L = {
   1250,
   1250,
-  truck_de_el_linsys_L_p,
-  truck_de_el_linsys_L_i,
+  (OSQPInt *)truck_de_el_linsys_L_p,
+  (OSQPInt *)truck_de_el_linsys_L_i,
   truck_de_el_linsys_L_x,
   3712,
   -1,
@@ -18974,7 +18974,7 @@ OSQPFloat truck_de_el_linsys_Dinv[1250] = {
   (OSQPFloat)-0.26154634573841933909,
   (OSQPFloat)-0.09352944839217937345,
 };
-OSQPInt truck_de_el_linsys_P[1250] = {
+const OSQPInt truck_de_el_linsys_P[1250] = {
   489,
   490,
   493,
@@ -21035,7 +21035,7 @@ OSQPFloat truck_de_el_linsys_rho_inv_vec[805] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_de_el_linsys_KKT_p[1251] = {
+const OSQPInt truck_de_el_linsys_KKT_p[1251] = {
   0,
   1,
   2,
@@ -22288,7 +22288,7 @@ OSQPInt truck_de_el_linsys_KKT_p[1251] = {
   3766,
   3775,
 };
-OSQPInt truck_de_el_linsys_KKT_i[3775] = {
+const OSQPInt truck_de_el_linsys_KKT_i[3775] = {
   0,
   1,
   2,
@@ -29845,13 +29845,13 @@ OSQPFloat truck_de_el_linsys_KKT_x[3775] = {
 OSQPCscMatrix truck_de_el_linsys_KKT = {
   1250,
   1250,
-  truck_de_el_linsys_KKT_p,
-  truck_de_el_linsys_KKT_i,
+  (OSQPInt *)truck_de_el_linsys_KKT_p,
+  (OSQPInt *)truck_de_el_linsys_KKT_i,
   truck_de_el_linsys_KKT_x,
   3775,
   -1,
 };
-OSQPInt truck_de_el_linsys_PtoKKT[445] = {
+const OSQPInt truck_de_el_linsys_PtoKKT[445] = {
   3642,
   3644,
   3646,
@@ -30298,7 +30298,7 @@ OSQPInt truck_de_el_linsys_PtoKKT[445] = {
   1198,
   1195,
 };
-OSQPInt truck_de_el_linsys_AtoKKT[2525] = {
+const OSQPInt truck_de_el_linsys_AtoKKT[2525] = {
   3643,
   3666,
   3658,
@@ -32825,7 +32825,7 @@ OSQPInt truck_de_el_linsys_AtoKKT[2525] = {
   1209,
   1196,
 };
-OSQPInt truck_de_el_linsys_rhotoKKT[805] = {
+const OSQPInt truck_de_el_linsys_rhotoKKT[805] = {
   3641,
   3640,
   3639,
@@ -34884,7 +34884,7 @@ OSQPFloat truck_de_el_linsys_D[1250] = {
   (OSQPFloat)-3.82341415314642230072,
   (OSQPFloat)-10.69181971229947691882,
 };
-OSQPInt truck_de_el_linsys_etree[1250] = {
+const OSQPInt truck_de_el_linsys_etree[1250] = {
   1244,
   1245,
   3,
@@ -36136,7 +36136,7 @@ OSQPInt truck_de_el_linsys_etree[1250] = {
   1249,
   -1,
 };
-OSQPInt truck_de_el_linsys_Lnz[1250] = {
+const OSQPInt truck_de_el_linsys_Lnz[1250] = {
   1,
   1,
   1,
@@ -37402,7 +37402,7 @@ qdldl_solver truck_de_el_linsys = {
   1,
   &truck_de_el_linsys_L,
   truck_de_el_linsys_Dinv,
-  truck_de_el_linsys_P,
+  (OSQPInt *)truck_de_el_linsys_P,
   truck_de_el_linsys_bp,
   truck_de_el_linsys_sol,
   truck_de_el_linsys_rho_inv_vec,
@@ -37411,12 +37411,12 @@ qdldl_solver truck_de_el_linsys = {
   445,
   805,
   &truck_de_el_linsys_KKT,
-  truck_de_el_linsys_PtoKKT,
-  truck_de_el_linsys_AtoKKT,
-  truck_de_el_linsys_rhotoKKT,
+  (OSQPInt *)truck_de_el_linsys_PtoKKT,
+  (OSQPInt *)truck_de_el_linsys_AtoKKT,
+  (OSQPInt *)truck_de_el_linsys_rhotoKKT,
   truck_de_el_linsys_D,
-  truck_de_el_linsys_etree,
-  truck_de_el_linsys_Lnz,
+  (OSQPInt *)truck_de_el_linsys_etree,
+  (OSQPInt *)truck_de_el_linsys_Lnz,
   truck_de_el_linsys_iwork,
   truck_de_el_linsys_bwork,
   truck_de_el_linsys_fwork,

@@ -78,7 +78,7 @@ OSQPInfo truck_lift_el_info = {
 };
 
 /* Define the data structure */
-OSQPInt truck_lift_el_data_P_csc_p[569] = {
+const OSQPInt truck_lift_el_data_P_csc_p[569] = {
   0,
   1,
   2,
@@ -649,7 +649,7 @@ OSQPInt truck_lift_el_data_P_csc_p[569] = {
   567,
   568,
 };
-OSQPInt truck_lift_el_data_P_csc_i[568] = {
+const OSQPInt truck_lift_el_data_P_csc_i[568] = {
   0,
   1,
   2,
@@ -1792,8 +1792,8 @@ OSQPFloat truck_lift_el_data_P_csc_x[568] = {
 OSQPCscMatrix truck_lift_el_data_P_csc = {
   568,
   568,
-  truck_lift_el_data_P_csc_p,
-  truck_lift_el_data_P_csc_i,
+  (OSQPInt *)truck_lift_el_data_P_csc_p,
+  (OSQPInt *)truck_lift_el_data_P_csc_i,
   truck_lift_el_data_P_csc_x,
   568,
   -1,
@@ -1802,7 +1802,7 @@ OSQPMatrix truck_lift_el_data_P = {
   &truck_lift_el_data_P_csc,
   1
 };
-OSQPInt truck_lift_el_data_A_csc_p[569] = {
+const OSQPInt truck_lift_el_data_A_csc_p[569] = {
   0,
   4,
   8,
@@ -2373,7 +2373,7 @@ OSQPInt truck_lift_el_data_A_csc_p[569] = {
   3366,
   3368,
 };
-OSQPInt truck_lift_el_data_A_csc_i[3368] = {
+const OSQPInt truck_lift_el_data_A_csc_i[3368] = {
   0,
   8,
   9,
@@ -9116,8 +9116,8 @@ OSQPFloat truck_lift_el_data_A_csc_x[3368] = {
 OSQPCscMatrix truck_lift_el_data_A_csc = {
   928,
   568,
-  truck_lift_el_data_A_csc_p,
-  truck_lift_el_data_A_csc_i,
+  (OSQPInt *)truck_lift_el_data_A_csc_p,
+  (OSQPInt *)truck_lift_el_data_A_csc_i,
   truck_lift_el_data_A_csc_x,
   3368,
   -1,
@@ -11579,7 +11579,7 @@ OSQPData truck_lift_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_lift_el_linsys_L_p[1497] = {
+const OSQPInt truck_lift_el_linsys_L_p[1497] = {
   0,
   4,
   5,
@@ -13078,7 +13078,7 @@ OSQPInt truck_lift_el_linsys_L_p[1497] = {
   6430,
   6430,
 };
-OSQPInt truck_lift_el_linsys_L_i[6430] = {
+const OSQPInt truck_lift_el_linsys_L_i[6430] = {
   78,
   1491,
   1492,
@@ -25945,8 +25945,8 @@ OSQPFloat truck_lift_el_linsys_L_x[6430] = {
 OSQPCscMatrix truck_lift_el_linsys_L = {
   1496,
   1496,
-  truck_lift_el_linsys_L_p,
-  truck_lift_el_linsys_L_i,
+  (OSQPInt *)truck_lift_el_linsys_L_p,
+  (OSQPInt *)truck_lift_el_linsys_L_i,
   truck_lift_el_linsys_L_x,
   6430,
   -1,
@@ -27449,7 +27449,7 @@ OSQPFloat truck_lift_el_linsys_Dinv[1496] = {
   (OSQPFloat)-0.13133914460283921399,
   (OSQPFloat)-0.12973149688347540565,
 };
-OSQPInt truck_lift_el_linsys_P[1496] = {
+const OSQPInt truck_lift_el_linsys_P[1496] = {
   24,
   622,
   25,
@@ -29879,7 +29879,7 @@ OSQPFloat truck_lift_el_linsys_rho_inv_vec[928] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
+const OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
   0,
   1,
   2,
@@ -31378,7 +31378,7 @@ OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
   4854,
   4864,
 };
-OSQPInt truck_lift_el_linsys_KKT_i[4864] = {
+const OSQPInt truck_lift_el_linsys_KKT_i[4864] = {
   0,
   1,
   2,
@@ -41113,13 +41113,13 @@ OSQPFloat truck_lift_el_linsys_KKT_x[4864] = {
 OSQPCscMatrix truck_lift_el_linsys_KKT = {
   1496,
   1496,
-  truck_lift_el_linsys_KKT_p,
-  truck_lift_el_linsys_KKT_i,
+  (OSQPInt *)truck_lift_el_linsys_KKT_p,
+  (OSQPInt *)truck_lift_el_linsys_KKT_i,
   truck_lift_el_linsys_KKT_x,
   4864,
   -1,
 };
-OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
+const OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
   57,
   59,
   61,
@@ -41689,7 +41689,7 @@ OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
   837,
   834,
 };
-OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
+const OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
   58,
   155,
   135,
@@ -45059,7 +45059,7 @@ OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
   846,
   835,
 };
-OSQPInt truck_lift_el_linsys_rhotoKKT[928] = {
+const OSQPInt truck_lift_el_linsys_rhotoKKT[928] = {
   56,
   55,
   54,
@@ -47487,7 +47487,7 @@ OSQPFloat truck_lift_el_linsys_D[1496] = {
   (OSQPFloat)-7.61387629730597836897,
   (OSQPFloat)-7.70822833331059342754,
 };
-OSQPInt truck_lift_el_linsys_etree[1496] = {
+const OSQPInt truck_lift_el_linsys_etree[1496] = {
   78,
   2,
   79,
@@ -48985,7 +48985,7 @@ OSQPInt truck_lift_el_linsys_etree[1496] = {
   1495,
   -1,
 };
-OSQPInt truck_lift_el_linsys_Lnz[1496] = {
+const OSQPInt truck_lift_el_linsys_Lnz[1496] = {
   4,
   1,
   4,
@@ -50497,7 +50497,7 @@ qdldl_solver truck_lift_el_linsys = {
   1,
   &truck_lift_el_linsys_L,
   truck_lift_el_linsys_Dinv,
-  truck_lift_el_linsys_P,
+  (OSQPInt *)truck_lift_el_linsys_P,
   truck_lift_el_linsys_bp,
   truck_lift_el_linsys_sol,
   truck_lift_el_linsys_rho_inv_vec,
@@ -50506,12 +50506,12 @@ qdldl_solver truck_lift_el_linsys = {
   568,
   928,
   &truck_lift_el_linsys_KKT,
-  truck_lift_el_linsys_PtoKKT,
-  truck_lift_el_linsys_AtoKKT,
-  truck_lift_el_linsys_rhotoKKT,
+  (OSQPInt *)truck_lift_el_linsys_PtoKKT,
+  (OSQPInt *)truck_lift_el_linsys_AtoKKT,
+  (OSQPInt *)truck_lift_el_linsys_rhotoKKT,
   truck_lift_el_linsys_D,
-  truck_lift_el_linsys_etree,
-  truck_lift_el_linsys_Lnz,
+  (OSQPInt *)truck_lift_el_linsys_etree,
+  (OSQPInt *)truck_lift_el_linsys_Lnz,
   truck_lift_el_linsys_iwork,
   truck_lift_el_linsys_bwork,
   truck_lift_el_linsys_fwork,

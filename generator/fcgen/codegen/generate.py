@@ -29,6 +29,7 @@ from ..backends import QP_STATUSES, BackendFiles, backend_module
 from ..reference import EXIT_CODES, cold_max_iter, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
+from .misra import MISRA_DEVIATIONS
 
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
@@ -380,7 +381,8 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "c_floor": "floorf" if use_float else "floor", "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
+        "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor",
+        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},

@@ -19,6 +19,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from .osqp_const import QDLDL_SOURCE, constant_arrays, qdldl_keep_pattern
 from .osqp_prefix import CONFIGURE_H, prefix_of, prefixed_configure, rename_header, rename_header_name
 
 OSQP_INFTY = 1e30
@@ -144,8 +145,11 @@ def _library_files(gen: Path) -> list[Path]:
 
 
 def _library_bytes(gen: Path, rel: Path, prefix: str) -> bytes:
-    """A library file as written: normalized; ``osqp_configure.h`` includes the prefix's rename header."""
+    """A library file as written: normalized; ``osqp_configure.h`` includes the prefix's rename header; ``qdldl.c``
+    keeps the factor's pattern constant (:func:`qdldl_keep_pattern`)."""
     data = _normalize((gen / rel).read_bytes())
+    if rel.as_posix() == QDLDL_SOURCE:
+        return qdldl_keep_pattern(data)
     return prefixed_configure(data, prefix) if rel.as_posix() == CONFIGURE_H else data
 
 
@@ -201,6 +205,7 @@ def export_osqp(P: sp.csc_matrix, A: sp.csc_matrix, q: np.ndarray, l: np.ndarray
         _codegen(P, A, q, l, u, opts, gen, prefix, use_float)
         ws = {ext: _normalize((gen / f"{prefix}workspace{ext}").read_bytes()) for ext in (".c", ".h")}
         lib_files = _sync_library(gen, out_dir, prefix)
+    ws[".c"] = constant_arrays(ws[".c"], prefix)
     for name, nnz in ((f"{prefix}data_P_csc_x", P.nnz), (f"{prefix}data_A_csc_x", A.nnz)):
         found = re.search(rb"OSQPFloat " + name.encode() + rb"\[(\d+)\]", ws[".c"])
         if found is None or int(found.group(1)) != nnz:
