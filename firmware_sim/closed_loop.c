@@ -79,6 +79,7 @@ typedef S_(_status_t) status_t;
 #define RUNLOG_FORMAT "fcgen-runlog/1"
 
 /* ------------------------------------------------------------------------------------------------ scenario data */
+/* FS_HARNESS_MEM (fs_platform.h): the large buffers, in the board's external RAM on the bare-metal image */
 typedef struct {
   double l_f, l_r, l_r_ch, l_f_ch, w_ch;
 } dims_t;
@@ -93,23 +94,23 @@ static double g_dt, g_window_behind, g_n_bound, g_ego_l;
 static dims_t g_ego_dims, g_opp_dims[NOPP + 1];
 static double g_x0[5];
 static double g_road_s0, g_road_ds;
-static double g_kappa[FS_MAX_ROAD], g_phi[FS_MAX_ROAD], g_gx[FS_MAX_ROAD], g_gy[FS_MAX_ROAD];
+FS_HARNESS_MEM static double g_kappa[FS_MAX_ROAD], g_phi[FS_MAX_ROAD], g_gx[FS_MAX_ROAD], g_gy[FS_MAX_ROAD];
 
 /* ------------------------------------------------------------------------------------------------ run results */
-static double g_t[FS_MAX_SAMPLES + 1];
-static double g_xs[(FS_MAX_SAMPLES + 1) * 5];
-static double g_ego_cart[(FS_MAX_SAMPLES + 1) * 3];
-static double g_opp_cart[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
-static double g_opp_fr[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
-static int g_collision[FS_MAX_SAMPLES + 1];
-static double g_a_lat[FS_MAX_SAMPLES + 1];
-static double g_us[FS_MAX_SAMPLES * 2];
-static double g_tp[FS_MAX_SAMPLES], g_tf[FS_MAX_SAMPLES], g_slack[FS_MAX_SAMPLES];
-static int g_qi[FS_MAX_SAMPLES], g_qs[FS_MAX_SAMPLES], g_exit[FS_MAX_SAMPLES];
+FS_HARNESS_MEM static double g_t[FS_MAX_SAMPLES + 1];
+FS_HARNESS_MEM static double g_xs[(FS_MAX_SAMPLES + 1) * 5];
+FS_HARNESS_MEM static double g_ego_cart[(FS_MAX_SAMPLES + 1) * 3];
+FS_HARNESS_MEM static double g_opp_cart[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
+FS_HARNESS_MEM static double g_opp_fr[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
+FS_HARNESS_MEM static int g_collision[FS_MAX_SAMPLES + 1];
+FS_HARNESS_MEM static double g_a_lat[FS_MAX_SAMPLES + 1];
+FS_HARNESS_MEM static double g_us[FS_MAX_SAMPLES * 2];
+FS_HARNESS_MEM static double g_tp[FS_MAX_SAMPLES], g_tf[FS_MAX_SAMPLES], g_slack[FS_MAX_SAMPLES];
+FS_HARNESS_MEM static int g_qi[FS_MAX_SAMPLES], g_qs[FS_MAX_SAMPLES], g_exit[FS_MAX_SAMPLES];
 
 /* ------------------------------------------------------------------------------------------------ loop buffers */
-static real_t g_opp_params[OPP_BLOCK + 1];
-static real_t g_win_kappa[ROAD_MAX], g_win_phi[ROAD_MAX], g_win_gx[ROAD_MAX], g_win_gy[ROAD_MAX];
+FS_HARNESS_MEM static real_t g_opp_params[OPP_BLOCK + 1];
+FS_HARNESS_MEM static real_t g_win_kappa[ROAD_MAX], g_win_phi[ROAD_MAX], g_win_gx[ROAD_MAX], g_win_gy[ROAD_MAX];
 static casadi_real g_plant_p[PLANT_NP];
 static const casadi_real *g_plant_arg[PLANT_SZ_ARG + 1];
 static casadi_real *g_plant_res[PLANT_SZ_RES + 1];
@@ -528,7 +529,7 @@ static void dims_obj(const dims_t *d, int level) { /* sorted keys */
   fputc('}', g_out);
 }
 
-static double g_road_s[FS_MAX_ROAD];
+FS_HARNESS_MEM static double g_road_s[FS_MAX_ROAD];
 
 static int write_log(const char *path, int exit_nonzero) {
   char buf[64];

@@ -1,7 +1,7 @@
 /* fs_baremetal.c -- the bare-metal platform of closed_loop.c on an Arm Cortex-M (QEMU mps2 boards, or a real part
  * with a semihosting debugger): vector table, reset handler, SysTick clock and the command line from semihosting.
  *
- * Reset: copy .data from flash, zero .bss, give the FPU full access (CPACR), open newlib's semihosting file handles,
+ * Reset: copy .data from flash, zero .bss and the harness's buffers (.bss.fs_harness, external RAM), give the FPU full access (CPACR), open newlib's semihosting file handles,
  * split the semihosting command line (SYS_GET_CMDLINE) into argv, call main and exit with its return code (newlib's
  * exit -> SYS_EXIT_EXTENDED, so QEMU returns the code). A fault prints one line and exits with code 70.
  * Clock: SysTick on the processor clock (FS_SYSTICK_HZ, the board's, from fcgen's target table), free-running, its
@@ -19,6 +19,7 @@
 #endif
 
 extern uint32_t __data_load__, __data_start__, __data_end__, __bss_start__, __bss_end__, __stack_top__;
+extern uint32_t __fs_harness_start__, __fs_harness_end__;
 extern int main(int argc, char **argv);
 extern void initialise_monitor_handles(void);
 void Reset_Handler(void);
@@ -82,6 +83,7 @@ void Reset_Handler(void) {
   uint32_t *dst;
   for (dst = &__data_start__; dst < &__data_end__;) *dst++ = *src++;
   for (dst = &__bss_start__; dst < &__bss_end__;) *dst++ = 0u;
+  for (dst = &__fs_harness_start__; dst < &__fs_harness_end__;) *dst++ = 0u;
   SCB_CPACR |= 0xFu << 20; /* CP10, CP11: full access */
   __asm__ volatile("dsb\n\tisb" ::: "memory");
   initialise_monitor_handles();

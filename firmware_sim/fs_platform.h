@@ -4,6 +4,15 @@
 #ifndef FS_PLATFORM_H
 #define FS_PLATFORM_H
 
+/* Where the harness's large buffers go (scenario, run log). The bare-metal image (-DFS_BAREMETAL) puts them in a
+ * section of their own, linked into the board's external RAM, so that the on-chip RAM region holds only what an ECU
+ * holds: the solver's data, the C library's, the heap of stdio and the stack. */
+#ifdef FS_BAREMETAL
+#define FS_HARNESS_MEM __attribute__((section(".bss.fs_harness")))
+#else
+#define FS_HARNESS_MEM
+#endif
+
 /* The solver's timing hook (<name>_set_clock): monotonic time in seconds. */
 double fs_clock(void);
 

@@ -45,11 +45,14 @@ def test_target_table() -> None:
 
 
 def test_linker_script_memory_map() -> None:
-    """The mps2 boards as QEMU maps them: 4 MiB code SSRAM at 0, 4 MiB data SSRAM at 0x20000000."""
-    text = get_target("cortex-m7").linker_script()
-    assert re.search(r"FLASH \(rx\) *: ORIGIN = 0x00000000, LENGTH = 4194304", text)
-    assert re.search(r"RAM \(rwx\) *: ORIGIN = 0x20000000, LENGTH = 4194304", text)
-    assert "KEEP(*(.vectors))" in text and "> RAM AT > FLASH" in text
+    """The mps2 boards as QEMU maps them: code SSRAM at 0, data SSRAM at 0x20000000 (512 KiB of it used, as an ECU's
+    SRAM), PSRAM for the harness's buffers at 0x60000000 (AN500) / 0x21000000 (AN386)."""
+    for name, xram in (("cortex-m7", "0x60000000"), ("cortex-m4f", "0x21000000")):
+        text = get_target(name).linker_script()
+        assert re.search(r"FLASH \(rx\) *: ORIGIN = 0x00000000, LENGTH = 4194304", text)
+        assert re.search(r"RAM \(rwx\) *: ORIGIN = 0x20000000, LENGTH = 524288", text)
+        assert re.search(rf"XRAM \(rw\) *: ORIGIN = {xram}, LENGTH = 16777216", text)
+        assert "KEEP(*(.vectors))" in text and "> RAM AT > FLASH" in text and "*(.bss.fs_harness*)" in text
 
 
 # ----------------------------------------------------------------------------- builds
@@ -143,6 +146,15 @@ def test_closed_loop_double_on_m7_matches_host(gen_double, tmp_path) -> None:
     log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300)
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
     _close(log_t, log_h, 1e-6)
+    # the image ran with the solver, the C library and the stack in 512 KiB of RAM (the harness's buffers elsewhere)
+    image = build_dir(d, target="cortex-m7") / "firmware_sim" / "closed_loop.elf"
+    sec = {ln.split()[0]: (int(ln.split()[1]), int(ln.split()[2])) for ln in subprocess.run(
+        ["arm-none-eabi-size", "-A", str(image)], capture_output=True, text=True, check=True).stdout.splitlines()
+        if ln.startswith(".")}
+    ram = [v for k, v in sec.items() if 0x20000000 <= v[1] < 0x20000000 + 512 * 1024]
+    assert {".data", ".bss"} <= {k for k, v in sec.items() if v in ram}
+    assert sum(size for size, _ in ram) + 16 * 1024 <= 512 * 1024
+    assert sec[".fs_harness"][1] == 0x60000000
     # the solver's timing hook on the core reads SysTick: under -icount shift=0 a deterministic instruction count
     assert np.all(log_t.time_prepare > 1e-4) and np.all(log_t.time_feedback > log_t.time_prepare)
     # a shorter run of the same seed: the same counts up to one SysTick period (40 instructions = 40 ns: the tick's
@@ -260,8 +272,12 @@ def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
                             text=True, check=True).stdout
         syms = [f[2] for f in (ln.split() for ln in nm.splitlines()) if len(f) == 3]
         assert syms and all(s.startswith(f"{g.name}_") for s in syms)
+    # two solvers need the RAM of both (~0.7 MB): link with the board's whole 4 MiB data SSRAM
+    from dataclasses import replace
+
+    from fcgen.targets import Region
     ld = tmp_path / "m7.ld"
-    ld.write_text(tgt.linker_script())
+    ld.write_text(replace(tgt, ram=Region(0x20000000, 4 * 1024 * 1024)).linker_script())
     fw = harness_source_dir()
     runs = {}
     for tag, solvers in (("both", {"A": gen_double, "B": other}), ("a", {"A": gen_double}), ("b", {"B": other})):

@@ -40,11 +40,12 @@ class Target:
     qemu_machine: str | None = None
     qemu_cpu: str | None = None
     flash: Region | None = None
-    ram: Region | None = None
+    ram: Region | None = None           # on-chip RAM as an ECU has it: solver, C library, heap, stack
+    xram: Region | None = None          # the board's external RAM: the harness's own buffers
     systick_hz: int = 0                 # SysTick clock under QEMU (with -icount shift=0: 1 instruction per ns)
     binutils_prefix: str = ""           # arm-none-eabi- for size/nm/objdump
     link_flags: tuple[str, ...] = ()    # the bare-metal harness image: semihosting libc, our startup
-    harness_defines: tuple[str, ...] = ()  # the harness's fixed maxima, sized for the board's RAM
+    harness_defines: tuple[str, ...] = ()  # extra -D flags of the harness image
 
     # -- precision ----------------------------------------------------------------------------------------------
     def check_precision(self, use_float: bool) -> None:
@@ -105,15 +106,15 @@ class Target:
 
     def linker_script(self) -> str:
         """The harness image's linker script: vectors + code + constants in flash, data/bss/heap/stack in RAM."""
-        if self.flash is None or self.ram is None:
+        if self.flash is None or self.ram is None or self.xram is None:
             raise TargetError(f"--target {self.name}: no memory map")
         from .codegen.generate import render_template
-        return render_template("targets/cortexm.ld.j2", target=self,
-                               flash=self.flash, ram=self.ram)
+        return render_template("targets/cortexm.ld.j2", target=self, flash=self.flash, ram=self.ram,
+                               xram=self.xram, stack=HARNESS_STACK)
 
     def harness_make_variables(self, linker_script: Path) -> list[str]:
         """Make variables of firmware_sim/ for the bare-metal image."""
-        defs = [*self.harness_defines, f"-DFS_SYSTICK_HZ={self.systick_hz}"]
+        defs = ["-DFS_BAREMETAL", *self.harness_defines, f"-DFS_SYSTICK_HZ={self.systick_hz}"]
         return ["PLATFORM=baremetal", f"TARGET_FLAGS={' '.join(self.cpu_flags)}", f"LDSCRIPT={linker_script}",
                 f"PLATFORM_LDFLAGS={' '.join(self.link_flags)}", f"PLATFORM_DEFS={' '.join(defs)}"]
 
@@ -124,10 +125,14 @@ README_END = "<!-- fcgen footprint: end -->"
 """Markers of the generated README's footprint line (``fcgen footprint --readme`` fills it)."""
 APT_PACKAGES = "gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"
 
-_MPS2_FLASH = Region(0x00000000, 4 * 1024 * 1024)   # ZBT SSRAM1 (code), 4 MiB
-_MPS2_RAM = Region(0x20000000, 4 * 1024 * 1024)     # ZBT SSRAM2/3 (data), 4 MiB
+# The mps2 boards as QEMU maps them: ZBT SSRAM1 (4 MiB, code) at 0, ZBT SSRAM2/3 (4 MiB) at 0x20000000, of which the
+# image uses the first 512 KiB as the on-chip RAM of an ECU-sized part; 16 MiB PSRAM at 0x60000000 (AN500) or
+# 0x21000000 (AN386) for the harness's buffers.
+_MPS2_FLASH = Region(0x00000000, 4 * 1024 * 1024)
+_MPS2_RAM = Region(0x20000000, 512 * 1024)
+HARNESS_STACK = 16 * 1024
+"""Stack reserved in the RAM region (the solver's worst chain is ~1.2 KiB; newlib's printf/strtod a few KiB)."""
 _SEMIHOSTING = ("--specs=rdimon.specs", "-nostartfiles")
-_HARNESS_MAXIMA = ("-DFS_MAX_ROAD=4096", "-DFS_MAX_SAMPLES=2000")
 
 TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("host", "the build machine (shared library + static libraries + example)", None, None, (),
@@ -135,11 +140,11 @@ TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("cortex-m7", "Arm Cortex-M7 with double-precision FPU (QEMU mps2-an500)", "arm-none-eabi-gcc",
            "arm-none-eabi-ar", ("-mcpu=cortex-m7", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv5-d16"),
            "fpv5-d16, single + double", True, True, "mps2-an500", "cortex-m7", _MPS2_FLASH, _MPS2_RAM,
-           25_000_000, "arm-none-eabi-", _SEMIHOSTING, _HARNESS_MAXIMA),
+           Region(0x60000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING),
     Target("cortex-m4f", "Arm Cortex-M4F with single-precision FPU (QEMU mps2-an386)", "arm-none-eabi-gcc",
            "arm-none-eabi-ar", ("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"),
            "fpv4-sp-d16, single only", False, True, "mps2-an386", "cortex-m4", _MPS2_FLASH, _MPS2_RAM,
-           25_000_000, "arm-none-eabi-", _SEMIHOSTING, _HARNESS_MAXIMA),
+           Region(0x21000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING),
 )}
 
 
