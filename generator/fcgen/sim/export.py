@@ -189,7 +189,11 @@ def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], ou
         tgt.check_tools(qemu=True)
         scenario_file, out = Path(scenario_file).resolve(), Path(out).resolve()
         cwd = out.parent
-        cmd = tgt.qemu_command(Path(exe).resolve(), [os.path.relpath(scenario_file, cwd), out.name])
+        args = [os.path.relpath(scenario_file, cwd), out.name]
+        bad = [a for a in args if any(c.isspace() or c == "," for c in a)]
+        if bad:  # semihosting's command line is split at spaces, QEMU's options at commas
+            raise HarnessError(f"{bad[0]!r}: paths for the emulated harness must not contain spaces or commas")
+        cmd = tgt.qemu_command(Path(exe).resolve(), args)
     else:
         cmd = [str(exe), str(scenario_file), str(out)]
     try:
