@@ -104,7 +104,10 @@ def test_plain_make_without_osqp_sources_says_how_to_restore(gen_double, tmp_pat
     res = subprocess.run(["make", "-C", str(folder), "lib"], capture_output=True, text=True)
     assert res.returncode != 0
     err = [ln for ln in res.stderr.splitlines() if "***" in ln]
-    assert len(err) == 1 and "osqp/lib/" in err[0] and "fcgen build ." in err[0]
+    assert len(err) == 1 and "osqp/lib/src/" in err[0] and "fcgen build ." in err[0]
+    if shutil.which("cmake"):
+        res = subprocess.run(["cmake", "-S", str(folder), "-B", str(tmp_path / "cm")], capture_output=True, text=True)
+        assert res.returncode != 0 and "missing in osqp/lib/src/: restore them with `fcgen build" in res.stderr
 
 
 @needs_toolchain

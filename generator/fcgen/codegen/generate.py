@@ -306,9 +306,10 @@ def problem_source(obj: Any, indent: int = 0) -> str:
 
 
 def _env() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(_templates_dir())), undefined=jinja2.StrictUndefined,
-                              keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
-                              autoescape=False)
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(_templates_dir())), undefined=jinja2.StrictUndefined,
+                             keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, autoescape=False)
+    env.filters["dirname"] = lambda p: str(p).rsplit("/", 1)[0] if "/" in str(p) else "."
+    return env
 
 
 def render_template(template: str, **ctx: Any) -> str:
