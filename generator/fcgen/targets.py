@@ -46,6 +46,8 @@ class Target:
     binutils_prefix: str = ""           # arm-none-eabi- for size/nm/objdump
     link_flags: tuple[str, ...] = ()    # the bare-metal harness image: semihosting libc, our startup
     harness_defines: tuple[str, ...] = ()  # extra -D flags of the harness image
+    platform: str = "host"              # the harness's platform file firmware_sim/fs_<platform>.c (startup, clock)
+    linker_template: str = ""           # templates/ file of the image's linker script
 
     # -- precision ----------------------------------------------------------------------------------------------
     def check_precision(self, use_float: bool) -> None:
@@ -109,13 +111,18 @@ class Target:
         if self.flash is None or self.ram is None or self.xram is None:
             raise TargetError(f"--target {self.name}: no memory map")
         from .codegen.generate import render_template
-        return render_template("targets/cortexm.ld.j2", target=self, flash=self.flash, ram=self.ram,
+        return render_template(self.linker_template, target=self, flash=self.flash, ram=self.ram,
                                xram=self.xram, stack=HARNESS_STACK)
+
+    @property
+    def harness_executable(self) -> str:
+        """The file name firmware_sim/Makefile gives the harness for this target's platform."""
+        return "closed_loop.elf" if self.bare_metal else "closed_loop"
 
     def harness_make_variables(self, linker_script: Path) -> list[str]:
         """Make variables of firmware_sim/ for the bare-metal image."""
         defs = ["-DFS_BAREMETAL", *self.harness_defines, f"-DFS_SYSTICK_HZ={self.systick_hz}"]
-        return ["PLATFORM=baremetal", f"TARGET_FLAGS={' '.join(self.cpu_flags)}", f"LDSCRIPT={linker_script}",
+        return [f"PLATFORM={self.platform}", f"TARGET_FLAGS={' '.join(self.cpu_flags)}", f"LDSCRIPT={linker_script}",
                 f"PLATFORM_LDFLAGS={' '.join(self.link_flags)}", f"PLATFORM_DEFS={' '.join(defs)}"]
 
 
@@ -133,6 +140,7 @@ _MPS2_RAM = Region(0x20000000, 512 * 1024)
 HARNESS_STACK = 16 * 1024
 """Stack reserved in the RAM region (the solver's worst chain is ~1.2 KiB; newlib's printf/strtod a few KiB)."""
 _SEMIHOSTING = ("--specs=rdimon.specs", "-nostartfiles")
+_CORTEXM_LD = "targets/cortexm.ld.j2"
 
 TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("host", "the build machine (shared library + static libraries + example)", None, None, (),
@@ -140,11 +148,13 @@ TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("cortex-m7", "Arm Cortex-M7 with double-precision FPU (QEMU mps2-an500)", "arm-none-eabi-gcc",
            "arm-none-eabi-ar", ("-mcpu=cortex-m7", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv5-d16"),
            "fpv5-d16, single + double", True, True, "mps2-an500", "cortex-m7", _MPS2_FLASH, _MPS2_RAM,
-           Region(0x60000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING),
+           Region(0x60000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING, (), "baremetal",
+           _CORTEXM_LD),
     Target("cortex-m4f", "Arm Cortex-M4F with single-precision FPU (QEMU mps2-an386)", "arm-none-eabi-gcc",
            "arm-none-eabi-ar", ("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"),
            "fpv4-sp-d16, single only", False, True, "mps2-an386", "cortex-m4", _MPS2_FLASH, _MPS2_RAM,
-           Region(0x21000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING),
+           Region(0x21000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING, (), "baremetal",
+           _CORTEXM_LD),
 )}
 
 

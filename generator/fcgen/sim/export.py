@@ -170,7 +170,7 @@ def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str
         variables += tgt.harness_make_variables(ld)
         cc = cc or tgt.cc
     run_make(harness_source_dir(), variables, cc, cflags, HarnessError)
-    return out / ("closed_loop.elf" if tgt.bare_metal else "closed_loop")
+    return out / tgt.harness_executable
 
 
 def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], out: str | PathLike[str],
