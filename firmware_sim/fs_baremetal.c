@@ -57,7 +57,7 @@ double fs_clock(void) {
   uint32_t now = SYST_CVR;
   g_ticks += (uint64_t)((g_last - now) & 0x00FFFFFFu); /* down-counter; read at least once per 2^24 ticks */
   g_last = now;
-  return (double)g_ticks / (double)FS_SYSTICK_HZ;
+  return (double)g_ticks * (1.0 / (double)FS_SYSTICK_HZ); /* a multiply: cheaper than a divide in software double */
 }
 
 /* ------------------------------------------------------------------------------------------------ startup */

@@ -318,3 +318,27 @@ def test_footprint_cli_json_and_readme(gen_double, tmp_path) -> None:
     readme = (folder / "README.md").read_text()
     assert f"flash {t['flash']} bytes" in readme and f"RAM {t['ram']} bytes" in readme
     assert f"worst stack {data['stack']['worst_bytes']:.0f} bytes" in readme and "Not measured yet" not in readme
+
+
+@needs_toolchain
+def test_clock_hook_counts_instructions(tmp_path) -> None:
+    """Under -icount shift=0 the clock hook's time x 1e9 is the number of instructions executed: a loop of 2 x 10^6
+    instructions (`subs; bne` written in assembly) measures 2 x 10^6, up to the hook's own call and one SysTick
+    period (40 instructions)."""
+    from fcgen.sim.export import harness_source_dir
+
+    for name in ("cortex-m7", "cortex-m4f"):
+        tgt = get_target(name)
+        ld = tmp_path / f"{name}.ld"
+        ld.write_text(tgt.linker_script())
+        fw = harness_source_dir()
+        image = tmp_path / f"probe_{name}.elf"
+        subprocess.run([tgt.cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", *tgt.cpu_flags, "-DFS_BAREMETAL",
+                        f"-DFS_SYSTICK_HZ={tgt.systick_hz}", f"-I{fw}", str(Path(__file__).parent / "c" /
+                                                                               "icount_probe.c"),
+                        str(fw / "fs_baremetal.c"), "-T", str(ld), *tgt.link_flags, "-o", str(image)],
+                       check=True, capture_output=True, text=True)
+        res = subprocess.run(tgt.qemu_command(image, []), capture_output=True, text=True, timeout=60, cwd=tmp_path)
+        assert res.returncode == 0, res.stdout + res.stderr
+        n, measured = (float(x) for x in res.stdout.split())
+        assert abs(measured - 2 * n) <= 200, (name, measured)
