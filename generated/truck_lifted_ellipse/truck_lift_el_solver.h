@@ -26,7 +26,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_QP_M 928 /* QP rows */
 #define TRUCK_LIFT_EL_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_LIFT_EL_WORKSPACE_BYTES 652288 /* static RAM on an LP64 target: solver + QP backend workspaces */
+#define TRUCK_LIFT_EL_WORKSPACE_BYTES 652288 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -87,7 +87,8 @@ enum {
  *   max_i (excess_i / limit_i). The plan itself (get_states/get_controls) is not changed.
  * init(): bitwise the zero-initialized solver (except the clock). reset(): the same but keeps the inputs (state,
  *   road, opponents); any call sequence after either gives bitwise what a fresh solver gives. The QP backend is
- *   restored from constant data before its next use; a QP's scaling depends only on that sample's data.
+ *   restored from constant data before its next use. A QP's scaling is computed from that sample's data (OSQP: its
+ *   q is loaded before the matrices; one scale/unscale rounding of q remains, a step differs by ~1e-11 at most).
  */
 
 /* What the last call reported. time_*: seconds measured with the clock given to set_clock (0 without one). */
