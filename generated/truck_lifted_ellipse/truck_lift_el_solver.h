@@ -136,7 +136,8 @@ void truck_lift_el_reset(void);
 int truck_lift_el_has_guess(void);
 /* Verification: read-only views of the QP data (any pointer may be NULL). q is the cost vector as last built
  * (after prepare: without the s0 correction; after feedback: as passed to the QP backend); z, y: the backend's
- * primal solution (scaled step) and the solver's dual guess. */
+ * primal solution (scaled step) and the solver's dual guess. After a prepare rejected with ERR_QP_NONFINITE, u and
+ * A_x hold that call's (non-finite) model values until the next prepare (the QP the backend holds is unchanged). */
 void truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_real_t **l, const truck_lift_el_real_t **u,
     const truck_lift_el_real_t **A_x, const truck_lift_el_real_t **P_x, const truck_lift_el_real_t **z,
     const truck_lift_el_real_t **y);
