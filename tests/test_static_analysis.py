@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from fcgen.codegen.generate import GenerateInfo, generate
+from fcgen.codegen.misra import MISRA_DEVIATIONS, deviated_rules
 from fcgen.presets import paper_problem
 
 pytestmark = pytest.mark.skipif(shutil.which("cppcheck") is None, reason="needs cppcheck (Debian: cppcheck)")
@@ -61,3 +62,15 @@ def test_cppcheck_sees_a_defect(tmp_path: Path) -> None:
     (tmp_path / "bad_solver.h").write_text("int bad_f(void);\n")
     found = _cppcheck(tmp_path, "bad", "--enable=warning,style,portability")
     assert "arrayIndexOutOfBounds" in {f["id"] for f in found}
+
+
+def test_misra_findings_are_the_deviations(folders: list[GenerateInfo]) -> None:
+    for info in folders:
+        found = _cppcheck(info.out_dir, info.name, "--addon=misra")
+        rules = {f["id"].removeprefix("misra-c2012-") for f in found}
+        assert all(f["id"].startswith("misra-c2012-") for f in found), found
+        assert rules == deviated_rules(), (info.name, sorted(rules - deviated_rules()),
+                                           sorted(deviated_rules() - rules))
+        readme = (info.out_dir / "README.md").read_text()
+        for rule, category, reason in MISRA_DEVIATIONS:
+            assert f"| {rule} | {category} | {reason} |" in readme

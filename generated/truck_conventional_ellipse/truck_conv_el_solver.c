@@ -13,6 +13,7 @@
 
 #define QP_INF ((truck_conv_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define FLOOR floor /* floor of double */
+#define REAL_0 ((truck_conv_el_real_t)0.0) /* zero of the real type (no promotion to double in float) */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -972,6 +973,15 @@ static const truck_conv_el_real_t Q_DS0[445] = {
 static const truck_conv_el_real_t INIT_D[5] = {
   10.0, 5.0, 0.5, 10.0, 0.3
 };
+static const truck_conv_el_real_t U_LO[2] = {
+  -10000.0, -0.39
+};
+static const truck_conv_el_real_t U_HI[2] = {
+  10000.0, 0.39
+};
+static const truck_conv_el_real_t U_LIM[2] = {
+  10000.0, 0.39
+};
 static const truck_conv_el_real_t ZERO_N[TRUCK_CONV_EL_QP_N] = {0};
 
 /* ---- QP backend ------------------------------------------------------------------------------------------------ */
@@ -985,13 +995,28 @@ typedef struct {
   const truck_conv_el_real_t *y;
 } qpb_result_t;
 
-/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above. */
+/* QP outcome contract: the statuses whose (finite) step is taken, and the exit code of every status */
+#define QP_USABLE(s) (((s) == TRUCK_CONV_EL_QP_SOLVED) || ((s) == TRUCK_CONV_EL_QP_SOLVED_INACCURATE) || ((s) == TRUCK_CONV_EL_QP_MAX_ITER))
+static const int QP_EXIT[9 + 1] = {
+  [0] = TRUCK_CONV_EL_ERR_QP,
+  [TRUCK_CONV_EL_QP_SOLVED] = TRUCK_CONV_EL_OK,
+  [TRUCK_CONV_EL_QP_SOLVED_INACCURATE] = TRUCK_CONV_EL_OK,
+  [TRUCK_CONV_EL_QP_MAX_ITER] = TRUCK_CONV_EL_OK,
+  [TRUCK_CONV_EL_QP_PRIMAL_INFEASIBLE] = TRUCK_CONV_EL_ERR_QP_INFEASIBLE,
+  [TRUCK_CONV_EL_QP_DUAL_INFEASIBLE] = TRUCK_CONV_EL_ERR_QP_DUAL_INFEASIBLE,
+  [TRUCK_CONV_EL_QP_NONCONVEX] = TRUCK_CONV_EL_ERR_QP_NONCONVEX,
+  [TRUCK_CONV_EL_QP_NONFINITE] = TRUCK_CONV_EL_ERR_QP_NONFINITE,
+  [TRUCK_CONV_EL_QP_NUMERICAL] = TRUCK_CONV_EL_ERR_QP_NUMERICAL,
+  [TRUCK_CONV_EL_QP_OTHER] = TRUCK_CONV_EL_ERR_QP,
+};
+
+/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above.
+ * The core calls qpb_reset() before the backend's first use after program start, init(), reset() or a failure. */
 /* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_conv_el_solver.c) ------------------------------ */
 #include "osqp.h"
 #include "truck_conv_el_workspace.h"
 
 #define QPB_SOLVER (&truck_conv_el_solver)
-#define QPB_RHO0 0.2
 #define QPB_MAX_ITER 60
 
 typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
@@ -1010,282 +1035,6 @@ static const int QPB_STATUS[12] = {
   [10] = TRUCK_CONV_EL_QP_OTHER,
   [11] = TRUCK_CONV_EL_QP_OTHER,
 };
-/* OSQP's exported bounds: l = min(L, 0), u = max(U, 0) */
-static const OSQPFloat QPB_L0[TRUCK_CONV_EL_QP_M] = {
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  -1.0, -1e+30, 0.0, 0.0, 0.0, -2.0,
-  -1.5707963267948966, 0.0, -1.0, 0.0, 0.0, 0.0,
-  0.0
-};
-static const OSQPFloat QPB_U0[TRUCK_CONV_EL_QP_M] = {
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 1.0, 1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  1e+30, 1.0, 1e+30, 1e+30, 1e+30, 2.0,
-  1.5707963267948966, 1.5, 1.0, 1e+30, 1e+30, 1e+30,
-  1e+30
-};
-
 /* OSQP's iteration budget (the other settings unchanged) */
 static void qpb_set_max_iter(OSQPInt n) {
   OSQPSettings s = *QPB_SOLVER->settings;
@@ -1293,28 +1042,31 @@ static void qpb_set_max_iter(OSQPInt n) {
   (void)osqp_update_settings(QPB_SOLVER, &s);
 }
 
-/* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
-static void qpb_reset(void) {
-  (void)osqp_update_data_vec(QPB_SOLVER, ZERO_N, QPB_L0, QPB_U0);
-  (void)osqp_update_rho(QPB_SOLVER, QPB_RHO0);
-}
+/* every mutable byte of OSQP's workspace back to its generated value (the workspace is zero until then) */
+static void qpb_reset(void) { truck_conv_el_workspace_reset(); }
 
+/* q first: OSQP recomputes its scaling in osqp_update_data_mat from the q it holds, so it must be this sample's */
 static int qpb_set_matrices(const truck_conv_el_real_t *P_x, const truck_conv_el_real_t *A_x, const truck_conv_el_real_t *q) {
-  (void)q;
+  if (osqp_update_data_vec(QPB_SOLVER, q, OSQP_NULL, OSQP_NULL) != 0) return 1;
   return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_CONV_EL_QP_N, A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A) != 0;
 }
 
 static int qpb_solve(const truck_conv_el_real_t *q, const truck_conv_el_real_t *l, const truck_conv_el_real_t *u,
                      const truck_conv_el_real_t *y_warm, int max_iter, qpb_result_t *res) {
-  OSQPInt rc, raw;
-  if (osqp_update_data_vec(QPB_SOLVER, q, l, u)) return 1;
+  OSQPInt rc;
+  OSQPInt raw;
+  if (osqp_update_data_vec(QPB_SOLVER, q, l, u) != 0) return 1;
   (void)osqp_warm_start(QPB_SOLVER, ZERO_N, y_warm);
-  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(max_iter);
+  if (max_iter != QPB_MAX_ITER) {
+    qpb_set_max_iter(max_iter);
+  }
   rc = osqp_solve(QPB_SOLVER);
-  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(QPB_MAX_ITER);
+  if (max_iter != QPB_MAX_ITER) {
+    qpb_set_max_iter(QPB_MAX_ITER);
+  }
   raw = QPB_SOLVER->info->status_val;
   res->raw_status = (int)raw;
-  res->status = (raw > 0 && raw < 12) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
+  res->status = ((raw > 0) && (raw < 12)) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
   res->iter = (int)QPB_SOLVER->info->iter;
   res->z = QPB_SOLVER->solution->x;
   res->y = QPB_SOLVER->solution->y;
@@ -1331,9 +1083,15 @@ typedef struct {
   truck_conv_el_real_t road_gx[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t road_gy[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t opp[TRUCK_CONV_EL_N + 1][OPP_DIM];
+  clock_fn_t clock;
+  int road_n;
+  int road_set;
+  int have_x0;
   truck_conv_el_real_t w[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t y[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t s0_guess;
+  truck_conv_el_real_t w_tmp[TRUCK_CONV_EL_QP_N];
+  truck_conv_el_real_t y_tmp[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t p[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t p_fb[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t g_init[TRUCK_CONV_EL_NX];
@@ -1342,6 +1100,7 @@ typedef struct {
   truck_conv_el_real_t q_fb[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t l[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u[TRUCK_CONV_EL_QP_M];
+  truck_conv_el_real_t u_applied[TRUCK_CONV_EL_NU];
   truck_conv_el_real_t xa[TRUCK_CONV_EL_NX];
   truck_conv_el_real_t xb[TRUCK_CONV_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
@@ -1350,14 +1109,11 @@ typedef struct {
   casadi_real cw[CASADI_SZ_W];
   const truck_conv_el_real_t *q_cur;
   const truck_conv_el_real_t *qp_z;
-  clock_fn_t clock;
   truck_conv_el_status_t status;
-  int road_n;
-  int road_set;
-  int have_x0;
   int have_guess;
   int prepared;
   int cold;
+  int qp_ready;
 } truck_conv_el_workspace_t;
 
 static truck_conv_el_workspace_t truck_conv_el_ws;
@@ -1373,20 +1129,20 @@ static int fail(int code) {
 
 static int all_finite(const truck_conv_el_real_t *v, int n) {
   int i;
-  for (i = 0; i < n; ++i)
-    if (!isfinite(v[i])) return 0;
-  return 1;
+  int ok = 1;
+  for (i = 0; i < n; ++i) {
+    if (!isfinite(v[i])) {
+      ok = 0;
+    }
+  }
+  return ok;
 }
 
 static void copy(const truck_conv_el_real_t *src, truck_conv_el_real_t *dst, int n) {
   int i;
-  for (i = 0; i < n; ++i) dst[i] = src[i];
-}
-
-/* v[i] = v[src[i]], i ascending: in place, as src[i] >= i (checked by the generator) */
-static void shift(const index_t *src, truck_conv_el_real_t *v, int n) {
-  int i;
-  for (i = 0; i < n; ++i) v[i] = v[src[i]];
+  for (i = 0; i < n; ++i) {
+    dst[i] = src[i];
+  }
 }
 
 /* The stacked stage Jacobian (stage order) -> A's nonzeros (CSC order), in place: v[i] = v[A_SRC[i]] along each
@@ -1405,7 +1161,7 @@ static void jac_to_csc(truck_conv_el_real_t *v) {
   }
 }
 
-static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
+static void call3(const casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
                   casadi_real *r0, casadi_real *r1, casadi_real *r2) {
   ws.arg[0] = a0;
   ws.arg[1] = a1;
@@ -1420,15 +1176,17 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
  * if the road does not cover it. */
 static int window_start(truck_conv_el_real_t s) {
   truck_conv_el_real_t t;
-  if (!ws.road_set || !isfinite(s)) return -1;
+  const int last = ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1; /* the largest t whose window lies on the road */
+  if ((ws.road_set == 0) || !isfinite(s)) return -1;
   t = FLOOR((s - ws.road_s0) / ws.road_ds);
-  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return -1;
+  if (!(t >= (truck_conv_el_real_t)1) || (t > (truck_conv_el_real_t)last)) return -1;
   return (int)t - 1;
 }
 
 /* The local road window around s. */
 static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
-  int i, i0 = window_start(s);
+  int i;
+  const int i0 = window_start(s);
   if (i0 < 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   p[P_ROAD_S0] = ws.road_s0 + (truck_conv_el_real_t)i0 * ws.road_ds;
   p[P_ROAD_DS] = ws.road_ds;
@@ -1443,31 +1201,42 @@ static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
 
 /* p_k = [road window at s | x_ref_k | opponents of stage k] */
 static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) {
-  int i, rc = road_window(p, s);
-  if (rc) return rc;
-  p[P_REF + 0] = ws.s0_guess + STAGES[k].s_ref;
+  int i;
+  const int rc = road_window(p, s);
+  if (rc != TRUCK_CONV_EL_OK) return rc;
+  p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
   p[P_REF + 1] = N_REF;
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) p[P_OPP + i] = ws.opp[k][i];
+  for (i = 0; i < N_OPP_ALL; ++i) {
+    p[P_OPP + i] = ws.opp[k][i];
+  }
   return TRUCK_CONV_EL_OK;
 }
 
-/* Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks and duals. */
-static int initial_guess(void) {
-  int i, k, rc;
-  truck_conv_el_real_t *x = ws.xa, *xn = ws.xb, *tmp;
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = 0.0;
+/* Roll the model out from x0 with zero input into w; hyperplanes between ego and opponents; zero slacks, duals y. */
+static int initial_guess(truck_conv_el_real_t *w, truck_conv_el_real_t *y) {
+  int i;
+  int k;
+  int rc;
+  truck_conv_el_real_t *x = ws.xa;
+  truck_conv_el_real_t *xn = ws.xb;
+  truck_conv_el_real_t *tmp;
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+    w[i] = 0.0;
+  }
   ws.s0_guess = ws.x0[0];
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
-  if (rc) return rc;
+  if (rc != TRUCK_CONV_EL_OK) return rc;
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    copy(x, ws.w + STAGES[k].var, TRUCK_CONV_EL_NX);
+    copy(x, &w[STAGES[k].var], TRUCK_CONV_EL_NX);
     rc = stage_params(ws.p, k, x[0]);
-    if (rc) return rc;
-    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p, NULL, ws.w + STAGES[k].theta, NULL, NULL);
+    if (rc != TRUCK_CONV_EL_OK) return rc;
+    if (STAGES[k].theta >= 0) {
+      call3(truck_conv_el_theta_init, x, ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
+    }
     if (STAGES[k].next >= 0) {
       call3(truck_conv_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
       tmp = x;
@@ -1475,17 +1244,35 @@ static int initial_guess(void) {
       xn = tmp;
     }
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) ws.y[i] = 0.0;
+  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+    y[i] = 0.0;
+  }
   return TRUCK_CONV_EL_OK;
+}
+
+/* The control to apply: u0 of plan w projected on the hard input box; the status reports the projection. */
+static void apply_control(const truck_conv_el_real_t *w) {
+  int i;
+  truck_conv_el_real_t worst = 0.0;
+  for (i = 0; i < TRUCK_CONV_EL_NU; ++i) {
+    const truck_conv_el_real_t v = w[STAGES[0].u + i];
+    const truck_conv_el_real_t lo = U_LO[i];
+    const truck_conv_el_real_t hi = U_HI[i];
+    const truck_conv_el_real_t excess = (v < lo) ? ((lo - v) / U_LIM[i]) : ((v > hi) ? ((v - hi) / U_LIM[i]) : REAL_0);
+    ws.u_applied[i] = (v < lo) ? lo : ((v > hi) ? hi : v);
+    if (excess > worst) {
+      worst = excess;
+    }
+  }
+  ws.status.u_projected = worst > REAL_0;
+  ws.status.u_violation = worst;
 }
 
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_conv_el_init(void) {
   clock_fn_t clock = ws.clock;
-  memset(&ws, 0, sizeof ws);
+  (void)memset(&ws, 0, sizeof ws); /* the QP backend is restored before its next use (qp_ready = 0) */
   ws.clock = clock;
-  ws.q_cur = ws.q;
-  qpb_reset();
   return TRUCK_CONV_EL_OK;
 }
 
@@ -1501,12 +1288,15 @@ int truck_conv_el_set_state(const truck_conv_el_real_t x0[5]) {
 
 int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int n, const truck_conv_el_real_t *kappa,
     const truck_conv_el_real_t *phi_gamma, const truck_conv_el_real_t *gamma_x, const truck_conv_el_real_t *gamma_y) {
-  if (n < 2 || n > TRUCK_CONV_EL_ROAD_MAX || !kappa || !phi_gamma || !gamma_x || !gamma_y)
+  if ((n < 2) || (n > TRUCK_CONV_EL_ROAD_MAX) || (kappa == NULL) || (phi_gamma == NULL) || (gamma_x == NULL) ||
+      (gamma_y == NULL)) {
     return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
+  }
   if (!isfinite(s0) || !isfinite(ds) || !all_finite(kappa, n) || !all_finite(phi_gamma, n) ||
-      !all_finite(gamma_x, n) || !all_finite(gamma_y, n))
+      !all_finite(gamma_x, n) || !all_finite(gamma_y, n)) {
     return fail(TRUCK_CONV_EL_ERR_NONFINITE_ROAD);
-  if (!(ds > (truck_conv_el_real_t)0.0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
+  }
+  if (!(ds > REAL_0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;
@@ -1522,105 +1312,172 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
   int k;
   if (N_OPP_ALL == 0) return TRUCK_CONV_EL_OK;
   if (!params || !all_finite(params, (TRUCK_CONV_EL_N + 1) * N_OPP_ALL)) return fail(TRUCK_CONV_EL_ERR_NONFINITE_OPPONENTS);
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) copy(params + k * N_OPP_ALL, ws.opp[k], N_OPP_ALL);
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    copy(&params[k * N_OPP_ALL], ws.opp[k], N_OPP_ALL);
+  }
   return TRUCK_CONV_EL_OK;
 }
 
+/* Transactional: the prepared guess (w_tmp, y_tmp), q, p are private until prepared = 1 and are built first (every
+ * road window is checked before anything is written); the guess, the duals, the QP backend, the status and `prepared`
+ * change only once every check has passed. The constraint values g are built in u and the Jacobian in A_x's memory
+ * (RAM): after a prepare rejected for non-finite model values, get_qp's u and A_x show that call's values. */
 int truck_conv_el_prepare(void) {
   const double t0 = now();
-  int i, k, rc;
-  ws.prepared = 0;
+  int i;
+  int k;
+  int rc;
+  int cold;
+  if (ws.prepared != 0) return TRUCK_CONV_EL_OK; /* documented no-op: the pending preparation stays */
+  cold = 0;
+  if (ws.have_guess == 0) {
+    cold = 1;
+  }
+  if (cold != 0) {
+    if (ws.have_x0 == 0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
+    rc = initial_guess(ws.w_tmp, ws.y_tmp);
+    if (rc != TRUCK_CONV_EL_OK) return fail(rc);
+  } else {
+    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+      ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
+    }
+    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+      ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
+    }
+  }
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) { /* every road window first: a rejected call changes nothing */
+    if (window_start(ws.w_tmp[STAGES[k].s]) < 0) return fail(TRUCK_CONV_EL_ERR_ROAD_WINDOW);
+  }
+  ws.s0_guess = ws.w_tmp[STAGES[0].s];
+  /* stage k: its parameters (one buffer), then its function: constraint values g (into u), Jacobian, gradient */
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    const stage_t *st = &STAGES[k];
+    rc = stage_params(ws.p, k, ws.w_tmp[st->s]);
+    if (rc != TRUCK_CONV_EL_OK) return fail(rc); /* not reached: every window was checked */
+    const casadi_real *next = NULL;
+    if (st->next >= 0) {
+      next = &ws.w_tmp[st->next];
+    }
+    call3(STAGE_FUN[st->kind], &ws.w_tmp[st->var], next, ws.p, &ws.u[st->row], &ws.jac[st->jac], &ws.q[st->var]);
+  }
+  /* rejected from here on, the QP data views of get_qp hold this call's values (g in u; the solver, the guess
+   * and the backend's QP are unchanged) */
+  if (!all_finite(ws.u, TRUCK_CONV_EL_QP_M) || !all_finite(ws.jac, TRUCK_CONV_EL_NNZ_J) || !all_finite(ws.q, TRUCK_CONV_EL_QP_N)) {
+    return fail(TRUCK_CONV_EL_ERR_QP_NONFINITE);
+  }
+  /* commit */
+  jac_to_csc(ws.jac);
+  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
+    ws.g_init[i] = ws.u[INIT_ROWS[i]];
+  }
+  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+    const truck_conv_el_real_t g = ws.u[i];
+    ws.l[i] = L[i] - g;
+    ws.u[i] = U[i] - g;
+    if (ws.l[i] < -QP_INF) { /* as the backends' Python interfaces clip */
+      ws.l[i] = -QP_INF;
+    }
+    if (ws.u[i] > QP_INF) {
+      ws.u[i] = QP_INF;
+    }
+  }
+  if (ws.qp_ready == 0) {
+    qpb_reset();
+    ws.qp_ready = 1;
+  }
+  if (qpb_set_matrices(P_DIAG, ws.jac, ws.q) != 0) {
+    ws.qp_ready = 0; /* the backend is restored before its next use */
+    return fail(TRUCK_CONV_EL_ERR_QP_NUMERICAL);
+  }
   ws.status.exit_code = TRUCK_CONV_EL_OK;
   ws.status.qp_status = 0;
   ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
-  if (!ws.have_guess) {
-    if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
-    rc = initial_guess();
-    if (rc) return fail(rc); /* no guess is kept */
-    ws.have_guess = 1;
-    ws.cold = 1;
-  } else {
-    /* the shifted guess's road windows, checked before anything changes (the guess is shifted in place) */
-    for (k = 0; k <= TRUCK_CONV_EL_N; ++k)
-      if (window_start(ws.w[VAR_SHIFT[STAGES[k].s]]) < 0) return fail(TRUCK_CONV_EL_ERR_ROAD_WINDOW);
-    ws.cold = 0;
-    shift(VAR_SHIFT, ws.w, TRUCK_CONV_EL_QP_N);
-    shift(ROW_SHIFT, ws.y, TRUCK_CONV_EL_QP_M);
-  }
-  ws.s0_guess = ws.w[STAGES[0].s];
-  /* stage k: its parameters, then its function (constraint values g into u, Jacobian, cost gradient) */
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    const stage_t *st = &STAGES[k];
-    rc = stage_params(ws.p, k, ws.w[st->s]);
-    if (rc) return fail(rc); /* not reached: every window was checked */
-    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p,
-          ws.u + st->row, ws.jac + st->jac, ws.q + st->var);
-  }
-  jac_to_csc(ws.jac);
-  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) ws.g_init[i] = ws.u[INIT_ROWS[i]];
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    const truck_conv_el_real_t g = ws.u[i];
-    ws.l[i] = L[i] - g;
-    ws.u[i] = U[i] - g;
-    if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
-    if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
-  }
   ws.q_cur = ws.q;
-  if (qpb_set_matrices(P_DIAG, ws.jac, ws.q)) return fail(TRUCK_CONV_EL_ERR_QP);
+  ws.cold = cold;
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_CONV_EL_OK;
 }
 
+/* Transactional up to the QP: a rejected call (order, state, road window, non-finite embedding) changes nothing but
+ * exit_code. From the QP on, the sample is consumed: see the QP outcome contract in the header. */
 int truck_conv_el_feedback(void) {
   const double t0 = now();
-  int i, rc;
+  int i;
+  int rc;
+  int qs;
+  int code;
   truck_conv_el_real_t ds0;
   qpb_result_t res = {0, 0, 0, NULL, NULL};
-  if (!ws.prepared) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
-  if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
+  if (ws.prepared == 0) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
+  if (ws.have_x0 == 0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
-  if (rc) return fail(rc);
+  if (rc != TRUCK_CONV_EL_OK) return fail(rc);
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, ws.xa, NULL, NULL);
-  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
-    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g_init[i];
-    ws.u[INIT_ROWS[i]] = ws.l[INIT_ROWS[i]];
-  }
   ds0 = ws.x0[0] - ws.s0_guess;
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+    ws.q_fb[i] = ws.q[i] + (Q_DS0[i] * ds0);
+  }
+  if (!all_finite(ws.xa, TRUCK_CONV_EL_NX) || !all_finite(ws.q_fb, TRUCK_CONV_EL_QP_N)) {
+    return fail(TRUCK_CONV_EL_ERR_NONFINITE_STATE);
+  }
+  /* commit: the sample is consumed */
+  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
+    const truck_conv_el_real_t e = (ws.xa[i] / INIT_D[i]) - ws.g_init[i];
+    const truck_conv_el_real_t v = (e < -QP_INF) ? -QP_INF : ((e > QP_INF) ? QP_INF : e);
+    ws.l[INIT_ROWS[i]] = v;
+    ws.u[INIT_ROWS[i]] = v;
+  }
   ws.q_cur = ws.q_fb;
-  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
   ws.prepared = 0;
-  ws.status.qp_status = res.status;
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y_tmp, (ws.cold != 0) ? MAX_ITER_COLD : MAX_ITER, &res);
+  qs = (rc != 0) ? TRUCK_CONV_EL_QP_NUMERICAL : res.status;
+  if (res.z != NULL) {
+    ws.qp_z = res.z;
+  }
+  if ((rc == 0) && QP_USABLE(qs) &&
+      ((res.z == NULL) || (res.y == NULL) || !all_finite(res.z, TRUCK_CONV_EL_QP_N) || !all_finite(res.y, TRUCK_CONV_EL_QP_M))) {
+    qs = TRUCK_CONV_EL_QP_NONFINITE;
+  }
+  ws.status.qp_status = qs;
   ws.status.qp_raw_status = res.raw_status;
   ws.status.qp_iter = res.iter;
-  if (res.z) ws.qp_z = res.z;
-  if (rc || !res.z || !all_finite(res.z, TRUCK_CONV_EL_QP_N)) {
-    ws.status.time_feedback = now() - t0;
-    return fail(TRUCK_CONV_EL_ERR_QP);
+  code = QP_EXIT[((qs >= 0) && (qs <= 9)) ? qs : TRUCK_CONV_EL_QP_OTHER];
+  if (code == TRUCK_CONV_EL_OK) {
+    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+      ws.w[i] = ws.w_tmp[i] + (D[i] * res.z[i]);
+    }
+    copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
+  } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
+    copy(ws.w_tmp, ws.w, TRUCK_CONV_EL_QP_N);
+    copy(ws.y_tmp, ws.y, TRUCK_CONV_EL_QP_M);
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * res.z[i];
-  copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
-  ws.status.exit_code = TRUCK_CONV_EL_OK;
+  ws.have_guess = 1;
+  apply_control(ws.w);
+  ws.status.exit_code = code;
   ws.status.time_feedback = now() - t0;
-  return TRUCK_CONV_EL_OK;
+  return code;
 }
 
 void truck_conv_el_get_u0(truck_conv_el_real_t u[2]) {
-  copy(ws.w + STAGES[0].u, u, TRUCK_CONV_EL_NU);
+  copy(ws.u_applied, u, TRUCK_CONV_EL_NU);
 }
 
 void truck_conv_el_get_states(truck_conv_el_real_t *x) {
   int k;
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) copy(ws.w + STAGES[k].var, x + k * TRUCK_CONV_EL_NX, TRUCK_CONV_EL_NX);
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    copy(&ws.w[STAGES[k].var], &x[k * TRUCK_CONV_EL_NX], TRUCK_CONV_EL_NX);
+  }
 }
 
 void truck_conv_el_get_controls(truck_conv_el_real_t *u) {
   int k;
-  for (k = 0; k < TRUCK_CONV_EL_N; ++k) copy(ws.w + STAGES[k].u, u + k * TRUCK_CONV_EL_NU, TRUCK_CONV_EL_NU);
+  for (k = 0; k < TRUCK_CONV_EL_N; ++k) {
+    copy(&ws.w[STAGES[k].u], &u[k * TRUCK_CONV_EL_NU], TRUCK_CONV_EL_NU);
+  }
 }
 
 truck_conv_el_real_t truck_conv_el_max_slack(void) {
@@ -1628,21 +1485,22 @@ truck_conv_el_real_t truck_conv_el_max_slack(void) {
   int i;
   for (i = 0; i < N_SLACK; ++i) {
     const truck_conv_el_real_t v = ws.w[SLACK_VARS[i]];
-    if (v > m || v != v) m = v; /* NaN propagates, as numpy's max */
+    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
+      m = v;
+    }
   }
   return m;
 }
 
 void truck_conv_el_get_status(truck_conv_el_status_t *st) {
-  if (st) *st = ws.status;
+  if (st != NULL) {
+    *st = ws.status;
+  }
 }
 
 void truck_conv_el_reset(void) {
-  int i;
-  ws.have_guess = 0;
-  ws.prepared = 0;
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = 0.0;
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) ws.y[i] = 0.0;
+  /* everything from the first non-input member on: plan, duals, preparation, status, QP data, backend */
+  (void)memset(&ws.w, 0, (sizeof ws) - (size_t)offsetof(truck_conv_el_workspace_t, w));
 }
 
 int truck_conv_el_has_guess(void) { return ws.have_guess; }
@@ -1650,11 +1508,25 @@ int truck_conv_el_has_guess(void) { return ws.have_guess; }
 void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_real_t **l, const truck_conv_el_real_t **u,
     const truck_conv_el_real_t **A_x, const truck_conv_el_real_t **P_x, const truck_conv_el_real_t **z,
     const truck_conv_el_real_t **y) {
-  if (q) *q = ws.q_cur ? ws.q_cur : ws.q;
-  if (l) *l = ws.l;
-  if (u) *u = ws.u;
-  if (A_x) *A_x = ws.jac;
-  if (P_x) *P_x = P_DIAG;
-  if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
-  if (y) *y = ws.y;
+  if (q != NULL) {
+    *q = (ws.q_cur != NULL) ? ws.q_cur : ZERO_N;
+  }
+  if (l != NULL) {
+    *l = ws.l;
+  }
+  if (u != NULL) {
+    *u = ws.u;
+  }
+  if (A_x != NULL) {
+    *A_x = ws.jac;
+  }
+  if (P_x != NULL) {
+    *P_x = P_DIAG;
+  }
+  if (z != NULL) {
+    *z = (ws.qp_z != NULL) ? ws.qp_z : ZERO_N;
+  }
+  if (y != NULL) {
+    *y = ws.y;
+  }
 }
