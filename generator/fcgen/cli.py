@@ -276,7 +276,7 @@ def demo(problem_name, seed, samples, out_dir, plot):
 @click.option("--cflags", default=None, help="C flags (default: $CFLAGS or the Makefile's -O2)")
 @click.option("--golden-for", "golden_root", type=click.Path(file_okay=False), default=None,
               help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
-                   "settings (3 seeds x 200 samples, verification build, planned controls, no timing)")
+                   "settings (2 seeds x 200 samples, verification build, planned controls, no timing)")
 def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from .build import BuildError
