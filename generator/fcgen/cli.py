@@ -314,7 +314,8 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
 @click.option("--timing", is_flag=True, help="also compare the timing fields")
 @click.option("--controller", type=click.Choice(("c", "python")), default="c", show_default=True,
               help="for a solver folder NEW: its compiled C or its Python reference")
-@click.option("--verify", is_flag=True, help="build NEW without floating-point contraction")
+@click.option("--verify/--no-verify", default=None,
+              help="build NEW without floating-point contraction or not [default: as the golden suite was built]")
 @click.option("--cc", default=None, help="C compiler for NEW (default: $CC or cc)")
 @click.option("--cflags", default=None, help="C flags for NEW (default: $CFLAGS or the Makefile's -O2)")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="write the report (JSON)")

@@ -418,7 +418,8 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     """Compare NEW (log, suite or solver folder) with GOLDEN (log or suite); see the module docstring.
 
     ``mode``: for a solver folder ``"replay"`` (default) or ``"closed-loop"``; ``controller``: ``"c"`` (the folder's
-    compiled solver, ``build_kw`` passed to ``fcgen.build.build``) or ``"python"`` (its Python reference).
+    compiled solver, ``build_kw`` passed to ``fcgen.build.build``; ``verify`` defaults to the golden suite's) or
+    ``"python"`` (its Python reference).
     """
     new, golden = Path(new), Path(golden)
     kind_new = _kind(new)
@@ -460,7 +461,10 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
         if info["problem"]["problem_py_sha256"] != man["problem"].get("problem_py_sha256"):
             notes.append("the solver's problem.py differs from the one the golden suite was recorded with")
     rep = RegressReport(mode, str(new), str(golden), name, tols, timing, notes=notes)
-    runner = _Runner(new, controller, build_kw or {}, progress)
+    build_kw = dict(build_kw or {})
+    if build_kw.get("verify") is None:   # by default the kind of build the golden suite was recorded with
+        build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
+    runner = _Runner(new, controller, build_kw, progress)
     for g in gold_logs:
         label = f"{g.meta['scenario']} seed {g.meta['seed']}"
         if g.meta["problem"] != info["name"]:
