@@ -214,7 +214,10 @@ def test_unusable_inputs(tmp_path, golden_logs) -> None:
     short.to_json(tmp_path / "short.json")
     _one_line_exit2(_cli("regress", tmp_path / "short.json", ok), "another length", "150", "200")
     _one_line_exit2(_cli("regress", ok, tmp_path / "missing.json"), "missing.json")
-    _one_line_exit2(_cli("regress", ok, GOLDEN), "is a run log but")
+    seed9 = replace(g, meta={**g.meta, "seed": 9}).to_json(tmp_path / "seed9.json")
+    _one_line_exit2(_cli("regress", seed9, GOLDEN), "no log of truck seed 9")
+    _one_line_exit2(_cli("regress", seed9, ok), "another scenario", "seed")
+    assert _cli("regress", ok, GOLDEN, "--preset", "same-build").exit_code == 0   # vs the suite's seed-0 log
     _one_line_exit2(_cli("regress", ok, ok, "--tol", "bogus=1,2"), "--tol")
     # a suite whose log was edited without re-hashing, and a suite of another solver
     bad = tmp_path / "bad"

@@ -2,7 +2,8 @@
 
 ``regress(new, golden)`` takes run-log files, golden suites (``fcgen.suite``) or a solver folder as ``new``:
 
-* log vs log, suite vs suite: the logs are compared field by field;
+* log vs log, suite vs suite, log vs suite (its log of the same scenario and seed, e.g. a target's
+  ``firmware-sim`` log vs a host suite): the logs are compared field by field;
 * solver folder vs suite (or log), **replay** mode (default): the new solver gets the golden logs' inputs
   (``fcgen.sim.replay``) and its outputs are compared with the golden outputs;
 * solver folder vs suite (or log), **closed-loop** mode: every scenario is run again with the new solver.
@@ -429,14 +430,15 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     if kind_new != "solver" and mode is not None:
         raise UnusableInput(f"--mode {mode} needs NEW to be a solver folder; {new} is a {kind_new}")
     notes: list[str] = []
-    if kind_new == "log":
-        if man is not None:
-            raise UnusableInput(f"{new} is a run log but {golden} is a suite: compare a log with a log, a suite "
-                                f"with a suite, or a solver folder with either")
+    if kind_new == "log":   # vs a log, or vs the suite's log of the same scenario and seed
         new_log = _unusable(load_log, new)
+        key = (new_log.meta["scenario"], new_log.meta["seed"])
+        match = [g for g in gold_logs if (g.meta["scenario"], g.meta["seed"]) == key] if man else gold_logs
+        if not match:
+            raise UnusableInput(f"{golden}: the suite has no log of {key[0]} seed {key[1]} (the scenario of {new})")
         name, tols = _tolerances(preset, (new_log.meta.get("precision", "double"), prec_gold), tol)
         rep = RegressReport("log vs log", str(new), str(golden), name, tols, timing)
-        rep.logs.append(compare_logs(new_log, gold_logs[0], tols, timing=timing))
+        rep.logs.append(compare_logs(new_log, match[0], tols, timing=timing))
         return rep
     if kind_new == "suite":
         if man is None:
