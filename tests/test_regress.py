@@ -57,6 +57,8 @@ def test_compare_field_hand_values() -> None:
     assert r.first["allowed"] == pytest.approx(0.13, abs=1e-15)
     assert r.max_abs == pytest.approx(2.1, abs=1e-12) and r.max_at == (1, (1,))
     assert r.ratio[1] == pytest.approx(1.0, rel=1e-12)
+    assert r.rel[1] == pytest.approx(2.1 / 200, rel=1e-12) and list(r.bad) == [False, False, True]
+    assert r.tol_rel == pytest.approx(0.01 + 0.1 / 200, rel=1e-12)
 
 
 def test_compare_field_nan_and_ints() -> None:

@@ -108,7 +108,10 @@ class FieldResult:
     max_abs: float = 0.0
     max_at: tuple[int, tuple[int, ...]] | None = None   # (sample, index in the row) of max_abs
     first: dict[str, Any] | None = None  # first sample out of tolerance: sample, index, new, golden, diff, allowed
-    ratio: np.ndarray | None = None     # per sample: max |diff| / allowed (for the plot)
+    ratio: np.ndarray | None = None     # per sample: max |diff| / allowed
+    rel: np.ndarray | None = None       # per sample: max |diff| / scale (scale = component_scale, 1 where 0)
+    bad: np.ndarray | None = None       # per sample: any element out of tolerance
+    tol_rel: float = 0.0                # the tightest allowed |diff| / scale of the field (the plot's line)
 
     @property
     def passed(self) -> bool:
@@ -139,18 +142,25 @@ def compare_field(name: str, new: np.ndarray, gold: np.ndarray, tol: Tol) -> Fie
     b = np.asarray(gold, dtype=np.float64)
     res = FieldResult(name, tol, a.shape[0] if a.ndim else 0)
     if a.size == 0:
-        res.ratio = np.zeros(res.rows)
+        res.ratio = res.rel = np.zeros(res.rows)
+        res.bad = np.zeros(res.rows, dtype=bool)
         return res
     with np.errstate(invalid="ignore", over="ignore"):
         d = np.abs(a - b)
         same = (a == b) | (np.isnan(a) & np.isnan(b))
         d = np.where(same, 0.0, np.where(np.isnan(d), math.inf, d))
-        allowed = tol.abs + tol.rel * component_scale(b)
+        scale = component_scale(b)
+        allowed = tol.abs + tol.rel * scale
         bad = d > allowed
         ratio = np.where(d == 0, 0.0, np.divide(d, allowed, out=np.full_like(d, math.inf), where=allowed > 0))
+        safe = np.where(scale > 0, scale, 1.0)
+        rel = d / safe
     rows = a.shape[0]
     flat_d, flat_bad = d.reshape(rows, -1), bad.reshape(rows, -1)
     res.ratio = ratio.reshape(rows, -1).max(axis=1)
+    res.rel = rel.reshape(rows, -1).max(axis=1)
+    res.bad = flat_bad.any(axis=1)
+    res.tol_rel = float(np.min(allowed / safe))
     bad_rows = np.flatnonzero(flat_bad.any(axis=1))
     res.bad_rows = int(bad_rows.size)
     k = int(np.argmax(d))
@@ -335,7 +345,8 @@ class RegressReport:
         return "\n".join(lines)
 
     def plot(self, path: Path | str) -> Path:
-        """Divergence over time: per field, ``max |diff| / allowed`` per sample (log scale), one line per log."""
+        """Divergence over time: per field and sample ``max |diff| / scale`` (log scale), one line per log; the
+        dashed line is the field's tolerance, red dots mark samples out of tolerance."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -344,16 +355,22 @@ class RegressReport:
         n = max(1, len(names))
         fig, axes = plt.subplots(n, 1, figsize=(9, 1.7 * n + 0.8), sharex=True, squeeze=False)
         for ax, name in zip(axes[:, 0], names):
+            tol_line = 0.0
             for lg in self.logs:
                 for f in lg.fields:
-                    if f.field == name and f.ratio is not None:
-                        y = np.clip(np.nan_to_num(f.ratio, nan=1e6, posinf=1e6), 1e-6, 1e6)
-                        ax.semilogy(np.arange(len(y)), y, lw=0.9, label=lg.label)
-            ax.axhline(1.0, color="k", ls="--", lw=0.8)
-            ax.set_ylim(5e-7, 2e6)
+                    if f.field == name and f.rel is not None:
+                        y = np.clip(np.nan_to_num(f.rel, nan=1e3, posinf=1e3), 1e-17, 1e3)
+                        x = np.arange(len(y))
+                        ax.semilogy(x, y, lw=0.9, label=lg.label)
+                        if f.bad is not None and f.bad.any():
+                            ax.plot(x[f.bad], y[f.bad], "r.", ms=3)
+                        tol_line = f.tol_rel
+            if 0 < tol_line < 1e3:
+                ax.axhline(tol_line, color="k", ls="--", lw=0.8)
+            ax.set_ylim(5e-18, 2e3)
             ax.set_ylabel(name, rotation=0, ha="right", fontsize=8)
-        axes[0, 0].set_title(f"{self.mode}: |new - golden| / allowed ({self.preset}); above the dashed line = "
-                             f"out of tolerance", fontsize=9)
+        axes[0, 0].set_title(f"{self.mode}: |new - golden| / max |golden| per sample ({self.preset}; dashed: "
+                             f"tolerance, red: out of tolerance)", fontsize=9)
         if len(self.logs) <= 10 and names:
             axes[0, 0].legend(fontsize=6, ncol=5, loc="upper left")
         axes[-1, 0].set_xlabel("sample")
