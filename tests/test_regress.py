@@ -230,3 +230,14 @@ def test_unusable_inputs(tmp_path, golden_logs) -> None:
     _one_line_exit2(_cli("regress", other_solver, GOLDEN), "another problem")
     # and an identical log passes with exit 0
     assert _cli("regress", ok, ok, "--preset", "same-build").exit_code == 0
+
+
+def test_record_cli_argument_errors(tmp_path) -> None:
+    res = _cli("record", SOLVER, "--seeds", "5-2")
+    assert res.exit_code == 1 and "--seeds '5-2' is invalid" in res.output and "Traceback" not in res.output
+    res = _cli("record", SOLVER, "--golden-for", "generated")
+    assert res.exit_code == 1 and "give no SOLVER_DIR" in res.output
+    res = _cli("record")
+    assert res.exit_code == 1 and "--golden-for ROOT" in res.output
+    res = _cli("record", "--golden-for", tmp_path)
+    assert res.exit_code == 1 and "no generated solver folders" in res.output
