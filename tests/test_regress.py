@@ -154,14 +154,32 @@ def test_regress_catches_a_changed_weight(weight_copy, tmp_path, golden_logs) ->
     assert (tmp_path / "r.png").stat().st_size > 10000
 
 
-def test_regress_passes_a_rebuild_with_other_flags(tmp_path) -> None:
-    """-O1 instead of the golden's -O2 (verification builds): within the other-flags preset."""
+REASSOC = "-O2 -fassociative-math -fno-signed-zeros -fno-trapping-math"
+
+
+@pytest.mark.parametrize("cflags, verify", [("-O1", "--verify"), (REASSOC, "--no-verify")])
+def test_regress_passes_a_rebuild_with_other_flags(tmp_path, cflags, verify) -> None:
+    """A rebuild with other flags than the golden's (-O2, verification build) passes with the other-flags preset.
+
+    -O1 reproduces the golden bit for bit; reassociation (+ FP contraction allowed) moves the outputs by ~1e-10
+    relative, so ``same-build`` fails where ``other-flags`` passes.
+    """
     new = tmp_path / "truck_lifted_ellipse"
     shutil.copytree(SOLVER, new, ignore=shutil.ignore_patterns("build", "golden"))
-    res = _cli("regress", new, GOLDEN, "--verify", "--cflags=-O1", "--preset", "other-flags")
+    res = _cli("regress", new, GOLDEN, verify, f"--cflags={cflags}", "--preset", "other-flags",
+               "--json", tmp_path / "r.json")
     assert res.exit_code == 0, res.output + res.stderr
-    assert "PASS: 2 log(s) within tolerance" in res.output
-    assert "-O1" in (new / "build" / "verify" / "flags.txt").read_text()
+    assert "PASS: 2 log(s) within tolerance" in res.output and "NEW built with: cc" in res.output
+    build = "verify" if verify == "--verify" else ""
+    assert cflags in (new / "build" / build / "flags.txt").read_text()
+    rep = json.loads((tmp_path / "r.json").read_text())
+    ctrl = max(f["max_abs_diff"] for lg in rep["logs"] for f in lg["fields"] if f["field"] == "control")
+    if cflags == "-O1":
+        assert ctrl == 0.0
+    else:
+        assert 0 < ctrl < 1e-8 * 1e4                  # F_d is up to 1e4 N
+        res = _cli("regress", new, GOLDEN, verify, f"--cflags={cflags}", "--preset", "same-build")
+        assert res.exit_code == 1 and "first divergence" in res.output
 
 
 # ----------------------------------------------------------------------------- record

@@ -484,6 +484,14 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     if build_kw.get("verify") is None:   # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(new, controller, build_kw, progress)
+    if runner.lib is not None:
+        stamp = runner.lib.parent / "flags.txt"
+        notes.append(f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'}")
+    else:
+        notes.append("NEW: the Python reference of the folder's problem.py")
+    if man is not None:
+        notes.append(f"GOLDEN built with: {man.get('build', {}).get('compile_line', 'unknown')} "
+                     f"({man.get('build', {}).get('cc_version', 'unknown compiler')}, {man['precision']})")
     for g in gold_logs:
         label = f"{g.meta['scenario']} seed {g.meta['seed']}"
         if g.meta["problem"] != info["name"]:
