@@ -549,5 +549,6 @@ class _Runner:
         if mode == "replay":
             return _unusable(replay, self.problem, gold, self.make(), None, self.progress)
         sc = _unusable(scenario_of, gold, self.problem)
-        return run_closed_loop(self.problem, sc, controller=self.make(), ocp=self.ocp, progress=self.progress,
-                               exit_codes=gold.exit_code is not None, plan=plan_level(gold))
+        return _unusable(lambda: run_closed_loop(self.problem, sc, controller=self.make(), ocp=self.ocp,
+                                                 progress=self.progress, exit_codes=gold.exit_code is not None,
+                                                 plan=plan_level(gold)))
