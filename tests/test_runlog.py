@@ -231,3 +231,62 @@ def test_compare():
     assert compare(b, b)["time_total"] == 0.0  # NaN at the same place counts as equal
     with pytest.raises(ValueError, match="t"):
         compare(a, RunLog(**make_fields(k=5)))
+
+
+# ----------------------------------------------------------------------------- optional fields, compression
+
+
+def _with_plan(k: int = 6, nx: int = 8, seed: int = 1) -> dict:
+    rng = np.random.default_rng(seed)
+    f = make_fields(k=k)
+    f["exit_code"] = np.array([0, 0, 8, 0, 0, 0][:k])
+    f["plan_states"] = rng.normal(size=(k, 41, nx))
+    f["plan_controls"] = rng.normal(size=(k, 40, 2))
+    f["plan_controls"][2] = np.nan       # a failed call: no plan
+    return f
+
+
+@pytest.mark.parametrize("suffix", [".json", ".json.xz", ".json.gz"])
+def test_optional_fields_round_trip_bit_exact(tmp_path, suffix):
+    log = RunLog(**_with_plan())
+    assert log.optional_fields() == ("exit_code", "plan_states", "plan_controls")
+    path = log.to_json(tmp_path / f"run{suffix}")
+    magic = path.read_bytes()[:6]
+    assert magic.startswith({".json": b"{", ".json.xz": b"\xfd7zXZ", ".json.gz": b"\x1f\x8b"}[suffix])
+    back = RunLog.from_json(path)
+    for name in ("exit_code", "plan_states", "plan_controls", "control"):
+        assert bits_equal(getattr(back, name), getattr(log, name)), name
+    assert back.to_json_string() == log.to_json_string()
+    if suffix != ".json":   # compressed bytes are deterministic too (no time stamp in the gzip header)
+        assert log.to_json(tmp_path / f"again{suffix}").read_bytes() == path.read_bytes()
+
+
+def test_optional_fields_absent_and_compared_only_when_both_have_them():
+    plain = RunLog(**make_fields(k=6))
+    assert plain.optional_fields() == () and "exit_code" not in plain.to_dict()["samples"]
+    full = RunLog(**_with_plan())
+    d = compare(full, plain)
+    assert set(d) == set(STATE_FIELDS) | set(CONTROL_FIELDS)
+    other = _with_plan(seed=2)
+    other["plan_controls"][2] = np.nan
+    d2 = compare(full, RunLog(**other))
+    assert d2["plan_states"] > 0 and d2["exit_code"] == 0 and math.isfinite(d2["plan_controls"])
+
+
+@pytest.mark.parametrize("name, shape, msg", [
+    ("plan_states", (6, 40, 8), "plan_states"),      # N + 1 = 41 rows expected
+    ("plan_controls", (5, 40, 2), "plan_controls"),  # K = 6 rows expected
+    ("exit_code", (6, 1), "exit_code"),
+])
+def test_optional_field_shapes_are_validated(name, shape, msg):
+    f = _with_plan()
+    f[name] = np.zeros(shape)
+    with pytest.raises(ValueError, match=msg):
+        RunLog(**f)
+
+
+def test_unknown_samples_field_still_rejected():
+    d = RunLog(**_with_plan()).to_dict()
+    d["samples"]["plan_duals"] = [[0.0]] * 6
+    with pytest.raises(ValueError, match="unknown field"):
+        RunLog.from_dict(d)

@@ -256,3 +256,7 @@ class CSolver:
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
+
+    def plan(self) -> tuple[np.ndarray, np.ndarray]:
+        """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
+        return self.states(), self.controls()

@@ -323,6 +323,93 @@ def demo(problem_name, seed, samples, out_dir, plot):
         _fail("the generated C does not reproduce the Python reference within the tolerance")
 
 
+@main.command()
+@click.argument("solver_dir", type=click.Path(file_okay=False), required=False)
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="suite folder to write (default: SOLVER_DIR/golden)")
+@click.option("--scenario", type=click.Choice(SCENARIOS), default=None,
+              help="default: the problem's own (from its opponent vehicle)")
+@click.option("--seeds", default="0-19", show_default=True, help="a range A-B, a list A,B,C, or both")
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--plan", type=click.Choice(("none", "controls", "full")), default="none", show_default=True,
+              help="also log each sample's planned controls (controls, +~130 KiB per log) or controls and states "
+                   "(full, +~650 KiB per log) for replay")
+@click.option("--verify", is_flag=True, help="use the verification build (no floating-point contraction)")
+@click.option("--timing/--no-timing", default=True, show_default=True, help="keep the timing fields (else zeros)")
+@click.option("--cc", default=None, help="C compiler (default: $CC or cc)")
+@click.option("--cflags", default=None, help="C flags (default: $CFLAGS or the Makefile's -O2)")
+@click.option("--golden-for", "golden_root", type=click.Path(file_okay=False), default=None,
+              help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
+                   "settings (2 seeds x 200 samples, verification build, planned controls, no timing)")
+def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root):
+    """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
+    from .build import BuildError
+    from .suite import SuiteSettings, parse_seeds, record_goldens, record_suite
+
+    try:
+        if golden_root is not None:
+            if solver_dir is not None or out_dir is not None:
+                _fail("--golden-for ROOT records every folder under ROOT: give no SOLVER_DIR and no -o")
+            for path in record_goldens(golden_root, echo=click.echo):
+                click.echo(f"golden suite written to {path}")
+            return
+        if solver_dir is None:
+            _fail("give SOLVER_DIR (a folder written by `fcgen generate`) or --golden-for ROOT")
+        st = SuiteSettings(scenario=scenario, seeds=parse_seeds(seeds), samples=samples, plan=plan, verify=verify,
+                           cc=cc, cflags=cflags, timing=timing)
+        out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
+        man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty())
+    except BuildError as exc:
+        _fail(str(exc))
+    size = sum(p.stat().st_size for p in out.iterdir() if p.is_file())
+    click.echo(f"{man['solver']}: {len(man['logs'])} run logs x {samples} samples ({man['settings']['scenario']}, "
+               f"seeds {seeds}, plan {plan}) written to {out}: {size / 1024:.1f} KiB")
+
+
+@main.command()
+@click.argument("new", type=click.Path())
+@click.argument("golden", type=click.Path())
+@click.option("--mode", type=click.Choice(("replay", "closed-loop")), default=None,
+              help="for a solver folder NEW: replay the golden inputs (default) or run the closed loop again")
+@click.option("--preset", default=None,
+              help="tolerances: same-build, other-flags, other-compiler, host-vs-target, float-vs-double "
+                   "[default: by precision]")
+@click.option("--tol", "tols", multiple=True, metavar="FIELD=ABS,REL", help="override one field's tolerance")
+@click.option("--timing", is_flag=True, help="also compare the timing fields")
+@click.option("--controller", type=click.Choice(("c", "python")), default="c", show_default=True,
+              help="for a solver folder NEW: its compiled C or its Python reference")
+@click.option("--verify/--no-verify", default=None,
+              help="build NEW without floating-point contraction or not [default: as the golden suite was built]")
+@click.option("--cc", default=None, help="C compiler for NEW (default: $CC or cc)")
+@click.option("--cflags", default=None, help="C flags for NEW (default: $CFLAGS or the Makefile's -O2)")
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="write the report (JSON)")
+@click.option("--plot", type=click.Path(dir_okay=False), default=None, help="plot the divergence over time (PNG)")
+def regress(new, golden, mode, preset, tols, timing, controller, verify, cc, cflags, json_out, plot):
+    """Compare NEW (run log, suite or solver folder) with GOLDEN (run log or suite).
+
+    Exit code 0: within tolerance, 1: out of tolerance, 2: unusable input.
+    """
+    from .build import BuildError
+    from .regress import UnusableInput, parse_tol, regress as run
+
+    try:
+        overrides = dict(parse_tol(t) for t in tols)
+        rep = run(Path(new), Path(golden), mode=mode, preset=preset, tol=overrides, timing=timing,
+                  controller=controller, build_kw={"verify": verify, "cc": cc, "cflags": cflags},
+                  progress=sys.stderr.isatty())
+    except (UnusableInput, BuildError) as exc:
+        click.echo(f"Error: {str(exc).splitlines()[0]}", err=True)
+        sys.exit(2)
+    click.echo(rep.format())
+    if json_out:
+        rep.to_json(json_out)
+        click.echo(f"report written to {json_out}")
+    if plot:
+        rep.plot(plot)
+        click.echo(f"plot written to {plot}")
+    sys.exit(rep.exit_code)
+
+
 @main.command(name="presets")
 def list_presets() -> None:
     """List the preset problems."""

@@ -8,8 +8,8 @@ from pathlib import Path
 from ..presets import preset, preset_names
 from .generate import generate
 
-IGNORED = ("build", "osqp/lib")
-"""Sub-folders that are not generator output (build products, OSQP's restorable library copy)."""
+IGNORED = ("build", "osqp/lib", "golden")
+"""Sub-folders that are not generator output (build products, OSQP's restorable library copy, golden suites)."""
 
 
 def tracked_files(folder: Path) -> set[str]:

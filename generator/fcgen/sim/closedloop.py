@@ -19,6 +19,9 @@ from .scenario import OpponentParams, Scenario
 
 WINDOW_BEHIND = 10.0  # m of road the solver's window keeps behind the ego
 
+#: what ``run_closed_loop``/``replay`` log of each sample's planned trajectory (optional run-log fields)
+PLAN_LEVELS: tuple[str, ...] = ("none", "controls", "full")
+
 
 @dataclass
 class StepResult:
@@ -39,6 +42,44 @@ class Controller(Protocol):
     kind: str
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult: ...
+
+
+def solver_window(problem: Problem, road: Road, x: np.ndarray) -> Road:
+    """The road window the solver gets at measured state ``x``: from ``WINDOW_BEHIND`` m behind the ego on."""
+    return road.window(x[0] - WINDOW_BEHIND, problem.road.samples)
+
+
+class PlanLog:
+    """Collects the optional run-log fields of each sample: exit code and (``plan``) the planned trajectory."""
+
+    def __init__(self, K: int, N: int, plan: str = "none"):
+        if plan not in PLAN_LEVELS:
+            raise ValueError(f"plan = {plan!r} is invalid: allowed {', '.join(PLAN_LEVELS)}")
+        self.plan, self.K, self.N = plan, K, N
+        self.exit_code = np.zeros(K, dtype=np.int64)
+        self.states: list[np.ndarray] = []
+        self.controls: list[np.ndarray] = []
+
+    def add(self, j: int, controller, r: StepResult) -> None:
+        """Record sample ``j``: its exit code and the controller's plan (NaN when the call failed)."""
+        self.exit_code[j] = r.exit_code
+        if self.plan == "none":
+            return
+        xs, us = controller.plan()
+        if r.exit_code:
+            xs, us = np.full_like(xs, np.nan), np.full_like(us, np.nan)
+        self.controls.append(np.asarray(us, dtype=float))
+        if self.plan == "full":
+            self.states.append(np.asarray(xs, dtype=float))
+
+    def fields(self) -> dict:
+        """The optional ``RunLog`` fields."""
+        out: dict = {"exit_code": self.exit_code}
+        if self.plan != "none":
+            out["plan_controls"] = np.array(self.controls).reshape(self.K, self.N, -1)
+        if self.plan == "full":
+            out["plan_states"] = np.array(self.states).reshape(self.K, self.N + 1, -1)
+        return out
 
 
 class ReferenceController:
@@ -80,6 +121,10 @@ class ReferenceController:
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
 
+    def plan(self) -> tuple[np.ndarray, np.ndarray]:
+        """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
+        return self.solver.states(), self.solver.controls()
+
 
 def plant_function(problem: Problem, samples: int) -> ca.Function:
     """One RK4 step of the 5-state Frenet model with a road window parameter (same formula as the NLP)."""
@@ -94,8 +139,14 @@ def dims(v: Vehicle) -> dict:
 
 
 def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | None = None,
-                    ocp: Ocp | None = None, progress: bool = False) -> RunLog:
-    """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics)."""
+                    ocp: Ocp | None = None, progress: bool = False, exit_codes: bool = False,
+                    plan: str = "none") -> RunLog:
+    """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
+
+    ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
+    the planned controls (``"controls"``) or controls and states (``"full"``) of every sample; either needs a
+    controller with ``plan()``.
+    """
     ocp = ocp or build_ocp(problem)
     controller = controller or ReferenceController(ocp)
     plant = plant_function(problem, ocp.road_params.samples)
@@ -109,16 +160,16 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     tp, tf = np.zeros(K), np.zeros(K)
     qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
     slack = np.zeros(K)
-    exit_codes = np.zeros(K, dtype=np.int64)
+    planlog = PlanLog(K, problem.horizon.N, plan)
     it = range(K)
     if progress:
         from tqdm import tqdm
         it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     for j in it:
         x = xs[j]
-        window = road.window(x[0] - WINDOW_BEHIND, problem.road.samples)
-        r = controller.step(x, window, opp_params.horizon(j))
-        us[j], exit_codes[j] = r.u, r.exit_code
+        r = controller.step(x, solver_window(problem, road, x), opp_params.horizon(j))
+        us[j] = r.u
+        planlog.add(j, controller, r)
         tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
         i0 = int(math.floor((x[0] - road.s0) / road.ds)) - 1
         xs[j + 1] = np.array(plant(x, us[j], rp.pack(road, i0))).ravel()
@@ -134,10 +185,11 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
                      obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=sc.seed,
                      N=problem.horizon.N, dt=problem.horizon.dt, controller=controller.kind,
                      n_bound=problem.bounds.n_max,
-                     extra={"exit_codes_nonzero": int(np.count_nonzero(exit_codes))})
+                     extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code))})
     road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
                  "phi_gamma": road.phi, "ds": road.ds}
     return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=t, ego_frenet=xs, ego_cartesian=ego_cart,
                   opp_cartesian=opp_cart, opp_frenet=opp_fr, collision=coll, a_lat=a_lat, control=us,
                   time_prepare=tp, time_feedback=tf, time_total=tp + tf, qp_iter=qi, qp_status=qs,
-                  max_slack=slack, ego=dims(problem.ego))
+                  max_slack=slack, ego=dims(problem.ego),
+                  **(planlog.fields() if exit_codes or plan != "none" else {}))

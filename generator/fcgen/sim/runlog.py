@@ -12,7 +12,9 @@ and the solver statistics of sample ``k`` belong to the solve that produced ``u_
 
 from __future__ import annotations
 
+import gzip
 import json
+import lzma
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -34,6 +36,7 @@ __all__ = [
     "DIM_KEYS",
     "STATE_FIELDS",
     "CONTROL_FIELDS",
+    "OPTIONAL_FIELDS",
     "QP_STATUS_NAMES",
     "qp_status_name",
     "package_versions",
@@ -82,6 +85,13 @@ CONTROL_FIELDS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "max_slack": ("float", ()),
 }
 _SAMPLE_FIELDS = {**STATE_FIELDS, **CONTROL_FIELDS}
+#: Optional per-control-sample fields (K rows; for replay comparison, docs/runlog.md): "N" in a trailing shape is
+#: ``meta["N"]``, "*" any positive size (one value for all rows). A log either has a field with this shape or not.
+OPTIONAL_FIELDS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    "exit_code": ("int", ()),
+    "plan_states": ("float", ("N+1", "*")),
+    "plan_controls": ("float", ("N", "*")),
+}
 
 #: Generic QP status codes (``fcgen.backends.QP_STATUSES``: the same for every QP backend, C and Python alike), without
 #: the ``QP_`` prefix, lower case. The backend's own status is not logged.
@@ -253,6 +263,13 @@ class RunLog:
     max_slack: NDArray[np.float64]
     #: ego vehicle dimensions (keys ``DIM_KEYS``); None only for logs that do not know them
     ego: dict[str, Any] | None = field(default=None)
+    # optional per control sample (K), None when the log does not carry them
+    #: solver exit code of each sample (0 = OK)
+    exit_code: NDArray[np.int64] | None = field(default=None)
+    #: planned states x_0 .. x_N of each sample's solution, (K, N + 1, nx)
+    plan_states: NDArray[np.float64] | None = field(default=None)
+    #: planned controls u_0 .. u_{N-1} of each sample's solution, (K, N, nu)
+    plan_controls: NDArray[np.float64] | None = field(default=None)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -302,6 +319,30 @@ class RunLog:
             rows = k1 if name in STATE_FIELDS else k1 - 1
             shape = (rows,) + tuple(n_opp if d == "O" else d for d in trailing)
             set_(self, name, _coerce_array(name, getattr(self, name), kind, shape))
+        for name, (kind, trailing) in OPTIONAL_FIELDS.items():
+            value = getattr(self, name)
+            if value is not None:
+                set_(self, name, _coerce_array(name, value, kind, self._optional_shape(name, value, trailing)))
+
+    def _optional_shape(self, name: str, value: Any, trailing: tuple[Any, ...]) -> tuple[int, ...]:
+        n = self.meta["N"]
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise ValueError(f"field 'meta.N': expected a positive integer for {name!r}, got {n!r}")
+        given = np.shape(_decode_nonfinite(value) if isinstance(value, list) else value)
+        shape = [self.n_controls]
+        for i, d in enumerate(trailing, start=1):
+            if d == "*":
+                d = given[i] if len(given) > i and given[i] > 0 else 1
+            shape.append({"N": n, "N+1": n + 1}.get(d, d))
+        return tuple(shape)
+
+    def optional_fields(self) -> tuple[str, ...]:
+        """Names of the optional fields (``OPTIONAL_FIELDS``) this log carries."""
+        return tuple(name for name in OPTIONAL_FIELDS if getattr(self, name) is not None)
+
+    def sample_fields(self) -> tuple[str, ...]:
+        """Names of all per-sample fields this log carries (required first, then optional)."""
+        return tuple(_SAMPLE_FIELDS) + self.optional_fields()
 
     # -- sizes
     @property
@@ -330,7 +371,7 @@ class RunLog:
             "road": road,
             "ego": self.ego,
             "opponents": self.opponents,
-            "samples": {name: arr(getattr(self, name)) for name in _SAMPLE_FIELDS},
+            "samples": {name: arr(getattr(self, name)) for name in self.sample_fields()},
         }
 
     def to_json_string(self) -> str:
@@ -338,10 +379,14 @@ class RunLog:
         return _emit(self.to_dict(), 0) + "\n"
 
     def to_json(self, path: str | PathLike[str]) -> Path:
-        """Write the log to ``path`` (UTF-8, LF line endings) and return the path."""
+        """Write the log to ``path`` (UTF-8, LF line endings; xz- or gzip-compressed if it ends in ``.xz``/``.gz``)."""
         path = Path(path)
-        with open(path, "w", encoding="utf-8", newline="\n") as f:
-            f.write(self.to_json_string())
+        data = self.to_json_string().encode("utf-8")
+        if path.suffix == ".xz":
+            data = lzma.compress(data, preset=9)
+        elif path.suffix == ".gz":
+            data = gzip.compress(data, compresslevel=9, mtime=0)
+        path.write_bytes(data)
         return path
 
     @classmethod
@@ -365,7 +410,7 @@ class RunLog:
         missing = [k for k in _SAMPLE_FIELDS if k not in samples]
         if missing:
             raise ValueError(f"field 'samples': missing field(s) {missing}")
-        unknown = sorted(set(samples) - set(_SAMPLE_FIELDS))
+        unknown = sorted(set(samples) - set(_SAMPLE_FIELDS) - set(OPTIONAL_FIELDS))
         if unknown:
             raise ValueError(f"field 'samples': unknown field(s) {unknown} for format {FORMAT_VERSION}")
         road = data["road"]
@@ -377,6 +422,7 @@ class RunLog:
             opponents=data["opponents"],
             ego=data.get("ego"),
             **{name: samples[name] for name in _SAMPLE_FIELDS},
+            **{name: samples[name] for name in OPTIONAL_FIELDS if name in samples},
         )
 
     @classmethod
@@ -390,9 +436,21 @@ class RunLog:
 
     @classmethod
     def from_json(cls, path: str | PathLike[str]) -> "RunLog":
-        """Read and validate a run-log file written by ``to_json``."""
-        with open(path, encoding="utf-8") as f:
-            return cls.from_json_string(f.read())
+        """Read and validate a run-log file written by ``to_json`` (plain, xz or gzip: told by its first bytes)."""
+        return cls.from_json_string(read_text(path))
+
+
+def read_text(path: str | PathLike[str]) -> str:
+    """The text of a plain, xz- or gzip-compressed UTF-8 file (told apart by the first bytes); ValueError if not text."""
+    raw = Path(path).read_bytes()
+    try:
+        if raw.startswith(b"\xfd7zXZ\x00"):
+            raw = lzma.decompress(raw)
+        elif raw.startswith(b"\x1f\x8b"):
+            raw = gzip.decompress(raw)
+        return raw.decode("utf-8")
+    except (lzma.LZMAError, OSError, EOFError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a text file ({exc})") from None
 
 
 def _reject_constant(name: str) -> float:
@@ -496,10 +554,12 @@ def compare(log_a: RunLog, log_b: RunLog) -> dict[str, float]:
     Returns ``{field: max |a - b|}`` for all fields of ``STATE_FIELDS`` and ``CONTROL_FIELDS`` (bool and
     int fields are compared as numbers, so 0 means identical). NaN at the same place in both counts as
     equal; NaN in one only gives ``inf``. Timing fields are included but naturally differ between runs.
+    Optional fields (``OPTIONAL_FIELDS``) are compared when both logs carry them.
     Raises ValueError if the shapes differ (different number of samples or opponents).
     """
     out: dict[str, float] = {}
-    for name in _SAMPLE_FIELDS:
+    common = [n for n in log_a.sample_fields() if n in log_b.sample_fields()]
+    for name in common:
         a = np.asarray(getattr(log_a, name), dtype=np.float64)
         b = np.asarray(getattr(log_b, name), dtype=np.float64)
         if a.shape != b.shape:

@@ -1,0 +1,261 @@
+"""Golden suites (``fcgen record``): the run logs of a compiled solver on a set of seeded scenarios plus a manifest.
+
+A suite is a folder::
+
+    manifest.json                   format "fcgen-suite/1": problem record, build, settings, one entry per log
+    <scenario>_seed<seed>.json.xz   one run log (fcgen-runlog/1, xz-compressed) per scenario
+
+The manifest records what produced the logs (generator version, compiler and its version, the exact compile line,
+target, precision, QP backend, run-log schema) and a SHA-256 of every log's JSON text, so a damaged or hand-edited
+log is refused instead of compared. Written deterministically: with ``timing=False`` (timing fields zeroed, as for
+the checked-in goldens) recording an unchanged solver again reproduces the files byte for byte (except
+``meta.versions`` when packages change).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import re
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .sim.closedloop import PLAN_LEVELS
+from .sim.runlog import FORMAT_VERSION, RunLog, package_versions, read_text
+
+SUITE_FORMAT = "fcgen-suite/1"
+MANIFEST = "manifest.json"
+GOLDEN_DIR = "golden"
+
+
+@dataclass(frozen=True)
+class SuiteSettings:
+    """What to record: scenario kind (None: the problem's own), seeds, samples, how much plan, which build."""
+
+    scenario: str | None = None
+    seeds: tuple[int, ...] = tuple(range(20))
+    samples: int = 200
+    plan: str = "controls"
+    verify: bool = False
+    cc: str | None = None
+    cflags: str | None = None
+    timing: bool = True
+
+
+#: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated``):
+#: verification build (no FP contraction: the least compiler-dependent), no timings (re-recording is reproducible)
+GOLDEN_SETTINGS = SuiteSettings(seeds=(0, 1), samples=200, plan="controls", verify=True, timing=False)
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``"0-19"``, ``"0,3,7"`` or ``"0-3,9"`` -> sorted unique seeds; ValueError naming the allowed form."""
+    seeds: set[int] = set()
+    for part in str(text).split(","):
+        part = part.strip()
+        m = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
+        if not m or (m.group(2) is not None and int(m.group(2)) < int(m.group(1))):
+            raise ValueError(f"--seeds {text!r} is invalid: allowed a range A-B (A <= B), a list A,B,C of "
+                             f"integers >= 0, or both (0-3,9)")
+        lo = int(m.group(1))
+        seeds.update(range(lo, int(m.group(2) or lo) + 1))
+    if len(seeds) > 10000:
+        raise ValueError(f"--seeds {text!r}: {len(seeds)} seeds; allowed at most 10000")
+    return tuple(sorted(seeds))
+
+
+def log_name(scenario: str, seed: int) -> str:
+    return f"{scenario}_seed{seed}.json.xz"
+
+
+def text_sha256(log: RunLog) -> str:
+    """SHA-256 of the log's JSON text (independent of the compression)."""
+    return hashlib.sha256(log.to_json_string().encode("utf-8")).hexdigest()
+
+
+# ----------------------------------------------------------------------------- what built the solver
+
+def solver_info(gen_dir: Path) -> dict[str, Any]:
+    """Name, problem record (sizes, problem.py hash), precision and QP backend of a generated folder."""
+    from .build import read_macros, solver_name
+    from .verify import load_solver_problem
+
+    name, pb = load_solver_problem(gen_dir)
+    macros = read_macros(gen_dir / f"{solver_name(gen_dir)}_solver.h", name)
+    sizes = {k: macros[k] for k in ("N", "NX", "NU", "NOPP", "NOPP_PAR", "QP_N", "QP_M", "QP_NNZ_A") if k in macros}
+    problem_py = (gen_dir / "problem.py").read_bytes()
+    return {
+        "name": name,
+        "problem": {"name": pb.name, "formulation": pb.formulation.kind, "obstacle_model": pb.obstacles.kind,
+                    "N": pb.horizon.N, "dt": pb.horizon.dt, "sizes": sizes,
+                    "problem_py_sha256": hashlib.sha256(problem_py).hexdigest()},
+        "precision": "float" if macros.get("USE_FLOAT") else "double",
+        "qp_backend": "osqp" if (gen_dir / "osqp").is_dir() else "unknown",
+    }
+
+
+def compiler_info(gen_dir: Path, build_dir: str, cc: str | None, cflags: str | None) -> dict[str, Any]:
+    """Compiler, its version line, CFLAGS and the exact compile line of the build (the Makefile's flags stamp)."""
+    cc = cc or os.environ.get("CC") or "cc"
+    try:
+        res = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30)
+        version = (res.stdout or res.stderr).splitlines()[0].strip() if (res.stdout or res.stderr) else "unknown"
+    except (OSError, subprocess.TimeoutExpired):
+        version = "unknown"
+    if cflags is None:
+        cflags = os.environ.get("CFLAGS")
+    if cflags is None:
+        m = re.search(r"^CFLAGS \?= ?(.*)$", (gen_dir / "Makefile").read_text(), re.M)
+        cflags = m.group(1).strip() if m else ""
+    stamp = gen_dir / build_dir / "flags.txt"
+    return {"cc": cc, "cc_version": version, "cflags": cflags,
+            "compile_line": stamp.read_text().strip() if stamp.is_file() else "unknown",
+            "target": f"host-{platform.machine() or 'unknown'}"}
+
+
+# ----------------------------------------------------------------------------- record
+
+def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings = SuiteSettings(),
+                 progress: bool = False, echo=None) -> dict[str, Any]:
+    """Build ``gen_dir`` (``settings``' build), run the C closed loop on every seed, write logs + manifest."""
+    from .build import DEFAULT_BUILD, VERIFY_BUILD, CSolver, build
+    from .sim.closedloop import run_closed_loop
+    from .sim.scenario import make_scenario
+    from .verify import infer_scenario, load_solver_problem
+
+    gen_dir, out = Path(gen_dir), Path(out)
+    if settings.plan not in PLAN_LEVELS:
+        raise ValueError(f"--plan {settings.plan!r} is invalid: allowed {', '.join(PLAN_LEVELS)}")
+    if settings.samples < 1:
+        raise ValueError(f"--samples {settings.samples} is invalid: allowed >= 1")
+    if not settings.seeds:
+        raise ValueError("--seeds: allowed at least one seed")
+    name, pb = load_solver_problem(gen_dir)
+    info = solver_info(gen_dir)
+    scenario = settings.scenario or infer_scenario(pb)
+    lib = build(gen_dir, verify=settings.verify, cc=settings.cc, cflags=settings.cflags)
+    comp = compiler_info(gen_dir, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc, settings.cflags)
+    out.mkdir(parents=True, exist_ok=True)
+    for old in out.glob("*.json.xz"):
+        old.unlink()
+    entries = []
+    for seed in settings.seeds:
+        sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
+        log = run_closed_loop(pb, sc, controller=CSolver(lib), exit_codes=True, plan=settings.plan,
+                              progress=progress)
+        log = _finish(log, info["precision"], settings.timing)
+        fname = log_name(scenario, seed)
+        log.to_json(out / fname)
+        entries.append({"file": fname, "scenario": scenario, "seed": seed, "samples": log.n_controls,
+                        "sha256": text_sha256(log)})
+        if echo:
+            echo(f"  {fname}: {(out / fname).stat().st_size / 1024:.1f} KiB")
+    manifest = {
+        "format": SUITE_FORMAT,
+        "solver": info["name"],
+        "problem": info["problem"],
+        "generator": {"fcgen": package_versions()["fcgen"], "versions": package_versions()},
+        "build": {**comp, "verify": settings.verify},
+        "precision": info["precision"],
+        "qp_backend": info["qp_backend"],
+        "runlog_format": FORMAT_VERSION,
+        "settings": {"scenario": scenario, "seeds": list(settings.seeds), "samples": settings.samples,
+                     "plan": settings.plan, "timing": settings.timing, "controller": "c"},
+        "logs": entries,
+    }
+    (out / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    return manifest
+
+
+def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
+    """The log with ``meta.precision`` set and, unless ``timing``, the timing fields zeroed."""
+    from dataclasses import replace
+    meta = {**log.meta, "precision": precision}
+    kw: dict[str, Any] = {"meta": meta}
+    if not timing:
+        z = np.zeros(log.n_controls)
+        kw.update(time_prepare=z, time_feedback=z, time_total=z)
+    return replace(log, **kw)
+
+
+def record_goldens(root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None) -> list[Path]:
+    """Re-record ``<root>/<solver>/golden`` for every generated solver folder under ``root``."""
+    root = Path(root)
+    folders = sorted(p for p in root.iterdir() if p.is_dir() and any(p.glob("*_solver.h"))) if root.is_dir() else []
+    if not folders:
+        raise FileNotFoundError(f"{root}: no generated solver folders (with a <name>_solver.h) found")
+    out = []
+    for d in folders:
+        if echo:
+            echo(f"{d / GOLDEN_DIR}:")
+        record_suite(d, d / GOLDEN_DIR, settings, echo=echo)
+        out.append(d / GOLDEN_DIR)
+    return out
+
+
+# ----------------------------------------------------------------------------- read
+
+def is_suite(path: Path | str) -> bool:
+    return Path(path).is_dir() and (Path(path) / MANIFEST).is_file()
+
+
+def load_manifest(path: Path | str) -> dict[str, Any]:
+    """The manifest of a suite folder; ValueError (one line) if it is missing or not a suite manifest."""
+    path = Path(path)
+    try:
+        data = json.loads(read_text(path / MANIFEST))
+    except FileNotFoundError:
+        raise ValueError(f"{path}: not a golden suite (no {MANIFEST})") from None
+    except (json.JSONDecodeError, ValueError) as exc:
+        raise ValueError(f"{path / MANIFEST}: not a suite manifest ({str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict) or data.get("format") != SUITE_FORMAT:
+        got = data.get("format") if isinstance(data, dict) else None
+        raise ValueError(f"{path / MANIFEST}: suite format {got!r}, this fcgen reads {SUITE_FORMAT!r}")
+    for key in ("solver", "problem", "precision", "settings", "logs", "runlog_format"):
+        if key not in data:
+            raise ValueError(f"{path / MANIFEST}: missing key {key!r}")
+    return data
+
+
+def load_log(path: Path | str) -> RunLog:
+    """A run log file; ValueError (one line, naming the file) for a file that is not a readable run log."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path}: no such run log")
+    try:
+        text = read_text(path)
+        data = json.loads(text)
+    except (ValueError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a run log (not JSON: {str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict) or "format" not in data:
+        raise ValueError(f"{path}: not a run log (no 'format' field)")
+    if data["format"] != FORMAT_VERSION:
+        raise ValueError(f"{path}: run log of format {data['format']!r}, this fcgen reads {FORMAT_VERSION!r}")
+    try:
+        return RunLog.from_json_string(text)
+    except ValueError as exc:
+        raise ValueError(f"{path}: invalid run log: {str(exc).splitlines()[0]}") from None
+
+
+def load_suite(path: Path | str) -> tuple[dict[str, Any], list[RunLog]]:
+    """Manifest and logs of a suite, each log checked against its manifest entry (hash, scenario, seed, length)."""
+    path = Path(path)
+    man = load_manifest(path)
+    if man["runlog_format"] != FORMAT_VERSION:
+        raise ValueError(f"{path}: suite of run-log format {man['runlog_format']!r}, this fcgen reads "
+                         f"{FORMAT_VERSION!r}")
+    logs = []
+    for e in man["logs"]:
+        log = load_log(path / e["file"])
+        if text_sha256(log) != e["sha256"]:
+            raise ValueError(f"{path / e['file']}: checksum does not match the manifest (file changed or damaged)")
+        if (log.meta["scenario"], log.meta["seed"], log.n_controls) != (e["scenario"], e["seed"], e["samples"]):
+            raise ValueError(f"{path / e['file']}: scenario/seed/length differ from the manifest entry")
+        logs.append(log)
+    if not logs:
+        raise ValueError(f"{path}: suite holds no run logs")
+    return man, logs
