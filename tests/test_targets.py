@@ -150,6 +150,10 @@ def test_closed_loop_double_on_m7_matches_host(gen_double, tmp_path) -> None:
     log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300)
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
     _close(log_t, log_h, 1e-6)
+    assert log_t.meta["precision"] == "double" and log_t.meta["extra"]["target"] == "cortex-m7"
+    reg = CliRunner().invoke(main, ["regress", str(tmp_path / "m7.json"), str(tmp_path / "host.json"), "--preset",
+                                    "host-vs-target"])
+    assert reg.exit_code == 0 and "PASS" in reg.output, reg.output
     # the image ran with the solver, the C library and the stack in 512 KiB of RAM (the harness's buffers elsewhere)
     image = build_dir(d, target="cortex-m7") / "firmware_sim" / "closed_loop.elf"
     sec = {ln.split()[0]: (int(ln.split()[1]), int(ln.split()[2])) for ln in subprocess.run(

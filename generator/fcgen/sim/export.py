@@ -217,6 +217,7 @@ def firmware_sim(solver_dir: str | PathLike[str], scenario: str = "truck", seed:
     """
     from ..build import solver_name
     from ..presets import load_problem
+    from ..targets import get_target
     from .scenario import make_scenario
 
     solver_dir = Path(solver_dir)
@@ -228,4 +229,14 @@ def firmware_sim(solver_dir: str | PathLike[str], scenario: str = "truck", seed:
     data = exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt"
     export_scenario(problem, sc, data, samples, solver_name=name)
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    return run_harness(exe, data, out, timeout=timeout, target=target)
+    log = run_harness(exe, data, out, timeout=timeout, target=target)
+    # record where it ran and in which precision (meta.precision as `fcgen record` writes it: `fcgen regress` picks
+    # its tolerance preset from it)
+    from dataclasses import replace
+
+    from ..build import solver_uses_float
+    meta = {**log.meta, "precision": "float" if solver_uses_float(solver_dir) else "double",
+            "extra": {**log.meta.get("extra", {}), "target": get_target(target).name}}
+    log = replace(log, meta=meta)
+    log.to_json(out)
+    return log
