@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, generate
+from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, float_math, generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem, preset
 from fcgen.reference import RtiSolver
@@ -256,34 +256,51 @@ def test_step_reports_errors(cs: CSolver) -> None:
 
 # --- linking ---------------------------------------------------------------------------------------------------------
 
-TWO_MAIN = r"""
-#include <stdio.h>
-#include "truck_lift_el_solver.h"
-#include "car_de_el_solver.h"
-int main(void) {
-  int rc = truck_lift_el_init() | car_de_el_init();
-  printf("%d %d %d\n", rc, TRUCK_LIFT_EL_QP_N, CAR_DE_EL_QP_N);
-  return rc;
-}
-"""
+TWO_SOLVERS_C = Path(__file__).parent / "c" / "two_solvers.c"
 
 
-def test_two_solvers_one_binary(gen: GenerateInfo, tmp_path: Path) -> None:
-    """Two solvers (different names, same OSQP configuration) link with one copy of the OSQP library."""
-    other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car")
+def _libs(g: GenerateInfo, sub: str) -> list[str]:
+    return [str(g.out_dir / sub / f"lib{g.name}.a"), str(g.out_dir / sub / f"lib{g.name}_osqp.a")]
+
+
+def _unprefixed(g: GenerateInfo, sub: str) -> list[str]:
+    """Global symbols defined in lib<name>.a + lib<name>_osqp.a that do not carry the solver's prefix."""
+    out = subprocess.run(["nm", "-g", "--defined-only", *_libs(g, sub)], check=True, capture_output=True,
+                         text=True).stdout
+    return [f[2] for f in (line.split() for line in out.splitlines()) if len(f) == 3 and f[1] in "TDBRCVWtdbr"
+            and not f[2].startswith(f"{g.name}_")]
+
+
+def test_two_solvers_one_image(gen: GenerateInfo, tmp_path: Path) -> None:
+    """A double and a float solver, each with its own (prefixed) OSQP, link into one executable and both run: every
+    symbol of both libraries carries its solver's prefix, and each solver computes in the two-solver image exactly
+    what it computes alone."""
+    other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car", use_float=True)
     assert other.name == "car_de_el"
     for g in (gen, other):
-        subprocess.run(["make", "-C", str(g.out_dir), "-j8", "BUILD=build/lib", "lib"], check=True,
+        subprocess.run(["make", "-C", str(g.out_dir), "-j2", "BUILD=build/lib", "lib"], check=True,
                        capture_output=True, text=True)
-    (tmp_path / "two.c").write_text(TWO_MAIN)
-    exe = tmp_path / "two"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{gen.out_dir}", f"-I{other.out_dir}",
-                    str(tmp_path / "two.c"), str(gen.out_dir / "build/lib" / f"lib{gen.name}.a"),
-                    str(other.out_dir / "build/lib" / f"lib{other.name}.a"),
-                    str(gen.out_dir / "build/lib" / f"lib{gen.name}_osqp.a"), "-lm", "-o", str(exe)],
-                   check=True, capture_output=True, text=True)
-    res = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
-    assert res.returncode == 0 and res.stdout.split()[0] == "0", res.stdout + res.stderr
+        assert _unprefixed(g, "build/lib") == []
+    runs = {}
+    for tag, solvers in (("both", {"A": gen, "B": other}), ("a", {"A": gen}), ("b", {"B": other})):
+        defs = [d for ab, g in solvers.items()
+                for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")]
+        solvers = list(solvers.values())
+        exe = tmp_path / f"two_{tag}"
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", *defs,
+                        *(f"-I{g.out_dir}" for g in solvers), str(TWO_SOLVERS_C),
+                        *(lib for g in solvers for lib in _libs(g, "build/lib")), "-lm", "-o", str(exe)],
+                       check=True, capture_output=True, text=True)
+        res = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
+        assert res.returncode == 0, res.stdout + res.stderr
+        runs[tag] = res.stdout.splitlines()
+    assert runs["both"] == runs["a"] + runs["b"]
+    assert len(runs["both"]) == 6 and {line.split()[0] for line in runs["both"]} == {gen.name, other.name}
+    for line in runs["both"]:
+        _, _, rc, u0, u1 = line.split()
+        assert rc == "0" and math.isfinite(float(u0)) and math.isfinite(float(u1))
+    a0 = [float(line.split()[3]) for line in runs["a"]]
+    assert len(set(a0)) == 3  # the samples differ: the solver ran, it did not return a constant
 
 
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
@@ -304,6 +321,29 @@ def test_float_build(tmp_path: Path) -> None:
     build(info.out_dir)
     res = subprocess.run([str(info.out_dir / "build" / "truck_lift_el_example")], capture_output=True, timeout=60)
     assert res.returncode == 0
+
+
+def test_float_math_rewrites_literals_and_calls_only() -> None:
+    src = ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fmin(x, y); }\n"
+           "a001=10.; a2=(2.*a004); a3=2.9999999999999999e-01; a4=1e-3+.5; a5=sqrt (a6)+floor(a7); a008=a9[2];\n")
+    out = float_math(src)
+    assert out == ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fminf(x, y); }\n"
+                   "a001=10.f; a2=(2.f*a004); a3=2.9999999999999999e-01f; a4=1e-3f+.5f; a5=sqrtf (a6)+floorf(a7); "
+                   "a008=a9[2];\n")
+
+
+def test_float_model_is_single_precision(tmp_path: Path) -> None:
+    """--float: CasADi's model code calls the float math functions; model and solver compile with
+    -Wdouble-promotion -Werror (no float -> double promotion: single-precision arithmetic throughout)."""
+    info = generate(paper_problem("car", "lifted", "circles", name="car_fm"), tmp_path / "f", use_float=True)
+    src = (info.out_dir / "car_fm_model.c").read_text()
+    assert re.search(r"\b(sin|cos|tan|sqrt|fabs|fmin|fmax|floor)\(", src) is None
+    assert "sinf(" in src and "cosf(" in src
+    objs = [f"build/sp/obj/car_fm_{part}.o" for part in ("model", "solver")]
+    res = subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/sp",
+                          "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", *objs], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    assert all((info.out_dir / o).is_file() for o in objs)
 
 
 def test_build_restores_osqp_library(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "generator"))
+from fcgen.codegen.osqp_const import CONST_ARRAYS  # noqa: E402
 from fcgen.codegen.osqp_export import OsqpExport, export_osqp, restore_osqp_library  # noqa: E402
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
@@ -197,7 +198,7 @@ def test_deterministic_and_restorable(qp: dict, tmp_path: Path) -> None:
     _export(qp, b)
     ha, hb = _hashes(a), _hashes(b)
     assert ha == hb
-    ws = {f"osqp/{PREFIX}workspace.c", f"osqp/{PREFIX}workspace.h"}
+    ws = {f"osqp/{PREFIX}workspace.c", f"osqp/{PREFIX}workspace.h", f"osqp/{PREFIX}osqp_rename.h"}
     assert set(exp.workspace_sources + exp.workspace_headers) == ws
     assert set(ha) == ws | set(exp.library_sources + exp.library_headers)
     assert all(f.startswith("osqp/lib/") for f in exp.library_sources + exp.library_headers)
@@ -217,10 +218,11 @@ def test_deterministic_and_restorable(qp: dict, tmp_path: Path) -> None:
     assert diff == {"osqp/lib/osqp_configure.h"}
     assert "#define OSQP_USE_FLOAT" in (b / "osqp/lib/osqp_configure.h").read_text()
     assert "#define OSQP_EMBEDDED_MODE 2" in (b / "osqp/lib/osqp_configure.h").read_text()
+    assert f'#include "{PREFIX}osqp_rename.h"' in (b / "osqp/lib/osqp_configure.h").read_text()
 
 
 def _c_ints(text: str, name: str) -> np.ndarray:
-    body = re.search(rf"OSQPInt {name}_init\[\d+\] = {{(.*?)}};", text, re.S)
+    body = re.search(rf"OSQPInt {name}(?:_init)?\[\d+\] = {{(.*?)}};", text, re.S)  # const (or a const copy)
     assert body is not None
     return np.array([int(t) for t in body.group(1).replace(",", " ").split()])
 
@@ -261,6 +263,16 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
         undefined = set(subprocess.run(["nm", "-u", str(obj)], check=True, capture_output=True,
                                        text=True).stdout.split()) - {"U"}
         assert not (undefined & forbidden), (obj.name, undefined & forbidden)
+        defined = subprocess.run(["nm", "-g", "--defined-only", str(obj)], check=True, capture_output=True,
+                                 text=True).stdout.split("\n")
+        names = [f[2] for f in (line.split() for line in defined) if len(f) == 3]
+        assert [n for n in names if not n.startswith(PREFIX)] == [], obj.name  # OSQP's symbols carry the prefix
+    # the arrays OSQP never writes are read-only data (a write would have crashed the solves above)
+    ws_obj = next(o for o in objs if o.name == f"{PREFIX}workspace.o")
+    kinds = {f[2]: f[1] for f in (line.split() for line in subprocess.run(
+        ["nm", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines()) if len(f) == 3}
+    assert {kinds[PREFIX + a] for a in CONST_ARRAYS} == {"R"}
+    assert kinds[f"{PREFIX}linsys_L_x"] in "DB" and kinds[f"{PREFIX}data_A_csc_x"] in "DB"
 
 
 def test_float_build(qp: dict, tmp_path: Path) -> None:

@@ -11,7 +11,9 @@
 #include "truck_conv_el_solver.h"
 #include "truck_conv_el_model.h"
 
-#define QP_INF 1e+30 /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define QP_INF ((truck_conv_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
+#define FLOOR floor /* floor of double */
+#define REAL_0 ((truck_conv_el_real_t)0.0) /* zero of the real type (no promotion to double in float) */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -28,6 +30,7 @@
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
 #define OPP_DIM 18 /* N_OPP_ALL, at least 1 */
 #define N_SLACK 160
+#define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
 #define CASADI_SZ_ARG 3
 #define CASADI_SZ_RES 3
@@ -326,6 +329,12 @@ static const index_t A_SRC[2525] = {
   2500, 2501, 2495, 2502, 2503, 2504, 2505, 2496, 2506, 2507, 2508, 2509,
   2497, 2510, 2511, 2512, 2498, 2513, 2514, 2515, 2516, 2517, 2518, 2519,
   2520, 2521, 2522, 2523, 2524
+};
+static const index_t A_CYCLES[42] = {
+  38, 101, 164, 227, 290, 353, 416, 479, 542, 605, 668, 731,
+  794, 857, 920, 983, 1046, 1109, 1172, 1235, 1298, 1361, 1424, 1487,
+  1550, 1613, 1676, 1739, 1802, 1865, 1928, 1991, 2054, 2117, 2180, 2243,
+  2306, 2369, 2432, 2495, 2496, 2497
 };
 static const index_t VAR_SHIFT[445] = {
   7, 8, 9, 10, 11, 12, 13, 18, 19, 20, 21, 22,
@@ -987,7 +996,7 @@ typedef struct {
 } qpb_result_t;
 
 /* QP outcome contract: the statuses whose (finite) step is taken, and the exit code of every status */
-#define QP_USABLE(s) ((s) == TRUCK_CONV_EL_QP_SOLVED || (s) == TRUCK_CONV_EL_QP_SOLVED_INACCURATE || (s) == TRUCK_CONV_EL_QP_MAX_ITER)
+#define QP_USABLE(s) (((s) == TRUCK_CONV_EL_QP_SOLVED) || ((s) == TRUCK_CONV_EL_QP_SOLVED_INACCURATE) || ((s) == TRUCK_CONV_EL_QP_MAX_ITER))
 static const int QP_EXIT[9 + 1] = {
   [0] = TRUCK_CONV_EL_ERR_QP,
   [TRUCK_CONV_EL_QP_SOLVED] = TRUCK_CONV_EL_OK,
@@ -1038,21 +1047,26 @@ static void qpb_reset(void) { truck_conv_el_workspace_reset(); }
 
 /* q first: OSQP recomputes its scaling in osqp_update_data_mat from the q it holds, so it must be this sample's */
 static int qpb_set_matrices(const truck_conv_el_real_t *P_x, const truck_conv_el_real_t *A_x, const truck_conv_el_real_t *q) {
-  if (osqp_update_data_vec(QPB_SOLVER, q, OSQP_NULL, OSQP_NULL)) return 1;
+  if (osqp_update_data_vec(QPB_SOLVER, q, OSQP_NULL, OSQP_NULL) != 0) return 1;
   return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_CONV_EL_QP_N, A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A) != 0;
 }
 
 static int qpb_solve(const truck_conv_el_real_t *q, const truck_conv_el_real_t *l, const truck_conv_el_real_t *u,
                      const truck_conv_el_real_t *y_warm, int max_iter, qpb_result_t *res) {
-  OSQPInt rc, raw;
-  if (osqp_update_data_vec(QPB_SOLVER, q, l, u)) return 1;
+  OSQPInt rc;
+  OSQPInt raw;
+  if (osqp_update_data_vec(QPB_SOLVER, q, l, u) != 0) return 1;
   (void)osqp_warm_start(QPB_SOLVER, ZERO_N, y_warm);
-  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(max_iter);
+  if (max_iter != QPB_MAX_ITER) {
+    qpb_set_max_iter(max_iter);
+  }
   rc = osqp_solve(QPB_SOLVER);
-  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(QPB_MAX_ITER);
+  if (max_iter != QPB_MAX_ITER) {
+    qpb_set_max_iter(QPB_MAX_ITER);
+  }
   raw = QPB_SOLVER->info->status_val;
   res->raw_status = (int)raw;
-  res->status = (raw > 0 && raw < 12) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
+  res->status = ((raw > 0) && (raw < 12)) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
   res->iter = (int)QPB_SOLVER->info->iter;
   res->z = QPB_SOLVER->solution->x;
   res->y = QPB_SOLVER->solution->y;
@@ -1078,15 +1092,14 @@ typedef struct {
   truck_conv_el_real_t s0_guess;
   truck_conv_el_real_t w_tmp[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t y_tmp[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t p[TRUCK_CONV_EL_N + 1][TRUCK_CONV_EL_NP];
+  truck_conv_el_real_t p[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t p_fb[TRUCK_CONV_EL_NP];
-  truck_conv_el_real_t g[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t jac[TRUCK_CONV_EL_NNZ_J];
+  truck_conv_el_real_t g_init[TRUCK_CONV_EL_NX];
+  truck_conv_el_real_t jac[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t q[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t q_fb[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t l[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u[TRUCK_CONV_EL_QP_M];
-  truck_conv_el_real_t A_x[TRUCK_CONV_EL_QP_NNZ_A];
   truck_conv_el_real_t u_applied[TRUCK_CONV_EL_NU];
   truck_conv_el_real_t xa[TRUCK_CONV_EL_NX];
   truck_conv_el_real_t xb[TRUCK_CONV_EL_NX];
@@ -1116,17 +1129,39 @@ static int fail(int code) {
 
 static int all_finite(const truck_conv_el_real_t *v, int n) {
   int i;
-  for (i = 0; i < n; ++i)
-    if (!isfinite(v[i])) return 0;
-  return 1;
+  int ok = 1;
+  for (i = 0; i < n; ++i) {
+    if (!isfinite(v[i])) {
+      ok = 0;
+    }
+  }
+  return ok;
 }
 
 static void copy(const truck_conv_el_real_t *src, truck_conv_el_real_t *dst, int n) {
   int i;
-  for (i = 0; i < n; ++i) dst[i] = src[i];
+  for (i = 0; i < n; ++i) {
+    dst[i] = src[i];
+  }
 }
 
-static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
+/* The stacked stage Jacobian (stage order) -> A's nonzeros (CSC order), in place: v[i] = v[A_SRC[i]] along each
+ * cycle of the permutation A_SRC (A_CYCLES: one start per cycle). */
+static void jac_to_csc(truck_conv_el_real_t *v) {
+  int c;
+  for (c = 0; c < N_A_CYCLES; ++c) {
+    index_t i = A_CYCLES[c];
+    index_t j;
+    const truck_conv_el_real_t first = v[i];
+    for (j = A_SRC[i]; j != A_CYCLES[c]; j = A_SRC[j]) {
+      v[i] = v[j];
+      i = j;
+    }
+    v[i] = first;
+  }
+}
+
+static void call3(const casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
                   casadi_real *r0, casadi_real *r1, casadi_real *r2) {
   ws.arg[0] = a0;
   ws.arg[1] = a1;
@@ -1137,14 +1172,22 @@ static void call3(casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, c
   (void)f(ws.arg, ws.res, ws.iw, ws.cw, 0); /* SX functions cannot fail */
 }
 
-/* The local road window around s (RoadWindowParams.pack with i0 = floor((s - s0) / ds) - 1). */
-static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+/* First sample of the local road window around s (RoadWindowParams.pack: i0 = floor((s - s0) / ds) - 1), or -1
+ * if the road does not cover it. */
+static int window_start(truck_conv_el_real_t s) {
   truck_conv_el_real_t t;
-  int i, i0;
-  if (!ws.road_set || !isfinite(s)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
-  t = floor((s - ws.road_s0) / ws.road_ds);
-  if (!(t >= 1) || t > ((truck_conv_el_real_t)ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1)) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
-  i0 = (int)t - 1;
+  const int last = ws.road_n - TRUCK_CONV_EL_ROAD_WINDOW + 1; /* the largest t whose window lies on the road */
+  if ((ws.road_set == 0) || !isfinite(s)) return -1;
+  t = FLOOR((s - ws.road_s0) / ws.road_ds);
+  if (!(t >= (truck_conv_el_real_t)1) || (t > (truck_conv_el_real_t)last)) return -1;
+  return (int)t - 1;
+}
+
+/* The local road window around s. */
+static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
+  int i;
+  const int i0 = window_start(s);
+  if (i0 < 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   p[P_ROAD_S0] = ws.road_s0 + (truck_conv_el_real_t)i0 * ws.road_ds;
   p[P_ROAD_DS] = ws.road_ds;
   for (i = 0; i < TRUCK_CONV_EL_ROAD_WINDOW; ++i) {
@@ -1158,62 +1201,77 @@ static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
 
 /* p_k = [road window at s | x_ref_k | opponents of stage k] */
 static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) {
-  int i, rc = road_window(p, s);
-  if (rc) return rc;
-  p[P_REF + 0] = ws.s0_guess + STAGES[k].s_ref;
+  int i;
+  const int rc = road_window(p, s);
+  if (rc != TRUCK_CONV_EL_OK) return rc;
+  p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
   p[P_REF + 1] = N_REF;
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) p[P_OPP + i] = ws.opp[k][i];
+  for (i = 0; i < N_OPP_ALL; ++i) {
+    p[P_OPP + i] = ws.opp[k][i];
+  }
   return TRUCK_CONV_EL_OK;
 }
 
 /* Roll the model out from x0 with zero input into w; hyperplanes between ego and opponents; zero slacks, duals y. */
 static int initial_guess(truck_conv_el_real_t *w, truck_conv_el_real_t *y) {
-  int i, k, rc;
-  truck_conv_el_real_t *x = ws.xa, *xn = ws.xb, *tmp;
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) w[i] = 0.0;
+  int i;
+  int k;
+  int rc;
+  truck_conv_el_real_t *x = ws.xa;
+  truck_conv_el_real_t *xn = ws.xb;
+  truck_conv_el_real_t *tmp;
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+    w[i] = 0.0;
+  }
   ws.s0_guess = ws.x0[0];
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
-  if (rc) return rc;
+  if (rc != TRUCK_CONV_EL_OK) return rc;
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    copy(x, w + STAGES[k].var, TRUCK_CONV_EL_NX);
-    rc = stage_params(ws.p[k], k, x[0]);
-    if (rc) return rc;
-    if (STAGES[k].theta >= 0) call3(truck_conv_el_theta_init, x, ws.p[k], NULL, w + STAGES[k].theta, NULL, NULL);
+    copy(x, &w[STAGES[k].var], TRUCK_CONV_EL_NX);
+    rc = stage_params(ws.p, k, x[0]);
+    if (rc != TRUCK_CONV_EL_OK) return rc;
+    if (STAGES[k].theta >= 0) {
+      call3(truck_conv_el_theta_init, x, ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
+    }
     if (STAGES[k].next >= 0) {
-      call3(truck_conv_el_dynamics, x, NULL, ws.p[k], xn, NULL, NULL); /* u = 0 */
+      call3(truck_conv_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
       tmp = x;
       x = xn;
       xn = tmp;
     }
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) y[i] = 0.0;
+  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+    y[i] = 0.0;
+  }
   return TRUCK_CONV_EL_OK;
 }
 
 /* The control to apply: u0 of plan w projected on the hard input box; the status reports the projection. */
 static void apply_control(const truck_conv_el_real_t *w) {
   int i;
-  truck_conv_el_real_t v, lo, hi, excess, worst = 0.0;
+  truck_conv_el_real_t worst = 0.0;
   for (i = 0; i < TRUCK_CONV_EL_NU; ++i) {
-    v = w[STAGES[0].u + i];
-    lo = U_LO[i];
-    hi = U_HI[i];
-    excess = v < lo ? (lo - v) / U_LIM[i] : (v > hi ? (v - hi) / U_LIM[i] : 0.0);
-    ws.u_applied[i] = v < lo ? lo : (v > hi ? hi : v);
-    if (excess > worst) worst = excess;
+    const truck_conv_el_real_t v = w[STAGES[0].u + i];
+    const truck_conv_el_real_t lo = U_LO[i];
+    const truck_conv_el_real_t hi = U_HI[i];
+    const truck_conv_el_real_t excess = (v < lo) ? ((lo - v) / U_LIM[i]) : ((v > hi) ? ((v - hi) / U_LIM[i]) : REAL_0);
+    ws.u_applied[i] = (v < lo) ? lo : ((v > hi) ? hi : v);
+    if (excess > worst) {
+      worst = excess;
+    }
   }
-  ws.status.u_projected = worst > 0.0;
+  ws.status.u_projected = worst > REAL_0;
   ws.status.u_violation = worst;
 }
 
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_conv_el_init(void) {
   clock_fn_t clock = ws.clock;
-  memset(&ws, 0, sizeof ws); /* the QP backend is restored before its next use (qp_ready = 0) */
+  (void)memset(&ws, 0, sizeof ws); /* the QP backend is restored before its next use (qp_ready = 0) */
   ws.clock = clock;
   return TRUCK_CONV_EL_OK;
 }
@@ -1230,12 +1288,15 @@ int truck_conv_el_set_state(const truck_conv_el_real_t x0[5]) {
 
 int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int n, const truck_conv_el_real_t *kappa,
     const truck_conv_el_real_t *phi_gamma, const truck_conv_el_real_t *gamma_x, const truck_conv_el_real_t *gamma_y) {
-  if (n < 2 || n > TRUCK_CONV_EL_ROAD_MAX || !kappa || !phi_gamma || !gamma_x || !gamma_y)
+  if ((n < 2) || (n > TRUCK_CONV_EL_ROAD_MAX) || (kappa == NULL) || (phi_gamma == NULL) || (gamma_x == NULL) ||
+      (gamma_y == NULL)) {
     return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
+  }
   if (!isfinite(s0) || !isfinite(ds) || !all_finite(kappa, n) || !all_finite(phi_gamma, n) ||
-      !all_finite(gamma_x, n) || !all_finite(gamma_y, n))
+      !all_finite(gamma_x, n) || !all_finite(gamma_y, n)) {
     return fail(TRUCK_CONV_EL_ERR_NONFINITE_ROAD);
-  if (!(ds > 0.0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
+  }
+  if (!(ds > REAL_0)) return fail(TRUCK_CONV_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;
@@ -1251,51 +1312,80 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
   int k;
   if (N_OPP_ALL == 0) return TRUCK_CONV_EL_OK;
   if (!params || !all_finite(params, (TRUCK_CONV_EL_N + 1) * N_OPP_ALL)) return fail(TRUCK_CONV_EL_ERR_NONFINITE_OPPONENTS);
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) copy(params + k * N_OPP_ALL, ws.opp[k], N_OPP_ALL);
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    copy(&params[k * N_OPP_ALL], ws.opp[k], N_OPP_ALL);
+  }
   return TRUCK_CONV_EL_OK;
 }
 
-/* Transactional: the prepared guess (w_tmp, y_tmp), g, q, p are private until prepared = 1 and are built first; l, u,
- * A_x, the QP backend, the status and `prepared` change only once every check has passed. */
+/* Transactional: the prepared guess (w_tmp, y_tmp), q, p are private until prepared = 1 and are built first (every
+ * road window is checked before anything is written); the guess, the duals, the QP backend, the status and `prepared`
+ * change only once every check has passed. The constraint values g are built in u and the Jacobian in A_x's memory
+ * (RAM): after a prepare rejected for non-finite model values, get_qp's u and A_x show that call's values. */
 int truck_conv_el_prepare(void) {
   const double t0 = now();
-  int i, k, rc, cold;
-  const stage_t *st;
-  if (ws.prepared) return TRUCK_CONV_EL_OK; /* documented no-op: the pending preparation stays */
-  cold = !ws.have_guess;
-  if (cold) {
-    if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
+  int i;
+  int k;
+  int rc;
+  int cold;
+  if (ws.prepared != 0) return TRUCK_CONV_EL_OK; /* documented no-op: the pending preparation stays */
+  cold = 0;
+  if (ws.have_guess == 0) {
+    cold = 1;
+  }
+  if (cold != 0) {
+    if (ws.have_x0 == 0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
     rc = initial_guess(ws.w_tmp, ws.y_tmp);
-    if (rc) return fail(rc);
+    if (rc != TRUCK_CONV_EL_OK) return fail(rc);
   } else {
-    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
-    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
+    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+      ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
+    }
+    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+      ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
+    }
+  }
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) { /* every road window first: a rejected call changes nothing */
+    if (window_start(ws.w_tmp[STAGES[k].s]) < 0) return fail(TRUCK_CONV_EL_ERR_ROAD_WINDOW);
   }
   ws.s0_guess = ws.w_tmp[STAGES[0].s];
+  /* stage k: its parameters (one buffer), then its function: constraint values g (into u), Jacobian, gradient */
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    rc = stage_params(ws.p[k], k, ws.w_tmp[STAGES[k].s]);
-    if (rc) return fail(rc);
+    const stage_t *st = &STAGES[k];
+    rc = stage_params(ws.p, k, ws.w_tmp[st->s]);
+    if (rc != TRUCK_CONV_EL_OK) return fail(rc); /* not reached: every window was checked */
+    const casadi_real *next = NULL;
+    if (st->next >= 0) {
+      next = &ws.w_tmp[st->next];
+    }
+    call3(STAGE_FUN[st->kind], &ws.w_tmp[st->var], next, ws.p, &ws.u[st->row], &ws.jac[st->jac], &ws.q[st->var]);
   }
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    st = &STAGES[k];
-    call3(STAGE_FUN[st->kind], ws.w_tmp + st->var, st->next >= 0 ? ws.w_tmp + st->next : NULL, ws.p[k],
-          ws.g + st->row, ws.jac + st->jac, ws.q + st->var);
-  }
-  if (!all_finite(ws.g, TRUCK_CONV_EL_QP_M) || !all_finite(ws.jac, TRUCK_CONV_EL_NNZ_J) || !all_finite(ws.q, TRUCK_CONV_EL_QP_N))
+  /* rejected from here on, the QP data views of get_qp hold this call's values (g in u; the solver, the guess
+   * and the backend's QP are unchanged) */
+  if (!all_finite(ws.u, TRUCK_CONV_EL_QP_M) || !all_finite(ws.jac, TRUCK_CONV_EL_NNZ_J) || !all_finite(ws.q, TRUCK_CONV_EL_QP_N)) {
     return fail(TRUCK_CONV_EL_ERR_QP_NONFINITE);
-  /* commit */
-  for (i = 0; i < TRUCK_CONV_EL_QP_NNZ_A; ++i) ws.A_x[i] = ws.jac[A_SRC[i]];
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    ws.l[i] = L[i] - ws.g[i];
-    ws.u[i] = U[i] - ws.g[i];
-    if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
-    if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
-  if (!ws.qp_ready) {
+  /* commit */
+  jac_to_csc(ws.jac);
+  for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
+    ws.g_init[i] = ws.u[INIT_ROWS[i]];
+  }
+  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+    const truck_conv_el_real_t g = ws.u[i];
+    ws.l[i] = L[i] - g;
+    ws.u[i] = U[i] - g;
+    if (ws.l[i] < -QP_INF) { /* as the backends' Python interfaces clip */
+      ws.l[i] = -QP_INF;
+    }
+    if (ws.u[i] > QP_INF) {
+      ws.u[i] = QP_INF;
+    }
+  }
+  if (ws.qp_ready == 0) {
     qpb_reset();
     ws.qp_ready = 1;
   }
-  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) {
+  if (qpb_set_matrices(P_DIAG, ws.jac, ws.q) != 0) {
     ws.qp_ready = 0; /* the backend is restored before its next use */
     return fail(TRUCK_CONV_EL_ERR_QP_NUMERICAL);
   }
@@ -1316,38 +1406,50 @@ int truck_conv_el_prepare(void) {
  * exit_code. From the QP on, the sample is consumed: see the QP outcome contract in the header. */
 int truck_conv_el_feedback(void) {
   const double t0 = now();
-  int i, rc, qs, code;
-  truck_conv_el_real_t ds0, v;
+  int i;
+  int rc;
+  int qs;
+  int code;
+  truck_conv_el_real_t ds0;
   qpb_result_t res = {0, 0, 0, NULL, NULL};
-  if (!ws.prepared) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
-  if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
+  if (ws.prepared == 0) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
+  if (ws.have_x0 == 0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
-  if (rc) return fail(rc);
+  if (rc != TRUCK_CONV_EL_OK) return fail(rc);
   call3(truck_conv_el_init_state, ws.x0, ws.p_fb, NULL, ws.xa, NULL, NULL);
   ds0 = ws.x0[0] - ws.s0_guess;
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
-  if (!all_finite(ws.xa, TRUCK_CONV_EL_NX) || !all_finite(ws.q_fb, TRUCK_CONV_EL_QP_N))
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+    ws.q_fb[i] = ws.q[i] + (Q_DS0[i] * ds0);
+  }
+  if (!all_finite(ws.xa, TRUCK_CONV_EL_NX) || !all_finite(ws.q_fb, TRUCK_CONV_EL_QP_N)) {
     return fail(TRUCK_CONV_EL_ERR_NONFINITE_STATE);
+  }
   /* commit: the sample is consumed */
   for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
-    v = ws.xa[i] / INIT_D[i] - ws.g[INIT_ROWS[i]];
-    v = v < -QP_INF ? -QP_INF : (v > QP_INF ? QP_INF : v);
+    const truck_conv_el_real_t e = (ws.xa[i] / INIT_D[i]) - ws.g_init[i];
+    const truck_conv_el_real_t v = (e < -QP_INF) ? -QP_INF : ((e > QP_INF) ? QP_INF : e);
     ws.l[INIT_ROWS[i]] = v;
     ws.u[INIT_ROWS[i]] = v;
   }
   ws.q_cur = ws.q_fb;
   ws.prepared = 0;
-  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y_tmp, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
-  qs = rc ? TRUCK_CONV_EL_QP_NUMERICAL : res.status;
-  if (res.z) ws.qp_z = res.z;
-  if (!rc && QP_USABLE(qs) && (!res.z || !res.y || !all_finite(res.z, TRUCK_CONV_EL_QP_N) || !all_finite(res.y, TRUCK_CONV_EL_QP_M)))
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y_tmp, (ws.cold != 0) ? MAX_ITER_COLD : MAX_ITER, &res);
+  qs = (rc != 0) ? TRUCK_CONV_EL_QP_NUMERICAL : res.status;
+  if (res.z != NULL) {
+    ws.qp_z = res.z;
+  }
+  if ((rc == 0) && QP_USABLE(qs) &&
+      ((res.z == NULL) || (res.y == NULL) || !all_finite(res.z, TRUCK_CONV_EL_QP_N) || !all_finite(res.y, TRUCK_CONV_EL_QP_M))) {
     qs = TRUCK_CONV_EL_QP_NONFINITE;
+  }
   ws.status.qp_status = qs;
   ws.status.qp_raw_status = res.raw_status;
   ws.status.qp_iter = res.iter;
-  code = QP_EXIT[qs >= 0 && qs <= 9 ? qs : TRUCK_CONV_EL_QP_OTHER];
+  code = QP_EXIT[((qs >= 0) && (qs <= 9)) ? qs : TRUCK_CONV_EL_QP_OTHER];
   if (code == TRUCK_CONV_EL_OK) {
-    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w_tmp[i] + D[i] * res.z[i];
+    for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
+      ws.w[i] = ws.w_tmp[i] + (D[i] * res.z[i]);
+    }
     copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
   } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
     copy(ws.w_tmp, ws.w, TRUCK_CONV_EL_QP_N);
@@ -1366,31 +1468,39 @@ void truck_conv_el_get_u0(truck_conv_el_real_t u[2]) {
 
 void truck_conv_el_get_states(truck_conv_el_real_t *x) {
   int k;
-  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) copy(ws.w + STAGES[k].var, x + k * TRUCK_CONV_EL_NX, TRUCK_CONV_EL_NX);
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    copy(&ws.w[STAGES[k].var], &x[k * TRUCK_CONV_EL_NX], TRUCK_CONV_EL_NX);
+  }
 }
 
 void truck_conv_el_get_controls(truck_conv_el_real_t *u) {
   int k;
-  for (k = 0; k < TRUCK_CONV_EL_N; ++k) copy(ws.w + STAGES[k].u, u + k * TRUCK_CONV_EL_NU, TRUCK_CONV_EL_NU);
+  for (k = 0; k < TRUCK_CONV_EL_N; ++k) {
+    copy(&ws.w[STAGES[k].u], &u[k * TRUCK_CONV_EL_NU], TRUCK_CONV_EL_NU);
+  }
 }
 
 truck_conv_el_real_t truck_conv_el_max_slack(void) {
-  truck_conv_el_real_t m = 0.0, v;
+  truck_conv_el_real_t m = 0.0;
   int i;
   for (i = 0; i < N_SLACK; ++i) {
-    v = ws.w[SLACK_VARS[i]];
-    if (v > m || v != v) m = v; /* NaN propagates, as numpy's max */
+    const truck_conv_el_real_t v = ws.w[SLACK_VARS[i]];
+    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
+      m = v;
+    }
   }
   return m;
 }
 
 void truck_conv_el_get_status(truck_conv_el_status_t *st) {
-  if (st) *st = ws.status;
+  if (st != NULL) {
+    *st = ws.status;
+  }
 }
 
 void truck_conv_el_reset(void) {
   /* everything from the first non-input member on: plan, duals, preparation, status, QP data, backend */
-  memset(&ws.w, 0, sizeof ws - offsetof(truck_conv_el_workspace_t, w));
+  (void)memset(&ws.w, 0, (sizeof ws) - (size_t)offsetof(truck_conv_el_workspace_t, w));
 }
 
 int truck_conv_el_has_guess(void) { return ws.have_guess; }
@@ -1398,11 +1508,25 @@ int truck_conv_el_has_guess(void) { return ws.have_guess; }
 void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_real_t **l, const truck_conv_el_real_t **u,
     const truck_conv_el_real_t **A_x, const truck_conv_el_real_t **P_x, const truck_conv_el_real_t **z,
     const truck_conv_el_real_t **y) {
-  if (q) *q = ws.q_cur ? ws.q_cur : ZERO_N;
-  if (l) *l = ws.l;
-  if (u) *u = ws.u;
-  if (A_x) *A_x = ws.A_x;
-  if (P_x) *P_x = P_DIAG;
-  if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
-  if (y) *y = ws.y;
+  if (q != NULL) {
+    *q = (ws.q_cur != NULL) ? ws.q_cur : ZERO_N;
+  }
+  if (l != NULL) {
+    *l = ws.l;
+  }
+  if (u != NULL) {
+    *u = ws.u;
+  }
+  if (A_x != NULL) {
+    *A_x = ws.jac;
+  }
+  if (P_x != NULL) {
+    *P_x = P_DIAG;
+  }
+  if (z != NULL) {
+    *z = (ws.qp_z != NULL) ? ws.qp_z : ZERO_N;
+  }
+  if (y != NULL) {
+    *y = ws.y;
+  }
 }

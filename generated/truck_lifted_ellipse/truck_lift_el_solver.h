@@ -26,7 +26,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_QP_M 928 /* QP rows */
 #define TRUCK_LIFT_EL_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_LIFT_EL_WORKSPACE_BYTES 652288 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_WORKSPACE_BYTES 488928 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -136,7 +136,8 @@ void truck_lift_el_reset(void);
 int truck_lift_el_has_guess(void);
 /* Verification: read-only views of the QP data (any pointer may be NULL). q is the cost vector as last built
  * (after prepare: without the s0 correction; after feedback: as passed to the QP backend); z, y: the backend's
- * primal solution (scaled step) and the solver's dual guess. */
+ * primal solution (scaled step) and the solver's dual guess. After a prepare rejected with ERR_QP_NONFINITE, u and
+ * A_x hold that call's (non-finite) model values until the next prepare (the QP the backend holds is unchanged). */
 void truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_real_t **l, const truck_lift_el_real_t **u,
     const truck_lift_el_real_t **A_x, const truck_lift_el_real_t **P_x, const truck_lift_el_real_t **z,
     const truck_lift_el_real_t **y);

@@ -82,8 +82,7 @@ static const OSQPInfo truck_conv_el_info_init = {
 };
 
 /* Define the data structure */
-OSQPInt truck_conv_el_data_P_csc_p[446];
-static const OSQPInt truck_conv_el_data_P_csc_p_init[446] = {
+const OSQPInt truck_conv_el_data_P_csc_p[446] = {
   0,
   1,
   2,
@@ -531,8 +530,7 @@ static const OSQPInt truck_conv_el_data_P_csc_p_init[446] = {
   444,
   445,
 };
-OSQPInt truck_conv_el_data_P_csc_i[445];
-static const OSQPInt truck_conv_el_data_P_csc_i_init[445] = {
+const OSQPInt truck_conv_el_data_P_csc_i[445] = {
   0,
   1,
   2,
@@ -1431,8 +1429,8 @@ OSQPCscMatrix truck_conv_el_data_P_csc;
 static const OSQPCscMatrix truck_conv_el_data_P_csc_init = {
   445,
   445,
-  truck_conv_el_data_P_csc_p,
-  truck_conv_el_data_P_csc_i,
+  (OSQPInt *)truck_conv_el_data_P_csc_p,
+  (OSQPInt *)truck_conv_el_data_P_csc_i,
   truck_conv_el_data_P_csc_x,
   445,
   -1,
@@ -1442,8 +1440,7 @@ static const OSQPMatrix truck_conv_el_data_P_init = {
   &truck_conv_el_data_P_csc,
   1
 };
-OSQPInt truck_conv_el_data_A_csc_p[446];
-static const OSQPInt truck_conv_el_data_A_csc_p_init[446] = {
+const OSQPInt truck_conv_el_data_A_csc_p[446] = {
   0,
   5,
   10,
@@ -1891,8 +1888,7 @@ static const OSQPInt truck_conv_el_data_A_csc_p_init[446] = {
   2523,
   2525,
 };
-OSQPInt truck_conv_el_data_A_csc_i[2525];
-static const OSQPInt truck_conv_el_data_A_csc_i_init[2525] = {
+const OSQPInt truck_conv_el_data_A_csc_i[2525] = {
   0,
   5,
   6,
@@ -6951,8 +6947,8 @@ OSQPCscMatrix truck_conv_el_data_A_csc;
 static const OSQPCscMatrix truck_conv_el_data_A_csc_init = {
   805,
   445,
-  truck_conv_el_data_A_csc_p,
-  truck_conv_el_data_A_csc_i,
+  (OSQPInt *)truck_conv_el_data_A_csc_p,
+  (OSQPInt *)truck_conv_el_data_A_csc_i,
   truck_conv_el_data_A_csc_x,
   2525,
   -1,
@@ -9053,8 +9049,7 @@ static const OSQPData truck_conv_el_data_init = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_conv_el_linsys_L_p[1251];
-static const OSQPInt truck_conv_el_linsys_L_p_init[1251] = {
+const OSQPInt truck_conv_el_linsys_L_p[1251] = {
   0,
   1,
   2,
@@ -10307,8 +10302,7 @@ static const OSQPInt truck_conv_el_linsys_L_p_init[1251] = {
   3712,
   3712,
 };
-OSQPInt truck_conv_el_linsys_L_i[3712];
-static const OSQPInt truck_conv_el_linsys_L_i_init[3712] = {
+const OSQPInt truck_conv_el_linsys_L_i[3712] = {
   1244,
   1245,
   3,
@@ -17741,8 +17735,8 @@ OSQPCscMatrix truck_conv_el_linsys_L;
 static const OSQPCscMatrix truck_conv_el_linsys_L_init = {
   1250,
   1250,
-  truck_conv_el_linsys_L_p,
-  truck_conv_el_linsys_L_i,
+  (OSQPInt *)truck_conv_el_linsys_L_p,
+  (OSQPInt *)truck_conv_el_linsys_L_i,
   truck_conv_el_linsys_L_x,
   3712,
   -1,
@@ -19000,8 +18994,7 @@ static const OSQPFloat truck_conv_el_linsys_Dinv_init[1250] = {
   (OSQPFloat)-0.26154634573841933909,
   (OSQPFloat)-0.09352944839217937345,
 };
-OSQPInt truck_conv_el_linsys_P[1250];
-static const OSQPInt truck_conv_el_linsys_P_init[1250] = {
+const OSQPInt truck_conv_el_linsys_P[1250] = {
   489,
   490,
   493,
@@ -21063,8 +21056,7 @@ static const OSQPFloat truck_conv_el_linsys_rho_inv_vec_init[805] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_conv_el_linsys_KKT_p[1251];
-static const OSQPInt truck_conv_el_linsys_KKT_p_init[1251] = {
+const OSQPInt truck_conv_el_linsys_KKT_p[1251] = {
   0,
   1,
   2,
@@ -22317,8 +22309,7 @@ static const OSQPInt truck_conv_el_linsys_KKT_p_init[1251] = {
   3766,
   3775,
 };
-OSQPInt truck_conv_el_linsys_KKT_i[3775];
-static const OSQPInt truck_conv_el_linsys_KKT_i_init[3775] = {
+const OSQPInt truck_conv_el_linsys_KKT_i[3775] = {
   0,
   1,
   2,
@@ -29877,14 +29868,13 @@ OSQPCscMatrix truck_conv_el_linsys_KKT;
 static const OSQPCscMatrix truck_conv_el_linsys_KKT_init = {
   1250,
   1250,
-  truck_conv_el_linsys_KKT_p,
-  truck_conv_el_linsys_KKT_i,
+  (OSQPInt *)truck_conv_el_linsys_KKT_p,
+  (OSQPInt *)truck_conv_el_linsys_KKT_i,
   truck_conv_el_linsys_KKT_x,
   3775,
   -1,
 };
-OSQPInt truck_conv_el_linsys_PtoKKT[445];
-static const OSQPInt truck_conv_el_linsys_PtoKKT_init[445] = {
+const OSQPInt truck_conv_el_linsys_PtoKKT[445] = {
   3642,
   3644,
   3646,
@@ -30331,8 +30321,7 @@ static const OSQPInt truck_conv_el_linsys_PtoKKT_init[445] = {
   1198,
   1195,
 };
-OSQPInt truck_conv_el_linsys_AtoKKT[2525];
-static const OSQPInt truck_conv_el_linsys_AtoKKT_init[2525] = {
+const OSQPInt truck_conv_el_linsys_AtoKKT[2525] = {
   3643,
   3666,
   3658,
@@ -32859,8 +32848,7 @@ static const OSQPInt truck_conv_el_linsys_AtoKKT_init[2525] = {
   1209,
   1196,
 };
-OSQPInt truck_conv_el_linsys_rhotoKKT[805];
-static const OSQPInt truck_conv_el_linsys_rhotoKKT_init[805] = {
+const OSQPInt truck_conv_el_linsys_rhotoKKT[805] = {
   3641,
   3640,
   3639,
@@ -34920,8 +34908,7 @@ static const OSQPFloat truck_conv_el_linsys_D_init[1250] = {
   (OSQPFloat)-3.82341415314642230072,
   (OSQPFloat)-10.69181971229947691882,
 };
-OSQPInt truck_conv_el_linsys_etree[1250];
-static const OSQPInt truck_conv_el_linsys_etree_init[1250] = {
+const OSQPInt truck_conv_el_linsys_etree[1250] = {
   1244,
   1245,
   3,
@@ -36173,8 +36160,7 @@ static const OSQPInt truck_conv_el_linsys_etree_init[1250] = {
   1249,
   -1,
 };
-OSQPInt truck_conv_el_linsys_Lnz[1250];
-static const OSQPInt truck_conv_el_linsys_Lnz_init[1250] = {
+const OSQPInt truck_conv_el_linsys_Lnz[1250] = {
   1,
   1,
   1,
@@ -37441,7 +37427,7 @@ static const qdldl_solver truck_conv_el_linsys_init = {
   1,
   &truck_conv_el_linsys_L,
   truck_conv_el_linsys_Dinv,
-  truck_conv_el_linsys_P,
+  (OSQPInt *)truck_conv_el_linsys_P,
   truck_conv_el_linsys_bp,
   truck_conv_el_linsys_sol,
   truck_conv_el_linsys_rho_inv_vec,
@@ -37450,12 +37436,12 @@ static const qdldl_solver truck_conv_el_linsys_init = {
   445,
   805,
   &truck_conv_el_linsys_KKT,
-  truck_conv_el_linsys_PtoKKT,
-  truck_conv_el_linsys_AtoKKT,
-  truck_conv_el_linsys_rhotoKKT,
+  (OSQPInt *)truck_conv_el_linsys_PtoKKT,
+  (OSQPInt *)truck_conv_el_linsys_AtoKKT,
+  (OSQPInt *)truck_conv_el_linsys_rhotoKKT,
   truck_conv_el_linsys_D,
-  truck_conv_el_linsys_etree,
-  truck_conv_el_linsys_Lnz,
+  (OSQPInt *)truck_conv_el_linsys_etree,
+  (OSQPInt *)truck_conv_el_linsys_Lnz,
   truck_conv_el_linsys_iwork,
   truck_conv_el_linsys_bwork,
   truck_conv_el_linsys_fwork,
@@ -44674,13 +44660,9 @@ void truck_conv_el_workspace_reset(void) {
   memset(&truck_conv_el_sol_dual_inf_cert, 0, sizeof truck_conv_el_sol_dual_inf_cert);
   memcpy(&truck_conv_el_sol, &truck_conv_el_sol_init, sizeof truck_conv_el_sol);
   memcpy(&truck_conv_el_info, &truck_conv_el_info_init, sizeof truck_conv_el_info);
-  memcpy(&truck_conv_el_data_P_csc_p, &truck_conv_el_data_P_csc_p_init, sizeof truck_conv_el_data_P_csc_p);
-  memcpy(&truck_conv_el_data_P_csc_i, &truck_conv_el_data_P_csc_i_init, sizeof truck_conv_el_data_P_csc_i);
   memcpy(&truck_conv_el_data_P_csc_x, &truck_conv_el_data_P_csc_x_init, sizeof truck_conv_el_data_P_csc_x);
   memcpy(&truck_conv_el_data_P_csc, &truck_conv_el_data_P_csc_init, sizeof truck_conv_el_data_P_csc);
   memcpy(&truck_conv_el_data_P, &truck_conv_el_data_P_init, sizeof truck_conv_el_data_P);
-  memcpy(&truck_conv_el_data_A_csc_p, &truck_conv_el_data_A_csc_p_init, sizeof truck_conv_el_data_A_csc_p);
-  memcpy(&truck_conv_el_data_A_csc_i, &truck_conv_el_data_A_csc_i_init, sizeof truck_conv_el_data_A_csc_i);
   memcpy(&truck_conv_el_data_A_csc_x, &truck_conv_el_data_A_csc_x_init, sizeof truck_conv_el_data_A_csc_x);
   memcpy(&truck_conv_el_data_A_csc, &truck_conv_el_data_A_csc_init, sizeof truck_conv_el_data_A_csc);
   memcpy(&truck_conv_el_data_A, &truck_conv_el_data_A_init, sizeof truck_conv_el_data_A);
@@ -44691,25 +44673,15 @@ void truck_conv_el_workspace_reset(void) {
   memcpy(&truck_conv_el_data_u_val, &truck_conv_el_data_u_val_init, sizeof truck_conv_el_data_u_val);
   memcpy(&truck_conv_el_data_u, &truck_conv_el_data_u_init, sizeof truck_conv_el_data_u);
   memcpy(&truck_conv_el_data, &truck_conv_el_data_init, sizeof truck_conv_el_data);
-  memcpy(&truck_conv_el_linsys_L_p, &truck_conv_el_linsys_L_p_init, sizeof truck_conv_el_linsys_L_p);
-  memcpy(&truck_conv_el_linsys_L_i, &truck_conv_el_linsys_L_i_init, sizeof truck_conv_el_linsys_L_i);
   memcpy(&truck_conv_el_linsys_L_x, &truck_conv_el_linsys_L_x_init, sizeof truck_conv_el_linsys_L_x);
   memcpy(&truck_conv_el_linsys_L, &truck_conv_el_linsys_L_init, sizeof truck_conv_el_linsys_L);
   memcpy(&truck_conv_el_linsys_Dinv, &truck_conv_el_linsys_Dinv_init, sizeof truck_conv_el_linsys_Dinv);
-  memcpy(&truck_conv_el_linsys_P, &truck_conv_el_linsys_P_init, sizeof truck_conv_el_linsys_P);
   memset(&truck_conv_el_linsys_bp, 0, sizeof truck_conv_el_linsys_bp);
   memset(&truck_conv_el_linsys_sol, 0, sizeof truck_conv_el_linsys_sol);
   memcpy(&truck_conv_el_linsys_rho_inv_vec, &truck_conv_el_linsys_rho_inv_vec_init, sizeof truck_conv_el_linsys_rho_inv_vec);
-  memcpy(&truck_conv_el_linsys_KKT_p, &truck_conv_el_linsys_KKT_p_init, sizeof truck_conv_el_linsys_KKT_p);
-  memcpy(&truck_conv_el_linsys_KKT_i, &truck_conv_el_linsys_KKT_i_init, sizeof truck_conv_el_linsys_KKT_i);
   memcpy(&truck_conv_el_linsys_KKT_x, &truck_conv_el_linsys_KKT_x_init, sizeof truck_conv_el_linsys_KKT_x);
   memcpy(&truck_conv_el_linsys_KKT, &truck_conv_el_linsys_KKT_init, sizeof truck_conv_el_linsys_KKT);
-  memcpy(&truck_conv_el_linsys_PtoKKT, &truck_conv_el_linsys_PtoKKT_init, sizeof truck_conv_el_linsys_PtoKKT);
-  memcpy(&truck_conv_el_linsys_AtoKKT, &truck_conv_el_linsys_AtoKKT_init, sizeof truck_conv_el_linsys_AtoKKT);
-  memcpy(&truck_conv_el_linsys_rhotoKKT, &truck_conv_el_linsys_rhotoKKT_init, sizeof truck_conv_el_linsys_rhotoKKT);
   memcpy(&truck_conv_el_linsys_D, &truck_conv_el_linsys_D_init, sizeof truck_conv_el_linsys_D);
-  memcpy(&truck_conv_el_linsys_etree, &truck_conv_el_linsys_etree_init, sizeof truck_conv_el_linsys_etree);
-  memcpy(&truck_conv_el_linsys_Lnz, &truck_conv_el_linsys_Lnz_init, sizeof truck_conv_el_linsys_Lnz);
   memset(&truck_conv_el_linsys_iwork, 0, sizeof truck_conv_el_linsys_iwork);
   memset(&truck_conv_el_linsys_bwork, 0, sizeof truck_conv_el_linsys_bwork);
   memset(&truck_conv_el_linsys_fwork, 0, sizeof truck_conv_el_linsys_fwork);

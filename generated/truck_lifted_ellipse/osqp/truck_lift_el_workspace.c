@@ -82,8 +82,7 @@ static const OSQPInfo truck_lift_el_info_init = {
 };
 
 /* Define the data structure */
-OSQPInt truck_lift_el_data_P_csc_p[569];
-static const OSQPInt truck_lift_el_data_P_csc_p_init[569] = {
+const OSQPInt truck_lift_el_data_P_csc_p[569] = {
   0,
   1,
   2,
@@ -654,8 +653,7 @@ static const OSQPInt truck_lift_el_data_P_csc_p_init[569] = {
   567,
   568,
 };
-OSQPInt truck_lift_el_data_P_csc_i[568];
-static const OSQPInt truck_lift_el_data_P_csc_i_init[568] = {
+const OSQPInt truck_lift_el_data_P_csc_i[568] = {
   0,
   1,
   2,
@@ -1800,8 +1798,8 @@ OSQPCscMatrix truck_lift_el_data_P_csc;
 static const OSQPCscMatrix truck_lift_el_data_P_csc_init = {
   568,
   568,
-  truck_lift_el_data_P_csc_p,
-  truck_lift_el_data_P_csc_i,
+  (OSQPInt *)truck_lift_el_data_P_csc_p,
+  (OSQPInt *)truck_lift_el_data_P_csc_i,
   truck_lift_el_data_P_csc_x,
   568,
   -1,
@@ -1811,8 +1809,7 @@ static const OSQPMatrix truck_lift_el_data_P_init = {
   &truck_lift_el_data_P_csc,
   1
 };
-OSQPInt truck_lift_el_data_A_csc_p[569];
-static const OSQPInt truck_lift_el_data_A_csc_p_init[569] = {
+const OSQPInt truck_lift_el_data_A_csc_p[569] = {
   0,
   4,
   8,
@@ -2383,8 +2380,7 @@ static const OSQPInt truck_lift_el_data_A_csc_p_init[569] = {
   3366,
   3368,
 };
-OSQPInt truck_lift_el_data_A_csc_i[3368];
-static const OSQPInt truck_lift_el_data_A_csc_i_init[3368] = {
+const OSQPInt truck_lift_el_data_A_csc_i[3368] = {
   0,
   8,
   9,
@@ -9129,8 +9125,8 @@ OSQPCscMatrix truck_lift_el_data_A_csc;
 static const OSQPCscMatrix truck_lift_el_data_A_csc_init = {
   928,
   568,
-  truck_lift_el_data_A_csc_p,
-  truck_lift_el_data_A_csc_i,
+  (OSQPInt *)truck_lift_el_data_A_csc_p,
+  (OSQPInt *)truck_lift_el_data_A_csc_i,
   truck_lift_el_data_A_csc_x,
   3368,
   -1,
@@ -11600,8 +11596,7 @@ static const OSQPData truck_lift_el_data_init = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_lift_el_linsys_L_p[1497];
-static const OSQPInt truck_lift_el_linsys_L_p_init[1497] = {
+const OSQPInt truck_lift_el_linsys_L_p[1497] = {
   0,
   4,
   5,
@@ -13100,8 +13095,7 @@ static const OSQPInt truck_lift_el_linsys_L_p_init[1497] = {
   6430,
   6430,
 };
-OSQPInt truck_lift_el_linsys_L_i[6430];
-static const OSQPInt truck_lift_el_linsys_L_i_init[6430] = {
+const OSQPInt truck_lift_el_linsys_L_i[6430] = {
   78,
   1491,
   1492,
@@ -25970,8 +25964,8 @@ OSQPCscMatrix truck_lift_el_linsys_L;
 static const OSQPCscMatrix truck_lift_el_linsys_L_init = {
   1496,
   1496,
-  truck_lift_el_linsys_L_p,
-  truck_lift_el_linsys_L_i,
+  (OSQPInt *)truck_lift_el_linsys_L_p,
+  (OSQPInt *)truck_lift_el_linsys_L_i,
   truck_lift_el_linsys_L_x,
   6430,
   -1,
@@ -27475,8 +27469,7 @@ static const OSQPFloat truck_lift_el_linsys_Dinv_init[1496] = {
   (OSQPFloat)-0.13133914460283921399,
   (OSQPFloat)-0.12973149688347540565,
 };
-OSQPInt truck_lift_el_linsys_P[1496];
-static const OSQPInt truck_lift_el_linsys_P_init[1496] = {
+const OSQPInt truck_lift_el_linsys_P[1496] = {
   24,
   622,
   25,
@@ -29907,8 +29900,7 @@ static const OSQPFloat truck_lift_el_linsys_rho_inv_vec_init[928] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_lift_el_linsys_KKT_p[1497];
-static const OSQPInt truck_lift_el_linsys_KKT_p_init[1497] = {
+const OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
   0,
   1,
   2,
@@ -31407,8 +31399,7 @@ static const OSQPInt truck_lift_el_linsys_KKT_p_init[1497] = {
   4854,
   4864,
 };
-OSQPInt truck_lift_el_linsys_KKT_i[4864];
-static const OSQPInt truck_lift_el_linsys_KKT_i_init[4864] = {
+const OSQPInt truck_lift_el_linsys_KKT_i[4864] = {
   0,
   1,
   2,
@@ -41145,14 +41136,13 @@ OSQPCscMatrix truck_lift_el_linsys_KKT;
 static const OSQPCscMatrix truck_lift_el_linsys_KKT_init = {
   1496,
   1496,
-  truck_lift_el_linsys_KKT_p,
-  truck_lift_el_linsys_KKT_i,
+  (OSQPInt *)truck_lift_el_linsys_KKT_p,
+  (OSQPInt *)truck_lift_el_linsys_KKT_i,
   truck_lift_el_linsys_KKT_x,
   4864,
   -1,
 };
-OSQPInt truck_lift_el_linsys_PtoKKT[568];
-static const OSQPInt truck_lift_el_linsys_PtoKKT_init[568] = {
+const OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
   57,
   59,
   61,
@@ -41722,8 +41712,7 @@ static const OSQPInt truck_lift_el_linsys_PtoKKT_init[568] = {
   837,
   834,
 };
-OSQPInt truck_lift_el_linsys_AtoKKT[3368];
-static const OSQPInt truck_lift_el_linsys_AtoKKT_init[3368] = {
+const OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
   58,
   155,
   135,
@@ -45093,8 +45082,7 @@ static const OSQPInt truck_lift_el_linsys_AtoKKT_init[3368] = {
   846,
   835,
 };
-OSQPInt truck_lift_el_linsys_rhotoKKT[928];
-static const OSQPInt truck_lift_el_linsys_rhotoKKT_init[928] = {
+const OSQPInt truck_lift_el_linsys_rhotoKKT[928] = {
   56,
   55,
   54,
@@ -47523,8 +47511,7 @@ static const OSQPFloat truck_lift_el_linsys_D_init[1496] = {
   (OSQPFloat)-7.61387629730597836897,
   (OSQPFloat)-7.70822833331059342754,
 };
-OSQPInt truck_lift_el_linsys_etree[1496];
-static const OSQPInt truck_lift_el_linsys_etree_init[1496] = {
+const OSQPInt truck_lift_el_linsys_etree[1496] = {
   78,
   2,
   79,
@@ -49022,8 +49009,7 @@ static const OSQPInt truck_lift_el_linsys_etree_init[1496] = {
   1495,
   -1,
 };
-OSQPInt truck_lift_el_linsys_Lnz[1496];
-static const OSQPInt truck_lift_el_linsys_Lnz_init[1496] = {
+const OSQPInt truck_lift_el_linsys_Lnz[1496] = {
   4,
   1,
   4,
@@ -50536,7 +50522,7 @@ static const qdldl_solver truck_lift_el_linsys_init = {
   1,
   &truck_lift_el_linsys_L,
   truck_lift_el_linsys_Dinv,
-  truck_lift_el_linsys_P,
+  (OSQPInt *)truck_lift_el_linsys_P,
   truck_lift_el_linsys_bp,
   truck_lift_el_linsys_sol,
   truck_lift_el_linsys_rho_inv_vec,
@@ -50545,12 +50531,12 @@ static const qdldl_solver truck_lift_el_linsys_init = {
   568,
   928,
   &truck_lift_el_linsys_KKT,
-  truck_lift_el_linsys_PtoKKT,
-  truck_lift_el_linsys_AtoKKT,
-  truck_lift_el_linsys_rhotoKKT,
+  (OSQPInt *)truck_lift_el_linsys_PtoKKT,
+  (OSQPInt *)truck_lift_el_linsys_AtoKKT,
+  (OSQPInt *)truck_lift_el_linsys_rhotoKKT,
   truck_lift_el_linsys_D,
-  truck_lift_el_linsys_etree,
-  truck_lift_el_linsys_Lnz,
+  (OSQPInt *)truck_lift_el_linsys_etree,
+  (OSQPInt *)truck_lift_el_linsys_Lnz,
   truck_lift_el_linsys_iwork,
   truck_lift_el_linsys_bwork,
   truck_lift_el_linsys_fwork,
@@ -58999,13 +58985,9 @@ void truck_lift_el_workspace_reset(void) {
   memset(&truck_lift_el_sol_dual_inf_cert, 0, sizeof truck_lift_el_sol_dual_inf_cert);
   memcpy(&truck_lift_el_sol, &truck_lift_el_sol_init, sizeof truck_lift_el_sol);
   memcpy(&truck_lift_el_info, &truck_lift_el_info_init, sizeof truck_lift_el_info);
-  memcpy(&truck_lift_el_data_P_csc_p, &truck_lift_el_data_P_csc_p_init, sizeof truck_lift_el_data_P_csc_p);
-  memcpy(&truck_lift_el_data_P_csc_i, &truck_lift_el_data_P_csc_i_init, sizeof truck_lift_el_data_P_csc_i);
   memcpy(&truck_lift_el_data_P_csc_x, &truck_lift_el_data_P_csc_x_init, sizeof truck_lift_el_data_P_csc_x);
   memcpy(&truck_lift_el_data_P_csc, &truck_lift_el_data_P_csc_init, sizeof truck_lift_el_data_P_csc);
   memcpy(&truck_lift_el_data_P, &truck_lift_el_data_P_init, sizeof truck_lift_el_data_P);
-  memcpy(&truck_lift_el_data_A_csc_p, &truck_lift_el_data_A_csc_p_init, sizeof truck_lift_el_data_A_csc_p);
-  memcpy(&truck_lift_el_data_A_csc_i, &truck_lift_el_data_A_csc_i_init, sizeof truck_lift_el_data_A_csc_i);
   memcpy(&truck_lift_el_data_A_csc_x, &truck_lift_el_data_A_csc_x_init, sizeof truck_lift_el_data_A_csc_x);
   memcpy(&truck_lift_el_data_A_csc, &truck_lift_el_data_A_csc_init, sizeof truck_lift_el_data_A_csc);
   memcpy(&truck_lift_el_data_A, &truck_lift_el_data_A_init, sizeof truck_lift_el_data_A);
@@ -59016,25 +58998,15 @@ void truck_lift_el_workspace_reset(void) {
   memcpy(&truck_lift_el_data_u_val, &truck_lift_el_data_u_val_init, sizeof truck_lift_el_data_u_val);
   memcpy(&truck_lift_el_data_u, &truck_lift_el_data_u_init, sizeof truck_lift_el_data_u);
   memcpy(&truck_lift_el_data, &truck_lift_el_data_init, sizeof truck_lift_el_data);
-  memcpy(&truck_lift_el_linsys_L_p, &truck_lift_el_linsys_L_p_init, sizeof truck_lift_el_linsys_L_p);
-  memcpy(&truck_lift_el_linsys_L_i, &truck_lift_el_linsys_L_i_init, sizeof truck_lift_el_linsys_L_i);
   memcpy(&truck_lift_el_linsys_L_x, &truck_lift_el_linsys_L_x_init, sizeof truck_lift_el_linsys_L_x);
   memcpy(&truck_lift_el_linsys_L, &truck_lift_el_linsys_L_init, sizeof truck_lift_el_linsys_L);
   memcpy(&truck_lift_el_linsys_Dinv, &truck_lift_el_linsys_Dinv_init, sizeof truck_lift_el_linsys_Dinv);
-  memcpy(&truck_lift_el_linsys_P, &truck_lift_el_linsys_P_init, sizeof truck_lift_el_linsys_P);
   memset(&truck_lift_el_linsys_bp, 0, sizeof truck_lift_el_linsys_bp);
   memset(&truck_lift_el_linsys_sol, 0, sizeof truck_lift_el_linsys_sol);
   memcpy(&truck_lift_el_linsys_rho_inv_vec, &truck_lift_el_linsys_rho_inv_vec_init, sizeof truck_lift_el_linsys_rho_inv_vec);
-  memcpy(&truck_lift_el_linsys_KKT_p, &truck_lift_el_linsys_KKT_p_init, sizeof truck_lift_el_linsys_KKT_p);
-  memcpy(&truck_lift_el_linsys_KKT_i, &truck_lift_el_linsys_KKT_i_init, sizeof truck_lift_el_linsys_KKT_i);
   memcpy(&truck_lift_el_linsys_KKT_x, &truck_lift_el_linsys_KKT_x_init, sizeof truck_lift_el_linsys_KKT_x);
   memcpy(&truck_lift_el_linsys_KKT, &truck_lift_el_linsys_KKT_init, sizeof truck_lift_el_linsys_KKT);
-  memcpy(&truck_lift_el_linsys_PtoKKT, &truck_lift_el_linsys_PtoKKT_init, sizeof truck_lift_el_linsys_PtoKKT);
-  memcpy(&truck_lift_el_linsys_AtoKKT, &truck_lift_el_linsys_AtoKKT_init, sizeof truck_lift_el_linsys_AtoKKT);
-  memcpy(&truck_lift_el_linsys_rhotoKKT, &truck_lift_el_linsys_rhotoKKT_init, sizeof truck_lift_el_linsys_rhotoKKT);
   memcpy(&truck_lift_el_linsys_D, &truck_lift_el_linsys_D_init, sizeof truck_lift_el_linsys_D);
-  memcpy(&truck_lift_el_linsys_etree, &truck_lift_el_linsys_etree_init, sizeof truck_lift_el_linsys_etree);
-  memcpy(&truck_lift_el_linsys_Lnz, &truck_lift_el_linsys_Lnz_init, sizeof truck_lift_el_linsys_Lnz);
   memset(&truck_lift_el_linsys_iwork, 0, sizeof truck_lift_el_linsys_iwork);
   memset(&truck_lift_el_linsys_bwork, 0, sizeof truck_lift_el_linsys_bwork);
   memset(&truck_lift_el_linsys_fwork, 0, sizeof truck_lift_el_linsys_fwork);

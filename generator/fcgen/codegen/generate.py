@@ -28,6 +28,7 @@ from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..reference import EXIT_CODES, QP_CONTRACT, QP_EXIT, cold_max_iter, input_box, theta_init  # noqa: F401 (re-exported)
 from ..sim.closedloop import plant_function
+from .misra import MISRA_DEVIATIONS
 
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
@@ -110,6 +111,30 @@ def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
 
 
+C_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh",
+          "exp", "expm1", "log", "log1p", "log10", "log2", "pow", "sqrt", "cbrt", "hypot", "fabs", "fmin", "fmax",
+          "floor", "ceil", "round", "trunc", "fmod", "remainder", "copysign", "erf", "erfc", "fma", "lgamma", "tgamma")
+"""The double functions of <math.h> (C99) that have a float counterpart ``<name>f``."""
+_C_MATH_CALL = re.compile(r"\b(" + "|".join(C_MATH) + r")(\s*\()")
+_C_DOUBLE_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)(?![\w.])")
+
+
+def float_math(src: str) -> str:
+    """CasADi's C code in single precision: ``sin`` -> ``sinf``, ... and ``2.`` -> ``2.f`` (CasADi has no option for it;
+    with ``casadi_real = float`` alone it computes in double: every literal and math call promotes).
+
+    Comments are left as they are (a version number like ``3.8.2`` is no literal: the pattern needs a number that
+    neither follows nor precedes a word character or a dot).
+    """
+    out = []
+    for part in re.split(r"(/\*.*?\*/|//[^\n]*)", src, flags=re.S):  # odd parts: comments
+        if part.startswith(("/*", "//")):
+            out.append(part)
+        else:
+            out.append(_C_DOUBLE_LITERAL.sub(r"\1f", _C_MATH_CALL.sub(r"\1f\2", part)))
+    return "".join(out)
+
+
 def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
     """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
     funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
@@ -124,6 +149,8 @@ def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any
         hdr = (Path(tmp) / f"{name}_model.h").read_text()
     # CasADi's runtime helpers (casadi_fmin, casadi_sq, ...) are emitted non-static: make them file-local
     src = _HELPER_DEF.sub(r"static \1 \2(", src)
+    if real == "float":
+        src = float_math(src)
     for text in (src, hdr):
         if tmp in text or "/tmp" in text:
             raise AssertionError("CasADi wrote a path into the model code")
@@ -186,6 +213,26 @@ def far_opponent_row(ocp: Ocp) -> np.ndarray:
     return np.array([-1000.0, 500.0, 0.0])
 
 
+def permutation_cycles(src: np.ndarray) -> np.ndarray:
+    """One start index per non-trivial cycle of the permutation ``i -> src[i]`` (to apply ``v[i] = v[src[i]]`` in
+    place: follow each cycle from its start, one saved value per cycle)."""
+    src = np.asarray(src, dtype=np.int64)
+    if sorted(src.tolist()) != list(range(len(src))):
+        raise AssertionError("A_SRC is no permutation of the stacked Jacobian: A_x cannot share its memory")
+    seen = np.zeros(len(src), dtype=bool)
+    starts = []
+    for i0 in range(len(src)):
+        if seen[i0] or src[i0] == i0:
+            seen[i0] = True
+            continue
+        starts.append(i0)
+        i = i0
+        while not seen[i]:
+            seen[i] = True
+            i = int(src[i])
+    return np.array(starts, dtype=np.int64)
+
+
 # --- sizes -------------------------------------------------------------------------------------------------------
 
 def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
@@ -224,10 +271,10 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
         ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
         ("NAME_real_t", "w_tmp", [n], R), ("NAME_real_t", "y_tmp", [m], R),
-        ("NAME_real_t", "p", [M("N", 1), M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
-        ("NAME_real_t", "g", [m], R), ("NAME_real_t", "jac", [M("NNZ_J")], R),
+        ("NAME_real_t", "p", [M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
+        ("NAME_real_t", "g_init", [M("NX")], R), ("NAME_real_t", "jac", [nnz], R),
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
-        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R), ("NAME_real_t", "A_x", [nnz], R),
+        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R),
         ("NAME_real_t", "u_applied", [M("NU")], R),
         ("NAME_real_t", "xa", [M("NX")], R), ("NAME_real_t", "xb", [M("NX")], R),
         ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
@@ -290,7 +337,11 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
              "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
     slacks = slack_vars(ocp, lay)
     n_opp_all = max(1, n_opp * n_opp_par)
-    index_tables = {"A_SRC": lay.a_src, "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
+    if sizes["NNZ_J"] != sizes["QP_NNZ_A"]:
+        raise AssertionError("stacked Jacobian and A differ in size: A_x cannot share the Jacobian's memory")
+    a_cycles = permutation_cycles(lay.a_src)
+    index_tables = {"A_SRC": lay.a_src, "A_CYCLES": a_cycles,
+                    "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
                     "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks}
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
@@ -324,7 +375,8 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "index_ctype": index_ctype, "opp_dim": n_opp_all,
+        "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor",
+        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},

@@ -19,6 +19,9 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from .osqp_const import QDLDL_SOURCE, constant_arrays, qdldl_keep_pattern
+from .osqp_prefix import CONFIGURE_H, prefix_of, prefixed_configure, rename_header, rename_header_name
+
 OSQP_INFTY = 1e30
 """``OSQP_INFTY`` in the emitted code (double and float builds); bounds are clipped to it."""
 
@@ -180,12 +183,21 @@ def _library_files(gen: Path) -> list[Path]:
     return sorted(files + [Path("osqp_configure.h")])
 
 
-def _sync_library(gen: Path, out_dir: Path) -> list[str]:
-    """Mirror the library part of codegen folder ``gen`` into ``out_dir/osqp/lib``."""
+def _library_bytes(gen: Path, rel: Path, prefix: str) -> bytes:
+    """A library file as written: normalized; ``osqp_configure.h`` includes the prefix's rename header; ``qdldl.c``
+    keeps the factor's pattern constant (:func:`qdldl_keep_pattern`)."""
+    data = _normalize((gen / rel).read_bytes())
+    if rel.as_posix() == QDLDL_SOURCE:
+        return qdldl_keep_pattern(data)
+    return prefixed_configure(data, prefix) if rel.as_posix() == CONFIGURE_H else data
+
+
+def _sync_library(gen: Path, out_dir: Path, prefix: str) -> list[str]:
+    """Mirror the library part of codegen folder ``gen`` into ``out_dir/osqp/lib`` (symbols renamed to ``prefix``)."""
     lib = out_dir / LIB_DIR
     files = _library_files(gen)
     for rel in files:
-        _write_if_changed(lib / rel, _normalize((gen / rel).read_bytes()))
+        _write_if_changed(lib / rel, _library_bytes(gen, rel, prefix))
     keep = {lib / rel for rel in files}
     for p in sorted(lib.rglob("*"), reverse=True):  # drop stale files and empty folders
         if p.is_file() and p not in keep:
@@ -195,18 +207,20 @@ def _sync_library(gen: Path, out_dir: Path) -> list[str]:
     return [f"{LIB_DIR}/{rel.as_posix()}" for rel in files]
 
 
-def restore_osqp_library(out_dir: Path, use_float: bool) -> list[str]:
+def restore_osqp_library(out_dir: Path, use_float: bool, prefix: str | None = None) -> list[str]:
     """Re-create ``out_dir/osqp/lib`` from the installed osqp package; return its files.
 
-    The library sources do not depend on the problem or the settings; only
-    ``osqp_configure.h`` depends on the float option (embedded mode 2, printing off).
+    The library sources do not depend on the problem or the settings; only ``osqp_configure.h`` depends on the
+    float option (embedded mode 2, printing off) and on the solver's ``prefix`` (default: that of the folder's
+    exported workspace), whose rename header it includes.
     """
+    prefix = prefix or prefix_of(Path(out_dir))
     P = sp.csc_matrix(np.ones((1, 1)))
     A = sp.csc_matrix(np.ones((1, 1)))
     with tempfile.TemporaryDirectory() as tmp:
         gen = Path(tmp) / "gen"
         _codegen(P, A, np.zeros(1), -np.ones(1), np.ones(1), dict(_FORCED), gen, "dummy_", use_float)
-        return _sync_library(gen, Path(out_dir))
+        return _sync_library(gen, Path(out_dir), prefix)
 
 
 def export_osqp(P: sp.csc_matrix, A: sp.csc_matrix, q: np.ndarray, l: np.ndarray, u: np.ndarray,
@@ -229,7 +243,8 @@ def export_osqp(P: sp.csc_matrix, A: sp.csc_matrix, q: np.ndarray, l: np.ndarray
         gen = Path(tmp) / "gen"
         _codegen(P, A, q, l, u, opts, gen, prefix, use_float)
         ws = {ext: _normalize((gen / f"{prefix}workspace{ext}").read_bytes()) for ext in (".c", ".h")}
-        lib_files = _sync_library(gen, out_dir)
+        lib_files = _sync_library(gen, out_dir, prefix)
+    ws[".c"] = constant_arrays(ws[".c"], prefix)  # before the split: the const arrays need no mutable copy
     ws[".c"], ws[".h"] = split_initial_values(ws[".c"], ws[".h"], prefix)
     for name, nnz in ((f"{prefix}data_P_csc_x", P.nnz), (f"{prefix}data_A_csc_x", A.nnz)):
         found = re.search(rb"OSQPFloat " + name.encode() + rb"\[(\d+)\]", ws[".c"])
@@ -237,13 +252,14 @@ def export_osqp(P: sp.csc_matrix, A: sp.csc_matrix, q: np.ndarray, l: np.ndarray
             raise RuntimeError(f"osqp did not keep the sparsity pattern of {name} (expected nnz {nnz})")
     for ext, data in ws.items():
         _write_if_changed(out_dir / "osqp" / f"{prefix}workspace{ext}", data)
+    _write_if_changed(out_dir / "osqp" / rename_header_name(prefix), rename_header(prefix))
     # "%.20f" has an absolute resolution of 1e-20: exact only where the ulp exceeds it
     tiny = 2.0 ** (-43 if use_float else -14)
     lossy = sum(1 for lit in _LITERAL.findall(ws[".c"]) if 0.0 < abs(float(lit)) < tiny)
     return OsqpExport(
         prefix=prefix, use_float=use_float, n=P.shape[0], m=A.shape[0], P_nnz=P.nnz, A_nnz=A.nnz,
         workspace_sources=(f"osqp/{prefix}workspace.c",),
-        workspace_headers=(f"osqp/{prefix}workspace.h",),
+        workspace_headers=(f"osqp/{prefix}workspace.h", f"osqp/{rename_header_name(prefix)}"),
         library_sources=tuple(f for f in lib_files if f.endswith(".c")),
         library_headers=tuple(f for f in lib_files if f.endswith(".h")),
         include_dirs=INCLUDE_DIRS, private_include_dirs=PRIVATE_INCLUDE_DIRS, cflags=OSQP_CFLAGS, link_libs=LINK_LIBS,
