@@ -307,3 +307,17 @@ def test_workspace_initial_values_are_const(qp: dict, tmp_path: Path) -> None:
     assert n_init > 20 and text.count("  memcpy(&") == n_init
     n_objects = len(re.findall(r"^\w+\s+\w+(?:\[\d+\])?;$", text, re.M))  # every mutable object, declared once
     assert text.count("  memset(&") == n_objects - n_init > 0
+
+
+def test_stale_library_copy_is_resynced(qp: dict, tmp_path: Path) -> None:
+    """A library copy left by an older fcgen (here: QDLDL without the const-pattern patch, an unprefixed header) is
+    brought up to date by the backend's restore, not trusted because it exists (it built and then crashed)."""
+    from fcgen.backends.osqp import restore_library
+    a = tmp_path / "a"
+    _export(qp, a)
+    good = _hashes(a)
+    qdldl = next((a / "osqp" / "lib").rglob("qdldl.c"))
+    qdldl.write_text(qdldl.read_text() + "\n/* stale */\n")
+    (a / "osqp" / "lib" / "osqp_configure.h").write_text("/* an old configure header */\n")
+    restore_library(a, use_float=False)
+    assert _hashes(a) == good

@@ -126,10 +126,12 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
 
 
 def restore_library(out_dir: Path, use_float: bool) -> list[str]:
-    """Re-create the git-ignored OSQP library of a folder that uses this backend (nothing for another folder)."""
+    """Bring the git-ignored OSQP library of a folder that uses this backend up to date (nothing for another folder).
+
+    Always synced, never trusted because it exists: a copy left by an older fcgen (unprefixed, unpatched QDLDL that
+    writes into what is now const data) would build and crash. Only changed files are written (~0.3 s).
+    """
     out_dir = Path(out_dir)
     if not list((out_dir / "osqp").glob("*workspace.c")):
-        return []
-    if (out_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
         return []
     return restore_osqp_library(out_dir, use_float)
