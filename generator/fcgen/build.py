@@ -119,7 +119,7 @@ class CSolver:
                "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
                "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
-               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None),
+               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_params": ([PPR], None),
                "host_clock": ([], ctypes.c_double)}
         for fn, (args, res) in sig.items():
             f = self._f(fn)
@@ -185,10 +185,11 @@ class CSolver:
     def status(self) -> Status:
         class _St(ctypes.Structure):
             _fields_ = [("exit_code", ctypes.c_int), ("qp_status", ctypes.c_int), ("qp_iter", ctypes.c_int),
-                        ("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
+                        ("opp_outside", ctypes.c_int), ("time_prepare", ctypes.c_double),
+                        ("time_feedback", ctypes.c_double)]
         st = _St()
         self._f("get_status")(ctypes.byref(st))
-        return Status(st.exit_code, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback)
+        return Status(st.exit_code, st.qp_status, st.qp_iter, st.opp_outside, st.time_prepare, st.time_feedback)
 
     def get_qp(self) -> dict[str, np.ndarray]:
         """Copies of the QP data: q, l, u, A_x, P_x, z (OSQP's primal solution), y (dual guess)."""
@@ -197,6 +198,13 @@ class CSolver:
         lens = (self.n, self.m, self.m, self.nnz_A, self.n, self.n, self.m)
         keys = ("q", "l", "u", "A_x", "P_x", "z", "y")
         return {k: np.ctypeslib.as_array(p, shape=(n,)).astype(float) for k, p, n in zip(keys, ptrs, lens)}
+
+    def get_params(self) -> np.ndarray:
+        """Copy of the stage parameters of the last prepare, shape (N+1, NP)."""
+        ptr = ctypes.POINTER(self._real)()
+        self._f("get_params")(ctypes.byref(ptr))
+        npar = self.sizes["NP"]
+        return np.ctypeslib.as_array(ptr, shape=((self.N + 1) * npar,)).astype(float).reshape(self.N + 1, npar)
 
     @staticmethod
     def code_name(code: int) -> str:

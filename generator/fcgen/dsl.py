@@ -193,11 +193,14 @@ class Conventional:
 
     overapprox: str = "fit"
     margin: float = 0.0
+    points_per_metre: float = 4.0   # points per metre of the rectangle's edges that the fit maps into (s, n)
     kind: str = field(default="conventional", init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check(self.overapprox in OVERAPPROX, "formulation.overapprox", self.overapprox, f"one of {OVERAPPROX}")
         _nonneg("formulation.margin", self.margin)
+        _check(0.25 <= _finite("formulation.points_per_metre", self.points_per_metre) <= 20,
+               "formulation.points_per_metre", self.points_per_metre, "[0.25, 20] per m")
 
     @property
     def frenet_obstacles(self) -> bool:

@@ -15,12 +15,13 @@ import osqp
 
 from .dsl import QpOptions, SeparatingHyperplane
 from .ocp import Ocp, build_ocp
+from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
 from .road import Road
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP")
+              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_OPP_FRENET")
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order."""
 
 
@@ -40,6 +41,7 @@ class Status:
     exit_code: int = 0
     qp_status: int = 0
     qp_iter: int = 0
+    opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -71,7 +73,7 @@ def theta_init(ocp: Ocp) -> ca.Function:
     rp = ocp.road_params
     out = []
     for j in range(pb.opponents.count):
-        pj = p[ocp.p_opp][j * ocp.n_opp_par:(j + 1) * ocp.n_opp_par]
+        pj = p[ocp.p_opp][j * ocp.n_opp_stage:(j + 1) * ocp.n_opp_stage]
         if isinstance(pb.formulation, Conventional):
             ego = obs.frenet_ego_shape(x[0], x[1], x[2], 1.0, pb.ego)
             co = (pj[0], pj[1])
@@ -101,6 +103,9 @@ class RtiSolver:
         self._theta_init = theta_init(ocp)
         self.road: Road | None = None
         self.opp = np.zeros((N + 1, ocp.problem.opponents.count * ocp.n_opp_par))
+        self.opp_stage = np.zeros((N + 1, ocp.problem.opponents.count * ocp.n_opp_stage))  # conventional: fitted
+        self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
+        self.opp_outside = 0
         self.x0: np.ndarray | None = None
         self.w: np.ndarray | None = None
         self.y = np.zeros(self.lay.m)
@@ -156,7 +161,21 @@ class RtiSolver:
         pb = self.ocp.problem
         xref = [self.s0_guess + k * self.ocp.dt * pb.reference.v_ref, pb.reference.n_ref, 0.0,
                 pb.reference.v_ref, 0.0]
-        return np.concatenate([self._road_params(s), xref, self.opp[k]])
+        opp = self.opp if self._fitter is None else self.opp_stage
+        return np.concatenate([self._road_params(s), xref, opp[k]])
+
+    def _fit_opponents(self) -> None:
+        """Conventional: the opponents' poses -> their fitted Frenet boxes (``fcgen.oppfit``), as the C does."""
+        if self._fitter is None:
+            return
+        if self.road is None:
+            raise SolverError("ERR_ROAD_WINDOW", "road window not set")
+        out, self.opp_outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3))
+        if singular:
+            k, j = singular[0]
+            raise SolverError("ERR_OPP_FRENET", f"opponent {j} at stage {k}: |n| kappa >= {STRETCH_MAX} next to it "
+                              "(the Frenet frame is singular there)")
+        self.opp_stage = out
 
     def _stage_w(self, k: int) -> np.ndarray:
         return self.w[self.lay.var_off[k]:self.lay.var_off[k + 1]]
@@ -187,6 +206,7 @@ class RtiSolver:
         t0 = time.perf_counter()
         self.prepared = False
         ocp, lay = self.ocp, self.lay
+        self._fit_opponents()
         self.cold = self.w is None
         if self.w is None:
             self.initial_guess()
@@ -197,6 +217,7 @@ class RtiSolver:
         N = ocp.N
         self.s0_guess = w[lay.s_vars[0]]
         P = np.stack([self.stage_params(k, w[lay.s_vars[k]]) for k in range(N + 1)], axis=1)
+        self.P = P.T
         Xn = np.stack([w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
         g, J, q = [], [], []
         out = self._fun_first(self._stage_w(0), Xn[:, 0], P[:, 0])
@@ -215,7 +236,7 @@ class RtiSolver:
         self.u = lay.U - self.g
         self.solver.update(Px=lay.P_diag, Ax=self.A_data)
         self.prepared = True
-        self.status = Status(time_prepare=time.perf_counter() - t0)
+        self.status = Status(opp_outside=self.opp_outside, time_prepare=time.perf_counter() - t0)
 
     def feedback(self) -> np.ndarray:
         """Embed the measured x0, solve the QP, take the full step; returns u_0."""
@@ -285,6 +306,7 @@ class RtiSolver:
         """Iterate SQP (no shift) at a fixed x0 until the step is below tol; returns the iteration count."""
         self.set_state(x0)
         if self.w is None:
+            self._fit_opponents()
             self.initial_guess()
         for it in range(1, max_sqp + 1):
             self.prepare(shift=False)
