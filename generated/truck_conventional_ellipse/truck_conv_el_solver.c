@@ -10,12 +10,8 @@
 
 #include "truck_conv_el_solver.h"
 #include "truck_conv_el_model.h"
-#include "osqp.h"
-#include "truck_conv_el_workspace.h"
 
-#define SOLVER (&truck_conv_el_solver)
-#define OSQP_INF 1e+30
-#define RHO0 0.2
+#define QP_INF 1e+30 /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -30,7 +26,8 @@
 #define P_REF 30
 #define P_OPP 35
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
-#define OPP_DIM 18 /* N_OPP_ALL, at least 1 */
+#define OPP_DIM 9 /* N_OPP_ALL, at least 1 */
+#define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
 #define CASADI_SZ_ARG 3
@@ -38,8 +35,7 @@
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
 
-/* compile-time checks: one real type for the API, CasADi and OSQP */
-typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there) */
 typedef char truck_conv_el_check_casadi_real[(sizeof(truck_conv_el_real_t) == sizeof(casadi_real)) ? 1 : -1];
 typedef char check_truck_conv_el_stage_first[(truck_conv_el_stage_first_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_first_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_first_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_first_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_stage_middle[(truck_conv_el_stage_middle_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_middle_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_middle_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_middle_SZ_W <= CASADI_SZ_W) ? 1 : -1];
@@ -48,6 +44,9 @@ typedef char check_truck_conv_el_dynamics[(truck_conv_el_dynamics_SZ_ARG <= CASA
 typedef char check_truck_conv_el_init_state[(truck_conv_el_init_state_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_init_state_SZ_RES <= CASADI_SZ_RES && truck_conv_el_init_state_SZ_IW <= CASADI_SZ_IW && truck_conv_el_init_state_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_theta_init[(truck_conv_el_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_theta_init_SZ_RES <= CASADI_SZ_RES && truck_conv_el_theta_init_SZ_IW <= CASADI_SZ_IW && truck_conv_el_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plant_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plant_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_foot[(truck_conv_el_opp_foot_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_foot_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_foot_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_foot_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_box[(truck_conv_el_opp_box_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_box_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_box_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_box_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
 typedef double (*clock_fn_t)(void);
@@ -971,6 +970,353 @@ static const truck_conv_el_real_t INIT_D[5] = {
 };
 static const truck_conv_el_real_t ZERO_N[TRUCK_CONV_EL_QP_N] = {0};
 
+/* ---- QP backend ------------------------------------------------------------------------------------------------ */
+/* What a backend's qpb_solve produced: generic status (TRUCK_CONV_EL_QP_*), the backend's own status, iterations,
+ * the scaled primal step z (w_new = w + D z) and the row multipliers y (views into the backend's memory). */
+typedef struct {
+  int status;
+  int raw_status;
+  int iter;
+  const truck_conv_el_real_t *z;
+  const truck_conv_el_real_t *y;
+} qpb_result_t;
+
+/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above. */
+/* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_conv_el_solver.c) ------------------------------ */
+#include "osqp.h"
+#include "truck_conv_el_workspace.h"
+
+#define QPB_SOLVER (&truck_conv_el_solver)
+#define QPB_RHO0 0.2
+#define QPB_MAX_ITER 60
+
+typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+
+/* OSQP status_val -> generic QP status (a value OSQP does not define: TRUCK_CONV_EL_QP_OTHER) */
+static const int QPB_STATUS[12] = {
+  [1] = TRUCK_CONV_EL_QP_SOLVED,
+  [2] = TRUCK_CONV_EL_QP_SOLVED_INACCURATE,
+  [3] = TRUCK_CONV_EL_QP_PRIMAL_INFEASIBLE,
+  [4] = TRUCK_CONV_EL_QP_PRIMAL_INFEASIBLE,
+  [5] = TRUCK_CONV_EL_QP_DUAL_INFEASIBLE,
+  [6] = TRUCK_CONV_EL_QP_DUAL_INFEASIBLE,
+  [7] = TRUCK_CONV_EL_QP_MAX_ITER,
+  [8] = TRUCK_CONV_EL_QP_OTHER,
+  [9] = TRUCK_CONV_EL_QP_NONCONVEX,
+  [10] = TRUCK_CONV_EL_QP_OTHER,
+  [11] = TRUCK_CONV_EL_QP_OTHER,
+};
+/* OSQP's exported bounds: l = min(L, 0), u = max(U, 0) */
+static const OSQPFloat QPB_L0[TRUCK_CONV_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  -1.0, -1e+30, 0.0, 0.0, 0.0, -2.0,
+  -1.5707963267948966, 0.0, -1.0, 0.0, 0.0, 0.0,
+  0.0
+};
+static const OSQPFloat QPB_U0[TRUCK_CONV_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 1.0, 1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  1e+30, 1.0, 1e+30, 1e+30, 1e+30, 2.0,
+  1.5707963267948966, 1.5, 1.0, 1e+30, 1e+30, 1e+30,
+  1e+30
+};
+
+/* OSQP's iteration budget (the other settings unchanged) */
+static void qpb_set_max_iter(OSQPInt n) {
+  OSQPSettings s = *QPB_SOLVER->settings;
+  s.max_iter = n;
+  (void)osqp_update_settings(QPB_SOLVER, &s);
+}
+
+/* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
+static void qpb_reset(void) {
+  (void)osqp_update_data_vec(QPB_SOLVER, ZERO_N, QPB_L0, QPB_U0);
+  (void)osqp_update_rho(QPB_SOLVER, QPB_RHO0);
+}
+
+static int qpb_set_matrices(const truck_conv_el_real_t *P_x, const truck_conv_el_real_t *A_x, const truck_conv_el_real_t *q) {
+  (void)q;
+  return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_CONV_EL_QP_N, A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A) != 0;
+}
+
+static int qpb_solve(const truck_conv_el_real_t *q, const truck_conv_el_real_t *l, const truck_conv_el_real_t *u,
+                     const truck_conv_el_real_t *y_warm, int max_iter, qpb_result_t *res) {
+  OSQPInt rc, raw;
+  if (osqp_update_data_vec(QPB_SOLVER, q, l, u)) return 1;
+  (void)osqp_warm_start(QPB_SOLVER, ZERO_N, y_warm);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(max_iter);
+  rc = osqp_solve(QPB_SOLVER);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(QPB_MAX_ITER);
+  raw = QPB_SOLVER->info->status_val;
+  res->raw_status = (int)raw;
+  res->status = (raw > 0 && raw < 12) ? QPB_STATUS[raw] : TRUCK_CONV_EL_QP_OTHER;
+  res->iter = (int)QPB_SOLVER->info->iter;
+  res->z = QPB_SOLVER->solution->x;
+  res->y = QPB_SOLVER->solution->y;
+  return rc != 0;
+}
+
 /* ---- workspace ------------------------------------------------------------------------------------------------- */
 typedef struct {
   truck_conv_el_real_t x0[5];
@@ -1002,6 +1348,7 @@ typedef struct {
   casadi_int iw[CASADI_SZ_IW];
   casadi_real cw[CASADI_SZ_W];
   const truck_conv_el_real_t *q_cur;
+  const truck_conv_el_real_t *qp_z;
   clock_fn_t clock;
   truck_conv_el_status_t status;
   int road_n;
@@ -1010,6 +1357,14 @@ typedef struct {
   int have_guess;
   int prepared;
   int cold;
+  truck_conv_el_real_t opp_stage[TRUCK_CONV_EL_N + 1][18];
+  truck_conv_el_real_t fit_P[966];
+  truck_conv_el_real_t fit_d[483];
+  truck_conv_el_real_t fit_fr[1449];
+  truck_conv_el_real_t fit_win[20];
+  truck_conv_el_real_t fit_box[9];
+  truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
 } truck_conv_el_workspace_t;
 
 static truck_conv_el_workspace_t truck_conv_el_ws;
@@ -1017,13 +1372,6 @@ static truck_conv_el_workspace_t truck_conv_el_ws;
 
 /* ---- helpers --------------------------------------------------------------------------------------------------- */
 static double now(void) { return ws.clock ? ws.clock() : 0.0; }
-
-/* OSQP's iteration budget (the other settings unchanged) */
-static void set_max_iter(OSQPInt n) {
-  OSQPSettings s = *SOLVER->settings;
-  s.max_iter = n;
-  (void)osqp_update_settings(SOLVER, &s);
-}
 
 static int fail(int code) {
   ws.status.exit_code = code;
@@ -1081,7 +1429,118 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) p[P_OPP + i] = ws.opp[k][i];
+  for (i = 0; i < N_OPP_STAGE; ++i) p[P_OPP + i] = ws.opp_stage[k][i];
+  return TRUCK_CONV_EL_OK;
+}
+
+/* ---- the conventional formulation's opponent fit (fcgen.oppfit; the Python reference does the same steps) ------ */
+#define FIT_NPT 483         /* points mapped per opponent and stage */
+#define FIT_REF 240         /* the reference point of the global search (chassis centre or rear axle) */
+#define FIT_SEARCH 4      /* samples searched on either side of a point's guessed nearest sample */
+#define FIT_WIN 3         /* samples of a point's Newton window */
+#define FIT_STRETCH_MAX 0.9
+#define FIT_N_MIN -10.0
+#define FIT_N_MAX 10.0
+#define FIT_OUTSIDE 1
+
+/* The road sample nearest to (px, py) among lo..hi (the first minimum). */
+static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo, int hi) {
+  int i, best = lo;
+  truck_conv_el_real_t dx, dy, d, dmin = 0.0;
+  for (i = lo; i <= hi; ++i) {
+    dx = ws.road_gx[i] - px;
+    dy = ws.road_gy[i] - py;
+    d = dx * dx + dy * dy;
+    if (i == lo || d < dmin) {
+      dmin = d;
+      best = i;
+    }
+  }
+  return best;
+}
+
+/* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched). */
+static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) {
+  const int m = ws.road_n, half = FIT_WIN / 2;
+  const truck_conv_el_real_t ds = ws.road_ds, *b = ws.fit_box; /* b: c_s, c_n, angle, L, W, n_hi, n_lo, s_lo, s_hi */
+  int i, j, g, lo, hi, iref, ist;
+  truck_conv_el_real_t s_lo, s_hi, s, kmax = 0.0, kmin = 0.0, st, v, nk[4];
+  call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
+  iref = fit_nearest(ws.fit_P[2 * FIT_REF], ws.fit_P[2 * FIT_REF + 1], 0, m - 1);
+  for (i = 0; i < FIT_NPT; ++i) {
+    g = iref + (int)floor(ws.fit_d[i] / ds + 0.5);
+    lo = g - FIT_SEARCH < 0 ? 0 : g - FIT_SEARCH;
+    hi = g + FIT_SEARCH > m - 1 ? m - 1 : g + FIT_SEARCH;
+    if (lo > hi) return FIT_OUTSIDE;
+    ist = fit_nearest(ws.fit_P[2 * i], ws.fit_P[2 * i + 1], lo, hi);
+    if (ist < half || ist > m - 1 - half) return FIT_OUTSIDE;
+    ist -= half;
+    ws.fit_win[0] = ws.road_s0 + (truck_conv_el_real_t)ist * ds;
+    ws.fit_win[1] = ds;
+    for (j = 0; j < FIT_WIN; ++j) {
+      ws.fit_win[2 + j] = ws.road_kappa[ist + j];
+      ws.fit_win[2 + FIT_WIN + j] = ws.road_phi[ist + j];
+      ws.fit_win[2 + 2 * FIT_WIN + j] = ws.road_gx[ist + j];
+      ws.fit_win[2 + 3 * FIT_WIN + j] = ws.road_gy[ist + j];
+      ws.fit_win[2 + 4 * FIT_WIN + j] = ws.fit_cos[ist + j];
+      ws.fit_win[2 + 5 * FIT_WIN + j] = ws.fit_sin[ist + j];
+    }
+    call3(truck_conv_el_opp_foot, ws.fit_P + 2 * i, ws.fit_win, NULL, ws.fit_fr + 3 * i, NULL, NULL);
+  }
+  call3(truck_conv_el_opp_box, ws.fit_fr, pose, NULL, ws.fit_box, NULL, NULL);
+  s_lo = b[7] - ds;
+  s_hi = b[8] + ds;
+  if (!(s_lo >= ws.road_s0 && s_hi <= ws.road_s0 + (truck_conv_el_real_t)(m - 1) * ds) || b[6] > FIT_N_MAX ||
+      b[5] < FIT_N_MIN)
+    return FIT_OUTSIDE;
+  for (i = 0, j = 0; i < m; ++i) { /* extreme curvatures where the ego can be next to the box */
+    s = ws.road_s0 + ds * (truck_conv_el_real_t)i;
+    if (s < s_lo || s > s_hi) continue;
+    if (!j || ws.road_kappa[i] > kmax) kmax = ws.road_kappa[i];
+    if (!j || ws.road_kappa[i] < kmin) kmin = ws.road_kappa[i];
+    j = 1;
+  }
+  nk[0] = b[5] * kmax; /* the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0 */
+  nk[1] = b[5] * kmin;
+  nk[2] = b[6] * kmax;
+  nk[3] = b[6] * kmin;
+  for (i = 0, st = 0.0; i < 4; ++i) {
+    v = nk[i];
+    if (v > st) st = v;
+  }
+  if (st >= FIT_STRETCH_MAX) return TRUCK_CONV_EL_ERR_OPP_FRENET;
+  copy(b, out, 5);
+  out[5] = 1.0 / (1.0 - st);
+  return TRUCK_CONV_EL_OK;
+}
+
+/* Every stage and opponent: ws.opp (poses) -> ws.opp_stage (fitted boxes); counts those left out. */
+static int fit_opponents(void) {
+  int k, j, rc;
+  truck_conv_el_real_t *o;
+  if (!ws.road_set) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
+  ws.status.opp_outside = 0;
+  for (k = 0; k < ws.road_n; ++k) { /* the node slopes of the road interpolant, once per sample */
+    ws.fit_cos[k] = cos(ws.road_phi[k]);
+    ws.fit_sin[k] = sin(ws.road_phi[k]);
+  }
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+      o = ws.opp_stage[k] + 6 * j;
+      rc = fit_one(ws.opp[k] + TRUCK_CONV_EL_NOPP_PAR * j, o);
+      if (rc == FIT_OUTSIDE) { /* left out: a unit box 1000 m behind the road */
+        o[0] = -1000.0 + ws.road_s0;
+        o[1] = 0.0;
+        o[2] = 0.0;
+        o[3] = 1.0;
+        o[4] = 1.0;
+        o[5] = 1.0;
+        ++ws.status.opp_outside;
+      } else if (rc) {
+        return rc;
+      }
+    }
+  }
   return TRUCK_CONV_EL_OK;
 }
 
@@ -1113,19 +1572,11 @@ static int initial_guess(void) {
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_conv_el_init(void) {
   clock_fn_t clock = ws.clock;
-  int i;
-  OSQPInt rc;
   memset(&ws, 0, sizeof ws);
   ws.clock = clock;
   ws.q_cur = ws.q;
-  /* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    ws.l[i] = L[i] < 0.0 ? L[i] : 0.0;
-    ws.u[i] = U[i] > 0.0 ? U[i] : 0.0;
-  }
-  rc = osqp_update_data_vec(SOLVER, ZERO_N, ws.l, ws.u);
-  rc |= osqp_update_rho(SOLVER, RHO0);
-  return rc ? fail(TRUCK_CONV_EL_ERR_QP) : TRUCK_CONV_EL_OK;
+  qpb_reset();
+  return TRUCK_CONV_EL_OK;
 }
 
 void truck_conv_el_set_clock(double (*clock_seconds)(void)) { ws.clock = clock_seconds; }
@@ -1172,9 +1623,13 @@ int truck_conv_el_prepare(void) {
   ws.prepared = 0;
   ws.status.exit_code = TRUCK_CONV_EL_OK;
   ws.status.qp_status = 0;
+  ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
+  ws.status.opp_outside = 0;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
+  rc = fit_opponents();
+  if (rc) return fail(rc);
   if (!ws.have_guess) {
     if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
     rc = initial_guess();
@@ -1202,12 +1657,11 @@ int truck_conv_el_prepare(void) {
   for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
     ws.l[i] = L[i] - ws.g[i];
     ws.u[i] = U[i] - ws.g[i];
-    if (ws.l[i] < -OSQP_INF) ws.l[i] = -OSQP_INF; /* as the osqp Python interface clips */
-    if (ws.u[i] > OSQP_INF) ws.u[i] = OSQP_INF;
+    if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
+    if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
   ws.q_cur = ws.q;
-  if (osqp_update_data_mat(SOLVER, P_DIAG, OSQP_NULL, TRUCK_CONV_EL_QP_N, ws.A_x, OSQP_NULL, TRUCK_CONV_EL_QP_NNZ_A))
-    return fail(TRUCK_CONV_EL_ERR_QP);
+  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) return fail(TRUCK_CONV_EL_ERR_QP);
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_CONV_EL_OK;
@@ -1217,7 +1671,7 @@ int truck_conv_el_feedback(void) {
   const double t0 = now();
   int i, rc;
   truck_conv_el_real_t ds0;
-  const OSQPFloat *z;
+  qpb_result_t res = {0, 0, 0, NULL, NULL};
   if (!ws.prepared) return fail(TRUCK_CONV_EL_ERR_NOT_PREPARED);
   if (!ws.have_x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
@@ -1230,21 +1684,18 @@ int truck_conv_el_feedback(void) {
   ds0 = ws.x0[0] - ws.s0_guess;
   for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
   ws.q_cur = ws.q_fb;
-  if (osqp_update_data_vec(SOLVER, ws.q_fb, ws.l, ws.u)) return fail(TRUCK_CONV_EL_ERR_QP);
-  (void)osqp_warm_start(SOLVER, ZERO_N, ws.y);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER_COLD);
-  rc = (int)osqp_solve(SOLVER);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER);
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
   ws.prepared = 0;
-  ws.status.qp_status = (int)SOLVER->info->status_val;
-  ws.status.qp_iter = (int)SOLVER->info->iter;
-  z = SOLVER->solution->x;
-  if (rc || !all_finite(z, TRUCK_CONV_EL_QP_N)) {
+  ws.status.qp_status = res.status;
+  ws.status.qp_raw_status = res.raw_status;
+  ws.status.qp_iter = res.iter;
+  if (res.z) ws.qp_z = res.z;
+  if (rc || !res.z || !all_finite(res.z, TRUCK_CONV_EL_QP_N)) {
     ws.status.time_feedback = now() - t0;
     return fail(TRUCK_CONV_EL_ERR_QP);
   }
-  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * z[i];
-  copy(SOLVER->solution->y, ws.y, TRUCK_CONV_EL_QP_M);
+  for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * res.z[i];
+  copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
   ws.status.exit_code = TRUCK_CONV_EL_OK;
   ws.status.time_feedback = now() - t0;
   return TRUCK_CONV_EL_OK;
@@ -1288,6 +1739,10 @@ void truck_conv_el_reset(void) {
 
 int truck_conv_el_has_guess(void) { return ws.have_guess; }
 
+void truck_conv_el_get_params(const truck_conv_el_real_t **p) {
+  if (p) *p = ws.p[0];
+}
+
 void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_real_t **l, const truck_conv_el_real_t **u,
     const truck_conv_el_real_t **A_x, const truck_conv_el_real_t **P_x, const truck_conv_el_real_t **z,
     const truck_conv_el_real_t **y) {
@@ -1296,6 +1751,6 @@ void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_re
   if (u) *u = ws.u;
   if (A_x) *A_x = ws.A_x;
   if (P_x) *P_x = P_DIAG;
-  if (z) *z = SOLVER->solution->x;
+  if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
   if (y) *y = ws.y;
 }
