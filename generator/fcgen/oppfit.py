@@ -17,7 +17,8 @@ An opponent is *outside the road* at a stage when a point's nearest sample has n
 side, the ``s`` range of step 4 (plus one ``ds``) is not inside the road, or its box plus the ego's reach lies
 beside the band ``[n_min, n_max]``: it is left out (``neutral`` parameters, a box 1000 m behind the road) and
 counted in the status (``opp_outside``). A stretch ``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular
-next to the opponent) fails the prepare phase with ``ERR_OPP_FRENET``.
+next to the opponent), or a foot point that the Newton steps leave outside its three-sample window (the nearest
+sample was not next to it: the point cannot be mapped), fails the prepare phase with ``ERR_OPP_FRENET``.
 """
 from __future__ import annotations
 
@@ -190,7 +191,8 @@ class OppFitter:
         self._box = fit.box.map(cnt)
 
     def __call__(self, road, poses: np.ndarray) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
-        """Fitted parameters (stages, n_opp * 6), the count left out, the (stage, opponent) pairs that are singular.
+        """Fitted parameters (stages, n_opp * 6), the count left out, the (stage, opponent) pairs that cannot be
+        mapped (a foot point outside its window, or a stretch >= STRETCH_MAX), in stage-major order.
 
         ``poses``: (stages, n_opp, 3).
         """
@@ -225,6 +227,11 @@ class OppFitter:
         pts = P.reshape(2, -1)
         fr = np.array(self._foot(pts, W.T))                    # (3, cnt * npt)
         boxes = np.array(self._box(fr, pz.T))                  # fr's columns: pair-major, as the map wants
+        # a foot outside its window: the nearest sample was not next to it (the point cannot be mapped)
+        sf = fr[0].reshape(cnt, npt)
+        w0 = W[:, 0].reshape(cnt, npt)
+        lost = ~((sf >= w0) & (sf <= w0 + (FOOT_WINDOW - 1) * road.ds))
+        first = np.argmax(bad_pt | lost, axis=1)   # the C stops at the first such point
         out = np.empty((cnt, 6))
         outside, singular = 0, []
         s_first, s_last = road.s0, road.s0 + (M - 1) * road.ds
@@ -232,6 +239,9 @@ class OppFitter:
         for p in range(cnt):
             bx = boxes[:, p]
             lo, hi = bx[7] - road.ds, bx[8] + road.ds
+            if not bad_pt[p, first[p]] and lost[p, first[p]]:
+                singular.append(divmod(p, self.n_opp))
+                continue
             if (bad_pt[p].any() or not (lo >= s_first and hi <= s_last) or bx[6] > f.n_max or bx[5] < f.n_min):
                 out[p] = neutral(road.s0)
                 outside += 1

@@ -163,8 +163,8 @@ class RtiSolver:
         out, self.opp_outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3))
         if singular:
             k, j = singular[0]
-            raise SolverError("ERR_OPP_FRENET", f"opponent {j} at stage {k}: |n| kappa >= {STRETCH_MAX} next to it "
-                              "(the Frenet frame is singular there)")
+            raise SolverError("ERR_OPP_FRENET", f"opponent {j} at stage {k} cannot be mapped into the Frenet frame "
+                              f"(|n| kappa >= {STRETCH_MAX} next to it, or a point too far from the road)")
         self.opp_stage = out
 
     def _stage_w(self, k: int) -> np.ndarray:
