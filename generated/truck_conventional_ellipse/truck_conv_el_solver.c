@@ -1358,9 +1358,9 @@ typedef struct {
   int prepared;
   int cold;
   truck_conv_el_real_t opp_stage[TRUCK_CONV_EL_N + 1][18];
-  truck_conv_el_real_t fit_P[966];
-  truck_conv_el_real_t fit_d[483];
-  truck_conv_el_real_t fit_fr[1449];
+  truck_conv_el_real_t fit_P[246];
+  truck_conv_el_real_t fit_d[123];
+  truck_conv_el_real_t fit_fr[369];
   truck_conv_el_real_t fit_win[20];
   truck_conv_el_real_t fit_box[9];
   truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
@@ -1434,8 +1434,8 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 }
 
 /* ---- the conventional formulation's opponent fit (fcgen.oppfit; the Python reference does the same steps) ------ */
-#define FIT_NPT 483         /* points mapped per opponent and stage */
-#define FIT_REF 240         /* the reference point of the global search (chassis centre or rear axle) */
+#define FIT_NPT 123         /* points mapped per opponent and stage */
+#define FIT_REF 60         /* the reference point of the global search (chassis centre or rear axle) */
 #define FIT_SEARCH 4      /* samples searched on either side of a point's guessed nearest sample */
 #define FIT_WIN 3         /* samples of a point's Newton window */
 #define FIT_STRETCH_MAX 0.9
@@ -1467,6 +1467,7 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
   truck_conv_el_real_t s_lo, s_hi, s, kmax = 0.0, kmin = 0.0, st, v, nk[4];
   call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
   iref = fit_nearest(ws.fit_P[2 * FIT_REF], ws.fit_P[2 * FIT_REF + 1], 0, m - 1);
+  if (iref == 0 || iref == m - 1) return FIT_OUTSIDE; /* the reference point is not next to the road */
   for (i = 0; i < FIT_NPT; ++i) {
     g = iref + (int)floor(ws.fit_d[i] / ds + 0.5);
     lo = g - FIT_SEARCH < 0 ? 0 : g - FIT_SEARCH;
@@ -1486,6 +1487,9 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
       ws.fit_win[2 + 5 * FIT_WIN + j] = ws.fit_sin[ist + j];
     }
     call3(truck_conv_el_opp_foot, ws.fit_P + 2 * i, ws.fit_win, NULL, ws.fit_fr + 3 * i, NULL, NULL);
+    s = ws.fit_fr[3 * i];
+    if (!(s >= ws.fit_win[0] && s <= ws.fit_win[0] + (truck_conv_el_real_t)(FIT_WIN - 1) * ds))
+      return TRUCK_CONV_EL_ERR_OPP_FRENET; /* the foot left its window: the point cannot be mapped */
   }
   call3(truck_conv_el_opp_box, ws.fit_fr, pose, NULL, ws.fit_box, NULL, NULL);
   s_lo = b[7] - ds;

@@ -13,12 +13,14 @@ Per stage and opponent, from its Cartesian pose ``[x, y, phi]`` and the road giv
    range the ego can reach next to it; then (C loop / numpy) the extreme curvatures of the road samples in that
    ``s`` range and the ego's sign-aware stretch factor ``f = 1 / (1 - max(0, n kappa))``.
 
-An opponent is *outside the road* at a stage when a point's nearest sample has no sample on either
-side, the ``s`` range of step 4 (plus one ``ds``) is not inside the road, or its box plus the ego's reach lies
-beside the band ``[n_min, n_max]``: it is left out (``neutral`` parameters, a box 1000 m behind the road) and
-counted in the status (``opp_outside``). A stretch ``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular
-next to the opponent), or a foot point that the Newton steps leave outside its three-sample window (the nearest
-sample was not next to it: the point cannot be mapped), fails the prepare phase with ``ERR_OPP_FRENET``.
+An opponent is *outside the road* at a stage when the reference point's nearest sample is the road's first or last
+one, a point's nearest sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not
+inside the road, or its box plus the ego's reach lies beside the band ``[n_min, n_max]``: it is left out
+(``neutral`` parameters, a box 1000 m behind the road) and counted in the status (``opp_outside``). A stretch
+``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular next to the opponent), or a foot point that the
+Newton steps leave outside its three-sample window (the nearest sample was not next to it: the point cannot be
+mapped), fails the prepare phase with ``ERR_OPP_FRENET``. Also the ``s`` and ``phi_gamma`` of ``overapprox="none"``
+come from this projection (of the rear axle).
 """
 from __future__ import annotations
 
@@ -239,6 +241,10 @@ class OppFitter:
         for p in range(cnt):
             bx = boxes[:, p]
             lo, hi = bx[7] - road.ds, bx[8] + road.ds
+            if i_ref[p] == 0 or i_ref[p] == M - 1:        # the reference point is not next to the road
+                out[p] = neutral(road.s0)
+                outside += 1
+                continue
             if not bad_pt[p, first[p]] and lost[p, first[p]]:
                 singular.append(divmod(p, self.n_opp))
                 continue
