@@ -157,10 +157,20 @@ def test_c_singular_and_unset_road_codes(c_solver):
     poses = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
     assert cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
     assert cs.prepare() == EXIT_CODES.index("ERR_ROAD_WINDOW")           # no road yet
+    # one good sample first: one opponent fitted, the other beyond the road's end
+    good = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
+    good[:, 1] = poses_on(STRAIGHT, (200.0, 0.0, 0.0))
+    assert cs.set_road(STRAIGHT) == 0 and cs.set_opponents(good) == 0 and cs.prepare() == 0 and cs.feedback() == 0
     tight = Road.from_curvature(np.full(40, 0.07), 2.0, s0=-30.0)      # (4 + 2 + 9.3) * 0.07 > 0.9 inside
     assert cs.set_road(tight) == 0
+    assert cs.status().opp_outside == N + 1
+    u = cs.u0()
     assert cs.set_opponents(np.tile(poses_on(tight, (10.0, 4.0, 0.0)), (N + 1, 2, 1))) == 0
     assert cs.prepare() == EXIT_CODES.index("ERR_OPP_FRENET")
+    st = cs.status()                                                   # a failed prepare changes nothing else
+    assert st.exit_code == EXIT_CODES.index("ERR_OPP_FRENET") and st.opp_outside == N + 1
+    assert cs.has_guess() and np.array_equal(cs.u0(), u)
+    assert cs.feedback() == EXIT_CODES.index("ERR_NOT_PREPARED")
     sv = RtiSolver(build_ocp(pb))
     sv.set_road(tight)
     sv.set_opponents(np.tile(poses_on(tight, (10.0, 4.0, 0.0)), (N + 1, 2, 1)))
