@@ -1190,7 +1190,7 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_STRETCH_MAX 0.9
 #define FIT_N_MIN -10.0
 #define FIT_N_MAX 10.0
-#define FIT_OUTSIDE 1
+#define FIT_OUTSIDE (-1) /* fit_one: left out (not an exit code) */
 
 /* The road sample nearest to (px, py) among lo..hi (the first minimum). */
 static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo, int hi) {

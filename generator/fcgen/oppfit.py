@@ -39,7 +39,6 @@ FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sam
 NEWTON_STEPS = 4      # fixed Newton steps of the foot-point iteration (3 already reach 1e-13 m on the test roads)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
 BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi")
-OUTSIDE, FRENET_SINGULAR = 1, 2
 
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
