@@ -177,3 +177,16 @@ def test_c_singular_and_unset_road_codes(c_solver):
     sv.set_state(x0)
     with pytest.raises(SolverError, match="ERR_OPP_FRENET"):
         sv.prepare()
+
+
+def test_naive_option_uses_the_projected_rear_axle():
+    # overapprox="none": the Cartesian rectangle unchanged at the rear axle's Frenet pose, which the solver projects
+    pb = problem(n_opp=1, overapprox="none")
+    fit = build_oppfit(pb)
+    assert fit.npt == 1
+    fitter = OppFitter(fit, 3, 1)
+    fr = np.array([(30.0, 4.0, 0.0), (95.0, -3.0, -0.2), (160.0, 0.5, 0.1)])
+    out, outside, singular = fitter(WAVY, poses_on(WAVY, fr)[:, None, :])
+    assert outside == 0 and singular == []
+    for k in range(3):
+        np.testing.assert_allclose(out[k], obs.naive_frenet_shape(fr[k], TRUCK), rtol=0, atol=1e-9)
