@@ -21,6 +21,11 @@ inside the road, or its box plus the ego's reach lies beside the band ``[n_min, 
 Newton steps leave outside its three-sample window (the nearest sample was not next to it: the point cannot be
 mapped), fails the prepare phase with ``ERR_OPP_FRENET``. Also the ``s`` and ``phi_gamma`` of ``overapprox="none"``
 come from this projection (of the rear axle).
+
+The global search assumes the road does not come back near itself: on a road whose far part passes within a few
+metres of the opponent, the nearest sample can lie on the wrong branch (truck seed 29 of the original road
+generator: the wrong branch left a foot point outside its window, ERR_OPP_FRENET on 18 samples; a branch parallel to
+the opponent would go unnoticed). The scenario generator's realistic roads keep far parts of the road apart.
 """
 from __future__ import annotations
 
