@@ -317,22 +317,38 @@ def test_frenet_ego_shape_inflation_about_the_rear_axle():
 
 
 def test_conventional_fit_along_a_truck_scenario():
-    """Seed 0 of the truck scenario: the opponent shapes of every time index the closed loop needs (200 samples +
-    a 40-stage horizon) can be fitted, and each fitted ellipse covers its opponent's true rectangle."""
+    """Seed 0 of the truck scenario through the solver path: the reference's prepare phase fits the opponents of every
+    stage from their Cartesian poses and the closed loop's road window (as the generated C does), and each fitted
+    ellipse and box covers its opponent's true rectangle (dense points, mapped by an independent projection)."""
+    from fcgen.reference import RtiSolver
+    from fcgen.sim.closedloop import WINDOW_BEHIND
     from fcgen.sim.scenario import OpponentParams, make_scenario
 
     pb = paper_problem("truck", "conventional", "ellipse")
+    ocp = build_ocp(pb)
+    sv = RtiSolver(ocp)
     sc = make_scenario("truck", 0)
     op = OpponentParams(pb, sc)
-    for j in range(0, 241):
-        par = op.at_index(j)                      # must not raise
-        assert par.shape == (3, 6) and np.all(par[:, 5] >= 1.0)
-        if j % 20:
-            continue
-        fr, cart = sc.opp_frenet(j * sc.dt), sc.opp_cartesian(j * sc.dt)
-        for i in range(3):
-            sh = obs.chassis_shape(*cart[i], TRUCK)
-            P = rect_points(sh, per_m=10, interior=10)
-            guess = fr[i, 0] + (P - cart[i, :2]) @ np.array([math.cos(cart[i, 2]), math.sin(cart[i, 2])])
-            ps, pn, _ = sc.road.to_frenet(P[:, 0], P[:, 1], 0 * P[:, 0], s_guess=guess)
-            assert np.max(obs.ellipse_h(ps, pn, obs.Shape(*par[i, :5]), 0.0)) < 0
+    fitted = 0
+    for j in range(0, 200, 25):
+        s_ego = 15.0 * j * sc.dt                       # where the ego roughly is
+        sv.set_road(sc.road.window(s_ego - WINDOW_BEHIND, pb.road.samples))
+        sv.set_opponents(op.horizon(j))
+        sv._fit_opponents()                            # prepare's first step
+        par = sv.opp_stage.reshape(pb.horizon.N + 1, 3, 6)
+        assert np.all(par[..., 5] >= 1.0)
+        for k in range(0, pb.horizon.N + 1, 8):
+            fr, cart = sc.opp_frenet((j + k) * sc.dt), sc.opp_cartesian((j + k) * sc.dt)
+            for i in range(3):
+                if par[k, i, 0] < sv.road.s0:          # left out: the road window does not cover it
+                    assert fr[i, 0] + 23.0 + 9.3 > sv.road.s_end - 2.0 or fr[i, 0] - 3.0 - 9.3 < sv.road.s0 + 2.0
+                    continue
+                fitted += 1
+                sh = obs.chassis_shape(*cart[i], TRUCK)
+                P = rect_points(sh, per_m=10, interior=10)
+                guess = fr[i, 0] + (P - cart[i, :2]) @ np.array([math.cos(cart[i, 2]), math.sin(cart[i, 2])])
+                ps, pn, _ = sc.road.to_frenet(P[:, 0], P[:, 1], 0 * P[:, 0], s_guess=guess)
+                box = obs.Shape(*par[k, i, :5])
+                assert np.max(obs.ellipse_h(ps, pn, box, 0.0)) < 0
+                assert np.max(box_excess(ps, pn, box)) <= 0.0
+    assert fitted > 100

@@ -12,8 +12,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from fcgen import obstacles as obs
-from fcgen.dsl import Conventional, Horizon, Opponents, QpOptions
+from fcgen.dsl import Horizon, Opponents, QpOptions
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import TRUCK, paper_problem
 from fcgen.qp import build_layout
@@ -31,13 +30,10 @@ def short_problem(form="lifted", ob="ellipse", N=10, qp=TIGHT, n_opp=1):
 
 
 def static_opponent(ocp, s_opp, n_opp, road=ROAD):
-    """Per-stage parameters of a parked truck (rear axle at (s_opp, n_opp), alpha = 0), shape (N+1, 1, n_opp_par)."""
+    """Poses of a parked truck (rear axle at (s_opp, n_opp), alpha = 0), shape (N+1, 1, 3); the conventional
+    solver fits its Frenet box itself."""
     pose = np.array(road.to_cartesian(s_opp, n_opp, 0.0))
-    if isinstance(ocp.problem.formulation, Conventional):
-        par = obs.fit_frenet_shape(road, pose, TRUCK, ocp.problem.ego, 0.0, s_guess=s_opp)
-    else:
-        par = pose
-    return np.tile(par, (ocp.N + 1, 1, 1))
+    return np.tile(pose, (ocp.N + 1, 1, 1))
 
 
 def make_solver(ocp, s_opp=24.0, n_opp=-4.0, x0=X0):

@@ -10,7 +10,7 @@
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
 
 /* one opponent far away from the road (its parameter row) */
-static const truck_conv_el_real_t FAR_OPPONENT[TRUCK_CONV_EL_NOPP_PAR] = { -990.0, 500.0, 0.0, 13.0, 2.0, 1.0 };
+static const truck_conv_el_real_t FAR_OPPONENT[TRUCK_CONV_EL_NOPP_PAR] = { -1000.0, 500.0, 0.0 };
 
 static truck_conv_el_real_t kappa[TRUCK_CONV_EL_ROAD_MAX], phi[TRUCK_CONV_EL_ROAD_MAX];
 static truck_conv_el_real_t gx[TRUCK_CONV_EL_ROAD_MAX], gy[TRUCK_CONV_EL_ROAD_MAX];

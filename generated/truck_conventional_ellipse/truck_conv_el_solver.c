@@ -28,7 +28,8 @@
 #define P_REF 30
 #define P_OPP 35
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
-#define OPP_DIM 18 /* N_OPP_ALL, at least 1 */
+#define OPP_DIM 9 /* N_OPP_ALL, at least 1 */
+#define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
@@ -46,6 +47,9 @@ typedef char check_truck_conv_el_dynamics[(truck_conv_el_dynamics_SZ_ARG <= CASA
 typedef char check_truck_conv_el_init_state[(truck_conv_el_init_state_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_init_state_SZ_RES <= CASADI_SZ_RES && truck_conv_el_init_state_SZ_IW <= CASADI_SZ_IW && truck_conv_el_init_state_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_theta_init[(truck_conv_el_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_theta_init_SZ_RES <= CASADI_SZ_RES && truck_conv_el_theta_init_SZ_IW <= CASADI_SZ_IW && truck_conv_el_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plant_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plant_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_foot[(truck_conv_el_opp_foot_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_foot_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_foot_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_foot_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_opp_box[(truck_conv_el_opp_box_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_box_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_box_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_box_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
 typedef double (*clock_fn_t)(void);
@@ -1114,6 +1118,15 @@ typedef struct {
   int prepared;
   int cold;
   int qp_ready;
+  int fit_outside;
+  truck_conv_el_real_t opp_stage[TRUCK_CONV_EL_N + 1][18];
+  truck_conv_el_real_t fit_P[246];
+  truck_conv_el_real_t fit_d[123];
+  truck_conv_el_real_t fit_fr[369];
+  truck_conv_el_real_t fit_win[20];
+  truck_conv_el_real_t fit_box[9];
+  truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
 } truck_conv_el_workspace_t;
 
 static truck_conv_el_workspace_t truck_conv_el_ws;
@@ -1209,8 +1222,170 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) {
-    p[P_OPP + i] = ws.opp[k][i];
+  for (i = 0; i < N_OPP_STAGE; ++i) {
+    p[P_OPP + i] = ws.opp_stage[k][i];
+  }
+  return TRUCK_CONV_EL_OK;
+}
+
+/* ---- the conventional formulation's opponent fit (fcgen.oppfit; the Python reference does the same steps) ------ */
+#define FIT_NPT 123         /* points mapped per opponent and stage */
+#define FIT_REF 60         /* the reference point of the global search (chassis centre or rear axle) */
+#define FIT_SEARCH 4      /* samples searched on either side of a point's guessed nearest sample */
+#define FIT_WIN 3         /* samples of a point's Newton window */
+#define FIT_WIN_LAST 2
+#define FIT_STRETCH_MAX ((truck_conv_el_real_t)0.9)
+#define FIT_N_MIN ((truck_conv_el_real_t)-10.0)
+#define FIT_N_MAX ((truck_conv_el_real_t)10.0)
+#define FIT_OUTSIDE (-1) /* fit_one: left out (not an exit code) */
+#define REAL_HALF ((truck_conv_el_real_t)0.5)
+#define REAL_1 ((truck_conv_el_real_t)1.0)
+
+/* The road sample nearest to (px, py) among lo..hi (the first minimum). */
+static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo, int hi) {
+  int i;
+  int best = lo;
+  truck_conv_el_real_t dmin = REAL_0;
+  for (i = lo; i <= hi; ++i) {
+    const truck_conv_el_real_t dx = ws.road_gx[i] - px;
+    const truck_conv_el_real_t dy = ws.road_gy[i] - py;
+    const truck_conv_el_real_t d = (dx * dx) + (dy * dy);
+    if ((i == lo) || (d < dmin)) {
+      dmin = d;
+      best = i;
+    }
+  }
+  return best;
+}
+
+/* Point i's Newton window of road samples ist .. ist + FIT_WIN - 1 into ws.fit_win (RoadWindowParams with slopes). */
+static void fit_window(int ist) {
+  int j;
+  ws.fit_win[0] = ws.road_s0 + ((truck_conv_el_real_t)ist * ws.road_ds);
+  ws.fit_win[1] = ws.road_ds;
+  for (j = 0; j < FIT_WIN; ++j) {
+    ws.fit_win[2 + j] = ws.road_kappa[ist + j];
+    ws.fit_win[2 + FIT_WIN + j] = ws.road_phi[ist + j];
+    ws.fit_win[2 + (2 * FIT_WIN) + j] = ws.road_gx[ist + j];
+    ws.fit_win[2 + (3 * FIT_WIN) + j] = ws.road_gy[ist + j];
+    ws.fit_win[2 + (4 * FIT_WIN) + j] = ws.fit_cos[ist + j];
+    ws.fit_win[2 + (5 * FIT_WIN) + j] = ws.fit_sin[ist + j];
+  }
+}
+
+/* The largest n kappa over the box's lateral extent and the curvatures where the ego can be next to it (0 if none
+ * is positive: the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0). */
+static truck_conv_el_real_t fit_stretch(const truck_conv_el_real_t *b, truck_conv_el_real_t s_lo, truck_conv_el_real_t s_hi) {
+  int i;
+  int seen = 0;
+  truck_conv_el_real_t kmax = REAL_0;
+  truck_conv_el_real_t kmin = REAL_0;
+  truck_conv_el_real_t st = REAL_0;
+  truck_conv_el_real_t nk[4];
+  for (i = 0; i < ws.road_n; ++i) {
+    const truck_conv_el_real_t s = ws.road_s0 + (ws.road_ds * (truck_conv_el_real_t)i);
+    if ((s >= s_lo) && (s <= s_hi)) {
+      if ((seen == 0) || (ws.road_kappa[i] > kmax)) {
+        kmax = ws.road_kappa[i];
+      }
+      if ((seen == 0) || (ws.road_kappa[i] < kmin)) {
+        kmin = ws.road_kappa[i];
+      }
+      seen = 1;
+    }
+  }
+  nk[0] = b[5] * kmax;
+  nk[1] = b[5] * kmin;
+  nk[2] = b[6] * kmax;
+  nk[3] = b[6] * kmin;
+  for (i = 0; i < 4; ++i) {
+    if (nk[i] > st) {
+      st = nk[i];
+    }
+  }
+  return st;
+}
+
+/* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched). */
+static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) {
+  const int m = ws.road_n;
+  const int last = m - 1;
+  const int half = FIT_WIN / 2;
+  const truck_conv_el_real_t win_len = (truck_conv_el_real_t)FIT_WIN_LAST * ws.road_ds;
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const truck_conv_el_real_t *b = ws.fit_box; /* b: c_s, c_n, angle, L, W, n_hi, n_lo, s_lo, s_hi */
+  int i;
+  int iref;
+  truck_conv_el_real_t s_lo;
+  truck_conv_el_real_t s_hi;
+  truck_conv_el_real_t st;
+  call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
+  iref = fit_nearest(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], 0, m - 1);
+  if ((iref == 0) || (iref == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
+  for (i = 0; i < FIT_NPT; ++i) {
+    const int g = iref + (int)FLOOR((ws.fit_d[i] / ds) + REAL_HALF);
+    int lo = g - FIT_SEARCH;
+    int hi = g + FIT_SEARCH;
+    int ist;
+    if (lo < 0) {
+      lo = 0;
+    }
+    if (hi > last) {
+      hi = last;
+    }
+    truck_conv_el_real_t s;
+    if (lo > hi) return FIT_OUTSIDE;
+    ist = fit_nearest(ws.fit_P[2 * i], ws.fit_P[(2 * i) + 1], lo, hi);
+    if ((ist < half) || (ist > (last - half))) return FIT_OUTSIDE;
+    fit_window(ist - half);
+    call3(truck_conv_el_opp_foot, &ws.fit_P[2 * i], ws.fit_win, NULL, &ws.fit_fr[3 * i], NULL, NULL);
+    s = ws.fit_fr[3 * i];
+    if (!((s >= ws.fit_win[0]) && (s <= (ws.fit_win[0] + win_len)))) {
+      return TRUCK_CONV_EL_ERR_OPP_FRENET; /* the foot left its window: the point cannot be mapped */
+    }
+  }
+  call3(truck_conv_el_opp_box, ws.fit_fr, pose, NULL, ws.fit_box, NULL, NULL);
+  s_lo = b[7] - ds;
+  s_hi = b[8] + ds;
+  if ((!((s_lo >= ws.road_s0) && (s_hi <= (ws.road_s0 + ((truck_conv_el_real_t)last * ds))))) || (b[6] > FIT_N_MAX) ||
+      (b[5] < FIT_N_MIN)) {
+    return FIT_OUTSIDE;
+  }
+  st = fit_stretch(b, s_lo, s_hi);
+  if (st >= FIT_STRETCH_MAX) return TRUCK_CONV_EL_ERR_OPP_FRENET;
+  copy(b, out, 5);
+  out[5] = REAL_1 / (REAL_1 - st);
+  return TRUCK_CONV_EL_OK;
+}
+
+/* Every stage and opponent: ws.opp (poses) -> ws.opp_stage (fitted boxes); counts those left out in fit_outside. */
+static int fit_opponents(void) {
+  int k;
+  if (ws.road_set == 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
+  ws.fit_outside = 0;
+  for (k = 0; k < ws.road_n; ++k) { /* the node slopes of the road interpolant, once per sample */
+    ws.fit_cos[k] = cos(ws.road_phi[k]);
+    ws.fit_sin[k] = sin(ws.road_phi[k]);
+  }
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    int j;
+    for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+      truck_conv_el_real_t *o = &ws.opp_stage[k][6 * j];
+      const int rc = fit_one(&ws.opp[k][TRUCK_CONV_EL_NOPP_PAR * j], o);
+      if (rc == FIT_OUTSIDE) { /* left out: a unit box 1000 m behind the road */
+        o[0] = (truck_conv_el_real_t)-1000.0 + ws.road_s0;
+        o[1] = (truck_conv_el_real_t)0.0;
+        o[2] = (truck_conv_el_real_t)0.0;
+        o[3] = (truck_conv_el_real_t)1.0;
+        o[4] = (truck_conv_el_real_t)1.0;
+        o[5] = (truck_conv_el_real_t)1.0;
+        ++ws.fit_outside;
+      } else if (rc != TRUCK_CONV_EL_OK) {
+        return rc;
+      } else {
+        /* fitted into o */
+      }
+    }
   }
   return TRUCK_CONV_EL_OK;
 }
@@ -1329,6 +1504,8 @@ int truck_conv_el_prepare(void) {
   int rc;
   int cold;
   if (ws.prepared != 0) return TRUCK_CONV_EL_OK; /* documented no-op: the pending preparation stays */
+  rc = fit_opponents(); /* into the private opp_stage and fit_outside */
+  if (rc != TRUCK_CONV_EL_OK) return fail(rc);
   cold = 0;
   if (ws.have_guess == 0) {
     cold = 1;
@@ -1393,6 +1570,7 @@ int truck_conv_el_prepare(void) {
   ws.status.qp_status = 0;
   ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
+  ws.status.opp_outside = ws.fit_outside;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
   ws.q_cur = ws.q;
@@ -1504,6 +1682,13 @@ void truck_conv_el_reset(void) {
 }
 
 int truck_conv_el_has_guess(void) { return ws.have_guess; }
+
+void truck_conv_el_get_opp_params(truck_conv_el_real_t *p) {
+  int k;
+  for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
+    copy(ws.opp_stage[k], &p[k * N_OPP_STAGE], N_OPP_STAGE);
+  }
+}
 
 void truck_conv_el_get_qp(const truck_conv_el_real_t **q, const truck_conv_el_real_t **l, const truck_conv_el_real_t **u,
     const truck_conv_el_real_t **A_x, const truck_conv_el_real_t **P_x, const truck_conv_el_real_t **z,

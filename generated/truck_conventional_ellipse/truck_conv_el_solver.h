@@ -16,7 +16,8 @@ extern "C" {
 #define TRUCK_CONV_EL_NU 2 /* controls per stage [F_d, r] */
 #define TRUCK_CONV_EL_N 40 /* shooting intervals */
 #define TRUCK_CONV_EL_NOPP 3 /* opponents */
-#define TRUCK_CONV_EL_NOPP_PAR 6 /* parameters per opponent and stage */
+#define TRUCK_CONV_EL_NOPP_PAR 3 /* parameters per opponent and stage (set_opponents: the pose x, y, phi) */
+#define TRUCK_CONV_EL_NOPP_STAGE 6 /* parameters per opponent in a stage's parameters (conventional: the fitted Frenet box) */
 #define TRUCK_CONV_EL_ROAD_MAX 141 /* road samples set_road accepts at most */
 #define TRUCK_CONV_EL_ROAD_WINDOW 7 /* road samples in a stage's local window */
 #define TRUCK_CONV_EL_NP 53 /* parameters per stage */
@@ -26,7 +27,7 @@ extern "C" {
 #define TRUCK_CONV_EL_QP_M 805 /* QP rows */
 #define TRUCK_CONV_EL_QP_NNZ_A 2525 /* nonzeros of the QP constraint matrix */
 #define TRUCK_CONV_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_CONV_EL_WORKSPACE_BYTES 393396 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_CONV_EL_WORKSPACE_BYTES 404748 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_CONV_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -47,7 +48,8 @@ enum {
   TRUCK_CONV_EL_ERR_QP_DUAL_INFEASIBLE = 10,
   TRUCK_CONV_EL_ERR_QP_NONCONVEX = 11,
   TRUCK_CONV_EL_ERR_QP_NONFINITE = 12,
-  TRUCK_CONV_EL_ERR_QP_NUMERICAL = 13
+  TRUCK_CONV_EL_ERR_QP_NUMERICAL = 13,
+  TRUCK_CONV_EL_ERR_OPP_FRENET = 14
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -98,6 +100,7 @@ typedef struct {
   int qp_raw_status;  /* the QP backend's own status value (OSQP 1.1.3 (embedded mode 2)) */
   int qp_iter;        /* iterations of the last QP */
   int u_projected;    /* 1: get_u0 is the plan's u0 projected on the input box (set by feedback) */
+  int opp_outside;    /* conventional: (stage, opponent) pairs the last prepare left out, being off the road */
   double u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   double time_prepare;
   double time_feedback;
@@ -113,7 +116,7 @@ int truck_conv_el_set_state(const truck_conv_el_real_t x0[5]);
 /* Road samples on the grid s0 + i ds, i < n, 2 <= n <= TRUCK_CONV_EL_ROAD_MAX; copied. It must cover the horizon. */
 int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int n, const truck_conv_el_real_t *kappa,
     const truck_conv_el_real_t *phi_gamma, const truck_conv_el_real_t *gamma_x, const truck_conv_el_real_t *gamma_y);
-/* Opponent parameters of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
+/* Opponent poses [x, y, phi] (rear axle) of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
 int truck_conv_el_set_opponents(const truck_conv_el_real_t *params);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
  * x0, load the QP backend's matrices. A no-op while prepared. */
@@ -134,6 +137,9 @@ void truck_conv_el_get_status(truck_conv_el_status_t *st);
 void truck_conv_el_reset(void);
 /* 1 if a plan exists (the next prepare shifts it), else 0. */
 int truck_conv_el_has_guess(void);
+/* Verification: the opponents' part of the stage parameters of the last prepare, (N+1) x NOPP x NOPP_STAGE,
+ * row-major, copied (conventional: the fitted Frenet boxes; else the poses as set). */
+void truck_conv_el_get_opp_params(truck_conv_el_real_t *p);
 /* Verification: read-only views of the QP data (any pointer may be NULL). q is the cost vector as last built
  * (after prepare: without the s0 correction; after feedback: as passed to the QP backend); z, y: the backend's
  * primal solution (scaled step) and the solver's dual guess. After a prepare rejected with ERR_QP_NONFINITE, u and

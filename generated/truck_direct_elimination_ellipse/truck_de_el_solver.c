@@ -29,6 +29,7 @@
 #define P_OPP 35
 #define N_OPP_ALL (TRUCK_DE_EL_NOPP * TRUCK_DE_EL_NOPP_PAR)
 #define OPP_DIM 9 /* N_OPP_ALL, at least 1 */
+#define N_OPP_STAGE 9 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
@@ -1114,6 +1115,7 @@ typedef struct {
   int prepared;
   int cold;
   int qp_ready;
+  int fit_outside;
 } truck_de_el_workspace_t;
 
 static truck_de_el_workspace_t truck_de_el_ws;
@@ -1209,7 +1211,7 @@ static int stage_params(truck_de_el_real_t *p, int k, truck_de_el_real_t s) {
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) {
+  for (i = 0; i < N_OPP_STAGE; ++i) {
     p[P_OPP + i] = ws.opp[k][i];
   }
   return TRUCK_DE_EL_OK;
@@ -1393,6 +1395,7 @@ int truck_de_el_prepare(void) {
   ws.status.qp_status = 0;
   ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
+  ws.status.opp_outside = ws.fit_outside;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
   ws.q_cur = ws.q;
@@ -1504,6 +1507,13 @@ void truck_de_el_reset(void) {
 }
 
 int truck_de_el_has_guess(void) { return ws.have_guess; }
+
+void truck_de_el_get_opp_params(truck_de_el_real_t *p) {
+  int k;
+  for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
+    copy(ws.opp[k], &p[k * N_OPP_STAGE], N_OPP_STAGE);
+  }
+}
 
 void truck_de_el_get_qp(const truck_de_el_real_t **q, const truck_de_el_real_t **l, const truck_de_el_real_t **u,
     const truck_de_el_real_t **A_x, const truck_de_el_real_t **P_x, const truck_de_el_real_t **z,

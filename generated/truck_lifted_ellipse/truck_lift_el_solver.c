@@ -29,6 +29,7 @@
 #define P_OPP 35
 #define N_OPP_ALL (TRUCK_LIFT_EL_NOPP * TRUCK_LIFT_EL_NOPP_PAR)
 #define OPP_DIM 9 /* N_OPP_ALL, at least 1 */
+#define N_OPP_STAGE 9 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 120 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
@@ -1311,6 +1312,7 @@ typedef struct {
   int prepared;
   int cold;
   int qp_ready;
+  int fit_outside;
 } truck_lift_el_workspace_t;
 
 static truck_lift_el_workspace_t truck_lift_el_ws;
@@ -1406,7 +1408,7 @@ static int stage_params(truck_lift_el_real_t *p, int k, truck_lift_el_real_t s) 
   p[P_REF + 2] = 0.0;
   p[P_REF + 3] = V_REF;
   p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_ALL; ++i) {
+  for (i = 0; i < N_OPP_STAGE; ++i) {
     p[P_OPP + i] = ws.opp[k][i];
   }
   return TRUCK_LIFT_EL_OK;
@@ -1590,6 +1592,7 @@ int truck_lift_el_prepare(void) {
   ws.status.qp_status = 0;
   ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
+  ws.status.opp_outside = ws.fit_outside;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
   ws.q_cur = ws.q;
@@ -1701,6 +1704,13 @@ void truck_lift_el_reset(void) {
 }
 
 int truck_lift_el_has_guess(void) { return ws.have_guess; }
+
+void truck_lift_el_get_opp_params(truck_lift_el_real_t *p) {
+  int k;
+  for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
+    copy(ws.opp[k], &p[k * N_OPP_STAGE], N_OPP_STAGE);
+  }
+}
 
 void truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_real_t **l, const truck_lift_el_real_t **u,
     const truck_lift_el_real_t **A_x, const truck_lift_el_real_t **P_x, const truck_lift_el_real_t **z,

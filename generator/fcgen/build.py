@@ -149,7 +149,7 @@ class CSolver:
                "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
                "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
-               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None),
+               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_opp_params": ([PR], None),
                "host_clock": ([], ctypes.c_double)}
         for fn, (args, res) in sig.items():
             f = self._f(fn)
@@ -215,7 +215,7 @@ class CSolver:
     def status(self) -> Status:
         class _St(ctypes.Structure):
             _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter",
-                                                     "u_projected")] + \
+                                                     "u_projected", "opp_outside")] + \
                 [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
         st = _St()
         self._f("get_status")(ctypes.byref(st))
@@ -228,6 +228,13 @@ class CSolver:
         lens = (self.n, self.m, self.m, self.nnz_A, self.n, self.n, self.m)
         keys = ("q", "l", "u", "A_x", "P_x", "z", "y")
         return {k: np.ctypeslib.as_array(p, shape=(n,)).astype(float) for k, p, n in zip(keys, ptrs, lens)}
+
+    def get_opp_params(self) -> np.ndarray:
+        """The opponents' part of the last prepare's stage parameters, shape (N+1, NOPP * NOPP_STAGE)."""
+        n = self.n_opp * self.sizes["NOPP_STAGE"]
+        p = np.zeros(max(1, (self.N + 1) * n), dtype=self.dtype)
+        self._f("get_opp_params")(self._ptr(p))
+        return p[:(self.N + 1) * n].astype(float).reshape(self.N + 1, n)
 
     @staticmethod
     def code_name(code: int) -> str:

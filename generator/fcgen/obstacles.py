@@ -169,7 +169,8 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     pts, mids = [], []
     for i in range(4):
         p0, p1 = np.array(corners[i]), np.array(corners[(i + 1) % 4])
-        m = max(2, int(math.ceil(np.linalg.norm(p1 - p0) * points_per_metre)))
+        # points per edge from its nominal length (width, length, width, length): no rounding decides the count
+        m = max(2, int(math.ceil((opp.w_ch if i % 2 == 0 else opp.l_ch) * points_per_metre)))
         ts = np.linspace(0.0, 1.0, m + 1)
         pts += [p0 + t * (p1 - p0) for t in ts[:-1]]
         mids += [p0 + t * (p1 - p0) for t in 0.5 * (ts[:-1] + ts[1:])]

@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 
 from . import models, obstacles as obs
+from .oppfit import OppFit, build_oppfit
 from .dsl import Conventional, Lifted, Problem
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
 
@@ -59,7 +60,8 @@ class Ocp:
     n_theta: int
     n_sigma: int
     road_params: RoadWindowParams
-    n_opp_par: int
+    n_opp_par: int             # per opponent and stage given to set_opponents: its pose [x, y, phi]
+    n_opp_stage: int           # per opponent in a stage's parameters (conventional: the fitted FRENET_SHAPE)
     np_stage: int
     cost_scale: float
     first: StageType
@@ -69,6 +71,7 @@ class Ocp:
     init_state: ca.Function    # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
     a_lat: ca.Function         # (x) -> lateral acceleration
     cost: tuple = field(default=())  # (first, middle, last) unscaled cost functions (w, p) -> J, for IPOPT
+    fit: OppFit | None = None  # conventional: the prepare phase's opponent fit (pose -> FRENET_SHAPE)
 
     @property
     def N(self) -> int:
@@ -117,8 +120,8 @@ def build_ocp(problem: Problem) -> Ocp:
     n_obs_rows = n_opp * obs.rows_per_opponent(model)
     n_sigma = 1 + (1 if soft_road else 0) + n_obs_rows
     rp = RoadWindowParams(road_window_samples(pb))
-    n_opp_par = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE)
-    np_stage = rp.size + 5 + n_opp * n_opp_par
+    n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE)
+    np_stage = rp.size + 5 + n_opp * n_opp_stage
     dt = pb.horizon.dt
     ego, bnd, soft = pb.ego, pb.bounds, pb.soft
 
@@ -163,7 +166,7 @@ def build_ocp(problem: Problem) -> Ocp:
         ego_pose = casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, rp.samples)
     length = ego.l_ch
     for j in range(n_opp):
-        pj = p_opp[j * n_opp_par:(j + 1) * n_opp_par]
+        pj = p_opp[j * n_opp_stage:(j + 1) * n_opp_stage]
         if conventional:
             opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
             ego_sh = obs.frenet_ego_shape(*ego_pose, pj[5], ego)
@@ -263,6 +266,6 @@ def build_ocp(problem: Problem) -> Ocp:
         x0_full = x0F
     init = ca.Function("init_state", [x0F, p], [x0_full], ["x0", "p"], ["x"])
     alat = ca.Function("a_lat", [xs], [a])
-    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, n_opp_par, np_stage, cost_scale,
+    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, len(obs.CARTESIAN_POSE), n_opp_stage, np_stage, cost_scale,
                stage_types["first"], stage_types["middle"], stage_types["last"], dyn, init, alat,
-               (costs["first"], costs["middle"], costs["last"]))
+               (costs["first"], costs["middle"], costs["last"]), build_oppfit(pb))

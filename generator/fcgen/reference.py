@@ -16,13 +16,14 @@ from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINI
                        QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
 from .dsl import QpOptions, SeparatingHyperplane
 from .ocp import Ocp, build_ocp
+from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
 from .road import Road
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
               "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
-              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL")
+              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET")
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order."""
 
 QP_EXIT = {0: "ERR_QP", QP_SOLVED: "OK", QP_SOLVED_INACCURATE: "OK", QP_MAX_ITER: "OK",
@@ -86,6 +87,7 @@ class Status:
     qp_iter: int = 0
     u_projected: int = 0       # 1: get_u0 is the plan's u0 projected on the input box
     u_violation: float = 0.0   # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
+    opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -108,7 +110,7 @@ def theta_init(ocp: Ocp) -> ca.Function:
     rp = ocp.road_params
     out = []
     for j in range(pb.opponents.count):
-        pj = p[ocp.p_opp][j * ocp.n_opp_par:(j + 1) * ocp.n_opp_par]
+        pj = p[ocp.p_opp][j * ocp.n_opp_stage:(j + 1) * ocp.n_opp_stage]
         if isinstance(pb.formulation, Conventional):
             ego = obs.frenet_ego_shape(x[0], x[1], x[2], 1.0, pb.ego)
             co = (pj[0], pj[1])
@@ -144,12 +146,15 @@ class RtiSolver:
         self._theta_init = theta_init(ocp)
         self._box = input_box(ocp.problem)
         self.qp = make_backend(self.lay, self.qp_opts)
+        self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
         self.init()
 
     def init(self) -> None:
         """Everything back to a freshly constructed solver: inputs, plan, preparation, status, QP backend."""
         self.road: Road | None = None
         self.opp = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_par))
+        # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
+        self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
         self.reset()
 
@@ -216,7 +221,23 @@ class RtiSolver:
         pb = self.ocp.problem
         xref = [self.s0_guess + k * self.ocp.dt * pb.reference.v_ref, pb.reference.n_ref, 0.0,
                 pb.reference.v_ref, 0.0]
-        return np.concatenate([self._road_params(s), xref, self.opp[k]])
+        opp = self.opp if self._fitter is None else self.opp_stage
+        return np.concatenate([self._road_params(s), xref, opp[k]])
+
+    def _fit_opponents(self) -> int:
+        """Conventional: the opponents' poses -> their fitted Frenet boxes in ``opp_stage`` (``fcgen.oppfit``), as the
+        C does; returns how many (stage, opponent) pairs were left out (0 for the other formulations)."""
+        if self._fitter is None:
+            return 0
+        if self.road is None:
+            raise self._fail("ERR_ROAD_WINDOW", "road window not set")
+        out, outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3))
+        if singular:
+            k, j = singular[0]
+            raise self._fail("ERR_OPP_FRENET", f"opponent {j} at stage {k} cannot be mapped into the Frenet frame "
+                             f"(|n| kappa >= {STRETCH_MAX} next to it, or a point too far from the road)")
+        self.opp_stage = out
+        return outside
 
     @staticmethod
     def _stage(w: np.ndarray, lay: QpLayout, k: int) -> np.ndarray:
@@ -253,6 +274,7 @@ class RtiSolver:
         if self.prepared:
             return
         ocp, lay = self.ocp, self.lay
+        opp_outside = self._fit_opponents()
         cold = self.w is None
         if cold:
             w, y = self.initial_guess()
@@ -280,13 +302,14 @@ class RtiSolver:
             raise self._fail("ERR_QP_NONFINITE", "non-finite linearization (constraints, Jacobian or cost)")
         # commit
         self.w_prep, self.y_prep, self.g, self.q, self.cold = w, y, g, q, cold
+        self.P = P.T                           # the stage parameters (verification: the C get_opp_params)
         self.A_data = jac[lay.a_src]
         self.l = lay.L - g
         self.u = lay.U - g
         self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
         self.prepared = True
         self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=self.status.u_projected,
-                             u_violation=self.status.u_violation)
+                             u_violation=self.status.u_violation, opp_outside=opp_outside)
 
     def feedback(self) -> np.ndarray:
         """Embed the measured x0, solve the QP, take the full step (usable QP) or fall back; returns the control."""

@@ -4,7 +4,8 @@ Two comparisons on one seeded scenario:
 
 1. **Lockstep**: the Python closed loop (Python plant driven by the Python reference) runs ``samples`` samples; at
    every sample the C solver (verification build: no floating-point contraction) gets exactly the same measured state,
-   road window and opponent parameters and performs the same calls. After preparation the QP data (``P``, ``q``,
+   road window and opponent poses and performs the same calls. After preparation the stage parameters (for the
+   conventional formulation with the opponent boxes its prepare phase fitted) and the QP data (``P``, ``q``,
    ``A`` values, ``l``, ``u``) are compared, after feedback the QP data with ``x0`` embedded, OSQP's primal and dual
    solution ``z``, ``y``, the SQP iterate (states and controls over the horizon) and ``u0``, plus the exit code, QP
    status and QP iteration count. The C solver keeps its own warm start, so differences may accumulate.
@@ -36,6 +37,7 @@ TOL_TRAJECTORY = 1e-6
 
 # (key, group, tolerance, description) in table order
 QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
+    ("params", "prepare", TOL_QP_DATA, "stage parameters"),
     ("P_x", "prepare", TOL_QP_DATA, "P values"),
     ("q", "prepare", TOL_QP_DATA, "q (before x0)"),
     ("A_x", "prepare", TOL_QP_DATA, "A values"),
@@ -239,6 +241,7 @@ class _Lockstep:
         rc = cs.prepare_phase(x0, road, opp)
         if not rc and not rc_py:
             qp = cs.get_qp()
+            self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))  # conventional: with the fitted opponent boxes
             for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
                            ("u", _clip(sv.u))):
                 self._upd(key, rel_diff(qp[key], r))

@@ -22,7 +22,7 @@ import numpy as np
 
 from .. import __version__
 from .. import obstacles as obs
-from ..dsl import Conventional, Problem
+from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
@@ -37,7 +37,8 @@ MODEL_CFLAGS = ("-Wno-unused-parameter",)
 
 MACRO_DOC = {
     "NX": "states per stage", "NU": "controls per stage [F_d, r]", "N": "shooting intervals",
-    "NOPP": "opponents", "NOPP_PAR": "parameters per opponent and stage",
+    "NOPP": "opponents", "NOPP_PAR": "parameters per opponent and stage (set_opponents: the pose x, y, phi)",
+    "NOPP_STAGE": "parameters per opponent in a stage's parameters (conventional: the fitted Frenet box)",
     "ROAD_MAX": "road samples set_road accepts at most", "ROAD_WINDOW": "road samples in a stage's local window",
     "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
@@ -45,6 +46,8 @@ MACRO_DOC = {
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
+FIT_FUNCTIONS = ("opp_points", "opp_foot", "opp_box")
+"""The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it."""
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
 
 
@@ -107,9 +110,12 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
     """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
-    return {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
+    funs = {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
             "dynamics": ocp.dynamics, "init_state": ocp.init_state, "theta_init": theta_init(ocp),
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
+    if ocp.fit is not None:
+        funs.update(opp_points=ocp.fit.points, opp_foot=ocp.fit.foot, opp_box=ocp.fit.box)
+    return funs
 
 
 C_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh",
@@ -143,8 +149,8 @@ def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any
             "with_export": False, "verbose": False, "include_math": True}
     with tempfile.TemporaryDirectory() as tmp:
         cg = ca.CodeGenerator(f"{name}_model.c", opts)
-        for k in MODEL_FUNCTIONS:
-            cg.add(funs[k])
+        for f in funs.values():
+            cg.add(f)
         cg.generate(str(Path(tmp)) + "/")
         src = (Path(tmp) / f"{name}_model.c").read_text()
         hdr = (Path(tmp) / f"{name}_model.h").read_text()
@@ -160,14 +166,14 @@ def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any
     # the generated code's own work sizes (SX code keeps its work in locals: sz_w there is 0, not f.sz_w())
     found = re.findall(rf"^#define {name}_(\w+)_SZ_(ARG|RES|IW|W) (\d+)$", hdr, re.M)
     sz = {(fn, key): int(v) for fn, key, v in found}
-    if {fn for fn, _ in sz} != set(MODEL_FUNCTIONS):
+    if {fn for fn, _ in sz} != set(funs):
         raise AssertionError("CasADi header without the expected work-size macros")
 
     def most(key: str, least: int) -> int:
         return max(least, *(v for (_, k), v in sz.items() if k == key))
 
     return {"sz_arg": most("ARG", 3), "sz_res": most("RES", 3), "sz_iw": most("IW", 1), "sz_w": most("W", 1),
-            "functions": [f"{name}_{k}" for k in MODEL_FUNCTIONS]}
+            "functions": [f"{name}_{k}" for k in funs]}
 
 
 # --- tables ---------------------------------------------------------------------------------------------------
@@ -208,10 +214,20 @@ def slack_vars(ocp: Ocp, lay: QpLayout) -> np.ndarray:
 
 def far_opponent_row(ocp: Ocp) -> np.ndarray:
     """Parameters of one opponent far away from any ego position on the example's straight road."""
-    pb = ocp.problem
-    if isinstance(pb.formulation, Conventional):
-        return obs.naive_frenet_shape((-1000.0, 500.0, 0.0), pb.opponents.vehicle)
-    return np.array([-1000.0, 500.0, 0.0])
+    return np.array([-1000.0, 500.0, 0.0])  # every formulation takes poses; the conventional one leaves it out
+
+
+def fit_context(ocp: Ocp) -> dict[str, Any] | None:
+    """Constants of the conventional opponent fit for the template (``None`` for the other formulations)."""
+    from .. import oppfit
+    f = ocp.fit
+    if f is None:
+        return None
+    return {"npt": f.npt, "ref": f.ref_point, "search": oppfit.SEARCH, "window": oppfit.FOOT_WINDOW,
+            "win_size": f.window_size, "nbox": len(oppfit.BOX), "par": ocp.n_opp_stage,
+            "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
+            "stretch_max": _c_real(oppfit.STRETCH_MAX), "n_min": _c_real(f.n_min), "n_max": _c_real(f.n_max),
+            "neutral": [_c_real(v) for v in oppfit.neutral(0.0)]}
 
 
 def permutation_cycles(src: np.ndarray) -> np.ndarray:
@@ -246,13 +262,13 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
 
 
 STATUS_BYTES = 48
-"""sizeof(<name>_status_t) on an LP64 target: 5 ints, padding, 3 doubles."""
+"""sizeof(<name>_status_t) on an LP64 target: 6 ints, 3 doubles."""
 FIRST_STATE_MEMBER = "w"
 """The first workspace member reset() zeroes (the inputs and the clock come before it)."""
 
 
 def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
-                      opp_dim: int) -> tuple[list[dict[str, Any]], int]:
+                      opp_dim: int, fit: dict | None = None) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
     R, I, P = (real_size, real_size), (4, 4), (8, 8)
@@ -285,7 +301,14 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("const NAME_real_t *", "q_cur", [], P), ("const NAME_real_t *", "qp_z", [], P),
         ("NAME_status_t", "status", [], (STATUS_BYTES, 8)),
         ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
+        ("int", "fit_outside", [], I),
     ]
+    if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
+        members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
+                    ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
+                    ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R), ("NAME_real_t", "fit_win", [fit["win_size"]], R),
+                    ("NAME_real_t", "fit_box", [fit["nbox"]], R),
+                    ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
     rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
@@ -345,7 +368,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     qp_files = backend.write_files(ocp, lay, problem.qp, out_dir, use_float)
 
     # -- sizes (public macros) and private dimensions -----------------------------------------------------------
-    sizes = {"NX": nx, "NU": nu, "N": N, "NOPP": n_opp, "NOPP_PAR": n_opp_par, "ROAD_MAX": problem.road.samples,
+    sizes = {"NX": nx, "NU": nu, "N": N, "NOPP": n_opp, "NOPP_PAR": n_opp_par, "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": problem.road.samples,
              "ROAD_WINDOW": rp.samples, "NP": ocp.np_stage, "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma,
              "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
     slacks = slack_vars(ocp, lay)
@@ -366,7 +389,8 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
             raise AssertionError("bounds beyond the QP infinity INF")
     stages = stage_table(ocp, lay)
 
-    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all)
+    fit = fit_context(ocp)
+    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit)
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
                    + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
@@ -374,7 +398,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     values = {**sizes, "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
     macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:nx])})"}
     macros = [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()]
-    opp_names = obs.FRENET_SHAPE if isinstance(problem.formulation, Conventional) else obs.CARTESIAN_POSE
+    opp_names = obs.CARTESIAN_POSE
     ctx = {
         "name": name, "NAME": NAME, "version": __version__, "real": real, "use_float": use_float,
         "sizes": sizes, "macros": macros, "exit_codes": list(enumerate(EXIT_CODES)),
@@ -388,8 +412,10 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor",
-        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles),
+        "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
+        "c_sin": "sinf" if use_float else "sin",
+        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
+        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else "ws.opp",
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},

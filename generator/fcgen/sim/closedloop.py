@@ -17,7 +17,7 @@ from .collision import collisions_over_run
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
-WINDOW_BEHIND = 10.0  # m of road the solver's window keeps behind the ego
+WINDOW_BEHIND = 50.0  # m of road the solver's window keeps behind the ego (covers an opponent being overtaken)
 
 #: what ``run_closed_loop``/``replay`` log of each sample's planned trajectory (optional run-log fields)
 PLAN_LEVELS: tuple[str, ...] = ("none", "controls", "full")

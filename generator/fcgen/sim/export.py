@@ -2,7 +2,7 @@
 
 The file holds everything ``run_closed_loop`` feeds a controller and the plant, precomputed in Python: the whole
 road (the harness cuts the per-sample solver window and the plant's local window out of it exactly like
-``run_closed_loop`` does), the ego's initial Frenet state, and per sample the opponents' parameter block of all
+``run_closed_loop`` does), the ego's initial Frenet state, and per sample the opponents' predicted poses of all
 stages (``OpponentParams.horizon(j)``) plus the opponents' Cartesian and Frenet poses for the run log. The format is
 plain text, documented in docs/scenario_file.md; doubles are written with ``%.17g`` so they read back bit for bit.
 """

@@ -5,8 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import obstacles as obs
-from ..dsl import Conventional, Problem
+from ..dsl import Problem
 from ..road import Road, random_road
 
 OPP_SPEED = 15.0      # opponents' Frenet progress rate ds/dt, m/s (constant n, alpha = 0)
@@ -57,7 +56,8 @@ def make_scenario(scenario: str, seed: int, n_opp: int = 3, samples: int = 200, 
 
 
 class OpponentParams:
-    """Per-stage opponent parameters for the solver, cached per absolute time index (they only depend on it)."""
+    """Per-stage opponent poses for the solver (every formulation: rear axle [x, y, phi]; the conventional solver fits
+    its Frenet boxes itself), cached per absolute time index (they only depend on it)."""
 
     def __init__(self, problem: Problem, scenario: Scenario):
         self.problem = problem
@@ -65,24 +65,11 @@ class OpponentParams:
         self._cache: dict[int, np.ndarray] = {}
 
     def at_index(self, j: int) -> np.ndarray:
-        """Parameters (n_opp, n_opp_par) at absolute time j * dt."""
+        """Poses (n_opp, 3) at absolute time j * dt."""
         if j not in self._cache:
-            pb, sc = self.problem, self.sc
-            t = j * sc.dt
-            if isinstance(pb.formulation, Conventional):
-                rows = []
-                fr, ca_ = sc.opp_frenet(t), sc.opp_cartesian(t)
-                for i in range(len(sc.opp_s0)):
-                    if pb.formulation.overapprox == "none":
-                        rows.append(obs.naive_frenet_shape(fr[i], pb.opponents.vehicle))
-                    else:
-                        rows.append(obs.fit_frenet_shape(sc.road, ca_[i], pb.opponents.vehicle, pb.ego,
-                                                         pb.formulation.margin, s_guess=fr[i][0]))
-                self._cache[j] = np.array(rows).reshape(len(sc.opp_s0), -1)
-            else:
-                self._cache[j] = sc.opp_cartesian(t)
+            self._cache[j] = self.sc.opp_cartesian(j * self.sc.dt)
         return self._cache[j]
 
     def horizon(self, j: int) -> np.ndarray:
-        """Parameters for stages 0..N at sample j: shape (N+1, n_opp, n_opp_par)."""
+        """Poses for stages 0..N at sample j: shape (N+1, n_opp, 3)."""
         return np.stack([self.at_index(j + k) for k in range(self.problem.horizon.N + 1)])

@@ -1,0 +1,192 @@
+"""The conventional solver's own opponent fit (fcgen.oppfit): Python reference and generated C against the
+independent fit of fcgen.obstacles (Newton from a heading guess to 1e-12 on the whole road, numpy), and its
+behaviour off the road."""
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from fcgen import obstacles as obs
+from fcgen.dsl import Conventional, Horizon, Opponents, ProblemError
+from fcgen.oppfit import OppFitter, build_oppfit, neutral
+from fcgen.presets import CAR, TRUCK, paper_problem
+from fcgen.reference import RtiSolver, SolverError
+from fcgen.road import Road, random_road
+from fcgen.ocp import build_ocp
+
+CIRCLE = Road.from_curvature(np.full(56, 0.05), 2.0, s0=-30.0)      # radius 20 m, left turn; 110 m: not a lap
+WAVY = random_road(5, length=400.0, s0=-50.0)                      # |kappa| <= 0.05, changing sign
+STRAIGHT = Road.from_curvature(np.zeros(141), 2.0, s0=-60.0)
+
+
+def problem(n_opp=2, N=10, **conv):
+    return paper_problem("truck", "conventional", "ellipse", horizon=Horizon(N=N)).with_(
+        opponents=Opponents(n_opp, TRUCK), formulation=Conventional(**conv))
+
+
+def poses_on(road: Road, frenet) -> np.ndarray:
+    """Rear-axle Cartesian poses of (s, n, alpha) triples: shape (..., 3)."""
+    f = np.asarray(frenet, dtype=float)
+    x, y, phi = road.to_cartesian(f[..., 0], f[..., 1], f[..., 2])
+    return np.stack([x, y, phi], axis=-1)
+
+
+def independent_fit(road: Road, frenet, pb) -> np.ndarray:
+    """obstacles.fit_frenet_shape with the scenario's exact s as its guess."""
+    pose = poses_on(road, frenet)
+    return obs.fit_frenet_shape(road, pose, pb.opponents.vehicle, pb.ego, pb.formulation.margin,
+                                s_guess=float(frenet[0]), points_per_metre=pb.formulation.points_per_metre)
+
+
+CASES = [(CIRCLE, (20.0, 5.0, 0.0)), (CIRCLE, (20.0, -5.0, 0.0)), (CIRCLE, (40.0, 0.0, 0.3)),
+         (WAVY, (30.0, 4.0, 0.0)), (WAVY, (95.0, -3.0, -0.2)), (WAVY, (160.0, 0.5, 0.1)),
+         (STRAIGHT, (10.0, 3.0, 0.0))]
+
+
+@pytest.mark.parametrize("ppm, margin", [(4.0, 0.0), (1.0, 0.25)])
+def test_python_fit_equals_the_independent_fit(ppm, margin):
+    pb = problem(n_opp=1, points_per_metre=ppm, margin=margin)
+    fitter = OppFitter(build_oppfit(pb), len(CASES), 1)
+    for road in (CIRCLE, WAVY, STRAIGHT):
+        sel = [c for c in CASES if c[0] is road]
+        fr = np.array([c[1] for c in sel] + [sel[0][1]] * (len(CASES) - len(sel)))
+        out, outside, singular = fitter(road, poses_on(road, fr)[:, None, :])
+        assert outside == 0 and singular == []
+        for k, (_, f) in enumerate(sel):
+            np.testing.assert_allclose(out[k], independent_fit(road, f, pb), rtol=0, atol=1e-9)
+    # on the straight road the box is the rectangle plus the margin (by hand: 13 + m by 2 + m about the centre)
+    assert out[0][:5] == pytest.approx([20.0, 3.0, 0.0, 13.0 + margin, 2.0 + margin], abs=1e-9)
+    assert out[0][5] == 1.0
+
+
+def test_points_per_metre_is_validated():
+    with pytest.raises(ProblemError, match=r"formulation.points_per_metre = 0.1 is invalid: allowed \[0.25, 20\]"):
+        Conventional(points_per_metre=0.1)
+
+
+def test_left_out_when_the_road_does_not_cover_it():
+    pb = problem(n_opp=1)
+    fitter = OppFitter(build_oppfit(pb), 4, 1)
+    road = STRAIGHT.window(-60.0, 100)              # s in [-60, 138]
+    fr = np.array([[20.0, 3.0, 0.0],                # covered
+                   [125.0, 0.0, 0.0],               # its front (s = 148) is beyond the road's end
+                   [20.0, 35.0, 0.0],               # beside the band [-10, 10] plus the ego's reach (9.3 m)
+                   [-55.0, 0.0, 0.0]])              # the ego's reach behind it is before the road's start
+    out, outside, singular = fitter(road, poses_on(road, fr)[:, None, :])
+    assert outside == 3 and singular == []
+    assert out[0][:5] == pytest.approx([30.0, 3.0, 0.0, 13.0, 2.0], abs=1e-9)
+    for k in (1, 2, 3):
+        np.testing.assert_array_equal(out[k], neutral(road.s0))
+    assert neutral(road.s0)[0] == road.s0 - 1000.0
+
+
+def test_singular_frenet_frame_fails_the_prepare_phase():
+    # a car next to the inside of a 12.5 m bend: the ego beside it would be stretched by 1 / (1 - n kappa) with
+    # n kappa = (4 + 0.95 + 9.3) * 0.08 > 0.9
+    pb = paper_problem("car", "conventional", "ellipse", horizon=Horizon(N=10)).with_(opponents=Opponents(1, CAR))
+    road = Road.from_curvature(np.full(34, 0.08), 2.0, s0=-10.0)       # 66 m of a 78.5 m circle
+    sv = RtiSolver(build_ocp(pb))
+    sv.set_road(road)
+    sv.set_opponents(np.tile(poses_on(road, (25.0, 4.0, 0.0)), (11, 1, 1)))
+    sv.set_state(np.array([0.0, 0.0, 0.0, 15.0, 0.0]))
+    with pytest.raises(SolverError, match="ERR_OPP_FRENET: opponent 0 at stage 0 cannot be mapped"):
+        sv.prepare()
+    sv.set_opponents(np.tile(poses_on(road, (25.0, -4.0, 0.0)), (11, 1, 1)))   # outside of the bend: fine
+    sv.prepare()
+    assert sv.status.opp_outside == 0
+
+
+needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+
+
+@pytest.fixture(scope="module")
+def c_solver(tmp_path_factory):
+    from fcgen.build import CSolver, build
+    from fcgen.codegen.generate import generate
+    pb = problem(n_opp=2, N=10).with_(name="conv_fit")
+    out = tmp_path_factory.mktemp("oppfit") / "conv_fit"
+    generate(pb, out)
+    return pb, CSolver(build(out, verify=True))
+
+
+@needs_cc
+@pytest.mark.parametrize("road", [CIRCLE, WAVY], ids=["circle", "wavy"])
+def test_c_fit_equals_python_and_the_independent_fit(c_solver, road):
+    pb, cs = c_solver
+    ocp = build_ocp(pb)
+    N = pb.horizon.N
+    # two opponents per stage moving along the road, one turning; the last stage of the second is off the road
+    fr = np.zeros((N + 1, 2, 3))
+    for k in range(N + 1):
+        fr[k, 0] = (20.0 + 1.5 * k, 4.0 - 0.8 * k, 0.0)
+        fr[k, 1] = (30.0 + 1.0 * k, -2.0, 0.25 * math.sin(k))
+    win = road.window(-30.0, min(road.size, pb.road.samples))
+    fr[N, 1] = (win.s_end - 10.0, 0.0, 0.0)
+    poses = poses_on(win, fr)
+    x0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
+    sv = RtiSolver(ocp)
+    sv.set_road(win)
+    sv.set_opponents(poses)
+    sv.set_state(x0)
+    sv.prepare()
+    assert cs.init() == 0
+    assert cs.set_road(win) == 0 and cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
+    c_par, py_par = cs.get_opp_params(), sv.P[:, ocp.p_opp]
+    np.testing.assert_array_equal(c_par, py_par)                        # bit for bit, every fitted parameter
+    assert cs.status().opp_outside == sv.status.opp_outside == 1
+    opp = c_par.reshape(N + 1, 2, 6)
+    for k in range(N + 1):
+        for j in range(2):
+            if (k, j) == (N, 1):
+                np.testing.assert_array_equal(opp[k, j], neutral(win.s0))
+                continue
+            np.testing.assert_allclose(opp[k, j], independent_fit(win, fr[k, j], pb), rtol=0, atol=1e-9)
+
+
+@needs_cc
+def test_c_singular_and_unset_road_codes(c_solver):
+    from fcgen.reference import EXIT_CODES
+    pb, cs = c_solver
+    N = pb.horizon.N
+    assert cs.init() == 0
+    x0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
+    poses = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
+    assert cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == EXIT_CODES.index("ERR_ROAD_WINDOW")           # no road yet
+    # one good sample first: one opponent fitted, the other beyond the road's end
+    good = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
+    good[:, 1] = poses_on(STRAIGHT, (200.0, 0.0, 0.0))
+    assert cs.set_road(STRAIGHT) == 0 and cs.set_opponents(good) == 0 and cs.prepare() == 0 and cs.feedback() == 0
+    tight = Road.from_curvature(np.full(40, 0.07), 2.0, s0=-30.0)      # (4 + 2 + 9.3) * 0.07 > 0.9 inside
+    assert cs.set_road(tight) == 0
+    assert cs.status().opp_outside == N + 1
+    u = cs.u0()
+    assert cs.set_opponents(np.tile(poses_on(tight, (10.0, 4.0, 0.0)), (N + 1, 2, 1))) == 0
+    assert cs.prepare() == EXIT_CODES.index("ERR_OPP_FRENET")
+    st = cs.status()                                                   # a failed prepare changes nothing else
+    assert st.exit_code == EXIT_CODES.index("ERR_OPP_FRENET") and st.opp_outside == N + 1
+    assert cs.has_guess() and np.array_equal(cs.u0(), u)
+    assert cs.feedback() == EXIT_CODES.index("ERR_NOT_PREPARED")
+    sv = RtiSolver(build_ocp(pb))
+    sv.set_road(tight)
+    sv.set_opponents(np.tile(poses_on(tight, (10.0, 4.0, 0.0)), (N + 1, 2, 1)))
+    sv.set_state(x0)
+    with pytest.raises(SolverError, match="ERR_OPP_FRENET"):
+        sv.prepare()
+
+
+def test_naive_option_uses_the_projected_rear_axle():
+    # overapprox="none": the Cartesian rectangle unchanged at the rear axle's Frenet pose, which the solver projects
+    pb = problem(n_opp=1, overapprox="none")
+    fit = build_oppfit(pb)
+    assert fit.npt == 1
+    fitter = OppFitter(fit, 3, 1)
+    fr = np.array([(30.0, 4.0, 0.0), (95.0, -3.0, -0.2), (160.0, 0.5, 0.1)])
+    out, outside, singular = fitter(WAVY, poses_on(WAVY, fr)[:, None, :])
+    assert outside == 0 and singular == []
+    for k in range(3):
+        np.testing.assert_allclose(out[k], obs.naive_frenet_shape(fr[k], TRUCK), rtol=0, atol=1e-9)
