@@ -1,0 +1,110 @@
+"""The one task function of a campaign: one closed-loop run -> one flat result row (the same in every executor).
+
+Per process it keeps the loaded solvers (one static workspace per shared library, re-initialised before each run,
+guarded by a lock so that a multi-threaded worker serialises runs of one solver instead of corrupting it) and the
+Python OCPs. Collisions are the true-rectangle check of ``sim.collision`` (the run log's ``collision`` field), never
+the slacks.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import socket
+import threading
+import time
+
+import numpy as np
+
+from ..sim.runlog import summary
+from .grid import Task
+
+_LOCK = threading.Lock()
+_SOLVERS: dict[str, tuple[object, threading.Lock]] = {}
+_OCPS: dict[str, object] = {}
+
+#: the columns of a result row, in order (``time_rti_ms``: every sample's time per RTI, for box plots)
+STAT_KEYS = ("mean", "median", "p99", "max")
+
+
+def _solver(lib: str):
+    from ..build import CSolver
+    with _LOCK:
+        if lib not in _SOLVERS:
+            _SOLVERS[lib] = (CSolver(lib), threading.Lock())
+        return _SOLVERS[lib]
+
+
+def _ocp(problem):
+    from ..ocp import build_ocp
+    with _LOCK:
+        if problem.name not in _OCPS:
+            _OCPS[problem.name] = build_ocp(problem)
+        return _OCPS[problem.name]
+
+
+def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
+    """The soft lateral-acceleration bound: samples above it, and by how far (m/s^2)."""
+    excess = np.abs(a_lat) - bound
+    over = excess > 0
+    return {"a_lat_bound": float(bound), "a_lat_over_samples": int(np.count_nonzero(over)),
+            "a_lat_excess_max": float(np.max(excess[over])) if over.any() else 0.0,
+            "a_lat_excess_mean": float(np.mean(excess[over])) if over.any() else 0.0}
+
+
+def run_task(task: Task) -> dict:
+    """Run one closed loop of ``task`` (C solver from the cache, or the Python reference); returns its row."""
+    from ..sim.closedloop import ReferenceController, run_closed_loop
+    from ..sim.scenario import make_scenario
+    from .solvers import ensure_solver, solver_hash
+
+    cfg = task.config
+    pb = cfg.problem()
+    ocp = _ocp(pb)
+    sc = make_scenario(cfg.scenario, task.seed, n_opp=pb.opponents.count, samples=task.samples, dt=pb.horizon.dt)
+    t_start = time.time()
+    if cfg.controller == "c":
+        lib = ensure_solver(pb, task.cache_dir)
+        solver, lock = _solver(str(lib))
+        with lock:
+            t0 = time.perf_counter()
+            rc = solver.init()
+            if rc:
+                raise RuntimeError(f"{pb.name}_init() returned {rc}")
+            log = run_closed_loop(pb, sc, controller=solver, ocp=ocp)
+            wall = time.perf_counter() - t0
+        sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A}
+    else:
+        t0 = time.perf_counter()
+        ctrl = ReferenceController(ocp)
+        log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
+        wall = time.perf_counter() - t0
+        lay = ctrl.solver.lay
+        sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A}
+    return make_row(task, pb, log, wall, t_start, sizes, solver_hash(pb))
+
+
+def make_row(task: Task, problem, log, wall: float, t_start: float, sizes: dict, hash_: str) -> dict:
+    """The flat row of one run: configuration, seed, every ``summary`` figure, wall time, collision, a_lat outcome."""
+    s = summary(log)
+    row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
+           "seed": task.seed, "samples": task.samples, "solver_hash": hash_}
+    for k, v in s.items():
+        if isinstance(v, dict) and k.endswith("_ms"):
+            row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
+        elif k == "qp_status_counts":
+            row[k] = json.dumps(v, sort_keys=True)
+        else:
+            row[k] = v
+    t_ms = 1e3 * np.asarray(log.time_total, dtype=float)
+    row["time_total_ms_std"] = float(np.std(t_ms)) if t_ms.size else math.nan
+    row["collision"] = bool(s["n_collision_samples"] > 0)
+    row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
+    row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
+    row.update(sizes)
+    row["wall_s"] = float(wall)
+    row["t_start"] = float(t_start)
+    row["t_end"] = float(t_start + wall)
+    row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    row["time_rti_ms"] = t_ms.astype(np.float32).tolist()
+    return row
