@@ -73,14 +73,14 @@ def run_task(task: Task) -> dict:
                 raise RuntimeError(f"{pb.name}_init() returned {rc}")
             log = run_closed_loop(pb, sc, controller=solver, ocp=ocp)
             wall = time.perf_counter() - t0
-        sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A}
+        sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
     else:
         t0 = time.perf_counter()
         ctrl = ReferenceController(ocp)
         log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
         wall = time.perf_counter() - t0
         lay = ctrl.solver.lay
-        sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A}
+        sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A, "n_opp_par": ocp.n_opp_par}
     return make_row(task, pb, log, wall, t_start, sizes, solver_hash(pb))
 
 
