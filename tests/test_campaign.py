@@ -25,7 +25,7 @@ from fcgen.presets import paper_problem
 SAMPLES = 6
 CONFIGS = paper_grid(["truck"], ["direct_elimination", "lifted"], ["ellipse"])
 # run columns that do not depend on timing, the worker or when the run happened
-TIMING = ("time_", "wall_s", "t_start", "t_end", "worker")
+TIMING = ("time_", "wall_s", "cpu_s", "t_start", "t_end", "worker")
 
 
 @pytest.fixture(scope="module")

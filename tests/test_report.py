@@ -28,11 +28,11 @@ def hand_rows() -> pd.DataFrame:
                          "obstacles": "ellipse", "circles": 0, "model": "EL", "seed": seed, "samples": 2,
                          "progress": prog[seed], "collision": bool(hit and seed == 1),
                          "n_collision_samples": 3 if hit and seed == 1 else 0, "time_rti_ms": t.tolist(),
-                         "time_prepare_ms_mean": 0.25 * t.mean(), "time_feedback_ms_mean": 0.75 * t.mean(),
+                         "time_total_ms_mean": t.mean(), "time_prepare_ms_mean": 0.25 * t.mean(), "time_feedback_ms_mean": 0.75 * t.mean(),
                          "qp_iter_mean": 60.0, "qp_n": 568 if form == "lifted" else 445, "qp_m": 900,
                          "qp_nnz_a": 3000, "n_opp_par": 3, "n_controls": 2, "n_states": 3, "max_slack": 0.0,
                          "a_lat_bound": 5.0, "a_lat_over_samples": seed, "a_lat_excess_max": 0.5 * seed,
-                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5, "t_start": 10.0 * seed,
+                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5, "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
                          "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h",
                          "controller": "c", "backend": "osqp"})
     return pd.DataFrame(rows)
@@ -71,8 +71,11 @@ def test_findings_are_judged_on_the_rows():
 
 def test_grid_estimate_scales_the_measured_wall_times():
     est = grid_estimate(hand_rows(), cores=2)
-    # 3 configurations, mean wall 1.0 s each: 500 x 3 x 1.0 s on 2 cores
-    assert est["runs"] == 1500 and est["core_s"] == 1500.0 and est["wall_min"] == pytest.approx(12.5)
+    # 3 configurations, mean CPU 0.5 s (wall 1.0 s) a run: 500 x 3 x 0.5 s on 2 cores
+    assert est["runs"] == 1500 and est["core_s"] == 750.0 and est["wall_min"] == pytest.approx(6.25)
+    assert est["core_s_wall"] == 1500.0
+    # the solver: per configuration 2 RTIs of 2, 3 and 2 ms (mean), 500 runs each
+    assert est["solver_core_s"] == pytest.approx(500 * 2 * (2.0 + 3.0 + 2.0) / 1e3)
     assert est["measured_rate"] == pytest.approx(6 / 11.0) and est["workers"] == 2
 
 

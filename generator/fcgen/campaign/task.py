@@ -67,25 +67,26 @@ def run_task(task: Task) -> dict:
         lib = ensure_solver(pb, task.cache_dir)
         solver, lock = _solver(str(lib))
         with lock:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             rc = solver.init()
             if rc:
                 raise RuntimeError(f"{pb.name}_init() returned {rc}")
             log = run_closed_loop(pb, sc, controller=solver, ocp=ocp)
-            wall = time.perf_counter() - t0
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
     else:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         ctrl = ReferenceController(ocp)
         log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         lay = ctrl.solver.lay
         sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A, "n_opp_par": ocp.n_opp_par}
-    return make_row(task, pb, log, wall, t_start, sizes, solver_hash(pb))
+    return make_row(task, pb, log, wall, cpu, t_start, sizes, solver_hash(pb))
 
 
-def make_row(task: Task, problem, log, wall: float, t_start: float, sizes: dict, hash_: str) -> dict:
-    """The flat row of one run: configuration, seed, every ``summary`` figure, wall time, collision, a_lat outcome."""
+def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str) -> dict:
+    """The flat row of one run: configuration, seed, every ``summary`` figure, wall and CPU time (of the whole closed
+    loop, plant and scenario included), collision, a_lat outcome."""
     s = summary(log)
     row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
            "seed": task.seed, "samples": task.samples, "solver_hash": hash_}
@@ -103,6 +104,7 @@ def make_row(task: Task, problem, log, wall: float, t_start: float, sizes: dict,
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
     row.update(sizes)
     row["wall_s"] = float(wall)
+    row["cpu_s"] = float(cpu)
     row["t_start"] = float(t_start)
     row["t_end"] = float(t_start + wall)
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
