@@ -18,7 +18,7 @@ from fcgen.campaign.grid import Config, make_tasks, paper_grid
 from fcgen.campaign.runner import run_campaign
 from fcgen.campaign.solvers import ensure_solver, solver_hash
 from fcgen.campaign.store import ResultStore
-from fcgen.campaign.task import _alat_outcome
+from fcgen.campaign.task import _alat_outcome, run_task
 from fcgen.dsl import ProblemError
 from fcgen.presets import paper_problem
 
@@ -65,6 +65,17 @@ def test_solver_cache_is_keyed_by_the_problem_and_built_once(cache):
 def test_alat_outcome_counts_samples_above_the_bound():
     out = _alat_outcome(np.array([1.0, -5.5, 5.0, 6.0, -4.9]), 5.0)
     assert out == {"a_lat_bound": 5.0, "a_lat_over_samples": 2, "a_lat_excess_max": 1.0, "a_lat_excess_mean": 0.75}
+
+
+@pytest.mark.parametrize("clock", ["cpu", "wall"])
+def test_solver_time_fits_inside_the_runs_cpu_or_wall_time(cache, clock):
+    task = make_tasks(CONFIGS[1:], range(1), 20, cache, clock)[0]
+    row = run_task(task)
+    solver_s = sum(row["time_rti_ms"]) / 1e3
+    assert row["clock"] == clock and solver_s > 0
+    # the solver's share of a run: its CPU time fits in the run's process CPU time, its wall time in the run's wall
+    assert solver_s <= (row["cpu_s"] if clock == "cpu" else row["wall_s"])
+    assert row["cpu_s"] > 0 and row["wall_s"] > 0
 
 
 def test_dask_cluster_and_process_pool_give_the_same_rows(cache, tmp_path):

@@ -33,7 +33,7 @@ def hand_rows() -> pd.DataFrame:
                          "qp_nnz_a": 3000, "n_opp_par": 3, "n_controls": 2, "n_states": 3, "max_slack": 0.0,
                          "a_lat_bound": 5.0, "a_lat_over_samples": seed, "a_lat_excess_max": 0.5 * seed,
                          "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5, "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
-                         "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h",
+                         "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h", "clock": "cpu",
                          "controller": "c", "backend": "osqp"})
     return pd.DataFrame(rows)
 

@@ -96,6 +96,9 @@ def _names(text: str) -> list[str]:
               help="compiled C solvers, or the Python reference SQP-RTI")
 @click.option("--backend", type=click.Choice(["osqp", "ipm"]), default="osqp", show_default=True,
               help="QP backend (QpOptions.backend)")
+@click.option("--clock", type=click.Choice(["cpu", "wall"]), default="cpu", show_default=True,
+              help="what times the C solver: its thread's CPU time (unaffected by other processes on a shared "
+              "machine) or the monotonic wall clock of its host hook")
 @click.option("--jobs", type=click.IntRange(1, 1024), default=2, show_default=True,
               help="local worker processes (or the workers of --scheduler local)")
 @click.option("--scheduler", default=None, help="a Dask scheduler address (tcp://host:8786), or 'local' for a "
@@ -106,7 +109,7 @@ def _names(text: str) -> list[str]:
               help="results: a Parquet dataset folder (runs already in it are not recomputed)")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
               help="also write `fcgen report` into this folder")
-def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, jobs,
+def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
              scheduler, cache_dir, out, report_dir):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
@@ -126,7 +129,7 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
     except ProblemError as exc:
         _fail(f"--obstacles/--backend: {exc}")
     store = ResultStore(out)
-    tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()))
+    tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock)
     click.echo(f"{len(configs)} configurations x {seeds} seeds x {samples} samples = {len(tasks)} runs "
                f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}")
     res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)

@@ -12,6 +12,7 @@ PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
 OBSTACLE_NAMES = ("ellipse", "circles", "hyperplane")
 CONTROLLERS = ("c", "python")
 BACKENDS = ("osqp", "ipm")
+CLOCKS = ("cpu", "wall")
 
 
 @dataclass(frozen=True)
@@ -97,18 +98,21 @@ def paper_grid(scenarios=SCENARIOS, formulations=tuple(FORMULATIONS), obstacles=
 
 @dataclass(frozen=True)
 class Task:
-    """One closed-loop run: a configuration, a seed, the sample count, where compiled solvers are cached."""
+    """One closed-loop run: a configuration, a seed, the sample count, where compiled solvers are cached, and the
+    clock that times the C solver (``cpu``: unaffected by other processes on a shared machine)."""
 
     config: Config
     seed: int
     samples: int
     cache_dir: str
+    clock: str = "cpu"          # the C solver's clock: "cpu" (its thread's CPU time) or "wall" (monotonic)
 
     @property
     def run_id(self) -> tuple[str, int, int]:
         return (self.config.key, self.samples, self.seed)
 
 
-def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str) -> list[Task]:
+def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str, clock: str = "cpu") -> list[Task]:
     """Seed-major order (every configuration's seed 0 first), so partial results cover the whole grid evenly."""
-    return [Task(c, s, samples, cache_dir) for s in seeds for c in configs]
+    _one_of("clock", clock, CLOCKS)
+    return [Task(c, s, samples, cache_dir, clock) for s in seeds for c in configs]

@@ -7,6 +7,7 @@ the slacks.
 """
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import os
@@ -33,6 +34,16 @@ def _solver(lib: str):
         if lib not in _SOLVERS:
             _SOLVERS[lib] = (CSolver(lib), threading.Lock())
         return _SOLVERS[lib]
+
+
+#: the "cpu" clock handed to a solver: the calling thread's CPU time (kept alive here, C holds only the pointer)
+_CPU_CLOCK = ctypes.CFUNCTYPE(ctypes.c_double)(time.thread_time)
+
+
+def _set_clock(solver, clock: str) -> None:
+    """Time the solver's phases with its thread's CPU time (``cpu``) or its own monotonic host clock (``wall``)."""
+    fn = _CPU_CLOCK if clock == "cpu" else solver._f("host_clock")
+    solver._f("set_clock")(ctypes.cast(fn, ctypes.c_void_p))
 
 
 def _ocp(problem):
@@ -71,6 +82,7 @@ def run_task(task: Task) -> dict:
             rc = solver.init()
             if rc:
                 raise RuntimeError(f"{pb.name}_init() returned {rc}")
+            _set_clock(solver, task.clock)
             log = run_closed_loop(pb, sc, controller=solver, ocp=ocp)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
@@ -89,7 +101,8 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     loop, plant and scenario included), collision, a_lat outcome."""
     s = summary(log)
     row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
-           "seed": task.seed, "samples": task.samples, "solver_hash": hash_}
+           "seed": task.seed, "samples": task.samples, "solver_hash": hash_,
+           "clock": task.clock if task.config.controller == "c" else "wall"}
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})

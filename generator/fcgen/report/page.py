@@ -9,6 +9,8 @@ from ..campaign.store import read_results
 from . import figures, findings, tables
 
 PAPER_RUNS_PER_CONFIG = 500
+CLOCK_TEXT = {"cpu": "thread's CPU time (`--clock cpu`: other processes on the machine do not count)",
+              "wall": "monotonic wall clock (`--clock wall`)"}
 
 
 def scale_rows(df: pd.DataFrame) -> list[dict]:
@@ -62,7 +64,8 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True)
         "Results: " + ", ".join(f"{r.scenario}: {r.configs} configurations x {r.seeds} seeds x {r.samples} samples "
                                 f"({r.runs} runs)" for r in grid.itertuples()) + ".",
         f"Controllers: {', '.join(sorted(df['controller'].unique()))}; QP backend: "
-        f"{', '.join(sorted(df['backend'].unique()))}; fcgen solver hashes: {df['solver_hash'].nunique()}.", "",
+        f"{', '.join(sorted(df['backend'].unique()))}; fcgen solver hashes: {df['solver_hash'].nunique()}; the "
+        f"solver timed by its {' and '.join(CLOCK_TEXT[c] for c in sorted(df['clock'].unique()))}.", "",
         "## Table III: time per RTI (ms, mean ± std over every RTI), beside the paper's", "",
         tables.md_time_table(t_rows), "", conv_note, "",
         "Where the time goes:", "", tables.md_time_detail(t_rows), "",
