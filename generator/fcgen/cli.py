@@ -89,7 +89,8 @@ def _names(text: str) -> list[str]:
 @click.option("--formulations", default="conventional,direct_elimination,lifted", show_default=True)
 @click.option("--obstacles", "obstacle_list", default="ellipse,circles,hyperplane", show_default=True,
               help="comma-separated: ellipse, circles (the paper's C5/C7 trucks, C1/C3 cars), hyperplane, c<n>")
-@click.option("--seeds", type=click.IntRange(1, 100000), default=20, show_default=True, help="seeds FIRST .. FIRST+SEEDS-1")
+@click.option("--seeds", type=click.IntRange(1, 100000), default=20, show_default=True,
+              help="seeds FIRST .. FIRST+SEEDS-1")
 @click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True)
 @click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
 @click.option("--controller", type=click.Choice(["c", "python"]), default="c", show_default=True,

@@ -1,4 +1,4 @@
-"""The paper's grid (Table III): scenario x formulation x obstacle model, each a ``Config``; tasks are (config, seed)."""
+"""The paper's grid (Table III): scenario x formulation x obstacle model, each a ``Config``; a task = (config, seed)."""
 from __future__ import annotations
 
 import warnings

@@ -17,12 +17,12 @@ import pyarrow.parquet as pq
 
 PART_GLOB = "part-*.parquet"
 #: the columns ``fcgen report`` needs (``campaign.task.make_row`` writes them and more)
-REQUIRED_COLUMNS = ("config", "scenario", "formulation", "obstacles", "circles", "model", "seed", "samples",
-                    "progress", "collision", "n_collision_samples", "time_rti_ms", "time_total_ms_mean", "time_prepare_ms_mean",
-                    "time_feedback_ms_mean", "qp_iter_mean", "qp_n", "qp_m", "qp_nnz_a", "n_opp_par", "n_controls",
-                    "n_states", "max_slack", "a_lat_bound", "a_lat_over_samples", "a_lat_excess_max",
-                    "a_lat_excess_mean", "wall_s", "cpu_s", "t_start", "t_end", "worker", "solver_hash", "clock", "controller",
-                    "backend")
+REQUIRED_COLUMNS = (
+    "config", "scenario", "formulation", "obstacles", "circles", "model", "seed", "samples", "progress", "collision",
+    "n_collision_samples", "time_rti_ms", "time_total_ms_mean", "time_prepare_ms_mean", "time_feedback_ms_mean",
+    "qp_iter_mean", "qp_n", "qp_m", "qp_nnz_a", "n_opp_par", "n_controls", "n_states", "max_slack", "a_lat_bound",
+    "a_lat_over_samples", "a_lat_excess_max", "a_lat_excess_mean", "wall_s", "cpu_s", "t_start", "t_end", "worker",
+    "solver_hash", "clock", "controller", "backend")
 
 
 class ResultStore:

@@ -24,7 +24,7 @@ _LOCK = threading.Lock()
 _SOLVERS: dict[str, tuple[object, threading.Lock]] = {}
 _OCPS: dict[str, object] = {}
 
-#: the columns of a result row, in order (``time_rti_ms``: every sample's time per RTI, for box plots)
+#: the statistics of summary()'s timing dicts kept as columns (time_total_ms_mean, ...)
 STAT_KEYS = ("mean", "median", "p99", "max")
 
 

@@ -101,7 +101,8 @@ def alat_table(df: pd.DataFrame) -> list[dict]:
                 continue
             over = sub["a_lat_over_samples"].to_numpy()
             ex_sum = float(np.sum(sub["a_lat_excess_mean"].to_numpy() * over))
-            rows.append({"scenario": sc, "model": model, "formulation": form, "bound": float(sub["a_lat_bound"].iloc[0]),
+            rows.append({"scenario": sc, "model": model, "formulation": form,
+                         "bound": float(sub["a_lat_bound"].iloc[0]),
                          "share_pct": 100.0 * over.sum() / float(sub["n_states"].sum()),
                          "runs_over": int((over > 0).sum()), "runs": len(sub),
                          "excess_max": float(sub["a_lat_excess_max"].max()),
@@ -157,7 +158,8 @@ def md_progress_table(rows: list[dict]) -> str:
     for r in rows:
         vs = f"{r['vs_conv_m']:+.1f} m" if "vs_conv_m" in r else "–"
         better = f"{r['better_seeds']}/{r['paired']}" if "better_seeds" in r else "–"
-        out.append(f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} | {_pm(r['mean'], r['std'], 1)} "
+        out.append(f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} "
+                   f"| {_pm(r['mean'], r['std'], 1)} "
                    f"| {r['min']:.1f} | {vs} | {better} | {r['runs_with_collision']} | {r['max_slack']:.3g} |")
     return "\n".join(out)
 
