@@ -66,7 +66,7 @@ def test_findings_are_judged_on_the_rows():
     assert v["trucks: lifted and direct elimination progress further than conventional"] == "holds"
     assert v["zero collisions"] == "fails"
     de = next(f for f in fs if f.claim.startswith("direct"))
-    assert "QP 445 vs 445 variables" in de.why
+    assert "truck EL: 445 vs 445 QP variables, 60 vs 60 iterations" in de.why
 
 
 def test_grid_estimate_scales_the_measured_wall_times():

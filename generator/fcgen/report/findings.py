@@ -32,9 +32,20 @@ def _size_why(t, sc, model, form) -> str:
     a, c = t.get((sc, model, form)), t.get((sc, model, "conventional"))
     if not (a and c):
         return ""
-    return (f"{sc} {model}: QP {a['qp_n']} vs {c['qp_n']} variables, {a['qp_nnz_a']} vs {c['qp_nnz_a']} nonzeros; "
-            f"{a['qp_iter_mean']:.0f} vs {c['qp_iter_mean']:.0f} QP iterations; prepare {a['prepare_mean']:.3f} vs "
-            f"{c['prepare_mean']:.3f} ms, feedback {a['feedback_mean']:.3f} vs {c['feedback_mean']:.3f} ms")
+    return (f"{sc} {model}: {a['qp_n']} vs {c['qp_n']} QP variables, {a['qp_iter_mean']:.0f} vs "
+            f"{c['qp_iter_mean']:.0f} iterations, feedback {a['feedback_mean']:.2f} vs {c['feedback_mean']:.2f} ms, "
+            f"prepare {a['prepare_mean']:.2f} vs {c['prepare_mean']:.2f} ms")
+
+
+CAPPED = ("the QP runs a fixed ADMM budget (about 60 iterations, the real-time cap, in every formulation), so the "
+          "time per RTI is that budget times the cost of one iteration, which grows with the QP's size: the lifted "
+          "formulation adds the Cartesian states (5 per stage) to the QP")
+SAME_QP = ("direct elimination keeps the conventional QP (same size, same iterations); its only extra work, the "
+           "obstacle rows through the Frenet-to-Cartesian map, is a small part of the prepare phase, and the QP "
+           "(feedback) dominates the time per RTI")
+ELLIPSE = ("the covering ellipse (semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a 13 x 2 m "
+           "half truck) keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or "
+           "few circles do, so it overtakes later")
 
 
 def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0) -> list[Finding]:
@@ -54,7 +65,7 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0) ->
             if not ok[-1]:
                 why.append(_size_why(t, sc, m, "lifted"))
     out.append(Finding(f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
-                       _verdict(ok), ", ".join(ev), "; ".join(why)))
+                       _verdict(ok), ", ".join(ev), (CAPPED + ": " + "; ".join(why)) if why else ""))
 
     # 2. direct elimination ~ +30 % with EL (paper +28.9 % truck, +29.6 % car)
     ok, ev, why = [], [], []
@@ -66,7 +77,7 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0) ->
             if not ok[-1]:
                 why.append(_size_why(t, sc, "EL", "direct_elimination"))
     out.append(Finding("direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
-                       _verdict(ok), ", ".join(ev), "; ".join(why)))
+                       _verdict(ok), ", ".join(ev), (SAME_QP + ": " + "; ".join(why)) if why else ""))
 
     # 3. trucks: lifted and DE progress further than conventional
     ok, ev = [], []
@@ -91,7 +102,8 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0) ->
                 best = max(cand, key=cand.get)
                 ok.append(best == "EL")
                 ev.append(f"{sc} {form}: best {best} ({cand[best]:.1f} m; EL {cand['EL']:.1f} m)")
-    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev)))
+    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev),
+                       ELLIPSE if not all(ok) else ""))
 
     # 5. zero collisions (true rectangles)
     runs = sum(r["runs"] for r in prog_rows)
