@@ -140,3 +140,20 @@ def test_a_killed_campaign_resumes_where_it_stopped(cache, tmp_path):
     res = run_campaign(make_tasks(CONFIGS, range(10), 60, cache), out, jobs=2)
     assert (res.computed, res.skipped) == (20 - before, before)
     assert len(ResultStore(out).read()) == 20
+
+
+def test_cli_campaign_then_report(cache, tmp_path):
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    out, rep = tmp_path / "res", tmp_path / "rep"
+    args = ["campaign", "--scenarios", "truck", "--formulations", "lifted", "--obstacles", "ellipse", "--seeds", "2",
+            "--samples", "4", "--jobs", "1", "--cache", cache, "--out", str(out)]
+    res = CliRunner().invoke(main, args + ["--report", str(rep)])
+    assert res.exit_code == 0, res.output
+    assert "1 configurations x 2 seeds x 4 samples = 2 runs" in res.output and "2 runs computed, 0 already done" in res.output
+    assert len(ResultStore(out).parts()) == 1                      # finished: compacted into one file
+    assert "## Table III" in (rep / "README.md").read_text() and (rep / "boxplots_truck.svg").is_file()
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0 and "0 runs computed, 2 already done" in res.output
