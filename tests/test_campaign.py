@@ -114,7 +114,7 @@ def test_resume_computes_only_the_missing_runs(cache, tmp_path):
     again = run_campaign(tasks, out, jobs=1, flush_every=1)
     assert (again.computed, again.skipped) == (3, 3)
     done = store.done()
-    assert {t.run_id for t in tasks} == done and (lost_run["config"], SAMPLES, int(lost_run["seed"])) in done
+    assert {t.run_id for t in tasks} == done and (lost_run["config"], SAMPLES, int(lost_run["seed"]), "cpu") in done
     assert run_campaign(tasks, out, jobs=1).computed == 0         # finished: nothing recomputed
     assert store.compact() is not None and len(store.parts()) == 1 and len(store.read()) == 6
 

@@ -108,8 +108,13 @@ class Task:
     clock: str = "cpu"          # the C solver's clock: "cpu" (its thread's CPU time) or "wall" (monotonic)
 
     @property
-    def run_id(self) -> tuple[str, int, int]:
-        return (self.config.key, self.samples, self.seed)
+    def timed_by(self) -> str:
+        """The clock of the row's solver times (the Python reference is always timed by the wall clock)."""
+        return self.clock if self.config.controller == "c" else "wall"
+
+    @property
+    def run_id(self) -> tuple[str, int, int, str]:
+        return (self.config.key, self.samples, self.seed, self.timed_by)
 
 
 def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str, clock: str = "cpu") -> list[Task]:

@@ -16,6 +16,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 PART_GLOB = "part-*.parquet"
+#: the columns that identify a run (``Task.run_id``)
+RUN_ID = ("config", "samples", "seed", "clock")
 #: the columns ``fcgen report`` needs (``campaign.task.make_row`` writes them and more)
 REQUIRED_COLUMNS = (
     "config", "scenario", "formulation", "obstacles", "circles", "model", "seed", "samples", "progress", "collision",
@@ -55,18 +57,18 @@ class ResultStore:
             return pd.DataFrame(columns=columns or [])
         return pd.concat([pd.read_parquet(p, columns=columns) for p in parts], ignore_index=True)
 
-    def done(self) -> set[tuple[str, int, int]]:
-        """The run ids (config key, samples, seed) already in the folder."""
-        df = self.read(["config", "samples", "seed"])
-        return {(c, int(n), int(s)) for c, n, s in zip(df["config"], df["samples"], df["seed"])}
+    def done(self) -> set[tuple[str, int, int, str]]:
+        """The run ids (config key, samples, seed, clock) already in the folder."""
+        df = self.read(list(RUN_ID))
+        return {(c, int(n), int(s), k) for c, n, s, k in zip(*(df[c] for c in RUN_ID))}
 
     def compact(self) -> Path | None:
         """Merge all parts into one (duplicate runs keep their first row); returns the merged file."""
         parts = self.parts()
         if len(parts) <= 1:
             return parts[0] if parts else None
-        df = self.read().drop_duplicates(["config", "samples", "seed"], keep="first")
-        df = df.sort_values(["config", "samples", "seed"], kind="stable").reset_index(drop=True)
+        df = self.read().drop_duplicates(list(RUN_ID), keep="first")
+        df = df.sort_values(list(RUN_ID), kind="stable").reset_index(drop=True)
         merged = self.write(df.to_dict("records"))
         for p in parts:
             p.unlink()

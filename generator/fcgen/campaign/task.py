@@ -102,7 +102,7 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     s = summary(log)
     row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
            "seed": task.seed, "samples": task.samples, "solver_hash": hash_,
-           "clock": task.clock if task.config.controller == "c" else "wall"}
+           "clock": task.timed_by}
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
