@@ -28,11 +28,13 @@ def hand_rows() -> pd.DataFrame:
                          "obstacles": "ellipse", "circles": 0, "model": "EL", "seed": seed, "samples": 2,
                          "progress": prog[seed], "collision": bool(hit and seed == 1),
                          "n_collision_samples": 3 if hit and seed == 1 else 0, "time_rti_ms": t.tolist(),
-                         "time_total_ms_mean": t.mean(), "time_prepare_ms_mean": 0.25 * t.mean(), "time_feedback_ms_mean": 0.75 * t.mean(),
+                         "time_total_ms_mean": t.mean(), "time_prepare_ms_mean": 0.25 * t.mean(),
+                         "time_feedback_ms_mean": 0.75 * t.mean(),
                          "qp_iter_mean": 60.0, "qp_n": 568 if form == "lifted" else 445, "qp_m": 900,
                          "qp_nnz_a": 3000, "n_opp_par": 3, "n_controls": 2, "n_states": 3, "max_slack": 0.0,
                          "a_lat_bound": 5.0, "a_lat_over_samples": seed, "a_lat_excess_max": 0.5 * seed,
-                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5, "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
+                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5,
+                         "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
                          "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h", "clock": "cpu",
                          "controller": "c", "backend": "osqp"})
     return pd.DataFrame(rows)
