@@ -121,5 +121,6 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["t_start"] = float(t_start)
     row["t_end"] = float(t_start + wall)
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    row["load_1min"] = float(os.getloadavg()[0])   # the machine's load when the run ended (how shared it was)
     row["time_rti_ms"] = t_ms.astype(np.float32).tolist()
     return row

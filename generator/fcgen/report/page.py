@@ -37,7 +37,8 @@ def grid_estimate(df: pd.DataFrame, cores: int = 2) -> dict:
     return {"configs": g.ngroups, "runs": runs, "core_s": cpu, "core_s_wall": wall, "solver_core_s": solver,
             "wall_min": cpu / cores / 60.0, "wall_min_loaded": wall / cores / 60.0,
             "solver_min": solver / cores / 60.0, "cores": cores, "measured_runs": len(df), "measured_span_s": span,
-            "measured_rate": len(df) / span if span > 0 else float("nan"), "workers": int(df["worker"].nunique())}
+            "measured_rate": len(df) / span if span > 0 else float("nan"), "workers": int(df["worker"].nunique()),
+            "load": float(df["load_1min"].mean()) if "load_1min" in df else float("nan")}
 
 
 def write_report(results: str | Path, out_dir: str | Path, example: bool = True) -> Path:
@@ -80,11 +81,12 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True)
         *[f"| {r['scenario']} | {r['model']} | {r['runs']} | {r['cpu_mean_s']:.3f} | {r['runs_per_s_core']:.2f} "
           f"| {r['wall_mean_s']:.3f} | {r['runs_per_s_core_wall']:.2f} |" for r in scale_rows(df)], "",
         f"Measured: {est['measured_runs']} runs in {est['measured_span_s']:.0f} s on {est['workers']} worker "
-        f"processes ({est['measured_rate']:.2f} runs/s). The paper's grid ({PAPER_RUNS_PER_CONFIG} runs x "
-        f"{est['configs']} configurations = {est['runs']} runs) needs {est['core_s'] / 3600:.2f} CPU core-hours: "
-        f"**{est['wall_min']:.0f} min on {est['cores']} free cores** ({est['wall_min_loaded']:.0f} min at the wall "
-        f"times measured here). Of that, the solver itself (time per RTI x RTIs) takes {est['solver_min']:.0f} min "
-        f"(its time per RTI is a wall-clock figure, inflated too when the machine is loaded).", "",
+        f"processes ({est['measured_rate']:.2f} runs/s; the machine's load average {est['load']:.1f}). "
+        f"The paper's grid ({PAPER_RUNS_PER_CONFIG} runs x {est['configs']} configurations = {est['runs']} runs) "
+        f"needs {est['core_s'] / 3600:.2f} CPU core-hours: **{est['wall_min']:.0f} min on {est['cores']} free "
+        f"cores** ({est['wall_min_loaded']:.0f} min at the wall times measured here). Of that, the solver itself "
+        f"(time per RTI x RTIs, by its {'/'.join(sorted(df['clock'].unique()))} clock) takes "
+        f"{est['solver_min']:.0f} min.", "",
     ]
     page = out / "README.md"
     page.write_text("\n".join(lines))
