@@ -24,8 +24,8 @@ from fcgen.presets import paper_problem
 
 SAMPLES = 6
 CONFIGS = paper_grid(["truck"], ["direct_elimination", "lifted"], ["ellipse"])
-# run columns that do not depend on timing, the worker or when the run happened
-TIMING = ("time_", "wall_s", "cpu_s", "t_start", "t_end", "worker")
+# columns that depend on timing, the worker, when the run happened and how loaded the machine was
+TIMING = ("time_", "wall_s", "cpu_s", "t_start", "t_end", "worker", "load_1min")
 
 
 @pytest.fixture(scope="module")
