@@ -133,7 +133,15 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
     tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock)
     click.echo(f"{len(configs)} configurations x {seeds} seeds x {samples} samples = {len(tasks)} runs "
                f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}")
-    res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)
+    import signal
+
+    def _stop(signum, frame):  # SIGTERM (a batch system, kill): stop like Ctrl-C, keeping the finished runs
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGTERM, _stop)
+    try:
+        res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)
+    except KeyboardInterrupt:
+        _fail(f"interrupted: the finished runs are in {out}; run the same command again to resume")
     rate = res.computed / res.wall_s if res.wall_s > 0 else 0.0
     click.echo(f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
                f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers")
