@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from fcgen.campaign.store import REQUIRED_COLUMNS, ResultStore
 from fcgen.cli import main
 from fcgen.report import findings, tables
-from fcgen.report.page import grid_estimate, write_report
+from fcgen.report.page import busy_seconds, grid_estimate, write_report
 
 # per formulation: (time per RTI of seed 0, of seed 1) in ms, progress of seeds 0 and 1, collision of seed 1
 HAND = {"conventional": (([1.0, 3.0], [2.0, 2.0]), (100.0, 110.0), False),
@@ -78,7 +78,13 @@ def test_grid_estimate_scales_the_measured_wall_times():
     assert est["core_s_wall"] == 1500.0
     # the solver: per configuration 2 RTIs of 2, 3 and 2 ms (mean), 500 runs each
     assert est["solver_core_s"] == pytest.approx(500 * 2 * (2.0 + 3.0 + 2.0) / 1e3)
-    assert est["measured_rate"] == pytest.approx(6 / 11.0) and est["workers"] == 2
+    # runs in [0, 1] (seed 0) and [10, 11] (seed 1): 2 s of running time, the gap between does not count
+    assert est["measured_span_s"] == 2.0 and est["measured_rate"] == 3.0 and est["workers"] == 2
+
+
+def test_busy_seconds_is_the_union_of_the_run_intervals():
+    assert busy_seconds([0, 1, 5, 5.5], [2, 3, 6, 7]) == 5.0     # [0, 3] and [5, 7]
+    assert busy_seconds([], []) == 0.0
 
 
 def test_write_report_writes_page_tables_and_figures(tmp_path):
