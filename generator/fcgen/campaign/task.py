@@ -73,12 +73,11 @@ def run_task(task: Task) -> dict:
     pb = cfg.problem()
     ocp = _ocp(pb)
     sc = make_scenario(cfg.scenario, task.seed, n_opp=pb.opponents.count, samples=task.samples, dt=pb.horizon.dt)
-    t_start = time.time()
     if cfg.controller == "c":
         lib = ensure_solver(pb, task.cache_dir)
         solver, lock = _solver(str(lib))
         with lock:
-            t0, c0 = time.perf_counter(), time.process_time()
+            t_start, t0, c0 = time.time(), time.perf_counter(), time.process_time()
             rc = solver.init()
             if rc:
                 raise RuntimeError(f"{pb.name}_init() returned {rc}")
@@ -87,7 +86,7 @@ def run_task(task: Task) -> dict:
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
     else:
-        t0, c0 = time.perf_counter(), time.process_time()
+        t_start, t0, c0 = time.time(), time.perf_counter(), time.process_time()
         ctrl = ReferenceController(ocp)
         log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
