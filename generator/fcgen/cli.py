@@ -1,7 +1,6 @@
 """The ``fcgen`` command: thin wrappers over the modules; bad input gives a one-line error, never a traceback."""
 from __future__ import annotations
 
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -85,32 +84,92 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         click.echo(f"plot written to {plot}")
 
 
-@main.command()
-@click.option("--scenario", type=click.Choice(SCENARIOS), default="truck", show_default=True)
-@click.option("--formulations", default="conventional,direct_elimination,lifted", show_default=True)
-@click.option("--obstacles", "obstacle_list", default="ellipse", show_default=True,
-              help="comma-separated: ellipse, circles, hyperplane")
-@click.option("--circles", type=click.IntRange(1, 20), default=None)
-@click.option("--seeds", type=click.IntRange(1, 10000), default=20, show_default=True)
-@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
-@click.option("--out", type=click.Path(dir_okay=False), default="results/campaign.json", show_default=True)
-def campaign(scenario, formulations, obstacle_list, circles, seeds, samples, out):
-    """Randomized runs per (formulation, obstacle model): the paper's Table III and progress, as a table."""
-    from .sim.campaign import format_table, run_campaign
+def _names(text: str) -> list[str]:
+    return [x.strip() for x in text.split(",") if x.strip()]
 
-    forms = [f.strip() for f in formulations.split(",") if f.strip()]
-    obsl = [o.strip() for o in obstacle_list.split(",") if o.strip()]
-    for f in forms:
+
+@main.command()
+@click.option("--scenarios", default="truck,car", show_default=True, help="comma-separated: truck, car")
+@click.option("--formulations", default="conventional,direct_elimination,lifted", show_default=True)
+@click.option("--obstacles", "obstacle_list", default="ellipse,circles,hyperplane", show_default=True,
+              help="comma-separated: ellipse, circles (the paper's C5/C7 trucks, C1/C3 cars), hyperplane, c<n>")
+@click.option("--seeds", type=click.IntRange(1, 100000), default=20, show_default=True,
+              help="seeds FIRST .. FIRST+SEEDS-1")
+@click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True)
+@click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
+@click.option("--controller", type=click.Choice(["c", "python"]), default="c", show_default=True,
+              help="compiled C solvers, or the Python reference SQP-RTI")
+@click.option("--backend", type=click.Choice(["osqp", "ipm"]), default="osqp", show_default=True,
+              help="QP backend (QpOptions.backend)")
+@click.option("--clock", type=click.Choice(["cpu", "wall"]), default="cpu", show_default=True,
+              help="what times the C solver: its thread's CPU time (unaffected by other processes on a shared "
+              "machine) or the monotonic wall clock of its host hook")
+@click.option("--jobs", type=click.IntRange(1, 1024), default=2, show_default=True,
+              help="local worker processes (or the workers of --scheduler local)")
+@click.option("--scheduler", default=None, help="a Dask scheduler address (tcp://host:8786), or 'local' for a "
+              "LocalCluster of --jobs workers; default: a local process pool")
+@click.option("--cache", "cache_dir", type=click.Path(file_okay=False), default=".fcgen-cache/solvers",
+              show_default=True, help="compiled solvers, one folder per problem hash")
+@click.option("--out", type=click.Path(), default="results/campaign", show_default=True,
+              help="results: a Parquet dataset folder (runs already in it are not recomputed)")
+@click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
+              help="also write `fcgen report` into this folder")
+def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
+             scheduler, cache_dir, out, report_dir):
+    """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
+    from .campaign.grid import make_tasks, paper_grid
+    from .campaign.runner import run_campaign
+    from .campaign.store import ResultStore
+
+    for f in _names(formulations):
         if f not in FORMULATIONS:
             _fail(f"--formulations: {f!r} is invalid: allowed {', '.join(FORMULATIONS)}")
-    for o in obsl:
-        if o not in OBSTACLES:
-            _fail(f"--obstacles: {o!r} is invalid: allowed {', '.join(OBSTACLES)}")
-    res = run_campaign(scenario, forms, obsl, seeds, samples, circles=circles, progress=True)
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    Path(out).write_text(json.dumps(res, indent=1, sort_keys=True))
-    click.echo(format_table(res))
-    click.echo(f"results written to {out}")
+    for s in _names(scenarios):
+        if s not in SCENARIOS:
+            _fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
+    try:
+        configs = paper_grid(_names(scenarios), _names(formulations), _names(obstacle_list), controller, backend)
+        for c in configs:
+            c.problem()  # a backend this fcgen lacks fails here, before any worker starts
+    except ProblemError as exc:
+        _fail(f"--obstacles/--backend: {exc}")
+    store = ResultStore(out)
+    tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock)
+    click.echo(f"{len(configs)} configurations x {seeds} seeds x {samples} samples = {len(tasks)} runs "
+               f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}")
+    import signal
+
+    def _stop(signum, frame):  # SIGTERM (a batch system, kill): stop like Ctrl-C, keeping the finished runs
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGTERM, _stop)
+    try:
+        res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)
+    except KeyboardInterrupt:
+        _fail(f"interrupted: the finished runs are in {out}; run the same command again to resume")
+    rate = res.computed / res.wall_s if res.wall_s > 0 else 0.0
+    click.echo(f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
+               f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers")
+    for run_id, msg in res.failed[:5]:
+        click.echo(f"failed {run_id}: {msg}", err=True)
+    if res.failed:
+        _fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
+    if res.computed and {t.run_id for t in tasks} <= store.done():
+        store.compact()
+    if report_dir:
+        from .report.page import write_report
+        click.echo(f"report written to {write_report(out, report_dir)}")
+
+
+@main.command()
+@click.argument("results", type=click.Path(exists=True))
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True, help="report folder")
+@click.option("--no-example", is_flag=True, help="skip the Fig. 1-like picture (it re-simulates one run)")
+def report(results, out_dir, no_example):
+    """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page."""
+    from .report.page import write_report
+
+    path = write_report(results, out_dir, example=not no_example)
+    click.echo(f"report written to {path}")
 
 
 @main.command()

@@ -7,6 +7,7 @@ linear ``kappa``), and ``gamma`` cubic Hermite with slopes ``[cos, sin](phi_gamm
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import casadi as ca
@@ -147,9 +148,12 @@ class Road:
         return s, n, phi - phi_g
 
 
-def random_road(seed: int, length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
+def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
                 knot_spacing: float = 25.0, s0: float = 0.0) -> Road:
-    """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max)."""
+    """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max).
+
+    ``seed`` is anything ``numpy.random.default_rng`` takes (an int, or a list of ints for derived seeds).
+    """
     rng = np.random.default_rng(seed)
     knots = rng.uniform(-kappa_max, kappa_max, int(math.ceil(length / knot_spacing)) + 3)
     s = np.arange(int(math.ceil(length / ds)) + 1) * ds
@@ -159,6 +163,20 @@ def random_road(seed: int, length: float = 1600.0, ds: float = 2.0, kappa_max: f
     pad = width // 2
     kappa = np.convolve(np.pad(raw, pad, mode="edge"), np.ones(width) / width, mode="valid")
     return Road.from_curvature(kappa, ds, s0)
+
+
+def min_self_distance(road: Road, min_arc: float, s_max: float | None = None) -> float:
+    """Smallest planar distance between two road samples more than ``min_arc`` apart along the road.
+
+    Only samples with ``s <= s_max`` count (default: all). ``inf`` when no two samples are that far apart.
+    """
+    keep = road.s <= (road.s_end if s_max is None else s_max)
+    s, x, y = road.s[keep], road.gx[keep], road.gy[keep]
+    far = np.abs(s[:, None] - s[None, :]) > min_arc
+    if not far.any():
+        return math.inf
+    d2 = (x[:, None] - x[None, :]) ** 2 + (y[:, None] - y[None, :]) ** 2
+    return float(math.sqrt(np.min(d2[far])))
 
 
 def straight_road(length: float = 1600.0, ds: float = 2.0, s0: float = 0.0) -> Road:

@@ -1,16 +1,28 @@
 """The paper's randomized scenarios (SPEC section 7): road, ego start, opponents' trajectories, solver parameters."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..dsl import Problem
-from ..road import Road, random_road
+from ..road import Road, min_self_distance, random_road
 
 OPP_SPEED = 15.0      # opponents' Frenet progress rate ds/dt, m/s (constant n, alpha = 0)
 EGO_SPEED0 = 15.0
 ROAD_BEHIND = 50.0    # the road starts this far behind the ego's start s = 0
+
+# Realistic roads (SPEC section 3 only bounds the curvature; a random walk of the heading can loop back): a road is
+# redrawn when two of its points more than ROAD_MIN_ARC apart along it are less than ROAD_MIN_GAP apart in the plane.
+# ROAD_MIN_GAP = the truck scenario's road width (2 x 10 m) + a truck's chassis length (26 m): the two corridors
+# stay a truck length apart. ROAD_MIN_ARC = pi / kappa_max (62.8 m), the half turn of the tightest bend: closer
+# points belong to one bend, whose chord the curvature bound already limits. Only the first ROAD_CHECKED metres are
+# checked: what a 200-sample run can reach at v_max = 40 m/s with its 40-sample horizon (50 + 800 + 160 m).
+ROAD_MIN_GAP = 46.0
+ROAD_MIN_ARC = math.pi / 0.05
+ROAD_CHECKED = 1010.0
+ROAD_MAX_DRAWS = 100
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,17 +54,33 @@ class Scenario:
 
 def make_scenario(scenario: str, seed: int, n_opp: int = 3, samples: int = 200, dt: float = 0.1,
                   road_length: float = 1600.0) -> Scenario:
-    """Seeded, reproducible: road from ``seed``, then ego n0 and opponents' n from U[-5, 5]."""
+    """Seeded, reproducible: a realistic road from ``seed`` (``realistic_road``), then ego n0 and opponents' n
+    from U[-5, 5]."""
     if scenario not in ("car", "truck"):
         raise ValueError(f"scenario = {scenario!r} is invalid: allowed 'car' or 'truck'")
     if not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed = {seed!r} is invalid: allowed an integer >= 0")
-    road = random_road(seed, length=road_length, s0=-ROAD_BEHIND)
+    road = realistic_road(seed, length=road_length)
     rng = np.random.default_rng([seed, 1])
     n0 = rng.uniform(-5.0, 5.0)
     opp_n = rng.uniform(-5.0, 5.0, n_opp)
     x0 = np.array([0.0, n0, 0.0, EGO_SPEED0, 0.0])
     return Scenario(scenario, seed, road, x0, 50.0 * (np.arange(n_opp) + 1), opp_n, samples, dt)
+
+
+def road_is_realistic(road: Road) -> bool:
+    """No two points of the checked part more than ROAD_MIN_ARC apart along the road are closer than ROAD_MIN_GAP."""
+    return min_self_distance(road, ROAD_MIN_ARC, road.s0 + ROAD_CHECKED) >= ROAD_MIN_GAP
+
+
+def realistic_road(seed: int, length: float = 1600.0) -> Road:
+    """The first realistic road of the seeded sequence: draw 0 from ``seed`` (so roads that passed before are
+    unchanged), draw k >= 1 from the derived seed ``[seed, 2, k]``; reproducible."""
+    for k in range(ROAD_MAX_DRAWS):
+        road = random_road(seed if k == 0 else [seed, 2, k], length=length, s0=-ROAD_BEHIND)
+        if road_is_realistic(road):
+            return road
+    raise ValueError(f"seed = {seed}: no realistic road in {ROAD_MAX_DRAWS} draws (ROAD_MIN_GAP = {ROAD_MIN_GAP} m)")
 
 
 class OpponentParams:

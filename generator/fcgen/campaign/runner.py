@@ -1,0 +1,101 @@
+"""Run a campaign's tasks on an executor: a local process pool, or a Dask cluster through ``Client.get_executor()``.
+
+Both are ``concurrent.futures`` executors running the same task function (``task.run_task``); the executor is the
+only difference. Rows are written as runs finish (a part file every ``flush_every`` runs or ``flush_seconds``), and
+runs already in the results folder are skipped, so an interrupted campaign resumes where it stopped.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .grid import Task
+from .store import ResultStore
+from .task import run_task
+
+
+@dataclass
+class Outcome:
+    """What one call of ``run_campaign`` did."""
+
+    total: int
+    skipped: int
+    computed: int = 0
+    failed: list[tuple[tuple, str]] = field(default_factory=list)
+    wall_s: float = 0.0
+    workers: int = 0
+
+
+@contextmanager
+def executor(jobs: int = 2, scheduler: str | None = None):
+    """A process pool of ``jobs`` workers, or a Dask cluster's executor: ``scheduler`` = an address
+    (``tcp://host:8786``) or ``local`` (a LocalCluster of ``jobs`` single-threaded worker processes)."""
+    if scheduler is None:
+        with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
+            yield ex, jobs
+        return
+    from distributed import Client, LocalCluster
+    if scheduler == "local":
+        with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+                Client(cl) as client:
+            yield client.get_executor(pure=False), jobs
+        return
+    with Client(scheduler, timeout="20s") as client:
+        yield client.get_executor(pure=False), sum(client.nthreads().values())
+
+
+def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, scheduler: str | None = None,
+                 progress: bool = False, flush_every: int = 20, flush_seconds: float = 30.0) -> Outcome:
+    """Run the tasks not yet in ``results``; rows are written as they finish. Failed runs are reported, not written."""
+    store = ResultStore(results)
+    done = store.done()
+    todo = [t for t in tasks if t.run_id not in done]
+    out = Outcome(total=len(tasks), skipped=len(tasks) - len(todo))
+    if not todo:
+        return out
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(todo), unit="run", desc=f"campaign ({out.skipped} done before)", smoothing=0.05)
+    t0 = time.perf_counter()
+    buf: list[dict] = []
+    try:
+        with executor(jobs, scheduler) as (ex, workers):
+            out.workers = workers
+            futs = {ex.submit(run_task, t): t for t in todo}
+            try:
+                _collect(futs, out, buf, bar, store, flush_every, flush_seconds)
+            except BaseException:  # interrupted: drop the runs not started, keep (flush) the finished ones
+                for f in futs:
+                    f.cancel()
+                raise
+    finally:
+        store.write(buf)
+        if bar is not None:
+            bar.close()
+        out.wall_s = time.perf_counter() - t0
+    return out
+
+
+def _collect(futs: dict, out: Outcome, buf: list, bar, store: ResultStore, flush_every: int,
+             flush_seconds: float) -> None:
+    """Gather finished runs into ``buf`` (in place), writing a part whenever enough have piled up."""
+    last = time.monotonic()
+    for fut in cf.as_completed(futs):
+        try:
+            buf.append(fut.result())
+            out.computed += 1
+        except cf.CancelledError:
+            continue
+        except Exception as exc:  # a run that fails is reported, not written: the next call retries it
+            out.failed.append((futs[fut].run_id, f"{type(exc).__name__}: {exc}"))
+        if bar is not None:
+            bar.update(1)
+        if len(buf) >= flush_every or (buf and time.monotonic() - last > flush_seconds):
+            store.write(buf)
+            buf.clear()
+            last = time.monotonic()

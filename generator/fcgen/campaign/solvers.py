@@ -1,0 +1,68 @@
+"""Compiled solvers for the campaign: generated and built once per configuration, cached by a content hash.
+
+The cache folder of a problem is ``<cache>/<name>-<hash>``, where the hash covers the problem record (the
+``problem.py`` source that ``fcgen generate`` writes), the precision, the fcgen version and a fingerprint of the
+generator's own files (Python modules and templates), so a changed generator never reuses a stale solver. Building
+is guarded by a file lock, so parallel workers (processes, Dask workers) build each solver once.
+"""
+from __future__ import annotations
+
+import fcntl
+import hashlib
+from functools import lru_cache
+from pathlib import Path
+
+from .. import __version__
+from ..dsl import Problem
+
+READY = ".fcgen-ready"
+#: package parts that do not decide the generated C (the fingerprint leaves them out)
+NOT_GENERATOR = ("campaign", "report", "sim", "cli.py", "bench.py", "verify.py", "demo.py", "firmware_sim")
+
+
+@lru_cache(maxsize=1)
+def generator_fingerprint() -> str:
+    """sha256 over the package's modules and templates that decide the generated C."""
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*")):
+        rel = p.relative_to(root)
+        if p.is_file() and (p.suffix in (".py", ".j2", ".c", ".h") or p.name == "Makefile") \
+                and "__pycache__" not in rel.parts and rel.parts[0] not in NOT_GENERATOR:
+            h.update(str(p.relative_to(root)).encode())
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def solver_hash(problem: Problem, use_float: bool = False) -> str:
+    """16 hex digits identifying the generated solver of ``problem`` with this generator."""
+    from ..codegen.generate import problem_source
+    h = hashlib.sha256()
+    for part in (problem_source(problem), f"float={use_float}", __version__, generator_fingerprint()):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = False) -> Path:
+    """The shared library of ``problem``'s solver: generated and built into the cache unless already there."""
+    from ..build import build
+    from ..codegen.generate import generate
+
+    cache = Path(cache_dir)
+    cache.mkdir(parents=True, exist_ok=True)
+    folder = cache / f"{problem.name}-{solver_hash(problem, use_float)}"
+    lib = folder / "build" / f"lib{problem.name}.so"
+    if (folder / READY).is_file() and lib.is_file():
+        return lib
+    with open(cache / f"{folder.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not ((folder / READY).is_file() and lib.is_file()):
+                generate(problem, folder, use_float=use_float)
+                built = build(folder, jobs=1)
+                assert built == lib, (built, lib)
+                (folder / READY).write_text(f"{problem.name}\n")
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+    return lib

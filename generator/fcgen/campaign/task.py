@@ -1,0 +1,125 @@
+"""The one task function of a campaign: one closed-loop run -> one flat result row (the same in every executor).
+
+Per process it keeps the loaded solvers (one static workspace per shared library, re-initialised before each run,
+guarded by a lock so that a multi-threaded worker serialises runs of one solver instead of corrupting it) and the
+Python OCPs. Collisions are the true-rectangle check of ``sim.collision`` (the run log's ``collision`` field), never
+the slacks.
+"""
+from __future__ import annotations
+
+import ctypes
+import json
+import math
+import os
+import socket
+import threading
+import time
+
+import numpy as np
+
+from ..sim.runlog import summary
+from .grid import Task
+
+_LOCK = threading.Lock()
+_SOLVERS: dict[str, tuple[object, threading.Lock]] = {}
+_OCPS: dict[str, object] = {}
+
+#: the statistics of summary()'s timing dicts kept as columns (time_total_ms_mean, ...)
+STAT_KEYS = ("mean", "median", "p99", "max")
+
+
+def _solver(lib: str):
+    from ..build import CSolver
+    with _LOCK:
+        if lib not in _SOLVERS:
+            _SOLVERS[lib] = (CSolver(lib), threading.Lock())
+        return _SOLVERS[lib]
+
+
+#: the "cpu" clock handed to a solver: the calling thread's CPU time (kept alive here, C holds only the pointer)
+_CPU_CLOCK = ctypes.CFUNCTYPE(ctypes.c_double)(time.thread_time)
+
+
+def _set_clock(solver, clock: str) -> None:
+    """Time the solver's phases with its thread's CPU time (``cpu``) or its own monotonic host clock (``wall``)."""
+    fn = _CPU_CLOCK if clock == "cpu" else solver._f("host_clock")
+    solver._f("set_clock")(ctypes.cast(fn, ctypes.c_void_p))
+
+
+def _ocp(problem):
+    from ..ocp import build_ocp
+    with _LOCK:
+        if problem.name not in _OCPS:
+            _OCPS[problem.name] = build_ocp(problem)
+        return _OCPS[problem.name]
+
+
+def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
+    """The soft lateral-acceleration bound: samples above it, and by how far (m/s^2)."""
+    excess = np.abs(a_lat) - bound
+    over = excess > 0
+    return {"a_lat_bound": float(bound), "a_lat_over_samples": int(np.count_nonzero(over)),
+            "a_lat_excess_max": float(np.max(excess[over])) if over.any() else 0.0,
+            "a_lat_excess_mean": float(np.mean(excess[over])) if over.any() else 0.0}
+
+
+def run_task(task: Task) -> dict:
+    """Run one closed loop of ``task`` (C solver from the cache, or the Python reference); returns its row."""
+    from ..sim.closedloop import ReferenceController, run_closed_loop
+    from ..sim.scenario import make_scenario
+    from .solvers import ensure_solver, solver_hash
+
+    cfg = task.config
+    pb = cfg.problem()
+    ocp = _ocp(pb)
+    sc = make_scenario(cfg.scenario, task.seed, n_opp=pb.opponents.count, samples=task.samples, dt=pb.horizon.dt)
+    if cfg.controller == "c":
+        lib = ensure_solver(pb, task.cache_dir)
+        solver, lock = _solver(str(lib))
+        with lock:
+            t_start, t0, c0 = time.time(), time.perf_counter(), time.process_time()
+            rc = solver.init()
+            if rc:
+                raise RuntimeError(f"{pb.name}_init() returned {rc}")
+            _set_clock(solver, task.clock)
+            log = run_closed_loop(pb, sc, controller=solver, ocp=ocp)
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
+    else:
+        t_start, t0, c0 = time.time(), time.perf_counter(), time.process_time()
+        ctrl = ReferenceController(ocp)
+        log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        lay = ctrl.solver.lay
+        sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A, "n_opp_par": ocp.n_opp_par}
+    return make_row(task, pb, log, wall, cpu, t_start, sizes, solver_hash(pb))
+
+
+def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str) -> dict:
+    """The flat row of one run: configuration, seed, every ``summary`` figure, wall and CPU time (of the whole closed
+    loop, plant and scenario included), collision, a_lat outcome."""
+    s = summary(log)
+    row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
+           "seed": task.seed, "samples": task.samples, "solver_hash": hash_,
+           "clock": task.timed_by}
+    for k, v in s.items():
+        if isinstance(v, dict) and k.endswith("_ms"):
+            row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
+        elif k == "qp_status_counts":
+            row[k] = json.dumps(v, sort_keys=True)
+        else:
+            row[k] = v
+    t_ms = 1e3 * np.asarray(log.time_total, dtype=float)
+    row["time_total_ms_std"] = float(np.std(t_ms)) if t_ms.size else math.nan
+    row["collision"] = bool(s["n_collision_samples"] > 0)
+    row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
+    row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
+    row.update(sizes)
+    row["wall_s"] = float(wall)
+    row["cpu_s"] = float(cpu)
+    row["t_start"] = float(t_start)
+    row["t_end"] = float(t_start + wall)
+    row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    row["load_1min"] = float(os.getloadavg()[0])   # the machine's load when the run ended (how shared it was)
+    row["time_rti_ms"] = t_ms.astype(np.float32).tolist()
+    return row

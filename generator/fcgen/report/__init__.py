@@ -1,0 +1,1 @@
+"""`fcgen report`: the paper's tables and figures from campaign results."""

@@ -1,0 +1,80 @@
+"""Fig. 3-style box plots (time per RTI, progress) per obstacle model and formulation, and a Fig. 1-like run.
+
+matplotlib's object API on the Agg canvas (no pyplot), each figure written as PNG and SVG.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from .tables import FORM_LABEL, FORMS, _rti_times, groups
+
+COLORS = {"conventional": "tab:gray", "direct_elimination": "tab:orange", "lifted": "tab:blue"}
+
+
+def _save(fig: Figure, stem: Path) -> list[Path]:
+    out = []
+    for ext in ("png", "svg"):
+        p = stem.with_suffix(f".{ext}")
+        fig.savefig(p, dpi=120, metadata={"Date": None} if ext == "svg" else None)
+        out.append(p)
+    return out
+
+
+def box_plots(df: pd.DataFrame, out_dir: Path) -> list[Path]:
+    """One figure per scenario: time per RTI (every RTI) and final progress (every run), boxes per model x form."""
+    written = []
+    for sc in dict.fromkeys(df["scenario"]):
+        models = [m for s, m in groups(df) if s == sc]
+        fig = Figure(figsize=(max(6.0, 2.2 * len(models)), 6.5), layout="constrained")
+        FigureCanvasAgg(fig)
+        ax_t, ax_p = fig.subplots(2, 1)
+        width = 0.8 / len(FORMS)
+        for j, form in enumerate(FORMS):
+            pos, times, progs = [], [], []
+            for i, model in enumerate(models):
+                sub = df[(df["scenario"] == sc) & (df["model"] == model) & (df["formulation"] == form)]
+                if not len(sub):
+                    continue
+                pos.append(i + (j - 1) * width)
+                times.append(_rti_times(sub))
+                progs.append(sub["progress"].to_numpy())
+            if not pos:
+                continue
+            style = dict(positions=pos, widths=width * 0.9, patch_artist=True, manage_ticks=False,
+                         boxprops={"facecolor": COLORS[form], "alpha": 0.8}, medianprops={"color": "k"})
+            ax_t.boxplot(times, showfliers=True, flierprops={"markersize": 2, "alpha": 0.3}, **style)
+            ax_p.boxplot(progs, **style)
+        for ax, label in ((ax_t, "time per RTI [ms]"), (ax_p, "progress after the run [m]")):
+            ax.set_xticks(range(len(models)), models)
+            ax.set_ylabel(label)
+            ax.grid(True, axis="y", lw=0.3)
+        ax_t.set_yscale("log")
+        ctrl = "/".join(sorted(df[df["scenario"] == sc]["controller"].unique()))
+        ax_t.set_title(f"{sc}-sized opponents: time per RTI ({ctrl} controller)")
+        ax_p.set_title(f"{sc}-sized opponents: final progress")
+        ax_t.legend(handles=[Patch(color=COLORS[f], label=FORM_LABEL[f]) for f in FORMS], fontsize=8, loc="best")
+        written += _save(fig, out_dir / f"boxplots_{sc}")
+    return written
+
+
+def example_run(df: pd.DataFrame, out_dir: Path) -> list[Path]:
+    """Fig. 1-like: the first run of the lifted ellipse configuration (else the first row), re-simulated with the
+    Python reference (the same closed loop as the C solver), in both frames."""
+    from ..campaign.grid import Config
+    from ..sim.closedloop import run_closed_loop
+    from ..sim.plots import plot_run
+    from ..sim.scenario import make_scenario
+
+    pick = df[(df["formulation"] == "lifted") & (df["model"] == "EL")]
+    r = (pick if len(pick) else df).sort_values(["scenario", "seed"], ascending=[False, True]).iloc[0]
+    cfg = Config(r["scenario"], r["formulation"], r["obstacles"], int(r["circles"]), "python", "osqp")
+    pb = cfg.problem()
+    log = run_closed_loop(pb, make_scenario(cfg.scenario, int(r["seed"]), n_opp=pb.opponents.count,
+                                            samples=int(r["samples"]), dt=pb.horizon.dt))
+    stem = out_dir / f"run_{cfg.scenario}_{cfg.formulation}_{cfg.model}_seed{int(r['seed'])}"
+    return [plot_run(log, stem.with_suffix(".png")), plot_run(log, stem.with_suffix(".svg"))]

@@ -1,0 +1,123 @@
+"""The paper's findings (issue 10's table), each judged on campaign rows: holds / fails / partly, with the evidence.
+
+A verdict is computed from the tables, never written by hand; the "why" lines state the measured quantities that
+explain a difference (QP size, QP iterations, where the time goes), not a guess.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .tables import MODEL_ORDER
+
+
+@dataclass(frozen=True)
+class Finding:
+    claim: str
+    verdict: str        # holds | fails | partly | no data
+    evidence: str
+    why: str = ""
+
+
+def _by(rows, *keys):
+    return {tuple(r[k] for k in keys): r for r in rows}
+
+
+def _verdict(ok: list[bool]) -> str:
+    if not ok:
+        return "no data"
+    return "holds" if all(ok) else ("fails" if not any(ok) else "partly")
+
+
+def _size_why(t, sc, model, form) -> str:
+    a, c = t.get((sc, model, form)), t.get((sc, model, "conventional"))
+    if not (a and c):
+        return ""
+    return (f"{sc} {model}: {a['qp_n']} vs {c['qp_n']} QP variables, {a['qp_iter_mean']:.0f} vs "
+            f"{c['qp_iter_mean']:.0f} iterations, feedback {a['feedback_mean']:.2f} vs {c['feedback_mean']:.2f} ms, "
+            f"prepare {a['prepare_mean']:.2f} vs {c['prepare_mean']:.2f} ms")
+
+
+CAPPED = ("the QP runs a fixed ADMM budget (about 60 iterations, the real-time cap, in every formulation), so the "
+          "time per RTI is that budget times the cost of one iteration, which grows with the QP's size: the lifted "
+          "formulation adds the Cartesian states (5 per stage) to the QP")
+SAME_QP = ("direct elimination keeps the conventional QP (same size, same iterations); its only extra work, the "
+           "obstacle rows through the Frenet-to-Cartesian map, is a small part of the prepare phase, and the QP "
+           "(feedback) dominates the time per RTI")
+ELLIPSE = ("the covering ellipse (semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a 13 x 2 m "
+           "half truck) keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or "
+           "few circles do, so it overtakes later")
+
+
+def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0) -> list[Finding]:
+    """The five findings of the paper's Section V, judged on our rows."""
+    t = _by(time_rows, "scenario", "model", "formulation")
+    p = _by(prog_rows, "scenario", "model", "formulation")
+    cells = sorted({(r["scenario"], r["model"]) for r in time_rows})
+    out = []
+
+    # 1. lifted no slower than conventional (paper: -6.6 .. +0.6 %)
+    ok, ev, why = [], [], []
+    for sc, m in cells:
+        r = t.get((sc, m, "lifted"))
+        if r and (sc, m, "conventional") in t:
+            ok.append(r["vs_conv_pct"] <= tol_pct)
+            ev.append(f"{sc} {m} {r['vs_conv_pct']:+.1f} %")
+            if not ok[-1]:
+                why.append(_size_why(t, sc, m, "lifted"))
+    out.append(Finding(f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
+                       _verdict(ok), ", ".join(ev), (CAPPED + ": " + "; ".join(why)) if why else ""))
+
+    # 2. direct elimination ~ +30 % with EL (paper +28.9 % truck, +29.6 % car)
+    ok, ev, why = [], [], []
+    for sc in ("truck", "car"):
+        r = t.get((sc, "EL", "direct_elimination"))
+        if r and (sc, "EL", "conventional") in t:
+            ok.append(15.0 <= r["vs_conv_pct"] <= 45.0)
+            ev.append(f"{sc} EL {r['vs_conv_pct']:+.1f} %")
+            if not ok[-1]:
+                why.append(_size_why(t, sc, "EL", "direct_elimination"))
+    out.append(Finding("direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
+                       _verdict(ok), ", ".join(ev), (SAME_QP + ": " + "; ".join(why)) if why else ""))
+
+    # 3. trucks: lifted and DE progress further than conventional
+    ok, ev = [], []
+    for m in MODEL_ORDER["truck"]:
+        for form in ("lifted", "direct_elimination"):
+            r = p.get(("truck", m, form))
+            if r and "vs_conv_m" in r:
+                ok.append(r["vs_conv_m"] > 0)
+                ev.append(f"{m} {form} {r['vs_conv_m']:+.1f} m ({r['better_seeds']}/{r['paired']} seeds)")
+    out.append(Finding("trucks: lifted and direct elimination progress further than conventional",
+                       _verdict(ok), ", ".join(ev),
+                       "the conventional formulation over-approximates a truck in the Frenet frame by a box fitted "
+                       "around its projected corners, which grows with the road's curvature; where a Cartesian model "
+                       "is itself coarse (many circles, linearised hyperplanes) the advantage can vanish"))
+
+    # 4. EL gives the best progress (per scenario and formulation)
+    ok, ev = [], []
+    for sc in ("truck", "car"):
+        for form in ("conventional", "direct_elimination", "lifted"):
+            cand = {m: p[(sc, m, form)]["mean"] for m in MODEL_ORDER[sc] if (sc, m, form) in p}
+            if len(cand) >= 2 and "EL" in cand:
+                best = max(cand, key=cand.get)
+                ok.append(best == "EL")
+                ev.append(f"{sc} {form}: best {best} ({cand[best]:.1f} m; EL {cand['EL']:.1f} m)")
+    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev),
+                       ELLIPSE if not all(ok) else ""))
+
+    # 5. zero collisions (true rectangles)
+    runs = sum(r["runs"] for r in prog_rows)
+    hit = sum(r["runs_with_collision"] for r in prog_rows)
+    bad = [f"{r['scenario']} {r['model']} {r['formulation']}: {r['runs_with_collision']}" for r in prog_rows
+           if r["runs_with_collision"]]
+    out.append(Finding("zero collisions (judged on the true chassis rectangles)",
+                       "holds" if runs and not hit else ("no data" if not runs else "fails"),
+                       f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else "")))
+    return out
+
+
+def md_findings(fs: list[Finding]) -> str:
+    out = ["| paper's finding | here | evidence | why (measured) |", "|---|---|---|---|"]
+    for f in fs:
+        out.append(f"| {f.claim} | **{f.verdict}** | {f.evidence} | {f.why or '–'} |")
+    return "\n".join(out)

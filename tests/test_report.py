@@ -1,0 +1,105 @@
+"""fcgen report: Table III, progress, a_lat outcome and the findings from hand-made campaign rows."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from fcgen.campaign.store import REQUIRED_COLUMNS, ResultStore
+from fcgen.cli import main
+from fcgen.report import findings, tables
+from fcgen.report.page import busy_seconds, grid_estimate, write_report
+
+# per formulation: (time per RTI of seed 0, of seed 1) in ms, progress of seeds 0 and 1, collision of seed 1
+HAND = {"conventional": (([1.0, 3.0], [2.0, 2.0]), (100.0, 110.0), False),
+        "direct_elimination": (([2.0, 4.0], [2.0, 4.0]), (104.0, 108.0), False),
+        "lifted": (([2.0, 2.0], [2.0, 2.0]), (106.0, 116.0), True)}
+
+
+def hand_rows() -> pd.DataFrame:
+    rows = []
+    for form, (times, prog, hit) in HAND.items():
+        for seed in (0, 1):
+            t = np.array(times[seed])
+            rows.append({"config": f"truck/{form}/EL/c/osqp", "scenario": "truck", "formulation": form,
+                         "obstacles": "ellipse", "circles": 0, "model": "EL", "seed": seed, "samples": 2,
+                         "progress": prog[seed], "collision": bool(hit and seed == 1),
+                         "n_collision_samples": 3 if hit and seed == 1 else 0, "time_rti_ms": t.tolist(),
+                         "time_total_ms_mean": t.mean(), "time_prepare_ms_mean": 0.25 * t.mean(),
+                         "time_feedback_ms_mean": 0.75 * t.mean(),
+                         "qp_iter_mean": 60.0, "qp_n": 568 if form == "lifted" else 445, "qp_m": 900,
+                         "qp_nnz_a": 3000, "n_opp_par": 3, "n_controls": 2, "n_states": 3, "max_slack": 0.0,
+                         "a_lat_bound": 5.0, "a_lat_over_samples": seed, "a_lat_excess_max": 0.5 * seed,
+                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5,
+                         "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
+                         "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h", "clock": "cpu",
+                         "controller": "c", "backend": "osqp"})
+    return pd.DataFrame(rows)
+
+
+def test_table3_pools_every_rti_and_compares_with_conventional():
+    rows = {r["formulation"]: r for r in tables.time_table(hand_rows())}
+    assert rows["conventional"]["mean"] == 2.0 and math.isclose(rows["conventional"]["std"], math.sqrt(0.5))
+    assert rows["direct_elimination"]["mean"] == 3.0 and rows["direct_elimination"]["std"] == 1.0
+    assert rows["direct_elimination"]["vs_conv_pct"] == pytest.approx(50.0)
+    assert rows["lifted"]["vs_conv_pct"] == pytest.approx(0.0) and rows["lifted"]["rtis"] == 4
+    md = tables.md_time_table(list(rows.values()))
+    assert "| truck | EL | 2.00 ± 0.71 | 3.00 ± 1.00 | +50.0 % | 2.00 ± 0.00 | +0.0 % |" in md
+    assert "1.5 ± 0.4 | 1.9 ± 0.2 | +28.9 % | 1.4 ± 0.3 | -6.6 %" in md        # the paper's, beside
+
+
+def test_progress_is_paired_by_seed_and_collisions_counted():
+    rows = {r["formulation"]: r for r in tables.progress_table(hand_rows())}
+    assert rows["lifted"]["vs_conv_m"] == 6.0 and rows["lifted"]["better_seeds"] == 2
+    assert rows["direct_elimination"]["vs_conv_m"] == 1.0 and rows["direct_elimination"]["better_seeds"] == 1
+    assert rows["lifted"]["runs_with_collision"] == 1 and rows["conventional"]["runs_with_collision"] == 0
+    a = {r["formulation"]: r for r in tables.alat_table(hand_rows())}["lifted"]
+    assert a["share_pct"] == pytest.approx(100 / 6) and a["runs_over"] == 1 and a["excess_max"] == 0.5
+
+
+def test_findings_are_judged_on_the_rows():
+    fs = findings.judge(tables.time_table(hand_rows()), tables.progress_table(hand_rows()))
+    v = {f.claim.split(" (")[0]: f.verdict for f in fs}
+    assert v["lifted ODE no slower than conventional"] == "holds"            # +0.0 %
+    assert v["direct elimination about +30 % with EL"] == "fails"            # +50 %
+    assert v["trucks: lifted and direct elimination progress further than conventional"] == "holds"
+    assert v["zero collisions"] == "fails"
+    de = next(f for f in fs if f.claim.startswith("direct"))
+    assert "truck EL: 445 vs 445 QP variables, 60 vs 60 iterations" in de.why
+
+
+def test_grid_estimate_scales_the_measured_wall_times():
+    est = grid_estimate(hand_rows(), cores=2)
+    # 3 configurations, mean CPU 0.5 s (wall 1.0 s) a run: 500 x 3 x 0.5 s on 2 cores
+    assert est["runs"] == 1500 and est["core_s"] == 750.0 and est["wall_min"] == pytest.approx(6.25)
+    assert est["core_s_wall"] == 1500.0
+    # the solver: per configuration 2 RTIs of 2, 3 and 2 ms (mean), 500 runs each
+    assert est["solver_core_s"] == pytest.approx(500 * 2 * (2.0 + 3.0 + 2.0) / 1e3)
+    # runs in [0, 1] (seed 0) and [10, 11] (seed 1): 2 s of running time, the gap between does not count
+    assert est["measured_span_s"] == 2.0 and est["measured_rate"] == 3.0 and est["workers"] == 2
+
+
+def test_busy_seconds_is_the_union_of_the_run_intervals():
+    assert busy_seconds([0, 1, 5, 5.5], [2, 3, 6, 7]) == 5.0     # [0, 3] and [5, 7]
+    assert busy_seconds([], []) == 0.0
+
+
+def test_write_report_writes_page_tables_and_figures(tmp_path):
+    ResultStore(tmp_path / "res").write(hand_rows().to_dict("records"))
+    page = write_report(tmp_path / "res", tmp_path / "rep", example=False)
+    text = page.read_text()
+    assert "## Table III" in text and "+50.0 %" in text and "**fails**" in text and "boxplots_truck.png" in text
+    for ext in ("png", "svg"):
+        assert (tmp_path / "rep" / f"boxplots_truck.{ext}").stat().st_size > 5000
+
+
+def test_report_cli_errors_are_one_line(tmp_path):
+    res = CliRunner().invoke(main, ["report", str(tmp_path), "-o", str(tmp_path / "rep")])
+    assert res.exit_code == 1 and "holds no runs" in res.output and "Traceback" not in res.output
+    ResultStore(tmp_path / "old").write([{"config": "x", "seed": 0, "samples": 1}])
+    res = CliRunner().invoke(main, ["report", str(tmp_path / "old"), "-o", str(tmp_path / "rep")])
+    assert res.exit_code == 1 and "lacks the column(s)" in res.output
+    assert set(REQUIRED_COLUMNS) <= set(hand_rows().columns)
