@@ -86,19 +86,22 @@ def test_runs_are_reproducible(quick_run):
             assert val == 0.0, name
 
 
-@pytest.mark.slow
-def test_truck_campaign_paper_finding():
-    """20 seeds of the truck scenario, ellipse model: no collisions in any formulation, and both Cartesian-obstacle
-    formulations (direct elimination, lifted) progress further on average than the conventional one (paper Sec. V)."""
-    from fcgen.sim.campaign import format_table, run_campaign
+def test_truck_campaign_paper_finding(tmp_path):
+    """20 seeds of the truck scenario, ellipse model, on the compiled C solvers (the campaign's process pool): no
+    collisions by the true-rectangle check in any formulation, and both Cartesian-obstacle formulations (direct
+    elimination, lifted) progress further on average than the conventional one (paper Sec. V)."""
+    from fcgen.campaign.grid import make_tasks, paper_grid
+    from fcgen.campaign.runner import run_campaign
+    from fcgen.campaign.store import ResultStore
 
-    res = run_campaign("truck", ["conventional", "direct_elimination", "lifted"], ["ellipse"], seeds=20)
-    print()
-    print(format_table(res))
-    by = {c["formulation"]: c for c in res["configs"]}
-    for form, c in by.items():
-        assert c["runs_with_collision"] == 0, (form, c["collision_samples"])
-        assert len(c["progress"]) == 20
-    conv = by["conventional"]["progress_mean"]
-    assert by["lifted"]["progress_mean"] > conv
-    assert by["direct_elimination"]["progress_mean"] > conv
+    configs = paper_grid(scenarios=("truck",), obstacles=("ellipse",))
+    tasks = make_tasks(configs, range(20), 200, str(tmp_path / "cache"))
+    res = run_campaign(tasks, tmp_path / "res", jobs=2)
+    assert res.computed == 60 and not res.failed
+    rows = ResultStore(tmp_path / "res").read()
+    by = {f: rows[rows["formulation"] == f] for f in ("conventional", "direct_elimination", "lifted")}
+    for form, r in by.items():
+        assert len(r) == 20 and not r["collision"].any(), (form, list(r["n_collision_samples"]))
+    conv = by["conventional"]["progress"].mean()
+    assert by["lifted"]["progress"].mean() > conv
+    assert by["direct_elimination"]["progress"].mean() > conv
