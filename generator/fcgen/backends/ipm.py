@@ -1,0 +1,361 @@
+"""A structure-exploiting primal-dual interior-point QP backend (Python reference of ``templates/backends/ipm.c.j2``).
+
+The QP is the layout's ``min 0.5 z'Pz + q'z  s.t.  l <= Az <= u`` (P diagonal). Rows fall into the classes of
+``qp.stage_view``: equality rows (init, dynamics, stage equalities) keep their multipliers ``nu``; every finite side j
+of an inequality row r is ``sign_j a_r'z - b_j = t_j >= 0`` with multiplier ``lam_j >= 0`` (``b = l`` for a lower,
+``-u`` for an upper side). Mehrotra's predictor-corrector drives ``t lam`` to zero. The Newton system, after the sides
+are eliminated (weights ``W_r = sum lam/t`` on ``A' W A``), is the KKT system of an equality-constrained multistage
+QP: box rows add to the diagonal, the slacks (one per general row at most, a diagonal block) are eliminated by a
+Schur complement into their stage, and a Riccati recursion over ``(x_k, u_k)`` solves what remains (stage equalities
+by a small Schur complement of their own). Inputs without curvature (hyperplane variables) get a small
+regularization ``reg`` in the Newton matrix only: residuals are exact, so the fixed point is the QP's solution.
+
+Result in the interface's terms: ``z`` the step, ``y`` the row multipliers in OSQP's sign convention
+(``y_r = nu_r`` on equality rows, ``lam_upper - lam_lower`` on inequality rows; y > 0 at an active upper bound).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..qp import QpLayout, StageView, stage_view
+from . import QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QpResult
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..dsl import QpOptions
+
+LABEL = "fcgen's Riccati interior-point method (Mehrotra predictor-corrector, static memory)"
+"""How the generated header and README name this backend."""
+
+RAW_STATUS = ("solved", "max_iter", "primal_infeasible", "nonfinite", "numerical")
+"""The backend's own status values 1..5, in this order."""
+RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUMERICAL)
+
+
+@dataclass(frozen=True)
+class IpmSettings:
+    """Tolerances of the interior-point method (scaled QP units)."""
+
+    tol: float = 1e-8        # stationarity, primal residuals and mean complementarity
+    tau: float = 0.995       # fraction to the boundary
+    reg: float = 1e-9        # regularization of the input block of the Newton matrix
+    t_min: float = 1e-2      # floor of an initial side slack
+    lam_min: float = 1e-2    # floor of an initial side multiplier
+    lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
+    alpha_min: float = 1e-12 # a step below it: numerical trouble
+    warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
+
+
+def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Solve L X = B, L lower triangular (row by row, as the C does)."""
+    X = np.array(B, dtype=float, copy=True)
+    for i in range(L.shape[0]):
+        X[i] = (X[i] - L[i, :i] @ X[:i]) / L[i, i]
+    return X
+
+
+def _bwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Solve L' X = B, L lower triangular."""
+    X = np.array(B, dtype=float, copy=True)
+    for i in range(L.shape[0] - 1, -1, -1):
+        X[i] = (X[i] - L[i + 1:, i] @ X[i + 1:]) / L[i, i]
+    return X
+
+
+class _Tables:
+    """Gather maps of the stage view, padded to fixed sizes (dummy index = one past the end)."""
+
+    def __init__(self, lay: QpLayout, sv: StageView):
+        N, nx, NU, NS, NG, NE = sv.N, sv.nx, sv.NU, sv.NS, sv.NG, sv.NE
+        nz_dummy, nxu = lay.nnz_A, nx + NU
+        self.vmap_xu = np.where(sv.vmap[:, :nxu] >= 0, sv.vmap[:, :nxu], lay.n)
+        self.vmap_s = np.where(sv.vmap[:, nxu:] >= 0, sv.vmap[:, nxu:], lay.n)
+        self.gen_row = np.where(sv.gen_rows >= 0, sv.gen_rows, lay.m)
+        self.gen_xu = np.full((N + 1, NG, nxu), nz_dummy, dtype=np.int64)
+        self.gen_e = np.full((N + 1, NG), nz_dummy, dtype=np.int64)
+        self.gen_s = np.full((N + 1, NG), NS, dtype=np.int64)
+        for k in range(N + 1):
+            for g in range(NG):
+                slot = k * NG + g
+                for v, a in zip(sv.gen_v[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]],
+                                sv.gen_a[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]]):
+                    if v < nxu:
+                        self.gen_xu[k, g, v] = a
+                    else:
+                        self.gen_e[k, g], self.gen_s[k, g] = a, v - nxu
+        groups = [[[g for g in range(NG) if self.gen_s[k, g] == j] for j in range(NS)] for k in range(N + 1)]
+        RS = max([1] + [len(gr) for gk in groups for gr in gk])
+        self.slack_rows = np.full((N + 1, NS, RS), NG, dtype=np.int64)  # general slots of slack j; NG: none
+        for k in range(N + 1):
+            for j in range(NS):
+                self.slack_rows[k, j, :len(groups[k][j])] = groups[k][j]
+        self.dyn_ab = np.full((N, nx, nxu), nz_dummy, dtype=np.int64)
+        for k in range(N):
+            sl = slice(sv.dyn_ptr[k], sv.dyn_ptr[k + 1])
+            self.dyn_ab[k, sv.dyn_i[sl], sv.dyn_j[sl]] = sv.dyn_a[sl]
+        self.eq_d = np.full((N + 1, NE, NU), nz_dummy, dtype=np.int64)
+        self.eq_row = np.where(sv.eq_rows >= 0, sv.eq_rows, lay.m)
+        for k in range(N + 1):
+            for e in range(NE):
+                slot = k * NE + e
+                sl = slice(sv.eq_ptr[slot], sv.eq_ptr[slot + 1])
+                self.eq_d[k, e, sv.eq_j[sl]] = sv.eq_a[sl]
+        self.eq_pad = (sv.eq_rows < 0).astype(float)
+
+
+def ipm_settings(opts: "QpOptions") -> IpmSettings:
+    """The IPM's settings of a problem's QpOptions."""
+    return IpmSettings(tol=opts.ipm_tol)
+
+
+class Backend:
+    """Riccati-based Mehrotra predictor-corrector IPM on the layout's QP (see the module docstring)."""
+
+    name = "ipm"
+
+    def __init__(self, layout: QpLayout, opts: "QpOptions", settings: IpmSettings | None = None):
+        self.lay = layout
+        self.sv = stage_view(layout)
+        self.tab = _Tables(layout, self.sv)
+        self.set = settings or ipm_settings(opts)
+        self.reset()
+
+    def reset(self) -> None:
+        lay = self.lay
+        self.Pd = np.zeros(lay.n)
+        self.Ax = np.zeros(lay.nnz_A + 1)
+        self.A = lay.A_pattern(self.Ax[:-1].copy())
+
+    # -- prepare phase: the sample's matrices in stage blocks ----------------------------------------
+    def set_matrices(self, P_x, A_x, q) -> None:
+        sv, tab = self.sv, self.tab
+        self.Pd = np.array(P_x, dtype=float)
+        self.Ax = np.r_[np.asarray(A_x, dtype=float), 0.0]
+        self.A = self.lay.A_pattern(self.Ax[:-1].copy())
+        self.AT = self.A.T.tocsr()
+        ax = self.Ax
+        self.Cxu = ax[tab.gen_xu]                       # (N+1, NG, nx+NU)
+        self.Ce = ax[tab.gen_e]                         # (N+1, NG) slack coefficient
+        E = ax[sv.dyn_next]                             # (N, nx)
+        self.Einv = 1.0 / E
+        AB = -ax[tab.dyn_ab] * self.Einv[:, :, None]    # x_{k+1} = F x + G u + c
+        self.F = AB[:, :, :sv.nx]
+        self.G = AB[:, :, sv.nx:]
+        self.einit = ax[sv.init_a]
+        self.D = ax[tab.eq_d]                           # (N+1, NE, NU)
+        self.box_a2 = ax[sv.box_a] ** 2
+        self.box_a = ax[sv.box_a]
+
+    # -- the Newton matrix: side weights, slack elimination, Riccati factorization ---------------------
+    def _factor(self, W: np.ndarray) -> bool:
+        sv, tab, st = self.sv, self.tab, self.set
+        N, nx = sv.N, sv.nx
+        hd = np.r_[self.Pd, 1.0]
+        np.add.at(hd, sv.box_var, W[sv.box_rows] * self.box_a2)
+        # general rows; a slack's rows (its group) are eliminated with it, without cancellation: row i of the
+        # group weighs W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s, two rows couple by -W_i e_i W_j e_j / d_s,
+        # d_s = hd_s + sum_i W_i e_i^2 (hd_s: the slack's own curvature, cost and its bound row)
+        pad = np.zeros((N + 1, 1))
+        Wg = np.concatenate([W[tab.gen_row], pad], axis=1)       # (N+1, NG+1); dummy slot: W = 0
+        w = Wg * np.concatenate([self.Ce, pad], axis=1)          # W e
+        we2 = w * np.concatenate([self.Ce, pad], axis=1)
+        flat = tab.slack_rows.reshape(N + 1, -1)
+        RS = tab.slack_rows.shape[2]
+        g_we2 = np.take_along_axis(we2, flat, axis=1).reshape(tab.slack_rows.shape)
+        g_w = np.take_along_axis(w, flat, axis=1).reshape(tab.slack_rows.shape)
+        g_W = np.take_along_axis(Wg, flat, axis=1).reshape(tab.slack_rows.shape)
+        hs_ = hd[tab.vmap_s]
+        d = hs_.copy()
+        for i in range(RS):
+            d = d + g_we2[:, :, i]
+        Weff = Wg.copy()
+        for i in range(RS):
+            others = hs_.copy()
+            for j in range(RS):
+                if j != i:
+                    others = others + g_we2[:, :, j]
+            np.put_along_axis(Weff, tab.slack_rows[:, :, i], g_W[:, :, i] * others / d, axis=1)
+        Cp = np.concatenate([self.Cxu, np.zeros((N + 1, 1, nx + sv.NU))], axis=1)
+        H = np.einsum("kgi,kgj->kij", Cp * Weff[:, :, None], Cp)
+        idx = np.arange(nx + sv.NU)
+        H[:, idx, idx] += hd[tab.vmap_xu]
+        ga = [np.take_along_axis(Cp, tab.slack_rows[:, :, i, None], axis=1) for i in range(RS)]  # (N+1, NS, nxu)
+        c = np.zeros((N + 1, sv.NS, nx + sv.NU))
+        for i in range(RS):
+            c = c + g_w[:, :, i, None] * ga[i]
+            for j in range(i + 1, RS):
+                M = -g_w[:, :, i] * g_w[:, :, j] / d
+                Hij = np.einsum("ksa,ksb->kab", M[:, :, None] * ga[i], ga[j])
+                H = H + Hij + Hij.transpose(0, 2, 1)
+        self.c, self.d = c, d
+        self.Ht = H
+        self.Lr, self.W1, self.K, self.Sb, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1), \
+            [None] * (N + 1), [None] * (N + 1)
+        self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
+        P = None
+        for k in range(N, -1, -1):
+            Q, S, R = H[k, :nx, :nx], H[k, nx:, :nx], H[k, nx:, nx:]
+            if k < N:
+                PF = P @ self.F[k]
+                PG = P @ self.G[k]
+                Q = Q + self.F[k].T @ PF
+                S = S + self.G[k].T @ PF
+                R = R + self.G[k].T @ PG
+            R = R + st.reg * np.eye(sv.NU)
+            try:
+                L = np.linalg.cholesky(R)
+            except np.linalg.LinAlgError:
+                return False
+            W1 = _fwd(L, S)
+            Pk = Q - W1.T @ W1
+            if sv.NE:
+                UD = _fwd(L, self.D[k].T)
+                M = UD.T @ UD + np.diag(tab.eq_pad[k])
+                try:
+                    LM = np.linalg.cholesky(M)
+                except np.linalg.LinAlgError:
+                    return False
+                W2 = _fwd(LM, UD.T @ W1)
+                Pk = Pk + W2.T @ W2
+                T = W1 - UD @ _bwd(LM, W2)
+                self.UD[k], self.LM[k] = UD, LM
+            else:
+                T = W1
+            self.K[k] = -_bwd(L, T)
+            P = 0.5 * (Pk + Pk.T)
+            self.Lr[k], self.W1[k], self.Sb[k], self.Pk[k] = L, W1, S, P
+        return bool(np.all(np.isfinite(P)))
+
+    def _newton(self, h: np.ndarray, r_eq_rows: np.ndarray):
+        """Solve the factored Newton system for the right-hand side h (n) and equality residuals (m, at eq rows)."""
+        sv, tab, lay = self.sv, self.tab, self.lay
+        N, nx = sv.N, sv.nx
+        he = np.r_[h, 0.0]
+        hs = he[tab.vmap_s]
+        ht = he[tab.vmap_xu] - np.einsum("ksi,ks->ki", self.c, hs / self.d)
+        rr = np.r_[r_eq_rows, 0.0]
+        cdyn = -rr[sv.dyn_rows] * self.Einv                 # (N, nx)
+        deq = -rr[tab.eq_row]                               # (N+1, NE)
+        lr, kk, p = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
+        pn = None
+        for k in range(N, -1, -1):
+            qb, rb = ht[k, :nx], ht[k, nx:]
+            if k < N:
+                pc = self.Pk[k + 1] @ cdyn[k] + pn
+                qb = qb + self.F[k].T @ pc
+                rb = rb + self.G[k].T @ pc
+            lr[k] = _fwd(self.Lr[k], rb)
+            t = lr[k]
+            if sv.NE:
+                nh = self.UD[k].T @ lr[k] + deq[k]
+                nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
+                t = lr[k] - self.UD[k] @ nh
+            kk[k] = -_bwd(self.Lr[k], t)
+            p[k] = qb + self.Sb[k].T @ kk[k]
+            pn = p[k]
+        dz = np.zeros(lay.n + 1)
+        dnu = np.zeros(lay.m + 1)
+        dx = -rr[lay.init_rows] / self.einit
+        for k in range(N + 1):
+            du = self.K[k] @ dx + kk[k]
+            lam = self.Pk[k] @ dx + p[k]
+            if k == 0:
+                dnu[lay.init_rows] = -lam / self.einit
+            else:
+                dnu[sv.dyn_rows[k - 1]] = -lam * self.Einv[k - 1]
+            if sv.NE:
+                nh = self.UD[k].T @ (self.W1[k] @ dx + lr[k]) + deq[k]
+                nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
+                dnu[tab.eq_row[k]] = -nh
+            dv = np.r_[dx, du]
+            ds = -(self.c[k] @ dv + hs[k]) / self.d[k]
+            dz[tab.vmap_xu[k]] = dv
+            dz[tab.vmap_s[k]] = ds
+            if k < N:
+                dx = self.F[k] @ dx + self.G[k] @ du + cdyn[k]
+        return dz[:lay.n], dnu[:lay.m]
+
+    # -- feedback phase ------------------------------------------------------------------------------
+    def solve(self, q, l, u, y_warm, max_iter: int) -> QpResult:
+        sv, lay, st = self.sv, self.lay, self.set
+        n, m = lay.n, lay.m
+        q = np.asarray(q, dtype=float)
+        rows, sign = sv.side_row, sv.side_sign.astype(float)
+        b = np.where(sign > 0, l[rows], -u[rows])
+        eq = sv.eq_all
+        b_eq = l[eq]
+        ns = len(rows)
+        yw = np.zeros(m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
+        z = np.zeros(n)
+        t = np.maximum(-b, st.t_min)
+        lam = np.maximum(-sign * yw[rows], st.lam_min)
+        nu = yw[eq].copy()
+        raw = 2
+        it = 0
+        while True:
+            y = np.zeros(m)
+            y[eq] = nu
+            np.add.at(y, rows, -sign * lam)
+            Az = self.A @ z
+            r_d = self.Pd * z + q + self.AT @ y
+            r_eq = np.zeros(m)
+            r_eq[eq] = Az[eq] - b_eq
+            r_p = sign * Az[rows] - b - t
+            mu = float(t @ lam) / ns
+            if not (np.all(np.isfinite(r_d)) and np.isfinite(mu)):
+                return QpResult(RAW_TO_QP[3], 4, it, None, None)
+            if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p))) <= st.tol and mu <= st.tol:
+                raw = 1
+                break
+            if np.max(lam) > st.lam_max:
+                raw = 3
+                break
+            if it >= max_iter:
+                break
+            W = np.zeros(m + 1)
+            np.add.at(W, rows, lam / t)
+            if not self._factor(W):
+                raw = 5
+                break
+
+            def direction(rc):
+                g = np.zeros(m)
+                np.add.at(g, rows, sign * (rc + lam * r_p) / t)
+                dz, dnu = self._newton(r_d + self.AT @ g, r_eq)
+                dt = sign * (self.A @ dz)[rows] + r_p
+                dlam = -(rc + lam * dt) / t
+                return dz, dnu, dt, dlam
+
+            def max_step(dt, dlam):
+                a = 1.0
+                neg = dt < 0
+                if np.any(neg):
+                    a = min(a, float(np.min(-t[neg] / dt[neg])))
+                neg = dlam < 0
+                if np.any(neg):
+                    a = min(a, float(np.min(-lam[neg] / dlam[neg])))
+                return a
+
+            _, _, dt_a, dl_a = direction(t * lam)
+            a_aff = max_step(dt_a, dl_a)
+            mu_aff = float((t + a_aff * dt_a) @ (lam + a_aff * dl_a)) / ns
+            sigma = (mu_aff / mu) ** 3
+            dz, dnu, dt, dlam = direction(t * lam + dt_a * dl_a - sigma * mu)
+            alpha = min(1.0, st.tau * max_step(dt, dlam))
+            if not np.all(np.isfinite(dz)):
+                return QpResult(RAW_TO_QP[3], 4, it, None, None)
+            if alpha < st.alpha_min:
+                raw = 5
+                break
+            z = z + alpha * dz
+            nu = nu + alpha * dnu[eq]
+            t = t + alpha * dt
+            lam = lam + alpha * dlam
+            it += 1
+        y = np.zeros(m)
+        y[eq] = nu
+        np.add.at(y, rows, -sign * lam)
+        return QpResult(RAW_TO_QP[raw - 1], raw, it, z, y)
