@@ -22,7 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..qp import QpLayout, StageView, stage_view
-from . import QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QpResult
+from . import (QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_STATUSES,
+               BackendFiles, QpResult)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..dsl import QpOptions
@@ -192,8 +193,7 @@ class Backend:
                 H = H + Hij + Hij.transpose(0, 2, 1)
         self.c, self.d = c, d
         self.Ht = H
-        self.Lr, self.W1, self.K, self.Sb, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1), \
-            [None] * (N + 1), [None] * (N + 1)
+        self.Lr, self.W1, self.K, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
         self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
         P = None
         for k in range(N, -1, -1):
@@ -226,8 +226,10 @@ class Backend:
                 T = W1
             self.K[k] = -_bwd(L, T)
             P = 0.5 * (Pk + Pk.T)
-            self.Lr[k], self.W1[k], self.Sb[k], self.Pk[k] = L, W1, S, P
-        return bool(np.all(np.isfinite(P)))
+            if not np.all(np.isfinite(P)):
+                return False
+            self.Lr[k], self.W1[k], self.Pk[k] = L, W1, P
+        return True
 
     def _newton(self, h: np.ndarray, r_eq_rows: np.ndarray):
         """Solve the factored Newton system for the right-hand side h (n) and equality residuals (m, at eq rows)."""
@@ -254,7 +256,7 @@ class Backend:
                 nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
                 t = lr[k] - self.UD[k] @ nh
             kk[k] = -_bwd(self.Lr[k], t)
-            p[k] = qb + self.Sb[k].T @ kk[k]
+            p[k] = qb - self.W1[k].T @ t            # = qb + S_bar' kk
             pn = p[k]
         dz = np.zeros(lay.n + 1)
         dnu = np.zeros(lay.m + 1)
@@ -342,7 +344,8 @@ class Backend:
             _, _, dt_a, dl_a = direction(t * lam)
             a_aff = max_step(dt_a, dl_a)
             mu_aff = float((t + a_aff * dt_a) @ (lam + a_aff * dl_a)) / ns
-            sigma = (mu_aff / mu) ** 3
+            ratio = mu_aff / mu
+            sigma = ratio * ratio * ratio
             dz, dnu, dt, dlam = direction(t * lam + dt_a * dl_a - sigma * mu)
             alpha = min(1.0, st.tau * max_step(dt, dlam))
             if not np.all(np.isfinite(dz)):
@@ -359,3 +362,106 @@ class Backend:
         y[eq] = nu
         np.add.at(y, rows, -sign * lam)
         return QpResult(RAW_TO_QP[raw - 1], raw, it, z, y)
+
+
+# -- generated code ----------------------------------------------------------------------------------------------
+
+def _members(sv: StageView, lay: QpLayout) -> list[dict]:
+    """The real arrays of the C workspace struct (name, dims, doc), in declaration order."""
+    N, NX, NU, NS, NG = sv.N, sv.nx, sv.NU, sv.NS, sv.NG
+    NE1, NXU, n, m, ns, neq = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row), len(sv.eq_all)
+    spec = [
+        ("F", (N, NX, NX), "x_{k+1} = F x_k + G u_k + c_k"), ("G", (N, NX, NU), ""),
+        ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
+        ("einit", (NX,), "coefficient of x_0[i] in init row i"),
+        ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"), ("h", (n,), "Newton right-hand side"),
+        ("dz", (n,), "Newton step"), ("hd", (n,), "P + box weights"),
+        ("y", (m,), "row multipliers (result)"), ("Az", (m,), ""), ("r_eq", (m,), "equality residuals"),
+        ("W", (m,), "row weights lam / t"), ("g", (m,), "row right-hand side"), ("dnu", (m,), "equality step"),
+        ("nu", (neq,), "equality multipliers"),
+        *[(f, (ns,), "per side") for f in ("b", "t", "lam", "r_p", "rc", "dt", "dlam", "dt_a", "dl_a")],
+        ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
+        ("K", (N + 1, NU, NX), "feedback gain"), ("P", (N + 1, NX, NX), "cost-to-go Hessian"),
+        ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
+        ("d", (N + 1, NS), "slack pivots"),
+        ("ht", (N + 1, NXU), "reduced right-hand side"), ("hs", (N + 1, NS), "slack right-hand side"),
+        ("lr", (N + 1, NU), ""), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
+        ("cdyn", (N, NX), ""), ("deq", (N + 1, NE1), ""),
+        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), ""), ("PF", (NX, NX), ""),
+        ("PG", (NX, NU), ""), ("Weff", (NG,), ""), ("D", (NE1, NU), ""), ("M", (NE1, NE1), ""),
+        ("W2", (NE1, NX), ""), ("T", (NU, NX), ""), ("Pk", (NX, NX), ""),
+    ]
+    return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
+
+
+def _workspace_bytes(members: list[dict], real_size: int) -> int:
+    """sizeof the C workspace struct on an LP64 target (two pointers, then the real arrays)."""
+    size = 16 + sum(int(np.prod(m["dims"])) * real_size for m in members)
+    return -(-size // 8) * 8
+
+
+def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
+    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``)."""
+    from ..codegen.generate import _c_list, _c_real
+    sv = stage_view(layout)
+    tab = _Tables(layout, sv)
+    st = ipm_settings(opts)
+    N, NX, NU, NS, NG, NE = sv.N, sv.nx, sv.NU, sv.NS, sv.NG, sv.NE
+    NE1, nxu = max(NE, 1), sv.nx + sv.NU
+    A = layout.A_pattern()
+    # general rows: the stage-variable entries (x, inputs) as lists; the slack entry apart
+    gptr, gv, ga = [0], [], []
+    for slot in range((N + 1) * NG):
+        for v, a in zip(sv.gen_v[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]], sv.gen_a[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]]):
+            if v < nxu:
+                gv.append(int(v)); ga.append(int(a))
+        gptr.append(len(gv))
+    gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
+    slack_rows = np.where(tab.slack_rows < NG, tab.slack_rows, -1)
+    eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
+    eq_row[:, :NE] = sv.eq_rows
+    tables = [
+        ("IPM_A_P", A.indptr, "CSC column pointers of A"), ("IPM_A_I", A.indices, "CSC row indices of A"),
+        ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
+        ("IPM_VMAP_S", sv.vmap[:, nxu:], "[k][s]: variable of stage k's slack s"),
+        ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
+        ("IPM_GEN_PTR", gptr, "entries of general slot k NG + g"), ("IPM_GEN_V", gv, "stage slot v of the entry"),
+        ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
+        ("IPM_SLACK_ROWS", slack_rows, "[k][s][i]: general slots holding slack s"),
+        ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
+        ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
+        ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
+        ("IPM_DYN_J", sv.dyn_j, "stage slot"), ("IPM_DYN_A", sv.dyn_a, "data index"),
+        ("IPM_INIT_ROWS", layout.init_rows, "init row of x_0[i]"), ("IPM_INIT_A", sv.init_a, "its data index"),
+        ("IPM_EQ_ROW", eq_row, "[k][e]: stage equality row"), ("IPM_EQ_PTR", sv.eq_ptr, "entries of slot k NE + e"),
+        ("IPM_EQ_J", sv.eq_j, "input index"), ("IPM_EQ_A", sv.eq_a, "data index"),
+        ("IPM_BOX_ROW", sv.box_rows, "box row"), ("IPM_BOX_VAR", sv.box_var, "its variable"),
+        ("IPM_BOX_A", sv.box_a, "its data index"),
+        ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
+    ]
+    top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
+    idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
+    out = [{"name": nm, "kind": "idx", "len": max(1, int(np.asarray(t).size)), "doc": doc,
+            "body": _c_list([int(x) for x in np.asarray(t).ravel()])} for nm, t, doc in tables]
+    out.append({"name": "IPM_SIDE_SIGN", "kind": "sign", "len": max(1, len(sv.side_sign)),
+                "doc": "+1: lower side (a'z >= l), -1: upper side (a'z <= u)",
+                "body": _c_list([int(x) for x in sv.side_sign])})
+    members = _members(sv, layout)
+    return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
+            "NSIDE": len(sv.side_row), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
+            "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
+            "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
+            "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))]}
+
+
+def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bool) -> BackendFiles:
+    """The IPM is all in the solver's C file: no extra files; its RAM is the workspace struct."""
+    ws = _workspace_bytes(_members(stage_view(layout), layout), 4 if use_float else 8)
+    return BackendFiles(sources=(), headers=(), library_sources=(), library_headers=(), include_dirs=(),
+                        private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0)
+
+
+def restore_library(out_dir, use_float: bool) -> list[str]:
+    """Nothing to restore: the IPM has no library."""
+    return []
