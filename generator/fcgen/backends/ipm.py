@@ -40,7 +40,7 @@ RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUME
 class IpmSettings:
     """Tolerances of the interior-point method (scaled QP units)."""
 
-    tol: float = 1e-8        # stationarity, primal residuals and mean complementarity
+    tol: float = 1e-8        # stationarity, primal residuals and every complementarity product t lam
     tau: float = 0.995       # fraction to the boundary
     reg: float = 1e-9        # regularization of the input block of the Newton matrix
     t_min: float = 1e-2      # floor of an initial side slack
@@ -309,7 +309,7 @@ class Backend:
             mu = float(t @ lam) / ns
             if not (np.all(np.isfinite(r_d)) and np.isfinite(mu)):
                 return QpResult(RAW_TO_QP[3], 4, it, None, None)
-            if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p))) <= st.tol and mu <= st.tol:
+            if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p)), np.max(t * lam)) <= st.tol:
                 raw = 1
                 break
             if np.max(lam) > st.lam_max:
