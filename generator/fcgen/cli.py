@@ -204,11 +204,29 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
 @click.option("--cflags", default=None, help="C flags (default: the Makefile's)")
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
               help="results file [default: results/bench_<name>.json]")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out):
+@click.option("--backends", default=None,
+              help="compare QP backends in one run instead, e.g. osqp,osqp-converged,ipm (OSQP real-time, OSQP "
+                   "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, backends):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference."""
-    from .bench import bench, format_bench, write_results
+    from .bench import BACKEND_VARIANTS, bench, bench_backends, format_backends, format_bench, write_results
     from .build import BuildError
 
+    if backends is not None:
+        variants = [v.strip() for v in backends.split(",") if v.strip()]
+        bad = [v for v in variants if v not in BACKEND_VARIANTS]
+        if bad or not variants:
+            _fail(f"--backends: {', '.join(bad) or 'empty'} invalid; allowed a comma list of "
+                  f"{', '.join(BACKEND_VARIANTS)}")
+        try:
+            res = bench_backends(Path(solver_dir), variants, scenario=scenario, seeds=seeds, samples=samples,
+                                 cc=cc, cflags=cflags, progress=sys.stderr.isatty())
+        except BuildError as exc:
+            _fail(str(exc))
+        click.echo(format_backends(res))
+        path = write_results(res, out or f"results/bench_backends_{res['problem']}.json")
+        click.echo(f"results written to {path}")
+        return
     try:
         res = bench(Path(solver_dir), scenario=scenario, seeds=seeds, samples=samples, python=python,
                     python_seeds=python_seeds, cc=cc, cflags=cflags, progress=sys.stderr.isatty())

@@ -31,6 +31,12 @@ if TYPE_CHECKING:  # pragma: no cover
 LABEL = "fcgen's Riccati interior-point method (Mehrotra predictor-corrector, static memory)"
 """How the generated header and README name this backend."""
 
+VERIFY_QP_DATA_TOL = 1e-8
+VERIFY_SOLUTION_TOL = 1e-8
+"""fcgen verify's tolerances for this backend. C and Python agree to rounding, not bit for bit (numpy's BLAS products
+vs the C's loops): one QP within ~1e-11; in the lockstep each side linearizes the next sample at its own iterate, so
+over 200 samples of truck_lifted_ellipse the solution differences grew to 5.5e-9 (QP data 3.2e-10)."""
+
 RAW_STATUS = ("solved", "max_iter", "primal_infeasible", "nonfinite", "numerical")
 """The backend's own status values 1..5, in this order."""
 RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUMERICAL)
@@ -87,6 +93,28 @@ class _Tables:
                         self.gen_xu[k, g, v] = a
                     else:
                         self.gen_e[k, g], self.gen_s[k, g] = a, v - nxu
+        # inequality-row entries in the C's order (general slots: inputs/states, then the slack; then box rows)
+        gptr, gv, ga, gvar, svar = [0], [], [], [], []
+        ent_row, ent_var, ent_a = [], [], []
+        for k in range(N + 1):
+            for g in range(NG):
+                slot = k * NG + g
+                sl = slice(sv.gen_ptr[slot], sv.gen_ptr[slot + 1])
+                row, s_var = sv.gen_rows[k, g], -1
+                for v, a in zip(sv.gen_v[sl], sv.gen_a[sl]):
+                    if v < nxu:
+                        gv.append(int(v)); ga.append(int(a)); gvar.append(int(sv.vmap[k, v]))
+                        ent_row.append(row); ent_var.append(int(sv.vmap[k, v])); ent_a.append(int(a))
+                    else:
+                        s_var, s_a = int(sv.vmap[k, v]), int(a)
+                if s_var >= 0:
+                    ent_row.append(row); ent_var.append(s_var); ent_a.append(s_a)
+                gptr.append(len(gv))
+                svar.append(s_var)
+        ent_row += sv.box_rows.tolist(); ent_var += sv.box_var.tolist(); ent_a += sv.box_a.tolist()
+        self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
+        self.gen_svar = svar
+        self.ent_row, self.ent_var, self.ent_a = (np.array(x, dtype=np.int64) for x in (ent_row, ent_var, ent_a))
         groups = [[[g for g in range(NG) if self.gen_s[k, g] == j] for j in range(NS)] for k in range(N + 1)]
         RS = max([1] + [len(gr) for gk in groups for gr in gk])
         self.slack_rows = np.full((N + 1, NS, RS), NG, dtype=np.int64)  # general slots of slack j; NG: none
@@ -282,7 +310,7 @@ class Backend:
 
     # -- feedback phase ------------------------------------------------------------------------------
     def solve(self, q, l, u, y_warm, max_iter: int) -> QpResult:
-        sv, lay, st = self.sv, self.lay, self.set
+        sv, lay, st, tab = self.sv, self.lay, self.set, self.tab
         n, m = lay.n, lay.m
         q = np.asarray(q, dtype=float)
         rows, sign = sv.side_row, sv.side_sign.astype(float)
@@ -326,8 +354,12 @@ class Backend:
             def direction(rc):
                 g = np.zeros(m)
                 np.add.at(g, rows, sign * (rc + lam * r_p) / t)
-                dz, dnu = self._newton(r_d + self.AT @ g, r_eq)
-                dt = sign * (self.A @ dz)[rows] + r_p
+                h = r_d.copy()                          # r_d + A_in' g, entry by entry as the C
+                np.add.at(h, tab.ent_var, self.Ax[tab.ent_a] * g[tab.ent_row])
+                dz, dnu = self._newton(h, r_eq)
+                adz = np.zeros(m)
+                np.add.at(adz, tab.ent_row, self.Ax[tab.ent_a] * dz[tab.ent_var])
+                dt = sign * adz[rows] + r_p
                 dlam = -(rc + lam * dt) / t
                 return dz, dnu, dt, dlam
 
@@ -410,12 +442,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     NE1, nxu = max(NE, 1), sv.nx + sv.NU
     A = layout.A_pattern()
     # general rows: the stage-variable entries (x, inputs) as lists; the slack entry apart
-    gptr, gv, ga = [0], [], []
-    for slot in range((N + 1) * NG):
-        for v, a in zip(sv.gen_v[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]], sv.gen_a[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]]):
-            if v < nxu:
-                gv.append(int(v)); ga.append(int(a))
-        gptr.append(len(gv))
+    gptr, gv, ga = tab.gen_xu_ptr, tab.gen_xu_v, tab.gen_xu_a
     gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
     slack_rows = np.where(tab.slack_rows < NG, tab.slack_rows, -1)
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
@@ -426,7 +453,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_VMAP_S", sv.vmap[:, nxu:], "[k][s]: variable of stage k's slack s"),
         ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
         ("IPM_GEN_PTR", gptr, "entries of general slot k NG + g"), ("IPM_GEN_V", gv, "stage slot v of the entry"),
-        ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
+        ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_VAR", tab.gen_var, "variable of the entry"),
+        ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
+        ("IPM_GEN_SVAR", tab.gen_svar, "variable of the slot's slack"),
         ("IPM_SLACK_ROWS", slack_rows, "[k][s][i]: general slots holding slack s"),
         ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
         ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
