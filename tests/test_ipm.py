@@ -21,6 +21,7 @@ from fcgen.sim.scenario import make_scenario
 from fcgen.verify import infer_scenario
 
 IPM = QpOptions(backend="ipm")
+IPM_TIGHT = QpOptions(backend="ipm", ipm_tol=1e-8)  # the cross-check's IPM: its fixed point, not the real-time stop
 # OSQP solving every QP to eps 1e-7 (the second method of the cross-check)
 OSQP_TIGHT = QpOptions(max_iter=100_000, eps_abs=1e-7, eps_rel=1e-7, rho=1.0, check_termination=5, adaptive_rho=True)
 CASES = [(sc, f, o) for sc in SCENARIOS for f in FORMULATIONS for o in OBSTACLES]
@@ -125,7 +126,7 @@ def test_stage_view_reassembles_A(sc, form, ob):
 def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
     """On the QPs of a closed loop driven by the IPM: the same primal as OSQP at eps 1e-7 (hyperplane variables
     aside: they are not unique when no obstacle row is active), the same objective and the same active set."""
-    ref, qps = closed_loop_qps(short(sc, form, ob))
+    ref, qps = closed_loop_qps(short(sc, form, ob, qp=IPM_TIGHT))
     lay = ref.lay
     free = np.array([nm.startswith("theta") for nm in lay.var_names])
     compared = 0

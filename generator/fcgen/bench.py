@@ -229,7 +229,7 @@ def variant_qp(variant: str, own):
 
 def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | None = None, seeds: int = 3,
                    samples: int = 200, cc: str | None = None, cflags: str | None = None,
-                   progress: bool = False) -> dict:
+                   progress: bool = False, clock: str = "wall") -> dict:
     """One run, several QP backends: the folder's problem generated once per variant (``<dir>/build/variants``),
     built with the same flags, then per seed one closed loop of each variant in turn (alternating, so machine load
     is shared alike). Ratios against the first variant's median time per RTI."""
@@ -251,7 +251,7 @@ def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | Non
         out = gen_dir / "build" / "variants" / v
         info = generate(pv, out)
         libs[v] = build(out, verify=False, cc=cc, cflags=cflags)
-        solvers[v] = CSolver(libs[v])
+        solvers[v] = CSolver(libs[v], clock=clock)
         ram[v] = read_macros(out / f"{pv.name}_solver.h", pv.name)["WORKSPACE_BYTES"]
         assert info.workspace_bytes == ram[v]
     ocp = build_ocp(pb)
@@ -264,7 +264,7 @@ def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | Non
             logs[v].append(run_closed_loop(pb, sc, controller=solvers[v], ocp=ocp, progress=progress))
     res = {"format": "fcgen-bench-backends/1", "problem": pb.name, "gen_dir": str(gen_dir), "scenario": scenario,
            "seeds": list(range(seeds)), "samples": samples, "variants": list(variants),
-           "build": {"cc": cc, "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir)},
+           "build": {"cc": cc, "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir)}, "clock": clock,
            "host": {"machine": platform.machine(), "processor": platform.processor()}, "results": {}}
     base = variants[0]
     for v in variants:
@@ -288,7 +288,8 @@ def format_backends(res: dict) -> str:
     """A text table of ``bench_backends`` results."""
     base = res["variants"][0]
     lines = [f"bench {res['problem']}: {res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, "
-             f"{res['samples']} samples each, backends alternated per seed; CFLAGS {res['build']['cflags']}"]
+             f"{res['samples']} samples each, backends alternated per seed; CFLAGS {res['build']['cflags']}; "
+             f"{res['clock']} clock"]
     hdr = ("backend", "median ms", "p99 ms", "max ms", "prep med", "fb med", f"x vs {base}", "QP iter mean/max",
            "QP solved", "progress m", "vs converged", "collisions", "static RAM")
     rows = [hdr]

@@ -207,7 +207,9 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
 @click.option("--backends", default=None,
               help="compare QP backends in one run instead, e.g. osqp,osqp-converged,ipm (OSQP real-time, OSQP "
                    "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, backends):
+@click.option("--clock", type=click.Choice(["wall", "cpu"]), default="wall", show_default=True,
+              help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, backends, clock):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference."""
     from .bench import BACKEND_VARIANTS, bench, bench_backends, format_backends, format_bench, write_results
     from .build import BuildError
@@ -220,7 +222,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
                   f"{', '.join(BACKEND_VARIANTS)}")
         try:
             res = bench_backends(Path(solver_dir), variants, scenario=scenario, seeds=seeds, samples=samples,
-                                 cc=cc, cflags=cflags, progress=sys.stderr.isatty())
+                                 cc=cc, cflags=cflags, progress=sys.stderr.isatty(), clock=clock)
         except BuildError as exc:
             _fail(str(exc))
         click.echo(format_backends(res))
