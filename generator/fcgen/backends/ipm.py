@@ -404,25 +404,23 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     N, NX, NU, NS, NG = sv.N, sv.nx, sv.NU, sv.NS, sv.NG
     NE1, NXU, n, m, ns, neq = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row), len(sv.eq_all)
     spec = [
-        ("F", (N, NX, NX), "x_{k+1} = F x_k + G u_k + c_k"), ("G", (N, NX, NU), ""),
         ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
-        ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"), ("h", (n,), "Newton right-hand side"),
-        ("dz", (n,), "Newton step"), ("hd", (n,), "P + box weights"),
-        ("y", (m,), "row multipliers (result)"), ("Az", (m,), ""), ("r_eq", (m,), "equality residuals"),
-        ("W", (m,), "row weights lam / t"), ("g", (m,), "row right-hand side"), ("dnu", (m,), "equality step"),
+        ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
+        ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
+        ("y", (m,), "row multipliers (result)"), ("Az", (m,), "A z, A dz"),
+        ("wr", (m,), "weights lam / t on inequality rows, residuals on equality rows"),
+        ("gd", (m,), "right-hand side on inequality rows, multiplier step on equality rows"),
         ("nu", (neq,), "equality multipliers"),
-        *[(f, (ns,), "per side") for f in ("b", "t", "lam", "r_p", "rc", "dt", "dlam", "dt_a", "dl_a")],
+        *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
         ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
         ("K", (N + 1, NU, NX), "feedback gain"), ("P", (N + 1, NX, NX), "cost-to-go Hessian"),
         ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
         ("d", (N + 1, NS), "slack pivots"),
-        ("ht", (N + 1, NXU), "reduced right-hand side"), ("hs", (N + 1, NS), "slack right-hand side"),
-        ("lr", (N + 1, NU), ""), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
-        ("cdyn", (N, NX), ""), ("deq", (N + 1, NE1), ""),
-        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), ""), ("PF", (NX, NX), ""),
-        ("PG", (NX, NU), ""), ("Weff", (NG,), ""), ("D", (NE1, NU), ""), ("M", (NE1, NE1), ""),
-        ("W2", (NE1, NX), ""), ("T", (NU, NX), ""), ("Pk", (NX, NX), ""),
+        ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
+        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
+        ("fg", (NX * NXU,), "scratch: [F G] of a stage"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
+        ("W2", (NE1, NX), "scratch"), ("T", (NU, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
