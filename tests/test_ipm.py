@@ -205,3 +205,49 @@ def test_ipm_generates_and_verifies(tmp_path, sc, form, ob):
     assert rep.passed, rep.format()
     z = next(c for c in rep.checks if c.key == "z")
     assert z.compared == 3 and z.max_diff < 1e-9
+
+
+@needs_cc
+def test_ipm_single_precision_closed_loop(tmp_path):
+    """A float build (ipm_tol 1e-3: float's ~1e-7 resolution times the QP's scaling) runs a closed loop: every QP
+    solved to its tolerance, no error exit, the same progress as the double Python reference to 0.1 %."""
+    from fcgen.build import CSolver, build
+    from fcgen.codegen.generate import generate
+    from fcgen.sim.runlog import summary
+    pb = short("truck", "lifted", "ellipse", N=20, qp=QpOptions(backend="ipm", ipm_tol=1e-3))
+    generate(pb, tmp_path / "f", use_float=True)
+    cs = CSolver(build(tmp_path / "f"))
+    assert cs.dtype == np.float32
+    sc = make_scenario("truck", 2, samples=40)
+    log = run_closed_loop(pb, sc, controller=cs)
+    assert np.all(log.qp_status == QP_SOLVED), np.unique(log.qp_status, return_counts=True)
+    assert log.meta["extra"]["exit_codes_nonzero"] == 0 and not log.collision.any()
+    ref = run_closed_loop(pb, sc)
+    p_c, p_py = summary(log)["progress"], summary(ref)["progress"]
+    assert abs(p_c - p_py) <= 1e-3 * p_py
+
+
+@needs_cc
+def test_cli_bench_backends(tmp_path):
+    """fcgen bench --backends: OSQP real-time and the IPM in one run, ratios and figures in the results file."""
+    import json
+
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+    from fcgen.codegen.generate import generate
+    generate(short("car", "lifted", "ellipse", qp=QpOptions()), tmp_path / "g")
+    out = tmp_path / "b.json"
+    res = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,ipm", "--seeds", "1",
+                                    "--samples", "4", "--clock", "cpu", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    r = json.loads(out.read_text())
+    assert r["variants"] == ["osqp", "ipm"] and r["clock"] == "cpu"
+    ipm, osq = r["results"]["ipm"], r["results"]["osqp"]
+    assert ipm["qp"]["backend"] == "ipm" and osq["qp"]["backend"] == "osqp"
+    assert ipm["samples"] == osq["samples"] == 4
+    assert ipm["speedup_vs_osqp"] == pytest.approx(osq["time_ms"]["total"]["median"] / ipm["time_ms"]["total"]["median"])
+    assert ipm["static_ram_bytes"] < osq["static_ram_bytes"]
+    assert "x vs osqp" in res.output and "ipm" in res.output
+    bad = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,hpipm"])
+    assert bad.exit_code != 0 and "hpipm" in bad.output and "Traceback" not in bad.output
