@@ -419,7 +419,7 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("d", (N + 1, NS), "slack pivots"),
         ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
         ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
-        ("fg", (NX * NXU,), "scratch: [F G] of a stage"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
+        ("FGd", (NX, NXU), "scratch: [F G] of a stage, dense"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
         ("W2", (NE1, NX), "scratch"), ("T", (NU, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
