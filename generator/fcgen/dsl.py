@@ -323,7 +323,7 @@ class QpOptions:
     warm_start: bool = True
     max_iter_cold: int = 400
     backend: str = "osqp"  # the QP backend (fcgen.backends.BACKENDS)
-    ipm_tol: float = 1e-6  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
+    ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
 
     @classmethod
     def converged(cls) -> "QpOptions":

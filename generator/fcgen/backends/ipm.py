@@ -47,7 +47,7 @@ RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUME
 class IpmSettings:
     """Tolerances of the interior-point method (scaled QP units)."""
 
-    tol: float = 1e-6        # stationarity, primal residuals and every complementarity product t lam
+    tol: float = 1e-4        # stationarity, primal residuals and every complementarity product t lam
     tau: float = 0.995       # fraction to the boundary
     reg: float = 1e-9        # regularization of the input block of the Newton matrix
     t_min: float = 0.1       # floor of an initial side slack
@@ -222,7 +222,7 @@ class Backend:
                 H = H + Hij + Hij.transpose(0, 2, 1)
         self.c, self.d = c, d
         self.Ht = H
-        self.Lr, self.W1, self.K, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
+        self.Lr, self.W1, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
         self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
         P = None
         for k in range(N, -1, -1):
@@ -249,11 +249,7 @@ class Backend:
                     return False
                 W2 = _fwd(LM, UD.T @ W1)
                 Pk = Pk + W2.T @ W2
-                T = W1 - UD @ _bwd(LM, W2)
                 self.UD[k], self.LM[k] = UD, LM
-            else:
-                T = W1
-            self.K[k] = -_bwd(L, T)
             P = 0.5 * (Pk + Pk.T)
             if not np.all(np.isfinite(P)):
                 return False
@@ -291,7 +287,10 @@ class Backend:
         dnu = np.zeros(lay.m + 1)
         dx = -rr[lay.init_rows] / self.einit
         for k in range(N + 1):
-            du = self.K[k] @ dx + kk[k]
+            w = self.W1[k] @ dx                       # du = K dx + kk, K = -L^-T (W1 - UD M^-1 UD' W1)
+            if sv.NE:
+                w = w - self.UD[k] @ _bwd(self.LM[k], _fwd(self.LM[k], self.UD[k].T @ w))
+            du = kk[k] - _bwd(self.Lr[k], w)
             lam = self.Pk[k] @ dx + p[k]
             if k == 0:
                 dnu[lay.init_rows] = -lam / self.einit
@@ -402,25 +401,26 @@ class Backend:
 def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     """The real arrays of the C workspace struct (name, dims, doc), in declaration order."""
     N, NX, NU, NS, NG = sv.N, sv.nx, sv.NU, sv.NS, sv.NG
-    NE1, NXU, n, m, ns, neq = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row), len(sv.eq_all)
+    NE1, NXU, n, m, ns = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row)
+    NFG = int(np.max(np.diff(sv.dyn_ptr)))
     spec = [
         ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
+        ("fgv", (N, NFG), "the non-zeros of [F G] of stage k (x_{k+1} = F x + G u + c)"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
-        ("y", (m,), "row multipliers (result)"), ("Az", (m,), "A z, A dz"),
-        ("wr", (m,), "weights lam / t on inequality rows, residuals on equality rows"),
-        ("gd", (m,), "right-hand side on inequality rows, multiplier step on equality rows"),
-        ("nu", (neq,), "equality multipliers"),
+        ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
+        ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
+        ("gd", (m,), "right-hand side, then A dz on inequality rows; multiplier step on equality rows"),
         *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
         ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
-        ("K", (N + 1, NU, NX), "feedback gain"), ("P", (N + 1, NX, NX), "cost-to-go Hessian"),
+("P", (N + 1, NX, NX), "cost-to-go Hessian"),
         ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
         ("d", (N + 1, NS), "slack pivots"),
         ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
         ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
         ("FGd", (NX, NXU), "scratch: [F G] of a stage, dense"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
-        ("W2", (NE1, NX), "scratch"), ("T", (NU, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
+        ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
