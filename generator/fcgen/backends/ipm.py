@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..qp import QpLayout, StageView, stage_view
 from . import (QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_STATUSES,
@@ -153,11 +152,16 @@ class Backend:
         self.set = settings or ipm_settings(opts)
         self.reset()
 
+    _DERIVED = ("AT", "Cxu", "Ce", "Einv", "F", "G", "einit", "D", "box_a2", "c", "d", "Lr", "W1", "Pk", "UD", "LM")
+
     def reset(self) -> None:
+        """Back to the state of a fresh backend: no sample's matrices (the IPM keeps nothing between solves)."""
         lay = self.lay
         self.Pd = np.zeros(lay.n)
         self.Ax = np.zeros(lay.nnz_A + 1)
         self.A = lay.A_pattern(self.Ax[:-1].copy())
+        for key in self._DERIVED:
+            self.__dict__.pop(key, None)
 
     # -- prepare phase: the sample's matrices in stage blocks ----------------------------------------
     def set_matrices(self, P_x, A_x, q) -> None:
@@ -177,7 +181,6 @@ class Backend:
         self.einit = ax[sv.init_a]
         self.D = ax[tab.eq_d]                           # (N+1, NE, NU)
         self.box_a2 = ax[sv.box_a] ** 2
-        self.box_a = ax[sv.box_a]
 
     # -- the Newton matrix: side weights, slack elimination, Riccati factorization ---------------------
     def _factor(self, W: np.ndarray) -> bool:
@@ -221,7 +224,6 @@ class Backend:
                 Hij = np.einsum("ksa,ksb->kab", M[:, :, None] * ga[i], ga[j])
                 H = H + Hij + Hij.transpose(0, 2, 1)
         self.c, self.d = c, d
-        self.Ht = H
         self.Lr, self.W1, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
         self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
         P = None
