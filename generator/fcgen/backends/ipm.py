@@ -49,6 +49,7 @@ class IpmSettings:
     tol: float = 1e-4        # stationarity, primal residuals and every complementarity product t lam
     tau: float = 0.995       # fraction to the boundary
     reg: float = 1e-9        # regularization of the input block of the Newton matrix
+    prox: float = 1e-6       # proximal weight on inputs without cost (hyperplanes: not unique, else they drift)
     t_min: float = 0.1       # floor of an initial side slack
     lam_min: float = 0.1     # floor of an initial side multiplier
     lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
@@ -133,6 +134,11 @@ class _Tables:
                 sl = slice(sv.eq_ptr[slot], sv.eq_ptr[slot + 1])
                 self.eq_d[k, e, sv.eq_j[sl]] = sv.eq_a[sl]
         self.eq_pad = (sv.eq_rows < 0).astype(float)
+        # inputs without cost (hyperplane variables): 1 where the proximal weight applies
+        self.free_inputs = np.zeros(lay.n)
+        for k in range(N + 1):
+            v = sv.vmap[k, nx:nx + sv.nu[k]]
+            self.free_inputs[v[lay.P_diag[v] == 0]] = 1.0
 
 
 def ipm_settings(opts: "QpOptions") -> IpmSettings:
@@ -150,6 +156,7 @@ class Backend:
         self.sv = stage_view(layout)
         self.tab = _Tables(layout, self.sv)
         self.set = settings or ipm_settings(opts)
+        self.trace: list | None = None  # set to [] to record (|r_d|, |r_eq|, |r_p|, max t lam, mu) per iteration
         self.reset()
 
     _DERIVED = ("AT", "Cxu", "Ce", "Einv", "F", "G", "einit", "D", "box_a2", "c", "d", "Lr", "W1", "Pk", "UD", "LM")
@@ -166,7 +173,7 @@ class Backend:
     # -- prepare phase: the sample's matrices in stage blocks ----------------------------------------
     def set_matrices(self, P_x, A_x, q) -> None:
         sv, tab = self.sv, self.tab
-        self.Pd = np.array(P_x, dtype=float)
+        self.Pd = np.array(P_x, dtype=float) + self.set.prox * self.tab.free_inputs
         self.Ax = np.r_[np.asarray(A_x, dtype=float), 0.0]
         self.A = self.lay.A_pattern(self.Ax[:-1].copy())
         self.AT = self.A.T.tocsr()
@@ -339,6 +346,9 @@ class Backend:
             mu = float(t @ lam) / ns
             if not (np.all(np.isfinite(r_d)) and np.isfinite(mu)):
                 return QpResult(RAW_TO_QP[3], 4, it, None, None)
+            if self.trace is not None:
+                self.trace.append((float(np.max(np.abs(r_d))), float(np.max(np.abs(r_eq))), float(np.max(np.abs(r_p))),
+                                   float(np.max(t * lam)), mu))
             if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p)), np.max(t * lam)) <= st.tol:
                 raw = 1
                 break
@@ -468,6 +478,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_BOX_ROW", sv.box_rows, "box row"), ("IPM_BOX_VAR", sv.box_var, "its variable"),
         ("IPM_BOX_A", sv.box_a, "its data index"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
+        ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
     ]
     top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
@@ -479,6 +490,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
