@@ -8,6 +8,8 @@ extern "C" {
 
 /* Monotonic clock in seconds (POSIX clock_gettime); pass it to truck_conv_el_set_clock on a host. */
 double truck_conv_el_host_clock(void);
+/* CPU time of the calling thread in seconds (CLOCK_THREAD_CPUTIME_ID): timings without preemption by other loads. */
+double truck_conv_el_host_cpu_clock(void);
 
 #ifdef __cplusplus
 }

@@ -9,3 +9,9 @@ double truck_de_el_host_clock(void) {
   if (clock_gettime(CLOCK_MONOTONIC, &ts) != 0) return 0.0;
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+
+double truck_de_el_host_cpu_clock(void) {
+  struct timespec ts;
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}

@@ -106,9 +106,13 @@ class CSolver:
 
     kind = "c"
 
-    def __init__(self, lib_path: Path | str, header: Path | str | None = None, init: bool = True):
-        """Load a solver library; ``init=False`` leaves a freshly loaded library zero-initialized (no init call)."""
+    def __init__(self, lib_path: Path | str, header: Path | str | None = None, init: bool = True,
+                 clock: str = "wall"):
+        """Load a solver library; ``init=False`` leaves a freshly loaded library zero-initialized (no init call).
+        ``clock``: ``"wall"`` (monotonic) or ``"cpu"`` (the thread's CPU time: no preemption by other loads)."""
         lib_path = Path(lib_path)
+        if clock not in ("wall", "cpu"):
+            raise ValueError(f"clock = {clock!r} is invalid: allowed 'wall' or 'cpu'")
         self.name = lib_path.name[len("lib"):-len(".so")]
         header = Path(header) if header else self._find_header(lib_path)
         self.sizes = read_macros(header, self.name)
@@ -122,7 +126,8 @@ class CSolver:
         self._declare()
         if init:
             self.init()
-        self._f("set_clock")(ctypes.cast(self._f("host_clock"), ctypes.c_void_p))
+        self._f("set_clock")(ctypes.cast(self._f("host_clock" if clock == "wall" else "host_cpu_clock"),
+                                         ctypes.c_void_p))
 
     @staticmethod
     def _find_header(lib_path: Path) -> Path:
@@ -150,7 +155,7 @@ class CSolver:
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
                "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
                "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_opp_params": ([PR], None),
-               "host_clock": ([], ctypes.c_double)}
+               "host_clock": ([], ctypes.c_double), "host_cpu_clock": ([], ctypes.c_double)}
         for fn, (args, res) in sig.items():
             f = self._f(fn)
             f.argtypes, f.restype = args, res

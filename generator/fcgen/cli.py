@@ -271,16 +271,24 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
               help="results file [default: results/bench_<name>[_<target>].json]")
 @_TARGET
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target):
+@click.option("--backends", default=None,
+              help="compare QP backends in one run instead, e.g. osqp,osqp-converged,ipm (OSQP real-time, OSQP "
+                   "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
+@click.option("--clock", type=click.Choice(["wall", "cpu"]), default="wall", show_default=True,
+              help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference.
 
     With an emulated --target: instructions per prepare and feedback (median / max) from QEMU -icount; the default
-    then is 1 seed (use --seeds, --samples)."""
-    from .bench import bench, bench_target, format_bench, format_bench_target, write_results
+    then is 1 seed (use --seeds, --samples). With --backends: several QP backends timed in one run."""
+    from .bench import (BACKEND_VARIANTS, bench, bench_backends, bench_target, format_backends, format_bench,
+                        format_bench_target, write_results)
     from .build import BuildError
     from .sim.export import HarnessError
 
     if get_target(target).bare_metal:
+        if backends is not None:
+            _fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")
         ctx = click.get_current_context()
         n_seeds = seeds if ctx.get_parameter_source("seeds").name != "DEFAULT" else 1
         try:
@@ -289,6 +297,21 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
             _fail(str(exc))
         click.echo(format_bench_target(res))
         path = write_results(res, out or f"results/bench_{res['solver']}_{target}.json")
+        click.echo(f"results written to {path}")
+        return
+    if backends is not None:
+        variants = [v.strip() for v in backends.split(",") if v.strip()]
+        bad = [v for v in variants if v not in BACKEND_VARIANTS]
+        if bad or not variants:
+            _fail(f"--backends: {', '.join(bad) or 'empty'} invalid; allowed a comma list of "
+                  f"{', '.join(BACKEND_VARIANTS)}")
+        try:
+            res = bench_backends(Path(solver_dir), variants, scenario=scenario, seeds=seeds, samples=samples,
+                                 cc=cc, cflags=cflags, progress=sys.stderr.isatty(), clock=clock)
+        except BuildError as exc:
+            _fail(str(exc))
+        click.echo(format_backends(res))
+        path = write_results(res, out or f"results/bench_backends_{res['problem']}.json")
         click.echo(f"results written to {path}")
         return
     try:

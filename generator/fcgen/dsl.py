@@ -328,6 +328,7 @@ class QpOptions:
     warm_start: bool = True
     max_iter_cold: int = 400
     backend: str = "osqp"  # the QP backend (fcgen.backends.BACKENDS)
+    ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
 
     @classmethod
     def converged(cls) -> "QpOptions":
@@ -349,6 +350,7 @@ class QpOptions:
                "an integer in [0, 100]")
         _check(isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
                "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
+        _check(0 < _finite("qp.ipm_tol", self.ipm_tol) < 1, "qp.ipm_tol", self.ipm_tol, "(0, 1)")
         from .backends import BACKENDS
         _check(self.backend in BACKENDS, "qp.backend", self.backend, "one of " + ", ".join(BACKENDS))
 

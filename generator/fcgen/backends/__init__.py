@@ -27,7 +27,7 @@ QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_DUAL_INFE
 QP_USABLE = (QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER)
 """Statuses whose step may be taken (with a finite step only)."""
 
-BACKENDS = ("osqp",)
+BACKENDS = ("osqp", "ipm")
 """Names ``QpOptions.backend`` accepts; each is a module of this package."""
 
 

@@ -1,0 +1,509 @@
+"""A structure-exploiting primal-dual interior-point QP backend (Python reference of ``templates/backends/ipm.c.j2``).
+
+The QP is the layout's ``min 0.5 z'Pz + q'z  s.t.  l <= Az <= u`` (P diagonal). Rows fall into the classes of
+``qp.stage_view``: equality rows (init, dynamics, stage equalities) keep their multipliers ``nu``; every finite side j
+of an inequality row r is ``sign_j a_r'z - b_j = t_j >= 0`` with multiplier ``lam_j >= 0`` (``b = l`` for a lower,
+``-u`` for an upper side). Mehrotra's predictor-corrector drives ``t lam`` to zero. The Newton system, after the sides
+are eliminated (weights ``W_r = sum lam/t`` on ``A' W A``), is the KKT system of an equality-constrained multistage
+QP: box rows add to the diagonal, the slacks (one per general row at most, a diagonal block) are eliminated by a
+Schur complement into their stage, and a Riccati recursion over ``(x_k, u_k)`` solves what remains (stage equalities
+by a small Schur complement of their own). Inputs without curvature (hyperplane variables) get a small
+regularization ``reg`` in the Newton matrix only: residuals are exact, so the fixed point is the QP's solution.
+
+Result in the interface's terms: ``z`` the step, ``y`` the row multipliers in OSQP's sign convention
+(``y_r = nu_r`` on equality rows, ``lam_upper - lam_lower`` on inequality rows; y > 0 at an active upper bound).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..qp import QpLayout, StageView, stage_view
+from . import (QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_STATUSES,
+               BackendFiles, QpResult)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..dsl import QpOptions
+
+LABEL = "fcgen's Riccati interior-point method (Mehrotra predictor-corrector, static memory)"
+"""How the generated header and README name this backend."""
+
+VERIFY_QP_DATA_TOL = 1e-8
+VERIFY_SOLUTION_TOL = 1e-8
+"""fcgen verify's tolerances for this backend. C and Python agree to rounding, not bit for bit (numpy's BLAS products
+vs the C's loops), and in the lockstep each side linearizes the next sample at its own iterate, so differences can
+accumulate: truck_lifted_ellipse, seed 0, 200 samples: z 2.4e-11, y 1.1e-10, u0 5.8e-10, A 1.8e-12 (at ipm_tol
+1e-8: up to 5.5e-9). The tolerance keeps a margin over these."""
+
+RAW_STATUS = ("solved", "max_iter", "primal_infeasible", "nonfinite", "numerical")
+"""The backend's own status values 1..5, in this order."""
+RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUMERICAL)
+
+
+@dataclass(frozen=True)
+class IpmSettings:
+    """Tolerances of the interior-point method (scaled QP units)."""
+
+    tol: float = 1e-4        # stationarity, primal residuals and every complementarity product t lam
+    tau: float = 0.995       # fraction to the boundary
+    reg: float = 1e-9        # regularization of the input block of the Newton matrix
+    prox: float = 1e-6       # proximal weight on inputs without cost (hyperplanes: not unique, else they drift)
+    t_min: float = 0.1       # floor of an initial side slack
+    lam_min: float = 0.1     # floor of an initial side multiplier
+    lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
+    alpha_min: float = 1e-12 # a step below it: numerical trouble
+    warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
+
+
+def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Solve L X = B, L lower triangular (row by row, as the C does)."""
+    X = np.array(B, dtype=float, copy=True)
+    for i in range(L.shape[0]):
+        X[i] = (X[i] - L[i, :i] @ X[:i]) / L[i, i]
+    return X
+
+
+def _bwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Solve L' X = B, L lower triangular."""
+    X = np.array(B, dtype=float, copy=True)
+    for i in range(L.shape[0] - 1, -1, -1):
+        X[i] = (X[i] - L[i + 1:, i] @ X[i + 1:]) / L[i, i]
+    return X
+
+
+class _Tables:
+    """Gather maps of the stage view, padded to fixed sizes (dummy index = one past the end)."""
+
+    def __init__(self, lay: QpLayout, sv: StageView):
+        N, nx, NU, NS, NG, NE = sv.N, sv.nx, sv.NU, sv.NS, sv.NG, sv.NE
+        nz_dummy, nxu = lay.nnz_A, nx + NU
+        self.vmap_xu = np.where(sv.vmap[:, :nxu] >= 0, sv.vmap[:, :nxu], lay.n)
+        self.vmap_s = np.where(sv.vmap[:, nxu:] >= 0, sv.vmap[:, nxu:], lay.n)
+        self.gen_row = np.where(sv.gen_rows >= 0, sv.gen_rows, lay.m)
+        self.gen_xu = np.full((N + 1, NG, nxu), nz_dummy, dtype=np.int64)
+        self.gen_e = np.full((N + 1, NG), nz_dummy, dtype=np.int64)
+        self.gen_s = np.full((N + 1, NG), NS, dtype=np.int64)
+        for k in range(N + 1):
+            for g in range(NG):
+                slot = k * NG + g
+                for v, a in zip(sv.gen_v[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]],
+                                sv.gen_a[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]]):
+                    if v < nxu:
+                        self.gen_xu[k, g, v] = a
+                    else:
+                        self.gen_e[k, g], self.gen_s[k, g] = a, v - nxu
+        # inequality-row entries in the C's order (general slots: inputs/states, then the slack; then box rows)
+        gptr, gv, ga, gvar, svar = [0], [], [], [], []
+        ent_row, ent_var, ent_a = [], [], []
+        for k in range(N + 1):
+            for g in range(NG):
+                slot = k * NG + g
+                sl = slice(sv.gen_ptr[slot], sv.gen_ptr[slot + 1])
+                row, s_var = sv.gen_rows[k, g], -1
+                for v, a in zip(sv.gen_v[sl], sv.gen_a[sl]):
+                    if v < nxu:
+                        gv.append(int(v)); ga.append(int(a)); gvar.append(int(sv.vmap[k, v]))
+                        ent_row.append(row); ent_var.append(int(sv.vmap[k, v])); ent_a.append(int(a))
+                    else:
+                        s_var, s_a = int(sv.vmap[k, v]), int(a)
+                if s_var >= 0:
+                    ent_row.append(row); ent_var.append(s_var); ent_a.append(s_a)
+                gptr.append(len(gv))
+                svar.append(s_var)
+        ent_row += sv.box_rows.tolist(); ent_var += sv.box_var.tolist(); ent_a += sv.box_a.tolist()
+        self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
+        self.gen_svar = svar
+        self.ent_row, self.ent_var, self.ent_a = (np.array(x, dtype=np.int64) for x in (ent_row, ent_var, ent_a))
+        groups = [[[g for g in range(NG) if self.gen_s[k, g] == j] for j in range(NS)] for k in range(N + 1)]
+        RS = max([1] + [len(gr) for gk in groups for gr in gk])
+        self.slack_rows = np.full((N + 1, NS, RS), NG, dtype=np.int64)  # general slots of slack j; NG: none
+        for k in range(N + 1):
+            for j in range(NS):
+                self.slack_rows[k, j, :len(groups[k][j])] = groups[k][j]
+        self.dyn_ab = np.full((N, nx, nxu), nz_dummy, dtype=np.int64)
+        for k in range(N):
+            sl = slice(sv.dyn_ptr[k], sv.dyn_ptr[k + 1])
+            self.dyn_ab[k, sv.dyn_i[sl], sv.dyn_j[sl]] = sv.dyn_a[sl]
+        self.eq_d = np.full((N + 1, NE, NU), nz_dummy, dtype=np.int64)
+        self.eq_row = np.where(sv.eq_rows >= 0, sv.eq_rows, lay.m)
+        for k in range(N + 1):
+            for e in range(NE):
+                slot = k * NE + e
+                sl = slice(sv.eq_ptr[slot], sv.eq_ptr[slot + 1])
+                self.eq_d[k, e, sv.eq_j[sl]] = sv.eq_a[sl]
+        self.eq_pad = (sv.eq_rows < 0).astype(float)
+        # inputs without cost (hyperplane variables): 1 where the proximal weight applies
+        self.free_inputs = np.zeros(lay.n)
+        for k in range(N + 1):
+            v = sv.vmap[k, nx:nx + sv.nu[k]]
+            self.free_inputs[v[lay.P_diag[v] == 0]] = 1.0
+
+
+def ipm_settings(opts: "QpOptions") -> IpmSettings:
+    """The IPM's settings of a problem's QpOptions."""
+    return IpmSettings(tol=opts.ipm_tol)
+
+
+class Backend:
+    """Riccati-based Mehrotra predictor-corrector IPM on the layout's QP (see the module docstring)."""
+
+    name = "ipm"
+
+    def __init__(self, layout: QpLayout, opts: "QpOptions", settings: IpmSettings | None = None):
+        self.lay = layout
+        self.sv = stage_view(layout)
+        self.tab = _Tables(layout, self.sv)
+        self.set = settings or ipm_settings(opts)
+        self.trace: list | None = None  # set to [] to record (|r_d|, |r_eq|, |r_p|, max t lam, mu) per iteration
+        self.reset()
+
+    _DERIVED = ("AT", "Cxu", "Ce", "Einv", "F", "G", "einit", "D", "box_a2", "c", "d", "Lr", "W1", "Pk", "UD", "LM")
+
+    def reset(self) -> None:
+        """Back to the state of a fresh backend: no sample's matrices (the IPM keeps nothing between solves)."""
+        lay = self.lay
+        self.Pd = np.zeros(lay.n)
+        self.Ax = np.zeros(lay.nnz_A + 1)
+        self.A = lay.A_pattern(self.Ax[:-1].copy())
+        for key in self._DERIVED:
+            self.__dict__.pop(key, None)
+
+    # -- prepare phase: the sample's matrices in stage blocks ----------------------------------------
+    def set_matrices(self, P_x, A_x, q) -> None:
+        sv, tab = self.sv, self.tab
+        self.Pd = np.array(P_x, dtype=float) + self.set.prox * self.tab.free_inputs
+        self.Ax = np.r_[np.asarray(A_x, dtype=float), 0.0]
+        self.A = self.lay.A_pattern(self.Ax[:-1].copy())
+        self.AT = self.A.T.tocsr()
+        ax = self.Ax
+        self.Cxu = ax[tab.gen_xu]                       # (N+1, NG, nx+NU)
+        self.Ce = ax[tab.gen_e]                         # (N+1, NG) slack coefficient
+        E = ax[sv.dyn_next]                             # (N, nx)
+        self.Einv = 1.0 / E
+        AB = -ax[tab.dyn_ab] * self.Einv[:, :, None]    # x_{k+1} = F x + G u + c
+        self.F = AB[:, :, :sv.nx]
+        self.G = AB[:, :, sv.nx:]
+        self.einit = ax[sv.init_a]
+        self.D = ax[tab.eq_d]                           # (N+1, NE, NU)
+        self.box_a2 = ax[sv.box_a] ** 2
+
+    # -- the Newton matrix: side weights, slack elimination, Riccati factorization ---------------------
+    def _factor(self, W: np.ndarray) -> bool:
+        sv, tab, st = self.sv, self.tab, self.set
+        N, nx = sv.N, sv.nx
+        hd = np.r_[self.Pd, 1.0]
+        np.add.at(hd, sv.box_var, W[sv.box_rows] * self.box_a2)
+        # general rows; a slack's rows (its group) are eliminated with it, without cancellation: row i of the
+        # group weighs W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s, two rows couple by -W_i e_i W_j e_j / d_s,
+        # d_s = hd_s + sum_i W_i e_i^2 (hd_s: the slack's own curvature, cost and its bound row)
+        pad = np.zeros((N + 1, 1))
+        Wg = np.concatenate([W[tab.gen_row], pad], axis=1)       # (N+1, NG+1); dummy slot: W = 0
+        w = Wg * np.concatenate([self.Ce, pad], axis=1)          # W e
+        we2 = w * np.concatenate([self.Ce, pad], axis=1)
+        flat = tab.slack_rows.reshape(N + 1, -1)
+        RS = tab.slack_rows.shape[2]
+        g_we2 = np.take_along_axis(we2, flat, axis=1).reshape(tab.slack_rows.shape)
+        g_w = np.take_along_axis(w, flat, axis=1).reshape(tab.slack_rows.shape)
+        g_W = np.take_along_axis(Wg, flat, axis=1).reshape(tab.slack_rows.shape)
+        hs_ = hd[tab.vmap_s]
+        d = hs_.copy()
+        for i in range(RS):
+            d = d + g_we2[:, :, i]
+        Weff = Wg.copy()
+        for i in range(RS):
+            others = hs_.copy()
+            for j in range(RS):
+                if j != i:
+                    others = others + g_we2[:, :, j]
+            np.put_along_axis(Weff, tab.slack_rows[:, :, i], g_W[:, :, i] * others / d, axis=1)
+        Cp = np.concatenate([self.Cxu, np.zeros((N + 1, 1, nx + sv.NU))], axis=1)
+        H = np.einsum("kgi,kgj->kij", Cp * Weff[:, :, None], Cp)
+        idx = np.arange(nx + sv.NU)
+        H[:, idx, idx] += hd[tab.vmap_xu]
+        ga = [np.take_along_axis(Cp, tab.slack_rows[:, :, i, None], axis=1) for i in range(RS)]  # (N+1, NS, nxu)
+        c = np.zeros((N + 1, sv.NS, nx + sv.NU))
+        for i in range(RS):
+            c = c + g_w[:, :, i, None] * ga[i]
+            for j in range(i + 1, RS):
+                M = -g_w[:, :, i] * g_w[:, :, j] / d
+                Hij = np.einsum("ksa,ksb->kab", M[:, :, None] * ga[i], ga[j])
+                H = H + Hij + Hij.transpose(0, 2, 1)
+        self.c, self.d = c, d
+        self.Lr, self.W1, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
+        self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
+        P = None
+        for k in range(N, -1, -1):
+            Q, S, R = H[k, :nx, :nx], H[k, nx:, :nx], H[k, nx:, nx:]
+            if k < N:
+                PF = P @ self.F[k]
+                PG = P @ self.G[k]
+                Q = Q + self.F[k].T @ PF
+                S = S + self.G[k].T @ PF
+                R = R + self.G[k].T @ PG
+            R = R + st.reg * np.eye(sv.NU)
+            try:
+                L = np.linalg.cholesky(R)
+            except np.linalg.LinAlgError:
+                return False
+            W1 = _fwd(L, S)
+            Pk = Q - W1.T @ W1
+            if sv.NE:
+                UD = _fwd(L, self.D[k].T)
+                M = UD.T @ UD + np.diag(tab.eq_pad[k])
+                try:
+                    LM = np.linalg.cholesky(M)
+                except np.linalg.LinAlgError:
+                    return False
+                W2 = _fwd(LM, UD.T @ W1)
+                Pk = Pk + W2.T @ W2
+                self.UD[k], self.LM[k] = UD, LM
+            P = 0.5 * (Pk + Pk.T)
+            if not np.all(np.isfinite(P)):
+                return False
+            self.Lr[k], self.W1[k], self.Pk[k] = L, W1, P
+        return True
+
+    def _newton(self, h: np.ndarray, r_eq_rows: np.ndarray):
+        """Solve the factored Newton system for the right-hand side h (n) and equality residuals (m, at eq rows)."""
+        sv, tab, lay = self.sv, self.tab, self.lay
+        N, nx = sv.N, sv.nx
+        he = np.r_[h, 0.0]
+        hs = he[tab.vmap_s]
+        ht = he[tab.vmap_xu] - np.einsum("ksi,ks->ki", self.c, hs / self.d)
+        rr = np.r_[r_eq_rows, 0.0]
+        cdyn = -rr[sv.dyn_rows] * self.Einv                 # (N, nx)
+        deq = -rr[tab.eq_row]                               # (N+1, NE)
+        lr, kk, p = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
+        pn = None
+        for k in range(N, -1, -1):
+            qb, rb = ht[k, :nx], ht[k, nx:]
+            if k < N:
+                pc = self.Pk[k + 1] @ cdyn[k] + pn
+                qb = qb + self.F[k].T @ pc
+                rb = rb + self.G[k].T @ pc
+            lr[k] = _fwd(self.Lr[k], rb)
+            t = lr[k]
+            if sv.NE:
+                nh = self.UD[k].T @ lr[k] + deq[k]
+                nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
+                t = lr[k] - self.UD[k] @ nh
+            kk[k] = -_bwd(self.Lr[k], t)
+            p[k] = qb - self.W1[k].T @ t            # = qb + S_bar' kk
+            pn = p[k]
+        dz = np.zeros(lay.n + 1)
+        dnu = np.zeros(lay.m + 1)
+        dx = -rr[lay.init_rows] / self.einit
+        for k in range(N + 1):
+            w = self.W1[k] @ dx                       # du = K dx + kk, K = -L^-T (W1 - UD M^-1 UD' W1)
+            if sv.NE:
+                w = w - self.UD[k] @ _bwd(self.LM[k], _fwd(self.LM[k], self.UD[k].T @ w))
+            du = kk[k] - _bwd(self.Lr[k], w)
+            lam = self.Pk[k] @ dx + p[k]
+            if k == 0:
+                dnu[lay.init_rows] = -lam / self.einit
+            else:
+                dnu[sv.dyn_rows[k - 1]] = -lam * self.Einv[k - 1]
+            if sv.NE:
+                nh = self.UD[k].T @ (self.W1[k] @ dx + lr[k]) + deq[k]
+                nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
+                dnu[tab.eq_row[k]] = -nh
+            dv = np.r_[dx, du]
+            ds = -(self.c[k] @ dv + hs[k]) / self.d[k]
+            dz[tab.vmap_xu[k]] = dv
+            dz[tab.vmap_s[k]] = ds
+            if k < N:
+                dx = self.F[k] @ dx + self.G[k] @ du + cdyn[k]
+        return dz[:lay.n], dnu[:lay.m]
+
+    # -- feedback phase ------------------------------------------------------------------------------
+    def solve(self, q, l, u, y_warm, max_iter: int) -> QpResult:
+        sv, lay, st, tab = self.sv, self.lay, self.set, self.tab
+        n, m = lay.n, lay.m
+        q = np.asarray(q, dtype=float)
+        rows, sign = sv.side_row, sv.side_sign.astype(float)
+        b = np.where(sign > 0, l[rows], -u[rows])
+        eq = sv.eq_all
+        b_eq = l[eq]
+        ns = len(rows)
+        yw = np.zeros(m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
+        z = np.zeros(n)
+        t = np.maximum(-b, st.t_min)
+        lam = np.maximum(-sign * yw[rows], st.lam_min)
+        nu = yw[eq].copy()
+        raw = 2
+        it = 0
+        while True:
+            y = np.zeros(m)
+            y[eq] = nu
+            np.add.at(y, rows, -sign * lam)
+            Az = self.A @ z
+            r_d = self.Pd * z + q + self.AT @ y
+            r_eq = np.zeros(m)
+            r_eq[eq] = Az[eq] - b_eq
+            r_p = sign * Az[rows] - b - t
+            mu = float(t @ lam) / ns
+            if not (np.all(np.isfinite(r_d)) and np.isfinite(mu)):
+                return QpResult(RAW_TO_QP[3], 4, it, None, None)
+            if self.trace is not None:
+                self.trace.append((float(np.max(np.abs(r_d))), float(np.max(np.abs(r_eq))), float(np.max(np.abs(r_p))),
+                                   float(np.max(t * lam)), mu))
+            if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p)), np.max(t * lam)) <= st.tol:
+                raw = 1
+                break
+            if np.max(lam) > st.lam_max:
+                raw = 3
+                break
+            if it >= max_iter:
+                break
+            W = np.zeros(m + 1)
+            np.add.at(W, rows, lam / t)
+            if not self._factor(W):
+                raw = 5
+                break
+
+            def direction(rc):
+                g = np.zeros(m)
+                np.add.at(g, rows, sign * (rc + lam * r_p) / t)
+                h = r_d.copy()                          # r_d + A_in' g, entry by entry as the C
+                np.add.at(h, tab.ent_var, self.Ax[tab.ent_a] * g[tab.ent_row])
+                dz, dnu = self._newton(h, r_eq)
+                adz = np.zeros(m)
+                np.add.at(adz, tab.ent_row, self.Ax[tab.ent_a] * dz[tab.ent_var])
+                dt = sign * adz[rows] + r_p
+                dlam = -(rc + lam * dt) / t
+                return dz, dnu, dt, dlam
+
+            def max_step(dt, dlam):
+                a = 1.0
+                neg = dt < 0
+                if np.any(neg):
+                    a = min(a, float(np.min(-t[neg] / dt[neg])))
+                neg = dlam < 0
+                if np.any(neg):
+                    a = min(a, float(np.min(-lam[neg] / dlam[neg])))
+                return a
+
+            _, _, dt_a, dl_a = direction(t * lam)
+            a_aff = max_step(dt_a, dl_a)
+            mu_aff = float((t + a_aff * dt_a) @ (lam + a_aff * dl_a)) / ns
+            ratio = mu_aff / mu
+            sigma = ratio * ratio * ratio
+            dz, dnu, dt, dlam = direction(t * lam + dt_a * dl_a - sigma * mu)
+            alpha = min(1.0, st.tau * max_step(dt, dlam))
+            if not np.all(np.isfinite(dz)):
+                return QpResult(RAW_TO_QP[3], 4, it, None, None)
+            if alpha < st.alpha_min:
+                raw = 5
+                break
+            z = z + alpha * dz
+            nu = nu + alpha * dnu[eq]
+            t = t + alpha * dt
+            lam = lam + alpha * dlam
+            it += 1
+        y = np.zeros(m)
+        y[eq] = nu
+        np.add.at(y, rows, -sign * lam)
+        return QpResult(RAW_TO_QP[raw - 1], raw, it, z, y)
+
+
+# -- generated code ----------------------------------------------------------------------------------------------
+
+def _members(sv: StageView, lay: QpLayout) -> list[dict]:
+    """The real arrays of the C workspace struct (name, dims, doc), in declaration order."""
+    N, NX, NU, NS, NG = sv.N, sv.nx, sv.NU, sv.NS, sv.NG
+    NE1, NXU, n, m, ns = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row)
+    NFG = int(np.max(np.diff(sv.dyn_ptr)))
+    spec = [
+        ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
+        ("fgv", (N, NFG), "the non-zeros of [F G] of stage k (x_{k+1} = F x + G u + c)"),
+        ("einit", (NX,), "coefficient of x_0[i] in init row i"),
+        ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
+        ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
+        ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
+        ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
+        ("gd", (m,), "right-hand side, then A dz on inequality rows; multiplier step on equality rows"),
+        *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
+        ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
+("P", (N + 1, NX, NX), "cost-to-go Hessian"),
+        ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
+        ("d", (N + 1, NS), "slack pivots"),
+        ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
+        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
+        ("FGd", (NX, NXU), "scratch: [F G] of a stage, dense"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
+        ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
+    ]
+    return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
+
+
+def _workspace_bytes(members: list[dict], real_size: int) -> int:
+    """sizeof the C workspace struct on an LP64 target (two pointers, then the real arrays)."""
+    size = 16 + sum(int(np.prod(m["dims"])) * real_size for m in members)
+    return -(-size // 8) * 8
+
+
+def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
+    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``)."""
+    from ..codegen.generate import _c_list, _c_real
+    sv = stage_view(layout)
+    tab = _Tables(layout, sv)
+    st = ipm_settings(opts)
+    N, NX, NU, NS, NG, NE = sv.N, sv.nx, sv.NU, sv.NS, sv.NG, sv.NE
+    NE1, nxu = max(NE, 1), sv.nx + sv.NU
+    A = layout.A_pattern()
+    # general rows: the stage-variable entries (x, inputs) as lists; the slack entry apart
+    gptr, gv, ga = tab.gen_xu_ptr, tab.gen_xu_v, tab.gen_xu_a
+    gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
+    slack_rows = np.where(tab.slack_rows < NG, tab.slack_rows, -1)
+    eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
+    eq_row[:, :NE] = sv.eq_rows
+    tables = [
+        ("IPM_A_P", A.indptr, "CSC column pointers of A"), ("IPM_A_I", A.indices, "CSC row indices of A"),
+        ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
+        ("IPM_VMAP_S", sv.vmap[:, nxu:], "[k][s]: variable of stage k's slack s"),
+        ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
+        ("IPM_GEN_PTR", gptr, "entries of general slot k NG + g"), ("IPM_GEN_V", gv, "stage slot v of the entry"),
+        ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_VAR", tab.gen_var, "variable of the entry"),
+        ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
+        ("IPM_GEN_SVAR", tab.gen_svar, "variable of the slot's slack"),
+        ("IPM_SLACK_ROWS", slack_rows, "[k][s][i]: general slots holding slack s"),
+        ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
+        ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
+        ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
+        ("IPM_DYN_J", sv.dyn_j, "stage slot"), ("IPM_DYN_A", sv.dyn_a, "data index"),
+        ("IPM_INIT_ROWS", layout.init_rows, "init row of x_0[i]"), ("IPM_INIT_A", sv.init_a, "its data index"),
+        ("IPM_EQ_ROW", eq_row, "[k][e]: stage equality row"), ("IPM_EQ_PTR", sv.eq_ptr, "entries of slot k NE + e"),
+        ("IPM_EQ_J", sv.eq_j, "input index"), ("IPM_EQ_A", sv.eq_a, "data index"),
+        ("IPM_BOX_ROW", sv.box_rows, "box row"), ("IPM_BOX_VAR", sv.box_var, "its variable"),
+        ("IPM_BOX_A", sv.box_a, "its data index"),
+        ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
+        ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
+    ]
+    top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
+    idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
+    out = [{"name": nm, "kind": "idx", "len": max(1, int(np.asarray(t).size)), "doc": doc,
+            "body": _c_list([int(x) for x in np.asarray(t).ravel()])} for nm, t, doc in tables]
+    out.append({"name": "IPM_SIDE_SIGN", "kind": "sign", "len": max(1, len(sv.side_sign)),
+                "doc": "+1: lower side (a'z >= l), -1: upper side (a'z <= u)",
+                "body": _c_list([int(x) for x in sv.side_sign])})
+    members = _members(sv, layout)
+    return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
+            "NSIDE": len(sv.side_row), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
+            "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
+            "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
+            "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
+            "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))]}
+
+
+def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bool) -> BackendFiles:
+    """The IPM is all in the solver's C file: no extra files; its RAM is the workspace struct."""
+    ws = _workspace_bytes(_members(stage_view(layout), layout), 4 if use_float else 8)
+    return BackendFiles(sources=(), headers=(), library_sources=(), library_headers=(), include_dirs=(),
+                        private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0)
+
+
+def restore_library(out_dir, use_float: bool) -> list[str]:
+    """Nothing to restore: the IPM has no library."""
+    return []

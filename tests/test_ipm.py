@@ -1,0 +1,253 @@
+"""The interior-point QP backend (``qp.backend = "ipm"``): the stage view, the Python IPM against OSQP on the QPs of
+closed-loop runs, its statuses, and the generated C against the Python reference (``fcgen verify``)."""
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import osqp
+import pytest
+
+from fcgen.backends import QP_NONFINITE, QP_PRIMAL_INFEASIBLE, QP_SOLVED, make_backend
+from fcgen.backends.ipm import Backend as IpmBackend
+from fcgen.backends.osqp import osqp_settings
+from fcgen.dsl import Horizon, QpOptions
+from fcgen.ocp import INF, build_ocp
+from fcgen.presets import FORMULATIONS, OBSTACLES, SCENARIOS, paper_problem
+from fcgen.qp import build_layout, stage_view
+from fcgen.reference import RtiSolver
+from fcgen.sim.closedloop import ReferenceController, run_closed_loop
+from fcgen.sim.scenario import make_scenario
+from fcgen.verify import infer_scenario
+
+IPM = QpOptions(backend="ipm")
+IPM_TIGHT = QpOptions(backend="ipm", ipm_tol=1e-8)  # the cross-check's IPM: its fixed point, not the real-time stop
+# OSQP solving every QP to eps 1e-7 (the second method of the cross-check)
+OSQP_TIGHT = QpOptions(max_iter=100_000, eps_abs=1e-7, eps_rel=1e-7, rho=1.0, check_termination=5, adaptive_rho=True)
+CASES = [(sc, f, o) for sc in SCENARIOS for f in FORMULATIONS for o in OBSTACLES]
+# C builds are the slow part: the default run builds a Latin square (each formulation, each obstacle model once,
+# both scenarios); the remaining presets are marked slow
+FAST_C = {("car", "conventional", "hyperplane"), ("truck", "direct_elimination", "circles"),
+          ("truck", "lifted", "ellipse")}
+C_CASES = [c if c in FAST_C else pytest.param(*c, marks=pytest.mark.slow) for c in CASES]
+
+
+def short(sc: str, form: str, ob: str, N: int = 10, qp: QpOptions = IPM):
+    return paper_problem(sc, form, ob, horizon=Horizon(N=N), qp=qp)
+
+
+def closed_loop_qps(pb, samples: int = 3, seed: int = 1) -> tuple[RtiSolver, list[tuple]]:
+    """Run the reference RTI with the IPM; return the QPs it solved: (P_x, A_x, q, l, u, y_warm, result)."""
+    ocp = build_ocp(pb)
+    ref = RtiSolver(ocp)
+    qps = []
+    inner = ref.qp
+
+    class Recorder:
+        name = "recorder"
+
+        def reset(self):
+            inner.reset()
+
+        def set_matrices(self, P_x, A_x, q):
+            self.mat = (np.array(P_x), np.array(A_x))
+            inner.set_matrices(P_x, A_x, q)
+
+        def solve(self, q, l, u, y_warm, max_iter):
+            res = inner.solve(q, l, u, y_warm, max_iter)
+            qps.append((*self.mat, q.copy(), l.copy(), u.copy(), y_warm.copy(), res))
+            return res
+
+    ref.qp = Recorder()
+    run_closed_loop(pb, make_scenario(infer_scenario(pb), seed, samples=samples),
+                    ReferenceController(ocp, ref), ocp)
+    return ref, qps
+
+
+def kkt(lay, P_x, A_x, q, l, u, z, y) -> tuple[float, float, float]:
+    """Stationarity, bound violation and complementarity (|y| times the distance to its bound) of (z, y)."""
+    A = lay.A_pattern(A_x)
+    Az = A @ z
+    r_d = P_x * z + q + A.T @ y
+    viol = np.maximum(Az - u, 0) + np.maximum(l - Az, 0)
+    comp = np.maximum(y, 0) * np.minimum(np.abs(u - Az), 1.0) + np.maximum(-y, 0) * np.minimum(np.abs(Az - l), 1.0)
+    return float(np.max(np.abs(r_d))), float(np.max(viol)), float(np.max(comp))
+
+
+# -- the stage view ---------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("sc,form,ob", [("car", "conventional", "hyperplane"), ("truck", "lifted", "circles"),
+                                        ("car", "direct_elimination", "ellipse")])
+def test_stage_view_reassembles_A(sc, form, ob):
+    """Every non-zero of A sits in exactly one block of the stage view; the blocks rebuild A entry for entry."""
+    lay = build_layout(build_ocp(short(sc, form, ob)))
+    sv = stage_view(lay)
+    A = lay.A_pattern(np.arange(1.0, lay.nnz_A + 1)).toarray()
+    B = np.zeros_like(A)
+    val = np.arange(1.0, lay.nnz_A + 1)
+    seen = np.zeros(lay.nnz_A, dtype=int)
+
+    def put(r, c, a):
+        B[r, c] += val[a]
+        seen[a] += 1
+
+    for k in range(sv.N):
+        for e in range(sv.dyn_ptr[k], sv.dyn_ptr[k + 1]):
+            put(sv.dyn_rows[k, sv.dyn_i[e]], sv.vmap[k, sv.dyn_j[e]], sv.dyn_a[e])
+        for i in range(sv.nx):
+            put(sv.dyn_rows[k, i], lay.var_off[k + 1] + i, sv.dyn_next[k, i])
+    for i in range(sv.nx):
+        put(lay.init_rows[i], lay.var_off[0] + i, sv.init_a[i])
+    for k in range(sv.N + 1):
+        for g in range(sv.NG):
+            s = k * sv.NG + g
+            for v, a in zip(sv.gen_v[sv.gen_ptr[s]:sv.gen_ptr[s + 1]], sv.gen_a[sv.gen_ptr[s]:sv.gen_ptr[s + 1]]):
+                put(sv.gen_rows[k, g], sv.vmap[k, v], a)
+        for e in range(sv.NE):
+            s = k * sv.NE + e
+            for j, a in zip(sv.eq_j[sv.eq_ptr[s]:sv.eq_ptr[s + 1]], sv.eq_a[sv.eq_ptr[s]:sv.eq_ptr[s + 1]]):
+                put(sv.eq_rows[k, e], sv.vmap[k, sv.nx + j], a)
+    for r, c, a in zip(sv.box_rows, sv.box_var, sv.box_a):
+        put(r, c, a)
+    assert np.all(seen == 1)
+    np.testing.assert_array_equal(A, B)
+    # every variable in one slot; sides exactly at the finite bounds of the inequality rows
+    used = sv.vmap[sv.vmap >= 0]
+    assert sorted(used.tolist()) == list(range(lay.n))
+    ineq = np.setdiff1d(np.arange(lay.m), sv.eq_all)
+    expect = sorted([(r, 1) for r in ineq if lay.L[r] > -INF] + [(r, -1) for r in ineq if lay.U[r] < INF])
+    assert sorted(zip(sv.side_row.tolist(), sv.side_sign.tolist())) == expect
+    assert np.all(lay.L[sv.eq_all] == lay.U[sv.eq_all])
+
+
+# -- the Python IPM against OSQP -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("sc,form,ob", CASES)
+def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
+    """On the QPs of a closed loop driven by the IPM: the same primal as OSQP at eps 1e-7 (hyperplane variables
+    aside: they are not unique when no obstacle row is active), the same objective and the same active set."""
+    ref, qps = closed_loop_qps(short(sc, form, ob, qp=IPM_TIGHT))
+    lay = ref.lay
+    free = np.array([nm.startswith("theta") for nm in lay.var_names])
+    compared = 0
+    for P_x, A_x, q, l, u, y_warm, res in qps:
+        assert res.status == QP_SOLVED and res.iter <= 40
+        r_d, viol, comp = kkt(lay, P_x, A_x, q, l, u, res.z, res.y)
+        assert r_d < 1e-7 and viol < 1e-7 and comp < 1e-6, (r_d, viol, comp)
+        s = osqp.OSQP()
+        s.setup(lay.P_matrix(), q, lay.A_pattern(A_x), l, u, **osqp_settings(OSQP_TIGHT))
+        s.warm_start(y=y_warm)
+        o = s.solve(raise_error=False)
+        assert o.info.status_val == 1, o.info.status
+        scale = max(1.0, float(np.max(np.abs(o.x))))
+        assert np.max(np.abs(res.z - o.x)[~free]) / scale < 1e-5
+        obj = [0.5 * z @ (P_x * z) + q @ z for z in (res.z, o.x)]
+        assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))
+        for a, b in ((res.y, o.y), (o.y, res.y)):  # a row clearly active in one is active, same side, in the other
+            act = np.abs(a) > 1e-3
+            assert np.all(np.sign(b[act]) == np.sign(a[act])) and np.all(np.abs(b[act]) > 1e-5)
+        compared += 1
+    assert compared == len(qps) >= 3
+
+
+def test_ipm_through_make_backend_and_reset():
+    """make_backend selects the IPM; a reset backend and a fresh one give bit-identical results."""
+    ref, qps = closed_loop_qps(short("truck", "lifted", "ellipse"), samples=2)
+    P_x, A_x, q, l, u, y_warm, res = qps[-1]
+    a = make_backend(ref.lay, IPM)
+    assert isinstance(a, IpmBackend)
+    a.set_matrices(P_x, A_x * 1.1, q)
+    a.solve(q, l, u, y_warm, 60)
+    a.reset()
+    b = make_backend(ref.lay, IPM)
+    for be in (a, b):
+        be.set_matrices(P_x, A_x, q)
+    ra, rb = a.solve(q, l, u, y_warm, 60), b.solve(q, l, u, y_warm, 60)
+    assert ra.iter == rb.iter == res.iter
+    np.testing.assert_array_equal(ra.z, rb.z)
+    np.testing.assert_array_equal(ra.z, res.z)
+
+
+def test_ipm_statuses_infeasible_and_nonfinite():
+    """A box row on u_0 outside the reach of its bounds' complement: primal infeasible; NaN data: non-finite."""
+    ref, qps = closed_loop_qps(short("truck", "lifted", "ellipse"), samples=1)
+    P_x, A_x, q, l, u, y_warm, _ = qps[0]
+    lay = ref.lay
+    be = IpmBackend(lay, IPM)
+    be.set_matrices(P_x, A_x, q)
+    # x_1 is fixed by x_0 and u_0 (|u_0| <= 1 in scaled units); demand v_1 far beyond any reachable value
+    r = lay.row_names.index("bound_v[1]")
+    l2, u2 = l.copy(), u.copy()
+    l2[r], u2[r] = 1e3, 1e3 + 1
+    res = be.solve(q, l2, u2, y_warm, 200)
+    assert res.status == QP_PRIMAL_INFEASIBLE, res
+    q2 = q.copy()
+    q2[3] = np.nan
+    res = be.solve(q2, l, u, y_warm, 60)
+    assert res.status == QP_NONFINITE and res.z is None
+
+
+# -- generated C against the Python reference ---------------------------------------------------------------------
+
+needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+
+
+@needs_cc
+@pytest.mark.parametrize("sc,form,ob", C_CASES)
+def test_ipm_generates_and_verifies(tmp_path, sc, form, ob):
+    """Every formulation and obstacle model, car and truck: the generated IPM (verification build) equals the Python
+    IPM sample by sample (fcgen verify's tolerances: QP solution 1e-9 relative), and the folder has no OSQP file."""
+    from fcgen.codegen.generate import generate
+    from fcgen.verify import verify
+    info = generate(short(sc, form, ob), tmp_path / "g")
+    assert not (tmp_path / "g" / "osqp").exists() and info.library_files == ()
+    rep = verify(tmp_path / "g", samples=3)
+    assert rep.passed, rep.format()
+    z = next(c for c in rep.checks if c.key == "z")
+    assert z.compared == 3 and z.max_diff < 1e-9
+
+
+@needs_cc
+def test_ipm_single_precision_closed_loop(tmp_path):
+    """A float build (ipm_tol 1e-3: float's ~1e-7 resolution times the QP's scaling) runs a closed loop: every QP
+    solved to its tolerance, no error exit, the same progress as the double Python reference to 0.1 %."""
+    from fcgen.build import CSolver, build
+    from fcgen.codegen.generate import generate
+    from fcgen.sim.runlog import summary
+    pb = short("truck", "lifted", "ellipse", N=20, qp=QpOptions(backend="ipm", ipm_tol=1e-3))
+    generate(pb, tmp_path / "f", use_float=True)
+    cs = CSolver(build(tmp_path / "f"))
+    assert cs.dtype == np.float32
+    sc = make_scenario("truck", 2, samples=40)
+    log = run_closed_loop(pb, sc, controller=cs)
+    assert np.all(log.qp_status == QP_SOLVED), np.unique(log.qp_status, return_counts=True)
+    assert log.meta["extra"]["exit_codes_nonzero"] == 0 and not log.collision.any()
+    ref = run_closed_loop(pb, sc)
+    p_c, p_py = summary(log)["progress"], summary(ref)["progress"]
+    assert abs(p_c - p_py) <= 1e-3 * p_py
+
+
+@needs_cc
+def test_cli_bench_backends(tmp_path):
+    """fcgen bench --backends: OSQP real-time and the IPM in one run, ratios and figures in the results file."""
+    import json
+
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+    from fcgen.codegen.generate import generate
+    generate(short("car", "lifted", "ellipse", qp=QpOptions()), tmp_path / "g")
+    out = tmp_path / "b.json"
+    res = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,ipm", "--seeds", "1",
+                                    "--samples", "4", "--clock", "cpu", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    r = json.loads(out.read_text())
+    assert r["variants"] == ["osqp", "ipm"] and r["clock"] == "cpu"
+    ipm, osq = r["results"]["ipm"], r["results"]["osqp"]
+    assert ipm["qp"]["backend"] == "ipm" and osq["qp"]["backend"] == "osqp"
+    assert ipm["samples"] == osq["samples"] == 4
+    assert ipm["speedup_vs_osqp"] == pytest.approx(osq["time_ms"]["total"]["median"] / ipm["time_ms"]["total"]["median"])
+    assert ipm["static_ram_bytes"] < osq["static_ram_bytes"]
+    assert "x vs osqp" in res.output and "ipm" in res.output
+    bad = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,hpipm"])
+    assert bad.exit_code != 0 and "hpipm" in bad.output and "Traceback" not in bad.output
