@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .codegen.consistency import check_folder, missing_library
 from .codegen.generate import EXIT_CODES
 from .codegen.osqp_export import restore_osqp_library
 from .reference import Status
@@ -60,12 +61,14 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
           jobs: int | None = None) -> Path:
     """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the shared library.
 
+    The folder is checked first (:func:`~.codegen.consistency.check_folder`: a missing file or a header whose sizes
+    differ from ``problem.py`` raises :class:`~.codegen.consistency.FolderMismatch` in one line).
     ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``build/verify``, so both
     variants coexist.
     """
     gen_dir = Path(gen_dir)
-    name = solver_name(gen_dir)
-    if not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
+    name = check_folder(gen_dir)  # one solver, every generated file there, header sizes = problem.py's
+    if missing_library(gen_dir) or not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
         use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
         restore_osqp_library(gen_dir, use_float)
     out = VERIFY_BUILD if verify else DEFAULT_BUILD

@@ -27,6 +27,7 @@ from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..reference import EXIT_CODES, cold_max_iter, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
+from .folder import staged
 from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
 
@@ -188,6 +189,21 @@ def far_opponent_row(ocp: Ocp) -> np.ndarray:
 
 # --- sizes -------------------------------------------------------------------------------------------------------
 
+def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
+    """The size macros of ``<name>_solver.h`` (keys without the ``NAME_`` prefix), in header order."""
+    pb = ocp.problem
+    return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
+            "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
+            "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
+            "NNZ_J": int(lay.jac_off[-1])}
+
+
+def problem_sizes(problem: Problem) -> dict[str, int]:
+    """The size macros a solver generated from ``problem`` has (builds the OCP and its layout)."""
+    ocp = build_ocp(problem)
+    return size_macros(ocp, build_layout(ocp))
+
+
 def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     """sizeof a C struct of (size, align, count) members, with natural padding."""
     off, align_max = 0, 1
@@ -267,10 +283,20 @@ def _env() -> jinja2.Environment:
                               autoescape=False)
 
 
-def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> GenerateInfo:
-    """Write the C solver of ``problem`` into ``out_dir`` (created); returns what was written."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False) -> GenerateInfo:
+    """Write the C solver of ``problem`` into ``out_dir``; returns what was written.
+
+    The folder is written beside ``out_dir`` and moved into place when complete (:mod:`.folder`): a failed or
+    interrupted generation leaves ``out_dir`` as it was. A folder holding another solver (or files that are no
+    solver's) raises :class:`~.folder.FolderError` unless ``force`` (then the old solver's files are removed).
+    """
+    with staged(out_dir, problem.name, force) as tmp:
+        info = _generate_into(problem, tmp, use_float)
+    return dataclasses.replace(info, out_dir=Path(out_dir))
+
+
+def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> GenerateInfo:
+    """Write every file of the solver into the (new, empty) folder ``out_dir``."""
     name = problem.name
     NAME = name.upper()
     ocp = build_ocp(problem)
@@ -288,9 +314,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
                       np.maximum(lay.U, 0.0), settings, out_dir, f"{name}_", use_float)
 
     # -- sizes (public macros) and private dimensions -----------------------------------------------------------
-    sizes = {"NX": nx, "NU": nu, "N": N, "NOPP": n_opp, "NOPP_PAR": n_opp_par, "ROAD_MAX": problem.road.samples,
-             "ROAD_WINDOW": rp.samples, "NP": ocp.np_stage, "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma,
-             "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
+    sizes = size_macros(ocp, lay)
     slacks = slack_vars(ocp, lay)
     n_opp_all = max(1, n_opp * n_opp_par)
     index_tables = {"A_SRC": lay.a_src, "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
