@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from fcgen.backends import QP_USABLE
 from fcgen.presets import paper_problem
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.runlog import RunLog, compare, summary
@@ -35,8 +36,8 @@ def test_quick_run_is_safe_and_sane(quick_run):
     # gets QpOptions.max_iter_cold iterations; capped at 60 it gave |r| = 0.3933)
     assert np.all(np.abs(log.control[:, 0]) <= 1e4 * (1 + 3e-3))
     assert np.all(np.abs(log.control[:, 1]) <= 0.39 * (1 + 3e-3))
-    # every QP solved, or stopped by the iteration cap (solved_inaccurate / max_iter_reached): none failed
-    assert np.all(np.isin(log.qp_status, (1, 2, 7)))
+    # every QP solved, or stopped by the iteration cap (solved_inaccurate / max_iter): none failed
+    assert np.all(np.isin(log.qp_status, QP_USABLE))
     assert log.meta["extra"]["exit_codes_nonzero"] == 0
     np.testing.assert_array_equal(log.ego_frenet[0], sc.x0)
 

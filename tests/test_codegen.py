@@ -57,7 +57,7 @@ def _nm(args: list[str], obj: Path) -> list[str]:
 def _our_objects(gen: GenerateInfo, build_dir: Path) -> list[Path]:
     obj = build_dir / "obj"
     return [obj / f"{gen.name}_solver.o", obj / f"{gen.name}_model.o",
-            *(obj / Path(s).with_suffix(".o") for s in gen.osqp.workspace_sources)]
+            *(obj / Path(s).with_suffix(".o") for s in gen.qp_files.sources)]
 
 
 # --- static properties ------------------------------------------------------------------------------------------
@@ -82,9 +82,9 @@ def test_workspace_bytes_match_objects(gen: GenerateInfo, default_build: Path) -
     out = subprocess.run(["size", *map(str, objs)], check=True, capture_output=True, text=True).stdout
     rows = {Path(line.split()[-1]).name: [int(v) for v in line.split()[:3]] for line in out.splitlines()[1:]}
     solver = rows[f"{gen.name}_solver.o"]
-    ws = rows[Path(gen.osqp.workspace_sources[0]).with_suffix(".o").name]
+    ws = rows[Path(gen.qp_files.sources[0]).with_suffix(".o").name]
     assert solver[2] == gen.solver_workspace_bytes  # .bss: the workspace struct
-    assert ws[1] + ws[2] == gen.osqp_array_bytes + gen.osqp_struct_bytes
+    assert ws[1] + ws[2] == gen.qp_array_bytes + gen.qp_struct_bytes
     assert f"#define {gen.name.upper()}_WORKSPACE_BYTES {gen.workspace_bytes} " in \
         (gen.out_dir / f"{gen.name}_solver.h").read_text()
 

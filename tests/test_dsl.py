@@ -119,6 +119,7 @@ INVALID = [
     ("qp eps", lambda: QpOptions(eps_abs=1.5), "qp.eps_abs", "[0, 1)"),
     ("qp alpha", lambda: QpOptions(alpha=2.0), "qp.alpha", "(0, 2)"),
     ("qp max_iter", lambda: QpOptions(max_iter=0), "qp.max_iter", "[1, 1e6]"),
+    ("qp backend", lambda: QpOptions(backend="cplex"), "qp.backend", "one of osqp"),
     ("road ds", lambda: RoadWindow(ds=0.0), "road.ds", "[0.1, 20]"),
     # the window must cover the horizon: 40 m/s * 40 * 0.1 s + 4 * 2 m = 168 m
     ("road too short", lambda: Problem(name="p", road=RoadWindow(length=100.0)), "road.length", "168"),

@@ -90,17 +90,18 @@ def test_a_failed_or_interrupted_generation_leaves_the_folder_as_it_was(tmp_path
     before = snapshot(out)
     seen = []
 
-    def broken(folder, use_float):  # the last step of a generation: every other file is written by now
-        seen.append(sorted(p.name for p in Path(folder).iterdir()))
+    def broken(obj, indent=0):  # problem.py is the last file: every other file is written by now
+        seen.append(sorted(p.name for p in Path(tmp_path).glob(".out.fcgen-new-*/*")))
         raise exc
 
-    monkeypatch.setattr(generate_mod, "restore_osqp_library", broken)
+    monkeypatch.setattr(generate_mod, "problem_source", broken)
     with pytest.raises(type(exc)):
         generate(small("alpha", N=6), out)  # a changed problem: every file would change
     assert "alpha_solver.c" in seen[0]  # the failure came late, with the new files written (elsewhere)
     assert snapshot(out) == before
     with pytest.raises(type(exc)):
         generate(small("gamma"), tmp_path / "new")
+    assert len(seen) == 2
     assert not (tmp_path / "new").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
 

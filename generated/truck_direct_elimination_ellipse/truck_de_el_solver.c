@@ -10,12 +10,8 @@
 
 #include "truck_de_el_solver.h"
 #include "truck_de_el_model.h"
-#include "osqp.h"
-#include "truck_de_el_workspace.h"
 
-#define SOLVER (&truck_de_el_solver)
-#define OSQP_INF 1e+30
-#define RHO0 0.2
+#define QP_INF 1e+30 /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define MAX_ITER 60
 #define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
 #define N_REF 0.0
@@ -38,8 +34,7 @@
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
 
-/* compile-time checks: one real type for the API, CasADi and OSQP */
-typedef char truck_de_el_check_osqp_real[(sizeof(truck_de_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there) */
 typedef char truck_de_el_check_casadi_real[(sizeof(truck_de_el_real_t) == sizeof(casadi_real)) ? 1 : -1];
 typedef char check_truck_de_el_stage_first[(truck_de_el_stage_first_SZ_ARG <= CASADI_SZ_ARG && truck_de_el_stage_first_SZ_RES <= CASADI_SZ_RES && truck_de_el_stage_first_SZ_IW <= CASADI_SZ_IW && truck_de_el_stage_first_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_de_el_stage_middle[(truck_de_el_stage_middle_SZ_ARG <= CASADI_SZ_ARG && truck_de_el_stage_middle_SZ_RES <= CASADI_SZ_RES && truck_de_el_stage_middle_SZ_IW <= CASADI_SZ_IW && truck_de_el_stage_middle_SZ_W <= CASADI_SZ_W) ? 1 : -1];
@@ -971,6 +966,353 @@ static const truck_de_el_real_t INIT_D[5] = {
 };
 static const truck_de_el_real_t ZERO_N[TRUCK_DE_EL_QP_N] = {0};
 
+/* ---- QP backend ------------------------------------------------------------------------------------------------ */
+/* What a backend's qpb_solve produced: generic status (TRUCK_DE_EL_QP_*), the backend's own status, iterations,
+ * the scaled primal step z (w_new = w + D z) and the row multipliers y (views into the backend's memory). */
+typedef struct {
+  int status;
+  int raw_status;
+  int iter;
+  const truck_de_el_real_t *z;
+  const truck_de_el_real_t *y;
+} qpb_result_t;
+
+/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above. */
+/* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_de_el_solver.c) ------------------------------ */
+#include "osqp.h"
+#include "truck_de_el_workspace.h"
+
+#define QPB_SOLVER (&truck_de_el_solver)
+#define QPB_RHO0 0.2
+#define QPB_MAX_ITER 60
+
+typedef char truck_de_el_check_osqp_real[(sizeof(truck_de_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
+
+/* OSQP status_val -> generic QP status (a value OSQP does not define: TRUCK_DE_EL_QP_OTHER) */
+static const int QPB_STATUS[12] = {
+  [1] = TRUCK_DE_EL_QP_SOLVED,
+  [2] = TRUCK_DE_EL_QP_SOLVED_INACCURATE,
+  [3] = TRUCK_DE_EL_QP_PRIMAL_INFEASIBLE,
+  [4] = TRUCK_DE_EL_QP_PRIMAL_INFEASIBLE,
+  [5] = TRUCK_DE_EL_QP_DUAL_INFEASIBLE,
+  [6] = TRUCK_DE_EL_QP_DUAL_INFEASIBLE,
+  [7] = TRUCK_DE_EL_QP_MAX_ITER,
+  [8] = TRUCK_DE_EL_QP_OTHER,
+  [9] = TRUCK_DE_EL_QP_NONCONVEX,
+  [10] = TRUCK_DE_EL_QP_OTHER,
+  [11] = TRUCK_DE_EL_QP_OTHER,
+};
+/* OSQP's exported bounds: l = min(L, 0), u = max(U, 0) */
+static const OSQPFloat QPB_L0[TRUCK_DE_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
+  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
+  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
+  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
+  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
+  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+  -1.0, -1e+30, 0.0, 0.0, 0.0, -2.0,
+  -1.5707963267948966, 0.0, -1.0, 0.0, 0.0, 0.0,
+  0.0
+};
+static const OSQPFloat QPB_U0[TRUCK_DE_EL_QP_M] = {
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  0.0, 0.0, 0.0, 0.0, 1.0, 1.0,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
+  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
+  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
+  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
+  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
+  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
+  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
+  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
+  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
+  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
+  1e+30, 1.0, 1e+30, 1e+30, 1e+30, 2.0,
+  1.5707963267948966, 1.5, 1.0, 1e+30, 1e+30, 1e+30,
+  1e+30
+};
+
+/* OSQP's iteration budget (the other settings unchanged) */
+static void qpb_set_max_iter(OSQPInt n) {
+  OSQPSettings s = *QPB_SOLVER->settings;
+  s.max_iter = n;
+  (void)osqp_update_settings(QPB_SOLVER, &s);
+}
+
+/* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
+static void qpb_reset(void) {
+  (void)osqp_update_data_vec(QPB_SOLVER, ZERO_N, QPB_L0, QPB_U0);
+  (void)osqp_update_rho(QPB_SOLVER, QPB_RHO0);
+}
+
+static int qpb_set_matrices(const truck_de_el_real_t *P_x, const truck_de_el_real_t *A_x, const truck_de_el_real_t *q) {
+  (void)q;
+  return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_DE_EL_QP_N, A_x, OSQP_NULL, TRUCK_DE_EL_QP_NNZ_A) != 0;
+}
+
+static int qpb_solve(const truck_de_el_real_t *q, const truck_de_el_real_t *l, const truck_de_el_real_t *u,
+                     const truck_de_el_real_t *y_warm, int max_iter, qpb_result_t *res) {
+  OSQPInt rc, raw;
+  if (osqp_update_data_vec(QPB_SOLVER, q, l, u)) return 1;
+  (void)osqp_warm_start(QPB_SOLVER, ZERO_N, y_warm);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(max_iter);
+  rc = osqp_solve(QPB_SOLVER);
+  if (max_iter != QPB_MAX_ITER) qpb_set_max_iter(QPB_MAX_ITER);
+  raw = QPB_SOLVER->info->status_val;
+  res->raw_status = (int)raw;
+  res->status = (raw > 0 && raw < 12) ? QPB_STATUS[raw] : TRUCK_DE_EL_QP_OTHER;
+  res->iter = (int)QPB_SOLVER->info->iter;
+  res->z = QPB_SOLVER->solution->x;
+  res->y = QPB_SOLVER->solution->y;
+  return rc != 0;
+}
+
 /* ---- workspace ------------------------------------------------------------------------------------------------- */
 typedef struct {
   truck_de_el_real_t x0[5];
@@ -1002,6 +1344,7 @@ typedef struct {
   casadi_int iw[CASADI_SZ_IW];
   casadi_real cw[CASADI_SZ_W];
   const truck_de_el_real_t *q_cur;
+  const truck_de_el_real_t *qp_z;
   clock_fn_t clock;
   truck_de_el_status_t status;
   int road_n;
@@ -1017,13 +1360,6 @@ static truck_de_el_workspace_t truck_de_el_ws;
 
 /* ---- helpers --------------------------------------------------------------------------------------------------- */
 static double now(void) { return ws.clock ? ws.clock() : 0.0; }
-
-/* OSQP's iteration budget (the other settings unchanged) */
-static void set_max_iter(OSQPInt n) {
-  OSQPSettings s = *SOLVER->settings;
-  s.max_iter = n;
-  (void)osqp_update_settings(SOLVER, &s);
-}
 
 static int fail(int code) {
   ws.status.exit_code = code;
@@ -1113,19 +1449,11 @@ static int initial_guess(void) {
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_de_el_init(void) {
   clock_fn_t clock = ws.clock;
-  int i;
-  OSQPInt rc;
   memset(&ws, 0, sizeof ws);
   ws.clock = clock;
   ws.q_cur = ws.q;
-  /* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
-  for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) {
-    ws.l[i] = L[i] < 0.0 ? L[i] : 0.0;
-    ws.u[i] = U[i] > 0.0 ? U[i] : 0.0;
-  }
-  rc = osqp_update_data_vec(SOLVER, ZERO_N, ws.l, ws.u);
-  rc |= osqp_update_rho(SOLVER, RHO0);
-  return rc ? fail(TRUCK_DE_EL_ERR_QP) : TRUCK_DE_EL_OK;
+  qpb_reset();
+  return TRUCK_DE_EL_OK;
 }
 
 void truck_de_el_set_clock(double (*clock_seconds)(void)) { ws.clock = clock_seconds; }
@@ -1172,6 +1500,7 @@ int truck_de_el_prepare(void) {
   ws.prepared = 0;
   ws.status.exit_code = TRUCK_DE_EL_OK;
   ws.status.qp_status = 0;
+  ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
   ws.status.time_prepare = 0.0;
   ws.status.time_feedback = 0.0;
@@ -1202,12 +1531,11 @@ int truck_de_el_prepare(void) {
   for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) {
     ws.l[i] = L[i] - ws.g[i];
     ws.u[i] = U[i] - ws.g[i];
-    if (ws.l[i] < -OSQP_INF) ws.l[i] = -OSQP_INF; /* as the osqp Python interface clips */
-    if (ws.u[i] > OSQP_INF) ws.u[i] = OSQP_INF;
+    if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
+    if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
   ws.q_cur = ws.q;
-  if (osqp_update_data_mat(SOLVER, P_DIAG, OSQP_NULL, TRUCK_DE_EL_QP_N, ws.A_x, OSQP_NULL, TRUCK_DE_EL_QP_NNZ_A))
-    return fail(TRUCK_DE_EL_ERR_QP);
+  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) return fail(TRUCK_DE_EL_ERR_QP);
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_DE_EL_OK;
@@ -1217,7 +1545,7 @@ int truck_de_el_feedback(void) {
   const double t0 = now();
   int i, rc;
   truck_de_el_real_t ds0;
-  const OSQPFloat *z;
+  qpb_result_t res = {0, 0, 0, NULL, NULL};
   if (!ws.prepared) return fail(TRUCK_DE_EL_ERR_NOT_PREPARED);
   if (!ws.have_x0) return fail(TRUCK_DE_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
@@ -1230,21 +1558,18 @@ int truck_de_el_feedback(void) {
   ds0 = ws.x0[0] - ws.s0_guess;
   for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
   ws.q_cur = ws.q_fb;
-  if (osqp_update_data_vec(SOLVER, ws.q_fb, ws.l, ws.u)) return fail(TRUCK_DE_EL_ERR_QP);
-  (void)osqp_warm_start(SOLVER, ZERO_N, ws.y);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER_COLD);
-  rc = (int)osqp_solve(SOLVER);
-  if (ws.cold && MAX_ITER_COLD != MAX_ITER) set_max_iter(MAX_ITER);
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
   ws.prepared = 0;
-  ws.status.qp_status = (int)SOLVER->info->status_val;
-  ws.status.qp_iter = (int)SOLVER->info->iter;
-  z = SOLVER->solution->x;
-  if (rc || !all_finite(z, TRUCK_DE_EL_QP_N)) {
+  ws.status.qp_status = res.status;
+  ws.status.qp_raw_status = res.raw_status;
+  ws.status.qp_iter = res.iter;
+  if (res.z) ws.qp_z = res.z;
+  if (rc || !res.z || !all_finite(res.z, TRUCK_DE_EL_QP_N)) {
     ws.status.time_feedback = now() - t0;
     return fail(TRUCK_DE_EL_ERR_QP);
   }
-  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * z[i];
-  copy(SOLVER->solution->y, ws.y, TRUCK_DE_EL_QP_M);
+  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * res.z[i];
+  copy(res.y, ws.y, TRUCK_DE_EL_QP_M);
   ws.status.exit_code = TRUCK_DE_EL_OK;
   ws.status.time_feedback = now() - t0;
   return TRUCK_DE_EL_OK;
@@ -1296,6 +1621,6 @@ void truck_de_el_get_qp(const truck_de_el_real_t **q, const truck_de_el_real_t *
   if (u) *u = ws.u;
   if (A_x) *A_x = ws.A_x;
   if (P_x) *P_x = P_DIAG;
-  if (z) *z = SOLVER->solution->x;
+  if (z) *z = ws.qp_z ? ws.qp_z : ZERO_N;
   if (y) *y = ws.y;
 }

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .codegen.consistency import check_folder, missing_library
+from .backends import BACKENDS, backend_module
+from .codegen.consistency import check_folder
 from .codegen.generate import EXIT_CODES
-from .codegen.osqp_export import restore_osqp_library
 from .reference import Status
 from .road import Road
 from .sim.closedloop import StepResult
@@ -59,7 +59,7 @@ def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cf
 
 def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
           jobs: int | None = None) -> Path:
-    """Run ``make`` in a generated folder (restoring the OSQP library if missing); returns the shared library.
+    """Run ``make`` in a generated folder (restoring the QP backend's library if missing); returns the shared library.
 
     The folder is checked first (:func:`~.codegen.consistency.check_folder`: a missing file or a header whose sizes
     differ from ``problem.py`` raises :class:`~.codegen.consistency.FolderMismatch` in one line).
@@ -68,9 +68,9 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     """
     gen_dir = Path(gen_dir)
     name = check_folder(gen_dir)  # one solver, every generated file there, header sizes = problem.py's
-    if missing_library(gen_dir) or not (gen_dir / "osqp" / "lib" / "osqp_configure.h").is_file():
-        use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
-        restore_osqp_library(gen_dir, use_float)
+    use_float = bool(read_macros(gen_dir / f"{name}_solver.h", name).get("USE_FLOAT", 0))
+    for b in BACKENDS:  # each restores its git-ignored library only in a folder that uses it
+        backend_module(b).restore_library(gen_dir, use_float)
     out = VERIFY_BUILD if verify else DEFAULT_BUILD
     run_make(gen_dir, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}"], cc, cflags)
     return gen_dir / out / f"lib{name}.so"
@@ -187,14 +187,14 @@ class CSolver:
 
     def status(self) -> Status:
         class _St(ctypes.Structure):
-            _fields_ = [("exit_code", ctypes.c_int), ("qp_status", ctypes.c_int), ("qp_iter", ctypes.c_int),
-                        ("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
+            _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter")] + \
+                [("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
         st = _St()
         self._f("get_status")(ctypes.byref(st))
-        return Status(st.exit_code, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback)
+        return Status(**{f: getattr(st, f) for f, _ in _St._fields_})
 
     def get_qp(self) -> dict[str, np.ndarray]:
-        """Copies of the QP data: q, l, u, A_x, P_x, z (OSQP's primal solution), y (dual guess)."""
+        """Copies of the QP data: q, l, u, A_x, P_x, z (the backend's primal solution), y (dual guess)."""
         ptrs = [ctypes.POINTER(self._real)() for _ in range(7)]
         self._f("get_qp")(*[ctypes.byref(p) for p in ptrs])
         lens = (self.n, self.m, self.m, self.nnz_A, self.n, self.n, self.m)

@@ -125,9 +125,9 @@ def generate(problem_spec, out_dir, use_float, force):
     click.echo(f"{info.name}: {pb.formulation.kind}, {pb.obstacles.kind}, N = {s['N']}, NX = {s['NX']}, "
                f"QP {s['QP_N']} variables x {s['QP_M']} rows, {s['QP_NNZ_A']} nonzeros in A")
     click.echo(f"workspace {info.workspace_bytes} bytes ({info.workspace_bytes / 1024:.1f} KiB; solver "
-               f"{info.solver_workspace_bytes}, OSQP arrays {info.osqp_array_bytes}, OSQP structs "
-               f"{info.osqp_struct_bytes}), const tables {info.const_bytes} bytes")
-    click.echo(f"{len(info.files)} files written to {out_dir} (+ {len(info.library_files)} OSQP library files)")
+               f"{info.solver_workspace_bytes}, QP backend arrays {info.qp_array_bytes}, "
+               f"structs {info.qp_struct_bytes}), const tables {info.const_bytes} bytes")
+    click.echo(f"{len(info.files)} files written to {out_dir} (+ {len(info.library_files)} QP backend library files)")
 
 
 @main.command()

@@ -301,7 +301,7 @@ class Opponents:
 
 @dataclass(frozen=True)
 class QpOptions:
-    """OSQP settings used identically by the Python reference and the generated C.
+    """QP backend and its settings (OSQP's names), used identically by the Python reference and the generated C.
 
     ``max_iter_cold``: the budget of a cold-started QP (the first after init/reset, no shifted guess; at least
     ``max_iter``): capped at 60 it left |r| up to 1.6 % beyond its bound at sample 0.
@@ -324,6 +324,7 @@ class QpOptions:
     check_termination: int = 40
     warm_start: bool = True
     max_iter_cold: int = 400
+    backend: str = "osqp"  # the QP backend (fcgen.backends.BACKENDS)
 
     @classmethod
     def converged(cls) -> "QpOptions":
@@ -345,6 +346,8 @@ class QpOptions:
                "an integer in [0, 100]")
         _check(isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
                "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
+        from .backends import BACKENDS
+        _check(self.backend in BACKENDS, "qp.backend", self.backend, "one of " + ", ".join(BACKENDS))
 
 
 @dataclass(frozen=True)

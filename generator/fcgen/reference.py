@@ -1,7 +1,7 @@
 """The Python reference: SQP real-time iterations (prepare/feedback) on the shared QpLayout, plus converged solves.
 
 It performs exactly the steps the generated C performs, in the same order, with CasADi's functions, scipy sparse
-matrices and the osqp Python package, so C and reference can be compared number for number.
+matrices and the QP backend's Python side (``fcgen.backends``), so C and reference can be compared number for number.
 """
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-import osqp
 
+from .backends import make_backend
 from .dsl import QpOptions, SeparatingHyperplane
 from .ocp import Ocp, build_ocp
 from .qp import QpLayout, build_layout
@@ -38,19 +38,11 @@ class Status:
     """What one sample's solve reports (mirrors the C status struct)."""
 
     exit_code: int = 0
-    qp_status: int = 0
+    qp_status: int = 0      # generic QP_* status (fcgen.backends.QP_STATUSES; 0: no QP solved)
+    qp_raw_status: int = 0  # the backend's own status value
     qp_iter: int = 0
     time_prepare: float = 0.0
     time_feedback: float = 0.0
-
-
-def osqp_settings(opts: QpOptions) -> dict:
-    """OSQP settings, identical for the Python package and the generated code."""
-    return dict(max_iter=opts.max_iter, eps_abs=opts.eps_abs, eps_rel=opts.eps_rel, eps_prim_inf=1e-5,
-                eps_dual_inf=1e-5, rho=opts.rho, sigma=opts.sigma, alpha=opts.alpha,
-                adaptive_rho=opts.adaptive_rho, scaling=opts.scaling,
-                check_termination=opts.check_termination, check_dualgap=False, warm_starting=opts.warm_start,
-                polishing=False, verbose=False)
 
 
 def cold_max_iter(opts: QpOptions) -> int:
@@ -114,9 +106,7 @@ class RtiSolver:
         self.g = np.zeros(lay.m)
         self.A_data = np.zeros(lay.nnz_A)
         self.s0_guess = 0.0
-        self.solver = osqp.OSQP()
-        self.solver.setup(lay.P_matrix(), np.zeros(lay.n), lay.A_pattern(np.ones(lay.nnz_A)),
-                          np.minimum(lay.L, 0.0), np.maximum(lay.U, 0.0), **osqp_settings(self.qp_opts))
+        self.qp = make_backend(lay, self.qp_opts)
 
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
@@ -183,7 +173,7 @@ class RtiSolver:
 
     # -- the two phases -----------------------------------------------------------------------------
     def prepare(self, shift: bool = True) -> None:
-        """Shift the previous solution, linearize, build the QP (all but x0), update OSQP's matrices."""
+        """Shift the previous solution, linearize, build the QP (all but x0), load the backend's matrices."""
         t0 = time.perf_counter()
         self.prepared = False
         ocp, lay = self.ocp, self.lay
@@ -213,7 +203,7 @@ class RtiSolver:
         self.A_data = jac[lay.a_src]
         self.l = lay.L - self.g
         self.u = lay.U - self.g
-        self.solver.update(Px=lay.P_diag, Ax=self.A_data)
+        self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
         self.prepared = True
         self.status = Status(time_prepare=time.perf_counter() - t0)
 
@@ -231,26 +221,21 @@ class RtiSolver:
         self.u[ir] = self.l[ir]
         q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
         self.q_fb = q
-        self.solver.update(q=q, l=self.l, u=self.u)
-        self.solver.warm_start(x=np.zeros(lay.n), y=self.y)
-        cold = self.cold and cold_max_iter(self.qp_opts) != self.qp_opts.max_iter
-        if cold:
-            self.solver.update_settings(max_iter=cold_max_iter(self.qp_opts))
-        res = self.solver.solve(raise_error=False)
-        if cold:
-            self.solver.update_settings(max_iter=self.qp_opts.max_iter)
+        res = self.qp.solve(q, self.l, self.u, self.y,
+                            cold_max_iter(self.qp_opts) if self.cold else self.qp_opts.max_iter)
         self.prepared = False
         st = self.status
-        st.qp_status = int(res.info.status_val)
-        st.qp_iter = int(res.info.iter)
-        z = res.x
+        st.qp_status = res.status
+        st.qp_raw_status = res.raw_status
+        st.qp_iter = res.iter
+        z = res.z
         if z is None or not np.all(np.isfinite(z)):
             st.exit_code = EXIT_CODES.index("ERR_QP")
             st.time_feedback = time.perf_counter() - t0
-            raise SolverError("ERR_QP", f"QP failed (status {st.qp_status})")
+            raise SolverError("ERR_QP", f"QP failed (status {st.qp_status}, raw {st.qp_raw_status})")
         self.z = z
         self.w = self.w + lay.D * z
-        self.y = np.array(res.y)
+        self.y = res.y
         st.time_feedback = time.perf_counter() - t0
         return self.u0()
 

@@ -17,13 +17,6 @@ class FolderMismatch(ValueError):
     """The folder's files do not make one solver (one line: the file or macro and both values)."""
 
 
-def own_files(name: str) -> tuple[str, ...]:
-    """The generated files ``make`` needs besides OSQP's library copy."""
-    return ("Makefile", "problem.py", "main.c", *(f"{name}_{p}.{e}" for p in ("solver", "model", "host")
-                                                  for e in ("c", "h")),
-            f"osqp/{name}_workspace.c", f"osqp/{name}_workspace.h")
-
-
 def the_solver(gen_dir: Path) -> str:
     """The name of the one solver in ``gen_dir``."""
     names = solvers_in(gen_dir)
@@ -33,10 +26,27 @@ def the_solver(gen_dir: Path) -> str:
     return names[0]
 
 
+SOURCE_VARIABLES = ("SOLVER_SRC", "MODEL_SRC", "WORKSPACE_SRC", "OSQP_SRC", "HOST_SRC", "MAIN_SRC", "HEADERS")
+"""The Makefile's variables that list the files it compiles."""
+
+
+def makefile_files(gen_dir: Path) -> list[str]:
+    """Every source and header the folder's Makefile lists (relative paths, in order)."""
+    text = (gen_dir / "Makefile").read_text().replace("\\\n", " ")
+    out: list[str] = []
+    for var in SOURCE_VARIABLES:
+        m = re.search(rf"^{var}\s*=(.*)$", text, re.M)
+        out += [f for f in (m.group(1).split() if m else []) if f not in out]
+    return out
+
+
+def _is_library(rel: str) -> bool:
+    return rel.startswith(LIB_DIR + "/")
+
+
 def library_files(gen_dir: Path) -> list[str]:
-    """OSQP library files the folder's Makefile lists (relative paths)."""
-    text = (gen_dir / "Makefile").read_text()
-    return sorted(set(re.findall(rf"(?<![\w/]){re.escape(LIB_DIR)}/[\w/.-]+\.[ch]\b", text)))
+    """OSQP library files the folder's Makefile lists (git-ignored, restorable)."""
+    return [f for f in makefile_files(gen_dir) if _is_library(f)] if (gen_dir / "Makefile").is_file() else []
 
 
 def missing_library(gen_dir: Path) -> list[str]:
@@ -45,7 +55,10 @@ def missing_library(gen_dir: Path) -> list[str]:
 
 def check_files(gen_dir: Path, name: str) -> None:
     """Raise :class:`FolderMismatch` naming the first generated file ``make`` needs that is missing."""
-    missing = [f for f in own_files(name) if not (gen_dir / f).is_file()]
+    need = ["Makefile", "problem.py"]
+    if (gen_dir / "Makefile").is_file():
+        need += [f for f in makefile_files(gen_dir) if not _is_library(f)]
+    missing = [f for f in need if not (gen_dir / f).is_file()]
     if missing:
         more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
         raise FolderMismatch(f"{gen_dir}: missing {missing[0]}{more}, a file of solver {name!r}; regenerate the "

@@ -1,8 +1,8 @@
 """Turn a problem into a complete, static-memory C solver folder.
 
 Steps: build the OCP and its QP layout; emit CasADi C code of the functions the solver needs (every symbol prefixed
-with the problem name); export OSQP's embedded workspace (prefix ``<name>_``); render ``templates/`` with every index
-table computed here. Same problem -> byte-identical files (no time stamps, no absolute paths).
+with the problem name); write the QP backend's files (OSQP: its embedded workspace, prefix ``<name>_``); render
+``templates/`` with every index table computed here. Same problem -> byte-identical files (no time stamps, no absolute paths).
 """
 from __future__ import annotations
 
@@ -25,10 +25,10 @@ from .. import obstacles as obs
 from ..dsl import Conventional, Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..reference import EXIT_CODES, cold_max_iter, osqp_settings, theta_init  # noqa: F401 (EXIT_CODES re-exported)
+from ..backends import QP_STATUSES, BackendFiles, backend_module
+from ..reference import EXIT_CODES, cold_max_iter, theta_init  # noqa: F401 (EXIT_CODES re-exported)
 from ..sim.closedloop import plant_function
 from .folder import staged
-from .osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
@@ -41,7 +41,7 @@ MACRO_DOC = {
     "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
-    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + OSQP workspaces", "USE_FLOAT": "1: generated for float",
+    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
@@ -55,14 +55,14 @@ class GenerateInfo:
     out_dir: Path
     use_float: bool
     sizes: dict[str, int]           # the size macros of <name>_solver.h (without the NAME_ prefix)
-    workspace_bytes: int            # static RAM (LP64): solver workspace + OSQP arrays + OSQP structs
+    workspace_bytes: int            # static RAM (LP64): solver workspace + backend arrays + backend structs
     solver_workspace_bytes: int     # sizeof(<name>_workspace_t) on an LP64 target
-    osqp_array_bytes: int           # OSQP's workspace arrays (all mutable: OSQP emits no const data)
-    osqp_struct_bytes: int          # OSQP's structs (OSQP_STRUCT_BYTES)
+    qp_array_bytes: int             # the QP backend's arrays (OSQP: its workspace arrays)
+    qp_struct_bytes: int            # the QP backend's structs (OSQP: OSQP_STRUCT_BYTES)
     const_bytes: int                # our static const index tables
-    files: tuple[str, ...]          # our files and the OSQP workspace (committed)
-    library_files: tuple[str, ...]  # OSQP library copy (git-ignored, restorable)
-    osqp: OsqpExport
+    files: tuple[str, ...]          # our files and the backend's problem-specific files (committed)
+    library_files: tuple[str, ...]  # the backend's library copy (git-ignored, restorable)
+    qp_files: BackendFiles
 
 
 # --- small helpers --------------------------------------------------------------------------------------------
@@ -213,10 +213,6 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     return -(-off // align_max) * align_max
 
 
-OSQP_STRUCT_BYTES = {False: 1928, True: 1788}
-"""OSQP's bookkeeping structs in a workspace (solver, settings, info, vectors, matrices, ...): a fixed set whose size
-does not depend on the problem; measured for osqp 1.1.3 with gcc 12 on x86-64 (LP64), double / float."""
-
 def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
                       opp_dim: int) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
@@ -243,7 +239,8 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
         ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
         ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
-        ("const NAME_real_t *", "q_cur", [], P), ("clock_fn_t", "clock", [], P),
+        ("const NAME_real_t *", "q_cur", [], P), ("const NAME_real_t *", "qp_z", [], P),
+        ("clock_fn_t", "clock", [], P),
         ("NAME_status_t", "status", [], (32, 8)),
         ("int", "road_n", [], I), ("int", "road_set", [], I), ("int", "have_x0", [], I),
         ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I),
@@ -253,14 +250,6 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
     rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
                  "dims": [x[0] if isinstance(x, tuple) else x for x in d]} for t, nm, d, _ in members]
     return rendered, size
-
-
-_OSQP_ARRAY = re.compile(r"^(OSQPFloat|OSQPInt|QDLDL_int|QDLDL_bool|QDLDL_float)\s+\w+\[(\d+)\]", re.M)
-
-
-def _osqp_array_bytes(workspace_c: str, real_size: int) -> int:
-    sizes = {"OSQPFloat": real_size, "QDLDL_float": real_size, "OSQPInt": 4, "QDLDL_int": 4, "QDLDL_bool": 4}
-    return sum(sizes[t] * int(n) for t, n in _OSQP_ARRAY.findall(workspace_c))
 
 
 # --- the generator -------------------------------------------------------------------------------------------
@@ -309,9 +298,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
 
     work = _write_model(ocp, out_dir, name, real)
 
-    settings = osqp_settings(problem.qp)
-    exp = export_osqp(lay.P_matrix(), lay.A_pattern(np.ones(lay.nnz_A)), np.zeros(lay.n), np.minimum(lay.L, 0.0),
-                      np.maximum(lay.U, 0.0), settings, out_dir, f"{name}_", use_float)
+    backend = backend_module(problem.qp.backend)
+    qp_files = backend.write_files(ocp, lay, problem.qp, out_dir, use_float)
 
     # -- sizes (public macros) and private dimensions -----------------------------------------------------------
     sizes = size_macros(ocp, lay)
@@ -325,14 +313,13 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "INIT_D": lay.D[:nx]}
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
-            raise AssertionError("bounds beyond OSQP_INFTY")
+            raise AssertionError("bounds beyond the QP infinity INF")
     stages = stage_table(ocp, lay)
 
     ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all)
-    osqp_bytes = _osqp_array_bytes((out_dir / exp.workspace_sources[0]).read_text(), real_size)
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
                    + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
-    workspace_bytes = ws_bytes + osqp_bytes + OSQP_STRUCT_BYTES[use_float]
+    workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
 
     values = {**sizes, "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
     macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:nx])})"}
@@ -341,10 +328,11 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     ctx = {
         "name": name, "NAME": NAME, "version": __version__, "real": real, "use_float": use_float,
         "sizes": sizes, "macros": macros, "exit_codes": list(enumerate(EXIT_CODES)),
+        "qp_statuses": list(enumerate(QP_STATUSES, start=1)),
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(opp_names),
-        "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes, "osqp_array_bytes": osqp_bytes,
-        "osqp_struct_bytes": OSQP_STRUCT_BYTES[use_float],
+        "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
+        "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
         "index_ctype": index_ctype, "opp_dim": n_opp_all,
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
@@ -355,12 +343,11 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "rho0": _c_real(settings["rho"]), "max_iter": settings["max_iter"],
-        "max_iter_cold": cold_max_iter(problem.qp), "osqp_infty": _c_real(INF),
-        "osqp": exp, "model_cflags": MODEL_CFLAGS,
-        "osqp_sources": list(exp.library_sources), "osqp_headers": list(exp.library_headers),
+        "max_iter": problem.qp.max_iter, "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
+        "qp_files": qp_files, "model_cflags": MODEL_CFLAGS,
+        "backend": backend.codegen_context(ocp, lay, problem.qp),
+        "backend_template": f"backends/{problem.qp.backend}.c.j2", "backend_label": backend.LABEL,
         "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
-        "qp_settings": settings,
     }
     env = _env()
     outputs = {
@@ -373,11 +360,10 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     _write(out_dir / "problem.py",
            f'"""The problem of solver {name!r}, written by fcgen {__version__}: `fcgen verify` and `fcgen bench` '
            f'load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\nproblem = {problem_source(problem)}\n')
-    lib_files = tuple(restore_osqp_library(out_dir, use_float))
-    files = tuple(sorted([*outputs, "problem.py", f"{name}_model.c", f"{name}_model.h", *exp.workspace_sources,
-                          *exp.workspace_headers]))
+    lib_files = (*qp_files.library_sources, *qp_files.library_headers)
+    files = tuple(sorted([*outputs, "problem.py", f"{name}_model.c", f"{name}_model.h", *qp_files.sources,
+                          *qp_files.headers]))
     return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
                         workspace_bytes=workspace_bytes, solver_workspace_bytes=ws_bytes,
-                        osqp_array_bytes=osqp_bytes, osqp_struct_bytes=OSQP_STRUCT_BYTES[use_float],
-                        const_bytes=const_bytes, files=files,
-                        library_files=lib_files, osqp=exp)
+                        qp_array_bytes=qp_files.array_bytes, qp_struct_bytes=qp_files.struct_bytes,
+                        const_bytes=const_bytes, files=files, library_files=lib_files, qp_files=qp_files)

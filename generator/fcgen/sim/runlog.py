@@ -24,6 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..backends import QP_STATUSES
+
 __all__ = [
     "FORMAT_VERSION",
     "CONTROLLER_KINDS",
@@ -81,28 +83,17 @@ CONTROL_FIELDS: dict[str, tuple[str, tuple[Any, ...]]] = {
 }
 _SAMPLE_FIELDS = {**STATE_FIELDS, **CONTROL_FIELDS}
 
-#: OSQP 1.x status codes (``enum osqp_status_type`` / ``osqp.SolverStatus`` of osqp 1.1.3), without the
-#: ``OSQP_`` prefix, lower case. Note: these differ from osqp 0.6 (where e.g. max-iter was -2).
-QP_STATUS_NAMES: dict[int, str] = {
-    1: "solved",
-    2: "solved_inaccurate",
-    3: "primal_infeasible",
-    4: "primal_infeasible_inaccurate",
-    5: "dual_infeasible",
-    6: "dual_infeasible_inaccurate",
-    7: "max_iter_reached",
-    8: "time_limit_reached",
-    9: "non_cvx",
-    10: "sigint",
-    11: "unsolved",
-}
+#: Generic QP status codes (``fcgen.backends.QP_STATUSES``: the same for every QP backend, C and Python alike), without
+#: the ``QP_`` prefix, lower case. The backend's own status is not logged.
+QP_STATUS_NAMES: dict[int, str] = {code: name.removeprefix("QP_").lower()
+                                   for code, name in enumerate(QP_STATUSES, start=1)}
 
 _NONFINITE_OUT = {"nan": "NaN", "inf": "Infinity", "-inf": "-Infinity"}
 _NONFINITE_IN = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 
 
 def qp_status_name(code: int) -> str:
-    """Name of an OSQP status code (``"unknown_<code>"`` for codes OSQP does not define)."""
+    """Name of a generic QP status code (``"unknown_<code>"`` for other codes, e.g. 0: no QP solved)."""
     return QP_STATUS_NAMES.get(int(code), f"unknown_{int(code)}")
 
 

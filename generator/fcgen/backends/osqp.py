@@ -1,0 +1,135 @@
+"""The OSQP backend: OSQP 1.1.3 (the Python package for the reference, embedded mode 2 in the generated C).
+
+Python side: :class:`Backend` (setup, update, warm start, solve, status map). C side: ``templates/backends/osqp.c.j2``
+with the tables of :func:`codegen_context`; :func:`write_files` exports OSQP's workspace and library into a folder.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import osqp
+
+from . import (QP_STATUSES, QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_OTHER, QP_PRIMAL_INFEASIBLE, QP_SOLVED,
+               QP_SOLVED_INACCURATE, BackendFiles, QpResult)
+from ..codegen.consistency import missing_library
+from ..codegen.osqp_export import OSQP_INFTY, export_osqp, restore_osqp_library
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..dsl import QpOptions
+    from ..ocp import Ocp
+    from ..qp import QpLayout
+
+LABEL = "OSQP 1.1.3 (embedded mode 2)"
+"""How the generated header and README name this backend."""
+
+RAW_STATUS = {1: QP_SOLVED, 2: QP_SOLVED_INACCURATE, 3: QP_PRIMAL_INFEASIBLE, 4: QP_PRIMAL_INFEASIBLE,
+              5: QP_DUAL_INFEASIBLE, 6: QP_DUAL_INFEASIBLE, 7: QP_MAX_ITER, 8: QP_OTHER, 9: QP_NONCONVEX,
+              10: QP_OTHER, 11: QP_OTHER}
+"""OSQP 1.x ``status_val`` (1 solved, 2 solved inaccurate, 3/4 primal infeasible (inaccurate), 5/6 dual
+infeasible (inaccurate), 7 max iter, 8 time limit, 9 non-convex, 10 sigint, 11 unsolved) -> generic QP_* status."""
+
+OSQP_STRUCT_BYTES = {False: 1928, True: 1788}
+"""OSQP's bookkeeping structs in a workspace (solver, settings, info, vectors, matrices, ...): a fixed set whose size
+does not depend on the problem; measured for osqp 1.1.3 with gcc 12 on x86-64 (LP64), double / float."""
+
+_OSQP_ARRAY = re.compile(r"^(OSQPFloat|OSQPInt|QDLDL_int|QDLDL_bool|QDLDL_float)\s+\w+\[(\d+)\]", re.M)
+
+
+def generic_status(raw: int) -> int:
+    """The generic QP_* status of an OSQP ``status_val`` (QP_OTHER for a value OSQP does not define)."""
+    return RAW_STATUS.get(int(raw), QP_OTHER)
+
+
+def osqp_settings(opts: "QpOptions") -> dict:
+    """OSQP settings, identical for the Python package and the generated code."""
+    return dict(max_iter=opts.max_iter, eps_abs=opts.eps_abs, eps_rel=opts.eps_rel, eps_prim_inf=1e-5,
+                eps_dual_inf=1e-5, rho=opts.rho, sigma=opts.sigma, alpha=opts.alpha,
+                adaptive_rho=opts.adaptive_rho, scaling=opts.scaling,
+                check_termination=opts.check_termination, check_dualgap=False, warm_starting=opts.warm_start,
+                polishing=False, verbose=False)
+
+
+def _setup_data(lay: "QpLayout") -> tuple:
+    """The QP OSQP is set up (and the C workspace exported) with: q = 0, l = min(L, 0), u = max(U, 0)."""
+    return (lay.P_matrix(), np.zeros(lay.n), lay.A_pattern(np.ones(lay.nnz_A)), np.minimum(lay.L, 0.0),
+            np.maximum(lay.U, 0.0))
+
+
+class Backend:
+    """OSQP through its Python package, with the calls the generated C makes, in the same order."""
+
+    name = "osqp"
+
+    def __init__(self, layout: "QpLayout", opts: "QpOptions"):
+        self.lay = layout
+        self.opts = opts
+        self.settings = osqp_settings(opts)
+        self.reset()
+
+    def reset(self) -> None:
+        self.solver = osqp.OSQP()
+        self.solver.setup(*_setup_data(self.lay), **self.settings)
+
+    def set_matrices(self, P_x: np.ndarray, A_x: np.ndarray, q: np.ndarray) -> None:
+        self.solver.update(Px=P_x, Ax=A_x)
+
+    def solve(self, q: np.ndarray, l: np.ndarray, u: np.ndarray, y_warm: np.ndarray, max_iter: int) -> QpResult:
+        s = self.solver
+        s.update(q=q, l=l, u=u)
+        s.warm_start(x=np.zeros(self.lay.n), y=y_warm)
+        budget = max_iter != self.opts.max_iter
+        if budget:
+            s.update_settings(max_iter=max_iter)
+        res = s.solve(raise_error=False)
+        if budget:
+            s.update_settings(max_iter=self.opts.max_iter)
+        raw = int(res.info.status_val)
+        return QpResult(status=generic_status(raw), raw_status=raw, iter=int(res.info.iter),
+                        z=None if res.x is None else np.array(res.x, dtype=float),
+                        y=None if res.y is None else np.array(res.y, dtype=float))
+
+
+# -- generated code ----------------------------------------------------------------------------------------------
+
+def codegen_context(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions") -> dict[str, Any]:
+    """What ``templates/backends/osqp.c.j2`` needs (rendered under the key ``backend``)."""
+    from ..codegen.generate import _c_list, _c_real
+    prefix = f"{ocp.problem.name}_"
+    settings = osqp_settings(opts)
+    _, _, _, l0, u0 = _setup_data(layout)
+    raw = [(k, QP_STATUSES[v - 1]) for k, v in sorted(RAW_STATUS.items())]
+    return {"workspace_header": f"{prefix}workspace.h", "solver_name": f"{prefix}solver",
+            "rho0": repr(float(settings["rho"])), "max_iter": settings["max_iter"], "infty": repr(OSQP_INFTY),
+            "raw_status": raw, "n_raw": max(RAW_STATUS) + 1, "l0": _c_list(l0, _c_real, 6), "u0": _c_list(u0, _c_real, 6)}
+
+
+def _array_bytes(workspace_c: str, real_size: int) -> int:
+    sizes = {"OSQPFloat": real_size, "QDLDL_float": real_size, "OSQPInt": 4, "QDLDL_int": 4, "QDLDL_bool": 4}
+    return sum(sizes[t] * int(n) for t, n in _OSQP_ARRAY.findall(workspace_c))
+
+
+def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path, use_float: bool) -> BackendFiles:
+    """Export OSQP's workspace (problem-specific) and library into ``out_dir/osqp``; returns the folder's files."""
+    out_dir = Path(out_dir)
+    P, q, A, l, u = _setup_data(layout)
+    exp = export_osqp(P, A, q, l, u, osqp_settings(opts), out_dir, f"{ocp.problem.name}_", use_float)
+    return BackendFiles(
+        sources=exp.workspace_sources, headers=exp.workspace_headers,
+        library_sources=exp.library_sources, library_headers=exp.library_headers,
+        include_dirs=exp.include_dirs, private_include_dirs=exp.private_include_dirs, cflags=exp.cflags,
+        link_libs=exp.link_libs,
+        array_bytes=_array_bytes((out_dir / exp.workspace_sources[0]).read_text(), 4 if use_float else 8),
+        struct_bytes=OSQP_STRUCT_BYTES[use_float])
+
+
+def restore_library(out_dir: Path, use_float: bool) -> list[str]:
+    """Re-create the git-ignored OSQP library of a folder that uses this backend (nothing for another folder)."""
+    out_dir = Path(out_dir)
+    if not list((out_dir / "osqp").glob("*workspace.c")):
+        return []
+    if (out_dir / "osqp" / "lib" / "osqp_configure.h").is_file() and not missing_library(out_dir):
+        return []
+    return restore_osqp_library(out_dir, use_float)
