@@ -131,3 +131,12 @@ def test_an_output_path_under_a_file_gives_one_line(tmp_path, path, monkeypatch)
     msg = [ln for ln in res.output.splitlines() if ln.startswith("Error")]
     assert len(msg) == 1 and "afile" in msg[0] and "Traceback" not in res.output, res.output
     assert Path("afile").read_text() == "x" and sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_the_current_directory_is_not_replaced_under_the_caller(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    generate(small("alpha"), out)
+    monkeypatch.chdir(out)
+    with pytest.raises(FolderError, match="current directory"):
+        generate(small("alpha"), ".")
+    assert Path.cwd() == out.resolve() and (out / "alpha_solver.h").is_file()

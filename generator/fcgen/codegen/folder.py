@@ -44,7 +44,13 @@ def check_target(out_dir: Path, name: str, force: bool) -> None:
             raise FolderError(f"{out_dir}: {p} is a file, not a folder ({what}); choose a folder path")
         if p.is_dir():
             break
-    if not out_dir.is_dir() or force:
+    if not out_dir.is_dir():
+        return
+    here, target = Path.cwd().resolve(), out_dir.resolve()
+    if here == target or target in here.parents:
+        raise FolderError(f"{out_dir} holds the current directory; the folder is replaced as a whole: run fcgen from "
+                          f"outside it (e.g. cd ..)")
+    if force:
         return
     names = solvers_in(out_dir)
     if names and names != [name]:
