@@ -305,8 +305,9 @@ static int check_feedback_ok(void) {
 
 static int r_prepare(void) {
   int want = -1, rc;
-  if (!S_(_has_guess)() && !state_since_init) want = U_(_ERR_NO_STATE);
-  else if (road_since_init < 2) want = U_(_ERR_ROAD_WINDOW);
+  /* exact only when certainly not prepared (a prepare while prepared is a no-op under the contract) */
+  if (prep == 0 && !S_(_has_guess)() && !state_since_init) want = U_(_ERR_NO_STATE);
+  else if (prep == 0 && road_since_init < 2) want = U_(_ERR_ROAD_WINDOW);
   rc = called(S_(_prepare)(), want);
   if (rc == U_(_OK)) prep = 1;
   else if (prep == 1) prep = 2; /* failed: today unprepared, transactional: as before */
@@ -393,14 +394,15 @@ static void reject_one(int unprepared) {
 }
 
 /* noise mode B adds calls that fail (or repeat) inside the solver: a prepare on a road that does not cover the
- * horizon (then the good road again), and a second prepare. The contract: the solver is as before such a call.
+ * horizon (then the good road again) before the sample's prepare, and a second prepare after it. The contract: the
+ * solver is as before such a call (a second prepare is an error or a no-op).
  * where: 0 before set_opponents, 1 before prepare (the state is set), 2 after a successful prepare; unprepared:
  * the solver is certainly not prepared. */
 static void noise(int mode, int where, int unprepared) {
   int i, count = pick(3);
   for (i = 0; i < count; ++i) {
     if (mode == 1 && where > 0 && pick(3) == 0) {
-      if (where == 2 && pick(2)) {
+      if (where == 2) {
         called(S_(_prepare)(), -1); /* prepare twice: an error or a no-op */
       } else {
         called(S_(_set_road)((real_t)G_S0, (real_t)FUZZ_DS, ROAD_WINDOW - 1, g_kappa, g_phi, g_gx, g_gy), U_(_OK));
