@@ -720,14 +720,15 @@ int main(int argc, char **argv) {
     w0 = (int)fw;
     rc = controller_step(x, w0);
     S_(_get_status)(&st);
+    /* get_u0 is always the control to apply: after an unusable QP the solver's fallback, after a rejected call the
+     * last control; both inside the input box */
+    S_(_get_u0)(ur);
+    u[0] = (double)ur[0];
+    u[1] = (double)ur[1];
     if (rc) {
-      u[0] = u[1] = 0.0;
       g_slack[j] = NAN;
       ++exit_nonzero;
     } else {
-      S_(_get_u0)(ur);
-      u[0] = (double)ur[0];
-      u[1] = (double)ur[1];
       g_slack[j] = (double)S_(_max_slack)();
     }
     g_exit[j] = rc;

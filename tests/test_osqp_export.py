@@ -43,7 +43,9 @@ static void dump(const char* tag, const OSQPSolver* s) {
 
 int main(void) {
   OSQPSolver* s = &@SOLVER@;
-  OSQPInt flag = osqp_solve(s);
+  OSQPInt flag;
+  @PREFIX@workspace_reset(); /* the workspace is zero-initialized until then */
+  flag = osqp_solve(s);
   dump("solve1", s);
   flag |= osqp_update_data_vec(s, q2, l2, u2);
   flag |= osqp_update_data_mat(s, Px2, OSQP_NULL, @PNNZ@, Ax2, OSQP_NULL, @ANNZ@);
@@ -62,6 +64,10 @@ int main(void) {
   flag |= osqp_update_data_vec(s, q3, OSQP_NULL, OSQP_NULL);
   flag |= osqp_solve(s);
   dump("solve3", s);
+  /* after all that, the reset workspace solves the exported QP exactly as the fresh one did */
+  @PREFIX@workspace_reset();
+  flag |= osqp_solve(s);
+  dump("solve4", s);
   return (int)flag;
 }
 """
@@ -142,7 +148,7 @@ def _build(exp: OsqpExport, out_dir: Path, build: Path, qp: dict) -> tuple[Path,
     data = "\n".join([_c_array("OSQPFloat", k, qp[k]) for k in ("q2", "q3", "l2", "u2", "xw", "yw")]
                      + [_c_array("OSQPFloat", "Px2", qp["P2"].data), _c_array("OSQPFloat", "Ax2", qp["A2"].data)])
     main = MAIN_C
-    for key, val in dict(HEADER=exp.workspace_header, DATA=data, N=exp.n, M=exp.m, SOLVER=exp.solver_name,
+    for key, val in dict(HEADER=exp.workspace_header, DATA=data, N=exp.n, M=exp.m, SOLVER=exp.solver_name, PREFIX=exp.prefix,
                          PNNZ=exp.P_nnz, ANNZ=exp.A_nnz).items():
         main = main.replace(f"@{key}@", str(val))
     (build / "main.c").write_text(main)
@@ -214,7 +220,7 @@ def test_deterministic_and_restorable(qp: dict, tmp_path: Path) -> None:
 
 
 def _c_ints(text: str, name: str) -> np.ndarray:
-    body = re.search(rf"OSQPInt {name}\[\d+\] = {{(.*?)}};", text, re.S)
+    body = re.search(rf"OSQPInt {name}_init\[\d+\] = {{(.*?)}};", text, re.S)
     assert body is not None
     return np.array([int(t) for t in body.group(1).replace(",", " ").split()])
 
@@ -237,14 +243,19 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
     exe, objs = _build(exp, out, tmp_path / "build", qp)
     c = _run(exe)
     py = _python_reference(qp, exp)
-    assert set(c) == {"solve1", "solve2", "solve3"}
-    for tag in c:
+    assert set(c) == {"solve1", "solve2", "solve3", "solve4"}
+    for tag in py:
         assert py[tag]["status"] == 1, tag  # OSQP_SOLVED
         assert c[tag]["status"] == py[tag]["status"] and c[tag]["iter"] == py[tag]["iter"], tag
         np.testing.assert_array_equal(c[tag]["x"], py[tag]["x"])  # bit-identical
         np.testing.assert_array_equal(c[tag]["y"], py[tag]["y"])
         assert c[tag]["obj"] == py[tag]["obj"]
     assert not np.allclose(c["solve1"]["x"], c["solve2"]["x"])  # the update path changed the problem
+    # workspace_reset after three solves, updates and a rho change: bitwise the fresh workspace's solve
+    for key in ("status", "iter", "obj"):
+        assert c["solve4"][key] == c["solve1"][key]
+    np.testing.assert_array_equal(c["solve4"]["x"], c["solve1"]["x"])
+    np.testing.assert_array_equal(c["solve4"]["y"], c["solve1"]["y"])
     forbidden = {"malloc", "calloc", "realloc", "free", "printf", "puts", "putchar", "fprintf", "fwrite", "fputs"}
     for obj in objs:
         undefined = set(subprocess.run(["nm", "-u", str(obj)], check=True, capture_output=True,
@@ -259,6 +270,28 @@ def test_float_build(qp: dict, tmp_path: Path) -> None:
     exe, _ = _build(exp, out, tmp_path / "build", qp)
     c = _run(exe)
     py = _python_reference(qp, exp)
-    for tag in c:
+    for tag in py:
         scale = 1.0 + np.abs(py[tag]["x"]).max()
         assert np.abs(c[tag]["x"] - py[tag]["x"]).max() < 1e-2 * scale, tag
+
+
+def test_workspace_initial_values_are_const(qp: dict, tmp_path: Path) -> None:
+    """Every initialized workspace object is zero-initialized RAM plus a const copy; nothing is in .data."""
+    out = tmp_path / "gen"
+    exp = _export(qp, out)
+    _, objs = _build(exp, out, tmp_path / "build", qp)
+    ws_obj = next(o for o in objs if o.stem == f"{PREFIX}workspace")
+    sections = {}
+    for line in subprocess.run(["size", "-A", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines():
+        parts = line.split()
+        if len(parts) >= 2 and parts[0].startswith("."):
+            sections[parts[0]] = int(parts[1])
+    assert sections.get(".data", 0) == 0 and sections[".bss"] > 0 and sections[".rodata"] > 0
+    text = (out / exp.workspace_sources[0]).read_text()
+    assert f"void {PREFIX}workspace_reset(void)" in text
+    assert f"void {PREFIX}workspace_reset(void);" in (out / exp.workspace_headers[0]).read_text()
+    # one restore line per top-level object: memcpy for each initialized one, memset for the others
+    n_init = text.count("static const ")
+    assert n_init > 20 and text.count("  memcpy(&") == n_init
+    n_objects = len(re.findall(r"^\w+\s+\w+(?:\[\d+\])?;$", text, re.M))  # every mutable object, declared once
+    assert text.count("  memset(&") == n_objects - n_init > 0

@@ -165,11 +165,11 @@ def prepared():
 def stage_point(sv, k, rng):
     """Stage k's guess variables and parameters, perturbed randomly (a generic point, not only the guess)."""
     lay, ocp = sv.lay, sv.ocp
-    w = sv.w[lay.var_off[k]:lay.var_off[k + 1]].copy()
+    w = sv.w_prep[lay.var_off[k]:lay.var_off[k + 1]].copy()  # the prepared guess (the linearization point)
     w += 0.05 * lay.D[lay.var_off[k]:lay.var_off[k + 1]] * rng.standard_normal(w.size)
-    xn = sv.w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx].copy() if k < ocp.N else np.zeros(ocp.nx)
+    xn = sv.w_prep[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx].copy() if k < ocp.N else np.zeros(ocp.nx)
     xn += 0.05 * lay.D[:ocp.nx] * rng.standard_normal(ocp.nx)
-    p = sv.stage_params(k, sv.w[lay.s_vars[k]])
+    p = sv.stage_params(k, sv.w_prep[lay.s_vars[k]])
     return w, xn, p
 
 
@@ -244,9 +244,9 @@ def test_assembled_A_equals_block_assembly_of_stage_jacobians(prepared):
     g_all = []
     for k in range(ocp.N + 1):
         st = ocp.stage(k)
-        w = sv.w[lay.var_off[k]:lay.var_off[k + 1]]
-        xn = sv.w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] if k < ocp.N else np.zeros(ocp.nx)
-        g, J, _ = st.fun(w, xn, sv.stage_params(k, sv.w[lay.s_vars[k]]))
+        w = sv.w_prep[lay.var_off[k]:lay.var_off[k + 1]]
+        xn = sv.w_prep[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] if k < ocp.N else np.zeros(ocp.nx)
+        g, J, _ = st.fun(w, xn, sv.stage_params(k, sv.w_prep[lay.s_vars[k]]))
         J = np.array(ca.DM(J).full())
         r0, r1 = lay.row_off[k], lay.row_off[k + 1]
         dense[r0:r1, lay.var_off[k]:lay.var_off[k + 1]] += J[:, :st.nw]
@@ -299,8 +299,8 @@ def ipopt_solution(sv):
     guess = RtiSolver(sv.ocp)
     guess.road, guess.opp = sv.road, sv.opp
     guess.set_state(sv.x0)
-    guess.initial_guess()
-    res = solver(x0=guess.w, lbg=lbg, ubg=ubg)
+    w0, _ = guess.initial_guess()
+    res = solver(x0=w0, lbg=lbg, ubg=ubg)
     assert solver.stats()["success"], solver.stats()["return_status"]
     return np.array(res["x"]).ravel()
 
@@ -375,7 +375,7 @@ def test_rti_step_is_the_gauss_newton_sqp_step(form, ob):
     sv.prepare()                     # shift + linearize at the shifted guess
     sv.set_state(x1)
     assert sv.s0_guess != x1[0]
-    w_guess = sv.w.copy()
+    w_guess = sv.w_prep.copy()       # the shifted guess the QP is built at
     sv.feedback()
     step = sv.w - w_guess
     # the reference QP at w_guess

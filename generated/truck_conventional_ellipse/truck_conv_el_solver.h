@@ -26,7 +26,7 @@ extern "C" {
 #define TRUCK_CONV_EL_QP_M 805 /* QP rows */
 #define TRUCK_CONV_EL_QP_NNZ_A 2525 /* nonzeros of the QP constraint matrix */
 #define TRUCK_CONV_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_CONV_EL_WORKSPACE_BYTES 522540 /* static RAM on an LP64 target: solver + QP backend workspaces */
+#define TRUCK_CONV_EL_WORKSPACE_BYTES 522580 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_CONV_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -42,7 +42,12 @@ enum {
   TRUCK_CONV_EL_ERR_NONFINITE_ROAD = 5,
   TRUCK_CONV_EL_ERR_ROAD_WINDOW = 6,
   TRUCK_CONV_EL_ERR_ROAD_SIZE = 7,
-  TRUCK_CONV_EL_ERR_QP = 8
+  TRUCK_CONV_EL_ERR_QP = 8,
+  TRUCK_CONV_EL_ERR_QP_INFEASIBLE = 9,
+  TRUCK_CONV_EL_ERR_QP_DUAL_INFEASIBLE = 10,
+  TRUCK_CONV_EL_ERR_QP_NONCONVEX = 11,
+  TRUCK_CONV_EL_ERR_QP_NONFINITE = 12,
+  TRUCK_CONV_EL_ERR_QP_NUMERICAL = 13
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -58,18 +63,48 @@ enum {
   TRUCK_CONV_EL_QP_OTHER = 9
 };
 
+/* ---- safety contract ----------------------------------------------------------------------------------------------
+ * Rejected calls: a call returning TRUCK_CONV_EL_ERR_NOT_PREPARED ... TRUCK_CONV_EL_ERR_ROAD_SIZE, or TRUCK_CONV_EL_ERR_QP_NONFINITE
+ *   from prepare (non-finite linearization), leaves the solver bitwise as before (plan, duals, preparation, QP data,
+ *   QP backend, get_u0, status) except status.exit_code. A rejected feedback keeps the preparation: fix the input and
+ *   call feedback again. Exception: TRUCK_CONV_EL_ERR_QP_NUMERICAL from prepare (the backend could not load the matrices)
+ *   leaves l, u, A_x of the attempt and a freshly reset backend; plan and duals are kept, nothing is prepared.
+ * prepare() while a preparation is pending (no feedback since) is a no-op returning TRUCK_CONV_EL_OK: the guess is not
+ *   shifted twice and inputs set in between are used from the next prepare after a feedback on.
+ * QP outcome (feedback): usable = TRUCK_CONV_EL_QP_SOLVED, _QP_SOLVED_INACCURATE, _QP_MAX_ITER, each with a finite step.
+ *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step) -> TRUCK_CONV_EL_OK; get_u0: u0 of the new plan, projected on the input box; plan: the new plan (guess + step), its multipliers
+ *   QP_PRIMAL_INFEASIBLE -> TRUCK_CONV_EL_ERR_QP_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_DUAL_INFEASIBLE -> TRUCK_CONV_EL_ERR_QP_DUAL_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_NONCONVEX -> TRUCK_CONV_EL_ERR_QP_NONCONVEX; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_NONFINITE (or a usable status with a non-finite step) -> TRUCK_CONV_EL_ERR_QP_NONFINITE; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_NUMERICAL (the backend failed) -> TRUCK_CONV_EL_ERR_QP_NUMERICAL; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_OTHER -> TRUCK_CONV_EL_ERR_QP; get_u0: fallback; plan: kept: the shifted previous plan
+ *   Fallback: u_1 of the previous plan (u0 of the shifted guess) projected on the input box; on a cold start
+ *   (first sample after init/reset) the initial guess's input: zeros. An unusable QP never moves the plan: the next
+ *   sample shifts the kept plan again and can recover. After any feedback the sample is consumed (prepare next).
+ * Input bounds: get_u0 always lies in the hard box |F_d| <= F_d_max, |r| <= r_max. If the plan's u0 leaves it (a QP
+ *   solved to a tolerance or capped), get_u0 is its projection and status.u_projected = 1, status.u_violation =
+ *   max_i (excess_i / limit_i). The plan itself (get_states/get_controls) is not changed.
+ * init(): bitwise the zero-initialized solver (except the clock). reset(): the same but keeps the inputs (state,
+ *   road, opponents); any call sequence after either gives bitwise what a fresh solver gives. The QP backend is
+ *   restored from constant data before its next use. A QP's scaling is computed from that sample's data (OSQP: its
+ *   q is loaded before the matrices; one scale/unscale rounding of q remains, a step differs by ~1e-11 at most).
+ */
+
 /* What the last call reported. time_*: seconds measured with the clock given to set_clock (0 without one). */
 typedef struct {
-  int exit_code;     /* TRUCK_CONV_EL_OK or an error code */
-  int qp_status;     /* generic status of the last QP: TRUCK_CONV_EL_QP_SOLVED, ... (0: none) */
-  int qp_raw_status; /* the QP backend's own status value (OSQP 1.1.3 (embedded mode 2)) */
-  int qp_iter;       /* iterations of the last QP */
+  int exit_code;      /* TRUCK_CONV_EL_OK or an error code */
+  int qp_status;      /* generic status of the last QP: TRUCK_CONV_EL_QP_SOLVED, ... (0: none since prepare) */
+  int qp_raw_status;  /* the QP backend's own status value (OSQP 1.1.3 (embedded mode 2)) */
+  int qp_iter;        /* iterations of the last QP */
+  int u_projected;    /* 1: get_u0 is the plan's u0 projected on the input box (set by feedback) */
+  double u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   double time_prepare;
   double time_feedback;
 } truck_conv_el_status_t;
 
 /* ---- API -------------------------------------------------------------------------------------------------------- */
-/* Reset everything except the clock (inputs, guess, QP backend data). The zero-initialised solver is already reset. */
+/* Everything back to the zero-initialized solver except the clock (inputs, plan, QP data, backend). Optional at start. */
 int truck_conv_el_init(void);
 /* Timing hook provided by the host (seconds, monotonic); NULL disables timing. */
 void truck_conv_el_set_clock(double (*clock_seconds)(void));
@@ -80,21 +115,24 @@ int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int
     const truck_conv_el_real_t *phi_gamma, const truck_conv_el_real_t *gamma_x, const truck_conv_el_real_t *gamma_y);
 /* Opponent parameters of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
 int truck_conv_el_set_opponents(const truck_conv_el_real_t *params);
-/* Preparation phase: shift (or build) the guess, linearize, build the QP except x0, load the QP backend's matrices. */
+/* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
+ * x0, load the QP backend's matrices. A no-op while prepared. */
 int truck_conv_el_prepare(void);
-/* Feedback phase: embed the state set last, solve the QP, take the full step. */
+/* Feedback phase: embed the state set last, solve the QP, take the full step if the QP is usable (contract above). */
 int truck_conv_el_feedback(void);
-/* First control [F_d, r] of the current guess (zeros before the first feedback). */
+/* The control to apply [F_d, r]: the plan's u0 (the fallback after an unusable QP) projected on the input box;
+ * zeros before the first feedback. A rejected call does not change it. */
 void truck_conv_el_get_u0(truck_conv_el_real_t u[2]);
-/* States (N+1) x NX and controls N x NU of the current guess, row-major. */
+/* States (N+1) x NX and controls N x NU of the plan (the last feedback's), row-major. */
 void truck_conv_el_get_states(truck_conv_el_real_t *x);
 void truck_conv_el_get_controls(truck_conv_el_real_t *u);
 /* Largest slack of stages 1..N (0 if none is positive). */
 truck_conv_el_real_t truck_conv_el_max_slack(void);
 void truck_conv_el_get_status(truck_conv_el_status_t *st);
-/* Forget the guess: the next prepare builds a new one from the state. */
+/* Forget plan, duals, preparation, status and QP backend state; keep the inputs. The next prepare builds a new
+ * guess from the state. */
 void truck_conv_el_reset(void);
-/* 1 if a guess exists (the next prepare shifts it), else 0. */
+/* 1 if a plan exists (the next prepare shifts it), else 0. */
 int truck_conv_el_has_guess(void);
 /* Verification: read-only views of the QP data (any pointer may be NULL). q is the cost vector as last built
  * (after prepare: without the s0 correction; after feedback: as passed to the QP backend); z, y: the backend's

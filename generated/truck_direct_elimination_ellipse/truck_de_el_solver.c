@@ -964,6 +964,15 @@ static const truck_de_el_real_t Q_DS0[445] = {
 static const truck_de_el_real_t INIT_D[5] = {
   10.0, 5.0, 0.5, 10.0, 0.3
 };
+static const truck_de_el_real_t U_LO[2] = {
+  -10000.0, -0.39
+};
+static const truck_de_el_real_t U_HI[2] = {
+  10000.0, 0.39
+};
+static const truck_de_el_real_t U_LIM[2] = {
+  10000.0, 0.39
+};
 static const truck_de_el_real_t ZERO_N[TRUCK_DE_EL_QP_N] = {0};
 
 /* ---- QP backend ------------------------------------------------------------------------------------------------ */
@@ -977,13 +986,28 @@ typedef struct {
   const truck_de_el_real_t *y;
 } qpb_result_t;
 
-/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above. */
+/* QP outcome contract: the statuses whose (finite) step is taken, and the exit code of every status */
+#define QP_USABLE(s) ((s) == TRUCK_DE_EL_QP_SOLVED || (s) == TRUCK_DE_EL_QP_SOLVED_INACCURATE || (s) == TRUCK_DE_EL_QP_MAX_ITER)
+static const int QP_EXIT[9 + 1] = {
+  [0] = TRUCK_DE_EL_ERR_QP,
+  [TRUCK_DE_EL_QP_SOLVED] = TRUCK_DE_EL_OK,
+  [TRUCK_DE_EL_QP_SOLVED_INACCURATE] = TRUCK_DE_EL_OK,
+  [TRUCK_DE_EL_QP_MAX_ITER] = TRUCK_DE_EL_OK,
+  [TRUCK_DE_EL_QP_PRIMAL_INFEASIBLE] = TRUCK_DE_EL_ERR_QP_INFEASIBLE,
+  [TRUCK_DE_EL_QP_DUAL_INFEASIBLE] = TRUCK_DE_EL_ERR_QP_DUAL_INFEASIBLE,
+  [TRUCK_DE_EL_QP_NONCONVEX] = TRUCK_DE_EL_ERR_QP_NONCONVEX,
+  [TRUCK_DE_EL_QP_NONFINITE] = TRUCK_DE_EL_ERR_QP_NONFINITE,
+  [TRUCK_DE_EL_QP_NUMERICAL] = TRUCK_DE_EL_ERR_QP_NUMERICAL,
+  [TRUCK_DE_EL_QP_OTHER] = TRUCK_DE_EL_ERR_QP,
+};
+
+/* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above.
+ * The core calls qpb_reset() before the backend's first use after program start, init(), reset() or a failure. */
 /* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_de_el_solver.c) ------------------------------ */
 #include "osqp.h"
 #include "truck_de_el_workspace.h"
 
 #define QPB_SOLVER (&truck_de_el_solver)
-#define QPB_RHO0 0.2
 #define QPB_MAX_ITER 60
 
 typedef char truck_de_el_check_osqp_real[(sizeof(truck_de_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
@@ -1002,282 +1026,6 @@ static const int QPB_STATUS[12] = {
   [10] = TRUCK_DE_EL_QP_OTHER,
   [11] = TRUCK_DE_EL_QP_OTHER,
 };
-/* OSQP's exported bounds: l = min(L, 0), u = max(U, 0) */
-static const OSQPFloat QPB_L0[TRUCK_DE_EL_QP_M] = {
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, -1.0,
-  -1e+30, 0.0, 0.0, 0.0, -2.0, -1.5707963267948966,
-  0.0, -1.0, -1.0, -1.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, -1.0, -1e+30, 0.0, 0.0, 0.0,
-  -2.0, -1.5707963267948966, 0.0, -1.0, -1.0, -1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, -1.0, -1e+30, 0.0,
-  0.0, 0.0, -2.0, -1.5707963267948966, 0.0, -1.0,
-  -1.0, -1.0, 0.0, 0.0, 0.0, 0.0,
-  -1.0, -1e+30, 0.0, 0.0, 0.0, -2.0,
-  -1.5707963267948966, 0.0, -1.0, 0.0, 0.0, 0.0,
-  0.0
-};
-static const OSQPFloat QPB_U0[TRUCK_DE_EL_QP_M] = {
-  0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-  0.0, 0.0, 0.0, 0.0, 1.0, 1.0,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  0.0, 0.0, 0.0, 0.0, 0.0, 1e+30,
-  1.0, 1e+30, 1e+30, 1e+30, 2.0, 1.5707963267948966,
-  4.0, 1.0, 1.0, 1.0, 1e+30, 1e+30,
-  1e+30, 1e+30, 0.0, 0.0, 0.0, 0.0,
-  0.0, 1e+30, 1.0, 1e+30, 1e+30, 1e+30,
-  2.0, 1.5707963267948966, 4.0, 1.0, 1.0, 1.0,
-  1e+30, 1e+30, 1e+30, 1e+30, 0.0, 0.0,
-  0.0, 0.0, 0.0, 1e+30, 1.0, 1e+30,
-  1e+30, 1e+30, 2.0, 1.5707963267948966, 4.0, 1.0,
-  1.0, 1.0, 1e+30, 1e+30, 1e+30, 1e+30,
-  1e+30, 1.0, 1e+30, 1e+30, 1e+30, 2.0,
-  1.5707963267948966, 1.5, 1.0, 1e+30, 1e+30, 1e+30,
-  1e+30
-};
-
 /* OSQP's iteration budget (the other settings unchanged) */
 static void qpb_set_max_iter(OSQPInt n) {
   OSQPSettings s = *QPB_SOLVER->settings;
@@ -1285,14 +1033,12 @@ static void qpb_set_max_iter(OSQPInt n) {
   (void)osqp_update_settings(QPB_SOLVER, &s);
 }
 
-/* OSQP back to its exported data: q = 0, l = min(L, 0), u = max(U, 0), rho as set up */
-static void qpb_reset(void) {
-  (void)osqp_update_data_vec(QPB_SOLVER, ZERO_N, QPB_L0, QPB_U0);
-  (void)osqp_update_rho(QPB_SOLVER, QPB_RHO0);
-}
+/* every mutable byte of OSQP's workspace back to its generated value (the workspace is zero until then) */
+static void qpb_reset(void) { truck_de_el_workspace_reset(); }
 
+/* q first: OSQP recomputes its scaling in osqp_update_data_mat from the q it holds, so it must be this sample's */
 static int qpb_set_matrices(const truck_de_el_real_t *P_x, const truck_de_el_real_t *A_x, const truck_de_el_real_t *q) {
-  (void)q;
+  if (osqp_update_data_vec(QPB_SOLVER, q, OSQP_NULL, OSQP_NULL)) return 1;
   return osqp_update_data_mat(QPB_SOLVER, P_x, OSQP_NULL, TRUCK_DE_EL_QP_N, A_x, OSQP_NULL, TRUCK_DE_EL_QP_NNZ_A) != 0;
 }
 
@@ -1323,6 +1069,10 @@ typedef struct {
   truck_de_el_real_t road_gx[TRUCK_DE_EL_ROAD_MAX];
   truck_de_el_real_t road_gy[TRUCK_DE_EL_ROAD_MAX];
   truck_de_el_real_t opp[TRUCK_DE_EL_N + 1][OPP_DIM];
+  clock_fn_t clock;
+  int road_n;
+  int road_set;
+  int have_x0;
   truck_de_el_real_t w[TRUCK_DE_EL_QP_N];
   truck_de_el_real_t y[TRUCK_DE_EL_QP_M];
   truck_de_el_real_t s0_guess;
@@ -1337,6 +1087,7 @@ typedef struct {
   truck_de_el_real_t l[TRUCK_DE_EL_QP_M];
   truck_de_el_real_t u[TRUCK_DE_EL_QP_M];
   truck_de_el_real_t A_x[TRUCK_DE_EL_QP_NNZ_A];
+  truck_de_el_real_t u_applied[TRUCK_DE_EL_NU];
   truck_de_el_real_t xa[TRUCK_DE_EL_NX];
   truck_de_el_real_t xb[TRUCK_DE_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
@@ -1345,14 +1096,11 @@ typedef struct {
   casadi_real cw[CASADI_SZ_W];
   const truck_de_el_real_t *q_cur;
   const truck_de_el_real_t *qp_z;
-  clock_fn_t clock;
   truck_de_el_status_t status;
-  int road_n;
-  int road_set;
-  int have_x0;
   int have_guess;
   int prepared;
   int cold;
+  int qp_ready;
 } truck_de_el_workspace_t;
 
 static truck_de_el_workspace_t truck_de_el_ws;
@@ -1421,20 +1169,20 @@ static int stage_params(truck_de_el_real_t *p, int k, truck_de_el_real_t s) {
   return TRUCK_DE_EL_OK;
 }
 
-/* Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks and duals. */
-static int initial_guess(void) {
+/* Roll the model out from x0 with zero input into w; hyperplanes between ego and opponents; zero slacks, duals y. */
+static int initial_guess(truck_de_el_real_t *w, truck_de_el_real_t *y) {
   int i, k, rc;
   truck_de_el_real_t *x = ws.xa, *xn = ws.xb, *tmp;
-  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = 0.0;
+  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) w[i] = 0.0;
   ws.s0_guess = ws.x0[0];
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
   if (rc) return rc;
   call3(truck_de_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
   for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
-    copy(x, ws.w + STAGES[k].var, TRUCK_DE_EL_NX);
+    copy(x, w + STAGES[k].var, TRUCK_DE_EL_NX);
     rc = stage_params(ws.p[k], k, x[0]);
     if (rc) return rc;
-    if (STAGES[k].theta >= 0) call3(truck_de_el_theta_init, x, ws.p[k], NULL, ws.w + STAGES[k].theta, NULL, NULL);
+    if (STAGES[k].theta >= 0) call3(truck_de_el_theta_init, x, ws.p[k], NULL, w + STAGES[k].theta, NULL, NULL);
     if (STAGES[k].next >= 0) {
       call3(truck_de_el_dynamics, x, NULL, ws.p[k], xn, NULL, NULL); /* u = 0 */
       tmp = x;
@@ -1442,17 +1190,31 @@ static int initial_guess(void) {
       xn = tmp;
     }
   }
-  for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) ws.y[i] = 0.0;
+  for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) y[i] = 0.0;
   return TRUCK_DE_EL_OK;
+}
+
+/* The control to apply: u0 of plan w projected on the hard input box; the status reports the projection. */
+static void apply_control(const truck_de_el_real_t *w) {
+  int i;
+  truck_de_el_real_t v, lo, hi, excess, worst = 0.0;
+  for (i = 0; i < TRUCK_DE_EL_NU; ++i) {
+    v = w[STAGES[0].u + i];
+    lo = U_LO[i];
+    hi = U_HI[i];
+    excess = v < lo ? (lo - v) / U_LIM[i] : (v > hi ? (v - hi) / U_LIM[i] : 0.0);
+    ws.u_applied[i] = v < lo ? lo : (v > hi ? hi : v);
+    if (excess > worst) worst = excess;
+  }
+  ws.status.u_projected = worst > 0.0;
+  ws.status.u_violation = worst;
 }
 
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_de_el_init(void) {
   clock_fn_t clock = ws.clock;
-  memset(&ws, 0, sizeof ws);
+  memset(&ws, 0, sizeof ws); /* the QP backend is restored before its next use (qp_ready = 0) */
   ws.clock = clock;
-  ws.q_cur = ws.q;
-  qpb_reset();
   return TRUCK_DE_EL_OK;
 }
 
@@ -1493,40 +1255,35 @@ int truck_de_el_set_opponents(const truck_de_el_real_t *params) {
   return TRUCK_DE_EL_OK;
 }
 
+/* Transactional: the prepared guess (w_tmp, y_tmp), g, q, p are private until prepared = 1 and are built first; l, u,
+ * A_x, the QP backend, the status and `prepared` change only once every check has passed. */
 int truck_de_el_prepare(void) {
   const double t0 = now();
-  int i, k, rc;
+  int i, k, rc, cold;
   const stage_t *st;
-  ws.prepared = 0;
-  ws.status.exit_code = TRUCK_DE_EL_OK;
-  ws.status.qp_status = 0;
-  ws.status.qp_raw_status = 0;
-  ws.status.qp_iter = 0;
-  ws.status.time_prepare = 0.0;
-  ws.status.time_feedback = 0.0;
-  if (!ws.have_guess) {
+  if (ws.prepared) return TRUCK_DE_EL_OK; /* documented no-op: the pending preparation stays */
+  cold = !ws.have_guess;
+  if (cold) {
     if (!ws.have_x0) return fail(TRUCK_DE_EL_ERR_NO_STATE);
-    rc = initial_guess();
-    if (rc) return fail(rc); /* no guess is kept */
-    ws.have_guess = 1;
-    ws.cold = 1;
+    rc = initial_guess(ws.w_tmp, ws.y_tmp);
+    if (rc) return fail(rc);
   } else {
-    ws.cold = 0;
     for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
     for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
-    copy(ws.w_tmp, ws.w, TRUCK_DE_EL_QP_N);
-    copy(ws.y_tmp, ws.y, TRUCK_DE_EL_QP_M);
   }
-  ws.s0_guess = ws.w[STAGES[0].s];
+  ws.s0_guess = ws.w_tmp[STAGES[0].s];
   for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
-    rc = stage_params(ws.p[k], k, ws.w[STAGES[k].s]);
+    rc = stage_params(ws.p[k], k, ws.w_tmp[STAGES[k].s]);
     if (rc) return fail(rc);
   }
   for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
     st = &STAGES[k];
-    call3(STAGE_FUN[st->kind], ws.w + st->var, st->next >= 0 ? ws.w + st->next : NULL, ws.p[k],
+    call3(STAGE_FUN[st->kind], ws.w_tmp + st->var, st->next >= 0 ? ws.w_tmp + st->next : NULL, ws.p[k],
           ws.g + st->row, ws.jac + st->jac, ws.q + st->var);
   }
+  if (!all_finite(ws.g, TRUCK_DE_EL_QP_M) || !all_finite(ws.jac, TRUCK_DE_EL_NNZ_J) || !all_finite(ws.q, TRUCK_DE_EL_QP_N))
+    return fail(TRUCK_DE_EL_ERR_QP_NONFINITE);
+  /* commit */
   for (i = 0; i < TRUCK_DE_EL_QP_NNZ_A; ++i) ws.A_x[i] = ws.jac[A_SRC[i]];
   for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) {
     ws.l[i] = L[i] - ws.g[i];
@@ -1534,49 +1291,77 @@ int truck_de_el_prepare(void) {
     if (ws.l[i] < -QP_INF) ws.l[i] = -QP_INF; /* as the backends' Python interfaces clip */
     if (ws.u[i] > QP_INF) ws.u[i] = QP_INF;
   }
+  if (!ws.qp_ready) {
+    qpb_reset();
+    ws.qp_ready = 1;
+  }
+  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) {
+    ws.qp_ready = 0; /* the backend is restored before its next use */
+    return fail(TRUCK_DE_EL_ERR_QP_NUMERICAL);
+  }
+  ws.status.exit_code = TRUCK_DE_EL_OK;
+  ws.status.qp_status = 0;
+  ws.status.qp_raw_status = 0;
+  ws.status.qp_iter = 0;
+  ws.status.time_prepare = 0.0;
+  ws.status.time_feedback = 0.0;
   ws.q_cur = ws.q;
-  if (qpb_set_matrices(P_DIAG, ws.A_x, ws.q)) return fail(TRUCK_DE_EL_ERR_QP);
+  ws.cold = cold;
   ws.prepared = 1;
   ws.status.time_prepare = now() - t0;
   return TRUCK_DE_EL_OK;
 }
 
+/* Transactional up to the QP: a rejected call (order, state, road window, non-finite embedding) changes nothing but
+ * exit_code. From the QP on, the sample is consumed: see the QP outcome contract in the header. */
 int truck_de_el_feedback(void) {
   const double t0 = now();
-  int i, rc;
-  truck_de_el_real_t ds0;
+  int i, rc, qs, code;
+  truck_de_el_real_t ds0, v;
   qpb_result_t res = {0, 0, 0, NULL, NULL};
   if (!ws.prepared) return fail(TRUCK_DE_EL_ERR_NOT_PREPARED);
   if (!ws.have_x0) return fail(TRUCK_DE_EL_ERR_NO_STATE);
   rc = stage_params(ws.p_fb, 0, ws.x0[0]);
   if (rc) return fail(rc);
   call3(truck_de_el_init_state, ws.x0, ws.p_fb, NULL, ws.xa, NULL, NULL);
-  for (i = 0; i < TRUCK_DE_EL_NX; ++i) {
-    ws.l[INIT_ROWS[i]] = ws.xa[i] / INIT_D[i] - ws.g[INIT_ROWS[i]];
-    ws.u[INIT_ROWS[i]] = ws.l[INIT_ROWS[i]];
-  }
   ds0 = ws.x0[0] - ws.s0_guess;
   for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.q_fb[i] = ws.q[i] + Q_DS0[i] * ds0;
+  if (!all_finite(ws.xa, TRUCK_DE_EL_NX) || !all_finite(ws.q_fb, TRUCK_DE_EL_QP_N))
+    return fail(TRUCK_DE_EL_ERR_NONFINITE_STATE);
+  /* commit: the sample is consumed */
+  for (i = 0; i < TRUCK_DE_EL_NX; ++i) {
+    v = ws.xa[i] / INIT_D[i] - ws.g[INIT_ROWS[i]];
+    v = v < -QP_INF ? -QP_INF : (v > QP_INF ? QP_INF : v);
+    ws.l[INIT_ROWS[i]] = v;
+    ws.u[INIT_ROWS[i]] = v;
+  }
   ws.q_cur = ws.q_fb;
-  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
   ws.prepared = 0;
-  ws.status.qp_status = res.status;
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y_tmp, ws.cold ? MAX_ITER_COLD : MAX_ITER, &res);
+  qs = rc ? TRUCK_DE_EL_QP_NUMERICAL : res.status;
+  if (res.z) ws.qp_z = res.z;
+  if (!rc && QP_USABLE(qs) && (!res.z || !res.y || !all_finite(res.z, TRUCK_DE_EL_QP_N) || !all_finite(res.y, TRUCK_DE_EL_QP_M)))
+    qs = TRUCK_DE_EL_QP_NONFINITE;
+  ws.status.qp_status = qs;
   ws.status.qp_raw_status = res.raw_status;
   ws.status.qp_iter = res.iter;
-  if (res.z) ws.qp_z = res.z;
-  if (rc || !res.z || !all_finite(res.z, TRUCK_DE_EL_QP_N)) {
-    ws.status.time_feedback = now() - t0;
-    return fail(TRUCK_DE_EL_ERR_QP);
+  code = QP_EXIT[qs >= 0 && qs <= 9 ? qs : TRUCK_DE_EL_QP_OTHER];
+  if (code == TRUCK_DE_EL_OK) {
+    for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = ws.w_tmp[i] + D[i] * res.z[i];
+    copy(res.y, ws.y, TRUCK_DE_EL_QP_M);
+  } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
+    copy(ws.w_tmp, ws.w, TRUCK_DE_EL_QP_N);
+    copy(ws.y_tmp, ws.y, TRUCK_DE_EL_QP_M);
   }
-  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = ws.w[i] + D[i] * res.z[i];
-  copy(res.y, ws.y, TRUCK_DE_EL_QP_M);
-  ws.status.exit_code = TRUCK_DE_EL_OK;
+  ws.have_guess = 1;
+  apply_control(ws.w);
+  ws.status.exit_code = code;
   ws.status.time_feedback = now() - t0;
-  return TRUCK_DE_EL_OK;
+  return code;
 }
 
 void truck_de_el_get_u0(truck_de_el_real_t u[2]) {
-  copy(ws.w + STAGES[0].u, u, TRUCK_DE_EL_NU);
+  copy(ws.u_applied, u, TRUCK_DE_EL_NU);
 }
 
 void truck_de_el_get_states(truck_de_el_real_t *x) {
@@ -1604,11 +1389,8 @@ void truck_de_el_get_status(truck_de_el_status_t *st) {
 }
 
 void truck_de_el_reset(void) {
-  int i;
-  ws.have_guess = 0;
-  ws.prepared = 0;
-  for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) ws.w[i] = 0.0;
-  for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) ws.y[i] = 0.0;
+  /* everything from the first non-input member on: plan, duals, preparation, status, QP data, backend */
+  memset(&ws.w, 0, sizeof ws - offsetof(truck_de_el_workspace_t, w));
 }
 
 int truck_de_el_has_guess(void) { return ws.have_guess; }
@@ -1616,7 +1398,7 @@ int truck_de_el_has_guess(void) { return ws.have_guess; }
 void truck_de_el_get_qp(const truck_de_el_real_t **q, const truck_de_el_real_t **l, const truck_de_el_real_t **u,
     const truck_de_el_real_t **A_x, const truck_de_el_real_t **P_x, const truck_de_el_real_t **z,
     const truck_de_el_real_t **y) {
-  if (q) *q = ws.q_cur ? ws.q_cur : ws.q;
+  if (q) *q = ws.q_cur ? ws.q_cur : ZERO_N;
   if (l) *l = ws.l;
   if (u) *u = ws.u;
   if (A_x) *A_x = ws.A_x;

@@ -81,7 +81,8 @@ class CSolver:
 
     kind = "c"
 
-    def __init__(self, lib_path: Path | str, header: Path | str | None = None):
+    def __init__(self, lib_path: Path | str, header: Path | str | None = None, init: bool = True):
+        """Load a solver library; ``init=False`` leaves a freshly loaded library zero-initialized (no init call)."""
         lib_path = Path(lib_path)
         self.name = lib_path.name[len("lib"):-len(".so")]
         header = Path(header) if header else self._find_header(lib_path)
@@ -94,7 +95,8 @@ class CSolver:
         self._real = ctypes.c_float if s.get("USE_FLOAT") else ctypes.c_double
         self.lib = ctypes.CDLL(str(lib_path.resolve()))
         self._declare()
-        self.init()
+        if init:
+            self.init()
         self._f("set_clock")(ctypes.cast(self._f("host_clock"), ctypes.c_void_p))
 
     @staticmethod
@@ -187,8 +189,9 @@ class CSolver:
 
     def status(self) -> Status:
         class _St(ctypes.Structure):
-            _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter")] + \
-                [("time_prepare", ctypes.c_double), ("time_feedback", ctypes.c_double)]
+            _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter",
+                                                     "u_projected")] + \
+                [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
         st = _St()
         self._f("get_status")(ctypes.byref(st))
         return Status(**{f: getattr(st, f) for f, _ in _St._fields_})
@@ -219,8 +222,8 @@ class CSolver:
         rc = rc or self.set_state(x0)
         rc = rc or self.feedback()
         st = self.status()
-        if rc:
-            return StepResult(np.zeros(2), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+        if rc:  # the control get_u0 gives after an error: the fallback (unusable QP) or the last one (rejected)
+            return StepResult(self.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
                               math.nan)
         return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
                           self.max_slack())

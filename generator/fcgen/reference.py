@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .backends import make_backend
+from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINITE, QP_NUMERICAL, QP_OTHER,
+                       QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
 from .dsl import QpOptions, SeparatingHyperplane
 from .ocp import Ocp, build_ocp
 from .qp import QpLayout, build_layout
@@ -20,8 +21,50 @@ from .road import Road
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP")
+              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
+              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL")
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order."""
+
+QP_EXIT = {0: "ERR_QP", QP_SOLVED: "OK", QP_SOLVED_INACCURATE: "OK", QP_MAX_ITER: "OK",
+           QP_PRIMAL_INFEASIBLE: "ERR_QP_INFEASIBLE", QP_DUAL_INFEASIBLE: "ERR_QP_DUAL_INFEASIBLE",
+           QP_NONCONVEX: "ERR_QP_NONCONVEX", QP_NONFINITE: "ERR_QP_NONFINITE", QP_NUMERICAL: "ERR_QP_NUMERICAL",
+           QP_OTHER: "ERR_QP"}
+"""The QP outcome contract: the exit code feedback() returns for each generic QP status (OK: the step is taken).
+A usable status with a non-finite step or multipliers counts as QP_NONFINITE."""
+assert set(QP_EXIT) == set(range(len(QP_STATUSES) + 1)) and {s for s, c in QP_EXIT.items() if c == "OK"} == set(QP_USABLE)
+
+QP_CONTRACT = (
+    ("QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step)", "OK",
+     "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
+    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
+    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
+    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", "kept: the shifted previous plan"),
+    ("QP_NONFINITE (or a usable status with a non-finite step)", "ERR_QP_NONFINITE", "fallback",
+     "kept: the shifted previous plan"),
+    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", "kept: the shifted previous plan"),
+    ("QP_OTHER", "ERR_QP", "fallback", "kept: the shifted previous plan"),
+)
+"""(QP status, exit code, what get_u0 returns, what becomes of the guess) for the README and the header.
+Fallback: u_1 of the previous plan (= u0 of the shifted guess), projected on the input box; zeros on a cold start."""
+
+
+def input_box(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The hard input box [F_d, r]: lower, upper bound and the limit the violation is measured against."""
+    lim = np.array([problem.bounds.F_d_max, problem.bounds.r_max], dtype=float)
+    return -lim, lim.copy(), lim
+
+
+def project_control(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, lim: np.ndarray) -> tuple[np.ndarray, float]:
+    """u projected on [lo, hi] and the largest excess relative to the limit (0: inside); the C arithmetic."""
+    out = np.empty(len(u))
+    worst = 0.0
+    for i, v in enumerate(np.asarray(u, dtype=float).tolist()):
+        a, b = float(lo[i]), float(hi[i])
+        excess = (a - v) / float(lim[i]) if v < a else ((v - b) / float(lim[i]) if v > b else 0.0)
+        out[i] = a if v < a else (b if v > b else v)
+        if excess > worst:
+            worst = excess
+    return out, worst
 
 
 class SolverError(RuntimeError):
@@ -41,6 +84,8 @@ class Status:
     qp_status: int = 0      # generic QP_* status (fcgen.backends.QP_STATUSES; 0: no QP solved)
     qp_raw_status: int = 0  # the backend's own status value
     qp_iter: int = 0
+    u_projected: int = 0       # 1: get_u0 is the plan's u0 projected on the input box
+    u_violation: float = 0.0   # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -80,7 +125,13 @@ def theta_init(ocp: Ocp) -> ca.Function:
 
 
 class RtiSolver:
-    """SQP-RTI: ``prepare()`` linearizes at the shifted guess, ``feedback()`` embeds x0 and solves one QP."""
+    """SQP-RTI: ``prepare()`` linearizes at the shifted guess, ``feedback()`` embeds x0 and solves one QP.
+
+    The same contract as the generated C (see its header): a rejected call raises :class:`SolverError` and changes
+    nothing but ``status.exit_code``; ``prepare()`` while prepared is a no-op; an unusable QP raises with its code
+    (``QP_EXIT``), the step is not taken, the plan becomes the prepared (shifted) guess and ``u0()`` is its first
+    control projected on the input box (the fallback).
+    """
 
     def __init__(self, ocp: Ocp, layout: QpLayout | None = None, qp: QpOptions | None = None):
         self.ocp = ocp
@@ -91,27 +142,46 @@ class RtiSolver:
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
         self._fun_last = ocp.last.fun
         self._theta_init = theta_init(ocp)
+        self._box = input_box(ocp.problem)
+        self.qp = make_backend(self.lay, self.qp_opts)
+        self.init()
+
+    def init(self) -> None:
+        """Everything back to a freshly constructed solver: inputs, plan, preparation, status, QP backend."""
         self.road: Road | None = None
-        self.opp = np.zeros((N + 1, ocp.problem.opponents.count * ocp.n_opp_par))
+        self.opp = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_par))
         self.x0: np.ndarray | None = None
-        self.w: np.ndarray | None = None
-        self.y = np.zeros(self.lay.m)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget plan, duals, preparation, status, QP data and backend state; keep the inputs (state, road, opp)."""
+        lay = self.lay
+        self.w: np.ndarray | None = None       # the plan (None: no guess; the next prepare builds one)
+        self.y = np.zeros(lay.m)
+        self.w_prep = np.zeros(lay.n)          # the prepared guess (shifted plan or initial guess)
+        self.y_prep = np.zeros(lay.m)
         self.prepared = False
         self.cold = False
         self.status = Status()
-        lay = self.lay
         self.q = np.zeros(lay.n)
-        self.l = lay.L.copy()
-        self.u = lay.U.copy()
+        self.q_fb = np.zeros(lay.n)
+        self.l = np.zeros(lay.m)
+        self.u = np.zeros(lay.m)
         self.g = np.zeros(lay.m)
         self.A_data = np.zeros(lay.nnz_A)
+        self.z: np.ndarray | None = None
         self.s0_guess = 0.0
-        self.qp = make_backend(lay, self.qp_opts)
+        self.u_applied = np.zeros(self.ocp.nu)
+        self.qp.reset()
+
+    def _fail(self, code: str, message: str) -> SolverError:
+        self.status.exit_code = EXIT_CODES.index(code)
+        return SolverError(code, message)
 
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
         if road.size > self.ocp.problem.road.samples:
-            raise SolverError("ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
+            raise self._fail("ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
         self.road = road
 
     def set_opponents(self, params: np.ndarray) -> None:
@@ -119,27 +189,27 @@ class RtiSolver:
         params = np.asarray(params, dtype=float)
         n_opp = self.ocp.problem.opponents.count
         if params.shape != (self.ocp.N + 1, n_opp, self.ocp.n_opp_par):
-            raise SolverError("ERR_NONFINITE_OPPONENTS", f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}")
+            raise self._fail("ERR_NONFINITE_OPPONENTS", f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}")
         if not np.all(np.isfinite(params)):
-            raise SolverError("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
+            raise self._fail("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
 
     def set_state(self, x0) -> None:
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (5,) or not np.all(np.isfinite(x0)):
-            raise SolverError("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
+            raise self._fail("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
         self.x0 = x0
 
     # -- parameters --------------------------------------------------------------------------------
     def _road_params(self, s: float) -> np.ndarray:
         road, rp = self.road, self.ocp.road_params
         if road is None:
-            raise SolverError("ERR_ROAD_WINDOW", "road window not set")
+            raise self._fail("ERR_ROAD_WINDOW", "road window not set")
         if not math.isfinite(s):
-            raise SolverError("ERR_NONFINITE_STATE", "non-finite s in the guess")
+            raise self._fail("ERR_ROAD_WINDOW", "non-finite s in the guess")
         i0 = int(math.floor((s - road.s0) / road.ds)) - 1
         if i0 < 0 or i0 + rp.samples > road.size:
-            raise SolverError("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
+            raise self._fail("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
         return rp.pack(road, i0)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
@@ -148,14 +218,18 @@ class RtiSolver:
                 pb.reference.v_ref, 0.0]
         return np.concatenate([self._road_params(s), xref, self.opp[k]])
 
+    @staticmethod
+    def _stage(w: np.ndarray, lay: QpLayout, k: int) -> np.ndarray:
+        return w[lay.var_off[k]:lay.var_off[k + 1]]
+
     def _stage_w(self, k: int) -> np.ndarray:
-        return self.w[self.lay.var_off[k]:self.lay.var_off[k + 1]]
+        return self._stage(self.w, self.lay, k)
 
     # -- initial guess -----------------------------------------------------------------------------
-    def initial_guess(self) -> None:
-        """Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks."""
+    def initial_guess(self) -> tuple[np.ndarray, np.ndarray]:
+        """Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks, duals."""
         if self.x0 is None:
-            raise SolverError("ERR_NO_STATE", "state not set before the first prepare")
+            raise self._fail("ERR_NO_STATE", "state not set before the first prepare")
         ocp, lay = self.ocp, self.lay
         w = np.zeros(lay.n)
         self.s0_guess = self.x0[0]
@@ -168,81 +242,99 @@ class RtiSolver:
                 w[o + ocp.nx + ocp.nu * (k < ocp.N):][:ocp.n_theta] = np.array(self._theta_init(x, p)).ravel()
             if k < ocp.N:
                 x = np.array(ocp.dynamics(x, np.zeros(ocp.nu), p)).ravel()
-        self.w = w  # only a complete guess is kept
-        self.y[:] = 0.0
+        return w, np.zeros(lay.m)
 
     # -- the two phases -----------------------------------------------------------------------------
     def prepare(self, shift: bool = True) -> None:
-        """Shift the previous solution, linearize, build the QP (all but x0), load the backend's matrices."""
+        """Shift the plan (or build the initial guess), linearize, build the QP (all but x0), load the backend.
+
+        Transactional: every check runs before anything visible changes. A no-op while already prepared."""
         t0 = time.perf_counter()
-        self.prepared = False
+        if self.prepared:
+            return
         ocp, lay = self.ocp, self.lay
-        self.cold = self.w is None
-        if self.w is None:
-            self.initial_guess()
+        cold = self.w is None
+        if cold:
+            w, y = self.initial_guess()
         elif shift:
-            self.w = self.w[lay.var_shift]
-            self.y = self.y[lay.row_shift]
-        w = self.w
+            w, y = self.w[lay.var_shift], self.y[lay.row_shift]
+        else:
+            w, y = self.w.copy(), self.y.copy()
         N = ocp.N
         self.s0_guess = w[lay.s_vars[0]]
         P = np.stack([self.stage_params(k, w[lay.s_vars[k]]) for k in range(N + 1)], axis=1)
         Xn = np.stack([w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
         g, J, q = [], [], []
-        out = self._fun_first(self._stage_w(0), Xn[:, 0], P[:, 0])
+        out = self._fun_first(self._stage(w, lay, 0), Xn[:, 0], P[:, 0])
         g.append(out[0]); J.append(out[1]); q.append(out[2])
         if N > 1:
-            Wm = np.stack([self._stage_w(k) for k in range(1, N)], axis=1)
+            Wm = np.stack([self._stage(w, lay, k) for k in range(1, N)], axis=1)
             out = self._fun_mid(Wm, Xn[:, 1:], P[:, 1:N])
             g.append(out[0]); J.append(out[1]); q.append(out[2])
-        out = self._fun_last(self._stage_w(N), np.zeros(ocp.nx), P[:, N])
+        out = self._fun_last(self._stage(w, lay, N), np.zeros(ocp.nx), P[:, N])
         g.append(out[0]); J.append(out[1]); q.append(out[2])
-        self.g = np.concatenate([np.array(a).ravel(order="F") for a in g])
+        g = np.concatenate([np.array(a).ravel(order="F") for a in g])
         jac = np.concatenate([np.array(a.nonzeros()) for a in J])
-        self.q = np.concatenate([np.array(a).ravel(order="F") for a in q])
+        q = np.concatenate([np.array(a).ravel(order="F") for a in q])
+        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(jac)) and np.all(np.isfinite(q))):
+            raise self._fail("ERR_QP_NONFINITE", "non-finite linearization (constraints, Jacobian or cost)")
+        # commit
+        self.w_prep, self.y_prep, self.g, self.q, self.cold = w, y, g, q, cold
         self.A_data = jac[lay.a_src]
-        self.l = lay.L - self.g
-        self.u = lay.U - self.g
+        self.l = lay.L - g
+        self.u = lay.U - g
         self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
         self.prepared = True
-        self.status = Status(time_prepare=time.perf_counter() - t0)
+        self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=self.status.u_projected,
+                             u_violation=self.status.u_violation)
 
     def feedback(self) -> np.ndarray:
-        """Embed the measured x0, solve the QP, take the full step; returns u_0."""
+        """Embed the measured x0, solve the QP, take the full step (usable QP) or fall back; returns the control."""
         t0 = time.perf_counter()
         if not self.prepared:
-            raise SolverError("ERR_NOT_PREPARED", "feedback called before prepare")
+            raise self._fail("ERR_NOT_PREPARED", "feedback called before prepare")
         if self.x0 is None:
-            raise SolverError("ERR_NO_STATE", "state not set")
+            raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
         x0_full = np.array(ocp.init_state(self.x0, self.stage_params(0, self.x0[0]))).ravel()
+        q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
+        if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
+            raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
+        # commit: the sample is consumed
         ir = lay.init_rows
         self.l[ir] = x0_full / lay.D[:ocp.nx] - self.g[ir]
         self.u[ir] = self.l[ir]
-        q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
         self.q_fb = q
-        res = self.qp.solve(q, self.l, self.u, self.y,
-                            cold_max_iter(self.qp_opts) if self.cold else self.qp_opts.max_iter)
         self.prepared = False
+        res = self.qp.solve(q, self.l, self.u, self.y_prep,
+                            cold_max_iter(self.qp_opts) if self.cold else self.qp_opts.max_iter)
+        qs = res.status
+        if res.z is not None:
+            self.z = res.z
+        if qs in QP_USABLE and (res.z is None or res.y is None or not np.all(np.isfinite(res.z))
+                                or not np.all(np.isfinite(res.y))):
+            qs = QP_NONFINITE
         st = self.status
-        st.qp_status = res.status
-        st.qp_raw_status = res.raw_status
-        st.qp_iter = res.iter
-        z = res.z
-        if z is None or not np.all(np.isfinite(z)):
-            st.exit_code = EXIT_CODES.index("ERR_QP")
-            st.time_feedback = time.perf_counter() - t0
-            raise SolverError("ERR_QP", f"QP failed (status {st.qp_status}, raw {st.qp_raw_status})")
-        self.z = z
-        self.w = self.w + lay.D * z
-        self.y = res.y
+        st.qp_status, st.qp_raw_status, st.qp_iter = qs, res.raw_status, res.iter
+        code = QP_EXIT.get(qs, "ERR_QP")
+        if code == "OK":
+            self.w = self.w_prep + lay.D * res.z
+            self.y = res.y
+        else:  # the step is not taken: the plan becomes the prepared (shifted) guess
+            self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
+        self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)
+        st.u_projected = int(st.u_violation > 0.0)
+        st.exit_code = EXIT_CODES.index(code)
         st.time_feedback = time.perf_counter() - t0
+        if code != "OK":
+            raise SolverError(code, f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
+                                    f"{res.raw_status}): step not taken, fallback control")
         return self.u0()
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:
-        o = self.lay.var_off[0] + self.ocp.nx
-        return self.w[o:o + self.ocp.nu].copy()
+        """The control to apply (the C get_u0): the plan's u0 projected on the input box; zeros before any."""
+        return self.u_applied.copy()
 
     def states(self) -> np.ndarray:
         return np.stack([self._stage_w(k)[:self.ocp.nx] for k in range(self.ocp.N + 1)])
@@ -269,8 +361,6 @@ class RtiSolver:
     def solve_converged(self, x0, max_sqp: int = 100, tol: float = 1e-9) -> int:
         """Iterate SQP (no shift) at a fixed x0 until the step is below tol; returns the iteration count."""
         self.set_state(x0)
-        if self.w is None:
-            self.initial_guess()
         for it in range(1, max_sqp + 1):
             self.prepare(shift=False)
             self.feedback()

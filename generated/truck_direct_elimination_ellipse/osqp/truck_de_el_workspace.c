@@ -4,12 +4,14 @@
  * This file contains the workspace variables needed by OSQP.
  */
 
+#include <string.h>
 #include "types.h"
 #include "algebra_impl.h"
 #include "qdldl_interface.h"
 
 /* Define the settings structure */
-OSQPSettings truck_de_el_settings = {
+OSQPSettings truck_de_el_settings;
+static const OSQPSettings truck_de_el_settings_init = {
   0,
   OSQP_DIRECT_SOLVER,
   1,
@@ -48,7 +50,8 @@ OSQPFloat truck_de_el_sol_x[445];
 OSQPFloat truck_de_el_sol_y[805];
 OSQPFloat truck_de_el_sol_prim_inf_cert[805];
 OSQPFloat truck_de_el_sol_dual_inf_cert[445];
-OSQPSolution truck_de_el_sol = {
+OSQPSolution truck_de_el_sol;
+static const OSQPSolution truck_de_el_sol_init = {
   truck_de_el_sol_x,
   truck_de_el_sol_y,
   truck_de_el_sol_prim_inf_cert,
@@ -56,7 +59,8 @@ OSQPSolution truck_de_el_sol = {
 };
 
 /* Define the info structure */
-OSQPInfo truck_de_el_info = {
+OSQPInfo truck_de_el_info;
+static const OSQPInfo truck_de_el_info_init = {
   "unsolved",
   11,
   0,
@@ -78,7 +82,8 @@ OSQPInfo truck_de_el_info = {
 };
 
 /* Define the data structure */
-OSQPInt truck_de_el_data_P_csc_p[446] = {
+OSQPInt truck_de_el_data_P_csc_p[446];
+static const OSQPInt truck_de_el_data_P_csc_p_init[446] = {
   0,
   1,
   2,
@@ -526,7 +531,8 @@ OSQPInt truck_de_el_data_P_csc_p[446] = {
   444,
   445,
 };
-OSQPInt truck_de_el_data_P_csc_i[445] = {
+OSQPInt truck_de_el_data_P_csc_i[445];
+static const OSQPInt truck_de_el_data_P_csc_i_init[445] = {
   0,
   1,
   2,
@@ -973,7 +979,8 @@ OSQPInt truck_de_el_data_P_csc_i[445] = {
   443,
   444,
 };
-OSQPFloat truck_de_el_data_P_csc_x[445] = {
+OSQPFloat truck_de_el_data_P_csc_x[445];
+static const OSQPFloat truck_de_el_data_P_csc_x_init[445] = {
   (OSQPFloat)0.00010000000000000000,
   (OSQPFloat)0.01250000000000000069,
   (OSQPFloat)0.00025000000000000001,
@@ -1420,7 +1427,8 @@ OSQPFloat truck_de_el_data_P_csc_x[445] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPCscMatrix truck_de_el_data_P_csc = {
+OSQPCscMatrix truck_de_el_data_P_csc;
+static const OSQPCscMatrix truck_de_el_data_P_csc_init = {
   445,
   445,
   truck_de_el_data_P_csc_p,
@@ -1429,11 +1437,13 @@ OSQPCscMatrix truck_de_el_data_P_csc = {
   445,
   -1,
 };
-OSQPMatrix truck_de_el_data_P = {
+OSQPMatrix truck_de_el_data_P;
+static const OSQPMatrix truck_de_el_data_P_init = {
   &truck_de_el_data_P_csc,
   1
 };
-OSQPInt truck_de_el_data_A_csc_p[446] = {
+OSQPInt truck_de_el_data_A_csc_p[446];
+static const OSQPInt truck_de_el_data_A_csc_p_init[446] = {
   0,
   5,
   10,
@@ -1881,7 +1891,8 @@ OSQPInt truck_de_el_data_A_csc_p[446] = {
   2523,
   2525,
 };
-OSQPInt truck_de_el_data_A_csc_i[2525] = {
+OSQPInt truck_de_el_data_A_csc_i[2525];
+static const OSQPInt truck_de_el_data_A_csc_i_init[2525] = {
   0,
   5,
   6,
@@ -4408,7 +4419,8 @@ OSQPInt truck_de_el_data_A_csc_i[2525] = {
   796,
   804,
 };
-OSQPFloat truck_de_el_data_A_csc_x[2525] = {
+OSQPFloat truck_de_el_data_A_csc_x[2525];
+static const OSQPFloat truck_de_el_data_A_csc_x_init[2525] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -6935,7 +6947,8 @@ OSQPFloat truck_de_el_data_A_csc_x[2525] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPCscMatrix truck_de_el_data_A_csc = {
+OSQPCscMatrix truck_de_el_data_A_csc;
+static const OSQPCscMatrix truck_de_el_data_A_csc_init = {
   805,
   445,
   truck_de_el_data_A_csc_p,
@@ -6944,11 +6957,13 @@ OSQPCscMatrix truck_de_el_data_A_csc = {
   2525,
   -1,
 };
-OSQPMatrix truck_de_el_data_A = {
+OSQPMatrix truck_de_el_data_A;
+static const OSQPMatrix truck_de_el_data_A_init = {
   &truck_de_el_data_A_csc,
   0
 };
-OSQPFloat truck_de_el_data_q_val[445] = {
+OSQPFloat truck_de_el_data_q_val[445];
+static const OSQPFloat truck_de_el_data_q_val_init[445] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -7395,11 +7410,13 @@ OSQPFloat truck_de_el_data_q_val[445] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_de_el_data_q = {
+OSQPVectorf truck_de_el_data_q;
+static const OSQPVectorf truck_de_el_data_q_init = {
   truck_de_el_data_q_val,
   445
 };
-OSQPFloat truck_de_el_data_l_val[805] = {
+OSQPFloat truck_de_el_data_l_val[805];
+static const OSQPFloat truck_de_el_data_l_val_init[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -8206,11 +8223,13 @@ OSQPFloat truck_de_el_data_l_val[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_de_el_data_l = {
+OSQPVectorf truck_de_el_data_l;
+static const OSQPVectorf truck_de_el_data_l_init = {
   truck_de_el_data_l_val,
   805
 };
-OSQPFloat truck_de_el_data_u_val[805] = {
+OSQPFloat truck_de_el_data_u_val[805];
+static const OSQPFloat truck_de_el_data_u_val_init[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -9017,11 +9036,13 @@ OSQPFloat truck_de_el_data_u_val[805] = {
   (OSQPFloat)1000000000000000019884624838656.00000000000000000000,
   (OSQPFloat)1000000000000000019884624838656.00000000000000000000,
 };
-OSQPVectorf truck_de_el_data_u = {
+OSQPVectorf truck_de_el_data_u;
+static const OSQPVectorf truck_de_el_data_u_init = {
   truck_de_el_data_u_val,
   805
 };
-OSQPData truck_de_el_data = {
+OSQPData truck_de_el_data;
+static const OSQPData truck_de_el_data_init = {
   445,
   805,
   &truck_de_el_data_P,
@@ -9032,7 +9053,8 @@ OSQPData truck_de_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_de_el_linsys_L_p[1251] = {
+OSQPInt truck_de_el_linsys_L_p[1251];
+static const OSQPInt truck_de_el_linsys_L_p_init[1251] = {
   0,
   1,
   2,
@@ -10285,7 +10307,8 @@ OSQPInt truck_de_el_linsys_L_p[1251] = {
   3712,
   3712,
 };
-OSQPInt truck_de_el_linsys_L_i[3712] = {
+OSQPInt truck_de_el_linsys_L_i[3712];
+static const OSQPInt truck_de_el_linsys_L_i_init[3712] = {
   1244,
   1245,
   3,
@@ -13999,7 +14022,8 @@ OSQPInt truck_de_el_linsys_L_i[3712] = {
   1249,
   1249,
 };
-OSQPFloat truck_de_el_linsys_L_x[3712] = {
+OSQPFloat truck_de_el_linsys_L_x[3712];
+static const OSQPFloat truck_de_el_linsys_L_x_init[3712] = {
   (OSQPFloat)-0.20000000000000001110,
   (OSQPFloat)-0.20000000000000001110,
   (OSQPFloat)-0.20000000000000001110,
@@ -17713,7 +17737,8 @@ OSQPFloat truck_de_el_linsys_L_x[3712] = {
   (OSQPFloat)0.09389550023884679630,
   (OSQPFloat)1.37409142418149943232,
 };
-OSQPCscMatrix truck_de_el_linsys_L = {
+OSQPCscMatrix truck_de_el_linsys_L;
+static const OSQPCscMatrix truck_de_el_linsys_L_init = {
   1250,
   1250,
   truck_de_el_linsys_L_p,
@@ -17722,7 +17747,8 @@ OSQPCscMatrix truck_de_el_linsys_L = {
   3712,
   -1,
 };
-OSQPFloat truck_de_el_linsys_Dinv[1250] = {
+OSQPFloat truck_de_el_linsys_Dinv[1250];
+static const OSQPFloat truck_de_el_linsys_Dinv_init[1250] = {
   (OSQPFloat)-0.20000000000000001110,
   (OSQPFloat)-0.20000000000000001110,
   (OSQPFloat)-0.20000000000000001110,
@@ -18974,7 +19000,8 @@ OSQPFloat truck_de_el_linsys_Dinv[1250] = {
   (OSQPFloat)-0.26154634573841933909,
   (OSQPFloat)-0.09352944839217937345,
 };
-OSQPInt truck_de_el_linsys_P[1250] = {
+OSQPInt truck_de_el_linsys_P[1250];
+static const OSQPInt truck_de_el_linsys_P_init[1250] = {
   489,
   490,
   493,
@@ -20228,7 +20255,8 @@ OSQPInt truck_de_el_linsys_P[1250] = {
 };
 OSQPFloat truck_de_el_linsys_bp[1250];
 OSQPFloat truck_de_el_linsys_sol[1250];
-OSQPFloat truck_de_el_linsys_rho_inv_vec[805] = {
+OSQPFloat truck_de_el_linsys_rho_inv_vec[805];
+static const OSQPFloat truck_de_el_linsys_rho_inv_vec_init[805] = {
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
@@ -21035,7 +21063,8 @@ OSQPFloat truck_de_el_linsys_rho_inv_vec[805] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_de_el_linsys_KKT_p[1251] = {
+OSQPInt truck_de_el_linsys_KKT_p[1251];
+static const OSQPInt truck_de_el_linsys_KKT_p_init[1251] = {
   0,
   1,
   2,
@@ -22288,7 +22317,8 @@ OSQPInt truck_de_el_linsys_KKT_p[1251] = {
   3766,
   3775,
 };
-OSQPInt truck_de_el_linsys_KKT_i[3775] = {
+OSQPInt truck_de_el_linsys_KKT_i[3775];
+static const OSQPInt truck_de_el_linsys_KKT_i_init[3775] = {
   0,
   1,
   2,
@@ -26065,7 +26095,8 @@ OSQPInt truck_de_el_linsys_KKT_i[3775] = {
   1197,
   1249,
 };
-OSQPFloat truck_de_el_linsys_KKT_x[3775] = {
+OSQPFloat truck_de_el_linsys_KKT_x[3775];
+static const OSQPFloat truck_de_el_linsys_KKT_x_init[3775] = {
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)-5.00000000000000000000,
@@ -29842,7 +29873,8 @@ OSQPFloat truck_de_el_linsys_KKT_x[3775] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)-0.00500000000000000010,
 };
-OSQPCscMatrix truck_de_el_linsys_KKT = {
+OSQPCscMatrix truck_de_el_linsys_KKT;
+static const OSQPCscMatrix truck_de_el_linsys_KKT_init = {
   1250,
   1250,
   truck_de_el_linsys_KKT_p,
@@ -29851,7 +29883,8 @@ OSQPCscMatrix truck_de_el_linsys_KKT = {
   3775,
   -1,
 };
-OSQPInt truck_de_el_linsys_PtoKKT[445] = {
+OSQPInt truck_de_el_linsys_PtoKKT[445];
+static const OSQPInt truck_de_el_linsys_PtoKKT_init[445] = {
   3642,
   3644,
   3646,
@@ -30298,7 +30331,8 @@ OSQPInt truck_de_el_linsys_PtoKKT[445] = {
   1198,
   1195,
 };
-OSQPInt truck_de_el_linsys_AtoKKT[2525] = {
+OSQPInt truck_de_el_linsys_AtoKKT[2525];
+static const OSQPInt truck_de_el_linsys_AtoKKT_init[2525] = {
   3643,
   3666,
   3658,
@@ -32825,7 +32859,8 @@ OSQPInt truck_de_el_linsys_AtoKKT[2525] = {
   1209,
   1196,
 };
-OSQPInt truck_de_el_linsys_rhotoKKT[805] = {
+OSQPInt truck_de_el_linsys_rhotoKKT[805];
+static const OSQPInt truck_de_el_linsys_rhotoKKT_init[805] = {
   3641,
   3640,
   3639,
@@ -33632,7 +33667,8 @@ OSQPInt truck_de_el_linsys_rhotoKKT[805] = {
   1197,
   1194,
 };
-OSQPFloat truck_de_el_linsys_D[1250] = {
+OSQPFloat truck_de_el_linsys_D[1250];
+static const OSQPFloat truck_de_el_linsys_D_init[1250] = {
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)-5.00000000000000000000,
@@ -34884,7 +34920,8 @@ OSQPFloat truck_de_el_linsys_D[1250] = {
   (OSQPFloat)-3.82341415314642230072,
   (OSQPFloat)-10.69181971229947691882,
 };
-OSQPInt truck_de_el_linsys_etree[1250] = {
+OSQPInt truck_de_el_linsys_etree[1250];
+static const OSQPInt truck_de_el_linsys_etree_init[1250] = {
   1244,
   1245,
   3,
@@ -36136,7 +36173,8 @@ OSQPInt truck_de_el_linsys_etree[1250] = {
   1249,
   -1,
 };
-OSQPInt truck_de_el_linsys_Lnz[1250] = {
+OSQPInt truck_de_el_linsys_Lnz[1250];
+static const OSQPInt truck_de_el_linsys_Lnz_init[1250] = {
   1,
   1,
   1,
@@ -37391,7 +37429,8 @@ OSQPInt truck_de_el_linsys_Lnz[1250] = {
 QDLDL_int   truck_de_el_linsys_iwork[3750];
 QDLDL_bool  truck_de_el_linsys_bwork[1250];
 QDLDL_float truck_de_el_linsys_fwork[1250];
-qdldl_solver truck_de_el_linsys = {
+qdldl_solver truck_de_el_linsys;
+static const qdldl_solver truck_de_el_linsys_init = {
   1,
   &name_qdldl,
   &solve_linsys_qdldl,
@@ -37422,7 +37461,8 @@ qdldl_solver truck_de_el_linsys = {
   truck_de_el_linsys_fwork,
 };
 
-OSQPFloat truck_de_el_work_rho_vec_val[805] = {
+OSQPFloat truck_de_el_work_rho_vec_val[805];
+static const OSQPFloat truck_de_el_work_rho_vec_val_init[805] = {
   (OSQPFloat)200.00000000000000000000,
   (OSQPFloat)200.00000000000000000000,
   (OSQPFloat)200.00000000000000000000,
@@ -38229,11 +38269,13 @@ OSQPFloat truck_de_el_work_rho_vec_val[805] = {
   (OSQPFloat)0.20000000000000001110,
   (OSQPFloat)0.20000000000000001110,
 };
-OSQPVectorf truck_de_el_work_rho_vec = {
+OSQPVectorf truck_de_el_work_rho_vec;
+static const OSQPVectorf truck_de_el_work_rho_vec_init = {
   truck_de_el_work_rho_vec_val,
   805
 };
-OSQPFloat truck_de_el_work_rho_inv_vec_val[805] = {
+OSQPFloat truck_de_el_work_rho_inv_vec_val[805];
+static const OSQPFloat truck_de_el_work_rho_inv_vec_val_init[805] = {
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
@@ -39040,11 +39082,13 @@ OSQPFloat truck_de_el_work_rho_inv_vec_val[805] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPVectorf truck_de_el_work_rho_inv_vec = {
+OSQPVectorf truck_de_el_work_rho_inv_vec;
+static const OSQPVectorf truck_de_el_work_rho_inv_vec_init = {
   truck_de_el_work_rho_inv_vec_val,
   805
 };
-OSQPInt truck_de_el_work_constr_type_val[805] = {
+OSQPInt truck_de_el_work_constr_type_val[805];
+static const OSQPInt truck_de_el_work_constr_type_val_init[805] = {
   1,
   1,
   1,
@@ -39851,11 +39895,13 @@ OSQPInt truck_de_el_work_constr_type_val[805] = {
   0,
   0,
 };
-OSQPVectori truck_de_el_work_constr_type = {
+OSQPVectori truck_de_el_work_constr_type;
+static const OSQPVectori truck_de_el_work_constr_type_init = {
   truck_de_el_work_constr_type_val,
   805
 };
-OSQPFloat truck_de_el_work_x_val[445] = {
+OSQPFloat truck_de_el_work_x_val[445];
+static const OSQPFloat truck_de_el_work_x_val_init[445] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -40302,11 +40348,13 @@ OSQPFloat truck_de_el_work_x_val[445] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_de_el_work_x = {
+OSQPVectorf truck_de_el_work_x;
+static const OSQPVectorf truck_de_el_work_x_init = {
   truck_de_el_work_x_val,
   445
 };
-OSQPFloat truck_de_el_work_y_val[805] = {
+OSQPFloat truck_de_el_work_y_val[805];
+static const OSQPFloat truck_de_el_work_y_val_init[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -41113,11 +41161,13 @@ OSQPFloat truck_de_el_work_y_val[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_de_el_work_y = {
+OSQPVectorf truck_de_el_work_y;
+static const OSQPVectorf truck_de_el_work_y_init = {
   truck_de_el_work_y_val,
   805
 };
-OSQPFloat truck_de_el_work_z_val[805] = {
+OSQPFloat truck_de_el_work_z_val[805];
+static const OSQPFloat truck_de_el_work_z_val_init[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -41924,91 +41974,109 @@ OSQPFloat truck_de_el_work_z_val[805] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_de_el_work_z = {
+OSQPVectorf truck_de_el_work_z;
+static const OSQPVectorf truck_de_el_work_z_init = {
   truck_de_el_work_z_val,
   805
 };
 OSQPFloat   truck_de_el_work_xz_tilde_val[1250];
-OSQPVectorf truck_de_el_work_xz_tilde = {
+OSQPVectorf truck_de_el_work_xz_tilde;
+static const OSQPVectorf truck_de_el_work_xz_tilde_init = {
   truck_de_el_work_xz_tilde_val,
   1250
 };
-OSQPVectorf truck_de_el_work_xtilde_view = {
+OSQPVectorf truck_de_el_work_xtilde_view;
+static const OSQPVectorf truck_de_el_work_xtilde_view_init = {
   truck_de_el_work_xz_tilde_val,
   445
 };
-OSQPVectorf truck_de_el_work_ztilde_view = {
+OSQPVectorf truck_de_el_work_ztilde_view;
+static const OSQPVectorf truck_de_el_work_ztilde_view_init = {
   truck_de_el_work_xz_tilde_val+445,
   805
 };
 OSQPFloat   truck_de_el_work_x_prev_val[445];
-OSQPVectorf truck_de_el_work_x_prev = {
+OSQPVectorf truck_de_el_work_x_prev;
+static const OSQPVectorf truck_de_el_work_x_prev_init = {
   truck_de_el_work_x_prev_val,
   445
 };
 OSQPFloat   truck_de_el_work_z_prev_val[805];
-OSQPVectorf truck_de_el_work_z_prev = {
+OSQPVectorf truck_de_el_work_z_prev;
+static const OSQPVectorf truck_de_el_work_z_prev_init = {
   truck_de_el_work_z_prev_val,
   805
 };
 OSQPFloat   truck_de_el_work_Ax_val[805];
-OSQPVectorf truck_de_el_work_Ax = {
+OSQPVectorf truck_de_el_work_Ax;
+static const OSQPVectorf truck_de_el_work_Ax_init = {
   truck_de_el_work_Ax_val,
   805
 };
 OSQPFloat   truck_de_el_work_Px_val[445];
-OSQPVectorf truck_de_el_work_Px = {
+OSQPVectorf truck_de_el_work_Px;
+static const OSQPVectorf truck_de_el_work_Px_init = {
   truck_de_el_work_Px_val,
   445
 };
 OSQPFloat   truck_de_el_work_Aty_val[445];
-OSQPVectorf truck_de_el_work_Aty = {
+OSQPVectorf truck_de_el_work_Aty;
+static const OSQPVectorf truck_de_el_work_Aty_init = {
   truck_de_el_work_Aty_val,
   445
 };
 OSQPFloat   truck_de_el_work_delta_y_val[805];
-OSQPVectorf truck_de_el_work_delta_y = {
+OSQPVectorf truck_de_el_work_delta_y;
+static const OSQPVectorf truck_de_el_work_delta_y_init = {
   truck_de_el_work_delta_y_val,
   805
 };
 OSQPFloat   truck_de_el_work_Atdelta_y_val[445];
-OSQPVectorf truck_de_el_work_Atdelta_y = {
+OSQPVectorf truck_de_el_work_Atdelta_y;
+static const OSQPVectorf truck_de_el_work_Atdelta_y_init = {
   truck_de_el_work_Atdelta_y_val,
   445
 };
 OSQPFloat   truck_de_el_work_delta_x_val[445];
-OSQPVectorf truck_de_el_work_delta_x = {
+OSQPVectorf truck_de_el_work_delta_x;
+static const OSQPVectorf truck_de_el_work_delta_x_init = {
   truck_de_el_work_delta_x_val,
   445
 };
 OSQPFloat   truck_de_el_work_Pdelta_x_val[445];
-OSQPVectorf truck_de_el_work_Pdelta_x = {
+OSQPVectorf truck_de_el_work_Pdelta_x;
+static const OSQPVectorf truck_de_el_work_Pdelta_x_init = {
   truck_de_el_work_Pdelta_x_val,
   445
 };
 OSQPFloat   truck_de_el_work_Adelta_x_val[805];
-OSQPVectorf truck_de_el_work_Adelta_x = {
+OSQPVectorf truck_de_el_work_Adelta_x;
+static const OSQPVectorf truck_de_el_work_Adelta_x_init = {
   truck_de_el_work_Adelta_x_val,
   805
 };
 OSQPFloat   truck_de_el_work_D_temp_val[445];
-OSQPVectorf truck_de_el_work_D_temp = {
+OSQPVectorf truck_de_el_work_D_temp;
+static const OSQPVectorf truck_de_el_work_D_temp_init = {
   truck_de_el_work_D_temp_val,
   445
 };
 OSQPFloat   truck_de_el_work_D_temp_A_val[445];
-OSQPVectorf truck_de_el_work_D_temp_A = {
+OSQPVectorf truck_de_el_work_D_temp_A;
+static const OSQPVectorf truck_de_el_work_D_temp_A_init = {
   truck_de_el_work_D_temp_A_val,
   445
 };
 OSQPFloat   truck_de_el_work_E_temp_val[805];
-OSQPVectorf truck_de_el_work_E_temp = {
+OSQPVectorf truck_de_el_work_E_temp;
+static const OSQPVectorf truck_de_el_work_E_temp_init = {
   truck_de_el_work_E_temp_val,
   805
 };
 
 /* Define the scaling structure */
-OSQPFloat truck_de_el_scaling_D_val[445] = {
+OSQPFloat truck_de_el_scaling_D_val[445];
+static const OSQPFloat truck_de_el_scaling_D_val_init[445] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -42455,11 +42523,13 @@ OSQPFloat truck_de_el_scaling_D_val[445] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_de_el_scaling_D = {
+OSQPVectorf truck_de_el_scaling_D;
+static const OSQPVectorf truck_de_el_scaling_D_init = {
   truck_de_el_scaling_D_val,
   445
 };
-OSQPFloat truck_de_el_scaling_E_val[805] = {
+OSQPFloat truck_de_el_scaling_E_val[805];
+static const OSQPFloat truck_de_el_scaling_E_val_init[805] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -43266,11 +43336,13 @@ OSQPFloat truck_de_el_scaling_E_val[805] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_de_el_scaling_E = {
+OSQPVectorf truck_de_el_scaling_E;
+static const OSQPVectorf truck_de_el_scaling_E_init = {
   truck_de_el_scaling_E_val,
   805
 };
-OSQPFloat truck_de_el_scaling_Dinv_val[445] = {
+OSQPFloat truck_de_el_scaling_Dinv_val[445];
+static const OSQPFloat truck_de_el_scaling_Dinv_val_init[445] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -43717,11 +43789,13 @@ OSQPFloat truck_de_el_scaling_Dinv_val[445] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_de_el_scaling_Dinv = {
+OSQPVectorf truck_de_el_scaling_Dinv;
+static const OSQPVectorf truck_de_el_scaling_Dinv_init = {
   truck_de_el_scaling_Dinv_val,
   445
 };
-OSQPFloat truck_de_el_scaling_Einv_val[805] = {
+OSQPFloat truck_de_el_scaling_Einv_val[805];
+static const OSQPFloat truck_de_el_scaling_Einv_val_init[805] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -44528,11 +44602,13 @@ OSQPFloat truck_de_el_scaling_Einv_val[805] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_de_el_scaling_Einv = {
+OSQPVectorf truck_de_el_scaling_Einv;
+static const OSQPVectorf truck_de_el_scaling_Einv_init = {
   truck_de_el_scaling_Einv_val,
   805
 };
-OSQPScaling truck_de_el_scaling = {
+OSQPScaling truck_de_el_scaling;
+static const OSQPScaling truck_de_el_scaling_init = {
   (OSQPFloat)1.00000000000000000000,
   &truck_de_el_scaling_D,
   &truck_de_el_scaling_E,
@@ -44542,7 +44618,8 @@ OSQPScaling truck_de_el_scaling = {
 };
 
 /* Define the workspace structure */
-OSQPWorkspace truck_de_el_work = {
+OSQPWorkspace truck_de_el_work;
+static const OSQPWorkspace truck_de_el_work_init = {
   &truck_de_el_data,
   (LinSysSolver *)&truck_de_el_linsys,
   &truck_de_el_work_rho_vec,
@@ -44580,9 +44657,114 @@ OSQPWorkspace truck_de_el_work = {
 };
 
 /* Define the solver structure */
-OSQPSolver truck_de_el_solver = {
+OSQPSolver truck_de_el_solver;
+static const OSQPSolver truck_de_el_solver_init = {
   &truck_de_el_settings,
   &truck_de_el_sol,
   &truck_de_el_info,
   &truck_de_el_work
 };
+
+/* Every mutable byte of the workspace back to its generated value (fcgen). */
+void truck_de_el_workspace_reset(void) {
+  memcpy(&truck_de_el_settings, &truck_de_el_settings_init, sizeof truck_de_el_settings);
+  memset(&truck_de_el_sol_x, 0, sizeof truck_de_el_sol_x);
+  memset(&truck_de_el_sol_y, 0, sizeof truck_de_el_sol_y);
+  memset(&truck_de_el_sol_prim_inf_cert, 0, sizeof truck_de_el_sol_prim_inf_cert);
+  memset(&truck_de_el_sol_dual_inf_cert, 0, sizeof truck_de_el_sol_dual_inf_cert);
+  memcpy(&truck_de_el_sol, &truck_de_el_sol_init, sizeof truck_de_el_sol);
+  memcpy(&truck_de_el_info, &truck_de_el_info_init, sizeof truck_de_el_info);
+  memcpy(&truck_de_el_data_P_csc_p, &truck_de_el_data_P_csc_p_init, sizeof truck_de_el_data_P_csc_p);
+  memcpy(&truck_de_el_data_P_csc_i, &truck_de_el_data_P_csc_i_init, sizeof truck_de_el_data_P_csc_i);
+  memcpy(&truck_de_el_data_P_csc_x, &truck_de_el_data_P_csc_x_init, sizeof truck_de_el_data_P_csc_x);
+  memcpy(&truck_de_el_data_P_csc, &truck_de_el_data_P_csc_init, sizeof truck_de_el_data_P_csc);
+  memcpy(&truck_de_el_data_P, &truck_de_el_data_P_init, sizeof truck_de_el_data_P);
+  memcpy(&truck_de_el_data_A_csc_p, &truck_de_el_data_A_csc_p_init, sizeof truck_de_el_data_A_csc_p);
+  memcpy(&truck_de_el_data_A_csc_i, &truck_de_el_data_A_csc_i_init, sizeof truck_de_el_data_A_csc_i);
+  memcpy(&truck_de_el_data_A_csc_x, &truck_de_el_data_A_csc_x_init, sizeof truck_de_el_data_A_csc_x);
+  memcpy(&truck_de_el_data_A_csc, &truck_de_el_data_A_csc_init, sizeof truck_de_el_data_A_csc);
+  memcpy(&truck_de_el_data_A, &truck_de_el_data_A_init, sizeof truck_de_el_data_A);
+  memcpy(&truck_de_el_data_q_val, &truck_de_el_data_q_val_init, sizeof truck_de_el_data_q_val);
+  memcpy(&truck_de_el_data_q, &truck_de_el_data_q_init, sizeof truck_de_el_data_q);
+  memcpy(&truck_de_el_data_l_val, &truck_de_el_data_l_val_init, sizeof truck_de_el_data_l_val);
+  memcpy(&truck_de_el_data_l, &truck_de_el_data_l_init, sizeof truck_de_el_data_l);
+  memcpy(&truck_de_el_data_u_val, &truck_de_el_data_u_val_init, sizeof truck_de_el_data_u_val);
+  memcpy(&truck_de_el_data_u, &truck_de_el_data_u_init, sizeof truck_de_el_data_u);
+  memcpy(&truck_de_el_data, &truck_de_el_data_init, sizeof truck_de_el_data);
+  memcpy(&truck_de_el_linsys_L_p, &truck_de_el_linsys_L_p_init, sizeof truck_de_el_linsys_L_p);
+  memcpy(&truck_de_el_linsys_L_i, &truck_de_el_linsys_L_i_init, sizeof truck_de_el_linsys_L_i);
+  memcpy(&truck_de_el_linsys_L_x, &truck_de_el_linsys_L_x_init, sizeof truck_de_el_linsys_L_x);
+  memcpy(&truck_de_el_linsys_L, &truck_de_el_linsys_L_init, sizeof truck_de_el_linsys_L);
+  memcpy(&truck_de_el_linsys_Dinv, &truck_de_el_linsys_Dinv_init, sizeof truck_de_el_linsys_Dinv);
+  memcpy(&truck_de_el_linsys_P, &truck_de_el_linsys_P_init, sizeof truck_de_el_linsys_P);
+  memset(&truck_de_el_linsys_bp, 0, sizeof truck_de_el_linsys_bp);
+  memset(&truck_de_el_linsys_sol, 0, sizeof truck_de_el_linsys_sol);
+  memcpy(&truck_de_el_linsys_rho_inv_vec, &truck_de_el_linsys_rho_inv_vec_init, sizeof truck_de_el_linsys_rho_inv_vec);
+  memcpy(&truck_de_el_linsys_KKT_p, &truck_de_el_linsys_KKT_p_init, sizeof truck_de_el_linsys_KKT_p);
+  memcpy(&truck_de_el_linsys_KKT_i, &truck_de_el_linsys_KKT_i_init, sizeof truck_de_el_linsys_KKT_i);
+  memcpy(&truck_de_el_linsys_KKT_x, &truck_de_el_linsys_KKT_x_init, sizeof truck_de_el_linsys_KKT_x);
+  memcpy(&truck_de_el_linsys_KKT, &truck_de_el_linsys_KKT_init, sizeof truck_de_el_linsys_KKT);
+  memcpy(&truck_de_el_linsys_PtoKKT, &truck_de_el_linsys_PtoKKT_init, sizeof truck_de_el_linsys_PtoKKT);
+  memcpy(&truck_de_el_linsys_AtoKKT, &truck_de_el_linsys_AtoKKT_init, sizeof truck_de_el_linsys_AtoKKT);
+  memcpy(&truck_de_el_linsys_rhotoKKT, &truck_de_el_linsys_rhotoKKT_init, sizeof truck_de_el_linsys_rhotoKKT);
+  memcpy(&truck_de_el_linsys_D, &truck_de_el_linsys_D_init, sizeof truck_de_el_linsys_D);
+  memcpy(&truck_de_el_linsys_etree, &truck_de_el_linsys_etree_init, sizeof truck_de_el_linsys_etree);
+  memcpy(&truck_de_el_linsys_Lnz, &truck_de_el_linsys_Lnz_init, sizeof truck_de_el_linsys_Lnz);
+  memset(&truck_de_el_linsys_iwork, 0, sizeof truck_de_el_linsys_iwork);
+  memset(&truck_de_el_linsys_bwork, 0, sizeof truck_de_el_linsys_bwork);
+  memset(&truck_de_el_linsys_fwork, 0, sizeof truck_de_el_linsys_fwork);
+  memcpy(&truck_de_el_linsys, &truck_de_el_linsys_init, sizeof truck_de_el_linsys);
+  memcpy(&truck_de_el_work_rho_vec_val, &truck_de_el_work_rho_vec_val_init, sizeof truck_de_el_work_rho_vec_val);
+  memcpy(&truck_de_el_work_rho_vec, &truck_de_el_work_rho_vec_init, sizeof truck_de_el_work_rho_vec);
+  memcpy(&truck_de_el_work_rho_inv_vec_val, &truck_de_el_work_rho_inv_vec_val_init, sizeof truck_de_el_work_rho_inv_vec_val);
+  memcpy(&truck_de_el_work_rho_inv_vec, &truck_de_el_work_rho_inv_vec_init, sizeof truck_de_el_work_rho_inv_vec);
+  memcpy(&truck_de_el_work_constr_type_val, &truck_de_el_work_constr_type_val_init, sizeof truck_de_el_work_constr_type_val);
+  memcpy(&truck_de_el_work_constr_type, &truck_de_el_work_constr_type_init, sizeof truck_de_el_work_constr_type);
+  memcpy(&truck_de_el_work_x_val, &truck_de_el_work_x_val_init, sizeof truck_de_el_work_x_val);
+  memcpy(&truck_de_el_work_x, &truck_de_el_work_x_init, sizeof truck_de_el_work_x);
+  memcpy(&truck_de_el_work_y_val, &truck_de_el_work_y_val_init, sizeof truck_de_el_work_y_val);
+  memcpy(&truck_de_el_work_y, &truck_de_el_work_y_init, sizeof truck_de_el_work_y);
+  memcpy(&truck_de_el_work_z_val, &truck_de_el_work_z_val_init, sizeof truck_de_el_work_z_val);
+  memcpy(&truck_de_el_work_z, &truck_de_el_work_z_init, sizeof truck_de_el_work_z);
+  memset(&truck_de_el_work_xz_tilde_val, 0, sizeof truck_de_el_work_xz_tilde_val);
+  memcpy(&truck_de_el_work_xz_tilde, &truck_de_el_work_xz_tilde_init, sizeof truck_de_el_work_xz_tilde);
+  memcpy(&truck_de_el_work_xtilde_view, &truck_de_el_work_xtilde_view_init, sizeof truck_de_el_work_xtilde_view);
+  memcpy(&truck_de_el_work_ztilde_view, &truck_de_el_work_ztilde_view_init, sizeof truck_de_el_work_ztilde_view);
+  memset(&truck_de_el_work_x_prev_val, 0, sizeof truck_de_el_work_x_prev_val);
+  memcpy(&truck_de_el_work_x_prev, &truck_de_el_work_x_prev_init, sizeof truck_de_el_work_x_prev);
+  memset(&truck_de_el_work_z_prev_val, 0, sizeof truck_de_el_work_z_prev_val);
+  memcpy(&truck_de_el_work_z_prev, &truck_de_el_work_z_prev_init, sizeof truck_de_el_work_z_prev);
+  memset(&truck_de_el_work_Ax_val, 0, sizeof truck_de_el_work_Ax_val);
+  memcpy(&truck_de_el_work_Ax, &truck_de_el_work_Ax_init, sizeof truck_de_el_work_Ax);
+  memset(&truck_de_el_work_Px_val, 0, sizeof truck_de_el_work_Px_val);
+  memcpy(&truck_de_el_work_Px, &truck_de_el_work_Px_init, sizeof truck_de_el_work_Px);
+  memset(&truck_de_el_work_Aty_val, 0, sizeof truck_de_el_work_Aty_val);
+  memcpy(&truck_de_el_work_Aty, &truck_de_el_work_Aty_init, sizeof truck_de_el_work_Aty);
+  memset(&truck_de_el_work_delta_y_val, 0, sizeof truck_de_el_work_delta_y_val);
+  memcpy(&truck_de_el_work_delta_y, &truck_de_el_work_delta_y_init, sizeof truck_de_el_work_delta_y);
+  memset(&truck_de_el_work_Atdelta_y_val, 0, sizeof truck_de_el_work_Atdelta_y_val);
+  memcpy(&truck_de_el_work_Atdelta_y, &truck_de_el_work_Atdelta_y_init, sizeof truck_de_el_work_Atdelta_y);
+  memset(&truck_de_el_work_delta_x_val, 0, sizeof truck_de_el_work_delta_x_val);
+  memcpy(&truck_de_el_work_delta_x, &truck_de_el_work_delta_x_init, sizeof truck_de_el_work_delta_x);
+  memset(&truck_de_el_work_Pdelta_x_val, 0, sizeof truck_de_el_work_Pdelta_x_val);
+  memcpy(&truck_de_el_work_Pdelta_x, &truck_de_el_work_Pdelta_x_init, sizeof truck_de_el_work_Pdelta_x);
+  memset(&truck_de_el_work_Adelta_x_val, 0, sizeof truck_de_el_work_Adelta_x_val);
+  memcpy(&truck_de_el_work_Adelta_x, &truck_de_el_work_Adelta_x_init, sizeof truck_de_el_work_Adelta_x);
+  memset(&truck_de_el_work_D_temp_val, 0, sizeof truck_de_el_work_D_temp_val);
+  memcpy(&truck_de_el_work_D_temp, &truck_de_el_work_D_temp_init, sizeof truck_de_el_work_D_temp);
+  memset(&truck_de_el_work_D_temp_A_val, 0, sizeof truck_de_el_work_D_temp_A_val);
+  memcpy(&truck_de_el_work_D_temp_A, &truck_de_el_work_D_temp_A_init, sizeof truck_de_el_work_D_temp_A);
+  memset(&truck_de_el_work_E_temp_val, 0, sizeof truck_de_el_work_E_temp_val);
+  memcpy(&truck_de_el_work_E_temp, &truck_de_el_work_E_temp_init, sizeof truck_de_el_work_E_temp);
+  memcpy(&truck_de_el_scaling_D_val, &truck_de_el_scaling_D_val_init, sizeof truck_de_el_scaling_D_val);
+  memcpy(&truck_de_el_scaling_D, &truck_de_el_scaling_D_init, sizeof truck_de_el_scaling_D);
+  memcpy(&truck_de_el_scaling_E_val, &truck_de_el_scaling_E_val_init, sizeof truck_de_el_scaling_E_val);
+  memcpy(&truck_de_el_scaling_E, &truck_de_el_scaling_E_init, sizeof truck_de_el_scaling_E);
+  memcpy(&truck_de_el_scaling_Dinv_val, &truck_de_el_scaling_Dinv_val_init, sizeof truck_de_el_scaling_Dinv_val);
+  memcpy(&truck_de_el_scaling_Dinv, &truck_de_el_scaling_Dinv_init, sizeof truck_de_el_scaling_Dinv);
+  memcpy(&truck_de_el_scaling_Einv_val, &truck_de_el_scaling_Einv_val_init, sizeof truck_de_el_scaling_Einv_val);
+  memcpy(&truck_de_el_scaling_Einv, &truck_de_el_scaling_Einv_init, sizeof truck_de_el_scaling_Einv);
+  memcpy(&truck_de_el_scaling, &truck_de_el_scaling_init, sizeof truck_de_el_scaling);
+  memcpy(&truck_de_el_work, &truck_de_el_work_init, sizeof truck_de_el_work);
+  memcpy(&truck_de_el_solver, &truck_de_el_solver_init, sizeof truck_de_el_solver);
+}

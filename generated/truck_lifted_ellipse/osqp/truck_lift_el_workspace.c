@@ -4,12 +4,14 @@
  * This file contains the workspace variables needed by OSQP.
  */
 
+#include <string.h>
 #include "types.h"
 #include "algebra_impl.h"
 #include "qdldl_interface.h"
 
 /* Define the settings structure */
-OSQPSettings truck_lift_el_settings = {
+OSQPSettings truck_lift_el_settings;
+static const OSQPSettings truck_lift_el_settings_init = {
   0,
   OSQP_DIRECT_SOLVER,
   1,
@@ -48,7 +50,8 @@ OSQPFloat truck_lift_el_sol_x[568];
 OSQPFloat truck_lift_el_sol_y[928];
 OSQPFloat truck_lift_el_sol_prim_inf_cert[928];
 OSQPFloat truck_lift_el_sol_dual_inf_cert[568];
-OSQPSolution truck_lift_el_sol = {
+OSQPSolution truck_lift_el_sol;
+static const OSQPSolution truck_lift_el_sol_init = {
   truck_lift_el_sol_x,
   truck_lift_el_sol_y,
   truck_lift_el_sol_prim_inf_cert,
@@ -56,7 +59,8 @@ OSQPSolution truck_lift_el_sol = {
 };
 
 /* Define the info structure */
-OSQPInfo truck_lift_el_info = {
+OSQPInfo truck_lift_el_info;
+static const OSQPInfo truck_lift_el_info_init = {
   "unsolved",
   11,
   0,
@@ -78,7 +82,8 @@ OSQPInfo truck_lift_el_info = {
 };
 
 /* Define the data structure */
-OSQPInt truck_lift_el_data_P_csc_p[569] = {
+OSQPInt truck_lift_el_data_P_csc_p[569];
+static const OSQPInt truck_lift_el_data_P_csc_p_init[569] = {
   0,
   1,
   2,
@@ -649,7 +654,8 @@ OSQPInt truck_lift_el_data_P_csc_p[569] = {
   567,
   568,
 };
-OSQPInt truck_lift_el_data_P_csc_i[568] = {
+OSQPInt truck_lift_el_data_P_csc_i[568];
+static const OSQPInt truck_lift_el_data_P_csc_i_init[568] = {
   0,
   1,
   2,
@@ -1219,7 +1225,8 @@ OSQPInt truck_lift_el_data_P_csc_i[568] = {
   566,
   567,
 };
-OSQPFloat truck_lift_el_data_P_csc_x[568] = {
+OSQPFloat truck_lift_el_data_P_csc_x[568];
+static const OSQPFloat truck_lift_el_data_P_csc_x_init[568] = {
   (OSQPFloat)0.00010000000000000000,
   (OSQPFloat)0.01250000000000000069,
   (OSQPFloat)0.00025000000000000001,
@@ -1789,7 +1796,8 @@ OSQPFloat truck_lift_el_data_P_csc_x[568] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPCscMatrix truck_lift_el_data_P_csc = {
+OSQPCscMatrix truck_lift_el_data_P_csc;
+static const OSQPCscMatrix truck_lift_el_data_P_csc_init = {
   568,
   568,
   truck_lift_el_data_P_csc_p,
@@ -1798,11 +1806,13 @@ OSQPCscMatrix truck_lift_el_data_P_csc = {
   568,
   -1,
 };
-OSQPMatrix truck_lift_el_data_P = {
+OSQPMatrix truck_lift_el_data_P;
+static const OSQPMatrix truck_lift_el_data_P_init = {
   &truck_lift_el_data_P_csc,
   1
 };
-OSQPInt truck_lift_el_data_A_csc_p[569] = {
+OSQPInt truck_lift_el_data_A_csc_p[569];
+static const OSQPInt truck_lift_el_data_A_csc_p_init[569] = {
   0,
   4,
   8,
@@ -2373,7 +2383,8 @@ OSQPInt truck_lift_el_data_A_csc_p[569] = {
   3366,
   3368,
 };
-OSQPInt truck_lift_el_data_A_csc_i[3368] = {
+OSQPInt truck_lift_el_data_A_csc_i[3368];
+static const OSQPInt truck_lift_el_data_A_csc_i_init[3368] = {
   0,
   8,
   9,
@@ -5743,7 +5754,8 @@ OSQPInt truck_lift_el_data_A_csc_i[3368] = {
   919,
   927,
 };
-OSQPFloat truck_lift_el_data_A_csc_x[3368] = {
+OSQPFloat truck_lift_el_data_A_csc_x[3368];
+static const OSQPFloat truck_lift_el_data_A_csc_x_init[3368] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -9113,7 +9125,8 @@ OSQPFloat truck_lift_el_data_A_csc_x[3368] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPCscMatrix truck_lift_el_data_A_csc = {
+OSQPCscMatrix truck_lift_el_data_A_csc;
+static const OSQPCscMatrix truck_lift_el_data_A_csc_init = {
   928,
   568,
   truck_lift_el_data_A_csc_p,
@@ -9122,11 +9135,13 @@ OSQPCscMatrix truck_lift_el_data_A_csc = {
   3368,
   -1,
 };
-OSQPMatrix truck_lift_el_data_A = {
+OSQPMatrix truck_lift_el_data_A;
+static const OSQPMatrix truck_lift_el_data_A_init = {
   &truck_lift_el_data_A_csc,
   0
 };
-OSQPFloat truck_lift_el_data_q_val[568] = {
+OSQPFloat truck_lift_el_data_q_val[568];
+static const OSQPFloat truck_lift_el_data_q_val_init[568] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -9696,11 +9711,13 @@ OSQPFloat truck_lift_el_data_q_val[568] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_data_q = {
+OSQPVectorf truck_lift_el_data_q;
+static const OSQPVectorf truck_lift_el_data_q_init = {
   truck_lift_el_data_q_val,
   568
 };
-OSQPFloat truck_lift_el_data_l_val[928] = {
+OSQPFloat truck_lift_el_data_l_val[928];
+static const OSQPFloat truck_lift_el_data_l_val_init[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -10630,11 +10647,13 @@ OSQPFloat truck_lift_el_data_l_val[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_data_l = {
+OSQPVectorf truck_lift_el_data_l;
+static const OSQPVectorf truck_lift_el_data_l_init = {
   truck_lift_el_data_l_val,
   928
 };
-OSQPFloat truck_lift_el_data_u_val[928] = {
+OSQPFloat truck_lift_el_data_u_val[928];
+static const OSQPFloat truck_lift_el_data_u_val_init[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -11564,11 +11583,13 @@ OSQPFloat truck_lift_el_data_u_val[928] = {
   (OSQPFloat)1000000000000000019884624838656.00000000000000000000,
   (OSQPFloat)1000000000000000019884624838656.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_data_u = {
+OSQPVectorf truck_lift_el_data_u;
+static const OSQPVectorf truck_lift_el_data_u_init = {
   truck_lift_el_data_u_val,
   928
 };
-OSQPData truck_lift_el_data = {
+OSQPData truck_lift_el_data;
+static const OSQPData truck_lift_el_data_init = {
   568,
   928,
   &truck_lift_el_data_P,
@@ -11579,7 +11600,8 @@ OSQPData truck_lift_el_data = {
 };
 
 /* Define the linear system solver structure */
-OSQPInt truck_lift_el_linsys_L_p[1497] = {
+OSQPInt truck_lift_el_linsys_L_p[1497];
+static const OSQPInt truck_lift_el_linsys_L_p_init[1497] = {
   0,
   4,
   5,
@@ -13078,7 +13100,8 @@ OSQPInt truck_lift_el_linsys_L_p[1497] = {
   6430,
   6430,
 };
-OSQPInt truck_lift_el_linsys_L_i[6430] = {
+OSQPInt truck_lift_el_linsys_L_i[6430];
+static const OSQPInt truck_lift_el_linsys_L_i_init[6430] = {
   78,
   1491,
   1492,
@@ -19510,7 +19533,8 @@ OSQPInt truck_lift_el_linsys_L_i[6430] = {
   1495,
   1495,
 };
-OSQPFloat truck_lift_el_linsys_L_x[6430] = {
+OSQPFloat truck_lift_el_linsys_L_x[6430];
+static const OSQPFloat truck_lift_el_linsys_L_x_init[6430] = {
   (OSQPFloat)9900.99009900990131427534,
   (OSQPFloat)9900.99009900990131427534,
   (OSQPFloat)9900.99009900990131427534,
@@ -25942,7 +25966,8 @@ OSQPFloat truck_lift_el_linsys_L_x[6430] = {
   (OSQPFloat)0.00004560116125729276,
   (OSQPFloat)0.15761147142259729348,
 };
-OSQPCscMatrix truck_lift_el_linsys_L = {
+OSQPCscMatrix truck_lift_el_linsys_L;
+static const OSQPCscMatrix truck_lift_el_linsys_L_init = {
   1496,
   1496,
   truck_lift_el_linsys_L_p,
@@ -25951,7 +25976,8 @@ OSQPCscMatrix truck_lift_el_linsys_L = {
   6430,
   -1,
 };
-OSQPFloat truck_lift_el_linsys_Dinv[1496] = {
+OSQPFloat truck_lift_el_linsys_Dinv[1496];
+static const OSQPFloat truck_lift_el_linsys_Dinv_init[1496] = {
   (OSQPFloat)9900.99009900990131427534,
   (OSQPFloat)-0.20000000000000001110,
   (OSQPFloat)4.70586020771666913021,
@@ -27449,7 +27475,8 @@ OSQPFloat truck_lift_el_linsys_Dinv[1496] = {
   (OSQPFloat)-0.13133914460283921399,
   (OSQPFloat)-0.12973149688347540565,
 };
-OSQPInt truck_lift_el_linsys_P[1496] = {
+OSQPInt truck_lift_el_linsys_P[1496];
+static const OSQPInt truck_lift_el_linsys_P_init[1496] = {
   24,
   622,
   25,
@@ -28949,7 +28976,8 @@ OSQPInt truck_lift_el_linsys_P[1496] = {
 };
 OSQPFloat truck_lift_el_linsys_bp[1496];
 OSQPFloat truck_lift_el_linsys_sol[1496];
-OSQPFloat truck_lift_el_linsys_rho_inv_vec[928] = {
+OSQPFloat truck_lift_el_linsys_rho_inv_vec[928];
+static const OSQPFloat truck_lift_el_linsys_rho_inv_vec_init[928] = {
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
@@ -29879,7 +29907,8 @@ OSQPFloat truck_lift_el_linsys_rho_inv_vec[928] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
+OSQPInt truck_lift_el_linsys_KKT_p[1497];
+static const OSQPInt truck_lift_el_linsys_KKT_p_init[1497] = {
   0,
   1,
   2,
@@ -31378,7 +31407,8 @@ OSQPInt truck_lift_el_linsys_KKT_p[1497] = {
   4854,
   4864,
 };
-OSQPInt truck_lift_el_linsys_KKT_i[4864] = {
+OSQPInt truck_lift_el_linsys_KKT_i[4864];
+static const OSQPInt truck_lift_el_linsys_KKT_i_init[4864] = {
   0,
   1,
   2,
@@ -36244,7 +36274,8 @@ OSQPInt truck_lift_el_linsys_KKT_i[4864] = {
   96,
   1495,
 };
-OSQPFloat truck_lift_el_linsys_KKT_x[4864] = {
+OSQPFloat truck_lift_el_linsys_KKT_x[4864];
+static const OSQPFloat truck_lift_el_linsys_KKT_x_init[4864] = {
   (OSQPFloat)0.00010100000000000000,
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)0.01250099999999999996,
@@ -41110,7 +41141,8 @@ OSQPFloat truck_lift_el_linsys_KKT_x[4864] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)-0.00500000000000000010,
 };
-OSQPCscMatrix truck_lift_el_linsys_KKT = {
+OSQPCscMatrix truck_lift_el_linsys_KKT;
+static const OSQPCscMatrix truck_lift_el_linsys_KKT_init = {
   1496,
   1496,
   truck_lift_el_linsys_KKT_p,
@@ -41119,7 +41151,8 @@ OSQPCscMatrix truck_lift_el_linsys_KKT = {
   4864,
   -1,
 };
-OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
+OSQPInt truck_lift_el_linsys_PtoKKT[568];
+static const OSQPInt truck_lift_el_linsys_PtoKKT_init[568] = {
   57,
   59,
   61,
@@ -41689,7 +41722,8 @@ OSQPInt truck_lift_el_linsys_PtoKKT[568] = {
   837,
   834,
 };
-OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
+OSQPInt truck_lift_el_linsys_AtoKKT[3368];
+static const OSQPInt truck_lift_el_linsys_AtoKKT_init[3368] = {
   58,
   155,
   135,
@@ -45059,7 +45093,8 @@ OSQPInt truck_lift_el_linsys_AtoKKT[3368] = {
   846,
   835,
 };
-OSQPInt truck_lift_el_linsys_rhotoKKT[928] = {
+OSQPInt truck_lift_el_linsys_rhotoKKT[928];
+static const OSQPInt truck_lift_el_linsys_rhotoKKT_init[928] = {
   56,
   55,
   54,
@@ -45989,7 +46024,8 @@ OSQPInt truck_lift_el_linsys_rhotoKKT[928] = {
   836,
   833,
 };
-OSQPFloat truck_lift_el_linsys_D[1496] = {
+OSQPFloat truck_lift_el_linsys_D[1496];
+static const OSQPFloat truck_lift_el_linsys_D_init[1496] = {
   (OSQPFloat)0.00010100000000000000,
   (OSQPFloat)-5.00000000000000000000,
   (OSQPFloat)0.21250100000000002320,
@@ -47487,7 +47523,8 @@ OSQPFloat truck_lift_el_linsys_D[1496] = {
   (OSQPFloat)-7.61387629730597836897,
   (OSQPFloat)-7.70822833331059342754,
 };
-OSQPInt truck_lift_el_linsys_etree[1496] = {
+OSQPInt truck_lift_el_linsys_etree[1496];
+static const OSQPInt truck_lift_el_linsys_etree_init[1496] = {
   78,
   2,
   79,
@@ -48985,7 +49022,8 @@ OSQPInt truck_lift_el_linsys_etree[1496] = {
   1495,
   -1,
 };
-OSQPInt truck_lift_el_linsys_Lnz[1496] = {
+OSQPInt truck_lift_el_linsys_Lnz[1496];
+static const OSQPInt truck_lift_el_linsys_Lnz_init[1496] = {
   4,
   1,
   4,
@@ -50486,7 +50524,8 @@ OSQPInt truck_lift_el_linsys_Lnz[1496] = {
 QDLDL_int   truck_lift_el_linsys_iwork[4488];
 QDLDL_bool  truck_lift_el_linsys_bwork[1496];
 QDLDL_float truck_lift_el_linsys_fwork[1496];
-qdldl_solver truck_lift_el_linsys = {
+qdldl_solver truck_lift_el_linsys;
+static const qdldl_solver truck_lift_el_linsys_init = {
   1,
   &name_qdldl,
   &solve_linsys_qdldl,
@@ -50517,7 +50556,8 @@ qdldl_solver truck_lift_el_linsys = {
   truck_lift_el_linsys_fwork,
 };
 
-OSQPFloat truck_lift_el_work_rho_vec_val[928] = {
+OSQPFloat truck_lift_el_work_rho_vec_val[928];
+static const OSQPFloat truck_lift_el_work_rho_vec_val_init[928] = {
   (OSQPFloat)200.00000000000000000000,
   (OSQPFloat)200.00000000000000000000,
   (OSQPFloat)200.00000000000000000000,
@@ -51447,11 +51487,13 @@ OSQPFloat truck_lift_el_work_rho_vec_val[928] = {
   (OSQPFloat)0.20000000000000001110,
   (OSQPFloat)0.20000000000000001110,
 };
-OSQPVectorf truck_lift_el_work_rho_vec = {
+OSQPVectorf truck_lift_el_work_rho_vec;
+static const OSQPVectorf truck_lift_el_work_rho_vec_init = {
   truck_lift_el_work_rho_vec_val,
   928
 };
-OSQPFloat truck_lift_el_work_rho_inv_vec_val[928] = {
+OSQPFloat truck_lift_el_work_rho_inv_vec_val[928];
+static const OSQPFloat truck_lift_el_work_rho_inv_vec_val_init[928] = {
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
   (OSQPFloat)0.00500000000000000010,
@@ -52381,11 +52423,13 @@ OSQPFloat truck_lift_el_work_rho_inv_vec_val[928] = {
   (OSQPFloat)5.00000000000000000000,
   (OSQPFloat)5.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_work_rho_inv_vec = {
+OSQPVectorf truck_lift_el_work_rho_inv_vec;
+static const OSQPVectorf truck_lift_el_work_rho_inv_vec_init = {
   truck_lift_el_work_rho_inv_vec_val,
   928
 };
-OSQPInt truck_lift_el_work_constr_type_val[928] = {
+OSQPInt truck_lift_el_work_constr_type_val[928];
+static const OSQPInt truck_lift_el_work_constr_type_val_init[928] = {
   1,
   1,
   1,
@@ -53315,11 +53359,13 @@ OSQPInt truck_lift_el_work_constr_type_val[928] = {
   0,
   0,
 };
-OSQPVectori truck_lift_el_work_constr_type = {
+OSQPVectori truck_lift_el_work_constr_type;
+static const OSQPVectori truck_lift_el_work_constr_type_init = {
   truck_lift_el_work_constr_type_val,
   928
 };
-OSQPFloat truck_lift_el_work_x_val[568] = {
+OSQPFloat truck_lift_el_work_x_val[568];
+static const OSQPFloat truck_lift_el_work_x_val_init[568] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -53889,11 +53935,13 @@ OSQPFloat truck_lift_el_work_x_val[568] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_work_x = {
+OSQPVectorf truck_lift_el_work_x;
+static const OSQPVectorf truck_lift_el_work_x_init = {
   truck_lift_el_work_x_val,
   568
 };
-OSQPFloat truck_lift_el_work_y_val[928] = {
+OSQPFloat truck_lift_el_work_y_val[928];
+static const OSQPFloat truck_lift_el_work_y_val_init[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -54823,11 +54871,13 @@ OSQPFloat truck_lift_el_work_y_val[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_work_y = {
+OSQPVectorf truck_lift_el_work_y;
+static const OSQPVectorf truck_lift_el_work_y_init = {
   truck_lift_el_work_y_val,
   928
 };
-OSQPFloat truck_lift_el_work_z_val[928] = {
+OSQPFloat truck_lift_el_work_z_val[928];
+static const OSQPFloat truck_lift_el_work_z_val_init[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
@@ -55757,91 +55807,109 @@ OSQPFloat truck_lift_el_work_z_val[928] = {
   (OSQPFloat)0.00000000000000000000,
   (OSQPFloat)0.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_work_z = {
+OSQPVectorf truck_lift_el_work_z;
+static const OSQPVectorf truck_lift_el_work_z_init = {
   truck_lift_el_work_z_val,
   928
 };
 OSQPFloat   truck_lift_el_work_xz_tilde_val[1496];
-OSQPVectorf truck_lift_el_work_xz_tilde = {
+OSQPVectorf truck_lift_el_work_xz_tilde;
+static const OSQPVectorf truck_lift_el_work_xz_tilde_init = {
   truck_lift_el_work_xz_tilde_val,
   1496
 };
-OSQPVectorf truck_lift_el_work_xtilde_view = {
+OSQPVectorf truck_lift_el_work_xtilde_view;
+static const OSQPVectorf truck_lift_el_work_xtilde_view_init = {
   truck_lift_el_work_xz_tilde_val,
   568
 };
-OSQPVectorf truck_lift_el_work_ztilde_view = {
+OSQPVectorf truck_lift_el_work_ztilde_view;
+static const OSQPVectorf truck_lift_el_work_ztilde_view_init = {
   truck_lift_el_work_xz_tilde_val+568,
   928
 };
 OSQPFloat   truck_lift_el_work_x_prev_val[568];
-OSQPVectorf truck_lift_el_work_x_prev = {
+OSQPVectorf truck_lift_el_work_x_prev;
+static const OSQPVectorf truck_lift_el_work_x_prev_init = {
   truck_lift_el_work_x_prev_val,
   568
 };
 OSQPFloat   truck_lift_el_work_z_prev_val[928];
-OSQPVectorf truck_lift_el_work_z_prev = {
+OSQPVectorf truck_lift_el_work_z_prev;
+static const OSQPVectorf truck_lift_el_work_z_prev_init = {
   truck_lift_el_work_z_prev_val,
   928
 };
 OSQPFloat   truck_lift_el_work_Ax_val[928];
-OSQPVectorf truck_lift_el_work_Ax = {
+OSQPVectorf truck_lift_el_work_Ax;
+static const OSQPVectorf truck_lift_el_work_Ax_init = {
   truck_lift_el_work_Ax_val,
   928
 };
 OSQPFloat   truck_lift_el_work_Px_val[568];
-OSQPVectorf truck_lift_el_work_Px = {
+OSQPVectorf truck_lift_el_work_Px;
+static const OSQPVectorf truck_lift_el_work_Px_init = {
   truck_lift_el_work_Px_val,
   568
 };
 OSQPFloat   truck_lift_el_work_Aty_val[568];
-OSQPVectorf truck_lift_el_work_Aty = {
+OSQPVectorf truck_lift_el_work_Aty;
+static const OSQPVectorf truck_lift_el_work_Aty_init = {
   truck_lift_el_work_Aty_val,
   568
 };
 OSQPFloat   truck_lift_el_work_delta_y_val[928];
-OSQPVectorf truck_lift_el_work_delta_y = {
+OSQPVectorf truck_lift_el_work_delta_y;
+static const OSQPVectorf truck_lift_el_work_delta_y_init = {
   truck_lift_el_work_delta_y_val,
   928
 };
 OSQPFloat   truck_lift_el_work_Atdelta_y_val[568];
-OSQPVectorf truck_lift_el_work_Atdelta_y = {
+OSQPVectorf truck_lift_el_work_Atdelta_y;
+static const OSQPVectorf truck_lift_el_work_Atdelta_y_init = {
   truck_lift_el_work_Atdelta_y_val,
   568
 };
 OSQPFloat   truck_lift_el_work_delta_x_val[568];
-OSQPVectorf truck_lift_el_work_delta_x = {
+OSQPVectorf truck_lift_el_work_delta_x;
+static const OSQPVectorf truck_lift_el_work_delta_x_init = {
   truck_lift_el_work_delta_x_val,
   568
 };
 OSQPFloat   truck_lift_el_work_Pdelta_x_val[568];
-OSQPVectorf truck_lift_el_work_Pdelta_x = {
+OSQPVectorf truck_lift_el_work_Pdelta_x;
+static const OSQPVectorf truck_lift_el_work_Pdelta_x_init = {
   truck_lift_el_work_Pdelta_x_val,
   568
 };
 OSQPFloat   truck_lift_el_work_Adelta_x_val[928];
-OSQPVectorf truck_lift_el_work_Adelta_x = {
+OSQPVectorf truck_lift_el_work_Adelta_x;
+static const OSQPVectorf truck_lift_el_work_Adelta_x_init = {
   truck_lift_el_work_Adelta_x_val,
   928
 };
 OSQPFloat   truck_lift_el_work_D_temp_val[568];
-OSQPVectorf truck_lift_el_work_D_temp = {
+OSQPVectorf truck_lift_el_work_D_temp;
+static const OSQPVectorf truck_lift_el_work_D_temp_init = {
   truck_lift_el_work_D_temp_val,
   568
 };
 OSQPFloat   truck_lift_el_work_D_temp_A_val[568];
-OSQPVectorf truck_lift_el_work_D_temp_A = {
+OSQPVectorf truck_lift_el_work_D_temp_A;
+static const OSQPVectorf truck_lift_el_work_D_temp_A_init = {
   truck_lift_el_work_D_temp_A_val,
   568
 };
 OSQPFloat   truck_lift_el_work_E_temp_val[928];
-OSQPVectorf truck_lift_el_work_E_temp = {
+OSQPVectorf truck_lift_el_work_E_temp;
+static const OSQPVectorf truck_lift_el_work_E_temp_init = {
   truck_lift_el_work_E_temp_val,
   928
 };
 
 /* Define the scaling structure */
-OSQPFloat truck_lift_el_scaling_D_val[568] = {
+OSQPFloat truck_lift_el_scaling_D_val[568];
+static const OSQPFloat truck_lift_el_scaling_D_val_init[568] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -56411,11 +56479,13 @@ OSQPFloat truck_lift_el_scaling_D_val[568] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_scaling_D = {
+OSQPVectorf truck_lift_el_scaling_D;
+static const OSQPVectorf truck_lift_el_scaling_D_init = {
   truck_lift_el_scaling_D_val,
   568
 };
-OSQPFloat truck_lift_el_scaling_E_val[928] = {
+OSQPFloat truck_lift_el_scaling_E_val[928];
+static const OSQPFloat truck_lift_el_scaling_E_val_init[928] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -57345,11 +57415,13 @@ OSQPFloat truck_lift_el_scaling_E_val[928] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_scaling_E = {
+OSQPVectorf truck_lift_el_scaling_E;
+static const OSQPVectorf truck_lift_el_scaling_E_init = {
   truck_lift_el_scaling_E_val,
   928
 };
-OSQPFloat truck_lift_el_scaling_Dinv_val[568] = {
+OSQPFloat truck_lift_el_scaling_Dinv_val[568];
+static const OSQPFloat truck_lift_el_scaling_Dinv_val_init[568] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -57919,11 +57991,13 @@ OSQPFloat truck_lift_el_scaling_Dinv_val[568] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_scaling_Dinv = {
+OSQPVectorf truck_lift_el_scaling_Dinv;
+static const OSQPVectorf truck_lift_el_scaling_Dinv_init = {
   truck_lift_el_scaling_Dinv_val,
   568
 };
-OSQPFloat truck_lift_el_scaling_Einv_val[928] = {
+OSQPFloat truck_lift_el_scaling_Einv_val[928];
+static const OSQPFloat truck_lift_el_scaling_Einv_val_init[928] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
@@ -58853,11 +58927,13 @@ OSQPFloat truck_lift_el_scaling_Einv_val[928] = {
   (OSQPFloat)1.00000000000000000000,
   (OSQPFloat)1.00000000000000000000,
 };
-OSQPVectorf truck_lift_el_scaling_Einv = {
+OSQPVectorf truck_lift_el_scaling_Einv;
+static const OSQPVectorf truck_lift_el_scaling_Einv_init = {
   truck_lift_el_scaling_Einv_val,
   928
 };
-OSQPScaling truck_lift_el_scaling = {
+OSQPScaling truck_lift_el_scaling;
+static const OSQPScaling truck_lift_el_scaling_init = {
   (OSQPFloat)1.00000000000000000000,
   &truck_lift_el_scaling_D,
   &truck_lift_el_scaling_E,
@@ -58867,7 +58943,8 @@ OSQPScaling truck_lift_el_scaling = {
 };
 
 /* Define the workspace structure */
-OSQPWorkspace truck_lift_el_work = {
+OSQPWorkspace truck_lift_el_work;
+static const OSQPWorkspace truck_lift_el_work_init = {
   &truck_lift_el_data,
   (LinSysSolver *)&truck_lift_el_linsys,
   &truck_lift_el_work_rho_vec,
@@ -58905,9 +58982,114 @@ OSQPWorkspace truck_lift_el_work = {
 };
 
 /* Define the solver structure */
-OSQPSolver truck_lift_el_solver = {
+OSQPSolver truck_lift_el_solver;
+static const OSQPSolver truck_lift_el_solver_init = {
   &truck_lift_el_settings,
   &truck_lift_el_sol,
   &truck_lift_el_info,
   &truck_lift_el_work
 };
+
+/* Every mutable byte of the workspace back to its generated value (fcgen). */
+void truck_lift_el_workspace_reset(void) {
+  memcpy(&truck_lift_el_settings, &truck_lift_el_settings_init, sizeof truck_lift_el_settings);
+  memset(&truck_lift_el_sol_x, 0, sizeof truck_lift_el_sol_x);
+  memset(&truck_lift_el_sol_y, 0, sizeof truck_lift_el_sol_y);
+  memset(&truck_lift_el_sol_prim_inf_cert, 0, sizeof truck_lift_el_sol_prim_inf_cert);
+  memset(&truck_lift_el_sol_dual_inf_cert, 0, sizeof truck_lift_el_sol_dual_inf_cert);
+  memcpy(&truck_lift_el_sol, &truck_lift_el_sol_init, sizeof truck_lift_el_sol);
+  memcpy(&truck_lift_el_info, &truck_lift_el_info_init, sizeof truck_lift_el_info);
+  memcpy(&truck_lift_el_data_P_csc_p, &truck_lift_el_data_P_csc_p_init, sizeof truck_lift_el_data_P_csc_p);
+  memcpy(&truck_lift_el_data_P_csc_i, &truck_lift_el_data_P_csc_i_init, sizeof truck_lift_el_data_P_csc_i);
+  memcpy(&truck_lift_el_data_P_csc_x, &truck_lift_el_data_P_csc_x_init, sizeof truck_lift_el_data_P_csc_x);
+  memcpy(&truck_lift_el_data_P_csc, &truck_lift_el_data_P_csc_init, sizeof truck_lift_el_data_P_csc);
+  memcpy(&truck_lift_el_data_P, &truck_lift_el_data_P_init, sizeof truck_lift_el_data_P);
+  memcpy(&truck_lift_el_data_A_csc_p, &truck_lift_el_data_A_csc_p_init, sizeof truck_lift_el_data_A_csc_p);
+  memcpy(&truck_lift_el_data_A_csc_i, &truck_lift_el_data_A_csc_i_init, sizeof truck_lift_el_data_A_csc_i);
+  memcpy(&truck_lift_el_data_A_csc_x, &truck_lift_el_data_A_csc_x_init, sizeof truck_lift_el_data_A_csc_x);
+  memcpy(&truck_lift_el_data_A_csc, &truck_lift_el_data_A_csc_init, sizeof truck_lift_el_data_A_csc);
+  memcpy(&truck_lift_el_data_A, &truck_lift_el_data_A_init, sizeof truck_lift_el_data_A);
+  memcpy(&truck_lift_el_data_q_val, &truck_lift_el_data_q_val_init, sizeof truck_lift_el_data_q_val);
+  memcpy(&truck_lift_el_data_q, &truck_lift_el_data_q_init, sizeof truck_lift_el_data_q);
+  memcpy(&truck_lift_el_data_l_val, &truck_lift_el_data_l_val_init, sizeof truck_lift_el_data_l_val);
+  memcpy(&truck_lift_el_data_l, &truck_lift_el_data_l_init, sizeof truck_lift_el_data_l);
+  memcpy(&truck_lift_el_data_u_val, &truck_lift_el_data_u_val_init, sizeof truck_lift_el_data_u_val);
+  memcpy(&truck_lift_el_data_u, &truck_lift_el_data_u_init, sizeof truck_lift_el_data_u);
+  memcpy(&truck_lift_el_data, &truck_lift_el_data_init, sizeof truck_lift_el_data);
+  memcpy(&truck_lift_el_linsys_L_p, &truck_lift_el_linsys_L_p_init, sizeof truck_lift_el_linsys_L_p);
+  memcpy(&truck_lift_el_linsys_L_i, &truck_lift_el_linsys_L_i_init, sizeof truck_lift_el_linsys_L_i);
+  memcpy(&truck_lift_el_linsys_L_x, &truck_lift_el_linsys_L_x_init, sizeof truck_lift_el_linsys_L_x);
+  memcpy(&truck_lift_el_linsys_L, &truck_lift_el_linsys_L_init, sizeof truck_lift_el_linsys_L);
+  memcpy(&truck_lift_el_linsys_Dinv, &truck_lift_el_linsys_Dinv_init, sizeof truck_lift_el_linsys_Dinv);
+  memcpy(&truck_lift_el_linsys_P, &truck_lift_el_linsys_P_init, sizeof truck_lift_el_linsys_P);
+  memset(&truck_lift_el_linsys_bp, 0, sizeof truck_lift_el_linsys_bp);
+  memset(&truck_lift_el_linsys_sol, 0, sizeof truck_lift_el_linsys_sol);
+  memcpy(&truck_lift_el_linsys_rho_inv_vec, &truck_lift_el_linsys_rho_inv_vec_init, sizeof truck_lift_el_linsys_rho_inv_vec);
+  memcpy(&truck_lift_el_linsys_KKT_p, &truck_lift_el_linsys_KKT_p_init, sizeof truck_lift_el_linsys_KKT_p);
+  memcpy(&truck_lift_el_linsys_KKT_i, &truck_lift_el_linsys_KKT_i_init, sizeof truck_lift_el_linsys_KKT_i);
+  memcpy(&truck_lift_el_linsys_KKT_x, &truck_lift_el_linsys_KKT_x_init, sizeof truck_lift_el_linsys_KKT_x);
+  memcpy(&truck_lift_el_linsys_KKT, &truck_lift_el_linsys_KKT_init, sizeof truck_lift_el_linsys_KKT);
+  memcpy(&truck_lift_el_linsys_PtoKKT, &truck_lift_el_linsys_PtoKKT_init, sizeof truck_lift_el_linsys_PtoKKT);
+  memcpy(&truck_lift_el_linsys_AtoKKT, &truck_lift_el_linsys_AtoKKT_init, sizeof truck_lift_el_linsys_AtoKKT);
+  memcpy(&truck_lift_el_linsys_rhotoKKT, &truck_lift_el_linsys_rhotoKKT_init, sizeof truck_lift_el_linsys_rhotoKKT);
+  memcpy(&truck_lift_el_linsys_D, &truck_lift_el_linsys_D_init, sizeof truck_lift_el_linsys_D);
+  memcpy(&truck_lift_el_linsys_etree, &truck_lift_el_linsys_etree_init, sizeof truck_lift_el_linsys_etree);
+  memcpy(&truck_lift_el_linsys_Lnz, &truck_lift_el_linsys_Lnz_init, sizeof truck_lift_el_linsys_Lnz);
+  memset(&truck_lift_el_linsys_iwork, 0, sizeof truck_lift_el_linsys_iwork);
+  memset(&truck_lift_el_linsys_bwork, 0, sizeof truck_lift_el_linsys_bwork);
+  memset(&truck_lift_el_linsys_fwork, 0, sizeof truck_lift_el_linsys_fwork);
+  memcpy(&truck_lift_el_linsys, &truck_lift_el_linsys_init, sizeof truck_lift_el_linsys);
+  memcpy(&truck_lift_el_work_rho_vec_val, &truck_lift_el_work_rho_vec_val_init, sizeof truck_lift_el_work_rho_vec_val);
+  memcpy(&truck_lift_el_work_rho_vec, &truck_lift_el_work_rho_vec_init, sizeof truck_lift_el_work_rho_vec);
+  memcpy(&truck_lift_el_work_rho_inv_vec_val, &truck_lift_el_work_rho_inv_vec_val_init, sizeof truck_lift_el_work_rho_inv_vec_val);
+  memcpy(&truck_lift_el_work_rho_inv_vec, &truck_lift_el_work_rho_inv_vec_init, sizeof truck_lift_el_work_rho_inv_vec);
+  memcpy(&truck_lift_el_work_constr_type_val, &truck_lift_el_work_constr_type_val_init, sizeof truck_lift_el_work_constr_type_val);
+  memcpy(&truck_lift_el_work_constr_type, &truck_lift_el_work_constr_type_init, sizeof truck_lift_el_work_constr_type);
+  memcpy(&truck_lift_el_work_x_val, &truck_lift_el_work_x_val_init, sizeof truck_lift_el_work_x_val);
+  memcpy(&truck_lift_el_work_x, &truck_lift_el_work_x_init, sizeof truck_lift_el_work_x);
+  memcpy(&truck_lift_el_work_y_val, &truck_lift_el_work_y_val_init, sizeof truck_lift_el_work_y_val);
+  memcpy(&truck_lift_el_work_y, &truck_lift_el_work_y_init, sizeof truck_lift_el_work_y);
+  memcpy(&truck_lift_el_work_z_val, &truck_lift_el_work_z_val_init, sizeof truck_lift_el_work_z_val);
+  memcpy(&truck_lift_el_work_z, &truck_lift_el_work_z_init, sizeof truck_lift_el_work_z);
+  memset(&truck_lift_el_work_xz_tilde_val, 0, sizeof truck_lift_el_work_xz_tilde_val);
+  memcpy(&truck_lift_el_work_xz_tilde, &truck_lift_el_work_xz_tilde_init, sizeof truck_lift_el_work_xz_tilde);
+  memcpy(&truck_lift_el_work_xtilde_view, &truck_lift_el_work_xtilde_view_init, sizeof truck_lift_el_work_xtilde_view);
+  memcpy(&truck_lift_el_work_ztilde_view, &truck_lift_el_work_ztilde_view_init, sizeof truck_lift_el_work_ztilde_view);
+  memset(&truck_lift_el_work_x_prev_val, 0, sizeof truck_lift_el_work_x_prev_val);
+  memcpy(&truck_lift_el_work_x_prev, &truck_lift_el_work_x_prev_init, sizeof truck_lift_el_work_x_prev);
+  memset(&truck_lift_el_work_z_prev_val, 0, sizeof truck_lift_el_work_z_prev_val);
+  memcpy(&truck_lift_el_work_z_prev, &truck_lift_el_work_z_prev_init, sizeof truck_lift_el_work_z_prev);
+  memset(&truck_lift_el_work_Ax_val, 0, sizeof truck_lift_el_work_Ax_val);
+  memcpy(&truck_lift_el_work_Ax, &truck_lift_el_work_Ax_init, sizeof truck_lift_el_work_Ax);
+  memset(&truck_lift_el_work_Px_val, 0, sizeof truck_lift_el_work_Px_val);
+  memcpy(&truck_lift_el_work_Px, &truck_lift_el_work_Px_init, sizeof truck_lift_el_work_Px);
+  memset(&truck_lift_el_work_Aty_val, 0, sizeof truck_lift_el_work_Aty_val);
+  memcpy(&truck_lift_el_work_Aty, &truck_lift_el_work_Aty_init, sizeof truck_lift_el_work_Aty);
+  memset(&truck_lift_el_work_delta_y_val, 0, sizeof truck_lift_el_work_delta_y_val);
+  memcpy(&truck_lift_el_work_delta_y, &truck_lift_el_work_delta_y_init, sizeof truck_lift_el_work_delta_y);
+  memset(&truck_lift_el_work_Atdelta_y_val, 0, sizeof truck_lift_el_work_Atdelta_y_val);
+  memcpy(&truck_lift_el_work_Atdelta_y, &truck_lift_el_work_Atdelta_y_init, sizeof truck_lift_el_work_Atdelta_y);
+  memset(&truck_lift_el_work_delta_x_val, 0, sizeof truck_lift_el_work_delta_x_val);
+  memcpy(&truck_lift_el_work_delta_x, &truck_lift_el_work_delta_x_init, sizeof truck_lift_el_work_delta_x);
+  memset(&truck_lift_el_work_Pdelta_x_val, 0, sizeof truck_lift_el_work_Pdelta_x_val);
+  memcpy(&truck_lift_el_work_Pdelta_x, &truck_lift_el_work_Pdelta_x_init, sizeof truck_lift_el_work_Pdelta_x);
+  memset(&truck_lift_el_work_Adelta_x_val, 0, sizeof truck_lift_el_work_Adelta_x_val);
+  memcpy(&truck_lift_el_work_Adelta_x, &truck_lift_el_work_Adelta_x_init, sizeof truck_lift_el_work_Adelta_x);
+  memset(&truck_lift_el_work_D_temp_val, 0, sizeof truck_lift_el_work_D_temp_val);
+  memcpy(&truck_lift_el_work_D_temp, &truck_lift_el_work_D_temp_init, sizeof truck_lift_el_work_D_temp);
+  memset(&truck_lift_el_work_D_temp_A_val, 0, sizeof truck_lift_el_work_D_temp_A_val);
+  memcpy(&truck_lift_el_work_D_temp_A, &truck_lift_el_work_D_temp_A_init, sizeof truck_lift_el_work_D_temp_A);
+  memset(&truck_lift_el_work_E_temp_val, 0, sizeof truck_lift_el_work_E_temp_val);
+  memcpy(&truck_lift_el_work_E_temp, &truck_lift_el_work_E_temp_init, sizeof truck_lift_el_work_E_temp);
+  memcpy(&truck_lift_el_scaling_D_val, &truck_lift_el_scaling_D_val_init, sizeof truck_lift_el_scaling_D_val);
+  memcpy(&truck_lift_el_scaling_D, &truck_lift_el_scaling_D_init, sizeof truck_lift_el_scaling_D);
+  memcpy(&truck_lift_el_scaling_E_val, &truck_lift_el_scaling_E_val_init, sizeof truck_lift_el_scaling_E_val);
+  memcpy(&truck_lift_el_scaling_E, &truck_lift_el_scaling_E_init, sizeof truck_lift_el_scaling_E);
+  memcpy(&truck_lift_el_scaling_Dinv_val, &truck_lift_el_scaling_Dinv_val_init, sizeof truck_lift_el_scaling_Dinv_val);
+  memcpy(&truck_lift_el_scaling_Dinv, &truck_lift_el_scaling_Dinv_init, sizeof truck_lift_el_scaling_Dinv);
+  memcpy(&truck_lift_el_scaling_Einv_val, &truck_lift_el_scaling_Einv_val_init, sizeof truck_lift_el_scaling_Einv_val);
+  memcpy(&truck_lift_el_scaling_Einv, &truck_lift_el_scaling_Einv_init, sizeof truck_lift_el_scaling_Einv);
+  memcpy(&truck_lift_el_scaling, &truck_lift_el_scaling_init, sizeof truck_lift_el_scaling);
+  memcpy(&truck_lift_el_work, &truck_lift_el_work_init, sizeof truck_lift_el_work);
+  memcpy(&truck_lift_el_solver, &truck_lift_el_solver_init, sizeof truck_lift_el_solver);
+}

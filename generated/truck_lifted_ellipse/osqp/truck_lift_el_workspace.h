@@ -15,6 +15,8 @@ extern "C" {
 #endif
 
   extern OSQPSolver truck_lift_el_solver;
+  /* restores every mutable byte of the workspace; call before the first OSQP call (fcgen) */
+  void truck_lift_el_workspace_reset(void);
 
 #ifdef __cplusplus
 }

@@ -15,7 +15,7 @@ import osqp
 from . import (QP_STATUSES, QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_OTHER, QP_PRIMAL_INFEASIBLE, QP_SOLVED,
                QP_SOLVED_INACCURATE, BackendFiles, QpResult)
 from ..codegen.consistency import missing_library
-from ..codegen.osqp_export import OSQP_INFTY, export_osqp, restore_osqp_library
+from ..codegen.osqp_export import export_osqp, restore_osqp_library
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..dsl import QpOptions
@@ -74,7 +74,9 @@ class Backend:
         self.solver.setup(*_setup_data(self.lay), **self.settings)
 
     def set_matrices(self, P_x: np.ndarray, A_x: np.ndarray, q: np.ndarray) -> None:
-        self.solver.update(Px=P_x, Ax=A_x)
+        # q first (osqp's update loads vectors before matrices): OSQP recomputes its scaling in update_data_mat
+        # from the q it holds, so it is this sample's q, not the previous sample's
+        self.solver.update(q=q, Px=P_x, Ax=A_x)
 
     def solve(self, q: np.ndarray, l: np.ndarray, u: np.ndarray, y_warm: np.ndarray, max_iter: int) -> QpResult:
         s = self.solver
@@ -96,14 +98,12 @@ class Backend:
 
 def codegen_context(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions") -> dict[str, Any]:
     """What ``templates/backends/osqp.c.j2`` needs (rendered under the key ``backend``)."""
-    from ..codegen.generate import _c_list, _c_real
     prefix = f"{ocp.problem.name}_"
     settings = osqp_settings(opts)
-    _, _, _, l0, u0 = _setup_data(layout)
     raw = [(k, QP_STATUSES[v - 1]) for k, v in sorted(RAW_STATUS.items())]
     return {"workspace_header": f"{prefix}workspace.h", "solver_name": f"{prefix}solver",
-            "rho0": repr(float(settings["rho"])), "max_iter": settings["max_iter"], "infty": repr(OSQP_INFTY),
-            "raw_status": raw, "n_raw": max(RAW_STATUS) + 1, "l0": _c_list(l0, _c_real, 6), "u0": _c_list(u0, _c_real, 6)}
+            "workspace_reset": f"{prefix}workspace_reset", "max_iter": settings["max_iter"],
+            "raw_status": raw, "n_raw": max(RAW_STATUS) + 1}
 
 
 def _array_bytes(workspace_c: str, real_size: int) -> int:

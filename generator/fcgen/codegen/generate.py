@@ -25,8 +25,8 @@ from .. import obstacles as obs
 from ..dsl import Conventional, Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..backends import QP_STATUSES, BackendFiles, backend_module
-from ..reference import EXIT_CODES, cold_max_iter, theta_init  # noqa: F401 (EXIT_CODES re-exported)
+from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
+from ..reference import EXIT_CODES, QP_CONTRACT, QP_EXIT, cold_max_iter, input_box, theta_init  # noqa: F401 (re-exported)
 from ..sim.closedloop import plant_function
 from .folder import staged
 
@@ -41,7 +41,7 @@ MACRO_DOC = {
     "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
-    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces", "USE_FLOAT": "1: generated for float",
+    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
@@ -213,6 +213,12 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     return -(-off // align_max) * align_max
 
 
+STATUS_BYTES = 48
+"""sizeof(<name>_status_t) on an LP64 target: 5 ints, padding, 3 doubles."""
+FIRST_STATE_MEMBER = "w"
+"""The first workspace member reset() zeroes (the inputs and the clock come before it)."""
+
+
 def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
                       opp_dim: int) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
@@ -224,26 +230,29 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
 
     road, n, m, nnz = M("ROAD_MAX"), M("QP_N"), M("QP_M"), M("QP_NNZ_A")
     members = [  # (C type, name, dims, (size, align)); a dim is an int or (C expression, int)
+        # inputs (kept by reset) and the clock ...
         ("NAME_real_t", "x0", [5], R), ("NAME_real_t", "road_s0", [], R), ("NAME_real_t", "road_ds", [], R),
         ("NAME_real_t", "road_kappa", [road], R), ("NAME_real_t", "road_phi", [road], R),
         ("NAME_real_t", "road_gx", [road], R), ("NAME_real_t", "road_gy", [road], R),
         ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
+        ("clock_fn_t", "clock", [], P), ("int", "road_n", [], I), ("int", "road_set", [], I),
+        ("int", "have_x0", [], I),
+        # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
         ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
         ("NAME_real_t", "w_tmp", [n], R), ("NAME_real_t", "y_tmp", [m], R),
         ("NAME_real_t", "p", [M("N", 1), M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
         ("NAME_real_t", "g", [m], R), ("NAME_real_t", "jac", [M("NNZ_J")], R),
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
         ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R), ("NAME_real_t", "A_x", [nnz], R),
+        ("NAME_real_t", "u_applied", [M("NU")], R),
         ("NAME_real_t", "xa", [M("NX")], R), ("NAME_real_t", "xb", [M("NX")], R),
         ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
         ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
         ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
         ("const NAME_real_t *", "q_cur", [], P), ("const NAME_real_t *", "qp_z", [], P),
-        ("clock_fn_t", "clock", [], P),
-        ("NAME_status_t", "status", [], (32, 8)),
-        ("int", "road_n", [], I), ("int", "road_set", [], I), ("int", "have_x0", [], I),
-        ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I),
+        ("NAME_status_t", "status", [], (STATUS_BYTES, 8)),
+        ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
     ]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
@@ -309,8 +318,9 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                     "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks}
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
+    u_lo, u_hi, u_lim = input_box(problem)
     real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
-                   "INIT_D": lay.D[:nx]}
+                   "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim}
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
@@ -328,7 +338,11 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     ctx = {
         "name": name, "NAME": NAME, "version": __version__, "real": real, "use_float": use_float,
         "sizes": sizes, "macros": macros, "exit_codes": list(enumerate(EXIT_CODES)),
-        "qp_statuses": list(enumerate(QP_STATUSES, start=1)),
+        "qp_statuses": list(enumerate(QP_STATUSES, start=1)), "n_qp_statuses": len(QP_STATUSES),
+        "qp_usable": [QP_STATUSES[s - 1] for s in QP_USABLE],
+        "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
+                                        for s in range(1, len(QP_STATUSES) + 1)],
+        "qp_contract": QP_CONTRACT, "first_state_member": FIRST_STATE_MEMBER,
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(opp_names),
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,

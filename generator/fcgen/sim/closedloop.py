@@ -74,8 +74,8 @@ class ReferenceController:
                                   float(np.max(sv.slacks(), initial=0.0)))
             except SolverError as exc:
                 rc = exc.exit_code
-        st = sv.status
-        return StepResult(np.zeros(2), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan)
+        st = sv.status  # the control after an error: the fallback (unusable QP) or the last one (rejected call)
+        return StepResult(sv.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan)
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
