@@ -62,10 +62,10 @@ def test_sanitized_solver_example_and_firmware_closed_loop(solver, tmp_path):
     assert s["progress"] > 50.0, s  # it drove (> 10 m/s over 5 s)
 
 
-def fuzz_exe(solver: Path, out: Path, extra: str = "", f_d_max: float | None = None) -> Path:
+def fuzz_exe(solver: Path, out: Path, f_d_max: float | None = None) -> Path:
     pb = load_problem(str(solver / "problem.py"))
     defs = (f"-DFUZZ_F_D_MAX={f_d_max if f_d_max is not None else pb.bounds.F_d_max!r} "
-            f"-DFUZZ_R_MAX={pb.bounds.r_max!r} -DFUZZ_DS={pb.road.ds!r} {extra}").strip()
+            f"-DFUZZ_R_MAX={pb.bounds.r_max!r} -DFUZZ_DS={pb.road.ds!r}")
     run_make(FUZZ_DIR, [f"SOLVER_DIR={solver}", f"SOLVER_BUILD={solver / 'build'}", f"BUILD={out}",
                         f"FUZZDEFS={defs}"], cflags=SANITIZE)
     return out / "fuzz_api"
@@ -94,10 +94,15 @@ def test_fuzz_random_call_sequences(fuzz):
     assert res.returncode == 0, res.stdout + res.stderr[-3000:]
     assert c["violations"] == 0 and c["calls"] >= 3000 and c["invalid_calls"] >= 500, c
     assert c["rejected_with_expected_code"] == c["invalid_calls"]
+    assert all(v == 0 for k, v in c.items() if k.startswith("violation_")), c
     for code in ("ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
                  "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE"):
         assert c.get(f"rc_{code}", 0) > 10, code  # every rejection path is exercised
-    assert c["feedback_ok"] > 100 and c["bitwise_checked"] >= 30 * 8 and c["bitwise_equal"] > 0
+    # the contract paths are exercised too: unusable QPs (with their fallback checked), projected controls
+    assert c["feedback_ok"] > 100 and c["feedback_unusable_qp"] > 0 and c["fallbacks_checked"] > 0, c
+    assert c["feedback_u_projected"] > 0 and c["restarts_init"] > 0 and c["restarts_reset"] > 0, c
+    # the good sequence after every restart (init or reset) and among rejected calls is the fresh solver's, bitwise
+    assert c["bitwise_checked"] == (30 + 1) * 8 and c["bitwise_equal"] == c["bitwise_checked"], c
 
 
 def test_fuzz_is_reproducible_by_seed(fuzz):
@@ -107,7 +112,7 @@ def test_fuzz_is_reproducible_by_seed(fuzz):
 
 def test_fuzz_reports_a_broken_expectation(solver, tmp_path):
     """The checks can fail: told that the force bound is 1 N, the harness flags the solver's controls."""
-    exe = fuzz_exe(solver, tmp_path, "-DFUZZ_CONTRACT", f_d_max=1.0)
+    exe = fuzz_exe(solver, tmp_path, f_d_max=1.0)
     res = run_sanitized([str(exe), "1", "2"])
     c = counts(res.stdout)
     assert res.returncode == 1 and c["violations"] > 0 and c["violation_u_outside_box"] > 0, res.stdout
