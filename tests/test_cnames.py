@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from fcgen.build import BuildError, build
+from fcgen.build import BuildError, build, run_make
 from fcgen.cnames import (C99_KEYWORDS, C_LIBRARY, C_LIBRARY_NAMESPACES, C_RESERVED_START, CASADI_NAMESPACES,
                           OSQP_NAMESPACES, name_clash)
 from fcgen.codegen.generate import generate
@@ -62,14 +62,18 @@ def _small(name: str) -> Problem:
 
 
 @needs_cc
-@pytest.mark.parametrize("name", ["osqp", "qdldl", "update", "casadi"])
+@pytest.mark.parametrize("name", ["osqp", "qdldl", "update", "reset", "casadi"])
 def test_the_refused_names_really_break_the_build(name, tmp_path):
     with pytest.raises(ProblemError):
         Problem(name=name)
     generate(_small(name), tmp_path / name)
-    with pytest.raises(BuildError) as ei:
-        build(tmp_path / name)
+    with pytest.raises(BuildError) as ei:  # make itself (fcgen build refuses the folder earlier: its problem.py)
+        run_make(tmp_path / name, ["-j2"])
     assert "error" in str(ei.value)
+    if name in ("update", "reset"):  # OSQP's function <name>_info vs the workspace's OSQPInfo <prefix>info
+        assert f"multiple definition of `{name}_info'" in str(ei.value)
+    with pytest.raises(ProblemError, match=f"name = '{name}'"):
+        build(tmp_path / name)
 
 
 @pytest.fixture(scope="module")
