@@ -88,7 +88,8 @@ def fuzz(solver, tmp_path_factory) -> Path:
 
 
 def test_fuzz_random_call_sequences(fuzz):
-    res = run_sanitized([str(fuzz), "1", "30"], timeout=600)
+    """Seed 1, 30 episodes (about 4,800 calls); FCGEN_FUZZ_SEED picks another seed (seeds 1-5 checked)."""
+    res = run_sanitized([str(fuzz), os.environ.get("FCGEN_FUZZ_SEED", "1"), "30"], timeout=600)
     print(res.stdout)
     c = counts(res.stdout)
     assert res.returncode == 0, res.stdout + res.stderr[-3000:]
