@@ -140,3 +140,12 @@ def test_the_current_directory_is_not_replaced_under_the_caller(tmp_path, monkey
     with pytest.raises(FolderError, match="current directory"):
         generate(small("alpha"), ".")
     assert Path.cwd() == out.resolve() and (out / "alpha_solver.h").is_file()
+
+
+def test_a_symlinked_folder_keeps_its_link(tmp_path):
+    real = tmp_path / "real"
+    generate(small("alpha"), real)
+    (tmp_path / "link").symlink_to(real)
+    generate(small("alpha", N=5), tmp_path / "link")
+    assert (tmp_path / "link").is_symlink() and "N=5" in (real / "problem.py").read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real"]

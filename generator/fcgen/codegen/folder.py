@@ -110,9 +110,10 @@ def staged(out_dir: Path | str, name: str, force: bool = False) -> Iterator[Path
     On any exception (or interrupt) the temporary folder is removed and ``out_dir`` is untouched.
     """
     check_target(Path(out_dir), name, force)
-    out_dir = Path(os.path.abspath(out_dir))
+    out_dir = Path(os.path.realpath(out_dir))  # a symlinked folder: its target is replaced, the link stays
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-new-", dir=out_dir.parent))
+    old = None
     try:
         yield tmp
         if out_dir.is_dir():
@@ -124,9 +125,10 @@ def staged(out_dir: Path | str, name: str, force: bool = False) -> Iterator[Path
             except BaseException:
                 os.replace(old / "x", out_dir)
                 raise
-            shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, out_dir)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None and out_dir.is_dir():  # never while the old folder could not be put back
+            shutil.rmtree(old, ignore_errors=True)
