@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .backends import BACKENDS, backend_module
+from .codegen.consistency import check_folder
 from .codegen.generate import EXIT_CODES
 from .reference import Status
 from .road import Road
@@ -72,7 +73,10 @@ def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host", v
 
 def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cflags: str | None = None,
           jobs: int | None = None, target: str = "host", extra_cflags: str = "", variant: str | None = None) -> Path:
-    """Run ``make`` in a generated folder (restoring the QP backend's library if missing); returns the main product.
+    """Run ``make`` in a generated folder (syncing the QP backend's library copy); returns the main product.
+
+    The folder is checked first (:func:`~.codegen.consistency.check_folder`: a missing file or a header whose sizes
+    differ from ``problem.py`` raises :class:`~.codegen.consistency.FolderMismatch` in one line).
 
     Host: everything, returns the shared library. A bare-metal target (``fcgen.targets``): the two static libraries
     alone, cross-compiled with the target's compiler and CPU flags into ``build/<target>``; returns ``lib<name>.a``.
@@ -83,7 +87,7 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     from .targets import get_target
 
     gen_dir = Path(gen_dir)
-    name = solver_name(gen_dir)
+    name = check_folder(gen_dir)  # one solver, every generated file there, header sizes = problem.py's
     tgt = get_target(target)
     use_float = solver_uses_float(gen_dir)
     tgt.check_precision(use_float)

@@ -25,7 +25,7 @@ class _Group(click.Group):
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
-        except (ProblemError, ValueError, FileNotFoundError) as exc:
+        except (ProblemError, ValueError, OSError) as exc:
             raise click.ClickException(str(exc)) from None
 
 
@@ -177,12 +177,13 @@ def report(results, out_dir, no_example):
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="folder to write the solver into (created)")
 @click.option("--float", "use_float", is_flag=True, help="single precision (float) instead of double")
-def generate(problem_spec, out_dir, use_float):
+@click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed)")
+def generate(problem_spec, out_dir, use_float, force):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
     from .codegen.generate import generate as gen
 
     pb = load_problem(problem_spec)
-    info = gen(pb, out_dir, use_float=use_float)
+    info = gen(pb, out_dir, use_float=use_float, force=force)
     s = info.sizes
     click.echo(f"{info.name}: {pb.formulation.kind}, {pb.obstacles.kind}, N = {s['N']}, NX = {s['NX']}, "
                f"QP {s['QP_N']} variables x {s['QP_M']} rows, {s['QP_NNZ_A']} nonzeros in A")

@@ -11,6 +11,8 @@ import warnings
 from dataclasses import dataclass, field, fields, replace
 from typing import Union
 
+from .cnames import name_clash
+
 
 class ProblemError(ValueError):
     """An invalid problem description: names the field and the allowed range."""
@@ -395,6 +397,10 @@ class Problem:
     def __post_init__(self) -> None:
         _check(isinstance(self.name, str) and bool(_NAME.match(self.name)), "name", self.name,
                "a C identifier prefix: lower case letter, then [a-z0-9_], at most 31 characters")
+        clash = name_clash(self.name)
+        if clash:
+            raise ProblemError(f"name = {self.name!r} is invalid: it is {clash}; allowed a prefix of C symbols that "
+                               f"is no C keyword or reserved name and clashes with no OSQP, CasADi or C library symbol")
         _check(isinstance(self.formulation, (Conventional, DirectElimination, Lifted)), "formulation",
                self.formulation, "Conventional(), DirectElimination() or Lifted()")
         _check(isinstance(self.obstacles, (Ellipse, CoveringCircles, SeparatingHyperplane)), "obstacles",

@@ -30,6 +30,7 @@ from ..reference import EXIT_CODES, QP_CONTRACT, QP_EXIT, cold_max_iter, input_b
 from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
+from .folder import staged
 
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
@@ -252,6 +253,21 @@ def permutation_cycles(src: np.ndarray) -> np.ndarray:
 
 # --- sizes -------------------------------------------------------------------------------------------------------
 
+def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
+    """The size macros of ``<name>_solver.h`` (keys without the ``NAME_`` prefix), in header order."""
+    pb = ocp.problem
+    return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
+            "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
+            "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
+            "NNZ_J": int(lay.jac_off[-1])}
+
+
+def problem_sizes(problem: Problem) -> dict[str, int]:
+    """The size macros a solver generated from ``problem`` has (builds the OCP and its layout)."""
+    ocp = build_ocp(problem)
+    return size_macros(ocp, build_layout(ocp))
+
+
 def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     """sizeof a C struct of (size, align, count) members, with natural padding."""
     off, align_max = 0, 1
@@ -348,17 +364,27 @@ def toolchain_files(use_float: bool) -> dict[str, str]:
             for t in cross_targets(use_float)}
 
 
-def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> GenerateInfo:
-    """Write the C solver of ``problem`` into ``out_dir`` (created); returns what was written."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False) -> GenerateInfo:
+    """Write the C solver of ``problem`` into ``out_dir``; returns what was written.
+
+    The folder is written beside ``out_dir`` and moved into place when complete (:mod:`.folder`): a failed or
+    interrupted generation leaves ``out_dir`` as it was. A folder holding another solver (or files that are no
+    solver's) raises :class:`~.folder.FolderError` unless ``force`` (then the old solver's files are removed).
+    """
+    with staged(out_dir, problem.name, force) as tmp:
+        info = _generate_into(problem, tmp, use_float)
+    return dataclasses.replace(info, out_dir=Path(out_dir))
+
+
+def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> GenerateInfo:
+    """Write every file of the solver into the (new, empty) folder ``out_dir``."""
     name = problem.name
     NAME = name.upper()
     ocp = build_ocp(problem)
     lay = build_layout(ocp)
     real = "float" if use_float else "double"
     real_size = 4 if use_float else 8
-    N, nx, nu = ocp.N, ocp.nx, ocp.nu
+    nx = ocp.nx
     n_opp, n_opp_par = problem.opponents.count, ocp.n_opp_par
     rp = ocp.road_params
 
@@ -368,9 +394,7 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False) -> 
     qp_files = backend.write_files(ocp, lay, problem.qp, out_dir, use_float)
 
     # -- sizes (public macros) and private dimensions -----------------------------------------------------------
-    sizes = {"NX": nx, "NU": nu, "N": N, "NOPP": n_opp, "NOPP_PAR": n_opp_par, "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": problem.road.samples,
-             "ROAD_WINDOW": rp.samples, "NP": ocp.np_stage, "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma,
-             "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A, "NNZ_J": int(lay.jac_off[-1])}
+    sizes = size_macros(ocp, lay)
     slacks = slack_vars(ocp, lay)
     n_opp_all = max(1, n_opp * n_opp_par)
     if sizes["NNZ_J"] != sizes["QP_NNZ_A"]:

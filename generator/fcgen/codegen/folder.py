@@ -1,0 +1,134 @@
+"""The output folder of ``fcgen generate``: whose it is, and replacing it in one move.
+
+A solver is written into a temporary folder beside the target and moved into place when complete, so an interrupted
+or failed generation leaves the target as it was. A folder that holds a different solver (or files that are no
+solver's) is refused unless ``force``; with ``force`` the old solver's files go, the others stay. Regenerating the
+same solver keeps its ``build/`` and the modification times of unchanged files (``make`` rebuilds only what changed).
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+SHARED_FILES = ("main.c", "CMakeLists.txt", "Makefile", "README.md", "problem.py")
+"""Files of a solver folder that carry no solver name."""
+OWNED_DIRS = ("osqp", "build")
+"""Folders of a solver folder that belong to its solver (OSQP workspace and library copy, build products)."""
+
+
+class FolderError(ValueError):
+    """The output folder cannot take the solver (one line: names the folder, what is there and ``--force``)."""
+
+
+def solvers_in(folder: Path) -> list[str]:
+    """Names of the solvers whose ``<name>_solver.h`` is in ``folder`` (sorted)."""
+    return sorted(p.name[:-len("_solver.h")] for p in folder.glob("*_solver.h") if p.is_file())
+
+
+def _owned(entry: Path, names: list[str]) -> bool:
+    """True if ``entry`` (directly in a solver folder) belongs to one of the solvers ``names``."""
+    if entry.name in SHARED_FILES or entry.name in OWNED_DIRS:
+        return True
+    return any(entry.name.startswith(f"{n}_") for n in names)
+
+
+def check_target(out_dir: Path, name: str, force: bool) -> None:
+    """Raise :class:`FolderError` if ``out_dir`` cannot become the folder of solver ``name``."""
+    for p in (out_dir, *out_dir.parents):
+        if p.exists() and not p.is_dir():
+            what = "the output folder" if p == out_dir else f"a parent of {out_dir}"
+            raise FolderError(f"{out_dir}: {p} is a file, not a folder ({what}); choose a folder path")
+        if p.is_dir():
+            break
+    if not out_dir.is_dir():
+        return
+    here, target = Path.cwd().resolve(), out_dir.resolve()
+    if here == target or target in here.parents:
+        raise FolderError(f"{out_dir} holds the current directory; the folder is replaced as a whole: run fcgen from "
+                          f"outside it (e.g. cd ..)")
+    if force:
+        return
+    names = solvers_in(out_dir)
+    if names and names != [name]:
+        raise FolderError(f"{out_dir} holds the solver {', '.join(repr(n) for n in names)}, not {name!r}: nothing "
+                          f"written; use another folder or --force to replace it (its files are removed)")
+    if not names:
+        other = sorted(p.name for p in out_dir.iterdir())
+        if other:
+            raise FolderError(f"{out_dir} is not empty and holds no fcgen solver ({', '.join(other[:3])}"
+                              f"{', ...' if len(other) > 3 else ''}): nothing written; use an empty or new folder "
+                              f"or --force to write the solver beside these files")
+
+
+def _same(a: Path, b: Path) -> bool:
+    return a.is_file() and b.is_file() and a.stat().st_size == b.stat().st_size and a.read_bytes() == b.read_bytes()
+
+
+def _link(src: Path, dst: Path) -> None:
+    """``dst`` as a hard link of ``src`` (a copy where links are not possible); the original stays."""
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
+def _carry(src: Path, dst: Path) -> None:
+    if src.is_dir() and not src.is_symlink():
+        shutil.copytree(src, dst, symlinks=True, copy_function=_link)
+    elif src.is_symlink():
+        os.symlink(os.readlink(src), dst)
+    else:
+        _link(src, dst)
+
+
+def _adopt(old: Path, new: Path, name: str) -> None:
+    """Carry into ``new`` what of ``old`` survives (linked, so ``old`` stays intact until the swap): files that are
+    no solver's, and for the same solver its build/ and the times of unchanged files."""
+    names = solvers_in(old)
+    same = names == [name]
+    for entry in sorted(old.iterdir()):
+        if not _owned(entry, names) and not (new / entry.name).exists():
+            _carry(entry, new / entry.name)
+    if not same:
+        return
+    if (old / "build").is_dir() and not (new / "build").exists():
+        _carry(old / "build", new / "build")
+    for f in new.rglob("*"):
+        rel = f.relative_to(new)
+        if rel.parts[0] != "build" and _same(f, old / rel):
+            shutil.copystat(old / rel, f)
+
+
+@contextlib.contextmanager
+def staged(out_dir: Path | str, name: str, force: bool = False) -> Iterator[Path]:
+    """A temporary folder beside ``out_dir`` to write solver ``name`` into; moved onto ``out_dir`` on success.
+
+    On any exception (or interrupt) the temporary folder is removed and ``out_dir`` is untouched.
+    """
+    check_target(Path(out_dir), name, force)
+    out_dir = Path(os.path.realpath(out_dir))  # a symlinked folder: its target is replaced, the link stays
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-new-", dir=out_dir.parent))
+    old = None
+    try:
+        yield tmp
+        if out_dir.is_dir():
+            _adopt(out_dir, tmp, name)
+            old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-old-", dir=out_dir.parent))
+            os.replace(out_dir, old / "x")
+            try:
+                os.replace(tmp, out_dir)
+            except BaseException:
+                os.replace(old / "x", out_dir)
+                raise
+        else:
+            os.replace(tmp, out_dir)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None and out_dir.is_dir():  # never while the old folder could not be put back
+            shutil.rmtree(old, ignore_errors=True)
