@@ -134,7 +134,12 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
         array_bytes=_array_bytes((out_dir / exp.workspace_sources[0]).read_text(), 4 if use_float else 8),
         struct_bytes=OSQP_STRUCT_BYTES[use_float],
         memory_note="the arrays OSQP only\n  reads (matrix patterns, KKT maps, permutation, elimination tree, the factor's "
-                    "pattern) are `const` (flash) and\n  have no RAM copy", library=library)
+                    "pattern) are `const` (flash) and\n  have no RAM copy", library=library,
+        reset_note=f"The QP backend's workspace is restored from constant data (OSQP: `{name}_workspace_reset()` from "
+                   "`static const`\ncopies) before its next use. A QP's scaling is computed from that sample's data: "
+                   "OSQP recomputes it inside\n`osqp_update_data_mat` from the `q` it holds, so this sample's `q` is "
+                   "loaded first (the only trace of the previous\nsample left is one scale/unscale rounding of `q`: the "
+                   "step then differs by about 1e-11, where the previous order\nleft up to 0.3).")
 
 
 def restore_library(out_dir: Path, use_float: bool) -> list[str]:
