@@ -276,6 +276,7 @@ def format_bench_target(res: dict) -> str:
                  f"QP iterations mean {res['qp_iter']['mean']:.1f}, max {res['qp_iter']['max']} | QP status "
                  + ", ".join(f"{k} {v}" for k, v in res["qp_status_counts"].items())
                  + f" | progress {q['progress_mean']:.2f} m, collision samples {q['collision_samples']}")
+    return "\n".join(lines)
 
 
 # -- several QP backends, one run ---------------------------------------------------------------------------------
