@@ -78,6 +78,7 @@ class BackendFiles:
     array_bytes: int                       # RAM of the backend's arrays (LP64)
     struct_bytes: int                      # RAM of the backend's structs (LP64)
     memory_note: str = ""                  # README: what of the backend's data is const (flash)
+    memory_init_note: str = ""             # README: where its initial values come from ("; ..." or "")
     reset_note: str = ""                   # README: how its workspace is restored by init/reset
     library: BackendLibrary | None = None  # its own static library (None: all in lib<name>.a)
 

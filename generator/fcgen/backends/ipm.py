@@ -506,6 +506,7 @@ def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bo
     ws = _workspace_bytes(_members(stage_view(layout), layout), 4 if use_float else 8)
     return BackendFiles(sources=(), headers=(), library_sources=(), library_headers=(), include_dirs=(),
                         private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0,
+                        memory_init_note=": one struct, every array written before it is read",
                         memory_note="its index tables (the stage view of the QP layout) are `static const` (flash)",
                         reset_note="The QP backend's workspace (the IPM's one static struct) is zeroed before its next "
                                    "use; the IPM keeps no scaling\nand starts every QP from z = 0 and the previous "

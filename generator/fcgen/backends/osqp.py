@@ -135,6 +135,7 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
         struct_bytes=OSQP_STRUCT_BYTES[use_float],
         memory_note="the arrays OSQP only\n  reads (matrix patterns, KKT maps, permutation, elimination tree, the factor's "
                     "pattern) are `const` (flash) and\n  have no RAM copy", library=library,
+        memory_init_note="; its initial values are `static const` copies in flash",
         reset_note=f"The QP backend's workspace is restored from constant data (OSQP: `{name}_workspace_reset()` from "
                    "`static const`\ncopies) before its next use. A QP's scaling is computed from that sample's data: "
                    "OSQP recomputes it inside\n`osqp_update_data_mat` from the `q` it holds, so this sample's `q` is "
