@@ -1,6 +1,7 @@
 """Generated C solver: static memory, prefixed symbols, determinism, C == Python reference, bad inputs, linking."""
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import re
@@ -13,6 +14,7 @@ import pytest
 
 from fcgen.build import CSolver, build
 from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, float_math, generate
+from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem, preset
 from fcgen.reference import RtiSolver
@@ -344,6 +346,21 @@ def test_float_model_is_single_precision(tmp_path: Path) -> None:
                           "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", *objs], capture_output=True, text=True)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     assert all((info.out_dir / o).is_file() for o in objs)
+
+
+@pytest.mark.parametrize("obstacles", ["ellipse", "hyperplane"])  # the IPM's code without / with stage equalities
+def test_float_ipm_solver_is_single_precision(tmp_path: Path, obstacles: str) -> None:
+    """--float with the IPM backend: its C calls the float math functions and compiles with -Wdouble-promotion
+    -Werror; the folder builds lib<name>.a alone (no QP library)."""
+    p = paper_problem("car", "conventional", obstacles, name="car_ipmf")
+    p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4), qp=QpOptions(backend="ipm"))
+    info = generate(p, tmp_path / "f", use_float=True)
+    src = re.sub(r"/\*.*?\*/", "", (info.out_dir / "car_ipmf_solver.c").read_text(), flags=re.S)  # code only
+    assert re.search(r"\b(sqrt|fabs|floor|sin|cos)\(", src) is None and "sqrtf" in src and "fabsf" in src
+    res = subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/sp",
+                          "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", "lib"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    assert sorted(p.name for p in (info.out_dir / "build/sp").glob("*.a")) == ["libcar_ipmf.a"]
 
 
 def test_build_restores_osqp_library(tmp_path: Path) -> None:

@@ -212,6 +212,42 @@ def test_bench_target_instruction_counts(gen_double, tmp_path) -> None:
     assert json.loads(out.read_text())["instructions"] == ins  # the same counts again: independent of load
 
 
+# ----------------------------------------------------------------------------- the IPM backend: no extra library
+
+@pytest.fixture(scope="module")
+def gen_ipm(tmp_path_factory) -> GenerateInfo:
+    from dataclasses import replace
+
+    from fcgen.dsl import QpOptions
+    return generate(replace(preset(PRESET), qp=QpOptions(backend="ipm")), tmp_path_factory.mktemp("tgt") / "ipm")
+
+
+@needs_toolchain
+def test_ipm_folder_builds_one_library_and_runs_on_m7(gen_ipm, tmp_path) -> None:
+    """An IPM folder: lib<name>.a alone (host: + .so, example; no empty OSQP library), its build files never name
+    OSQP; the closed loop on the Cortex-M7 under QEMU computes what the host computes; footprint and bench run."""
+    d, name = gen_ipm.out_dir, gen_ipm.name
+    for f in ("Makefile", "CMakeLists.txt", "README.md"):
+        assert "osqp" not in (d / f).read_text().lower(), f
+    host = build(d).parent
+    assert sorted(p.name for p in host.iterdir() if p.is_file() and p.name != "flags.txt") == [
+        f"lib{name}.a", f"lib{name}.so", f"{name}_example"]
+    lib = build(d, target="cortex-m7")
+    assert sorted(p.name for p in lib.parent.iterdir() if p.is_file() and p.name != "flags.txt") == [f"lib{name}.a"]
+    log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300)
+    log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
+    _close(log_t, log_h, 1e-6)
+    assert set(log_t.qp_status) == {1}  # every QP solved
+    res = CliRunner().invoke(main, ["firmware-sim", str(d), "--target", "cortex-m7", "--samples", "2", "--out",
+                                    str(tmp_path / "cli.json")])
+    assert res.exit_code == 0 and "C firmware_sim on cortex-m7" in res.output, res.output
+    fp = footprint(d, "cortex-m7")
+    assert [r["object"] for r in fp["objects"]] == [f"{name}_model.o", f"{name}_solver.o"]
+    solver = next(r for r in fp["objects"] if r["object"] == f"{name}_solver.o")
+    assert abs(solver["bss"] - gen_ipm.workspace_bytes) < 256  # solver + IPM workspaces, all our .bss
+    assert fp["stack"]["worst_bytes"] > 0 and "osqp" not in fp["stack"]["indirect_targets"]
+
+
 # ----------------------------------------------------------------------------- footprint
 
 @needs_toolchain

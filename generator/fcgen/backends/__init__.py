@@ -51,6 +51,19 @@ class QpResult:
 
 
 @dataclass(frozen=True)
+class BackendLibrary:
+    """A backend's problem-independent static library ``lib<name>_<suffix>.a`` (of ``BackendFiles.library_sources``)."""
+
+    suffix: str        # lib<name>_<suffix>.a; CMake target <name>_<suffix>
+    label: str         # how the build files and README name it ("OSQP")
+    opt_var: str       # make variable of the extra flags of its sources (CMake: <NAME>_<opt_var>)
+    opt_flags: str     # their default
+    opt_reason: str    # why they get their own flags
+    sources_note: str  # README: its sources' flags and where the git-ignored ones come from
+    symbols_note: str  # README: how its symbols carry the solver's prefix
+
+
+@dataclass(frozen=True)
 class BackendFiles:
     """The extra files a generated folder needs for a backend (paths relative to the folder)."""
 
@@ -64,6 +77,10 @@ class BackendFiles:
     link_libs: tuple[str, ...]
     array_bytes: int                       # RAM of the backend's arrays (LP64)
     struct_bytes: int                      # RAM of the backend's structs (LP64)
+    memory_note: str = ""                  # README: what of the backend's data is const (flash)
+    memory_init_note: str = ""             # README: where its initial values come from ("; ..." or "")
+    reset_note: str = ""                   # README: how its workspace is restored by init/reset
+    library: BackendLibrary | None = None  # its own static library (None: all in lib<name>.a)
 
 
 class QpBackend(Protocol):

@@ -434,6 +434,8 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("FGd", (NX, NXU), "scratch: [F G] of a stage, dense"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
         ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
+    if sv.NE == 0:  # the stage-equality arrays exist only with stage equalities (the template's code too)
+        spec = [m for m in spec if m[0] not in ("UD", "LM", "D", "M", "W2")]
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
 
@@ -480,6 +482,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
     ]
+    if NE == 0:  # the template emits the stage-equality code only with stage equalities
+        tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
     top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
     out = [{"name": nm, "kind": "idx", "len": max(1, int(np.asarray(t).size)), "doc": doc,
@@ -501,7 +505,12 @@ def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bo
     """The IPM is all in the solver's C file: no extra files; its RAM is the workspace struct."""
     ws = _workspace_bytes(_members(stage_view(layout), layout), 4 if use_float else 8)
     return BackendFiles(sources=(), headers=(), library_sources=(), library_headers=(), include_dirs=(),
-                        private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0)
+                        private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0,
+                        memory_init_note=": one struct, every array written before it is read",
+                        memory_note="its index tables (the stage view of the QP layout) are `static const` (flash)",
+                        reset_note="The QP backend's workspace (the IPM's one static struct) is zeroed before its next "
+                                   "use; the IPM keeps no scaling\nand starts every QP from z = 0 and the previous "
+                                   "multipliers (the dual warm start): nothing else is carried over.")
 
 
 def restore_library(out_dir, use_float: bool) -> list[str]:

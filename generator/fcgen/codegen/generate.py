@@ -392,6 +392,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
 
     backend = backend_module(problem.qp.backend)
     qp_files = backend.write_files(ocp, lay, problem.qp, out_dir, use_float)
+    static_libs = [f"lib{name}.a", *([f"lib{name}_{qp_files.library.suffix}.a"] if qp_files.library else [])]
 
     # -- sizes (public macros) and private dimensions -----------------------------------------------------------
     sizes = size_macros(ocp, lay)
@@ -437,7 +438,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
         "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
-        "c_sin": "sinf" if use_float else "sin",
+        "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
+        "c_fabs": "fabsf" if use_float else "fabs",
         "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
         "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else "ws.opp",
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
@@ -449,7 +451,10 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
         "max_iter": problem.qp.max_iter, "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
-        "qp_files": qp_files, "model_cflags": MODEL_CFLAGS,
+        "qp_files": qp_files, "qp_lib": qp_files.library, "static_libs": static_libs,
+        "make_products": ", ".join(["static library", *([f"{qp_files.library.label} library"] if qp_files.library
+                                                         else []), "shared library", "example"]),
+        "model_cflags": MODEL_CFLAGS,
         "backend": backend.codegen_context(ocp, lay, problem.qp),
         "backend_template": f"backends/{problem.qp.backend}.c.j2", "backend_label": backend.LABEL,
         "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
