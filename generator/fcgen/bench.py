@@ -215,7 +215,7 @@ def _instr_stats(x: np.ndarray) -> dict[str, float]:
 
 
 def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, seeds: int = 1,
-                 samples: int = 50, timeout: float | None = None) -> dict:
+                 samples: int = 50, timeout: float | None = None, cflags: str | None = None) -> dict:
     """Instructions per prepare and per feedback on an emulated target (``fcgen bench --target``).
 
     Runs the bare-metal closed loop (``firmware_sim`` image) under QEMU with ``-icount shift=0``: every
@@ -238,7 +238,8 @@ def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, 
     t0 = time.perf_counter()
     for seed in range(seeds):
         out = gen_dir / tgt.build_subdir / "bench" / f"run_{scenario}_seed{seed}_{samples}.json"
-        logs.append(firmware_sim(gen_dir, scenario, seed, samples, out, target=target, timeout=timeout))
+        logs.append(firmware_sim(gen_dir, scenario, seed, samples, out, target=target, timeout=timeout,
+                                cflags=cflags))
     wall = time.perf_counter() - t0
     scale = tgt.instructions_per_second
     tp = np.round(np.concatenate([lg.time_prepare for lg in logs]) * scale)
@@ -247,7 +248,8 @@ def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, 
     agg = aggregate(logs)
     return {
         "format": "fcgen-bench-target/1", "solver": name, "gen_dir": str(gen_dir), "target": tgt.name,
-        "target_description": tgt.description, "qemu_machine": tgt.qemu_machine, "cflags": tgt.cflags(),
+        "target_description": tgt.description, "qemu_machine": tgt.qemu_machine,
+        "cflags": tgt.cflags(cflags if cflags is not None else "-O2"),
         "problem": pb.name, "scenario": scenario, "seeds": list(range(seeds)), "samples": samples,
         "granularity_instructions": scale / tgt.systick_hz,
         "instructions": {"prepare": _instr_stats(tp), "feedback": _instr_stats(tf), "total": _instr_stats(tp + tf)},

@@ -293,7 +293,8 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         ctx = click.get_current_context()
         n_seeds = seeds if ctx.get_parameter_source("seeds").name != "DEFAULT" else 1
         try:
-            res = bench_target(Path(solver_dir), target, scenario=scenario, seeds=n_seeds, samples=samples)
+            res = bench_target(Path(solver_dir), target, scenario=scenario, seeds=n_seeds, samples=samples,
+                               cflags=cflags)
         except HarnessError as exc:
             _fail(str(exc))
         click.echo(format_bench_target(res))
