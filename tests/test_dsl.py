@@ -324,3 +324,14 @@ def test_paper_problem_rejects_unknown_scenario_and_formulation():
         paper_problem("truck", "cartesian")
     with pytest.raises(ProblemError, match="obstacles"):
         paper_problem("truck", "lifted", "polygon")
+
+
+def test_preset_with_a_backend_suffix():
+    from fcgen.presets import is_preset, preset
+    pb = preset("truck_lifted_ellipse_ipm")
+    base = preset("truck_lifted_ellipse")
+    assert pb.qp.backend == "ipm" and base.qp.backend == "osqp"
+    assert pb.name == base.name + "_ipm" and pb.formulation == base.formulation and pb.obstacles == base.obstacles
+    assert not is_preset("truck_lifted_ellipse_qpoases") and not is_preset("truck_lifted_ipm")
+    with pytest.raises(ProblemError, match="preset = 'truck_lifted_ellipse_x' is unknown"):
+        preset("truck_lifted_ellipse_x")

@@ -5,7 +5,7 @@ import importlib.util
 from pathlib import Path
 
 from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, Problem,
-                  ProblemError, SeparatingHyperplane, Vehicle)
+                  ProblemError, QpOptions, SeparatingHyperplane, Vehicle)
 
 CAR = Vehicle()
 TRUCK = Vehicle(l_f=10.0, l_r=10.0, l_f_ch=13.0, l_r_ch=13.0, w_ch=4.0, m=3000.0)
@@ -52,14 +52,31 @@ def preset_names() -> list[str]:
     return [f"{sc}_{f}_{o}" for sc in SCENARIOS for f in FORMULATIONS for o in OBSTACLES]
 
 
+BACKEND_SUFFIXES = ("ipm",)
+"""A preset name may end in ``_<backend>`` for a QP backend other than the default OSQP (``truck_lifted_ellipse_ipm``)."""
+
+
 def preset(name: str) -> Problem:
-    """A preset by name, e.g. ``truck_lifted_ellipse``."""
+    """A preset by name, e.g. ``truck_lifted_ellipse`` (OSQP) or ``truck_lifted_ellipse_ipm`` (the IPM backend)."""
+    base, _, suffix = name.rpartition("_")
+    if suffix in BACKEND_SUFFIXES and base in preset_names():
+        pb = preset(base)
+        return pb.with_(name=f"{pb.name}_{suffix}", qp=QpOptions(backend=suffix))
     for sc in SCENARIOS:
         for f in FORMULATIONS:
             for o in OBSTACLES:
                 if name == f"{sc}_{f}_{o}":
                     return paper_problem(sc, f, o)
-    raise ProblemError(f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())}")
+    raise ProblemError(f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())} "
+                       f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)})")
+
+
+def is_preset(name: str) -> bool:
+    try:
+        preset(name)
+    except ProblemError:
+        return False
+    return True
 
 
 def load_problem(spec: str) -> Problem:

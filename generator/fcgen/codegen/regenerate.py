@@ -5,7 +5,7 @@ import filecmp
 import tempfile
 from pathlib import Path
 
-from ..presets import preset, preset_names
+from ..presets import is_preset, preset, preset_names
 from .generate import generate
 
 IGNORED = ("build", "osqp/lib", "golden")
@@ -38,7 +38,7 @@ def regenerate(root: Path | str, names: list[str] | None = None, check: bool = F
     """
     root = Path(root)
     found = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
-    unknown = [n for n in found if n not in preset_names()]
+    unknown = [n for n in found if not is_preset(n)]
     if unknown:
         raise ValueError(f"{root}: folders {unknown} are not preset names; allowed: {', '.join(preset_names())}")
     result = {}
