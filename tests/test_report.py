@@ -71,6 +71,20 @@ def test_findings_are_judged_on_the_rows():
     assert "truck EL: 445 vs 445 QP variables, 60 vs 60 iterations" in de.why
 
 
+def test_findings_name_the_conventional_fit_where_its_prepare_phase_dominates():
+    df = hand_rows()
+    conv = df["formulation"] == "conventional"
+    df.loc[conv, "time_prepare_ms_mean"] = 1.8      # of 2.0 ms: the fit; DE's prepare is 0.75 ms, lifted's 0.5 ms
+    fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
+    assert "opponent fit" not in fs["direct elimination about +30 % with EL"].why     # DE (3 ms) is the slower one
+    assert "opponent fit" not in fs["lifted ODE no slower than conventional"].why      # 2.0 ms both: not slower
+    for i in df.index[conv]:
+        df.at[i, "time_rti_ms"] = [4.0, 4.0]
+    fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
+    assert "truck EL: prepare 1.80 vs 0.50 ms" in fs["lifted ODE no slower than conventional"].why
+    assert "truck EL: prepare 1.80 vs 0.75 ms" in fs["direct elimination about +30 % with EL"].why
+
+
 def test_grid_estimate_scales_the_measured_wall_times():
     est = grid_estimate(hand_rows(), cores=2)
     # 3 configurations, mean CPU 0.5 s (wall 1.0 s) a run: 500 x 3 x 0.5 s on 2 cores
