@@ -45,9 +45,8 @@ IPM_SIZE = ("the interior-point QP runs until converged (its iterations are in t
             "Cartesian states (5 per stage) to every stage")
 #: why the time per RTI grows with the QP's size, per QP backend
 SIZE_WHY = {"osqp": CAPPED, "ipm": IPM_SIZE}
-SAME_QP = ("direct elimination keeps the conventional QP (same size, same iterations); its only extra work, the "
-           "obstacle rows through the Frenet-to-Cartesian map, is a small part of the prepare phase, and the QP "
-           "(feedback) dominates the time per RTI")
+SAME_QP = ("direct elimination keeps the conventional QP (same variables and rows); its only extra work, the obstacle "
+           "rows through the Frenet-to-Cartesian map, is a small part of the prepare phase")
 ELLIPSE = ("the covering ellipse (semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a 13 x 2 m "
            "half truck) keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or "
            "few circles do, so it overtakes later")
