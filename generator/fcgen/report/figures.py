@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
+from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
@@ -20,7 +21,8 @@ def _save(fig: Figure, stem: Path) -> list[Path]:
     out = []
     for ext in ("png", "svg"):
         p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=120, metadata={"Date": None} if ext == "svg" else None)
+        with rc_context({"svg.hashsalt": "fcgen"}):  # fixed SVG element ids: the same rows give the same files
+            fig.savefig(p, dpi=120, metadata={"Date": None} if ext == "svg" else None)
         out.append(p)
     return out
 
