@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from fcgen.campaign.store import REQUIRED_COLUMNS, ResultStore
 from fcgen.cli import main
-from fcgen.report import findings, tables
+from fcgen.report import backends, findings, tables
 from fcgen.report.page import busy_seconds, grid_estimate, write_report
 
 # per formulation: (time per RTI of seed 0, of seed 1) in ms, progress of seeds 0 and 1, collision of seed 1
@@ -71,6 +71,20 @@ def test_findings_are_judged_on_the_rows():
     assert "truck EL: 445 vs 445 QP variables, 60 vs 60 iterations" in de.why
 
 
+def test_findings_name_the_conventional_fit_where_its_prepare_phase_dominates():
+    df = hand_rows()
+    conv = df["formulation"] == "conventional"
+    df.loc[conv, "time_prepare_ms_mean"] = 1.8      # of 2.0 ms: the fit; DE's prepare is 0.75 ms, lifted's 0.5 ms
+    fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
+    assert "opponent fit" not in fs["direct elimination about +30 % with EL"].why     # DE (3 ms) is the slower one
+    assert "opponent fit" not in fs["lifted ODE no slower than conventional"].why      # 2.0 ms both: not slower
+    for i in df.index[conv]:
+        df.at[i, "time_rti_ms"] = [4.0, 4.0]
+    fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
+    assert "truck EL: prepare 1.80 vs 0.50 ms" in fs["lifted ODE no slower than conventional"].why
+    assert "truck EL: prepare 1.80 vs 0.75 ms" in fs["direct elimination about +30 % with EL"].why
+
+
 def test_grid_estimate_scales_the_measured_wall_times():
     est = grid_estimate(hand_rows(), cores=2)
     # 3 configurations, mean CPU 0.5 s (wall 1.0 s) a run: 500 x 3 x 0.5 s on 2 cores
@@ -103,3 +117,56 @@ def test_report_cli_errors_are_one_line(tmp_path):
     res = CliRunner().invoke(main, ["report", str(tmp_path / "old"), "-o", str(tmp_path / "rep")])
     assert res.exit_code == 1 and "lacks the column(s)" in res.output
     assert set(REQUIRED_COLUMNS) <= set(hand_rows().columns)
+
+
+def two_backend_rows() -> pd.DataFrame:
+    """hand_rows() under OSQP and again under the IPM: half the time per RTI, progress +2 m (seed 0) / -1 m (seed 1),
+    10 QP iterations, no collision; seed 1 of the IPM's conventional configuration not run."""
+    osqp = hand_rows()
+    ipm = osqp.copy()
+    ipm["backend"] = "ipm"
+    ipm["config"] = ipm["config"].str.replace("/osqp", "/ipm")
+    ipm["time_rti_ms"] = [list(0.5 * np.asarray(t)) for t in ipm["time_rti_ms"]]
+    ipm["progress"] = ipm["progress"] + np.where(ipm["seed"] == 0, 2.0, -1.0)
+    ipm["qp_iter_mean"], ipm["collision"], ipm["n_collision_samples"] = 10.0, False, 0
+    ipm = ipm[~((ipm["formulation"] == "conventional") & (ipm["seed"] == 1))]
+    return pd.concat([ipm, osqp], ignore_index=True)      # IPM rows first: the report still puts OSQP first
+
+
+def test_two_backends_are_compared_per_configuration_and_paired_by_seed():
+    df = two_backend_rows()
+    assert backends.backends_of(df) == ["osqp", "ipm"]
+    rows = {r["formulation"]: r for r in backends.compare(df, "osqp", "ipm")}
+    de = rows["direct_elimination"]
+    assert de["time_base"] == 3.0 and de["time_other"] == 1.5 and de["ratio"] == pytest.approx(0.5)
+    assert de["dprog_mean"] == pytest.approx(0.5) and de["dprog_absmax"] == 2.0 and de["paired"] == 2
+    assert (de["other_better"], de["other_worse"]) == (1, 1) and (de["iter_base"], de["iter_other"]) == (60, 10)
+    conv = rows["conventional"]               # only seed 0 under both: paired once; times pooled per backend
+    assert conv["paired"] == 1 and conv["dprog_mean"] == 2.0 and conv["time_other"] == pytest.approx(1.0)
+    assert conv["ratio"] == pytest.approx(0.5)     # IPM seed 0: 0.5, 1.5 (mean 1.0) against OSQP 2.0
+    assert rows["lifted"]["coll_base"] == 1 and rows["lifted"]["coll_other"] == 0
+    s = backends.summary(list(rows.values()))
+    assert s["ratio_geo"] == pytest.approx(0.5) and s["paired"] == 5 and s["coll_base"] == 1
+    assert s["dprog_mean"] == pytest.approx((2 + (2 - 1) + (2 - 1)) / 5)     # per paired run, not per config
+
+
+def test_report_of_two_backends_has_every_table_per_backend(tmp_path):
+    ResultStore(tmp_path / "res").write(two_backend_rows().to_dict("records"))
+    text = write_report(tmp_path / "res", tmp_path / "rep", example=False).read_text()
+    for b in ("osqp", "ipm"):
+        for head in ("Table III: time per RTI", "Progress and collisions", "The paper's findings",
+                     "Soft constraint", "Rate and the full grid"):
+            assert text.count(f"## {head}") == 2 and f"{head}" in text
+            assert f"— QP backend {b}" in text
+        for ext in ("png", "svg"):
+            assert (tmp_path / "rep" / f"boxplots_truck_{b}.{ext}").stat().st_size > 5000
+    assert text.index("QP backend osqp") < text.index("QP backend ipm") and "osqp truck: 3 configurations" in text
+    assert text.index("osqp truck: 3 configurations x 2 seeds") < text.index("ipm truck: 3 configurations x 2 seeds")
+    # OSQP's Table III is the single-backend one (+50 % for DE); the IPM's halves every time, same percentages
+    assert "| truck | EL | 2.00 ± 0.71 | 3.00 ± 1.00 | +50.0 % |" in text
+    assert "| truck | EL | 1.00 ± 0.50 | 1.50 ± 0.50 | +50.0 % |" in text      # conventional: IPM seed 0 only
+    assert "ipm takes 0.50 x osqp's time per RTI" in text and "2.0 x faster" in text
+    assert "Runs with a collision: 1 of 6 (osqp), 0 of 5 (ipm)" in text
+    # the IPM's zero-collision finding holds, OSQP's fails
+    fz = [line for line in text.splitlines() if line.startswith("| zero collisions")]
+    assert [("**fails**" in f, "**holds**" in f) for f in fz] == [(True, False), (False, True)]

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
+from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
@@ -20,13 +21,15 @@ def _save(fig: Figure, stem: Path) -> list[Path]:
     out = []
     for ext in ("png", "svg"):
         p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=120, metadata={"Date": None} if ext == "svg" else None)
+        with rc_context({"svg.hashsalt": "fcgen"}):  # fixed SVG element ids: the same rows give the same files
+            fig.savefig(p, dpi=120, metadata={"Date": None} if ext == "svg" else None)
         out.append(p)
     return out
 
 
-def box_plots(df: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """One figure per scenario: time per RTI (every RTI) and final progress (every run), boxes per model x form."""
+def box_plots(df: pd.DataFrame, out_dir: Path, suffix: str = "") -> list[Path]:
+    """One figure per scenario: time per RTI (every RTI) and final progress (every run), boxes per model x form;
+    ``suffix`` (e.g. ``_ipm``) ends the file names and names the QP backend in the titles."""
     written = []
     for sc in dict.fromkeys(df["scenario"]):
         models = [m for s, m in groups(df) if s == sc]
@@ -55,10 +58,11 @@ def box_plots(df: pd.DataFrame, out_dir: Path) -> list[Path]:
             ax.grid(True, axis="y", lw=0.3)
         ax_t.set_yscale("log")
         ctrl = "/".join(sorted(df[df["scenario"] == sc]["controller"].unique()))
-        ax_t.set_title(f"{sc}-sized opponents: time per RTI ({ctrl} controller)")
-        ax_p.set_title(f"{sc}-sized opponents: final progress")
+        qp = f", QP backend {suffix.lstrip('_')}" if suffix else ""
+        ax_t.set_title(f"{sc}-sized opponents: time per RTI ({ctrl} controller{qp})")
+        ax_p.set_title(f"{sc}-sized opponents: final progress{qp}")
         ax_t.legend(handles=[Patch(color=COLORS[f], label=FORM_LABEL[f]) for f in FORMS], fontsize=8, loc="best")
-        written += _save(fig, out_dir / f"boxplots_{sc}")
+        written += _save(fig, out_dir / f"boxplots_{sc}{suffix}")
     return written
 
 

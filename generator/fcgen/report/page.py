@@ -6,7 +6,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..campaign.store import read_results
-from . import figures, findings, tables
+from . import backends, figures, findings, tables
 
 PAPER_RUNS_PER_CONFIG = 500
 CLOCK_TEXT = {"cpu": "thread's CPU time (`--clock cpu`: other processes on the machine do not count)",
@@ -54,41 +54,36 @@ def grid_estimate(df: pd.DataFrame, cores: int = 2) -> dict:
             "load": float(df["load_1min"].mean()) if "load_1min" in df else float("nan")}
 
 
-def write_report(results: str | Path, out_dir: str | Path, example: bool = True) -> Path:
-    """Write every artefact into ``out_dir``; returns the markdown page."""
-    df = read_results(results)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    t_rows, p_rows, a_rows = tables.time_table(df), tables.progress_table(df), tables.alat_table(df)
-    figs = figures.box_plots(df, out)
-    if example:
-        figs += figures.example_run(df, out)
-    fs = findings.judge(t_rows, p_rows)
-    est = grid_estimate(df)
+def _conv_note(df: pd.DataFrame) -> str:
     conv_fit = df[df["formulation"] == "conventional"]["n_opp_par"]
-    conv_note = ("" if conv_fit.empty else
-                 "The conventional solver takes the opponents' Cartesian poses and fits their Frenet boxes itself: its "
-                 "time per RTI includes the fitting." if int(conv_fit.iloc[0]) == 3 else
-                 "Note: the conventional solver here still takes the opponents' Frenet boxes fitted in Python, outside "
-                 "the timed solver, so its time per RTI is understated.")
-    grid = df.groupby(["scenario", "samples"]).agg(configs=("config", "nunique"), runs=("seed", "size"),
-                                                   seeds=("seed", "nunique")).reset_index()
-    lines = [
-        "# Campaign report", "",
-        "Results: " + ", ".join(f"{r.scenario}: {r.configs} configurations x {r.seeds} seeds x {r.samples} samples "
-                                f"({r.runs} runs)" for r in grid.itertuples()) + ".",
-        f"Controllers: {', '.join(sorted(df['controller'].unique()))}; QP backend: "
-        f"{', '.join(sorted(df['backend'].unique()))}; fcgen solver hashes: {df['solver_hash'].nunique()}; the "
-        f"solver timed by its {' and '.join(CLOCK_TEXT[c] for c in sorted(df['clock'].unique()))}.", "",
-        "## Table III: time per RTI (ms, mean ± std over every RTI), beside the paper's", "",
-        tables.md_time_table(t_rows), "", conv_note, "",
+    if conv_fit.empty:
+        return ""
+    if int(conv_fit.iloc[0]) == 3:
+        return ("The conventional solver takes the opponents' Cartesian poses and fits their Frenet boxes itself: its "
+                "time per RTI includes the fitting.")
+    return ("Note: the conventional solver here still takes the opponents' Frenet boxes fitted in Python, outside "
+            "the timed solver, so its time per RTI is understated.")
+
+
+def _tables(df: pd.DataFrame, tag: str = "", backend: str = "osqp") -> list[str]:
+    """Table III, where the time goes, progress, findings and the soft constraint of rows of one QP backend;
+    ``tag`` ends every heading (e.g. `` — QP backend ipm``)."""
+    t_rows, p_rows, a_rows = tables.time_table(df), tables.progress_table(df), tables.alat_table(df)
+    fs = findings.judge(t_rows, p_rows, backend=backend)
+    return [
+        f"## Table III: time per RTI (ms, mean ± std over every RTI), beside the paper's{tag}", "",
+        tables.md_time_table(t_rows), "", _conv_note(df), "",
         "Where the time goes:", "", tables.md_time_detail(t_rows), "",
-        "## Progress and collisions", "", tables.md_progress_table(p_rows), "",
-        "## The paper's findings", "", findings.md_findings(fs), "",
-        "## Soft constraint: |a_lat| above its bound", "", tables.md_alat_table(a_rows), "",
-        "## Figures", "",
-        *[f"![{p.stem}]({p.name})" for p in figs if p.suffix == ".png"], "",
-        "## Rate and the full grid", "",
+        f"## Progress and collisions{tag}", "", tables.md_progress_table(p_rows), "",
+        f"## The paper's findings{tag}", "", findings.md_findings(fs), "",
+        f"## Soft constraint: |a_lat| above its bound{tag}", "", tables.md_alat_table(a_rows), ""]
+
+
+def _rates(df: pd.DataFrame, tag: str = "") -> list[str]:
+    """Runs per second per core per obstacle model and the full grid's estimate, of rows of one QP backend."""
+    est = grid_estimate(df)
+    return [
+        f"## Rate and the full grid{tag}", "",
         "| scenario | model | runs | CPU per run s | runs/s per core (CPU) | wall per run s | runs/s per core (wall) |",
         "|---|---|---|---|---|---|---|",
         *[f"| {r['scenario']} | {r['model']} | {r['runs']} | {r['cpu_mean_s']:.3f} | {r['runs_per_s_core']:.2f} "
@@ -100,8 +95,51 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True)
         f"needs {est['core_s'] / 3600:.2f} CPU core-hours: **{est['wall_min']:.0f} min on {est['cores']} free "
         f"cores** ({est['wall_min_loaded']:.0f} min at the wall times measured here). Of that, the solver itself "
         f"(time per RTI x RTIs, by its {'/'.join(sorted(df['clock'].unique()))} clock) takes "
-        f"{est['solver_min']:.0f} min.", "",
-    ]
+        f"{est['solver_min']:.0f} min.", ""]
+
+
+def _backend_comparison(df: pd.DataFrame, names: list[str]) -> list[str]:
+    base = names[0]
+    lines = ["## QP backend against QP backend", ""]
+    for other in names[1:]:
+        rows = backends.compare(df, base, other)
+        lines += [backends.md_summary(backends.summary(rows), base, other), "", backends.md_compare(rows, base, other),
+                  ""]
+    return lines
+
+
+def write_report(results: str | Path, out_dir: str | Path, example: bool = True) -> Path:
+    """Write every artefact into ``out_dir``; returns the markdown page. Rows of several QP backends get every
+    table, finding and figure per backend, and a backend-against-backend comparison."""
+    df = read_results(results)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = backends.backends_of(df)
+    split = [(b, df[df["backend"] == b]) for b in names]
+    many = len(names) > 1
+    figs = []
+    for b, sub in split:
+        figs += figures.box_plots(sub, out, suffix=f"_{b}" if many else "")
+    if example:
+        figs += figures.example_run(df, out)
+    grid = df.groupby(["backend", "scenario", "samples"]).agg(configs=("config", "nunique"), runs=("seed", "size"),
+                                                              seeds=("seed", "nunique")).reset_index()
+    grid = grid.sort_values("backend", key=lambda col: col.map(names.index), kind="stable")
+    lines = [
+        "# Campaign report", "",
+        "Results: " + ", ".join((f"{r.backend} " if many else "") + f"{r.scenario}: {r.configs} configurations x "
+                                f"{r.seeds} seeds x {r.samples} samples ({r.runs} runs)" for r in grid.itertuples())
+        + ".",
+        f"Controllers: {', '.join(sorted(df['controller'].unique()))}; QP backend: "
+        f"{', '.join(names)}; fcgen solver hashes: {df['solver_hash'].nunique()}; the "
+        f"solver timed by its {' and '.join(CLOCK_TEXT[c] for c in sorted(df['clock'].unique()))}.", ""]
+    if many:
+        lines += _backend_comparison(df, names)
+    for b, sub in split:
+        lines += _tables(sub, f" — QP backend {b}" if many else "", backend=b)
+    lines += ["## Figures", "", *[f"![{p.stem}]({p.name})" for p in figs if p.suffix == ".png"], ""]
+    for b, sub in split:
+        lines += _rates(sub, f" — QP backend {b}" if many else "")
     page = out / "README.md"
     page.write_text("\n".join(lines))
     return page
