@@ -155,8 +155,13 @@ def test_reset_and_init_equal_a_fresh_library(fresh, inputs):
     used = fresh("used", init=True)
     other = _inputs(seed=4, samples=25)  # another road, other opponents
     for how, history in (("reset", other), ("init", other[:5])):
-        for inp in history:  # 25 (then 5) solves with other data
-            assert good_sample(used, inp) == 0
+        for j, inp in enumerate(history):  # 25 (then 5) solves with other data
+            rc = good_sample(used, inp)
+            if how == "init":  # warm from the last plan of `inputs`, 21 m ahead and 3.8 m aside of the new state: the
+                # capped QP's step leaves the input box by 49 %, refused; the kept plan never meets the state again
+                assert rc == CODE["ERR_QP_INPUT_BOUNDS"], j
+            else:
+                assert rc == 0
         x0, road, opp = other[len(history) - 1]
         assert used.set_road(road) == 0 and used.prepare() == 0
         if how == "init":  # a garbage QP (n = 1e15) before init: capped at 60 iterations, a huge step
@@ -282,21 +287,21 @@ def test_python_reference_rejects_with_the_same_codes(inputs):
 
 
 def test_projection_is_reported(inputs):
-    """A capped QP (2 iterations) leaves the box: get_u0 is the projection, flag and size in the status."""
+    """A capped QP (12 iterations: u_violation up to 0.03 here, within MAX_INPUT_VIOLATION) leaves the box: get_u0 is
+    the projection, flag and size in the status. (Capped at 2 to 4 iterations the steps leave the box by more than
+    the margin and are refused, ERR_QP_INPUT_BOUNDS.)"""
+    from fcgen.reference import MAX_INPUT_VIOLATION
     pb = preset(PRESET)
     lo, hi, lim = input_box(pb)
-    sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, max_iter=2, max_iter_cold=2))
+    sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, max_iter=12, max_iter_cold=12))
     seen = 0
     for x0, road, opp in inputs:
         sv.set_road(road)
         sv.set_opponents(opp)
-        try:
-            u = sv.step(x0)
-        except SolverError:
-            continue
+        u = sv.step(x0)
         plan_u0 = sv.controls()[0]
         excess = np.maximum(np.abs(plan_u0) - lim, 0.0) / lim
-        assert np.all(lo <= u) and np.all(u <= hi)
+        assert np.all(lo <= u) and np.all(u <= hi) and excess.max() <= MAX_INPUT_VIOLATION
         if np.any(excess > 0):
             seen += 1
             assert sv.status.u_projected == 1 and sv.status.u_violation == pytest.approx(excess.max(), rel=1e-12)
@@ -304,7 +309,7 @@ def test_projection_is_reported(inputs):
         else:
             assert sv.status.u_projected == 0 and sv.status.u_violation == 0.0
             np.testing.assert_array_equal(u, plan_u0)
-    assert seen >= 1
+    assert seen >= 5
 
 
 def test_c_projection_flag_matches_the_plan(fresh, inputs):

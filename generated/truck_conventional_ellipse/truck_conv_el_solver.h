@@ -76,7 +76,8 @@ enum {
  *   shifted twice and inputs set in between are used from the next prepare after a feedback on.
  * QP outcome (feedback): usable = TRUCK_CONV_EL_QP_SOLVED, _QP_SOLVED_INACCURATE, _QP_MAX_ITER, each with a finite step
  *   whose u0 leaves the input box by at most TRUCK_CONV_EL_MAX_INPUT_VIOLATION (u_violation, see Input bounds): more is
- *   no tolerance but a garbage step (a capped QP on an absurd state) and gives TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS.
+ *   no tolerance but a garbage step (a capped QP on an absurd state) and gives TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS. The
+ *   plan is kept, so a state that stays far from it (a jump) is refused sample after sample: reset() then.
  *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= 0.05) -> TRUCK_CONV_EL_OK; get_u0: u0 of the new plan, projected on the input box; plan: the new plan (guess + step), its multipliers
  *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > 0.05: far outside the input box) -> TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS; get_u0: fallback; plan: kept: the shifted previous plan
  *   QP_PRIMAL_INFEASIBLE -> TRUCK_CONV_EL_ERR_QP_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
