@@ -155,8 +155,13 @@ def test_reset_and_init_equal_a_fresh_library(fresh, inputs):
     used = fresh("used", init=True)
     other = _inputs(seed=4, samples=25)  # another road, other opponents
     for how, history in (("reset", other), ("init", other[:5])):
-        for inp in history:  # 25 (then 5) solves with other data
-            assert good_sample(used, inp) == 0
+        for j, inp in enumerate(history):  # 25 (then 5) solves with other data
+            rc = good_sample(used, inp)
+            if how == "init":  # warm from the last plan of `inputs`, 21 m ahead and 3.8 m aside of the new state: the
+                # capped QP's step leaves the input box by 49 %, refused; the kept plan never meets the state again
+                assert rc == CODE["ERR_QP_INPUT_BOUNDS"], j
+            else:
+                assert rc == 0
         x0, road, opp = other[len(history) - 1]
         assert used.set_road(road) == 0 and used.prepare() == 0
         if how == "init":  # a garbage QP (n = 1e15) before init: capped at 60 iterations, a huge step
@@ -282,21 +287,21 @@ def test_python_reference_rejects_with_the_same_codes(inputs):
 
 
 def test_projection_is_reported(inputs):
-    """A capped QP (2 iterations) leaves the box: get_u0 is the projection, flag and size in the status."""
+    """A capped QP (12 iterations: u_violation up to 0.03 here, within MAX_INPUT_VIOLATION) leaves the box: get_u0 is
+    the projection, flag and size in the status. (Capped at 2 to 4 iterations the steps leave the box by more than
+    the margin and are refused, ERR_QP_INPUT_BOUNDS.)"""
+    from fcgen.reference import MAX_INPUT_VIOLATION
     pb = preset(PRESET)
     lo, hi, lim = input_box(pb)
-    sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, max_iter=2, max_iter_cold=2))
+    sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, max_iter=12, max_iter_cold=12))
     seen = 0
     for x0, road, opp in inputs:
         sv.set_road(road)
         sv.set_opponents(opp)
-        try:
-            u = sv.step(x0)
-        except SolverError:
-            continue
+        u = sv.step(x0)
         plan_u0 = sv.controls()[0]
         excess = np.maximum(np.abs(plan_u0) - lim, 0.0) / lim
-        assert np.all(lo <= u) and np.all(u <= hi)
+        assert np.all(lo <= u) and np.all(u <= hi) and excess.max() <= MAX_INPUT_VIOLATION
         if np.any(excess > 0):
             seen += 1
             assert sv.status.u_projected == 1 and sv.status.u_violation == pytest.approx(excess.max(), rel=1e-12)
@@ -304,7 +309,7 @@ def test_projection_is_reported(inputs):
         else:
             assert sv.status.u_projected == 0 and sv.status.u_violation == 0.0
             np.testing.assert_array_equal(u, plan_u0)
-    assert seen >= 1
+    assert seen >= 5
 
 
 def test_c_projection_flag_matches_the_plan(fresh, inputs):
@@ -359,3 +364,117 @@ def test_qp_scaling_depends_only_on_this_samples_data(inputs):
             assert worst < bound
         else:
             assert worst > 1e-3  # the defect the order fixes is visible
+
+
+@pytest.mark.parametrize("n_bad", [10.0, 100.0, 1e15])
+def test_absurd_state_on_a_warm_start_c_and_python(fresh, inputs, monkeypatch, n_bad):
+    """The hole of the capped QP (OSQP, 60 iterations): on a warm start an absurd lateral offset n stops OSQP at
+    MAX_ITER with a finite but huge step. Its u0 beyond the input box by more than MAX_INPUT_VIOLATION: the QP is
+    unusable (ERR_QP_INPUT_BOUNDS), the step is not taken, get_u0 is the fallback, and the next good sample recovers
+    without reset(). Within the margin (n = 10: 1.2 %): OK, projected and flagged, as before. C == Python, bitwise."""
+    import fcgen.reference as reference
+    pb = preset(PRESET)
+    lo, hi, lim = input_box(pb)
+    cs = fresh(f"absurd{n_bad:g}")
+    sv = RtiSolver(build_ocp(pb))
+    for inp in inputs[:4]:
+        assert good_sample(cs, inp) == 0
+        sv.set_road(inp[1])
+        sv.set_opponents(inp[2])
+        sv.step(inp[0])
+    prev_controls = cs.controls()
+    x0, road, opp = inputs[4]
+    bad = np.r_[x0[0], n_bad, x0[2:]]
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.prepare() == 0 and cs.set_state(bad) == 0
+    rc, st, qp = cs.feedback(), cs.status(), cs.get_qp()
+    assert st.qp_status in QP_USABLE and st.qp_iter == pb.qp.max_iter  # capped: the contract calls it usable
+    # the step the QP proposed, from the C's own z: u0 of (prepared guess + D z); the prepared guess's u0 is u_1 of
+    # the previous plan, whatever became of the plan
+    lay = sv.lay
+    iu = lay.var_off[0] + sv.ocp.nx + np.arange(sv.ocp.nu)
+    step_u0 = prev_controls[1] + lay.D[iu] * qp["z"][iu]
+    step_violation = float(np.max(np.maximum(np.abs(step_u0) - lim, 0.0) / lim))
+    sv.set_road(road)
+    sv.set_opponents(opp)
+    sv.prepare()
+    sv.set_state(bad)
+    if n_bad == 10.0:  # within the margin: today's behaviour, the step is taken, the control projected and flagged
+        assert 0.0 < step_violation <= reference.MAX_INPUT_VIOLATION
+        assert rc == CODE["OK"] and st.u_projected == 1 and st.u_violation == pytest.approx(step_violation, rel=1e-12)
+        np.testing.assert_array_equal(cs.controls()[0], step_u0)
+        np.testing.assert_array_equal(cs.u0(), np.clip(step_u0, lo, hi))
+        sv.feedback()
+    else:
+        assert step_violation > 10.0  # 10 .. 1e14: far beyond any tolerance
+        assert rc == CODE["ERR_QP_INPUT_BOUNDS"] == st.exit_code
+        np.testing.assert_array_equal(cs.controls()[:-1], prev_controls[1:])  # no step: the shifted previous plan
+        np.testing.assert_array_equal(cs.u0(), np.clip(prev_controls[1], lo, hi))  # the fallback, in the box
+        assert np.all(lo <= cs.u0()) and np.all(cs.u0() <= hi)
+        assert st.u_projected == int(np.any(np.abs(prev_controls[1]) > lim))  # describes the fallback
+        with pytest.raises(SolverError) as exc:
+            sv.feedback()
+        assert exc.value.code == "ERR_QP_INPUT_BOUNDS" and sv.status.exit_code == rc
+    assert sv.z.tobytes() == qp["z"].tobytes()
+    assert (sv.status.qp_status, sv.status.qp_raw_status, sv.status.qp_iter, sv.status.u_projected,
+            np.float64(sv.status.u_violation).tobytes()) == snapshot(cs)["status"][1:]
+    assert sv.u0().tobytes() == cs.u0().tobytes() and sv.states().tobytes() == cs.states().tobytes()
+    # the next sample, a good state again, recovers from the kept plan without reset(), in C and Python alike
+    for inp in inputs[5:7]:
+        assert good_sample(cs, inp) == 0
+        sv.set_road(inp[1])
+        sv.set_opponents(inp[2])
+        u = sv.step(inp[0])
+        assert cs.status().u_violation <= 0.01 and np.all(np.isfinite(cs.states()))
+        assert u.tobytes() == cs.u0().tobytes() and sv.states().tobytes() == cs.states().tobytes()
+    if n_bad != 10.0:  # before the rule (no margin): OK with the huge step, the plan garbage
+        monkeypatch.setattr(reference, "MAX_INPUT_VIOLATION", float("inf"))
+        old = RtiSolver(build_ocp(pb))
+        for inp in inputs[:4]:
+            old.set_road(inp[1])
+            old.set_opponents(inp[2])
+            old.step(inp[0])
+        old.set_road(road)
+        old.set_opponents(opp)
+        old.prepare()
+        old.set_state(bad)
+        old.feedback()
+        assert old.status.exit_code == 0 and old.status.u_violation == pytest.approx(step_violation, rel=1e-12)
+
+
+def test_ipm_backend_goes_through_the_same_rule(tmp_path, monkeypatch):
+    """The input-bounds rule lives in the RTI core, not in a backend. The IPM keeps u_0 inside the box on these QPs
+    (u_violation 0.0: it never meets the margin), so this build sets the margin below 0, which refuses every usable
+    QP: the IPM's usable QPs end in ERR_QP_INPUT_BOUNDS with the step not taken, in the C and in Python alike."""
+    import fcgen.codegen.generate as gen
+    import fcgen.reference as reference
+    from fcgen.dsl import Horizon, QpOptions
+    from fcgen.presets import paper_problem
+    pb = paper_problem("truck", "lifted", "ellipse", horizon=Horizon(N=10), qp=QpOptions(backend="ipm"))
+    ocp = build_ocp(pb)
+    sc = make_scenario("truck", 1, samples=2)
+    opp = OpponentParams(pb, sc)
+    samples = [(sc.x0.copy(), sc.road.window(sc.x0[0] - WINDOW_BEHIND, pb.road.samples), opp.horizon(j))
+               for j in range(2)]
+    normal = RtiSolver(ocp)  # the real margin: the IPM's QP is usable and inside the box, OK
+    normal.set_road(samples[0][1])
+    normal.set_opponents(samples[0][2])
+    normal.step(samples[0][0])
+    assert normal.status.exit_code == 0 and normal.status.u_violation == 0.0
+    monkeypatch.setattr(reference, "MAX_INPUT_VIOLATION", -1.0)
+    monkeypatch.setattr(gen, "MAX_INPUT_VIOLATION", -1.0)
+    info = generate(pb, tmp_path / "g")
+    header = info.out_dir / f"{info.name}_solver.h"
+    assert f"#define {info.name.upper()}_MAX_INPUT_VIOLATION (-1.0)" in header.read_text()
+    cs = CSolver(build(info.out_dir, verify=True), header=header)
+    sv = RtiSolver(ocp)
+    for j, (x0, road, o) in enumerate(samples):
+        assert good_sample(cs, (x0, road, o)) == CODE["ERR_QP_INPUT_BOUNDS"]
+        st = cs.status()
+        assert st.qp_status in QP_USABLE and st.exit_code == CODE["ERR_QP_INPUT_BOUNDS"]
+        assert np.all(cs.controls() == 0.0) and np.all(cs.u0() == 0.0)  # the initial guess kept (shifted)
+        sv.set_road(road)
+        sv.set_opponents(o)
+        with pytest.raises(SolverError) as exc:
+            sv.step(x0)
+        assert exc.value.code == "ERR_QP_INPUT_BOUNDS" and sv.status.qp_status == st.qp_status
+        assert sv.u0().tobytes() == cs.u0().tobytes() and sv.states().tobytes() == cs.states().tobytes(), j

@@ -102,6 +102,9 @@ def test_fuzz_random_call_sequences(fuzz):
     # the contract paths are exercised too: unusable QPs (with their fallback checked), projected controls
     assert c["feedback_ok"] > 100 and c["feedback_unusable_qp"] > 0 and c["fallbacks_checked"] > 0, c
     assert c["feedback_u_projected"] > 0 and c["restarts_init"] > 0 and c["restarts_reset"] > 0, c
+    # capped QPs on absurd states with a step far outside the input box: refused (the harness checks that no OK
+    # leaves the box by more than MAX_INPUT_VIOLATION), with the fallback checked like every unusable QP
+    assert c["feedback_input_bounds"] == c.get("rc_ERR_QP_INPUT_BOUNDS", 0) > 0, c
     # the good sequence after every restart (init or reset) and among rejected calls is the fresh solver's, bitwise
     assert c["bitwise_checked"] == (30 + 1) * 8 and c["bitwise_equal"] == c["bitwise_checked"], c
 

@@ -23,20 +23,32 @@ from .road import Road
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
               "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
-              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET")
-"""Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order."""
+              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET",
+              "ERR_QP_INPUT_BOUNDS")
+"""Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
+appended, so a code keeps its number)."""
+
+MAX_INPUT_VIOLATION = 0.05
+"""The largest input-box violation (``u_violation``: max_i excess_i / limit_i) a usable QP's step may have: beyond
+it the QP counts as unusable (``ERR_QP_INPUT_BOUNDS``). A usable QP's u0 leaves the box only by its tolerance: normal
+closed loops (capped at 60 iterations) peak at 0.0008, a cold start capped at 60 left 0.016; a warm-started QP
+capped on an absurd state (n = 100 m, 1e15) left 10 .. 1e14 with a garbage plan. 5 % of the bound is 3x the worst
+tolerance case and far below the garbage. Emitted as ``<NAME>_MAX_INPUT_VIOLATION``."""
 
 QP_EXIT = {0: "ERR_QP", QP_SOLVED: "OK", QP_SOLVED_INACCURATE: "OK", QP_MAX_ITER: "OK",
            QP_PRIMAL_INFEASIBLE: "ERR_QP_INFEASIBLE", QP_DUAL_INFEASIBLE: "ERR_QP_DUAL_INFEASIBLE",
            QP_NONCONVEX: "ERR_QP_NONCONVEX", QP_NONFINITE: "ERR_QP_NONFINITE", QP_NUMERICAL: "ERR_QP_NUMERICAL",
            QP_OTHER: "ERR_QP"}
 """The QP outcome contract: the exit code feedback() returns for each generic QP status (OK: the step is taken).
-A usable status with a non-finite step or multipliers counts as QP_NONFINITE."""
+A usable status with a non-finite step or multipliers counts as QP_NONFINITE; one whose step's u0 leaves the input box
+by more than MAX_INPUT_VIOLATION gives ERR_QP_INPUT_BOUNDS (the status stays the backend's)."""
 assert set(QP_EXIT) == set(range(len(QP_STATUSES) + 1)) and {s for s, c in QP_EXIT.items() if c == "OK"} == set(QP_USABLE)
 
 QP_CONTRACT = (
-    ("QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step)", "OK",
-     "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
+    (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= {MAX_INPUT_VIOLATION:g})",
+     "OK", "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
+    (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > {MAX_INPUT_VIOLATION:g}"
+     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", "kept: the shifted previous plan"),
     ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
     ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
     ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", "kept: the shifted previous plan"),
@@ -131,8 +143,9 @@ class RtiSolver:
 
     The same contract as the generated C (see its header): a rejected call raises :class:`SolverError` and changes
     nothing but ``status.exit_code``; ``prepare()`` while prepared is a no-op; an unusable QP raises with its code
-    (``QP_EXIT``), the step is not taken, the plan becomes the prepared (shifted) guess and ``u0()`` is its first
-    control projected on the input box (the fallback).
+    (``QP_EXIT``; ``ERR_QP_INPUT_BOUNDS`` for a usable one whose u0 is far outside the input box), the step is not
+    taken, the plan becomes the prepared (shifted) guess and ``u0()`` is its first control projected on the input box
+    (the fallback).
     """
 
     def __init__(self, ocp: Ocp, layout: QpLayout | None = None, qp: QpOptions | None = None):
@@ -342,6 +355,9 @@ class RtiSolver:
         code = QP_EXIT.get(qs, "ERR_QP")
         if code == "OK":
             self.w = self.w_prep + lay.D * res.z
+            if project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)[1] > MAX_INPUT_VIOLATION:
+                code = "ERR_QP_INPUT_BOUNDS"  # a usable status, but the step is far outside the input box
+        if code == "OK":
             self.y = res.y
         else:  # the step is not taken: the plan becomes the prepared (shifted) guess
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
@@ -350,8 +366,9 @@ class RtiSolver:
         st.exit_code = EXIT_CODES.index(code)
         st.time_feedback = time.perf_counter() - t0
         if code != "OK":
+            why = ", u0 far outside the input box" if code == "ERR_QP_INPUT_BOUNDS" else ""
             raise SolverError(code, f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
-                                    f"{res.raw_status}): step not taken, fallback control")
+                                    f"{res.raw_status}{why}): step not taken, fallback control")
         return self.u0()
 
     # -- outputs ------------------------------------------------------------------------------------

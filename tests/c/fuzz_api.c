@@ -87,7 +87,7 @@ static double extreme(void) {
 /* ------------------------------------------------------------------------------------------------ counts */
 #define MAX_CODE 64
 static long n_calls, n_invalid, n_rejected_ok, n_rc[MAX_CODE], n_qs[MAX_CODE];
-static long n_fb_ok, n_fb_unusable, n_projected, n_fallback_checked, n_checked, n_equal, n_episodes;
+static long n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_projected, n_fallback_checked, n_checked, n_equal, n_episodes;
 static long violations;
 static long v_wrong_code, v_status, v_changed, v_box, v_qp_code, v_fallback, v_mismatch, v_good_rejected;
 static double max_u_violation, max_du_mismatch;
@@ -113,6 +113,8 @@ static const char *code_name(int rc) {
     case U_(_ERR_QP_NONCONVEX): return "ERR_QP_NONCONVEX";
     case U_(_ERR_QP_NONFINITE): return "ERR_QP_NONFINITE";
     case U_(_ERR_QP_NUMERICAL): return "ERR_QP_NUMERICAL";
+    case U_(_ERR_OPP_FRENET): return "ERR_OPP_FRENET";
+    case U_(_ERR_QP_INPUT_BOUNDS): return "ERR_QP_INPUT_BOUNDS";
     default: return NULL;
   }
 }
@@ -133,7 +135,8 @@ static const char *qp_status_name(int qs) {
   }
 }
 
-/* the QP outcome contract: the code a feedback that solved a QP returns for its status */
+/* the QP outcome contract: the code a feedback that solved a QP returns for its status (a usable status may also
+ * give ERR_QP_INPUT_BOUNDS: its step's u0 was beyond the input box by more than MAX_INPUT_VIOLATION) */
 static int qp_exit(int qs) {
   switch (qs) {
     case U_(_QP_SOLVED): case U_(_QP_SOLVED_INACCURATE): case U_(_QP_MAX_ITER): return U_(_OK);
@@ -149,7 +152,8 @@ static int qp_exit(int qs) {
 /* a feedback return code that means "the sample was consumed by a QP" (not a rejected call) */
 static int qp_outcome(int rc) {
   return rc == U_(_OK) || rc == U_(_ERR_QP) || rc == U_(_ERR_QP_INFEASIBLE) || rc == U_(_ERR_QP_DUAL_INFEASIBLE) ||
-         rc == U_(_ERR_QP_NONCONVEX) || rc == U_(_ERR_QP_NONFINITE) || rc == U_(_ERR_QP_NUMERICAL);
+         rc == U_(_ERR_QP_NONCONVEX) || rc == U_(_ERR_QP_NONFINITE) || rc == U_(_ERR_QP_NUMERICAL) ||
+         rc == U_(_ERR_QP_INPUT_BOUNDS);
 }
 
 /* what a rejected call must not change */
@@ -216,16 +220,20 @@ static void check_qp_outcome(int rc) {
   S_(_get_status)(&st);
   if (st.qp_status >= 0 && st.qp_status < MAX_CODE) ++n_qs[st.qp_status];
   if (!qp_status_name(st.qp_status)) violation(&v_qp_code, "undocumented QP status", st.qp_status, rc);
-  if (rc != qp_exit(st.qp_status)) violation(&v_qp_code, "exit code is not the QP status's (code, status)", rc,
-                                             st.qp_status);
+  if (rc == U_(_ERR_QP_INPUT_BOUNDS) ? qp_exit(st.qp_status) != U_(_OK) : rc != qp_exit(st.qp_status))
+    violation(&v_qp_code, "exit code is not the QP status's (code, status)", rc, st.qp_status);
   check_applied();
   if (st.u_projected) ++n_projected;
   if ((double)st.u_violation > max_u_violation) max_u_violation = (double)st.u_violation;
   if (rc == U_(_OK)) {
     ++n_fb_ok;
+    if (!((double)st.u_violation <= U_(_MAX_INPUT_VIOLATION)))
+      violation(&v_box, "OK with u0 beyond the input box by more than MAX_INPUT_VIOLATION", st.u_violation,
+                U_(_MAX_INPUT_VIOLATION));
     return;
   }
   ++n_fb_unusable;
+  if (rc == U_(_ERR_QP_INPUT_BOUNDS)) ++n_fb_input_bounds;
   if (!prev_known) return;
   ++n_fallback_checked;
   S_(_get_states)(x);
@@ -623,8 +631,8 @@ int main(int argc, char **argv) {
     if (n_rc[c]) printf("rc %s %ld\n", code_name(c) ? code_name(c) : "unknown", n_rc[c]);
   for (c = 0; c < MAX_CODE; ++c)
     if (n_qs[c]) printf("qp %s %ld\n", qp_status_name(c) ? qp_status_name(c) : "unknown", n_qs[c]);
-  printf("feedback_ok %ld\nfeedback_unusable_qp %ld\nfallbacks_checked %ld\nfeedback_u_projected %ld\nmax_u_violation %.6g\n",
-         n_fb_ok, n_fb_unusable, n_fallback_checked, n_projected, max_u_violation);
+  printf("feedback_ok %ld\nfeedback_unusable_qp %ld\nfeedback_input_bounds %ld\nfallbacks_checked %ld\nfeedback_u_projected %ld\nmax_u_violation %.6g\n",
+         n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_fallback_checked, n_projected, max_u_violation);
   printf("bitwise_checked %ld\nbitwise_equal %ld\n", n_checked, n_equal);
   printf("violation_wrong_code %ld\nviolation_status %ld\nviolation_rejected_call_changed %ld\n"
          "violation_u_outside_box %ld\nviolation_qp_code %ld\nviolation_fallback %ld\nviolation_mismatch %ld\n"

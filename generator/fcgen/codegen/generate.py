@@ -26,7 +26,8 @@ from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
-from ..reference import EXIT_CODES, QP_CONTRACT, QP_EXIT, cold_max_iter, input_box, theta_init  # noqa: F401 (re-exported)
+from ..reference import (EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
+                         input_box, theta_init)
 from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
@@ -431,7 +432,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "qp_usable": [QP_STATUSES[s - 1] for s in QP_USABLE],
         "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
                                         for s in range(1, len(QP_STATUSES) + 1)],
-        "qp_contract": QP_CONTRACT, "first_state_member": FIRST_STATE_MEMBER,
+        "qp_contract": QP_CONTRACT, "max_input_violation": _c_real(MAX_INPUT_VIOLATION),
+        "first_state_member": FIRST_STATE_MEMBER,
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(opp_names),
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
