@@ -3732,8 +3732,8 @@ static int initial_guess(truck_lift_el_ipm_real_t *w, truck_lift_el_ipm_real_t *
   return TRUCK_LIFT_EL_IPM_OK;
 }
 
-/* The control to apply: u0 of plan w projected on the hard input box; the status reports the projection. */
-static void apply_control(const truck_lift_el_ipm_real_t *w) {
+/* u0 of plan w projected on the hard input box into u; returns the largest excess relative to the limit (0 inside). */
+static truck_lift_el_ipm_real_t project_u0(const truck_lift_el_ipm_real_t *w, truck_lift_el_ipm_real_t u[TRUCK_LIFT_EL_IPM_NU]) {
   int i;
   truck_lift_el_ipm_real_t worst = 0.0;
   for (i = 0; i < TRUCK_LIFT_EL_IPM_NU; ++i) {
@@ -3741,11 +3741,17 @@ static void apply_control(const truck_lift_el_ipm_real_t *w) {
     const truck_lift_el_ipm_real_t lo = U_LO[i];
     const truck_lift_el_ipm_real_t hi = U_HI[i];
     const truck_lift_el_ipm_real_t excess = (v < lo) ? ((lo - v) / U_LIM[i]) : ((v > hi) ? ((v - hi) / U_LIM[i]) : REAL_0);
-    ws.u_applied[i] = (v < lo) ? lo : ((v > hi) ? hi : v);
+    u[i] = (v < lo) ? lo : ((v > hi) ? hi : v);
     if (excess > worst) {
       worst = excess;
     }
   }
+  return worst;
+}
+
+/* The control to apply: u0 of plan w projected on the hard input box; the status reports the projection. */
+static void apply_control(const truck_lift_el_ipm_real_t *w) {
+  const truck_lift_el_ipm_real_t worst = project_u0(w, ws.u_applied);
   ws.status.u_projected = worst > REAL_0;
   ws.status.u_violation = worst;
 }
@@ -3930,9 +3936,15 @@ int truck_lift_el_ipm_feedback(void) {
   ws.status.qp_iter = res.iter;
   code = QP_EXIT[((qs >= 0) && (qs <= 9)) ? qs : TRUCK_LIFT_EL_IPM_QP_OTHER];
   if (code == TRUCK_LIFT_EL_IPM_OK) {
+    truck_lift_el_ipm_real_t u_step[TRUCK_LIFT_EL_IPM_NU];
     for (i = 0; i < TRUCK_LIFT_EL_IPM_QP_N; ++i) {
       ws.w[i] = ws.w_tmp[i] + (D[i] * res.z[i]);
     }
+    if ((double)project_u0(ws.w, u_step) > TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION) {
+      code = TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS; /* a usable status, but the step is far outside the input box */
+    }
+  }
+  if (code == TRUCK_LIFT_EL_IPM_OK) {
     copy(res.y, ws.y, TRUCK_LIFT_EL_IPM_QP_M);
   } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
     copy(ws.w_tmp, ws.w, TRUCK_LIFT_EL_IPM_QP_N);

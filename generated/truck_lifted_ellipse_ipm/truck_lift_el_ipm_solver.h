@@ -49,7 +49,8 @@ enum {
   TRUCK_LIFT_EL_IPM_ERR_QP_NONCONVEX = 11,
   TRUCK_LIFT_EL_IPM_ERR_QP_NONFINITE = 12,
   TRUCK_LIFT_EL_IPM_ERR_QP_NUMERICAL = 13,
-  TRUCK_LIFT_EL_IPM_ERR_OPP_FRENET = 14
+  TRUCK_LIFT_EL_IPM_ERR_OPP_FRENET = 14,
+  TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS = 15
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -73,8 +74,12 @@ enum {
  *   leaves l, u, A_x of the attempt and a freshly reset backend; plan and duals are kept, nothing is prepared.
  * prepare() while a preparation is pending (no feedback since) is a no-op returning TRUCK_LIFT_EL_IPM_OK: the guess is not
  *   shifted twice and inputs set in between are used from the next prepare after a feedback on.
- * QP outcome (feedback): usable = TRUCK_LIFT_EL_IPM_QP_SOLVED, _QP_SOLVED_INACCURATE, _QP_MAX_ITER, each with a finite step.
- *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step) -> TRUCK_LIFT_EL_IPM_OK; get_u0: u0 of the new plan, projected on the input box; plan: the new plan (guess + step), its multipliers
+ * QP outcome (feedback): usable = TRUCK_LIFT_EL_IPM_QP_SOLVED, _QP_SOLVED_INACCURATE, _QP_MAX_ITER, each with a finite step
+ *   whose u0 leaves the input box by at most TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION (u_violation, see Input bounds): more is
+ *   no tolerance but a garbage step (a capped QP on an absurd state) and gives TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS. The
+ *   plan is kept, so a state that stays far from it (a jump) is refused sample after sample: reset() then.
+ *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= 0.05) -> TRUCK_LIFT_EL_IPM_OK; get_u0: u0 of the new plan, projected on the input box; plan: the new plan (guess + step), its multipliers
+ *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > 0.05: far outside the input box) -> TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS; get_u0: fallback; plan: kept: the shifted previous plan
  *   QP_PRIMAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
  *   QP_DUAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_DUAL_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
  *   QP_NONCONVEX -> TRUCK_LIFT_EL_IPM_ERR_QP_NONCONVEX; get_u0: fallback; plan: kept: the shifted previous plan
@@ -86,12 +91,16 @@ enum {
  *   sample shifts the kept plan again and can recover. After any feedback the sample is consumed (prepare next).
  * Input bounds: get_u0 always lies in the hard box |F_d| <= F_d_max, |r| <= r_max. If the plan's u0 leaves it (a QP
  *   solved to a tolerance or capped), get_u0 is its projection and status.u_projected = 1, status.u_violation =
- *   max_i (excess_i / limit_i). The plan itself (get_states/get_controls) is not changed.
+ *   max_i (excess_i / limit_i), at most TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION after OK. The plan itself (get_states/
+ *   get_controls) is not changed. After an unusable QP these describe the fallback.
  * init(): bitwise the zero-initialized solver (except the clock). reset(): the same but keeps the inputs (state,
  *   road, opponents); any call sequence after either gives bitwise what a fresh solver gives. The QP backend is
  *   restored from constant data before its next use. A QP's scaling is computed from that sample's data (OSQP: its
  *   q is loaded before the matrices; one scale/unscale rounding of q remains, a step differs by ~1e-11 at most).
  */
+
+/* A usable QP's step may leave the input box by this much (max_i excess_i / limit_i); beyond: ERR_QP_INPUT_BOUNDS. */
+#define TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION (0.05)
 
 /* What the last call reported. time_*: seconds measured with the clock given to set_clock (0 without one). */
 typedef struct {
