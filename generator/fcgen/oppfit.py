@@ -37,7 +37,7 @@ import numpy as np
 
 from . import obstacles as obs
 from .dsl import Conventional, Problem
-from .road import _hermite
+from .road import _hermite, window_segment
 
 SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
 FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sample and one on either side
@@ -71,17 +71,9 @@ class OppFit:
 def _foot_road(s, win):
     """The road interpolant (road.py's formula) at s on a point's window [s_w0, ds, kappa, phi, gx, gy, cos phi,
     sin phi] (the node slopes precomputed once per road sample): kappa, phi_gamma, gamma, gamma'."""
-    K = FOOT_WINDOW
-    s_w0, ds = win[0], win[1]
-    arr = [win[2 + j * K: 2 + (j + 1) * K] for j in range(6)]
-    t = (s - s_w0) / ds
-    i = ca.fmin(ca.fmax(ca.floor(t), 0), K - 2)
-    tau = t - i
-
-    def pick(a, off):
-        return sum((i == j) * a[j + off] for j in range(K - 1))
-
-    k0, k1, p0, p1, x0, x1, y0, y1, c0, c1, s0, s1 = (pick(a, off) for a in arr for off in (0, 1))
+    ds = win[1]
+    tau, ends = window_segment(s, win, FOOT_WINDOW, 6)
+    (k0, k1), (p0, p1), (x0, x1), (y0, y1), (c0, c1), (s0, s1) = ends
     phi, _ = _hermite(tau, ds, p0, p1, k0, k1)
     gx, dgx = _hermite(tau, ds, x0, x1, c0, c1)
     gy, dgy = _hermite(tau, ds, y0, y1, s0, s1)

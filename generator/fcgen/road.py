@@ -203,9 +203,17 @@ class RoadWindowParams:
 
 def casadi_road(s, p, samples: int):
     """kappa, phi_gamma, gamma_x, gamma_y (and the tangent) at symbolic s from a window parameter vector p."""
+    tau, ends = window_segment(s, p, samples, 4)
+    (k0, k1), (p0, p1), (x0, x1), (y0, y1) = ends
+    return _segment(tau, p[1], k0, k1, p0, p1, x0, x1, y0, y1, ca.cos, ca.sin)
+
+
+def window_segment(s, p, samples: int, arrays: int):
+    """The segment of symbolic s in a window vector p = [s_w0, ds, arrays x samples values]: its local coordinate
+    tau in [0, 1] and, per array, the values at the segment's two ends (selected without branches)."""
     K = samples
     s_w0, ds = p[0], p[1]
-    arr = [p[2 + j * K: 2 + (j + 1) * K] for j in range(4)]
+    arr = [p[2 + j * K: 2 + (j + 1) * K] for j in range(arrays)]
     t = (s - s_w0) / ds
     i = ca.fmin(ca.fmax(ca.floor(t), 0), K - 2)
     tau = t - i
@@ -213,11 +221,7 @@ def casadi_road(s, p, samples: int):
     def pick(a, off):
         return sum((i == j) * a[j + off] for j in range(K - 1))
 
-    k0, k1 = pick(arr[0], 0), pick(arr[0], 1)
-    p0, p1 = pick(arr[1], 0), pick(arr[1], 1)
-    x0, x1 = pick(arr[2], 0), pick(arr[2], 1)
-    y0, y1 = pick(arr[3], 0), pick(arr[3], 1)
-    return _segment(tau, ds, k0, k1, p0, p1, x0, x1, y0, y1, ca.cos, ca.sin)
+    return tau, [(pick(a, 0), pick(a, 1)) for a in arr]
 
 
 def casadi_to_cartesian(s, n, alpha, p, samples: int):
