@@ -80,6 +80,7 @@ class BackendFiles:
     memory_note: str = ""                  # README: what of the backend's data is const (flash)
     memory_init_note: str = ""             # README: where its initial values come from ("; ..." or "")
     reset_note: str = ""                   # README: how its workspace is restored by init/reset
+    precision_note: str = ""               # README: what a float build changes in its settings ("": nothing)
     library: BackendLibrary | None = None  # its own static library (None: all in lib<name>.a)
 
 

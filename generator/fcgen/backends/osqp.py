@@ -43,10 +43,29 @@ def generic_status(raw: int) -> int:
     return RAW_STATUS.get(int(raw), QP_OTHER)
 
 
-def osqp_settings(opts: "QpOptions") -> dict:
-    """OSQP settings, identical for the Python package and the generated code."""
+FLOAT_SIGMA_MIN = 1e-3
+"""The smallest OSQP ``sigma`` of a float build (the generator raises ``qp.sigma`` to it; double builds keep it).
+
+Measured on the QPs of truck_lifted_ellipse closed loops (docs/performance.md, "Single precision in closed loop"):
+started at the converged solution, one float ADMM iteration moves the scaled step by 5e-3 (median, up to 4e-2) with
+sigma = 1e-6, 9e-4 with 1e-4 and 1e-4 with 1e-3, independently of rho (0.2 or 1) and of rho_eq: sigma is the only
+curvature of the KKT system in the directions the costs and active rows leave free, and float's rounding of that
+system (about 1e-7 relative, on diagonal terms up to rho_eq = 1e3 rho) is amplified by 1/sigma. That noise floor kept
+the float solve 8e-3 (median) from the double one at the 60-iteration cap and the closed loop +1.1 % from double's
+progress; with sigma = 1e-3 the float solve is within 4e-4 of the double solve (the double solve itself moves by
+4e-4 from sigma = 1e-6 to 1e-3; at 1e-2 it moves by 4e-3) and the closed loop within 0.01 %."""
+
+
+def osqp_sigma(opts: "QpOptions", use_float: bool = False) -> float:
+    """The ``sigma`` a build uses: ``qp.sigma``, in a float build at least :data:`FLOAT_SIGMA_MIN`."""
+    return max(opts.sigma, FLOAT_SIGMA_MIN) if use_float else opts.sigma
+
+
+def osqp_settings(opts: "QpOptions", use_float: bool = False) -> dict:
+    """OSQP settings, identical for the Python package and the generated code of that precision (only ``sigma``
+    depends on it, :func:`osqp_sigma`; the Python reference computes in double with the double build's settings)."""
     return dict(max_iter=opts.max_iter, eps_abs=opts.eps_abs, eps_rel=opts.eps_rel, eps_prim_inf=1e-5,
-                eps_dual_inf=1e-5, rho=opts.rho, sigma=opts.sigma, alpha=opts.alpha,
+                eps_dual_inf=1e-5, rho=opts.rho, sigma=osqp_sigma(opts, use_float), alpha=opts.alpha,
                 adaptive_rho=opts.adaptive_rho, scaling=opts.scaling,
                 check_termination=opts.check_termination, check_dualgap=False, warm_starting=opts.warm_start,
                 polishing=False, verbose=False)
@@ -116,7 +135,7 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
     out_dir = Path(out_dir)
     P, q, A, l, u = _setup_data(layout)
     name = ocp.problem.name
-    exp = export_osqp(P, A, q, l, u, osqp_settings(opts), out_dir, f"{name}_", use_float)
+    exp = export_osqp(P, A, q, l, u, osqp_settings(opts, use_float), out_dir, f"{name}_", use_float)
     private = ", ".join(f"`{d}`" for d in exp.private_include_dirs)
     library = BackendLibrary(
         suffix="osqp", label="OSQP", opt_var="OSQP_OPTFLAGS", opt_flags="-O3",
@@ -126,6 +145,12 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
                      "installed osqp package.",
         symbols_note=f"OSQP's and QDLDL's included (`{name}_osqp_solve`, ...:\n`osqp/{name}_osqp_rename.h`, included "
                      "by `osqp_configure.h`, renames them in every file that includes an OSQP\nheader)")
+    sigma = osqp_sigma(opts, use_float)
+    precision = "" if sigma == opts.sigma else (
+        f"**Single precision.** This float build runs OSQP with `sigma = {sigma:g}` (`qp.sigma` = {opts.sigma:g}, "
+        "which the double build\nand the Python reference use): below it, float's rounding of the KKT system, "
+        "amplified by 1/sigma, kept\nthe capped ADMM about 8e-3 (scaled step, median) from the double solve on "
+        "truck_lifted_ellipse (fcgen's\ndocs/performance.md); with it, about 4e-4.")
     return BackendFiles(
         sources=exp.workspace_sources, headers=exp.workspace_headers,
         library_sources=exp.library_sources, library_headers=exp.library_headers,
@@ -140,7 +165,8 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
                    "`static const`\ncopies) before its next use. A QP's scaling is computed from that sample's data: "
                    "OSQP recomputes it inside\n`osqp_update_data_mat` from the `q` it holds, so this sample's `q` is "
                    "loaded first (the only trace of the previous\nsample left is one scale/unscale rounding of `q`: the "
-                   "step then differs by about 1e-11, where the previous order\nleft up to 0.3).")
+                   "step then differs by about 1e-11, where the previous order\nleft up to 0.3).",
+        precision_note=precision)
 
 
 def restore_library(out_dir: Path, use_float: bool) -> list[str]:
