@@ -45,12 +45,14 @@ for backend in args.backends.split(","):
             s = summary(lg)
             prog.append(s["progress"]); coll += s["n_collision_samples"] > 0
             st.update(s["qp_status_counts"])
-        out[f"{backend}-{'float' if fl else 'double'}"] = dict(progress_mean=float(np.mean(prog)), runs_with_collision=coll, qp_status=dict(st), progress=prog)
+        out[f"{backend}-{'float' if fl else 'double'}"] = dict(progress_mean=float(np.mean(prog)), runs_with_collision=coll,
+                                                              qp_status=dict(st), progress=prog)
         print(backend, "float" if fl else "double", f"{np.mean(prog):.2f}", coll, dict(st), flush=True)
     dbl, flt = (np.array(out[f"{backend}-{p}"]["progress"]) for p in ("double", "float"))
     rel = 100 * (flt / dbl - 1)
-    out[f"{backend}-compare"] = dict(mean_rel_pct=float(100 * (flt.mean() / dbl.mean() - 1)), seed_min_pct=float(rel.min()),
-                                     seed_max_pct=float(rel.max()), seeds_beyond_half_pct=int(np.sum(np.abs(rel) > 0.5)))
+    out[f"{backend}-compare"] = dict(mean_rel_pct=float(100 * (flt.mean() / dbl.mean() - 1)),
+                                     seed_min_pct=float(rel.min()), seed_max_pct=float(rel.max()),
+                                     seeds_beyond_half_pct=int(np.sum(np.abs(rel) > 0.5)))
     print(backend, "float - double: mean %+.3f %%, per seed %+.2f .. %+.2f %%, %d seeds beyond 0.5 %%"
           % tuple(out[f"{backend}-compare"].values()), flush=True)
 (root / "float_vs_double.json").write_text(json.dumps(out, indent=1))

@@ -46,14 +46,18 @@ def generic_status(raw: int) -> int:
 FLOAT_SIGMA_MIN = 1e-3
 """The smallest OSQP ``sigma`` of a float build (the generator raises ``qp.sigma`` to it; double builds keep it).
 
-Measured on the QPs of truck_lifted_ellipse closed loops (docs/performance.md, "Single precision in closed loop"):
-started at the converged solution, one float ADMM iteration moves the scaled step by 5e-3 (median, up to 4e-2) with
-sigma = 1e-6, 9e-4 with 1e-4 and 1e-4 with 1e-3, independently of rho (0.2 or 1) and of rho_eq: sigma is the only
-curvature of the KKT system in the directions the costs and active rows leave free, and float's rounding of that
-system (about 1e-7 relative, on diagonal terms up to rho_eq = 1e3 rho) is amplified by 1/sigma. That noise floor kept
-the float solve 8e-3 (median) from the double one at the 60-iteration cap and the closed loop +1.1 % from double's
-progress; with sigma = 1e-3 the float solve is within 4e-4 of the double solve (the double solve itself moves by
-4e-4 from sigma = 1e-6 to 1e-3; at 1e-2 it moves by 4e-3) and the closed loop within 0.01 %."""
+Measured on the QPs of a truck_lifted_ellipse closed loop (``scripts/float_kkt_diagnosis.py``; docs/performance.md,
+"Single precision in closed loop"): at the converged solution one KKT solve (OSQP's QDLDL factorization of the
+quasi-definite KKT matrix) should give the solution back; in float it is off by 5.2e-3 (scaled step, median; up to
+1.8e-2) with sigma = 1e-6, 7.6e-4 with 1e-4 and 7.1e-5 with 1e-3 (double: 6e-10 for all three). sigma sets the
+smallest pivots of the LDL' factorization (2e-5 with sigma = 1e-6, 1e-3 with 1e-3), and the pivots they leave in the
+constraint block grow to |d| = 1e6 (1.3e3 with 1e-3): element growth, a backward error (one step of iterative
+refinement in float brings the 5.2e-3 to 8e-5, at the cost of a second solve per iteration). The noise this
+injects at every ADMM iteration kept the capped float solve 8e-3 (median) from the double one and the closed loop
++1.1 % from double's progress. With sigma = 1e-3 the capped float solve is 1.4e-4 from the double solve of the same
+sigma and 4e-4 from the double build's (sigma = 1e-6 to 1e-3 moves the double solve by 4e-4), the closed loop is
+within 0.01 % of double, at no cost per iteration. The error does not depend on rho (0.2 or 1); a smaller rho_eq
+(1e2 rho) slows both precisions."""
 
 
 def osqp_sigma(opts: "QpOptions", use_float: bool = False) -> float:
@@ -148,9 +152,9 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
     sigma = osqp_sigma(opts, use_float)
     precision = "" if sigma == opts.sigma else (
         f"**Single precision.** This float build runs OSQP with `sigma = {sigma:g}` (`qp.sigma` = {opts.sigma:g}, "
-        "which the double build\nand the Python reference use): below it, float's rounding of the KKT system, "
-        "amplified by 1/sigma, kept\nthe capped ADMM about 8e-3 (scaled step, median) from the double solve on "
-        "truck_lifted_ellipse (fcgen's\ndocs/performance.md); with it, about 4e-4.")
+        "which the double build\nand the Python reference use): with a smaller sigma the float factorization of "
+        "OSQP's KKT matrix is\nunstable (tiny pivots), which kept the capped ADMM about 8e-3 (scaled step, median) "
+        "from the double solve on\ntruck_lifted_ellipse (fcgen's docs/performance.md); with it, about 4e-4.")
     return BackendFiles(
         sources=exp.workspace_sources, headers=exp.workspace_headers,
         library_sources=exp.library_sources, library_headers=exp.library_headers,
