@@ -316,6 +316,8 @@ class QpOptions:
     rho is what decides how good a capped solve is: on truck_lifted_ellipse (20 seeds, cap 60) rho = 1 left the
     closed loop 3.7 % (up to 14 % per seed) behind the converged progress, rho = 0.2 within 0.15 % (at most 1 %),
     with no larger slacks or lateral accelerations; rho <= 0.15 undershoots the soft constraints (larger slacks).
+    ``sigma``: a float build raises it to ``fcgen.backends.osqp.FLOAT_SIGMA_MIN`` (1e-3): with 1e-6 float's
+    factorization of OSQP's KKT matrix is unstable (docs/performance.md, "Single precision in closed loop").
     """
 
     max_iter: int = 60
