@@ -17,6 +17,7 @@ import pytest
 from fcgen.backends import osqp as osqp_backend
 from fcgen.build import CSolver, build
 from fcgen.codegen.generate import generate
+from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.qp import build_layout
@@ -73,3 +74,10 @@ def test_float_osqp_with_double_sigma_does_not(tmp_path: Path, monkeypatch: pyte
     monkeypatch.setattr(osqp_backend, "FLOAT_SIGMA_MIN", 1e-6)
     d = _float_vs_double(tmp_path)
     assert np.median(d) > 1e-3 and np.max(d) > 1e-2, (np.median(d), np.max(d))  # measured: 3.5e-3, 4.6e-2
+
+
+def test_float_sigma_rule() -> None:
+    """Only a float build changes sigma, and only upwards: a larger qp.sigma is kept."""
+    assert osqp_backend.osqp_settings(QpOptions())["sigma"] == 1e-6
+    assert osqp_backend.osqp_settings(QpOptions(), use_float=True)["sigma"] == osqp_backend.FLOAT_SIGMA_MIN == 1e-3
+    assert osqp_backend.osqp_sigma(QpOptions(sigma=0.01), use_float=True) == 0.01
