@@ -177,11 +177,13 @@ def test_closed_loop_float_on_m4f_matches_host(gen_float, tmp_path) -> None:
     d = gen_float.out_dir
     log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m4f.json", target="cortex-m4f", timeout=300)
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
-    # single precision: newlib's and glibc's sinf/cosf/... differ in the last bit, the cold-started first QP then
-    # stops at another termination check (160 vs 280 iterations on seed 3) and the runs drift apart by centimetres
-    _close(log_t, log_h, 0.1, same_qp=False)
+    # single precision: newlib's and glibc's sinf/cosf/... differ in the last bit. With OSQP's sigma = 1e-6 in float
+    # (unstable KKT factorization, FLOAT_SIGMA_MIN) the cold-started first QP then stopped at another termination
+    # check (160 vs 280 iterations) and the runs drifted apart by 0.1 m; with sigma = 1e-3 the QP iterations and
+    # statuses are identical and the states differ by 2.4e-4 m over these 25 samples
+    _close(log_t, log_h, 2e-3, same_qp=True)
     assert np.array_equal(log_t.ego_frenet[0], log_h.ego_frenet[0])
-    np.testing.assert_allclose(log_t.ego_frenet[-1, 0], log_h.ego_frenet[-1, 0], rtol=0, atol=0.1)  # progress
+    np.testing.assert_allclose(log_t.ego_frenet[-1, 0], log_h.ego_frenet[-1, 0], rtol=0, atol=2e-3)  # progress
 
 
 @needs_toolchain
