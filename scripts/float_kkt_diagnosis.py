@@ -7,7 +7,8 @@ solved by OSQP's embedded code built for each sigma in double and in float (scri
 with the generated folder's OSQP sources; the float builds take sigma as given, FLOAT_SIGMA_MIN disabled), against a
 converged double solution (eps 1e-9). Per sigma and precision (median / max over the QPs):
   kkt      one KKT solve at the converged solution, from OSQP's own right-hand side: |x_tilde - x| (scaled), which
-           is 0 in exact arithmetic; kkt+1: with one step of iterative refinement in working precision
+           is 0 in exact arithmetic; float: also from the right-hand side formed in double (double rhs);
+           kkt+1: with one step of iterative refinement in working precision
   pivots   smallest positive and largest |negative| pivot of the LDL' factorization (median over the QPs)
   capped   the real-time solve (the problem's settings: 60 iterations, check every 40) minus the double one of the
            same sigma, and minus the double build's (sigma 1e-6), max |z - z'| (scaled step); status counts
@@ -69,12 +70,22 @@ class Harness:
         st = self.lib.h_solve(self._p(x0), self._p(y0), self._p(x), self._p(y), ctypes.byref(it))
         return st, x.astype(float), y.astype(float)
 
-    def kkt_error(self, x, y, nref: int) -> float:
-        """One KKT solve at (x, y) from OSQP's right-hand side: max |x_tilde - x| (scaled)."""
+    def rhs(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """OSQP's right-hand side at the warm start (x, y), and the scaled x."""
         b, xs = np.zeros(self.n + self.m, self.dt), np.zeros(self.n, self.dt)
         self.lib.h_rhs(self._p(self._a(x)), self._p(self._a(y)), self._p(b), self._p(xs))
+        return b.astype(float), xs.astype(float)
+
+    def kkt(self, b, nref: int) -> np.ndarray:
+        """x_tilde of one KKT solve of b (nref steps of iterative refinement)."""
+        b = self._a(b)
         self.lib.h_kkt(self._p(b), nref)
-        return float(np.max(np.abs(b[:self.n].astype(float) - xs.astype(float))))
+        return b[:self.n].astype(float)
+
+    def kkt_error(self, x, y, nref: int, b=None) -> float:
+        """One KKT solve at (x, y) from OSQP's right-hand side (or b): max |x_tilde - x| (scaled)."""
+        own, xs = self.rhs(x, y)
+        return float(np.max(np.abs(self.kkt(own if b is None else b, nref) - xs)))
 
     def pivots(self) -> tuple[float, float]:
         d = np.zeros(self.n + self.m, self.dt)
@@ -147,11 +158,16 @@ def main() -> None:
         z_dbl = []
         for fl in (False, True):
             h = builds[(s, fl)]
-            kkt, kkt1, pmin, pmax, cap_same, cap_base = [], [], [], [], [], []
+            kkt, kkt_d, kkt1, pmin, pmax, cap_same, cap_base = [], [], [], [], [], [], []
             status = collections.Counter()
             for j, qp in enumerate(qps):
+                if fl:  # the right-hand side formed in double (before h.load: each load rescales what h holds)
+                    builds[(s, False)].load(qp)
+                    b_dbl = builds[(s, False)].rhs(*ref[j])[0]
                 h.load(qp)
                 kkt.append(h.kkt_error(*ref[j], 0))
+                if fl:
+                    kkt_d.append(h.kkt_error(*ref[j], 0, b=b_dbl))
                 kkt1.append(h.kkt_error(*ref[j], 1))
                 lo, hi = h.pivots()
                 pmin.append(lo); pmax.append(hi)
@@ -161,7 +177,8 @@ def main() -> None:
                     z_dbl.append(z)
                 cap_same.append(np.max(np.abs(z - z_dbl[j])))
                 cap_base.append(np.max(np.abs(z - z_base[j])))
-            print(f"sigma {s:g} {'float ' if fl else 'double'}: kkt {med_max(kkt)} | kkt+1 {med_max(kkt1)} | pivots "
+            dr = f" (double rhs {med_max(kkt_d)})" if fl else ""
+            print(f"sigma {s:g} {'float ' if fl else 'double'}: kkt {med_max(kkt)}{dr} | kkt+1 {med_max(kkt1)} | pivots "
                   f"min {np.median(pmin):.1e}, max |neg| {np.median(pmax):.1e} | capped - double same sigma "
                   f"{med_max(cap_same)}, - double build {med_max(cap_base)} | status {dict(sorted(status.items()))}",
                   flush=True)
