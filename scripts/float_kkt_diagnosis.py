@@ -178,7 +178,8 @@ def main() -> None:
                 cap_same.append(np.max(np.abs(z - z_dbl[j])))
                 cap_base.append(np.max(np.abs(z - z_base[j])))
             dr = f" (double rhs {med_max(kkt_d)})" if fl else ""
-            print(f"sigma {s:g} {'float ' if fl else 'double'}: kkt {med_max(kkt)}{dr} | kkt+1 {med_max(kkt1)} | pivots "
+            prec = "float " if fl else "double"
+            print(f"sigma {s:g} {prec}: kkt {med_max(kkt)}{dr} | kkt+1 {med_max(kkt1)} | pivots "
                   f"min {np.median(pmin):.1e}, max |neg| {np.median(pmax):.1e} | capped - double same sigma "
                   f"{med_max(cap_same)}, - double build {med_max(cap_base)} | status {dict(sorted(status.items()))}",
                   flush=True)
