@@ -180,6 +180,8 @@ class CSolver:
             self._fns[fn] = f
         self._status = _CStatus()
         self._u0 = np.zeros(self.nu, dtype=self.dtype)
+        self._u0_addr = self._u0.ctypes.data
+        self._inputs: dict[str, tuple[np.ndarray, int]] = {}
 
     @staticmethod
     def _ptr(a: np.ndarray) -> int:
@@ -192,18 +194,30 @@ class CSolver:
             raise ValueError(f"expected {n} values, got {a.size}")
         return a
 
+    def _input(self, key: str, v, n: int | None = None) -> int:
+        """Copy ``v`` (converted to the solver's real type, as ``_arr``) into the preallocated input buffer ``key``;
+        returns the buffer's address (no array or pointer object per call; the C side copies its inputs)."""
+        a = np.asarray(v).ravel()
+        if n is not None and a.size != n:
+            raise ValueError(f"expected {n} values, got {a.size}")
+        buf = self._inputs.get(key)
+        if buf is None or buf[0].size != a.size:
+            arr = np.empty(a.size, dtype=self.dtype)
+            buf = self._inputs[key] = (arr, arr.ctypes.data)
+        buf[0][...] = a
+        return buf[1]
+
     # -- thin API -------------------------------------------------------------------------------------------------
     def init(self) -> int:
         return self._f("init")()
 
     def set_state(self, x0) -> int:
-        a = self._arr(x0, 5)
-        return self._fns["set_state"](a.ctypes.data)
+        return self._fns["set_state"](self._input("x0", x0, 5))
 
     def set_road(self, road: Road) -> int:
-        k, p, x, y = (self._arr(a) for a in (road.kappa, road.phi, road.gx, road.gy))
-        return self._fns["set_road"](road.s0, road.ds, road.size, k.ctypes.data, p.ctypes.data, x.ctypes.data,
-                                     y.ctypes.data)
+        n, inp = road.size, self._input
+        return self._fns["set_road"](road.s0, road.ds, n, inp("kappa", road.kappa, n), inp("phi", road.phi, n),
+                                     inp("gx", road.gx, n), inp("gy", road.gy, n))
 
     def set_road_raw(self, s0: float, ds: float, kappa, phi, gx, gy) -> int:
         k, p, x, y = (self._arr(a) for a in (kappa, phi, gx, gy))
@@ -211,8 +225,7 @@ class CSolver:
                                      y.ctypes.data)
 
     def set_opponents(self, params) -> int:
-        a = self._arr(params, (self.N + 1) * self.n_opp * self.n_opp_par)
-        return self._fns["set_opponents"](a.ctypes.data)
+        return self._fns["set_opponents"](self._input("opp", params, (self.N + 1) * self.n_opp * self.n_opp_par))
 
     def prepare(self) -> int:
         return self._fns["prepare"]()
@@ -227,9 +240,8 @@ class CSolver:
         return bool(self._fns["has_guess"]())
 
     def u0(self) -> np.ndarray:
-        u = self._u0
-        self._fns["get_u0"](u.ctypes.data)
-        return u.astype(float)
+        self._fns["get_u0"](self._u0_addr)
+        return self._u0.astype(float)
 
     def states(self) -> np.ndarray:
         x = np.zeros((self.N + 1) * self.nx, dtype=self.dtype)
