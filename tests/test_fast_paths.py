@@ -135,3 +135,25 @@ def test_store_at_hundreds_of_parts_reads_what_pandas_reads_and_appends_only(tmp
     assert pq.read_schema(merged).metadata is None
     np.testing.assert_array_equal(df.set_index("seed").loc[5, "time_rti_ms"], [0.5, 0.2, 5.3])
     assert tuple(RUN_ID) == ("config", "samples", "seed", "clock")
+
+
+def test_collect_writes_batches_and_keeps_no_finished_future(tmp_path):
+    import concurrent.futures as cf
+
+    from fcgen.campaign.runner import Outcome, _collect
+
+    tasks = make_tasks(paper_grid(["truck"], ["lifted"], ["ellipse"]), range(7), 200, "/tmp/cache")
+    futs = {}
+    for t in tasks:
+        f = cf.Future()
+        if t.seed == 3:
+            f.set_exception(RuntimeError("solver exploded"))
+        else:
+            f.set_result(_row(t.seed))
+        futs[f] = t
+    out, buf, store = Outcome(total=7, skipped=0), [], ResultStore(tmp_path / "res")
+    _collect(futs, out, buf, None, store, flush_every=2, flush_seconds=1e9)
+    assert futs == {} and out.computed == 6                          # collected futures are let go
+    assert out.failed == [(tasks[3].run_id, "RuntimeError: solver exploded")]
+    assert len(store.parts()) == 3 and buf == []                     # 6 rows in batches of 2, nothing left over
+    assert sorted(store.read()["seed"]) == [0, 1, 2, 4, 5, 6]
