@@ -105,6 +105,17 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     return gen_dir / out / (f"lib{name}.a" if tgt.bare_metal else f"lib{name}.so")
 
 
+class _CStatus(ctypes.Structure):
+    """The C status struct (``<name>_get_status``), field by field as ``reference.Status``."""
+
+    _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected",
+                                             "opp_outside")] + \
+        [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
+
+
+_STATUS_FIELDS = tuple(f for f, _ in _CStatus._fields_)
+
+
 class CSolver:
     """ctypes binding of a generated solver's shared library (timed with the library's host clock)."""
 
@@ -149,11 +160,14 @@ class CSolver:
 
     # -- ctypes plumbing ------------------------------------------------------------------------------------------
     def _f(self, fn: str):
-        return getattr(self.lib, f"{self.name}_{fn}")
+        f = self._fns.get(fn)
+        return f if f is not None else getattr(self.lib, f"{self.name}_{fn}")
 
     def _declare(self) -> None:
-        R, PR, I = self._real, ctypes.POINTER(self._real), ctypes.c_int
-        PPR = ctypes.POINTER(PR)
+        """Argument and result types of the C API; array arguments are passed as plain addresses (``_ptr``)."""
+        R, PR, I = self._real, ctypes.c_void_p, ctypes.c_int
+        PPR = ctypes.POINTER(ctypes.POINTER(self._real))
+        self._fns: dict = {}
         sig = {"init": ([], I), "set_clock": ([ctypes.c_void_p], None), "set_state": ([PR], I),
                "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
@@ -163,9 +177,16 @@ class CSolver:
         for fn, (args, res) in sig.items():
             f = self._f(fn)
             f.argtypes, f.restype = args, res
+            self._fns[fn] = f
+        self._status = _CStatus()
+        self._u0 = np.zeros(self.nu, dtype=self.dtype)
+        self._u0_addr = self._u0.ctypes.data
+        self._inputs: dict[str, tuple[np.ndarray, int]] = {}
 
-    def _ptr(self, a: np.ndarray):
-        return a.ctypes.data_as(ctypes.POINTER(self._real))
+    @staticmethod
+    def _ptr(a: np.ndarray) -> int:
+        """The address of a contiguous array of the solver's real type (the caller keeps ``a`` alive over the call)."""
+        return a.ctypes.data
 
     def _arr(self, v, n: int | None = None) -> np.ndarray:
         a = np.ascontiguousarray(np.asarray(v, dtype=self.dtype).ravel())
@@ -173,40 +194,54 @@ class CSolver:
             raise ValueError(f"expected {n} values, got {a.size}")
         return a
 
+    def _input(self, key: str, v, n: int | None = None) -> int:
+        """Copy ``v`` (converted to the solver's real type, as ``_arr``) into the preallocated input buffer ``key``;
+        returns the buffer's address (no array or pointer object per call; the C side copies its inputs)."""
+        a = np.asarray(v).ravel()
+        if n is not None and a.size != n:
+            raise ValueError(f"expected {n} values, got {a.size}")
+        buf = self._inputs.get(key)
+        if buf is None or buf[0].size != a.size:
+            arr = np.empty(a.size, dtype=self.dtype)
+            buf = self._inputs[key] = (arr, arr.ctypes.data)
+        buf[0][...] = a
+        return buf[1]
+
     # -- thin API -------------------------------------------------------------------------------------------------
     def init(self) -> int:
         return self._f("init")()
 
     def set_state(self, x0) -> int:
-        return self._f("set_state")(self._ptr(self._arr(x0, 5)))
+        return self._fns["set_state"](self._input("x0", x0, 5))
 
     def set_road(self, road: Road) -> int:
-        arrs = [self._arr(a) for a in (road.kappa, road.phi, road.gx, road.gy)]
-        return self._f("set_road")(road.s0, road.ds, road.size, *map(self._ptr, arrs))
+        n, inp = road.size, self._input
+        return self._fns["set_road"](road.s0, road.ds, n, inp("kappa", road.kappa, n), inp("phi", road.phi, n),
+                                     inp("gx", road.gx, n), inp("gy", road.gy, n))
 
     def set_road_raw(self, s0: float, ds: float, kappa, phi, gx, gy) -> int:
-        arrs = [self._arr(a) for a in (kappa, phi, gx, gy)]
-        return self._f("set_road")(s0, ds, int(arrs[0].size), *map(self._ptr, arrs))
+        k, p, x, y = (self._arr(a) for a in (kappa, phi, gx, gy))
+        return self._fns["set_road"](s0, ds, int(k.size), k.ctypes.data, p.ctypes.data, x.ctypes.data,
+                                     y.ctypes.data)
 
     def set_opponents(self, params) -> int:
-        return self._f("set_opponents")(self._ptr(self._arr(params, (self.N + 1) * self.n_opp * self.n_opp_par)))
+        return self._fns["set_opponents"](self._input("opp", params, (self.N + 1) * self.n_opp * self.n_opp_par))
 
     def prepare(self) -> int:
-        return self._f("prepare")()
+        return self._fns["prepare"]()
 
     def feedback(self) -> int:
-        return self._f("feedback")()
+        return self._fns["feedback"]()
 
     def reset(self) -> None:
         self._f("reset")()
 
     def has_guess(self) -> bool:
-        return bool(self._f("has_guess")())
+        return bool(self._fns["has_guess"]())
 
     def u0(self) -> np.ndarray:
-        u = np.zeros(self.nu, dtype=self.dtype)
-        self._f("get_u0")(self._ptr(u))
-        return u.astype(float)
+        self._fns["get_u0"](self._u0_addr)
+        return self._u0.astype(float)
 
     def states(self) -> np.ndarray:
         x = np.zeros((self.N + 1) * self.nx, dtype=self.dtype)
@@ -219,16 +254,12 @@ class CSolver:
         return u.reshape(self.N, self.nu).astype(float)
 
     def max_slack(self) -> float:
-        return float(self._f("max_slack")())
+        return float(self._fns["max_slack"]())
 
     def status(self) -> Status:
-        class _St(ctypes.Structure):
-            _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter",
-                                                     "u_projected", "opp_outside")] + \
-                [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
-        st = _St()
-        self._f("get_status")(ctypes.byref(st))
-        return Status(**{f: getattr(st, f) for f, _ in _St._fields_})
+        st = self._status
+        self._fns["get_status"](ctypes.byref(st))
+        return Status(**{f: getattr(st, f) for f in _STATUS_FIELDS})
 
     def get_qp(self) -> dict[str, np.ndarray]:
         """Copies of the QP data: q, l, u, A_x, P_x, z (the backend's primal solution), y (dual guess)."""

@@ -98,9 +98,16 @@ class Road:
         if i0 < 0 or i0 + samples > self.size:
             raise ValueError(f"road window [{s_start:.1f}, +{samples} samples] is outside the road "
                              f"[{self.s0:.1f}, {self.s_end:.1f}]")
+        if samples < 2:
+            raise ValueError("road: kappa, phi_gamma, gamma_x, gamma_y must have the same length >= 2")
         sl = slice(i0, i0 + samples)
-        return Road(self.s0 + i0 * self.ds, self.ds, self.kappa[sl].copy(), self.phi[sl].copy(),
-                    self.gx[sl].copy(), self.gy[sl].copy())
+        # a window of a checked road is a checked road: built without __post_init__'s per-sample checks (the closed
+        # loop takes one window per sample)
+        win = object.__new__(Road)
+        for name, value in (("s0", self.s0 + i0 * self.ds), ("ds", self.ds), ("kappa", self.kappa[sl].copy()),
+                            ("phi", self.phi[sl].copy()), ("gx", self.gx[sl].copy()), ("gy", self.gy[sl].copy())):
+            object.__setattr__(win, name, value)
+        return win
 
     # -- numpy evaluation ------------------------------------------------------------------------
     def _locate(self, s):
@@ -196,9 +203,17 @@ class RoadWindowParams:
         return 2 + 4 * self.samples
 
     def pack(self, road: Road, i0: int) -> np.ndarray:
-        sl = slice(i0, i0 + self.samples)
-        return np.concatenate([[road.s0 + i0 * road.ds, road.ds], road.kappa[sl], road.phi[sl], road.gx[sl],
-                               road.gy[sl]])
+        return self.pack_into(np.empty(self.size), road, i0)
+
+    def pack_into(self, out: np.ndarray, road: Road, i0: int) -> np.ndarray:
+        """``pack`` into a preallocated vector ``out`` (size ``self.size``); returns ``out``."""
+        K = self.samples
+        if i0 < 0 or i0 + K > road.size:
+            raise ValueError(f"road window [{i0}, +{K} samples] is outside the road's {road.size} samples")
+        out[0], out[1] = road.s0 + i0 * road.ds, road.ds
+        for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
+            out[2 + j * K: 2 + (j + 1) * K] = a[i0: i0 + K]
+        return out
 
 
 def casadi_road(s, p, samples: int):

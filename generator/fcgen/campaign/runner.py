@@ -83,16 +83,18 @@ def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, schedule
 
 def _collect(futs: dict, out: Outcome, buf: list, bar, store: ResultStore, flush_every: int,
              flush_seconds: float) -> None:
-    """Gather finished runs into ``buf`` (in place), writing a part whenever enough have piled up."""
+    """Gather finished runs into ``buf`` (in place), writing a part whenever enough have piled up. A collected future
+    leaves ``futs`` (which then holds the unfinished ones only), so a long campaign does not keep every row twice."""
     last = time.monotonic()
-    for fut in cf.as_completed(futs):
+    for fut in cf.as_completed(list(futs)):
+        task = futs.pop(fut)
         try:
             buf.append(fut.result())
             out.computed += 1
         except cf.CancelledError:
             continue
         except Exception as exc:  # a run that fails is reported, not written: the next call retries it
-            out.failed.append((futs[fut].run_id, f"{type(exc).__name__}: {exc}"))
+            out.failed.append((task.run_id, f"{type(exc).__name__}: {exc}"))
         if bar is not None:
             bar.update(1)
         if len(buf) >= flush_every or (buf and time.monotonic() - last > flush_seconds):

@@ -42,20 +42,31 @@ class ResultStore:
         """Append ``rows`` as one new part file (atomic); returns its path."""
         if not rows:
             return None
+        return self._write_table(pa.Table.from_pylist(rows))
+
+    def _write_table(self, table: pa.Table) -> Path:
         self.folder.mkdir(parents=True, exist_ok=True)
         name = f"part-{time.strftime('%Y%m%dT%H%M%S')}-{uuid.uuid4().hex[:8]}"
         tmp = self.folder / f".{name}.tmp"
-        pq.write_table(pa.Table.from_pylist(rows), tmp)
+        pq.write_table(table, tmp)
         final = self.folder / f"{name}.parquet"
         os.replace(tmp, final)
         return final
 
-    def read(self, columns: list[str] | None = None) -> pd.DataFrame:
-        """Every row of every part (an empty frame when there is none)."""
+    def table(self, columns: list[str] | None = None) -> pa.Table | None:
+        """Every row of every part as one Arrow table (None when there is none). Each part is read by
+        ``ParquetFile`` (no dataset discovery per file: ~0.5 ms a part instead of ~2.5 ms with ``pd.read_parquet``,
+        which matters with the hundreds of parts of a long campaign)."""
         parts = self.parts()
         if not parts:
-            return pd.DataFrame(columns=columns or [])
-        return pd.concat([pd.read_parquet(p, columns=columns) for p in parts], ignore_index=True)
+            return None
+        return pa.concat_tables([pq.ParquetFile(p).read(columns=columns) for p in parts],
+                                promote_options="permissive")
+
+    def read(self, columns: list[str] | None = None) -> pd.DataFrame:
+        """Every row of every part (an empty frame when there is none)."""
+        tab = self.table(columns)
+        return pd.DataFrame(columns=columns or []) if tab is None else tab.to_pandas()
 
     def done(self) -> set[tuple[str, int, int, str]]:
         """The run ids (config key, samples, seed, clock) already in the folder."""
@@ -67,9 +78,11 @@ class ResultStore:
         parts = self.parts()
         if len(parts) <= 1:
             return parts[0] if parts else None
-        df = self.read().drop_duplicates(list(RUN_ID), keep="first")
+        tab = self.table()
+        df = tab.to_pandas().drop_duplicates(list(RUN_ID), keep="first")
         df = df.sort_values(list(RUN_ID), kind="stable").reset_index(drop=True)
-        merged = self.write(df.to_dict("records"))
+        merged = self._write_table(pa.Table.from_pandas(df, schema=tab.schema, preserve_index=False)
+                                   .replace_schema_metadata(None))       # the parts' schema (types as written)
         for p in parts:
             p.unlink()
         return merged

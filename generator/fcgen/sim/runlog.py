@@ -18,6 +18,7 @@ import lzma
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 from importlib import metadata
 from os import PathLike
 from pathlib import Path
@@ -109,6 +110,12 @@ def qp_status_name(code: int) -> str:
 
 def package_versions() -> dict[str, str]:
     """Installed versions of fcgen, casadi, osqp and numpy, for ``meta["versions"]`` (no imports needed)."""
+    return dict(_package_versions())
+
+
+@lru_cache(maxsize=1)
+def _package_versions() -> dict[str, str]:
+    """``package_versions`` looked up once per process (the metadata scan costs ~7 ms; installs do not change)."""
     out = {}
     for name in ("fcgen", "casadi", "osqp", "numpy"):
         try:

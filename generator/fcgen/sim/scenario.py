@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -73,31 +74,41 @@ def road_is_realistic(road: Road) -> bool:
     return min_self_distance(road, ROAD_MIN_ARC, road.s0 + ROAD_CHECKED) >= ROAD_MIN_GAP
 
 
+@lru_cache(maxsize=64)
 def realistic_road(seed: int, length: float = 1600.0) -> Road:
     """The first realistic road of the seeded sequence: draw 0 from ``seed`` (so roads that passed before are
-    unchanged), draw k >= 1 from the derived seed ``[seed, 2, k]``; reproducible."""
+    unchanged), draw k >= 1 from the derived seed ``[seed, 2, k]``; reproducible. Kept per process (every
+    configuration of a seed drives the same road), so its arrays are read-only."""
     for k in range(ROAD_MAX_DRAWS):
         road = random_road(seed if k == 0 else [seed, 2, k], length=length, s0=-ROAD_BEHIND)
         if road_is_realistic(road):
+            for a in (road.kappa, road.phi, road.gx, road.gy):
+                a.flags.writeable = False
             return road
     raise ValueError(f"seed = {seed}: no realistic road in {ROAD_MAX_DRAWS} draws (ROAD_MIN_GAP = {ROAD_MIN_GAP} m)")
 
 
 class OpponentParams:
     """Per-stage opponent poses for the solver (every formulation: rear axle [x, y, phi]; the conventional solver fits
-    its Frenet boxes itself), cached per absolute time index (they only depend on it)."""
+    its Frenet boxes itself). They only depend on the absolute time index, so the poses of every index a run reaches
+    (0 .. samples + N) are computed once, in one vectorized call (the same values as one call per index)."""
 
     def __init__(self, problem: Problem, scenario: Scenario):
         self.problem = problem
         self.sc = scenario
-        self._cache: dict[int, np.ndarray] = {}
+        self.n_stages = problem.horizon.N + 1
+        table = scenario.opp_cartesian(np.arange(scenario.samples + self.n_stages) * scenario.dt)
+        table.flags.writeable = False
+        self._table = table
 
     def at_index(self, j: int) -> np.ndarray:
-        """Poses (n_opp, 3) at absolute time j * dt."""
-        if j not in self._cache:
-            self._cache[j] = self.sc.opp_cartesian(j * self.sc.dt)
-        return self._cache[j]
+        """Poses (n_opp, 3) at absolute time j * dt (read-only)."""
+        if 0 <= j < len(self._table):
+            return self._table[j]
+        return self.sc.opp_cartesian(j * self.sc.dt)
 
     def horizon(self, j: int) -> np.ndarray:
-        """Poses for stages 0..N at sample j: shape (N+1, n_opp, 3)."""
-        return np.stack([self.at_index(j + k) for k in range(self.problem.horizon.N + 1)])
+        """Poses for stages 0..N at sample j: shape (N+1, n_opp, 3) (read-only)."""
+        if 0 <= j and j + self.n_stages <= len(self._table):
+            return self._table[j: j + self.n_stages]
+        return np.stack([self.at_index(j + k) for k in range(self.n_stages)])
