@@ -62,6 +62,19 @@ def test_solver_cache_is_keyed_by_the_problem_and_built_once(cache):
     assert ensure_solver(a, cache) == lib and lib.stat().st_mtime_ns == mtime   # not rebuilt
 
 
+def test_campaign_cflags_build_their_own_cached_solver_and_are_recorded(cache):
+    """--cflags: a second cache folder (the default's hash unchanged), the flags in the row, the same closed loop
+    (-O1 and -O2 give bit-identical run logs on this solver, see docs/regression.md)."""
+    pb = CONFIGS[1].problem()
+    assert solver_hash(pb, cflags=None) == solver_hash(pb) != solver_hash(pb, cflags="-O1")
+    default, o1 = (run_task(make_tasks(CONFIGS[1:], range(1), SAMPLES, cache, cflags=f)[0]) for f in (None, "-O1"))
+    assert (default["cflags"], o1["cflags"]) == ("default", "-O1")
+    assert default["solver_hash"] != o1["solver_hash"]
+    assert ensure_solver(pb, cache, cflags="-O1").parent.parent.name.endswith(solver_hash(pb, cflags="-O1"))
+    same = [k for k in default if not k.startswith(TIMING) and k not in ("cflags", "solver_hash")]
+    assert [default[k] for k in same] == [o1[k] for k in same]
+
+
 def test_alat_outcome_counts_samples_above_the_bound():
     out = _alat_outcome(np.array([1.0, -5.5, 5.0, 6.0, -4.9]), 5.0)
     assert out == {"a_lat_bound": 5.0, "a_lat_over_samples": 2, "a_lat_excess_max": 1.0, "a_lat_excess_mean": 0.75}

@@ -114,8 +114,10 @@ def _names(text: str) -> list[str]:
               help="results: a Parquet dataset folder (runs already in it are not recomputed)")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
               help="also write `fcgen report` into this folder")
+@click.option("--cflags", default=None, help="C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
+              "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)")
 def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir):
+             scheduler, cache_dir, out, report_dir, cflags):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
     from .campaign.runner import run_campaign
@@ -134,7 +136,8 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
     except ProblemError as exc:
         _fail(f"--obstacles/--backend: {exc}")
     store = ResultStore(out)
-    tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock)
+    tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock,
+                       cflags=cflags)
     click.echo(f"{len(configs)} configurations x {seeds} seeds x {samples} samples = {len(tasks)} runs "
                f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}")
     import signal

@@ -106,6 +106,7 @@ class Task:
     samples: int
     cache_dir: str
     clock: str = "cpu"          # the C solver's clock: "cpu" (its thread's CPU time) or "wall" (monotonic)
+    cflags: str | None = None   # the C solvers' compiler flags (None: the build's default, $CFLAGS or -O2)
 
     @property
     def timed_by(self) -> str:
@@ -122,7 +123,7 @@ SEED_BLOCK = 8
 
 
 def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str, clock: str = "cpu",
-               block: int = SEED_BLOCK) -> list[Task]:
+               block: int = SEED_BLOCK, cflags: str | None = None) -> list[Task]:
     """Blocks of ``block`` seeds, configuration-major inside a block: partial results cover the whole grid evenly
     (every configuration has the block's seeds before any has the next block's), and a worker runs one solver for
     several runs in a row instead of switching between all of them at every run (its workspace stays in cache)."""
@@ -130,5 +131,5 @@ def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str
     if block < 1:
         raise ProblemError(f"block = {block} is invalid: allowed >= 1")
     seeds = list(seeds)
-    return [Task(c, s, samples, cache_dir, clock)
+    return [Task(c, s, samples, cache_dir, clock, cflags)
             for b in range(0, len(seeds), block) for c in configs for s in seeds[b:b + block]]

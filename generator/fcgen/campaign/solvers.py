@@ -34,24 +34,29 @@ def generator_fingerprint() -> str:
     return h.hexdigest()
 
 
-def solver_hash(problem: Problem, use_float: bool = False) -> str:
-    """16 hex digits identifying the generated solver of ``problem`` with this generator."""
+def solver_hash(problem: Problem, use_float: bool = False, cflags: str | None = None) -> str:
+    """16 hex digits identifying the generated solver of ``problem`` with this generator (and these C flags)."""
     from ..codegen.generate import problem_source
     h = hashlib.sha256()
-    for part in (problem_source(problem), f"float={use_float}", __version__, generator_fingerprint()):
+    parts = [problem_source(problem), f"float={use_float}", __version__, generator_fingerprint()]
+    if cflags is not None:  # the default build keeps the hash it always had
+        parts.append(f"cflags={cflags}")
+    for part in parts:
         h.update(part.encode())
         h.update(b"\0")
     return h.hexdigest()[:16]
 
 
-def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = False) -> Path:
-    """The shared library of ``problem``'s solver: generated and built into the cache unless already there."""
+def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = False,
+                  cflags: str | None = None) -> Path:
+    """The shared library of ``problem``'s solver: generated and built (with ``cflags``, default the build's) into
+    the cache unless already there."""
     from ..build import build
     from ..codegen.generate import generate
 
     cache = Path(cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
-    folder = cache / f"{problem.name}-{solver_hash(problem, use_float)}"
+    folder = cache / f"{problem.name}-{solver_hash(problem, use_float, cflags)}"
     lib = folder / "build" / f"lib{problem.name}.so"
     if (folder / READY).is_file() and lib.is_file():
         return lib
@@ -60,7 +65,7 @@ def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = Fal
         try:
             if not ((folder / READY).is_file() and lib.is_file()):
                 generate(problem, folder, use_float=use_float)
-                built = build(folder, jobs=1)
+                built = build(folder, jobs=1, cflags=cflags)
                 assert built == lib, (built, lib)
                 (folder / READY).write_text(f"{problem.name}\n")
         finally:

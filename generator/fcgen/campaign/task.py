@@ -54,16 +54,16 @@ def _ocp(problem):
 
 
 @lru_cache(maxsize=None)
-def _prepared(config: Config, cache_dir: str) -> tuple:
+def _prepared(config: Config, cache_dir: str, cflags: str | None = None) -> tuple:
     """Per process and configuration: its problem, its solver hash and (C controller) its compiled library, generated
     and built into the cache on first use."""
     from ..ocp import road_window_samples
     from ..sim.closedloop import plant_function
     from .solvers import ensure_solver, solver_hash
     pb = config.problem()
-    lib = str(ensure_solver(pb, cache_dir)) if config.controller == "c" else None
+    lib = str(ensure_solver(pb, cache_dir, cflags=cflags)) if config.controller == "c" else None
     plant_function(pb, road_window_samples(pb))   # built once per process, outside the runs' timed CPU (~20 ms)
-    return pb, solver_hash(pb), lib
+    return pb, solver_hash(pb, cflags=cflags), lib
 
 
 def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
@@ -81,7 +81,7 @@ def run_task(task: Task) -> dict:
     from ..sim.scenario import make_scenario
 
     cfg = task.config
-    pb, hash_, lib = _prepared(cfg, task.cache_dir)
+    pb, hash_, lib = _prepared(cfg, task.cache_dir, task.cflags if cfg.controller == "c" else None)
     sc = make_scenario(cfg.scenario, task.seed, n_opp=pb.opponents.count, samples=task.samples, dt=pb.horizon.dt)
     if cfg.controller == "c":
         solver, lock = _solver(lib)
@@ -111,7 +111,8 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     s = summary(log)
     row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
            "seed": task.seed, "samples": task.samples, "solver_hash": hash_,
-           "clock": task.timed_by}
+           "clock": task.timed_by,
+           "cflags": (task.cflags or "default") if task.config.controller == "c" else ""}
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
