@@ -49,13 +49,14 @@ from .dsl import Conventional, Problem
 
 SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
 FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sample and one on either side
-COLD_STEPS = 4        # Newton steps from the window's centre sample (3 already reach 1e-13 m on the test roads)
-WARM_STEPS = 2        # Newton steps after the first one taken at the predecessor's foot
-NEWTON_DG_MIN = 0.05  # a Newton step divides by dg only where dg > this (else a plain gradient step)
+COLD_STEPS = 3        # road evaluations (each one Halley step) from the window's centre sample
+WARM_STEPS = 2        # road evaluations after the first step, taken at the predecessor's last evaluation
+NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
 SAG_SAFETY = obs.SAG_SAFETY
 BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi", "pn_hi", "pn_lo")
-EVAL = ("kappa", "cos", "sin", "gx", "gy", "dgx", "dgy")   # a foot point's road evaluation, kept for its successors
+# a point's last road evaluation, kept for its successors (the C's layout; the last entry: where it was taken)
+EVAL = ("kappa", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "dkappa", "s")
 
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
@@ -169,10 +170,11 @@ def libm(fun, v: np.ndarray) -> np.ndarray:
 
 def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
     """The road interpolant at s on the segment of the window i0 .. i0 + FOOT_WINDOW - 1 that holds s (the first or
-    last one beyond it): kappa, phi_gamma, gamma, gamma' (the C's ``fit_road``, operation for operation)."""
+    last one beyond it): phi_gamma and EVAL (the C's ``fit_road``, operation for operation)."""
     ds = road.ds
+    ids = 1.0 / ds
     w0 = road.s0 + i0 * ds
-    t = (s - w0) / ds
+    t = (s - w0) * ids
     fi = np.floor(t)
     fi = np.where(fi >= 0.0, fi, 0.0)                     # also NaN (the foot check rejects it)
     fi = np.where(fi > FOOT_WINDOW - 2, float(FOOT_WINDOW - 2), fi)
@@ -185,8 +187,12 @@ def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.nd
     h01 = (3.0 * t2) - (2.0 * t3)
     h11 = (t3 - t2) * ds
     d00 = (6.0 * t2) - (6.0 * tau)
-    d10 = ((3.0 * t2) - (4.0 * tau)) + 1.0
-    d11 = (3.0 * t2) - (2.0 * tau)
+    d10 = (((3.0 * t2) - (4.0 * tau)) + 1.0) * ds
+    d11 = ((3.0 * t2) - (2.0 * tau)) * ds
+    e00 = (12.0 * tau) - 6.0
+    e10 = ((6.0 * tau) - 4.0) * ds
+    e11 = ((6.0 * tau) - 2.0) * ds
+    ids2 = ids * ids
     k0, k1 = road.kappa[j], road.kappa[j + 1]
     kappa = ((1.0 - tau) * k0) + (tau * k1)
     phi = (((h00 * road.phi[j]) + (h10 * k0)) + (h01 * road.phi[j + 1])) + (h11 * k1)
@@ -194,27 +200,36 @@ def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.nd
     def herm(y, m):
         y0, y1, m0, m1 = y[j], y[j + 1], m[j], m[j + 1]
         val = (((h00 * y0) + (h10 * m0)) + (h01 * y1)) + (h11 * m1)
-        der = ((((d00 * y0) + ((d10 * ds) * m0)) - (d00 * y1)) + ((d11 * ds) * m1)) / ds
-        return val, der
+        der = ((((d00 * y0) + (d10 * m0)) - (d00 * y1)) + (d11 * m1)) * ids
+        dd = ((((e00 * y0) + (e10 * m0)) - (e00 * y1)) + (e11 * m1)) * ids2
+        return val, der, dd
 
-    gx, dgx = herm(road.gx, cphi)
-    gy, dgy = herm(road.gy, sphi)
-    return kappa, phi, gx, gy, dgx, dgy
+    gx, dgx, ddgx = herm(road.gx, cphi)
+    gy, dgy, ddgy = herm(road.gy, sphi)
+    return phi, (kappa, libm(math.cos, phi), libm(math.sin, phi), gx, gy, dgx, dgy, ddgx, ddgy, (k1 - k0) * ids)
 
 
-def newton_step(s, ev, px, py):
-    """One Newton step of (gamma(s) - p) . t(s) = 0 from s with the road evaluation ev (EVAL) at s."""
-    kappa, cg, sg, gx, gy, dx, dy = ev
+def halley_step(s, ev, px, py):
+    """One Halley step of g(s) = (gamma(s) - p) . t(s) = 0 from s with the road evaluation ev (EVAL) at s (dphi/ds
+    taken as kappa, its slope as kappa'): s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a plain
+    gradient step where g' <= NEWTON_DG_MIN."""
+    kappa, cg, sg, gx, gy, dx, dy, ddx, ddy, dk = ev
     ex, ey = gx - px, gy - py
     g = (ex * cg) + (ey * sg)
-    dg = ((dx * cg) + (dy * sg)) + (kappa * ((ey * cg) - (ex * sg)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return s - np.where(dg > NEWTON_DG_MIN, g / dg, g)
+    en = (ey * cg) - (ex * sg)
+    g1 = ((dx * cg) + (dy * sg)) + (kappa * en)
+    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * kappa) * ((dy * cg) - (dx * sg)))) + (dk * en)) - ((kappa * kappa) * g)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        gg = g * g2
+        g11 = g1 * g1
+        hal = np.where(np.abs(gg) <= g11, ((2.0 * g) * g1) / ((2.0 * g11) - gg), g / g1)
+        return s - np.where(g1 > NEWTON_DG_MIN, hal, g)
 
 
 def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
-    """Foot points of all points: (s, n, phi_gamma) each (pairs, npt). ``P``: (2, pairs, npt); ``ist``: the
-    points' nearest samples (clamped into the road where a point is bad: computed, then discarded)."""
+    """Foot points of all points: (s, n, phi_gamma) each (pairs, npt), and the windows' first s. ``P``:
+    (2, pairs, npt); ``ist``: the points' nearest samples (clamped into the road where a point is bad: computed,
+    then discarded). A point's n and phi_gamma are those of its last road evaluation, s one step further."""
     half = FOOT_WINDOW // 2
     i0 = np.clip(ist - half, 0, road.size - FOOT_WINDOW)
     cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
@@ -227,16 +242,16 @@ def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
         if j < 0:
             s, steps = w0 + road.ds, COLD_STEPS
         else:
-            s = newton_step(fs[:, j], evs[j], px, py)
+            s = halley_step(evs[j][0], evs[j][1], px, py)
             s, steps = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds), WARM_STEPS
-        for _ in range(steps + 1):
-            kappa, phg, gx, gy, dx, dy = road_eval(road, cphi, sphi, i0[:, i], s)
-            ev = (kappa, libm(math.cos, phg), libm(math.sin, phg), gx, gy, dx, dy)
-            if _ < steps:
-                s = newton_step(s, ev, px, py)
-        evs[i] = ev
+        for _ in range(steps):
+            s_ev = s
+            phg, ev = road_eval(road, cphi, sphi, i0[:, i], s)
+            s = halley_step(s, ev, px, py)
+            if _ == 0:                                    # successors start from the first evaluation: the
+                evs[i] = (s_ev, ev)                       # C's chain of dependent evaluations is one per point
         fs[:, i], fp[:, i] = s, phg
-        fn[:, i] = ((gx - px) * ev[2]) + ((py - gy) * ev[1])
+        fn[:, i] = ((ev[3] - px) * ev[2]) + ((py - ev[4]) * ev[1])
     return fs, fn, fp, road.s0 + i0 * road.ds
 
 

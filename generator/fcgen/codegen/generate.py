@@ -329,6 +329,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
                     ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
                     ("NAME_real_t", "fit_ev", [fit["nev"] * fit["npt"]], R),
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
+                    ("NAME_real_t", "fit_ids", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
