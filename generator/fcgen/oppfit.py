@@ -56,7 +56,7 @@ STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_fre
 SAG_SAFETY = obs.SAG_SAFETY
 BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi", "pn_hi", "pn_lo")
 # a point's last road evaluation, kept for its successors (the C's layout; the last entry: where it was taken)
-EVAL = ("kappa", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "dkappa", "s")
+EVAL = ("dphi", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "ddphi", "phi", "s")
 
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
@@ -170,7 +170,7 @@ def libm(fun, v: np.ndarray) -> np.ndarray:
 
 def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
     """The road interpolant at s on the segment of the window i0 .. i0 + FOOT_WINDOW - 1 that holds s (the first or
-    last one beyond it): phi_gamma and EVAL (the C's ``fit_road``, operation for operation)."""
+    last one beyond it): EVAL but s (the C's ``fit_road``, operation for operation)."""
     ds = road.ds
     ids = 1.0 / ds
     w0 = road.s0 + i0 * ds
@@ -193,9 +193,6 @@ def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.nd
     e10 = ((6.0 * tau) - 4.0) * ds
     e11 = ((6.0 * tau) - 2.0) * ds
     ids2 = ids * ids
-    k0, k1 = road.kappa[j], road.kappa[j + 1]
-    kappa = ((1.0 - tau) * k0) + (tau * k1)
-    phi = (((h00 * road.phi[j]) + (h10 * k0)) + (h01 * road.phi[j + 1])) + (h11 * k1)
 
     def herm(y, m):
         y0, y1, m0, m1 = y[j], y[j + 1], m[j], m[j + 1]
@@ -204,21 +201,22 @@ def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.nd
         dd = ((((e00 * y0) + (e10 * m0)) - (e00 * y1)) + (e11 * m1)) * ids2
         return val, der, dd
 
+    phi, dphi, ddphi = herm(road.phi, road.kappa)
     gx, dgx, ddgx = herm(road.gx, cphi)
     gy, dgy, ddgy = herm(road.gy, sphi)
-    return phi, (kappa, libm(math.cos, phi), libm(math.sin, phi), gx, gy, dgx, dgy, ddgx, ddgy, (k1 - k0) * ids)
+    return dphi, libm(math.cos, phi), libm(math.sin, phi), gx, gy, dgx, dgy, ddgx, ddgy, ddphi, phi
 
 
 def halley_step(s, ev, px, py):
-    """One Halley step of g(s) = (gamma(s) - p) . t(s) = 0 from s with the road evaluation ev (EVAL) at s (dphi/ds
-    taken as kappa, its slope as kappa'): s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a plain
-    gradient step where g' <= NEWTON_DG_MIN."""
-    kappa, cg, sg, gx, gy, dx, dy, ddx, ddy, dk = ev
+    """One Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 from s with the road evaluation ev (EVAL) at s:
+    s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a plain gradient step where
+    g' <= NEWTON_DG_MIN."""
+    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, _ = ev
     ex, ey = gx - px, gy - py
     g = (ex * cg) + (ey * sg)
     en = (ey * cg) - (ex * sg)
-    g1 = ((dx * cg) + (dy * sg)) + (kappa * en)
-    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * kappa) * ((dy * cg) - (dx * sg)))) + (dk * en)) - ((kappa * kappa) * g)
+    g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
+    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * dphi) * ((dy * cg) - (dx * sg)))) + (ddphi * en)) - ((dphi * dphi) * g)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         gg = g * g2
         g11 = g1 * g1
@@ -226,10 +224,25 @@ def halley_step(s, ev, px, py):
         return s - np.where(g1 > NEWTON_DG_MIN, hal, g)
 
 
+def foot_n_phi(s, s_ev, ev, px, py):
+    """n and phi_gamma at the foot s from the road evaluation ev at s_ev: their second-order Taylor expansions
+    (n = (p - gamma) . n(phi_gamma), n' = phi' g - gamma'.n, n'' = phi' gamma'.t - gamma''.n + phi'' g + phi' g')."""
+    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, phi = ev
+    ex, ey = gx - px, gy - py
+    g = (ex * cg) + (ey * sg)
+    en = (ey * cg) - (ex * sg)
+    g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
+    dn = (dphi * g) - ((dy * cg) - (dx * sg))
+    ddn = (((dphi * ((dx * cg) + (dy * sg))) - ((ddy * cg) - (ddx * sg))) + (ddphi * g)) + (dphi * g1)
+    d = s - s_ev
+    h = 0.5 * d
+    return ((ex * sg) + ((py - gy) * cg)) + (d * (dn + (h * ddn))), phi + (d * (dphi + (h * ddphi)))
+
+
 def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
     """Foot points of all points: (s, n, phi_gamma) each (pairs, npt), and the windows' first s. ``P``:
     (2, pairs, npt); ``ist``: the points' nearest samples (clamped into the road where a point is bad: computed,
-    then discarded). A point's n and phi_gamma are those of its last road evaluation, s one step further."""
+    then discarded)."""
     half = FOOT_WINDOW // 2
     i0 = np.clip(ist - half, 0, road.size - FOOT_WINDOW)
     cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
@@ -246,12 +259,12 @@ def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
             s, steps = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds), WARM_STEPS
         for _ in range(steps):
             s_ev = s
-            phg, ev = road_eval(road, cphi, sphi, i0[:, i], s)
+            ev = road_eval(road, cphi, sphi, i0[:, i], s)
             s = halley_step(s, ev, px, py)
-            if _ == 0:                                    # successors start from the first evaluation: the
-                evs[i] = (s_ev, ev)                       # C's chain of dependent evaluations is one per point
-        fs[:, i], fp[:, i] = s, phg
-        fn[:, i] = ((ev[3] - px) * ev[2]) + ((py - ev[4]) * ev[1])
+            if _ == (steps - 1 if j < 0 else 0):        # successors start from a warm point's first evaluation
+                evs[i] = (s_ev, ev)                       # (one dependent evaluation per point along the C's chain)
+        fs[:, i] = s
+        fn[:, i], fp[:, i] = foot_n_phi(s, s_ev, ev, px, py)
     return fs, fn, fp, road.s0 + i0 * road.ds
 
 
