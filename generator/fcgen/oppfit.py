@@ -49,13 +49,12 @@ from .dsl import Conventional, Problem
 
 SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
 FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sample and one on either side
-COLD_STEPS = 3        # road evaluations (each one Halley step) from the window's centre sample
-WARM_STEPS = 2        # road evaluations after the first step, taken at the predecessor's last evaluation
+FULL_EVALS = 1        # road evaluations (a Halley step each) after the first step from the nearest sample
 NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
 SAG_SAFETY = obs.SAG_SAFETY
 BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi", "pn_hi", "pn_lo")
-# a point's last road evaluation, kept for its successors (the C's layout; the last entry: where it was taken)
+# a road evaluation (the C's layout; the last entry: where it was taken)
 EVAL = ("dphi", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "ddphi", "phi", "s")
 
 
@@ -74,20 +73,9 @@ class OppFit:
     ref_point: int          # index of the reference point of the global search
     n_min: float            # the ego's lateral band (state bounds on n)
     n_max: float
-    pred: tuple[int, ...]   # per point: the point whose foot warm-starts it, -1: cold
-    order: tuple[int, ...]  # the order the points are mapped in (every predecessor first)
     spacing: float          # the largest distance of two neighbouring edge points (0: no edges)
     margin: float           # the box's margin (0 for overapprox="none")
     reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
-
-
-def chain(counts: list[int]) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    """(pred, order) of the fitted points (edges, centre, rear, front): the edge chain warm-starts from its previous
-    point, the rear and front centres from the first point of the rear and front width edges."""
-    n_edge = sum(counts)
-    pred = [-1] + list(range(n_edge - 1)) + [-1, counts[0] + counts[1], 0]
-    order = [n_edge] + list(range(n_edge)) + [n_edge + 1, n_edge + 2]
-    return tuple(pred), tuple(order)
 
 
 def build_oppfit(problem: Problem) -> OppFit | None:
@@ -102,7 +90,7 @@ def build_oppfit(problem: Problem) -> OppFit | None:
     if form.overapprox == "none":
         P = ca.vertcat(x, y)
         d = ca.SX(1, 1)
-        ref, pred, order, spacing = 0, (-1,), (0,), 0.0
+        ref, spacing = 0, 0.0
     else:
         sh = obs.chassis_shape(x, y, phi, opp)
         corners = obs.vertices(sh)
@@ -117,7 +105,6 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         allp = pts + [(sh.cx, sh.cy)] + ends
         P = ca.horzcat(*[ca.vertcat(px, py) for px, py in allp])
         d = ca.vertcat(*[(px - sh.cx) * c + (py - sh.cy) * s for px, py in allp])
-        pred, order = chain(counts)
         spacing = obs.edge_spacing(opp, form.points_per_metre)
     npt = P.shape[1]
     points = ca.Function("opp_points", [pose], [P, d], ["pose"], ["P", "d"])
@@ -144,8 +131,7 @@ def build_oppfit(problem: Problem) -> OppFit | None:
                ca.mmax(bn), ca.mmin(bn)]
     box = ca.Function("opp_box", [FR, pose], [ca.vertcat(*out)], ["FR", "pose"], ["box"])
     margin = 0.0 if form.overapprox == "none" else form.margin
-    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, pred, order, spacing, margin,
-                  reach)
+    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, margin, reach)
 
 
 def neutral(s0: float) -> np.ndarray:
@@ -239,33 +225,41 @@ def foot_n_phi(s, s_ev, ev, px, py):
     return ((ex * sg) + ((py - gy) * cg)) + (d * (dn + (h * ddn))), phi + (d * (dphi + (h * ddphi)))
 
 
+def node_eval(road, cphi: np.ndarray, sphi: np.ndarray, ist: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
+    """EVAL but s at the road sample ist (s its arc length), from the samples alone (no cos or sin): the derivatives of
+    the segment ist .. ist + 1 there."""
+    ds = road.ds
+    ids2 = (1.0 / ds) * (1.0 / ds)
+    k0, k1, p0, p1 = road.kappa[ist], road.kappa[ist + 1], road.phi[ist], road.phi[ist + 1]
+    c0, c1, s0, s1 = cphi[ist], cphi[ist + 1], sphi[ist], sphi[ist + 1]
+    a, b = 4.0 * ds, 2.0 * ds
+
+    def dd(y0, y1, m0, m1):
+        return (((6.0 * (y1 - y0)) - (a * m0)) - (b * m1)) * ids2
+
+    return (k0, c0, s0, road.gx[ist], road.gy[ist], c0, s0, dd(road.gx[ist], road.gx[ist + 1], c0, c1),
+            dd(road.gy[ist], road.gy[ist + 1], s0, s1), dd(p0, p1, k0, k1), p0)
+
+
 def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
     """Foot points of all points: (s, n, phi_gamma) each (pairs, npt), and the windows' first s. ``P``:
     (2, pairs, npt); ``ist``: the points' nearest samples (clamped into the road where a point is bad: computed,
-    then discarded)."""
+    then discarded). Per point: a Halley step from its nearest sample (``node_eval``), clamped into the window, then
+    FULL_EVALS road evaluations with a step each; n and phi_gamma from the last one (``foot_n_phi``)."""
     half = FOOT_WINDOW // 2
     i0 = np.clip(ist - half, 0, road.size - FOOT_WINDOW)
     cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
-    fs, fn, fp = (np.zeros(ist.shape) for _ in range(3))
-    evs: dict[int, tuple] = {}
-    for i in fit.order:
-        w0 = road.s0 + i0[:, i] * road.ds
-        px, py = P[0, :, i], P[1, :, i]
-        j = fit.pred[i]
-        if j < 0:
-            s, steps = w0 + road.ds, COLD_STEPS
-        else:
-            s = halley_step(evs[j][0], evs[j][1], px, py)
-            s, steps = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds), WARM_STEPS
-        for _ in range(steps):
-            s_ev = s
-            ev = road_eval(road, cphi, sphi, i0[:, i], s)
-            s = halley_step(s, ev, px, py)
-            if _ == (steps - 1 if j < 0 else 0):        # successors start from a warm point's first evaluation
-                evs[i] = (s_ev, ev)                       # (one dependent evaluation per point along the C's chain)
-        fs[:, i] = s
-        fn[:, i], fp[:, i] = foot_n_phi(s, s_ev, ev, px, py)
-    return fs, fn, fp, road.s0 + i0 * road.ds
+    px, py = P[0], P[1]
+    w0 = road.s0 + i0 * road.ds
+    s = w0 + road.ds                                      # the nearest sample
+    s = halley_step(s, node_eval(road, cphi, sphi, i0 + half, s), px, py)
+    s = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds)
+    for _ in range(FULL_EVALS):
+        s_ev = s
+        ev = road_eval(road, cphi, sphi, i0, s)
+        s = halley_step(s, ev, px, py)
+    fn, fp = foot_n_phi(s, s_ev, ev, px, py)
+    return s, fn, fp, w0
 
 
 class OppFitter:
@@ -312,8 +306,7 @@ class OppFitter:
         boxes = np.array(self._box(_fr_columns(fs, fn, fp), pz.T))
         # a foot outside its window: the nearest sample was not next to it (the point cannot be mapped)
         lost = ~((fs >= w0) & (fs <= w0 + (FOOT_WINDOW - 1) * road.ds))
-        order = list(f.order)
-        first = np.asarray(order)[np.argmax((bad_pt | lost)[:, order], axis=1)]   # the C stops at the first such point
+        first = np.argmax(bad_pt | lost, axis=1)   # the C stops at the first such point
         out = np.empty((cnt, 6))
         outside, singular = 0, []
         s_first, s_last = road.s0, road.s0 + (M - 1) * road.ds

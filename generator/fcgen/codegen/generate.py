@@ -227,7 +227,7 @@ def fit_context(ocp: Ocp) -> dict[str, Any] | None:
         return None
     return {"npt": f.npt, "ref": f.ref_point, "search": oppfit.SEARCH, "window": oppfit.FOOT_WINDOW,
             "nbox": len(oppfit.BOX), "nev": len(oppfit.EVAL), "par": ocp.n_opp_stage,
-            "pred": _c_list(f.pred), "order": _c_list(f.order), "cold": oppfit.COLD_STEPS, "warm": oppfit.WARM_STEPS,
+            "full": oppfit.FULL_EVALS,
             "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "spacing": _c_real(f.spacing), "margin": _c_real(f.margin),
             "reach": _c_real(f.reach), "sag_safety": _c_real(oppfit.SAG_SAFETY),
             "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
@@ -327,7 +327,6 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
                     ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
                     ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
-                    ("NAME_real_t", "fit_ev", [fit["nev"] * fit["npt"]], R),
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
                     ("NAME_real_t", "fit_ids", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
