@@ -48,7 +48,7 @@ from . import obstacles as obs
 from .dsl import Conventional, Problem
 
 SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
-FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sample and one on either side
+FOOT_WINDOW = 3       # road samples of a point's window: its nearest sample and one on either side (fixed: 3)
 FULL_EVALS = 1        # road evaluations (a Halley step each) after the first step from the nearest sample
 NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
@@ -161,9 +161,7 @@ def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.nd
     ids = 1.0 / ds
     w0 = road.s0 + i0 * ds
     t = (s - w0) * ids
-    fi = np.floor(t)
-    fi = np.where(fi >= 0.0, fi, 0.0)                     # also NaN (the foot check rejects it)
-    fi = np.where(fi > FOOT_WINDOW - 2, float(FOOT_WINDOW - 2), fi)
+    fi = np.where(t >= 1.0, 1.0, 0.0)                     # floor(t) clamped into [0, FOOT_WINDOW - 2] (NaN: 0)
     tau = t - fi
     j = i0 + fi.astype(np.int64)
     t2 = tau * tau
