@@ -15,7 +15,7 @@ from fcgen import obstacles as obs
 from fcgen.dsl import CoveringCircles, Ellipse, SeparatingHyperplane
 from fcgen.ocp import build_ocp
 from fcgen.presets import CAR, TRUCK, paper_problem
-from fcgen.road import Road
+from fcgen.road import Road, random_road
 
 SQ2 = math.sqrt(2.0)
 
@@ -304,6 +304,67 @@ def test_conventional_fit_on_straight_road_is_the_rectangle():
     c_s, c_n, angle, L, W, f = obs.fit_frenet_shape(road, (x, y, phi), TRUCK, CAR, 0.25, s_guess=20.0)
     assert (c_s, c_n, angle) == pytest.approx((30.0, 3.0, 0.0), abs=1e-9)
     assert (L, W, f) == pytest.approx((13.25, 2.25, 1.0), abs=1e-9)   # plus the margin; no stretch
+
+
+def _edge_pieces_in_frenet(road: Road, s: float, n: float, alpha: float, ppm: float = 1.0, dense: int = 60):
+    """The fitted points' edge pieces of a truck at (s, n, alpha): per piece its two mapped ends and ``dense`` mapped
+    points in between (an independent projection, Newton to 1e-12)."""
+    x, y, phi = road.to_cartesian(s, n, alpha)
+    corners = [np.array(c) for c in obs.vertices(obs.chassis_shape(x, y, phi, TRUCK))]
+    ends, inner = [], []
+    for i in range(4):
+        p0, p1 = corners[i], corners[(i + 1) % 4]
+        m = max(2, int(math.ceil((TRUCK.w_ch if i % 2 == 0 else TRUCK.l_ch) * ppm)))
+        for k in range(m):
+            a, b = p0 + (k / m) * (p1 - p0), p0 + ((k + 1) / m) * (p1 - p0)
+            t = np.linspace(0.0, 1.0, dense + 2)[:, None]
+            P = a + t * (b - a)
+            guess = s + (P - [x, y]) @ np.array([math.cos(phi), math.sin(phi)])
+            ps, pn, _ = road.to_frenet(P[:, 0], P[:, 1], 0 * P[:, 0], s_guess=guess)
+            ends.append(((ps[0], pn[0]), (ps[-1], pn[-1])))
+            inner.append(np.stack([ps, pn], axis=1))
+    return ends, inner
+
+
+@pytest.mark.parametrize("road_name, s, n, alpha", [("circle", 20.0, 5.0, 0.0), ("circle", 20.0, -5.0, 0.3),
+                                                     ("wavy", 60.0, 4.0, -0.2), ("wavy", 150.0, -4.5, 0.25)])
+def test_chord_sag_bound_covers_the_mapped_edges(road_name, s, n, alpha):
+    """obstacles.chord_sag_bound against the true distance of every mapped edge piece from its chord (dense points,
+    independent projection), on the |kappa| = 0.05 circle and a road whose curvature changes (kappa' != 0)."""
+    road = ROAD if road_name == "circle" else random_road(5, length=400.0, s0=-50.0)
+    ends, inner = _edge_pieces_in_frenet(road, s, n, alpha)
+    dev = 0.0
+    for (a, b), pts in zip(ends, inner):
+        a, b = np.array(a), np.array(b)
+        u = (b - a) / np.linalg.norm(b - a)
+        off = pts - a
+        t = np.clip(off @ u, 0.0, np.linalg.norm(b - a))
+        dev = max(dev, float(np.max(np.linalg.norm(off - t[:, None] * u, axis=1))))
+    e = np.array([p for ab in ends for p in ab])
+    reach = CAR.l + CAR.l_ch + CAR.w_ch
+    sel = (road.s >= e[:, 0].min() - reach - road.ds) & (road.s <= e[:, 0].max() + reach + road.ds)
+    bound = obs.chord_sag_bound(obs.edge_spacing(TRUCK, 1.0), float(e[:, 1].min()), float(e[:, 1].max()),
+                                road.kappa[sel], road.ds, reach)
+    assert 0.0 < dev <= bound, (dev, bound)
+    assert bound < 8.0 * dev            # a bound, not a blanket: within a small factor of the true sag
+
+
+def test_chord_sag_bound_by_hand_and_its_limit():
+    # straight road: no sag; circle kappa = 0.05 next to n in [-1, 1], h = 1: q = 1 - 1.5 * 0.05 = 0.925,
+    # (|s''| + |n''|) <= 0.05 / q^2 + 0.05 / q, h^2 / 8 of it
+    assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.zeros(5), 2.0, 9.3) == 0.0
+    q = 1.0 - 1.5 * 0.05
+    assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.full(5, 0.05), 2.0, 9.3) == pytest.approx(
+        (0.05 / q ** 2 + 0.05 / q) / 8.0, rel=1e-12)
+    # curvature slope: kappa 0 -> 0.02 over one 2 m sample, |n| <= 1.5: + 1.5 * 0.01 / q'^3
+    qs = 1.0 - 1.5 * 0.02
+    assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.array([0.0, 0.02]), 2.0, 9.3) == pytest.approx(
+        ((0.02 + 1.5 * 0.01 / qs) / qs ** 2 + 0.02 / qs) / 8.0, rel=1e-12)
+    # the piece can leave the curvature samples (h / (2 q) > reach + ds): no bound
+    assert obs.chord_sag_bound(4.0, 15.0, 17.0, np.full(5, 0.05), 2.0, 1.0) is None
+    # edge spacing: the longest of the edges' spacings (truck: 4 m width in 4, 26 m length in 26 points)
+    assert obs.edge_spacing(TRUCK, 1.0) == 1.0
+    assert obs.edge_spacing(TRUCK, 0.25) == pytest.approx(26.0 / 7.0)
 
 
 def test_frenet_ego_shape_inflation_about_the_rear_axle():

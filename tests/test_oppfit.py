@@ -190,3 +190,63 @@ def test_naive_option_uses_the_projected_rear_axle():
     assert outside == 0 and singular == []
     for k in range(3):
         np.testing.assert_allclose(out[k], obs.naive_frenet_shape(fr[k], TRUCK), rtol=0, atol=1e-9)
+
+
+def _dense_rectangle_in_frenet(road: Road, frenet, per_m: float = 10.0):
+    """Dense points on the truck's true rectangle (boundary and interior) at the Frenet pose, mapped by the
+    independent projection (Newton to 1e-12 from a heading guess)."""
+    x, y, phi = (float(v) for v in poses_on(road, frenet))
+    sh = obs.chassis_shape(x, y, phi, TRUCK)
+    c, s = math.cos(phi), math.sin(phi)
+    a = np.linspace(-1.0, 1.0, int(2 * sh.L * per_m) + 1)[:, None]
+    b = np.linspace(-1.0, 1.0, int(2 * sh.W * per_m) + 1)[None, :]
+    px = (sh.cx + a * sh.L * c - b * sh.W * s).ravel()
+    py = (sh.cy + a * sh.L * s + b * sh.W * c).ravel()
+    guess = frenet[0] + (px - x) * c + (py - y) * s
+    ps, pn, _ = road.to_frenet(px, py, 0 * px, s_guess=guess)
+    return ps, pn
+
+
+@pytest.mark.parametrize("frenet", [(20.0, 5.0, 0.0), (20.0, -5.0, 0.0), (25.0, 2.0, 0.3), (15.0, -3.0, -0.3)])
+def test_fitted_box_covers_the_true_rectangle_at_one_point_per_metre(frenet):
+    """The solver's fit (the preset's 1 point per metre; the C equals it bit for bit) on the |kappa| = 0.05 circle:
+    no point of the true rectangle sticks out of the fitted box (nor of the ellipse around it)."""
+    pb = problem(n_opp=1)
+    assert pb.formulation.points_per_metre == 1.0
+    fitter = OppFitter(build_oppfit(pb), 1, 1)
+    out, outside, singular = fitter(CIRCLE, poses_on(CIRCLE, np.array([frenet]))[:, None, :])
+    assert outside == 0 and singular == []
+    box = obs.Shape(*out[0][:5])
+    ps, pn = _dense_rectangle_in_frenet(CIRCLE, frenet)
+    cb, sb = math.cos(box.angle), math.sin(box.angle)
+    e1, e2 = cb * (ps - box.cx) + sb * (pn - box.cy), -sb * (ps - box.cx) + cb * (pn - box.cy)
+    excess = np.maximum(np.abs(e1) - box.L, np.abs(e2) - box.W)
+    assert np.max(excess) <= 0.0, f"the true rectangle sticks out of the box by {np.max(excess):.2e} m"
+    assert np.max(obs.ellipse_h(ps, pn, box, 0.0)) < 0.0
+
+
+@pytest.mark.parametrize("road", [CIRCLE, WAVY], ids=["circle", "wavy"])
+def test_foot_points_reach_the_converged_projection(road):
+    """oppfit.map_points (a Halley step from the nearest sample, one road evaluation, Taylor for n) against the
+    independent projection (Newton to 1e-12) of the same points: s and n within 2e-11 m."""
+    from fcgen.oppfit import SEARCH, map_points
+    fit = build_oppfit(problem(n_opp=1))
+    lo, hi = road.s0 + 40.0, road.s_end - 40.0
+    rng = np.random.default_rng(3)
+    fr = np.stack([rng.uniform(lo, hi, 25), rng.uniform(-5, 5, 25), rng.uniform(-0.3, 0.3, 25)], axis=1)
+    fitter = OppFitter(fit, len(fr), 1)
+    P, d = fitter._points(poses_on(road, fr).T)
+    P = np.array(P).reshape(2, len(fr), fit.npt)
+    d = np.array(d).T
+    ref = np.argmin((road.gx[None, :] - P[0, :, fit.ref_point, None]) ** 2
+                    + (road.gy[None, :] - P[1, :, fit.ref_point, None]) ** 2, axis=1)
+    cand = np.clip(ref[:, None, None] + np.floor(d / road.ds + 0.5).astype(int)[:, :, None]
+                   + np.arange(-SEARCH, SEARCH + 1), 0, road.size - 1)
+    dd = (road.gx[cand] - P[0][:, :, None]) ** 2 + (road.gy[cand] - P[1][:, :, None]) ** 2
+    ist = np.take_along_axis(cand, np.argmin(dd, axis=2)[:, :, None], axis=2)[:, :, 0]
+    fs, fn, _, w0 = map_points(fit, road, P, ist)
+    assert np.all((fs >= w0) & (fs <= w0 + 2 * road.ds))
+    sp = road.project(P[0].ravel(), P[1].ravel(), fs.ravel()).reshape(fs.shape)
+    _, phg, gx, gy, _, _ = road.eval(sp)
+    n = -(P[0] - gx) * np.sin(phg) + (P[1] - gy) * np.cos(phg)
+    assert np.max(np.abs(fs - sp)) < 2e-11 and np.max(np.abs(fn - n)) < 2e-11

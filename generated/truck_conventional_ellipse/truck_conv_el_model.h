@@ -161,24 +161,6 @@ int truck_conv_el_opp_points_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 #define truck_conv_el_opp_points_SZ_RES 2
 #define truck_conv_el_opp_points_SZ_IW 0
 #define truck_conv_el_opp_points_SZ_W 0
-int truck_conv_el_opp_foot(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int truck_conv_el_opp_foot_checkout(void);
-void truck_conv_el_opp_foot_release(int mem);
-void truck_conv_el_opp_foot_incref(void);
-void truck_conv_el_opp_foot_decref(void);
-casadi_int truck_conv_el_opp_foot_n_in(void);
-casadi_int truck_conv_el_opp_foot_n_out(void);
-casadi_real truck_conv_el_opp_foot_default_in(casadi_int i);
-const char* truck_conv_el_opp_foot_name_in(casadi_int i);
-const char* truck_conv_el_opp_foot_name_out(casadi_int i);
-const casadi_int* truck_conv_el_opp_foot_sparsity_in(casadi_int i);
-const casadi_int* truck_conv_el_opp_foot_sparsity_out(casadi_int i);
-int truck_conv_el_opp_foot_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int truck_conv_el_opp_foot_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define truck_conv_el_opp_foot_SZ_ARG 2
-#define truck_conv_el_opp_foot_SZ_RES 1
-#define truck_conv_el_opp_foot_SZ_IW 0
-#define truck_conv_el_opp_foot_SZ_W 0
 int truck_conv_el_opp_box(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int truck_conv_el_opp_box_checkout(void);
 void truck_conv_el_opp_box_release(int mem);

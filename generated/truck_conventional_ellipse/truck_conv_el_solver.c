@@ -48,7 +48,6 @@ typedef char check_truck_conv_el_init_state[(truck_conv_el_init_state_SZ_ARG <= 
 typedef char check_truck_conv_el_theta_init[(truck_conv_el_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_theta_init_SZ_RES <= CASADI_SZ_RES && truck_conv_el_theta_init_SZ_IW <= CASADI_SZ_IW && truck_conv_el_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plant_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plant_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
-typedef char check_truck_conv_el_opp_foot[(truck_conv_el_opp_foot_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_foot_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_foot_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_foot_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_opp_box[(truck_conv_el_opp_box_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_box_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_box_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_box_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
@@ -1120,11 +1119,11 @@ typedef struct {
   int qp_ready;
   int fit_outside;
   truck_conv_el_real_t opp_stage[TRUCK_CONV_EL_N + 1][18];
-  truck_conv_el_real_t fit_P[246];
-  truck_conv_el_real_t fit_d[123];
-  truck_conv_el_real_t fit_fr[369];
-  truck_conv_el_real_t fit_win[20];
-  truck_conv_el_real_t fit_box[9];
+  truck_conv_el_real_t fit_P[126];
+  truck_conv_el_real_t fit_d[63];
+  truck_conv_el_real_t fit_fr[189];
+  truck_conv_el_real_t fit_box[11];
+  truck_conv_el_real_t fit_ids;
   truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
 } truck_conv_el_workspace_t;
@@ -1229,17 +1228,30 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 }
 
 /* ---- the conventional formulation's opponent fit (fcgen.oppfit; the Python reference does the same steps) ------ */
-#define FIT_NPT 123         /* points mapped per opponent and stage */
+#define FIT_NPT 63         /* points mapped per opponent and stage */
 #define FIT_REF 60         /* the reference point of the global search (chassis centre or rear axle) */
 #define FIT_SEARCH 4      /* samples searched on either side of a point's guessed nearest sample */
-#define FIT_WIN 3         /* samples of a point's Newton window */
+#define FIT_WIN 3         /* samples of a point's window */
 #define FIT_WIN_LAST 2
+#define FIT_NEV 12        /* a road evaluation (oppfit.EVAL) */
+#define FIT_FULL 1        /* road evaluations (a Halley step each) after the nearest sample's step */
+#define FIT_DG_MIN ((truck_conv_el_real_t)0.05)
+#define FIT_SPACING ((truck_conv_el_real_t)1.0) /* the largest distance of neighbouring edge points */
+#define FIT_MARGIN ((truck_conv_el_real_t)0.0)
+#define FIT_REACH ((truck_conv_el_real_t)9.3) /* the ego's reach from its rear axle */
+#define FIT_SAG_SAFETY ((truck_conv_el_real_t)2.0)
 #define FIT_STRETCH_MAX ((truck_conv_el_real_t)0.9)
 #define FIT_N_MIN ((truck_conv_el_real_t)-10.0)
 #define FIT_N_MAX ((truck_conv_el_real_t)10.0)
 #define FIT_OUTSIDE (-1) /* fit_one: left out (not an exit code) */
 #define REAL_HALF ((truck_conv_el_real_t)0.5)
 #define REAL_1 ((truck_conv_el_real_t)1.0)
+#define REAL_2 ((truck_conv_el_real_t)2.0)
+#define REAL_3 ((truck_conv_el_real_t)3.0)
+#define REAL_4 ((truck_conv_el_real_t)4.0)
+#define REAL_6 ((truck_conv_el_real_t)6.0)
+#define REAL_8 ((truck_conv_el_real_t)8.0)
+#define REAL_12 ((truck_conv_el_real_t)12.0)
 
 /* The road sample nearest to (px, py) among lo..hi (the first minimum). */
 static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo, int hi) {
@@ -1258,46 +1270,195 @@ static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo,
   return best;
 }
 
-/* Point i's Newton window of road samples ist .. ist + FIT_WIN - 1 into ws.fit_win (RoadWindowParams with slopes). */
-static void fit_window(int ist) {
-  int j;
-  ws.fit_win[0] = ws.road_s0 + ((truck_conv_el_real_t)ist * ws.road_ds);
-  ws.fit_win[1] = ws.road_ds;
-  for (j = 0; j < FIT_WIN; ++j) {
-    ws.fit_win[2 + j] = ws.road_kappa[ist + j];
-    ws.fit_win[2 + FIT_WIN + j] = ws.road_phi[ist + j];
-    ws.fit_win[2 + (2 * FIT_WIN) + j] = ws.road_gx[ist + j];
-    ws.fit_win[2 + (3 * FIT_WIN) + j] = ws.road_gy[ist + j];
-    ws.fit_win[2 + (4 * FIT_WIN) + j] = ws.fit_cos[ist + j];
-    ws.fit_win[2 + (5 * FIT_WIN) + j] = ws.fit_sin[ist + j];
+/* The road interpolant (road.py's formula) at s on the segment of the window i0 .. i0 + FIT_WIN - 1 that holds s
+ * (the first or last one beyond it): e = oppfit.EVAL (phi_gamma', cos and sin of phi_gamma, gamma, gamma', gamma'',
+ * phi_gamma'', phi_gamma, s). */
+static void fit_road(truck_conv_el_real_t s, int i0, truck_conv_el_real_t *e) {
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const truck_conv_el_real_t ids = ws.fit_ids;
+  const truck_conv_el_real_t t = (s - (ws.road_s0 + ((truck_conv_el_real_t)i0 * ds))) * ids;
+  /* floor(t) clamped into [0, FIT_WIN - 2] = [0, 1] (NaN: 0, the foot check rejects it) */
+  const truck_conv_el_real_t fi = (t >= REAL_1) ? REAL_1 : REAL_0;
+  const int j = i0 + ((t >= REAL_1) ? 1 : 0);
+  {
+    const truck_conv_el_real_t tau = t - fi;
+    const truck_conv_el_real_t t2 = tau * tau;
+    const truck_conv_el_real_t t3 = t2 * tau;
+    const truck_conv_el_real_t h00 = ((REAL_2 * t3) - (REAL_3 * t2)) + REAL_1;
+    const truck_conv_el_real_t h10 = ((t3 - (REAL_2 * t2)) + tau) * ds;
+    const truck_conv_el_real_t h01 = (REAL_3 * t2) - (REAL_2 * t3);
+    const truck_conv_el_real_t h11 = (t3 - t2) * ds;
+    const truck_conv_el_real_t d00 = (REAL_6 * t2) - (REAL_6 * tau);
+    const truck_conv_el_real_t d10 = (((REAL_3 * t2) - (REAL_4 * tau)) + REAL_1) * ds;
+    const truck_conv_el_real_t d11 = ((REAL_3 * t2) - (REAL_2 * tau)) * ds;
+    const truck_conv_el_real_t e00 = (REAL_12 * tau) - REAL_6;
+    const truck_conv_el_real_t e10 = ((REAL_6 * tau) - REAL_4) * ds;
+    const truck_conv_el_real_t e11 = ((REAL_6 * tau) - REAL_2) * ds;
+    const truck_conv_el_real_t ids2 = ids * ids;
+    const truck_conv_el_real_t p0 = ws.road_phi[j];
+    const truck_conv_el_real_t p1 = ws.road_phi[j + 1];
+    const truck_conv_el_real_t k0 = ws.road_kappa[j];
+    const truck_conv_el_real_t k1 = ws.road_kappa[j + 1];
+    const truck_conv_el_real_t x0 = ws.road_gx[j];
+    const truck_conv_el_real_t x1 = ws.road_gx[j + 1];
+    const truck_conv_el_real_t y0 = ws.road_gy[j];
+    const truck_conv_el_real_t y1 = ws.road_gy[j + 1];
+    const truck_conv_el_real_t c0 = ws.fit_cos[j];
+    const truck_conv_el_real_t c1 = ws.fit_cos[j + 1];
+    const truck_conv_el_real_t s0 = ws.fit_sin[j];
+    const truck_conv_el_real_t s1 = ws.fit_sin[j + 1];
+    const truck_conv_el_real_t phi = (((h00 * p0) + (h10 * k0)) + (h01 * p1)) + (h11 * k1);
+    e[0] = ((((d00 * p0) + (d10 * k0)) - (d00 * p1)) + (d11 * k1)) * ids;
+    e[1] = cos(phi);
+    e[2] = sin(phi);
+    e[3] = (((h00 * x0) + (h10 * c0)) + (h01 * x1)) + (h11 * c1);
+    e[4] = (((h00 * y0) + (h10 * s0)) + (h01 * y1)) + (h11 * s1);
+    e[5] = ((((d00 * x0) + (d10 * c0)) - (d00 * x1)) + (d11 * c1)) * ids;
+    e[6] = ((((d00 * y0) + (d10 * s0)) - (d00 * y1)) + (d11 * s1)) * ids;
+    e[7] = ((((e00 * x0) + (e10 * c0)) - (e00 * x1)) + (e11 * c1)) * ids2;
+    e[8] = ((((e00 * y0) + (e10 * s0)) - (e00 * y1)) + (e11 * s1)) * ids2;
+    e[9] = ((((e00 * p0) + (e10 * k0)) - (e00 * p1)) + (e11 * k1)) * ids2;
+    e[10] = phi;
+    e[11] = s;
   }
 }
 
-/* The largest n kappa over the box's lateral extent and the curvatures where the ego can be next to it (0 if none
- * is positive: the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0). */
-static truck_conv_el_real_t fit_stretch(const truck_conv_el_real_t *b, truck_conv_el_real_t s_lo, truck_conv_el_real_t s_hi) {
+/* One Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 from s = e[11], with the road evaluation e there
+ * (oppfit.halley_step: s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a gradient step where
+ * g' <= FIT_DG_MIN). */
+static truck_conv_el_real_t fit_step(const truck_conv_el_real_t *e, truck_conv_el_real_t px, truck_conv_el_real_t py) {
+  const truck_conv_el_real_t ex = e[3] - px;
+  const truck_conv_el_real_t ey = e[4] - py;
+  const truck_conv_el_real_t g = (ex * e[1]) + (ey * e[2]);
+  const truck_conv_el_real_t en = (ey * e[1]) - (ex * e[2]);
+  const truck_conv_el_real_t g1 = ((e[5] * e[1]) + (e[6] * e[2])) + (e[0] * en);
+  const truck_conv_el_real_t gn = (e[6] * e[1]) - (e[5] * e[2]); /* gamma' . n */
+  const truck_conv_el_real_t g2 = ((((e[7] * e[1]) + (e[8] * e[2])) + ((REAL_2 * e[0]) * gn)) + (e[9] * en)) -
+                               ((e[0] * e[0]) * g);
+  truck_conv_el_real_t step = g;
+  if (g1 > FIT_DG_MIN) {
+    const truck_conv_el_real_t gg = g * g2;
+    const truck_conv_el_real_t g11 = g1 * g1;
+    step = (((gg < REAL_0) ? -gg : gg) <= g11) ? (((REAL_2 * g) * g1) / ((REAL_2 * g11) - gg)) : (g / g1);
+  }
+  return e[11] - step;
+}
+
+/* oppfit.EVAL at the road sample i (s its arc length) from the samples alone (no cos or sin): the derivatives of the
+ * segment i .. i + 1 there. */
+static void fit_node(int i, truck_conv_el_real_t s, truck_conv_el_real_t *e) {
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const truck_conv_el_real_t ids2 = ws.fit_ids * ws.fit_ids;
+  const truck_conv_el_real_t a = REAL_4 * ds;
+  const truck_conv_el_real_t b = REAL_2 * ds;
+  e[0] = ws.road_kappa[i];
+  e[1] = ws.fit_cos[i];
+  e[2] = ws.fit_sin[i];
+  e[3] = ws.road_gx[i];
+  e[4] = ws.road_gy[i];
+  e[5] = ws.fit_cos[i];
+  e[6] = ws.fit_sin[i];
+  e[7] = (((REAL_6 * (ws.road_gx[i + 1] - ws.road_gx[i])) - (a * ws.fit_cos[i])) - (b * ws.fit_cos[i + 1])) * ids2;
+  e[8] = (((REAL_6 * (ws.road_gy[i + 1] - ws.road_gy[i])) - (a * ws.fit_sin[i])) - (b * ws.fit_sin[i + 1])) * ids2;
+  e[9] = (((REAL_6 * (ws.road_phi[i + 1] - ws.road_phi[i])) - (a * ws.road_kappa[i])) - (b * ws.road_kappa[i + 1])) *
+         ids2;
+  e[10] = ws.road_phi[i];
+  e[11] = s;
+}
+
+/* Point i's foot point on its window i0 .. i0 + FIT_WIN - 1 into fit_fr (oppfit.map_points): a Halley step from the
+ * window's centre sample, clamped into the window, then FIT_FULL road evaluations with a step each; n and phi_gamma
+ * at the foot from the last one (oppfit.foot_n_phi: second-order Taylor). 0 if the foot leaves the window (the point
+ * cannot be mapped). */
+static int fit_point(int i, int i0) {
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const truck_conv_el_real_t w0 = ws.road_s0 + ((truck_conv_el_real_t)i0 * ds);
+  const truck_conv_el_real_t w1 = w0 + ((truck_conv_el_real_t)FIT_WIN_LAST * ds);
+  const truck_conv_el_real_t px = ws.fit_P[2 * i];
+  const truck_conv_el_real_t py = ws.fit_P[(2 * i) + 1];
+  truck_conv_el_real_t e[FIT_NEV];
+  truck_conv_el_real_t s;
+  int k;
+  fit_node(i0 + (FIT_WIN / 2), w0 + ds, e);
+  s = fit_step(e, px, py);
+  if (s < w0) {
+    s = w0;
+  }
+  if (s > w1) {
+    s = w1;
+  }
+  for (k = 0; k < FIT_FULL; ++k) {
+    fit_road(s, i0, e);
+    s = fit_step(e, px, py);
+  }
+  {
+    const truck_conv_el_real_t ex = e[3] - px;
+    const truck_conv_el_real_t ey = e[4] - py;
+    const truck_conv_el_real_t g = (ex * e[1]) + (ey * e[2]);
+    const truck_conv_el_real_t en = (ey * e[1]) - (ex * e[2]);
+    const truck_conv_el_real_t g1 = ((e[5] * e[1]) + (e[6] * e[2])) + (e[0] * en);
+    const truck_conv_el_real_t dn = (e[0] * g) - ((e[6] * e[1]) - (e[5] * e[2]));
+    const truck_conv_el_real_t ddn = (((e[0] * ((e[5] * e[1]) + (e[6] * e[2]))) - ((e[8] * e[1]) - (e[7] * e[2]))) +
+                                   (e[9] * g)) + (e[0] * g1);
+    const truck_conv_el_real_t d = s - e[11];
+    const truck_conv_el_real_t h = REAL_HALF * d;
+    ws.fit_fr[3 * i] = s;
+    ws.fit_fr[(3 * i) + 1] = ((ex * e[2]) + ((py - e[4]) * e[1])) + (d * (dn + (h * ddn)));
+    ws.fit_fr[(3 * i) + 2] = e[10] + (d * (e[0] + (h * e[9])));
+  }
+  return ((s >= w0) && (s <= w1)) ? 1 : 0;
+}
+
+/* The samples i with s_lo <= s0 + ds i <= s_hi (a non-empty range inside the road): their extreme curvatures and
+ * largest curvature step between neighbours, in k (kmax, kmin, dk). */
+static void fit_curvature(truck_conv_el_real_t s_lo, truck_conv_el_real_t s_hi, truck_conv_el_real_t *k) {
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const int last = ws.road_n - 1;
+  int lo = (int)FLOOR((s_lo - ws.road_s0) / ds);
+  int hi = (int)FLOOR((s_hi - ws.road_s0) / ds);
   int i;
-  int seen = 0;
-  truck_conv_el_real_t kmax = REAL_0;
-  truck_conv_el_real_t kmin = REAL_0;
-  truck_conv_el_real_t st = REAL_0;
-  truck_conv_el_real_t nk[4];
-  for (i = 0; i < ws.road_n; ++i) {
-    const truck_conv_el_real_t s = ws.road_s0 + (ws.road_ds * (truck_conv_el_real_t)i);
-    if ((s >= s_lo) && (s <= s_hi)) {
-      if ((seen == 0) || (ws.road_kappa[i] > kmax)) {
-        kmax = ws.road_kappa[i];
-      }
-      if ((seen == 0) || (ws.road_kappa[i] < kmin)) {
-        kmin = ws.road_kappa[i];
-      }
-      seen = 1;
+  lo = (lo < 0) ? 0 : ((lo > last) ? last : lo); /* then exactly the scan's first and last sample */
+  hi = (hi < 0) ? 0 : ((hi > last) ? last : hi);
+  while ((lo > 0) && ((ws.road_s0 + (ds * ((truck_conv_el_real_t)lo - REAL_1))) >= s_lo)) {
+    --lo;
+  }
+  while ((lo < last) && ((ws.road_s0 + (ds * (truck_conv_el_real_t)lo)) < s_lo)) {
+    ++lo;
+  }
+  while ((hi < last) && ((ws.road_s0 + (ds * ((truck_conv_el_real_t)hi + REAL_1))) <= s_hi)) {
+    ++hi;
+  }
+  while ((hi > 0) && ((ws.road_s0 + (ds * (truck_conv_el_real_t)hi)) > s_hi)) {
+    --hi;
+  }
+  k[0] = ws.road_kappa[lo];
+  k[1] = ws.road_kappa[lo];
+  k[2] = REAL_0;
+  for (i = lo + 1; i <= hi; ++i) {
+    const truck_conv_el_real_t v = ws.road_kappa[i];
+    const truck_conv_el_real_t d = v - ws.road_kappa[i - 1];
+    const truck_conv_el_real_t a = (d < REAL_0) ? -d : d;
+    if (v > k[0]) {
+      k[0] = v;
+    }
+    if (v < k[1]) {
+      k[1] = v;
+    }
+    if (a > k[2]) {
+      k[2] = a;
     }
   }
-  nk[0] = b[5] * kmax;
-  nk[1] = b[5] * kmin;
-  nk[2] = b[6] * kmax;
-  nk[3] = b[6] * kmin;
+}
+
+/* max(0, n kappa) over n in {n_hi, n_lo} and kappa in {kmax, kmin}. */
+static truck_conv_el_real_t fit_nk(truck_conv_el_real_t n_hi, truck_conv_el_real_t n_lo, const truck_conv_el_real_t *k) {
+  truck_conv_el_real_t nk[4];
+  truck_conv_el_real_t st = REAL_0;
+  int i;
+  nk[0] = n_hi * k[0];
+  nk[1] = n_hi * k[1];
+  nk[2] = n_lo * k[0];
+  nk[3] = n_lo * k[1];
   for (i = 0; i < 4; ++i) {
     if (nk[i] > st) {
       st = nk[i];
@@ -1306,19 +1467,41 @@ static truck_conv_el_real_t fit_stretch(const truck_conv_el_real_t *b, truck_con
   return st;
 }
 
+/* obstacles.chord_sag_bound: how far a mapped edge piece leaves its chord, from the mapped points' n range b[9..10]
+ * and the curvatures k; 0 if the bound does not apply (then *sag is untouched). */
+static int fit_sag(const truck_conv_el_real_t *b, const truck_conv_el_real_t *k, truck_conv_el_real_t *sag) {
+  const truck_conv_el_real_t h = FIT_SPACING;
+  const truck_conv_el_real_t nl = b[10] - (REAL_HALF * h);
+  const truck_conv_el_real_t nh = b[9] + (REAL_HALF * h);
+  const truck_conv_el_real_t q = REAL_1 - fit_nk(nh, nl, k);
+  truck_conv_el_real_t k_abs = k[0];
+  truck_conv_el_real_t n_abs = nh;
+  if (!((REAL_HALF * h) <= (q * (FIT_REACH + ws.road_ds)))) return 0;
+  if ((-k[1]) > k_abs) {
+    k_abs = -k[1];
+  }
+  if ((-nl) > n_abs) {
+    n_abs = -nl;
+  }
+  *sag = ((h * h) / REAL_8) * (((k_abs + ((n_abs * (k[2] / ws.road_ds)) / q)) / (q * q)) + (k_abs / q));
+  return 1;
+}
+
 /* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched). */
 static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) {
   const int m = ws.road_n;
   const int last = m - 1;
   const int half = FIT_WIN / 2;
-  const truck_conv_el_real_t win_len = (truck_conv_el_real_t)FIT_WIN_LAST * ws.road_ds;
   const truck_conv_el_real_t ds = ws.road_ds;
-  const truck_conv_el_real_t *b = ws.fit_box; /* b: c_s, c_n, angle, L, W, n_hi, n_lo, s_lo, s_hi */
+  const truck_conv_el_real_t *b = ws.fit_box; /* b: oppfit.BOX */
   int i;
   int iref;
   truck_conv_el_real_t s_lo;
   truck_conv_el_real_t s_hi;
   truck_conv_el_real_t st;
+  truck_conv_el_real_t sag = REAL_0;
+  truck_conv_el_real_t pad;
+  truck_conv_el_real_t k[3];
   call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
   iref = fit_nearest(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], 0, m - 1);
   if ((iref == 0) || (iref == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
@@ -1333,16 +1516,10 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
     if (hi > last) {
       hi = last;
     }
-    truck_conv_el_real_t s;
     if (lo > hi) return FIT_OUTSIDE;
     ist = fit_nearest(ws.fit_P[2 * i], ws.fit_P[(2 * i) + 1], lo, hi);
     if ((ist < half) || (ist > (last - half))) return FIT_OUTSIDE;
-    fit_window(ist - half);
-    call3(truck_conv_el_opp_foot, &ws.fit_P[2 * i], ws.fit_win, NULL, &ws.fit_fr[3 * i], NULL, NULL);
-    s = ws.fit_fr[3 * i];
-    if (!((s >= ws.fit_win[0]) && (s <= (ws.fit_win[0] + win_len)))) {
-      return TRUCK_CONV_EL_ERR_OPP_FRENET; /* the foot left its window: the point cannot be mapped */
-    }
+    if (fit_point(i, ist - half) == 0) return TRUCK_CONV_EL_ERR_OPP_FRENET; /* the foot left its window */
   }
   call3(truck_conv_el_opp_box, ws.fit_fr, pose, NULL, ws.fit_box, NULL, NULL);
   s_lo = b[7] - ds;
@@ -1351,9 +1528,14 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
       (b[5] < FIT_N_MIN)) {
     return FIT_OUTSIDE;
   }
-  st = fit_stretch(b, s_lo, s_hi);
+  fit_curvature(s_lo, s_hi, k);
+  st = fit_nk(b[5], b[6], k); /* the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0 */
   if (st >= FIT_STRETCH_MAX) return TRUCK_CONV_EL_ERR_OPP_FRENET;
-  copy(b, out, 5);
+  if (fit_sag(b, k, &sag) == 0) return TRUCK_CONV_EL_ERR_OPP_FRENET;
+  pad = FIT_MARGIN + (FIT_SAG_SAFETY * sag);
+  copy(b, out, 3);
+  out[3] = b[3] + pad;
+  out[4] = b[4] + pad;
   out[5] = REAL_1 / (REAL_1 - st);
   return TRUCK_CONV_EL_OK;
 }
@@ -1363,6 +1545,7 @@ static int fit_opponents(void) {
   int k;
   if (ws.road_set == 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   ws.fit_outside = 0;
+  ws.fit_ids = REAL_1 / ws.road_ds;
   for (k = 0; k < ws.road_n; ++k) { /* the node slopes of the road interpolant, once per sample */
     ws.fit_cos[k] = cos(ws.road_phi[k]);
     ws.fit_sin[k] = sin(ws.road_phi[k]);

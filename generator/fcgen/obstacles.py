@@ -156,49 +156,77 @@ def frenet_ego_shape(s, n, alpha, f, veh: Vehicle) -> Shape:
                  f * (veh.l_ch / 2 + half_l) - half_l, f * veh.w_ch / 2)
 
 
+SAG_SAFETY = 2.0   # the box's padding: this times chord_sag_bound (the road interpolant is no exact Frenet frame)
+
+
+def edge_spacing(opp: Vehicle, points_per_metre: float) -> float:
+    """The largest distance between two neighbouring points of the fitted rectangle's edges."""
+    return max(e / max(2, int(math.ceil(e * points_per_metre))) for e in (opp.w_ch, opp.l_ch))
+
+
+def chord_sag_bound(h: float, n_lo: float, n_hi: float, kap: np.ndarray, ds: float, reach: float) -> float | None:
+    """How far a straight edge piece of length <= ``h``, mapped into (s, n), can leave the chord of its mapped ends.
+
+    A line p(t) = p0 + t u (|u| = 1) in the Frenet frame of a road with curvature kappa(s): from
+    u = s' (1 - n kappa) T + n' N, T' = kappa N, N' = -kappa T (' = d/dt along the line, kappa' = d kappa / ds),
+    s' = (u.T) / (1 - n kappa), n' = u.N, n'' = -kappa (u.T)^2 / (1 - n kappa) and
+    s'' = (kappa sin(2 theta) + n kappa' cos(theta)^2 / (1 - n kappa)) / (1 - n kappa)^2 (theta: u against T). So
+    |r''| <= |s''| + |n''| <= (K + |n| K' / q) / q^2 + K / q with K = max |kappa|, K' = max |kappa'|,
+    q = min(1 - n kappa) > 0 over the piece, and a C1 curve with bounded r'' leaves its chord by at most
+    h^2 / 8 max |r''| (the linear interpolation error). ``n_lo``/``n_hi``: the mapped ends' n range (the piece stays
+    within h / 2 of it, |n'| <= 1); ``kap``: the road's curvature samples (spacing ``ds``, piecewise linear between
+    them) around the ends, at least ``reach + ds`` beyond them along s (the piece stays within h / (2 q) of them,
+    |s'| <= 1 / q). ``None`` where that does not hold (the frame is nearly singular there): the edge cannot be
+    bounded. 0 for h = 0 (no edges).
+    """
+    nl, nh = n_lo - (0.5 * h), n_hi + (0.5 * h)
+    kmax, kmin = float(np.max(kap)), float(np.min(kap))
+    q = 1.0 - max(0.0, nh * kmax, nh * kmin, nl * kmax, nl * kmin)
+    if not ((0.5 * h) <= (q * (reach + ds))):
+        return None
+    k_abs = max(kmax, -kmin)
+    dk = float(np.max(np.abs(np.diff(kap)))) if len(kap) > 1 else 0.0
+    n_abs = max(nh, -nl)
+    b_s = (k_abs + ((n_abs * (dk / ds)) / q)) / (q * q)
+    b_n = k_abs / q
+    return ((h * h) / 8.0) * (b_s + b_n)
+
+
 def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin: float,
                      s_guess: float | None = None, points_per_metre: float = 4.0) -> np.ndarray:
     """Map the opponent's true rectangle into (s, n) and fit an oriented box around all mapped points.
 
-    Returns ``FRENET_SHAPE`` values. The box axis joins the mapped rear and front centres; the ego inflation
-    factor uses the largest n kappa (signed: only the outside of a bend stretches) the ego can meet next to the box.
+    Returns ``FRENET_SHAPE`` values. The box axis joins the mapped rear and front centres; it is padded by the margin
+    and ``SAG_SAFETY`` times the edges' chord bound (``chord_sag_bound``); the ego inflation factor uses the largest
+    n kappa (signed: only the outside of a bend stretches) the ego can meet next to the box.
     """
     x, y, phi = (float(v) for v in pose_xyphi)
     sh = chassis_shape(x, y, phi, opp)
     corners = vertices(sh)
-    pts, mids = [], []
+    pts = []
     for i in range(4):
         p0, p1 = np.array(corners[i]), np.array(corners[(i + 1) % 4])
         # points per edge from its nominal length (width, length, width, length): no rounding decides the count
         m = max(2, int(math.ceil((opp.w_ch if i % 2 == 0 else opp.l_ch) * points_per_metre)))
         ts = np.linspace(0.0, 1.0, m + 1)
         pts += [p0 + t * (p1 - p0) for t in ts[:-1]]
-        mids += [p0 + t * (p1 - p0) for t in 0.5 * (ts[:-1] + ts[1:])]
     n_edge = len(pts)
     pts.append(np.array([sh.cx, sh.cy]))
     c, s = math.cos(phi), math.sin(phi)
     ends = [np.array([sh.cx - sh.L * c, sh.cy - sh.L * s]), np.array([sh.cx + sh.L * c, sh.cy + sh.L * s])]
     if s_guess is None:
         s_guess = road.project(x, y)
-    P = np.array(pts + mids + ends)
+    P = np.array(pts + ends)
     guess = s_guess + (P - np.array([x, y])) @ np.array([c, s])
     sp = road.project(P[:, 0], P[:, 1], guess)
     _, phg, gx, gy, _, _ = road.eval(sp)
     fr = np.stack([sp, -(P[:, 0] - gx) * np.sin(phg) + (P[:, 1] - gy) * np.cos(phg)], axis=1)
     rear, front = fr[-2], fr[-1]
     body = fr[:n_edge + 1]
-    # the mapped edges are curves: pad by their sag between samples (mid-point distance from the chord), twice
-    edge = fr[:n_edge]
-    mid = fr[n_edge + 1:-2]
-    sag = float(np.max(np.linalg.norm(mid - 0.5 * (edge + np.roll(edge, -1, axis=0)), axis=1)))
-    margin = margin + 2.0 * sag
     angle = math.atan2(front[1] - rear[1], front[0] - rear[0])
     ax = np.array([math.cos(angle), math.sin(angle)])
     nm = np.array([-ax[1], ax[0]])
     a, b = body @ ax, body @ nm
-    L = 0.5 * (a.max() - a.min()) + margin
-    W = 0.5 * (b.max() - b.min()) + margin
-    centre = 0.5 * (a.max() + a.min()) * ax + 0.5 * (b.max() + b.min()) * nm
     reach = ego.l + ego.l_ch + ego.w_ch
     n_hi, n_lo = body[:, 1].max() + reach, body[:, 1].min() - reach
     s_lo, s_hi = body[:, 0].min() - reach, body[:, 0].max() + reach
@@ -206,9 +234,20 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     kap = road.kappa[sel] if sel.any() else road.kappa
     # the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0 (outside of the bend)
     stretch = max(0.0, n_hi * kap.max(), n_hi * kap.min(), n_lo * kap.max(), n_lo * kap.min())
+    centre_s = 0.5 * (a.max() + a.min()) * ax[0] + 0.5 * (b.max() + b.min()) * nm[0]
     if stretch >= 0.9:
-        raise ValueError(f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre[0]:.1f} m; "
+        raise ValueError(f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre_s:.1f} m; "
                          "allowed < 0.9 (the Frenet frame is singular there)")
+    # the mapped edges are curves between the mapped points: pad by their bound off the chords
+    sag = chord_sag_bound(edge_spacing(opp, points_per_metre), float(body[:, 1].min()), float(body[:, 1].max()),
+                          kap, road.ds, reach)
+    if sag is None:
+        raise ValueError(f"conventional over-approximation: the edges near s = {centre_s:.1f} m cannot be bounded "
+                         "(the Frenet frame is nearly singular there)")
+    margin = margin + SAG_SAFETY * sag
+    L = 0.5 * (a.max() - a.min()) + margin
+    W = 0.5 * (b.max() - b.min()) + margin
+    centre = 0.5 * (a.max() + a.min()) * ax + 0.5 * (b.max() + b.min()) * nm
     return np.array([centre[0], centre[1], angle, L, W, 1.0 / (1.0 - stretch)])
 
 

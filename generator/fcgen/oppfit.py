@@ -2,24 +2,33 @@
 
 Per stage and opponent, from its Cartesian pose ``[x, y, phi]`` and the road given to ``set_road``:
 
-1. ``opp_points`` (CasADi): points on the true chassis rectangle (edges, centre, edge mid-points, rear and front
-   centres; ``obstacles.fit_frenet_shape``'s set) and each point's offset ``d`` along the heading from the reference
-   point (the chassis centre; for ``overapprox="none"`` the one point is the rear axle).
+1. ``opp_points`` (CasADi): points on the true chassis rectangle (the edge points, ``points_per_metre`` per metre
+   of edge, corners included; the centre; the rear and front centres) and each point's offset
+   ``d`` along the heading from the reference point (the chassis centre; for ``overapprox="none"`` the one point is
+   the rear axle).
 2. Search (C loop / numpy): the road sample nearest to the reference point over the whole road; for every point the
-   nearest sample within ``SEARCH`` samples of ``i_ref + round(d / ds)``.
-3. ``opp_foot`` (CasADi): ``NEWTON_STEPS`` Newton steps on the road interpolant (the three samples around that sample,
-   the stage functions' formula), from that sample: the foot point ``s``, the offset ``n`` and ``phi_gamma(s)``.
-4. ``opp_box`` (CasADi): the box fitted around the mapped points (chord-sag padding, margin) and the ``n``/``s``
-   range the ego can reach next to it; then (C loop / numpy) the extreme curvatures of the road samples in that
-   ``s`` range and the ego's sign-aware stretch factor ``f = 1 / (1 - max(0, n kappa))``.
+   nearest sample within ``SEARCH`` samples of ``i_ref + round(d / ds)``: the centre of its window of
+   ``FOOT_WINDOW`` samples.
+3. Foot point (plain C from the road arrays / numpy, the same operations, ``map_points``): a Halley step of
+   ``(gamma(s) - p) . t(phi_gamma(s)) = 0`` from that sample (``node_eval``: the sample's own values, no cos or
+   sin), clamped into the window, then ``FULL_EVALS`` road evaluations (road.py's interpolant on the window's segment
+   holding s, extrapolated beyond it) with a Halley step each: the foot ``s``; ``n`` and ``phi_gamma(s)`` by their
+   second-order Taylor expansions from the last evaluation (``foot_n_phi``). On the test and scenario roads s and n
+   are within 5e-12 m of the converged projection (two evaluations: 1e-13 m).
+4. ``opp_box`` (CasADi): the box fitted around the mapped points and the ``n``/``s`` range the ego can reach next to
+   it; then (C loop / numpy) the curvatures of the road samples in that ``s`` range: the ego's sign-aware stretch
+   factor ``f = 1 / (1 - max(0, n kappa))`` and the box's padding ``margin + SAG_SAFETY * chord_sag_bound`` (the
+   mapped edges are curves between the mapped points: ``obstacles.chord_sag_bound`` bounds how far they leave the
+   chords, from the curvature and its slope).
 
 An opponent is *outside the road* at a stage when the reference point's nearest sample is the road's first or last
 one, a point's nearest sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not
 inside the road, or its box plus the ego's reach lies beside the band ``[n_min, n_max]``: it is left out
 (``neutral`` parameters, a box 1000 m behind the road) and counted in the status (``opp_outside``). A stretch
-``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular next to the opponent), or a foot point that the
-Newton steps leave outside its three-sample window (the nearest sample was not next to it: the point cannot be
-mapped), fails the prepare phase with ``ERR_OPP_FRENET``. Also the ``s`` and ``phi_gamma`` of ``overapprox="none"``
+``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular next to the opponent), an edge whose chord bound does
+not apply (``obstacles.chord_sag_bound``), or a foot point that the steps leave outside its window (the
+nearest sample was not next to it: the point cannot be mapped), fails the prepare phase with ``ERR_OPP_FRENET``
+(points in index order: the first failing one decides). Also the ``s`` and ``phi_gamma`` of ``overapprox="none"``
 come from this projection (of the rear axle).
 
 The global search assumes the road does not come back near itself: on a road whose far part passes within a few
@@ -37,13 +46,16 @@ import numpy as np
 
 from . import obstacles as obs
 from .dsl import Conventional, Problem
-from .road import _hermite, window_segment
 
 SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
-FOOT_WINDOW = 3       # road samples of a point's Newton window: its nearest sample and one on either side
-NEWTON_STEPS = 4      # fixed Newton steps of the foot-point iteration (3 already reach 1e-13 m on the test roads)
+FOOT_WINDOW = 3       # road samples of a point's window: its nearest sample and one on either side (fixed: 3)
+FULL_EVALS = 1        # road evaluations (a Halley step each) after the first step from the nearest sample
+NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
-BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi")
+SAG_SAFETY = obs.SAG_SAFETY
+BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi", "pn_hi", "pn_lo")
+# a road evaluation (the C's layout; the last entry: where it was taken)
+EVAL = ("dphi", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "ddphi", "phi", "s")
 
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
@@ -56,35 +68,14 @@ class OppFit:
     """The fit's CasADi functions and constants for one problem (``None`` for a non-conventional one)."""
 
     points: ca.Function     # (pose[3]) -> (P[2 x npt], d[npt])
-    foot: ca.Function       # (pt[2], win[window_size]) -> (fr[3]: s, n, phi_gamma)
-    box: ca.Function        # (FR[3 x npt], pose[3]) -> (box[9]: BOX)
+    box: ca.Function        # (FR[3 x npt], pose[3]) -> (box: BOX; L, W without padding)
     npt: int
     ref_point: int          # index of the reference point of the global search
     n_min: float            # the ego's lateral band (state bounds on n)
     n_max: float
-
-    @property
-    def window_size(self) -> int:
-        return 2 + 6 * FOOT_WINDOW
-
-
-def _foot_road(s, win):
-    """The road interpolant (road.py's formula) at s on a point's window [s_w0, ds, kappa, phi, gx, gy, cos phi,
-    sin phi] (the node slopes precomputed once per road sample): kappa, phi_gamma, gamma, gamma'."""
-    ds = win[1]
-    tau, ends = window_segment(s, win, FOOT_WINDOW, 6)
-    (k0, k1), (p0, p1), (x0, x1), (y0, y1), (c0, c1), (s0, s1) = ends
-    phi, _ = _hermite(tau, ds, p0, p1, k0, k1)
-    gx, dgx = _hermite(tau, ds, x0, x1, c0, c1)
-    gy, dgy = _hermite(tau, ds, y0, y1, s0, s1)
-    return (1 - tau) * k0 + tau * k1, phi, gx, gy, dgx, dgy
-
-
-def foot_window(road, i0: np.ndarray, cphi: np.ndarray, sphi: np.ndarray) -> np.ndarray:
-    """Windows (len(i0), window_size) of FOOT_WINDOW samples from i0 (the C packs the same values)."""
-    idx = i0[:, None] + np.arange(FOOT_WINDOW)
-    return np.concatenate([(road.s0 + i0 * road.ds)[:, None], np.full((i0.size, 1), road.ds), road.kappa[idx],
-                           road.phi[idx], road.gx[idx], road.gy[idx], cphi[idx], sphi[idx]], axis=1)
+    spacing: float          # the largest distance of two neighbouring edge points (0: no edges)
+    margin: float           # the box's margin (0 for overapprox="none")
+    reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
 
 
 def build_oppfit(problem: Problem) -> OppFit | None:
@@ -99,55 +90,34 @@ def build_oppfit(problem: Problem) -> OppFit | None:
     if form.overapprox == "none":
         P = ca.vertcat(x, y)
         d = ca.SX(1, 1)
-        ref = 0
+        ref, spacing = 0, 0.0
     else:
         sh = obs.chassis_shape(x, y, phi, opp)
         corners = obs.vertices(sh)
         counts = edge_counts(opp.l_ch, opp.w_ch, form.points_per_metre)
-        pts, mids = [], []
+        pts = []
         for i in range(4):
             (ax, ay), (bx, by) = corners[i], corners[(i + 1) % 4]
             ts = np.linspace(0.0, 1.0, counts[i] + 1)
             pts += [(ax + t * (bx - ax), ay + t * (by - ay)) for t in ts[:-1]]
-            mids += [(ax + t * (bx - ax), ay + t * (by - ay)) for t in 0.5 * (ts[:-1] + ts[1:])]
         ref = len(pts)
         ends = [(sh.cx - sh.L * c, sh.cy - sh.L * s), (sh.cx + sh.L * c, sh.cy + sh.L * s)]
-        allp = pts + [(sh.cx, sh.cy)] + mids + ends
+        allp = pts + [(sh.cx, sh.cy)] + ends
         P = ca.horzcat(*[ca.vertcat(px, py) for px, py in allp])
         d = ca.vertcat(*[(px - sh.cx) * c + (py - sh.cy) * s for px, py in allp])
+        spacing = obs.edge_spacing(opp, form.points_per_metre)
     npt = P.shape[1]
     points = ca.Function("opp_points", [pose], [P, d], ["pose"], ["P", "d"])
 
-    # -- foot point: fixed Newton steps on the interpolant of a three-sample window, from its centre sample
-    pt = ca.SX.sym("pt", 2)
-    win = ca.SX.sym("win", 2 + 6 * FOOT_WINDOW)
-    sv = win[0] + (FOOT_WINDOW // 2) * win[1]
-    for _ in range(NEWTON_STEPS):
-        kappa, phg, gx, gy, dx, dy = _foot_road(sv, win)
-        cg, sg = ca.cos(phg), ca.sin(phg)
-        ex, ey = gx - pt[0], gy - pt[1]
-        g = ex * cg + ey * sg
-        dg = dx * cg + dy * sg + kappa * (-ex * sg + ey * cg)
-        sv = sv - ca.if_else(dg > 0.05, g / dg, g)
-    _, phg, gx, gy, _, _ = _foot_road(sv, win)
-    n = -(pt[0] - gx) * ca.sin(phg) + (pt[1] - gy) * ca.cos(phg)
-    foot = ca.Function("opp_foot", [pt, win], [ca.vertcat(sv, n, phg)], ["pt", "win"], ["fr"])
-
-    # -- the box around the mapped points
+    # -- the box around the mapped points (its padding, which needs the road's curvature, comes after)
     FR = ca.SX.sym("FR", 3, npt)
     reach = ego.l + ego.l_ch + ego.w_ch
     if form.overapprox == "none":
         sh = obs.chassis_shape(FR[0, 0], FR[1, 0], pose[2] - FR[2, 0], opp)
-        out = [sh.cx, sh.cy, sh.angle, sh.L, sh.W, 0.0, 0.0, FR[0, 0], FR[0, 0]]
+        out = [sh.cx, sh.cy, sh.angle, sh.L, sh.W, 0.0, 0.0, FR[0, 0], FR[0, 0], 0.0, 0.0]
     else:
         n_edge = ref
         fs, fn = FR[0, :].T, FR[1, :].T
-        es, en = fs[:n_edge], fn[:n_edge]
-        ms, mn = fs[n_edge + 1:npt - 2], fn[n_edge + 1:npt - 2]
-        nxt = list(range(1, n_edge)) + [0]
-        cs, cn = 0.5 * (es + es[nxt]), 0.5 * (en + en[nxt])
-        sag = ca.mmax(ca.sqrt((ms - cs) ** 2 + (mn - cn) ** 2))
-        margin = form.margin + 2.0 * sag
         rs, rn, qs, qn = fs[npt - 2], fn[npt - 2], fs[npt - 1], fn[npt - 1]
         angle = ca.atan2(qn - rn, qs - rs)
         axs, axn = ca.cos(angle), ca.sin(angle)
@@ -155,13 +125,13 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         a = bs * axs + bn * axn
         b = -bs * axn + bn * axs
         a_hi, a_lo, b_hi, b_lo = ca.mmax(a), ca.mmin(a), ca.mmax(b), ca.mmin(b)
-        L = 0.5 * (a_hi - a_lo) + margin
-        W = 0.5 * (b_hi - b_lo) + margin
         ca_, cb = 0.5 * (a_hi + a_lo), 0.5 * (b_hi + b_lo)
-        out = [ca_ * axs - cb * axn, ca_ * axn + cb * axs, angle, L, W, ca.mmax(bn) + reach, ca.mmin(bn) - reach,
-               ca.mmin(bs) - reach, ca.mmax(bs) + reach]
+        out = [ca_ * axs - cb * axn, ca_ * axn + cb * axs, angle, 0.5 * (a_hi - a_lo), 0.5 * (b_hi - b_lo),
+               ca.mmax(bn) + reach, ca.mmin(bn) - reach, ca.mmin(bs) - reach, ca.mmax(bs) + reach,
+               ca.mmax(bn), ca.mmin(bn)]
     box = ca.Function("opp_box", [FR, pose], [ca.vertcat(*out)], ["FR", "pose"], ["box"])
-    return OppFit(points, foot, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max)
+    margin = 0.0 if form.overapprox == "none" else form.margin
+    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, margin, reach)
 
 
 def neutral(s0: float) -> np.ndarray:
@@ -177,20 +147,134 @@ def stretch_factor(box: np.ndarray, kap: np.ndarray) -> tuple[float, float]:
     return st, 1.0 / (1.0 - st)
 
 
+# --- the foot point (numpy over all pairs at once; the C does the same operations point by point) ----------------
+
+def libm(fun, v: np.ndarray) -> np.ndarray:
+    """libm's cos or sin elementwise (math.cos: what the C calls; numpy's own may differ in the last bit)."""
+    return np.array([fun(t) for t in v.ravel().tolist()]).reshape(v.shape)
+
+
+def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The road interpolant at s on the segment of the window i0 .. i0 + FOOT_WINDOW - 1 that holds s (the first or
+    last one beyond it): EVAL but s (the C's ``fit_road``, operation for operation)."""
+    ds = road.ds
+    ids = 1.0 / ds
+    w0 = road.s0 + i0 * ds
+    t = (s - w0) * ids
+    fi = np.where(t >= 1.0, 1.0, 0.0)                     # floor(t) clamped into [0, FOOT_WINDOW - 2] (NaN: 0)
+    tau = t - fi
+    j = i0 + fi.astype(np.int64)
+    t2 = tau * tau
+    t3 = t2 * tau
+    h00 = ((2.0 * t3) - (3.0 * t2)) + 1.0
+    h10 = ((t3 - (2.0 * t2)) + tau) * ds
+    h01 = (3.0 * t2) - (2.0 * t3)
+    h11 = (t3 - t2) * ds
+    d00 = (6.0 * t2) - (6.0 * tau)
+    d10 = (((3.0 * t2) - (4.0 * tau)) + 1.0) * ds
+    d11 = ((3.0 * t2) - (2.0 * tau)) * ds
+    e00 = (12.0 * tau) - 6.0
+    e10 = ((6.0 * tau) - 4.0) * ds
+    e11 = ((6.0 * tau) - 2.0) * ds
+    ids2 = ids * ids
+
+    def herm(y, m):
+        y0, y1, m0, m1 = y[j], y[j + 1], m[j], m[j + 1]
+        val = (((h00 * y0) + (h10 * m0)) + (h01 * y1)) + (h11 * m1)
+        der = ((((d00 * y0) + (d10 * m0)) - (d00 * y1)) + (d11 * m1)) * ids
+        dd = ((((e00 * y0) + (e10 * m0)) - (e00 * y1)) + (e11 * m1)) * ids2
+        return val, der, dd
+
+    phi, dphi, ddphi = herm(road.phi, road.kappa)
+    gx, dgx, ddgx = herm(road.gx, cphi)
+    gy, dgy, ddgy = herm(road.gy, sphi)
+    return dphi, libm(math.cos, phi), libm(math.sin, phi), gx, gy, dgx, dgy, ddgx, ddgy, ddphi, phi
+
+
+def halley_step(s, ev, px, py):
+    """One Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 from s with the road evaluation ev (EVAL) at s:
+    s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a plain gradient step where
+    g' <= NEWTON_DG_MIN."""
+    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, _ = ev
+    ex, ey = gx - px, gy - py
+    g = (ex * cg) + (ey * sg)
+    en = (ey * cg) - (ex * sg)
+    g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
+    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * dphi) * ((dy * cg) - (dx * sg)))) + (ddphi * en)) - ((dphi * dphi) * g)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        gg = g * g2
+        g11 = g1 * g1
+        hal = np.where(np.abs(gg) <= g11, ((2.0 * g) * g1) / ((2.0 * g11) - gg), g / g1)
+        return s - np.where(g1 > NEWTON_DG_MIN, hal, g)
+
+
+def foot_n_phi(s, s_ev, ev, px, py):
+    """n and phi_gamma at the foot s from the road evaluation ev at s_ev: their second-order Taylor expansions
+    (n = (p - gamma) . n(phi_gamma), n' = phi' g - gamma'.n, n'' = phi' gamma'.t - gamma''.n + phi'' g + phi' g')."""
+    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, phi = ev
+    ex, ey = gx - px, gy - py
+    g = (ex * cg) + (ey * sg)
+    en = (ey * cg) - (ex * sg)
+    g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
+    dn = (dphi * g) - ((dy * cg) - (dx * sg))
+    ddn = (((dphi * ((dx * cg) + (dy * sg))) - ((ddy * cg) - (ddx * sg))) + (ddphi * g)) + (dphi * g1)
+    d = s - s_ev
+    h = 0.5 * d
+    return ((ex * sg) + ((py - gy) * cg)) + (d * (dn + (h * ddn))), phi + (d * (dphi + (h * ddphi)))
+
+
+def node_eval(road, cphi: np.ndarray, sphi: np.ndarray, ist: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
+    """EVAL but s at the road sample ist (s its arc length), from the samples alone (no cos or sin): the derivatives of
+    the segment ist .. ist + 1 there."""
+    ds = road.ds
+    ids2 = (1.0 / ds) * (1.0 / ds)
+    k0, k1, p0, p1 = road.kappa[ist], road.kappa[ist + 1], road.phi[ist], road.phi[ist + 1]
+    c0, c1, s0, s1 = cphi[ist], cphi[ist + 1], sphi[ist], sphi[ist + 1]
+    a, b = 4.0 * ds, 2.0 * ds
+
+    def dd(y0, y1, m0, m1):
+        return (((6.0 * (y1 - y0)) - (a * m0)) - (b * m1)) * ids2
+
+    return (k0, c0, s0, road.gx[ist], road.gy[ist], c0, s0, dd(road.gx[ist], road.gx[ist + 1], c0, c1),
+            dd(road.gy[ist], road.gy[ist + 1], s0, s1), dd(p0, p1, k0, k1), p0)
+
+
+def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
+    """Foot points of all points: (s, n, phi_gamma) each (pairs, npt), and the windows' first s. ``P``:
+    (2, pairs, npt); ``ist``: the points' nearest samples (clamped into the road where a point is bad: computed,
+    then discarded). Per point: a Halley step from its nearest sample (``node_eval``), clamped into the window, then
+    FULL_EVALS road evaluations with a step each; n and phi_gamma from the last one (``foot_n_phi``)."""
+    half = FOOT_WINDOW // 2
+    i0 = np.clip(ist - half, 0, road.size - FOOT_WINDOW)
+    cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
+    px, py = P[0], P[1]
+    w0 = road.s0 + i0 * road.ds
+    s = w0 + road.ds                                      # the nearest sample
+    s = halley_step(s, node_eval(road, cphi, sphi, i0 + half, s), px, py)
+    s = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds)
+    for _ in range(FULL_EVALS):
+        s_ev = s
+        ev = road_eval(road, cphi, sphi, i0, s)
+        s = halley_step(s, ev, px, py)
+    fn, fp = foot_n_phi(s, s_ev, ev, px, py)
+    return s, fn, fp, w0
+
+
 class OppFitter:
-    """The Python reference's fit of all stages and opponents at once (numpy search, mapped CasADi functions)."""
+    """The Python reference's fit of all stages and opponents at once (numpy search and foot points, mapped CasADi
+    functions)."""
 
     def __init__(self, fit: OppFit, stages: int, n_opp: int):
         self.fit = fit
         self.stages, self.n_opp = stages, n_opp
         cnt = stages * n_opp
         self._points = fit.points.map(cnt)
-        self._foot = fit.foot.map(cnt * fit.npt)
         self._box = fit.box.map(cnt)
 
     def __call__(self, road, poses: np.ndarray) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
         """Fitted parameters (stages, n_opp * 6), the count left out, the (stage, opponent) pairs that cannot be
-        mapped (a foot point outside its window, or a stretch >= STRETCH_MAX), in stage-major order.
+        mapped (a foot point outside its window, a stretch >= STRETCH_MAX, an edge beyond the chord bound), in
+        stage-major order.
 
         ``poses``: (stages, n_opp, 3).
         """
@@ -216,19 +300,10 @@ class OppFitter:
         ist = np.take_along_axis(cc, np.argmin(dd, axis=2)[:, :, None], axis=2)[:, :, 0]
         half = FOOT_WINDOW // 2
         bad_pt = ~np.any(valid, axis=2) | (ist < half) | (ist > M - 1 - half)
-        # Newton windows (clamped where a point is bad: computed, then discarded)
-        i0 = np.clip(ist - half, 0, M - FOOT_WINDOW).ravel()
-        # libm's cos and sin (math.cos, as the C calls them), once per road sample
-        cphi = np.array([math.cos(v) for v in road.phi])
-        sphi = np.array([math.sin(v) for v in road.phi])
-        W = foot_window(road, i0, cphi, sphi)
-        pts = P.reshape(2, -1)
-        fr = np.array(self._foot(pts, W.T))                    # (3, cnt * npt)
-        boxes = np.array(self._box(fr, pz.T))                  # fr's columns: pair-major, as the map wants
+        fs, fn, fp, w0 = map_points(f, road, P, np.where(bad_pt, half, ist))
+        boxes = np.array(self._box(_fr_columns(fs, fn, fp), pz.T))
         # a foot outside its window: the nearest sample was not next to it (the point cannot be mapped)
-        sf = fr[0].reshape(cnt, npt)
-        w0 = W[:, 0].reshape(cnt, npt)
-        lost = ~((sf >= w0) & (sf <= w0 + (FOOT_WINDOW - 1) * road.ds))
+        lost = ~((fs >= w0) & (fs <= w0 + (FOOT_WINDOW - 1) * road.ds))
         first = np.argmax(bad_pt | lost, axis=1)   # the C stops at the first such point
         out = np.empty((cnt, 6))
         outside, singular = 0, []
@@ -248,9 +323,17 @@ class OppFitter:
                 out[p] = neutral(road.s0)
                 outside += 1
                 continue
-            sel = (s_grid >= lo) & (s_grid <= hi)
-            st, fac = stretch_factor(bx, road.kappa[sel])
-            if st >= STRETCH_MAX:
+            kap = road.kappa[(s_grid >= lo) & (s_grid <= hi)]
+            st, fac = stretch_factor(bx, kap)
+            sag = obs.chord_sag_bound(f.spacing, float(bx[10]), float(bx[9]), kap, road.ds, f.reach)
+            if st >= STRETCH_MAX or sag is None:
                 singular.append(divmod(p, self.n_opp))
-            out[p] = [bx[0], bx[1], bx[2], bx[3], bx[4], fac]
+                continue
+            pad = f.margin + SAG_SAFETY * sag
+            out[p] = [bx[0], bx[1], bx[2], bx[3] + pad, bx[4] + pad, fac]
         return out.reshape(self.stages, self.n_opp * 6), outside, singular
+
+
+def _fr_columns(fs: np.ndarray, fn: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """(3, pairs * npt) columns of the box map's FR input: pair-major, each pair's (s, n, phi_gamma) per point."""
+    return np.stack([fs.ravel(), fn.ravel(), fp.ravel()])

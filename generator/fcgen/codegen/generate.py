@@ -48,7 +48,7 @@ MACRO_DOC = {
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
-FIT_FUNCTIONS = ("opp_points", "opp_foot", "opp_box")
+FIT_FUNCTIONS = ("opp_points", "opp_box")
 """The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it."""
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
 
@@ -116,7 +116,7 @@ def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
             "dynamics": ocp.dynamics, "init_state": ocp.init_state, "theta_init": theta_init(ocp),
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
     if ocp.fit is not None:
-        funs.update(opp_points=ocp.fit.points, opp_foot=ocp.fit.foot, opp_box=ocp.fit.box)
+        funs.update(opp_points=ocp.fit.points, opp_box=ocp.fit.box)
     return funs
 
 
@@ -226,7 +226,10 @@ def fit_context(ocp: Ocp) -> dict[str, Any] | None:
     if f is None:
         return None
     return {"npt": f.npt, "ref": f.ref_point, "search": oppfit.SEARCH, "window": oppfit.FOOT_WINDOW,
-            "win_size": f.window_size, "nbox": len(oppfit.BOX), "par": ocp.n_opp_stage,
+            "nbox": len(oppfit.BOX), "nev": len(oppfit.EVAL), "par": ocp.n_opp_stage,
+            "full": oppfit.FULL_EVALS,
+            "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "spacing": _c_real(f.spacing), "margin": _c_real(f.margin),
+            "reach": _c_real(f.reach), "sag_safety": _c_real(oppfit.SAG_SAFETY),
             "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
             "stretch_max": _c_real(oppfit.STRETCH_MAX), "n_min": _c_real(f.n_min), "n_max": _c_real(f.n_max),
             "neutral": [_c_real(v) for v in oppfit.neutral(0.0)]}
@@ -323,8 +326,9 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
     if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
         members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
                     ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
-                    ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R), ("NAME_real_t", "fit_win", [fit["win_size"]], R),
+                    ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
+                    ("NAME_real_t", "fit_ids", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
