@@ -429,8 +429,6 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
         ("fgv", (N, NFG), "the non-zeros of [F G] of stage k (x_{k+1} = F x + G u + c)"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
-        ("gval", (len(sv.gen_a) - int(np.count_nonzero(sv.gen_v >= NXU)),), "general rows' (x, u) coefficients"),
-        ("gev", ((N + 1) * NG,), "general slot's slack coefficient (0: none)"), ("bval", (len(sv.box_a),), "box coefficient"),
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
@@ -509,7 +507,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
                 "body": _c_list([int(x) for x in sv.side_sign])})
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
-            "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NGA": len(tab.gen_xu_a), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
