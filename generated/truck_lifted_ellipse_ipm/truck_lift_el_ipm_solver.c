@@ -2911,6 +2911,7 @@ typedef struct {
   ipm_real_t h[568]; /* Newton right-hand side; in the factorization: P + box weights */
   ipm_real_t dz[568]; /* Newton step */
   ipm_real_t y[928]; /* row multipliers (result; the equality rows' multipliers all along) */
+  ipm_real_t wc[520]; /* W e a per (x, u) entry of the general rows */
   ipm_real_t it[840]; /* 1 / t per inequality side */
   ipm_real_t bs[840]; /* b per inequality side */
   ipm_real_t wg[205]; /* W e per general slot (0: no slack) */
@@ -3178,6 +3179,9 @@ static void ipm_stage_weights(int k) {
     const int r = IPM_GEN_ROW[gs];
     IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
     IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.Ax[IPM_GEN_E[gs]]) : REAL_0;
+    for (p = IPM_GEN_PTR[gs]; p < IPM_GEN_PTR[gs + 1]; ++p) {
+      IPM_W.wc[p] = IPM_W.wg[gs] * IPM_W.Ax[IPM_GEN_A[p]];
+    }
   }
   for (s = 0; s < IPM_NS; ++s) {
     const int vs = IPM_VMAP_S[(k * IPM_NS) + s];
@@ -3210,13 +3214,19 @@ static void ipm_stage_hessian(int k) {
   int p;
   int q;
   (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  /* the rows' W c c' on and above the diagonal (a row's slots ascend), then mirrored */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
       const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.Ax[IPM_GEN_A[a]];
-      for (b = IPM_GEN_PTR[gs]; b < IPM_GEN_PTR[gs + 1]; ++b) {
+      for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
         IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.Ax[IPM_GEN_A[b]];
       }
+    }
+  }
+  for (a = 0; a < IPM_NXU; ++a) {
+    for (b = a + 1; b < IPM_NXU; ++b) {
+      IPM_W.H[b][a] = IPM_W.H[a][b];
     }
   }
   for (a = 0; a < IPM_NXU; ++a) {
@@ -3355,9 +3365,8 @@ static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
     f = hs[s] / IPM_W.d[k][s];
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
-      const ipm_real_t w = IPM_W.wg[gi];
       for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
-        ht[IPM_GEN_V[a]] -= (w * IPM_W.Ax[IPM_GEN_A[a]]) * f;
+        ht[IPM_GEN_V[a]] -= IPM_W.wc[a] * f;
       }
     }
   }
@@ -3485,9 +3494,8 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     ipm_real_t acc = REAL_0;
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
-      const ipm_real_t w = IPM_W.wg[gi];
       for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
-        acc += (w * IPM_W.Ax[IPM_GEN_A[a]]) * dv[IPM_GEN_V[a]];
+        acc += IPM_W.wc[a] * dv[IPM_GEN_V[a]];
       }
     }
     if (v >= 0) {

@@ -114,6 +114,8 @@ class _Tables:
                 svar.append(s_var)
         ent_row += sv.box_rows.tolist(); ent_var += sv.box_var.tolist(); ent_a += sv.box_a.tolist()
         self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
+        if any(gv[i] >= gv[i + 1] for p0, p1 in zip(gptr[:-1], gptr[1:]) for i in range(p0, p1 - 1)):
+            raise AssertionError("stage view: a general row's stage slots must ascend")
         self.gen_svar = svar
         self.ent_row, self.ent_var, self.ent_a = (np.array(x, dtype=np.int64) for x in (ent_row, ent_var, ent_a))
         groups = [[[g for g in range(NG) if self.gen_s[k, g] == j] for j in range(NS)] for k in range(N + 1)]
@@ -432,6 +434,7 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
+        ("wc", (int(np.count_nonzero(sv.gen_v < NXU)),), "W e a per (x, u) entry of the general rows"),
         ("it", (ns,), "1 / t per inequality side"), ("bs", (ns,), "b per inequality side"), ("wg", ((N + 1) * NG,), "W e per general slot (0: no slack)"),
         ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
         ("gd", (m,), "the multiplier step on the equality rows"),
