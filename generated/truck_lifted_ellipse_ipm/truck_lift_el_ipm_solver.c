@@ -3574,8 +3574,26 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
-  ipm_compose_y();
+  int i;
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
+  for (i = 0; i < IPM_NIN; ++i) { /* per inequality row: its y (as ipm_compose_y), its sides' r_p, t lam, lam */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+      IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[IPM_SIDE_ROW[j]]) - IPM_W.bs[j]) - IPM_W.t[j];
+      if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
+        rmax = IPM_FABS(IPM_W.r_p[j]);
+      }
+      mu += IPM_W.t[j] * IPM_W.lam[j];
+      if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
+        rmax = IPM_W.t[j] * IPM_W.lam[j];
+      }
+      if (IPM_W.lam[j] > lmax) {
+        lmax = IPM_W.lam[j];
+      }
+    }
+    IPM_W.y[IPM_IN_ROW[i]] = v;
+  }
   for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
@@ -3589,19 +3607,6 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.wr[r] = IPM_W.wr[r] - l[r];
     if (IPM_FABS(IPM_W.wr[r]) > rmax) {
       rmax = IPM_FABS(IPM_W.wr[r]);
-    }
-  }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[IPM_SIDE_ROW[j]]) - IPM_W.bs[j]) - IPM_W.t[j];
-    if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
-      rmax = IPM_FABS(IPM_W.r_p[j]);
-    }
-    mu += IPM_W.t[j] * IPM_W.lam[j];
-    if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
-      rmax = IPM_W.t[j] * IPM_W.lam[j];
-    }
-    if (IPM_W.lam[j] > lmax) {
-      lmax = IPM_W.lam[j];
     }
   }
   mu /= (ipm_real_t)IPM_NSIDE;
@@ -3638,12 +3643,10 @@ static int ipm_step(ipm_real_t mu) {
   ipm_real_t sigma;
   ipm_real_t alpha;
   int i;
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
-  }
   for (i = 0; i < IPM_NIN; ++i) { /* W = sum lam / t on the inequality rows, r_eq on the others */
     ipm_real_t v = REAL_0;
     for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
       v += IPM_W.lam[j] * IPM_W.it[j];
     }
     IPM_W.wr[IPM_IN_ROW[i]] = v;
