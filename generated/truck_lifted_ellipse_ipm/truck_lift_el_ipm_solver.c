@@ -1226,6 +1226,7 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NSIDE 840 /* finite sides of inequality rows */
 #define IPM_NEQ 328 /* equality rows */
 #define IPM_NBOX 400
+#define IPM_NIN 600 /* inequality rows */
 #define IPM_TOL ((truck_lift_el_ipm_real_t)0.0001)
 #define IPM_TAU ((truck_lift_el_ipm_real_t)0.995)
 #define IPM_REG ((truck_lift_el_ipm_real_t)1e-09)
@@ -1860,35 +1861,201 @@ static const ipm_idx_t IPM_GEN_SVAR[205] = { /* variable of the slot's slack */
   539, 540, 541, 552, 552, 553, 554, 555, 564, 564, 565, 566,
   567
 };
-static const ipm_idx_t IPM_SLACK_ROWS[328] = { /* [k][s][i]: general slots holding slack s */
-  -1, -1, -1, -1, -1, -1, -1, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1, 0, 1, 2, -1, 3, -1, 4, -1,
-  0, 1, 2, -1, 3, -1, 4, -1, 0, 1, 2, -1,
-  3, -1, 4, -1
+static const ipm_idx_t IPM_SG_PTR[165] = { /* [k NS + s]: general slots of stage k's slack s */
+  0, 0, 0, 0, 0, 2, 3, 4, 5, 7, 8, 9,
+  10, 12, 13, 14, 15, 17, 18, 19, 20, 22, 23, 24,
+  25, 27, 28, 29, 30, 32, 33, 34, 35, 37, 38, 39,
+  40, 42, 43, 44, 45, 47, 48, 49, 50, 52, 53, 54,
+  55, 57, 58, 59, 60, 62, 63, 64, 65, 67, 68, 69,
+  70, 72, 73, 74, 75, 77, 78, 79, 80, 82, 83, 84,
+  85, 87, 88, 89, 90, 92, 93, 94, 95, 97, 98, 99,
+  100, 102, 103, 104, 105, 107, 108, 109, 110, 112, 113, 114,
+  115, 117, 118, 119, 120, 122, 123, 124, 125, 127, 128, 129,
+  130, 132, 133, 134, 135, 137, 138, 139, 140, 142, 143, 144,
+  145, 147, 148, 149, 150, 152, 153, 154, 155, 157, 158, 159,
+  160, 162, 163, 164, 165, 167, 168, 169, 170, 172, 173, 174,
+  175, 177, 178, 179, 180, 182, 183, 184, 185, 187, 188, 189,
+  190, 192, 193, 194, 195, 197, 198, 199, 200
+};
+static const ipm_idx_t IPM_SG_G[200] = { /* the general slot (in its stage) */
+  0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
+  2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3,
+  4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0,
+  1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2,
+  3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4,
+  0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
+  2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3,
+  4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0,
+  1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2,
+  3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4,
+  0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
+  2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3,
+  4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0,
+  1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2,
+  3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4,
+  0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
+  2, 3, 4, 0, 1, 2, 3, 4
+};
+static const ipm_idx_t IPM_IN_ROW[600] = { /* inequality row i (ascending) */
+  16, 17, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35,
+  36, 37, 38, 39, 40, 49, 50, 51, 52, 53, 54, 55,
+  56, 57, 58, 59, 60, 61, 62, 63, 72, 73, 74, 75,
+  76, 77, 78, 79, 80, 81, 82, 83, 84, 85, 86, 95,
+  96, 97, 98, 99, 100, 101, 102, 103, 104, 105, 106, 107,
+  108, 109, 118, 119, 120, 121, 122, 123, 124, 125, 126, 127,
+  128, 129, 130, 131, 132, 141, 142, 143, 144, 145, 146, 147,
+  148, 149, 150, 151, 152, 153, 154, 155, 164, 165, 166, 167,
+  168, 169, 170, 171, 172, 173, 174, 175, 176, 177, 178, 187,
+  188, 189, 190, 191, 192, 193, 194, 195, 196, 197, 198, 199,
+  200, 201, 210, 211, 212, 213, 214, 215, 216, 217, 218, 219,
+  220, 221, 222, 223, 224, 233, 234, 235, 236, 237, 238, 239,
+  240, 241, 242, 243, 244, 245, 246, 247, 256, 257, 258, 259,
+  260, 261, 262, 263, 264, 265, 266, 267, 268, 269, 270, 279,
+  280, 281, 282, 283, 284, 285, 286, 287, 288, 289, 290, 291,
+  292, 293, 302, 303, 304, 305, 306, 307, 308, 309, 310, 311,
+  312, 313, 314, 315, 316, 325, 326, 327, 328, 329, 330, 331,
+  332, 333, 334, 335, 336, 337, 338, 339, 348, 349, 350, 351,
+  352, 353, 354, 355, 356, 357, 358, 359, 360, 361, 362, 371,
+  372, 373, 374, 375, 376, 377, 378, 379, 380, 381, 382, 383,
+  384, 385, 394, 395, 396, 397, 398, 399, 400, 401, 402, 403,
+  404, 405, 406, 407, 408, 417, 418, 419, 420, 421, 422, 423,
+  424, 425, 426, 427, 428, 429, 430, 431, 440, 441, 442, 443,
+  444, 445, 446, 447, 448, 449, 450, 451, 452, 453, 454, 463,
+  464, 465, 466, 467, 468, 469, 470, 471, 472, 473, 474, 475,
+  476, 477, 486, 487, 488, 489, 490, 491, 492, 493, 494, 495,
+  496, 497, 498, 499, 500, 509, 510, 511, 512, 513, 514, 515,
+  516, 517, 518, 519, 520, 521, 522, 523, 532, 533, 534, 535,
+  536, 537, 538, 539, 540, 541, 542, 543, 544, 545, 546, 555,
+  556, 557, 558, 559, 560, 561, 562, 563, 564, 565, 566, 567,
+  568, 569, 578, 579, 580, 581, 582, 583, 584, 585, 586, 587,
+  588, 589, 590, 591, 592, 601, 602, 603, 604, 605, 606, 607,
+  608, 609, 610, 611, 612, 613, 614, 615, 624, 625, 626, 627,
+  628, 629, 630, 631, 632, 633, 634, 635, 636, 637, 638, 647,
+  648, 649, 650, 651, 652, 653, 654, 655, 656, 657, 658, 659,
+  660, 661, 670, 671, 672, 673, 674, 675, 676, 677, 678, 679,
+  680, 681, 682, 683, 684, 693, 694, 695, 696, 697, 698, 699,
+  700, 701, 702, 703, 704, 705, 706, 707, 716, 717, 718, 719,
+  720, 721, 722, 723, 724, 725, 726, 727, 728, 729, 730, 739,
+  740, 741, 742, 743, 744, 745, 746, 747, 748, 749, 750, 751,
+  752, 753, 762, 763, 764, 765, 766, 767, 768, 769, 770, 771,
+  772, 773, 774, 775, 776, 785, 786, 787, 788, 789, 790, 791,
+  792, 793, 794, 795, 796, 797, 798, 799, 808, 809, 810, 811,
+  812, 813, 814, 815, 816, 817, 818, 819, 820, 821, 822, 831,
+  832, 833, 834, 835, 836, 837, 838, 839, 840, 841, 842, 843,
+  844, 845, 854, 855, 856, 857, 858, 859, 860, 861, 862, 863,
+  864, 865, 866, 867, 868, 877, 878, 879, 880, 881, 882, 883,
+  884, 885, 886, 887, 888, 889, 890, 891, 900, 901, 902, 903,
+  904, 905, 906, 907, 908, 909, 910, 911, 912, 913, 914, 915,
+  916, 917, 918, 919, 920, 921, 922, 923, 924, 925, 926, 927
+};
+static const ipm_idx_t IPM_IN_PTR[601] = { /* sides of row i */
+  0, 2, 4, 5, 6, 7, 8, 9, 11, 13, 15, 17,
+  19, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 32,
+  34, 36, 38, 40, 42, 43, 44, 45, 46, 47, 48, 49,
+  50, 51, 53, 55, 57, 59, 61, 63, 64, 65, 66, 67,
+  68, 69, 70, 71, 72, 74, 76, 78, 80, 82, 84, 85,
+  86, 87, 88, 89, 90, 91, 92, 93, 95, 97, 99, 101,
+  103, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 116,
+  118, 120, 122, 124, 126, 127, 128, 129, 130, 131, 132, 133,
+  134, 135, 137, 139, 141, 143, 145, 147, 148, 149, 150, 151,
+  152, 153, 154, 155, 156, 158, 160, 162, 164, 166, 168, 169,
+  170, 171, 172, 173, 174, 175, 176, 177, 179, 181, 183, 185,
+  187, 189, 190, 191, 192, 193, 194, 195, 196, 197, 198, 200,
+  202, 204, 206, 208, 210, 211, 212, 213, 214, 215, 216, 217,
+  218, 219, 221, 223, 225, 227, 229, 231, 232, 233, 234, 235,
+  236, 237, 238, 239, 240, 242, 244, 246, 248, 250, 252, 253,
+  254, 255, 256, 257, 258, 259, 260, 261, 263, 265, 267, 269,
+  271, 273, 274, 275, 276, 277, 278, 279, 280, 281, 282, 284,
+  286, 288, 290, 292, 294, 295, 296, 297, 298, 299, 300, 301,
+  302, 303, 305, 307, 309, 311, 313, 315, 316, 317, 318, 319,
+  320, 321, 322, 323, 324, 326, 328, 330, 332, 334, 336, 337,
+  338, 339, 340, 341, 342, 343, 344, 345, 347, 349, 351, 353,
+  355, 357, 358, 359, 360, 361, 362, 363, 364, 365, 366, 368,
+  370, 372, 374, 376, 378, 379, 380, 381, 382, 383, 384, 385,
+  386, 387, 389, 391, 393, 395, 397, 399, 400, 401, 402, 403,
+  404, 405, 406, 407, 408, 410, 412, 414, 416, 418, 420, 421,
+  422, 423, 424, 425, 426, 427, 428, 429, 431, 433, 435, 437,
+  439, 441, 442, 443, 444, 445, 446, 447, 448, 449, 450, 452,
+  454, 456, 458, 460, 462, 463, 464, 465, 466, 467, 468, 469,
+  470, 471, 473, 475, 477, 479, 481, 483, 484, 485, 486, 487,
+  488, 489, 490, 491, 492, 494, 496, 498, 500, 502, 504, 505,
+  506, 507, 508, 509, 510, 511, 512, 513, 515, 517, 519, 521,
+  523, 525, 526, 527, 528, 529, 530, 531, 532, 533, 534, 536,
+  538, 540, 542, 544, 546, 547, 548, 549, 550, 551, 552, 553,
+  554, 555, 557, 559, 561, 563, 565, 567, 568, 569, 570, 571,
+  572, 573, 574, 575, 576, 578, 580, 582, 584, 586, 588, 589,
+  590, 591, 592, 593, 594, 595, 596, 597, 599, 601, 603, 605,
+  607, 609, 610, 611, 612, 613, 614, 615, 616, 617, 618, 620,
+  622, 624, 626, 628, 630, 631, 632, 633, 634, 635, 636, 637,
+  638, 639, 641, 643, 645, 647, 649, 651, 652, 653, 654, 655,
+  656, 657, 658, 659, 660, 662, 664, 666, 668, 670, 672, 673,
+  674, 675, 676, 677, 678, 679, 680, 681, 683, 685, 687, 689,
+  691, 693, 694, 695, 696, 697, 698, 699, 700, 701, 702, 704,
+  706, 708, 710, 712, 714, 715, 716, 717, 718, 719, 720, 721,
+  722, 723, 725, 727, 729, 731, 733, 735, 736, 737, 738, 739,
+  740, 741, 742, 743, 744, 746, 748, 750, 752, 754, 756, 757,
+  758, 759, 760, 761, 762, 763, 764, 765, 767, 769, 771, 773,
+  775, 777, 778, 779, 780, 781, 782, 783, 784, 785, 786, 788,
+  790, 792, 794, 796, 798, 799, 800, 801, 802, 803, 804, 805,
+  806, 807, 809, 811, 813, 815, 817, 819, 820, 821, 822, 823,
+  824, 825, 826, 827, 828, 830, 832, 834, 836, 837, 838, 839,
+  840
+};
+static const ipm_idx_t IPM_GEN_IN[205] = { /* [k][g]: inequality row index of the general slot */
+  -1, -1, -1, -1, -1, 2, 3, 4, 5, 6, 17, 18,
+  19, 20, 21, 32, 33, 34, 35, 36, 47, 48, 49, 50,
+  51, 62, 63, 64, 65, 66, 77, 78, 79, 80, 81, 92,
+  93, 94, 95, 96, 107, 108, 109, 110, 111, 122, 123, 124,
+  125, 126, 137, 138, 139, 140, 141, 152, 153, 154, 155, 156,
+  167, 168, 169, 170, 171, 182, 183, 184, 185, 186, 197, 198,
+  199, 200, 201, 212, 213, 214, 215, 216, 227, 228, 229, 230,
+  231, 242, 243, 244, 245, 246, 257, 258, 259, 260, 261, 272,
+  273, 274, 275, 276, 287, 288, 289, 290, 291, 302, 303, 304,
+  305, 306, 317, 318, 319, 320, 321, 332, 333, 334, 335, 336,
+  347, 348, 349, 350, 351, 362, 363, 364, 365, 366, 377, 378,
+  379, 380, 381, 392, 393, 394, 395, 396, 407, 408, 409, 410,
+  411, 422, 423, 424, 425, 426, 437, 438, 439, 440, 441, 452,
+  453, 454, 455, 456, 467, 468, 469, 470, 471, 482, 483, 484,
+  485, 486, 497, 498, 499, 500, 501, 512, 513, 514, 515, 516,
+  527, 528, 529, 530, 531, 542, 543, 544, 545, 546, 557, 558,
+  559, 560, 561, 572, 573, 574, 575, 576, 587, 588, 589, 590,
+  591
+};
+static const ipm_idx_t IPM_BOX_IN[400] = { /* inequality row index of the box row */
+  0, 1, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16,
+  22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 37, 38,
+  39, 40, 41, 42, 43, 44, 45, 46, 52, 53, 54, 55,
+  56, 57, 58, 59, 60, 61, 67, 68, 69, 70, 71, 72,
+  73, 74, 75, 76, 82, 83, 84, 85, 86, 87, 88, 89,
+  90, 91, 97, 98, 99, 100, 101, 102, 103, 104, 105, 106,
+  112, 113, 114, 115, 116, 117, 118, 119, 120, 121, 127, 128,
+  129, 130, 131, 132, 133, 134, 135, 136, 142, 143, 144, 145,
+  146, 147, 148, 149, 150, 151, 157, 158, 159, 160, 161, 162,
+  163, 164, 165, 166, 172, 173, 174, 175, 176, 177, 178, 179,
+  180, 181, 187, 188, 189, 190, 191, 192, 193, 194, 195, 196,
+  202, 203, 204, 205, 206, 207, 208, 209, 210, 211, 217, 218,
+  219, 220, 221, 222, 223, 224, 225, 226, 232, 233, 234, 235,
+  236, 237, 238, 239, 240, 241, 247, 248, 249, 250, 251, 252,
+  253, 254, 255, 256, 262, 263, 264, 265, 266, 267, 268, 269,
+  270, 271, 277, 278, 279, 280, 281, 282, 283, 284, 285, 286,
+  292, 293, 294, 295, 296, 297, 298, 299, 300, 301, 307, 308,
+  309, 310, 311, 312, 313, 314, 315, 316, 322, 323, 324, 325,
+  326, 327, 328, 329, 330, 331, 337, 338, 339, 340, 341, 342,
+  343, 344, 345, 346, 352, 353, 354, 355, 356, 357, 358, 359,
+  360, 361, 367, 368, 369, 370, 371, 372, 373, 374, 375, 376,
+  382, 383, 384, 385, 386, 387, 388, 389, 390, 391, 397, 398,
+  399, 400, 401, 402, 403, 404, 405, 406, 412, 413, 414, 415,
+  416, 417, 418, 419, 420, 421, 427, 428, 429, 430, 431, 432,
+  433, 434, 435, 436, 442, 443, 444, 445, 446, 447, 448, 449,
+  450, 451, 457, 458, 459, 460, 461, 462, 463, 464, 465, 466,
+  472, 473, 474, 475, 476, 477, 478, 479, 480, 481, 487, 488,
+  489, 490, 491, 492, 493, 494, 495, 496, 502, 503, 504, 505,
+  506, 507, 508, 509, 510, 511, 517, 518, 519, 520, 521, 522,
+  523, 524, 525, 526, 532, 533, 534, 535, 536, 537, 538, 539,
+  540, 541, 547, 548, 549, 550, 551, 552, 553, 554, 555, 556,
+  562, 563, 564, 565, 566, 567, 568, 569, 570, 571, 577, 578,
+  579, 580, 581, 582, 583, 584, 585, 586, 592, 593, 594, 595,
+  596, 597, 598, 599
 };
 static const ipm_idx_t IPM_DYN_ROWS[320] = { /* [k][i]: dynamics row i of stage k */
   8, 9, 10, 11, 12, 13, 14, 15, 18, 19, 20, 21,
@@ -2744,8 +2911,12 @@ typedef struct {
   ipm_real_t h[568]; /* Newton right-hand side; in the factorization: P + box weights */
   ipm_real_t dz[568]; /* Newton step */
   ipm_real_t y[928]; /* row multipliers (result; the equality rows' multipliers all along) */
+  ipm_real_t wc[520]; /* W e a per (x, u) entry of the general rows */
+  ipm_real_t it[840]; /* 1 / t per inequality side */
+  ipm_real_t bs[840]; /* b per inequality side */
+  ipm_real_t wg[205]; /* W e per general slot (0: no slack) */
   ipm_real_t wr[928]; /* A z, then residuals on equality rows and weights lam / t on the others */
-  ipm_real_t gd[928]; /* right-hand side, then A dz on inequality rows; multiplier step on equality rows */
+  ipm_real_t gd[928]; /* the multiplier step on the equality rows */
   ipm_real_t t[840]; /* per inequality side */
   ipm_real_t lam[840]; /* per inequality side */
   ipm_real_t r_p[840]; /* per inequality side */
@@ -2863,51 +3034,93 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   }
 }
 
-/* out[r] = a_r' x on the inequality rows only (general, then box) */
-static void ipm_ineq_Ax(const ipm_real_t *x, ipm_real_t *out) {
-  int gs;
-  int a;
-  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
-    ipm_real_t s = REAL_0;
-    if (IPM_GEN_ROW[gs] < 0) {
-      continue;
-    }
-    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      s += IPM_W.Ax[IPM_GEN_A[a]] * x[IPM_GEN_VAR[a]];
-    }
-    if (IPM_GEN_E[gs] >= 0) {
-      s += IPM_W.Ax[IPM_GEN_E[gs]] * x[IPM_GEN_SVAR[gs]];
-    }
-    out[IPM_GEN_ROW[gs]] = s;
-  }
-  for (a = 0; a < IPM_NBOX; ++a) {
-    out[IPM_BOX_ROW[a]] = IPM_W.Ax[IPM_BOX_A[a]] * x[IPM_BOX_VAR[a]];
-  }
+/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first) */
+/* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
+ * still in IPM_W.dt, IPM_W.dlam) */
+static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
+  return (corr != 0) ? (((IPM_W.t[j] * IPM_W.lam[j]) + (IPM_W.dt[j] * IPM_W.dlam[j])) - sm)
+                     : (IPM_W.t[j] * IPM_W.lam[j]);
 }
 
-/* out = base + A_in' v, v on the inequality rows */
-static void ipm_ineq_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
+/* right-hand side of inequality row i: the sum over its sides of sign (rc + lam r_p) / t */
+static ipm_real_t ipm_row_g(int i, int corr, ipm_real_t sm) {
+  ipm_real_t g = REAL_0;
+  int j;
+  for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+    g += (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+  }
+  return g;
+}
+
+/* the sides of inequality row i for its step a'dz = adz: dt, dlam; returns the step a cut to their boundaries */
+static ipm_real_t ipm_row_sides(int i, ipm_real_t adz, int corr, ipm_real_t sm, ipm_real_t a_in) {
+  int j;
+  ipm_real_t a = a_in;
+  for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+    const ipm_real_t rc = ipm_rc(corr, sm, j);
+    const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * adz) + IPM_W.r_p[j];
+    const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
+    /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
+    if ((IPM_W.t[j] + (a * dt)) < REAL_0) {
+      a = (-IPM_W.t[j]) / dt;
+    }
+    if ((IPM_W.lam[j] + (a * dl)) < REAL_0) {
+      a = (-IPM_W.lam[j]) / dl;
+    }
+    IPM_W.dt[j] = dt;
+    IPM_W.dlam[j] = dl;
+  }
+  return a;
+}
+
+/* h = r_d + A_in' g, g the inequality rows' right-hand sides (ipm_row_g) */
+static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
   for (a = 0; a < TRUCK_LIFT_EL_IPM_QP_N; ++a) {
-    out[a] = base[a];
+    IPM_W.h[a] = IPM_W.r_d[a];
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
     ipm_real_t gv;
     if (IPM_GEN_ROW[gs] < 0) {
       continue;
     }
-    gv = v[IPM_GEN_ROW[gs]];
+    gv = ipm_row_g(IPM_GEN_IN[gs], corr, sm);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      out[IPM_GEN_VAR[a]] += IPM_W.Ax[IPM_GEN_A[a]] * gv;
+      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.Ax[IPM_GEN_A[a]] * gv;
     }
     if (IPM_GEN_E[gs] >= 0) {
-      out[IPM_GEN_SVAR[gs]] += IPM_W.Ax[IPM_GEN_E[gs]] * gv;
+      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.Ax[IPM_GEN_E[gs]] * gv;
     }
   }
   for (a = 0; a < IPM_NBOX; ++a) {
-    out[IPM_BOX_VAR[a]] += IPM_W.Ax[IPM_BOX_A[a]] * v[IPM_BOX_ROW[a]];
+    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.Ax[IPM_BOX_A[a]] * ipm_row_g(IPM_BOX_IN[a], corr, sm);
   }
+}
+
+/* the sides' steps dt, dlam from A dz on the inequality rows (general, then box); returns the largest step to the
+ * boundary (at most 1) */
+static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm) {
+  int gs;
+  int a;
+  ipm_real_t amax = IPM_ONE;
+  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
+    ipm_real_t s = REAL_0;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      s += IPM_W.Ax[IPM_GEN_A[a]] * IPM_W.dz[IPM_GEN_VAR[a]];
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      s += IPM_W.Ax[IPM_GEN_E[gs]] * IPM_W.dz[IPM_GEN_SVAR[gs]];
+    }
+    amax = ipm_row_sides(IPM_GEN_IN[gs], s, corr, sm, amax);
+  }
+  for (a = 0; a < IPM_NBOX; ++a) {
+    amax = ipm_row_sides(IPM_BOX_IN[a], IPM_W.Ax[IPM_BOX_A[a]] * IPM_W.dz[IPM_BOX_VAR[a]], corr, sm, amax);
+  }
+  return amax;
 }
 
 /* value of entry e of stage k's [F G] (x_{k+1} = F x + G u + c): -A / E */
@@ -2940,14 +3153,10 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
   return 0;
 }
 
-/* slack s of stage k: its rows' general slots (-1: none) */
-#define IPM_SLACK_ROW(k, s, i) IPM_SLACK_ROWS[((((k) * IPM_NS) + (s)) * IPM_RS) + (i)]
+/* slack s of stage k: its rows' general slots IPM_SG_G[p], p = IPM_SG_PTR[k NS + s] .. IPM_SG_PTR[k NS + s + 1] - 1 */
+#define IPM_SG0(k, s) IPM_SG_PTR[((k) * IPM_NS) + (s)]
+#define IPM_SG1(k, s) IPM_SG_PTR[((k) * IPM_NS) + (s) + 1]
 #define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
-
-/* weight W e and W e^2 of general slot gs (0 without a slack) */
-static ipm_real_t ipm_we(int gs) {
-  return (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[IPM_GEN_ROW[gs]] * IPM_W.Ax[IPM_GEN_E[gs]]) : REAL_0;
-}
 
 /* stage k's [F G] (x_{k+1} = F x + G u + c) as a dense NX x NXU block in IPM_W.FGd */
 static void ipm_stage_fg(int k) {
@@ -2958,40 +3167,40 @@ static void ipm_stage_fg(int k) {
   }
 }
 
-/* stage k's effective row weights (IPM_W.Weff) and slack pivots (IPM_W.d[k]): a slack's rows weigh
- * W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s */
+/* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
+ * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k] */
 static void ipm_stage_weights(int k) {
   int g;
   int s;
-  int i;
-  int j;
+  int p;
+  int q;
   for (g = 0; g < IPM_NG; ++g) {
-    const int r = IPM_GEN_ROW[IPM_GSLOT(k, g)];
+    const int gs = IPM_GSLOT(k, g);
+    const int r = IPM_GEN_ROW[gs];
     IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
+    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.Ax[IPM_GEN_E[gs]]) : REAL_0;
+    for (p = IPM_GEN_PTR[gs]; p < IPM_GEN_PTR[gs + 1]; ++p) {
+      IPM_W.wc[p] = IPM_W.wg[gs] * IPM_W.Ax[IPM_GEN_A[p]];
+    }
   }
   for (s = 0; s < IPM_NS; ++s) {
     const int vs = IPM_VMAP_S[(k * IPM_NS) + s];
     const ipm_real_t hs = (vs >= 0) ? IPM_W.h[vs] : IPM_ONE;
-    ipm_real_t we2[IPM_RS];
     ipm_real_t dd = hs;
-    for (i = 0; i < IPM_RS; ++i) {
-      const int gi = IPM_SLACK_ROW(k, s, i);
-      we2[i] = (gi >= 0) ? (ipm_we(IPM_GSLOT(k, gi)) * IPM_W.Ax[IPM_GEN_E[IPM_GSLOT(k, gi)]]) : REAL_0;
-      dd += we2[i];
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      dd += IPM_W.wg[gs] * IPM_W.Ax[IPM_GEN_E[gs]];
     }
     IPM_W.d[k][s] = dd;
-    for (i = 0; i < IPM_RS; ++i) {
-      const int gi = IPM_SLACK_ROW(k, s, i);
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       ipm_real_t others = hs;
-      if (gi < 0) {
-        continue;
-      }
-      for (j = 0; j < IPM_RS; ++j) {
-        if (j != i) {
-          others += we2[j];
+      for (q = IPM_SG0(k, s); q < IPM_SG1(k, s); ++q) {
+        if (q != p) {
+          const int gq = IPM_GSLOT(k, IPM_SG_G[q]);
+          others += IPM_W.wg[gq] * IPM_W.Ax[IPM_GEN_E[gq]];
         }
       }
-      IPM_W.Weff[gi] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, gi)]] * others) / dd;
+      IPM_W.Weff[IPM_SG_G[p]] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, IPM_SG_G[p])]] * others) / dd;
     }
   }
 }
@@ -3002,16 +3211,22 @@ static void ipm_stage_hessian(int k) {
   int a;
   int b;
   int s;
-  int i;
-  int j;
+  int p;
+  int q;
   (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  /* the rows' W c c' on and above the diagonal (a row's slots ascend), then mirrored */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
       const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.Ax[IPM_GEN_A[a]];
-      for (b = IPM_GEN_PTR[gs]; b < IPM_GEN_PTR[gs + 1]; ++b) {
+      for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
         IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.Ax[IPM_GEN_A[b]];
       }
+    }
+  }
+  for (a = 0; a < IPM_NXU; ++a) {
+    for (b = a + 1; b < IPM_NXU; ++b) {
+      IPM_W.H[b][a] = IPM_W.H[a][b];
     }
   }
   for (a = 0; a < IPM_NXU; ++a) {
@@ -3020,20 +3235,16 @@ static void ipm_stage_hessian(int k) {
   }
   /* two rows of one slack couple by -W_i e_i W_j e_j / d_s */
   for (s = 0; s < IPM_NS; ++s) {
-    for (i = 0; i < IPM_RS; ++i) {
-      for (j = i + 1; j < IPM_RS; ++j) {
-        const int gi = IPM_SLACK_ROW(k, s, i);
-        const int gj = IPM_SLACK_ROW(k, s, j);
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      for (q = p + 1; q < IPM_SG1(k, s); ++q) {
+        const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
+        const int gj = IPM_GSLOT(k, IPM_SG_G[q]);
+        const ipm_real_t mij = ((-IPM_W.wg[gi]) * IPM_W.wg[gj]) / IPM_W.d[k][s];
         int x;
         int y;
-        ipm_real_t mij;
-        if ((gi < 0) || (gj < 0)) {
-          continue;
-        }
-        mij = ((-ipm_we(IPM_GSLOT(k, gi))) * ipm_we(IPM_GSLOT(k, gj))) / IPM_W.d[k][s];
-        for (x = IPM_GEN_PTR[IPM_GSLOT(k, gi)]; x < IPM_GEN_PTR[IPM_GSLOT(k, gi) + 1]; ++x) {
+        for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
           const ipm_real_t cx = mij * IPM_W.Ax[IPM_GEN_A[x]];
-          for (y = IPM_GEN_PTR[IPM_GSLOT(k, gj)]; y < IPM_GEN_PTR[IPM_GSLOT(k, gj) + 1]; ++y) {
+          for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
             IPM_W.H[IPM_GEN_V[x]][IPM_GEN_V[y]] += cx * IPM_W.Ax[IPM_GEN_A[y]];
             IPM_W.H[IPM_GEN_V[y]][IPM_GEN_V[x]] += cx * IPM_W.Ax[IPM_GEN_A[y]];
           }
@@ -3142,7 +3353,7 @@ static int ipm_factor(void) { /* IPM_W.h holds hd = P + box weights here */
 static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
   int a;
   int s;
-  int i;
+  int p;
   for (a = 0; a < IPM_NXU; ++a) {
     const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
     ht[a] = (v >= 0) ? IPM_W.h[v] : REAL_0;
@@ -3152,15 +3363,10 @@ static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
     ipm_real_t f;
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
     f = hs[s] / IPM_W.d[k][s];
-    for (i = 0; i < IPM_RS; ++i) {
-      const int gi = IPM_SLACK_ROW(k, s, i);
-      ipm_real_t w;
-      if (gi < 0) {
-        continue;
-      }
-      w = ipm_we(IPM_GSLOT(k, gi));
-      for (a = IPM_GEN_PTR[IPM_GSLOT(k, gi)]; a < IPM_GEN_PTR[IPM_GSLOT(k, gi) + 1]; ++a) {
-        ht[IPM_GEN_V[a]] -= (w * IPM_W.Ax[IPM_GEN_A[a]]) * f;
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
+      for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
+        ht[IPM_GEN_V[a]] -= IPM_W.wc[a] * f;
       }
     }
   }
@@ -3248,6 +3454,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   int j;
   int a;
   int s;
+  int p;
   ipm_real_t tv[IPM_NU];
   ipm_real_t hs[IPM_NS];
   (void)deq; /* no stage equalities */
@@ -3285,15 +3492,10 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[(k * IPM_NS) + s];
     ipm_real_t acc = REAL_0;
-    for (i = 0; i < IPM_RS; ++i) {
-      const int gi = IPM_SLACK_ROW(k, s, i);
-      ipm_real_t w;
-      if (gi < 0) {
-        continue;
-      }
-      w = ipm_we(IPM_GSLOT(k, gi));
-      for (a = IPM_GEN_PTR[IPM_GSLOT(k, gi)]; a < IPM_GEN_PTR[IPM_GSLOT(k, gi) + 1]; ++a) {
-        acc += (w * IPM_W.Ax[IPM_GEN_A[a]]) * dv[IPM_GEN_V[a]];
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
+      for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
+        acc += IPM_W.wc[a] * dv[IPM_GEN_V[a]];
       }
     }
     if (v >= 0) {
@@ -3339,56 +3541,24 @@ static void ipm_newton(int duals) {
   }
 }
 
-/* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
- * still in IPM_W.dt, IPM_W.dlam) */
-static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
-  return (corr != 0) ? (((IPM_W.t[j] * IPM_W.lam[j]) + (IPM_W.dt[j] * IPM_W.dlam[j])) - sm)
-                     : (IPM_W.t[j] * IPM_W.lam[j]);
-}
-
 /* direction for the complementarity target ipm_rc -> IPM_W.dz, IPM_W.dt, IPM_W.dlam (and the equality duals' step
- * in IPM_W.gd) */
-static void ipm_direction(int corr, ipm_real_t sm) {
-  int j;
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.gd[IPM_SIDE_ROW[j]] = REAL_0;
-  }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.gd[IPM_SIDE_ROW[j]] += (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) /
-                                 IPM_W.t[j];
-  }
-  ipm_ineq_ATx(IPM_W.r_d, IPM_W.gd, IPM_W.h);
+ * in IPM_W.gd); returns the largest step to the boundary (at most 1) */
+static ipm_real_t ipm_direction(int corr, ipm_real_t sm) {
+  ipm_ineq_ATx(corr, sm);
   ipm_newton(corr);
-  ipm_ineq_Ax(IPM_W.dz, IPM_W.gd); /* A dz on the inequality rows (their right-hand side is spent) */
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    const ipm_real_t rc = ipm_rc(corr, sm, j);
-    IPM_W.dt[j] = (IPM_SIDE_SIGN[j] * IPM_W.gd[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
-    IPM_W.dlam[j] = (-(rc + (IPM_W.lam[j] * IPM_W.dt[j]))) / IPM_W.t[j];
-  }
-}
-
-static ipm_real_t ipm_max_step(const ipm_real_t *dt, const ipm_real_t *dl) {
-  ipm_real_t a = IPM_ONE;
-  int j;
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    if ((dt[j] < REAL_0) && (((-IPM_W.t[j]) / dt[j]) < a)) {
-      a = (-IPM_W.t[j]) / dt[j];
-    }
-    if ((dl[j] < REAL_0) && (((-IPM_W.lam[j]) / dl[j]) < a)) {
-      a = (-IPM_W.lam[j]) / dl[j];
-    }
-  }
-  return a;
+  return ipm_ineq_sides(corr, sm);
 }
 
 /* y: equality rows nu, inequality rows lam_upper - lam_lower */
 static void ipm_compose_y(void) {
+  int i;
   int j;
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.y[IPM_SIDE_ROW[j]] = REAL_0; /* equality rows: their multipliers, all along */
-  }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.y[IPM_SIDE_ROW[j]] += (-IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+  for (i = 0; i < IPM_NIN; ++i) { /* equality rows: their multipliers, all along */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+    }
+    IPM_W.y[IPM_IN_ROW[i]] = v;
   }
 }
 
@@ -3398,14 +3568,32 @@ static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
 }
 
 /* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
-static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u, ipm_real_t *mu_out) {
+static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
   int j;
   int raw = IPM_GOING;
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
-  ipm_compose_y();
+  int i;
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
+  for (i = 0; i < IPM_NIN; ++i) { /* per inequality row: its y (as ipm_compose_y), its sides' r_p, t lam, lam */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+      IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[IPM_SIDE_ROW[j]]) - IPM_W.bs[j]) - IPM_W.t[j];
+      if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
+        rmax = IPM_FABS(IPM_W.r_p[j]);
+      }
+      mu += IPM_W.t[j] * IPM_W.lam[j];
+      if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
+        rmax = IPM_W.t[j] * IPM_W.lam[j];
+      }
+      if (IPM_W.lam[j] > lmax) {
+        lmax = IPM_W.lam[j];
+      }
+    }
+    IPM_W.y[IPM_IN_ROW[i]] = v;
+  }
   for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
@@ -3419,19 +3607,6 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     IPM_W.wr[r] = IPM_W.wr[r] - l[r];
     if (IPM_FABS(IPM_W.wr[r]) > rmax) {
       rmax = IPM_FABS(IPM_W.wr[r]);
-    }
-  }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[IPM_SIDE_ROW[j]]) - ipm_side_b(l, u, j)) - IPM_W.t[j];
-    if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
-      rmax = IPM_FABS(IPM_W.r_p[j]);
-    }
-    mu += IPM_W.t[j] * IPM_W.lam[j];
-    if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
-      rmax = IPM_W.t[j] * IPM_W.lam[j];
-    }
-    if (IPM_W.lam[j] > lmax) {
-      lmax = IPM_W.lam[j];
     }
   }
   mu /= (ipm_real_t)IPM_NSIDE;
@@ -3467,26 +3642,27 @@ static int ipm_step(ipm_real_t mu) {
   ipm_real_t ratio;
   ipm_real_t sigma;
   ipm_real_t alpha;
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.wr[IPM_SIDE_ROW[j]] = REAL_0; /* W on the inequality rows, r_eq on the others */
-  }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.wr[IPM_SIDE_ROW[j]] += IPM_W.lam[j] / IPM_W.t[j];
+  int i;
+  for (i = 0; i < IPM_NIN; ++i) { /* W = sum lam / t on the inequality rows, r_eq on the others */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
+      v += IPM_W.lam[j] * IPM_W.it[j];
+    }
+    IPM_W.wr[IPM_IN_ROW[i]] = v;
   }
   if (ipm_factor() != 0) {
     return IPM_RAW_QP_NUMERICAL;
   }
   /* predictor (affine scaling), then Mehrotra's corrector with the centring sigma = (mu_aff / mu)^3 */
-  ipm_direction(0, REAL_0);
-  a_aff = ipm_max_step(IPM_W.dt, IPM_W.dlam);
+  a_aff = ipm_direction(0, REAL_0);
   for (j = 0; j < IPM_NSIDE; ++j) {
     mu_aff += (IPM_W.t[j] + (a_aff * IPM_W.dt[j])) * (IPM_W.lam[j] + (a_aff * IPM_W.dlam[j]));
   }
   mu_aff /= (ipm_real_t)IPM_NSIDE;
   ratio = mu_aff / mu;
   sigma = (ratio * ratio) * ratio;
-  ipm_direction(1, sigma * mu);
-  alpha = IPM_TAU * ipm_max_step(IPM_W.dt, IPM_W.dlam);
+  alpha = IPM_TAU * ipm_direction(1, sigma * mu);
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
@@ -3523,6 +3699,7 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     const int r = IPM_SIDE_ROW[j];
     const ipm_real_t lw = (IPM_WARM != 0) ? ((-IPM_SIDE_SIGN[j]) * y_warm[r]) : REAL_0;
     const ipm_real_t b = ipm_side_b(l, u, j);
+    IPM_W.bs[j] = b;
     IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
     IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
   }
@@ -3534,7 +3711,7 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
   }
   while (raw == IPM_GOING) {
     ipm_real_t mu;
-    raw = ipm_check(q, l, u, &mu);
+    raw = ipm_check(q, l, &mu);
     if ((raw == IPM_GOING) && (it >= max_iter)) {
       raw = IPM_RAW_QP_MAX_ITER;
     }

@@ -114,6 +114,8 @@ class _Tables:
                 svar.append(s_var)
         ent_row += sv.box_rows.tolist(); ent_var += sv.box_var.tolist(); ent_a += sv.box_a.tolist()
         self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
+        if any(gv[i] >= gv[i + 1] for p0, p1 in zip(gptr[:-1], gptr[1:]) for i in range(p0, p1 - 1)):
+            raise AssertionError("stage view: a general row's stage slots must ascend")
         self.gen_svar = svar
         self.ent_row, self.ent_var, self.ent_a = (np.array(x, dtype=np.int64) for x in (ent_row, ent_var, ent_a))
         groups = [[[g for g in range(NG) if self.gen_s[k, g] == j] for j in range(NS)] for k in range(N + 1)]
@@ -122,6 +124,15 @@ class _Tables:
         for k in range(N + 1):
             for j in range(NS):
                 self.slack_rows[k, j, :len(groups[k][j])] = groups[k][j]
+        # the same compactly (the C's loops): slack j of stage k holds the general slots sg_g[sg_ptr[k NS + j]:...]
+        self.sg_g = np.array([g for gk in groups for gr in gk for g in gr], dtype=np.int64)
+        self.sg_ptr = np.r_[0, np.cumsum([len(gr) for gk in groups for gr in gk])].astype(np.int64)
+        # inequality rows (ascending): their sides are in_ptr[i]:in_ptr[i + 1] (the sides are sorted by row)
+        self.in_rows, counts = np.unique(sv.side_row, return_counts=True)
+        self.in_ptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
+        pos = {int(r): i for i, r in enumerate(self.in_rows)}
+        self.gen_in = np.array([pos.get(int(r), -1) for r in sv.gen_rows.ravel()], dtype=np.int64)
+        self.box_in = np.array([pos[int(r)] for r in sv.box_rows], dtype=np.int64)
         self.dyn_ab = np.full((N, nx, nxu), nz_dummy, dtype=np.int64)
         for k in range(N):
             sl = slice(sv.dyn_ptr[k], sv.dyn_ptr[k + 1])
@@ -357,22 +368,23 @@ class Backend:
                 break
             if it >= max_iter:
                 break
+            inv_t = 1.0 / t
             W = np.zeros(m + 1)
-            np.add.at(W, rows, lam / t)
+            np.add.at(W, rows, lam * inv_t)
             if not self._factor(W):
                 raw = 5
                 break
 
             def direction(rc):
                 g = np.zeros(m)
-                np.add.at(g, rows, sign * (rc + lam * r_p) / t)
+                np.add.at(g, rows, sign * (rc + lam * r_p) * inv_t)
                 h = r_d.copy()                          # r_d + A_in' g, entry by entry as the C
                 np.add.at(h, tab.ent_var, self.Ax[tab.ent_a] * g[tab.ent_row])
                 dz, dnu = self._newton(h, r_eq)
                 adz = np.zeros(m)
                 np.add.at(adz, tab.ent_row, self.Ax[tab.ent_a] * dz[tab.ent_var])
                 dt = sign * adz[rows] + r_p
-                dlam = -(rc + lam * dt) / t
+                dlam = -(rc + lam * dt) * inv_t
                 return dz, dnu, dt, dlam
 
             def max_step(dt, dlam):
@@ -422,8 +434,10 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
+        ("wc", (int(np.count_nonzero(sv.gen_v < NXU)),), "W e a per (x, u) entry of the general rows"),
+        ("it", (ns,), "1 / t per inequality side"), ("bs", (ns,), "b per inequality side"), ("wg", ((N + 1) * NG,), "W e per general slot (0: no slack)"),
         ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
-        ("gd", (m,), "right-hand side, then A dz on inequality rows; multiplier step on equality rows"),
+        ("gd", (m,), "the multiplier step on the equality rows"),
         *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
         ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
 ("P", (N + 1, NX, NX), "cost-to-go Hessian"),
@@ -457,7 +471,6 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     # general rows: the stage-variable entries (x, inputs) as lists; the slack entry apart
     gptr, gv, ga = tab.gen_xu_ptr, tab.gen_xu_v, tab.gen_xu_a
     gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
-    slack_rows = np.where(tab.slack_rows < NG, tab.slack_rows, -1)
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
     tables = [
@@ -469,7 +482,11 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_VAR", tab.gen_var, "variable of the entry"),
         ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
         ("IPM_GEN_SVAR", tab.gen_svar, "variable of the slot's slack"),
-        ("IPM_SLACK_ROWS", slack_rows, "[k][s][i]: general slots holding slack s"),
+        ("IPM_SG_PTR", tab.sg_ptr, "[k NS + s]: general slots of stage k's slack s"),
+        ("IPM_SG_G", tab.sg_g, "the general slot (in its stage)"),
+        ("IPM_IN_ROW", tab.in_rows, "inequality row i (ascending)"), ("IPM_IN_PTR", tab.in_ptr, "sides of row i"),
+        ("IPM_GEN_IN", tab.gen_in, "[k][g]: inequality row index of the general slot"),
+        ("IPM_BOX_IN", tab.box_in, "inequality row index of the box row"),
         ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
         ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
         ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
@@ -493,7 +510,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
                 "body": _c_list([int(x) for x in sv.side_sign])})
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
-            "NSIDE": len(sv.side_row), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
