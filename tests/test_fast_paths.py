@@ -126,6 +126,7 @@ def test_store_at_hundreds_of_parts_reads_what_pandas_reads_and_appends_only(tmp
     assert all(np.array_equal(a, b) for a, b in zip(got["time_rti_ms"], want["time_rti_ms"]))
     assert store.done() == {("truck/lifted/EL/c/ipm", 200, s, "cpu") for s in range(600)}
     schema = pq.read_schema(first)
+    part_compression = pq.ParquetFile(first).metadata.row_group(0).column(0).compression
     store.write([_row(5)])                                      # a duplicate run: compact keeps its first row
     merged = store.compact()
     assert store.parts() == [merged]
@@ -133,6 +134,9 @@ def test_store_at_hundreds_of_parts_reads_what_pandas_reads_and_appends_only(tmp
     assert list(df["seed"]) == list(range(600))                         # one row per run, sorted by run id
     assert pq.read_schema(merged).equals(schema)                         # the same schema as the parts
     assert pq.read_schema(merged).metadata is None
+    meta = pq.ParquetFile(merged).metadata.row_group(0)
+    assert {meta.column(i).compression for i in range(meta.num_columns)} == {"ZSTD"}   # the merged file: zstd
+    assert part_compression == "SNAPPY"                                                # the parts: snappy
     np.testing.assert_array_equal(df.set_index("seed").loc[5, "time_rti_ms"], [0.5, 0.2, 5.3])
     assert tuple(RUN_ID) == ("config", "samples", "seed", "clock")
 

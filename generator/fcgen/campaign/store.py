@@ -16,6 +16,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 PART_GLOB = "part-*.parquet"
+#: the merged file of a finished campaign: zstd is 25 % smaller than the parts' snappy (per-RTI times of 12,000 runs
+#: 15 MB instead of 20 MB), at a compression cost paid once
+COMPACT_COMPRESSION = "zstd"
 #: the columns that identify a run (``Task.run_id``)
 RUN_ID = ("config", "samples", "seed", "clock")
 #: the columns ``fcgen report`` needs (``campaign.task.make_row`` writes them and more)
@@ -44,11 +47,11 @@ class ResultStore:
             return None
         return self._write_table(pa.Table.from_pylist(rows))
 
-    def _write_table(self, table: pa.Table) -> Path:
+    def _write_table(self, table: pa.Table, compression: str = "snappy") -> Path:
         self.folder.mkdir(parents=True, exist_ok=True)
         name = f"part-{time.strftime('%Y%m%dT%H%M%S')}-{uuid.uuid4().hex[:8]}"
         tmp = self.folder / f".{name}.tmp"
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, compression=compression)
         final = self.folder / f"{name}.parquet"
         os.replace(tmp, final)
         return final
@@ -82,7 +85,8 @@ class ResultStore:
         df = tab.to_pandas().drop_duplicates(list(RUN_ID), keep="first")
         df = df.sort_values(list(RUN_ID), kind="stable").reset_index(drop=True)
         merged = self._write_table(pa.Table.from_pandas(df, schema=tab.schema, preserve_index=False)
-                                   .replace_schema_metadata(None))       # the parts' schema (types as written)
+                                   .replace_schema_metadata(None),       # the parts' schema (types as written)
+                                   compression=COMPACT_COMPRESSION)
         for p in parts:
             p.unlink()
         return merged
