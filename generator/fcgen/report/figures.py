@@ -50,8 +50,10 @@ def box_plots(df: pd.DataFrame, out_dir: Path, suffix: str = "") -> list[Path]:
                 continue
             style = dict(positions=pos, widths=width * 0.9, patch_artist=True, manage_ticks=False,
                          boxprops={"facecolor": COLORS[form], "alpha": 0.8}, medianprops={"color": "k"})
-            ax_t.boxplot(times, showfliers=True, flierprops={"markersize": 2, "alpha": 0.3}, **style)
-            ax_p.boxplot(progs, **style)
+            parts = [ax_t.boxplot(times, showfliers=True, flierprops={"markersize": 2, "alpha": 0.3}, **style),
+                     ax_p.boxplot(progs, **style)]
+            for line in (f for b in parts for f in b["fliers"]):  # thousands of outliers: pixels, not SVG paths
+                line.set_rasterized(True)
         for ax, label in ((ax_t, "time per RTI [ms]"), (ax_p, "progress after the run [m]")):
             ax.set_xticks(range(len(models)), models)
             ax.set_ylabel(label)
