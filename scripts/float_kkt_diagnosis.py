@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import fcgen.backends.osqp as osqp_backend
-from fcgen.build import CSolver, build
+from fcgen.build import QpRecorder, build
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
@@ -94,24 +94,6 @@ class Harness:
         return float(d[d > 0].min()), float(-d[d < 0].min())
 
 
-class Recorder(CSolver):
-    """The double C solver in closed loop, keeping the warm-started QPs it solved (data and warm start)."""
-
-    def __init__(self, lib, row_shift):
-        super().__init__(lib)
-        self.row_shift, self.qps = row_shift, []
-
-    def prepare_phase(self, x0, road, opp):
-        self._warm, self._y_prev = self.has_guess(), self.get_qp()["y"]
-        return super().prepare_phase(x0, road, opp)
-
-    def feedback_phase(self, x0, rc=0):
-        r = super().feedback_phase(x0, rc)
-        if self._warm and rc == 0:
-            self.qps.append({**self.get_qp(), "y_warm": self._y_prev[self.row_shift]})
-        return r
-
-
 def folder(root: Path, sigma: float, use_float: bool, tag: str) -> tuple[Path, str]:
     """truck_lifted_ellipse generated with this sigma (named kd_<tag>) into root/kd_<tag>."""
     pb = preset(PRESET)
@@ -136,7 +118,7 @@ def main() -> None:
     osqp_backend.FLOAT_SIGMA_MIN = 0.0  # the float builds take each sigma as given
     pb = preset(PRESET)
     ocp = build_ocp(pb)
-    rec = Recorder(build(generate(pb.with_(name="kd_loop"), root / "kd_loop", force=True).out_dir),
+    rec = QpRecorder(build(generate(pb.with_(name="kd_loop"), root / "kd_loop", force=True).out_dir),
                    build_layout(ocp).row_shift)
     for seed in (int(s) for s in args.seeds.split(",")):
         rec.init()

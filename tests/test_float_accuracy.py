@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from fcgen.backends import osqp as osqp_backend
-from fcgen.build import CSolver, build
+from fcgen.build import QpRecorder, build
 from fcgen.codegen.generate import generate
 from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
@@ -28,30 +28,12 @@ PRESET = "truck_lifted_ellipse"
 SAMPLES = 25
 
 
-class _Recorder(CSolver):
-    """The float C solver in closed loop, keeping every warm-started QP it solved (data, warm start, solution)."""
-
-    def __init__(self, lib, row_shift):
-        super().__init__(lib)
-        self.row_shift, self.qps = row_shift, []
-
-    def prepare_phase(self, x0, road, opp):
-        self._warm, self._y_prev = self.has_guess(), self.get_qp()["y"]
-        return super().prepare_phase(x0, road, opp)
-
-    def feedback_phase(self, x0, rc=0):
-        r = super().feedback_phase(x0, rc)
-        if self._warm and rc == 0:
-            self.qps.append({**self.get_qp(), "y_warm": self._y_prev[self.row_shift]})
-        return r
-
-
 def _float_vs_double(tmp: Path) -> np.ndarray:
     """max |z_float - z_double| (scaled step) of each warm-started QP of a short float closed loop (truck seed 0)."""
     pb = preset(PRESET).with_(name="flacc")
     ocp = build_ocp(pb)
     lay = build_layout(ocp)
-    rec = _Recorder(build(generate(pb, tmp / "f", use_float=True, force=True).out_dir), lay.row_shift)
+    rec = QpRecorder(build(generate(pb, tmp / "f", use_float=True, force=True).out_dir), lay.row_shift)
     run_closed_loop(pb, make_scenario("truck", 0, n_opp=3, samples=SAMPLES, dt=pb.horizon.dt), controller=rec,
                     ocp=ocp)
     ref = osqp_backend.Backend(lay, dataclasses.replace(pb.qp, sigma=osqp_backend.osqp_sigma(pb.qp, True)))

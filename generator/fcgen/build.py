@@ -307,3 +307,22 @@ class CSolver:
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.states(), self.controls()
+
+
+class QpRecorder(CSolver):
+    """A C solver in closed loop that keeps every warm-started QP it solved (get_qp's data and solution, plus
+    ``y_warm``: the previous duals shifted by ``row_shift``, the warm start the backend was given)."""
+
+    def __init__(self, lib, row_shift):
+        super().__init__(lib)
+        self.row_shift, self.qps = row_shift, []
+
+    def prepare_phase(self, x0, road, opp):
+        self._warm, self._y_prev = self.has_guess(), self.get_qp()["y"]
+        return super().prepare_phase(x0, road, opp)
+
+    def feedback_phase(self, x0, rc=0):
+        r = super().feedback_phase(x0, rc)
+        if self._warm and rc == 0:
+            self.qps.append({**self.get_qp(), "y_warm": self._y_prev[self.row_shift]})
+        return r
