@@ -459,6 +459,15 @@ def _workspace_bytes(members: list[dict], real_size: int) -> int:
     return -(-size // 8) * 8
 
 
+def _row_major(indptr: np.ndarray, indices: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A's CSC pattern by rows: row pointers, columns, and each entry's CSC data index (A z as a gather per row,
+    without the scatter's store-to-load chains)."""
+    cols = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    order = np.lexsort((cols, indices))
+    ptr = np.concatenate(([0], np.cumsum(np.bincount(indices, minlength=m))))
+    return ptr, cols[order], order
+
+
 def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``)."""
     from ..codegen.generate import _c_list, _c_real
@@ -473,8 +482,11 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
+    ar_p, ar_j, ar_k = _row_major(A.indptr, A.indices, layout.m)
     tables = [
         ("IPM_A_P", A.indptr, "CSC column pointers of A"), ("IPM_A_I", A.indices, "CSC row indices of A"),
+        ("IPM_AR_P", ar_p, "row pointers of A (row-major)"), ("IPM_AR_J", ar_j, "column of row-major entry p"),
+        ("IPM_AR_K", ar_k, "its data index (CSC order)"),
         ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
         ("IPM_VMAP_S", sv.vmap[:, nxu:], "[k][s]: variable of stage k's slack s"),
         ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
