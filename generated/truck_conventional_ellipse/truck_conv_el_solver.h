@@ -27,7 +27,7 @@ extern "C" {
 #define TRUCK_CONV_EL_QP_M 805 /* QP rows */
 #define TRUCK_CONV_EL_QP_NNZ_A 2525 /* nonzeros of the QP constraint matrix */
 #define TRUCK_CONV_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_CONV_EL_WORKSPACE_BYTES 401732 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_CONV_EL_WORKSPACE_BYTES 401692 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_CONV_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */

@@ -27,7 +27,7 @@ extern "C" {
 #define TRUCK_DE_EL_QP_M 805 /* QP rows */
 #define TRUCK_DE_EL_QP_NNZ_A 2525 /* nonzeros of the QP constraint matrix */
 #define TRUCK_DE_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_DE_EL_WORKSPACE_BYTES 390308 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_DE_EL_WORKSPACE_BYTES 390268 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_DE_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
