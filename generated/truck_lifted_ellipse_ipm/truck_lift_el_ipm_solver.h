@@ -128,7 +128,8 @@ int truck_lift_el_ipm_set_road(truck_lift_el_ipm_real_t s0, truck_lift_el_ipm_re
 /* Opponent poses [x, y, phi] (rear axle) of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
 int truck_lift_el_ipm_set_opponents(const truck_lift_el_ipm_real_t *params);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
- * x0, load the QP backend's matrices. A no-op while prepared. */
+ * x0, load the QP backend's matrices. A no-op while prepared. The initial guess follows the road: the state's n, v,
+ * delta held, alpha 0, s_k = s0 + k dt v, stopped at the last s whose local window lies on the road set. */
 int truck_lift_el_ipm_prepare(void);
 /* Feedback phase: embed the state set last, solve the QP, take the full step if the QP is usable (contract above). */
 int truck_lift_el_ipm_feedback(void);
