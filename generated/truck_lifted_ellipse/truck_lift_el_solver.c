@@ -1422,6 +1422,7 @@ static int initial_guess(truck_lift_el_real_t *w, truck_lift_el_real_t *y) {
   int i;
   int k;
   int rc;
+  int last;
   truck_lift_el_real_t xf[5];
   truck_lift_el_real_t s_last;
   for (i = 0; i < TRUCK_LIFT_EL_QP_N; ++i) {
@@ -1430,7 +1431,8 @@ static int initial_guess(truck_lift_el_real_t *w, truck_lift_el_real_t *y) {
   ws.s0_guess = ws.x0[0];
   rc = stage_params(ws.p, 0, ws.x0[0]); /* no road or x0 off it: rejected before s_last is computed */
   if (rc != TRUCK_LIFT_EL_OK) return rc;
-  s_last = ws.road_s0 + (truck_lift_el_real_t)(ws.road_n - TRUCK_LIFT_EL_ROAD_WINDOW + 1) * ws.road_ds;
+  last = ws.road_n - TRUCK_LIFT_EL_ROAD_WINDOW + 1; /* the largest window_start t (as there) */
+  s_last = ws.road_s0 + ((truck_lift_el_real_t)last * ws.road_ds);
   copy(ws.x0, xf, 5);
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
     if (k > 0) {
