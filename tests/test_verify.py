@@ -5,13 +5,18 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from fcgen.build import CSolver, build
 from fcgen.cli import main
 from fcgen.codegen.generate import generate
+from fcgen.ocp import INF, build_ocp
 from fcgen.presets import preset
-from fcgen.verify import QUANTITIES, infer_scenario, verify
+from fcgen.reference import RtiSolver
+from fcgen.verify import QUANTITIES, TOL_QP_DATA, TOL_SOLUTION, infer_scenario, rel_diff, verify
+from test_guess import BEND
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -112,3 +117,47 @@ def test_cli_bench_no_python(gen_root: Path, tmp_path: Path, monkeypatch) -> Non
     assert res.exit_code == 0, res.output
     r = json.loads((tmp_path / "results" / "bench_car_lift_el.json").read_text())
     assert r["python"] is None and r["c"]["samples"] == 5
+
+
+# --- the cold start (issue 10: the guess follows the road) ------------------------------------------------------
+
+def test_verify_seed_69_from_the_cold_start(gen_root: Path) -> None:
+    """Seed 69's first bend made the old guess (a zero-input rollout) leave the road window in C and Python alike;
+    now the lockstep runs from the cold start through every sample with identical QP data."""
+    rep = verify(_gen(gen_root, "truck_lifted_ellipse"), scenario="truck", seed=69, samples=60, closed_loop=False)
+    assert rep.passed, rep.format()
+    assert rep.check("q").compared == 60 and rep.check("w").compared == 60, rep.format()
+    assert not any("non-zero exit code" in n for n in rep.notes), rep.notes
+
+
+@pytest.mark.parametrize("name", ["truck_lifted_ellipse", "truck_direct_elimination_hyperplane",
+                                  "truck_conventional_ellipse"])
+@pytest.mark.parametrize("road_samples, x0", [
+    (141, [0.0, -4.0, 0.0, 15.0, 0.0]),         # on the bend where the old guess left the window
+    (60, [-40.0, 1.0, 0.05, 40.0, -0.02]),      # the guess stops at the road's end
+], ids=["bend", "road-end"])
+def test_cold_start_c_equals_python(gen_root: Path, name: str, road_samples: int, x0) -> None:
+    """C and Python cold prepares on the hand-made bend of test_guess: stage parameters and QP data (which hold the
+    guess through the dynamics, constraint and cost rows) to the verify tolerance, then the first iterate."""
+    pb = preset(name)
+    ocp = build_ocp(pb)
+    road = BEND.window(-50.0, road_samples)
+    pose = np.array([road.to_cartesian(s, 3.0, 0.0) for s in (20.0, 35.0, 50.0)][:pb.opponents.count])
+    opp = np.tile(pose, (ocp.N + 1, 1, 1))
+    sv = RtiSolver(ocp)
+    sv.set_road(road)
+    sv.set_opponents(opp)
+    sv.set_state(np.asarray(x0, dtype=float))
+    sv.prepare()
+    cs = CSolver(build(_gen(gen_root, name), verify=True))
+    assert cs.init() == 0
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
+    qp = cs.get_qp()
+    assert rel_diff(cs.get_opp_params(), sv.P[:, ocp.p_opp]) <= TOL_QP_DATA
+    for key, ref in (("q", sv.q), ("A_x", sv.A_data), ("l", np.clip(sv.l, -INF, INF)),
+                     ("u", np.clip(sv.u, -INF, INF))):
+        assert rel_diff(qp[key], ref) <= TOL_QP_DATA, key
+    sv.feedback()
+    assert cs.feedback() == 0
+    assert rel_diff(cs.states(), sv.states()) <= TOL_SOLUTION

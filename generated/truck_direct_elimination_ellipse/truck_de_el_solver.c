@@ -71,50 +71,51 @@ typedef struct {
   int u;                 /* variable F_d of u_k; -1 at k = N */
   int theta;             /* first hyperplane variable set by the initial guess; -1 if none */
   truck_de_el_real_t s_ref;  /* k dt v_ref */
+  truck_de_el_real_t t;      /* k dt (the cold-start guess: s_k = s0 + t v0) */
 } stage_t;
 
 static const stage_t STAGES[TRUCK_DE_EL_N + 1] = {
-  [0] = {.kind = STAGE_FIRST, .var = 0, .row = 0, .jac = 0, .next = 7, .s = 0, .u = 5, .theta = -1, .s_ref = 0.0},
-  [1] = {.kind = STAGE_MIDDLE, .var = 7, .row = 12, .jac = 42, .next = 18, .s = 7, .u = 12, .theta = -1, .s_ref = 4.0},
-  [2] = {.kind = STAGE_MIDDLE, .var = 18, .row = 32, .jac = 105, .next = 29, .s = 18, .u = 23, .theta = -1, .s_ref = 8.0},
-  [3] = {.kind = STAGE_MIDDLE, .var = 29, .row = 52, .jac = 168, .next = 40, .s = 29, .u = 34, .theta = -1, .s_ref = 12.000000000000002},
-  [4] = {.kind = STAGE_MIDDLE, .var = 40, .row = 72, .jac = 231, .next = 51, .s = 40, .u = 45, .theta = -1, .s_ref = 16.0},
-  [5] = {.kind = STAGE_MIDDLE, .var = 51, .row = 92, .jac = 294, .next = 62, .s = 51, .u = 56, .theta = -1, .s_ref = 20.0},
-  [6] = {.kind = STAGE_MIDDLE, .var = 62, .row = 112, .jac = 357, .next = 73, .s = 62, .u = 67, .theta = -1, .s_ref = 24.000000000000004},
-  [7] = {.kind = STAGE_MIDDLE, .var = 73, .row = 132, .jac = 420, .next = 84, .s = 73, .u = 78, .theta = -1, .s_ref = 28.000000000000004},
-  [8] = {.kind = STAGE_MIDDLE, .var = 84, .row = 152, .jac = 483, .next = 95, .s = 84, .u = 89, .theta = -1, .s_ref = 32.0},
-  [9] = {.kind = STAGE_MIDDLE, .var = 95, .row = 172, .jac = 546, .next = 106, .s = 95, .u = 100, .theta = -1, .s_ref = 36.0},
-  [10] = {.kind = STAGE_MIDDLE, .var = 106, .row = 192, .jac = 609, .next = 117, .s = 106, .u = 111, .theta = -1, .s_ref = 40.0},
-  [11] = {.kind = STAGE_MIDDLE, .var = 117, .row = 212, .jac = 672, .next = 128, .s = 117, .u = 122, .theta = -1, .s_ref = 44.0},
-  [12] = {.kind = STAGE_MIDDLE, .var = 128, .row = 232, .jac = 735, .next = 139, .s = 128, .u = 133, .theta = -1, .s_ref = 48.00000000000001},
-  [13] = {.kind = STAGE_MIDDLE, .var = 139, .row = 252, .jac = 798, .next = 150, .s = 139, .u = 144, .theta = -1, .s_ref = 52.0},
-  [14] = {.kind = STAGE_MIDDLE, .var = 150, .row = 272, .jac = 861, .next = 161, .s = 150, .u = 155, .theta = -1, .s_ref = 56.00000000000001},
-  [15] = {.kind = STAGE_MIDDLE, .var = 161, .row = 292, .jac = 924, .next = 172, .s = 161, .u = 166, .theta = -1, .s_ref = 60.0},
-  [16] = {.kind = STAGE_MIDDLE, .var = 172, .row = 312, .jac = 987, .next = 183, .s = 172, .u = 177, .theta = -1, .s_ref = 64.0},
-  [17] = {.kind = STAGE_MIDDLE, .var = 183, .row = 332, .jac = 1050, .next = 194, .s = 183, .u = 188, .theta = -1, .s_ref = 68.0},
-  [18] = {.kind = STAGE_MIDDLE, .var = 194, .row = 352, .jac = 1113, .next = 205, .s = 194, .u = 199, .theta = -1, .s_ref = 72.0},
-  [19] = {.kind = STAGE_MIDDLE, .var = 205, .row = 372, .jac = 1176, .next = 216, .s = 205, .u = 210, .theta = -1, .s_ref = 76.0},
-  [20] = {.kind = STAGE_MIDDLE, .var = 216, .row = 392, .jac = 1239, .next = 227, .s = 216, .u = 221, .theta = -1, .s_ref = 80.0},
-  [21] = {.kind = STAGE_MIDDLE, .var = 227, .row = 412, .jac = 1302, .next = 238, .s = 227, .u = 232, .theta = -1, .s_ref = 84.0},
-  [22] = {.kind = STAGE_MIDDLE, .var = 238, .row = 432, .jac = 1365, .next = 249, .s = 238, .u = 243, .theta = -1, .s_ref = 88.0},
-  [23] = {.kind = STAGE_MIDDLE, .var = 249, .row = 452, .jac = 1428, .next = 260, .s = 249, .u = 254, .theta = -1, .s_ref = 92.00000000000001},
-  [24] = {.kind = STAGE_MIDDLE, .var = 260, .row = 472, .jac = 1491, .next = 271, .s = 260, .u = 265, .theta = -1, .s_ref = 96.00000000000001},
-  [25] = {.kind = STAGE_MIDDLE, .var = 271, .row = 492, .jac = 1554, .next = 282, .s = 271, .u = 276, .theta = -1, .s_ref = 100.0},
-  [26] = {.kind = STAGE_MIDDLE, .var = 282, .row = 512, .jac = 1617, .next = 293, .s = 282, .u = 287, .theta = -1, .s_ref = 104.0},
-  [27] = {.kind = STAGE_MIDDLE, .var = 293, .row = 532, .jac = 1680, .next = 304, .s = 293, .u = 298, .theta = -1, .s_ref = 108.0},
-  [28] = {.kind = STAGE_MIDDLE, .var = 304, .row = 552, .jac = 1743, .next = 315, .s = 304, .u = 309, .theta = -1, .s_ref = 112.00000000000001},
-  [29] = {.kind = STAGE_MIDDLE, .var = 315, .row = 572, .jac = 1806, .next = 326, .s = 315, .u = 320, .theta = -1, .s_ref = 116.00000000000001},
-  [30] = {.kind = STAGE_MIDDLE, .var = 326, .row = 592, .jac = 1869, .next = 337, .s = 326, .u = 331, .theta = -1, .s_ref = 120.0},
-  [31] = {.kind = STAGE_MIDDLE, .var = 337, .row = 612, .jac = 1932, .next = 348, .s = 337, .u = 342, .theta = -1, .s_ref = 124.0},
-  [32] = {.kind = STAGE_MIDDLE, .var = 348, .row = 632, .jac = 1995, .next = 359, .s = 348, .u = 353, .theta = -1, .s_ref = 128.0},
-  [33] = {.kind = STAGE_MIDDLE, .var = 359, .row = 652, .jac = 2058, .next = 370, .s = 359, .u = 364, .theta = -1, .s_ref = 132.0},
-  [34] = {.kind = STAGE_MIDDLE, .var = 370, .row = 672, .jac = 2121, .next = 381, .s = 370, .u = 375, .theta = -1, .s_ref = 136.0},
-  [35] = {.kind = STAGE_MIDDLE, .var = 381, .row = 692, .jac = 2184, .next = 392, .s = 381, .u = 386, .theta = -1, .s_ref = 140.0},
-  [36] = {.kind = STAGE_MIDDLE, .var = 392, .row = 712, .jac = 2247, .next = 403, .s = 392, .u = 397, .theta = -1, .s_ref = 144.0},
-  [37] = {.kind = STAGE_MIDDLE, .var = 403, .row = 732, .jac = 2310, .next = 414, .s = 403, .u = 408, .theta = -1, .s_ref = 148.0},
-  [38] = {.kind = STAGE_MIDDLE, .var = 414, .row = 752, .jac = 2373, .next = 425, .s = 414, .u = 419, .theta = -1, .s_ref = 152.0},
-  [39] = {.kind = STAGE_MIDDLE, .var = 425, .row = 772, .jac = 2436, .next = 436, .s = 425, .u = 430, .theta = -1, .s_ref = 156.0},
-  [40] = {.kind = STAGE_LAST, .var = 436, .row = 792, .jac = 2499, .next = -1, .s = 436, .u = -1, .theta = -1, .s_ref = 160.0},
+  [0] = {.kind = STAGE_FIRST, .var = 0, .row = 0, .jac = 0, .next = 7, .s = 0, .u = 5, .theta = -1, .s_ref = 0.0, .t = 0.0},
+  [1] = {.kind = STAGE_MIDDLE, .var = 7, .row = 12, .jac = 42, .next = 18, .s = 7, .u = 12, .theta = -1, .s_ref = 4.0, .t = 0.1},
+  [2] = {.kind = STAGE_MIDDLE, .var = 18, .row = 32, .jac = 105, .next = 29, .s = 18, .u = 23, .theta = -1, .s_ref = 8.0, .t = 0.2},
+  [3] = {.kind = STAGE_MIDDLE, .var = 29, .row = 52, .jac = 168, .next = 40, .s = 29, .u = 34, .theta = -1, .s_ref = 12.000000000000002, .t = 0.30000000000000004},
+  [4] = {.kind = STAGE_MIDDLE, .var = 40, .row = 72, .jac = 231, .next = 51, .s = 40, .u = 45, .theta = -1, .s_ref = 16.0, .t = 0.4},
+  [5] = {.kind = STAGE_MIDDLE, .var = 51, .row = 92, .jac = 294, .next = 62, .s = 51, .u = 56, .theta = -1, .s_ref = 20.0, .t = 0.5},
+  [6] = {.kind = STAGE_MIDDLE, .var = 62, .row = 112, .jac = 357, .next = 73, .s = 62, .u = 67, .theta = -1, .s_ref = 24.000000000000004, .t = 0.6000000000000001},
+  [7] = {.kind = STAGE_MIDDLE, .var = 73, .row = 132, .jac = 420, .next = 84, .s = 73, .u = 78, .theta = -1, .s_ref = 28.000000000000004, .t = 0.7000000000000001},
+  [8] = {.kind = STAGE_MIDDLE, .var = 84, .row = 152, .jac = 483, .next = 95, .s = 84, .u = 89, .theta = -1, .s_ref = 32.0, .t = 0.8},
+  [9] = {.kind = STAGE_MIDDLE, .var = 95, .row = 172, .jac = 546, .next = 106, .s = 95, .u = 100, .theta = -1, .s_ref = 36.0, .t = 0.9},
+  [10] = {.kind = STAGE_MIDDLE, .var = 106, .row = 192, .jac = 609, .next = 117, .s = 106, .u = 111, .theta = -1, .s_ref = 40.0, .t = 1.0},
+  [11] = {.kind = STAGE_MIDDLE, .var = 117, .row = 212, .jac = 672, .next = 128, .s = 117, .u = 122, .theta = -1, .s_ref = 44.0, .t = 1.1},
+  [12] = {.kind = STAGE_MIDDLE, .var = 128, .row = 232, .jac = 735, .next = 139, .s = 128, .u = 133, .theta = -1, .s_ref = 48.00000000000001, .t = 1.2000000000000002},
+  [13] = {.kind = STAGE_MIDDLE, .var = 139, .row = 252, .jac = 798, .next = 150, .s = 139, .u = 144, .theta = -1, .s_ref = 52.0, .t = 1.3},
+  [14] = {.kind = STAGE_MIDDLE, .var = 150, .row = 272, .jac = 861, .next = 161, .s = 150, .u = 155, .theta = -1, .s_ref = 56.00000000000001, .t = 1.4000000000000001},
+  [15] = {.kind = STAGE_MIDDLE, .var = 161, .row = 292, .jac = 924, .next = 172, .s = 161, .u = 166, .theta = -1, .s_ref = 60.0, .t = 1.5},
+  [16] = {.kind = STAGE_MIDDLE, .var = 172, .row = 312, .jac = 987, .next = 183, .s = 172, .u = 177, .theta = -1, .s_ref = 64.0, .t = 1.6},
+  [17] = {.kind = STAGE_MIDDLE, .var = 183, .row = 332, .jac = 1050, .next = 194, .s = 183, .u = 188, .theta = -1, .s_ref = 68.0, .t = 1.7000000000000002},
+  [18] = {.kind = STAGE_MIDDLE, .var = 194, .row = 352, .jac = 1113, .next = 205, .s = 194, .u = 199, .theta = -1, .s_ref = 72.0, .t = 1.8},
+  [19] = {.kind = STAGE_MIDDLE, .var = 205, .row = 372, .jac = 1176, .next = 216, .s = 205, .u = 210, .theta = -1, .s_ref = 76.0, .t = 1.9000000000000001},
+  [20] = {.kind = STAGE_MIDDLE, .var = 216, .row = 392, .jac = 1239, .next = 227, .s = 216, .u = 221, .theta = -1, .s_ref = 80.0, .t = 2.0},
+  [21] = {.kind = STAGE_MIDDLE, .var = 227, .row = 412, .jac = 1302, .next = 238, .s = 227, .u = 232, .theta = -1, .s_ref = 84.0, .t = 2.1},
+  [22] = {.kind = STAGE_MIDDLE, .var = 238, .row = 432, .jac = 1365, .next = 249, .s = 238, .u = 243, .theta = -1, .s_ref = 88.0, .t = 2.2},
+  [23] = {.kind = STAGE_MIDDLE, .var = 249, .row = 452, .jac = 1428, .next = 260, .s = 249, .u = 254, .theta = -1, .s_ref = 92.00000000000001, .t = 2.3000000000000003},
+  [24] = {.kind = STAGE_MIDDLE, .var = 260, .row = 472, .jac = 1491, .next = 271, .s = 260, .u = 265, .theta = -1, .s_ref = 96.00000000000001, .t = 2.4000000000000004},
+  [25] = {.kind = STAGE_MIDDLE, .var = 271, .row = 492, .jac = 1554, .next = 282, .s = 271, .u = 276, .theta = -1, .s_ref = 100.0, .t = 2.5},
+  [26] = {.kind = STAGE_MIDDLE, .var = 282, .row = 512, .jac = 1617, .next = 293, .s = 282, .u = 287, .theta = -1, .s_ref = 104.0, .t = 2.6},
+  [27] = {.kind = STAGE_MIDDLE, .var = 293, .row = 532, .jac = 1680, .next = 304, .s = 293, .u = 298, .theta = -1, .s_ref = 108.0, .t = 2.7},
+  [28] = {.kind = STAGE_MIDDLE, .var = 304, .row = 552, .jac = 1743, .next = 315, .s = 304, .u = 309, .theta = -1, .s_ref = 112.00000000000001, .t = 2.8000000000000003},
+  [29] = {.kind = STAGE_MIDDLE, .var = 315, .row = 572, .jac = 1806, .next = 326, .s = 315, .u = 320, .theta = -1, .s_ref = 116.00000000000001, .t = 2.9000000000000004},
+  [30] = {.kind = STAGE_MIDDLE, .var = 326, .row = 592, .jac = 1869, .next = 337, .s = 326, .u = 331, .theta = -1, .s_ref = 120.0, .t = 3.0},
+  [31] = {.kind = STAGE_MIDDLE, .var = 337, .row = 612, .jac = 1932, .next = 348, .s = 337, .u = 342, .theta = -1, .s_ref = 124.0, .t = 3.1},
+  [32] = {.kind = STAGE_MIDDLE, .var = 348, .row = 632, .jac = 1995, .next = 359, .s = 348, .u = 353, .theta = -1, .s_ref = 128.0, .t = 3.2},
+  [33] = {.kind = STAGE_MIDDLE, .var = 359, .row = 652, .jac = 2058, .next = 370, .s = 359, .u = 364, .theta = -1, .s_ref = 132.0, .t = 3.3000000000000003},
+  [34] = {.kind = STAGE_MIDDLE, .var = 370, .row = 672, .jac = 2121, .next = 381, .s = 370, .u = 375, .theta = -1, .s_ref = 136.0, .t = 3.4000000000000004},
+  [35] = {.kind = STAGE_MIDDLE, .var = 381, .row = 692, .jac = 2184, .next = 392, .s = 381, .u = 386, .theta = -1, .s_ref = 140.0, .t = 3.5},
+  [36] = {.kind = STAGE_MIDDLE, .var = 392, .row = 712, .jac = 2247, .next = 403, .s = 392, .u = 397, .theta = -1, .s_ref = 144.0, .t = 3.6},
+  [37] = {.kind = STAGE_MIDDLE, .var = 403, .row = 732, .jac = 2310, .next = 414, .s = 403, .u = 408, .theta = -1, .s_ref = 148.0, .t = 3.7},
+  [38] = {.kind = STAGE_MIDDLE, .var = 414, .row = 752, .jac = 2373, .next = 425, .s = 414, .u = 419, .theta = -1, .s_ref = 152.0, .t = 3.8000000000000003},
+  [39] = {.kind = STAGE_MIDDLE, .var = 425, .row = 772, .jac = 2436, .next = 436, .s = 425, .u = 430, .theta = -1, .s_ref = 156.0, .t = 3.9000000000000004},
+  [40] = {.kind = STAGE_LAST, .var = 436, .row = 792, .jac = 2499, .next = -1, .s = 436, .u = -1, .theta = -1, .s_ref = 160.0, .t = 4.0},
 };
 
 /* ---- QP layout tables ------------------------------------------------------------------------------------------ */
@@ -1103,7 +1104,6 @@ typedef struct {
   truck_de_el_real_t u[TRUCK_DE_EL_QP_M];
   truck_de_el_real_t u_applied[TRUCK_DE_EL_NU];
   truck_de_el_real_t xa[TRUCK_DE_EL_NX];
-  truck_de_el_real_t xb[TRUCK_DE_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
   casadi_real *res[CASADI_SZ_RES];
   casadi_int iw[CASADI_SZ_IW];
@@ -1217,33 +1217,38 @@ static int stage_params(truck_de_el_real_t *p, int k, truck_de_el_real_t s) {
   return TRUCK_DE_EL_OK;
 }
 
-/* Roll the model out from x0 with zero input into w; hyperplanes between ego and opponents; zero slacks, duals y. */
+/* The cold-start guess (fcgen.guess.cold_start_frenet) into w: every stage keeps x0's n, v, delta, has alpha = 0
+ * for k >= 1 and s_k = s0 + k dt v0 clipped to [s0, the last s whose stage window lies on the road]; the stage
+ * state is init_state of that Frenet state (lifted: F^-1 on the stage's window); hyperplanes between ego and
+ * opponents; zero inputs, slacks, duals y. */
 static int initial_guess(truck_de_el_real_t *w, truck_de_el_real_t *y) {
   int i;
   int k;
   int rc;
-  truck_de_el_real_t *x = ws.xa;
-  truck_de_el_real_t *xn = ws.xb;
-  truck_de_el_real_t *tmp;
+  int last;
+  truck_de_el_real_t xf[5];
+  truck_de_el_real_t s_last;
   for (i = 0; i < TRUCK_DE_EL_QP_N; ++i) {
     w[i] = 0.0;
   }
   ws.s0_guess = ws.x0[0];
-  rc = stage_params(ws.p_fb, 0, ws.x0[0]);
+  rc = stage_params(ws.p, 0, ws.x0[0]); /* no road or x0 off it: rejected before s_last is computed */
   if (rc != TRUCK_DE_EL_OK) return rc;
-  call3(truck_de_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
+  last = ws.road_n - TRUCK_DE_EL_ROAD_WINDOW + 1; /* the largest window_start t (as there) */
+  s_last = ws.road_s0 + ((truck_de_el_real_t)last * ws.road_ds);
+  copy(ws.x0, xf, 5);
   for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
-    copy(x, &w[STAGES[k].var], TRUCK_DE_EL_NX);
-    rc = stage_params(ws.p, k, x[0]);
-    if (rc != TRUCK_DE_EL_OK) return rc;
-    if (STAGES[k].theta >= 0) {
-      call3(truck_de_el_theta_init, x, ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
+    if (k > 0) {
+      const truck_de_el_real_t s = ws.x0[0] + (STAGES[k].t * ws.x0[3]);
+      const truck_de_el_real_t s_k = (s < s_last) ? s : s_last;
+      xf[0] = (s_k > ws.x0[0]) ? s_k : ws.x0[0];
+      xf[2] = REAL_0;
     }
-    if (STAGES[k].next >= 0) {
-      call3(truck_de_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
-      tmp = x;
-      x = xn;
-      xn = tmp;
+    rc = stage_params(ws.p, k, xf[0]);
+    if (rc != TRUCK_DE_EL_OK) return rc;
+    call3(truck_de_el_init_state, xf, ws.p, NULL, &w[STAGES[k].var], NULL, NULL);
+    if (STAGES[k].theta >= 0) {
+      call3(truck_de_el_theta_init, &w[STAGES[k].var], ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
     }
   }
   for (i = 0; i < TRUCK_DE_EL_QP_M; ++i) {

@@ -27,7 +27,7 @@ extern "C" {
 #define TRUCK_DE_EL_QP_M 805 /* QP rows */
 #define TRUCK_DE_EL_QP_NNZ_A 2525 /* nonzeros of the QP constraint matrix */
 #define TRUCK_DE_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_DE_EL_WORKSPACE_BYTES 390308 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_DE_EL_WORKSPACE_BYTES 390268 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_DE_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -128,7 +128,8 @@ int truck_de_el_set_road(truck_de_el_real_t s0, truck_de_el_real_t ds, int n, co
 /* Opponent poses [x, y, phi] (rear axle) of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
 int truck_de_el_set_opponents(const truck_de_el_real_t *params);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
- * x0, load the QP backend's matrices. A no-op while prepared. */
+ * x0, load the QP backend's matrices. A no-op while prepared. The initial guess follows the road: the state's n, v,
+ * delta held, alpha 0, s_k = s0 + k dt v, stopped at the last s whose local window lies on the road set. */
 int truck_de_el_prepare(void);
 /* Feedback phase: embed the state set last, solve the QP, take the full step if the QP is usable (contract above). */
 int truck_de_el_feedback(void);

@@ -71,50 +71,51 @@ typedef struct {
   int u;                 /* variable F_d of u_k; -1 at k = N */
   int theta;             /* first hyperplane variable set by the initial guess; -1 if none */
   truck_lift_el_real_t s_ref;  /* k dt v_ref */
+  truck_lift_el_real_t t;      /* k dt (the cold-start guess: s_k = s0 + t v0) */
 } stage_t;
 
 static const stage_t STAGES[TRUCK_LIFT_EL_N + 1] = {
-  [0] = {.kind = STAGE_FIRST, .var = 0, .row = 0, .jac = 0, .next = 10, .s = 0, .u = 8, .theta = -1, .s_ref = 0.0},
-  [1] = {.kind = STAGE_MIDDLE, .var = 10, .row = 18, .jac = 66, .next = 24, .s = 10, .u = 18, .theta = -1, .s_ref = 4.0},
-  [2] = {.kind = STAGE_MIDDLE, .var = 24, .row = 41, .jac = 150, .next = 38, .s = 24, .u = 32, .theta = -1, .s_ref = 8.0},
-  [3] = {.kind = STAGE_MIDDLE, .var = 38, .row = 64, .jac = 234, .next = 52, .s = 38, .u = 46, .theta = -1, .s_ref = 12.000000000000002},
-  [4] = {.kind = STAGE_MIDDLE, .var = 52, .row = 87, .jac = 318, .next = 66, .s = 52, .u = 60, .theta = -1, .s_ref = 16.0},
-  [5] = {.kind = STAGE_MIDDLE, .var = 66, .row = 110, .jac = 402, .next = 80, .s = 66, .u = 74, .theta = -1, .s_ref = 20.0},
-  [6] = {.kind = STAGE_MIDDLE, .var = 80, .row = 133, .jac = 486, .next = 94, .s = 80, .u = 88, .theta = -1, .s_ref = 24.000000000000004},
-  [7] = {.kind = STAGE_MIDDLE, .var = 94, .row = 156, .jac = 570, .next = 108, .s = 94, .u = 102, .theta = -1, .s_ref = 28.000000000000004},
-  [8] = {.kind = STAGE_MIDDLE, .var = 108, .row = 179, .jac = 654, .next = 122, .s = 108, .u = 116, .theta = -1, .s_ref = 32.0},
-  [9] = {.kind = STAGE_MIDDLE, .var = 122, .row = 202, .jac = 738, .next = 136, .s = 122, .u = 130, .theta = -1, .s_ref = 36.0},
-  [10] = {.kind = STAGE_MIDDLE, .var = 136, .row = 225, .jac = 822, .next = 150, .s = 136, .u = 144, .theta = -1, .s_ref = 40.0},
-  [11] = {.kind = STAGE_MIDDLE, .var = 150, .row = 248, .jac = 906, .next = 164, .s = 150, .u = 158, .theta = -1, .s_ref = 44.0},
-  [12] = {.kind = STAGE_MIDDLE, .var = 164, .row = 271, .jac = 990, .next = 178, .s = 164, .u = 172, .theta = -1, .s_ref = 48.00000000000001},
-  [13] = {.kind = STAGE_MIDDLE, .var = 178, .row = 294, .jac = 1074, .next = 192, .s = 178, .u = 186, .theta = -1, .s_ref = 52.0},
-  [14] = {.kind = STAGE_MIDDLE, .var = 192, .row = 317, .jac = 1158, .next = 206, .s = 192, .u = 200, .theta = -1, .s_ref = 56.00000000000001},
-  [15] = {.kind = STAGE_MIDDLE, .var = 206, .row = 340, .jac = 1242, .next = 220, .s = 206, .u = 214, .theta = -1, .s_ref = 60.0},
-  [16] = {.kind = STAGE_MIDDLE, .var = 220, .row = 363, .jac = 1326, .next = 234, .s = 220, .u = 228, .theta = -1, .s_ref = 64.0},
-  [17] = {.kind = STAGE_MIDDLE, .var = 234, .row = 386, .jac = 1410, .next = 248, .s = 234, .u = 242, .theta = -1, .s_ref = 68.0},
-  [18] = {.kind = STAGE_MIDDLE, .var = 248, .row = 409, .jac = 1494, .next = 262, .s = 248, .u = 256, .theta = -1, .s_ref = 72.0},
-  [19] = {.kind = STAGE_MIDDLE, .var = 262, .row = 432, .jac = 1578, .next = 276, .s = 262, .u = 270, .theta = -1, .s_ref = 76.0},
-  [20] = {.kind = STAGE_MIDDLE, .var = 276, .row = 455, .jac = 1662, .next = 290, .s = 276, .u = 284, .theta = -1, .s_ref = 80.0},
-  [21] = {.kind = STAGE_MIDDLE, .var = 290, .row = 478, .jac = 1746, .next = 304, .s = 290, .u = 298, .theta = -1, .s_ref = 84.0},
-  [22] = {.kind = STAGE_MIDDLE, .var = 304, .row = 501, .jac = 1830, .next = 318, .s = 304, .u = 312, .theta = -1, .s_ref = 88.0},
-  [23] = {.kind = STAGE_MIDDLE, .var = 318, .row = 524, .jac = 1914, .next = 332, .s = 318, .u = 326, .theta = -1, .s_ref = 92.00000000000001},
-  [24] = {.kind = STAGE_MIDDLE, .var = 332, .row = 547, .jac = 1998, .next = 346, .s = 332, .u = 340, .theta = -1, .s_ref = 96.00000000000001},
-  [25] = {.kind = STAGE_MIDDLE, .var = 346, .row = 570, .jac = 2082, .next = 360, .s = 346, .u = 354, .theta = -1, .s_ref = 100.0},
-  [26] = {.kind = STAGE_MIDDLE, .var = 360, .row = 593, .jac = 2166, .next = 374, .s = 360, .u = 368, .theta = -1, .s_ref = 104.0},
-  [27] = {.kind = STAGE_MIDDLE, .var = 374, .row = 616, .jac = 2250, .next = 388, .s = 374, .u = 382, .theta = -1, .s_ref = 108.0},
-  [28] = {.kind = STAGE_MIDDLE, .var = 388, .row = 639, .jac = 2334, .next = 402, .s = 388, .u = 396, .theta = -1, .s_ref = 112.00000000000001},
-  [29] = {.kind = STAGE_MIDDLE, .var = 402, .row = 662, .jac = 2418, .next = 416, .s = 402, .u = 410, .theta = -1, .s_ref = 116.00000000000001},
-  [30] = {.kind = STAGE_MIDDLE, .var = 416, .row = 685, .jac = 2502, .next = 430, .s = 416, .u = 424, .theta = -1, .s_ref = 120.0},
-  [31] = {.kind = STAGE_MIDDLE, .var = 430, .row = 708, .jac = 2586, .next = 444, .s = 430, .u = 438, .theta = -1, .s_ref = 124.0},
-  [32] = {.kind = STAGE_MIDDLE, .var = 444, .row = 731, .jac = 2670, .next = 458, .s = 444, .u = 452, .theta = -1, .s_ref = 128.0},
-  [33] = {.kind = STAGE_MIDDLE, .var = 458, .row = 754, .jac = 2754, .next = 472, .s = 458, .u = 466, .theta = -1, .s_ref = 132.0},
-  [34] = {.kind = STAGE_MIDDLE, .var = 472, .row = 777, .jac = 2838, .next = 486, .s = 472, .u = 480, .theta = -1, .s_ref = 136.0},
-  [35] = {.kind = STAGE_MIDDLE, .var = 486, .row = 800, .jac = 2922, .next = 500, .s = 486, .u = 494, .theta = -1, .s_ref = 140.0},
-  [36] = {.kind = STAGE_MIDDLE, .var = 500, .row = 823, .jac = 3006, .next = 514, .s = 500, .u = 508, .theta = -1, .s_ref = 144.0},
-  [37] = {.kind = STAGE_MIDDLE, .var = 514, .row = 846, .jac = 3090, .next = 528, .s = 514, .u = 522, .theta = -1, .s_ref = 148.0},
-  [38] = {.kind = STAGE_MIDDLE, .var = 528, .row = 869, .jac = 3174, .next = 542, .s = 528, .u = 536, .theta = -1, .s_ref = 152.0},
-  [39] = {.kind = STAGE_MIDDLE, .var = 542, .row = 892, .jac = 3258, .next = 556, .s = 542, .u = 550, .theta = -1, .s_ref = 156.0},
-  [40] = {.kind = STAGE_LAST, .var = 556, .row = 915, .jac = 3342, .next = -1, .s = 556, .u = -1, .theta = -1, .s_ref = 160.0},
+  [0] = {.kind = STAGE_FIRST, .var = 0, .row = 0, .jac = 0, .next = 10, .s = 0, .u = 8, .theta = -1, .s_ref = 0.0, .t = 0.0},
+  [1] = {.kind = STAGE_MIDDLE, .var = 10, .row = 18, .jac = 66, .next = 24, .s = 10, .u = 18, .theta = -1, .s_ref = 4.0, .t = 0.1},
+  [2] = {.kind = STAGE_MIDDLE, .var = 24, .row = 41, .jac = 150, .next = 38, .s = 24, .u = 32, .theta = -1, .s_ref = 8.0, .t = 0.2},
+  [3] = {.kind = STAGE_MIDDLE, .var = 38, .row = 64, .jac = 234, .next = 52, .s = 38, .u = 46, .theta = -1, .s_ref = 12.000000000000002, .t = 0.30000000000000004},
+  [4] = {.kind = STAGE_MIDDLE, .var = 52, .row = 87, .jac = 318, .next = 66, .s = 52, .u = 60, .theta = -1, .s_ref = 16.0, .t = 0.4},
+  [5] = {.kind = STAGE_MIDDLE, .var = 66, .row = 110, .jac = 402, .next = 80, .s = 66, .u = 74, .theta = -1, .s_ref = 20.0, .t = 0.5},
+  [6] = {.kind = STAGE_MIDDLE, .var = 80, .row = 133, .jac = 486, .next = 94, .s = 80, .u = 88, .theta = -1, .s_ref = 24.000000000000004, .t = 0.6000000000000001},
+  [7] = {.kind = STAGE_MIDDLE, .var = 94, .row = 156, .jac = 570, .next = 108, .s = 94, .u = 102, .theta = -1, .s_ref = 28.000000000000004, .t = 0.7000000000000001},
+  [8] = {.kind = STAGE_MIDDLE, .var = 108, .row = 179, .jac = 654, .next = 122, .s = 108, .u = 116, .theta = -1, .s_ref = 32.0, .t = 0.8},
+  [9] = {.kind = STAGE_MIDDLE, .var = 122, .row = 202, .jac = 738, .next = 136, .s = 122, .u = 130, .theta = -1, .s_ref = 36.0, .t = 0.9},
+  [10] = {.kind = STAGE_MIDDLE, .var = 136, .row = 225, .jac = 822, .next = 150, .s = 136, .u = 144, .theta = -1, .s_ref = 40.0, .t = 1.0},
+  [11] = {.kind = STAGE_MIDDLE, .var = 150, .row = 248, .jac = 906, .next = 164, .s = 150, .u = 158, .theta = -1, .s_ref = 44.0, .t = 1.1},
+  [12] = {.kind = STAGE_MIDDLE, .var = 164, .row = 271, .jac = 990, .next = 178, .s = 164, .u = 172, .theta = -1, .s_ref = 48.00000000000001, .t = 1.2000000000000002},
+  [13] = {.kind = STAGE_MIDDLE, .var = 178, .row = 294, .jac = 1074, .next = 192, .s = 178, .u = 186, .theta = -1, .s_ref = 52.0, .t = 1.3},
+  [14] = {.kind = STAGE_MIDDLE, .var = 192, .row = 317, .jac = 1158, .next = 206, .s = 192, .u = 200, .theta = -1, .s_ref = 56.00000000000001, .t = 1.4000000000000001},
+  [15] = {.kind = STAGE_MIDDLE, .var = 206, .row = 340, .jac = 1242, .next = 220, .s = 206, .u = 214, .theta = -1, .s_ref = 60.0, .t = 1.5},
+  [16] = {.kind = STAGE_MIDDLE, .var = 220, .row = 363, .jac = 1326, .next = 234, .s = 220, .u = 228, .theta = -1, .s_ref = 64.0, .t = 1.6},
+  [17] = {.kind = STAGE_MIDDLE, .var = 234, .row = 386, .jac = 1410, .next = 248, .s = 234, .u = 242, .theta = -1, .s_ref = 68.0, .t = 1.7000000000000002},
+  [18] = {.kind = STAGE_MIDDLE, .var = 248, .row = 409, .jac = 1494, .next = 262, .s = 248, .u = 256, .theta = -1, .s_ref = 72.0, .t = 1.8},
+  [19] = {.kind = STAGE_MIDDLE, .var = 262, .row = 432, .jac = 1578, .next = 276, .s = 262, .u = 270, .theta = -1, .s_ref = 76.0, .t = 1.9000000000000001},
+  [20] = {.kind = STAGE_MIDDLE, .var = 276, .row = 455, .jac = 1662, .next = 290, .s = 276, .u = 284, .theta = -1, .s_ref = 80.0, .t = 2.0},
+  [21] = {.kind = STAGE_MIDDLE, .var = 290, .row = 478, .jac = 1746, .next = 304, .s = 290, .u = 298, .theta = -1, .s_ref = 84.0, .t = 2.1},
+  [22] = {.kind = STAGE_MIDDLE, .var = 304, .row = 501, .jac = 1830, .next = 318, .s = 304, .u = 312, .theta = -1, .s_ref = 88.0, .t = 2.2},
+  [23] = {.kind = STAGE_MIDDLE, .var = 318, .row = 524, .jac = 1914, .next = 332, .s = 318, .u = 326, .theta = -1, .s_ref = 92.00000000000001, .t = 2.3000000000000003},
+  [24] = {.kind = STAGE_MIDDLE, .var = 332, .row = 547, .jac = 1998, .next = 346, .s = 332, .u = 340, .theta = -1, .s_ref = 96.00000000000001, .t = 2.4000000000000004},
+  [25] = {.kind = STAGE_MIDDLE, .var = 346, .row = 570, .jac = 2082, .next = 360, .s = 346, .u = 354, .theta = -1, .s_ref = 100.0, .t = 2.5},
+  [26] = {.kind = STAGE_MIDDLE, .var = 360, .row = 593, .jac = 2166, .next = 374, .s = 360, .u = 368, .theta = -1, .s_ref = 104.0, .t = 2.6},
+  [27] = {.kind = STAGE_MIDDLE, .var = 374, .row = 616, .jac = 2250, .next = 388, .s = 374, .u = 382, .theta = -1, .s_ref = 108.0, .t = 2.7},
+  [28] = {.kind = STAGE_MIDDLE, .var = 388, .row = 639, .jac = 2334, .next = 402, .s = 388, .u = 396, .theta = -1, .s_ref = 112.00000000000001, .t = 2.8000000000000003},
+  [29] = {.kind = STAGE_MIDDLE, .var = 402, .row = 662, .jac = 2418, .next = 416, .s = 402, .u = 410, .theta = -1, .s_ref = 116.00000000000001, .t = 2.9000000000000004},
+  [30] = {.kind = STAGE_MIDDLE, .var = 416, .row = 685, .jac = 2502, .next = 430, .s = 416, .u = 424, .theta = -1, .s_ref = 120.0, .t = 3.0},
+  [31] = {.kind = STAGE_MIDDLE, .var = 430, .row = 708, .jac = 2586, .next = 444, .s = 430, .u = 438, .theta = -1, .s_ref = 124.0, .t = 3.1},
+  [32] = {.kind = STAGE_MIDDLE, .var = 444, .row = 731, .jac = 2670, .next = 458, .s = 444, .u = 452, .theta = -1, .s_ref = 128.0, .t = 3.2},
+  [33] = {.kind = STAGE_MIDDLE, .var = 458, .row = 754, .jac = 2754, .next = 472, .s = 458, .u = 466, .theta = -1, .s_ref = 132.0, .t = 3.3000000000000003},
+  [34] = {.kind = STAGE_MIDDLE, .var = 472, .row = 777, .jac = 2838, .next = 486, .s = 472, .u = 480, .theta = -1, .s_ref = 136.0, .t = 3.4000000000000004},
+  [35] = {.kind = STAGE_MIDDLE, .var = 486, .row = 800, .jac = 2922, .next = 500, .s = 486, .u = 494, .theta = -1, .s_ref = 140.0, .t = 3.5},
+  [36] = {.kind = STAGE_MIDDLE, .var = 500, .row = 823, .jac = 3006, .next = 514, .s = 500, .u = 508, .theta = -1, .s_ref = 144.0, .t = 3.6},
+  [37] = {.kind = STAGE_MIDDLE, .var = 514, .row = 846, .jac = 3090, .next = 528, .s = 514, .u = 522, .theta = -1, .s_ref = 148.0, .t = 3.7},
+  [38] = {.kind = STAGE_MIDDLE, .var = 528, .row = 869, .jac = 3174, .next = 542, .s = 528, .u = 536, .theta = -1, .s_ref = 152.0, .t = 3.8000000000000003},
+  [39] = {.kind = STAGE_MIDDLE, .var = 542, .row = 892, .jac = 3258, .next = 556, .s = 542, .u = 550, .theta = -1, .s_ref = 156.0, .t = 3.9000000000000004},
+  [40] = {.kind = STAGE_LAST, .var = 556, .row = 915, .jac = 3342, .next = -1, .s = 556, .u = -1, .theta = -1, .s_ref = 160.0, .t = 4.0},
 };
 
 /* ---- QP layout tables ------------------------------------------------------------------------------------------ */
@@ -1300,7 +1301,6 @@ typedef struct {
   truck_lift_el_real_t u[TRUCK_LIFT_EL_QP_M];
   truck_lift_el_real_t u_applied[TRUCK_LIFT_EL_NU];
   truck_lift_el_real_t xa[TRUCK_LIFT_EL_NX];
-  truck_lift_el_real_t xb[TRUCK_LIFT_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
   casadi_real *res[CASADI_SZ_RES];
   casadi_int iw[CASADI_SZ_IW];
@@ -1414,33 +1414,38 @@ static int stage_params(truck_lift_el_real_t *p, int k, truck_lift_el_real_t s) 
   return TRUCK_LIFT_EL_OK;
 }
 
-/* Roll the model out from x0 with zero input into w; hyperplanes between ego and opponents; zero slacks, duals y. */
+/* The cold-start guess (fcgen.guess.cold_start_frenet) into w: every stage keeps x0's n, v, delta, has alpha = 0
+ * for k >= 1 and s_k = s0 + k dt v0 clipped to [s0, the last s whose stage window lies on the road]; the stage
+ * state is init_state of that Frenet state (lifted: F^-1 on the stage's window); hyperplanes between ego and
+ * opponents; zero inputs, slacks, duals y. */
 static int initial_guess(truck_lift_el_real_t *w, truck_lift_el_real_t *y) {
   int i;
   int k;
   int rc;
-  truck_lift_el_real_t *x = ws.xa;
-  truck_lift_el_real_t *xn = ws.xb;
-  truck_lift_el_real_t *tmp;
+  int last;
+  truck_lift_el_real_t xf[5];
+  truck_lift_el_real_t s_last;
   for (i = 0; i < TRUCK_LIFT_EL_QP_N; ++i) {
     w[i] = 0.0;
   }
   ws.s0_guess = ws.x0[0];
-  rc = stage_params(ws.p_fb, 0, ws.x0[0]);
+  rc = stage_params(ws.p, 0, ws.x0[0]); /* no road or x0 off it: rejected before s_last is computed */
   if (rc != TRUCK_LIFT_EL_OK) return rc;
-  call3(truck_lift_el_init_state, ws.x0, ws.p_fb, NULL, x, NULL, NULL);
+  last = ws.road_n - TRUCK_LIFT_EL_ROAD_WINDOW + 1; /* the largest window_start t (as there) */
+  s_last = ws.road_s0 + ((truck_lift_el_real_t)last * ws.road_ds);
+  copy(ws.x0, xf, 5);
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
-    copy(x, &w[STAGES[k].var], TRUCK_LIFT_EL_NX);
-    rc = stage_params(ws.p, k, x[0]);
-    if (rc != TRUCK_LIFT_EL_OK) return rc;
-    if (STAGES[k].theta >= 0) {
-      call3(truck_lift_el_theta_init, x, ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
+    if (k > 0) {
+      const truck_lift_el_real_t s = ws.x0[0] + (STAGES[k].t * ws.x0[3]);
+      const truck_lift_el_real_t s_k = (s < s_last) ? s : s_last;
+      xf[0] = (s_k > ws.x0[0]) ? s_k : ws.x0[0];
+      xf[2] = REAL_0;
     }
-    if (STAGES[k].next >= 0) {
-      call3(truck_lift_el_dynamics, x, NULL, ws.p, xn, NULL, NULL); /* u = 0 */
-      tmp = x;
-      x = xn;
-      xn = tmp;
+    rc = stage_params(ws.p, k, xf[0]);
+    if (rc != TRUCK_LIFT_EL_OK) return rc;
+    call3(truck_lift_el_init_state, xf, ws.p, NULL, &w[STAGES[k].var], NULL, NULL);
+    if (STAGES[k].theta >= 0) {
+      call3(truck_lift_el_theta_init, &w[STAGES[k].var], ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
     }
   }
   for (i = 0; i < TRUCK_LIFT_EL_QP_M; ++i) {

@@ -27,7 +27,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_QP_M 928 /* QP rows */
 #define TRUCK_LIFT_EL_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_LIFT_EL_WORKSPACE_BYTES 488936 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_WORKSPACE_BYTES 488872 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -128,7 +128,8 @@ int truck_lift_el_set_road(truck_lift_el_real_t s0, truck_lift_el_real_t ds, int
 /* Opponent poses [x, y, phi] (rear axle) of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
 int truck_lift_el_set_opponents(const truck_lift_el_real_t *params);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
- * x0, load the QP backend's matrices. A no-op while prepared. */
+ * x0, load the QP backend's matrices. A no-op while prepared. The initial guess follows the road: the state's n, v,
+ * delta held, alpha 0, s_k = s0 + k dt v, stopped at the last s whose local window lies on the road set. */
 int truck_lift_el_prepare(void);
 /* Feedback phase: embed the state set last, solve the QP, take the full step if the QP is usable (contract above). */
 int truck_lift_el_feedback(void);

@@ -15,6 +15,7 @@ import numpy as np
 from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINITE, QP_NUMERICAL, QP_OTHER,
                        QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
 from .dsl import QpOptions, SeparatingHyperplane
+from .guess import cold_start_frenet, last_window_s, stage_times
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
@@ -261,21 +262,23 @@ class RtiSolver:
 
     # -- initial guess -----------------------------------------------------------------------------
     def initial_guess(self) -> tuple[np.ndarray, np.ndarray]:
-        """Roll the model out from x0 with zero input; hyperplanes between ego and opponents; zero slacks, duals."""
+        """The cold-start guess (``fcgen.guess``): the road-following Frenet plan, lifted by ``init_state`` on each
+        stage's road window; hyperplanes between ego and opponents; zero inputs, slacks, duals."""
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set before the first prepare")
         ocp, lay = self.ocp, self.lay
         w = np.zeros(lay.n)
         self.s0_guess = self.x0[0]
-        x = np.array(ocp.init_state(self.x0, self.stage_params(0, self.x0[0]))).ravel()
+        self.stage_params(0, self.x0[0])  # no road or x0 off it: ERR_ROAD_WINDOW before anything else
+        s_last = last_window_s(self.road, ocp.road_params.samples)
+        xf = cold_start_frenet(self.x0, stage_times(ocp.N, ocp.dt), s_last)
         for k in range(ocp.N + 1):
             o = lay.var_off[k]
+            p = self.stage_params(k, xf[k, 0])
+            x = np.array(ocp.init_state(xf[k], p)).ravel()
             w[o:o + ocp.nx] = x
-            p = self.stage_params(k, x[0])
             if k >= 1 and ocp.n_theta:
                 w[o + ocp.nx + ocp.nu * (k < ocp.N):][:ocp.n_theta] = np.array(self._theta_init(x, p)).ravel()
-            if k < ocp.N:
-                x = np.array(ocp.dynamics(x, np.zeros(ocp.nu), p)).ravel()
         return w, np.zeros(lay.m)
 
     # -- the two phases -----------------------------------------------------------------------------

@@ -23,6 +23,7 @@ import numpy as np
 from .. import __version__
 from .. import obstacles as obs
 from ..dsl import Problem
+from ..guess import stage_times
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
@@ -184,6 +185,7 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
     """Per-stage descriptors: function kind and the offsets of its variables, rows, Jacobian, successor state."""
     N, nx, nu = ocp.N, ocp.nx, ocp.nu
     v_ref = ocp.problem.reference.v_ref
+    times = stage_times(N, ocp.dt)
     out = []
     for k in range(N + 1):
         st = ocp.stage(k)
@@ -201,6 +203,7 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
             "theta": var + nx + nu * (k < N) if (k >= 1 and ocp.n_theta) else -1,
             "sigma": var + names.index("sigma0") if "sigma0" in names else -1,
             "s_ref": _c_real(k * ocp.dt * v_ref),  # the reference's s_ref offset, same rounding
+            "t": _c_real(times[k]),  # the cold-start guess's k dt (fcgen.guess.stage_times)
         })
         assert names[0] == "s" and out[-1]["s"] == var
         if k < N:
@@ -313,7 +316,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
         ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R),
         ("NAME_real_t", "u_applied", [M("NU")], R),
-        ("NAME_real_t", "xa", [M("NX")], R), ("NAME_real_t", "xb", [M("NX")], R),
+        ("NAME_real_t", "xa", [M("NX")], R),
         ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
         ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
