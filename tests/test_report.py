@@ -182,3 +182,52 @@ def test_report_of_two_backends_has_every_table_per_backend(tmp_path):
     # the IPM's zero-collision finding holds, OSQP's fails
     fz = [line for line in text.splitlines() if line.startswith("| zero collisions")]
     assert [("**fails**" in f, "**holds**" in f) for f in fz] == [(True, False), (False, True)]
+
+
+def hp_rows(kinds: bool) -> pd.DataFrame:
+    """The hand rows as the hyperplane model; with ``kinds``, the collision columns of ``campaign.task``."""
+    df = hand_rows()
+    df["obstacles"], df["model"] = "hyperplane", "HP"
+    df["config"] = df["config"].str.replace("/EL/", "/HP/")
+    if kinds:
+        df["collision_kind"] = np.where(df["collision"], "rear_corner", "")
+        df["collision_depth_m"] = np.where(df["collision"], 0.3, 0.0)
+        df["collision_sweep_m"] = 0.0
+    return df
+
+
+def test_the_collision_finding_explains_by_kind_of_contact():
+    df = pd.concat([hp_rows(True), hp_rows(True).assign(seed=lambda d: d["seed"] + 2)], ignore_index=True)
+    i = df.index[(df["formulation"] == "conventional") & (df["seed"] == 3)][0]     # a second collision: swept front
+    df.loc[i, ["collision", "collision_kind", "collision_depth_m", "collision_sweep_m"]] = [True, "swept_front",
+                                                                                           1.1, 7.0]
+    p = tables.progress_table(df)
+    lifted = next(r for r in p if r["formulation"] == "lifted")
+    assert lifted["collision_kinds"] == {"rear_corner": 2} and lifted["collision_depths_m"] == [0.3, 0.3]
+    f = findings.judge(tables.time_table(df), p)[-1]
+    assert f.verdict == "fails" and f.evidence.startswith("3 of 12 runs collide")
+    # 3 runs: depths 0.3, 0.3, 1.1 (median 0.3); 1 swept (7.0 m), 2 rear corners
+    assert "of the 3 colliding runs without EL (penetration median 0.30 m, deepest 1.10 m)" in f.why
+    assert "1 (33 %) touch the front corner of a truck that the road's bend swept 7.0 m (median)" in f.why
+    assert "2 (67 %) clip an opponent's rear corner" in f.why
+    assert "EL" not in f.why.split("without EL")[1]                 # no EL row collides: no ellipse sentence
+
+
+def test_the_collision_finding_without_kinds_names_the_mechanisms():
+    f = findings.judge(tables.time_table(hp_rows(False)), tables.progress_table(hp_rows(False)))[-1]
+    assert f.why == findings.GENERIC
+    assert findings.judge(tables.time_table(hp_rows(True).assign(collision=False)),
+                          tables.progress_table(hp_rows(True).assign(collision=False)))[-1].why == ""
+
+
+def test_the_ellipse_collisions_are_compared_with_its_shortfall():
+    df = hand_rows()                                   # truck EL: lifted seed 1 collides
+    df["collision_kind"] = np.where(df["collision"], "rear_corner", "")
+    df["collision_depth_m"] = np.where(df["collision"], 0.11, 0.0)
+    df["collision_sweep_m"] = 0.0
+    why = findings.judge(tables.time_table(df), tables.progress_table(df))[-1].why
+    # the truck rectangle (26 x 4 m) grown by the ego's circle (r = 2.21 m) sticks out of the ellipse by 0.34 m
+    assert "truck EL (1 runs)" in why and "by up to 0.34 m while the ellipse constraint holds" in why
+    assert "all within it (deepest 0.11 m)" in why and "without EL" not in why
+    df.loc[df["collision"], "collision_depth_m"] = 0.5
+    assert "holds (deepest 0.50 m)" in findings.judge(tables.time_table(df), tables.progress_table(df))[-1].why

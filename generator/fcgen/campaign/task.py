@@ -102,10 +102,22 @@ def run_task(task: Task) -> dict:
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         lay = ctrl.solver.lay
         sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A, "n_opp_par": ocp.n_opp_par}
-    return make_row(task, pb, log, wall, cpu, t_start, sizes, hash_)
+    return make_row(task, pb, log, wall, cpu, t_start, sizes, hash_, collision_columns(sc.road, log))
 
 
-def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str) -> dict:
+def collision_columns(road, log) -> dict:
+    """How the run's collision looked (``sim.collision_kind``): its depth, the kind of its first contact and how far
+    the bend had swept the touched corner out of the opponent's lane; 0 / "" without a collision."""
+    from ..sim.collision_kind import first_collision
+    info = first_collision(road, np.asarray(log.ego_cartesian), log.ego, np.asarray(log.opp_cartesian),
+                           np.asarray(log.opp_frenet), log.opponents)
+    if info is None:
+        return {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0}
+    return {"collision_depth_m": info.depth, "collision_kind": info.kind, "collision_sweep_m": info.sweep}
+
+
+def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str,
+             collision: dict | None = None) -> dict:
     """The flat row of one run: configuration, seed, every ``summary`` figure, wall and CPU time (of the whole closed
     loop, plant and scenario included), collision, a_lat outcome."""
     s = summary(log)
@@ -125,6 +137,7 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["collision"] = bool(s["n_collision_samples"] > 0)
     row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
+    row.update(collision or {})
     row.update(sizes)
     row["wall_s"] = float(wall)
     row["cpu_s"] = float(cpu)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..presets import CAR, TRUCK
+from ..sim.collision_kind import ellipse_shortfall
 from .tables import MODEL_ORDER
 
 
@@ -65,6 +67,74 @@ def _fit_why(t, cells, form) -> str:
         if a and c and c["prepare_mean"] > 2.0 * a["prepare_mean"] and c["mean"] > a["mean"]:
             hit.append(f"{sc} {m}: prepare {c['prepare_mean']:.2f} vs {a['prepare_mean']:.2f} ms")
     return (FIT + ": " + "; ".join(hit)) if hit else ""
+
+
+SWEPT = ("{n} touch the front corner of a truck that the road's bend swept {sweep:.1f} m (median) beyond its half "
+         "width out of its lane: a straight 26 m chassis whose rear axle follows its lane sweeps its front across the "
+         "road up to its edge, which bounds the ego hard, and leaves no room beside it; the plan sees it coming (it "
+         "holds the obstacle slack from when the conflict enters the horizon) but takes the soft rows' penalty rather "
+         "than brake early")
+REAR = ("{n} clip an opponent's rear corner while swerving past it to overtake: the plan holds the obstacle rows' "
+        "slack for many samples before (the hyperplane's 0.2 m margin eaten, then more): the soft rows' L1 penalty is not "
+        "exact there (the row's multiplier exceeds the weight)")
+OTHER = "{n} touch an opponent's front corner the bend has not swept"
+GENERIC = ("the hyperplane's collisions are planned: the plan keeps the obstacle rows' slack for many samples before "
+           "(the soft rows' L1 penalty is not exact where the ego squeezes past an opponent's rear corner, or beside a "
+           "truck whose front the road's bend sweeps across the road up to its edge)")
+
+
+def _ellipse_why(prog_rows) -> str:
+    """EL's collisions: the paper's enlarged ellipse does not cover the opponent's corners grown by the ego's circle."""
+    r_ego = (0.25 * CAR.l_ch ** 2 + 0.25 * CAR.w_ch ** 2) ** 0.5
+    parts = []
+    for sc in ("truck", "car"):
+        rows = [r for r in prog_rows if r["scenario"] == sc and r["model"] == "EL" and r["runs_with_collision"]]
+        if not rows:
+            continue
+        opp = TRUCK if sc == "truck" else CAR
+        gap = ellipse_shortfall(0.5 * opp.l_ch, 0.5 * opp.w_ch, r_ego)
+        n = sum(r["runs_with_collision"] for r in rows)
+        depths = [d for r in rows for d in r.get("collision_depths_m", [])]
+        deep = (f", all within it (deepest {max(depths):.2f} m)" if depths and max(depths) <= gap else
+                f" (deepest {max(depths):.2f} m)" if depths else "")
+        parts.append(f"{sc} EL ({n} runs): the paper's ellipse (semi-axes sqrt(2) l/2 + r_ego, sqrt(2) w/2 + r_ego) "
+                     f"does not contain the {sc} rectangle grown by the ego's circle: near its corners the ego can "
+                     f"overlap it by up to {gap:.2f} m while the ellipse constraint holds{deep}")
+    return "; ".join(parts)
+
+
+def collision_why(prog_rows) -> str:
+    """Why runs collide: per kind of first contact (rows with ``collision_kinds``), else the known mechanisms."""
+    hit = [r for r in prog_rows if r["runs_with_collision"]]
+    if not hit:
+        return ""
+    cart = [r for r in hit if r["model"] != "EL"]
+    parts = []
+    if cart and all("collision_kinds" in r for r in cart):
+        n_all = sum(r["runs_with_collision"] for r in cart)
+        kinds: dict[str, int] = {}
+        for r in cart:
+            for k, v in r["collision_kinds"].items():
+                kinds[k] = kinds.get(k, 0) + v
+        depths = sorted(d for r in cart for d in r["collision_depths_m"])
+        sweeps = sorted(d for r in cart for d in r["collision_sweeps_m"])
+        head = (f"of the {n_all} colliding runs without EL (penetration median {depths[len(depths) // 2]:.2f} m, "
+                f"deepest {depths[-1]:.2f} m)")
+        msg = []
+        if kinds.get("swept_front"):
+            n = kinds["swept_front"]
+            msg.append(SWEPT.format(n=f"{n} ({100.0 * n / n_all:.0f} %)", sweep=sweeps[len(sweeps) // 2]))
+        if kinds.get("rear_corner"):
+            n = kinds["rear_corner"]
+            msg.append(REAR.format(n=f"{n} ({100.0 * n / n_all:.0f} %)"))
+        if kinds.get("front_corner"):
+            n = kinds["front_corner"]
+            msg.append(OTHER.format(n=f"{n} ({100.0 * n / n_all:.0f} %)"))
+        parts.append(head + ": " + "; ".join(msg))
+    elif cart:
+        parts.append(GENERIC)
+    parts.append(_ellipse_why(prog_rows))
+    return _join(*parts)
 
 
 def _join(*parts: str) -> str:
@@ -139,7 +209,8 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
            if r["runs_with_collision"]]
     out.append(Finding("zero collisions (judged on the true chassis rectangles)",
                        "holds" if runs and not hit else ("no data" if not runs else "fails"),
-                       f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else "")))
+                       f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else ""),
+                       collision_why(prog_rows)))
     return out
 
 

@@ -83,12 +83,28 @@ def progress_table(df: pd.DataFrame) -> list[dict]:
                  "runs_with_collision": int(sub["collision"].sum()),
                  "collision_samples": int(sub["n_collision_samples"].sum()),
                  "max_slack": float(sub["max_slack"].max())}
+            r.update(_collision_kinds(sub))
             common = p.index.intersection(conv.index)
             if form != "conventional" and len(common):
                 d = p.loc[common] - conv.loc[common]
                 r.update(vs_conv_m=float(d.mean()), better_seeds=int((d > 0).sum()), paired=len(common))
             rows.append(r)
     return rows
+
+
+def _collision_kinds(sub: pd.DataFrame) -> dict:
+    """Colliding runs per kind of first contact (``sim.collision_kind``) and their depths (m), where the rows have
+    them (``campaign.task.collision_columns``; older rows do not)."""
+    if "collision_kind" not in sub.columns:
+        return {}
+    hit = sub[sub["collision"].astype(bool)]
+    kinds = hit["collision_kind"].fillna("").astype(str)
+    if not len(hit) or (kinds == "").any():
+        return {}
+    out = {"collision_kinds": {k: int(n) for k, n in kinds.value_counts().sort_index().items()},
+           "collision_depths_m": [float(v) for v in hit["collision_depth_m"]]}
+    out["collision_sweeps_m"] = [float(v) for v, k in zip(hit["collision_sweep_m"], kinds) if k == "swept_front"]
+    return out
 
 
 def alat_table(df: pd.DataFrame) -> list[dict]:
