@@ -173,3 +173,36 @@ def test_cli_campaign_then_report(cache, tmp_path):
     assert "## Table III" in (rep / "README.md").read_text() and (rep / "boxplots_truck.svg").is_file()
     res = CliRunner().invoke(main, args)
     assert res.exit_code == 0 and "0 runs computed, 2 already done" in res.output
+
+
+def _worker_threads() -> dict:
+    return {v: os.environ.get(v) for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+
+
+def test_local_pool_workers_run_single_threaded_blas(monkeypatch):
+    """The pool's workers get one BLAS/OpenMP thread each (idle BLAS threads spin on the other workers' cores); a
+    value the user set is kept."""
+    from fcgen.campaign.runner import executor
+    for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(v, raising=False)
+    monkeypatch.setenv("MKL_NUM_THREADS", "3")
+    with executor(1) as (ex, workers):
+        env = ex.submit(_worker_threads).result()
+    assert workers == 1
+    assert env == {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "3"}
+
+
+def test_solvers_are_built_before_the_runs_one_per_configuration(cache):
+    """run_campaign builds each configuration's solver once, up front (every worker building at the same time),
+    whatever the number of its runs."""
+    import concurrent.futures as cf
+    from fcgen.campaign.runner import _build_solvers
+    tasks = make_tasks(CONFIGS, range(3), SAMPLES, cache)
+    calls = []
+    with cf.ThreadPoolExecutor(2) as ex:
+        real_submit = ex.submit
+        ex.submit = lambda fn, *a: (calls.append(a[0].key), real_submit(fn, *a))[1]
+        _build_solvers(ex, tasks)
+    assert sorted(calls) == sorted(c.key for c in CONFIGS)
+    for c in CONFIGS:
+        assert ensure_solver(c.problem(), cache).is_file()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
+import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -15,7 +16,7 @@ from pathlib import Path
 
 from .grid import Task
 from .store import ResultStore
-from .task import run_task
+from .task import build_solver, run_task
 
 
 @dataclass
@@ -30,11 +31,23 @@ class Outcome:
     workers: int = 0
 
 
+#: one thread per worker for numpy's BLAS and OpenMP: a run's arrays are tiny, and idle BLAS threads spin on the cores
+#: the other workers need (Dask's nanny sets the same variables for its workers)
+WORKER_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def single_threaded_workers() -> None:
+    """Set ``WORKER_THREAD_VARS`` to 1 (unless the user set them) for the worker processes started after this call."""
+    for var in WORKER_THREAD_VARS:
+        os.environ.setdefault(var, "1")
+
+
 @contextmanager
 def executor(jobs: int = 2, scheduler: str | None = None):
     """A process pool of ``jobs`` workers, or a Dask cluster's executor: ``scheduler`` = an address
     (``tcp://host:8786``) or ``local`` (a LocalCluster of ``jobs`` single-threaded worker processes)."""
     if scheduler is None:
+        single_threaded_workers()
         with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
             yield ex, jobs
         return
@@ -66,6 +79,7 @@ def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, schedule
     try:
         with executor(jobs, scheduler) as (ex, workers):
             out.workers = workers
+            _build_solvers(ex, todo)
             futs = {ex.submit(run_task, t): t for t in todo}
             try:
                 _collect(futs, out, buf, bar, store, flush_every, flush_seconds)
@@ -79,6 +93,19 @@ def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, schedule
             bar.close()
         out.wall_s = time.perf_counter() - t0
     return out
+
+
+def _build_solvers(ex, todo: list[Task]) -> None:
+    """Generate and compile the C solvers of the runs' configurations first, all workers at once (built lazily by
+    the first run of each, a worker would wait on another's build of the same solver). A failed build is not
+    raised here: the configuration's runs report it."""
+    keys = sorted({(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"},
+                  key=lambda k: k[0].key)
+    for fut in cf.as_completed([ex.submit(build_solver, *k) for k in keys]):
+        try:
+            fut.result()
+        except Exception:  # noqa: BLE001 - reported by the runs of that configuration
+            pass
 
 
 def _collect(futs: dict, out: Outcome, buf: list, bar, store: ResultStore, flush_every: int,

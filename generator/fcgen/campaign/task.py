@@ -66,6 +66,11 @@ def _prepared(config: Config, cache_dir: str, cflags: str | None = None) -> tupl
     return pb, solver_hash(pb, cflags=cflags), lib
 
 
+def build_solver(config: Config, cache_dir: str, cflags: str | None = None) -> str:
+    """Generate and compile ``config``'s C solver into the cache (a no-op when it is there); returns its library."""
+    return _prepared(config, cache_dir, cflags)[2]
+
+
 def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
     """The soft lateral-acceleration bound: samples above it, and by how far (m/s^2)."""
     excess = np.abs(a_lat) - bound
