@@ -69,6 +69,7 @@ problem = Problem(
         check_termination=40,
         warm_start=True,
         max_iter_cold=400,
+        cold_restart_after=3,
         backend='osqp',
         ipm_tol=0.0001),
     road=RoadWindow(

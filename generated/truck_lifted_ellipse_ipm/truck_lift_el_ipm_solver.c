@@ -3,6 +3,7 @@
  * The steps and their order are those of the Python reference (fcgen.reference.RtiSolver); every index table
  * below was computed by fcgen.qp.QpLayout.
  */
+#include <limits.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -4643,11 +4644,12 @@ int truck_lift_el_ipm_prepare(void) {
   int k;
   int rc;
   int cold;
+  int restart;
   if (ws.prepared != 0) return TRUCK_LIFT_EL_IPM_OK; /* documented no-op: the pending preparation stays */
-  cold = 0;
-  if (ws.have_guess == 0) {
-    cold = 1;
-  }
+  /* a cold start: no plan, or COLD_RESTART_AFTER unusable QPs in a row (a stale plan is not shifted again) */
+  restart = (ws.have_guess != 0) && (TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER > 0) &&
+            (ws.status.qp_unusable_run >= TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER);
+  cold = (ws.have_guess == 0) || (restart != 0);
   if (cold != 0) {
     if (ws.have_x0 == 0) return fail(TRUCK_LIFT_EL_IPM_ERR_NO_STATE);
     rc = initial_guess(ws.w_tmp, ws.y_tmp);
@@ -4696,6 +4698,9 @@ int truck_lift_el_ipm_prepare(void) {
       ws.u[i] = QP_INF;
     }
   }
+  if (restart != 0) { /* as reset() would: the backend restored before its use */
+    ws.qp_ready = 0;
+  }
   if (ws.qp_ready == 0) {
     qpb_reset();
     ws.qp_ready = 1;
@@ -4703,6 +4708,12 @@ int truck_lift_el_ipm_prepare(void) {
   if (qpb_set_matrices(P_DIAG, ws.jac, ws.q) != 0) {
     ws.qp_ready = 0; /* the backend is restored before its next use */
     return fail(TRUCK_LIFT_EL_IPM_ERR_QP_NUMERICAL);
+  }
+  if (restart != 0) {
+    ws.status.qp_unusable_run = 0;
+    if (ws.status.cold_restarts < INT_MAX) {
+      ws.status.cold_restarts += 1;
+    }
   }
   ws.status.exit_code = TRUCK_LIFT_EL_IPM_OK;
   ws.status.qp_status = 0;
@@ -4776,6 +4787,11 @@ int truck_lift_el_ipm_feedback(void) {
   } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
     copy(ws.w_tmp, ws.w, TRUCK_LIFT_EL_IPM_QP_N);
     copy(ws.y_tmp, ws.y, TRUCK_LIFT_EL_IPM_QP_M);
+  }
+  if (code == TRUCK_LIFT_EL_IPM_OK) {
+    ws.status.qp_unusable_run = 0;
+  } else if (ws.status.qp_unusable_run < INT_MAX) {
+    ws.status.qp_unusable_run += 1;
   }
   ws.have_guess = 1;
   apply_control(ws.w);

@@ -27,7 +27,8 @@ extern "C" {
 #define TRUCK_LIFT_EL_IPM_QP_M 928 /* QP rows */
 #define TRUCK_LIFT_EL_IPM_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_IPM_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
-#define TRUCK_LIFT_EL_IPM_WORKSPACE_BYTES 230120 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
+#define TRUCK_LIFT_EL_IPM_WORKSPACE_BYTES 230128 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_IPM_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -77,18 +78,24 @@ enum {
  * QP outcome (feedback): usable = TRUCK_LIFT_EL_IPM_QP_SOLVED, _QP_SOLVED_INACCURATE, _QP_MAX_ITER, each with a finite step
  *   whose u0 leaves the input box by at most TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION (u_violation, see Input bounds): more is
  *   no tolerance but a garbage step (a capped QP on an absurd state) and gives TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS. The
- *   plan is kept, so a state that stays far from it (a jump) is refused sample after sample: reset() then.
+ *   plan is kept, so a state that stays far from it (a jump) is refused sample after sample: hence the cold restart.
  *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= 0.05) -> TRUCK_LIFT_EL_IPM_OK; get_u0: u0 of the new plan, projected on the input box; plan: the new plan (guess + step), its multipliers
- *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > 0.05: far outside the input box) -> TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_PRIMAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_DUAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_DUAL_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_NONCONVEX -> TRUCK_LIFT_EL_IPM_ERR_QP_NONCONVEX; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_NONFINITE (or a usable status with a non-finite step) -> TRUCK_LIFT_EL_IPM_ERR_QP_NONFINITE; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_NUMERICAL (the backend failed) -> TRUCK_LIFT_EL_IPM_ERR_QP_NUMERICAL; get_u0: fallback; plan: kept: the shifted previous plan
- *   QP_OTHER -> TRUCK_LIFT_EL_IPM_ERR_QP; get_u0: fallback; plan: kept: the shifted previous plan
+ *   QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > 0.05: far outside the input box) -> TRUCK_LIFT_EL_IPM_ERR_QP_INPUT_BOUNDS; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_PRIMAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_DUAL_INFEASIBLE -> TRUCK_LIFT_EL_IPM_ERR_QP_DUAL_INFEASIBLE; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_NONCONVEX -> TRUCK_LIFT_EL_IPM_ERR_QP_NONCONVEX; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_NONFINITE (or a usable status with a non-finite step) -> TRUCK_LIFT_EL_IPM_ERR_QP_NONFINITE; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_NUMERICAL (the backend failed) -> TRUCK_LIFT_EL_IPM_ERR_QP_NUMERICAL; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
+ *   QP_OTHER -> TRUCK_LIFT_EL_IPM_ERR_QP; get_u0: fallback; plan: kept: the shifted previous plan (see the cold restart)
  *   Fallback: u_1 of the previous plan (u0 of the shifted guess) projected on the input box; on a cold start
  *   (first sample after init/reset) the initial guess's input: zeros. An unusable QP never moves the plan: the next
  *   sample shifts the kept plan again and can recover. After any feedback the sample is consumed (prepare next).
+ * Cold restart: after TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER unusable QPs in a row (status.qp_unusable_run; 0 = never)
+ *   the next prepare does not shift the kept plan but cold-starts: the initial guess from the state set last, zero
+ *   duals, a reset QP backend, the cold iteration budget (what reset() would give; the inputs are kept,
+ *   status.cold_restarts counts it). Without it a plan shifted N times is its last stage repeated, its fallback
+ *   u_{N-1} held forever; with TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER <= N that cannot happen, the cold guess's
+ *   fallback is zero input.
  * Input bounds: get_u0 always lies in the hard box |F_d| <= F_d_max, |r| <= r_max. If the plan's u0 leaves it (a QP
  *   solved to a tolerance or capped), get_u0 is its projection and status.u_projected = 1, status.u_violation =
  *   max_i (excess_i / limit_i), at most TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION after OK. The plan itself (get_states/
@@ -110,6 +117,8 @@ typedef struct {
   int qp_iter;        /* iterations of the last QP */
   int u_projected;    /* 1: get_u0 is the plan's u0 projected on the input box (set by feedback) */
   int opp_outside;    /* conventional: (stage, opponent) pairs the last prepare left out, being off the road */
+  int qp_unusable_run; /* feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart) */
+  int cold_restarts;  /* prepares that cold-started after TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER unusable QPs in a row */
   double u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   double time_prepare;
   double time_feedback;

@@ -109,7 +109,7 @@ class _CStatus(ctypes.Structure):
     """The C status struct (``<name>_get_status``), field by field as ``reference.Status``."""
 
     _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected",
-                                             "opp_outside")] + \
+                                             "opp_outside", "qp_unusable_run", "cold_restarts")] + \
         [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
 
 

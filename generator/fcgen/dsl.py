@@ -310,6 +310,12 @@ class QpOptions:
 
     ``max_iter_cold``: the budget of a cold-started QP (the first after init/reset, no shifted guess; at least
     ``max_iter``): capped at 60 it left |r| up to 1.6 % beyond its bound at sample 0.
+    ``cold_restart_after``: after this many feedbacks in a row whose QP was unusable (any ERR_QP_* outcome), the next
+    prepare builds the cold-start guess from the state instead of shifting the kept plan (zero duals, a reset QP
+    backend, ``max_iter_cold``): what reset() would give, without the caller; 0: never. A kept plan that no longer
+    meets the state is refused sample after sample (truck conventional hyperplane, seed 6, OSQP capped at 60: 113
+    refusals in a row from sample 14, then the plan shifted past its end braked the ego into reverse); 3 cold-restarts
+    it at sample 17 and the run finishes.
     Defaults are the real-time mode (a fixed iteration budget, as RTI uses it): ``max_iter = 60``,
     ``rho = 0.2``, ``check_termination = 40`` (a check costs about one iteration), ``scaling = 1`` (one Ruiz
     pass: prepare 0.4 -> 0.15 ms, same convergence as 10 here). ``QpOptions.converged()`` is the quality reference.
@@ -331,6 +337,7 @@ class QpOptions:
     check_termination: int = 40
     warm_start: bool = True
     max_iter_cold: int = 400
+    cold_restart_after: int = 3
     backend: str = "osqp"  # the QP backend (fcgen.backends.BACKENDS)
     ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
 
@@ -344,6 +351,8 @@ class QpOptions:
                "an integer in [1, 1e6]")
         _check(isinstance(self.max_iter_cold, int) and 1 <= self.max_iter_cold <= 1_000_000, "qp.max_iter_cold",
                self.max_iter_cold, "an integer in [1, 1e6]")
+        _check(type(self.cold_restart_after) is int and 0 <= self.cold_restart_after <= 1_000_000,
+               "qp.cold_restart_after", self.cold_restart_after, "an integer in [0, 1e6] (0: never)")
         for f in ("eps_abs", "eps_rel"):
             _check(0 <= _finite(f"qp.{f}", getattr(self, f)) < 1, f"qp.{f}", getattr(self, f), "[0, 1)")
         _check(self.eps_abs > 0 or self.eps_rel > 0, "qp.eps_abs", self.eps_abs, "> 0 when eps_rel = 0")

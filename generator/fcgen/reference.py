@@ -49,17 +49,26 @@ QP_CONTRACT = (
     (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= {MAX_INPUT_VIOLATION:g})",
      "OK", "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
     (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > {MAX_INPUT_VIOLATION:g}"
-     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", "kept: the shifted previous plan"),
-    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
-    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", "kept: the shifted previous plan"),
-    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", "kept: the shifted previous plan"),
+     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", "kept: the shifted previous plan (see the cold restart)"),
+    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", "kept: the shifted previous plan (see the cold restart)"),
+    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", "kept: the shifted previous plan (see the cold restart)"),
+    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", "kept: the shifted previous plan (see the cold restart)"),
     ("QP_NONFINITE (or a usable status with a non-finite step)", "ERR_QP_NONFINITE", "fallback",
-     "kept: the shifted previous plan"),
-    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", "kept: the shifted previous plan"),
-    ("QP_OTHER", "ERR_QP", "fallback", "kept: the shifted previous plan"),
+     "kept: the shifted previous plan (see the cold restart)"),
+    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", "kept: the shifted previous plan (see the cold restart)"),
+    ("QP_OTHER", "ERR_QP", "fallback", "kept: the shifted previous plan (see the cold restart)"),
 )
 """(QP status, exit code, what get_u0 returns, what becomes of the guess) for the README and the header.
-Fallback: u_1 of the previous plan (= u0 of the shifted guess), projected on the input box; zeros on a cold start."""
+Fallback: u_1 of the previous plan (= u0 of the shifted guess), projected on the input box; zeros on a cold start.
+After ``qp.cold_restart_after`` unusable QPs in a row the next prepare cold-starts (:data:`COLD_RESTART_NOTE`)."""
+
+COLD_RESTART_NOTE = (
+    "after COLD_RESTART_AFTER unusable QPs in a row (status.qp_unusable_run; 0 = never) the next prepare does not "
+    "shift the kept plan but cold-starts: the initial guess from the state set last, zero duals, a reset QP backend, "
+    "the cold iteration budget (what reset() would give; the inputs are kept, status.cold_restarts counts it). "
+    "Without it a plan shifted N times is its last stage repeated, its fallback u_{N-1} held forever; with "
+    "COLD_RESTART_AFTER <= N that cannot happen, the cold guess's fallback is zero input")
+"""The cold-restart rule, for the README and the header (the macro name is prefixed there)."""
 
 
 def input_box(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -79,6 +88,10 @@ def project_control(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, lim: np.ndarr
         if excess > worst:
             worst = excess
     return out, worst
+
+
+INT_MAX = 2**31 - 1
+"""The status counters saturate here (the C's int)."""
 
 
 class SolverError(RuntimeError):
@@ -101,6 +114,8 @@ class Status:
     u_projected: int = 0       # 1: get_u0 is the plan's u0 projected on the input box
     u_violation: float = 0.0   # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
     opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
+    qp_unusable_run: int = 0   # feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart)
+    cold_restarts: int = 0     # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -146,7 +161,8 @@ class RtiSolver:
     nothing but ``status.exit_code``; ``prepare()`` while prepared is a no-op; an unusable QP raises with its code
     (``QP_EXIT``; ``ERR_QP_INPUT_BOUNDS`` for a usable one whose u0 is far outside the input box), the step is not
     taken, the plan becomes the prepared (shifted) guess and ``u0()`` is its first control projected on the input box
-    (the fallback).
+    (the fallback). After ``qp.cold_restart_after`` unusable QPs in a row the next ``prepare()`` cold-starts
+    (:data:`COLD_RESTART_NOTE`).
     """
 
     def __init__(self, ocp: Ocp, layout: QpLayout | None = None, qp: QpOptions | None = None):
@@ -291,7 +307,9 @@ class RtiSolver:
             return
         ocp, lay = self.ocp, self.lay
         opp_outside = self._fit_opponents()
-        cold = self.w is None
+        K = self.qp_opts.cold_restart_after
+        restart = self.w is not None and K > 0 and self.status.qp_unusable_run >= K
+        cold = self.w is None or restart
         if cold:
             w, y = self.initial_guess()
         elif shift:
@@ -322,10 +340,15 @@ class RtiSolver:
         self.A_data = jac[lay.a_src]
         self.l = lay.L - g
         self.u = lay.U - g
+        if restart:  # as reset() would: the backend restored before its use
+            self.qp.reset()
         self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
         self.prepared = True
-        self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=self.status.u_projected,
-                             u_violation=self.status.u_violation, opp_outside=opp_outside)
+        st = self.status
+        self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=st.u_projected,
+                             u_violation=st.u_violation, opp_outside=opp_outside,
+                             qp_unusable_run=0 if restart else st.qp_unusable_run,
+                             cold_restarts=min(st.cold_restarts + int(restart), INT_MAX))
 
     def feedback(self) -> np.ndarray:
         """Embed the measured x0, solve the QP, take the full step (usable QP) or fall back; returns the control."""
@@ -367,6 +390,7 @@ class RtiSolver:
         self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
         st.exit_code = EXIT_CODES.index(code)
+        st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
         if code != "OK":
             why = ", u0 far outside the input box" if code == "ERR_QP_INPUT_BOUNDS" else ""

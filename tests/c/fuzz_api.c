@@ -19,7 +19,8 @@
  * exit_code) as they were; prepare while prepared is a no-op returning OK; a feedback that consumes the sample
  * returns the code of its QP status (OK only for a usable one); get_u0 is always inside the input box and equal to
  * the plan's u0 projected on it, with u_projected/u_violation saying so; after an unusable QP the plan is the
- * shifted previous plan (zeros on a cold start), so get_u0 is the fallback.
+ * shifted previous plan (zeros on a cold start, also the cold restart after COLD_RESTART_AFTER unusable QPs in a
+ * row, which happens exactly then), so get_u0 is the fallback.
  * Prints "key value" counts and exits 1 on any violation (0 otherwise; 2: usage).
  * Build: -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX=<F_d_max> -DFUZZ_R_MAX=<r_max> -DFUZZ_DS=<road ds>
  *        -I<solver folder>, linked with lib<name>.a lib<name>_osqp.a -lm (see tests/c/Makefile).
@@ -351,9 +352,15 @@ static int do_prepare(int want) {
   } else if (prep) {
     unchanged(&before, "prepare while prepared is not a no-op");
   } else {
+    status_t st;
+    int due = had_guess && U_(_COLD_RESTART_AFTER) > 0 && before.st.qp_unusable_run >= U_(_COLD_RESTART_AFTER);
+    S_(_get_status)(&st);
+    if (st.cold_restarts != before.st.cold_restarts + due || (due && st.qp_unusable_run != 0))
+      violation(&v_fallback, "cold restart not after COLD_RESTART_AFTER unusable QPs in a row",
+                before.st.qp_unusable_run, st.cold_restarts);
     memcpy(prev_x, before.x, sizeof prev_x); /* the plan this preparation shifted */
     memcpy(prev_u, before.u, sizeof prev_u);
-    prev_cold = !had_guess;
+    prev_cold = !had_guess || due; /* a cold start: no plan, or the cold restart */
     prev_known = 1;
     prep = 1;
   }

@@ -11,6 +11,7 @@ import dataclasses
 import importlib.resources
 import math
 import re
+import textwrap
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,7 +28,7 @@ from ..guess import stage_times
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
-from ..reference import (EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
+from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
                          input_box, theta_init)
 from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
@@ -46,6 +47,7 @@ MACRO_DOC = {
     "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
+    "COLD_RESTART_AFTER": "unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never)",
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
@@ -266,7 +268,7 @@ def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
     return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
             "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
             "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
-            "NNZ_J": int(lay.jac_off[-1])}
+            "NNZ_J": int(lay.jac_off[-1]), "COLD_RESTART_AFTER": pb.qp.cold_restart_after}
 
 
 def problem_sizes(problem: Problem) -> dict[str, int]:
@@ -284,8 +286,8 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     return -(-off // align_max) * align_max
 
 
-STATUS_BYTES = 48
-"""sizeof(<name>_status_t) on an LP64 target: 6 ints, 3 doubles."""
+STATUS_BYTES = 56
+"""sizeof(<name>_status_t) on an LP64 target: 8 ints, 3 doubles."""
 FIRST_STATE_MEMBER = "w"
 """The first workspace member reset() zeroes (the inputs and the clock come before it)."""
 
@@ -352,6 +354,12 @@ def problem_source(obj: Any, indent: int = 0) -> str:
     if not args:
         return f"{type(obj).__name__}()"
     return f"{type(obj).__name__}(\n" + ",\n".join(args) + ")"
+
+
+def _wrap_comment(text: str, width: int) -> list[str]:
+    """A paragraph as C comment lines: the first ``width`` wide, the rest 2 narrower (the template indents them)."""
+    first, *rest = textwrap.wrap(text, width)
+    return [first, *textwrap.wrap(" ".join(rest), width - 2)]
 
 
 def _env() -> jinja2.Environment:
@@ -440,6 +448,9 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
                                         for s in range(1, len(QP_STATUSES) + 1)],
         "qp_contract": QP_CONTRACT, "max_input_violation": _c_real(MAX_INPUT_VIOLATION),
+        "cold_restart_note": COLD_RESTART_NOTE.replace("COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"),
+        "cold_restart_lines": _wrap_comment(f"Cold restart: {COLD_RESTART_NOTE}.".replace(
+            "COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"), 114),
         "first_state_member": FIRST_STATE_MEMBER,
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(opp_names),
