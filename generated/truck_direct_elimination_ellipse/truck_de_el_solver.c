@@ -1345,9 +1345,15 @@ int truck_de_el_prepare(void) {
   int restart;
   if (ws.prepared != 0) return TRUCK_DE_EL_OK; /* documented no-op: the pending preparation stays */
   /* a cold start: no plan, or COLD_RESTART_AFTER unusable QPs in a row (a stale plan is not shifted again) */
-  restart = (ws.have_guess != 0) && (TRUCK_DE_EL_COLD_RESTART_AFTER > 0) &&
-            (ws.status.qp_unusable_run >= TRUCK_DE_EL_COLD_RESTART_AFTER);
-  cold = (ws.have_guess == 0) || (restart != 0);
+  restart = 0;
+  if ((ws.have_guess != 0) && (TRUCK_DE_EL_COLD_RESTART_AFTER > 0) &&
+      (ws.status.qp_unusable_run >= TRUCK_DE_EL_COLD_RESTART_AFTER)) {
+    restart = 1;
+  }
+  cold = restart;
+  if (ws.have_guess == 0) {
+    cold = 1;
+  }
   if (cold != 0) {
     if (ws.have_x0 == 0) return fail(TRUCK_DE_EL_ERR_NO_STATE);
     rc = initial_guess(ws.w_tmp, ws.y_tmp);
@@ -1488,8 +1494,10 @@ int truck_de_el_feedback(void) {
   }
   if (code == TRUCK_DE_EL_OK) {
     ws.status.qp_unusable_run = 0;
-  } else if (ws.status.qp_unusable_run < INT_MAX) {
-    ws.status.qp_unusable_run += 1;
+  } else {
+    if (ws.status.qp_unusable_run < INT_MAX) {
+      ws.status.qp_unusable_run += 1;
+    }
   }
   ws.have_guess = 1;
   apply_control(ws.w);

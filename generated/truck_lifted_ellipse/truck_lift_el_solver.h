@@ -93,9 +93,9 @@ enum {
  * Cold restart: after TRUCK_LIFT_EL_COLD_RESTART_AFTER unusable QPs in a row (status.qp_unusable_run; 0 = never) the
  *   next prepare does not shift the kept plan but cold-starts: the initial guess from the state set last, zero
  *   duals, a reset QP backend, the cold iteration budget (what reset() would give; the inputs are kept,
- *   status.cold_restarts counts it). Without it a plan shifted N times is its last stage repeated, its fallback
- *   u_{N-1} held forever; with TRUCK_LIFT_EL_COLD_RESTART_AFTER <= N that cannot happen, the cold guess's fallback
- *   is zero input.
+ *   status.cold_restarts counts it). Without it (0) a plan shifted N times is its last stage repeated, its fallback
+ *   u_{N-1} held forever; with 1 <= TRUCK_LIFT_EL_COLD_RESTART_AFTER < N the plan is never shifted past its end
+ *   (with more, u_{N-1} is held until the restart), and a cold guess's fallback is zero input.
  * Input bounds: get_u0 always lies in the hard box |F_d| <= F_d_max, |r| <= r_max. If the plan's u0 leaves it (a QP
  *   solved to a tolerance or capped), get_u0 is its projection and status.u_projected = 1, status.u_violation =
  *   max_i (excess_i / limit_i), at most TRUCK_LIFT_EL_MAX_INPUT_VIOLATION after OK. The plan itself (get_states/

@@ -4647,9 +4647,15 @@ int truck_lift_el_ipm_prepare(void) {
   int restart;
   if (ws.prepared != 0) return TRUCK_LIFT_EL_IPM_OK; /* documented no-op: the pending preparation stays */
   /* a cold start: no plan, or COLD_RESTART_AFTER unusable QPs in a row (a stale plan is not shifted again) */
-  restart = (ws.have_guess != 0) && (TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER > 0) &&
-            (ws.status.qp_unusable_run >= TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER);
-  cold = (ws.have_guess == 0) || (restart != 0);
+  restart = 0;
+  if ((ws.have_guess != 0) && (TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER > 0) &&
+      (ws.status.qp_unusable_run >= TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER)) {
+    restart = 1;
+  }
+  cold = restart;
+  if (ws.have_guess == 0) {
+    cold = 1;
+  }
   if (cold != 0) {
     if (ws.have_x0 == 0) return fail(TRUCK_LIFT_EL_IPM_ERR_NO_STATE);
     rc = initial_guess(ws.w_tmp, ws.y_tmp);
@@ -4790,8 +4796,10 @@ int truck_lift_el_ipm_feedback(void) {
   }
   if (code == TRUCK_LIFT_EL_IPM_OK) {
     ws.status.qp_unusable_run = 0;
-  } else if (ws.status.qp_unusable_run < INT_MAX) {
-    ws.status.qp_unusable_run += 1;
+  } else {
+    if (ws.status.qp_unusable_run < INT_MAX) {
+      ws.status.qp_unusable_run += 1;
+    }
   }
   ws.have_guess = 1;
   apply_control(ws.w);

@@ -66,8 +66,9 @@ COLD_RESTART_NOTE = (
     "after COLD_RESTART_AFTER unusable QPs in a row (status.qp_unusable_run; 0 = never) the next prepare does not "
     "shift the kept plan but cold-starts: the initial guess from the state set last, zero duals, a reset QP backend, "
     "the cold iteration budget (what reset() would give; the inputs are kept, status.cold_restarts counts it). "
-    "Without it a plan shifted N times is its last stage repeated, its fallback u_{N-1} held forever; with "
-    "COLD_RESTART_AFTER <= N that cannot happen, the cold guess's fallback is zero input")
+    "Without it (0) a plan shifted N times is its last stage repeated, its fallback u_{N-1} held forever; with "
+    "1 <= COLD_RESTART_AFTER < N the plan is never shifted past its end (with more, u_{N-1} is "
+    "held until the restart), and a cold guess's fallback is zero input")
 """The cold-restart rule, for the README and the header (the macro name is prefixed there)."""
 
 
