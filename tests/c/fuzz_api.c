@@ -88,7 +88,8 @@ static double extreme(void) {
 /* ------------------------------------------------------------------------------------------------ counts */
 #define MAX_CODE 64
 static long n_calls, n_invalid, n_rejected_ok, n_rc[MAX_CODE], n_qs[MAX_CODE];
-static long n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_projected, n_fallback_checked, n_checked, n_equal, n_episodes;
+static long n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_projected, n_fallback_checked, n_checked, n_equal, n_episodes,
+    n_cold_restarts;
 static long violations;
 static long v_wrong_code, v_status, v_changed, v_box, v_qp_code, v_fallback, v_mismatch, v_good_rejected;
 static double max_u_violation, max_du_mismatch;
@@ -361,6 +362,7 @@ static int do_prepare(int want) {
     memcpy(prev_x, before.x, sizeof prev_x); /* the plan this preparation shifted */
     memcpy(prev_u, before.u, sizeof prev_u);
     prev_cold = !had_guess || due; /* a cold start: no plan, or the cold restart */
+    n_cold_restarts += due;
     prev_known = 1;
     prep = 1;
   }
@@ -640,7 +642,7 @@ int main(int argc, char **argv) {
     if (n_qs[c]) printf("qp %s %ld\n", qp_status_name(c) ? qp_status_name(c) : "unknown", n_qs[c]);
   printf("feedback_ok %ld\nfeedback_unusable_qp %ld\nfeedback_input_bounds %ld\nfallbacks_checked %ld\nfeedback_u_projected %ld\nmax_u_violation %.6g\n",
          n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_fallback_checked, n_projected, max_u_violation);
-  printf("bitwise_checked %ld\nbitwise_equal %ld\n", n_checked, n_equal);
+  printf("bitwise_checked %ld\nbitwise_equal %ld\ncold_restarts %ld\n", n_checked, n_equal, n_cold_restarts);
   printf("violation_wrong_code %ld\nviolation_status %ld\nviolation_rejected_call_changed %ld\n"
          "violation_u_outside_box %ld\nviolation_qp_code %ld\nviolation_fallback %ld\nviolation_mismatch %ld\n"
          "violation_good_rejected %ld\n", v_wrong_code, v_status, v_changed, v_box, v_qp_code, v_fallback,
