@@ -3919,6 +3919,16 @@ static void ipm_stage_weights(int k) {
       dd += IPM_W.wg[gs] * IPM_W.gex[gs];
     }
     IPM_W.d[k][s] = dd;
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) == 1) { /* one row (the common case): it weighs W hd_s / d_s */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[IPM_SG0(k, s)]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+      IPM_W.Weff[IPM_SG_G[IPM_SG0(k, s)]] = (IPM_W.wr[IPM_GEN_ROW[gs]] * hs) / dd;
+      continue;
+    }
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) { /* W e a of the rows' entries, in IPM_SE order */
       const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
       int a;
@@ -3970,6 +3980,9 @@ static void ipm_stage_hessian(int k) {
   }
   /* two rows of one slack couple by -W_i e_i W_j e_j / d_s */
   for (s = 0; s < IPM_NS; ++s) {
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
+      continue; /* one row or none: no coupling */
+    }
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       for (q = p + 1; q < IPM_SG1(k, s); ++q) {
         const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
