@@ -4316,11 +4316,20 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
+  ipm_real_t az = REAL_0;
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  for (j = 0; j < IPM_NSIDE; ++j) { /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam */
+  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
+   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
+  for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
-    IPM_W.y[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
-    IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[r]) - IPM_W.bs[j]) - IPM_W.t[j];
+    const int second = IPM_SIDE_2ND[j];
+    if (second == 0) {
+      az = IPM_W.wr[r];
+    }
+    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
+    IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * az) - IPM_W.bs[j]) - IPM_W.t[j];
+    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
+    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
     if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
       rmax = IPM_FABS(IPM_W.r_p[j]);
     }
@@ -4380,11 +4389,7 @@ static int ipm_step(ipm_real_t mu) {
   ipm_real_t ratio;
   ipm_real_t sigma;
   ipm_real_t alpha;
-  for (j = 0; j < IPM_NSIDE; ++j) { /* W = sum lam / t on the inequality rows, r_eq on the others */
-    const int r = IPM_SIDE_ROW[j];
-    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
-    IPM_W.wr[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
-  }
+  /* IPM_W.wr: W = sum lam / t on the inequality rows (ipm_check), r_eq on the others */
   if (ipm_factor() != 0) {
     return IPM_RAW_QP_NUMERICAL;
   }
