@@ -4327,7 +4327,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
       az = IPM_W.wr[r];
     }
     IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
-    IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * az) - IPM_W.bs[j]) - IPM_W.t[j];
+    IPM_W.r_p[j] = ((((ipm_real_t)IPM_SIDE_SIGN[j]) * az) - IPM_W.bs[j]) - IPM_W.t[j];
     IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
     if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
