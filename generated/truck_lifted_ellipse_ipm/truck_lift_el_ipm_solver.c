@@ -1229,6 +1229,7 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NEQ 328 /* equality rows */
 #define IPM_NBOX 400
 #define IPM_NIN 600 /* inequality rows */
+#define IPM_NGA 520 /* (x, u) entries of the general rows */
 #define IPM_TOL ((truck_lift_el_ipm_real_t)0.0001)
 #define IPM_TAU ((truck_lift_el_ipm_real_t)0.995)
 #define IPM_REG ((truck_lift_el_ipm_real_t)1e-09)
@@ -2544,6 +2545,68 @@ static const ipm_idx_t IPM_SG_G[200] = { /* the general slot (in its stage) */
   0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
   2, 3, 4, 0, 1, 2, 3, 4
 };
+static const ipm_idx_t IPM_SE_PTR[165] = { /* [k NS + s]: the (x, u) entries of stage k's slack s's rows */
+  0, 0, 0, 0, 0, 4, 7, 10, 13, 17, 20, 23,
+  26, 30, 33, 36, 39, 43, 46, 49, 52, 56, 59, 62,
+  65, 69, 72, 75, 78, 82, 85, 88, 91, 95, 98, 101,
+  104, 108, 111, 114, 117, 121, 124, 127, 130, 134, 137, 140,
+  143, 147, 150, 153, 156, 160, 163, 166, 169, 173, 176, 179,
+  182, 186, 189, 192, 195, 199, 202, 205, 208, 212, 215, 218,
+  221, 225, 228, 231, 234, 238, 241, 244, 247, 251, 254, 257,
+  260, 264, 267, 270, 273, 277, 280, 283, 286, 290, 293, 296,
+  299, 303, 306, 309, 312, 316, 319, 322, 325, 329, 332, 335,
+  338, 342, 345, 348, 351, 355, 358, 361, 364, 368, 371, 374,
+  377, 381, 384, 387, 390, 394, 397, 400, 403, 407, 410, 413,
+  416, 420, 423, 426, 429, 433, 436, 439, 442, 446, 449, 452,
+  455, 459, 462, 465, 468, 472, 475, 478, 481, 485, 488, 491,
+  494, 498, 501, 504, 507, 511, 514, 517, 520
+};
+static const ipm_idx_t IPM_SE_V[520] = { /* its stage slot v */
+  3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6,
+  7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5,
+  6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7,
+  5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6,
+  7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5,
+  6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7,
+  5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6,
+  7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5,
+  6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4,
+  5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3,
+  4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4,
+  3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3,
+  4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7,
+  3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6,
+  7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5,
+  6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7,
+  5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6,
+  7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5,
+  6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7,
+  5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6,
+  7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5,
+  6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4,
+  5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3,
+  4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4,
+  3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3,
+  4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7,
+  3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6,
+  7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5,
+  6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7,
+  5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6,
+  7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5,
+  6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6, 7,
+  5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5, 6,
+  7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4, 5,
+  6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3, 4,
+  5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4, 3,
+  4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3, 4,
+  3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7, 3,
+  4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6, 7,
+  3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5, 6,
+  7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7, 5,
+  6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6, 7,
+  5, 6, 7, 3, 4, 3, 4, 5, 6, 7, 5, 6,
+  7, 5, 6, 7
+};
 static const ipm_idx_t IPM_IN_ROW[600] = { /* inequality row i (ascending) */
   16, 17, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35,
   36, 37, 38, 39, 40, 49, 50, 51, 52, 53, 54, 55,
@@ -2648,62 +2711,6 @@ static const ipm_idx_t IPM_IN_PTR[601] = { /* sides of row i */
   806, 807, 809, 811, 813, 815, 817, 819, 820, 821, 822, 823,
   824, 825, 826, 827, 828, 830, 832, 834, 836, 837, 838, 839,
   840
-};
-static const ipm_idx_t IPM_GEN_IN[205] = { /* [k][g]: inequality row index of the general slot */
-  -1, -1, -1, -1, -1, 2, 3, 4, 5, 6, 17, 18,
-  19, 20, 21, 32, 33, 34, 35, 36, 47, 48, 49, 50,
-  51, 62, 63, 64, 65, 66, 77, 78, 79, 80, 81, 92,
-  93, 94, 95, 96, 107, 108, 109, 110, 111, 122, 123, 124,
-  125, 126, 137, 138, 139, 140, 141, 152, 153, 154, 155, 156,
-  167, 168, 169, 170, 171, 182, 183, 184, 185, 186, 197, 198,
-  199, 200, 201, 212, 213, 214, 215, 216, 227, 228, 229, 230,
-  231, 242, 243, 244, 245, 246, 257, 258, 259, 260, 261, 272,
-  273, 274, 275, 276, 287, 288, 289, 290, 291, 302, 303, 304,
-  305, 306, 317, 318, 319, 320, 321, 332, 333, 334, 335, 336,
-  347, 348, 349, 350, 351, 362, 363, 364, 365, 366, 377, 378,
-  379, 380, 381, 392, 393, 394, 395, 396, 407, 408, 409, 410,
-  411, 422, 423, 424, 425, 426, 437, 438, 439, 440, 441, 452,
-  453, 454, 455, 456, 467, 468, 469, 470, 471, 482, 483, 484,
-  485, 486, 497, 498, 499, 500, 501, 512, 513, 514, 515, 516,
-  527, 528, 529, 530, 531, 542, 543, 544, 545, 546, 557, 558,
-  559, 560, 561, 572, 573, 574, 575, 576, 587, 588, 589, 590,
-  591
-};
-static const ipm_idx_t IPM_BOX_IN[400] = { /* inequality row index of the box row */
-  0, 1, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16,
-  22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 37, 38,
-  39, 40, 41, 42, 43, 44, 45, 46, 52, 53, 54, 55,
-  56, 57, 58, 59, 60, 61, 67, 68, 69, 70, 71, 72,
-  73, 74, 75, 76, 82, 83, 84, 85, 86, 87, 88, 89,
-  90, 91, 97, 98, 99, 100, 101, 102, 103, 104, 105, 106,
-  112, 113, 114, 115, 116, 117, 118, 119, 120, 121, 127, 128,
-  129, 130, 131, 132, 133, 134, 135, 136, 142, 143, 144, 145,
-  146, 147, 148, 149, 150, 151, 157, 158, 159, 160, 161, 162,
-  163, 164, 165, 166, 172, 173, 174, 175, 176, 177, 178, 179,
-  180, 181, 187, 188, 189, 190, 191, 192, 193, 194, 195, 196,
-  202, 203, 204, 205, 206, 207, 208, 209, 210, 211, 217, 218,
-  219, 220, 221, 222, 223, 224, 225, 226, 232, 233, 234, 235,
-  236, 237, 238, 239, 240, 241, 247, 248, 249, 250, 251, 252,
-  253, 254, 255, 256, 262, 263, 264, 265, 266, 267, 268, 269,
-  270, 271, 277, 278, 279, 280, 281, 282, 283, 284, 285, 286,
-  292, 293, 294, 295, 296, 297, 298, 299, 300, 301, 307, 308,
-  309, 310, 311, 312, 313, 314, 315, 316, 322, 323, 324, 325,
-  326, 327, 328, 329, 330, 331, 337, 338, 339, 340, 341, 342,
-  343, 344, 345, 346, 352, 353, 354, 355, 356, 357, 358, 359,
-  360, 361, 367, 368, 369, 370, 371, 372, 373, 374, 375, 376,
-  382, 383, 384, 385, 386, 387, 388, 389, 390, 391, 397, 398,
-  399, 400, 401, 402, 403, 404, 405, 406, 412, 413, 414, 415,
-  416, 417, 418, 419, 420, 421, 427, 428, 429, 430, 431, 432,
-  433, 434, 435, 436, 442, 443, 444, 445, 446, 447, 448, 449,
-  450, 451, 457, 458, 459, 460, 461, 462, 463, 464, 465, 466,
-  472, 473, 474, 475, 476, 477, 478, 479, 480, 481, 487, 488,
-  489, 490, 491, 492, 493, 494, 495, 496, 502, 503, 504, 505,
-  506, 507, 508, 509, 510, 511, 517, 518, 519, 520, 521, 522,
-  523, 524, 525, 526, 532, 533, 534, 535, 536, 537, 538, 539,
-  540, 541, 547, 548, 549, 550, 551, 552, 553, 554, 555, 556,
-  562, 563, 564, 565, 566, 567, 568, 569, 570, 571, 577, 578,
-  579, 580, 581, 582, 583, 584, 585, 586, 592, 593, 594, 595,
-  596, 597, 598, 599
 };
 static const ipm_idx_t IPM_DYN_ROWS[320] = { /* [k][i]: dynamics row i of stage k */
   8, 9, 10, 11, 12, 13, 14, 15, 18, 19, 20, 21,
@@ -3546,6 +3553,78 @@ static const signed char IPM_SIDE_SIGN[840] = { /* +1: lower side (a'z >= l), -1
   -1, 1, -1, 1, 1, 1, 1, 1, -1, 1, 1, 1,
   1, -1, 1, -1, 1, -1, 1, -1, 1, 1, 1, 1
 };
+static const signed char IPM_SIDE_2ND[840] = { /* 1: the second side of its row (the per-row sums add, the first side sets) */
+  0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0,
+  1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0,
+  1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 0, 0, 0
+};
 
 /* ---- workspace (one static struct; every member is overwritten before it is read, except the data pointers) ---- */
 typedef struct {
@@ -3559,7 +3638,11 @@ typedef struct {
   ipm_real_t h[568]; /* Newton right-hand side; in the factorization: P + box weights */
   ipm_real_t dz[568]; /* Newton step */
   ipm_real_t y[928]; /* row multipliers (result; the equality rows' multipliers all along) */
-  ipm_real_t wc[520]; /* W e a per (x, u) entry of the general rows */
+  ipm_real_t wc[520]; /* W e a per entry of IPM_SE (slack rows) */
+  ipm_real_t gax[520]; /* a per (x, u) entry of the general rows (prepare) */
+  ipm_real_t gex[205]; /* e (slack coefficient) per general slot (prepare; 0: no slack) */
+  ipm_real_t bax[400]; /* coefficient per box row (prepare) */
+  ipm_real_t ar[928]; /* per inequality row: its right-hand side g, then a'dz */
   ipm_real_t it[840]; /* 1 / t per inequality side */
   ipm_real_t bs[840]; /* b per inequality side */
   ipm_real_t wg[205]; /* W e per general slot (0: no slack) */
@@ -3681,7 +3764,8 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   }
 }
 
-/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first) */
+/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first);
+ * a per-row sum over them runs flat over the sides: the row's first side sets it, a second (IPM_SIDE_2ND) adds */
 /* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
  * still in IPM_W.dt, IPM_W.dlam) */
 static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
@@ -3689,67 +3773,44 @@ static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
                      : (IPM_W.t[j] * IPM_W.lam[j]);
 }
 
-/* right-hand side of inequality row i: the sum over its sides of sign (rc + lam r_p) / t */
-static ipm_real_t ipm_row_g(int i, int corr, ipm_real_t sm) {
-  ipm_real_t g = REAL_0;
-  int j;
-  for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-    g += (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
-  }
-  return g;
-}
-
-/* the sides of inequality row i for its step a'dz = adz: dt, dlam; returns the step a cut to their boundaries */
-static ipm_real_t ipm_row_sides(int i, ipm_real_t adz, int corr, ipm_real_t sm, ipm_real_t a_in) {
-  int j;
-  ipm_real_t a = a_in;
-  for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-    const ipm_real_t rc = ipm_rc(corr, sm, j);
-    const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * adz) + IPM_W.r_p[j];
-    const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
-    /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
-    if ((IPM_W.t[j] + (a * dt)) < REAL_0) {
-      a = (-IPM_W.t[j]) / dt;
-    }
-    if ((IPM_W.lam[j] + (a * dl)) < REAL_0) {
-      a = (-IPM_W.lam[j]) / dl;
-    }
-    IPM_W.dt[j] = dt;
-    IPM_W.dlam[j] = dl;
-  }
-  return a;
-}
-
-/* h = r_d + A_in' g, g the inequality rows' right-hand sides (ipm_row_g) */
+/* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows) */
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
+  int j;
   for (a = 0; a < TRUCK_LIFT_EL_IPM_QP_N; ++a) {
     IPM_W.h[a] = IPM_W.r_d[a];
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const int r = IPM_SIDE_ROW[j];
+    const ipm_real_t g = (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+    IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
     ipm_real_t gv;
     if (IPM_GEN_ROW[gs] < 0) {
       continue;
     }
-    gv = ipm_row_g(IPM_GEN_IN[gs], corr, sm);
+    gv = IPM_W.ar[IPM_GEN_ROW[gs]];
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.Ax[IPM_GEN_A[a]] * gv;
+      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
     }
     if (IPM_GEN_E[gs] >= 0) {
-      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.Ax[IPM_GEN_E[gs]] * gv;
+      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
     }
   }
   for (a = 0; a < IPM_NBOX; ++a) {
-    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.Ax[IPM_BOX_A[a]] * ipm_row_g(IPM_BOX_IN[a], corr, sm);
+    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.bax[a] * IPM_W.ar[IPM_BOX_ROW[a]];
   }
 }
 
-/* the sides' steps dt, dlam from A dz on the inequality rows (general, then box); returns the largest step to the
- * boundary (at most 1) */
+/* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
+ * pass over the sides); returns the largest step to the boundary (at most 1) */
 static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm) {
   int gs;
   int a;
+  int j;
   ipm_real_t amax = IPM_ONE;
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
     ipm_real_t s = REAL_0;
@@ -3757,15 +3818,29 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm) {
       continue;
     }
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      s += IPM_W.Ax[IPM_GEN_A[a]] * IPM_W.dz[IPM_GEN_VAR[a]];
+      s += IPM_W.gax[a] * IPM_W.dz[IPM_GEN_VAR[a]];
     }
     if (IPM_GEN_E[gs] >= 0) {
-      s += IPM_W.Ax[IPM_GEN_E[gs]] * IPM_W.dz[IPM_GEN_SVAR[gs]];
+      s += IPM_W.gex[gs] * IPM_W.dz[IPM_GEN_SVAR[gs]];
     }
-    amax = ipm_row_sides(IPM_GEN_IN[gs], s, corr, sm, amax);
+    IPM_W.ar[IPM_GEN_ROW[gs]] = s;
   }
   for (a = 0; a < IPM_NBOX; ++a) {
-    amax = ipm_row_sides(IPM_BOX_IN[a], IPM_W.Ax[IPM_BOX_A[a]] * IPM_W.dz[IPM_BOX_VAR[a]], corr, sm, amax);
+    IPM_W.ar[IPM_BOX_ROW[a]] = IPM_W.bax[a] * IPM_W.dz[IPM_BOX_VAR[a]];
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const ipm_real_t rc = ipm_rc(corr, sm, j);
+    const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
+    const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
+    /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
+    if ((IPM_W.t[j] + (amax * dt)) < REAL_0) {
+      amax = (-IPM_W.t[j]) / dt;
+    }
+    if ((IPM_W.lam[j] + (amax * dl)) < REAL_0) {
+      amax = (-IPM_W.lam[j]) / dl;
+    }
+    IPM_W.dt[j] = dt;
+    IPM_W.dlam[j] = dl;
   }
   return amax;
 }
@@ -3797,6 +3872,15 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
   for (i = 0; i < IPM_NX; ++i) {
     IPM_W.einit[i] = A_x[IPM_INIT_A[i]];
   }
+  for (i = 0; i < IPM_NGA; ++i) { /* the inequality rows' coefficients in the order the feedback loops read them */
+    IPM_W.gax[i] = A_x[IPM_GEN_A[i]];
+  }
+  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
+    IPM_W.gex[i] = (IPM_GEN_E[i] >= 0) ? A_x[IPM_GEN_E[i]] : REAL_0;
+  }
+  for (i = 0; i < IPM_NBOX; ++i) {
+    IPM_W.bax[i] = A_x[IPM_BOX_A[i]];
+  }
   return 0;
 }
 
@@ -3821,14 +3905,12 @@ static void ipm_stage_weights(int k) {
   int s;
   int p;
   int q;
+  int c = IPM_SE_PTR[k * IPM_NS]; /* the next entry of IPM_W.wc */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     const int r = IPM_GEN_ROW[gs];
     IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
-    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.Ax[IPM_GEN_E[gs]]) : REAL_0;
-    for (p = IPM_GEN_PTR[gs]; p < IPM_GEN_PTR[gs + 1]; ++p) {
-      IPM_W.wc[p] = IPM_W.wg[gs] * IPM_W.Ax[IPM_GEN_A[p]];
-    }
+    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.gex[gs]) : REAL_0;
   }
   for (s = 0; s < IPM_NS; ++s) {
     const int vs = IPM_VMAP_S[(k * IPM_NS) + s];
@@ -3836,15 +3918,33 @@ static void ipm_stage_weights(int k) {
     ipm_real_t dd = hs;
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
-      dd += IPM_W.wg[gs] * IPM_W.Ax[IPM_GEN_E[gs]];
+      dd += IPM_W.wg[gs] * IPM_W.gex[gs];
     }
     IPM_W.d[k][s] = dd;
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) == 1) { /* one row (the common case): it weighs W hd_s / d_s */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[IPM_SG0(k, s)]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+      IPM_W.Weff[IPM_SG_G[IPM_SG0(k, s)]] = (IPM_W.wr[IPM_GEN_ROW[gs]] * hs) / dd;
+      continue;
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) { /* W e a of the rows' entries, in IPM_SE order */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+    }
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       ipm_real_t others = hs;
       for (q = IPM_SG0(k, s); q < IPM_SG1(k, s); ++q) {
         if (q != p) {
           const int gq = IPM_GSLOT(k, IPM_SG_G[q]);
-          others += IPM_W.wg[gq] * IPM_W.Ax[IPM_GEN_E[gq]];
+          others += IPM_W.wg[gq] * IPM_W.gex[gq];
         }
       }
       IPM_W.Weff[IPM_SG_G[p]] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, IPM_SG_G[p])]] * others) / dd;
@@ -3865,9 +3965,9 @@ static void ipm_stage_hessian(int k) {
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.Ax[IPM_GEN_A[a]];
+      const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.gax[a];
       for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
-        IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.Ax[IPM_GEN_A[b]];
+        IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.gax[b];
       }
     }
   }
@@ -3882,6 +3982,9 @@ static void ipm_stage_hessian(int k) {
   }
   /* two rows of one slack couple by -W_i e_i W_j e_j / d_s */
   for (s = 0; s < IPM_NS; ++s) {
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
+      continue; /* one row or none: no coupling */
+    }
     for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
       for (q = p + 1; q < IPM_SG1(k, s); ++q) {
         const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
@@ -3890,10 +3993,10 @@ static void ipm_stage_hessian(int k) {
         int x;
         int y;
         for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
-          const ipm_real_t cx = mij * IPM_W.Ax[IPM_GEN_A[x]];
+          const ipm_real_t cx = mij * IPM_W.gax[x];
           for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
-            IPM_W.H[IPM_GEN_V[x]][IPM_GEN_V[y]] += cx * IPM_W.Ax[IPM_GEN_A[y]];
-            IPM_W.H[IPM_GEN_V[y]][IPM_GEN_V[x]] += cx * IPM_W.Ax[IPM_GEN_A[y]];
+            IPM_W.H[IPM_GEN_V[x]][IPM_GEN_V[y]] += cx * IPM_W.gax[y];
+            IPM_W.H[IPM_GEN_V[y]][IPM_GEN_V[x]] += cx * IPM_W.gax[y];
           }
         }
       }
@@ -3947,7 +4050,7 @@ static int ipm_factor(void) { /* IPM_W.h holds hd = P + box weights here */
     IPM_W.h[IPM_FREE[i]] = IPM_W.Pd[IPM_FREE[i]] + IPM_PROX;
   }
   for (i = 0; i < IPM_NBOX; ++i) {
-    const ipm_real_t av = IPM_W.Ax[IPM_BOX_A[i]];
+    const ipm_real_t av = IPM_W.bax[i];
     IPM_W.h[IPM_BOX_VAR[i]] += IPM_W.wr[IPM_BOX_ROW[i]] * (av * av);
   }
   for (k = IPM_N; k >= 0; --k) {
@@ -4010,11 +4113,8 @@ static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
     ipm_real_t f;
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
     f = hs[s] / IPM_W.d[k][s];
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
-      const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
-      for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
-        ht[IPM_GEN_V[a]] -= IPM_W.wc[a] * f;
-      }
+    for (p = IPM_SE_PTR[(k * IPM_NS) + s]; p < IPM_SE_PTR[(k * IPM_NS) + s + 1]; ++p) {
+      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
     }
   }
 }
@@ -4139,11 +4239,8 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[(k * IPM_NS) + s];
     ipm_real_t acc = REAL_0;
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
-      const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
-      for (a = IPM_GEN_PTR[gi]; a < IPM_GEN_PTR[gi + 1]; ++a) {
-        acc += IPM_W.wc[a] * dv[IPM_GEN_V[a]];
-      }
+    for (p = IPM_SE_PTR[(k * IPM_NS) + s]; p < IPM_SE_PTR[(k * IPM_NS) + s + 1]; ++p) {
+      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
     }
     if (v >= 0) {
       IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
@@ -4221,25 +4318,30 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
-  int i;
+  ipm_real_t az = REAL_0;
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  for (i = 0; i < IPM_NIN; ++i) { /* per inequality row: its y (as ipm_compose_y), its sides' r_p, t lam, lam */
-    ipm_real_t v = REAL_0;
-    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
-      IPM_W.r_p[j] = ((IPM_SIDE_SIGN[j] * IPM_W.wr[IPM_SIDE_ROW[j]]) - IPM_W.bs[j]) - IPM_W.t[j];
-      if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
-        rmax = IPM_FABS(IPM_W.r_p[j]);
-      }
-      mu += IPM_W.t[j] * IPM_W.lam[j];
-      if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
-        rmax = IPM_W.t[j] * IPM_W.lam[j];
-      }
-      if (IPM_W.lam[j] > lmax) {
-        lmax = IPM_W.lam[j];
-      }
+  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
+   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const int r = IPM_SIDE_ROW[j];
+    const int second = IPM_SIDE_2ND[j];
+    if (second == 0) {
+      az = IPM_W.wr[r];
     }
-    IPM_W.y[IPM_IN_ROW[i]] = v;
+    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
+    IPM_W.r_p[j] = ((((ipm_real_t)IPM_SIDE_SIGN[j]) * az) - IPM_W.bs[j]) - IPM_W.t[j];
+    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
+    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
+    if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
+      rmax = IPM_FABS(IPM_W.r_p[j]);
+    }
+    mu += IPM_W.t[j] * IPM_W.lam[j];
+    if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
+      rmax = IPM_W.t[j] * IPM_W.lam[j];
+    }
+    if (IPM_W.lam[j] > lmax) {
+      lmax = IPM_W.lam[j];
+    }
   }
   for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
@@ -4289,15 +4391,7 @@ static int ipm_step(ipm_real_t mu) {
   ipm_real_t ratio;
   ipm_real_t sigma;
   ipm_real_t alpha;
-  int i;
-  for (i = 0; i < IPM_NIN; ++i) { /* W = sum lam / t on the inequality rows, r_eq on the others */
-    ipm_real_t v = REAL_0;
-    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-      IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
-      v += IPM_W.lam[j] * IPM_W.it[j];
-    }
-    IPM_W.wr[IPM_IN_ROW[i]] = v;
-  }
+  /* IPM_W.wr: W = sum lam / t on the inequality rows (ipm_check), r_eq on the others */
   if (ipm_factor() != 0) {
     return IPM_RAW_QP_NUMERICAL;
   }

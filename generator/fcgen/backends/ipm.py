@@ -434,7 +434,11 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
-        ("wc", (int(np.count_nonzero(sv.gen_v < NXU)),), "W e a per (x, u) entry of the general rows"),
+        ("wc", (len(_slack_entries(_Tables(lay, sv), N, NS, NG)[1]),), "W e a per entry of IPM_SE (slack rows)"),
+        ("gax", (int(np.count_nonzero(sv.gen_v < NXU)),), "a per (x, u) entry of the general rows (prepare)"),
+        ("gex", ((N + 1) * NG,), "e (slack coefficient) per general slot (prepare; 0: no slack)"),
+        ("bax", (len(sv.box_rows),), "coefficient per box row (prepare)"),
+        ("ar", (m,), "per inequality row: its right-hand side g, then a'dz"),
         ("it", (ns,), "1 / t per inequality side"), ("bs", (ns,), "b per inequality side"), ("wg", ((N + 1) * NG,), "W e per general slot (0: no slack)"),
         ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
         ("gd", (m,), "the multiplier step on the equality rows"),
@@ -468,6 +472,18 @@ def _row_major(indptr: np.ndarray, indices: np.ndarray, m: int) -> tuple[np.ndar
     return ptr, cols[order], order
 
 
+def _slack_entries(tab: _Tables, N: int, NS: int, NG: int) -> tuple[np.ndarray, np.ndarray]:
+    """The (x, u) entries of every slack's rows, slack by slack (stage k's slack s: ``ptr[k NS + s]`` on), each as its
+    general-entry index: the slack elimination's loops in the order of the slots' loops, one level flatter."""
+    ptr, ent = [0], []
+    for ks in range((N + 1) * NS):
+        for p in range(tab.sg_ptr[ks], tab.sg_ptr[ks + 1]):
+            gi = (ks // NS) * NG + int(tab.sg_g[p])
+            ent.extend(range(tab.gen_xu_ptr[gi], tab.gen_xu_ptr[gi + 1]))
+        ptr.append(len(ent))
+    return np.array(ptr, dtype=np.int64), np.array(ent, dtype=np.int64)
+
+
 def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``)."""
     from ..codegen.generate import _c_list, _c_real
@@ -483,6 +499,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
     ar_p, ar_j, ar_k = _row_major(A.indptr, A.indices, layout.m)
+    se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     tables = [
         ("IPM_A_P", A.indptr, "CSC column pointers of A"), ("IPM_A_I", A.indices, "CSC row indices of A"),
         ("IPM_AR_P", ar_p, "row pointers of A (row-major)"), ("IPM_AR_J", ar_j, "column of row-major entry p"),
@@ -496,9 +513,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_GEN_SVAR", tab.gen_svar, "variable of the slot's slack"),
         ("IPM_SG_PTR", tab.sg_ptr, "[k NS + s]: general slots of stage k's slack s"),
         ("IPM_SG_G", tab.sg_g, "the general slot (in its stage)"),
+        ("IPM_SE_PTR", se_ptr, "[k NS + s]: the (x, u) entries of stage k's slack s's rows"),
+        ("IPM_SE_V", np.asarray(gv, dtype=np.int64)[se_a], "its stage slot v"),
         ("IPM_IN_ROW", tab.in_rows, "inequality row i (ascending)"), ("IPM_IN_PTR", tab.in_ptr, "sides of row i"),
-        ("IPM_GEN_IN", tab.gen_in, "[k][g]: inequality row index of the general slot"),
-        ("IPM_BOX_IN", tab.box_in, "inequality row index of the box row"),
         ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
         ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
         ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
@@ -520,9 +537,14 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     out.append({"name": "IPM_SIDE_SIGN", "kind": "sign", "len": max(1, len(sv.side_sign)),
                 "doc": "+1: lower side (a'z >= l), -1: upper side (a'z <= u)",
                 "body": _c_list([int(x) for x in sv.side_sign])})
+    second = np.r_[False, sv.side_row[1:] == sv.side_row[:-1]] if len(sv.side_row) else np.zeros(0, dtype=bool)
+    out.append({"name": "IPM_SIDE_2ND", "kind": "sign", "len": max(1, len(second)),
+                "doc": "1: the second side of its row (the per-row sums add, the first side sets)",
+                "body": _c_list([int(x) for x in second])})
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
+            "NGA": len(gv),
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
