@@ -37,7 +37,6 @@ extern "C" {
 #define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_f7 CASADI_PREFIX(f7)
-#define casadi_f8 CASADI_PREFIX(f8)
 #define casadi_fabs CASADI_PREFIX(fabs)
 #define casadi_fmax CASADI_PREFIX(fmax)
 #define casadi_fmin CASADI_PREFIX(fmin)
@@ -138,8 +137,8 @@ static const casadi_int casadi_s10[43] =
   2, 3, 4, 6, 0, 1, 7, 0,
   1, 8, 0, 1, 9, 2, 10, 3,
   11, 4, 12};
-static const casadi_int casadi_s11[3] = {2, 1, 1};
-static const casadi_int casadi_s12[3] = {0, 1, 1};
+static const casadi_int casadi_s11[3] = {0, 1, 1};
+static const casadi_int casadi_s12[3] = {2, 1, 1};
 static const casadi_int casadi_s13[3] = {30, 1, 1};
 static const casadi_int casadi_s14[3] = {3, 1, 1};
 static const casadi_int casadi_s15[3] = {2, 63, 1};
@@ -5266,688 +5265,8 @@ int truck_conv_el_stage_last_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
   return 0;
 }
 
-/* truck_conv_el_dynamics:(x[5],u[2],p[53])->(x_next[5]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57;
-  a00=arg[0]? arg[0][0] : 0;
-  a01=1.6666666666666666e-02;
-  a02=arg[0]? arg[0][3] : 0;
-  a03=arg[0]? arg[0][2] : 0;
-  a04=cos(a03);
-  a04=(a02*a04);
-  a05=1.;
-  a06=arg[0]? arg[0][1] : 0;
-  a07=arg[2]? arg[2][0] : 0;
-  a08=(a00-a07);
-  a09=arg[2]? arg[2][1] : 0;
-  a08=(a08/a09);
-  a10=floor(a08);
-  a11=0.;
-  a10=casadi_fmax(a10,a11);
-  a12=5.;
-  a10=casadi_fmin(a10,a12);
-  a08=(a08-a10);
-  a13=(a05-a08);
-  a14=(a10==a11);
-  a15=arg[2]? arg[2][2] : 0;
-  a14=(a14*a15);
-  a16=(a10==a05);
-  a17=arg[2]? arg[2][3] : 0;
-  a16=(a16*a17);
-  a14=(a14+a16);
-  a16=2.;
-  a18=(a10==a16);
-  a19=arg[2]? arg[2][4] : 0;
-  a18=(a18*a19);
-  a14=(a14+a18);
-  a18=3.;
-  a20=(a10==a18);
-  a21=arg[2]? arg[2][5] : 0;
-  a20=(a20*a21);
-  a14=(a14+a20);
-  a20=4.;
-  a22=(a10==a20);
-  a23=arg[2]? arg[2][6] : 0;
-  a22=(a22*a23);
-  a14=(a14+a22);
-  a22=(a10==a12);
-  a24=arg[2]? arg[2][7] : 0;
-  a22=(a22*a24);
-  a14=(a14+a22);
-  a13=(a13*a14);
-  a22=(a10==a11);
-  a22=(a22*a17);
-  a25=(a10==a05);
-  a25=(a25*a19);
-  a22=(a22+a25);
-  a25=(a10==a16);
-  a25=(a25*a21);
-  a22=(a22+a25);
-  a25=(a10==a18);
-  a25=(a25*a23);
-  a22=(a22+a25);
-  a25=(a10==a20);
-  a25=(a25*a24);
-  a22=(a22+a25);
-  a25=(a10==a12);
-  a26=arg[2]? arg[2][8] : 0;
-  a25=(a25*a26);
-  a22=(a22+a25);
-  a25=(a08*a22);
-  a13=(a13+a25);
-  a25=(a06*a13);
-  a25=(a05-a25);
-  a04=(a04/a25);
-  a25=5.0000000000000003e-02;
-  a27=arg[1]? arg[1][0] : 0;
-  a28=3.8719349999999997e-01;
-  a29=20.;
-  a30=casadi_sq(a08);
-  a31=(a30*a08);
-  a32=(2.*a31);
-  a33=(a18*a30);
-  a32=(a32-a33);
-  a32=(a32+a05);
-  a33=(a10==a11);
-  a34=arg[2]? arg[2][9] : 0;
-  a33=(a33*a34);
-  a35=(a10==a05);
-  a36=arg[2]? arg[2][10] : 0;
-  a35=(a35*a36);
-  a33=(a33+a35);
-  a35=(a10==a16);
-  a37=arg[2]? arg[2][11] : 0;
-  a35=(a35*a37);
-  a33=(a33+a35);
-  a35=(a10==a18);
-  a38=arg[2]? arg[2][12] : 0;
-  a35=(a35*a38);
-  a33=(a33+a35);
-  a35=(a10==a20);
-  a39=arg[2]? arg[2][13] : 0;
-  a35=(a35*a39);
-  a33=(a33+a35);
-  a35=(a10==a12);
-  a40=arg[2]? arg[2][14] : 0;
-  a35=(a35*a40);
-  a33=(a33+a35);
-  a32=(a32*a33);
-  a33=(2.*a30);
-  a33=(a31-a33);
-  a33=(a33+a08);
-  a33=(a33*a09);
-  a33=(a33*a14);
-  a32=(a32+a33);
-  a33=-2.;
-  a14=(a33*a31);
-  a08=(a18*a30);
-  a14=(a14+a08);
-  a08=(a10==a11);
-  a08=(a08*a36);
-  a35=(a10==a05);
-  a35=(a35*a37);
-  a08=(a08+a35);
-  a35=(a10==a16);
-  a35=(a35*a38);
-  a08=(a08+a35);
-  a35=(a10==a18);
-  a35=(a35*a39);
-  a08=(a08+a35);
-  a35=(a10==a20);
-  a35=(a35*a40);
-  a08=(a08+a35);
-  a10=(a10==a12);
-  a35=arg[2]? arg[2][15] : 0;
-  a10=(a10*a35);
-  a08=(a08+a10);
-  a14=(a14*a08);
-  a32=(a32+a14);
-  a31=(a31-a30);
-  a31=(a31*a09);
-  a31=(a31*a22);
-  a32=(a32+a31);
-  a32=(a32+a03);
-  a32=cos(a32);
-  a32=(a29*a32);
-  a32=(a02+a32);
-  a31=(a28*a32);
-  a32=casadi_fabs(a32);
-  a31=(a31*a32);
-  a31=(a27-a31);
-  a32=1.7069399999999999e+02;
-  a31=(a31-a32);
-  a22=1160.;
-  a31=(a31/a22);
-  a30=(a25*a31);
-  a30=(a02+a30);
-  a14=arg[0]? arg[0][4] : 0;
-  a08=tan(a14);
-  a08=(a02*a08);
-  a10=3.3999999999999999e+00;
-  a08=(a08/a10);
-  a13=(a13*a04);
-  a08=(a08-a13);
-  a13=(a25*a08);
-  a13=(a03+a13);
-  a41=cos(a13);
-  a41=(a30*a41);
-  a42=sin(a03);
-  a42=(a02*a42);
-  a43=(a25*a42);
-  a43=(a06+a43);
-  a44=(a25*a04);
-  a44=(a00+a44);
-  a44=(a44-a07);
-  a44=(a44/a09);
-  a45=floor(a44);
-  a45=casadi_fmax(a45,a11);
-  a45=casadi_fmin(a45,a12);
-  a44=(a44-a45);
-  a46=(a05-a44);
-  a47=(a45==a11);
-  a47=(a47*a15);
-  a48=(a45==a05);
-  a48=(a48*a17);
-  a47=(a47+a48);
-  a48=(a45==a16);
-  a48=(a48*a19);
-  a47=(a47+a48);
-  a48=(a45==a18);
-  a48=(a48*a21);
-  a47=(a47+a48);
-  a48=(a45==a20);
-  a48=(a48*a23);
-  a47=(a47+a48);
-  a48=(a45==a12);
-  a48=(a48*a24);
-  a47=(a47+a48);
-  a46=(a46*a47);
-  a48=(a45==a11);
-  a48=(a48*a17);
-  a49=(a45==a05);
-  a49=(a49*a19);
-  a48=(a48+a49);
-  a49=(a45==a16);
-  a49=(a49*a21);
-  a48=(a48+a49);
-  a49=(a45==a18);
-  a49=(a49*a23);
-  a48=(a48+a49);
-  a49=(a45==a20);
-  a49=(a49*a24);
-  a48=(a48+a49);
-  a49=(a45==a12);
-  a49=(a49*a26);
-  a48=(a48+a49);
-  a49=(a44*a48);
-  a46=(a46+a49);
-  a43=(a43*a46);
-  a43=(a05-a43);
-  a41=(a41/a43);
-  a43=(2.*a41);
-  a04=(a04+a43);
-  a43=casadi_sq(a44);
-  a49=(a43*a44);
-  a50=(2.*a49);
-  a51=(a18*a43);
-  a50=(a50-a51);
-  a50=(a50+a05);
-  a51=(a45==a11);
-  a51=(a51*a34);
-  a52=(a45==a05);
-  a52=(a52*a36);
-  a51=(a51+a52);
-  a52=(a45==a16);
-  a52=(a52*a37);
-  a51=(a51+a52);
-  a52=(a45==a18);
-  a52=(a52*a38);
-  a51=(a51+a52);
-  a52=(a45==a20);
-  a52=(a52*a39);
-  a51=(a51+a52);
-  a52=(a45==a12);
-  a52=(a52*a40);
-  a51=(a51+a52);
-  a50=(a50*a51);
-  a51=(2.*a43);
-  a51=(a49-a51);
-  a51=(a51+a44);
-  a51=(a51*a09);
-  a51=(a51*a47);
-  a50=(a50+a51);
-  a51=(a33*a49);
-  a47=(a18*a43);
-  a51=(a51+a47);
-  a47=(a45==a11);
-  a47=(a47*a36);
-  a44=(a45==a05);
-  a44=(a44*a37);
-  a47=(a47+a44);
-  a44=(a45==a16);
-  a44=(a44*a38);
-  a47=(a47+a44);
-  a44=(a45==a18);
-  a44=(a44*a39);
-  a47=(a47+a44);
-  a44=(a45==a20);
-  a44=(a44*a40);
-  a47=(a47+a44);
-  a45=(a45==a12);
-  a45=(a45*a35);
-  a47=(a47+a45);
-  a51=(a51*a47);
-  a50=(a50+a51);
-  a49=(a49-a43);
-  a49=(a49*a09);
-  a49=(a49*a48);
-  a50=(a50+a49);
-  a50=(a50+a13);
-  a50=cos(a50);
-  a50=(a29*a50);
-  a50=(a30+a50);
-  a49=(a28*a50);
-  a50=casadi_fabs(a50);
-  a49=(a49*a50);
-  a49=(a27-a49);
-  a49=(a49-a32);
-  a49=(a49/a22);
-  a50=(a25*a49);
-  a50=(a02+a50);
-  a48=arg[1]? arg[1][1] : 0;
-  a43=(a25*a48);
-  a43=(a14+a43);
-  a43=tan(a43);
-  a43=(a30*a43);
-  a43=(a43/a10);
-  a46=(a46*a41);
-  a43=(a43-a46);
-  a46=(a25*a43);
-  a46=(a03+a46);
-  a51=cos(a46);
-  a51=(a50*a51);
-  a13=sin(a13);
-  a30=(a30*a13);
-  a13=(a25*a30);
-  a13=(a06+a13);
-  a41=(a25*a41);
-  a41=(a00+a41);
-  a41=(a41-a07);
-  a41=(a41/a09);
-  a47=floor(a41);
-  a47=casadi_fmax(a47,a11);
-  a47=casadi_fmin(a47,a12);
-  a41=(a41-a47);
-  a45=(a05-a41);
-  a44=(a47==a11);
-  a44=(a44*a15);
-  a52=(a47==a05);
-  a52=(a52*a17);
-  a44=(a44+a52);
-  a52=(a47==a16);
-  a52=(a52*a19);
-  a44=(a44+a52);
-  a52=(a47==a18);
-  a52=(a52*a21);
-  a44=(a44+a52);
-  a52=(a47==a20);
-  a52=(a52*a23);
-  a44=(a44+a52);
-  a52=(a47==a12);
-  a52=(a52*a24);
-  a44=(a44+a52);
-  a45=(a45*a44);
-  a52=(a47==a11);
-  a52=(a52*a17);
-  a53=(a47==a05);
-  a53=(a53*a19);
-  a52=(a52+a53);
-  a53=(a47==a16);
-  a53=(a53*a21);
-  a52=(a52+a53);
-  a53=(a47==a18);
-  a53=(a53*a23);
-  a52=(a52+a53);
-  a53=(a47==a20);
-  a53=(a53*a24);
-  a52=(a52+a53);
-  a53=(a47==a12);
-  a53=(a53*a26);
-  a52=(a52+a53);
-  a53=(a41*a52);
-  a45=(a45+a53);
-  a13=(a13*a45);
-  a13=(a05-a13);
-  a51=(a51/a13);
-  a13=(2.*a51);
-  a04=(a04+a13);
-  a13=1.0000000000000001e-01;
-  a53=casadi_sq(a41);
-  a54=(a53*a41);
-  a55=(2.*a54);
-  a56=(a18*a53);
-  a55=(a55-a56);
-  a55=(a55+a05);
-  a56=(a47==a11);
-  a56=(a56*a34);
-  a57=(a47==a05);
-  a57=(a57*a36);
-  a56=(a56+a57);
-  a57=(a47==a16);
-  a57=(a57*a37);
-  a56=(a56+a57);
-  a57=(a47==a18);
-  a57=(a57*a38);
-  a56=(a56+a57);
-  a57=(a47==a20);
-  a57=(a57*a39);
-  a56=(a56+a57);
-  a57=(a47==a12);
-  a57=(a57*a40);
-  a56=(a56+a57);
-  a55=(a55*a56);
-  a56=(2.*a53);
-  a56=(a54-a56);
-  a56=(a56+a41);
-  a56=(a56*a09);
-  a56=(a56*a44);
-  a55=(a55+a56);
-  a56=(a33*a54);
-  a44=(a18*a53);
-  a56=(a56+a44);
-  a44=(a47==a11);
-  a44=(a44*a36);
-  a41=(a47==a05);
-  a41=(a41*a37);
-  a44=(a44+a41);
-  a41=(a47==a16);
-  a41=(a41*a38);
-  a44=(a44+a41);
-  a41=(a47==a18);
-  a41=(a41*a39);
-  a44=(a44+a41);
-  a41=(a47==a20);
-  a41=(a41*a40);
-  a44=(a44+a41);
-  a47=(a47==a12);
-  a47=(a47*a35);
-  a44=(a44+a47);
-  a56=(a56*a44);
-  a55=(a55+a56);
-  a54=(a54-a53);
-  a54=(a54*a09);
-  a54=(a54*a52);
-  a55=(a55+a54);
-  a55=(a55+a46);
-  a55=cos(a55);
-  a55=(a29*a55);
-  a55=(a50+a55);
-  a54=(a28*a55);
-  a55=casadi_fabs(a55);
-  a54=(a54*a55);
-  a54=(a27-a54);
-  a54=(a54-a32);
-  a54=(a54/a22);
-  a55=(a13*a54);
-  a55=(a02+a55);
-  a25=(a25*a48);
-  a25=(a14+a25);
-  a25=tan(a25);
-  a25=(a50*a25);
-  a25=(a25/a10);
-  a45=(a45*a51);
-  a25=(a25-a45);
-  a45=(a13*a25);
-  a45=(a03+a45);
-  a52=cos(a45);
-  a52=(a55*a52);
-  a46=sin(a46);
-  a50=(a50*a46);
-  a46=(a13*a50);
-  a46=(a06+a46);
-  a51=(a13*a51);
-  a51=(a00+a51);
-  a51=(a51-a07);
-  a51=(a51/a09);
-  a07=floor(a51);
-  a07=casadi_fmax(a07,a11);
-  a07=casadi_fmin(a07,a12);
-  a51=(a51-a07);
-  a53=(a05-a51);
-  a56=(a07==a11);
-  a56=(a56*a15);
-  a15=(a07==a05);
-  a15=(a15*a17);
-  a56=(a56+a15);
-  a15=(a07==a16);
-  a15=(a15*a19);
-  a56=(a56+a15);
-  a15=(a07==a18);
-  a15=(a15*a21);
-  a56=(a56+a15);
-  a15=(a07==a20);
-  a15=(a15*a23);
-  a56=(a56+a15);
-  a15=(a07==a12);
-  a15=(a15*a24);
-  a56=(a56+a15);
-  a53=(a53*a56);
-  a15=(a07==a11);
-  a15=(a15*a17);
-  a17=(a07==a05);
-  a17=(a17*a19);
-  a15=(a15+a17);
-  a17=(a07==a16);
-  a17=(a17*a21);
-  a15=(a15+a17);
-  a17=(a07==a18);
-  a17=(a17*a23);
-  a15=(a15+a17);
-  a17=(a07==a20);
-  a17=(a17*a24);
-  a15=(a15+a17);
-  a17=(a07==a12);
-  a17=(a17*a26);
-  a15=(a15+a17);
-  a17=(a51*a15);
-  a53=(a53+a17);
-  a46=(a46*a53);
-  a46=(a05-a46);
-  a52=(a52/a46);
-  a04=(a04+a52);
-  a04=(a01*a04);
-  a00=(a00+a04);
-  if (res[0]!=0) res[0][0]=a00;
-  a30=(2.*a30);
-  a42=(a42+a30);
-  a50=(2.*a50);
-  a42=(a42+a50);
-  a50=sin(a45);
-  a50=(a55*a50);
-  a42=(a42+a50);
-  a42=(a01*a42);
-  a06=(a06+a42);
-  if (res[0]!=0) res[0][1]=a06;
-  a43=(2.*a43);
-  a08=(a08+a43);
-  a25=(2.*a25);
-  a08=(a08+a25);
-  a13=(a13*a48);
-  a13=(a14+a13);
-  a13=tan(a13);
-  a13=(a55*a13);
-  a13=(a13/a10);
-  a53=(a53*a52);
-  a13=(a13-a53);
-  a08=(a08+a13);
-  a08=(a01*a08);
-  a03=(a03+a08);
-  if (res[0]!=0) res[0][2]=a03;
-  a49=(2.*a49);
-  a31=(a31+a49);
-  a54=(2.*a54);
-  a31=(a31+a54);
-  a54=casadi_sq(a51);
-  a49=(a54*a51);
-  a03=(2.*a49);
-  a08=(a18*a54);
-  a03=(a03-a08);
-  a03=(a03+a05);
-  a08=(a07==a11);
-  a08=(a08*a34);
-  a34=(a07==a05);
-  a34=(a34*a36);
-  a08=(a08+a34);
-  a34=(a07==a16);
-  a34=(a34*a37);
-  a08=(a08+a34);
-  a34=(a07==a18);
-  a34=(a34*a38);
-  a08=(a08+a34);
-  a34=(a07==a20);
-  a34=(a34*a39);
-  a08=(a08+a34);
-  a34=(a07==a12);
-  a34=(a34*a40);
-  a08=(a08+a34);
-  a03=(a03*a08);
-  a08=(2.*a54);
-  a08=(a49-a08);
-  a08=(a08+a51);
-  a08=(a08*a09);
-  a08=(a08*a56);
-  a03=(a03+a08);
-  a33=(a33*a49);
-  a08=(a18*a54);
-  a33=(a33+a08);
-  a11=(a07==a11);
-  a11=(a11*a36);
-  a05=(a07==a05);
-  a05=(a05*a37);
-  a11=(a11+a05);
-  a16=(a07==a16);
-  a16=(a16*a38);
-  a11=(a11+a16);
-  a16=(a07==a18);
-  a16=(a16*a39);
-  a11=(a11+a16);
-  a20=(a07==a20);
-  a20=(a20*a40);
-  a11=(a11+a20);
-  a07=(a07==a12);
-  a07=(a07*a35);
-  a11=(a11+a07);
-  a33=(a33*a11);
-  a03=(a03+a33);
-  a49=(a49-a54);
-  a49=(a49*a09);
-  a49=(a49*a15);
-  a03=(a03+a49);
-  a03=(a03+a45);
-  a03=cos(a03);
-  a29=(a29*a03);
-  a55=(a55+a29);
-  a28=(a28*a55);
-  a55=casadi_fabs(a55);
-  a28=(a28*a55);
-  a27=(a27-a28);
-  a27=(a27-a32);
-  a27=(a27/a22);
-  a31=(a31+a27);
-  a31=(a01*a31);
-  a02=(a02+a31);
-  if (res[0]!=0) res[0][3]=a02;
-  a18=(a18*a48);
-  a02=(2.*a48);
-  a18=(a18+a02);
-  a18=(a18+a48);
-  a01=(a01*a18);
-  a14=(a14+a01);
-  if (res[0]!=0) res[0][4]=a14;
-  return 0;
-}
-
-int truck_conv_el_dynamics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
-}
-
-int truck_conv_el_dynamics_checkout(void) {
-  return 0;
-}
-
-void truck_conv_el_dynamics_release(int mem) {
-}
-
-void truck_conv_el_dynamics_incref(void) {
-}
-
-void truck_conv_el_dynamics_decref(void) {
-}
-
-casadi_int truck_conv_el_dynamics_n_in(void) { return 3;}
-
-casadi_int truck_conv_el_dynamics_n_out(void) { return 1;}
-
-casadi_real truck_conv_el_dynamics_default_in(casadi_int i) {
-  switch (i) {
-    default: return 0;
-  }
-}
-
-const char* truck_conv_el_dynamics_name_in(casadi_int i) {
-  switch (i) {
-    case 0: return "x";
-    case 1: return "u";
-    case 2: return "p";
-    default: return 0;
-  }
-}
-
-const char* truck_conv_el_dynamics_name_out(casadi_int i) {
-  switch (i) {
-    case 0: return "x_next";
-    default: return 0;
-  }
-}
-
-const casadi_int* truck_conv_el_dynamics_sparsity_in(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    case 1: return casadi_s11;
-    case 2: return casadi_s2;
-    default: return 0;
-  }
-}
-
-const casadi_int* truck_conv_el_dynamics_sparsity_out(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    default: return 0;
-  }
-}
-
-int truck_conv_el_dynamics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 3;
-  if (sz_res) *sz_res = 1;
-  if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 0;
-  return 0;
-}
-
-int truck_conv_el_dynamics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
-  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 0*sizeof(casadi_real);
-  return 0;
-}
-
 /* truck_conv_el_init_state:(x0[5],p[53])->(x[5]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[0]? arg[0][0] : 0;
   if (res[0]!=0) res[0][0]=a0;
@@ -5963,7 +5282,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_conv_el_init_state(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 int truck_conv_el_init_state_checkout(void) {
@@ -6036,12 +5355,12 @@ int truck_conv_el_init_state_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 }
 
 /* truck_conv_el_theta_init:(i0[5],i1[53])->(o0[0]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   return 0;
 }
 
 int truck_conv_el_theta_init(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 int truck_conv_el_theta_init_checkout(void) {
@@ -6092,7 +5411,7 @@ const casadi_int* truck_conv_el_theta_init_sparsity_in(casadi_int i) {
 
 const casadi_int* truck_conv_el_theta_init_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s12;
+    case 0: return casadi_s11;
     default: return 0;
   }
 }
@@ -6114,7 +5433,7 @@ int truck_conv_el_theta_init_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 }
 
 /* truck_conv_el_plant:(i0[5],i1[2],i2[30])->(o0[5]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -6719,7 +6038,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_conv_el_plant(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 int truck_conv_el_plant_checkout(void) {
@@ -6764,7 +6083,7 @@ const char* truck_conv_el_plant_name_out(casadi_int i) {
 const casadi_int* truck_conv_el_plant_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s1;
-    case 1: return casadi_s11;
+    case 1: return casadi_s12;
     case 2: return casadi_s13;
     default: return 0;
   }
@@ -6794,7 +6113,7 @@ int truck_conv_el_plant_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casad
 }
 
 /* truck_conv_el_opp_points:(pose[3])->(P[2x63],d[63]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
   casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
   casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
@@ -7728,7 +7047,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_conv_el_opp_points(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 int truck_conv_el_opp_points_checkout(void) {
@@ -7801,7 +7120,7 @@ int truck_conv_el_opp_points_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 }
 
 /* truck_conv_el_opp_box:(FR[3x63],pose[3])->(box[11]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
   casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
   casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
@@ -8951,7 +8270,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_conv_el_opp_box(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 int truck_conv_el_opp_box_checkout(void) {

@@ -35,7 +35,6 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
-#define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_fabs CASADI_PREFIX(fabs)
 #define casadi_fmax CASADI_PREFIX(fmax)
 #define casadi_fmin CASADI_PREFIX(fmin)
@@ -140,9 +139,9 @@ static const casadi_int casadi_s10[49] =
   3, 4, 2, 3, 4, 2, 3, 4,
   0, 1, 9, 2, 10, 3, 11, 4,
   12};
-static const casadi_int casadi_s11[3] = {2, 1, 1};
-static const casadi_int casadi_s12[3] = {5, 1, 1};
-static const casadi_int casadi_s13[3] = {0, 1, 1};
+static const casadi_int casadi_s11[3] = {5, 1, 1};
+static const casadi_int casadi_s12[3] = {0, 1, 1};
+static const casadi_int casadi_s13[3] = {2, 1, 1};
 static const casadi_int casadi_s14[3] = {30, 1, 1};
 
 /* truck_lift_el_ipm_stage_first:(w[10],x_next[8],p[44])->(g[18],J[18x18,66nz],q[10]) */
@@ -4325,501 +4324,8 @@ int truck_lift_el_ipm_stage_last_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
   return 0;
 }
 
-/* truck_lift_el_ipm_dynamics:(x[8],u[2],p[44])->(x_next[8]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52;
-  a00=arg[0]? arg[0][0] : 0;
-  a01=1.6666666666666666e-02;
-  a02=arg[0]? arg[0][3] : 0;
-  a03=arg[0]? arg[0][2] : 0;
-  a04=cos(a03);
-  a04=(a02*a04);
-  a05=1.;
-  a06=arg[0]? arg[0][1] : 0;
-  a07=arg[2]? arg[2][0] : 0;
-  a08=(a00-a07);
-  a09=arg[2]? arg[2][1] : 0;
-  a08=(a08/a09);
-  a10=floor(a08);
-  a11=0.;
-  a10=casadi_fmax(a10,a11);
-  a12=5.;
-  a10=casadi_fmin(a10,a12);
-  a08=(a08-a10);
-  a13=(a05-a08);
-  a14=(a10==a11);
-  a15=arg[2]? arg[2][2] : 0;
-  a14=(a14*a15);
-  a16=(a10==a05);
-  a17=arg[2]? arg[2][3] : 0;
-  a16=(a16*a17);
-  a14=(a14+a16);
-  a16=2.;
-  a18=(a10==a16);
-  a19=arg[2]? arg[2][4] : 0;
-  a18=(a18*a19);
-  a14=(a14+a18);
-  a18=3.;
-  a20=(a10==a18);
-  a21=arg[2]? arg[2][5] : 0;
-  a20=(a20*a21);
-  a14=(a14+a20);
-  a20=4.;
-  a22=(a10==a20);
-  a23=arg[2]? arg[2][6] : 0;
-  a22=(a22*a23);
-  a14=(a14+a22);
-  a22=(a10==a12);
-  a24=arg[2]? arg[2][7] : 0;
-  a22=(a22*a24);
-  a14=(a14+a22);
-  a13=(a13*a14);
-  a14=(a10==a11);
-  a14=(a14*a17);
-  a22=(a10==a05);
-  a22=(a22*a19);
-  a14=(a14+a22);
-  a22=(a10==a16);
-  a22=(a22*a21);
-  a14=(a14+a22);
-  a22=(a10==a18);
-  a22=(a22*a23);
-  a14=(a14+a22);
-  a22=(a10==a20);
-  a22=(a22*a24);
-  a14=(a14+a22);
-  a10=(a10==a12);
-  a22=arg[2]? arg[2][8] : 0;
-  a10=(a10*a22);
-  a14=(a14+a10);
-  a08=(a08*a14);
-  a13=(a13+a08);
-  a08=(a06*a13);
-  a08=(a05-a08);
-  a04=(a04/a08);
-  a08=5.0000000000000003e-02;
-  a14=arg[1]? arg[1][0] : 0;
-  a10=3.8719349999999997e-01;
-  a25=20.;
-  a26=arg[0]? arg[0][7] : 0;
-  a27=cos(a26);
-  a27=(a25*a27);
-  a27=(a02+a27);
-  a28=(a10*a27);
-  a27=casadi_fabs(a27);
-  a28=(a28*a27);
-  a28=(a14-a28);
-  a27=1.7069399999999999e+02;
-  a28=(a28-a27);
-  a29=1160.;
-  a28=(a28/a29);
-  a30=(a08*a28);
-  a30=(a02+a30);
-  a31=arg[0]? arg[0][4] : 0;
-  a32=tan(a31);
-  a32=(a02*a32);
-  a33=3.3999999999999999e+00;
-  a32=(a32/a33);
-  a13=(a13*a04);
-  a13=(a32-a13);
-  a34=(a08*a13);
-  a34=(a03+a34);
-  a35=cos(a34);
-  a35=(a30*a35);
-  a36=sin(a03);
-  a36=(a02*a36);
-  a37=(a08*a36);
-  a37=(a06+a37);
-  a38=(a08*a04);
-  a38=(a00+a38);
-  a38=(a38-a07);
-  a38=(a38/a09);
-  a39=floor(a38);
-  a39=casadi_fmax(a39,a11);
-  a39=casadi_fmin(a39,a12);
-  a38=(a38-a39);
-  a40=(a05-a38);
-  a41=(a39==a11);
-  a41=(a41*a15);
-  a42=(a39==a05);
-  a42=(a42*a17);
-  a41=(a41+a42);
-  a42=(a39==a16);
-  a42=(a42*a19);
-  a41=(a41+a42);
-  a42=(a39==a18);
-  a42=(a42*a21);
-  a41=(a41+a42);
-  a42=(a39==a20);
-  a42=(a42*a23);
-  a41=(a41+a42);
-  a42=(a39==a12);
-  a42=(a42*a24);
-  a41=(a41+a42);
-  a40=(a40*a41);
-  a41=(a39==a11);
-  a41=(a41*a17);
-  a42=(a39==a05);
-  a42=(a42*a19);
-  a41=(a41+a42);
-  a42=(a39==a16);
-  a42=(a42*a21);
-  a41=(a41+a42);
-  a42=(a39==a18);
-  a42=(a42*a23);
-  a41=(a41+a42);
-  a42=(a39==a20);
-  a42=(a42*a24);
-  a41=(a41+a42);
-  a39=(a39==a12);
-  a39=(a39*a22);
-  a41=(a41+a39);
-  a38=(a38*a41);
-  a40=(a40+a38);
-  a37=(a37*a40);
-  a37=(a05-a37);
-  a35=(a35/a37);
-  a37=(2.*a35);
-  a04=(a04+a37);
-  a37=(a08*a32);
-  a37=(a26+a37);
-  a38=cos(a37);
-  a38=(a25*a38);
-  a38=(a30+a38);
-  a41=(a10*a38);
-  a38=casadi_fabs(a38);
-  a41=(a41*a38);
-  a41=(a14-a41);
-  a41=(a41-a27);
-  a41=(a41/a29);
-  a38=(a08*a41);
-  a38=(a02+a38);
-  a39=arg[1]? arg[1][1] : 0;
-  a42=(a08*a39);
-  a42=(a31+a42);
-  a42=tan(a42);
-  a42=(a30*a42);
-  a42=(a42/a33);
-  a40=(a40*a35);
-  a40=(a42-a40);
-  a43=(a08*a40);
-  a43=(a03+a43);
-  a44=cos(a43);
-  a44=(a38*a44);
-  a34=sin(a34);
-  a34=(a30*a34);
-  a45=(a08*a34);
-  a45=(a06+a45);
-  a35=(a08*a35);
-  a35=(a00+a35);
-  a35=(a35-a07);
-  a35=(a35/a09);
-  a46=floor(a35);
-  a46=casadi_fmax(a46,a11);
-  a46=casadi_fmin(a46,a12);
-  a35=(a35-a46);
-  a47=(a05-a35);
-  a48=(a46==a11);
-  a48=(a48*a15);
-  a49=(a46==a05);
-  a49=(a49*a17);
-  a48=(a48+a49);
-  a49=(a46==a16);
-  a49=(a49*a19);
-  a48=(a48+a49);
-  a49=(a46==a18);
-  a49=(a49*a21);
-  a48=(a48+a49);
-  a49=(a46==a20);
-  a49=(a49*a23);
-  a48=(a48+a49);
-  a49=(a46==a12);
-  a49=(a49*a24);
-  a48=(a48+a49);
-  a47=(a47*a48);
-  a48=(a46==a11);
-  a48=(a48*a17);
-  a49=(a46==a05);
-  a49=(a49*a19);
-  a48=(a48+a49);
-  a49=(a46==a16);
-  a49=(a49*a21);
-  a48=(a48+a49);
-  a49=(a46==a18);
-  a49=(a49*a23);
-  a48=(a48+a49);
-  a49=(a46==a20);
-  a49=(a49*a24);
-  a48=(a48+a49);
-  a46=(a46==a12);
-  a46=(a46*a22);
-  a48=(a48+a46);
-  a35=(a35*a48);
-  a47=(a47+a35);
-  a45=(a45*a47);
-  a45=(a05-a45);
-  a44=(a44/a45);
-  a45=(2.*a44);
-  a04=(a04+a45);
-  a45=1.0000000000000001e-01;
-  a35=(a08*a42);
-  a35=(a26+a35);
-  a48=cos(a35);
-  a48=(a25*a48);
-  a48=(a38+a48);
-  a46=(a10*a48);
-  a48=casadi_fabs(a48);
-  a46=(a46*a48);
-  a46=(a14-a46);
-  a46=(a46-a27);
-  a46=(a46/a29);
-  a48=(a45*a46);
-  a48=(a02+a48);
-  a08=(a08*a39);
-  a08=(a31+a08);
-  a08=tan(a08);
-  a08=(a38*a08);
-  a08=(a08/a33);
-  a47=(a47*a44);
-  a47=(a08-a47);
-  a49=(a45*a47);
-  a49=(a03+a49);
-  a50=cos(a49);
-  a50=(a48*a50);
-  a43=sin(a43);
-  a43=(a38*a43);
-  a51=(a45*a43);
-  a51=(a06+a51);
-  a44=(a45*a44);
-  a44=(a00+a44);
-  a44=(a44-a07);
-  a44=(a44/a09);
-  a09=floor(a44);
-  a09=casadi_fmax(a09,a11);
-  a09=casadi_fmin(a09,a12);
-  a44=(a44-a09);
-  a07=(a05-a44);
-  a52=(a09==a11);
-  a52=(a52*a15);
-  a15=(a09==a05);
-  a15=(a15*a17);
-  a52=(a52+a15);
-  a15=(a09==a16);
-  a15=(a15*a19);
-  a52=(a52+a15);
-  a15=(a09==a18);
-  a15=(a15*a21);
-  a52=(a52+a15);
-  a15=(a09==a20);
-  a15=(a15*a23);
-  a52=(a52+a15);
-  a15=(a09==a12);
-  a15=(a15*a24);
-  a52=(a52+a15);
-  a07=(a07*a52);
-  a11=(a09==a11);
-  a11=(a11*a17);
-  a17=(a09==a05);
-  a17=(a17*a19);
-  a11=(a11+a17);
-  a16=(a09==a16);
-  a16=(a16*a21);
-  a11=(a11+a16);
-  a16=(a09==a18);
-  a16=(a16*a23);
-  a11=(a11+a16);
-  a20=(a09==a20);
-  a20=(a20*a24);
-  a11=(a11+a20);
-  a09=(a09==a12);
-  a09=(a09*a22);
-  a11=(a11+a09);
-  a44=(a44*a11);
-  a07=(a07+a44);
-  a51=(a51*a07);
-  a05=(a05-a51);
-  a50=(a50/a05);
-  a04=(a04+a50);
-  a04=(a01*a04);
-  a00=(a00+a04);
-  if (res[0]!=0) res[0][0]=a00;
-  a34=(2.*a34);
-  a36=(a36+a34);
-  a43=(2.*a43);
-  a36=(a36+a43);
-  a49=sin(a49);
-  a49=(a48*a49);
-  a36=(a36+a49);
-  a36=(a01*a36);
-  a06=(a06+a36);
-  if (res[0]!=0) res[0][1]=a06;
-  a40=(2.*a40);
-  a13=(a13+a40);
-  a47=(2.*a47);
-  a13=(a13+a47);
-  a47=(a45*a39);
-  a47=(a31+a47);
-  a47=tan(a47);
-  a47=(a48*a47);
-  a47=(a47/a33);
-  a07=(a07*a50);
-  a07=(a47-a07);
-  a13=(a13+a07);
-  a13=(a01*a13);
-  a03=(a03+a13);
-  if (res[0]!=0) res[0][2]=a03;
-  a41=(2.*a41);
-  a28=(a28+a41);
-  a46=(2.*a46);
-  a28=(a28+a46);
-  a45=(a45*a08);
-  a45=(a26+a45);
-  a46=cos(a45);
-  a25=(a25*a46);
-  a25=(a48+a25);
-  a10=(a10*a25);
-  a25=casadi_fabs(a25);
-  a10=(a10*a25);
-  a14=(a14-a10);
-  a14=(a14-a27);
-  a14=(a14/a29);
-  a28=(a28+a14);
-  a28=(a01*a28);
-  a28=(a02+a28);
-  if (res[0]!=0) res[0][3]=a28;
-  a18=(a18*a39);
-  a28=(2.*a39);
-  a18=(a18+a28);
-  a18=(a18+a39);
-  a18=(a01*a18);
-  a31=(a31+a18);
-  if (res[0]!=0) res[0][4]=a31;
-  a31=arg[0]? arg[0][5] : 0;
-  a18=cos(a26);
-  a18=(a02*a18);
-  a39=cos(a37);
-  a39=(a30*a39);
-  a39=(2.*a39);
-  a18=(a18+a39);
-  a39=cos(a35);
-  a39=(a38*a39);
-  a39=(2.*a39);
-  a18=(a18+a39);
-  a39=cos(a45);
-  a39=(a48*a39);
-  a18=(a18+a39);
-  a18=(a01*a18);
-  a31=(a31+a18);
-  if (res[0]!=0) res[0][5]=a31;
-  a31=arg[0]? arg[0][6] : 0;
-  a18=sin(a26);
-  a02=(a02*a18);
-  a37=sin(a37);
-  a30=(a30*a37);
-  a30=(2.*a30);
-  a02=(a02+a30);
-  a35=sin(a35);
-  a38=(a38*a35);
-  a38=(2.*a38);
-  a02=(a02+a38);
-  a45=sin(a45);
-  a48=(a48*a45);
-  a02=(a02+a48);
-  a02=(a01*a02);
-  a31=(a31+a02);
-  if (res[0]!=0) res[0][6]=a31;
-  a42=(2.*a42);
-  a32=(a32+a42);
-  a08=(2.*a08);
-  a32=(a32+a08);
-  a32=(a32+a47);
-  a01=(a01*a32);
-  a26=(a26+a01);
-  if (res[0]!=0) res[0][7]=a26;
-  return 0;
-}
-
-int truck_lift_el_ipm_dynamics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
-}
-
-int truck_lift_el_ipm_dynamics_checkout(void) {
-  return 0;
-}
-
-void truck_lift_el_ipm_dynamics_release(int mem) {
-}
-
-void truck_lift_el_ipm_dynamics_incref(void) {
-}
-
-void truck_lift_el_ipm_dynamics_decref(void) {
-}
-
-casadi_int truck_lift_el_ipm_dynamics_n_in(void) { return 3;}
-
-casadi_int truck_lift_el_ipm_dynamics_n_out(void) { return 1;}
-
-casadi_real truck_lift_el_ipm_dynamics_default_in(casadi_int i) {
-  switch (i) {
-    default: return 0;
-  }
-}
-
-const char* truck_lift_el_ipm_dynamics_name_in(casadi_int i) {
-  switch (i) {
-    case 0: return "x";
-    case 1: return "u";
-    case 2: return "p";
-    default: return 0;
-  }
-}
-
-const char* truck_lift_el_ipm_dynamics_name_out(casadi_int i) {
-  switch (i) {
-    case 0: return "x_next";
-    default: return 0;
-  }
-}
-
-const casadi_int* truck_lift_el_ipm_dynamics_sparsity_in(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    case 1: return casadi_s11;
-    case 2: return casadi_s2;
-    default: return 0;
-  }
-}
-
-const casadi_int* truck_lift_el_ipm_dynamics_sparsity_out(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    default: return 0;
-  }
-}
-
-int truck_lift_el_ipm_dynamics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 3;
-  if (sz_res) *sz_res = 1;
-  if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 0;
-  return 0;
-}
-
-int truck_lift_el_ipm_dynamics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
-  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 0*sizeof(casadi_real);
-  return 0;
-}
-
 /* truck_lift_el_ipm_init_state:(x0[5],p[44])->(x[8]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27;
@@ -5096,7 +4602,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_lift_el_ipm_init_state(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 int truck_lift_el_ipm_init_state_checkout(void) {
@@ -5139,7 +4645,7 @@ const char* truck_lift_el_ipm_init_state_name_out(casadi_int i) {
 
 const casadi_int* truck_lift_el_ipm_init_state_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s12;
+    case 0: return casadi_s11;
     case 1: return casadi_s2;
     default: return 0;
   }
@@ -5169,12 +4675,12 @@ int truck_lift_el_ipm_init_state_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 }
 
 /* truck_lift_el_ipm_theta_init:(i0[8],i1[44])->(o0[0]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   return 0;
 }
 
 int truck_lift_el_ipm_theta_init(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 int truck_lift_el_ipm_theta_init_checkout(void) {
@@ -5225,7 +4731,7 @@ const casadi_int* truck_lift_el_ipm_theta_init_sparsity_in(casadi_int i) {
 
 const casadi_int* truck_lift_el_ipm_theta_init_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s13;
+    case 0: return casadi_s12;
     default: return 0;
   }
 }
@@ -5247,7 +4753,7 @@ int truck_lift_el_ipm_theta_init_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 }
 
 /* truck_lift_el_ipm_plant:(i0[5],i1[2],i2[30])->(o0[5]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -5852,7 +5358,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_lift_el_ipm_plant(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 int truck_lift_el_ipm_plant_checkout(void) {
@@ -5896,8 +5402,8 @@ const char* truck_lift_el_ipm_plant_name_out(casadi_int i) {
 
 const casadi_int* truck_lift_el_ipm_plant_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s12;
-    case 1: return casadi_s11;
+    case 0: return casadi_s11;
+    case 1: return casadi_s13;
     case 2: return casadi_s14;
     default: return 0;
   }
@@ -5905,7 +5411,7 @@ const casadi_int* truck_lift_el_ipm_plant_sparsity_in(casadi_int i) {
 
 const casadi_int* truck_lift_el_ipm_plant_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s12;
+    case 0: return casadi_s11;
     default: return 0;
   }
 }

@@ -71,24 +71,6 @@ int truck_lift_el_ipm_stage_last_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 #define truck_lift_el_ipm_stage_last_SZ_RES 3
 #define truck_lift_el_ipm_stage_last_SZ_IW 0
 #define truck_lift_el_ipm_stage_last_SZ_W 0
-int truck_lift_el_ipm_dynamics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int truck_lift_el_ipm_dynamics_checkout(void);
-void truck_lift_el_ipm_dynamics_release(int mem);
-void truck_lift_el_ipm_dynamics_incref(void);
-void truck_lift_el_ipm_dynamics_decref(void);
-casadi_int truck_lift_el_ipm_dynamics_n_in(void);
-casadi_int truck_lift_el_ipm_dynamics_n_out(void);
-casadi_real truck_lift_el_ipm_dynamics_default_in(casadi_int i);
-const char* truck_lift_el_ipm_dynamics_name_in(casadi_int i);
-const char* truck_lift_el_ipm_dynamics_name_out(casadi_int i);
-const casadi_int* truck_lift_el_ipm_dynamics_sparsity_in(casadi_int i);
-const casadi_int* truck_lift_el_ipm_dynamics_sparsity_out(casadi_int i);
-int truck_lift_el_ipm_dynamics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int truck_lift_el_ipm_dynamics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define truck_lift_el_ipm_dynamics_SZ_ARG 3
-#define truck_lift_el_ipm_dynamics_SZ_RES 1
-#define truck_lift_el_ipm_dynamics_SZ_IW 0
-#define truck_lift_el_ipm_dynamics_SZ_W 0
 int truck_lift_el_ipm_init_state(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int truck_lift_el_ipm_init_state_checkout(void);
 void truck_lift_el_ipm_init_state_release(int mem);

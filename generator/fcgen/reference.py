@@ -45,18 +45,20 @@ A usable status with a non-finite step or multipliers counts as QP_NONFINITE; on
 by more than MAX_INPUT_VIOLATION gives ERR_QP_INPUT_BOUNDS (the status stays the backend's)."""
 assert set(QP_EXIT) == set(range(len(QP_STATUSES) + 1)) and {s for s, c in QP_EXIT.items() if c == "OK"} == set(QP_USABLE)
 
+KEPT = "kept: the shifted previous plan (see the cold restart)"
+"""What becomes of the guess after an unusable QP."""
+
 QP_CONTRACT = (
     (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= {MAX_INPUT_VIOLATION:g})",
      "OK", "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
     (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > {MAX_INPUT_VIOLATION:g}"
-     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_NONFINITE (or a usable status with a non-finite step)", "ERR_QP_NONFINITE", "fallback",
-     "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", "kept: the shifted previous plan (see the cold restart)"),
-    ("QP_OTHER", "ERR_QP", "fallback", "kept: the shifted previous plan (see the cold restart)"),
+     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", KEPT),
+    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", KEPT),
+    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", KEPT),
+    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", KEPT),
+    ("QP_NONFINITE (or a usable status with a non-finite step)", "ERR_QP_NONFINITE", "fallback", KEPT),
+    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", KEPT),
+    ("QP_OTHER", "ERR_QP", "fallback", KEPT),
 )
 """(QP status, exit code, what get_u0 returns, what becomes of the guess) for the README and the header.
 Fallback: u_1 of the previous plan (= u0 of the shifted guess), projected on the input box; zeros on a cold start.

@@ -50,7 +50,7 @@ MACRO_DOC = {
     "COLD_RESTART_AFTER": "unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never)",
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
-MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "dynamics", "init_state", "theta_init", "plant")
+MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "init_state", "theta_init", "plant")
 FIT_FUNCTIONS = ("opp_points", "opp_box")
 """The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it."""
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
@@ -116,7 +116,7 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
     """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
     funs = {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
-            "dynamics": ocp.dynamics, "init_state": ocp.init_state, "theta_init": theta_init(ocp),
+            "init_state": ocp.init_state, "theta_init": theta_init(ocp),
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
     if ocp.fit is not None:
         funs.update(opp_points=ocp.fit.points, opp_box=ocp.fit.box)
