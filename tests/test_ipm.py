@@ -14,7 +14,7 @@ from fcgen.backends.osqp import osqp_settings
 from fcgen.dsl import Horizon, QpOptions
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import FORMULATIONS, OBSTACLES, SCENARIOS, paper_problem
-from fcgen.qp import build_layout, stage_view
+from fcgen.qp import build_layout, split_soft_rows, stage_view
 from fcgen.reference import RtiSolver
 from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.scenario import make_scenario
@@ -76,12 +76,17 @@ def kkt(lay, P_x, A_x, q, l, u, z, y) -> tuple[float, float, float]:
 
 # -- the stage view ---------------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("split", [False, True], ids=["stage_view", "split_soft_rows"])
 @pytest.mark.parametrize("sc,form,ob", [("car", "conventional", "hyperplane"), ("truck", "lifted", "circles"),
                                         ("car", "direct_elimination", "ellipse")])
-def test_stage_view_reassembles_A(sc, form, ob):
-    """Every non-zero of A sits in exactly one block of the stage view; the blocks rebuild A entry for entry."""
+def test_stage_view_reassembles_A(sc, form, ob, split):
+    """Every non-zero of A sits in exactly one block of the stage view (and, split, of its soft rows); the blocks
+    rebuild A entry for entry."""
     lay = build_layout(build_ocp(short(sc, form, ob)))
     sv = stage_view(lay)
+    sr = None
+    if split:
+        sv, sr = split_soft_rows(lay, sv)
     A = lay.A_pattern(np.arange(1.0, lay.nnz_A + 1)).toarray()
     B = np.zeros_like(A)
     val = np.arange(1.0, lay.nnz_A + 1)
@@ -109,15 +114,45 @@ def test_stage_view_reassembles_A(sc, form, ob):
                 put(sv.eq_rows[k, e], sv.vmap[k, sv.nx + j], a)
     for r, c, a in zip(sv.box_rows, sv.box_var, sv.box_a):
         put(r, c, a)
+    sides = list(zip(sv.side_row.tolist(), sv.side_sign.tolist()))
+    used = sv.vmap[sv.vmap >= 0].tolist()
+    if split:
+        for k in range(sv.N + 1):
+            assert sr.rptr[k] <= sr.rptr[k + 1] and sr.run_ptr[sr.rptr[k]] == sr.ptr[k]
+            for r in range(sr.rptr[k], sr.rptr[k + 1]):
+                js = range(sr.run_ptr[r], sr.run_ptr[r + 1])
+                assert all(np.array_equal(sr.v[j], sr.run_v[r]) for j in js)   # a run: rows on the same slots
+                assert list(sr.row[list(js)]) == sorted(sr.row[list(js)])
+                for j in js:
+                    for v, a in zip(sr.v[j], sr.a[j]):
+                        if a >= 0:
+                            put(sr.row[j], sv.vmap[k, v], a)
+                    put(sr.row[j], sr.svar[j], sr.e[j])
+                    put(sr.brow[j], sr.svar[j], sr.ba[j])
+        sides += list(zip(sr.row.tolist(), sr.sign.tolist())) + list(zip(sr.brow.tolist(), sr.bsign.tolist()))
+        used += sr.svar.tolist()
+        assert sr.run_ptr[-1] == sr.count == len(set(sr.row.tolist())) > 0
     assert np.all(seen == 1)
     np.testing.assert_array_equal(A, B)
     # every variable in one slot; sides exactly at the finite bounds of the inequality rows
-    used = sv.vmap[sv.vmap >= 0]
-    assert sorted(used.tolist()) == list(range(lay.n))
+    assert sorted(used) == list(range(lay.n))
     ineq = np.setdiff1d(np.arange(lay.m), sv.eq_all)
     expect = sorted([(r, 1) for r in ineq if lay.L[r] > -INF] + [(r, -1) for r in ineq if lay.U[r] < INF])
-    assert sorted(zip(sv.side_row.tolist(), sv.side_sign.tolist())) == expect
+    assert sorted(sides) == expect
     assert np.all(lay.L[sv.eq_all] == lay.U[sv.eq_all])
+
+
+def test_soft_rows_are_the_obstacle_rows():
+    """The soft rows of truck_lifted_circles (C7) are its 147 obstacle rows per stage 1..N, each with its own slack
+    bounded below; the a_lat rows (two rows sharing one slack) stay generic rows."""
+    lay = build_layout(build_ocp(short("truck", "lifted", "circles")))
+    sv, sr = split_soft_rows(lay, stage_view(lay))
+    names = [lay.row_names[r] for r in sr.row]
+    assert sr.count == 10 * 7 * 7 * 3 and all(nm.startswith("opp") for nm in names), set(names)
+    assert np.all(sr.sign == 1) and np.all(sr.bsign == 1) and sr.NA == 3
+    assert len(set(sr.svar.tolist())) == sr.count
+    assert sv.NG == 2 and sv.NS == 1                                     # a_lat: two rows, one slack
+    assert all(lay.row_names[r].startswith("a_lat") for r in sv.gen_rows[sv.gen_rows >= 0])
 
 
 # -- the Python IPM against OSQP -----------------------------------------------------------------------------------

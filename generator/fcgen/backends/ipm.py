@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..qp import QpLayout, StageView, stage_view
+from ..qp import QpLayout, SoftRows, StageView, split_soft_rows, stage_view
 from . import (QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_STATUSES,
                BackendFiles, QpResult)
 
@@ -432,7 +432,9 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("fgv", (N, NFG), "the non-zeros of [F G] of stage k (x_{k+1} = F x + G u + c)"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
-        ("h", (n,), "Newton right-hand side; in the factorization: P + box weights"), ("dz", (n,), "Newton step"),
+        ("h", (n,), "Newton right-hand side"), ("hd", (n,), "the Newton matrix's diagonal: P + box weights"),
+        ("dz", (n,), "Newton step"),
+        ("aff", (4,), "the soft rows' sums of t lam, t dlam + lam dt, dt dlam (predictor); their pending step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
         ("wc", (len(_slack_entries(_Tables(lay, sv), N, NS, NG)[1]),), "W e a per entry of IPM_SE (slack rows)"),
         ("gax", (int(np.count_nonzero(sv.gen_v < NXU)),), "a per (x, u) entry of the general rows (prepare)"),
@@ -457,19 +459,16 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
 
-def _workspace_bytes(members: list[dict], real_size: int) -> int:
-    """sizeof the C workspace struct on an LP64 target (two pointers, then the real arrays)."""
+#: the real fields of the C's soft-row struct besides its NA coefficients (``ipm_sr_t`` in the template)
+SR_FIELDS = ("e", "bb", "b1", "b2", "t1", "l1", "t2", "l2", "it1", "it2", "rp1", "rp2", "id", "c",
+             "dt1", "dl1", "dt2", "dl2")
+
+
+def _workspace_bytes(members: list[dict], sr: SoftRows, real_size: int) -> int:
+    """sizeof the C workspace struct on an LP64 target (two pointers, the real arrays, the soft rows' structs)."""
     size = 16 + sum(int(np.prod(m["dims"])) * real_size for m in members)
+    size += max(1, sr.count) * (sr.NA + len(SR_FIELDS)) * real_size
     return -(-size // 8) * 8
-
-
-def _row_major(indptr: np.ndarray, indices: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A's CSC pattern by rows: row pointers, columns, and each entry's CSC data index (A z as a gather per row,
-    without the scatter's store-to-load chains)."""
-    cols = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
-    order = np.lexsort((cols, indices))
-    ptr = np.concatenate(([0], np.cumsum(np.bincount(indices, minlength=m))))
-    return ptr, cols[order], order
 
 
 def _slack_entries(tab: _Tables, N: int, NS: int, NG: int) -> tuple[np.ndarray, np.ndarray]:
@@ -484,36 +483,73 @@ def _slack_entries(tab: _Tables, N: int, NS: int, NG: int) -> tuple[np.ndarray, 
     return np.array(ptr, dtype=np.int64), np.array(ent, dtype=np.int64)
 
 
+def _generic_A(layout: QpLayout, sr: SoftRows) -> tuple[np.ndarray, ...]:
+    """A without the soft rows and their slacks' bound rows (the C's generic A z and A' y; the soft rows have loops
+    of their own): row-major (rows, pointers, columns, data indices) and column-major (pointers, rows, data
+    indices)."""
+    keep = np.ones(layout.m, dtype=bool)
+    keep[sr.row] = False
+    keep[sr.brow] = False
+    ent = np.flatnonzero(keep[layout.A_indices])            # CSC positions = data indices of the kept entries
+    rows = layout.A_indices[ent]
+    cols = np.repeat(np.arange(layout.n), np.diff(layout.A_indptr))[ent]
+    a_p = np.r_[0, np.cumsum(np.bincount(cols, minlength=layout.n))]
+    kept_rows = np.flatnonzero(keep)
+    order = np.lexsort((cols, rows))
+    ar_p = np.r_[0, np.cumsum(np.bincount(rows, minlength=layout.m)[kept_rows])]
+    return kept_rows, ar_p, cols[order], ent[order], a_p, rows, ent
+
+
+#: the tables the C indexes ``[k][s]`` (no index arithmetic with a size that may be 1: MISRA 2.2); the rest is flat
+TABLES_2D = ("IPM_VMAP_S", "IPM_SG_BEG", "IPM_SG_END", "IPM_SE_BEG", "IPM_SE_END", "IPM_SR_RUN_V", "IPM_SR_A")
+
+
+def _table(name: str, kind: str, values, doc: str) -> dict:
+    """A C table: flat, or (``TABLES_2D``) a 2-D array with a row per first index."""
+    from ..codegen.generate import _c_list
+    a = np.asarray(values).astype(np.int64)
+    if name in TABLES_2D:
+        if not a.size:  # an empty table keeps its two dimensions (padding -1: the loops never read it)
+            a = -np.ones((max(1, a.shape[0]), max(1, a.shape[1])), dtype=np.int64)
+        rows = ",\n  ".join("{" + _c_list([int(x) for x in r]) + "}" for r in a)
+        return {"name": name, "kind": kind, "dims": f"[{a.shape[0]}][{a.shape[1]}]", "doc": doc, "body": rows}
+    return {"name": name, "kind": kind, "dims": f"[{max(1, a.size)}]", "doc": doc,
+            "body": _c_list([int(x) for x in a.ravel()])}
+
+
 def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
-    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``)."""
+    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``). The C treats the soft rows
+    (``qp.split_soft_rows``) in loops of their own and the rest of the stage view with the generic tables."""
     from ..codegen.generate import _c_list, _c_real
-    sv = stage_view(layout)
+    sv, sr = split_soft_rows(layout, stage_view(layout))
     tab = _Tables(layout, sv)
     st = ipm_settings(opts)
     N, NX, NU, NS, NG, NE = sv.N, sv.nx, sv.NU, sv.NS, sv.NG, sv.NE
     NE1, nxu = max(NE, 1), sv.nx + sv.NU
-    A = layout.A_pattern()
     # general rows: the stage-variable entries (x, inputs) as lists; the slack entry apart
     gptr, gv, ga = tab.gen_xu_ptr, tab.gen_xu_v, tab.gen_xu_a
     gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
-    ar_p, ar_j, ar_k = _row_major(A.indptr, A.indices, layout.m)
+    ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     tables = [
-        ("IPM_A_P", A.indptr, "CSC column pointers of A"), ("IPM_A_I", A.indices, "CSC row indices of A"),
-        ("IPM_AR_P", ar_p, "row pointers of A (row-major)"), ("IPM_AR_J", ar_j, "column of row-major entry p"),
-        ("IPM_AR_K", ar_k, "its data index (CSC order)"),
+        ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
+        ("IPM_A_K", a_k, "their data index"),
+        ("IPM_AR_ROW", ar_row, "rows of A without the soft rows"), ("IPM_AR_P", ar_p, "their entries (row-major)"),
+        ("IPM_AR_J", ar_j, "column of row-major entry p"), ("IPM_AR_K", ar_k, "its data index"),
         ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
-        ("IPM_VMAP_S", sv.vmap[:, nxu:], "[k][s]: variable of stage k's slack s"),
+        ("IPM_VMAP_S", sv.vmap[:, nxu:].reshape(N + 1, NS), "[k][s]: variable of stage k's slack s"),
         ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
         ("IPM_GEN_PTR", gptr, "entries of general slot k NG + g"), ("IPM_GEN_V", gv, "stage slot v of the entry"),
         ("IPM_GEN_A", ga, "data index of the entry"), ("IPM_GEN_VAR", tab.gen_var, "variable of the entry"),
         ("IPM_GEN_E", gen_e, "data index of the slot's slack entry"),
         ("IPM_GEN_SVAR", tab.gen_svar, "variable of the slot's slack"),
-        ("IPM_SG_PTR", tab.sg_ptr, "[k NS + s]: general slots of stage k's slack s"),
+        ("IPM_SG_BEG", tab.sg_ptr[:-1].reshape(N + 1, NS), "[k][s]: general slots of stage k's slack s (first)"),
+        ("IPM_SG_END", tab.sg_ptr[1:].reshape(N + 1, NS), "[k][s]: (one past the last)"),
         ("IPM_SG_G", tab.sg_g, "the general slot (in its stage)"),
-        ("IPM_SE_PTR", se_ptr, "[k NS + s]: the (x, u) entries of stage k's slack s's rows"),
+        ("IPM_SE_BEG", se_ptr[:-1].reshape(N + 1, NS), "[k][s]: the (x, u) entries of stage k's slack s's rows"),
+        ("IPM_SE_END", se_ptr[1:].reshape(N + 1, NS), "[k][s]: (one past the last)"),
         ("IPM_SE_V", np.asarray(gv, dtype=np.int64)[se_a], "its stage slot v"),
         ("IPM_IN_ROW", tab.in_rows, "inequality row i (ascending)"), ("IPM_IN_PTR", tab.in_ptr, "sides of row i"),
         ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
@@ -527,24 +563,30 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_BOX_A", sv.box_a, "its data index"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
+        ("IPM_SR_RPTR", sr.rptr, "runs of soft rows of stage k"),
+        ("IPM_SR_RUN_PTR", sr.run_ptr, "soft rows of run r (rows on the same slots)"),
+        ("IPM_SR_RUN_V", sr.run_v.reshape(-1, sr.NA), "[r][p]: stage slot of the run's (x, u) entry p"),
+        ("IPM_SR_ROW", sr.row, "soft row j's row"),
+        ("IPM_SR_A", sr.a.reshape(-1, sr.NA), "[j][p]: its data index (-1: padding)"),
+        ("IPM_SR_SVAR", sr.svar, "its slack"),
+        ("IPM_SR_E", sr.e, "data index of the slack's coefficient"), ("IPM_SR_BROW", sr.brow, "the slack's bound row"),
+        ("IPM_SR_BA", sr.ba, "data index of the bound row's coefficient"),
     ]
     if NE == 0:  # the template emits the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
     top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
-    out = [{"name": nm, "kind": "idx", "len": max(1, int(np.asarray(t).size)), "doc": doc,
-            "body": _c_list([int(x) for x in np.asarray(t).ravel()])} for nm, t, doc in tables]
-    out.append({"name": "IPM_SIDE_SIGN", "kind": "sign", "len": max(1, len(sv.side_sign)),
-                "doc": "+1: lower side (a'z >= l), -1: upper side (a'z <= u)",
-                "body": _c_list([int(x) for x in sv.side_sign])})
+    out = [_table(nm, "idx", t, doc) for nm, t, doc in tables]
     second = np.r_[False, sv.side_row[1:] == sv.side_row[:-1]] if len(sv.side_row) else np.zeros(0, dtype=bool)
-    out.append({"name": "IPM_SIDE_2ND", "kind": "sign", "len": max(1, len(second)),
-                "doc": "1: the second side of its row (the per-row sums add, the first side sets)",
-                "body": _c_list([int(x) for x in second])})
+    out += [_table(nm, "sign", t, doc) for nm, t, doc in (
+        ("IPM_SR_SIGN", sr.sign, "soft row j's side: +1 lower, -1 upper"),
+        ("IPM_SR_BSIGN", sr.bsign, "its slack's bound side"),
+        ("IPM_SIDE_SIGN", sv.side_sign, "+1: lower side (a'z >= l), -1: upper side (a'z <= u)"),
+        ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"))]
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv),
+            "NGA": len(gv), "NSR": sr.count, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
@@ -554,7 +596,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
 
 def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bool) -> BackendFiles:
     """The IPM is all in the solver's C file: no extra files; its RAM is the workspace struct."""
-    ws = _workspace_bytes(_members(stage_view(layout), layout), 4 if use_float else 8)
+    sv, sr = split_soft_rows(layout, stage_view(layout))
+    ws = _workspace_bytes(_members(sv, layout), sr, 4 if use_float else 8)
     return BackendFiles(sources=(), headers=(), library_sources=(), library_headers=(), include_dirs=(),
                         private_include_dirs=(), cflags=(), link_libs=(), array_bytes=ws, struct_bytes=0,
                         memory_init_note=": one struct, every array written before it is read",
