@@ -3,15 +3,57 @@
 A road is data: samples of ``kappa``, ``phi_gamma``, ``gamma_x``, ``gamma_y`` on a uniform grid ``s0 + i ds``.
 Between samples ``kappa`` is linear, ``phi_gamma`` cubic Hermite with slope ``kappa`` (so exactly the integral of the
 linear ``kappa``), and ``gamma`` cubic Hermite with slopes ``[cos, sin](phi_gamma)``.
+
+Reproducible on every CPU: the numpy side (random roads, the centre-line integration, the Frenet transforms that
+give the solvers' opponent poses) uses only elementwise ``+ - * /`` (correctly rounded IEEE operations: the same bits
+whatever numpy's SIMD width), accumulations in a fixed order (``np.cumsum``, sums of shifted slices written out) and
+libm's ``sin``/``cos`` through the ``math`` module (``libm_cos``/``libm_sin``). Never numpy's transcendental ufuncs
+(``np.sin``, ``np.cos``, ...: per-CPU SIMD kernels, e.g. SVML on AVX-512), nor dot products, ``@``,
+``np.convolve`` or LAPACK (BLAS/SIMD kernels chosen per CPU, each summing in its own order): a road or an opponent
+pose that moves in its last bit from one machine to another moves every solver output after it, and golden suites
+recorded on one machine would fail on another.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
+
+
+# --- CPU-independent elementwise trigonometry ---------------------------------------------------
+
+def _libm(fn, x):
+    a = np.asarray(x, dtype=float)
+    if a.ndim == 0:
+        return np.float64(fn(float(a)))
+    return np.fromiter(map(fn, a.ravel().tolist()), float, a.size).reshape(a.shape)
+
+
+def libm_cos(x):
+    """cos of every element of ``x`` by libm (``math.cos``): not numpy's per-CPU SIMD kernels (float64 array, or
+    ``np.float64`` for a scalar)."""
+    return _libm(math.cos, x)
+
+
+def libm_sin(x):
+    """sin of every element of ``x`` by libm (``math.sin``), as ``libm_cos``."""
+    return _libm(math.sin, x)
+
+
+# 10-point Gauss-Legendre rule on [-1, 1]: the positive nodes and their weights, correctly rounded (from a 60-digit
+# Newton iteration on P_10; their leading 15 digits are Abramowitz-Stegun's table 25.4). Constants, not
+# ``np.polynomial.legendre.leggauss`` (LAPACK eigenvalues: last bits per BLAS kernel).
+_GL10_HALF = ((0.1488743389816312108848260, 0.2955242247147528701738930),
+              (0.4333953941292471907992659, 0.2692667193099963550912269),
+              (0.6794095682990244062343274, 0.2190863625159820439955349),
+              (0.8650633666889845107320967, 0.1494513491505805931457763),
+              (0.9739065285171717200779640, 0.0666713443086881375935688))
+GL10_NODES = np.array([-x for x, _ in reversed(_GL10_HALF)] + [x for x, _ in _GL10_HALF])
+GL10_WEIGHTS = np.array([w for _, w in reversed(_GL10_HALF)] + [w for _, w in _GL10_HALF])
 
 
 # --- the one interpolation formula (works on floats, numpy arrays and CasADi SX) ----------------
@@ -26,12 +68,13 @@ def _hermite(tau, h, y0, y1, m0, m1):
     return val, der
 
 
-def _segment(tau, h, k0, k1, p0, p1, x0, x1, y0, y1, cos, sin):
-    """Road quantities on one segment: kappa, phi_gamma, gamma_x, gamma_y and the tangent [gx', gy']."""
+def _segment(tau, h, k0, k1, p0, p1, x0, x1, y0, y1, c0, c1, s0, s1):
+    """Road quantities on one segment: kappa, phi_gamma, gamma_x, gamma_y and the tangent [gx', gy'];
+    ``c0, c1, s0, s1``: cos and sin of phi_gamma at the segment's two ends."""
     kappa = (1 - tau) * k0 + tau * k1
     phi, _ = _hermite(tau, h, p0, p1, k0, k1)
-    gx, dgx = _hermite(tau, h, x0, x1, cos(p0), cos(p1))
-    gy, dgy = _hermite(tau, h, y0, y1, sin(p0), sin(p1))
+    gx, dgx = _hermite(tau, h, x0, x1, c0, c1)
+    gy, dgy = _hermite(tau, h, y0, y1, s0, s1)
     return kappa, phi, gx, gy, dgx, dgy
 
 
@@ -62,20 +105,24 @@ class Road:
     def from_curvature(cls, kappa, ds: float, s0: float = 0.0, x0=(0.0, 0.0, 0.0)) -> "Road":
         """Integrate the centre line from (x, y, phi) = x0 for piecewise-linear curvature samples.
 
-        ``phi`` is exact (trapezoid of a linear function); ``gamma`` uses 10-point Gauss-Legendre per segment.
+        ``phi`` is exact (trapezoid of a linear function); ``gamma`` uses 10-point Gauss-Legendre per segment: libm
+        trig and the weighted sum over the 10 points in node order (CPU-independent, see the module docstring).
         """
         kappa = np.asarray(kappa, dtype=float)
         m = len(kappa)
         phi = np.empty(m)
         phi[0] = x0[2]
         phi[1:] = x0[2] + np.cumsum(ds * 0.5 * (kappa[:-1] + kappa[1:]))
-        nodes, weights = np.polynomial.legendre.leggauss(10)
-        tau = 0.5 * (nodes + 1.0)
-        w = 0.5 * weights
+        tau = 0.5 * (GL10_NODES + 1.0)
+        w = 0.5 * GL10_WEIGHTS
         k0, k1 = kappa[:-1, None], kappa[1:, None]
-        ph = phi[:-1, None] + ds * (k0 * tau + 0.5 * (k1 - k0) * tau**2)
-        dx = ds * (np.cos(ph) @ w)
-        dy = ds * (np.sin(ph) @ w)
+        ph = phi[:-1, None] + ds * (k0 * tau + 0.5 * (k1 - k0) * (tau * tau))
+        c, sn = libm_cos(ph), libm_sin(ph)
+        dx, dy = c[:, 0] * w[0], sn[:, 0] * w[0]
+        for q in range(1, len(w)):
+            dx = dx + c[:, q] * w[q]
+            dy = dy + sn[:, q] * w[q]
+        dx, dy = ds * dx, ds * dy
         gx = np.concatenate([[x0[0]], x0[0] + np.cumsum(dx)])
         gy = np.concatenate([[x0[1]], x0[1] + np.cumsum(dy)])
         return cls(float(s0), float(ds), kappa, phi, gx, gy)
@@ -115,16 +162,24 @@ class Road:
         i = np.clip(np.floor(t), 0, self.size - 2).astype(int)
         return i, t - i
 
+    @cached_property
+    def _tangents(self) -> tuple[np.ndarray, np.ndarray]:
+        """cos and sin of phi_gamma at the samples (libm; computed on first use; the arrays are not to be changed)."""
+        c, s = libm_cos(self.phi), libm_sin(self.phi)
+        c.flags.writeable = s.flags.writeable = False
+        return c, s
+
     def eval(self, s):
         """kappa, phi_gamma, gamma_x, gamma_y, gamma_x', gamma_y' at s (numpy, vectorized)."""
         i, tau = self._locate(s)
+        c, sn = self._tangents
         return _segment(tau, self.ds, self.kappa[i], self.kappa[i + 1], self.phi[i], self.phi[i + 1],
-                        self.gx[i], self.gx[i + 1], self.gy[i], self.gy[i + 1], np.cos, np.sin)
+                        self.gx[i], self.gx[i + 1], self.gy[i], self.gy[i + 1], c[i], c[i + 1], sn[i], sn[i + 1])
 
     def to_cartesian(self, s, n, alpha):
         """Inverse Frenet transform F^-1: (s, n, alpha) -> (x, y, phi)."""
         _, phi_g, gx, gy, _, _ = self.eval(s)
-        return gx - n * np.sin(phi_g), gy + n * np.cos(phi_g), phi_g + alpha
+        return gx - n * libm_sin(phi_g), gy + n * libm_cos(phi_g), phi_g + alpha
 
     def project(self, x, y, s_guess=None, tol: float = 1e-12, max_iter: int = 30):
         """s* = argmin ||p - gamma(s)||^2 by Newton from a guess (nearest sample if none); vectorized."""
@@ -137,7 +192,7 @@ class Road:
             # foot point: (gamma(s) - p) . e_t(s) = 0 with e_t = [cos, sin](phi_gamma), the tangent F^-1 uses,
             # so F(F^-1(.)) is exact; it is the argmin's first-order condition up to interpolation error.
             kappa, phi_g, gx, gy, dx, dy = self.eval(s)
-            c, sn = np.cos(phi_g), np.sin(phi_g)
+            c, sn = libm_cos(phi_g), libm_sin(phi_g)
             ex, ey = gx - x, gy - y
             g = ex * c + ey * sn
             dg = dx * c + dy * sn + kappa * (-ex * sn + ey * c)
@@ -151,7 +206,7 @@ class Road:
         """Forward Frenet transform F: (x, y, phi) -> (s, n, alpha) by local projection."""
         s = self.project(x, y, s_guess)
         _, phi_g, gx, gy, _, _ = self.eval(s)
-        n = -(x - gx) * np.sin(phi_g) + (y - gy) * np.cos(phi_g)
+        n = -(x - gx) * libm_sin(phi_g) + (y - gy) * libm_cos(phi_g)
         return s, n, phi - phi_g
 
 
@@ -167,9 +222,13 @@ def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2
     s_knots = np.arange(len(knots)) * knot_spacing
     raw = np.interp(s, s_knots, knots)
     width = max(1, int(round(knot_spacing / ds)) | 1)  # odd moving-average width: a convex combination
-    pad = width // 2
-    kappa = np.convolve(np.pad(raw, pad, mode="edge"), np.ones(width) / width, mode="valid")
-    return Road.from_curvature(kappa, ds, s0)
+    padded = np.pad(raw, width // 2, mode="edge")
+    # the moving average as a sum of shifted slices in a fixed order (not np.convolve: a BLAS dot product per
+    # output, summed in the order of the CPU's kernel)
+    acc = padded[:len(s)].copy()
+    for k in range(1, width):
+        acc += padded[k:k + len(s)]
+    return Road.from_curvature(acc / width, ds, s0)
 
 
 def min_self_distance(road: Road, min_arc: float, s_max: float | None = None) -> float:
@@ -220,7 +279,7 @@ def casadi_road(s, p, samples: int):
     """kappa, phi_gamma, gamma_x, gamma_y (and the tangent) at symbolic s from a window parameter vector p."""
     tau, ends = window_segment(s, p, samples, 4)
     (k0, k1), (p0, p1), (x0, x1), (y0, y1) = ends
-    return _segment(tau, p[1], k0, k1, p0, p1, x0, x1, y0, y1, ca.cos, ca.sin)
+    return _segment(tau, p[1], k0, k1, p0, p1, x0, x1, y0, y1, ca.cos(p0), ca.cos(p1), ca.sin(p0), ca.sin(p1))
 
 
 def window_segment(s, p, samples: int, arrays: int):
