@@ -1,7 +1,8 @@
 """The scenario generator gives the same bits on every CPU (for one Python/numpy/glibc), so golden suites recorded on
 one machine replay on another: roads and the opponents' poses the solvers get use no numpy transcendental ufunc, no
 BLAS/LAPACK kernel and no SIMD reduction (their results depend on the CPU: SVML on AVX-512, per-CPU OpenBLAS
-kernels), only elementwise IEEE arithmetic, fixed-order sums and libm's sin/cos.
+kernels), only elementwise IEEE arithmetic, fixed-order sums and libm's sin/cos. And ``scenario_of`` accepts a logged
+road a few ulps away (another libm) but not another road.
 """
 from __future__ import annotations
 
@@ -11,13 +12,20 @@ import os
 import platform
 import subprocess
 import sys
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fcgen.presets import paper_problem
+from fcgen.presets import load_problem, paper_problem
 from fcgen.road import GL10_NODES, GL10_WEIGHTS, Road, _segment, libm_cos, libm_sin, random_road
 from fcgen.sim import scenario as scn
+from fcgen.sim.replay import ROAD_RTOL, scenario_of
+from fcgen.sim.runlog import RunLog
+
+ROOT = Path(__file__).resolve().parents[1]
+GOLDEN_LOG = ROOT / "generated" / "truck_lifted_ellipse" / "golden" / "truck_seed0.json.xz"
 
 
 def _bits(a) -> bytes:
@@ -194,3 +202,64 @@ def test_gauss_legendre_constants_are_the_10_point_rule():
     xl, wl = np.polynomial.legendre.leggauss(10)
     np.testing.assert_allclose(x, xl, rtol=0, atol=4e-16)
     np.testing.assert_allclose(w, wl, rtol=0, atol=2e-15)
+
+
+# --- the replay's road check ----------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def log_and_problem():
+    """The checked-in golden log of seed 0 with its road replaced by the one this generator gives (so the test does
+    not depend on whether the goldens were recorded with this generator)."""
+    log = RunLog.from_json(GOLDEN_LOG)
+    pb = load_problem(str(GOLDEN_LOG.parents[1] / "problem.py"))
+    r = scn.make_scenario(log.meta["scenario"], log.meta["seed"]).road
+    road = {**log.road, "s": r.s, "kappa": r.kappa, "phi_gamma": r.phi, "gamma_x": r.gx, "gamma_y": r.gy}
+    return replace(log, road=road), pb
+
+
+def _with_road(log: RunLog, key: str, change) -> RunLog:
+    a = np.array(log.road[key], dtype=float)
+    change(a)
+    return replace(log, road={**log.road, key: a})
+
+
+def test_scenario_of_the_generated_road_is_the_cached_scenario(log_and_problem):
+    log, pb = log_and_problem
+    sc = scenario_of(log, pb)
+    assert sc.road is scn.make_scenario(log.meta["scenario"], log.meta["seed"]).road   # not a copy
+
+
+def test_scenario_of_accepts_a_road_a_few_ulps_away_and_replays_the_logged_one(log_and_problem):
+    log, pb = log_and_problem
+    gx = np.asarray(log.road["gamma_x"])
+
+    def ulps(a):
+        a[100:400] = np.nextafter(np.nextafter(a[100:400], np.inf), np.inf)
+    near = _with_road(_with_road(log, "gamma_x", ulps), "kappa", ulps)
+    sc = scenario_of(near, pb)
+    assert not np.array_equal(sc.road.gx, gx)
+    for key, name in (("kappa", "kappa"), ("phi_gamma", "phi"), ("gamma_x", "gx"), ("gamma_y", "gy")):
+        assert _bits(getattr(sc.road, name)) == _bits(near.road[key]), key
+    assert sc.road.s0 == log.road["s"][0] and sc.road.ds == log.road["ds"]
+
+
+@pytest.mark.parametrize("key, index, delta, shown", [
+    ("gamma_x", 300, 1e-8, "allowed"),          # 1e-8 m on a ~1 km road: 10x the tolerance, another road
+    ("gamma_y", 0, np.nan, "nan"),
+    ("kappa", 250, 2 * ROAD_RTOL, "allowed"),   # kappa's scale is 1: twice its tolerance
+    ("phi_gamma", 10, 1e-6, "allowed"),
+])
+def test_scenario_of_rejects_another_road(log_and_problem, key, index, delta, shown):
+    log, pb = log_and_problem
+
+    def bump(a):
+        a[index] += delta
+    with pytest.raises(ValueError, match=rf"log's road is not the one of scenario 'truck' seed 0 \(another scenario "
+                                         rf"generator\?\): {key} differs by .*{shown}"):
+        scenario_of(_with_road(log, key, bump), pb)
+
+
+def test_scenario_of_rejects_another_grid(log_and_problem):
+    log, pb = log_and_problem
+    with pytest.raises(ValueError, match="another grid"):
+        scenario_of(_with_road(log, "s", lambda a: a.__setitem__(slice(None), a + 1e-9)), pb)

@@ -10,16 +10,39 @@ loop would have taken another manoeuvre afterwards.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..dsl import Problem
+from ..road import Road
 from .closedloop import PLAN_LEVELS, Controller, PlanLog, solver_window
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario, make_scenario
 
 
+#: ``scenario_of``: how far a log's road arrays (kappa, phi_gamma, gamma_x, gamma_y) may be from the regenerated
+#: ones, relative to each array's largest magnitude (at least 1). The scenario generator gives the same bits on every
+#: CPU for one Python/numpy/glibc (road.py), but another libm (another glibc; a CPU without FMA, where glibc picks
+#: another sin/cos kernel: 1 ulp apart on ~0.07 % of arguments) may move the integrated centre line by a few ulps of
+#: its magnitude (a 1.6 km road: ~1e-13 m). 1e-12 of the magnitude (~1 nm on such a road) leaves room for that;
+#: any real change of the generator moves the curvature by far more (the knots are O(kappa_max) = O(0.05)).
+ROAD_RTOL = 1e-12
+_ROAD_ARRAYS = (("kappa", "kappa"), ("phi_gamma", "phi"), ("gamma_x", "gx"), ("gamma_y", "gy"))
+
+
+def _road_deviation(logged, new: np.ndarray) -> tuple[float, float]:
+    """Largest |logged - new| (NaN if any is) and the allowed one (``ROAD_RTOL``); arrays of one length."""
+    allowed = ROAD_RTOL * max(1.0, float(np.max(np.abs(new), initial=0.0)))
+    return float(np.max(np.abs(np.asarray(logged, dtype=float) - new), initial=0.0)), allowed
+
+
 def scenario_of(log: RunLog, problem: Problem) -> Scenario:
-    """The scenario a log was run on (from ``meta``), checked against the log's road and opponents (ValueError)."""
+    """The scenario a log was run on (from ``meta``), checked against the log's road and opponents (ValueError).
+
+    The road's grid must be the regenerated one exactly, its arrays within ``ROAD_RTOL``; when they are not the
+    same bits, the scenario gets the log's own road, so a replay feeds the solver the recorded road windows.
+    """
     m = log.meta
     if len(log.opponents) != problem.opponents.count:
         raise ValueError(f"log has {len(log.opponents)} opponents, problem {problem.name!r} expects "
@@ -29,12 +52,15 @@ def scenario_of(log: RunLog, problem: Problem) -> Scenario:
     except ValueError as exc:
         raise ValueError(f"log's scenario cannot be rebuilt: {exc}") from None
     r = sc.road
-    same_road = (len(log.road["s"]) == r.size and log.road["ds"] == r.ds
-                 and all(np.array_equal(log.road[k], v) for k, v in
-                         (("s", r.s), ("kappa", r.kappa), ("gamma_x", r.gx), ("gamma_y", r.gy))))
-    if not same_road:
-        raise ValueError(f"log's road is not the one of scenario {m['scenario']!r} seed {m['seed']} (another "
-                         f"scenario generator?)")
+    what = f"log's road is not the one of scenario {m['scenario']!r} seed {m['seed']} (another scenario generator?)"
+    if not (len(log.road["s"]) == r.size and log.road["ds"] == r.ds and np.array_equal(log.road["s"], r.s)):
+        raise ValueError(f"{what}: another grid")
+    for key, attr in _ROAD_ARRAYS:
+        dev, allowed = _road_deviation(log.road[key], getattr(r, attr))
+        if not dev <= allowed:
+            raise ValueError(f"{what}: {key} differs by {dev:.3g} (allowed {allowed:.3g})")
+    if not all(np.array_equal(log.road[key], getattr(r, attr)) for key, attr in _ROAD_ARRAYS):
+        sc = replace(sc, road=Road(r.s0, r.ds, *(np.asarray(log.road[key], dtype=float) for key, _ in _ROAD_ARRAYS)))
     if not np.array_equal(log.opp_frenet, sc.opp_frenet(log.t)):
         raise ValueError(f"log's opponents are not those of scenario {m['scenario']!r} seed {m['seed']}")
     return sc
