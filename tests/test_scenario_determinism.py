@@ -244,7 +244,7 @@ def test_scenario_of_accepts_a_road_a_few_ulps_away_and_replays_the_logged_one(l
 
 
 @pytest.mark.parametrize("key, index, delta, shown", [
-    ("gamma_x", 300, 1e-8, "allowed"),          # 1e-8 m on a ~1 km road: 10x the tolerance, another road
+    ("gamma_x", 300, 1e-8, "allowed"),          # 1e-8 m: 15x the tolerance on this road (|gamma_x| <= 661 m)
     ("gamma_y", 0, np.nan, "nan"),
     ("kappa", 250, 2 * ROAD_RTOL, "allowed"),   # kappa's scale is 1: twice its tolerance
     ("phi_gamma", 10, 1e-6, "allowed"),
