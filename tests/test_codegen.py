@@ -181,6 +181,64 @@ def test_controller_protocol(cs: CSolver) -> None:
     assert np.all(log_c.time_feedback > 0)
 
 
+def _same_result(a, b) -> bool:
+    """Two StepResults bit for bit, the solver's own times left out."""
+    return (a.u.dtype == b.u.dtype and a.u.tobytes() == b.u.tobytes() and
+            (a.exit_code, a.qp_status, a.qp_iter) == (b.exit_code, b.qp_status, b.qp_iter) and
+            (a.max_slack == b.max_slack or (math.isnan(a.max_slack) and math.isnan(b.max_slack))))
+
+
+def test_window_stepper_is_step(cs: CSolver) -> None:
+    """CSolver.window_stepper (the closed loop's C path: no window built) gives step's results on built windows bit
+    for bit, its error codes and its errors; a subclass that overrides a part of step gets step itself."""
+    pb = preset(PRESET)
+    sc = make_scenario("truck", 5, samples=8)
+
+    class Plain:  # the Controller protocol without window_stepper: run_closed_loop builds the windows
+        kind = "c"
+
+        def step(self, x0, road, opp):
+            return cs.step(x0, road, opp)
+
+    logs = []
+    for ctrl in (cs, Plain()):
+        assert cs.init() == 0
+        logs.append(run_closed_loop(pb, sc, controller=ctrl, exit_codes=True))
+    for name in logs[0].sample_fields():
+        if not name.startswith("time_"):
+            a, b = (np.asarray(getattr(log, name)) for log in logs)
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+    # sample by sample, with bad opponents and a state that is not finite
+    road, x0, opp = _inputs(cs)
+    bad_opp, bad_x = opp.copy(), x0.copy()
+    bad_opp[3, 1, 2], bad_x[2] = math.nan, math.inf
+    results = []
+    for way in ("stepper", "step"):
+        assert cs.init() == 0
+        step = cs.window_stepper(road, road.size)
+        for x, o in ((x0, opp), (x0, bad_opp), (bad_x, opp), (x0, opp), (x0, opp)):
+            results.append(step(x, road.s0, o) if way == "stepper" else cs.step(x, road, o))
+    assert [r.exit_code for r in results[:5]] == [0, CODE["ERR_NONFINITE_OPPONENTS"], CODE["ERR_NONFINITE_STATE"], 0,
+                                                  0]
+    assert all(_same_result(a, b) for a, b in zip(results[:5], results[5:]))
+    step = cs.window_stepper(road, road.size)
+    with pytest.raises(ValueError, match="outside the road"):
+        step(x0, road.s0 + 2.0 * road.ds, opp)
+    with pytest.raises(ValueError, match="expected"):
+        step(x0, road.s0, opp[:-1])
+    # a subclass that overrides a part of step: step on a built window (its own prepare_phase runs)
+    calls = []
+
+    class Counting(CSolver):
+        def prepare_phase(self, x0, road, opp):
+            calls.append(road.size)
+            return super().prepare_phase(x0, road, opp)
+
+    sub = Counting(cs.lib._name)
+    assert sub.init() == 0
+    assert _same_result(sub.window_stepper(road, road.size)(x0, road.s0, opp), results[5]) and calls == [road.size]
+
+
 # --- bad inputs ----------------------------------------------------------------------------------------------------
 
 def _inputs(cs: CSolver, s_ego: float = 0.0):

@@ -179,6 +179,7 @@ class CSolver:
             f.argtypes, f.restype = args, res
             self._fns[fn] = f
         self._status = _CStatus()
+        self._status_addr = ctypes.addressof(self._status)
         self._u0 = np.zeros(self.nu, dtype=self.dtype)
         self._u0_addr = self._u0.ctypes.data
         self._inputs: dict[str, tuple[np.ndarray, int]] = {}
@@ -258,7 +259,7 @@ class CSolver:
 
     def status(self) -> Status:
         st = self._status
-        self._fns["get_status"](ctypes.byref(st))
+        self._fns["get_status"](self._status_addr)
         return Status(**{f: getattr(st, f) for f in _STATUS_FIELDS})
 
     def get_qp(self) -> dict[str, np.ndarray]:
@@ -307,6 +308,83 @@ class CSolver:
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.states(), self.controls()
+
+    def window_stepper(self, road: Road, samples: int):
+        """For a closed loop's samples on one road: ``step(x0, s_start, opp)``, the same as
+        ``self.step(x0, road.window(s_start, samples), opp)`` (the same C calls in the same order with the same
+        values, the same results and errors) without building the window or converting inputs per call: set_road is
+        given the road's own arrays at the window's offset (converted to the solver's real type once), the state and
+        the opponents are copied into preallocated buffers, the status is read from its struct.
+
+        A subclass that overrides a part of ``step`` (``QpRecorder``) or an instance with a replaced method gets
+        ``step`` on a built window."""
+        if any(m in self.__dict__ or getattr(type(self), m) is not getattr(CSolver, m) for m in _STEP_PARTS):
+            return lambda x0, s_start, opp: self.step(x0, road.window(s_start, samples), opp)
+        arrays = [np.ascontiguousarray(a, dtype=self.dtype) for a in (road.kappa, road.phi, road.gx, road.gy)]
+        ak, ap, ax, ay = (a.ctypes.data for a in arrays)
+        size, r_s0, r_ds, item = road.size, road.s0, road.ds, np.dtype(self.dtype).itemsize
+        o_shape = (self.N + 1, self.n_opp, self.n_opp_par)
+        n_opp = math.prod(o_shape)
+        self._input("x0", np.zeros(5), 5)
+        self._input("opp", np.zeros(n_opp), n_opp)
+        (xbuf, xaddr), (obuf, oaddr) = self._inputs["x0"], self._inputs["opp"]
+        obuf3 = obuf.reshape(o_shape)
+        # fixed addresses as ctypes objects: no conversion per call
+        xptr, optr, st_ptr, u0_ptr = (ctypes.c_void_p(a) for a in (xaddr, oaddr, self._status_addr, self._u0_addr))
+        f = self._fns
+        set_road, set_opponents, set_state, has_guess = f["set_road"], f["set_opponents"], f["set_state"], \
+            f["has_guess"]
+        prepare, feedback, get_status, get_u0, max_slack = f["prepare"], f["feedback"], f["get_status"], \
+            f["get_u0"], f["max_slack"]
+        st, u0, ndarray, floor, nan = self._status, self._u0, np.ndarray, math.floor, math.nan
+
+        def state(x0) -> bool:   # _input("x0", x0, 5)
+            if type(x0) is ndarray and x0.shape == (5,):
+                xbuf[...] = x0
+                return True
+            xa = np.asarray(x0).ravel()
+            if xa.size != 5:
+                raise ValueError(f"expected 5 values, got {xa.size}")
+            xbuf[...] = xa
+            return True
+
+        def step(x0: np.ndarray, s_start: float, opp: np.ndarray) -> StepResult:
+            i0 = int(floor((s_start - r_s0) / r_ds))
+            if i0 < 0 or i0 + samples > size or samples < 2:
+                road.window(s_start, samples)   # raises its ValueError
+            off = i0 * item
+            # prepare_phase
+            rc = set_road(r_s0 + i0 * r_ds, r_ds, samples, ak + off, ap + off, ax + off, ay + off)
+            if not rc:   # _input("opp", opp, n_opp)
+                if type(opp) is ndarray and opp.shape == o_shape:
+                    obuf3[...] = opp
+                else:
+                    o = np.asarray(opp).ravel()
+                    if o.size != n_opp:
+                        raise ValueError(f"expected {n_opp} values, got {o.size}")
+                    obuf[...] = o
+                rc = set_opponents(optr)
+            copied = False
+            if not rc and not has_guess():
+                copied = state(x0)
+                rc = set_state(xptr)
+            rc = rc or prepare()
+            # feedback_phase
+            if not rc:
+                copied = copied or state(x0)
+                rc = set_state(xptr)
+            rc = rc or feedback()
+            get_status(st_ptr)
+            get_u0(u0_ptr)
+            return StepResult(u0.astype(float), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+                              nan if rc else max_slack())
+
+        return step
+
+
+#: the methods ``CSolver.step`` calls (``window_stepper`` calls their C functions directly unless one is replaced)
+_STEP_PARTS = ("step", "prepare_phase", "feedback_phase", "set_road", "set_opponents", "set_state", "has_guess",
+               "prepare", "feedback", "status", "u0", "max_slack")
 
 
 class QpRecorder(CSolver):
