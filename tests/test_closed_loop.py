@@ -9,7 +9,8 @@ from scipy.integrate import solve_ivp
 
 from fcgen.backends import QP_USABLE
 from fcgen.presets import paper_problem
-from fcgen.sim.closedloop import run_closed_loop
+from fcgen.ocp import road_window_samples
+from fcgen.sim.closedloop import Plant, run_closed_loop
 from fcgen.sim.runlog import RunLog, compare, summary
 from fcgen.sim.scenario import OPP_SPEED, make_scenario
 
@@ -64,6 +65,20 @@ def test_quick_run_follows_the_plant_model(quick_run):
     np.testing.assert_allclose(log.ego_cartesian, np.stack([x, y, phi], axis=1), atol=1e-12)
     np.testing.assert_allclose(np.diff(log.opp_frenet[:, :, 0], axis=0), OPP_SPEED * 0.1, atol=1e-12)
     np.testing.assert_allclose(log.opp_frenet[:, :, 1], np.broadcast_to(sc.opp_n, (31, 3)))
+
+
+def test_plant_road_stepper_is_step(quick_run):
+    """Plant.road_stepper (the closed loop's plant: window parameters from a table) gives Plant.step's states bit
+    for bit, and its error off the road."""
+    pb, sc, log = quick_run
+    plant = Plant(pb, road_window_samples(pb))
+    step = plant.road_stepper(sc.road)
+    for x, u in zip(log.ego_frenet[:-1], log.control):
+        assert step(x, u).tobytes() == plant.step(x, u, sc.road).tobytes()
+    off = log.ego_frenet[0].copy()
+    off[0] = sc.road.s_end
+    with pytest.raises(ValueError, match="outside the road"):
+        step(off, log.control[0])
 
 
 def test_quick_run_log_round_trips_through_json(quick_run, tmp_path):

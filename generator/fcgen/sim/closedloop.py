@@ -38,7 +38,11 @@ class StepResult:
 
 
 class Controller(Protocol):
-    """One closed-loop controller: the Python reference or a compiled C solver."""
+    """One closed-loop controller: the Python reference or a compiled C solver.
+
+    A controller may also offer ``window_stepper(road, samples)``: a function ``step(x0, s_start, opp)`` that does
+    what ``step(x0, road.window(s_start, samples), opp)`` does, for many samples on one road (``CSolver``: without
+    building each window); ``run_closed_loop`` uses it when it is there."""
 
     kind: str
 
@@ -171,6 +175,36 @@ class Plant:
         self._eval()
         return self._out.copy()
 
+    def road_stepper(self, road: Road):
+        """``step`` on one road as a function ``step(x, u)`` (the same values, bit for bit) that copies the packed
+        window parameters from a table of every window of ``road`` (built here, once) instead of packing them per
+        call; it returns the plant's output buffer, overwritten by the next call."""
+        rp, K = self.road_params, self.road_params.samples
+        n = road.size - K + 1
+        cols = np.empty((rp.size, max(n, 0)))   # built column-wise (whole-road slices), used row-wise
+        if n > 0:
+            cols[0] = road.s0 + np.arange(n) * road.ds   # pack_into's road.s0 + i0 * road.ds, for every i0
+            cols[1] = road.ds
+            for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
+                for k in range(K):
+                    cols[2 + j * K + k] = a[k: k + n]
+        table = np.ascontiguousarray(cols.T)
+        xb, ub, pb, out, ev = self._x, self._u, self._p, self._out, self._eval
+        s0, ds, floor = road.s0, road.ds, math.floor
+
+        def step(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+            i0 = int(floor((x[0] - s0) / ds)) - 1
+            xb[:] = x
+            ub[:] = u
+            if 0 <= i0 < n:
+                pb[:] = table[i0]
+            else:
+                rp.pack_into(pb, road, i0)   # raises its ValueError
+            ev()
+            return out
+
+        return step
+
 
 def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
@@ -203,17 +237,26 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     if progress:
         from tqdm import tqdm
         it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
+    stepper = getattr(controller, "window_stepper", None)
+    step = stepper(road, problem.road.samples) if stepper is not None else None
+    plant_step, horizon, add, results = plant.road_stepper(road), opp_params.horizon, planlog.add, []
     for j in it:
         x = xs[j]
-        r = controller.step(x, solver_window(problem, road, x), opp_params.horizon(j))
+        if step is not None:   # = controller.step(x, solver_window(problem, road, x), ...) without the window
+            r = step(x, x[0] - WINDOW_BEHIND, horizon(j))
+        else:
+            r = controller.step(x, solver_window(problem, road, x), horizon(j))
         us[j] = r.u
-        planlog.add(j, controller, r)
+        add(j, controller, r)
+        results.append(r)
+        xs[j + 1] = plant_step(x, us[j])
+    for j, r in enumerate(results):
         tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
-        xs[j + 1] = plant.step(x, us[j], road)
     t = np.arange(K + 1) * sc.dt
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
-    opp_cart = sc.opp_cartesian(t)
+    # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
+    opp_cart = np.stack([opp_params.at_index(j) for j in range(K + 1)])
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
