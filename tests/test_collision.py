@@ -171,6 +171,37 @@ def test_run_helpers():
     assert collisions_over_run(ego, ego_dims, np.zeros((3, 0, 3)), []).shape == (3, 0)
 
 
+def test_run_helpers_skip_only_pairs_that_are_apart():
+    """The run helpers test by SAT only pairs whose circumscribed circles meet: their results are sat_overlap's on
+    every pair, bit for bit (random runs, near and far, touching, identical and NaN poses), and degenerate chassis
+    still raise."""
+    rng = np.random.default_rng(7)
+    car = {"l_f": 1.2, "l_r": 1.4, "l_r_ch": 1.0, "l_f_ch": 3.6, "w_ch": 1.8}
+    truck = {"l_f": 4.0, "l_r": 2.0, "l_r_ch": 10.0, "l_f_ch": 16.0, "w_ch": 4.0}
+    hits = 0
+    for trial in range(300):
+        k, n = int(rng.integers(1, 40)), int(rng.integers(1, 4))
+        ego_dims, opp_dims = (car, truck)[trial % 2], [(car, truck)[int(rng.integers(2))] for _ in range(n)]
+        base = rng.uniform(-2000.0, 2000.0, 2)
+        ego = np.column_stack([base[0] + rng.normal(0, 15, k), base[1] + rng.normal(0, 15, k), rng.uniform(-4, 4, k)])
+        opp = ego[:, None, :] + np.stack([rng.normal(0, 12, (k, n)), rng.normal(0, 6, (k, n)),
+                                          rng.normal(0, 0.5, (k, n))], axis=-1)
+        opp[0, 0] = ego[0]
+        if trial % 5 == 0:
+            ego[-1, 1] = math.nan
+        ego_c = corners_from_dims(ego, ego_dims)
+        full = np.stack([sat_overlap(ego_c, corners_from_dims(opp[:, i], d)) for i, d in enumerate(opp_dims)], axis=1)
+        flags = collisions_over_run(ego, ego_dims, opp, opp_dims)
+        depth = penetration_over_run(ego, ego_dims, opp, opp_dims)
+        assert flags.tobytes() == (full > 0.0).tobytes()
+        assert depth.tobytes() == np.maximum(full, 0.0).tobytes()
+        hits += int(flags.sum())
+    assert hits > 100
+    flat = dict(car, w_ch=0.0)
+    with pytest.raises(ValueError, match="degenerate"):
+        collisions_over_run(np.zeros((2, 3)), car, np.full((2, 1, 3), 100.0), [flat])
+
+
 # ---------------------------------------------------------------- randomized cross-check
 
 

@@ -114,6 +114,8 @@ def collision_columns(road, log) -> dict:
     """How the run's collision looked (``sim.collision_kind``): its depth, the kind of its first contact and how far
     the bend had swept the touched corner out of the opponent's lane; 0 / "" without a collision."""
     from ..sim.collision_kind import first_collision
+    if not np.any(log.collision):   # the log's collision column is the same overlap test of the same poses
+        return {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0}
     info = first_collision(road, np.asarray(log.ego_cartesian), log.ego, np.asarray(log.opp_cartesian),
                            np.asarray(log.opp_frenet), log.opponents)
     if info is None:

@@ -142,10 +142,43 @@ def _run_overlaps(
     if opp_pose.shape != (k, n_opp, 3):
         raise ValueError(f"opp_pose must be ({k}, {n_opp}, 3), got {opp_pose.shape}")
     ego_c = corners_from_dims(ego_pose, ego_dims)  # (K, 4, 2)
-    out = np.empty((k, n_opp))
+    _check_edges(ego_c, ego_dims)
+    ego_mid, ego_r = _circle(ego_c, ego_dims)
+    out = np.full((k, n_opp), -np.inf)
     for i, dims in enumerate(opp_dims):
-        out[:, i] = sat_overlap(ego_c, corners_from_dims(opp_pose[:, i, :], dims))
+        opp_c = corners_from_dims(opp_pose[:, i, :], dims)
+        _check_edges(opp_c, dims)
+        opp_mid, opp_r = _circle(opp_c, dims)
+        # SAT only where the circumscribed circles (plus PREFILTER_MARGIN) meet (or a pose is not finite): elsewhere
+        # the rectangles are apart, their overlap negative (-inf stands for it: no collision, penetration 0)
+        reach = ego_r + opp_r + PREFILTER_MARGIN
+        d = ego_mid - opp_mid
+        near = np.flatnonzero(~(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] > reach * reach))
+        if near.size:
+            out[near, i] = sat_overlap(ego_c[near], opp_c[near])
     return out
+
+
+#: m added to the sum of two chassis' circumscribed radii before ``_run_overlaps`` skips their SAT test: far above the
+#: rounding of the corner coordinates (~1e-12 m), so a skipped pair is one whose SAT overlap is negative
+PREFILTER_MARGIN = 1e-3
+
+
+def _check_edges(c: NDArray[np.float64], dims: Mapping[str, float]) -> None:
+    """``sat_overlap``'s degenerate-rectangle error for corner arrays ``(K, 4, 2)`` of a chassis (its edge norms,
+    computed alike, unless the chassis' sides are far above the corners' rounding: then no edge can be 0)."""
+    side = min(float(dims["l_r_ch"]) + float(dims["l_f_ch"]), float(dims["w_ch"]))
+    if c.size and side > 1e-9 * (1.0 + float(np.max(np.abs(c)))):
+        return
+    edges = np.stack([c[..., 1, :] - c[..., 0, :], c[..., 2, :] - c[..., 1, :]], axis=-2)
+    if np.any(np.linalg.norm(edges, axis=-1) == 0.0):
+        raise ValueError("degenerate rectangle (zero-length edge)")
+
+
+def _circle(c: NDArray[np.float64], dims: Mapping[str, float]) -> tuple[NDArray[np.float64], float]:
+    """Centres ``(K, 2)`` (mid-diagonal of the corners) and the radius of the chassis' circumscribed circle."""
+    half_l, half_w = 0.5 * (float(dims["l_r_ch"]) + float(dims["l_f_ch"])), 0.5 * float(dims["w_ch"])
+    return 0.5 * (c[:, 0, :] + c[:, 2, :]), float(np.hypot(half_l, half_w))
 
 
 def collisions_over_run(
