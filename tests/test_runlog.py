@@ -215,6 +215,29 @@ def test_summary_hand_values():
     json.dumps(s)  # plain data
 
 
+def test_summary_timing_stats_are_numpys_per_array():
+    """summary's timing statistics (computed on the three timing arrays at once) are numpy's mean, median, percentile
+    and max of each array, bit for bit; and the status counts those of every sample."""
+    for seed in range(40):
+        f = make_fields(k=1 + 17 * seed, n_opp=1, seed=seed)
+        rng = np.random.default_rng(seed)
+        for key in ("time_total", "time_prepare", "time_feedback"):
+            f[key] = np.abs(rng.standard_cauchy(f[key].size)) * 1e-3
+        if seed % 5 == 0:
+            f["time_prepare"][-1] = math.nan
+        f["qp_status"] = rng.choice([0, 1, 2, 3, 99], size=f["qp_status"].size)
+        log = RunLog(**f)
+        s = summary(log)
+        for key in ("time_total", "time_prepare", "time_feedback"):
+            ms = 1e3 * getattr(log, key)
+            want = [float(np.mean(ms)), float(np.median(ms)), float(np.percentile(ms, 99)), float(np.max(ms))]
+            got = [s[f"{key}_ms"][q] for q in ("mean", "median", "p99", "max")]
+            assert np.array(got).tobytes() == np.array(want).tobytes(), (seed, key)
+        names = [qp_status_name(c) for c in log.qp_status.tolist()]
+        assert s["qp_status_counts"] == {n: names.count(n) for n in sorted(set(names))}
+        assert all(type(v) is int for v in s["qp_status_counts"].values())
+
+
 def test_compare():
     a = RunLog(**make_fields(k=6))
     f = make_fields(k=6)

@@ -511,16 +511,16 @@ def _emit(obj: Any, level: int) -> str:
 # ----------------------------------------------------------------------------- analysis
 
 
-def _stats_ms(x: NDArray[np.float64]) -> dict[str, float]:
-    if x.size == 0:
-        return {"mean": math.nan, "median": math.nan, "p99": math.nan, "max": math.nan}
-    ms = 1e3 * x
-    return {
-        "mean": float(np.mean(ms)),
-        "median": float(np.median(ms)),
-        "p99": float(np.percentile(ms, 99)),
-        "max": float(np.max(ms)),
-    }
+def _stats_ms(*xs: NDArray[np.float64]) -> list[dict[str, float]]:
+    """Mean, median, p99 and max in ms of each of the arrays ``xs`` (one length): one numpy call per statistic along
+    the rows of their stack (row by row the values of the calls on each array; median and percentile cost ~0.1 ms a
+    call)."""
+    if xs[0].size == 0:
+        return [{"mean": math.nan, "median": math.nan, "p99": math.nan, "max": math.nan} for _ in xs]
+    ms = 1e3 * np.stack(xs)
+    stats = zip(np.mean(ms, axis=1).tolist(), np.median(ms, axis=1).tolist(), np.percentile(ms, 99, axis=1).tolist(),
+                np.max(ms, axis=1).tolist())
+    return [{"mean": a, "median": b, "p99": c, "max": d} for a, b, c, d in stats]
 
 
 def summary(log: RunLog) -> dict[str, Any]:
@@ -534,19 +534,21 @@ def summary(log: RunLog) -> dict[str, Any]:
     """
     s = log.ego_frenet[:, 0]
     counts: dict[str, int] = {}
-    for code in log.qp_status.tolist():
+    codes, n_codes = np.unique(log.qp_status, return_counts=True)
+    for code, n in zip(codes.tolist(), n_codes.tolist()):
         name = qp_status_name(code)
-        counts[name] = counts.get(name, 0) + 1
+        counts[name] = counts.get(name, 0) + n
     k = log.n_controls
+    t_total, t_prepare, t_feedback = _stats_ms(log.time_total, log.time_prepare, log.time_feedback)
     return {
         "progress": float(s[-1] - s[0]),
         "s_final": float(s[-1]),
         "n_states": log.n_states,
         "n_controls": k,
         "n_collision_samples": int(np.count_nonzero(log.collision)),
-        "time_total_ms": _stats_ms(log.time_total),
-        "time_prepare_ms": _stats_ms(log.time_prepare),
-        "time_feedback_ms": _stats_ms(log.time_feedback),
+        "time_total_ms": t_total,
+        "time_prepare_ms": t_prepare,
+        "time_feedback_ms": t_feedback,
         "qp_iter_mean": float(np.mean(log.qp_iter)) if k else math.nan,
         "qp_iter_max": int(np.max(log.qp_iter)) if k else 0,
         "qp_status_counts": dict(sorted(counts.items())),
