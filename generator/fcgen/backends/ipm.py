@@ -52,6 +52,7 @@ class IpmSettings:
     prox: float = 1e-6       # proximal weight on inputs without cost (hyperplanes: not unique, else they drift)
     t_min: float = 0.1       # floor of an initial side slack
     lam_min: float = 0.1     # floor of an initial side multiplier
+    lam_center: float = 0.5  # then each initial lam at least lam_center mean(t lam) / t: no product far below the mean
     lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
     alpha_min: float = 1e-12 # a step below it: numerical trouble
     warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
@@ -342,6 +343,7 @@ class Backend:
         z = np.zeros(n)
         t = np.maximum(-b, st.t_min)
         lam = np.maximum(-sign * yw[rows], st.lam_min)
+        lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / ns)) / t)   # a centred start (see IpmSettings)
         nu = yw[eq].copy()
         raw = 2
         it = 0
@@ -586,9 +588,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
-            "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min),
+            "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))]}
