@@ -8,18 +8,23 @@ Per stage and opponent, from its Cartesian pose ``[x, y, phi]`` and the road giv
    the rear axle).
 2. Search (C loop / numpy): the road sample nearest to the reference point over the whole road; for every point the
    nearest sample within ``SEARCH`` samples of ``i_ref + round(d / ds)``: the centre of its window of
-   ``FOOT_WINDOW`` samples.
+   ``FOOT_WINDOW`` samples. (The C finds the same samples with less work: the whole-road scan skips samples that
+   the triangle inequality proves farther than the best so far, from the previous stage's sample as the first
+   guess; a point's window is walked down from its guess where its squared distances are provably unimodal,
+   ``fit_window``; the first minimum either way, as numpy's ``argmin``.)
 3. Foot point (plain C from the road arrays / numpy, the same operations, ``map_points``): a Halley step of
-   ``(gamma(s) - p) . t(phi_gamma(s)) = 0`` from that sample (``node_eval``: the sample's own values, no cos or
-   sin), clamped into the window, then ``FULL_EVALS`` road evaluations (road.py's interpolant on the window's segment
-   holding s, extrapolated beyond it) with a Halley step each: the foot ``s``; ``n`` and ``phi_gamma(s)`` by their
-   second-order Taylor expansions from the last evaluation (``foot_n_phi``). On the test and scenario roads s and n
-   are within 5e-12 m of the converged projection (two evaluations: 1e-13 m).
-4. ``opp_box`` (CasADi): the box fitted around the mapped points and the ``n``/``s`` range the ego can reach next to
-   it; then (C loop / numpy) the curvatures of the road samples in that ``s`` range: the ego's sign-aware stretch
-   factor ``f = 1 / (1 - max(0, n kappa))`` and the box's padding ``margin + SAG_SAFETY * chord_sag_bound`` (the
-   mapped edges are curves between the mapped points: ``obstacles.chord_sag_bound`` bounds how far they leave the
-   chords, from the curvature and its slope).
+   ``(gamma(s) - p) . t(phi_gamma(s)) = 0`` from that sample (``node_step``: the sample's own values, no cos or
+   sin), clamped into the window, then ``FULL_EVALS`` road evaluations (``segment_eval``: road.py's interpolant on
+   the window's segment holding s, extrapolated beyond it, as its cubic Taylor expansion at the segment's first
+   sample from ``road_data``; cos and sin of phi_gamma by rotating the sample's by the difference, ``rot_cos_sin``)
+   with a Halley step each: the foot ``s``; ``n`` and ``phi_gamma(s)`` by their second-order Taylor expansions from
+   the last evaluation (``foot_n_phi``). On the test and scenario roads s and n are within 5e-12 m of the converged
+   projection (two evaluations: 1e-13 m).
+4. ``opp_box`` (CasADi; the C does its operations in a plain loop, ``fit_box``): the box fitted around the mapped
+   points and the ``n``/``s`` range the ego can reach next to it; then (C loop / numpy) the curvatures of the road
+   samples in that ``s`` range: the ego's sign-aware stretch factor ``f = 1 / (1 - max(0, n kappa))`` and the box's
+   padding ``margin + SAG_SAFETY * chord_sag_bound`` (the mapped edges are curves between the mapped points:
+   ``obstacles.chord_sag_bound`` bounds how far they leave the chords, from the curvature and its slope).
 
 An opponent is *outside the road* at a stage when the reference point's nearest sample is the road's first or last
 one, a point's nearest sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not
@@ -53,9 +58,15 @@ FULL_EVALS = 1        # road evaluations (a Halley step each) after the first st
 NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
 STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
 SAG_SAFETY = obs.SAG_SAFETY
+# cos and sin of an evaluated phi_gamma: the rotation of its segment's first sample by the difference dl, cos(dl) and
+# sin(dl) by their Taylor polynomials (Horner in dl^2) where |dl| <= ROT_MAX (the next terms are below 3e-18), else libm
+ROT_MAX = 0.125
+SIN_C = (-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0)
+COS_C = (-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0)
 BOX = ("c_s", "c_n", "angle", "L", "W", "n_hi", "n_lo", "s_lo", "s_hi", "pn_hi", "pn_lo")
-# a road evaluation (the C's layout; the last entry: where it was taken)
-EVAL = ("dphi", "cos", "sin", "gx", "gy", "dgx", "dgy", "ddgx", "ddgy", "ddphi", "phi", "s")
+# a road evaluation relative to a point p (the C's layout): phi_gamma', cos and sin of phi_gamma, gamma - p, gamma',
+# gamma'', phi_gamma'', phi_gamma less its value at the segment's first sample
+EVAL = ("dphi", "cos", "sin", "ex", "ey", "dgx", "dgy", "ddgx", "ddgy", "ddphi", "dl")
 
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
@@ -74,6 +85,7 @@ class OppFit:
     n_min: float            # the ego's lateral band (state bounds on n)
     n_max: float
     spacing: float          # the largest distance of two neighbouring edge points (0: no edges)
+    n_edge: int             # edge points (points 0 .. n_edge - 1; 0 for overapprox="none")
     margin: float           # the box's margin (0 for overapprox="none")
     reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
 
@@ -131,7 +143,8 @@ def build_oppfit(problem: Problem) -> OppFit | None:
                ca.mmax(bn), ca.mmin(bn)]
     box = ca.Function("opp_box", [FR, pose], [ca.vertcat(*out)], ["FR", "pose"], ["box"])
     margin = 0.0 if form.overapprox == "none" else form.margin
-    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, margin, reach)
+    n_edge = 0 if form.overapprox == "none" else ref
+    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach)
 
 
 def neutral(s0: float) -> np.ndarray:
@@ -154,109 +167,145 @@ def libm(fun, v: np.ndarray) -> np.ndarray:
     return np.array([fun(t) for t in v.ravel().tolist()]).reshape(v.shape)
 
 
-def road_eval(road, cphi: np.ndarray, sphi: np.ndarray, i0: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The road interpolant at s on the segment of the window i0 .. i0 + FOOT_WINDOW - 1 that holds s (the first or
-    last one beyond it): EVAL but s (the C's ``fit_road``, operation for operation)."""
+@dataclass(frozen=True)
+class RoadData:
+    """The road's data for the fit (the C's ``fit_road_data``, operation for operation): cos and sin of phi_gamma at
+    the samples (the node slopes of gamma's interpolant); per segment j (samples j, j + 1; the last entry unused) the
+    second derivatives of phi_gamma, gamma_x, gamma_y at its first sample (``dd_*``) and their third derivatives
+    (``d3_*``, constant: the interpolant is cubic on a segment)."""
+
+    cos: np.ndarray
+    sin: np.ndarray
+    dd_phi: np.ndarray
+    dd_x: np.ndarray
+    dd_y: np.ndarray
+    d3_phi: np.ndarray
+    d3_x: np.ndarray
+    d3_y: np.ndarray
+
+
+def road_data(road) -> RoadData:
+    """``RoadData`` of a road."""
     ds = road.ds
+    a, b, c = 4.0 * ds, 2.0 * ds, 6.0 * ds
     ids = 1.0 / ds
-    w0 = road.s0 + i0 * ds
-    t = (s - w0) * ids
-    fi = np.where(t >= 1.0, 1.0, 0.0)                     # floor(t) clamped into [0, FOOT_WINDOW - 2] (NaN: 0)
-    tau = t - fi
-    j = i0 + fi.astype(np.int64)
-    t2 = tau * tau
-    t3 = t2 * tau
-    h00 = ((2.0 * t3) - (3.0 * t2)) + 1.0
-    h10 = ((t3 - (2.0 * t2)) + tau) * ds
-    h01 = (3.0 * t2) - (2.0 * t3)
-    h11 = (t3 - t2) * ds
-    d00 = (6.0 * t2) - (6.0 * tau)
-    d10 = (((3.0 * t2) - (4.0 * tau)) + 1.0) * ds
-    d11 = ((3.0 * t2) - (2.0 * tau)) * ds
-    e00 = (12.0 * tau) - 6.0
-    e10 = ((6.0 * tau) - 4.0) * ds
-    e11 = ((6.0 * tau) - 2.0) * ds
     ids2 = ids * ids
+    ids3 = ids2 * ids
+    cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
 
-    def herm(y, m):
-        y0, y1, m0, m1 = y[j], y[j + 1], m[j], m[j + 1]
-        val = (((h00 * y0) + (h10 * m0)) + (h01 * y1)) + (h11 * m1)
-        der = ((((d00 * y0) + (d10 * m0)) - (d00 * y1)) + (d11 * m1)) * ids
-        dd = ((((e00 * y0) + (e10 * m0)) - (e00 * y1)) + (e11 * m1)) * ids2
-        return val, der, dd
+    def dd(y, m):
+        h = y[1:] - y[:-1]
+        return (np.append((((6.0 * h) - (a * m[:-1])) - (b * m[1:])) * ids2, 0.0),
+                np.append(((c * (m[:-1] + m[1:])) - (12.0 * h)) * ids3, 0.0))
 
-    phi, dphi, ddphi = herm(road.phi, road.kappa)
-    gx, dgx, ddgx = herm(road.gx, cphi)
-    gy, dgy, ddgy = herm(road.gy, sphi)
-    return dphi, libm(math.cos, phi), libm(math.sin, phi), gx, gy, dgx, dgy, ddgx, ddgy, ddphi, phi
+    (ddp, d3p), (ddx, d3x), (ddy, d3y) = dd(road.phi, road.kappa), dd(road.gx, cphi), dd(road.gy, sphi)
+    return RoadData(cphi, sphi, ddp, ddx, ddy, d3p, d3x, d3y)
 
 
-def halley_step(s, ev, px, py):
-    """One Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 from s with the road evaluation ev (EVAL) at s:
-    s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a plain gradient step where
+def rot_cos_sin(phi0: np.ndarray, dl: np.ndarray, c0: np.ndarray, s0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """cos and sin of phi0 + dl from those (c0, s0) of phi0 (the C's ``fit_segment``): the rotation by dl, its cos
+    and sin by their Taylor polynomials where |dl| <= ROT_MAX, else libm of phi0 + dl."""
+    d2 = dl * dl
+    sd = dl + ((dl * d2) * (SIN_C[0] + (d2 * (SIN_C[1] + (d2 * (SIN_C[2] + (d2 * SIN_C[3])))))))
+    cd = 1.0 + (d2 * (COS_C[0] + (d2 * (COS_C[1] + (d2 * (COS_C[2] + (d2 * (COS_C[3] + (d2 * COS_C[4])))))))))
+    near = (dl <= ROT_MAX) & (dl >= -ROT_MAX)
+    c = np.where(near, (c0 * cd) - (s0 * sd), 0.0)
+    s = np.where(near, (s0 * cd) + (c0 * sd), 0.0)
+    if not np.all(near):
+        far = ~near
+        c[far] = libm(math.cos, (phi0 + dl)[far])
+        s[far] = libm(math.sin, (phi0 + dl)[far])
+    return c, s
+
+
+def segment_eval(road, rd: RoadData, j: np.ndarray, h: np.ndarray, px: np.ndarray, py: np.ndarray):
+    """The road's interpolant (road.py's) on its segment j at h = s - (s0 + j ds), relative to the point (px, py):
+    EVAL (the C's ``fit_segment``): its Taylor expansion at the segment's first sample (exact: a cubic)."""
+    k0, c0, s0 = road.kappa[j], rd.cos[j], rd.sin[j]
+    pp, xx, yy = rd.dd_phi[j], rd.dd_x[j], rd.dd_y[j]
+    p3, x3, y3 = rd.d3_phi[j], rd.d3_x[j], rd.d3_y[j]
+    sixth = 1.0 / 6.0
+    dl = h * (k0 + (h * ((0.5 * pp) + (h * (p3 * sixth)))))
+    dphi = k0 + (h * (pp + (h * (0.5 * p3))))
+    cg, sg = rot_cos_sin(road.phi[j], dl, c0, s0)
+    ex = (road.gx[j] - px) + (h * (c0 + (h * ((0.5 * xx) + (h * (x3 * sixth))))))
+    ey = (road.gy[j] - py) + (h * (s0 + (h * ((0.5 * yy) + (h * (y3 * sixth))))))
+    dx = c0 + (h * (xx + (h * (0.5 * x3))))
+    dy = s0 + (h * (yy + (h * (0.5 * y3))))
+    return dphi, cg, sg, ex, ey, dx, dy, xx + (h * x3), yy + (h * y3), pp + (h * p3), dl
+
+
+def halley_length(g, g1, g2):
+    """The length of one Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 with g' = g1, g'' = g2:
+    2 g g' / (2 g'^2 - g g''); a Newton step's where |g g''| > g'^2, a plain gradient step's (g) where
     g' <= NEWTON_DG_MIN."""
-    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, _ = ev
-    ex, ey = gx - px, gy - py
-    g = (ex * cg) + (ey * sg)
-    en = (ey * cg) - (ex * sg)
-    g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
-    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * dphi) * ((dy * cg) - (dx * sg)))) + (ddphi * en)) - ((dphi * dphi) * g)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         gg = g * g2
         g11 = g1 * g1
         hal = np.where(np.abs(gg) <= g11, ((2.0 * g) * g1) / ((2.0 * g11) - gg), g / g1)
-        return s - np.where(g1 > NEWTON_DG_MIN, hal, g)
+        return np.where(g1 > NEWTON_DG_MIN, hal, g)
 
 
-def foot_n_phi(s, s_ev, ev, px, py):
-    """n and phi_gamma at the foot s from the road evaluation ev at s_ev: their second-order Taylor expansions
-    (n = (p - gamma) . n(phi_gamma), n' = phi' g - gamma'.n, n'' = phi' gamma'.t - gamma''.n + phi'' g + phi' g')."""
-    dphi, cg, sg, gx, gy, dx, dy, ddx, ddy, ddphi, phi = ev
-    ex, ey = gx - px, gy - py
+def halley_step(s, ev):
+    """One Halley step from s with the road evaluation ev (EVAL) at s."""
+    dphi, cg, sg, ex, ey, dx, dy, ddx, ddy, ddphi, _ = ev
     g = (ex * cg) + (ey * sg)
     en = (ey * cg) - (ex * sg)
     g1 = ((dx * cg) + (dy * sg)) + (dphi * en)
+    g2 = ((((ddx * cg) + (ddy * sg)) + ((2.0 * dphi) * ((dy * cg) - (dx * sg)))) + (ddphi * en)) - ((dphi * dphi) * g)
+    return s - halley_length(g, g1, g2)
+
+
+def node_step(road, rd: RoadData, c: np.ndarray, s: np.ndarray, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+    """A Halley step from the road sample c (s its arc length) from the samples alone (no cos or sin): the segment
+    c .. c + 1's derivatives there (``segment_eval`` at h = 0; gamma' = t: g' = |t|^2 + phi' e.n, gamma'.n = 0)."""
+    kc, cc, sc = road.kappa[c], rd.cos[c], rd.sin[c]
+    ex, ey = road.gx[c] - px, road.gy[c] - py
+    g = (ex * cc) + (ey * sc)
+    en = (ey * cc) - (ex * sc)
+    g1 = ((cc * cc) + (sc * sc)) + (kc * en)
+    g2 = (((rd.dd_x[c] * cc) + (rd.dd_y[c] * sc)) + (rd.dd_phi[c] * en)) - ((kc * kc) * g)
+    return s - halley_length(g, g1, g2)
+
+
+def foot_n_phi(s, s_ev, phi0, ev):
+    """n and phi_gamma at the foot s from the road evaluation ev at s_ev on the segment whose first sample has
+    phi_gamma = phi0: their second-order Taylor expansions (n = (p - gamma) . n(phi_gamma), n' = phi' g - gamma'.n,
+    n'' = phi' gamma'.t - gamma''.n + phi'' g + phi' g')."""
+    dphi, cg, sg, ex, ey, dx, dy, ddx, ddy, ddphi, dl = ev
+    g = (ex * cg) + (ey * sg)
+    en = (ey * cg) - (ex * sg)
+    tg = (dx * cg) + (dy * sg)
+    g1 = tg + (dphi * en)
     dn = (dphi * g) - ((dy * cg) - (dx * sg))
-    ddn = (((dphi * ((dx * cg) + (dy * sg))) - ((ddy * cg) - (ddx * sg))) + (ddphi * g)) + (dphi * g1)
+    ddn = (((dphi * tg) - ((ddy * cg) - (ddx * sg))) + (ddphi * g)) + (dphi * g1)
     d = s - s_ev
     h = 0.5 * d
-    return ((ex * sg) + ((py - gy) * cg)) + (d * (dn + (h * ddn))), phi + (d * (dphi + (h * ddphi)))
+    return -en + (d * (dn + (h * ddn))), phi0 + (dl + (d * (dphi + (h * ddphi))))
 
 
-def node_eval(road, cphi: np.ndarray, sphi: np.ndarray, ist: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
-    """EVAL but s at the road sample ist (s its arc length), from the samples alone (no cos or sin): the derivatives of
-    the segment ist .. ist + 1 there."""
-    ds = road.ds
-    ids2 = (1.0 / ds) * (1.0 / ds)
-    k0, k1, p0, p1 = road.kappa[ist], road.kappa[ist + 1], road.phi[ist], road.phi[ist + 1]
-    c0, c1, s0, s1 = cphi[ist], cphi[ist + 1], sphi[ist], sphi[ist + 1]
-    a, b = 4.0 * ds, 2.0 * ds
-
-    def dd(y0, y1, m0, m1):
-        return (((6.0 * (y1 - y0)) - (a * m0)) - (b * m1)) * ids2
-
-    return (k0, c0, s0, road.gx[ist], road.gy[ist], c0, s0, dd(road.gx[ist], road.gx[ist + 1], c0, c1),
-            dd(road.gy[ist], road.gy[ist + 1], s0, s1), dd(p0, p1, k0, k1), p0)
-
-
-def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray):
+def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray, rd: RoadData | None = None):
     """Foot points of all points: (s, n, phi_gamma) each (pairs, npt), and the windows' first s. ``P``:
     (2, pairs, npt); ``ist``: the points' nearest samples (clamped into the road where a point is bad: computed,
-    then discarded). Per point: a Halley step from its nearest sample (``node_eval``), clamped into the window, then
-    FULL_EVALS road evaluations with a step each; n and phi_gamma from the last one (``foot_n_phi``)."""
+    then discarded). Per point: a Halley step from its nearest sample (``node_step``), clamped into the window, then
+    FULL_EVALS road evaluations (``segment_eval`` on the window's segment holding s, the first or last one beyond
+    it) with a step each; n and phi_gamma from the last one (``foot_n_phi``)."""
+    rd = road_data(road) if rd is None else rd
     half = FOOT_WINDOW // 2
     i0 = np.clip(ist - half, 0, road.size - FOOT_WINDOW)
-    cphi, sphi = libm(math.cos, road.phi), libm(math.sin, road.phi)
     px, py = P[0], P[1]
-    w0 = road.s0 + i0 * road.ds
-    s = w0 + road.ds                                      # the nearest sample
-    s = halley_step(s, node_eval(road, cphi, sphi, i0 + half, s), px, py)
-    s = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * road.ds)
+    ds = road.ds
+    w0 = road.s0 + i0 * ds
+    s = node_step(road, rd, i0 + half, w0 + ds, px, py)
+    s = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * ds)
     for _ in range(FULL_EVALS):
+        h = s - w0
+        right = h >= ds                                   # the segment holding s, clamped into the window (NaN: 0)
+        j = i0 + right.astype(np.int64)
         s_ev = s
-        ev = road_eval(road, cphi, sphi, i0, s)
-        s = halley_step(s, ev, px, py)
-    fn, fp = foot_n_phi(s, s_ev, ev, px, py)
+        ev = segment_eval(road, rd, j, np.where(right, h - ds, h), px, py)
+        s = halley_step(s, ev)
+    fn, fp = foot_n_phi(s, s_ev, road.phi[j], ev)
     return s, fn, fp, w0
 
 

@@ -52,7 +52,8 @@ MACRO_DOC = {
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "init_state", "theta_init", "plant")
 FIT_FUNCTIONS = ("opp_points", "opp_box")
-"""The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it."""
+"""The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it (``opp_box`` only for the
+naive ``overapprox="none"``: the fitted box is plain C)."""
 _HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
 
 
@@ -119,7 +120,9 @@ def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
             "init_state": ocp.init_state, "theta_init": theta_init(ocp),
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
     if ocp.fit is not None:
-        funs.update(opp_points=ocp.fit.points, opp_box=ocp.fit.box)
+        funs.update(opp_points=ocp.fit.points)
+        if not ocp.fit.n_edge:  # the fitted box is plain C (opp_fit.c: fit_box); the naive one's CasADi
+            funs.update(opp_box=ocp.fit.box)
     return funs
 
 
@@ -230,9 +233,13 @@ def fit_context(ocp: Ocp) -> dict[str, Any] | None:
     f = ocp.fit
     if f is None:
         return None
+    if oppfit.FULL_EVALS < 1:
+        raise AssertionError("the C fit takes n and phi_gamma from a road evaluation: FULL_EVALS >= 1")
     return {"npt": f.npt, "ref": f.ref_point, "search": oppfit.SEARCH, "window": oppfit.FOOT_WINDOW,
-            "nbox": len(oppfit.BOX), "nev": len(oppfit.EVAL), "par": ocp.n_opp_stage,
-            "full": oppfit.FULL_EVALS,
+            "nbox": len(oppfit.BOX), "nedge": f.n_edge, "nev": len(oppfit.EVAL), "par": ocp.n_opp_stage,
+            "sixth": _c_real(1.0 / 6.0),
+            "full": oppfit.FULL_EVALS, "rot_max": _c_real(oppfit.ROT_MAX),
+            "sin_c": [_c_real(c) for c in oppfit.SIN_C], "cos_c": [_c_real(c) for c in oppfit.COS_C],
             "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "spacing": _c_real(f.spacing), "margin": _c_real(f.margin),
             "reach": _c_real(f.reach), "sag_safety": _c_real(oppfit.SAG_SAFETY),
             "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
@@ -333,8 +340,12 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
                     ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
                     ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
-                    ("NAME_real_t", "fit_ids", [], R),
+                    ("NAME_real_t", "fit_hmax", [], R), ("NAME_real_t", "fit_ihmax", [], R),
+                    ("NAME_real_t", "fit_skip", [], R), ("NAME_real_t", "fit_uni", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
+        members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
+        wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
+        members += [("NAME_real_t", "fit_amin", [wide], R), ("NAME_real_t", "fit_bmax", [wide], R)]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
     rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
@@ -459,7 +470,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
         "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
         "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
-        "c_fabs": "fabsf" if use_float else "fabs",
+        "c_fabs": "fabsf" if use_float else "fabs", "c_atan2": "atan2f" if use_float else "atan2",
         "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
         "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else "ws.opp",
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
