@@ -502,8 +502,46 @@ def _generic_A(layout: QpLayout, sr: SoftRows) -> tuple[np.ndarray, ...]:
     return kept_rows, ar_p, cols[order], ent[order], a_p, rows, ent
 
 
+def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
+    """Per stage, the boundaries of the blocks of consecutive inputs over which R_bar = H_uu + G' P G is block
+    diagonal: inputs that a row or the dynamics couple are in one block (e.g. the controls; each opponent's
+    hyperplane variables). Row k: ``[0, b1, ..., NU]``, padded with NU (empty blocks) to the longest row."""
+    nx, NU = sv.nx, sv.NU
+    rows = []
+    for k in range(sv.N + 1):
+        parent = list(range(NU))
+
+        def find(i):
+            while parent[i] != i:
+                i = parent[i]
+            return i
+
+        def couple(slots):
+            us = [int(v) - nx for v in slots if nx <= v < nx + NU]
+            for a in us[1:]:
+                parent[find(a)] = find(us[0])
+
+        if k < sv.N:
+            couple(sv.dyn_j[sv.dyn_ptr[k]:sv.dyn_ptr[k + 1]])   # G' P G couples every input with dynamics
+        for g in range(k * sv.NG, (k + 1) * sv.NG):
+            couple(sv.gen_v[sv.gen_ptr[g]:sv.gen_ptr[g + 1]])
+        for j in range(sr.ptr[k], sr.ptr[k + 1]):
+            couple(sr.v[j][sr.a[j] >= 0])
+        hi = {}
+        for i in range(NU):
+            hi[find(i)] = max(hi.get(find(i), i), i)
+        ends, end = [0], 0
+        for i in range(NU):                   # blocks: the components' hulls, merged where they overlap
+            end = max(end, hi[find(i)] + 1)
+            if i + 1 == end:
+                ends.append(end)
+        rows.append(ends)
+    width = max(len(r) for r in rows)
+    return np.array([r + [NU] * (width - len(r)) for r in rows], dtype=np.int64)
+
+
 #: the tables the C indexes ``[k][s]`` (no index arithmetic with a size that may be 1: MISRA 2.2); the rest is flat
-TABLES_2D = ("IPM_VMAP_S", "IPM_SG_BEG", "IPM_SG_END", "IPM_SE_BEG", "IPM_SE_END", "IPM_SR_RUN_V", "IPM_SR_A")
+TABLES_2D = ("IPM_UB", "IPM_VMAP_S", "IPM_SG_BEG", "IPM_SG_END", "IPM_SE_BEG", "IPM_SE_END", "IPM_SR_RUN_V", "IPM_SR_A")
 
 
 def _table(name: str, kind: str, values, doc: str) -> dict:
@@ -534,6 +572,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
     ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr)
+    ub = input_blocks(sv, sr)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
@@ -565,6 +604,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_BOX_A", sv.box_a, "its data index"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
+        ("IPM_UB", ub, "input block b: inputs IPM_UB[b] .. IPM_UB[b + 1] - 1"),
         ("IPM_SR_RPTR", sr.rptr, "runs of soft rows of stage k"),
         ("IPM_SR_RUN_PTR", sr.run_ptr, "soft rows of run r (rows on the same slots)"),
         ("IPM_SR_RUN_V", sr.run_v.reshape(-1, sr.NA), "[r][p]: stage slot of the run's (x, u) entry p"),
@@ -588,7 +628,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
