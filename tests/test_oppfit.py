@@ -147,6 +147,69 @@ def test_c_fit_equals_python_and_the_independent_fit(c_solver, road):
             np.testing.assert_allclose(opp[k, j], independent_fit(win, fr[k, j], pb), rtol=0, atol=1e-9)
 
 
+def _c_and_python(c_solver, road, fr):
+    """The C fit's and the Python reference's parameters (N+1, 2 * 6) and left-out counts at Frenet poses fr."""
+    pb, cs = c_solver
+    ocp = build_ocp(pb)
+    poses = poses_on(road, fr)
+    x0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
+    sv = RtiSolver(ocp)
+    sv.set_road(road)
+    sv.set_opponents(poses)
+    sv.set_state(x0)
+    sv.prepare()
+    assert cs.init() == 0
+    assert cs.set_road(road) == 0 and cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
+    return cs.get_opp_params(), sv.P[:, ocp.p_opp], cs.status().opp_outside, sv.status.opp_outside
+
+
+@needs_cc
+def test_c_fit_breaks_distance_ties_as_numpy(c_solver):
+    """Points halfway between two road samples (the straight road's samples at even x, the truck's edge points at
+    integers): the C's walk down a point's window takes the first of the two nearest samples, as numpy's argmin."""
+    pb, _ = c_solver
+    N = pb.horizon.N
+    fr = np.zeros((N + 1, 2, 3))
+    fr[:, 0] = (20.0, 3.0, 0.0)
+    fr[:, 1] = (45.0, -4.0, 0.0)
+    win = STRAIGHT.window(-60.0, pb.road.samples)
+    fit = build_oppfit(pb)
+    P, _ = OppFitter(fit, 1, 2)._points(poses_on(win, fr[0]).T)
+    px = np.array(P)[0]
+    assert np.count_nonzero((px - win.s0) % (2 * win.ds) == win.ds) > 20    # exactly halfway: ties
+    c_par, py_par, c_out, py_out = _c_and_python(c_solver, win, fr)
+    np.testing.assert_array_equal(c_par, py_par)
+    assert c_out == py_out == 0
+
+
+@needs_cc
+def test_c_fit_on_a_tight_bend_equals_python(c_solver, monkeypatch):
+    """A bend of radius 14 m: road evaluations whose phi_gamma is more than ROT_MAX from their segment's first sample
+    (libm's cos and sin instead of the rotation) and points too far out for fit_window's unimodality test (the full
+    scan of the window); the C equals the Python reference bit for bit."""
+    from fcgen import oppfit
+    pb, _ = c_solver
+    N = pb.horizon.N
+    road = Road.from_curvature(np.concatenate([np.zeros(20), np.full(12, 0.07), np.zeros(40)]), 2.0, s0=-30.0)
+    far = []
+    rot = oppfit.rot_cos_sin
+
+    def counting(phi0, dl, c0, s0):
+        far.append(int(np.count_nonzero(np.abs(dl) > oppfit.ROT_MAX)))
+        return rot(phi0, dl, c0, s0)
+
+    monkeypatch.setattr(oppfit, "rot_cos_sin", counting)
+    fr = np.zeros((N + 1, 2, 3))
+    for k in range(N + 1):
+        fr[k, 0] = (5.0 + 1.5 * k, -4.0, 0.0)            # the outside of the (left) bend
+        fr[k, 1] = (20.0 + 1.0 * k, -7.0, 0.1)
+    c_par, py_par, c_out, py_out = _c_and_python(c_solver, road, fr)
+    np.testing.assert_array_equal(c_par, py_par)
+    assert c_out == py_out == 0
+    assert sum(far) > 0
+
+
 @needs_cc
 def test_c_singular_and_unset_road_codes(c_solver):
     from fcgen.reference import EXIT_CODES

@@ -345,7 +345,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
         members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
         wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
-        members += [("NAME_real_t", "fit_amin", [wide], R), ("NAME_real_t", "fit_bmax", [wide], R)]
+        members += [("NAME_real_t", "fit_rsq", [wide], R), ("NAME_real_t", "fit_beta", [wide], R)]
     size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
                          for _, _, d, sa in members])
     rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
