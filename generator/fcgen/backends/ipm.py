@@ -463,7 +463,7 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
 
 #: the real fields of the C's soft-row struct besides its NA coefficients (``ipm_sr_t`` in the template)
 SR_FIELDS = ("e", "bb", "b1", "b2", "t1", "l1", "t2", "l2", "it1", "it2", "rp1", "rp2", "id", "c",
-             "dt1", "dl1", "dt2", "dl2")
+             "dt1", "dl1", "dt2", "dl2", "zs", "dzs", "rds", "hs", "ps", "qs")
 
 
 def _workspace_bytes(members: list[dict], sr: SoftRows, real_size: int) -> int:
@@ -573,6 +573,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     eq_row[:, :NE] = sv.eq_rows
     ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr)
     ub = input_blocks(sv, sr)
+    gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
@@ -604,7 +605,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_BOX_A", sv.box_a, "its data index"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"), ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
-        ("IPM_UB", ub, "input block b: inputs IPM_UB[b] .. IPM_UB[b + 1] - 1"),
+        ("IPM_UB", ub, "[k][b]: stage k's input block b: inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1"),
+        ("IPM_GV", gvars, "the variables but the soft rows' slacks"),
         ("IPM_SR_RPTR", sr.rptr, "runs of soft rows of stage k"),
         ("IPM_SR_RUN_PTR", sr.run_ptr, "soft rows of run r (rows on the same slots)"),
         ("IPM_SR_RUN_V", sr.run_v.reshape(-1, sr.NA), "[r][p]: stage slot of the run's (x, u) entry p"),
@@ -628,7 +630,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
