@@ -10,6 +10,7 @@ import ctypes
 import math
 import os
 import re
+import struct
 import subprocess
 from pathlib import Path
 
@@ -114,6 +115,9 @@ class _CStatus(ctypes.Structure):
 
 
 _STATUS_FIELDS = tuple(f for f, _ in _CStatus._fields_)
+#: the status struct's layout for ``struct``: all its fields in one call (native alignment, as ctypes lays it out)
+_STATUS_STRUCT = struct.Struct("@" + "".join("i" if t is ctypes.c_int else "d" for _, t in _CStatus._fields_))
+assert _STATUS_STRUCT.size == ctypes.sizeof(_CStatus)
 
 
 class CSolver:
@@ -331,12 +335,15 @@ class CSolver:
         obuf3 = obuf.reshape(o_shape)
         # fixed addresses as ctypes objects: no conversion per call
         xptr, optr, st_ptr, u0_ptr = (ctypes.c_void_p(a) for a in (xaddr, oaddr, self._status_addr, self._u0_addr))
-        f = self._fns
-        set_road, set_opponents, set_state, has_guess = f["set_road"], f["set_opponents"], f["set_state"], \
-            f["has_guess"]
-        prepare, feedback, get_status, get_u0, max_slack = f["prepare"], f["feedback"], f["get_status"], \
-            f["get_u0"], f["max_slack"]
+        f, q = self._fns, self._quick_fns()
+        set_road, set_opponents, set_state, has_guess = q["set_road"], q["set_opponents"], q["set_state"], \
+            q["has_guess"]
+        prepare, feedback, get_status, get_u0, max_slack = f["prepare"], f["feedback"], q["get_status"], \
+            q["get_u0"], q["max_slack"]
         st, u0, ndarray, floor, nan = self._status, self._u0, np.ndarray, math.floor, math.nan
+        unpack = _STATUS_STRUCT.unpack_from
+        i_status, i_iter, i_prep, i_fb = (_STATUS_FIELDS.index(k) for k in ("qp_status", "qp_iter", "time_prepare",
+                                                                            "time_feedback"))
 
         def state(x0) -> bool:   # _input("x0", x0, 5)
             if type(x0) is ndarray and x0.shape == (5,):
@@ -376,10 +383,26 @@ class CSolver:
             rc = rc or feedback()
             get_status(st_ptr)
             get_u0(u0_ptr)
-            return StepResult(u0.astype(float), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
+            v = unpack(st)
+            return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep], v[i_fb],
                               nan if rc else max_slack())
 
         return step
+
+
+    def _quick_fns(self) -> dict:
+        """The short C calls of a sample (inputs, status, u0, slack) bound through ``ctypes.PyDLL``: the same functions
+        and types without releasing and taking the GIL around each call (prepare and feedback still release it)."""
+        q = self.__dict__.get("_quick")
+        if q is None:
+            lib = ctypes.PyDLL(self.lib._name)
+            q = {}
+            for fn in ("set_road", "set_opponents", "set_state", "has_guess", "get_status", "get_u0", "max_slack"):
+                g = getattr(lib, f"{self.name}_{fn}")
+                g.argtypes, g.restype = self._fns[fn].argtypes, self._fns[fn].restype
+                q[fn] = g
+            self._quick = q
+        return q
 
 
 #: the methods ``CSolver.step`` calls (``window_stepper`` calls their C functions directly unless one is replaced)
