@@ -1,6 +1,7 @@
 """Closed-loop tests (fcgen.sim, SPEC section 7): a quick 30-sample run, and (slow) the paper's truck campaign."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -8,11 +9,12 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from fcgen.backends import QP_USABLE
-from fcgen.presets import paper_problem
 from fcgen.ocp import road_window_samples
-from fcgen.sim.closedloop import Plant, run_closed_loop
+from fcgen.presets import paper_problem
+from fcgen.road import Road
+from fcgen.sim.closedloop import Plant, opponent_params, run_closed_loop
 from fcgen.sim.runlog import RunLog, compare, summary
-from fcgen.sim.scenario import OPP_SPEED, make_scenario
+from fcgen.sim.scenario import OPP_SPEED, OpponentParams, make_scenario
 
 
 @pytest.fixture(scope="module")
@@ -79,6 +81,23 @@ def test_plant_road_stepper_is_step(quick_run):
     off[0] = sc.road.s_end
     with pytest.raises(ValueError, match="outside the road"):
         step(off, log.control[0])
+
+
+def test_opponent_tables_are_kept_per_scenario_on_a_read_only_road(quick_run):
+    """opponent_params shares one table between the runs of one scenario (a seed's road, kept per process) and gives
+    OpponentParams' values; a road that can change gets a table of its own every time."""
+    pb, sc, _ = quick_run
+    again = make_scenario("truck", 0, samples=30)
+    op = opponent_params(pb, sc)
+    assert opponent_params(pb, again) is op
+    fresh = OpponentParams(pb, again)
+    for j in (0, 5, 29):
+        assert op.horizon(j).tobytes() == fresh.horizon(j).tobytes()
+    assert opponent_params(pb, make_scenario("truck", 1, samples=30)) is not op
+    own = dataclasses.replace(sc, road=Road(sc.road.s0, sc.road.ds, *(np.array(a) for a in
+                                                                      (sc.road.kappa, sc.road.phi, sc.road.gx,
+                                                                       sc.road.gy))))
+    assert opponent_params(pb, own) is not opponent_params(pb, own)
 
 
 def test_quick_run_log_round_trips_through_json(quick_run, tmp_path):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Protocol
@@ -180,20 +181,13 @@ class Plant:
         window parameters from a table of every window of ``road`` (built here, once) instead of packing them per
         call; it returns the plant's output buffer, overwritten by the next call."""
         rp, K = self.road_params, self.road_params.samples
-        n = road.size - K + 1
-        cols = np.empty((rp.size, max(n, 0)))   # built column-wise (whole-road slices), used row-wise
-        if n > 0:
-            cols[0] = road.s0 + np.arange(n) * road.ds   # pack_into's road.s0 + i0 * road.ds, for every i0
-            cols[1] = road.ds
-            for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
-                for k in range(K):
-                    cols[2 + j * K + k] = a[k: k + n]
-        table = np.ascontiguousarray(cols.T)
+        table = _window_table(road, K) if _frozen(road) else _build_window_table(road, K)
+        n = len(table)
         xb, ub, pb, out, ev = self._x, self._u, self._p, self._out, self._eval
         s0, ds, floor = road.s0, road.ds, math.floor
 
         def step(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-            i0 = int(floor((x[0] - s0) / ds)) - 1
+            i0 = int(floor((x.item(0) - s0) / ds)) - 1   # a float's arithmetic: the same as on x[0]
             xb[:] = x
             ub[:] = u
             if 0 <= i0 < n:
@@ -204,6 +198,59 @@ class Plant:
             return out
 
         return step
+
+
+def _frozen(road: Road) -> bool:
+    """Whether a road's arrays are read-only (``scenario.realistic_road``'s, kept per process): what is derived from
+    it alone can be kept too."""
+    return not any(np.asarray(a).flags.writeable for a in (road.kappa, road.phi, road.gx, road.gy))
+
+
+def _build_window_table(road: Road, samples: int) -> np.ndarray:
+    """Row i0: ``RoadWindowParams(samples).pack(road, i0)``, for every window inside the road (read-only)."""
+    rp, K = RoadWindowParams(samples), samples
+    n = road.size - K + 1
+    cols = np.empty((rp.size, max(n, 0)))   # built column-wise (whole-road slices), used row-wise
+    if n > 0:
+        cols[0] = road.s0 + np.arange(n) * road.ds   # pack_into's road.s0 + i0 * road.ds, for every i0
+        cols[1] = road.ds
+        for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
+            for k in range(K):
+                cols[2 + j * K + k] = a[k: k + n]
+    table = np.ascontiguousarray(cols.T)
+    table.flags.writeable = False
+    return table
+
+
+@lru_cache(maxsize=32)
+def _window_table(road: Road, samples: int) -> np.ndarray:
+    """``_build_window_table`` of a read-only road, kept per process (a campaign's configurations drive one seed's
+    road one after the other; the key holds the road, compared by identity)."""
+    return _build_window_table(road, samples)
+
+
+_OPP_TABLES: dict = {}
+_OPP_LOCK = threading.Lock()
+
+
+def opponent_params(problem: Problem, sc: Scenario) -> OpponentParams:
+    """``OpponentParams(problem, sc)``; for a scenario on a read-only road kept per process (the last 32) and shared by
+    the runs whose opponents' table is the same: same road object, opponents' start s and lanes, samples, dt and
+    horizon (a campaign runs one seed's scenario in each of its configurations)."""
+    if not _frozen(sc.road):
+        return OpponentParams(problem, sc)
+    a, b = np.asarray(sc.opp_s0), np.asarray(sc.opp_n)
+    key = (sc.road, a.dtype.str, a.shape, a.tobytes(), b.dtype.str, b.shape, b.tobytes(), sc.samples, sc.dt,
+           problem.horizon.N)
+    with _OPP_LOCK:
+        op = _OPP_TABLES.pop(key, None)
+    if op is None:
+        op = OpponentParams(problem, sc)
+    with _OPP_LOCK:
+        _OPP_TABLES[key] = op
+        while len(_OPP_TABLES) > 32:
+            del _OPP_TABLES[next(iter(_OPP_TABLES))]
+    return op
 
 
 def dims(v: Vehicle) -> dict:
@@ -223,7 +270,7 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
     plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
-    opp_params = OpponentParams(problem, sc)
+    opp_params = opponent_params(problem, sc)
     K = sc.samples
     road = sc.road
     xs = np.zeros((K + 1, 5))
@@ -243,7 +290,7 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     for j in it:
         x = xs[j]
         if step is not None:   # = controller.step(x, solver_window(problem, road, x), ...) without the window
-            r = step(x, x[0] - WINDOW_BEHIND, horizon(j))
+            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
         else:
             r = controller.step(x, solver_window(problem, road, x), horizon(j))
         us[j] = r.u
@@ -256,7 +303,7 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
     # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
-    opp_cart = np.stack([opp_params.at_index(j) for j in range(K + 1)])
+    opp_cart = np.concatenate([horizon(j) for j in range(0, K + 1, opp_params.n_stages)])[:K + 1]
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
