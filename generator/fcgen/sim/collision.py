@@ -145,22 +145,39 @@ def _run_overlaps(
     _check_edges(ego_c, ego_dims)
     ego_mid, ego_r = _circle(ego_c, ego_dims)
     out = np.full((k, n_opp), -np.inf)
+    pairs = []   # (opponent, its near samples, its corners there)
     for i, dims in enumerate(opp_dims):
         opp_c = corners_from_dims(opp_pose[:, i, :], dims)
         _check_edges(opp_c, dims)
         opp_mid, opp_r = _circle(opp_c, dims)
-        # SAT only where the circumscribed circles (plus PREFILTER_MARGIN) meet (or a pose is not finite): elsewhere
-        # the rectangles are apart, their overlap negative (-inf stands for it: no collision, penetration 0)
-        reach = ego_r + opp_r + PREFILTER_MARGIN
+        # SAT only where the circumscribed circles meet and the ego's circle reaches the opponent's rectangle along
+        # both of its axes (each test with PREFILTER_MARGIN; or where a pose is not finite): elsewhere the rectangles
+        # are apart (a separating line), their overlap negative (-inf stands for it: no collision, penetration 0)
         d = ego_mid - opp_mid
-        near = np.flatnonzero(~(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] > reach * reach))
+        reach = ego_r + opp_r + PREFILTER_MARGIN
+        along = opp_c[:, 1, :] - opp_c[:, 0, :]
+        along /= np.hypot(along[:, 0], along[:, 1])[:, None]
+        d_along, d_across = d[:, 0] * along[:, 0] + d[:, 1] * along[:, 1], d[:, 1] * along[:, 0] - d[:, 0] * along[:, 1]
+        half_l, half_w = 0.5 * (float(dims["l_r_ch"]) + float(dims["l_f_ch"])), 0.5 * float(dims["w_ch"])
+        apart = ((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] > reach * reach)
+                 | (np.abs(d_along) > half_l + ego_r + PREFILTER_MARGIN)
+                 | (np.abs(d_across) > half_w + ego_r + PREFILTER_MARGIN))
+        near = np.flatnonzero(~apart)
         if near.size:
-            out[near, i] = sat_overlap(ego_c[near], opp_c[near])
+            pairs.append((i, near, opp_c[near]))
+    if pairs:   # every opponent's near pairs in one SAT call (elementwise: the values of one call per pair)
+        overlap = sat_overlap(np.concatenate([ego_c[near] for _, near, _ in pairs]),
+                              np.concatenate([c for _, _, c in pairs]))
+        start = 0
+        for i, near, _ in pairs:
+            out[near, i] = overlap[start: start + near.size]
+            start += near.size
     return out
 
 
-#: m added to the sum of two chassis' circumscribed radii before ``_run_overlaps`` skips their SAT test: far above the
-#: rounding of the corner coordinates (~1e-12 m), so a skipped pair is one whose SAT overlap is negative
+#: m of clearance ``_run_overlaps`` asks of a pair before it skips their SAT test (beyond the sum of the circumscribed
+#: radii, or beyond the opponent's half length / half width plus the ego's radius along the opponent's axes): far above
+#: the rounding of the corner coordinates (~1e-12 m), so a skipped pair is one whose SAT overlap is negative
 PREFILTER_MARGIN = 1e-3
 
 
