@@ -286,19 +286,24 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
         it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
-    plant_step, horizon, add, results = plant.road_stepper(road), opp_params.horizon, planlog.add, []
+    plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
+    add = planlog.add if plan != "none" else None   # without a plan: the exit codes are stored after the loop
     for j in it:
         x = xs[j]
         if step is not None:   # = controller.step(x, solver_window(problem, road, x), ...) without the window
             r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
         else:
             r = controller.step(x, solver_window(problem, road, x), horizon(j))
-        us[j] = r.u
-        add(j, controller, r)
+        u = us[j]
+        u[:] = r.u
+        if add is not None:
+            add(j, controller, r)
         results.append(r)
-        xs[j + 1] = plant_step(x, us[j])
+        xs[j + 1] = plant_step(x, u)
     for j, r in enumerate(results):
         tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
+        if add is None:
+            planlog.add(j, controller, r)
     t = np.arange(K + 1) * sc.dt
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
