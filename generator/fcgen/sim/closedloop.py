@@ -300,10 +300,10 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
             add(j, controller, r)
         results.append(r)
         xs[j + 1] = plant_step(x, u)
-    for j, r in enumerate(results):
-        tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
-        if add is None:
-            planlog.add(j, controller, r)
+    # the per-sample statistics, a list per array (assigned element by element, as one store per sample would)
+    for a, key in ((tp, "time_prepare"), (tf, "time_feedback"), (qi, "qp_iter"), (qs, "qp_status"),
+                   (slack, "max_slack")) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
+        a[:] = [getattr(r, key) for r in results]
     t = np.arange(K + 1) * sc.dt
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
