@@ -378,9 +378,25 @@ def test_float_build(tmp_path: Path) -> None:
     info = generate(preset(PRESET), tmp_path / "f", use_float=True)
     assert "typedef float truck_lift_el_real_t;" in (info.out_dir / "truck_lift_el_solver.h").read_text()
     assert "#define OSQP_USE_FLOAT" in (info.out_dir / "osqp/lib/osqp_configure.h").read_text()
-    build(info.out_dir)
+    lib = build(info.out_dir)
     res = subprocess.run([str(info.out_dir / "build" / "truck_lift_el_example")], capture_output=True, timeout=60)
     assert res.returncode == 0
+    # the closed loop's window_stepper on float inputs (the road converted once, kept alive): step's results
+    fs, pb = CSolver(lib), preset(PRESET)
+    sc = make_scenario("truck", 2, samples=5)
+    opp = OpponentParams(pb, sc)
+    results = []
+    for way in ("stepper", "step"):
+        assert fs.init() == 0
+        step, x = fs.window_stepper(sc.road, pb.road.samples), sc.x0
+        for j in range(5):
+            s_start = x[0] - WINDOW_BEHIND
+            r = step(x, s_start, opp.horizon(j)) if way == "stepper" else \
+                fs.step(x, sc.road.window(s_start, pb.road.samples), opp.horizon(j))
+            results.append(r)
+            x = x + np.array([1.5, 0.0, 0.0, 0.0, 0.0])
+    assert all(r.exit_code == 0 for r in results)
+    assert all(_same_result(a, b) for a, b in zip(results[:5], results[5:]))
 
 
 def test_float_math_rewrites_literals_and_calls_only() -> None:

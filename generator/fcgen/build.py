@@ -387,6 +387,7 @@ class CSolver:
             return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep], v[i_fb],
                               nan if rc else max_slack())
 
+        step.road_arrays = arrays   # the arrays whose addresses set_road gets live as long as the function
         return step
 
 
