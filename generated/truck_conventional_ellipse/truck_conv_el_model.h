@@ -143,24 +143,6 @@ int truck_conv_el_opp_points_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 #define truck_conv_el_opp_points_SZ_RES 2
 #define truck_conv_el_opp_points_SZ_IW 0
 #define truck_conv_el_opp_points_SZ_W 0
-int truck_conv_el_opp_box(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int truck_conv_el_opp_box_checkout(void);
-void truck_conv_el_opp_box_release(int mem);
-void truck_conv_el_opp_box_incref(void);
-void truck_conv_el_opp_box_decref(void);
-casadi_int truck_conv_el_opp_box_n_in(void);
-casadi_int truck_conv_el_opp_box_n_out(void);
-casadi_real truck_conv_el_opp_box_default_in(casadi_int i);
-const char* truck_conv_el_opp_box_name_in(casadi_int i);
-const char* truck_conv_el_opp_box_name_out(casadi_int i);
-const casadi_int* truck_conv_el_opp_box_sparsity_in(casadi_int i);
-const casadi_int* truck_conv_el_opp_box_sparsity_out(casadi_int i);
-int truck_conv_el_opp_box_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int truck_conv_el_opp_box_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define truck_conv_el_opp_box_SZ_ARG 2
-#define truck_conv_el_opp_box_SZ_RES 1
-#define truck_conv_el_opp_box_SZ_IW 0
-#define truck_conv_el_opp_box_SZ_W 0
 void truck_conv_el__casadi_version(int* major, int* minor, int* patch);
 int truck_conv_el__casadi_int_size(void);
 int truck_conv_el__casadi_real_size(void);

@@ -48,7 +48,6 @@ typedef char check_truck_conv_el_init_state[(truck_conv_el_init_state_SZ_ARG <= 
 typedef char check_truck_conv_el_theta_init[(truck_conv_el_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_theta_init_SZ_RES <= CASADI_SZ_RES && truck_conv_el_theta_init_SZ_IW <= CASADI_SZ_IW && truck_conv_el_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plant_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plant_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
-typedef char check_truck_conv_el_opp_box[(truck_conv_el_opp_box_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_box_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_box_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_box_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
 typedef double (*clock_fn_t)(void);
@@ -1123,9 +1122,20 @@ typedef struct {
   truck_conv_el_real_t fit_d[63];
   truck_conv_el_real_t fit_fr[189];
   truck_conv_el_real_t fit_box[11];
-  truck_conv_el_real_t fit_ids;
+  truck_conv_el_real_t fit_hmax;
+  truck_conv_el_real_t fit_ihmax;
+  truck_conv_el_real_t fit_skip;
+  truck_conv_el_real_t fit_uni;
   truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_dd_phi[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_dd_x[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_dd_y[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_d3_phi[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_d3_x[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_d3_y[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t fit_rsq[TRUCK_CONV_EL_ROAD_MAX + 8];
+  truck_conv_el_real_t fit_beta[TRUCK_CONV_EL_ROAD_MAX + 8];
 } truck_conv_el_workspace_t;
 
 static truck_conv_el_workspace_t truck_conv_el_ws;
@@ -1233,7 +1243,7 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_SEARCH 4      /* samples searched on either side of a point's guessed nearest sample */
 #define FIT_WIN 3         /* samples of a point's window */
 #define FIT_WIN_LAST 2
-#define FIT_NEV 12        /* a road evaluation (oppfit.EVAL) */
+#define FIT_NEDGE 60       /* edge points; then the centre, the rear centre, the front centre */
 #define FIT_FULL 1        /* road evaluations (a Halley step each) after the nearest sample's step */
 #define FIT_DG_MIN ((truck_conv_el_real_t)0.05)
 #define FIT_SPACING ((truck_conv_el_real_t)1.0) /* the largest distance of neighbouring edge points */
@@ -1244,6 +1254,26 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_N_MIN ((truck_conv_el_real_t)-10.0)
 #define FIT_N_MAX ((truck_conv_el_real_t)10.0)
 #define FIT_OUTSIDE (-1) /* fit_one: left out (not an exit code) */
+#define FIT_HINT_STRIDE 8 /* the coarse scan of a stage-0 reference point: every 8th sample */
+#define FIT_ROT_MAX ((truck_conv_el_real_t)0.125) /* fit_cos_sin: the polynomials up to this angle */
+#define FIT_SKIP_ABS ((truck_conv_el_real_t)1e-3) /* fit_nearest_all: margins of the skip (m; per m of coordinates) */
+#define FIT_SKIP_REL ((truck_conv_el_real_t)1e-12)
+#define FIT_UNI_MIN ((truck_conv_el_real_t)0.05) /* fit_window: least second difference of the distances per ds^2 */
+#define FIT_EPS16 ((truck_conv_el_real_t)3.552713678800501e-15) /* 16 eps */
+#define FIT_BIG ((truck_conv_el_real_t)1e30)
+#define FIT_ROOT_SHRINK ((truck_conv_el_real_t)0.999999)
+#define FIT_SIXTH ((truck_conv_el_real_t)0.16666666666666666)
+/* fit_segment: the Taylor coefficients of sin and cos (oppfit.SIN_C, COS_C) */
+#define FIT_S1 ((truck_conv_el_real_t)-0.16666666666666666)
+#define FIT_S2 ((truck_conv_el_real_t)0.008333333333333333)
+#define FIT_S3 ((truck_conv_el_real_t)-0.0001984126984126984)
+#define FIT_S4 ((truck_conv_el_real_t)2.7557319223985893e-06)
+#define FIT_C1 ((truck_conv_el_real_t)-0.5)
+#define FIT_C2 ((truck_conv_el_real_t)0.041666666666666664)
+#define FIT_C3 ((truck_conv_el_real_t)-0.001388888888888889)
+#define FIT_C4 ((truck_conv_el_real_t)2.48015873015873e-05)
+#define FIT_C5 ((truck_conv_el_real_t)-2.755731922398589e-07)
+#define FIT_NEV 11        /* a road evaluation (oppfit.EVAL) */
 #define REAL_HALF ((truck_conv_el_real_t)0.5)
 #define REAL_1 ((truck_conv_el_real_t)1.0)
 #define REAL_2 ((truck_conv_el_real_t)2.0)
@@ -1253,16 +1283,21 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define REAL_8 ((truck_conv_el_real_t)8.0)
 #define REAL_12 ((truck_conv_el_real_t)12.0)
 
+/* Squared distance of the road sample i from (px, py). */
+static truck_conv_el_real_t fit_d2(int i, truck_conv_el_real_t px, truck_conv_el_real_t py) {
+  const truck_conv_el_real_t dx = ws.road_gx[i] - px;
+  const truck_conv_el_real_t dy = ws.road_gy[i] - py;
+  return (dx * dx) + (dy * dy);
+}
+
 /* The road sample nearest to (px, py) among lo..hi (the first minimum). */
 static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo, int hi) {
   int i;
   int best = lo;
-  truck_conv_el_real_t dmin = REAL_0;
-  for (i = lo; i <= hi; ++i) {
-    const truck_conv_el_real_t dx = ws.road_gx[i] - px;
-    const truck_conv_el_real_t dy = ws.road_gy[i] - py;
-    const truck_conv_el_real_t d = (dx * dx) + (dy * dy);
-    if ((i == lo) || (d < dmin)) {
+  truck_conv_el_real_t dmin = fit_d2(lo, px, py);
+  for (i = lo + 1; i <= hi; ++i) {
+    const truck_conv_el_real_t d = fit_d2(i, px, py);
+    if (d < dmin) {
       dmin = d;
       best = i;
     }
@@ -1270,106 +1305,184 @@ static int fit_nearest(truck_conv_el_real_t px, truck_conv_el_real_t py, int lo,
   return best;
 }
 
-/* The road interpolant (road.py's formula) at s on the segment of the window i0 .. i0 + FIT_WIN - 1 that holds s
- * (the first or last one beyond it): e = oppfit.EVAL (phi_gamma', cos and sin of phi_gamma, gamma, gamma', gamma'',
- * phi_gamma'', phi_gamma, s). */
-static void fit_road(truck_conv_el_real_t s, int i0, truck_conv_el_real_t *e) {
-  const truck_conv_el_real_t ds = ws.road_ds;
-  const truck_conv_el_real_t ids = ws.fit_ids;
-  const truck_conv_el_real_t t = (s - (ws.road_s0 + ((truck_conv_el_real_t)i0 * ds))) * ids;
-  /* floor(t) clamped into [0, FIT_WIN - 2] = [0, 1] (NaN: 0, the foot check rejects it) */
-  const truck_conv_el_real_t fi = (t >= REAL_1) ? REAL_1 : REAL_0;
-  const int j = i0 + ((t >= REAL_1) ? 1 : 0);
-  {
-    const truck_conv_el_real_t tau = t - fi;
-    const truck_conv_el_real_t t2 = tau * tau;
-    const truck_conv_el_real_t t3 = t2 * tau;
-    const truck_conv_el_real_t h00 = ((REAL_2 * t3) - (REAL_3 * t2)) + REAL_1;
-    const truck_conv_el_real_t h10 = ((t3 - (REAL_2 * t2)) + tau) * ds;
-    const truck_conv_el_real_t h01 = (REAL_3 * t2) - (REAL_2 * t3);
-    const truck_conv_el_real_t h11 = (t3 - t2) * ds;
-    const truck_conv_el_real_t d00 = (REAL_6 * t2) - (REAL_6 * tau);
-    const truck_conv_el_real_t d10 = (((REAL_3 * t2) - (REAL_4 * tau)) + REAL_1) * ds;
-    const truck_conv_el_real_t d11 = ((REAL_3 * t2) - (REAL_2 * tau)) * ds;
-    const truck_conv_el_real_t e00 = (REAL_12 * tau) - REAL_6;
-    const truck_conv_el_real_t e10 = ((REAL_6 * tau) - REAL_4) * ds;
-    const truck_conv_el_real_t e11 = ((REAL_6 * tau) - REAL_2) * ds;
-    const truck_conv_el_real_t ids2 = ids * ids;
-    const truck_conv_el_real_t p0 = ws.road_phi[j];
-    const truck_conv_el_real_t p1 = ws.road_phi[j + 1];
-    const truck_conv_el_real_t k0 = ws.road_kappa[j];
-    const truck_conv_el_real_t k1 = ws.road_kappa[j + 1];
-    const truck_conv_el_real_t x0 = ws.road_gx[j];
-    const truck_conv_el_real_t x1 = ws.road_gx[j + 1];
-    const truck_conv_el_real_t y0 = ws.road_gy[j];
-    const truck_conv_el_real_t y1 = ws.road_gy[j + 1];
-    const truck_conv_el_real_t c0 = ws.fit_cos[j];
-    const truck_conv_el_real_t c1 = ws.fit_cos[j + 1];
-    const truck_conv_el_real_t s0 = ws.fit_sin[j];
-    const truck_conv_el_real_t s1 = ws.fit_sin[j + 1];
-    const truck_conv_el_real_t phi = (((h00 * p0) + (h10 * k0)) + (h01 * p1)) + (h11 * k1);
-    e[0] = ((((d00 * p0) + (d10 * k0)) - (d00 * p1)) + (d11 * k1)) * ids;
-    e[1] = cos(phi);
-    e[2] = sin(phi);
-    e[3] = (((h00 * x0) + (h10 * c0)) + (h01 * x1)) + (h11 * c1);
-    e[4] = (((h00 * y0) + (h10 * s0)) + (h01 * y1)) + (h11 * s1);
-    e[5] = ((((d00 * x0) + (d10 * c0)) - (d00 * x1)) + (d11 * c1)) * ids;
-    e[6] = ((((d00 * y0) + (d10 * s0)) - (d00 * y1)) + (d11 * s1)) * ids;
-    e[7] = ((((e00 * x0) + (e10 * c0)) - (e00 * x1)) + (e11 * c1)) * ids2;
-    e[8] = ((((e00 * y0) + (e10 * s0)) - (e00 * y1)) + (e11 * s1)) * ids2;
-    e[9] = ((((e00 * p0) + (e10 * k0)) - (e00 * p1)) + (e11 * k1)) * ids2;
-    e[10] = phi;
-    e[11] = s;
+/* The road sample nearest to (px, py) over the whole road: the first minimum, the same as fit_nearest(0, last) finds.
+ * A scan in index order that skips only samples the triangle inequality proves farther than the best so far
+ * (neighbouring samples are at most 1 / fit_ihmax apart; fit_skip covers the rounding), the best starting as the
+ * guess `hint`. */
+static int fit_nearest_all(truck_conv_el_real_t px, truck_conv_el_real_t py, int hint) {
+  const int last = ws.road_n - 1;
+  int best = hint;
+  truck_conv_el_real_t dmin = fit_d2(hint, px, py);
+  truck_conv_el_real_t rmin = sqrt(dmin);
+  int i = 0;
+  while (i <= last) {
+    const truck_conv_el_real_t d = fit_d2(i, px, py);
+    int step = 1;
+    if ((d < dmin) || ((d == dmin) && (i < best))) {
+      dmin = d;
+      best = i;
+      rmin = sqrt(d);
+    } else {
+      /* the samples i + m with m < x are farther than rmin */
+      const truck_conv_el_real_t x = ((sqrt(d) - rmin) - ws.fit_skip) * ws.fit_ihmax;
+      const int rest = last - i;
+      if (x >= (truck_conv_el_real_t)rest) {
+        step = (last - i) + 1;
+      } else if (x >= REAL_2) {
+        step = (int)x;
+      } else {
+        /* the next sample */
+      }
+    }
+    i += step;
+  }
+  return best;
+}
+
+/* fit_window's unimodality test per window centre g (fit_road_data). With D_i = |g_{i+1} - p|^2 - |g_i - p|^2 the
+ * second differences are D_{i+1} - D_i = 2 (alpha_i + (Delta_{i+1} - Delta_i) . (m_i - p)) >= 2 (alpha_i - beta_i R)
+ * for R >= |m_i - p|, where Delta_i = g_{i+1} - g_i, m_i = (g_i + g_{i+1}) / 2,
+ * alpha_i = Delta_{i+1} . (Delta_i + Delta_{i+1}) / 2, beta_i = |Delta_{i+1} - Delta_i|. Over the window's second
+ * differences (i = g - FIT_SEARCH .. g + FIT_SEARCH - 2 on the road; A, B their least alpha_i, largest beta_i) that
+ * is > 2 (fit_uni + FIT_EPS16 R^2) (fit_window) up to the root R* of A - B R - fit_uni - FIT_EPS16 R^2 = 0; with
+ * R = |g_g - p| + FIT_SEARCH fit_hmax >= |m_i - p|: fit_rsq[g] = (R* - FIT_SEARCH fit_hmax)^2 bounds |g_g - p|^2 (-1:
+ * no window is unimodal). In place: alpha_i and beta_i first at i + FIT_SEARCH (neutral entries where i is off the
+ * road), then the window of g over them from g on. */
+static void fit_unimodal_bounds(void) {
+  const int m = ws.road_n;
+  const int w = (2 * FIT_SEARCH) - 1; /* pairs of a window */
+  const truck_conv_el_real_t reach = (truck_conv_el_real_t)FIT_SEARCH * ws.fit_hmax;
+  int i;
+  int g;
+  for (i = 0; i < (m + (2 * FIT_SEARCH)); ++i) {
+    ws.fit_rsq[i] = FIT_BIG;
+    ws.fit_beta[i] = REAL_0;
+  }
+  for (i = 0; i < (m - 2); ++i) {
+    const truck_conv_el_real_t ax = ws.road_gx[i + 1] - ws.road_gx[i];
+    const truck_conv_el_real_t ay = ws.road_gy[i + 1] - ws.road_gy[i];
+    const truck_conv_el_real_t bx = ws.road_gx[i + 2] - ws.road_gx[i + 1];
+    const truck_conv_el_real_t by = ws.road_gy[i + 2] - ws.road_gy[i + 1];
+    const truck_conv_el_real_t dx = bx - ax;
+    const truck_conv_el_real_t dy = by - ay;
+    ws.fit_rsq[i + FIT_SEARCH] = REAL_HALF * ((bx * (ax + bx)) + (by * (ay + by)));
+    ws.fit_beta[i + FIT_SEARCH] = sqrt((dx * dx) + (dy * dy));
+  }
+  for (g = 0; g < m; ++g) { /* window g reads g .. g + w - 1 and writes g (read by no later window) */
+    truck_conv_el_real_t amin = ws.fit_rsq[g];
+    truck_conv_el_real_t bmax = ws.fit_beta[g];
+    truck_conv_el_real_t q = -REAL_1;
+    for (i = g + 1; i < (g + w); ++i) {
+      amin = (ws.fit_rsq[i] < amin) ? ws.fit_rsq[i] : amin;
+      bmax = (ws.fit_beta[i] > bmax) ? ws.fit_beta[i] : bmax;
+    }
+    amin = amin - ws.fit_uni;
+    if (amin > REAL_0) { /* R* = 2 a / (B + sqrt(B^2 + 4 eps a)), a = A - fit_uni; a millionth less for its rounding */
+      const truck_conv_el_real_t root = sqrt((bmax * bmax) + ((REAL_4 * FIT_EPS16) * amin));
+      const truck_conv_el_real_t rs = ((REAL_2 * amin) / (bmax + root)) * FIT_ROOT_SHRINK;
+      if (rs > reach) {
+        q = (rs - reach) * (rs - reach);
+      }
+    }
+    ws.fit_rsq[g] = q;
   }
 }
 
-/* One Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 from s = e[11], with the road evaluation e there
- * (oppfit.halley_step: s - 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a gradient step where
+/* The road sample nearest to (px, py) among lo..hi, the window of centre g (lo <= g <= hi; the first minimum, as
+ * fit_nearest finds it): a descent from g where the squared distance is provably unimodal over the window (its second
+ * differences > 2 (fit_uni + FIT_EPS16 R^2) where |g_g - p|^2 <= fit_rsq[g]: fit_unimodal_bounds; at most one pair of
+ * neighbours whose rounded distances may come out in the wrong order, next to the minimum), else fit_nearest. */
+static int fit_window(truck_conv_el_real_t px, truck_conv_el_real_t py, int g, int lo, int hi) {
+  int j = g;
+  int k;
+  truck_conv_el_real_t dj = fit_d2(g, px, py);
+  if (!(dj <= ws.fit_rsq[g])) {
+    return fit_nearest(px, py, lo, hi);
+  }
+  for (k = g - 1; k >= lo; --k) { /* down to the left; a tie: the first minimum */
+    const truck_conv_el_real_t d = fit_d2(k, px, py);
+    if (!(d <= dj)) {
+      break;
+    }
+    j = k;
+    dj = d;
+  }
+  if (j == g) {
+    for (k = g + 1; k <= hi; ++k) { /* down to the right */
+      const truck_conv_el_real_t d = fit_d2(k, px, py);
+      if (!(d < dj)) {
+        break;
+      }
+      j = k;
+      dj = d;
+    }
+  }
+  return j;
+}
+
+/* floor(v) for |v| < INT_MAX. */
+static int fit_floor(truck_conv_el_real_t v) {
+  int t = (int)v;
+  if ((truck_conv_el_real_t)t > v) {
+    t -= 1;
+  }
+  return t;
+}
+
+/* The length of one Halley step of g(s) = (gamma(s) - p) . t(phi_gamma(s)) = 0 with g' = g1, g'' = g2
+ * (oppfit.halley_step: 2 g g' / (2 g'^2 - g g''); a Newton step where |g g''| > g'^2, a gradient step where
  * g' <= FIT_DG_MIN). */
-static truck_conv_el_real_t fit_step(const truck_conv_el_real_t *e, truck_conv_el_real_t px, truck_conv_el_real_t py) {
-  const truck_conv_el_real_t ex = e[3] - px;
-  const truck_conv_el_real_t ey = e[4] - py;
-  const truck_conv_el_real_t g = (ex * e[1]) + (ey * e[2]);
-  const truck_conv_el_real_t en = (ey * e[1]) - (ex * e[2]);
-  const truck_conv_el_real_t g1 = ((e[5] * e[1]) + (e[6] * e[2])) + (e[0] * en);
-  const truck_conv_el_real_t gn = (e[6] * e[1]) - (e[5] * e[2]); /* gamma' . n */
-  const truck_conv_el_real_t g2 = ((((e[7] * e[1]) + (e[8] * e[2])) + ((REAL_2 * e[0]) * gn)) + (e[9] * en)) -
-                               ((e[0] * e[0]) * g);
+static truck_conv_el_real_t fit_halley(truck_conv_el_real_t g, truck_conv_el_real_t g1, truck_conv_el_real_t g2) {
   truck_conv_el_real_t step = g;
   if (g1 > FIT_DG_MIN) {
     const truck_conv_el_real_t gg = g * g2;
     const truck_conv_el_real_t g11 = g1 * g1;
     step = (((gg < REAL_0) ? -gg : gg) <= g11) ? (((REAL_2 * g) * g1) / ((REAL_2 * g11) - gg)) : (g / g1);
   }
-  return e[11] - step;
+  return step;
 }
 
-/* oppfit.EVAL at the road sample i (s its arc length) from the samples alone (no cos or sin): the derivatives of the
- * segment i .. i + 1 there. */
-static void fit_node(int i, truck_conv_el_real_t s, truck_conv_el_real_t *e) {
-  const truck_conv_el_real_t ds = ws.road_ds;
-  const truck_conv_el_real_t ids2 = ws.fit_ids * ws.fit_ids;
-  const truck_conv_el_real_t a = REAL_4 * ds;
-  const truck_conv_el_real_t b = REAL_2 * ds;
-  e[0] = ws.road_kappa[i];
-  e[1] = ws.fit_cos[i];
-  e[2] = ws.fit_sin[i];
-  e[3] = ws.road_gx[i];
-  e[4] = ws.road_gy[i];
-  e[5] = ws.fit_cos[i];
-  e[6] = ws.fit_sin[i];
-  e[7] = (((REAL_6 * (ws.road_gx[i + 1] - ws.road_gx[i])) - (a * ws.fit_cos[i])) - (b * ws.fit_cos[i + 1])) * ids2;
-  e[8] = (((REAL_6 * (ws.road_gy[i + 1] - ws.road_gy[i])) - (a * ws.fit_sin[i])) - (b * ws.fit_sin[i + 1])) * ids2;
-  e[9] = (((REAL_6 * (ws.road_phi[i + 1] - ws.road_phi[i])) - (a * ws.road_kappa[i])) - (b * ws.road_kappa[i + 1])) *
-         ids2;
-  e[10] = ws.road_phi[i];
-  e[11] = s;
+/* The road's interpolant on its segment j at h = s - (s0 + j ds) (oppfit.segment_eval: its Taylor expansion at the
+ * segment's first sample, a cubic, from fit_road_data's derivatives there), relative to the point (px, py):
+ * e = (phi', cos and sin of phi, gamma - p, gamma', gamma'', phi'', phi - phi_j) (oppfit.EVAL). */
+static void fit_segment(int j, truck_conv_el_real_t h, truck_conv_el_real_t px, truck_conv_el_real_t py, truck_conv_el_real_t *e) {
+  const truck_conv_el_real_t k0 = ws.road_kappa[j];
+  const truck_conv_el_real_t c0 = ws.fit_cos[j];
+  const truck_conv_el_real_t s0 = ws.fit_sin[j];
+  const truck_conv_el_real_t pp = ws.fit_dd_phi[j];
+  const truck_conv_el_real_t xx = ws.fit_dd_x[j];
+  const truck_conv_el_real_t yy = ws.fit_dd_y[j];
+  const truck_conv_el_real_t p3 = ws.fit_d3_phi[j];
+  const truck_conv_el_real_t x3 = ws.fit_d3_x[j];
+  const truck_conv_el_real_t y3 = ws.fit_d3_y[j];
+  const truck_conv_el_real_t dl = h * (k0 + (h * ((REAL_HALF * pp) + (h * (p3 * FIT_SIXTH)))));
+  const truck_conv_el_real_t d2 = dl * dl;
+  e[0] = k0 + (h * (pp + (h * (REAL_HALF * p3))));
+  if ((dl <= FIT_ROT_MAX) && (dl >= -FIT_ROT_MAX)) { /* cos, sin of phi_j + dl: the rotation of sample j's by dl */
+    const truck_conv_el_real_t sd = dl + ((dl * d2) * (FIT_S1 + (d2 * (FIT_S2 + (d2 * (FIT_S3 + (d2 * FIT_S4)))))));
+    const truck_conv_el_real_t cd =
+        REAL_1 + (d2 * (FIT_C1 + (d2 * (FIT_C2 + (d2 * (FIT_C3 + (d2 * (FIT_C4 + (d2 * FIT_C5)))))))));
+    e[1] = (c0 * cd) - (s0 * sd);
+    e[2] = (s0 * cd) + (c0 * sd);
+  } else {
+    e[1] = cos(ws.road_phi[j] + dl);
+    e[2] = sin(ws.road_phi[j] + dl);
+  }
+  e[3] = (ws.road_gx[j] - px) + (h * (c0 + (h * ((REAL_HALF * xx) + (h * (x3 * FIT_SIXTH))))));
+  e[4] = (ws.road_gy[j] - py) + (h * (s0 + (h * ((REAL_HALF * yy) + (h * (y3 * FIT_SIXTH))))));
+  e[5] = c0 + (h * (xx + (h * (REAL_HALF * x3))));
+  e[6] = s0 + (h * (yy + (h * (REAL_HALF * y3))));
+  e[7] = xx + (h * x3);
+  e[8] = yy + (h * y3);
+  e[9] = pp + (h * p3);
+  e[10] = dl;
 }
 
 /* Point i's foot point on its window i0 .. i0 + FIT_WIN - 1 into fit_fr (oppfit.map_points): a Halley step from the
- * window's centre sample, clamped into the window, then FIT_FULL road evaluations with a step each; n and phi_gamma
- * at the foot from the last one (oppfit.foot_n_phi: second-order Taylor). 0 if the foot leaves the window (the point
- * cannot be mapped). */
+ * window's centre sample c (oppfit.node_step: fit_segment at h = 0, no cos or sin), clamped into the window, then
+ * FIT_FULL road evaluations (fit_segment on the window's segment holding s, the first or last one beyond it) with a
+ * step each; n and phi_gamma at the foot from the last one (oppfit.foot_n_phi: second-order Taylor). 0 if the foot
+ * leaves the window (the point cannot be mapped). */
 static int fit_point(int i, int i0) {
   const truck_conv_el_real_t ds = ws.road_ds;
   const truck_conv_el_real_t w0 = ws.road_s0 + ((truck_conv_el_real_t)i0 * ds);
@@ -1378,35 +1491,116 @@ static int fit_point(int i, int i0) {
   const truck_conv_el_real_t py = ws.fit_P[(2 * i) + 1];
   truck_conv_el_real_t e[FIT_NEV];
   truck_conv_el_real_t s;
+  truck_conv_el_real_t s_ev;
+  int j = i0;
   int k;
-  fit_node(i0 + (FIT_WIN / 2), w0 + ds, e);
-  s = fit_step(e, px, py);
+  {
+    const int c = i0 + (FIT_WIN / 2);
+    const truck_conv_el_real_t kc = ws.road_kappa[c];
+    const truck_conv_el_real_t cc = ws.fit_cos[c];
+    const truck_conv_el_real_t sc = ws.fit_sin[c];
+    const truck_conv_el_real_t ex = ws.road_gx[c] - px;
+    const truck_conv_el_real_t ey = ws.road_gy[c] - py;
+    const truck_conv_el_real_t g = (ex * cc) + (ey * sc);
+    const truck_conv_el_real_t en = (ey * cc) - (ex * sc);
+    const truck_conv_el_real_t g1 = ((cc * cc) + (sc * sc)) + (kc * en);
+    const truck_conv_el_real_t g2 = (((ws.fit_dd_x[c] * cc) + (ws.fit_dd_y[c] * sc)) + (ws.fit_dd_phi[c] * en)) -
+                                 ((kc * kc) * g);
+    s = (w0 + ds) - fit_halley(g, g1, g2);
+  }
   if (s < w0) {
     s = w0;
   }
   if (s > w1) {
     s = w1;
   }
+  s_ev = s;
   for (k = 0; k < FIT_FULL; ++k) {
-    fit_road(s, i0, e);
-    s = fit_step(e, px, py);
+    /* the window's segment holding s: floor((s - w0) / ds) clamped into [0, FIT_WIN - 2] = [0, 1] (NaN: 0, the foot
+     * check rejects it) */
+    truck_conv_el_real_t h = s - w0;
+    j = i0;
+    if (h >= ds) {
+      j = i0 + 1;
+      h = h - ds;
+    }
+    s_ev = s;
+    fit_segment(j, h, px, py, e);
+    {
+      const truck_conv_el_real_t g = (e[3] * e[1]) + (e[4] * e[2]);
+      const truck_conv_el_real_t en = (e[4] * e[1]) - (e[3] * e[2]);
+      const truck_conv_el_real_t g1 = ((e[5] * e[1]) + (e[6] * e[2])) + (e[0] * en);
+      const truck_conv_el_real_t gn = (e[6] * e[1]) - (e[5] * e[2]); /* gamma' . n */
+      const truck_conv_el_real_t g2 = ((((e[7] * e[1]) + (e[8] * e[2])) + ((REAL_2 * e[0]) * gn)) + (e[9] * en)) -
+                                   ((e[0] * e[0]) * g);
+      s = s_ev - fit_halley(g, g1, g2);
+    }
   }
   {
-    const truck_conv_el_real_t ex = e[3] - px;
-    const truck_conv_el_real_t ey = e[4] - py;
-    const truck_conv_el_real_t g = (ex * e[1]) + (ey * e[2]);
-    const truck_conv_el_real_t en = (ey * e[1]) - (ex * e[2]);
-    const truck_conv_el_real_t g1 = ((e[5] * e[1]) + (e[6] * e[2])) + (e[0] * en);
+    const truck_conv_el_real_t g = (e[3] * e[1]) + (e[4] * e[2]);
+    const truck_conv_el_real_t en = (e[4] * e[1]) - (e[3] * e[2]);
+    const truck_conv_el_real_t tg = (e[5] * e[1]) + (e[6] * e[2]); /* gamma' . t */
+    const truck_conv_el_real_t g1 = tg + (e[0] * en);
     const truck_conv_el_real_t dn = (e[0] * g) - ((e[6] * e[1]) - (e[5] * e[2]));
-    const truck_conv_el_real_t ddn = (((e[0] * ((e[5] * e[1]) + (e[6] * e[2]))) - ((e[8] * e[1]) - (e[7] * e[2]))) +
-                                   (e[9] * g)) + (e[0] * g1);
-    const truck_conv_el_real_t d = s - e[11];
-    const truck_conv_el_real_t h = REAL_HALF * d;
+    const truck_conv_el_real_t ddn = (((e[0] * tg) - ((e[8] * e[1]) - (e[7] * e[2]))) + (e[9] * g)) + (e[0] * g1);
+    const truck_conv_el_real_t d = s - s_ev;
+    const truck_conv_el_real_t hd = REAL_HALF * d;
     ws.fit_fr[3 * i] = s;
-    ws.fit_fr[(3 * i) + 1] = ((ex * e[2]) + ((py - e[4]) * e[1])) + (d * (dn + (h * ddn)));
-    ws.fit_fr[(3 * i) + 2] = e[10] + (d * (e[0] + (h * e[9])));
+    ws.fit_fr[(3 * i) + 1] = -en + (d * (dn + (hd * ddn)));
+    ws.fit_fr[(3 * i) + 2] = ws.road_phi[j] + (e[10] + (d * (e[0] + (hd * e[9]))));
   }
   return ((s >= w0) && (s <= w1)) ? 1 : 0;
+}
+
+/* The box around the mapped points into ws.fit_box (oppfit.BOX; the CasADi function opp_box of oppfit.build_oppfit,
+ * operation for operation): its axis from the rear to the front centre, its extent over the edge points and the
+ * centre along and across that axis, the s and n ranges. */
+static void fit_box(void) {
+  const truck_conv_el_real_t *fr = ws.fit_fr;
+  truck_conv_el_real_t *b = ws.fit_box;
+  const int r = 3 * (FIT_NPT - 2);
+  const int q = 3 * (FIT_NPT - 1);
+  const truck_conv_el_real_t angle = atan2(fr[q + 1] - fr[r + 1], fr[q] - fr[r]);
+  const truck_conv_el_real_t ca = cos(angle);
+  const truck_conv_el_real_t sa = sin(angle);
+  truck_conv_el_real_t a_hi = (fr[0] * ca) + (fr[1] * sa);
+  truck_conv_el_real_t a_lo = a_hi;
+  truck_conv_el_real_t b_hi = (fr[1] * ca) - (fr[0] * sa);
+  truck_conv_el_real_t b_lo = b_hi;
+  truck_conv_el_real_t s_hi = fr[0];
+  truck_conv_el_real_t s_lo = fr[0];
+  truck_conv_el_real_t n_hi = fr[1];
+  truck_conv_el_real_t n_lo = fr[1];
+  int i;
+  for (i = 1; i <= FIT_NEDGE; ++i) {
+    const truck_conv_el_real_t fs = fr[3 * i];
+    const truck_conv_el_real_t fn = fr[(3 * i) + 1];
+    const truck_conv_el_real_t a = (fs * ca) + (fn * sa);
+    const truck_conv_el_real_t bb = (fn * ca) - (fs * sa);
+    a_hi = (a > a_hi) ? a : a_hi;
+    a_lo = (a < a_lo) ? a : a_lo;
+    b_hi = (bb > b_hi) ? bb : b_hi;
+    b_lo = (bb < b_lo) ? bb : b_lo;
+    s_hi = (fs > s_hi) ? fs : s_hi;
+    s_lo = (fs < s_lo) ? fs : s_lo;
+    n_hi = (fn > n_hi) ? fn : n_hi;
+    n_lo = (fn < n_lo) ? fn : n_lo;
+  }
+  {
+    const truck_conv_el_real_t cs = REAL_HALF * (a_hi + a_lo);
+    const truck_conv_el_real_t cn = REAL_HALF * (b_hi + b_lo);
+    b[0] = (cs * ca) - (cn * sa);
+    b[1] = (cs * sa) + (cn * ca);
+  }
+  b[2] = angle;
+  b[3] = REAL_HALF * (a_hi - a_lo);
+  b[4] = REAL_HALF * (b_hi - b_lo);
+  b[5] = n_hi + FIT_REACH;
+  b[6] = n_lo - FIT_REACH;
+  b[7] = s_lo - FIT_REACH;
+  b[8] = s_hi + FIT_REACH;
+  b[9] = n_hi;
+  b[10] = n_lo;
 }
 
 /* The samples i with s_lo <= s0 + ds i <= s_hi (a non-empty range inside the road): their extreme curvatures and
@@ -1487,15 +1681,17 @@ static int fit_sag(const truck_conv_el_real_t *b, const truck_conv_el_real_t *k,
   return 1;
 }
 
-/* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched). */
-static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) {
+/* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched).
+ * *iref: in, a guess of the reference point's nearest sample (any sample; it changes the search's cost only; < 0:
+ * none, then every FIT_HINT_STRIDE-th sample is tried), out, that nearest sample. */
+static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, int *iref) {
   const int m = ws.road_n;
   const int last = m - 1;
   const int half = FIT_WIN / 2;
   const truck_conv_el_real_t ds = ws.road_ds;
   const truck_conv_el_real_t *b = ws.fit_box; /* b: oppfit.BOX */
   int i;
-  int iref;
+  int ir;
   truck_conv_el_real_t s_lo;
   truck_conv_el_real_t s_hi;
   truck_conv_el_real_t st;
@@ -1503,10 +1699,23 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
   truck_conv_el_real_t pad;
   truck_conv_el_real_t k[3];
   call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
-  iref = fit_nearest(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], 0, m - 1);
-  if ((iref == 0) || (iref == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
+  ir = *iref;
+  if ((ir < 0) || (ir > last)) {
+    truck_conv_el_real_t dmin = fit_d2(0, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]);
+    ir = 0;
+    for (i = FIT_HINT_STRIDE; i <= last; i += FIT_HINT_STRIDE) {
+      const truck_conv_el_real_t d = fit_d2(i, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]);
+      if (d < dmin) {
+        dmin = d;
+        ir = i;
+      }
+    }
+  }
+  ir = fit_nearest_all(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], ir);
+  *iref = ir;
+  if ((ir == 0) || (ir == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
   for (i = 0; i < FIT_NPT; ++i) {
-    const int g = iref + (int)FLOOR((ws.fit_d[i] / ds) + REAL_HALF);
+    const int g = ir + fit_floor((ws.fit_d[i] / ds) + REAL_HALF);
     int lo = g - FIT_SEARCH;
     int hi = g + FIT_SEARCH;
     int ist;
@@ -1517,11 +1726,15 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
       hi = last;
     }
     if (lo > hi) return FIT_OUTSIDE;
-    ist = fit_nearest(ws.fit_P[2 * i], ws.fit_P[(2 * i) + 1], lo, hi);
+    if ((g >= lo) && (g <= hi)) {
+      ist = fit_window(ws.fit_P[2 * i], ws.fit_P[(2 * i) + 1], g, lo, hi);
+    } else {
+      ist = fit_nearest(ws.fit_P[2 * i], ws.fit_P[(2 * i) + 1], lo, hi);
+    }
     if ((ist < half) || (ist > (last - half))) return FIT_OUTSIDE;
     if (fit_point(i, ist - half) == 0) return TRUCK_CONV_EL_ERR_OPP_FRENET; /* the foot left its window */
   }
-  call3(truck_conv_el_opp_box, ws.fit_fr, pose, NULL, ws.fit_box, NULL, NULL);
+  fit_box();
   s_lo = b[7] - ds;
   s_hi = b[8] + ds;
   if ((!((s_lo >= ws.road_s0) && (s_hi <= (ws.road_s0 + ((truck_conv_el_real_t)last * ds))))) || (b[6] > FIT_N_MAX) ||
@@ -1540,21 +1753,66 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out) 
   return TRUCK_CONV_EL_OK;
 }
 
+/* The road's data for the fit (oppfit.road_data): the node slopes of its interpolant (cos, sin of phi_gamma); per
+ * segment j (samples j, j + 1) the second derivatives of phi_gamma, gamma_x, gamma_y at its first sample and their
+ * third derivatives (constant: cubics); the largest distance of neighbouring samples (fit_nearest_all); per window
+ * centre g the bounds of fit_window's unimodality test. */
+static void fit_road_data(void) {
+  const int m = ws.road_n;
+  const truck_conv_el_real_t ds = ws.road_ds;
+  const truck_conv_el_real_t a = REAL_4 * ds;
+  const truck_conv_el_real_t bd = REAL_2 * ds;
+  const truck_conv_el_real_t c = REAL_6 * ds;
+  const truck_conv_el_real_t ids = REAL_1 / ds;
+  const truck_conv_el_real_t ids2 = ids * ids;
+  const truck_conv_el_real_t ids3 = ids2 * ids;
+  truck_conv_el_real_t h2 = REAL_0;
+  truck_conv_el_real_t cmax = REAL_0;
+  int k;
+  for (k = 0; k < m; ++k) {
+    const truck_conv_el_real_t ax = (ws.road_gx[k] < REAL_0) ? -ws.road_gx[k] : ws.road_gx[k];
+    const truck_conv_el_real_t ay = (ws.road_gy[k] < REAL_0) ? -ws.road_gy[k] : ws.road_gy[k];
+    ws.fit_cos[k] = cos(ws.road_phi[k]);
+    ws.fit_sin[k] = sin(ws.road_phi[k]);
+    cmax = (ax > cmax) ? ax : cmax;
+    cmax = (ay > cmax) ? ay : cmax;
+  }
+  for (k = 0; k < (m - 1); ++k) {
+    const truck_conv_el_real_t hx = ws.road_gx[k + 1] - ws.road_gx[k];
+    const truck_conv_el_real_t hy = ws.road_gy[k + 1] - ws.road_gy[k];
+    const truck_conv_el_real_t hp = ws.road_phi[k + 1] - ws.road_phi[k];
+    const truck_conv_el_real_t h = (hx * hx) + (hy * hy);
+    ws.fit_dd_x[k] = (((REAL_6 * hx) - (a * ws.fit_cos[k])) - (bd * ws.fit_cos[k + 1])) * ids2;
+    ws.fit_dd_y[k] = (((REAL_6 * hy) - (a * ws.fit_sin[k])) - (bd * ws.fit_sin[k + 1])) * ids2;
+    ws.fit_dd_phi[k] = (((REAL_6 * hp) - (a * ws.road_kappa[k])) - (bd * ws.road_kappa[k + 1])) * ids2;
+    ws.fit_d3_x[k] = ((c * (ws.fit_cos[k] + ws.fit_cos[k + 1])) - (REAL_12 * hx)) * ids3;
+    ws.fit_d3_y[k] = ((c * (ws.fit_sin[k] + ws.fit_sin[k + 1])) - (REAL_12 * hy)) * ids3;
+    ws.fit_d3_phi[k] = ((c * (ws.road_kappa[k] + ws.road_kappa[k + 1])) - (REAL_12 * hp)) * ids3;
+    h2 = (h > h2) ? h : h2;
+  }
+  /* 1 / the largest neighbour distance, widened by 0.1 % (and 1 um for a road of repeated samples) */
+  ws.fit_hmax = (sqrt(h2) * ((truck_conv_el_real_t)1.001)) + ((truck_conv_el_real_t)1e-6);
+  ws.fit_ihmax = REAL_1 / ws.fit_hmax;
+  ws.fit_skip = FIT_SKIP_ABS + (FIT_SKIP_REL * cmax);
+  ws.fit_uni = FIT_UNI_MIN * (ds * ds);
+  fit_unimodal_bounds();
+}
+
 /* Every stage and opponent: ws.opp (poses) -> ws.opp_stage (fitted boxes); counts those left out in fit_outside. */
 static int fit_opponents(void) {
   int k;
+  int j;
+  int hint[TRUCK_CONV_EL_NOPP]; /* per opponent: the previous stage's reference sample, the guess of the next */
   if (ws.road_set == 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   ws.fit_outside = 0;
-  ws.fit_ids = REAL_1 / ws.road_ds;
-  for (k = 0; k < ws.road_n; ++k) { /* the node slopes of the road interpolant, once per sample */
-    ws.fit_cos[k] = cos(ws.road_phi[k]);
-    ws.fit_sin[k] = sin(ws.road_phi[k]);
+  fit_road_data();
+  for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+    hint[j] = -1; /* none at stage 0 */
   }
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    int j;
     for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
       truck_conv_el_real_t *o = &ws.opp_stage[k][6 * j];
-      const int rc = fit_one(&ws.opp[k][TRUCK_CONV_EL_NOPP_PAR * j], o);
+      const int rc = fit_one(&ws.opp[k][TRUCK_CONV_EL_NOPP_PAR * j], o, &hint[j]);
       if (rc == FIT_OUTSIDE) { /* left out: a unit box 1000 m behind the road */
         o[0] = (truck_conv_el_real_t)-1000.0 + ws.road_s0;
         o[1] = (truck_conv_el_real_t)0.0;

@@ -1229,6 +1229,9 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NBOX 280
 #define IPM_NIN 360 /* inequality rows */
 #define IPM_NGA 160 /* (x, u) entries of the general rows */
+#define IPM_NUB 2 /* input blocks per stage (at most; IPM_UB) */
+#define IPM_NFGC 10 /* columns of [F G] that can be non-zero: the first IPM_NFGC (x, then u) */
+#define IPM_NGV 448 /* variables but the soft rows' slacks (IPM_GV; those live in IPM_W.sr) */
 #define IPM_NAR 688 /* rows of A z (all but the soft rows and their slacks' bound rows) */
 #define IPM_NSR 120 /* soft rows: one side, a slack of their own bounded by a box row (qp.split_soft_rows) */
 #define IPM_NA 3 /* (x, u) entries of a soft row (at most; padding: slot 0, coefficient 0) */
@@ -1240,6 +1243,7 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NFREE 0
 #define IPM_T_MIN ((truck_lift_el_ipm_real_t)0.1)
 #define IPM_LAM_MIN ((truck_lift_el_ipm_real_t)0.1)
+#define IPM_LAM_CENTER ((truck_lift_el_ipm_real_t)0.5) /* initial lam >= IPM_LAM_CENTER mean(t lam) / t */
 #define IPM_LAM_MAX ((truck_lift_el_ipm_real_t)10000000000.0)
 #define IPM_ALPHA_MIN ((truck_lift_el_ipm_real_t)1e-12)
 #define IPM_WARM 1
@@ -3510,6 +3514,89 @@ static const ipm_idx_t IPM_EQ_ALL[328] = { /* equality rows */
 static const ipm_idx_t IPM_FREE[1] = { /* inputs without cost (proximal weight) */
   0
 };
+static const ipm_idx_t IPM_UB[41][3] = { /* [k][b]: stage k's input block b: inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1 */
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 2, 2},
+  {0, 1, 2}
+};
+static const ipm_idx_t IPM_GV[448] = { /* the variables but the soft rows' slacks */
+  0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
+  12, 13, 14, 15, 16, 17, 18, 19, 20, 24, 25, 26,
+  27, 28, 29, 30, 31, 32, 33, 34, 38, 39, 40, 41,
+  42, 43, 44, 45, 46, 47, 48, 52, 53, 54, 55, 56,
+  57, 58, 59, 60, 61, 62, 66, 67, 68, 69, 70, 71,
+  72, 73, 74, 75, 76, 80, 81, 82, 83, 84, 85, 86,
+  87, 88, 89, 90, 94, 95, 96, 97, 98, 99, 100, 101,
+  102, 103, 104, 108, 109, 110, 111, 112, 113, 114, 115, 116,
+  117, 118, 122, 123, 124, 125, 126, 127, 128, 129, 130, 131,
+  132, 136, 137, 138, 139, 140, 141, 142, 143, 144, 145, 146,
+  150, 151, 152, 153, 154, 155, 156, 157, 158, 159, 160, 164,
+  165, 166, 167, 168, 169, 170, 171, 172, 173, 174, 178, 179,
+  180, 181, 182, 183, 184, 185, 186, 187, 188, 192, 193, 194,
+  195, 196, 197, 198, 199, 200, 201, 202, 206, 207, 208, 209,
+  210, 211, 212, 213, 214, 215, 216, 220, 221, 222, 223, 224,
+  225, 226, 227, 228, 229, 230, 234, 235, 236, 237, 238, 239,
+  240, 241, 242, 243, 244, 248, 249, 250, 251, 252, 253, 254,
+  255, 256, 257, 258, 262, 263, 264, 265, 266, 267, 268, 269,
+  270, 271, 272, 276, 277, 278, 279, 280, 281, 282, 283, 284,
+  285, 286, 290, 291, 292, 293, 294, 295, 296, 297, 298, 299,
+  300, 304, 305, 306, 307, 308, 309, 310, 311, 312, 313, 314,
+  318, 319, 320, 321, 322, 323, 324, 325, 326, 327, 328, 332,
+  333, 334, 335, 336, 337, 338, 339, 340, 341, 342, 346, 347,
+  348, 349, 350, 351, 352, 353, 354, 355, 356, 360, 361, 362,
+  363, 364, 365, 366, 367, 368, 369, 370, 374, 375, 376, 377,
+  378, 379, 380, 381, 382, 383, 384, 388, 389, 390, 391, 392,
+  393, 394, 395, 396, 397, 398, 402, 403, 404, 405, 406, 407,
+  408, 409, 410, 411, 412, 416, 417, 418, 419, 420, 421, 422,
+  423, 424, 425, 426, 430, 431, 432, 433, 434, 435, 436, 437,
+  438, 439, 440, 444, 445, 446, 447, 448, 449, 450, 451, 452,
+  453, 454, 458, 459, 460, 461, 462, 463, 464, 465, 466, 467,
+  468, 472, 473, 474, 475, 476, 477, 478, 479, 480, 481, 482,
+  486, 487, 488, 489, 490, 491, 492, 493, 494, 495, 496, 500,
+  501, 502, 503, 504, 505, 506, 507, 508, 509, 510, 514, 515,
+  516, 517, 518, 519, 520, 521, 522, 523, 524, 528, 529, 530,
+  531, 532, 533, 534, 535, 536, 537, 538, 542, 543, 544, 545,
+  546, 547, 548, 549, 550, 551, 552, 556, 557, 558, 559, 560,
+  561, 562, 563, 564
+};
 static const ipm_idx_t IPM_SR_RPTR[42] = { /* runs of soft rows of stage k */
   0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10,
   11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22,
@@ -3896,6 +3983,12 @@ typedef struct {
   ipm_real_t dl1;
   ipm_real_t dt2;
   ipm_real_t dl2;
+  ipm_real_t zs; /* the slack variable: its iterate, step, stationarity residual and Newton right-hand side */
+  ipm_real_t dzs;
+  ipm_real_t rds;
+  ipm_real_t hs;
+  ipm_real_t ps; /* its P (prepare) and q (per QP) */
+  ipm_real_t qs;
 } ipm_sr_t;
 
 /* ---- workspace (one static struct; every member is overwritten before it is read, except the data pointers) ---- */
@@ -3981,18 +4074,21 @@ static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
   return 0;
 }
 
-/* X := Lo^-1 X (n x m, strides ldl, ldx) */
+/* X := Lo^-1 X (n x m, strides ldl, ldx): row i of X less Lo[i][j] times row j (j < i), over X's contiguous rows */
 static void ipm_fwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, int ldx) {
   int i;
   int j;
   int c;
   for (i = 0; i < n; ++i) {
-    for (c = 0; c < m; ++c) {
-      ipm_real_t s = REAL_0;
-      for (j = 0; j < i; ++j) {
-        s += Lo[(i * ldl) + j] * X[(j * ldx) + c];
+    const ipm_real_t d = IPM_ONE / Lo[(i * ldl) + i];
+    for (j = 0; j < i; ++j) {
+      const ipm_real_t lij = Lo[(i * ldl) + j];
+      for (c = 0; c < m; ++c) {
+        X[(i * ldx) + c] -= lij * X[(j * ldx) + c];
       }
-      X[(i * ldx) + c] = (X[(i * ldx) + c] - s) / Lo[(i * ldl) + i];
+    }
+    for (c = 0; c < m; ++c) {
+      X[(i * ldx) + c] *= d;
     }
   }
 }
@@ -4013,6 +4109,37 @@ static void ipm_bwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, 
   }
 }
 
+/* ---- stage k's R_bar is block diagonal over its input blocks IPM_UB[k] (inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1:
+ * e.g. the controls, then each opponent's hyperplane variables): its factor L, every solve with it, block by block */
+static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    if (ipm_chol(&A[(o * IPM_NU) + o], &Lo[(o * IPM_NU) + o], IPM_UB[k][b + 1] - o, IPM_NU) != 0) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+/* X := L_k^-1 X (NU x m, stride ldx) */
+static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    ipm_fwd(&Lo[(o * IPM_NU) + o], IPM_NU, &X[o * ldx], IPM_UB[k][b + 1] - o, m, ldx);
+  }
+}
+
+/* x := L_k^-T x (a vector of NU) */
+static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
+  }
+}
+
 /* ---- sparse products with the layout's CSC pattern ---- */
 /* A z on the rows IPM_AR_ROW (not the soft rows): row by row, a gather, no scatter */
 static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
@@ -4027,11 +4154,12 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
   }
 }
 
-/* out = base + A' v over the rows of ipm_Ax (the soft rows add theirs in ipm_sr_check) */
+/* out = base + A' v over the rows of ipm_Ax (the soft rows add theirs in ipm_sr_check), on the generic variables */
 static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
-  int j;
   int k;
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
+  int i;
+  for (i = 0; i < IPM_NGV; ++i) {
+    const int j = IPM_GV[i];
     ipm_real_t s = REAL_0;
     for (k = IPM_A_P[j]; k < IPM_A_P[j + 1]; ++k) {
       s += IPM_W.Ax[IPM_A_K[k]] * v[IPM_A_I[k]];
@@ -4079,35 +4207,49 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
         zr[p] = zl[IPM_SR_RUN_V[r][p]];
         rr[p] = REAL_0;
       }
-      for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
+      for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) { /* fields in locals: no aliasing reloads */
         ipm_sr_t *const s = &IPM_W.sr[j];
-        const int vs = IPM_SR_SVAR[j];
+        const ipm_real_t zs = s->zs + (alpha * s->dzs);
+        const ipm_real_t t1 = s->t1 + (alpha * s->dt1);
+        const ipm_real_t l1 = s->l1 + (alpha * s->dl1);
+        const ipm_real_t t2 = s->t2 + (alpha * s->dt2);
+        const ipm_real_t l2 = s->l2 + (alpha * s->dl2);
+        const ipm_real_t tl1 = t1 * l1;
+        const ipm_real_t tl2 = t2 * l2;
         ipm_real_t az = REAL_0;
-        ipm_real_t tl1;
-        ipm_real_t tl2;
-        s->t1 += alpha * s->dt1;
-        s->l1 += alpha * s->dl1;
-        s->t2 += alpha * s->dt2;
-        s->l2 += alpha * s->dl2;
+        ipm_real_t rp1;
+        ipm_real_t rp2;
+        ipm_real_t rds;
         for (p = 0; p < IPM_NA; ++p) {
           az += s->a[p] * zr[p];
-          rr[p] -= s->a[p] * s->l1;
+          rr[p] -= s->a[p] * l1;
         }
-        az += s->e * IPM_W.z[vs];
-        s->rp1 = (az - s->b1) - s->t1;
-        s->rp2 = ((s->bb * IPM_W.z[vs]) - s->b2) - s->t2;
-        s->it1 = IPM_ONE / s->t1;
-        s->it2 = IPM_ONE / s->t2;
-        IPM_W.r_d[vs] -= (s->e * s->l1) + (s->bb * s->l2);
-        tl1 = s->t1 * s->l1;
-        tl2 = s->t2 * s->l2;
+        az += s->e * zs;
+        rp1 = (az - s->b1) - t1;
+        rp2 = ((s->bb * zs) - s->b2) - t2;
+        rds = ((s->ps * zs) + s->qs) - ((s->e * l1) + (s->bb * l2));
+        s->zs = zs;
+        s->rds = rds;
+        s->t1 = t1;
+        s->l1 = l1;
+        s->t2 = t2;
+        s->l2 = l2;
+        s->rp1 = rp1;
+        s->rp2 = rp2;
+        s->it1 = IPM_ONE / t1;
+        s->it2 = IPM_ONE / t2;
         mu += tl1 + tl2;
-        rmax = (IPM_FABS(s->rp1) > rmax) ? IPM_FABS(s->rp1) : rmax;
-        rmax = (IPM_FABS(s->rp2) > rmax) ? IPM_FABS(s->rp2) : rmax;
+        rmax = (IPM_FABS(rp1) > rmax) ? IPM_FABS(rp1) : rmax;
+        rmax = (IPM_FABS(rp2) > rmax) ? IPM_FABS(rp2) : rmax;
         rmax = (tl1 > rmax) ? tl1 : rmax;
         rmax = (tl2 > rmax) ? tl2 : rmax;
-        lmax = (s->l1 > lmax) ? s->l1 : lmax;
-        lmax = (s->l2 > lmax) ? s->l2 : lmax;
+        lmax = (l1 > lmax) ? l1 : lmax;
+        lmax = (l2 > lmax) ? l2 : lmax;
+        if (isfinite(rds) == 0) { /* as the generic stationarity test: a non-finite residual stops the QP */
+          rmax = rds;
+        } else {
+          rmax = (IPM_FABS(rds) > rmax) ? IPM_FABS(rds) : rmax;
+        }
       }
       for (p = 0; p < IPM_NA; ++p) {
         rl[IPM_SR_RUN_V[r][p]] += rr[p];
@@ -4140,11 +4282,12 @@ static void ipm_sr_hessian(int k) {
     for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
       ipm_sr_t *const s = &IPM_W.sr[j];
       const ipm_real_t w1 = s->l1 * s->it1;
-      const ipm_real_t hds = IPM_W.Pd[IPM_SR_SVAR[j]] + ((s->l2 * s->it2) * (s->bb * s->bb));
-      ipm_real_t weff;
-      s->c = w1 * s->e;
-      s->id = IPM_ONE / (hds + (s->c * s->e));
-      weff = (w1 * hds) * s->id;
+      const ipm_real_t hds = s->ps + ((s->l2 * s->it2) * (s->bb * s->bb));
+      const ipm_real_t c = w1 * s->e;
+      const ipm_real_t id = IPM_ONE / (hds + (c * s->e));
+      const ipm_real_t weff = (w1 * hds) * id;
+      s->c = c;
+      s->id = id;
       q = 0;
       for (a = 0; a < IPM_NA; ++a) {
         const ipm_real_t ca = weff * s->a[a];
@@ -4176,13 +4319,12 @@ static void ipm_sr_rhs(int k, int corr, ipm_real_t sm, ipm_real_t *ht) {
       hr[p] = REAL_0;
     }
     for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
-      const ipm_sr_t *const s = &IPM_W.sr[j];
-      const int vs = IPM_SR_SVAR[j];
+      ipm_sr_t *const s = &IPM_W.sr[j];
       const ipm_real_t g1 = (ipm_sr_rc(corr, sm, s->t1, s->l1, s->dt1, s->dl1) + (s->l1 * s->rp1)) * s->it1;
       const ipm_real_t g2 = (ipm_sr_rc(corr, sm, s->t2, s->l2, s->dt2, s->dl2) + (s->l2 * s->rp2)) * s->it2;
-      const ipm_real_t hv = (IPM_W.r_d[vs] + (s->e * g1)) + (s->bb * g2);
+      const ipm_real_t hv = (s->rds + (s->e * g1)) + (s->bb * g2);
       const ipm_real_t f = g1 - ((s->c * hv) * s->id);
-      IPM_W.h[vs] = hv;
+      s->hs = hv;
       for (p = 0; p < IPM_NA; ++p) {
         hr[p] += s->a[p] * f;
       }
@@ -4211,37 +4353,48 @@ static ipm_real_t ipm_sr_forward(int k, int corr, ipm_real_t sm, const ipm_real_
     }
     for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
       ipm_sr_t *const s = &IPM_W.sr[j];
-      const int vs = IPM_SR_SVAR[j];
-      const ipm_real_t rc1 = ipm_sr_rc(corr, sm, s->t1, s->l1, s->dt1, s->dl1);
-      const ipm_real_t rc2 = ipm_sr_rc(corr, sm, s->t2, s->l2, s->dt2, s->dl2);
+      const ipm_real_t t1 = s->t1;
+      const ipm_real_t l1 = s->l1;
+      const ipm_real_t t2 = s->t2;
+      const ipm_real_t l2 = s->l2;
+      const ipm_real_t rc1 = ipm_sr_rc(corr, sm, t1, l1, s->dt1, s->dl1);
+      const ipm_real_t rc2 = ipm_sr_rc(corr, sm, t2, l2, s->dt2, s->dl2);
       ipm_real_t adv = REAL_0;
       ipm_real_t ds;
+      ipm_real_t dt1;
+      ipm_real_t dl1;
+      ipm_real_t dt2;
+      ipm_real_t dl2;
       for (p = 0; p < IPM_NA; ++p) {
         adv += s->a[p] * vr[p];
       }
-      ds = (-((s->c * adv) + IPM_W.h[vs])) * s->id;
-      IPM_W.dz[vs] = ds;
-      s->dt1 = (adv + (s->e * ds)) + s->rp1;
-      s->dl1 = (-(rc1 + (s->l1 * s->dt1))) * s->it1;
-      s->dt2 = (s->bb * ds) + s->rp2;
-      s->dl2 = (-(rc2 + (s->l2 * s->dt2))) * s->it2;
+      ds = (-((s->c * adv) + s->hs)) * s->id;
+      dt1 = (adv + (s->e * ds)) + s->rp1;
+      dl1 = (-(rc1 + (l1 * dt1))) * s->it1;
+      dt2 = (s->bb * ds) + s->rp2;
+      dl2 = (-(rc2 + (l2 * dt2))) * s->it2;
+      s->dzs = ds;
+      s->dt1 = dt1;
+      s->dl1 = dl1;
+      s->dt2 = dt2;
+      s->dl2 = dl2;
       if (corr == 0) {
-        s0 += (s->t1 * s->l1) + (s->t2 * s->l2);
-        s1 += ((s->t1 * s->dl1) + (s->l1 * s->dt1)) + ((s->t2 * s->dl2) + (s->l2 * s->dt2));
-        s2 += (s->dt1 * s->dl1) + (s->dt2 * s->dl2);
+        s0 += (t1 * l1) + (t2 * l2);
+        s1 += ((t1 * dl1) + (l1 * dt1)) + ((t2 * dl2) + (l2 * dt2));
+        s2 += (dt1 * dl1) + (dt2 * dl2);
       }
       /* a cut is rare: well-predicted branches, a division only where it happens */
-      if ((s->t1 + (am * s->dt1)) < REAL_0) {
-        am = (-s->t1) / s->dt1;
+      if ((t1 + (am * dt1)) < REAL_0) {
+        am = (-t1) / dt1;
       }
-      if ((s->l1 + (am * s->dl1)) < REAL_0) {
-        am = (-s->l1) / s->dl1;
+      if ((l1 + (am * dl1)) < REAL_0) {
+        am = (-l1) / dl1;
       }
-      if ((s->t2 + (am * s->dt2)) < REAL_0) {
-        am = (-s->t2) / s->dt2;
+      if ((t2 + (am * dt2)) < REAL_0) {
+        am = (-t2) / dt2;
       }
-      if ((s->l2 + (am * s->dl2)) < REAL_0) {
-        am = (-s->l2) / s->dl2;
+      if ((l2 + (am * dl2)) < REAL_0) {
+        am = (-l2) / dl2;
       }
     }
   }
@@ -4266,8 +4419,8 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
   int j;
-  for (a = 0; a < TRUCK_LIFT_EL_IPM_QP_N; ++a) {
-    IPM_W.h[a] = IPM_W.r_d[a];
+  for (a = 0; a < IPM_NGV; ++a) {
+    IPM_W.h[IPM_GV[a]] = IPM_W.r_d[IPM_GV[a]];
   }
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
@@ -4376,6 +4529,7 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
       IPM_W.sr[i].a[p] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
     }
     IPM_W.sr[i].e = sg * A_x[IPM_SR_E[i]];
+    IPM_W.sr[i].ps = P_x[IPM_SR_SVAR[i]];
     IPM_W.sr[i].bb = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
   }
   return 0;
@@ -4507,21 +4661,21 @@ static void ipm_stage_cost_to_go(int k) {
   int i;
   int j;
   int a;
-  /* PFG = P [F G] (dense, contiguous rows) */
+  /* PFG = P [F G] (dense, contiguous rows; [F G]'s columns that are zero at every stage stay 0) */
   ipm_stage_fg(k);
   (void)memset(IPM_W.PFG, 0, sizeof IPM_W.PFG);
   for (i = 0; i < IPM_NX; ++i) {
     for (a = 0; a < IPM_NX; ++a) {
       const ipm_real_t pv = IPM_W.P[k + 1][i][a];
-      for (j = 0; j < IPM_NXU; ++j) {
+      for (j = 0; j < IPM_NFGC; ++j) {
         IPM_W.PFG[i][j] += pv * IPM_W.FGd[a][j];
       }
     }
   }
   for (a = 0; a < IPM_NX; ++a) {
-    for (i = 0; i < IPM_NXU; ++i) {
+    for (i = 0; i < IPM_NFGC; ++i) {
       const ipm_real_t f = IPM_W.FGd[a][i];
-      int jn = IPM_NXU;
+      int jn = IPM_NFGC;
       if (f == REAL_0) {
         continue; /* structurally zero */
       }
@@ -4539,8 +4693,8 @@ static void ipm_stage_cost_to_go(int k) {
 /* its diagonal hd = P (+ the proximal weight) + the box rows' weights */
 static void ipm_hd(void) {
   int i;
-  for (i = 0; i < TRUCK_LIFT_EL_IPM_QP_N; ++i) {
-    IPM_W.hd[i] = IPM_W.Pd[i];
+  for (i = 0; i < IPM_NGV; ++i) {
+    IPM_W.hd[IPM_GV[i]] = IPM_W.Pd[IPM_GV[i]];
   }
   for (i = 0; i < IPM_NFREE; ++i) {
     IPM_W.hd[IPM_FREE[i]] = IPM_W.Pd[IPM_FREE[i]] + IPM_PROX;
@@ -4568,7 +4722,7 @@ static int ipm_factor_stage(int k) {
     }
     IPM_W.R[i][i] += IPM_REG;
   }
-  if (ipm_chol(&IPM_W.R[0][0], &IPM_W.L[k][0][0], IPM_NU, IPM_NU) != 0) {
+  if (ipm_chol_u(k, &IPM_W.R[0][0], &IPM_W.L[k][0][0]) != 0) {
     return 1;
   }
   for (i = 0; i < IPM_NU; ++i) {
@@ -4576,14 +4730,23 @@ static int ipm_factor_stage(int k) {
       IPM_W.W1[k][i][j] = IPM_W.H[IPM_NX + i][j];
     }
   }
-  ipm_fwd(&IPM_W.L[k][0][0], IPM_NU, &IPM_W.W1[k][0][0], IPM_NU, IPM_NX, IPM_NX);
-  for (i = 0; i < IPM_NX; ++i) {
-    for (j = 0; j < IPM_NX; ++j) {
-      ipm_real_t v = REAL_0;
-      for (a = 0; a < IPM_NU; ++a) {
-        v += IPM_W.W1[k][a][i] * IPM_W.W1[k][a][j];
+  ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
+  for (i = 0; i < IPM_NX; ++i) { /* Pk = H[x][x] - W1' W1: on and below the diagonal, row by row */
+    for (j = 0; j <= i; ++j) {
+      IPM_W.Pk[i][j] = IPM_W.H[i][j];
+    }
+  }
+  for (a = 0; a < IPM_NU; ++a) {
+    for (i = 0; i < IPM_NX; ++i) {
+      const ipm_real_t wi = IPM_W.W1[k][a][i];
+      for (j = 0; j <= i; ++j) {
+        IPM_W.Pk[i][j] -= wi * IPM_W.W1[k][a][j];
       }
-      IPM_W.Pk[i][j] = IPM_W.H[i][j] - v;
+    }
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    for (j = i + 1; j < IPM_NX; ++j) {
+      IPM_W.Pk[i][j] = IPM_W.Pk[j][i];
     }
   }
   for (i = 0; i < IPM_NX; ++i) {
@@ -4682,7 +4845,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.lr[k][i] = rb[i];
     }
-    ipm_fwd(&IPM_W.L[k][0][0], IPM_NU, IPM_W.lr[k], IPM_NU, 1, 1);
+    ipm_fwd_u(k, &IPM_W.L[k][0][0], IPM_W.lr[k], 1, 1);
     for (i = 0; i < IPM_NU; ++i) {
       tv[i] = IPM_W.lr[k][i];
     }
@@ -4694,7 +4857,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
       IPM_W.p[k][i] = qb[i] - v;
       pn[i] = IPM_W.p[k][i];
     }
-    ipm_bwd(&IPM_W.L[k][0][0], IPM_NU, tv, IPM_NU, 1, 1);
+    ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.kk[k][i] = -tv[i];
     }
@@ -4724,7 +4887,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     }
     tv[i] = v;
   }
-  ipm_bwd(&IPM_W.L[k][0][0], IPM_NU, tv, IPM_NU, 1, 1);
+  ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
   for (i = 0; i < IPM_NX; ++i) {
     dv[i] = dx[i];
   }
@@ -4824,6 +4987,7 @@ static void ipm_compose_y(void) {
     IPM_W.y[IPM_IN_ROW[i]] = v;
   }
   for (i = 0; i < IPM_NSR; ++i) {
+    IPM_W.z[IPM_SR_SVAR[i]] = IPM_W.sr[i].zs;
     IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_W.sr[i].l1);
     IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_W.sr[i].l2);
   }
@@ -4836,6 +5000,7 @@ static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
 
 /* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
 static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
+  int i;
   int j;
   int raw = IPM_GOING;
   ipm_real_t mu = REAL_0;
@@ -4866,7 +5031,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
       lmax = IPM_W.lam[j];
     }
   }
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
+  for (i = 0; i < IPM_NGV; ++i) {
+    j = IPM_GV[i];
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   for (j = 0; j < IPM_NFREE; ++j) {
@@ -4890,7 +5056,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     }
   }
   mu /= (ipm_real_t)IPM_NCOMP;
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
+  for (i = 0; i < IPM_NGV; ++i) {
+    j = IPM_GV[i];
     if (isfinite(IPM_W.r_d[j]) == 0) {
       rmax = IPM_W.r_d[j];
     } else if (IPM_FABS(IPM_W.r_d[j]) > rmax) {
@@ -4942,8 +5109,8 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
-    if (isfinite(IPM_W.dz[j]) == 0) {
+  for (j = 0; j < IPM_NGV; ++j) {
+    if (isfinite(IPM_W.dz[IPM_GV[j]]) == 0) {
       finite = 0;
     }
   }
@@ -4953,8 +5120,8 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha < IPM_ALPHA_MIN) {
     return IPM_RAW_QP_NUMERICAL;
   }
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
-    IPM_W.z[j] += alpha * IPM_W.dz[j];
+  for (j = 0; j < IPM_NGV; ++j) {
+    IPM_W.z[IPM_GV[j]] += alpha * IPM_W.dz[IPM_GV[j]];
   }
   for (j = 0; j < IPM_NEQ; ++j) {
     IPM_W.y[IPM_EQ_ALL[j]] += alpha * IPM_W.gd[IPM_EQ_ALL[j]];
@@ -4992,17 +5159,41 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     s->t2 = ((-s->b2) > IPM_T_MIN) ? (-s->b2) : IPM_T_MIN;
     s->l1 = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
     s->l2 = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
-    s->dt1 = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0) */
+    s->zs = REAL_0;
+    s->qs = q[IPM_SR_SVAR[j]];
+    s->dzs = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0) */
+    s->dt1 = REAL_0;
     s->dl1 = REAL_0;
     s->dt2 = REAL_0;
     s->dl2 = REAL_0;
   }
   IPM_W.aff[3] = REAL_0;
+  { /* a centred start: every lam at least IPM_LAM_CENTER mean(t lam) / t */
+    ipm_real_t c = REAL_0;
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      c += IPM_W.t[j] * IPM_W.lam[j];
+    }
+    for (j = 0; j < IPM_NSR; ++j) {
+      c += (IPM_W.sr[j].t1 * IPM_W.sr[j].l1) + (IPM_W.sr[j].t2 * IPM_W.sr[j].l2);
+    }
+    c = IPM_LAM_CENTER * (c / (ipm_real_t)IPM_NCOMP);
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      const ipm_real_t lc = c / IPM_W.t[j];
+      IPM_W.lam[j] = (lc > IPM_W.lam[j]) ? lc : IPM_W.lam[j];
+    }
+    for (j = 0; j < IPM_NSR; ++j) {
+      ipm_sr_t *const s = &IPM_W.sr[j];
+      const ipm_real_t lc1 = c / s->t1;
+      const ipm_real_t lc2 = c / s->t2;
+      s->l1 = (lc1 > s->l1) ? lc1 : s->l1;
+      s->l2 = (lc2 > s->l2) ? lc2 : s->l2;
+    }
+  }
   for (j = 0; j < IPM_NEQ; ++j) {
     IPM_W.y[IPM_EQ_ALL[j]] = (IPM_WARM != 0) ? y_warm[IPM_EQ_ALL[j]] : REAL_0;
   }
-  for (j = 0; j < TRUCK_LIFT_EL_IPM_QP_N; ++j) {
-    IPM_W.z[j] = REAL_0;
+  for (j = 0; j < IPM_NGV; ++j) {
+    IPM_W.z[IPM_GV[j]] = REAL_0;
   }
   while (raw == IPM_GOING) {
     ipm_real_t mu;
