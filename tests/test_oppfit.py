@@ -83,6 +83,38 @@ def test_left_out_when_the_road_does_not_cover_it():
     assert neutral(road.s0)[0] == road.s0 - 1000.0
 
 
+BEND60 = Road.from_curvature(np.full(56, 1.0 / 60.0), 2.0, s0=-30.0)   # 110 m of a 60 m radius left bend
+
+
+def _inside_bend60(off: float) -> np.ndarray:
+    """A truck's rear-axle pose `off` m from BEND60's centre of curvature towards its middle sample, heading at it."""
+    mid = BEND60.size // 2
+    nx, ny = -math.sin(BEND60.phi[mid]), math.cos(BEND60.phi[mid])          # the left normal: to the centre
+    cx, cy = BEND60.gx[mid] + 60.0 * nx, BEND60.gy[mid] + 60.0 * ny
+    return np.array([cx - off * nx, cy - off * ny, math.atan2(-ny, -nx)])
+
+
+def test_left_out_when_far_from_the_road_beside_a_bend():
+    """An opponent deep inside a bend, far from the road window: its reference point's nearest sample is an inner
+    one, but no point of it can come within the band plus the ego's reach, so it is left out, not mapped (its
+    points' searches would land on the wrong part of the road: ERR_OPP_FRENET before). One nearer is still mapped
+    or refused, never left out."""
+    pb = problem(n_opp=1)
+    fit = build_oppfit(pb)
+    assert fit.far == pytest.approx(10.0 + pb.ego.l + pb.ego.l_ch + pb.ego.w_ch + math.hypot(13.0, 2.0))
+    fitter = OppFitter(fit, 1, 1)
+    P = np.array(fitter._points(_inside_bend60(10.0))[0])                 # (2, npt): the mapped points
+    gap = np.min(np.hypot(BEND60.gx[None, :] - P[0][:, None], BEND60.gy[None, :] - P[1][:, None]))
+    assert gap > 10.0 + fit.reach                                         # independent: out of the ego's reach
+    for off in (5.0, 10.0, 15.0):                                         # centre 40-55 m from the road
+        out, outside, singular = fitter(BEND60, _inside_bend60(off)[None, None, :])
+        assert (outside, singular) == (1, [])
+        np.testing.assert_array_equal(out[0], neutral(BEND60.s0))
+    # the chassis centre 30 m from the road (its front 17 m): within `far`, so not left out
+    _, outside, _ = fitter(BEND60, _inside_bend60(20.0)[None, None, :])
+    assert outside == 0
+
+
 def test_singular_frenet_frame_fails_the_prepare_phase():
     # a car next to the inside of a 12.5 m bend: the ego beside it would be stretched by 1 / (1 - n kappa) with
     # n kappa = (4 + 0.95 + 9.3) * 0.08 > 0.9
@@ -149,9 +181,16 @@ def test_c_fit_equals_python_and_the_independent_fit(c_solver, road):
 
 def _c_and_python(c_solver, road, fr):
     """The C fit's and the Python reference's parameters (N+1, 2 * 6) and left-out counts at Frenet poses fr."""
+    return _c_and_python_poses(c_solver, road, fr, {})
+
+
+def _c_and_python_poses(c_solver, road, fr, cartesian):
+    """As _c_and_python; opponent j's pose at every stage replaced by the Cartesian pose cartesian[j]."""
     pb, cs = c_solver
     ocp = build_ocp(pb)
     poses = poses_on(road, fr)
+    for j, pose in cartesian.items():
+        poses[:, j] = pose
     x0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
     sv = RtiSolver(ocp)
     sv.set_road(road)
@@ -208,6 +247,21 @@ def test_c_fit_on_a_tight_bend_equals_python(c_solver, monkeypatch):
     np.testing.assert_array_equal(c_par, py_par)
     assert c_out == py_out == 0
     assert sum(far) > 0
+
+
+@needs_cc
+def test_c_leaves_out_an_opponent_far_beside_a_bend_as_python(c_solver):
+    """Opponent 0 deep inside BEND60 at every stage (left out), opponent 1 on the road (fitted): the C prepares
+    (no ERR_OPP_FRENET) and equals the Python reference bit for bit."""
+    pb, _ = c_solver
+    N = pb.horizon.N
+    fr = np.zeros((N + 1, 2, 3))
+    fr[:, 1] = (30.0, -3.0, 0.0)
+    c_par, py_par, c_out, py_out = _c_and_python_poses(c_solver, BEND60, fr, {0: _inside_bend60(10.0)})
+    np.testing.assert_array_equal(c_par, py_par)
+    assert c_out == py_out == N + 1
+    for k in range(N + 1):
+        np.testing.assert_array_equal(c_par[k, :6], neutral(BEND60.s0))
 
 
 @needs_cc

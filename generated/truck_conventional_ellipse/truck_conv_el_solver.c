@@ -1126,6 +1126,7 @@ typedef struct {
   truck_conv_el_real_t fit_ihmax;
   truck_conv_el_real_t fit_skip;
   truck_conv_el_real_t fit_uni;
+  truck_conv_el_real_t fit_far2;
   truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_dd_phi[TRUCK_CONV_EL_ROAD_MAX];
@@ -1249,6 +1250,7 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_SPACING ((truck_conv_el_real_t)1.0) /* the largest distance of neighbouring edge points */
 #define FIT_MARGIN ((truck_conv_el_real_t)0.0)
 #define FIT_REACH ((truck_conv_el_real_t)9.3) /* the ego's reach from its rear axle */
+#define FIT_FAR ((truck_conv_el_real_t)32.452946437965906) /* beyond this (+ fit_hmax) from the road: left out (oppfit.OppFit.far) */
 #define FIT_SAG_SAFETY ((truck_conv_el_real_t)2.0)
 #define FIT_STRETCH_MAX ((truck_conv_el_real_t)0.9)
 #define FIT_N_MIN ((truck_conv_el_real_t)-10.0)
@@ -1714,6 +1716,7 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, 
   ir = fit_nearest_all(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], ir);
   *iref = ir;
   if ((ir == 0) || (ir == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
+  if (fit_d2(ir, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]) > ws.fit_far2) return FIT_OUTSIDE; /* nor near */
   for (i = 0; i < FIT_NPT; ++i) {
     const int g = ir + fit_floor((ws.fit_d[i] / ds) + REAL_HALF);
     int lo = g - FIT_SEARCH;
@@ -1793,6 +1796,7 @@ static void fit_road_data(void) {
   /* 1 / the largest neighbour distance, widened by 0.1 % (and 1 um for a road of repeated samples) */
   ws.fit_hmax = (sqrt(h2) * ((truck_conv_el_real_t)1.001)) + ((truck_conv_el_real_t)1e-6);
   ws.fit_ihmax = REAL_1 / ws.fit_hmax;
+  ws.fit_far2 = (FIT_FAR + ws.fit_hmax) * (FIT_FAR + ws.fit_hmax); /* oppfit.far_squared */
   ws.fit_skip = FIT_SKIP_ABS + (FIT_SKIP_REL * cmax);
   ws.fit_uni = FIT_UNI_MIN * (ds * ds);
   fit_unimodal_bounds();

@@ -27,7 +27,10 @@ Per stage and opponent, from its Cartesian pose ``[x, y, phi]`` and the road giv
    ``obstacles.chord_sag_bound`` bounds how far they leave the chords, from the curvature and its slope).
 
 An opponent is *outside the road* at a stage when the reference point's nearest sample is the road's first or last
-one, a point's nearest sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not
+one, the reference point is farther from that sample than ``far`` plus the largest sample spacing (no point of the
+opponent can then come within the band plus the ego's reach: without this test, an opponent far beside a bend of the
+road window, e.g. one the ego passed 130 m before whose road bends back, had its points searched on the wrong part of
+the road and failed the prepare phase with ``ERR_OPP_FRENET``; 8 of the 12,000 campaign runs), a point's nearest sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not
 inside the road, or its box plus the ego's reach lies beside the band ``[n_min, n_max]``: it is left out
 (``neutral`` parameters, a box 1000 m behind the road) and counted in the status (``opp_outside``). A stretch
 ``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular next to the opponent), an edge whose chord bound does
@@ -88,6 +91,7 @@ class OppFit:
     n_edge: int             # edge points (points 0 .. n_edge - 1; 0 for overapprox="none")
     margin: float           # the box's margin (0 for overapprox="none")
     reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
+    far: float              # a reference point farther than this (+ a road spacing) from every road sample: left out
 
 
 def build_oppfit(problem: Problem) -> OppFit | None:
@@ -144,7 +148,13 @@ def build_oppfit(problem: Problem) -> OppFit | None:
     box = ca.Function("opp_box", [FR, pose], [ca.vertcat(*out)], ["FR", "pose"], ["box"])
     margin = 0.0 if form.overapprox == "none" else form.margin
     n_edge = 0 if form.overapprox == "none" else ref
-    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach)
+    # beyond `far` from the road no point of the opponent is within the band plus the ego's reach (its chassis
+    # reaches hypot(l_ch, w_ch) / 2 from its centre; the rear-axle reference point is l / 2 behind the centre)
+    to_centre = opp.l / 2 if form.overapprox == "none" else 0.0
+    far = (max(abs(problem.bounds.n_min), abs(problem.bounds.n_max)) + reach + to_centre
+           + math.hypot(opp.l_ch / 2, opp.w_ch / 2))
+    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach,
+                  far)
 
 
 def neutral(s0: float) -> np.ndarray:
@@ -309,6 +319,15 @@ def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray, rd: RoadData |
     return s, fn, fp, w0
 
 
+def far_squared(fit: OppFit, road) -> float:
+    """(fit.far + the largest distance of neighbouring road samples)^2, as the C computes it (``fit_road_data``):
+    a reference point farther than this from its nearest sample is left out (no curve point is more than that
+    spacing from a sample)."""
+    h2 = float(np.max(np.diff(road.gx) ** 2 + np.diff(road.gy) ** 2)) if road.size > 1 else 0.0
+    far = fit.far + (math.sqrt(h2) * 1.001 + 1e-6)
+    return far * far
+
+
 class OppFitter:
     """The Python reference's fit of all stages and opponents at once (numpy search and foot points, mapped CasADi
     functions)."""
@@ -338,6 +357,8 @@ class OppFitter:
         rx, ry = P[0, :, f.ref_point], P[1, :, f.ref_point]
         d2 = (road.gx[None, :] - rx[:, None]) ** 2 + (road.gy[None, :] - ry[:, None]) ** 2
         i_ref = np.argmin(d2, axis=1)
+        far2 = far_squared(f, road)
+        is_far = d2[np.arange(cnt), i_ref] > far2
         # every point's nearest sample within SEARCH of its guess
         g = i_ref[:, None] + np.floor(d / road.ds + 0.5).astype(np.int64)
         offs = np.arange(-SEARCH, SEARCH + 1)
@@ -361,7 +382,7 @@ class OppFitter:
         for p in range(cnt):
             bx = boxes[:, p]
             lo, hi = bx[7] - road.ds, bx[8] + road.ds
-            if i_ref[p] == 0 or i_ref[p] == M - 1:        # the reference point is not next to the road
+            if i_ref[p] == 0 or i_ref[p] == M - 1 or is_far[p]:   # the reference point is not next to the road
                 out[p] = neutral(road.s0)
                 outside += 1
                 continue
