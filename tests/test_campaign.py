@@ -62,6 +62,22 @@ def test_solver_cache_is_keyed_by_the_problem_and_built_once(cache):
     assert ensure_solver(a, cache) == lib and lib.stat().st_mtime_ns == mtime   # not rebuilt
 
 
+def test_solver_cache_rebuilds_a_folder_built_since_with_other_flags(cache):
+    """A cache folder rebuilt by hand with other flags (as `fcgen simulate --solver-dir` does with $CFLAGS) is
+    built again with the cache's flags before it is used: the rows' cflags say how their solver was compiled."""
+    from fcgen.build import build
+    pb = CONFIGS[1].problem()
+    lib = ensure_solver(pb, cache, cflags="-O1")
+    flags = lib.parent / "flags.txt"
+    assert " -O1 " in flags.read_text()
+    build(lib.parent.parent, cflags="-O0")                     # someone else's build of the cache folder
+    assert " -O0 " in flags.read_text()
+    assert ensure_solver(pb, cache, cflags="-O1") == lib
+    assert " -O1 " in flags.read_text() and " -O0 " not in flags.read_text()
+    mtime = lib.stat().st_mtime_ns
+    assert ensure_solver(pb, cache, cflags="-O1") == lib and lib.stat().st_mtime_ns == mtime   # then kept
+
+
 def test_campaign_cflags_build_their_own_cached_solver_and_are_recorded(cache):
     """--cflags: a second cache folder (the default's hash unchanged), the flags in the row, the same closed loop
     (-O1 and -O2 give bit-identical run logs on this solver, see docs/regression.md)."""

@@ -58,16 +58,30 @@ def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = Fal
     cache.mkdir(parents=True, exist_ok=True)
     folder = cache / f"{problem.name}-{solver_hash(problem, use_float, cflags)}"
     lib = folder / "build" / f"lib{problem.name}.so"
-    if (folder / READY).is_file() and lib.is_file():
+    if _ready(folder, lib):
         return lib
     with open(cache / f"{folder.name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
-            if not ((folder / READY).is_file() and lib.is_file()):
-                generate(problem, folder, use_float=use_float)
-                built = build(folder, jobs=1, cflags=cflags)
+            if not _ready(folder, lib):
+                if not (folder / READY).is_file():
+                    generate(problem, folder, use_float=use_float)
+                built = build(folder, jobs=1, cflags=cflags)   # make rebuilds what other flags compiled
                 assert built == lib, (built, lib)
-                (folder / READY).write_text(f"{problem.name}\n")
+                (folder / READY).write_text(_flags_line(folder))
         finally:
             fcntl.flock(lock, fcntl.LOCK_UN)
     return lib
+
+
+def _flags_line(folder: Path) -> str:
+    """The compile line the folder's Makefile recorded for its last build (``build/flags.txt``; '' if none)."""
+    f = folder / "build" / "flags.txt"
+    return f.read_text() if f.is_file() else ""
+
+
+def _ready(folder: Path, lib: Path) -> bool:
+    """Built by the cache and not rebuilt since with other flags (e.g. ``fcgen simulate --solver-dir`` on a cache
+    folder builds it with ``$CFLAGS`` or -O2): the flags recorded at READY are still the build's."""
+    ready = folder / READY
+    return ready.is_file() and lib.is_file() and ready.read_text() == _flags_line(folder)
