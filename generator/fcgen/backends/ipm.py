@@ -630,7 +630,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NGV": len(gvars),
+            "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),

@@ -341,7 +341,8 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
                     ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
                     ("NAME_real_t", "fit_hmax", [], R), ("NAME_real_t", "fit_ihmax", [], R),
-                    ("NAME_real_t", "fit_skip", [], R), ("NAME_real_t", "fit_uni", [], R), ("NAME_real_t", "fit_far2", [], R),
+                    ("NAME_real_t", "fit_skip", [], R), ("NAME_real_t", "fit_uni", [], R),
+                    ("NAME_real_t", "fit_far2", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
         members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
         wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
