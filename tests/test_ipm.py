@@ -155,6 +155,29 @@ def test_soft_rows_are_the_obstacle_rows():
     assert all(lay.row_names[r].startswith("a_lat") for r in sv.gen_rows[sv.gen_rows >= 0])
 
 
+
+def test_soft_row_storage_pads_long_runs_to_whole_lanes():
+    """The C's soft-row storage: C7's runs of 147 rows (one per stage) read 4 rows at a time, so each is padded to 148
+    with one row of no data at its end; the ellipse's runs of 3 rows would gain 33 % padding, so they keep one lane
+    and no padding."""
+    from fcgen.backends.ipm import padded_runs, sr_lanes
+    lay = build_layout(build_ocp(short("truck", "lifted", "circles")))
+    sv, sr = split_soft_rows(lay, stage_view(lay))
+    assert sr_lanes(sr) == 4
+    ptr, pad = padded_runs(sr)
+    np.testing.assert_array_equal(ptr, 148 * np.arange(11))
+    rows = pad(sr.row)
+    assert rows.shape == (1480,) and np.all(rows[147::148] == -1) and np.count_nonzero(rows == -1) == 10
+    np.testing.assert_array_equal(rows[rows >= 0], sr.row)          # the rows in their order, runs contiguous
+    np.testing.assert_array_equal(pad(sr.a)[147], -np.ones(sr.NA))  # a padding row has no data
+    assert np.all(pad(sr.sign, 0)[147::148] == 0)
+    lay = build_layout(build_ocp(short("truck", "lifted", "ellipse")))
+    sv, sr = split_soft_rows(lay, stage_view(lay))
+    assert set(np.diff(sr.run_ptr).tolist()) == {3} and sr_lanes(sr) == 1
+    ptr, pad = padded_runs(sr)
+    np.testing.assert_array_equal(ptr, sr.run_ptr)
+    np.testing.assert_array_equal(pad(sr.row), sr.row)
+
 # -- the Python IPM against OSQP -----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("sc,form,ob", CASES)

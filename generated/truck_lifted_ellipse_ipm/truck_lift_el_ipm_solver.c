@@ -1234,7 +1234,12 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NGV 448 /* variables but the soft rows' slacks (IPM_GV; those live in IPM_W.sr) */
 #define IPM_NAR 688 /* rows of A z (all but the soft rows and their slacks' bound rows) */
 #define IPM_NSR 120 /* soft rows: one side, a slack of their own bounded by a box row (qp.split_soft_rows) */
+#define IPM_NSRP 120 /* their storage: runs padded to IPM_LANES rows (padding rows: no data) */
+#define IPM_NSR1 120 /* max(IPM_NSRP, 1): array dimension */
+#define IPM_LANES 1 /* rows a run's loops read at a time (SIMD lanes) */
+#define IPM_NRUN1 40 /* runs of soft rows (at least 1: array dimension) */
 #define IPM_NA 3 /* (x, u) entries of a soft row (at most; padding: slot 0, coefficient 0) */
+#define IPM_SR_NT ((IPM_NA * (IPM_NA + 1)) / 2) /* entries of a run's upper triangle */
 #define IPM_NCOMP 840 /* complementarity pairs: the sides and the soft rows' two */
 #define IPM_TOL ((truck_lift_el_ipm_real_t)0.0001)
 #define IPM_TAU ((truck_lift_el_ipm_real_t)0.995)
@@ -3603,7 +3608,7 @@ static const ipm_idx_t IPM_SR_RPTR[42] = { /* runs of soft rows of stage k */
   23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34,
   35, 36, 37, 38, 39, 40
 };
-static const ipm_idx_t IPM_SR_RUN_PTR[41] = { /* soft rows of run r (rows on the same slots) */
+static const ipm_idx_t IPM_SR_RUN_PTR[41] = { /* soft rows of run r (rows on the same slots; padded to IPM_LANES rows) */
   0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 33,
   36, 39, 42, 45, 48, 51, 54, 57, 60, 63, 66, 69,
   72, 75, 78, 81, 84, 87, 90, 93, 96, 99, 102, 105,
@@ -3651,7 +3656,7 @@ static const ipm_idx_t IPM_SR_RUN_V[40][3] = { /* [r][p]: stage slot of the run'
   {5, 6, 7},
   {5, 6, 7}
 };
-static const ipm_idx_t IPM_SR_ROW[120] = { /* soft row j's row */
+static const ipm_idx_t IPM_SR_ROW[120] = { /* soft row j's row (-1: a padding row) */
   28, 29, 30, 51, 52, 53, 74, 75, 76, 97, 98, 99,
   120, 121, 122, 143, 144, 145, 166, 167, 168, 189, 190, 191,
   212, 213, 214, 235, 236, 237, 258, 259, 260, 281, 282, 283,
@@ -3833,7 +3838,13 @@ static const ipm_idx_t IPM_SR_BA[120] = { /* data index of the bound row's coeff
   2825, 2827, 2829, 2909, 2911, 2913, 2993, 2995, 2997, 3077, 3079, 3081,
   3161, 3163, 3165, 3245, 3247, 3249, 3329, 3331, 3333, 3363, 3365, 3367
 };
-static const signed char IPM_SR_SIGN[120] = { /* soft row j's side: +1 lower, -1 upper */
+static const ipm_idx_t IPM_SR_QA[6] = { /* entry q of a run's upper triangle (row-major): its row */
+  0, 0, 0, 1, 1, 2
+};
+static const ipm_idx_t IPM_SR_QB[6] = { /* its column */
+  0, 1, 2, 1, 2, 2
+};
+static const signed char IPM_SR_SIGN[120] = { /* soft row j's side: +1 lower, -1 upper (0: a padding row) */
   1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
   1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
   1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
@@ -3962,33 +3973,36 @@ static const signed char IPM_SIDE_2ND[600] = { /* 1: the second side of its row 
   0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 1, 0
 };
 
-/* one soft row: its row a'v + e s (one side), its slack's bound row bb s (one side), both sides' iterates */
+/* the soft rows, one array per field (a structure of arrays: the rows of a run are contiguous in every field, so a
+ * run's loops read and write whole vectors). Soft row j: its row a'v + e s (one side), its slack's bound row bb s
+ * (one side), both sides' iterates */
 typedef struct {
-  ipm_real_t a[IPM_NA]; /* (x, u) coefficients (prepare) */
-  ipm_real_t e; /* the slack's coefficient in the row (prepare) */
-  ipm_real_t bb; /* the slack's coefficient in its bound row (prepare) */
-  ipm_real_t b1; /* b of the row's side, of the bound's side */
-  ipm_real_t b2;
-  ipm_real_t t1; /* slack and multiplier of the row's side */
-  ipm_real_t l1;
-  ipm_real_t t2; /* slack and multiplier of the bound's side */
-  ipm_real_t l2;
-  ipm_real_t it1; /* 1 / t */
-  ipm_real_t it2;
-  ipm_real_t rp1; /* primal residuals */
-  ipm_real_t rp2;
-  ipm_real_t id; /* 1 / the slack's pivot d = hd_s + W e^2 */
-  ipm_real_t c; /* W e (W = lam / t of the row's side) */
-  ipm_real_t dt1; /* the step */
-  ipm_real_t dl1;
-  ipm_real_t dt2;
-  ipm_real_t dl2;
-  ipm_real_t zs; /* the slack variable: its iterate, step, stationarity residual and Newton right-hand side */
-  ipm_real_t dzs;
-  ipm_real_t rds;
-  ipm_real_t hs;
-  ipm_real_t ps; /* its P (prepare) and q (per QP) */
-  ipm_real_t qs;
+  ipm_real_t a[IPM_NA][IPM_NSR1]; /* (x, u) coefficients (prepare) */
+  ipm_real_t e[IPM_NSR1]; /* the slack's coefficient in the row (prepare) */
+  ipm_real_t bb[IPM_NSR1]; /* the slack's coefficient in its bound row (prepare) */
+  ipm_real_t b1[IPM_NSR1]; /* b of the row's side, of the bound's side */
+  ipm_real_t b2[IPM_NSR1];
+  ipm_real_t t1[IPM_NSR1]; /* slack and multiplier of the row's side */
+  ipm_real_t l1[IPM_NSR1];
+  ipm_real_t t2[IPM_NSR1]; /* slack and multiplier of the bound's side */
+  ipm_real_t l2[IPM_NSR1];
+  ipm_real_t it1[IPM_NSR1]; /* 1 / t */
+  ipm_real_t it2[IPM_NSR1];
+  ipm_real_t rp1[IPM_NSR1]; /* primal residuals */
+  ipm_real_t rp2[IPM_NSR1];
+  ipm_real_t id[IPM_NSR1]; /* 1 / the slack's pivot d = hd_s + W e^2 */
+  ipm_real_t c[IPM_NSR1]; /* W e (W = lam / t of the row's side) */
+  ipm_real_t dt1[IPM_NSR1]; /* the step */
+  ipm_real_t dl1[IPM_NSR1];
+  ipm_real_t dt2[IPM_NSR1];
+  ipm_real_t dl2[IPM_NSR1];
+  ipm_real_t zs[IPM_NSR1]; /* the slack variable: its iterate, step, stationarity residual and Newton right-hand side */
+  ipm_real_t dzs[IPM_NSR1];
+  ipm_real_t rds[IPM_NSR1];
+  ipm_real_t hs[IPM_NSR1];
+  ipm_real_t ps[IPM_NSR1]; /* its P (prepare) and q (per QP) */
+  ipm_real_t qs[IPM_NSR1];
+  ipm_real_t w[IPM_NSR1]; /* 1 for a soft row, 0 for a padding row (its t lam, lam and step limit do not count) */
 } ipm_sr_t;
 
 /* ---- workspace (one static struct; every member is overwritten before it is read, except the data pointers) ---- */
@@ -4033,7 +4047,9 @@ typedef struct {
   ipm_real_t FGd[8][10]; /* scratch: [F G] of a stage, dense */
   ipm_real_t Weff[2]; /* scratch */
   ipm_real_t Pk[8][8]; /* scratch */
-  ipm_sr_t sr[120]; /* the soft rows */
+  ipm_sr_t sr; /* the soft rows */
+  ipm_real_t srh[IPM_NRUN1][IPM_SR_NT]; /* per run of soft rows: its Newton block terms (ipm_sr_check) */
+  ipm_real_t srr[3][IPM_NRUN1][IPM_NA]; /* its right-hand side: predictor's, corrector's but sigma mu, -sigma mu's coefficient */
 } truck_lift_el_ipm_ipm_ws_t;
 
 static truck_lift_el_ipm_ipm_ws_t truck_lift_el_ipm_ipm;
@@ -4171,29 +4187,141 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
 /* ---- the soft rows (IPM_SR_*): soft row j's side t1 = a'v + e s - b1 and its slack's bound t2 = bb s - b2 (the
  * coefficients multiplied by the sides' signs in the prepare phase, so both are lower sides here); the slack is
  * eliminated with its two sides (pivot d = hd_s + W1 e^2, hd_s = P_s + W2 bb^2), so a soft row adds W1 hd_s / d a a'
- * to its stage's Newton block: the generic rows' algebra, one pass per phase. A stage's soft rows come in runs of
- * rows on the same (x, u) slots (IPM_SR_RUN_*): a run's sums over its slots stay in registers ---- */
-#define IPM_SR_NT ((IPM_NA * (IPM_NA + 1)) / 2) /* entries of a run's upper triangle */
+ * to its stage's Newton block: the generic rows' algebra. A stage's soft rows come in runs of rows on the same (x, u)
+ * slots (IPM_SR_RUN_*), and an iteration reads every row three times, not six (the rows are most of the data):
+ * ipm_sr_check takes the step, tests, and sums per run the Newton block's terms (IPM_W.srh) and the predictor's
+ * right-hand side (IPM_W.srr[0]); ipm_sr_forward's predictor pass steps the rows and sums the corrector's right-hand
+ * side, which is affine in sigma mu (IPM_W.srr[1] - sigma mu IPM_W.srr[2]); the corrector's forward pass steps them
+ * again. A run is read IPM_LANES rows at a time, row j0 + i on lane i % IPM_LANES (its storage is padded to whole
+ * groups of lanes with rows of no data: a = e = bb = 0, t = 1, so their steps keep t and their lam stays finite, and
+ * IPM_SR.w = 0 masks their t lam, lam and step limit), and every sum over its rows keeps one partial sum per lane
+ * (added at the run's end): the lanes are independent, so a compiler maps them onto SIMD registers (plain C99, no
+ * pragma, no intrinsics) ---- */
+#define IPM_SR IPM_W.sr
+#define IPM_SR_NACC (4 + IPM_SR_NT + (3 * IPM_NA)) /* ipm_sr_check's sums per lane (see ipm_sr_check_row) */
 
-/* the complementarity target of a side (ipm_rc's) */
-static ipm_real_t ipm_sr_rc(int corr, ipm_real_t sm, ipm_real_t t, ipm_real_t l, ipm_real_t dt, ipm_real_t dl) {
-  return (corr != 0) ? (((t * l) + (dt * dl)) - sm) : (t * l);
+/* the larger of v and m (m if v is NaN: a NaN never replaces a maximum) */
+static ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
+  return (v > m) ? v : m;
+}
+
+/* the smaller of v and m (m if v is NaN) */
+static ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+  return (v < m) ? v : m;
+}
+
+/* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
+ * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
+ * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
+ * multipliers (max), [3] 0 times the stationarity residual (sum: NaN once one is not finite), [4 + p] the stage
+ * variables' stationarity -a l1, then the upper triangle of W1 hd_s / d a a', then a times the predictor's f and a
+ * times the corrector's sigma mu coefficient. Every loop over the lanes is innermost (whole SIMD registers) */
+static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm_real_t (*acc)[IPM_LANES]) {
+  int l;
+  int p;
+  int q;
+  ipm_real_t az[IPM_LANES];
+  ipm_real_t l1v[IPM_LANES];
+  ipm_real_t weff[IPM_LANES];
+  ipm_real_t f[IPM_LANES];
+  ipm_real_t fb[IPM_LANES];
+  for (l = 0; l < IPM_LANES; ++l) {
+    az[l] = REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      az[l] += IPM_SR.a[p][j + l] * zr[p];
+    }
+  }
+  for (l = 0; l < IPM_LANES; ++l) {
+    const int i = j + l;
+    const ipm_real_t zs = IPM_SR.zs[i] + (alpha * IPM_SR.dzs[i]);
+    const ipm_real_t t1 = IPM_SR.t1[i] + (alpha * IPM_SR.dt1[i]);
+    const ipm_real_t l1 = IPM_SR.l1[i] + (alpha * IPM_SR.dl1[i]);
+    const ipm_real_t t2 = IPM_SR.t2[i] + (alpha * IPM_SR.dt2[i]);
+    const ipm_real_t l2 = IPM_SR.l2[i] + (alpha * IPM_SR.dl2[i]);
+    const ipm_real_t e = IPM_SR.e[i];
+    const ipm_real_t bb = IPM_SR.bb[i];
+    const ipm_real_t w = IPM_SR.w[i];
+    const ipm_real_t tl1 = t1 * l1;
+    const ipm_real_t tl2 = t2 * l2;
+    const ipm_real_t it1 = IPM_ONE / t1;
+    const ipm_real_t it2 = IPM_ONE / t2;
+    const ipm_real_t w1 = l1 * it1;
+    const ipm_real_t hds = IPM_SR.ps[i] + ((l2 * it2) * (bb * bb));
+    const ipm_real_t c = w1 * e;
+    const ipm_real_t id = IPM_ONE / (hds + (c * e));
+    const ipm_real_t rp1 = ((az[l] + (e * zs)) - IPM_SR.b1[i]) - t1;
+    const ipm_real_t rp2 = ((bb * zs) - IPM_SR.b2[i]) - t2;
+    const ipm_real_t rds = ((IPM_SR.ps[i] * zs) + IPM_SR.qs[i]) - ((e * l1) + (bb * l2));
+    const ipm_real_t g1 = (tl1 + (l1 * rp1)) * it1;
+    const ipm_real_t g2 = (tl2 + (l2 * rp2)) * it2;
+    const ipm_real_t hv = (rds + (e * g1)) + (bb * g2);
+    weff[l] = (w1 * hds) * id;
+    f[l] = g1 - ((c * hv) * id);
+    fb[l] = it1 - ((c * ((e * it1) + (bb * it2))) * id);
+    l1v[l] = l1;
+    IPM_SR.zs[i] = zs;
+    IPM_SR.rds[i] = rds;
+    IPM_SR.t1[i] = t1;
+    IPM_SR.l1[i] = l1;
+    IPM_SR.t2[i] = t2;
+    IPM_SR.l2[i] = l2;
+    IPM_SR.rp1[i] = rp1;
+    IPM_SR.rp2[i] = rp2;
+    IPM_SR.it1[i] = it1;
+    IPM_SR.it2[i] = it2;
+    IPM_SR.c[i] = c;
+    IPM_SR.id[i] = id;
+    IPM_SR.hs[i] = hv;
+    acc[0][l] += w * (tl1 + tl2);
+    acc[1][l] = ipm_max(ipm_max(ipm_max(IPM_FABS(rp1), IPM_FABS(rp2)), ipm_max(w * ipm_max(tl1, tl2), IPM_FABS(rds))),
+                        acc[1][l]);
+    acc[2][l] = ipm_max(w * ipm_max(l1, l2), acc[2][l]);
+    acc[3][l] += rds * REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      const ipm_real_t ap = IPM_SR.a[p][j + l];
+      acc[4 + p][l] -= ap * l1v[l];
+      acc[4 + IPM_NA + IPM_SR_NT + p][l] += ap * f[l];
+      acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l] += ap * fb[l];
+    }
+  }
+  for (q = 0; q < IPM_SR_NT; ++q) {
+    const int qa = IPM_SR_QA[q];
+    const int qb = IPM_SR_QB[q];
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[qa][j + l]) * IPM_SR.a[qb][j + l];
+    }
+  }
 }
 
 /* ipm_check's part: the last step's t, lam (IPM_W.aff[3]: its length, 0 for none); both sides' residuals and 1 / t;
  * the slack's and the stage variables' stationarity (r_d holds P z + q + the other rows' A' y); the maxima of the
- * stopping test (in m[0]: residuals and products, m[1]: multipliers) and the sum of t lam (returned) */
+ * stopping test (in m[0]: residuals and products, m[1]: multipliers) and the sum of t lam (returned); per run, the
+ * Newton block's terms (IPM_W.srh), the predictor's right-hand side (IPM_W.srr[0]) and the corrector's sigma mu
+ * coefficient (IPM_W.srr[2]) */
 static ipm_real_t ipm_sr_check(ipm_real_t *m) {
   int k;
   int r;
   int j;
+  int l;
   int p;
+  int q;
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = m[0];
   ipm_real_t lmax = m[1];
+  ipm_real_t nf = REAL_0;
   const ipm_real_t alpha = IPM_W.aff[3];
+  ipm_real_t acc[IPM_SR_NACC][IPM_LANES];
   ipm_real_t zl[IPM_NXU];
   ipm_real_t rl[IPM_NXU];
+  for (p = 0; p < 4; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[p][l] = REAL_0;
+    }
+  }
   for (k = 0; k <= IPM_N; ++k) {
     for (p = 0; p < IPM_NXU; ++p) {
       const int v = IPM_VMAP_XU[(k * IPM_NXU) + p];
@@ -4201,58 +4329,38 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
       rl[p] = REAL_0;
     }
     for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+      const int j1 = IPM_SR_RUN_PTR[r + 1];
       ipm_real_t zr[IPM_NA];
-      ipm_real_t rr[IPM_NA];
       for (p = 0; p < IPM_NA; ++p) {
         zr[p] = zl[IPM_SR_RUN_V[r][p]];
-        rr[p] = REAL_0;
       }
-      for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) { /* fields in locals: no aliasing reloads */
-        ipm_sr_t *const s = &IPM_W.sr[j];
-        const ipm_real_t zs = s->zs + (alpha * s->dzs);
-        const ipm_real_t t1 = s->t1 + (alpha * s->dt1);
-        const ipm_real_t l1 = s->l1 + (alpha * s->dl1);
-        const ipm_real_t t2 = s->t2 + (alpha * s->dt2);
-        const ipm_real_t l2 = s->l2 + (alpha * s->dl2);
-        const ipm_real_t tl1 = t1 * l1;
-        const ipm_real_t tl2 = t2 * l2;
-        ipm_real_t az = REAL_0;
-        ipm_real_t rp1;
-        ipm_real_t rp2;
-        ipm_real_t rds;
-        for (p = 0; p < IPM_NA; ++p) {
-          az += s->a[p] * zr[p];
-          rr[p] -= s->a[p] * l1;
+      for (p = 4; p < IPM_SR_NACC; ++p) {
+        for (l = 0; l < IPM_LANES; ++l) {
+          acc[p][l] = REAL_0;
         }
-        az += s->e * zs;
-        rp1 = (az - s->b1) - t1;
-        rp2 = ((s->bb * zs) - s->b2) - t2;
-        rds = ((s->ps * zs) + s->qs) - ((s->e * l1) + (s->bb * l2));
-        s->zs = zs;
-        s->rds = rds;
-        s->t1 = t1;
-        s->l1 = l1;
-        s->t2 = t2;
-        s->l2 = l2;
-        s->rp1 = rp1;
-        s->rp2 = rp2;
-        s->it1 = IPM_ONE / t1;
-        s->it2 = IPM_ONE / t2;
-        mu += tl1 + tl2;
-        rmax = (IPM_FABS(rp1) > rmax) ? IPM_FABS(rp1) : rmax;
-        rmax = (IPM_FABS(rp2) > rmax) ? IPM_FABS(rp2) : rmax;
-        rmax = (tl1 > rmax) ? tl1 : rmax;
-        rmax = (tl2 > rmax) ? tl2 : rmax;
-        lmax = (l1 > lmax) ? l1 : lmax;
-        lmax = (l2 > lmax) ? l2 : lmax;
-        if (isfinite(rds) == 0) { /* as the generic stationarity test: a non-finite residual stops the QP */
-          rmax = rds;
-        } else {
-          rmax = (IPM_FABS(rds) > rmax) ? IPM_FABS(rds) : rmax;
-        }
+      }
+      for (j = IPM_SR_RUN_PTR[r]; j < j1; j += IPM_LANES) {
+        ipm_sr_check_rows(j, alpha, zr, acc);
       }
       for (p = 0; p < IPM_NA; ++p) {
-        rl[IPM_SR_RUN_V[r][p]] += rr[p];
+        ipm_real_t s0 = REAL_0;
+        ipm_real_t s1 = REAL_0;
+        ipm_real_t s2 = REAL_0;
+        for (l = 0; l < IPM_LANES; ++l) {
+          s0 += acc[4 + p][l];
+          s1 += acc[4 + IPM_NA + IPM_SR_NT + p][l];
+          s2 += acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l];
+        }
+        rl[IPM_SR_RUN_V[r][p]] += s0;
+        IPM_W.srr[0][r][p] = s1;
+        IPM_W.srr[2][r][p] = s2;
+      }
+      for (q = 0; q < IPM_SR_NT; ++q) {
+        ipm_real_t s = REAL_0;
+        for (l = 0; l < IPM_LANES; ++l) {
+          s += acc[4 + IPM_NA + q][l];
+        }
+        IPM_W.srh[r][q] = s;
       }
     }
     for (p = 0; p < IPM_NXU; ++p) {
@@ -4262,145 +4370,180 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
       }
     }
   }
+  for (l = 0; l < IPM_LANES; ++l) {
+    mu += acc[0][l];
+    rmax = ipm_max(acc[1][l], rmax);
+    lmax = ipm_max(acc[2][l], lmax);
+    nf += acc[3][l];
+  }
+  if (isfinite(nf) == 0) { /* as the generic stationarity test: a non-finite residual stops the QP */
+    rmax = nf;
+  }
   m[0] = rmax;
   m[1] = lmax;
   return mu;
 }
 
-/* the factorization's part (stage k, into the upper triangle of IPM_W.H): 1 / d, c = W1 e, and W1 hd_s / d a a' */
+/* the factorization's part (stage k): its runs' W1 hd_s / d a a' (ipm_sr_check's sums) into the upper triangle of
+ * IPM_W.H */
 static void ipm_sr_hessian(int k) {
   int r;
-  int j;
-  int a;
-  int b;
   int q;
   for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
-    ipm_real_t acc[IPM_SR_NT];
     for (q = 0; q < IPM_SR_NT; ++q) {
-      acc[q] = REAL_0;
-    }
-    for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
-      ipm_sr_t *const s = &IPM_W.sr[j];
-      const ipm_real_t w1 = s->l1 * s->it1;
-      const ipm_real_t hds = s->ps + ((s->l2 * s->it2) * (s->bb * s->bb));
-      const ipm_real_t c = w1 * s->e;
-      const ipm_real_t id = IPM_ONE / (hds + (c * s->e));
-      const ipm_real_t weff = (w1 * hds) * id;
-      s->c = c;
-      s->id = id;
-      q = 0;
-      for (a = 0; a < IPM_NA; ++a) {
-        const ipm_real_t ca = weff * s->a[a];
-        for (b = a; b < IPM_NA; ++b) {
-          acc[q] += ca * s->a[b];
-          ++q;
-        }
-      }
-    }
-    q = 0;
-    for (a = 0; a < IPM_NA; ++a) {
-      const int va = IPM_SR_RUN_V[r][a];
-      for (b = a; b < IPM_NA; ++b) {
-        IPM_W.H[va][IPM_SR_RUN_V[r][b]] += acc[q];
-        ++q;
-      }
+      IPM_W.H[IPM_SR_RUN_V[r][IPM_SR_QA[q]]][IPM_SR_RUN_V[r][IPM_SR_QB[q]]] += IPM_W.srh[r][q];
     }
   }
 }
 
-/* the backward sweep's part (stage k): the slack's right-hand side (IPM_W.h) and its elimination into ht */
+/* the backward sweep's part (stage k): the soft rows' slacks eliminated from the right-hand side ht, from the sums
+ * per run of the predictor (ipm_sr_check) or of the corrector (ipm_sr_forward's predictor pass, sm = sigma mu) */
 static void ipm_sr_rhs(int k, int corr, ipm_real_t sm, ipm_real_t *ht) {
   int r;
-  int j;
   int p;
   for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
-    ipm_real_t hr[IPM_NA];
     for (p = 0; p < IPM_NA; ++p) {
-      hr[p] = REAL_0;
+      ht[IPM_SR_RUN_V[r][p]] += (corr != 0) ? (IPM_W.srr[1][r][p] - (sm * IPM_W.srr[2][r][p])) : IPM_W.srr[0][r][p];
     }
-    for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
-      ipm_sr_t *const s = &IPM_W.sr[j];
-      const ipm_real_t g1 = (ipm_sr_rc(corr, sm, s->t1, s->l1, s->dt1, s->dl1) + (s->l1 * s->rp1)) * s->it1;
-      const ipm_real_t g2 = (ipm_sr_rc(corr, sm, s->t2, s->l2, s->dt2, s->dl2) + (s->l2 * s->rp2)) * s->it2;
-      const ipm_real_t hv = (s->rds + (s->e * g1)) + (s->bb * g2);
-      const ipm_real_t f = g1 - ((s->c * hv) * s->id);
-      s->hs = hv;
-      for (p = 0; p < IPM_NA; ++p) {
-        hr[p] += s->a[p] * f;
-      }
+  }
+}
+
+/* ipm_sr_forward's rows j .. j + IPM_LANES - 1 (row j + l on lane l; the run's step to the boundary so far: am): the
+ * slack's step, both sides' dt, dlam; the least of t + am dt, lam + am dlam into the lanes of mn (negative: the run
+ * cuts am). The predictor's pass (corr 0) also sums into the lanes of acc t lam, t dlam + lam dt, dt dlam, and a times
+ * the corrector's f but its sigma mu term, and keeps the corrector's slack right-hand side but that term in
+ * IPM_SR.hs; the corrector's pass (corr 1) adds it (-sm (e / t1 + bb / t2)) */
+static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, const ipm_real_t *vr,
+                                ipm_real_t (*acc)[IPM_LANES], ipm_real_t *mn) {
+  int l;
+  int p;
+  ipm_real_t adv[IPM_LANES];
+  ipm_real_t f[IPM_LANES];
+  for (l = 0; l < IPM_LANES; ++l) {
+    adv[l] = REAL_0;
+    f[l] = REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      adv[l] += IPM_SR.a[p][j + l] * vr[p];
     }
-    for (p = 0; p < IPM_NA; ++p) {
-      ht[IPM_SR_RUN_V[r][p]] += hr[p];
+  }
+  for (l = 0; l < IPM_LANES; ++l) {
+    const int i = j + l;
+    const ipm_real_t t1 = IPM_SR.t1[i];
+    const ipm_real_t l1 = IPM_SR.l1[i];
+    const ipm_real_t t2 = IPM_SR.t2[i];
+    const ipm_real_t l2 = IPM_SR.l2[i];
+    const ipm_real_t it1 = IPM_SR.it1[i];
+    const ipm_real_t it2 = IPM_SR.it2[i];
+    const ipm_real_t e = IPM_SR.e[i];
+    const ipm_real_t bb = IPM_SR.bb[i];
+    const ipm_real_t rp1 = IPM_SR.rp1[i];
+    const ipm_real_t rp2 = IPM_SR.rp2[i];
+    const ipm_real_t c = IPM_SR.c[i];
+    const ipm_real_t id = IPM_SR.id[i];
+    const ipm_real_t w = IPM_SR.w[i];
+    const ipm_real_t rc1 = (corr != 0) ? (((t1 * l1) + (IPM_SR.dt1[i] * IPM_SR.dl1[i])) - sm) : (t1 * l1);
+    const ipm_real_t rc2 = (corr != 0) ? (((t2 * l2) + (IPM_SR.dt2[i] * IPM_SR.dl2[i])) - sm) : (t2 * l2);
+    const ipm_real_t hs = (corr != 0) ? (IPM_SR.hs[i] - (sm * ((e * it1) + (bb * it2)))) : IPM_SR.hs[i];
+    const ipm_real_t ds = (-((c * adv[l]) + hs)) * id;
+    const ipm_real_t dt1 = (adv[l] + (e * ds)) + rp1;
+    const ipm_real_t dl1 = (-(rc1 + (l1 * dt1))) * it1;
+    const ipm_real_t dt2 = (bb * ds) + rp2;
+    const ipm_real_t dl2 = (-(rc2 + (l2 * dt2))) * it2;
+    const ipm_real_t least = ipm_min(ipm_min(t1 + (am * dt1), l1 + (am * dl1)), ipm_min(t2 + (am * dt2), l2 + (am * dl2)));
+    IPM_SR.dzs[i] = ds;
+    IPM_SR.dt1[i] = dt1;
+    IPM_SR.dl1[i] = dl1;
+    IPM_SR.dt2[i] = dt2;
+    IPM_SR.dl2[i] = dl2;
+    mn[l] = ipm_min((w > REAL_0) ? least : IPM_ONE, mn[l]);
+    if (corr == 0) {
+      const ipm_real_t g1 = (((t1 * l1) + (dt1 * dl1)) + (l1 * rp1)) * it1;
+      const ipm_real_t g2 = (((t2 * l2) + (dt2 * dl2)) + (l2 * rp2)) * it2;
+      const ipm_real_t hv = (IPM_SR.rds[i] + (e * g1)) + (bb * g2);
+      f[l] = g1 - ((c * hv) * id);
+      IPM_SR.hs[i] = hv;
+      acc[0][l] += w * ((t1 * l1) + (t2 * l2));
+      acc[1][l] += w * (((t1 * dl1) + (l1 * dt1)) + ((t2 * dl2) + (l2 * dt2)));
+      acc[2][l] += w * ((dt1 * dl1) + (dt2 * dl2));
+    }
+  }
+  for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[3 + p][l] += IPM_SR.a[p][j + l] * f[l];
     }
   }
 }
 
 /* the forward sweep's part (stage k, its step dv): the slack's step, both sides' dt, dlam; for the predictor, adds to
- * IPM_W.aff the sums of t lam, t dlam + lam dt and dt dlam (mu_aff for any step length); returns amax cut to the
- * boundary of their t and lam */
+ * IPM_W.aff the sums of t lam, t dlam + lam dt and dt dlam (mu_aff for any step length) and sums per run the
+ * corrector's right-hand side (IPM_W.srr[1]); returns amax cut to the boundary of their t and lam */
 static ipm_real_t ipm_sr_forward(int k, int corr, ipm_real_t sm, const ipm_real_t *dv, ipm_real_t amax) {
   int r;
   int j;
+  int l;
   int p;
   ipm_real_t am = amax;
-  ipm_real_t s0 = REAL_0;
-  ipm_real_t s1 = REAL_0;
-  ipm_real_t s2 = REAL_0;
+  ipm_real_t acc[3 + IPM_NA][IPM_LANES];
+  for (p = 0; p < 3; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[p][l] = REAL_0;
+    }
+  }
   for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+    const int j0 = IPM_SR_RUN_PTR[r];
+    const int j1 = IPM_SR_RUN_PTR[r + 1];
     ipm_real_t vr[IPM_NA];
+    ipm_real_t mn[IPM_LANES];
+    ipm_real_t least = IPM_ONE;
     for (p = 0; p < IPM_NA; ++p) {
       vr[p] = dv[IPM_SR_RUN_V[r][p]];
+      for (l = 0; l < IPM_LANES; ++l) {
+        acc[3 + p][l] = REAL_0;
+      }
     }
-    for (j = IPM_SR_RUN_PTR[r]; j < IPM_SR_RUN_PTR[r + 1]; ++j) {
-      ipm_sr_t *const s = &IPM_W.sr[j];
-      const ipm_real_t t1 = s->t1;
-      const ipm_real_t l1 = s->l1;
-      const ipm_real_t t2 = s->t2;
-      const ipm_real_t l2 = s->l2;
-      const ipm_real_t rc1 = ipm_sr_rc(corr, sm, t1, l1, s->dt1, s->dl1);
-      const ipm_real_t rc2 = ipm_sr_rc(corr, sm, t2, l2, s->dt2, s->dl2);
-      ipm_real_t adv = REAL_0;
-      ipm_real_t ds;
-      ipm_real_t dt1;
-      ipm_real_t dl1;
-      ipm_real_t dt2;
-      ipm_real_t dl2;
-      for (p = 0; p < IPM_NA; ++p) {
-        adv += s->a[p] * vr[p];
+    for (l = 0; l < IPM_LANES; ++l) {
+      mn[l] = IPM_ONE;
+    }
+    for (j = j0; j < j1; j += IPM_LANES) {
+      ipm_sr_forward_rows(j, corr, sm, am, vr, acc, mn);
+    }
+    for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
+      ipm_real_t s = REAL_0;
+      for (l = 0; l < IPM_LANES; ++l) {
+        s += acc[3 + p][l];
       }
-      ds = (-((s->c * adv) + s->hs)) * s->id;
-      dt1 = (adv + (s->e * ds)) + s->rp1;
-      dl1 = (-(rc1 + (l1 * dt1))) * s->it1;
-      dt2 = (s->bb * ds) + s->rp2;
-      dl2 = (-(rc2 + (l2 * dt2))) * s->it2;
-      s->dzs = ds;
-      s->dt1 = dt1;
-      s->dl1 = dl1;
-      s->dt2 = dt2;
-      s->dl2 = dl2;
-      if (corr == 0) {
-        s0 += (t1 * l1) + (t2 * l2);
-        s1 += ((t1 * dl1) + (l1 * dt1)) + ((t2 * dl2) + (l2 * dt2));
-        s2 += (dt1 * dl1) + (dt2 * dl2);
-      }
-      /* a cut is rare: well-predicted branches, a division only where it happens */
-      if ((t1 + (am * dt1)) < REAL_0) {
-        am = (-t1) / dt1;
-      }
-      if ((l1 + (am * dl1)) < REAL_0) {
-        am = (-l1) / dl1;
-      }
-      if ((t2 + (am * dt2)) < REAL_0) {
-        am = (-t2) / dt2;
-      }
-      if ((l2 + (am * dl2)) < REAL_0) {
-        am = (-l2) / dl2;
+      IPM_W.srr[1][r][p] = s;
+    }
+    for (l = 0; l < IPM_LANES; ++l) {
+      least = ipm_min(mn[l], least);
+    }
+    if (least < REAL_0) { /* rare: the run cuts am; row by row, as one sequential pass would, a division per cut */
+      for (j = j0; j < j1; ++j) {
+        if (IPM_SR_ROW[j] < 0) {
+          continue; /* a padding row */
+        }
+        if ((IPM_SR.t1[j] + (am * IPM_SR.dt1[j])) < REAL_0) {
+          am = (-IPM_SR.t1[j]) / IPM_SR.dt1[j];
+        }
+        if ((IPM_SR.l1[j] + (am * IPM_SR.dl1[j])) < REAL_0) {
+          am = (-IPM_SR.l1[j]) / IPM_SR.dl1[j];
+        }
+        if ((IPM_SR.t2[j] + (am * IPM_SR.dt2[j])) < REAL_0) {
+          am = (-IPM_SR.t2[j]) / IPM_SR.dt2[j];
+        }
+        if ((IPM_SR.l2[j] + (am * IPM_SR.dl2[j])) < REAL_0) {
+          am = (-IPM_SR.l2[j]) / IPM_SR.dl2[j];
+        }
       }
     }
   }
-  IPM_W.aff[0] += s0;
-  IPM_W.aff[1] += s1;
-  IPM_W.aff[2] += s2;
+  for (l = 0; l < IPM_LANES; ++l) {
+    IPM_W.aff[0] += acc[0][l];
+    IPM_W.aff[1] += acc[1][l];
+    IPM_W.aff[2] += acc[2][l];
+  }
   return am;
 }
 
@@ -4521,16 +4664,24 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
   for (i = 0; i < IPM_NBOX; ++i) {
     IPM_W.bax[i] = A_x[IPM_BOX_A[i]];
   }
-  for (i = 0; i < IPM_NSR; ++i) { /* times the sides' signs: both sides of a soft row are lower sides */
+  for (i = 0; i < IPM_NSRP; ++i) { /* times the sides' signs: both sides of a soft row are lower sides */
     const ipm_real_t sg = (ipm_real_t)IPM_SR_SIGN[i];
     int p;
     for (p = 0; p < IPM_NA; ++p) {
       const int da = IPM_SR_A[i][p];
-      IPM_W.sr[i].a[p] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
+      IPM_SR.a[p][i] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
     }
-    IPM_W.sr[i].e = sg * A_x[IPM_SR_E[i]];
-    IPM_W.sr[i].ps = P_x[IPM_SR_SVAR[i]];
-    IPM_W.sr[i].bb = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
+    if (IPM_SR_ROW[i] < 0) { /* a padding row: no data, P_s = 1 */
+      IPM_SR.e[i] = REAL_0;
+      IPM_SR.ps[i] = IPM_ONE;
+      IPM_SR.bb[i] = REAL_0;
+      IPM_SR.w[i] = REAL_0;
+    } else {
+      IPM_SR.e[i] = sg * A_x[IPM_SR_E[i]];
+      IPM_SR.ps[i] = P_x[IPM_SR_SVAR[i]];
+      IPM_SR.bb[i] = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
+      IPM_SR.w[i] = IPM_ONE;
+    }
   }
   return 0;
 }
@@ -4986,10 +5137,13 @@ static void ipm_compose_y(void) {
     }
     IPM_W.y[IPM_IN_ROW[i]] = v;
   }
-  for (i = 0; i < IPM_NSR; ++i) {
-    IPM_W.z[IPM_SR_SVAR[i]] = IPM_W.sr[i].zs;
-    IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_W.sr[i].l1);
-    IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_W.sr[i].l2);
+  for (i = 0; i < IPM_NSRP; ++i) {
+    if (IPM_SR_ROW[i] < 0) {
+      continue; /* a padding row */
+    }
+    IPM_W.z[IPM_SR_SVAR[i]] = IPM_SR.zs[i];
+    IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_SR.l1[i]);
+    IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_SR.l2[i]);
   }
 }
 
@@ -5147,25 +5301,34 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
     IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
   }
-  for (j = 0; j < IPM_NSR; ++j) {
-    ipm_sr_t *const s = &IPM_W.sr[j];
+  for (j = 0; j < IPM_NSRP; ++j) {
     const int r = IPM_SR_ROW[j];
     const int rb = IPM_SR_BROW[j];
-    const ipm_real_t lw1 = (IPM_WARM != 0) ? ((-IPM_SR_SIGN[j]) * y_warm[r]) : REAL_0;
-    const ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
-    s->b1 = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
-    s->b2 = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
-    s->t1 = ((-s->b1) > IPM_T_MIN) ? (-s->b1) : IPM_T_MIN;
-    s->t2 = ((-s->b2) > IPM_T_MIN) ? (-s->b2) : IPM_T_MIN;
-    s->l1 = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
-    s->l2 = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
-    s->zs = REAL_0;
-    s->qs = q[IPM_SR_SVAR[j]];
-    s->dzs = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0) */
-    s->dt1 = REAL_0;
-    s->dl1 = REAL_0;
-    s->dt2 = REAL_0;
-    s->dl2 = REAL_0;
+    IPM_SR.zs[j] = REAL_0;
+    IPM_SR.dzs[j] = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0) */
+    IPM_SR.dt1[j] = REAL_0;
+    IPM_SR.dl1[j] = REAL_0;
+    IPM_SR.dt2[j] = REAL_0;
+    IPM_SR.dl2[j] = REAL_0;
+    if (r < 0) { /* a padding row: b = -1 and t = 1 on both sides, lam = 0, no cost: every step keeps t, z_s */
+      IPM_SR.b1[j] = -IPM_ONE;
+      IPM_SR.b2[j] = -IPM_ONE;
+      IPM_SR.t1[j] = IPM_ONE;
+      IPM_SR.t2[j] = IPM_ONE;
+      IPM_SR.l1[j] = REAL_0;
+      IPM_SR.l2[j] = REAL_0;
+      IPM_SR.qs[j] = REAL_0;
+    } else {
+      const ipm_real_t lw1 = (IPM_WARM != 0) ? ((-IPM_SR_SIGN[j]) * y_warm[r]) : REAL_0;
+      const ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
+      IPM_SR.b1[j] = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
+      IPM_SR.b2[j] = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
+      IPM_SR.t1[j] = ((-IPM_SR.b1[j]) > IPM_T_MIN) ? (-IPM_SR.b1[j]) : IPM_T_MIN;
+      IPM_SR.t2[j] = ((-IPM_SR.b2[j]) > IPM_T_MIN) ? (-IPM_SR.b2[j]) : IPM_T_MIN;
+      IPM_SR.l1[j] = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
+      IPM_SR.l2[j] = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
+      IPM_SR.qs[j] = q[IPM_SR_SVAR[j]];
+    }
   }
   IPM_W.aff[3] = REAL_0;
   { /* a centred start: every lam at least IPM_LAM_CENTER mean(t lam) / t */
@@ -5173,20 +5336,21 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     for (j = 0; j < IPM_NSIDE; ++j) {
       c += IPM_W.t[j] * IPM_W.lam[j];
     }
-    for (j = 0; j < IPM_NSR; ++j) {
-      c += (IPM_W.sr[j].t1 * IPM_W.sr[j].l1) + (IPM_W.sr[j].t2 * IPM_W.sr[j].l2);
+    for (j = 0; j < IPM_NSRP; ++j) {
+      c += (IPM_SR.t1[j] * IPM_SR.l1[j]) + (IPM_SR.t2[j] * IPM_SR.l2[j]); /* a padding row: lam = 0 here */
     }
     c = IPM_LAM_CENTER * (c / (ipm_real_t)IPM_NCOMP);
     for (j = 0; j < IPM_NSIDE; ++j) {
       const ipm_real_t lc = c / IPM_W.t[j];
       IPM_W.lam[j] = (lc > IPM_W.lam[j]) ? lc : IPM_W.lam[j];
     }
-    for (j = 0; j < IPM_NSR; ++j) {
-      ipm_sr_t *const s = &IPM_W.sr[j];
-      const ipm_real_t lc1 = c / s->t1;
-      const ipm_real_t lc2 = c / s->t2;
-      s->l1 = (lc1 > s->l1) ? lc1 : s->l1;
-      s->l2 = (lc2 > s->l2) ? lc2 : s->l2;
+    for (j = 0; j < IPM_NSRP; ++j) {
+      if (IPM_SR_ROW[j] >= 0) { /* a padding row keeps lam = 0 */
+        const ipm_real_t lc1 = c / IPM_SR.t1[j];
+        const ipm_real_t lc2 = c / IPM_SR.t2[j];
+        IPM_SR.l1[j] = (lc1 > IPM_SR.l1[j]) ? lc1 : IPM_SR.l1[j];
+        IPM_SR.l2[j] = (lc2 > IPM_SR.l2[j]) ? lc2 : IPM_SR.l2[j];
+      }
     }
   }
   for (j = 0; j < IPM_NEQ; ++j) {

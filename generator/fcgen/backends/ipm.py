@@ -461,15 +461,49 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
 
-#: the real fields of the C's soft-row struct besides its NA coefficients (``ipm_sr_t`` in the template)
+#: the real arrays of the C's soft-row struct besides its NA coefficients (``ipm_sr_t`` in the template)
 SR_FIELDS = ("e", "bb", "b1", "b2", "t1", "l1", "t2", "l2", "it1", "it2", "rp1", "rp2", "id", "c",
-             "dt1", "dl1", "dt2", "dl2", "zs", "dzs", "rds", "hs", "ps", "qs")
+             "dt1", "dl1", "dt2", "dl2", "zs", "dzs", "rds", "hs", "ps", "qs", "w")
+
+
+#: rows the C reads at a time in a run of soft rows (its SIMD lanes: 4 doubles in 256 bits) ...
+SR_LANES = 4
+#: ... when padding the runs to a multiple of it adds at most this fraction of rows (else 1 lane: no padding)
+SR_PAD_MAX = 0.125
+
+
+def sr_lanes(sr: SoftRows) -> int:
+    """Lanes of the C's soft-row loops: ``SR_LANES`` for long runs (the circles' rows: 27-147 per run), 1 where padding
+    would add many rows of no work (the ellipse's 3 rows per run: +33 %)."""
+    n = np.diff(sr.run_ptr)
+    padded = int(np.sum(-(-n // SR_LANES) * SR_LANES))
+    return SR_LANES if padded <= (1 + SR_PAD_MAX) * max(1, sr.count) else 1
+
+
+def padded_runs(sr: SoftRows):
+    """The C's storage of the soft rows: run by run, each padded with rows of no data to a multiple of
+    ``sr_lanes(sr)`` rows (so that a run's loop reads whole groups of lanes, no remainder). Returns the runs' pointers
+    into the storage and ``pad(values, fill=-1)``, which places per-row values at their rows' storage and ``fill`` on
+    the padding."""
+    lanes = sr_lanes(sr)
+    n = np.diff(sr.run_ptr)
+    ptr = np.r_[0, np.cumsum(-(-n // lanes) * lanes)].astype(np.int64)
+    pos = np.concatenate([ptr[r] + np.arange(n[r]) for r in range(len(n))] + [np.zeros(0, dtype=np.int64)])
+
+    def pad(values, fill: int = -1) -> np.ndarray:
+        v = np.asarray(values)
+        out = np.full((int(ptr[-1]),) + v.shape[1:], fill, dtype=np.int64)
+        out[pos] = v
+        return out
+    return ptr, pad
 
 
 def _workspace_bytes(members: list[dict], sr: SoftRows, real_size: int) -> int:
-    """sizeof the C workspace struct on an LP64 target (two pointers, the real arrays, the soft rows' structs)."""
+    """sizeof the C workspace struct on an LP64 target (two pointers, the real arrays, the soft rows' arrays and their
+    runs' sums)."""
     size = 16 + sum(int(np.prod(m["dims"])) * real_size for m in members)
-    size += max(1, sr.count) * (sr.NA + len(SR_FIELDS)) * real_size
+    size += max(1, int(padded_runs(sr)[0][-1])) * (sr.NA + len(SR_FIELDS)) * real_size
+    size += max(1, len(sr.run_ptr) - 1) * (sr.NA * (sr.NA + 1) // 2 + 3 * sr.NA) * real_size
     return -(-size // 8) * 8
 
 
@@ -575,6 +609,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     ub = input_blocks(sv, sr)
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
+    run_ptr, pad = padded_runs(sr)
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
         ("IPM_A_K", a_k, "their data index"),
@@ -608,13 +643,16 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_UB", ub, "[k][b]: stage k's input block b: inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1"),
         ("IPM_GV", gvars, "the variables but the soft rows' slacks"),
         ("IPM_SR_RPTR", sr.rptr, "runs of soft rows of stage k"),
-        ("IPM_SR_RUN_PTR", sr.run_ptr, "soft rows of run r (rows on the same slots)"),
+        ("IPM_SR_RUN_PTR", run_ptr, "soft rows of run r (rows on the same slots; padded to IPM_LANES rows)"),
         ("IPM_SR_RUN_V", sr.run_v.reshape(-1, sr.NA), "[r][p]: stage slot of the run's (x, u) entry p"),
-        ("IPM_SR_ROW", sr.row, "soft row j's row"),
-        ("IPM_SR_A", sr.a.reshape(-1, sr.NA), "[j][p]: its data index (-1: padding)"),
-        ("IPM_SR_SVAR", sr.svar, "its slack"),
-        ("IPM_SR_E", sr.e, "data index of the slack's coefficient"), ("IPM_SR_BROW", sr.brow, "the slack's bound row"),
-        ("IPM_SR_BA", sr.ba, "data index of the bound row's coefficient"),
+        ("IPM_SR_ROW", pad(sr.row), "soft row j's row (-1: a padding row)"),
+        ("IPM_SR_A", pad(sr.a.reshape(-1, sr.NA)), "[j][p]: its data index (-1: padding)"),
+        ("IPM_SR_SVAR", pad(sr.svar), "its slack"),
+        ("IPM_SR_E", pad(sr.e), "data index of the slack's coefficient"),
+        ("IPM_SR_BROW", pad(sr.brow), "the slack's bound row"),
+        ("IPM_SR_BA", pad(sr.ba), "data index of the bound row's coefficient"),
+        ("IPM_SR_QA", np.triu_indices(sr.NA)[0], "entry q of a run's upper triangle (row-major): its row"),
+        ("IPM_SR_QB", np.triu_indices(sr.NA)[1], "its column"),
     ]
     if NE == 0:  # the template emits the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
@@ -623,15 +661,15 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     out = [_table(nm, "idx", t, doc) for nm, t, doc in tables]
     second = np.r_[False, sv.side_row[1:] == sv.side_row[:-1]] if len(sv.side_row) else np.zeros(0, dtype=bool)
     out += [_table(nm, "sign", t, doc) for nm, t, doc in (
-        ("IPM_SR_SIGN", sr.sign, "soft row j's side: +1 lower, -1 upper"),
-        ("IPM_SR_BSIGN", sr.bsign, "its slack's bound side"),
+        ("IPM_SR_SIGN", pad(sr.sign, 0), "soft row j's side: +1 lower, -1 upper (0: a padding row)"),
+        ("IPM_SR_BSIGN", pad(sr.bsign, 0), "its slack's bound side"),
         ("IPM_SIDE_SIGN", sv.side_sign, "+1: lower side (a'z >= l), -1: upper side (a'z <= u)"),
         ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"))]
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NUB": ub.shape[1] - 1, "NGV": len(gvars),
-            "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "NUB": ub.shape[1] - 1, "NGV": len(gvars),
+            "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
