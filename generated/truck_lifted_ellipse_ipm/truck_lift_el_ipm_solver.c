@@ -1237,6 +1237,7 @@ static const int QP_EXIT[9 + 1] = {
 #define IPM_NSRP 120 /* their storage: runs padded to IPM_LANES rows (padding rows: no data) */
 #define IPM_NSR1 120 /* max(IPM_NSRP, 1): array dimension */
 #define IPM_LANES 1 /* rows a run's loops read at a time (SIMD lanes) */
+#define IPM_SR_W(i) (IPM_ONE) /* soft row i's weight: 1, 0 for a padding row (none: 1) */
 #define IPM_NRUN1 40 /* runs of soft rows (at least 1: array dimension) */
 #define IPM_NA 3 /* (x, u) entries of a soft row (at most; padding: slot 0, coefficient 0) */
 #define IPM_SR_NT ((IPM_NA * (IPM_NA + 1)) / 2) /* entries of a run's upper triangle */
@@ -4242,7 +4243,7 @@ static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm
     const ipm_real_t l2 = IPM_SR.l2[i] + (alpha * IPM_SR.dl2[i]);
     const ipm_real_t e = IPM_SR.e[i];
     const ipm_real_t bb = IPM_SR.bb[i];
-    const ipm_real_t w = IPM_SR.w[i];
+    const ipm_real_t w = IPM_SR_W(i);
     const ipm_real_t tl1 = t1 * l1;
     const ipm_real_t tl2 = t2 * l2;
     const ipm_real_t it1 = IPM_ONE / t1;
@@ -4442,7 +4443,7 @@ static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, c
     const ipm_real_t rp2 = IPM_SR.rp2[i];
     const ipm_real_t c = IPM_SR.c[i];
     const ipm_real_t id = IPM_SR.id[i];
-    const ipm_real_t w = IPM_SR.w[i];
+    const ipm_real_t w = IPM_SR_W(i);
     const ipm_real_t rc1 = (corr != 0) ? (((t1 * l1) + (IPM_SR.dt1[i] * IPM_SR.dl1[i])) - sm) : (t1 * l1);
     const ipm_real_t rc2 = (corr != 0) ? (((t2 * l2) + (IPM_SR.dt2[i] * IPM_SR.dl2[i])) - sm) : (t2 * l2);
     const ipm_real_t hs = (corr != 0) ? (IPM_SR.hs[i] - (sm * ((e * it1) + (bb * it2)))) : IPM_SR.hs[i];

@@ -668,7 +668,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "NUB": ub.shape[1] - 1, "NGV": len(gvars),
+            "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)", "NUB": ub.shape[1] - 1, "NGV": len(gvars),
             "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
