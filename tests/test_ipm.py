@@ -155,7 +155,6 @@ def test_soft_rows_are_the_obstacle_rows():
     assert all(lay.row_names[r].startswith("a_lat") for r in sv.gen_rows[sv.gen_rows >= 0])
 
 
-
 def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     """The C's soft-row storage: C7's runs of 147 rows (one per stage) read 4 rows at a time, so each is padded to 148
     with one row of no data at its end; the ellipse's runs of 3 rows would gain 33 % padding, so they keep one lane
@@ -177,6 +176,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     ptr, pad = padded_runs(sr)
     np.testing.assert_array_equal(ptr, sr.run_ptr)
     np.testing.assert_array_equal(pad(sr.row), sr.row)
+
 
 # -- the Python IPM against OSQP -----------------------------------------------------------------------------------
 

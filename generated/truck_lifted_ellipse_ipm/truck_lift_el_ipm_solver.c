@@ -4211,6 +4211,20 @@ static ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
   return (v < m) ? v : m;
 }
 
+/* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */
+static void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
+  int l;
+  int p;
+  for (l = 0; l < IPM_LANES; ++l) {
+    out[l] = REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      out[l] += IPM_SR.a[p][j + l] * v[p];
+    }
+  }
+}
+
 /* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
  * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
  * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
@@ -4226,14 +4240,7 @@ static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm
   ipm_real_t weff[IPM_LANES];
   ipm_real_t f[IPM_LANES];
   ipm_real_t fb[IPM_LANES];
-  for (l = 0; l < IPM_LANES; ++l) {
-    az[l] = REAL_0;
-  }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      az[l] += IPM_SR.a[p][j + l] * zr[p];
-    }
-  }
+  ipm_sr_av(j, zr, az);
   for (l = 0; l < IPM_LANES; ++l) {
     const int i = j + l;
     const ipm_real_t zs = IPM_SR.zs[i] + (alpha * IPM_SR.dzs[i]);
@@ -4420,14 +4427,9 @@ static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, c
   int p;
   ipm_real_t adv[IPM_LANES];
   ipm_real_t f[IPM_LANES];
+  ipm_sr_av(j, vr, adv);
   for (l = 0; l < IPM_LANES; ++l) {
-    adv[l] = REAL_0;
     f[l] = REAL_0;
-  }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      adv[l] += IPM_SR.a[p][j + l] * vr[p];
-    }
   }
   for (l = 0; l < IPM_LANES; ++l) {
     const int i = j + l;

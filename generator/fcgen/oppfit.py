@@ -31,7 +31,8 @@ one, the reference point is farther from that sample than ``far`` plus the large
 opponent can then come within the band plus the ego's reach: without this test, an opponent far beside a bend of the
 road window, e.g. one the ego passed 130 m before whose road bends back, had its points searched on the wrong part of
 the road and failed the prepare phase with ``ERR_OPP_FRENET``; 8 of the 12,000 campaign runs), a point's nearest
-sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not inside the road, or its box plus the ego's reach lies beside the band ``[n_min, n_max]``: it is left out
+sample has no sample on either side, the ``s`` range of step 4 (plus one ``ds``) is not inside the road, or its box
+plus the ego's reach lies beside the band ``[n_min, n_max]``: it is left out
 (``neutral`` parameters, a box 1000 m behind the road) and counted in the status (``opp_outside``). A stretch
 ``max(n kappa) >= STRETCH_MAX`` (the Frenet frame is singular next to the opponent), an edge whose chord bound does
 not apply (``obstacles.chord_sag_bound``), or a foot point that the steps leave outside its window (the

@@ -610,6 +610,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     run_ptr, pad = padded_runs(sr)
+    sr_weight = "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)"  # a constant 1 without padding rows
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
         ("IPM_A_K", a_k, "their data index"),
@@ -668,8 +669,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
-            "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)", "NUB": ub.shape[1] - 1, "NGV": len(gvars),
-            "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA, "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": sr_weight,
+            "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA,
+            "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
