@@ -116,8 +116,9 @@ def _names(text: str) -> list[str]:
               help="also write `fcgen report` into this folder")
 @click.option("--cflags", default=None, help="C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
               "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)")
+@click.option("--force-report", is_flag=True, help="replace an existing report in the --report folder")
 def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir, cflags):
+             scheduler, cache_dir, out, report_dir, cflags, force_report):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
     from .campaign.runner import run_campaign
@@ -135,6 +136,12 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:
         _fail(f"--obstacles/--backend: {exc}")
+    from .atomic import check_folder_target
+    check_folder_target(out, "a campaign results folder")
+    check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
+    if report_dir:
+        from .report.page import check_report_target
+        check_report_target(report_dir, force_report)
     store = ResultStore(out)
     tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock,
                        cflags=cflags)
@@ -156,22 +163,23 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
         click.echo(f"failed {run_id}: {msg}", err=True)
     if res.failed:
         _fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
-    if res.computed and {t.run_id for t in tasks} <= store.done():
+    if {t.run_id for t in tasks} <= store.done() and store.needs_compact():
         store.compact()
     if report_dir:
         from .report.page import write_report
-        click.echo(f"report written to {write_report(out, report_dir)}")
+        click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
 @main.command()
 @click.argument("results", type=click.Path(exists=True))
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True, help="report folder")
 @click.option("--no-example", is_flag=True, help="skip the Fig. 1-like picture (it re-simulates one run)")
-def report(results, out_dir, no_example):
+@click.option("--force", is_flag=True, help="replace an existing report in OUT")
+def report(results, out_dir, no_example, force):
     """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page."""
     from .report.page import write_report
 
-    path = write_report(results, out_dir, example=not no_example)
+    path = write_report(results, out_dir, example=not no_example, force=force)
     click.echo(f"report written to {path}")
 
 
@@ -428,7 +436,8 @@ def demo(problem_name, seed, samples, out_dir, plot):
 @click.option("--golden-for", "golden_root", type=click.Path(file_okay=False), default=None,
               help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
                    "settings (2 seeds x 200 samples, verification build, planned controls, no timing)")
-def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root):
+@click.option("--force", is_flag=True, help="replace an existing golden suite in the output folder")
+def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root, force):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from .build import BuildError
     from .suite import SuiteSettings, parse_seeds, record_goldens, record_suite
@@ -437,7 +446,7 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
         if golden_root is not None:
             if solver_dir is not None or out_dir is not None:
                 _fail("--golden-for ROOT records every folder under ROOT: give no SOLVER_DIR and no -o")
-            for path in record_goldens(golden_root, echo=click.echo):
+            for path in record_goldens(golden_root, echo=click.echo, force=force):
                 click.echo(f"golden suite written to {path}")
             return
         if solver_dir is None:
@@ -445,7 +454,7 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
         st = SuiteSettings(scenario=scenario, seeds=parse_seeds(seeds), samples=samples, plan=plan, verify=verify,
                            cc=cc, cflags=cflags, timing=timing)
         out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
-        man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty())
+        man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty(), force=force)
     except BuildError as exc:
         _fail(str(exc))
     size = sum(p.stat().st_size for p in out.iterdir() if p.is_file())
