@@ -285,3 +285,55 @@ def _busy(pids: list[int]) -> bool:
         f = stat[stat.rindex(")") + 2:].split()
         used += int(f[11]) + int(f[12]) > 150          # utime + stime > 1.5 s of CPU (imports done, running)
     return used >= 2
+
+
+# ----------------------------------------------------------------------------- 5: regress trusts no hand edit
+
+GOLDEN = SOLVER / "golden"
+
+
+def _edited(tmp_path: Path, edit) -> Path:
+    import json
+    g = shutil.copytree(GOLDEN, tmp_path / "edited")
+    man = json.loads((g / "manifest.json").read_text())
+    edit(man)
+    (g / "manifest.json").write_text(json.dumps(man, indent=1, sort_keys=True) + "\n")
+    return g
+
+
+def _regress(*args):
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+    return CliRunner().invoke(main, ["regress", *map(str, args)])
+
+
+@pytest.mark.parametrize("field, edit", [
+    ("precision", lambda m: m.update(precision="float")),     # would switch to the float-vs-double tolerances
+    ("problem.sizes.NU", lambda m: m["problem"]["sizes"].update(NU=3)),
+    ("problem.sizes.NOPP", lambda m: m["problem"]["sizes"].update(NOPP=2)),
+    ("problem.formulation", lambda m: m["problem"].update(formulation="conventional")),
+    ("solver", lambda m: m.update(solver="other")),
+    ("settings.seeds", lambda m: m["settings"].update(seeds=[0, 1, 2])),
+    ("settings.samples", lambda m: m["settings"].update(samples=100)),
+])
+def test_regress_refuses_a_manifest_that_disagrees_with_its_logs(tmp_path, field, edit):
+    g = _edited(tmp_path, edit)
+    for new, golden in ((g, GOLDEN), (GOLDEN, g), (SOLVER, g)):
+        res = _regress(new, golden)
+        assert res.exit_code == 2, res.output
+        assert res.stderr.count("\n") == 1 and f"field {field} is" in res.stderr, res.stderr
+
+
+def test_regress_notes_another_problem_source_or_qp_size(tmp_path):
+    """What may legitimately change between the golden's solver and NEW (the problem.py, the QP's sizes with a newer
+    generator) cannot be derived from the logs: it is compared with the solver folder / other suite and noted."""
+    def edit(m):
+        m["problem"]["problem_py_sha256"] = "0" * 64
+        m["problem"]["sizes"]["QP_M"] = 900
+    g = _edited(tmp_path, edit)
+    for new in (SOLVER, GOLDEN):
+        res = _regress(new, g)
+        assert res.exit_code == 0, res.output
+        assert "problem.py differs from the one the golden suite was recorded with" in res.output
+        assert "QP_M 928 vs 900" in res.output

@@ -308,4 +308,64 @@ def load_suite(path: Path | str) -> tuple[dict[str, Any], list[RunLog]]:
         logs.append(log)
     if not logs:
         raise ValueError(f"{path}: suite holds no run logs")
+    check_manifest(path, man, logs)
     return man, logs
+
+
+def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
+    """What the run logs themselves say about the suite (manifest field -> value; one value over all logs, or a
+    ValueError naming the field when the logs disagree among themselves)."""
+    from .sim.replay import plan_level
+
+    per_log = {
+        "solver": lambda lg: lg.meta.get("problem"),
+        "problem.name": lambda lg: lg.meta.get("problem"),
+        "problem.formulation": lambda lg: lg.meta.get("formulation"),
+        "problem.obstacle_model": lambda lg: lg.meta.get("obstacle_model"),
+        "problem.N": lambda lg: lg.meta.get("N"),
+        "problem.dt": lambda lg: lg.meta.get("dt"),
+        "precision": lambda lg: lg.meta.get("precision", "double"),
+        "settings.scenario": lambda lg: lg.meta.get("scenario"),
+        "settings.samples": lambda lg: lg.n_controls,
+        "settings.plan": plan_level,
+        "settings.controller": lambda lg: lg.meta.get("controller"),
+        "problem.sizes.N": lambda lg: lg.meta.get("N"),
+        "problem.sizes.NU": lambda lg: int(np.shape(lg.control)[-1]),
+        "problem.sizes.NOPP": lambda lg: len(lg.opponents),
+    }
+    facts: dict[str, Any] = {}
+    for key, fn in per_log.items():
+        vals = {json.dumps(fn(lg)) for lg in logs}
+        if len(vals) > 1:
+            raise ValueError(f"the suite's run logs disagree on {key}: {', '.join(sorted(vals))}")
+        facts[key] = json.loads(vals.pop())
+    facts["settings.seeds"] = sorted(lg.meta.get("seed") for lg in logs)
+    if all(lg.plan_states is not None for lg in logs):
+        facts["problem.sizes.NX"] = int(logs[0].plan_states.shape[-1])
+    return facts
+
+
+def check_manifest(path: Path | str, man: dict[str, Any], logs: list[RunLog]) -> None:
+    """ValueError (one line naming the field) when a manifest field disagrees with what the logs say (precision,
+    solver, problem record, sizes, settings): a hand-edited manifest must not change how the logs are compared."""
+    where = Path(path) / MANIFEST
+    try:
+        facts = manifest_facts(logs)
+    except ValueError as exc:
+        raise ValueError(f"{Path(path)}: {exc}") from None
+    for key, want in facts.items():
+        got: Any = man
+        for part in key.split("."):
+            got = got.get(part, _MISSING) if isinstance(got, dict) else _MISSING
+        if key == "settings.seeds" and isinstance(got, list):
+            got = sorted(got)
+        if got is _MISSING:
+            if key.startswith("problem.sizes.") or key == "settings.controller":
+                continue        # older manifests may lack a size; nothing to disagree with
+            raise ValueError(f"{where}: field {key} is missing (the run logs say {want!r})")
+        if got != want:
+            raise ValueError(f"{where}: field {key} is {got!r} but the run logs say {want!r} (hand-edited?); "
+                             f"refused: record the suite again")
+
+
+_MISSING = object()
