@@ -337,3 +337,32 @@ def test_regress_notes_another_problem_source_or_qp_size(tmp_path):
         assert res.exit_code == 0, res.output
         assert "problem.py differs from the one the golden suite was recorded with" in res.output
         assert "QP_M 928 vs 900" in res.output
+
+
+# ----------------------------------------------------------------------------- 6: ways out and paths checked first
+
+
+def test_generate_timeout_stops_a_problem_file_that_never_returns(tmp_path):
+    hang = tmp_path / "hang.py"
+    hang.write_text("while True:\n    pass\n")
+    out = tmp_path / "solver"
+    t0 = time.monotonic()
+    res = fcgen("generate", hang, "-o", out, "--timeout", "2")
+    assert res.returncode == 1 and "longer than --timeout 2 s" in res.stderr and res.stderr.count("\n") == 1
+    assert time.monotonic() - t0 < 30 and not out.exists() and list(tmp_path.iterdir()) == [hang]
+    res = fcgen("generate", hang, "-o", tmp_path / "hang.py" / "sub", "--timeout", "2")   # the path first
+    assert res.returncode == 1 and "is a file" in res.stderr
+
+
+def test_bench_refuses_to_replace_its_results_file_before_computing(tmp_path):
+    solver = shutil.copytree(SOLVER, tmp_path / "s", ignore=shutil.ignore_patterns("build", "golden", "lib"))
+    out = tmp_path / "b.json"
+    args = ["bench", solver, "--seeds", "1", "--samples", "3", "--no-python", "--out", out]
+    assert fcgen(*args).returncode == 0
+    first = out.read_bytes()
+    t0 = time.monotonic()
+    res = fcgen(*args)
+    assert res.returncode == 1 and f"--out {out}: exists" in res.stderr and "--force" in res.stderr
+    assert out.read_bytes() == first and time.monotonic() - t0 < 20
+    assert fcgen(*args, "--force").returncode == 0 and out.read_bytes() != first   # new timings
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".b.json")]        # no temporary left

@@ -18,7 +18,9 @@ import ctypes
 import errno
 import os
 import shutil
+import signal
 import tempfile
+import threading
 from pathlib import Path
 from typing import Iterator
 
@@ -190,3 +192,31 @@ def staged_folder(out: Path | str) -> Iterator[Path]:
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+class TimeLimit(BaseException):
+    """Raised by ``time_limit`` when its block runs out of time (a BaseException, like KeyboardInterrupt: the
+    ``except Exception`` of a problem file or of a loader does not swallow it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, message: str) -> Iterator[None]:
+    """Raise ``TimeLimit(message)`` in the block after ``seconds`` of wall time (None: no limit). A real-time timer
+    signal (SIGALRM) interrupts Python code, including a problem file stuck in a loop or a sleep; the main thread
+    only."""
+    if not seconds:
+        yield
+        return
+    if threading.current_thread() is not threading.main_thread():
+        raise RuntimeError("time_limit: only in the main thread")
+
+    def _expired(signum, frame):
+        raise TimeLimit(message)
+
+    old = signal.signal(signal.SIGALRM, _expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)

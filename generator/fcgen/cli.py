@@ -189,12 +189,21 @@ def report(results, out_dir, no_example, force):
               help="folder to write the solver into (created)")
 @click.option("--float", "use_float", is_flag=True, help="single precision (float) instead of double")
 @click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed)")
-def generate(problem_spec, out_dir, use_float, force):
+@click.option("--timeout", type=click.FloatRange(0, min_open=True), default=None, metavar="SECONDS",
+              help="give up (exit 1, OUT untouched) if loading PROBLEM and generating take longer [default: no limit]")
+def generate(problem_spec, out_dir, use_float, force, timeout):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
+    from .atomic import TimeLimit, check_folder_target, time_limit
     from .codegen.generate import generate as gen
 
-    pb = load_problem(problem_spec)
-    info = gen(pb, out_dir, use_float=use_float, force=force)
+    check_folder_target(out_dir, "a solver folder", option="-o")
+    try:
+        with time_limit(timeout, f"{problem_spec}: loading the problem and generating took longer than --timeout "
+                                 f"{timeout:g} s; nothing written to {out_dir}" if timeout else ""):
+            pb = load_problem(problem_spec)
+            info = gen(pb, out_dir, use_float=use_float, force=force)
+    except TimeLimit as exc:
+        _fail(str(exc))
     s = info.sizes
     click.echo(f"{info.name}: {pb.formulation.kind}, {pb.obstacles.kind}, N = {s['N']}, NX = {s['NX']}, "
                f"QP {s['QP_N']} variables x {s['QP_M']} rows, {s['QP_NNZ_A']} nonzeros in A")
@@ -288,16 +297,24 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
                    "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
 @click.option("--clock", type=click.Choice(["wall", "cpu"]), default="wall", show_default=True,
               help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock):
+@click.option("--force", is_flag=True, help="replace an existing results file")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock,
+              force):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference.
 
     With an emulated --target: instructions per prepare and feedback (median / max) from QEMU -icount; the default
     then is 1 seed (use --seeds, --samples). With --backends: several QP backends timed in one run."""
     from .bench import (BACKEND_VARIANTS, bench, bench_backends, bench_target, format_backends, format_bench,
                         format_bench_target, write_results)
-    from .build import BuildError
+    from .atomic import check_file_target
+    from .build import BuildError, solver_name
     from .sim.export import HarnessError
 
+    name = solver_name(Path(solver_dir))
+    if out is None:
+        out = (f"results/bench_{name}_{target}.json" if get_target(target).bare_metal else
+               f"results/bench_backends_{name}.json" if backends is not None else f"results/bench_{name}.json")
+    check_file_target(out, "a bench results file", force)
     if get_target(target).bare_metal:
         if backends is not None:
             _fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")
@@ -309,7 +326,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         except HarnessError as exc:
             _fail(str(exc))
         click.echo(format_bench_target(res))
-        path = write_results(res, out or f"results/bench_{res['solver']}_{target}.json")
+        path = write_results(res, out)
         click.echo(f"results written to {path}")
         return
     if backends is not None:
@@ -324,7 +341,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         except BuildError as exc:
             _fail(str(exc))
         click.echo(format_backends(res))
-        path = write_results(res, out or f"results/bench_backends_{res['problem']}.json")
+        path = write_results(res, out)
         click.echo(f"results written to {path}")
         return
     try:
@@ -333,7 +350,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     except BuildError as exc:
         _fail(str(exc))
     click.echo(format_bench(res))
-    path = write_results(res, out or f"results/bench_{res['solver']}.json")
+    path = write_results(res, out)
     click.echo(f"results written to {path}")
 
 

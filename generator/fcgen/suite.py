@@ -49,7 +49,7 @@ class SuiteSettings:
     timing: bool = True
 
 
-#: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated``):
+#: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated --force``):
 #: verification build (no FP contraction: the least compiler-dependent), no timings (re-recording is reproducible)
 GOLDEN_SETTINGS = SuiteSettings(seeds=(0, 1), samples=200, plan="controls", verify=True, timing=False)
 
