@@ -2,7 +2,10 @@
 
 Both are ``concurrent.futures`` executors running the same task function (``task.run_task``); the executor is the
 only difference. Rows are written as runs finish (a part file every ``flush_every`` runs or ``flush_seconds``), and
-runs already in the results folder are skipped, so an interrupted campaign resumes where it stopped.
+runs already in the results folder are skipped, so an interrupted campaign resumes where it stopped (a merge killed
+part-way is finished first: ``ResultStore.repair``). Local pool workers die with the campaign process, however it
+dies (``die_with_parent``: the kernel's parent-death signal); Dask's LocalCluster workers exit when their nanny's
+process does.
 """
 from __future__ import annotations
 

@@ -14,6 +14,8 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
+from ..atomic import replace_folder
+
 SHARED_FILES = ("main.c", "CMakeLists.txt", "Makefile", "README.md", "problem.py")
 """Files of a solver folder that carry no solver name."""
 OWNED_DIRS = ("osqp", "build")
@@ -113,22 +115,11 @@ def staged(out_dir: Path | str, name: str, force: bool = False) -> Iterator[Path
     out_dir = Path(os.path.realpath(out_dir))  # a symlinked folder: its target is replaced, the link stays
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-new-", dir=out_dir.parent))
-    old = None
     try:
         yield tmp
         if out_dir.is_dir():
             _adopt(out_dir, tmp, name)
-            old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-old-", dir=out_dir.parent))
-            os.replace(out_dir, old / "x")
-            try:
-                os.replace(tmp, out_dir)
-            except BaseException:
-                os.replace(old / "x", out_dir)
-                raise
-        else:
-            os.replace(tmp, out_dir)
+        replace_folder(tmp, out_dir)   # one renameat2(RENAME_EXCHANGE) on Linux: DIR is old or new, never absent
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None and out_dir.is_dir():  # never while the old folder could not be put back
-            shutil.rmtree(old, ignore_errors=True)
