@@ -366,3 +366,16 @@ def test_bench_refuses_to_replace_its_results_file_before_computing(tmp_path):
     assert out.read_bytes() == first and time.monotonic() - t0 < 20
     assert fcgen(*args, "--force").returncode == 0 and out.read_bytes() != first   # new timings
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".b.json")]        # no temporary left
+
+
+def test_generate_refuses_to_replace_a_hand_edited_file_of_the_same_solver(tmp_path):
+    out = tmp_path / "s"
+    assert fcgen("generate", "truck_lifted_ellipse", "-o", out).returncode == 0
+    assert fcgen("generate", "truck_lifted_ellipse", "-o", out).returncode == 0     # unchanged: regenerated
+    main_c = out / "main.c"
+    main_c.write_text(main_c.read_text() + "/* my change */\n")
+    res = fcgen("generate", "truck_lifted_ellipse", "-o", out)
+    assert res.returncode == 1 and "main.c changed since fcgen generated it" in res.stderr and "--force" in res.stderr
+    assert main_c.read_text().endswith("/* my change */\n")
+    assert fcgen("generate", "truck_lifted_ellipse", "-o", out, "--force").returncode == 0
+    assert "my change" not in main_c.read_text()
