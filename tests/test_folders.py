@@ -66,7 +66,7 @@ def test_force_replaces_the_old_solver_without_mixing(tmp_path):
     names = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()
                    and not p.relative_to(out).as_posix().startswith("osqp/lib/"))
     assert not [n for n in names if "alpha" in n], names  # no file of the old solver, not even its build products
-    assert sorted(p.name for p in (out / "build").iterdir()) == ["fcgen-generated.json"]   # what beta's generate wrote
+    assert not (out / "build").exists()
     assert "notes.txt" in names and "beta_solver.c" in names and "osqp/beta_workspace.c" in names
     assert "alpha" not in (out / "Makefile").read_text() and "beta" in (out / "problem.py").read_text()
     subprocess.run(["make", "-C", str(out), "-j2", "lib"], check=True, capture_output=True)  # the new one builds

@@ -188,7 +188,8 @@ def report(results, out_dir, no_example, force):
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="folder to write the solver into (created)")
 @click.option("--float", "use_float", is_flag=True, help="single precision (float) instead of double")
-@click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed)")
+@click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed), or files of "
+              "this solver edited since they were generated")
 @click.option("--timeout", type=click.FloatRange(0, min_open=True), default=None, metavar="SECONDS",
               help="give up (exit 1, OUT untouched) if loading PROBLEM and generating take longer [default: no limit]")
 def generate(problem_spec, out_dir, use_float, force, timeout):

@@ -5,8 +5,8 @@ or failed generation leaves the target as it was. A folder that holds a differen
 solver's) is refused unless ``force``; with ``force`` the old solver's files go, the others stay. Regenerating the
 same solver keeps its ``build/`` and the modification times of unchanged files (``make`` rebuilds only what changed).
 
-What a generation wrote is recorded in ``build/fcgen-generated.json`` (SHA-256 per file; build/ is not generator
-output, so checked-in folders and ``regenerate --check`` do not see it). Regenerating the same solver refuses, unless
+What a generation wrote is recorded in ``.fcgen-generated.json`` (SHA-256 per file; git-ignored in generated/ and
+left out by ``regenerate --check``: it is not generator output). Regenerating the same solver refuses, unless
 ``force``, when a recorded file was changed since (a hand edit of ``main.c``, say): it would be lost. A folder
 without the record (a fresh checkout) is regenerated as before.
 """
@@ -29,8 +29,9 @@ OWNED_DIRS = ("osqp", "build")
 """Folders of a solver folder that belong to its solver (OSQP workspace and library copy, build products)."""
 
 
-RECORD = Path("build") / "fcgen-generated.json"
-"""What the last generation wrote: ``{relative path: sha256}`` of every file outside build/."""
+RECORD = Path(".fcgen-generated.json")
+"""What the last generation wrote: ``{relative path: sha256}`` of every file outside build/ (a hidden file, not
+generator output: git-ignored in generated/, left out by ``regenerate --check``)."""
 
 
 class FolderError(ValueError):
@@ -82,9 +83,10 @@ def _sha256(p: Path) -> str:
 
 
 def file_record(folder: Path) -> dict[str, str]:
-    """``{relative path: sha256}`` of the files of ``folder`` outside build/."""
+    """``{relative path: sha256}`` of the files of ``folder`` outside build/ (the record itself left out)."""
     return {p.relative_to(folder).as_posix(): _sha256(p) for p in sorted(folder.rglob("*"))
-            if p.is_file() and not p.is_symlink() and p.relative_to(folder).parts[0] != "build"}
+            if p.is_file() and not p.is_symlink() and p.relative_to(folder).parts[0] != "build"
+            and p.relative_to(folder) != RECORD}
 
 
 def hand_edited(folder: Path) -> list[str]:
