@@ -379,3 +379,19 @@ def test_generate_refuses_to_replace_a_hand_edited_file_of_the_same_solver(tmp_p
     assert main_c.read_text().endswith("/* my change */\n")
     assert fcgen("generate", "truck_lifted_ellipse", "-o", out, "--force").returncode == 0
     assert "my change" not in main_c.read_text()
+
+
+def test_generate_and_report_killed_before_their_swap_leave_the_old_folder(half_done, tmp_path):
+    """The new folder is complete beside the old one when the kill comes: the old one is intact, byte for byte."""
+    out = tmp_path / "s"
+    assert fcgen("generate", "truck_lifted_ellipse", "-o", out).returncode == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    # the float build of the same problem: every file would change
+    kill_at("generate:before-swap", ["generate", "truck_lifted_ellipse", "-o", out, "--float"], tmp_path)
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    rep = tmp_path / "rep"
+    assert fcgen("report", half_done, "-o", rep, "--no-example").returncode == 0
+    page = (rep / "README.md").read_bytes()
+    (rep / "README.md").write_bytes(page + b"old")
+    kill_at("report:before-swap", ["report", half_done, "-o", rep, "--no-example", "--force"], tmp_path)
+    assert (rep / "README.md").read_bytes() == page + b"old"

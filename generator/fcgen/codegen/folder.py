@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ..atomic import replace_folder, write_text
+from ..testhook import pause_point
 
 SHARED_FILES = ("main.c", "CMakeLists.txt", "Makefile", "README.md", "problem.py")
 """Files of a solver folder that carry no solver name."""
@@ -173,6 +174,7 @@ def staged(out_dir: Path | str, name: str, force: bool = False, check_edits: boo
                                       f"or use --force")
             _adopt(out_dir, tmp, name)
         _write_record(tmp, record)
+        pause_point("generate:before-swap")
         replace_folder(tmp, out_dir)   # one renameat2(RENAME_EXCHANGE) on Linux: DIR is old or new, never absent
     finally:
         if tmp.exists():

@@ -7,6 +7,7 @@ import pandas as pd
 
 from ..atomic import carry, check_folder_target, describe, staged_folder
 from ..campaign.store import read_results
+from ..testhook import pause_point
 from . import backends, figures, findings, tables
 
 PAPER_RUNS_PER_CONFIG = 500
@@ -132,6 +133,7 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True,
             for p in Path(out_dir).iterdir():
                 if not (tmp / p.name).exists():
                     carry(p, tmp / p.name)
+        pause_point("report:before-swap")
     return Path(out_dir) / "README.md"
 
 
