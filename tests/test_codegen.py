@@ -49,7 +49,8 @@ def cs(gen: GenerateInfo) -> CSolver:
 
 def _hashes(root: Path) -> dict[str, str]:
     return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file() and "build" not in p.relative_to(root).parts}
+            for p in sorted(root.rglob("*")) if p.is_file() and "build" not in p.relative_to(root).parts
+            and p.name != ".fcgen-generated.json"}   # the record of what generate wrote, not generator output
 
 
 def _nm(args: list[str], obj: Path) -> list[str]:

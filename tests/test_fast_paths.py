@@ -133,7 +133,7 @@ def test_store_at_hundreds_of_parts_reads_what_pandas_reads_and_appends_only(tmp
     df = store.read()
     assert list(df["seed"]) == list(range(600))                         # one row per run, sorted by run id
     assert pq.read_schema(merged).equals(schema)                         # the same schema as the parts
-    assert pq.read_schema(merged).metadata is None
+    assert list(pq.read_schema(merged).metadata) == [b"fcgen.merged_parts"]   # no pandas metadata: the merged parts
     meta = pq.ParquetFile(merged).metadata.row_group(0)
     assert {meta.column(i).compression for i in range(meta.num_columns)} == {"ZSTD"}   # the merged file: zstd
     assert part_compression == "SNAPPY"                                                # the parts: snappy

@@ -1,7 +1,7 @@
 """CI regression of the checked-in solvers: each one, replayed on its golden suite, reproduces the golden outputs.
 
 A generator change that moves any output of a solver fails here with the sample and field named. After an intended
-change, re-record all goldens with one command: ``fcgen record --golden-for generated`` (and commit them).
+change, re-record all goldens with one command: ``fcgen record --golden-for generated --force`` (and commit them).
 """
 import shutil
 from pathlib import Path
@@ -30,6 +30,6 @@ def test_generated_solver_reproduces_its_golden(folder, tmp_path):
     shutil.copytree(ROOT / folder, solver, ignore=shutil.ignore_patterns("build", GOLDEN_DIR))
     rep = regress(solver, ROOT / folder / GOLDEN_DIR, mode="replay", preset="same-build",
                   build_kw={"verify": GOLDEN_SETTINGS.verify})
-    assert rep.passed, ("outputs moved; if intended, re-record with `fcgen record --golden-for generated`\n"
+    assert rep.passed, ("outputs moved; if intended, re-record with `fcgen record --golden-for generated --force`\n"
                         + rep.format())
     assert rep.logs and all(lg.fields for lg in rep.logs)

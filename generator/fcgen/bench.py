@@ -156,10 +156,9 @@ def bench(gen_dir: Path | str, scenario: str | None = None, seeds: int = 3, samp
 
 
 def write_results(res: dict, out: Path | str) -> Path:
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=1, sort_keys=True, default=float) + "\n")
-    return out
+    """The results as JSON, written atomically (``fcgen.atomic``)."""
+    from .atomic import write_text
+    return write_text(out, json.dumps(res, indent=1, sort_keys=True, default=float) + "\n")
 
 
 def format_bench(res: dict) -> str:

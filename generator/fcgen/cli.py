@@ -116,8 +116,9 @@ def _names(text: str) -> list[str]:
               help="also write `fcgen report` into this folder")
 @click.option("--cflags", default=None, help="C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
               "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)")
+@click.option("--force-report", is_flag=True, help="replace an existing report in the --report folder")
 def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir, cflags):
+             scheduler, cache_dir, out, report_dir, cflags, force_report):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
     from .campaign.runner import run_campaign
@@ -135,6 +136,12 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:
         _fail(f"--obstacles/--backend: {exc}")
+    from .atomic import check_folder_target
+    check_folder_target(out, "a campaign results folder")
+    check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
+    if report_dir:
+        from .report.page import check_report_target
+        check_report_target(report_dir, force_report)
     store = ResultStore(out)
     tasks = make_tasks(configs, range(first_seed, first_seed + seeds), samples, str(Path(cache_dir).resolve()), clock,
                        cflags=cflags)
@@ -156,22 +163,23 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
         click.echo(f"failed {run_id}: {msg}", err=True)
     if res.failed:
         _fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
-    if res.computed and {t.run_id for t in tasks} <= store.done():
+    if {t.run_id for t in tasks} <= store.done() and store.needs_compact():
         store.compact()
     if report_dir:
         from .report.page import write_report
-        click.echo(f"report written to {write_report(out, report_dir)}")
+        click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
 @main.command()
 @click.argument("results", type=click.Path(exists=True))
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True, help="report folder")
 @click.option("--no-example", is_flag=True, help="skip the Fig. 1-like picture (it re-simulates one run)")
-def report(results, out_dir, no_example):
+@click.option("--force", is_flag=True, help="replace an existing report in OUT")
+def report(results, out_dir, no_example, force):
     """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page."""
     from .report.page import write_report
 
-    path = write_report(results, out_dir, example=not no_example)
+    path = write_report(results, out_dir, example=not no_example, force=force)
     click.echo(f"report written to {path}")
 
 
@@ -180,13 +188,23 @@ def report(results, out_dir, no_example):
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="folder to write the solver into (created)")
 @click.option("--float", "use_float", is_flag=True, help="single precision (float) instead of double")
-@click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed)")
-def generate(problem_spec, out_dir, use_float, force):
+@click.option("--force", is_flag=True, help="replace a different solver in OUT (its files are removed), or files of "
+              "this solver edited since they were generated")
+@click.option("--timeout", type=click.FloatRange(0, min_open=True), default=None, metavar="SECONDS",
+              help="give up (exit 1, OUT untouched) if loading PROBLEM and generating take longer [default: no limit]")
+def generate(problem_spec, out_dir, use_float, force, timeout):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
+    from .atomic import TimeLimit, check_folder_target, time_limit
     from .codegen.generate import generate as gen
 
-    pb = load_problem(problem_spec)
-    info = gen(pb, out_dir, use_float=use_float, force=force)
+    check_folder_target(out_dir, "a solver folder", option="-o")
+    try:
+        with time_limit(timeout, f"{problem_spec}: loading the problem and generating took longer than --timeout "
+                                 f"{timeout:g} s; nothing written to {out_dir}" if timeout else ""):
+            pb = load_problem(problem_spec)
+            info = gen(pb, out_dir, use_float=use_float, force=force)
+    except TimeLimit as exc:
+        _fail(str(exc))
     s = info.sizes
     click.echo(f"{info.name}: {pb.formulation.kind}, {pb.obstacles.kind}, N = {s['N']}, NX = {s['NX']}, "
                f"QP {s['QP_N']} variables x {s['QP_M']} rows, {s['QP_NNZ_A']} nonzeros in A")
@@ -280,16 +298,24 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
                    "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
 @click.option("--clock", type=click.Choice(["wall", "cpu"]), default="wall", show_default=True,
               help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock):
+@click.option("--force", is_flag=True, help="replace an existing results file")
+def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock,
+              force):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference.
 
     With an emulated --target: instructions per prepare and feedback (median / max) from QEMU -icount; the default
     then is 1 seed (use --seeds, --samples). With --backends: several QP backends timed in one run."""
     from .bench import (BACKEND_VARIANTS, bench, bench_backends, bench_target, format_backends, format_bench,
                         format_bench_target, write_results)
-    from .build import BuildError
+    from .atomic import check_file_target
+    from .build import BuildError, solver_name
     from .sim.export import HarnessError
 
+    name = solver_name(Path(solver_dir))
+    if out is None:
+        out = (f"results/bench_{name}_{target}.json" if get_target(target).bare_metal else
+               f"results/bench_backends_{name}.json" if backends is not None else f"results/bench_{name}.json")
+    check_file_target(out, "a bench results file", force)
     if get_target(target).bare_metal:
         if backends is not None:
             _fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")
@@ -301,7 +327,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         except HarnessError as exc:
             _fail(str(exc))
         click.echo(format_bench_target(res))
-        path = write_results(res, out or f"results/bench_{res['solver']}_{target}.json")
+        path = write_results(res, out)
         click.echo(f"results written to {path}")
         return
     if backends is not None:
@@ -316,7 +342,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         except BuildError as exc:
             _fail(str(exc))
         click.echo(format_backends(res))
-        path = write_results(res, out or f"results/bench_backends_{res['problem']}.json")
+        path = write_results(res, out)
         click.echo(f"results written to {path}")
         return
     try:
@@ -325,7 +351,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     except BuildError as exc:
         _fail(str(exc))
     click.echo(format_bench(res))
-    path = write_results(res, out or f"results/bench_{res['solver']}.json")
+    path = write_results(res, out)
     click.echo(f"results written to {path}")
 
 
@@ -428,7 +454,8 @@ def demo(problem_name, seed, samples, out_dir, plot):
 @click.option("--golden-for", "golden_root", type=click.Path(file_okay=False), default=None,
               help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
                    "settings (2 seeds x 200 samples, verification build, planned controls, no timing)")
-def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root):
+@click.option("--force", is_flag=True, help="replace an existing golden suite in the output folder")
+def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root, force):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from .build import BuildError
     from .suite import SuiteSettings, parse_seeds, record_goldens, record_suite
@@ -437,7 +464,7 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
         if golden_root is not None:
             if solver_dir is not None or out_dir is not None:
                 _fail("--golden-for ROOT records every folder under ROOT: give no SOLVER_DIR and no -o")
-            for path in record_goldens(golden_root, echo=click.echo):
+            for path in record_goldens(golden_root, echo=click.echo, force=force):
                 click.echo(f"golden suite written to {path}")
             return
         if solver_dir is None:
@@ -445,7 +472,7 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
         st = SuiteSettings(scenario=scenario, seeds=parse_seeds(seeds), samples=samples, plan=plan, verify=verify,
                            cc=cc, cflags=cflags, timing=timing)
         out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
-        man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty())
+        man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty(), force=force)
     except BuildError as exc:
         _fail(str(exc))
     size = sum(p.stat().st_size for p in out.iterdir() if p.is_file())

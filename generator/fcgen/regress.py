@@ -462,7 +462,8 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
             raise UnusableInput(f"{new} is a suite but {golden} is a run log")
         man_new, new_logs = _unusable(load_suite, new)
         name, tols = _tolerances(preset, (man_new["precision"], prec_gold), tol)
-        rep = RegressReport("suite vs suite", str(new), str(golden), name, tols, timing)
+        rep = RegressReport("suite vs suite", str(new), str(golden), name, tols, timing,
+                            notes=_record_notes(man_new["problem"], man["problem"], "NEW's suite"))
         by_key = {(lg.meta["scenario"], lg.meta["seed"]): lg for lg in new_logs}
         for g in gold_logs:
             key = (g.meta["scenario"], g.meta["seed"])
@@ -477,8 +478,7 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     name, tols = _tolerances(preset, (prec_new, prec_gold), tol)
     if man is not None:
         _check_problem(info, man, new, golden)
-        if info["problem"]["problem_py_sha256"] != man["problem"].get("problem_py_sha256"):
-            notes.append("the solver's problem.py differs from the one the golden suite was recorded with")
+        notes += _record_notes(info["problem"], man["problem"], "the solver")
     rep = RegressReport(mode, str(new), str(golden), name, tols, timing, notes=notes)
     build_kw = dict(build_kw or {})
     if build_kw.get("verify") is None:   # by default the kind of build the golden suite was recorded with
@@ -501,6 +501,21 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
         fields = REPLAY_FIELDS if mode == "replay" else ALL_FIELDS
         rep.logs.append(compare_logs(out, g, tols, fields=fields, timing=timing, label=label))
     return rep
+
+
+def _record_notes(a: dict[str, Any], b: dict[str, Any], who: str) -> list[str]:
+    """Notes where NEW's problem record (``a``) and GOLDEN's (``b``) differ in what may legitimately change between
+    two versions (the problem.py source, the QP's sizes)."""
+    notes = []
+    if a.get("problem_py_sha256") != b.get("problem_py_sha256"):
+        notes.append(f"{who}'s problem.py differs from the one the golden suite was recorded with (sha256 "
+                     f"{str(a.get('problem_py_sha256'))[:12]} vs {str(b.get('problem_py_sha256'))[:12]})")
+    sa, sb = a.get("sizes", {}), b.get("sizes", {})
+    diff = [k for k in sorted(set(sa) | set(sb)) if sa.get(k) != sb.get(k)]
+    if diff:
+        notes.append(f"{who}'s sizes differ from the golden suite's: "
+                     + ", ".join(f"{k} {sa.get(k)} vs {sb.get(k)}" for k in diff))
+    return notes
 
 
 def _check_problem(info: dict[str, Any], man: dict[str, Any], new: Path, golden: Path) -> None:

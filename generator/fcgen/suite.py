@@ -25,8 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from .atomic import carry, check_folder_target, describe, staged_folder, write_text
 from .sim.closedloop import PLAN_LEVELS
 from .sim.runlog import FORMAT_VERSION, RunLog, package_versions, read_text
+from .testhook import pause_point
 
 SUITE_FORMAT = "fcgen-suite/1"
 MANIFEST = "manifest.json"
@@ -47,7 +49,7 @@ class SuiteSettings:
     timing: bool = True
 
 
-#: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated``):
+#: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated --force``):
 #: verification build (no FP contraction: the least compiler-dependent), no timings (re-recording is reproducible)
 GOLDEN_SETTINGS = SuiteSettings(seeds=(0, 1), samples=200, plan="controls", verify=True, timing=False)
 
@@ -119,15 +121,45 @@ def compiler_info(gen_dir: Path, build_dir: str, cc: str | None, cflags: str | N
 
 # ----------------------------------------------------------------------------- record
 
+def check_suite_target(out: Path | str, force: bool = False) -> None:
+    """Fail (ValueError, one line) unless ``out`` can take a new suite: a new or empty folder, or (with ``force``)
+    a golden suite. The refusal names what would be lost; a folder of other files is never replaced."""
+    out = Path(out)
+    check_folder_target(out, "a golden suite folder", option="-o")
+    if not out.is_dir() or not any(out.iterdir()):
+        return
+    if not is_suite(out):
+        raise ValueError(f"-o {out}: not empty and not a golden suite (holds {describe(out)}): nothing recorded; "
+                         f"choose a new or empty folder")
+    if force:
+        return
+    try:
+        man = json.loads(read_text(out / MANIFEST))
+        logs = [e["file"] for e in man["logs"]]
+        what = (f"the golden suite of {man.get('solver')!r}: {len(logs)} run log(s) "
+                f"({', '.join(logs[:4])}{', ...' if len(logs) > 4 else ''})")
+    except (ValueError, KeyError, TypeError):
+        what = f"a golden suite ({describe(out)})"
+    raise ValueError(f"-o {out}: holds {what}; nothing recorded: add --force to replace it, or choose another "
+                     f"folder")
+
+
+def _is_suite_file(p: Path) -> bool:
+    return p.name == MANIFEST or p.name.endswith(".json.xz")
+
+
 def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings = SuiteSettings(),
-                 progress: bool = False, echo=None) -> dict[str, Any]:
-    """Build ``gen_dir`` (``settings``' build), run the C closed loop on every seed, write logs + manifest."""
-    from .build import DEFAULT_BUILD, VERIFY_BUILD, CSolver, build
-    from .sim.closedloop import run_closed_loop
-    from .sim.scenario import make_scenario
+                 progress: bool = False, echo=None, force: bool = False) -> dict[str, Any]:
+    """Build ``gen_dir`` (``settings``' build), run the C closed loop on every seed, write logs + manifest.
+
+    ``out`` must be new or empty, or (with ``force``) hold a golden suite; the suite is written into a temporary
+    folder beside ``out`` and swapped in when complete (``fcgen.atomic``): a kill at any moment leaves the old
+    suite or the new one, whole. With ``force`` files of ``out`` that are no suite's are kept."""
+    from .build import DEFAULT_BUILD, VERIFY_BUILD, build
     from .verify import infer_scenario, load_solver_problem
 
     gen_dir, out = Path(gen_dir), Path(out)
+    check_suite_target(out, force)
     if settings.plan not in PLAN_LEVELS:
         raise ValueError(f"--plan {settings.plan!r} is invalid: allowed {', '.join(PLAN_LEVELS)}")
     if settings.samples < 1:
@@ -139,9 +171,22 @@ def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings =
     scenario = settings.scenario or infer_scenario(pb)
     lib = build(gen_dir, verify=settings.verify, cc=settings.cc, cflags=settings.cflags)
     comp = compiler_info(gen_dir, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc, settings.cflags)
-    out.mkdir(parents=True, exist_ok=True)
-    for old in out.glob("*.json.xz"):
-        old.unlink()
+    with staged_folder(out) as tmp:
+        if out.is_dir():    # --force: the folder's files that are no suite's stay
+            for p in out.iterdir():
+                if not _is_suite_file(p):
+                    carry(p, tmp / p.name)
+        manifest = _record_into(tmp, pb, lib, info, comp, scenario, settings, progress, echo)
+        pause_point("record:before-swap")
+    pause_point("record:after-swap")
+    return manifest
+
+
+def _record_into(out: Path, pb, lib, info, comp, scenario, settings, progress, echo) -> dict[str, Any]:
+    from .build import CSolver
+    from .sim.closedloop import run_closed_loop
+    from .sim.scenario import make_scenario
+
     entries = []
     for seed in settings.seeds:
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
@@ -154,6 +199,7 @@ def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings =
                         "sha256": text_sha256(log)})
         if echo:
             echo(f"  {fname}: {(out / fname).stat().st_size / 1024:.1f} KiB")
+        pause_point("record:log")
     manifest = {
         "format": SUITE_FORMAT,
         "solver": info["name"],
@@ -167,7 +213,7 @@ def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings =
                      "plan": settings.plan, "timing": settings.timing, "controller": "c"},
         "logs": entries,
     }
-    (out / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
 
 
@@ -182,17 +228,21 @@ def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
     return replace(log, **kw)
 
 
-def record_goldens(root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None) -> list[Path]:
-    """Re-record ``<root>/<solver>/golden`` for every generated solver folder under ``root``."""
+def record_goldens(root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None,
+                   force: bool = False) -> list[Path]:
+    """Re-record ``<root>/<solver>/golden`` for every generated solver folder under ``root`` (existing suites only
+    with ``force``; every target is checked before the first is recorded)."""
     root = Path(root)
     folders = sorted(p for p in root.iterdir() if p.is_dir() and any(p.glob("*_solver.h"))) if root.is_dir() else []
     if not folders:
         raise FileNotFoundError(f"{root}: no generated solver folders (with a <name>_solver.h) found")
+    for d in folders:
+        check_suite_target(d / GOLDEN_DIR, force)
     out = []
     for d in folders:
         if echo:
             echo(f"{d / GOLDEN_DIR}:")
-        record_suite(d, d / GOLDEN_DIR, settings, echo=echo)
+        record_suite(d, d / GOLDEN_DIR, settings, echo=echo, force=force)
         out.append(d / GOLDEN_DIR)
     return out
 
@@ -258,4 +308,64 @@ def load_suite(path: Path | str) -> tuple[dict[str, Any], list[RunLog]]:
         logs.append(log)
     if not logs:
         raise ValueError(f"{path}: suite holds no run logs")
+    check_manifest(path, man, logs)
     return man, logs
+
+
+def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
+    """What the run logs themselves say about the suite (manifest field -> value; one value over all logs, or a
+    ValueError naming the field when the logs disagree among themselves)."""
+    from .sim.replay import plan_level
+
+    per_log = {
+        "solver": lambda lg: lg.meta.get("problem"),
+        "problem.name": lambda lg: lg.meta.get("problem"),
+        "problem.formulation": lambda lg: lg.meta.get("formulation"),
+        "problem.obstacle_model": lambda lg: lg.meta.get("obstacle_model"),
+        "problem.N": lambda lg: lg.meta.get("N"),
+        "problem.dt": lambda lg: lg.meta.get("dt"),
+        "precision": lambda lg: lg.meta.get("precision", "double"),
+        "settings.scenario": lambda lg: lg.meta.get("scenario"),
+        "settings.samples": lambda lg: lg.n_controls,
+        "settings.plan": plan_level,
+        "settings.controller": lambda lg: lg.meta.get("controller"),
+        "problem.sizes.N": lambda lg: lg.meta.get("N"),
+        "problem.sizes.NU": lambda lg: int(np.shape(lg.control)[-1]),
+        "problem.sizes.NOPP": lambda lg: len(lg.opponents),
+    }
+    facts: dict[str, Any] = {}
+    for key, fn in per_log.items():
+        vals = {json.dumps(fn(lg)) for lg in logs}
+        if len(vals) > 1:
+            raise ValueError(f"the suite's run logs disagree on {key}: {', '.join(sorted(vals))}")
+        facts[key] = json.loads(vals.pop())
+    facts["settings.seeds"] = sorted(lg.meta.get("seed") for lg in logs)
+    if all(lg.plan_states is not None for lg in logs):
+        facts["problem.sizes.NX"] = int(logs[0].plan_states.shape[-1])
+    return facts
+
+
+def check_manifest(path: Path | str, man: dict[str, Any], logs: list[RunLog]) -> None:
+    """ValueError (one line naming the field) when a manifest field disagrees with what the logs say (precision,
+    solver, problem record, sizes, settings): a hand-edited manifest must not change how the logs are compared."""
+    where = Path(path) / MANIFEST
+    try:
+        facts = manifest_facts(logs)
+    except ValueError as exc:
+        raise ValueError(f"{Path(path)}: {exc}") from None
+    for key, want in facts.items():
+        got: Any = man
+        for part in key.split("."):
+            got = got.get(part, _MISSING) if isinstance(got, dict) else _MISSING
+        if key == "settings.seeds" and isinstance(got, list):
+            got = sorted(got)
+        if got is _MISSING:
+            if key.startswith("problem.sizes.") or key == "settings.controller":
+                continue        # older manifests may lack a size; nothing to disagree with
+            raise ValueError(f"{where}: field {key} is missing (the run logs say {want!r})")
+        if got != want:
+            raise ValueError(f"{where}: field {key} is {got!r} but the run logs say {want!r} (hand-edited?); "
+                             f"refused: record the suite again")
+
+
+_MISSING = object()

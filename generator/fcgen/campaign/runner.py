@@ -2,13 +2,20 @@
 
 Both are ``concurrent.futures`` executors running the same task function (``task.run_task``); the executor is the
 only difference. Rows are written as runs finish (a part file every ``flush_every`` runs or ``flush_seconds``), and
-runs already in the results folder are skipped, so an interrupted campaign resumes where it stopped.
+runs already in the results folder are skipped, so an interrupted campaign resumes where it stopped (a merge killed
+part-way is finished first: ``ResultStore.repair``). Local pool workers die with the campaign process, however it
+dies (``die_with_parent``: the kernel's parent-death signal); Dask's LocalCluster workers exit when their nanny's
+process does.
 """
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -36,6 +43,27 @@ class Outcome:
 WORKER_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(parent: int) -> None:
+    """Worker initializer: the worker is killed (SIGKILL) when its parent process dies, however it dies (a SIGKILLed
+    campaign would otherwise leave its workers blocked on the task queue, orphaned, for ever). Linux: the kernel's
+    parent-death signal (``prctl(PR_SET_PDEATHSIG)``); elsewhere a thread that watches the parent pid."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+    else:
+        def watch() -> None:
+            while os.getppid() == parent:
+                time.sleep(1.0)
+            os._exit(1)
+        threading.Thread(target=watch, daemon=True, name="fcgen-parent-watch").start()
+    if os.getppid() != parent:      # the parent died before the signal was armed
+        os._exit(1)
+
+
 def single_threaded_workers() -> None:
     """Set ``WORKER_THREAD_VARS`` to 1 (unless the user set them) for the worker processes started after this call."""
     for var in WORKER_THREAD_VARS:
@@ -48,7 +76,8 @@ def executor(jobs: int = 2, scheduler: str | None = None):
     (``tcp://host:8786``) or ``local`` (a LocalCluster of ``jobs`` single-threaded worker processes)."""
     if scheduler is None:
         single_threaded_workers()
-        with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
+        with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
+                                    initializer=die_with_parent, initargs=(os.getpid(),)) as ex:
             yield ex, jobs
         return
     from distributed import Client, LocalCluster
@@ -65,6 +94,7 @@ def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, schedule
                  progress: bool = False, flush_every: int = 20, flush_seconds: float = 30.0) -> Outcome:
     """Run the tasks not yet in ``results``; rows are written as they finish. Failed runs are reported, not written."""
     store = ResultStore(results)
+    store.repair()      # a merge killed part-way: its merged parts go (their rows are in the merged file)
     done = store.done()
     todo = [t for t in tasks if t.run_id not in done]
     out = Outcome(total=len(tasks), skipped=len(tasks) - len(todo))

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..dsl import Problem
+from ..testhook import pause_point
 
 READY = ".fcgen-ready"
 #: package parts that do not decide the generated C (the fingerprint leaves them out)
@@ -66,6 +67,7 @@ def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = Fal
             if not _ready(folder, lib):
                 if not (folder / READY).is_file():
                     generate(problem, folder, use_float=use_float)
+                pause_point("solvers:generated")     # the kill test's moment: holding the lock, not built yet
                 built = build(folder, jobs=1, cflags=cflags)   # make rebuilds what other flags compiled
                 assert built == lib, (built, lib)
                 (folder / READY).write_text(_flags_line(folder))

@@ -4,20 +4,35 @@ A solver is written into a temporary folder beside the target and moved into pla
 or failed generation leaves the target as it was. A folder that holds a different solver (or files that are no
 solver's) is refused unless ``force``; with ``force`` the old solver's files go, the others stay. Regenerating the
 same solver keeps its ``build/`` and the modification times of unchanged files (``make`` rebuilds only what changed).
+
+What a generation wrote is recorded in ``.fcgen-generated.json`` (SHA-256 per file; git-ignored in generated/ and
+left out by ``regenerate --check``: it is not generator output). Regenerating the same solver refuses, unless
+``force``, when a recorded file was changed since (a hand edit of ``main.c``, say): it would be lost. A folder
+without the record (a fresh checkout) is regenerated as before.
 """
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Iterator
 
+from ..atomic import replace_folder, write_text
+from ..testhook import pause_point
+
 SHARED_FILES = ("main.c", "CMakeLists.txt", "Makefile", "README.md", "problem.py")
 """Files of a solver folder that carry no solver name."""
 OWNED_DIRS = ("osqp", "build")
 """Folders of a solver folder that belong to its solver (OSQP workspace and library copy, build products)."""
+
+
+RECORD = Path(".fcgen-generated.json")
+"""What the last generation wrote: ``{relative path: sha256}`` of every file outside build/ (a hidden file, not
+generator output: git-ignored in generated/, left out by ``regenerate --check``)."""
 
 
 class FolderError(ValueError):
@@ -64,6 +79,38 @@ def check_target(out_dir: Path, name: str, force: bool) -> None:
                               f"or --force to write the solver beside these files")
 
 
+def _sha256(p: Path) -> str:
+    return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+def file_record(folder: Path) -> dict[str, str]:
+    """``{relative path: sha256}`` of the files of ``folder`` outside build/ (the record itself left out)."""
+    return {p.relative_to(folder).as_posix(): _sha256(p) for p in sorted(folder.rglob("*"))
+            if p.is_file() and not p.is_symlink() and p.relative_to(folder).parts[0] != "build"
+            and p.relative_to(folder) != RECORD}
+
+
+def hand_edited(folder: Path) -> list[str]:
+    """Files of ``folder`` changed since fcgen generated them (from its record; [] without a record)."""
+    try:
+        rec = json.loads((folder / RECORD).read_text())
+    except (OSError, ValueError):
+        return []
+    return [rel for rel, sha in sorted(rec.items()) if (folder / rel).is_file() and _sha256(folder / rel) != sha]
+
+
+def _write_record(folder: Path, record: dict[str, str]) -> None:
+    """Write ``record`` into ``folder`` unless it holds the same already (regenerating an unchanged solver keeps every
+    file, its time included)."""
+    text = json.dumps(record, indent=0, sort_keys=True) + "\n"
+    path = folder / RECORD
+    if path.is_file() and path.read_text() == text:
+        return
+    if path.exists():
+        path.unlink()           # a hard link into the old folder (``_carry``): never written through
+    write_text(path, text)
+
+
 def _same(a: Path, b: Path) -> bool:
     return a.is_file() and b.is_file() and a.stat().st_size == b.stat().st_size and a.read_bytes() == b.read_bytes()
 
@@ -104,31 +151,31 @@ def _adopt(old: Path, new: Path, name: str) -> None:
 
 
 @contextlib.contextmanager
-def staged(out_dir: Path | str, name: str, force: bool = False) -> Iterator[Path]:
+def staged(out_dir: Path | str, name: str, force: bool = False, check_edits: bool = True) -> Iterator[Path]:
     """A temporary folder beside ``out_dir`` to write solver ``name`` into; moved onto ``out_dir`` on success.
 
-    On any exception (or interrupt) the temporary folder is removed and ``out_dir`` is untouched.
+    On any exception (or interrupt) the temporary folder is removed and ``out_dir`` is untouched. ``check_edits``:
+    refuse (unless ``force``) to replace files of the same solver changed since they were generated.
     """
     check_target(Path(out_dir), name, force)
     out_dir = Path(os.path.realpath(out_dir))  # a symlinked folder: its target is replaced, the link stays
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-new-", dir=out_dir.parent))
-    old = None
     try:
         yield tmp
+        record = file_record(tmp)       # what this generation wrote (before the old folder's files are carried)
         if out_dir.is_dir():
+            if check_edits and not force and solvers_in(out_dir) == [name]:
+                edited = hand_edited(out_dir)
+                if edited:
+                    raise FolderError(f"{out_dir}: {', '.join(edited[:3])}{', ...' if len(edited) > 3 else ''} "
+                                      f"changed since fcgen generated {'it' if len(edited) == 1 else 'them'} (hand "
+                                      f"edit?) and would be replaced: nothing written; copy your changes elsewhere "
+                                      f"or use --force")
             _adopt(out_dir, tmp, name)
-            old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-old-", dir=out_dir.parent))
-            os.replace(out_dir, old / "x")
-            try:
-                os.replace(tmp, out_dir)
-            except BaseException:
-                os.replace(old / "x", out_dir)
-                raise
-        else:
-            os.replace(tmp, out_dir)
+        _write_record(tmp, record)
+        pause_point("generate:before-swap")
+        replace_folder(tmp, out_dir)   # one renameat2(RENAME_EXCHANGE) on Linux: DIR is old or new, never absent
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None and out_dir.is_dir():  # never while the old folder could not be put back
-            shutil.rmtree(old, ignore_errors=True)

@@ -392,14 +392,17 @@ def toolchain_files(use_float: bool) -> dict[str, str]:
             for t in cross_targets(use_float)}
 
 
-def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False) -> GenerateInfo:
+def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False,
+             check_edits: bool = True) -> GenerateInfo:
     """Write the C solver of ``problem`` into ``out_dir``; returns what was written.
 
     The folder is written beside ``out_dir`` and moved into place when complete (:mod:`.folder`): a failed or
     interrupted generation leaves ``out_dir`` as it was. A folder holding another solver (or files that are no
-    solver's) raises :class:`~.folder.FolderError` unless ``force`` (then the old solver's files are removed).
+    solver's) raises :class:`~.folder.FolderError` unless ``force`` (then the old solver's files are removed), and so
+    does a file of the same solver changed since it was generated (``check_edits``; ``fcgen regenerate`` turns it off:
+    its folders are under version control, and restoring generator output is its job).
     """
-    with staged(out_dir, problem.name, force) as tmp:
+    with staged(out_dir, problem.name, force, check_edits) as tmp:
         info = _generate_into(problem, tmp, use_float)
     return dataclasses.replace(info, out_dir=Path(out_dir))
 

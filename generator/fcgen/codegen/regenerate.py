@@ -8,8 +8,9 @@ from pathlib import Path
 from ..presets import is_preset, preset, preset_names
 from .generate import generate
 
-IGNORED = ("build", "osqp/lib", "golden")
-"""Sub-folders that are not generator output (build products, OSQP's restorable library copy, golden suites)."""
+IGNORED = ("build", "osqp/lib", "golden", ".fcgen-generated.json")
+"""Sub-folders that are not generator output (build products, OSQP's restorable library copy, golden suites) and
+the record of what the last generation wrote (``folder.RECORD``)."""
 
 
 def tracked_files(folder: Path) -> set[str]:
@@ -49,6 +50,6 @@ def regenerate(root: Path | str, names: list[str] | None = None, check: bool = F
                 generate(preset(name), tmp)
                 result[name] = compare(Path(tmp), target)
         else:
-            generate(preset(name), target)
+            generate(preset(name), target, check_edits=False)   # checked-in folders: git holds any edit
             result[name] = []
     return result

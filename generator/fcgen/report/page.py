@@ -5,7 +5,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..atomic import carry, check_folder_target, describe, staged_folder
 from ..campaign.store import read_results
+from ..testhook import pause_point
 from . import backends, figures, findings, tables
 
 PAPER_RUNS_PER_CONFIG = 500
@@ -108,12 +110,34 @@ def _backend_comparison(df: pd.DataFrame, names: list[str]) -> list[str]:
     return lines
 
 
-def write_report(results: str | Path, out_dir: str | Path, example: bool = True) -> Path:
+def check_report_target(out_dir: str | Path, force: bool = False) -> None:
+    """Fail (ValueError, one line) unless ``out_dir`` is a new or empty folder, or ``force`` (the report then
+    replaces the files it writes; the folder's other files are kept)."""
+    out = check_folder_target(out_dir, "a report folder", option="-o")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise ValueError(f"-o {out}: holds {describe(out)}; a report would replace its README.md and figures; nothing "
+                         f"written: add --force (files the report does not write are kept) or choose a new folder")
+
+
+def write_report(results: str | Path, out_dir: str | Path, example: bool = True, force: bool = False) -> Path:
     """Write every artefact into ``out_dir``; returns the markdown page. Rows of several QP backends get every
-    table, finding and figure per backend, and a backend-against-backend comparison."""
+    table, finding and figure per backend, and a backend-against-backend comparison.
+
+    Written into a temporary folder swapped in when complete (``fcgen.atomic``); an existing non-empty ``out_dir``
+    only with ``force``, and then its files that the report does not write are carried over."""
+    check_report_target(out_dir, force)
     df = read_results(results)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    with staged_folder(out_dir) as tmp:
+        _write_report(df, tmp, example)
+        if Path(out_dir).is_dir():
+            for p in Path(out_dir).iterdir():
+                if not (tmp / p.name).exists():
+                    carry(p, tmp / p.name)
+        pause_point("report:before-swap")
+    return Path(out_dir) / "README.md"
+
+
+def _write_report(df: pd.DataFrame, out: Path, example: bool) -> Path:
     names = backends.backends_of(df)
     split = [(b, df[df["backend"] == b]) for b in names]
     many = len(names) > 1
