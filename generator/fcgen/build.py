@@ -9,7 +9,6 @@ from __future__ import annotations
 import ctypes
 import math
 import os
-import re
 import struct
 import subprocess
 from pathlib import Path
@@ -17,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .backends import BACKENDS, backend_module
-from .codegen.consistency import check_folder
+from .codegen.consistency import check_folder, read_macros  # noqa: F401 (read_macros re-exported)
 from .codegen.generate import EXIT_CODES
 from .reference import Status
 from .road import Road
@@ -37,12 +36,6 @@ def solver_name(gen_dir: Path) -> str:
     if len(heads) != 1:
         raise FileNotFoundError(f"{gen_dir}: expected exactly one *_solver.h, found {len(heads)}")
     return heads[0].name[:-len("_solver.h")]
-
-
-def read_macros(header: Path, name: str) -> dict[str, int]:
-    """Integer ``#define NAME_KEY value`` macros of a generated header, by KEY."""
-    pat = re.compile(rf"^#define {name.upper()}_(\w+) (-?\d+)\b", re.M)
-    return {k: int(v) for k, v in pat.findall(Path(header).read_text())}
 
 
 def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cflags: str | None = None,

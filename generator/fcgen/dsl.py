@@ -13,6 +13,10 @@ from typing import Union
 
 from .cnames import name_clash
 
+BACKENDS = ("osqp", "ipm")
+"""Names ``QpOptions.backend`` accepts; each is a module of ``fcgen.backends`` (the DSL owns the names, the backends
+import them: imports run one way)."""
+
 
 class ProblemError(ValueError):
     """An invalid problem description: names the field and the allowed range."""
@@ -338,7 +342,7 @@ class QpOptions:
     warm_start: bool = True
     max_iter_cold: int = 400
     cold_restart_after: int = 3
-    backend: str = "osqp"  # the QP backend (fcgen.backends.BACKENDS)
+    backend: str = "osqp"  # the QP backend (BACKENDS)
     ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
 
     @classmethod
@@ -364,7 +368,6 @@ class QpOptions:
         _check(isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
                "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
         _check(0 < _finite("qp.ipm_tol", self.ipm_tol) < 1, "qp.ipm_tol", self.ipm_tol, "(0, 1)")
-        from .backends import BACKENDS
         _check(self.backend in BACKENDS, "qp.backend", self.backend, "one of " + ", ".join(BACKENDS))
 
 

@@ -110,7 +110,7 @@ class Target:
         """The harness image's linker script: vectors + code + constants in flash, data/bss/heap/stack in RAM."""
         if self.flash is None or self.ram is None or self.xram is None:
             raise TargetError(f"--target {self.name}: no memory map")
-        from .codegen.generate import render_template
+        from .codegen.render import render_template
         return render_template(self.linker_template, target=self, flash=self.flash, ram=self.ram,
                                xram=self.xram, stack=HARNESS_STACK)
 

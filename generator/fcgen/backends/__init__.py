@@ -1,4 +1,4 @@
-"""QP backends behind one interface (see /work/coord/backend_seam.md): the RTI core never names a backend.
+"""QP backends behind one interface: the RTI core never names a backend.
 
 A backend is one module here (``<b>.py``: the Python side, its C tables and its extra files) plus one template
 ``templates/backends/<b>.c.j2`` (the static ``qpb_*`` functions ``solver.c.j2`` includes once).
@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+
+from ..dsl import BACKENDS  # the names QpOptions.backend accepts; each is a module of this package
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..dsl import QpOptions
@@ -26,9 +28,6 @@ QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_DUAL_INFE
 
 QP_USABLE = (QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER)
 """Statuses whose step may be taken (with a finite step only)."""
-
-BACKENDS = ("osqp", "ipm")
-"""Names ``QpOptions.backend`` accepts; each is a module of this package."""
 
 
 def qp_status_name(status: int) -> str:

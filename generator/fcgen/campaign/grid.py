@@ -4,14 +4,13 @@ from __future__ import annotations
 import warnings
 from dataclasses import asdict, dataclass, fields
 
-from ..dsl import Problem, ProblemError, QpOptions
+from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
 from ..presets import FORMULATIONS, SCENARIOS, paper_problem
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
 PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
 OBSTACLE_NAMES = ("ellipse", "circles", "hyperplane")
 CONTROLLERS = ("c", "python")
-BACKENDS = ("osqp", "ipm")
 CLOCKS = ("cpu", "wall")
 
 

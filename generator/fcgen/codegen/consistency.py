@@ -13,6 +13,12 @@ from .folder import solvers_in
 from .osqp_export import LIB_DIR
 
 
+def read_macros(header: Path, name: str) -> dict[str, int]:
+    """Integer ``#define NAME_KEY value`` macros of a generated header, by KEY."""
+    pat = re.compile(rf"^#define {name.upper()}_(\w+) (-?\d+)\b", re.M)
+    return {k: int(v) for k, v in pat.findall(Path(header).read_text())}
+
+
 class FolderMismatch(ValueError):
     """The folder's files do not make one solver (one line: the file or macro and both values)."""
 
@@ -67,7 +73,6 @@ def check_files(gen_dir: Path, name: str) -> None:
 
 def check_sizes(gen_dir: Path, name: str) -> None:
     """Raise :class:`FolderMismatch` if a size macro of the header differs from what ``problem.py`` gives."""
-    from ..build import read_macros
     from ..presets import load_problem
     from .generate import problem_sizes
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import importlib.resources
 import math
 import re
 import textwrap
@@ -18,7 +17,6 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import casadi as ca
-import jinja2
 import numpy as np
 
 from .. import __version__
@@ -34,6 +32,7 @@ from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
 from .folder import staged
+from .render import environment, render_template
 
 
 MODEL_CFLAGS = ("-Wno-unused-parameter",)
@@ -90,10 +89,6 @@ def _c_list(values: Sequence, fmt=str, per_line: int = 12) -> str:
     items = [fmt(v) for v in values] or ["0"]
     lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
     return ",\n  ".join(lines)
-
-
-def _templates_dir() -> Path:
-    return Path(str(importlib.resources.files("fcgen") / "templates"))
 
 
 def _write(path: Path, text: str) -> None:
@@ -374,18 +369,6 @@ def _wrap_comment(text: str, width: int) -> list[str]:
     return [first, *textwrap.wrap(" ".join(rest), width - 2)]
 
 
-def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(_templates_dir())), undefined=jinja2.StrictUndefined,
-                             keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, autoescape=False)
-    env.filters["dirname"] = lambda p: str(p).rsplit("/", 1)[0] if "/" in str(p) else "."
-    return env
-
-
-def render_template(template: str, **ctx: Any) -> str:
-    """Render one file of ``templates/`` (also used by ``fcgen.targets`` for the linker script)."""
-    return _env().get_template(template).render(version=__version__, **ctx)
-
-
 def toolchain_files(use_float: bool) -> dict[str, str]:
     """The CMake toolchain files a folder ships: one per bare-metal target that can run its precision."""
     return {f"cmake/arm-none-eabi-{t.name}.cmake": render_template("targets/toolchain.cmake.j2", target=t)
@@ -496,7 +479,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "cross_targets": cross_targets(use_float),
         "footprint_marker_begin": README_BEGIN, "footprint_marker_end": README_END,
     }
-    env = _env()
+    env = environment()
     outputs = {
         f"{name}_solver.h": "solver.h.j2", f"{name}_solver.c": "solver.c.j2", f"{name}_host.h": "host.h.j2",
         f"{name}_host.c": "host.c.j2", "main.c": "main.c.j2", "CMakeLists.txt": "CMakeLists.txt.j2",

@@ -1,0 +1,95 @@
+"""The house's imports run one way: no module of fcgen imports, directly or through others, a module that imports it
+back (function-level imports included: a lazy import hides a circle, it does not remove it)."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import fcgen
+
+ROOT = Path(fcgen.__file__).resolve().parent
+
+
+def module_imports(root: Path = ROOT) -> dict[str, set[str]]:
+    """fcgen's modules and, for each, the fcgen modules it imports anywhere in its source (``from . import x``
+    counts as importing ``x`` when ``x`` is a module, else its package)."""
+    mods: dict[str, tuple[Path, bool]] = {}
+    for p in root.rglob("*.py"):
+        parts = list(p.relative_to(root.parent).with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        mods[".".join(parts[:-1] if is_pkg else parts)] = (p, is_pkg)
+    edges: dict[str, set[str]] = {m: set() for m in mods}
+    for m, (p, is_pkg) in mods.items():
+        pkg = m if is_pkg else m.rsplit(".", 1)[0]
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = pkg.split(".")[:len(pkg.split(".")) - node.level + 1]
+                    base = ".".join(up + ([node.module] if node.module else []))
+                names = [f"{base}.{a.name}" for a in node.names] + [base]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            hit = next((n for n in names if n in mods and n != m), None)
+            if hit:
+                edges[m].add(hit)
+    return edges
+
+
+def circles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                found.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_circle_finder_finds_a_planted_circle(tmp_path):
+    pkg = tmp_path / "fcgen"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from . import b\n")
+    (pkg / "b.py").write_text("def f():\n    from .sub.c import g\n")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "sub" / "c.py").write_text("from ..a import x\nimport os\n")
+    (pkg / "d.py").write_text("from .a import y\n")
+    assert circles(module_imports(pkg)) == [["fcgen.a", "fcgen.b", "fcgen.sub.c"]]
+
+
+def test_fcgen_has_no_import_circles():
+    edges = module_imports()
+    assert "fcgen.dsl" in edges and "fcgen.codegen.generate" in edges  # the walk saw the package
+    assert circles(edges) == []
+
+
+def test_lower_layers_import_no_higher_ones():
+    edges = module_imports()
+    assert not edges["fcgen.dsl"] - {"fcgen.cnames"}
+    assert "fcgen.codegen.generate" not in edges["fcgen.targets"]
+    assert "fcgen.build" not in edges["fcgen.codegen.consistency"]
