@@ -20,3 +20,22 @@ def test_demo_runs_c_and_python_and_they_match(tmp_path):
     progress = c.ego_frenet[-1, 0] - c.ego_frenet[0, 0]
     assert 15 * 1.2 * 0.9 < progress < 40 * 1.2
     assert json.loads((out / "run_c.json").read_text())["meta"]["seed"] == 1
+
+
+def test_demo_shows_the_ipm_beside_osqp_on_the_same_scenario(tmp_path):
+    out = tmp_path / "demo"
+    res = CliRunner().invoke(main, ["demo", "--samples", "8", "--seed", "2", "--out", str(out), "--no-plot"])
+    assert res.exit_code == 0, res.output
+    header = next(line for line in res.output.splitlines() if "C, OSQP (asked for)" in line)
+    assert "Python reference, OSQP" in header and "C, IPM" in header
+    c, ipm = RunLog.from_json(out / "run_c.json"), RunLog.from_json(out / "run_c_ipm.json")
+    # the same scenario: the same start and the same opponents' initial poses, then each controller's own plan
+    assert (c.ego_frenet[0] == ipm.ego_frenet[0]).all()
+    assert ipm.meta["problem"] == "truck_lift_el_ipm" and c.meta["problem"] == "truck_lift_el"
+    # every status printed as a row of counts that add up to the samples, each explained once under the table
+    for st in ("solved",):
+        row = next(line for line in res.output.splitlines() if line.startswith(f"QP status {st} "))
+        counts = [int(x) for x in row.split("|")[1:]]
+        assert counts[2] == int((ipm.qp_status == 1).sum())
+        assert any(line.strip().startswith(f"{st}: ") for line in res.output.splitlines())
+    assert "which to pick" in res.output

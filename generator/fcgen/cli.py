@@ -426,11 +426,13 @@ def footprint_cmd(solver_dir, target, out, readme):
 @click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="runs/demo", show_default=True)
 @click.option("--plot/--no-plot", default=True, show_default=True)
-def demo(problem_name, seed, samples, out_dir, plot):
+@click.option("--ipm/--no-ipm", default=True, show_default=True,
+              help="also run the same problem with the IPM backend in C (one more column)")
+def demo(problem_name, seed, samples, out_dir, plot, ipm):
     """The main job: generate, build, closed loop in the C harness vs the Python reference, summary."""
     from .demo import run_demo
 
-    res = run_demo(out_dir, problem_name, seed, samples, plot, echo=click.echo)
+    res = run_demo(out_dir, problem_name, seed, samples, plot, echo=click.echo, ipm=ipm)
     click.echo(res.format())
     if not res.matches:
         _fail("the generated C does not reproduce the Python reference within the tolerance")

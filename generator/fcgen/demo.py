@@ -18,9 +18,20 @@ TRAJECTORY_TOL = 1e-6
 _COMPARED = ("ego_frenet", "ego_cartesian", "control", "collision", "qp_iter", "qp_status")
 
 
+STATUS_NOTES = {
+    "solved": "solved to the backend's tolerance",
+    "solved_inaccurate": "OSQP stopped at its real-time iteration cap with residuals within its looser tolerance: "
+                         "the real-time mode's normal outcome, the step is used",
+    "max_iter": "the iteration cap reached outside even that tolerance: the step is used when finite and within the "
+                "input box (the safety contract), else the braking fallback",
+}
+"""One line per QP status the summary shows, printed under the table the first time a status appears."""
+
+
 @dataclass(frozen=True)
 class DemoResult:
-    """Both run logs, their summaries and the largest C-vs-Python differences."""
+    """The run logs (C with OSQP, the Python reference, C with the IPM), their summaries and the C-vs-Python
+    differences."""
 
     c_log: RunLog
     py_log: RunLog
@@ -29,59 +40,91 @@ class DemoResult:
     differences: dict[str, float]
     workspace_bytes: int
     out_dir: Path
+    ipm_log: RunLog | None = None
+    ipm_summary: dict | None = None
+    ipm_workspace_bytes: int | None = None
 
     @property
     def matches(self) -> bool:
         return all(self.differences[k] <= TRAJECTORY_TOL for k in _COMPARED)
 
     def format(self) -> str:
-        c, p = self.c_summary, self.py_summary
-        rows = [("", "C (firmware_sim)", "Python reference")]
+        cols = [("C, OSQP (asked for)", self.c_summary), ("Python reference, OSQP", self.py_summary)]
+        if self.ipm_summary is not None:
+            cols.append(("C, IPM", self.ipm_summary))
+        rows = [("", *(c[0] for c in cols))]
 
-        def both(label, f):
-            rows.append((label, f(c), f(p)))
+        def row(label, f):
+            rows.append((label, *(f(c[1]) for c in cols)))
 
-        both("progress [m]", lambda s: f"{s['progress']:.2f}")
-        both("collision samples", lambda s: f"{s['n_collision_samples']}")
+        row("progress [m]", lambda s: f"{s['progress']:.2f}")
+        row("samples in collision (true shapes)", lambda s: f"{s['n_collision_samples']}")
         for ph in ("prepare", "feedback", "total"):
-            both(f"{ph} median / p99 / max [ms]", lambda s, ph=ph: "{median:.3f} / {p99:.3f} / {max:.3f}".format(
-                **s[f"time_{ph}_ms"]))
-        both("QP iterations mean / max", lambda s: f"{s['qp_iter_mean']:.1f} / {s['qp_iter_max']}")
-        both("QP status counts", lambda s: str(s["qp_status_counts"]))
-        both("max slack / max |a_lat| [m/s^2]", lambda s: f"{s['max_slack']:.3g} / {s['max_abs_a_lat']:.2f}")
-        w = [max(len(r[i]) for r in rows) for i in range(3)]
-        lines = [" | ".join(r[i].ljust(w[i]) for i in range(3)) for r in rows]
+            row(f"{ph} time median / p99 / max [ms]", lambda s, ph=ph: "{median:.3f} / {p99:.3f} / {max:.3f}"
+                .format(**s[f"time_{ph}_ms"]))
+        row("QP iterations per sample, mean / max", lambda s: f"{s['qp_iter_mean']:.1f} / {s['qp_iter_max']}")
+        statuses = sorted({k for _, c in cols for k in c["qp_status_counts"]})
+        for st in statuses:
+            row(f"QP status {st} [samples]", lambda s, st=st: f"{s['qp_status_counts'].get(st, 0)}")
+        row("largest soft-constraint slack [row's unit]", lambda s: f"{s['max_slack']:.3g}")
+        row("largest |a_lat| [m/s^2] (bound 5)", lambda s: f"{s['max_abs_a_lat']:.2f}")
+        n = len(rows[0])
+        w = [max(len(r[i]) for r in rows) for i in range(n)]
+        lines = [" | ".join(r[i].ljust(w[i]) for i in range(n)).rstrip() for r in rows]
         lines.insert(1, "-+-".join("-" * x for x in w))
+        lines += [f"  {st}: {STATUS_NOTES[st]}" for st in statuses if st in STATUS_NOTES]
+        c, p = self.c_summary, self.py_summary
         speed = p["time_total_ms"]["median"] / c["time_total_ms"]["median"]
         worst = max(_COMPARED, key=lambda k: self.differences[k])
         lines += ["",
-                  f"C vs Python: largest difference {self.differences[worst]:.3g} ({worst}; tolerance "
+                  f"C vs Python (OSQP): largest difference {self.differences[worst]:.3g} ({worst}; tolerance "
                   f"{TRAJECTORY_TOL:g}) -> {'MATCH' if self.matches else 'MISMATCH'}",
-                  f"C median total time is {speed:.1f}x faster than the Python reference; solver RAM "
-                  f"{self.workspace_bytes} bytes ({self.workspace_bytes / 1024:.1f} KiB)",
-                  f"logs and plot in {self.out_dir}/"]
+                  f"C median total time is {speed:.1f}x faster than the Python reference",
+                  f"solver workspace (static RAM on a 64-bit host, whole solver): OSQP {_kib(self.workspace_bytes)}"
+                  + (f", IPM {_kib(self.ipm_workspace_bytes)}" if self.ipm_workspace_bytes else "")]
+        if self.ipm_summary is not None:
+            i = self.ipm_summary
+            ratio = i["time_total_ms"]["median"] / c["time_total_ms"]["median"]
+            lines.append(f"which to pick: the IPM takes {ratio:.2f}x OSQP's median time here and solves its QPs to "
+                         f"its tolerance (QpOptions(backend='ipm'), presets '_ipm'); OSQP is what was asked for, "
+                         f"with a fixed iteration budget per sample")
+        lines.append(f"logs and plot in {self.out_dir}/")
         return "\n".join(lines)
 
 
+def _kib(n: int) -> str:
+    return f"{n:,} bytes ({n / 1024:.1f} KiB)"
+
+
 def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRESET, seed: int = 3,
-             samples: int = 200, plot: bool = True, echo=print) -> DemoResult:
-    """Generate ``problem_name`` into ``out_dir``, run C and Python closed loops on one truck/car scenario."""
+             samples: int = 200, plot: bool = True, echo=print, ipm: bool = True) -> DemoResult:
+    """Generate ``problem_name`` into ``out_dir``, run C and Python closed loops on one truck/car scenario, and
+    (``ipm``) the same problem with the IPM backend in C on the same scenario."""
     out_dir = Path(out_dir)
     pb = preset(problem_name)
     scenario = problem_name.split("_", 1)[0]
+    ipm_pb = preset(f"{problem_name}_ipm") if ipm and pb.qp.backend != "ipm" else None
+    steps = 5 if ipm_pb is not None else 4
     gen_dir = out_dir / problem_name
-    echo(f"[1/4] generate {problem_name} -> {gen_dir}")
+    echo(f"[1/{steps}] generate {problem_name} -> {gen_dir}")
     info = generate(pb, gen_dir)
-    echo(f"[2/4] build the solver and the firmware harness; closed loop in C ({scenario}, seed {seed}, "
+    echo(f"[2/{steps}] build the solver and the firmware harness; closed loop in C ({scenario}, seed {seed}, "
          f"{samples} samples)")
     c_log = firmware_sim(gen_dir, scenario, seed, samples, out=out_dir / "run_c.json", problem=pb)
-    echo("[3/4] closed loop with the Python reference")
+    echo(f"[3/{steps}] closed loop with the Python reference")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     py_log = run_closed_loop(pb, sc)
     py_log.to_json(out_dir / "run_python.json")
-    echo("[4/4] compare")
+    ipm_log = ipm_info = None
+    if ipm_pb is not None:
+        ipm_dir = out_dir / ipm_pb.name
+        echo(f"[4/{steps}] the same problem with the IPM backend -> {ipm_dir}, closed loop in C")
+        ipm_info = generate(ipm_pb, ipm_dir)
+        ipm_log = firmware_sim(ipm_dir, scenario, seed, samples, out=out_dir / "run_c_ipm.json", problem=ipm_pb)
+    echo(f"[{steps}/{steps}] compare")
     if plot:
         from .sim.plots import plot_run
         plot_run(c_log, out_dir / "run_c.png")
     return DemoResult(c_log, py_log, summary(c_log), summary(py_log), compare(c_log, py_log),
-                      info.workspace_bytes, out_dir)
+                      info.workspace_bytes, out_dir, ipm_log, summary(ipm_log) if ipm_log is not None else None,
+                      ipm_info.workspace_bytes if ipm_info is not None else None)
