@@ -161,3 +161,16 @@ def test_cold_start_c_equals_python(gen_root: Path, name: str, road_samples: int
     sv.feedback()
     assert cs.feedback() == 0
     assert rel_diff(cs.states(), sv.states()) <= TOL_SOLUTION
+
+
+def test_rel_diff_is_not_hidden_by_infinite_bounds():
+    from fcgen.ocp import INF
+    r = np.array([-INF, 0.5, 2.0, INF])
+    c = r.copy()
+    c[1] += 1e-6
+    # the difference is relative to the finite entries (max |r| = 2), not to the 1e30 marker
+    assert rel_diff(c, r) == pytest.approx(0.5e-6, rel=1e-9)
+    assert rel_diff(r, r) == 0.0
+    c = r.copy()
+    c[0] = -1e3                      # a finite bound where the reference has none
+    assert rel_diff(c, r) == np.inf

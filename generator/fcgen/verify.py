@@ -58,13 +58,15 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
     ("cl_control", "closed-loop", TOL_TRAJECTORY, "applied controls"),
     ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
-    ("cl_exit_code", "closed-loop", 0, "non-zero exit count diff"),
+    ("cl_exit_code", "closed-loop", 0, "non-zero exit codes, C minus Python"),
 )
 _COUNTS = {"exit_code", "qp_status", "qp_iter", "cl_qp_iter", "cl_exit_code"}
 
 
 def rel_diff(c, r) -> float:
-    """``max |c - r| / max(1, max |r|)`` (0 for empty arrays; inf if only one side is NaN)."""
+    """``max |c - r| / max(1, max |r|)`` over the finite entries of ``r`` (0 for empty arrays; inf if only one side
+    is NaN). An entry at the "no bound" marker (``|r| >= INF``, a QP's infinite bound) must be matched exactly and
+    stays out of the scale: a scale of 1e30 would hide any difference of the finite bounds beside it."""
     c = np.asarray(c, dtype=float).ravel()
     r = np.asarray(r, dtype=float).ravel()
     if c.shape != r.shape:
@@ -72,9 +74,12 @@ def rel_diff(c, r) -> float:
     if r.size == 0:
         return 0.0
     both_nan = np.isnan(c) & np.isnan(r)
+    unbounded = np.abs(r) >= INF
     d = np.where(both_nan, 0.0, np.abs(c - r))
+    d = np.where(unbounded, np.where(c == r, 0.0, np.inf), d)
     d = np.where(np.isnan(d), np.inf, d)
-    scale = max(1.0, float(np.max(np.abs(np.where(np.isfinite(r), r, 0.0)), initial=0.0)))
+    finite = np.isfinite(r) & ~unbounded
+    scale = max(1.0, float(np.max(np.abs(np.where(finite, r, 0.0)), initial=0.0)))
     return float(np.max(d)) / scale
 
 
@@ -156,9 +161,11 @@ class VerifyReport:
     def format(self) -> str:
         head = (f"verify {self.solver} ({self.gen_dir}): {self.scenario} scenario, seed {self.seed}, "
                 f"{self.samples} samples, C verification build vs Python reference")
-        rows = [("group", "quantity", "max diff", "sample", "tolerance", "result")]
+        rows = [("group", "quantity", "max rel. diff", "sample", "tolerance", "result")]
         for c in self.checks:
-            if c.key in _COUNTS:
+            if c.key == "cl_exit_code":
+                diff = f"{c.count}"
+            elif c.key in _COUNTS:
                 diff = f"{c.count}/{c.compared}"
             else:
                 diff = f"{c.max_diff:.3e}"
@@ -170,6 +177,8 @@ class VerifyReport:
             lines.append("  ".join(s.ljust(w[j]) if j < 2 else s.rjust(w[j]) for j, s in enumerate(r)).rstrip())
             if i == 0:
                 lines.append("  ".join("-" * x for x in w))
+        lines.append("max rel. diff: max |C - Python| / max(1, max |Python|) over the run (infinite bounds matched "
+                     "exactly); n/m: samples that differ of those compared")
         lines += [f"note: {n}" for n in self.notes]
         bad = self.failures
         lines.append("PASS: all tolerances met" if not bad else
