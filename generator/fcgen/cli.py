@@ -316,6 +316,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
         out = (f"results/bench_{name}_{target}.json" if get_target(target).bare_metal else
                f"results/bench_backends_{name}.json" if backends is not None else f"results/bench_{name}.json")
     check_file_target(out, "a bench results file", force)
+    click.echo(f"bench: results will be written to {out} (--out to choose)", err=True)
     if get_target(target).bare_metal:
         if backends is not None:
             _fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .sim.runlog import CONTROL_FIELDS, OPTIONAL_FIELDS, STATE_FIELDS, RunLog
-from .suite import is_suite, load_log, load_suite, solver_info
+from .suite import cc_version, is_suite, load_log, load_suite, solver_info
 
 TIMING_FIELDS = ("time_prepare", "time_feedback", "time_total")
 ALL_FIELDS = tuple(STATE_FIELDS) + tuple(CONTROL_FIELDS) + tuple(OPTIONAL_FIELDS)
@@ -486,7 +486,8 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     runner = _Runner(new, controller, build_kw, progress)
     if runner.lib is not None:
         stamp = runner.lib.parent / "flags.txt"
-        notes.append(f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'}")
+        notes.append(f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'} "
+                     f"({cc_version(build_kw.get('cc'))})")
     else:
         notes.append("NEW: the Python reference of the folder's problem.py")
     if man is not None:

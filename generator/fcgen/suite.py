@@ -100,14 +100,21 @@ def solver_info(gen_dir: Path) -> dict[str, Any]:
     }
 
 
-def compiler_info(gen_dir: Path, build_dir: str, cc: str | None, cflags: str | None) -> dict[str, Any]:
-    """Compiler, its version line, CFLAGS and the exact compile line of the build (the Makefile's flags stamp)."""
+def cc_version(cc: str | None = None) -> str:
+    """The first line of ``CC --version`` (``cc``, else $CC, else ``cc``); ``'unknown'`` if it cannot be run."""
     cc = cc or os.environ.get("CC") or "cc"
     try:
         res = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30)
-        version = (res.stdout or res.stderr).splitlines()[0].strip() if (res.stdout or res.stderr) else "unknown"
     except (OSError, subprocess.TimeoutExpired):
-        version = "unknown"
+        return "unknown"
+    out = res.stdout or res.stderr
+    return out.splitlines()[0].strip() if out else "unknown"
+
+
+def compiler_info(gen_dir: Path, build_dir: str, cc: str | None, cflags: str | None) -> dict[str, Any]:
+    """Compiler, its version line, CFLAGS and the exact compile line of the build (the Makefile's flags stamp)."""
+    cc = cc or os.environ.get("CC") or "cc"
+    version = cc_version(cc)
     if cflags is None:
         cflags = os.environ.get("CFLAGS")
     if cflags is None:
