@@ -1,0 +1,141 @@
+"""The DSL's reference page (docs/problem_reference.md): every field of every DSL class with unit, range, default.
+
+Defaults are read from the dataclasses themselves, so the page cannot drift from the code; units, ranges and
+meanings are written here once. ``tests/test_docs.py`` checks that every field has an entry and that the committed
+page is what ``render()`` writes (``python -m fcgen.dsl_reference > docs/problem_reference.md`` rewrites it).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from . import dsl
+
+#: (class, field) -> (unit, allowed range as validated, meaning)
+FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
+    ("Problem", "name"): ("-", "C identifier prefix: [a-z][a-z0-9_]*, <= 31 characters, no clash with C/OSQP/CasADi "
+                          "names", "prefix of every C symbol (`<name>_*`, `<NAME>_*`)"),
+    ("Problem", "formulation"): ("-", "`Conventional()`, `DirectElimination()`, `Lifted()`", "the NMPC formulation"),
+    ("Problem", "obstacles"): ("-", "`Ellipse()`, `CoveringCircles(n)`, `SeparatingHyperplane()`",
+                               "the obstacle model"),
+    ("Problem", "ego"): ("-", "a `Vehicle`", "the controlled vehicle"),
+    ("Problem", "opponents"): ("-", "an `Opponents`", "number and size of the other vehicles"),
+    ("Problem", "wind"): ("-", "a `Wind`", "wind in the ego's drag model"),
+    ("Problem", "horizon"): ("-", "a `Horizon`", "prediction horizon"),
+    ("Problem", "weights"): ("-", "a `Weights`", "least-squares weights"),
+    ("Problem", "reference"): ("-", "a `Reference`", "tracking reference"),
+    ("Problem", "bounds"): ("-", "a `Bounds`", "box bounds of states and inputs"),
+    ("Problem", "soft"): ("-", "a `SoftPenalties`", "slack penalties of the soft rows"),
+    ("Problem", "qp"): ("-", "a `QpOptions`", "QP backend and its settings"),
+    ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max N dt + 4 ds", "the road the solver sees"),
+    ("Vehicle", "l_f"): ("m", "> 0", "front part of the wheelbase l = l_f + l_r (reference point: rear axle)"),
+    ("Vehicle", "l_r"): ("m", "> 0", "rear part of the wheelbase; the chassis is centred at l/2 ahead of the "
+                                   "rear axle"),
+    ("Vehicle", "l_f_ch"): ("m", "> 0", "chassis length ahead of its centre"),
+    ("Vehicle", "l_r_ch"): ("m", "> 0", "chassis length behind its centre"),
+    ("Vehicle", "w_ch"): ("m", "> 0", "chassis width"),
+    ("Vehicle", "m"): ("kg", "> 0", "mass"),
+    ("Vehicle", "c_air"): ("kg/m", ">= 0", "air drag coefficient 0.5 c_w A rho"),
+    ("Vehicle", "c_roll"): ("N", ">= 0", "rolling resistance force"),
+    ("Wind", "v"): ("m/s", ">= 0", "wind speed"),
+    ("Wind", "phi"): ("rad", "finite", "direction the wind comes from"),
+    ("Horizon", "N"): ("-", "integer in [1, 500]", "shooting intervals"),
+    ("Horizon", "dt"): ("s", "(0, 10]", "interval length (also the sample time of the closed loop)"),
+    ("Weights", "q"): ("-", "5 numbers >= 0", "stage weights of (s, n, alpha, v, delta), times dt"),
+    ("Weights", "q_N"): ("-", "5 numbers >= 0", "terminal weights of (s, n, alpha, v, delta)"),
+    ("Weights", "r"): ("-", "2 numbers >= 0", "input weights of (F_d, r), times dt"),
+    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + k dt v_ref"),
+    ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
+    ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
+    ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
+    ("Bounds", "delta_max"): ("rad", "> 0", "|delta| bound (steering angle)"),
+    ("Bounds", "v_min"): ("m/s", "0 <= v_min < v_max", "speed lower bound"),
+    ("Bounds", "v_max"): ("m/s", "> v_min", "speed upper bound"),
+    ("Bounds", "alpha_max"): ("rad", "(0, pi/2)", "|alpha| bound (heading relative to the road)"),
+    ("Bounds", "n_min"): ("m", "< n_max", "road bound on the ego's n (right)"),
+    ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
+    ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
+    ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
+    ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
+    ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
+    ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),
+    ("SoftPenalties", "a_lat_l2"): ("-", ">= 0", "L2 weight of the a_lat rows' slacks (times dt)"),
+    ("SoftPenalties", "soft_road"): ("-", "True or False", "soften the road bounds too"),
+    ("SoftPenalties", "road_l1"): ("-", ">= 0", "L1 weight of the road rows' slacks (with soft_road)"),
+    ("SoftPenalties", "road_l2"): ("-", ">= 0", "L2 weight of the road rows' slacks (with soft_road)"),
+    ("QpOptions", "max_iter"): ("-", "integer in [1, 1e6]", "QP iteration cap per RTI (OSQP; the IPM's own cap)"),
+    ("QpOptions", "eps_abs"): ("-", "[0, 1); eps_abs or eps_rel > 0", "OSQP absolute tolerance"),
+    ("QpOptions", "eps_rel"): ("-", "[0, 1)", "OSQP relative tolerance"),
+    ("QpOptions", "rho"): ("-", "> 0", "OSQP ADMM step size"),
+    ("QpOptions", "sigma"): ("-", "> 0", "OSQP regularization (raised to 1e-3 in a float build)"),
+    ("QpOptions", "alpha"): ("-", "(0, 2)", "OSQP relaxation"),
+    ("QpOptions", "adaptive_rho"): ("-", "True or False", "OSQP adaptive rho"),
+    ("QpOptions", "scaling"): ("-", "integer in [0, 100]", "OSQP Ruiz scaling passes"),
+    ("QpOptions", "check_termination"): ("-", "integer in [1, 1000]", "OSQP: iterations between termination checks"),
+    ("QpOptions", "warm_start"): ("-", "True or False", "warm-start the QP from the shifted plan"),
+    ("QpOptions", "max_iter_cold"): ("-", "integer in [1, 1e6]", "iteration cap of a cold-started QP (at least max_iter is used)"),
+    ("QpOptions", "cold_restart_after"): ("-", "integer in [0, 1e6]; 0: never",
+                                          "unusable QPs in a row after which prepare cold-starts"),
+    ("QpOptions", "backend"): ("-", "one of " + ", ".join(f"`{b}`" for b in dsl.BACKENDS), "the QP backend"),
+    ("QpOptions", "ipm_tol"): ("-", "(0, 1)", "IPM tolerance: stationarity, primal residuals, each t lam (scaled)"),
+    ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
+    ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),
+    ("Opponents", "count"): ("-", "integer in [0, 10]", "number of opponents"),
+    ("Opponents", "vehicle"): ("-", "a `Vehicle`", "their common size"),
+    ("Conventional", "overapprox"): ("-", "`fit` or `none`", "over-approximation of the opponents in (s, n)"),
+    ("Conventional", "margin"): ("m", ">= 0", "extra margin of the fitted box"),
+    ("Conventional", "points_per_metre"): ("1/m", "[0.25, 20]", "points per metre of the opponent's edges mapped "
+                                           "into (s, n)"),
+    ("CoveringCircles", "n"): ("-", "integer in [1, 20]", "circles covering each opponent"),
+    ("CoveringCircles", "n_ego"): ("-", "integer in [1, 20], or None (= n)", "circles covering the ego"),
+    ("SeparatingHyperplane", "margin"): ("m", "[0, 2]", "distance the ego's vertices keep from the plane"),
+}
+
+CLASSES = ("Problem", "Vehicle", "Opponents", "Wind", "Horizon", "Weights", "Reference", "Bounds", "SoftPenalties",
+           "QpOptions", "RoadWindow", "Conventional", "DirectElimination", "Lifted", "Ellipse", "CoveringCircles",
+           "SeparatingHyperplane")
+
+
+def documented_fields(cls: type) -> list[dataclasses.Field]:
+    """The fields a user sets (``kind`` tags, not in ``__init__``, are left out)."""
+    return [f for f in dataclasses.fields(cls) if f.init]
+
+
+def _default(f: dataclasses.Field) -> str:
+    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+        return "required"
+    v = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    if dataclasses.is_dataclass(v):
+        return f"`{type(v).__name__}()`" + (" (its defaults)" if v == type(v)() else " (see below)")
+    if isinstance(v, float):
+        return f"{v:.6g}" if not math.isclose(v, math.pi / 4) else "pi/4"
+    if isinstance(v, str):
+        return f"`{v}`"
+    return f"{v}"
+
+
+def render() -> str:
+    """The page, Markdown."""
+    out = ["# Describing a problem: every field", "",
+           "Every DSL object is a frozen dataclass validated when it is built: a value outside its range raises",
+           "`fcgen.dsl.ProblemError` naming the field and the allowed range (`fcgen generate` prints it in one line).",
+           "Defaults below are read from the code (`fcgen.dsl_reference` writes this page; a test keeps it current).",
+           "Units: SI; `-` for none. Stage weights and penalties are multiplied by `dt` per stage.", ""]
+    for name in CLASSES:
+        cls = getattr(dsl, name)
+        doc = (cls.__doc__ or "").strip().splitlines()[0]
+        out += [f"## `{name}`", "", doc, ""]
+        fs = documented_fields(cls)
+        if not fs:
+            out += ["No fields.", ""]
+            continue
+        out += ["| field | unit | allowed | default | meaning |", "|---|---|---|---|---|"]
+        for f in fs:
+            unit, allowed, meaning = FIELDS[(name, f.name)]
+            out.append(f"| `{f.name}` | {unit} | {allowed} | {_default(f)} | {meaning} |")
+        out.append("")
+    return "\n".join(out)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(render(), end="")
