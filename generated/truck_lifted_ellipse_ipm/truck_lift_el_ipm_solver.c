@@ -1211,10 +1211,9 @@ static const int QP_EXIT[9 + 1] = {
 
 /* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above.
  * The core calls qpb_reset() before the backend's first use after program start, init(), reset() or a failure. */
-/* ---- QP backend: Riccati interior-point method (included once by truck_lift_el_ipm_solver.c) ----------------------------
- * Mehrotra predictor-corrector on the layout's QP; the Newton system is solved stage by stage: box rows on the
- * diagonal, each slack eliminated with its rows, a Riccati recursion over (x_k, u_k). The Python reference is
- * fcgen/backends/ipm.py (same algorithm, same order of operations). Every size is a compile-time constant. */
+/* ---- QP backend: Riccati interior-point method, what this problem sizes (included once by truck_lift_el_ipm_solver.c) --
+ * Every size a compile-time constant, the stage view's index tables, the workspace; the algorithm follows
+ * (ipm_core.c, the same for every problem). */
 #define IPM_N 40
 #define IPM_NX 8
 #define IPM_NU 2
@@ -4061,6 +4060,20 @@ static truck_lift_el_ipm_ipm_ws_t truck_lift_el_ipm_ipm;
 #define IPM_FABS fabs
 #define IPM_GOING 0 /* not a raw status: the iteration goes on */
 
+/* ---- fcgen's Riccati interior-point QP backend: the algorithm (plain C99, the same for every problem) ------------
+ * Mehrotra predictor-corrector on the layout's QP; the Newton system is solved stage by stage: box rows on the
+ * diagonal, each slack eliminated with its rows, a Riccati recursion over (x_k, u_k). The Python reference is
+ * fcgen/backends/ipm.py (same algorithm, same order of operations).
+ *
+ * Not a template: what varies per problem (every size as a macro IPM_*, the index tables of the stage view, the
+ * workspace struct IPM_W, the real type ipm_real_t, IPM_SQRT / IPM_FABS of that type, the raw-to-generic status
+ * map IPM_STATUS) comes from the problem header fcgen renders (templates/backends/ipm_problem.h.j2), included
+ * before this file. It also needs from its includer <string.h>, <math.h>, REAL_0 (zero of the real type) and
+ * qpb_result_t (the RTI core's view of a solve: status, raw_status, iter, z, y). The generated <name>_solver.c
+ * contains the problem header and this file, in that order; tests/c/ipm_core_test.c compiles it on its own with a
+ * rendered header.
+ * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
+
 /* ---- small dense kernels (row-major, fixed sizes) ---- */
 /* lower Cholesky factor of the n x n matrix A (stride ld) into Lo; 1 if a pivot is not positive */
 static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
@@ -4842,6 +4855,84 @@ static void ipm_stage_cost_to_go(int k) {
     }
   }
 }
+#if IPM_NE > 0
+
+/* stage k's equalities D u = d: UD = L^-1 D', M = UD' UD (+1 on padded rows), W2 = LM^-1 UD' W1; P_k += W2' W2 */
+static int ipm_stage_equalities(int k) {
+  int i;
+  int j;
+  int a;
+  int e;
+  (void)memset(IPM_W.D, 0, sizeof IPM_W.D);
+  for (e = 0; e < IPM_NE; ++e) {
+    for (a = IPM_EQ_PTR[(k * IPM_NE) + e]; a < IPM_EQ_PTR[(k * IPM_NE) + e + 1]; ++a) {
+      IPM_W.D[e][IPM_EQ_J[a]] = IPM_W.Ax[IPM_EQ_A[a]];
+    }
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    for (e = 0; e < IPM_NE1; ++e) {
+      IPM_W.UD[k][i][e] = IPM_W.D[e][i];
+    }
+  }
+  ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.UD[k][0][0], IPM_NE1, IPM_NE1);
+  for (i = 0; i < IPM_NE1; ++i) {
+    for (j = 0; j < IPM_NE1; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NU; ++a) {
+        v += IPM_W.UD[k][a][i] * IPM_W.UD[k][a][j];
+      }
+      IPM_W.M[i][j] = v;
+    }
+    IPM_W.M[i][i] += (IPM_EQ_ROW[(k * IPM_NE1) + i] < 0) ? IPM_ONE : REAL_0;
+  }
+  if (ipm_chol(&IPM_W.M[0][0], &IPM_W.LM[k][0][0], IPM_NE1, IPM_NE1) != 0) {
+    return 1;
+  }
+  for (i = 0; i < IPM_NE1; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NU; ++a) {
+        v += IPM_W.UD[k][a][i] * IPM_W.W1[k][a][j];
+      }
+      IPM_W.W2[i][j] = v;
+    }
+  }
+  ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, &IPM_W.W2[0][0], IPM_NE1, IPM_NX, IPM_NX);
+  for (i = 0; i < IPM_NX; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NE1; ++a) {
+        v += IPM_W.W2[a][i] * IPM_W.W2[a][j];
+      }
+      IPM_W.Pk[i][j] += v;
+    }
+  }
+  return 0;
+}
+
+/* tv -= UD M^-1 (UD' tv + base): the stage equalities' part of a step (base: NULL for 0) -> M^-1 (..) in nh */
+static void ipm_eq_project(int k, const ipm_real_t *base, ipm_real_t *tv, ipm_real_t *nh) {
+  int i;
+  int a;
+  int e;
+  for (e = 0; e < IPM_NE1; ++e) {
+    ipm_real_t v = REAL_0;
+    for (a = 0; a < IPM_NU; ++a) {
+      v += IPM_W.UD[k][a][e] * tv[a];
+    }
+    nh[e] = (base != NULL) ? (v + base[e]) : v;
+  }
+  ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, nh, IPM_NE1, 1, 1);
+  ipm_bwd(&IPM_W.LM[k][0][0], IPM_NE1, nh, IPM_NE1, 1, 1);
+  for (i = 0; i < IPM_NU; ++i) {
+    ipm_real_t v = REAL_0;
+    for (e = 0; e < IPM_NE1; ++e) {
+      v += IPM_W.UD[k][i][e] * nh[e];
+    }
+    tv[i] -= v;
+  }
+}
+#endif
 
 /* ---- the Newton matrix: box weights, slack groups, Riccati recursion (k = N..0) ---- */
 /* its diagonal hd = P (+ the proximal weight) + the box rows' weights */
@@ -4903,6 +4994,11 @@ static int ipm_factor_stage(int k) {
       IPM_W.Pk[i][j] = IPM_W.Pk[j][i];
     }
   }
+#if IPM_NE > 0
+  if (ipm_stage_equalities(k) != 0) {
+    return 1;
+  }
+#endif
   for (i = 0; i < IPM_NX; ++i) {
     for (j = 0; j < IPM_NX; ++j) {
       const ipm_real_t v = IPM_HALF * (IPM_W.Pk[i][j] + IPM_W.Pk[j][i]);
@@ -4943,7 +5039,14 @@ static void ipm_stage_eq(int k, ipm_real_t *cdyn, ipm_real_t *deq) {
   for (i = 0; (i < IPM_NX) && (k < IPM_N); ++i) {
     cdyn[i] = (-IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]]) * IPM_W.Einv[k][i];
   }
+#if IPM_NE > 0
+  for (i = 0; i < IPM_NE1; ++i) {
+    const int r = IPM_EQ_ROW[(k * IPM_NE1) + i];
+    deq[i] = (r >= 0) ? (-IPM_W.wr[r]) : REAL_0;
+  }
+#else
   (void)deq; /* no stage equalities */
+#endif
 }
 
 /* the backward sweep: p_k, kk_k (and lr_k) for the right-hand side (the soft rows' part for the target ipm_rc);
@@ -4962,6 +5065,9 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   ipm_real_t hs[IPM_NS];
   ipm_real_t cdyn[IPM_NX] = {0};
   ipm_real_t deq[IPM_NE1];
+#if IPM_NE > 0
+  ipm_real_t nh[IPM_NE1];
+#endif
   for (k = IPM_N; k >= 0; --k) {
     if ((factor != 0) && (ipm_factor_stage(k) != 0)) {
       return 1;
@@ -5003,6 +5109,9 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     for (i = 0; i < IPM_NU; ++i) {
       tv[i] = IPM_W.lr[k][i];
     }
+#if IPM_NE > 0
+    ipm_eq_project(k, deq, tv, nh);
+#endif
     for (i = 0; i < IPM_NX; ++i) {
       ipm_real_t v = REAL_0;
       for (a = 0; a < IPM_NU; ++a) {
@@ -5028,7 +5137,11 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   int p;
   ipm_real_t tv[IPM_NU];
   ipm_real_t hs[IPM_NS];
+#if IPM_NE > 0
+  ipm_real_t nh[IPM_NE1];
+#else
   (void)deq; /* no stage equalities */
+#endif
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[k][s];
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
@@ -5041,6 +5154,9 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     }
     tv[i] = v;
   }
+#if IPM_NE > 0
+  ipm_eq_project(k, NULL, tv, nh);
+#endif
   ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
   for (i = 0; i < IPM_NX; ++i) {
     dv[i] = dx[i];
@@ -5060,6 +5176,26 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
       IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
     }
   }
+#if IPM_NE > 0
+  if (duals != 0) {
+    int e;
+    ipm_real_t wl[IPM_NU];
+    for (i = 0; i < IPM_NU; ++i) {
+      ipm_real_t v = REAL_0;
+      for (j = 0; j < IPM_NX; ++j) {
+        v += IPM_W.W1[k][i][j] * dx[j];
+      }
+      wl[i] = v + IPM_W.lr[k][i];
+    }
+    ipm_eq_project(k, deq, wl, nh);
+    for (e = 0; e < IPM_NE1; ++e) {
+      const int r = IPM_EQ_ROW[(k * IPM_NE1) + e];
+      if (r >= 0) {
+        IPM_W.gd[r] = -nh[e];
+      }
+    }
+  }
+#endif
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[k][s];
     ipm_real_t acc = REAL_0;

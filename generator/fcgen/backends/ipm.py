@@ -592,7 +592,8 @@ def _table(name: str, kind: str, values, doc: str) -> dict:
 
 
 def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
-    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``). The C treats the soft rows
+    """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``): the problem header's sizes
+    and tables, and the algorithm's plain C source. The C treats the soft rows
     (``qp.split_soft_rows``) in loops of their own and the rest of the stage view with the generic tables."""
     from ..codegen.generate import _c_list, _c_real
     sv, sr = split_soft_rows(layout, stage_view(layout))
@@ -676,7 +677,15 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
-            "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))]}
+            "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
+            "core_source": core_source()}
+
+
+def core_source() -> str:
+    """The IPM's algorithm in plain C (``templates/backends/ipm_core.c``): the same for every problem, compiled after
+    the problem header ``templates/backends/ipm_problem.h.j2`` renders."""
+    from ..codegen.render import templates_dir
+    return (templates_dir() / "backends" / "ipm_core.c").read_text()
 
 
 def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bool) -> BackendFiles:

@@ -1,0 +1,1459 @@
+/* ---- fcgen's Riccati interior-point QP backend: the algorithm (plain C99, the same for every problem) ------------
+ * Mehrotra predictor-corrector on the layout's QP; the Newton system is solved stage by stage: box rows on the
+ * diagonal, each slack eliminated with its rows, a Riccati recursion over (x_k, u_k). The Python reference is
+ * fcgen/backends/ipm.py (same algorithm, same order of operations).
+ *
+ * Not a template: what varies per problem (every size as a macro IPM_*, the index tables of the stage view, the
+ * workspace struct IPM_W, the real type ipm_real_t, IPM_SQRT / IPM_FABS of that type, the raw-to-generic status
+ * map IPM_STATUS) comes from the problem header fcgen renders (templates/backends/ipm_problem.h.j2), included
+ * before this file. It also needs from its includer <string.h>, <math.h>, REAL_0 (zero of the real type) and
+ * qpb_result_t (the RTI core's view of a solve: status, raw_status, iter, z, y). The generated <name>_solver.c
+ * contains the problem header and this file, in that order; tests/c/ipm_core_test.c compiles it on its own with a
+ * rendered header.
+ * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
+
+/* ---- small dense kernels (row-major, fixed sizes) ---- */
+/* lower Cholesky factor of the n x n matrix A (stride ld) into Lo; 1 if a pivot is not positive */
+static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
+  int i;
+  int j;
+  int k;
+  for (j = 0; j < n; ++j) {
+    ipm_real_t s = A[(j * ld) + j];
+    for (k = 0; k < j; ++k) {
+      s -= Lo[(j * ld) + k] * Lo[(j * ld) + k];
+    }
+    if (!(s > REAL_0)) {
+      return 1;
+    }
+    s = IPM_SQRT(s);
+    Lo[(j * ld) + j] = s;
+    for (i = j + 1; i < n; ++i) {
+      ipm_real_t v = A[(i * ld) + j];
+      for (k = 0; k < j; ++k) {
+        v -= Lo[(i * ld) + k] * Lo[(j * ld) + k];
+      }
+      Lo[(i * ld) + j] = v / s;
+    }
+    for (i = 0; i < j; ++i) {
+      Lo[(i * ld) + j] = REAL_0;
+    }
+  }
+  return 0;
+}
+
+/* X := Lo^-1 X (n x m, strides ldl, ldx): row i of X less Lo[i][j] times row j (j < i), over X's contiguous rows */
+static void ipm_fwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, int ldx) {
+  int i;
+  int j;
+  int c;
+  for (i = 0; i < n; ++i) {
+    const ipm_real_t d = IPM_ONE / Lo[(i * ldl) + i];
+    for (j = 0; j < i; ++j) {
+      const ipm_real_t lij = Lo[(i * ldl) + j];
+      for (c = 0; c < m; ++c) {
+        X[(i * ldx) + c] -= lij * X[(j * ldx) + c];
+      }
+    }
+    for (c = 0; c < m; ++c) {
+      X[(i * ldx) + c] *= d;
+    }
+  }
+}
+
+/* X := Lo^-T X */
+static void ipm_bwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, int ldx) {
+  int i;
+  int j;
+  int c;
+  for (i = n - 1; i >= 0; --i) {
+    for (c = 0; c < m; ++c) {
+      ipm_real_t s = REAL_0;
+      for (j = i + 1; j < n; ++j) {
+        s += Lo[(j * ldl) + i] * X[(j * ldx) + c];
+      }
+      X[(i * ldx) + c] = (X[(i * ldx) + c] - s) / Lo[(i * ldl) + i];
+    }
+  }
+}
+
+/* ---- stage k's R_bar is block diagonal over its input blocks IPM_UB[k] (inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1:
+ * e.g. the controls, then each opponent's hyperplane variables): its factor L, every solve with it, block by block */
+static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    if (ipm_chol(&A[(o * IPM_NU) + o], &Lo[(o * IPM_NU) + o], IPM_UB[k][b + 1] - o, IPM_NU) != 0) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+/* X := L_k^-1 X (NU x m, stride ldx) */
+static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    ipm_fwd(&Lo[(o * IPM_NU) + o], IPM_NU, &X[o * ldx], IPM_UB[k][b + 1] - o, m, ldx);
+  }
+}
+
+/* x := L_k^-T x (a vector of NU) */
+static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+  int b;
+  for (b = 0; b < IPM_NUB; ++b) {
+    const int o = IPM_UB[k][b];
+    ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
+  }
+}
+
+/* ---- sparse products with the layout's CSC pattern ---- */
+/* A z on the rows IPM_AR_ROW (not the soft rows): row by row, a gather, no scatter */
+static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
+  int i;
+  int p;
+  for (i = 0; i < IPM_NAR; ++i) {
+    ipm_real_t s = REAL_0;
+    for (p = IPM_AR_P[i]; p < IPM_AR_P[i + 1]; ++p) {
+      s += IPM_W.Ax[IPM_AR_K[p]] * x[IPM_AR_J[p]];
+    }
+    out[IPM_AR_ROW[i]] = s;
+  }
+}
+
+/* out = base + A' v over the rows of ipm_Ax (the soft rows add theirs in ipm_sr_check), on the generic variables */
+static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
+  int k;
+  int i;
+  for (i = 0; i < IPM_NGV; ++i) {
+    const int j = IPM_GV[i];
+    ipm_real_t s = REAL_0;
+    for (k = IPM_A_P[j]; k < IPM_A_P[j + 1]; ++k) {
+      s += IPM_W.Ax[IPM_A_K[k]] * v[IPM_A_I[k]];
+    }
+    out[j] = base[j] + s;
+  }
+}
+
+/* ---- the soft rows (IPM_SR_*): soft row j's side t1 = a'v + e s - b1 and its slack's bound t2 = bb s - b2 (the
+ * coefficients multiplied by the sides' signs in the prepare phase, so both are lower sides here); the slack is
+ * eliminated with its two sides (pivot d = hd_s + W1 e^2, hd_s = P_s + W2 bb^2), so a soft row adds W1 hd_s / d a a'
+ * to its stage's Newton block: the generic rows' algebra. A stage's soft rows come in runs of rows on the same (x, u)
+ * slots (IPM_SR_RUN_*), and an iteration reads every row three times, not six (the rows are most of the data):
+ * ipm_sr_check takes the step, tests, and sums per run the Newton block's terms (IPM_W.srh) and the predictor's
+ * right-hand side (IPM_W.srr[0]); ipm_sr_forward's predictor pass steps the rows and sums the corrector's right-hand
+ * side, which is affine in sigma mu (IPM_W.srr[1] - sigma mu IPM_W.srr[2]); the corrector's forward pass steps them
+ * again. A run is read IPM_LANES rows at a time, row j0 + i on lane i % IPM_LANES (its storage is padded to whole
+ * groups of lanes with rows of no data: a = e = bb = 0, t = 1, so their steps keep t and their lam stays finite, and
+ * IPM_SR.w = 0 masks their t lam, lam and step limit), and every sum over its rows keeps one partial sum per lane
+ * (added at the run's end): the lanes are independent, so a compiler maps them onto SIMD registers (plain C99, no
+ * pragma, no intrinsics) ---- */
+#define IPM_SR IPM_W.sr
+#define IPM_SR_NACC (4 + IPM_SR_NT + (3 * IPM_NA)) /* ipm_sr_check's sums per lane (see ipm_sr_check_row) */
+
+/* the larger of v and m (m if v is NaN: a NaN never replaces a maximum) */
+static ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
+  return (v > m) ? v : m;
+}
+
+/* the smaller of v and m (m if v is NaN) */
+static ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+  return (v < m) ? v : m;
+}
+
+/* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */
+static void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
+  int l;
+  int p;
+  for (l = 0; l < IPM_LANES; ++l) {
+    out[l] = REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      out[l] += IPM_SR.a[p][j + l] * v[p];
+    }
+  }
+}
+
+/* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
+ * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
+ * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
+ * multipliers (max), [3] 0 times the stationarity residual (sum: NaN once one is not finite), [4 + p] the stage
+ * variables' stationarity -a l1, then the upper triangle of W1 hd_s / d a a', then a times the predictor's f and a
+ * times the corrector's sigma mu coefficient. Every loop over the lanes is innermost (whole SIMD registers) */
+static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm_real_t (*acc)[IPM_LANES]) {
+  int l;
+  int p;
+  int q;
+  ipm_real_t az[IPM_LANES];
+  ipm_real_t l1v[IPM_LANES];
+  ipm_real_t weff[IPM_LANES];
+  ipm_real_t f[IPM_LANES];
+  ipm_real_t fb[IPM_LANES];
+  ipm_sr_av(j, zr, az);
+  for (l = 0; l < IPM_LANES; ++l) {
+    const int i = j + l;
+    const ipm_real_t zs = IPM_SR.zs[i] + (alpha * IPM_SR.dzs[i]);
+    const ipm_real_t t1 = IPM_SR.t1[i] + (alpha * IPM_SR.dt1[i]);
+    const ipm_real_t l1 = IPM_SR.l1[i] + (alpha * IPM_SR.dl1[i]);
+    const ipm_real_t t2 = IPM_SR.t2[i] + (alpha * IPM_SR.dt2[i]);
+    const ipm_real_t l2 = IPM_SR.l2[i] + (alpha * IPM_SR.dl2[i]);
+    const ipm_real_t e = IPM_SR.e[i];
+    const ipm_real_t bb = IPM_SR.bb[i];
+    const ipm_real_t w = IPM_SR_W(i);
+    const ipm_real_t tl1 = t1 * l1;
+    const ipm_real_t tl2 = t2 * l2;
+    const ipm_real_t it1 = IPM_ONE / t1;
+    const ipm_real_t it2 = IPM_ONE / t2;
+    const ipm_real_t w1 = l1 * it1;
+    const ipm_real_t hds = IPM_SR.ps[i] + ((l2 * it2) * (bb * bb));
+    const ipm_real_t c = w1 * e;
+    const ipm_real_t id = IPM_ONE / (hds + (c * e));
+    const ipm_real_t rp1 = ((az[l] + (e * zs)) - IPM_SR.b1[i]) - t1;
+    const ipm_real_t rp2 = ((bb * zs) - IPM_SR.b2[i]) - t2;
+    const ipm_real_t rds = ((IPM_SR.ps[i] * zs) + IPM_SR.qs[i]) - ((e * l1) + (bb * l2));
+    const ipm_real_t g1 = (tl1 + (l1 * rp1)) * it1;
+    const ipm_real_t g2 = (tl2 + (l2 * rp2)) * it2;
+    const ipm_real_t hv = (rds + (e * g1)) + (bb * g2);
+    weff[l] = (w1 * hds) * id;
+    f[l] = g1 - ((c * hv) * id);
+    fb[l] = it1 - ((c * ((e * it1) + (bb * it2))) * id);
+    l1v[l] = l1;
+    IPM_SR.zs[i] = zs;
+    IPM_SR.rds[i] = rds;
+    IPM_SR.t1[i] = t1;
+    IPM_SR.l1[i] = l1;
+    IPM_SR.t2[i] = t2;
+    IPM_SR.l2[i] = l2;
+    IPM_SR.rp1[i] = rp1;
+    IPM_SR.rp2[i] = rp2;
+    IPM_SR.it1[i] = it1;
+    IPM_SR.it2[i] = it2;
+    IPM_SR.c[i] = c;
+    IPM_SR.id[i] = id;
+    IPM_SR.hs[i] = hv;
+    acc[0][l] += w * (tl1 + tl2);
+    acc[1][l] = ipm_max(ipm_max(ipm_max(IPM_FABS(rp1), IPM_FABS(rp2)), ipm_max(w * ipm_max(tl1, tl2), IPM_FABS(rds))),
+                        acc[1][l]);
+    acc[2][l] = ipm_max(w * ipm_max(l1, l2), acc[2][l]);
+    acc[3][l] += rds * REAL_0;
+  }
+  for (p = 0; p < IPM_NA; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      const ipm_real_t ap = IPM_SR.a[p][j + l];
+      acc[4 + p][l] -= ap * l1v[l];
+      acc[4 + IPM_NA + IPM_SR_NT + p][l] += ap * f[l];
+      acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l] += ap * fb[l];
+    }
+  }
+  for (q = 0; q < IPM_SR_NT; ++q) {
+    const int qa = IPM_SR_QA[q];
+    const int qb = IPM_SR_QB[q];
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[qa][j + l]) * IPM_SR.a[qb][j + l];
+    }
+  }
+}
+
+/* ipm_check's part: the last step's t, lam (IPM_W.aff[3]: its length, 0 for none); both sides' residuals and 1 / t;
+ * the slack's and the stage variables' stationarity (r_d holds P z + q + the other rows' A' y); the maxima of the
+ * stopping test (in m[0]: residuals and products, m[1]: multipliers) and the sum of t lam (returned); per run, the
+ * Newton block's terms (IPM_W.srh), the predictor's right-hand side (IPM_W.srr[0]) and the corrector's sigma mu
+ * coefficient (IPM_W.srr[2]) */
+static ipm_real_t ipm_sr_check(ipm_real_t *m) {
+  int k;
+  int r;
+  int j;
+  int l;
+  int p;
+  int q;
+  ipm_real_t mu = REAL_0;
+  ipm_real_t rmax = m[0];
+  ipm_real_t lmax = m[1];
+  ipm_real_t nf = REAL_0;
+  const ipm_real_t alpha = IPM_W.aff[3];
+  ipm_real_t acc[IPM_SR_NACC][IPM_LANES];
+  ipm_real_t zl[IPM_NXU];
+  ipm_real_t rl[IPM_NXU];
+  for (p = 0; p < 4; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[p][l] = REAL_0;
+    }
+  }
+  for (k = 0; k <= IPM_N; ++k) {
+    for (p = 0; p < IPM_NXU; ++p) {
+      const int v = IPM_VMAP_XU[(k * IPM_NXU) + p];
+      zl[p] = (v >= 0) ? IPM_W.z[v] : REAL_0;
+      rl[p] = REAL_0;
+    }
+    for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+      const int j1 = IPM_SR_RUN_PTR[r + 1];
+      ipm_real_t zr[IPM_NA];
+      for (p = 0; p < IPM_NA; ++p) {
+        zr[p] = zl[IPM_SR_RUN_V[r][p]];
+      }
+      for (p = 4; p < IPM_SR_NACC; ++p) {
+        for (l = 0; l < IPM_LANES; ++l) {
+          acc[p][l] = REAL_0;
+        }
+      }
+      for (j = IPM_SR_RUN_PTR[r]; j < j1; j += IPM_LANES) {
+        ipm_sr_check_rows(j, alpha, zr, acc);
+      }
+      for (p = 0; p < IPM_NA; ++p) {
+        ipm_real_t s0 = REAL_0;
+        ipm_real_t s1 = REAL_0;
+        ipm_real_t s2 = REAL_0;
+        for (l = 0; l < IPM_LANES; ++l) {
+          s0 += acc[4 + p][l];
+          s1 += acc[4 + IPM_NA + IPM_SR_NT + p][l];
+          s2 += acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l];
+        }
+        rl[IPM_SR_RUN_V[r][p]] += s0;
+        IPM_W.srr[0][r][p] = s1;
+        IPM_W.srr[2][r][p] = s2;
+      }
+      for (q = 0; q < IPM_SR_NT; ++q) {
+        ipm_real_t s = REAL_0;
+        for (l = 0; l < IPM_LANES; ++l) {
+          s += acc[4 + IPM_NA + q][l];
+        }
+        IPM_W.srh[r][q] = s;
+      }
+    }
+    for (p = 0; p < IPM_NXU; ++p) {
+      const int v = IPM_VMAP_XU[(k * IPM_NXU) + p];
+      if (v >= 0) {
+        IPM_W.r_d[v] += rl[p];
+      }
+    }
+  }
+  for (l = 0; l < IPM_LANES; ++l) {
+    mu += acc[0][l];
+    rmax = ipm_max(acc[1][l], rmax);
+    lmax = ipm_max(acc[2][l], lmax);
+    nf += acc[3][l];
+  }
+  if (isfinite(nf) == 0) { /* as the generic stationarity test: a non-finite residual stops the QP */
+    rmax = nf;
+  }
+  m[0] = rmax;
+  m[1] = lmax;
+  return mu;
+}
+
+/* the factorization's part (stage k): its runs' W1 hd_s / d a a' (ipm_sr_check's sums) into the upper triangle of
+ * IPM_W.H */
+static void ipm_sr_hessian(int k) {
+  int r;
+  int q;
+  for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+    for (q = 0; q < IPM_SR_NT; ++q) {
+      IPM_W.H[IPM_SR_RUN_V[r][IPM_SR_QA[q]]][IPM_SR_RUN_V[r][IPM_SR_QB[q]]] += IPM_W.srh[r][q];
+    }
+  }
+}
+
+/* the backward sweep's part (stage k): the soft rows' slacks eliminated from the right-hand side ht, from the sums
+ * per run of the predictor (ipm_sr_check) or of the corrector (ipm_sr_forward's predictor pass, sm = sigma mu) */
+static void ipm_sr_rhs(int k, int corr, ipm_real_t sm, ipm_real_t *ht) {
+  int r;
+  int p;
+  for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+    for (p = 0; p < IPM_NA; ++p) {
+      ht[IPM_SR_RUN_V[r][p]] += (corr != 0) ? (IPM_W.srr[1][r][p] - (sm * IPM_W.srr[2][r][p])) : IPM_W.srr[0][r][p];
+    }
+  }
+}
+
+/* ipm_sr_forward's rows j .. j + IPM_LANES - 1 (row j + l on lane l; the run's step to the boundary so far: am): the
+ * slack's step, both sides' dt, dlam; the least of t + am dt, lam + am dlam into the lanes of mn (negative: the run
+ * cuts am). The predictor's pass (corr 0) also sums into the lanes of acc t lam, t dlam + lam dt, dt dlam, and a times
+ * the corrector's f but its sigma mu term, and keeps the corrector's slack right-hand side but that term in
+ * IPM_SR.hs; the corrector's pass (corr 1) adds it (-sm (e / t1 + bb / t2)) */
+static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, const ipm_real_t *vr,
+                                ipm_real_t (*acc)[IPM_LANES], ipm_real_t *mn) {
+  int l;
+  int p;
+  ipm_real_t adv[IPM_LANES];
+  ipm_real_t f[IPM_LANES];
+  ipm_sr_av(j, vr, adv);
+  for (l = 0; l < IPM_LANES; ++l) {
+    f[l] = REAL_0;
+  }
+  for (l = 0; l < IPM_LANES; ++l) {
+    const int i = j + l;
+    const ipm_real_t t1 = IPM_SR.t1[i];
+    const ipm_real_t l1 = IPM_SR.l1[i];
+    const ipm_real_t t2 = IPM_SR.t2[i];
+    const ipm_real_t l2 = IPM_SR.l2[i];
+    const ipm_real_t it1 = IPM_SR.it1[i];
+    const ipm_real_t it2 = IPM_SR.it2[i];
+    const ipm_real_t e = IPM_SR.e[i];
+    const ipm_real_t bb = IPM_SR.bb[i];
+    const ipm_real_t rp1 = IPM_SR.rp1[i];
+    const ipm_real_t rp2 = IPM_SR.rp2[i];
+    const ipm_real_t c = IPM_SR.c[i];
+    const ipm_real_t id = IPM_SR.id[i];
+    const ipm_real_t w = IPM_SR_W(i);
+    const ipm_real_t rc1 = (corr != 0) ? (((t1 * l1) + (IPM_SR.dt1[i] * IPM_SR.dl1[i])) - sm) : (t1 * l1);
+    const ipm_real_t rc2 = (corr != 0) ? (((t2 * l2) + (IPM_SR.dt2[i] * IPM_SR.dl2[i])) - sm) : (t2 * l2);
+    const ipm_real_t hs = (corr != 0) ? (IPM_SR.hs[i] - (sm * ((e * it1) + (bb * it2)))) : IPM_SR.hs[i];
+    const ipm_real_t ds = (-((c * adv[l]) + hs)) * id;
+    const ipm_real_t dt1 = (adv[l] + (e * ds)) + rp1;
+    const ipm_real_t dl1 = (-(rc1 + (l1 * dt1))) * it1;
+    const ipm_real_t dt2 = (bb * ds) + rp2;
+    const ipm_real_t dl2 = (-(rc2 + (l2 * dt2))) * it2;
+    const ipm_real_t least = ipm_min(ipm_min(t1 + (am * dt1), l1 + (am * dl1)), ipm_min(t2 + (am * dt2), l2 + (am * dl2)));
+    IPM_SR.dzs[i] = ds;
+    IPM_SR.dt1[i] = dt1;
+    IPM_SR.dl1[i] = dl1;
+    IPM_SR.dt2[i] = dt2;
+    IPM_SR.dl2[i] = dl2;
+    mn[l] = ipm_min((w > REAL_0) ? least : IPM_ONE, mn[l]);
+    if (corr == 0) {
+      const ipm_real_t g1 = (((t1 * l1) + (dt1 * dl1)) + (l1 * rp1)) * it1;
+      const ipm_real_t g2 = (((t2 * l2) + (dt2 * dl2)) + (l2 * rp2)) * it2;
+      const ipm_real_t hv = (IPM_SR.rds[i] + (e * g1)) + (bb * g2);
+      f[l] = g1 - ((c * hv) * id);
+      IPM_SR.hs[i] = hv;
+      acc[0][l] += w * ((t1 * l1) + (t2 * l2));
+      acc[1][l] += w * (((t1 * dl1) + (l1 * dt1)) + ((t2 * dl2) + (l2 * dt2)));
+      acc[2][l] += w * ((dt1 * dl1) + (dt2 * dl2));
+    }
+  }
+  for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[3 + p][l] += IPM_SR.a[p][j + l] * f[l];
+    }
+  }
+}
+
+/* the forward sweep's part (stage k, its step dv): the slack's step, both sides' dt, dlam; for the predictor, adds to
+ * IPM_W.aff the sums of t lam, t dlam + lam dt and dt dlam (mu_aff for any step length) and sums per run the
+ * corrector's right-hand side (IPM_W.srr[1]); returns amax cut to the boundary of their t and lam */
+static ipm_real_t ipm_sr_forward(int k, int corr, ipm_real_t sm, const ipm_real_t *dv, ipm_real_t amax) {
+  int r;
+  int j;
+  int l;
+  int p;
+  ipm_real_t am = amax;
+  ipm_real_t acc[3 + IPM_NA][IPM_LANES];
+  for (p = 0; p < 3; ++p) {
+    for (l = 0; l < IPM_LANES; ++l) {
+      acc[p][l] = REAL_0;
+    }
+  }
+  for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
+    const int j0 = IPM_SR_RUN_PTR[r];
+    const int j1 = IPM_SR_RUN_PTR[r + 1];
+    ipm_real_t vr[IPM_NA];
+    ipm_real_t mn[IPM_LANES];
+    ipm_real_t least = IPM_ONE;
+    for (p = 0; p < IPM_NA; ++p) {
+      vr[p] = dv[IPM_SR_RUN_V[r][p]];
+      for (l = 0; l < IPM_LANES; ++l) {
+        acc[3 + p][l] = REAL_0;
+      }
+    }
+    for (l = 0; l < IPM_LANES; ++l) {
+      mn[l] = IPM_ONE;
+    }
+    for (j = j0; j < j1; j += IPM_LANES) {
+      ipm_sr_forward_rows(j, corr, sm, am, vr, acc, mn);
+    }
+    for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
+      ipm_real_t s = REAL_0;
+      for (l = 0; l < IPM_LANES; ++l) {
+        s += acc[3 + p][l];
+      }
+      IPM_W.srr[1][r][p] = s;
+    }
+    for (l = 0; l < IPM_LANES; ++l) {
+      least = ipm_min(mn[l], least);
+    }
+    if (least < REAL_0) { /* rare: the run cuts am; row by row, as one sequential pass would, a division per cut */
+      for (j = j0; j < j1; ++j) {
+        if (IPM_SR_ROW[j] < 0) {
+          continue; /* a padding row */
+        }
+        if ((IPM_SR.t1[j] + (am * IPM_SR.dt1[j])) < REAL_0) {
+          am = (-IPM_SR.t1[j]) / IPM_SR.dt1[j];
+        }
+        if ((IPM_SR.l1[j] + (am * IPM_SR.dl1[j])) < REAL_0) {
+          am = (-IPM_SR.l1[j]) / IPM_SR.dl1[j];
+        }
+        if ((IPM_SR.t2[j] + (am * IPM_SR.dt2[j])) < REAL_0) {
+          am = (-IPM_SR.t2[j]) / IPM_SR.dt2[j];
+        }
+        if ((IPM_SR.l2[j] + (am * IPM_SR.dl2[j])) < REAL_0) {
+          am = (-IPM_SR.l2[j]) / IPM_SR.dl2[j];
+        }
+      }
+    }
+  }
+  for (l = 0; l < IPM_LANES; ++l) {
+    IPM_W.aff[0] += acc[0][l];
+    IPM_W.aff[1] += acc[1][l];
+    IPM_W.aff[2] += acc[2][l];
+  }
+  return am;
+}
+
+/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first);
+ * a per-row sum over them runs flat over the sides: the row's first side sets it, a second (IPM_SIDE_2ND) adds */
+/* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
+ * still in IPM_W.dt, IPM_W.dlam) */
+static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
+  return (corr != 0) ? (((IPM_W.t[j] * IPM_W.lam[j]) + (IPM_W.dt[j] * IPM_W.dlam[j])) - sm)
+                     : (IPM_W.t[j] * IPM_W.lam[j]);
+}
+
+/* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows) */
+static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
+  int gs;
+  int a;
+  int j;
+  for (a = 0; a < IPM_NGV; ++a) {
+    IPM_W.h[IPM_GV[a]] = IPM_W.r_d[IPM_GV[a]];
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const int r = IPM_SIDE_ROW[j];
+    const ipm_real_t g = (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+    IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
+  }
+  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
+    ipm_real_t gv;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    gv = IPM_W.ar[IPM_GEN_ROW[gs]];
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
+    }
+  }
+  for (a = 0; a < IPM_NBOX; ++a) {
+    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.bax[a] * IPM_W.ar[IPM_BOX_ROW[a]];
+  }
+}
+
+/* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
+ * pass over the sides); returns the largest step to the boundary (at most amax0) */
+static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
+  int gs;
+  int a;
+  int j;
+  ipm_real_t amax = amax0;
+  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
+    ipm_real_t s = REAL_0;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      s += IPM_W.gax[a] * IPM_W.dz[IPM_GEN_VAR[a]];
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      s += IPM_W.gex[gs] * IPM_W.dz[IPM_GEN_SVAR[gs]];
+    }
+    IPM_W.ar[IPM_GEN_ROW[gs]] = s;
+  }
+  for (a = 0; a < IPM_NBOX; ++a) {
+    IPM_W.ar[IPM_BOX_ROW[a]] = IPM_W.bax[a] * IPM_W.dz[IPM_BOX_VAR[a]];
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const ipm_real_t rc = ipm_rc(corr, sm, j);
+    const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
+    const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
+    /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
+    if ((IPM_W.t[j] + (amax * dt)) < REAL_0) {
+      amax = (-IPM_W.t[j]) / dt;
+    }
+    if ((IPM_W.lam[j] + (amax * dl)) < REAL_0) {
+      amax = (-IPM_W.lam[j]) / dl;
+    }
+    IPM_W.dt[j] = dt;
+    IPM_W.dlam[j] = dl;
+  }
+  return amax;
+}
+
+/* value of entry e of stage k's [F G] (x_{k+1} = F x + G u + c): -A / E */
+#define IPM_FG(k, e) ((-IPM_W.Ax[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]])
+/* the same, cached by qpb_set_matrices (entry e - IPM_DYN_PTR[k] of stage k) */
+#define IPM_FGV(k, e) IPM_W.fgv[k][(e) - IPM_DYN_PTR[k]]
+static void qpb_reset(void) {
+  (void)memset(&IPM_W, 0, sizeof IPM_W);
+}
+
+/* prepare phase: the dynamics blocks of this sample */
+static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const ipm_real_t *q) {
+  int k;
+  int i;
+  (void)q;
+  IPM_W.Pd = P_x;
+  IPM_W.Ax = A_x;
+  for (k = 0; k < IPM_N; ++k) {
+    int e;
+    for (i = 0; i < IPM_NX; ++i) {
+      IPM_W.Einv[k][i] = IPM_ONE / A_x[IPM_DYN_NEXT[(k * IPM_NX) + i]];
+    }
+    for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) {
+      IPM_FGV(k, e) = IPM_FG(k, e);
+    }
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    IPM_W.einit[i] = A_x[IPM_INIT_A[i]];
+  }
+  for (i = 0; i < IPM_NGA; ++i) { /* the inequality rows' coefficients in the order the feedback loops read them */
+    IPM_W.gax[i] = A_x[IPM_GEN_A[i]];
+  }
+  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
+    IPM_W.gex[i] = (IPM_GEN_E[i] >= 0) ? A_x[IPM_GEN_E[i]] : REAL_0;
+  }
+  for (i = 0; i < IPM_NBOX; ++i) {
+    IPM_W.bax[i] = A_x[IPM_BOX_A[i]];
+  }
+  for (i = 0; i < IPM_NSRP; ++i) { /* times the sides' signs: both sides of a soft row are lower sides */
+    const ipm_real_t sg = (ipm_real_t)IPM_SR_SIGN[i];
+    int p;
+    for (p = 0; p < IPM_NA; ++p) {
+      const int da = IPM_SR_A[i][p];
+      IPM_SR.a[p][i] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
+    }
+    if (IPM_SR_ROW[i] < 0) { /* a padding row: no data, P_s = 1 */
+      IPM_SR.e[i] = REAL_0;
+      IPM_SR.ps[i] = IPM_ONE;
+      IPM_SR.bb[i] = REAL_0;
+      IPM_SR.w[i] = REAL_0;
+    } else {
+      IPM_SR.e[i] = sg * A_x[IPM_SR_E[i]];
+      IPM_SR.ps[i] = P_x[IPM_SR_SVAR[i]];
+      IPM_SR.bb[i] = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
+      IPM_SR.w[i] = IPM_ONE;
+    }
+  }
+  return 0;
+}
+
+/* slack s of stage k: its rows' general slots IPM_SG_G[p], p = IPM_SG_BEG[k][s] .. IPM_SG_END[k][s] - 1 */
+#define IPM_SG0(k, s) IPM_SG_BEG[k][s]
+#define IPM_SG1(k, s) IPM_SG_END[k][s]
+#define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
+
+/* stage k's [F G] (x_{k+1} = F x + G u + c) as a dense NX x NXU block in IPM_W.FGd */
+static void ipm_stage_fg(int k) {
+  int e;
+  (void)memset(IPM_W.FGd, 0, sizeof IPM_W.FGd);
+  for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) {
+    IPM_W.FGd[IPM_DYN_I[e]][IPM_DYN_J[e]] = IPM_FGV(k, e);
+  }
+}
+
+/* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
+ * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k] */
+static void ipm_stage_weights(int k) {
+  int g;
+  int s;
+  int p;
+  int q;
+  int c = IPM_SE_BEG[k][0]; /* the next entry of IPM_W.wc */
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = IPM_GSLOT(k, g);
+    const int r = IPM_GEN_ROW[gs];
+    IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
+    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.gex[gs]) : REAL_0;
+  }
+  for (s = 0; s < IPM_NS; ++s) {
+    const int vs = IPM_VMAP_S[k][s];
+    const ipm_real_t hs = (vs >= 0) ? IPM_W.hd[vs] : IPM_ONE;
+    ipm_real_t dd = hs;
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      dd += IPM_W.wg[gs] * IPM_W.gex[gs];
+    }
+    IPM_W.d[k][s] = dd;
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) == 1) { /* one row (the common case): it weighs W hd_s / d_s */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[IPM_SG0(k, s)]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+      IPM_W.Weff[IPM_SG_G[IPM_SG0(k, s)]] = (IPM_W.wr[IPM_GEN_ROW[gs]] * hs) / dd;
+      continue;
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) { /* W e a of the rows' entries, in IPM_SE order */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      ipm_real_t others = hs;
+      for (q = IPM_SG0(k, s); q < IPM_SG1(k, s); ++q) {
+        if (q != p) {
+          const int gq = IPM_GSLOT(k, IPM_SG_G[q]);
+          others += IPM_W.wg[gq] * IPM_W.gex[gq];
+        }
+      }
+      IPM_W.Weff[IPM_SG_G[p]] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, IPM_SG_G[p])]] * others) / dd;
+    }
+  }
+}
+
+/* stage k's Hessian block IPM_W.H over (x_k, u_k): its rows' weights, P + box weights (IPM_W.h), slack couplings */
+static void ipm_stage_hessian(int k) {
+  int g;
+  int a;
+  int b;
+  int s;
+  int p;
+  int q;
+  (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  /* the rows' W c c' on and above the diagonal (a row's slots ascend), then mirrored */
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = IPM_GSLOT(k, g);
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.gax[a];
+      for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
+        IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.gax[b];
+      }
+    }
+  }
+  ipm_sr_hessian(k);
+  for (a = 0; a < IPM_NXU; ++a) {
+    for (b = a + 1; b < IPM_NXU; ++b) {
+      IPM_W.H[b][a] = IPM_W.H[a][b];
+    }
+  }
+  for (a = 0; a < IPM_NXU; ++a) {
+    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
+    IPM_W.H[a][a] += (v >= 0) ? IPM_W.hd[v] : IPM_ONE;
+  }
+  /* two rows of one slack couple by -W_i e_i W_j e_j / d_s */
+  for (s = 0; s < IPM_NS; ++s) {
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
+      continue; /* one row or none: no coupling */
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      for (q = p + 1; q < IPM_SG1(k, s); ++q) {
+        const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
+        const int gj = IPM_GSLOT(k, IPM_SG_G[q]);
+        const ipm_real_t mij = ((-IPM_W.wg[gi]) * IPM_W.wg[gj]) / IPM_W.d[k][s];
+        int x;
+        int y;
+        for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
+          const ipm_real_t cx = mij * IPM_W.gax[x];
+          for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
+            IPM_W.H[IPM_GEN_V[x]][IPM_GEN_V[y]] += cx * IPM_W.gax[y];
+            IPM_W.H[IPM_GEN_V[y]][IPM_GEN_V[x]] += cx * IPM_W.gax[y];
+          }
+        }
+      }
+    }
+  }
+}
+
+/* H[x|u][x] += [F G]' P_{k+1} F and H[u][u] += G' P_{k+1} G (the cost-to-go through stage k's dynamics) */
+static void ipm_stage_cost_to_go(int k) {
+  int i;
+  int j;
+  int a;
+  /* PFG = P [F G] (dense, contiguous rows; [F G]'s columns that are zero at every stage stay 0) */
+  ipm_stage_fg(k);
+  (void)memset(IPM_W.PFG, 0, sizeof IPM_W.PFG);
+  for (i = 0; i < IPM_NX; ++i) {
+    for (a = 0; a < IPM_NX; ++a) {
+      const ipm_real_t pv = IPM_W.P[k + 1][i][a];
+      for (j = 0; j < IPM_NFGC; ++j) {
+        IPM_W.PFG[i][j] += pv * IPM_W.FGd[a][j];
+      }
+    }
+  }
+  for (a = 0; a < IPM_NX; ++a) {
+    for (i = 0; i < IPM_NFGC; ++i) {
+      const ipm_real_t f = IPM_W.FGd[a][i];
+      int jn = IPM_NFGC;
+      if (f == REAL_0) {
+        continue; /* structurally zero */
+      }
+      if (i < IPM_NX) {
+        jn = IPM_NX;
+      }
+      for (j = 0; j < jn; ++j) {
+        IPM_W.H[i][j] += f * IPM_W.PFG[a][j];
+      }
+    }
+  }
+}
+#if IPM_NE > 0
+
+/* stage k's equalities D u = d: UD = L^-1 D', M = UD' UD (+1 on padded rows), W2 = LM^-1 UD' W1; P_k += W2' W2 */
+static int ipm_stage_equalities(int k) {
+  int i;
+  int j;
+  int a;
+  int e;
+  (void)memset(IPM_W.D, 0, sizeof IPM_W.D);
+  for (e = 0; e < IPM_NE; ++e) {
+    for (a = IPM_EQ_PTR[(k * IPM_NE) + e]; a < IPM_EQ_PTR[(k * IPM_NE) + e + 1]; ++a) {
+      IPM_W.D[e][IPM_EQ_J[a]] = IPM_W.Ax[IPM_EQ_A[a]];
+    }
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    for (e = 0; e < IPM_NE1; ++e) {
+      IPM_W.UD[k][i][e] = IPM_W.D[e][i];
+    }
+  }
+  ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.UD[k][0][0], IPM_NE1, IPM_NE1);
+  for (i = 0; i < IPM_NE1; ++i) {
+    for (j = 0; j < IPM_NE1; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NU; ++a) {
+        v += IPM_W.UD[k][a][i] * IPM_W.UD[k][a][j];
+      }
+      IPM_W.M[i][j] = v;
+    }
+    IPM_W.M[i][i] += (IPM_EQ_ROW[(k * IPM_NE1) + i] < 0) ? IPM_ONE : REAL_0;
+  }
+  if (ipm_chol(&IPM_W.M[0][0], &IPM_W.LM[k][0][0], IPM_NE1, IPM_NE1) != 0) {
+    return 1;
+  }
+  for (i = 0; i < IPM_NE1; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NU; ++a) {
+        v += IPM_W.UD[k][a][i] * IPM_W.W1[k][a][j];
+      }
+      IPM_W.W2[i][j] = v;
+    }
+  }
+  ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, &IPM_W.W2[0][0], IPM_NE1, IPM_NX, IPM_NX);
+  for (i = 0; i < IPM_NX; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NE1; ++a) {
+        v += IPM_W.W2[a][i] * IPM_W.W2[a][j];
+      }
+      IPM_W.Pk[i][j] += v;
+    }
+  }
+  return 0;
+}
+
+/* tv -= UD M^-1 (UD' tv + base): the stage equalities' part of a step (base: NULL for 0) -> M^-1 (..) in nh */
+static void ipm_eq_project(int k, const ipm_real_t *base, ipm_real_t *tv, ipm_real_t *nh) {
+  int i;
+  int a;
+  int e;
+  for (e = 0; e < IPM_NE1; ++e) {
+    ipm_real_t v = REAL_0;
+    for (a = 0; a < IPM_NU; ++a) {
+      v += IPM_W.UD[k][a][e] * tv[a];
+    }
+    nh[e] = (base != NULL) ? (v + base[e]) : v;
+  }
+  ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, nh, IPM_NE1, 1, 1);
+  ipm_bwd(&IPM_W.LM[k][0][0], IPM_NE1, nh, IPM_NE1, 1, 1);
+  for (i = 0; i < IPM_NU; ++i) {
+    ipm_real_t v = REAL_0;
+    for (e = 0; e < IPM_NE1; ++e) {
+      v += IPM_W.UD[k][i][e] * nh[e];
+    }
+    tv[i] -= v;
+  }
+}
+#endif
+
+/* ---- the Newton matrix: box weights, slack groups, Riccati recursion (k = N..0) ---- */
+/* its diagonal hd = P (+ the proximal weight) + the box rows' weights */
+static void ipm_hd(void) {
+  int i;
+  for (i = 0; i < IPM_NGV; ++i) {
+    IPM_W.hd[IPM_GV[i]] = IPM_W.Pd[IPM_GV[i]];
+  }
+  for (i = 0; i < IPM_NFREE; ++i) {
+    IPM_W.hd[IPM_FREE[i]] = IPM_W.Pd[IPM_FREE[i]] + IPM_PROX;
+  }
+  for (i = 0; i < IPM_NBOX; ++i) {
+    const ipm_real_t av = IPM_W.bax[i];
+    IPM_W.hd[IPM_BOX_VAR[i]] += IPM_W.wr[IPM_BOX_ROW[i]] * (av * av);
+  }
+}
+
+/* stage k of the factorization (the Riccati recursion's step from P_{k+1}); 1 if a pivot is not positive */
+static int ipm_factor_stage(int k) {
+  int i;
+  int j;
+  int a;
+  ipm_stage_weights(k);
+  ipm_stage_hessian(k);
+  /* Q = H[x][x], S = H[u][x], R = H[u][u]; plus the cost-to-go through the dynamics */
+  if (k < IPM_N) {
+    ipm_stage_cost_to_go(k);
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    for (j = 0; j < IPM_NU; ++j) {
+      IPM_W.R[i][j] = IPM_W.H[IPM_NX + i][IPM_NX + j];
+    }
+    IPM_W.R[i][i] += IPM_REG;
+  }
+  if (ipm_chol_u(k, &IPM_W.R[0][0], &IPM_W.L[k][0][0]) != 0) {
+    return 1;
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      IPM_W.W1[k][i][j] = IPM_W.H[IPM_NX + i][j];
+    }
+  }
+  ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
+  for (i = 0; i < IPM_NX; ++i) { /* Pk = H[x][x] - W1' W1: on and below the diagonal, row by row */
+    for (j = 0; j <= i; ++j) {
+      IPM_W.Pk[i][j] = IPM_W.H[i][j];
+    }
+  }
+  for (a = 0; a < IPM_NU; ++a) {
+    for (i = 0; i < IPM_NX; ++i) {
+      const ipm_real_t wi = IPM_W.W1[k][a][i];
+      for (j = 0; j <= i; ++j) {
+        IPM_W.Pk[i][j] -= wi * IPM_W.W1[k][a][j];
+      }
+    }
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    for (j = i + 1; j < IPM_NX; ++j) {
+      IPM_W.Pk[i][j] = IPM_W.Pk[j][i];
+    }
+  }
+#if IPM_NE > 0
+  if (ipm_stage_equalities(k) != 0) {
+    return 1;
+  }
+#endif
+  for (i = 0; i < IPM_NX; ++i) {
+    for (j = 0; j < IPM_NX; ++j) {
+      const ipm_real_t v = IPM_HALF * (IPM_W.Pk[i][j] + IPM_W.Pk[j][i]);
+      if (isfinite(v) == 0) {
+        return 1;
+      }
+      IPM_W.P[k][i][j] = v;
+    }
+  }
+  return 0;
+}
+
+/* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals IPM_W.r_eq -> IPM_W.dz and,
+ * with duals, the equality multipliers' step IPM_W.dnu (the predictor needs dz only) ---- */
+/* stage k's reduced right-hand side ht (slacks eliminated) and slack right-hand side hs, from IPM_W.h */
+static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
+  int a;
+  int s;
+  int p;
+  for (a = 0; a < IPM_NXU; ++a) {
+    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
+    ht[a] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+  }
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t f;
+    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+    f = hs[s] / IPM_W.d[k][s];
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
+    }
+  }
+}
+
+/* stage k's equality right-hand sides: -r_eq on its dynamics rows (scaled: c_k) and stage equality rows */
+static void ipm_stage_eq(int k, ipm_real_t *cdyn, ipm_real_t *deq) {
+  int i;
+  for (i = 0; (i < IPM_NX) && (k < IPM_N); ++i) {
+    cdyn[i] = (-IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]]) * IPM_W.Einv[k][i];
+  }
+#if IPM_NE > 0
+  for (i = 0; i < IPM_NE1; ++i) {
+    const int r = IPM_EQ_ROW[(k * IPM_NE1) + i];
+    deq[i] = (r >= 0) ? (-IPM_W.wr[r]) : REAL_0;
+  }
+#else
+  (void)deq; /* no stage equalities */
+#endif
+}
+
+/* the backward sweep: p_k, kk_k (and lr_k) for the right-hand side (the soft rows' part for the target ipm_rc);
+ * with factor, each stage is factored first (one sweep: the rows' data is read once); 1 if a pivot is not positive */
+static int ipm_backward(int corr, ipm_real_t sm, int factor) {
+  int k;
+  int i;
+  int j;
+  int a;
+  int e;
+  ipm_real_t pn[IPM_NX] = {0};
+  ipm_real_t qb[IPM_NX];
+  ipm_real_t rb[IPM_NU];
+  ipm_real_t tv[IPM_NU];
+  ipm_real_t ht[IPM_NXU];
+  ipm_real_t hs[IPM_NS];
+  ipm_real_t cdyn[IPM_NX] = {0};
+  ipm_real_t deq[IPM_NE1];
+#if IPM_NE > 0
+  ipm_real_t nh[IPM_NE1];
+#endif
+  for (k = IPM_N; k >= 0; --k) {
+    if ((factor != 0) && (ipm_factor_stage(k) != 0)) {
+      return 1;
+    }
+    ipm_stage_rhs(k, ht, hs);
+    ipm_sr_rhs(k, corr, sm, ht);
+    ipm_stage_eq(k, cdyn, deq);
+    for (i = 0; i < IPM_NX; ++i) {
+      qb[i] = ht[i];
+    }
+    for (i = 0; i < IPM_NU; ++i) {
+      rb[i] = ht[IPM_NX + i];
+    }
+    if (k < IPM_N) {
+      ipm_real_t pc[IPM_NX];
+      ipm_real_t qr[IPM_NXU] = {0}; /* [F G]' pc over the non-zeros */
+      const int e0 = IPM_DYN_PTR[k];
+      for (i = 0; i < IPM_NX; ++i) {
+        ipm_real_t v = REAL_0;
+        for (j = 0; j < IPM_NX; ++j) {
+          v += IPM_W.P[k + 1][i][j] * cdyn[j];
+        }
+        pc[i] = v + pn[i];
+      }
+      for (e = e0; e < IPM_DYN_PTR[k + 1]; ++e) {
+        qr[IPM_DYN_J[e]] += IPM_W.fgv[k][e - e0] * pc[IPM_DYN_I[e]];
+      }
+      for (i = 0; i < IPM_NX; ++i) {
+        qb[i] += qr[i];
+      }
+      for (i = 0; i < IPM_NU; ++i) {
+        rb[i] += qr[IPM_NX + i];
+      }
+    }
+    for (i = 0; i < IPM_NU; ++i) {
+      IPM_W.lr[k][i] = rb[i];
+    }
+    ipm_fwd_u(k, &IPM_W.L[k][0][0], IPM_W.lr[k], 1, 1);
+    for (i = 0; i < IPM_NU; ++i) {
+      tv[i] = IPM_W.lr[k][i];
+    }
+#if IPM_NE > 0
+    ipm_eq_project(k, deq, tv, nh);
+#endif
+    for (i = 0; i < IPM_NX; ++i) {
+      ipm_real_t v = REAL_0;
+      for (a = 0; a < IPM_NU; ++a) {
+        v += IPM_W.W1[k][a][i] * tv[a];
+      }
+      IPM_W.p[k][i] = qb[i] - v;
+      pn[i] = IPM_W.p[k][i];
+    }
+    ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
+    for (i = 0; i < IPM_NU; ++i) {
+      IPM_W.kk[k][i] = -tv[i];
+    }
+  }
+  return 0;
+}
+
+/* stage k's primal step dv = (dx, du) (dz of its slacks and variables) and, with duals, its equality rows' duals */
+static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_real_t *deq, ipm_real_t *dv) {
+  int i;
+  int j;
+  int a;
+  int s;
+  int p;
+  ipm_real_t tv[IPM_NU];
+  ipm_real_t hs[IPM_NS];
+#if IPM_NE > 0
+  ipm_real_t nh[IPM_NE1];
+#else
+  (void)deq; /* no stage equalities */
+#endif
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+  }
+  /* du = K dx + kk with K = -L^-T (W1 - UD M^-1 UD' W1) */
+  for (i = 0; i < IPM_NU; ++i) {
+    ipm_real_t v = REAL_0;
+    for (j = 0; j < IPM_NX; ++j) {
+      v += IPM_W.W1[k][i][j] * dx[j];
+    }
+    tv[i] = v;
+  }
+#if IPM_NE > 0
+  ipm_eq_project(k, NULL, tv, nh);
+#endif
+  ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
+  for (i = 0; i < IPM_NX; ++i) {
+    dv[i] = dx[i];
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    dv[IPM_NX + i] = IPM_W.kk[k][i] - tv[i];
+  }
+  for (i = 0; (i < IPM_NX) && (duals != 0); ++i) {
+    ipm_real_t v = REAL_0;
+    for (j = 0; j < IPM_NX; ++j) {
+      v += IPM_W.P[k][i][j] * dx[j];
+    }
+    v += IPM_W.p[k][i];
+    if (k == 0) {
+      IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
+    } else {
+      IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+    }
+  }
+#if IPM_NE > 0
+  if (duals != 0) {
+    int e;
+    ipm_real_t wl[IPM_NU];
+    for (i = 0; i < IPM_NU; ++i) {
+      ipm_real_t v = REAL_0;
+      for (j = 0; j < IPM_NX; ++j) {
+        v += IPM_W.W1[k][i][j] * dx[j];
+      }
+      wl[i] = v + IPM_W.lr[k][i];
+    }
+    ipm_eq_project(k, deq, wl, nh);
+    for (e = 0; e < IPM_NE1; ++e) {
+      const int r = IPM_EQ_ROW[(k * IPM_NE1) + e];
+      if (r >= 0) {
+        IPM_W.gd[r] = -nh[e];
+      }
+    }
+  }
+#endif
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t acc = REAL_0;
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
+    }
+    if (v >= 0) {
+      IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
+    }
+  }
+  for (a = 0; a < IPM_NXU; ++a) {
+    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
+    if (v >= 0) {
+      IPM_W.dz[v] = dv[a];
+    }
+  }
+}
+
+/* the forward sweep of the Newton step for the target ipm_rc (corr, sm), after ipm_backward: dz, the soft rows'
+ * dt, dlam (and the sums of IPM_W.aff); with the corrector (corr) the equality multipliers' step too; returns the
+ * soft rows' largest step to the boundary (at most 1) */
+static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
+  int k;
+  int i;
+  int e;
+  ipm_real_t amax = IPM_ONE;
+  ipm_real_t dx[IPM_NX];
+  ipm_real_t dxn[IPM_NX];
+  ipm_real_t dv[IPM_NXU];
+  ipm_real_t cdyn[IPM_NX] = {0};
+  ipm_real_t deq[IPM_NE1];
+  IPM_W.aff[0] = REAL_0;
+  IPM_W.aff[1] = REAL_0;
+  IPM_W.aff[2] = REAL_0;
+  for (i = 0; i < IPM_NX; ++i) {
+    dx[i] = (-IPM_W.wr[IPM_INIT_ROWS[i]]) / IPM_W.einit[i];
+  }
+  for (k = 0; k <= IPM_N; ++k) {
+    ipm_stage_eq(k, cdyn, deq);
+    ipm_forward_stage(k, corr, dx, deq, dv);
+    amax = ipm_sr_forward(k, corr, sm, dv, amax);
+    if (k < IPM_N) {
+      const int e0 = IPM_DYN_PTR[k];
+      for (i = 0; i < IPM_NX; ++i) {
+        dxn[i] = REAL_0;
+      }
+      for (e = e0; e < IPM_DYN_PTR[k + 1]; ++e) {
+        dxn[IPM_DYN_I[e]] += IPM_W.fgv[k][e - e0] * dv[IPM_DYN_J[e]];
+      }
+      for (i = 0; i < IPM_NX; ++i) {
+        dx[i] = dxn[i] + cdyn[i];
+      }
+    }
+  }
+  return amax;
+}
+
+/* direction for the complementarity target ipm_rc -> IPM_W.dz, IPM_W.dt, IPM_W.dlam (and the equality duals' step
+ * in IPM_W.gd); with factor, the Newton matrix is factored in the same backward sweep. The largest step to the
+ * boundary (at most 1) in *amax; 1 if a pivot is not positive */
+static int ipm_direction(int corr, ipm_real_t sm, int factor, ipm_real_t *amax) {
+  ipm_ineq_ATx(corr, sm);
+  if (ipm_backward(corr, sm, factor) != 0) {
+    return 1;
+  }
+  *amax = ipm_ineq_sides(corr, sm, ipm_forward(corr, sm));
+  return 0;
+}
+
+/* y: equality rows nu, inequality rows lam_upper - lam_lower */
+static void ipm_compose_y(void) {
+  int i;
+  int j;
+  for (i = 0; i < IPM_NIN; ++i) { /* equality rows: their multipliers, all along */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+    }
+    IPM_W.y[IPM_IN_ROW[i]] = v;
+  }
+  for (i = 0; i < IPM_NSRP; ++i) {
+    if (IPM_SR_ROW[i] < 0) {
+      continue; /* a padding row */
+    }
+    IPM_W.z[IPM_SR_SVAR[i]] = IPM_SR.zs[i];
+    IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_SR.l1[i]);
+    IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_SR.l2[i]);
+  }
+}
+
+/* side j: sign a'z - b >= 0 with b = l (lower side) or -u (upper side) */
+static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
+  return (IPM_SIDE_SIGN[j] > 0) ? l[IPM_SIDE_ROW[j]] : (-u[IPM_SIDE_ROW[j]]);
+}
+
+/* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
+static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
+  int i;
+  int j;
+  int raw = IPM_GOING;
+  ipm_real_t mu = REAL_0;
+  ipm_real_t rmax = REAL_0;
+  ipm_real_t lmax = REAL_0;
+  ipm_real_t az = REAL_0;
+  ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
+  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
+   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const int r = IPM_SIDE_ROW[j];
+    const int second = IPM_SIDE_2ND[j];
+    if (second == 0) {
+      az = IPM_W.wr[r];
+    }
+    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
+    IPM_W.r_p[j] = ((((ipm_real_t)IPM_SIDE_SIGN[j]) * az) - IPM_W.bs[j]) - IPM_W.t[j];
+    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
+    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
+    if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
+      rmax = IPM_FABS(IPM_W.r_p[j]);
+    }
+    mu += IPM_W.t[j] * IPM_W.lam[j];
+    if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
+      rmax = IPM_W.t[j] * IPM_W.lam[j];
+    }
+    if (IPM_W.lam[j] > lmax) {
+      lmax = IPM_W.lam[j];
+    }
+  }
+  for (i = 0; i < IPM_NGV; ++i) {
+    j = IPM_GV[i];
+    IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
+  }
+  for (j = 0; j < IPM_NFREE; ++j) {
+    const int v = IPM_FREE[j];
+    IPM_W.h[v] = ((IPM_W.Pd[v] + IPM_PROX) * IPM_W.z[v]) + q[v];
+  }
+  ipm_ATx(IPM_W.h, IPM_W.y, IPM_W.r_d);
+  {
+    ipm_real_t m[2];
+    m[0] = rmax;
+    m[1] = lmax;
+    mu += ipm_sr_check(m);
+    rmax = m[0];
+    lmax = m[1];
+  }
+  for (j = 0; j < IPM_NEQ; ++j) {
+    const int r = IPM_EQ_ALL[j];
+    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
+    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
+      rmax = IPM_FABS(IPM_W.wr[r]);
+    }
+  }
+  mu /= (ipm_real_t)IPM_NCOMP;
+  for (i = 0; i < IPM_NGV; ++i) {
+    j = IPM_GV[i];
+    if (isfinite(IPM_W.r_d[j]) == 0) {
+      rmax = IPM_W.r_d[j];
+    } else if (IPM_FABS(IPM_W.r_d[j]) > rmax) {
+      rmax = IPM_FABS(IPM_W.r_d[j]);
+    } else {
+      /* within rmax */
+    }
+  }
+  if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
+    raw = IPM_RAW_QP_NONFINITE;
+  } else if (rmax <= IPM_TOL) {
+    raw = IPM_RAW_QP_SOLVED;
+  } else if (lmax > IPM_LAM_MAX) {
+    raw = IPM_RAW_QP_PRIMAL_INFEASIBLE;
+  } else {
+    /* not converged */
+  }
+  *mu_out = mu;
+  return raw;
+}
+
+/* one predictor-corrector step from the iterate ipm_check left (mu: its complementarity): IPM_GOING, or the raw
+ * status it stops with */
+static int ipm_step(ipm_real_t mu) {
+  int j;
+  int finite = 1;
+  ipm_real_t a_aff = REAL_0;
+  ipm_real_t mu_aff = REAL_0;
+  ipm_real_t ratio;
+  ipm_real_t sigma;
+  ipm_real_t alpha = REAL_0;
+  /* IPM_W.wr: W = sum lam / t on the inequality rows (ipm_check), r_eq on the others */
+  ipm_hd();
+  /* predictor (affine scaling; the Newton matrix factored in its backward sweep), then Mehrotra's corrector with
+   * the centring sigma = (mu_aff / mu)^3 */
+  if (ipm_direction(0, REAL_0, 1, &a_aff) != 0) {
+    return IPM_RAW_QP_NUMERICAL;
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    mu_aff += (IPM_W.t[j] + (a_aff * IPM_W.dt[j])) * (IPM_W.lam[j] + (a_aff * IPM_W.dlam[j]));
+  }
+  /* the soft rows' sum of (t + a dt) (lam + a dlam), from the sums of their forward sweep */
+  mu_aff += IPM_W.aff[0] + (a_aff * (IPM_W.aff[1] + (a_aff * IPM_W.aff[2])));
+  mu_aff /= (ipm_real_t)IPM_NCOMP;
+  ratio = mu_aff / mu;
+  sigma = (ratio * ratio) * ratio;
+  (void)ipm_direction(1, sigma * mu, 0, &alpha);
+  alpha *= IPM_TAU;
+  if (alpha > IPM_ONE) {
+    alpha = IPM_ONE;
+  }
+  for (j = 0; j < IPM_NGV; ++j) {
+    if (isfinite(IPM_W.dz[IPM_GV[j]]) == 0) {
+      finite = 0;
+    }
+  }
+  if (finite == 0) {
+    return IPM_RAW_QP_NONFINITE;
+  }
+  if (alpha < IPM_ALPHA_MIN) {
+    return IPM_RAW_QP_NUMERICAL;
+  }
+  for (j = 0; j < IPM_NGV; ++j) {
+    IPM_W.z[IPM_GV[j]] += alpha * IPM_W.dz[IPM_GV[j]];
+  }
+  for (j = 0; j < IPM_NEQ; ++j) {
+    IPM_W.y[IPM_EQ_ALL[j]] += alpha * IPM_W.gd[IPM_EQ_ALL[j]];
+  }
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    IPM_W.t[j] += alpha * IPM_W.dt[j];
+    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
+  }
+  IPM_W.aff[3] = alpha; /* the soft rows take this step in the next ipm_check's pass */
+  return IPM_GOING;
+}
+
+static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
+                     const ipm_real_t *y_warm, int max_iter, qpb_result_t *res) {
+  int j;
+  int it = 0;
+  int raw = IPM_GOING;
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const int r = IPM_SIDE_ROW[j];
+    const ipm_real_t lw = (IPM_WARM != 0) ? ((-IPM_SIDE_SIGN[j]) * y_warm[r]) : REAL_0;
+    const ipm_real_t b = ipm_side_b(l, u, j);
+    IPM_W.bs[j] = b;
+    IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
+    IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
+  }
+  for (j = 0; j < IPM_NSRP; ++j) {
+    const int r = IPM_SR_ROW[j];
+    const int rb = IPM_SR_BROW[j];
+    IPM_SR.zs[j] = REAL_0;
+    IPM_SR.dzs[j] = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0) */
+    IPM_SR.dt1[j] = REAL_0;
+    IPM_SR.dl1[j] = REAL_0;
+    IPM_SR.dt2[j] = REAL_0;
+    IPM_SR.dl2[j] = REAL_0;
+    if (r < 0) { /* a padding row: b = -1 and t = 1 on both sides, lam = 0, no cost: every step keeps t, z_s */
+      IPM_SR.b1[j] = -IPM_ONE;
+      IPM_SR.b2[j] = -IPM_ONE;
+      IPM_SR.t1[j] = IPM_ONE;
+      IPM_SR.t2[j] = IPM_ONE;
+      IPM_SR.l1[j] = REAL_0;
+      IPM_SR.l2[j] = REAL_0;
+      IPM_SR.qs[j] = REAL_0;
+    } else {
+      const ipm_real_t lw1 = (IPM_WARM != 0) ? ((-IPM_SR_SIGN[j]) * y_warm[r]) : REAL_0;
+      const ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
+      IPM_SR.b1[j] = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
+      IPM_SR.b2[j] = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
+      IPM_SR.t1[j] = ((-IPM_SR.b1[j]) > IPM_T_MIN) ? (-IPM_SR.b1[j]) : IPM_T_MIN;
+      IPM_SR.t2[j] = ((-IPM_SR.b2[j]) > IPM_T_MIN) ? (-IPM_SR.b2[j]) : IPM_T_MIN;
+      IPM_SR.l1[j] = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
+      IPM_SR.l2[j] = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
+      IPM_SR.qs[j] = q[IPM_SR_SVAR[j]];
+    }
+  }
+  IPM_W.aff[3] = REAL_0;
+  { /* a centred start: every lam at least IPM_LAM_CENTER mean(t lam) / t */
+    ipm_real_t c = REAL_0;
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      c += IPM_W.t[j] * IPM_W.lam[j];
+    }
+    for (j = 0; j < IPM_NSRP; ++j) {
+      c += (IPM_SR.t1[j] * IPM_SR.l1[j]) + (IPM_SR.t2[j] * IPM_SR.l2[j]); /* a padding row: lam = 0 here */
+    }
+    c = IPM_LAM_CENTER * (c / (ipm_real_t)IPM_NCOMP);
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      const ipm_real_t lc = c / IPM_W.t[j];
+      IPM_W.lam[j] = (lc > IPM_W.lam[j]) ? lc : IPM_W.lam[j];
+    }
+    for (j = 0; j < IPM_NSRP; ++j) {
+      if (IPM_SR_ROW[j] >= 0) { /* a padding row keeps lam = 0 */
+        const ipm_real_t lc1 = c / IPM_SR.t1[j];
+        const ipm_real_t lc2 = c / IPM_SR.t2[j];
+        IPM_SR.l1[j] = (lc1 > IPM_SR.l1[j]) ? lc1 : IPM_SR.l1[j];
+        IPM_SR.l2[j] = (lc2 > IPM_SR.l2[j]) ? lc2 : IPM_SR.l2[j];
+      }
+    }
+  }
+  for (j = 0; j < IPM_NEQ; ++j) {
+    IPM_W.y[IPM_EQ_ALL[j]] = (IPM_WARM != 0) ? y_warm[IPM_EQ_ALL[j]] : REAL_0;
+  }
+  for (j = 0; j < IPM_NGV; ++j) {
+    IPM_W.z[IPM_GV[j]] = REAL_0;
+  }
+  while (raw == IPM_GOING) {
+    ipm_real_t mu;
+    raw = ipm_check(q, l, &mu);
+    if ((raw == IPM_GOING) && (it >= max_iter)) {
+      raw = IPM_RAW_QP_MAX_ITER;
+    }
+    if (raw == IPM_GOING) {
+      raw = ipm_step(mu);
+      if (raw == IPM_GOING) {
+        ++it;
+      }
+    }
+  }
+  ipm_compose_y();
+  res->raw_status = raw;
+  res->status = IPM_STATUS[raw];
+  res->iter = it;
+  res->z = (raw == IPM_RAW_QP_NONFINITE) ? NULL : IPM_W.z;
+  res->y = (raw == IPM_RAW_QP_NONFINITE) ? NULL : IPM_W.y;
+  return 0;
+}

@@ -1,0 +1,105 @@
+"""The IPM's algorithm as plain C (templates/backends/ipm_core.c), compiled on its own with a problem header rendered
+by fcgen, on the QPs a Python closed loop solved: the same statuses, iterations and solutions as the Python IPM, and
+(an independent check) its solutions satisfy the QP's optimality conditions."""
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fcgen.backends import QP_SOLVED
+from fcgen.backends.ipm import codegen_context
+from fcgen.codegen.render import render_template, templates_dir
+from fcgen.dsl import Horizon, QpOptions
+from fcgen.ocp import build_ocp
+from fcgen.presets import paper_problem
+from fcgen.reference import RtiSolver
+from fcgen.sim.closedloop import ReferenceController, run_closed_loop
+from fcgen.sim.scenario import make_scenario
+from test_ipm import kkt
+
+HARNESS = Path(__file__).parent / "c" / "ipm_core_test.c"
+
+
+def record_events(pb, samples: int, seed: int = 1):
+    """The backend calls of a Python closed loop, in order: ('R',), ('M', P, A, q), ('S', q, l, u, y, it, result)."""
+    ocp = build_ocp(pb)
+    ref = RtiSolver(ocp)
+    inner, events = ref.qp, []
+
+    class Recorder:
+        name = "recorder"
+
+        def reset(self):
+            events.append(("R",))
+            inner.reset()
+
+        def set_matrices(self, P_x, A_x, q):
+            events.append(("M", np.array(P_x, float), np.array(A_x, float), np.array(q, float)))
+            inner.set_matrices(P_x, A_x, q)
+
+        def solve(self, q, l, u, y_warm, max_iter):
+            res = inner.solve(q, l, u, y_warm, max_iter)
+            events.append(("S", *(np.array(a, float) for a in (q, l, u, y_warm)), max_iter, res))
+            return res
+
+    ref.qp = Recorder()
+    run_closed_loop(pb, make_scenario(pb.name.split("_")[0], seed, samples=samples),
+                    ReferenceController(ocp, ref), ocp)
+    return ocp, ref.lay, events
+
+
+def build_harness(ocp, lay, opts, tmp: Path) -> Path:
+    ctx = codegen_context(ocp, lay, opts)
+    (tmp / "ipm_problem.h").write_text(render_template("backends/ipm_problem.h.j2", name="tipm", NAME="TIPM",
+                                                       backend=ctx, c_sqrt="sqrt", c_fabs="fabs"))
+    exe = tmp / "ipm_core_test"
+    subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
+                    "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{templates_dir() / 'backends'}",
+                    str(HARNESS), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
+    return exe
+
+
+@pytest.mark.parametrize("sc,form,ob", [("truck", "lifted", "ellipse"), ("car", "conventional", "hyperplane")],
+                         ids=["no_equalities", "stage_equalities"])
+def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
+    pb = paper_problem(sc, form, ob, horizon=Horizon(N=10), qp=QpOptions(backend="ipm"))
+    ocp, lay, events = record_events(pb.with_(name=f"{sc}_x"), samples=6)
+    ctx = codegen_context(ocp, lay, pb.qp)
+    assert (ctx["NE"] > 0) == (form == "conventional")   # both branches of the core's #if IPM_NE > 0
+    exe = build_harness(ocp, lay, pb.qp, tmp_path)
+    n, m, nnz = lay.n, lay.m, lay.nnz_A
+    with open(tmp_path / "events.bin", "wb") as f:
+        for e in events:
+            f.write(e[0].encode())
+            if e[0] == "M":
+                f.write(np.concatenate(e[1:4]).tobytes())
+            elif e[0] == "S":
+                f.write(np.concatenate([*e[1:5], [float(e[5])]]).tobytes())
+    subprocess.run([str(exe), str(n), str(m), str(nnz), str(tmp_path / "events.bin"), str(tmp_path / "out.bin")],
+                   check=True)
+    out = np.fromfile(tmp_path / "out.bin").reshape(-1, 3 + n + m)
+    solves = [e for e in events if e[0] == "S"]
+    assert len(out) == len(solves) >= 6
+    P = next(e for e in events if e[0] == "M")
+    for row, (_, q, l, u, y_warm, it, res) in zip(out, solves):
+        status, raw, iters = (int(v) for v in row[:3])
+        z, y = row[3:3 + n], row[3 + n:]
+        assert (status, raw, iters) == (res.status, res.raw_status, res.iter)
+        assert status == QP_SOLVED
+        scale = max(1.0, float(np.max(np.abs(res.z))))
+        assert np.max(np.abs(z - res.z)) <= 1e-9 * scale
+        assert np.max(np.abs(y - res.y)) <= 1e-9 * max(1.0, float(np.max(np.abs(res.y))))
+    # optimality of the last QP's C solution, independent of the Python IPM (stopping tolerance 1e-4, scaled QP)
+    last_M = [e for e in events if e[0] == "M"][-1]
+    r_d, viol, comp = kkt(lay, last_M[1], last_M[2], solves[-1][1], solves[-1][2], solves[-1][3], z, y)
+    assert r_d < 1e-2 and viol < 1e-2 and comp < 1e-2, (r_d, viol, comp)
+    assert P is not None
+
+
+def test_the_core_is_not_a_template():
+    src = (templates_dir() / "backends" / "ipm_core.c").read_text()
+    assert "{{" not in src and "{%" not in src and "{#" not in src
+    assert "qpb_solve" in src and "#if IPM_NE > 0" in src
