@@ -52,7 +52,8 @@ def test_simulate_with_a_problem_file(runner, tmp_path):
 def test_presets_command_lists_all(runner):
     res = runner.invoke(main, ["presets"])
     assert res.exit_code == 0
-    assert res.output.split() == preset_names()
+    assert res.stdout.split() == preset_names()
+    assert "_ipm" in res.stderr
 
 
 def assert_clean_error(res, *words, code=None):

@@ -529,9 +529,11 @@ def regress(new, golden, mode, preset, tols, timing, controller, verify, cc, cfl
 
 @main.command(name="presets")
 def list_presets() -> None:
-    """List the preset problems."""
+    """List the preset problems (one name a line on stdout; what the names mean on stderr)."""
     for n in preset_names():
         click.echo(n)
+    click.echo("Each is the paper's configuration <scenario>_<formulation>_<obstacle model>, with OSQP. Append _ipm for "
+               "the same problem with the IPM backend (truck_lifted_ellipse_ipm).", err=True)
 
 
 if __name__ == "__main__":  # pragma: no cover
