@@ -53,20 +53,36 @@ def _fmt_summary(s: dict) -> str:
 @click.option("--problem", "problem_spec", default=None, help="a preset name or a Python file (overrides the three above)")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True)
 @click.option("--samples", type=click.IntRange(1, 100000), default=200, show_default=True)
-@click.option("--controller", type=click.Choice(["python", "c"]), default="python", show_default=True)
+@click.option("--controller", type=click.Choice(["python", "c", "fmu"]), default="python", show_default=True,
+              help="the Python reference, the compiled C library (--solver-dir) or an FMU through FMPy (--fmu)")
 @click.option("--solver-dir", type=click.Path(file_okay=False), default=None,
               help="generated solver folder (with --controller c)")
+@click.option("--fmu", "fmu_path", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="an FMU written by `fcgen fmu` (with --controller fmu; its problem unless --problem)")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="write the run log (JSON)")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="write a picture of the run (PNG)")
-def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samples, controller, solver_dir, out, plot):
+def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samples, controller, solver_dir, fmu_path,
+             out, plot):
     """Run one randomized closed-loop scenario (paper section V) and print its summary."""
     from .sim.closedloop import run_closed_loop
     from .sim.runlog import summary
     from .sim.scenario import make_scenario
 
-    pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
+    if controller == "fmu" and fmu_path is None:
+        _fail("--controller fmu needs --fmu (a file written by `fcgen fmu`)")
+    if controller == "fmu" and not problem_spec:
+        from .fmu import fmu_problem
+        pb = fmu_problem(fmu_path)
+    else:
+        pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     ctrl = None
+    if controller == "fmu":
+        from .fmu import FmuController, FmuError
+        try:
+            ctrl = FmuController(fmu_path, pb)
+        except FmuError as exc:
+            _fail(str(exc))
     if controller == "c":
         from .build import CSolver, build
         if solver_dir is None:
@@ -437,6 +453,25 @@ def demo(problem_name, seed, samples, out_dir, plot, ipm):
     click.echo(res.format())
     if not res.matches:
         _fail("the generated C does not reproduce the Python reference within the tolerance")
+
+
+@main.command(name="fmu")
+@click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False), help="the FMU file to write (.fmu)")
+@click.option("--fmi", type=click.Choice(["3", "2"]), default="3", show_default=True, help="FMI version")
+@click.option("--force", is_flag=True, help="replace an existing file")
+def fmu_cmd(solver_dir, out, fmi, force):
+    """Package a generated solver folder as a co-simulation FMU (sources, a binary for this platform, docs)."""
+    from .atomic import check_file_target
+    from .build import BuildError
+    from .fmu import FmuError, build_fmu
+
+    check_file_target(out, "an FMU", force, option="-o")
+    try:
+        path = build_fmu(Path(solver_dir), Path(out), int(fmi))
+    except (FmuError, BuildError) as exc:
+        _fail(str(exc))
+    click.echo(f"FMU (FMI {fmi}.0, co-simulation) written to {path} ({Path(path).stat().st_size:,} bytes)")
 
 
 @main.command()

@@ -51,7 +51,7 @@ __all__ = [
 FORMAT_VERSION = "fcgen-runlog/1"
 
 #: Allowed values of ``meta["controller"]``.
-CONTROLLER_KINDS: tuple[str, ...] = ("python-reference", "c", "c-firmware_sim")
+CONTROLLER_KINDS: tuple[str, ...] = ("python-reference", "c", "c-firmware_sim", "c-fmu")
 
 #: Keys ``meta`` must contain (more keys are allowed and preserved).
 META_KEYS: tuple[str, ...] = (

@@ -1,0 +1,403 @@
+"""``fcgen fmu``: a generated solver folder packaged as a co-simulation FMU (FMI 3.0 or 2.0), and a closed-loop
+controller that drives such an FMU through FMPy.
+
+The FMU holds ``modelDescription.xml``, the sources (the solver folder's C and the wrapper fcgen renders from
+``templates/fmu/``: one core, two thin FMI layers), a binary for this platform built from them, and the folder's
+README under ``documentation/``. The FMI headers come from the installed ``fmpy`` package.
+"""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from xml.sax.saxutils import escape
+
+import numpy as np
+
+from . import __version__
+from .codegen.consistency import read_macros
+from .codegen.render import render_template
+from .reference import EXIT_CODES, QP_EXIT
+
+PLATFORM = {3: "x86_64-linux", 2: "linux64"}
+"""The folder of this platform's binary under ``binaries/`` (FMI 3.0 and 2.0 name it differently)."""
+FMI_VERSIONS = (3, 2)
+
+
+class FmuError(ValueError):
+    """An FMU that cannot be built or driven (one line)."""
+
+
+@dataclass(frozen=True)
+class Var:
+    """One FMU variable: an array (``dims``) or a scalar of Float64 or Int32."""
+
+    name: str
+    type: str           # "Float64" or "Int32"
+    input: bool
+    dims: tuple[int, ...]
+    doc: str
+
+    @property
+    def count(self) -> int:
+        return int(np.prod(self.dims)) if self.dims else 1
+
+
+def fmi_headers() -> Path:
+    """The folder of FMI's C headers shipped inside the installed fmpy package."""
+    try:
+        import fmpy
+    except ImportError as exc:  # pragma: no cover - fmpy is a dependency
+        raise FmuError("fcgen fmu needs the fmpy package (pip install fmpy)") from exc
+    return Path(fmpy.__file__).parent / "c-code"
+
+
+def variables(sizes: dict[str, int]) -> list[Var]:
+    """The FMU's variables, in value-reference order (FMI 3.0: variable i has value reference i + 1)."""
+    N, NX, NU, RM = sizes["N"], sizes["NX"], sizes["NU"], sizes["ROAD_MAX"]
+    opp = (N + 1, sizes["NOPP"], sizes["NOPP_PAR"])
+    return [
+        Var("state", "Float64", True, (5,), "measured Frenet state [s, n, alpha, v, delta] (m, m, rad, m/s, rad)"),
+        Var("road_s0", "Float64", True, (), "arc length of the first road sample (m)"),
+        Var("road_ds", "Float64", True, (), "road sample spacing (m)"),
+        Var("road_n", "Int32", True, (), f"road samples used, 2..{RM}"),
+        Var("road_kappa", "Float64", True, (RM,), "curvature at each sample (1/m)"),
+        Var("road_phi", "Float64", True, (RM,), "heading of the reference path at each sample (rad)"),
+        Var("road_x", "Float64", True, (RM,), "x of the reference path at each sample (m)"),
+        Var("road_y", "Float64", True, (RM,), "y of the reference path at each sample (m)"),
+        Var("opponents", "Float64", True, opp, "opponents' predicted rear-axle poses [x, y, phi] per stage 0..N, "
+            "row-major as set_opponents (m, m, rad)"),
+        Var("u0", "Float64", False, (2,), "control to apply [F_d, r] (N, rad/s), inside the input box"),
+        Var("exit_code", "Int32", False, (), "the solver's exit code of the step (0: OK)"),
+        Var("qp_status", "Int32", False, (), "generic QP status (1 solved, 2 solved inaccurate, 3 max iter, ...)"),
+        Var("qp_iter", "Int32", False, (), "QP iterations of the step"),
+        Var("u_projected", "Int32", False, (), "1: u0 is the plan's u0 projected on the input box"),
+        Var("max_slack", "Float64", False, (), "largest soft-constraint slack of the plan"),
+        Var("states", "Float64", False, (N + 1, NX), "planned states, stages 0..N"),
+        Var("controls", "Float64", False, (N, NU), "planned controls, stages 0..N-1"),
+        Var("time_prepare", "Float64", False, (), "time of the preparation phase (s, host clock)"),
+        Var("time_feedback", "Float64", False, (), "time of the feedback phase (s, host clock)"),
+    ]
+
+
+def fmi2_bases(vs: list[Var]) -> list[int]:
+    """FMI 2.0 value reference of each variable's first element (1-based, elements consecutive), and one past."""
+    out, vr = [], 1
+    for v in vs:
+        out.append(vr)
+        vr += v.count
+    return out + [vr]
+
+
+def _c_stubs(header: Path, prefix: str, implemented: set[str]) -> str:
+    """C definitions of the functions an FMI function-types header declares and this FMU does not offer: each
+    returns the error status (NULL for an instance, nothing for void)."""
+    text = re.sub(r"/\*.*?\*/", "", header.read_text(), flags=re.S)
+    out = []
+    for ret, name, params in re.findall(r"typedef\s+([\w*]+\s*\**)\s*(\w+)TYPE\s*\(([^;]*?)\)\s*;", text):
+        fn, ret = name, ret.strip()
+        if fn in implemented or not fn.startswith(prefix):
+            continue
+        plist = [p.strip() for p in params.replace("\n", " ").split(",") if p.strip() and p.strip() != "void"]
+        pnames = []
+        for i, p in enumerate(plist):
+            m = re.search(r"(\w+)\s*(\[\s*\])?$", p)
+            last = m.group(1) if m else ""
+            if not last or re.match(r"^(fmi[23][A-Z]\w*|size_t|int|char|double|const)$", last):   # an unnamed parameter
+                last = f"p{i}"
+                plist[i] = re.sub(r"(\[\s*\])?$", lambda mm: f" {last}" + (mm.group(1) or ""), p, count=1)
+            pnames.append(last)
+        body = " ".join(f"(void){n};" for n in pnames if n and n != "...")
+        if ret.endswith("Status"):
+            val = f" return {prefix}Error;"
+        elif ret == "void":
+            val = ""
+        else:
+            val = " return NULL;"
+        out.append(f"{ret} {fn}({', '.join(plist) or 'void'}) {{ {body}{val} }}")
+    return "\n".join(out) + "\n"
+
+
+_FMI3_DONE = {"fmi3GetVersion", "fmi3SetDebugLogging", "fmi3InstantiateCoSimulation", "fmi3FreeInstance",
+              "fmi3EnterInitializationMode", "fmi3ExitInitializationMode", "fmi3EnterStepMode", "fmi3Terminate",
+              "fmi3Reset", "fmi3GetFloat64", "fmi3SetFloat64", "fmi3GetInt32", "fmi3SetInt32", "fmi3DoStep"}
+_FMI2_DONE = {"fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate", "fmi2FreeInstance",
+              "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate",
+              "fmi2Reset", "fmi2GetReal", "fmi2SetReal", "fmi2GetInteger", "fmi2SetInteger", "fmi2DoStep"}
+
+
+def _start(v: Var, fmi: int) -> str:
+    if v.name == "road_ds":
+        return "1"
+    if v.name == "road_n":
+        return "2"
+    return "0"
+
+
+def build_description(name: str, sources: list[str], includes: list[str]) -> str:
+    """FMI 3.0's ``sources/buildDescription.xml``: the C files and include folders of the source-code FMU."""
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<fmiBuildDescription fmiVersion="3.0">',
+             f'  <BuildConfiguration modelIdentifier="{name}">', '    <SourceFileSet language="C99">']
+    lines += [f'      <SourceFile name="{s}"/>' for s in sources]
+    lines += [f'      <IncludeDirectory name="{i}"/>' for i in includes]
+    lines += ['    </SourceFileSet>', '  </BuildConfiguration>', '</fmiBuildDescription>', '']
+    return "\n".join(lines)
+
+
+def model_description(name: str, dt: float, vs: list[Var], token: str, fmi: int, description: str,
+                      sources: list[str] = ()) -> str:
+    """``modelDescription.xml`` of the FMU (no timestamps: the same solver gives the same bytes)."""
+    gen = f'generationTool="fcgen {__version__}"'
+    if fmi == 3:
+        lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+                 f'<fmiModelDescription fmiVersion="3.0" modelName="{name}" instantiationToken="{token}" {gen} '
+                 f'description="{escape(description)}" variableNamingConvention="structured">',
+                 f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
+                 f'fixedInternalStepSize="{dt!r}" canGetAndSetFMUState="false" canSerializeFMUState="false"/>',
+                 f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
+                 '  <ModelVariables>',
+                 '    <Float64 name="time" valueReference="0" causality="independent" variability="continuous" '
+                 'description="communication time (s)"/>']
+        for i, v in enumerate(vs):
+            caus = "input" if v.input else "output"
+            start = f' start="{" ".join([_start(v, 3)] * v.count)}"' if v.input else ""
+            dims = "".join(f'<Dimension start="{d}"/>' for d in v.dims)
+            lines.append(f'    <{v.type} name="{v.name}" valueReference="{i + 1}" causality="{caus}" '
+                         f'variability="discrete" description="{escape(v.doc)}"{start}'
+                         + (f'>{dims}</{v.type}>' if dims else '/>'))
+        lines += ['  </ModelVariables>', '  <ModelStructure>']
+        lines += [f'    <Output valueReference="{i + 1}"/>' for i, v in enumerate(vs) if not v.input]
+        lines += [f'    <InitialUnknown valueReference="{i + 1}"/>' for i, v in enumerate(vs) if not v.input]
+        lines += ['  </ModelStructure>', '</fmiModelDescription>', '']
+        return "\n".join(lines)
+    bases = fmi2_bases(vs)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{token}" {gen} '
+             f'description="{escape(description)}" variableNamingConvention="structured" numberOfEventIndicators="0">',
+             f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
+             f'canGetAndSetFMUstate="false" canSerializeFMUstate="false">',
+             '    <SourceFiles>', *[f'      <File name="{s}"/>' for s in sources], '    </SourceFiles>',
+             '  </CoSimulation>',
+             f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
+             '  <ModelVariables>']
+    outputs = []
+    index = 0
+    for v, base in zip(vs, bases):
+        for e, idx in enumerate(np.ndindex(*v.dims) if v.dims else [()]):
+            index += 1
+            nm = v.name + ("[" + ",".join(str(k + 1) for k in idx) + "]" if idx else "")
+            caus = "input" if v.input else "output"
+            typ = "Real" if v.type == "Float64" else "Integer"
+            start = f' start="{_start(v, 2)}"' if v.input else ""
+            lines.append(f'    <ScalarVariable name="{nm}" valueReference="{base + e}" causality="{caus}" '
+                         f'variability="discrete" description="{escape(v.doc)}"><{typ}{start}/></ScalarVariable>')
+            if not v.input:
+                outputs.append(index)
+    lines += ['  </ModelVariables>', '  <ModelStructure>', '    <Outputs>']
+    lines += [f'      <Unknown index="{i}"/>' for i in outputs]
+    lines += ['    </Outputs>', '    <InitialUnknowns>']
+    lines += [f'      <Unknown index="{i}"/>' for i in outputs]
+    lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
+    return "\n".join(lines)
+
+
+def _solver_sources(gen_dir: Path, name: str) -> list[Path]:
+    """The C sources the folder's Makefile compiles into its libraries (host parts for the clock included)."""
+    mk = (gen_dir / "Makefile").read_text()
+    srcs = []
+    for var in ("SOLVER_SRC", "MODEL_SRC", "WORKSPACE_SRC", "QPLIB_SRC", "HOST_SRC"):
+        m = re.search(rf"^{var} = ((?:.*\\\n)*.*)$", mk, re.M)
+        if m:
+            srcs += [s for s in m.group(1).replace("\\\n", " ").split() if s.endswith(".c")]
+    return [gen_dir / s for s in srcs]
+
+
+def build_fmu(gen_dir: Path | str, out: Path | str, fmi: int = 3, cc: str = "cc") -> Path:
+    """Package the generated solver folder ``gen_dir`` as a co-simulation FMU at ``out``; returns ``out``."""
+    from .build import build, solver_name
+    from .verify import load_solver_problem
+    if fmi not in FMI_VERSIONS:
+        raise FmuError(f"--fmi {fmi}: allowed 3 or 2")
+    gen_dir, out = Path(gen_dir), Path(out)
+    if out.suffix != ".fmu":
+        raise FmuError(f"-o {out}: allowed a file name ending in .fmu")
+    name = solver_name(gen_dir)
+    build(gen_dir)                                 # restores OSQP's library sources, checks the folder
+    _, pb = load_solver_problem(gen_dir)
+    sizes = read_macros(gen_dir / f"{name}_solver.h", name)
+    vs = variables(sizes)
+    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "fcgen:" + (gen_dir / "problem.py").read_text())) + "}"
+    hdr = fmi_headers()
+    fallback = sorted({c for c in QP_EXIT.values() if c != "OK"} | {"ERR_QP_INPUT_BOUNDS"})
+    ctx = dict(name=name, NAME=name.upper(), dt=repr(pb.horizon.dt), token=token,
+               exit_codes=EXIT_CODES, fallback_codes=fallback,
+               variables=[dict(name=v.name, ctype="double" if v.type == "Float64" else "int",
+                               type="FMU_F64" if v.type == "Float64" else "FMU_I32", input=int(v.input),
+                               count=v.count) for v in vs])
+    wrapper = {
+        "fmu_core.h": render_template("fmu/fmu_core.h.j2", **ctx),
+        "fmu_core.c": render_template("fmu/fmu_core.c.j2", **ctx),
+    }
+    if fmi == 3:
+        wrapper["fmi3.c"] = render_template("fmu/fmi3.c.j2", **ctx, stubs=_c_stubs(
+            hdr / "fmi3FunctionTypes.h", "fmi3", _FMI3_DONE))
+    else:
+        wrapper["fmi2.c"] = render_template("fmu/fmi2.c.j2", **ctx, bases=", ".join(map(str, fmi2_bases(vs))),
+                                            stubs=_c_stubs(hdr / "fmi2FunctionTypes.h", "fmi2", _FMI2_DONE))
+    desc = f"fcgen NMPC controller {name} ({pb.formulation.kind}, {pb.obstacles.kind}, N = {pb.horizon.N}, " \
+           f"dt = {pb.horizon.dt} s): one SQP real-time iteration per doStep"
+    lib_dir = gen_dir / "build"
+    libs = [lib_dir / f"lib{name}.a"] + ([lib_dir / f"lib{name}_osqp.a"] if (lib_dir / f"lib{name}_osqp.a").is_file()
+                                          else [])
+    with tempfile.TemporaryDirectory(prefix=".fcgen-fmu-", dir=out.parent if out.parent.is_dir() else None) as tmp:
+        root = Path(tmp) / "fmu"
+        src = root / "sources"
+        src.mkdir(parents=True)
+        solver_srcs = _solver_sources(gen_dir, name)
+        headers = list(gen_dir.glob("*.h")) + list(gen_dir.glob("osqp/**/*.h"))
+        for f in solver_srcs + headers:
+            dst = src / f.relative_to(gen_dir)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, dst)
+        for fname, text in wrapper.items():
+            (src / fname).write_text(text)
+        bindir = root / "binaries" / PLATFORM[fmi]
+        bindir.mkdir(parents=True)
+        so = bindir / f"{name}.so"
+        # the binary: the wrapper and the host clock compiled here, the solver from the folder's own static
+        # libraries (the objects of lib<name>.so: the same code as the C library fcgen's closed loops load)
+        cmd = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{src}", f"-I{hdr}",
+               *[str(src / f) for f in wrapper if f.endswith(".c")], str(gen_dir / f"{name}_host.c"),
+               *map(str, libs), "-o", str(so), "-lm"]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            raise FmuError(f"compiling the FMU's binary failed:\n{res.stderr[-3000:]}")
+        wrapper_srcs = sorted(f for f in wrapper if f.endswith(".c"))
+        all_srcs = [str(f.relative_to(gen_dir)) for f in solver_srcs] + wrapper_srcs
+        incs = ["."] + (["osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private"]
+                        if (gen_dir / "osqp").is_dir() else [])
+        if fmi == 3:
+            (src / "buildDescription.xml").write_text(build_description(name, all_srcs, incs))
+        (root / "modelDescription.xml").write_text(model_description(name, pb.horizon.dt, vs, token, fmi, desc,
+                                                                     sources=all_srcs))
+        (root / "resources").mkdir()
+        shutil.copy2(gen_dir / "problem.py", root / "resources" / "problem.py")
+        doc = root / "documentation"
+        doc.mkdir()
+        readme = (gen_dir / "README.md").read_text()
+        (doc / "README.md").write_text(readme)
+        (doc / "index.html").write_text(f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{name}</title>"
+                                        f"</head><body><pre>{escape(readme)}</pre></body></html>\n")
+        tmp_fmu = Path(tmp) / "out.fmu"
+        with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as z:
+            for p in sorted(root.rglob("*")):
+                if p.is_file():
+                    info = zipfile.ZipInfo(str(p.relative_to(root)), date_time=(1980, 1, 1, 0, 0, 0))
+                    info.compress_type = zipfile.ZIP_DEFLATED
+                    info.external_attr = 0o644 << 16
+                    z.writestr(info, p.read_bytes())
+        out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(tmp_fmu), out)
+    return out
+
+
+def fmu_problem(path: Path | str):
+    """The Problem an fcgen FMU was generated from (its ``resources/problem.py``)."""
+    from .presets import load_problem
+    with zipfile.ZipFile(path) as z:
+        if "resources/problem.py" not in z.namelist():
+            raise FmuError(f"{path}: no resources/problem.py: not an FMU written by fcgen fmu (give --problem)")
+        with tempfile.TemporaryDirectory() as tmp:
+            f = Path(tmp) / "problem.py"
+            f.write_bytes(z.read("resources/problem.py"))
+            return load_problem(str(f))
+
+
+class FmuController:
+    """A closed-loop controller that runs an fcgen FMU through FMPy: one ``doStep`` of ``dt`` per sample, on the
+    inputs the C library would get (the same calls inside, so the same results bit for bit)."""
+
+    kind = "c-fmu"
+
+    def __init__(self, path: Path | str, problem=None):
+        from fmpy import extract, read_model_description
+        self.path = Path(path)
+        md = read_model_description(str(self.path))
+        if problem is not None and md.coSimulation.modelIdentifier != problem.name:
+            raise FmuError(f"--fmu {path}: the FMU's solver is {md.coSimulation.modelIdentifier!r}, the problem is "
+                           f"{problem.name!r}")
+        self.fmi = 3 if md.fmiVersion.startswith("3") else 2
+        self._dir = extract(str(self.path))
+        self.dt = float(md.defaultExperiment.stepSize)
+        ident = md.coSimulation.modelIdentifier
+        self.vr = {}
+        if self.fmi == 3:
+            from fmpy.fmi3 import FMU3Slave
+            self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
+            for v in md.modelVariables:
+                self.vr[v.name] = v.valueReference
+            self.fmu.instantiate()
+        else:
+            from fmpy.fmi2 import FMU2Slave
+            self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
+            groups: dict[str, list[int]] = {}
+            for v in md.modelVariables:
+                groups.setdefault(v.name.split("[")[0], []).append(v.valueReference)
+            self.vr = groups
+            self.fmu.instantiate()
+            self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        self.count = {v.name: int(np.prod([int(d.start) for d in v.dimensions])) if v.dimensions else 1
+                      for v in md.modelVariables} if self.fmi == 3 else {k: len(v) for k, v in self.vr.items()}
+        self.t = 0.0
+        self._last = None
+
+    def _set(self, name: str, values, integer: bool = False) -> None:
+        vals = np.asarray(values, dtype=float).ravel()
+        if len(vals) < self.count[name]:   # a road window shorter than ROAD_MAX: the rest is not read
+            vals = np.concatenate([vals, np.zeros(self.count[name] - len(vals))])
+        if self.fmi == 3:
+            if integer:
+                self.fmu.setInt32([self.vr[name]], [int(v) for v in vals])
+            else:
+                self.fmu.setFloat64([self.vr[name]], list(vals))
+        elif integer:
+            self.fmu.setInteger(self.vr[name], [int(v) for v in vals])
+        else:
+            self.fmu.setReal(self.vr[name], list(vals))
+
+    def _get(self, name: str, n: int = 1, integer: bool = False) -> np.ndarray:
+        if self.fmi == 3:
+            vals = self.fmu.getInt32([self.vr[name]], n) if integer else self.fmu.getFloat64([self.vr[name]], n)
+        else:
+            vals = self.fmu.getInteger(self.vr[name]) if integer else self.fmu.getReal(self.vr[name])
+        return np.asarray(vals, dtype=np.int64 if integer else float)
+
+    def step(self, x0: np.ndarray, road, opp: np.ndarray):
+        from .sim.closedloop import StepResult
+        self._set("state", x0)
+        self._set("road_s0", [road.s0])
+        self._set("road_ds", [road.ds])
+        self._set("road_n", [road.size], integer=True)
+        for nm, arr in (("road_kappa", road.kappa), ("road_phi", road.phi), ("road_x", road.gx),
+                        ("road_y", road.gy)):
+            self._set(nm, arr)
+        self._set("opponents", opp)
+        self.fmu.doStep(currentCommunicationPoint=self.t, communicationStepSize=self.dt)
+        self.t += self.dt
+        rc = int(self._get("exit_code", integer=True)[0])
+        u0 = self._get("u0", 2)
+        slack = float(self._get("max_slack")[0])
+        return StepResult(u0, rc, int(self._get("qp_status", integer=True)[0]),
+                          int(self._get("qp_iter", integer=True)[0]), float(self._get("time_prepare")[0]),
+                          float(self._get("time_feedback")[0]), float("nan") if rc else slack)
+
+    def close(self) -> None:
+        self.fmu.terminate()
+        self.fmu.freeInstance()
