@@ -119,3 +119,25 @@ def test_variables_are_the_headers_sizes():
     assert vs["opponents"].dims == (41, 3, 3) and vs["road_kappa"].count == 141 and vs["states"].count == 41 * 8
     assert [v.name for v in vs.values() if v.input] == ["state", "road_s0", "road_ds", "road_n", "road_kappa",
                                                          "road_phi", "road_x", "road_y", "opponents"]
+
+
+def test_fmi2_semantics(folders, tmp_path, capfd):
+    """FMI 2.0's layer: the same refusals (a second instance, another step size), the same log lines."""
+    from fmpy.fmi2 import FMU2Slave
+    fmu = build_fmu(folders["ipm"], tmp_path / "ipm2.fmu", 2)
+    md = read_model_description(str(fmu))
+    d = extract(str(fmu))
+    a = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="a")
+    a.instantiate()
+    b = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="b")
+    with pytest.raises(Exception):
+        b.instantiate()
+    a.setupExperiment(startTime=0.0)
+    a.enterInitializationMode()
+    a.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        a.doStep(0.0, 0.2)
+    out = capfd.readouterr().out
+    assert "one instance at a time" in out and "communicationStepSize 0.20000000000000001 refused" in out
+    a.terminate()
+    a.freeInstance()
