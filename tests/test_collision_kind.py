@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fcgen.obstacles import Shape, ellipse_h
+from fcgen.obstacles import Shape, paper_ellipse_h
 from fcgen.presets import CAR, TRUCK
 from fcgen.road import Road
 from fcgen.sim.closedloop import dims
@@ -73,10 +73,10 @@ def test_a_square_is_covered_by_its_enlarged_circle():
 def test_the_truck_ellipse_shortfall_matches_a_grid_of_ego_circles():
     L, W, r = 0.5 * TRUCK.l_ch, 0.5 * TRUCK.w_ch, math.hypot(0.5 * CAR.l_ch, 0.5 * CAR.w_ch)
     gap = ellipse_shortfall(L, W, r)
-    # second method: every ego-circle centre p on a grid that the ellipse constraint (obstacles.ellipse_h) lets
+    # second method: every ego-circle centre p on a grid that the ellipse constraint (obstacles.paper_ellipse_h) lets
     # through overlaps the rectangle by r - dist(p, rectangle); the worst of them is the shortfall
     xs, ys = np.meshgrid(np.linspace(0.0, 24.0, 1201), np.linspace(0.0, 8.0, 401))
-    h = ellipse_h(xs, ys, Shape(0.0, 0.0, 0.0, L, W), r)
+    h = paper_ellipse_h(xs, ys, Shape(0.0, 0.0, 0.0, L, W), r)
     dist = np.hypot(np.maximum(xs - L, 0.0), np.maximum(ys - W, 0.0))
     worst = float(np.max(np.where(h >= 0.0, r - dist, -np.inf)))
     assert 0.3 < gap < 0.4 and worst == pytest.approx(gap, abs=0.02)

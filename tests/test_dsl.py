@@ -63,10 +63,12 @@ def test_bound_defaults_are_table_i():
 
 
 def test_soft_penalty_defaults():
-    s = SoftPenalties()
-    assert (s.obstacle_l1, s.obstacle_l2) == (1e7, 1e6)  # 10x SPEC: see SoftPenalties
+    from fcgen.presets import PAPER_SOFT, preset
+    s = PAPER_SOFT   # the paper presets' values (10x SPEC's obstacle weights: see SoftPenalties)
+    assert (s.obstacle_l1, s.obstacle_l2) == (1e7, 1e6)
     assert (s.a_lat_l1, s.a_lat_l2) == (1e5, 1e4)
-    assert s.soft_road is False
+    assert s.soft_road is False and SoftPenalties().soft_road is False
+    assert preset("truck_lifted_ellipse").soft == PAPER_SOFT
 
 
 def test_default_problem_is_valid_and_lifted_ellipse():
@@ -155,8 +157,8 @@ def test_with_revalidates():
 
 # --- covering circles: warn when they cannot cover the chassis -----------------------------------
 
-def _truck_problem(n: int) -> Problem:
-    return Problem(name="t", obstacles=CoveringCircles(n), opponents=Opponents(3, TRUCK))
+def _truck_problem(n: int, radius: str = "paper") -> Problem:
+    return Problem(name="t", obstacles=CoveringCircles(n, radius=radius), opponents=Opponents(3, TRUCK))
 
 
 @pytest.mark.parametrize("n", [4, 5, 6])
@@ -165,6 +167,9 @@ def test_too_few_circles_warn_for_the_truck(n):
     # (26 - 4) / spacing + 1 circles with spacing <= 4: (26 - 4) / 4 + 1 = 6.5 -> at least 7.
     with pytest.warns(UserWarning, match=r"opponents chassis \(26 x 4 m\); at least 7 are needed"):
         _truck_problem(n)
+    with warnings.catch_warnings():   # the safe profile's covering radius: no gap, no warning
+        warnings.simplefilter("error")
+        _truck_problem(n, "cover")
 
 
 @pytest.mark.parametrize("n", [7, 8, 20])
@@ -188,7 +193,7 @@ def test_ego_circles_warning_names_the_ego():
     # a 12 x 1 ego with 2 circles: spacing 11 > 1
     long_ego = Vehicle(l_f_ch=6.0, l_r_ch=6.0, w_ch=1.0)
     with pytest.warns(UserWarning, match="ego chassis"):
-        Problem(name="p", ego=long_ego, obstacles=CoveringCircles(7, n_ego=2))
+        Problem(name="p", ego=long_ego, obstacles=CoveringCircles(7, n_ego=2, radius="paper"))
 
 
 # --- loading a problem from a Python file ----------------------------------------------------------

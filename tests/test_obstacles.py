@@ -80,10 +80,10 @@ OPP = obs.chassis_shape(3.0, -2.0, 0.6, TRUCK)   # a truck chassis at an arbitra
 def test_ellipse_corners_on_the_ellipse_and_rectangle_inside():
     # semi-axes sqrt(2) L, sqrt(2) W: a corner (L, W) gives (1/2 + 1/2) = 1 -> on the boundary
     for px, py in obs.vertices(OPP):
-        assert abs(obs.ellipse_h(px, py, OPP, 0.0)) < 1e-9
-        assert obs.ellipse_h(px, py, OPP, 0.5) < 0            # strictly inside once enlarged
+        assert abs(obs.paper_ellipse_h(px, py, OPP, 0.0)) < 1e-9
+        assert obs.paper_ellipse_h(px, py, OPP, 0.5) < 0            # strictly inside once enlarged
     P = rect_points(OPP)
-    assert np.max(obs.ellipse_h(P[:, 0], P[:, 1], OPP, 0.0)) <= 1e-9
+    assert np.max(obs.paper_ellipse_h(P[:, 0], P[:, 1], OPP, 0.0)) <= 1e-9
 
 
 @pytest.mark.parametrize("r", [0.0, CAR.r_cover])
@@ -92,19 +92,19 @@ def test_ellipse_sign_along_the_axes(r):
     c, s = math.cos(OPP.angle), math.sin(OPP.angle)
     for sign in (1, -1):
         for dist, expected in ((a + 0.01, 0.01 / a), (a - 0.01, -0.01 / a)):     # along the major axis
-            h = obs.ellipse_h(OPP.cx + sign * dist * c, OPP.cy + sign * dist * s, OPP, r)
+            h = obs.paper_ellipse_h(OPP.cx + sign * dist * c, OPP.cy + sign * dist * s, OPP, r)
             assert h == pytest.approx(expected, abs=1e-9)
         for dist, expected in ((b + 0.01, 0.01 / b), (b - 0.01, -0.01 / b)):     # along the minor axis
-            h = obs.ellipse_h(OPP.cx - sign * dist * s, OPP.cy + sign * dist * c, OPP, r)
+            h = obs.paper_ellipse_h(OPP.cx - sign * dist * s, OPP.cy + sign * dist * c, OPP, r)
             assert h == pytest.approx(expected, abs=1e-9)
-    assert obs.ellipse_h(OPP.cx, OPP.cy, OPP, r) == pytest.approx(-1.0, abs=1e-5)
+    assert obs.paper_ellipse_h(OPP.cx, OPP.cy, OPP, r) == pytest.approx(-1.0, abs=1e-5)
 
 
 def test_ellipse_constraint_row_uses_the_ego_covering_circle():
     ego = obs.chassis_shape(-40.0, 7.0, 0.2, CAR)
-    rows, eqs = obs.constraint_rows(Ellipse(), ego, OPP, None, cover=False, length=4.0)
+    rows, eqs = obs.constraint_rows(Ellipse(shape="paper"), ego, OPP, None, cover=False, length=4.0)
     assert eqs == []
-    assert rows[0] == pytest.approx(obs.ellipse_h(ego.cx, ego.cy, OPP, math.hypot(2.0, 0.95)), abs=1e-15)
+    assert rows[0] == pytest.approx(obs.paper_ellipse_h(ego.cx, ego.cy, OPP, math.hypot(2.0, 0.95)), abs=1e-15)
 
 
 # --- covering circles ---------------------------------------------------------------------------------
@@ -268,7 +268,7 @@ def test_truck_is_far_from_straight_in_frenet():
 @pytest.mark.parametrize("n", [5.0, -5.0])
 def test_conventional_ellipse_covers_true_rectangle(n):
     box, ps, pn, _ = fitted(20.0, n)
-    h = obs.ellipse_h(ps, pn, box, 0.0)              # zero-size ego
+    h = obs.paper_ellipse_h(ps, pn, box, 0.0)              # zero-size ego
     assert np.max(h) < 0, np.max(h)
 
 
@@ -293,7 +293,7 @@ def test_naive_shape_does_not_cover_true_rectangle(n):
     pose, ps, pn = true_rectangle_in_frenet(20.0, n)
     naive = obs.Shape(*obs.naive_frenet_shape((20.0, n, 0.0), TRUCK)[:5])
     assert naive.angle == 0.0 and naive.cx == pytest.approx(30.0) and naive.cy == pytest.approx(n)
-    h = obs.ellipse_h(ps, pn, naive, 0.0)
+    h = obs.paper_ellipse_h(ps, pn, naive, 0.0)
     assert np.mean(h > 0) > 0.1 and np.max(h) > 1.0       # metres of the truck stick out of the naive ellipse
     assert np.max(box_excess(ps, pn, naive)) > 2.0
 
@@ -410,6 +410,6 @@ def test_conventional_fit_along_a_truck_scenario():
                 guess = fr[i, 0] + (P - cart[i, :2]) @ np.array([math.cos(cart[i, 2]), math.sin(cart[i, 2])])
                 ps, pn, _ = sc.road.to_frenet(P[:, 0], P[:, 1], 0 * P[:, 0], s_guess=guess)
                 box = obs.Shape(*par[k, i, :5])
-                assert np.max(obs.ellipse_h(ps, pn, box, 0.0)) < 0
+                assert np.max(obs.paper_ellipse_h(ps, pn, box, 0.0)) < 0
                 assert np.max(box_excess(ps, pn, box)) <= 0.0
     assert fitted > 100

@@ -339,7 +339,7 @@ def test_fitted_box_covers_the_true_rectangle_at_one_point_per_metre(frenet):
     e1, e2 = cb * (ps - box.cx) + sb * (pn - box.cy), -sb * (ps - box.cx) + cb * (pn - box.cy)
     excess = np.maximum(np.abs(e1) - box.L, np.abs(e2) - box.W)
     assert np.max(excess) <= 0.0, f"the true rectangle sticks out of the box by {np.max(excess):.2e} m"
-    assert np.max(obs.ellipse_h(ps, pn, box, 0.0)) < 0.0
+    assert np.max(obs.paper_ellipse_h(ps, pn, box, 0.0)) < 0.0
 
 
 @pytest.mark.parametrize("road", [CIRCLE, WAVY], ids=["circle", "wavy"])

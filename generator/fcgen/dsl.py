@@ -168,15 +168,16 @@ class Bounds:
 class SoftPenalties:
     """L1 + L2 slack penalties (multiplied by dt per stage); road bounds may be softened too.
 
-    The obstacle defaults are 10x SPEC's 1e6 / 1e5: with those, the multipliers of the obstacle rows (driven by the
-    s-tracking cost, which grows along the horizon) exceed the L1 weight in 6-9 of 20 truck runs, the penalty is
-    not exact and the ego drives through opponents. Pass ``SoftPenalties(obstacle_l1=1e6, obstacle_l2=1e5)`` for
-    the acados benchmark's values.
+    Defaults: the safe profile (``docs/safe_profile.md``): each L1 weight above the largest multiplier its rows take
+    in closed loop (calibrated, ``fcgen.safety.calibrate_penalties``), so a slack is used only where the hard problem is
+    infeasible. The paper's presets keep ``PAPER_SOFT`` (obstacle 1e7 / 1e6, a_lat 1e5 / 1e4: the a_lat row is then a
+    cost, exceeded in 40-56 % of the samples). ``SoftPenalties(obstacle_l1=1e6, obstacle_l2=1e5)``: the acados
+    benchmark's values.
     """
 
-    obstacle_l1: float = 1e7
+    obstacle_l1: float = 1e8
     obstacle_l2: float = 1e6
-    a_lat_l1: float = 1e5
+    a_lat_l1: float = 1e7
     a_lat_l2: float = 1e4
     soft_road: bool = False
     road_l1: float = 1e5
@@ -242,11 +243,26 @@ Formulation = Union[Conventional, DirectElimination, Lifted]
 
 # --- obstacle models ----------------------------------------------------------------------------
 
+ELLIPSE_SHAPES = ("minkowski", "paper")
+
+
 @dataclass(frozen=True)
 class Ellipse:
-    """Opponent covered by an ellipse, ego by one circle."""
+    """Opponent covered by an ellipse, ego by one circle.
 
+    ``shape``: ``minkowski`` (default) the smallest-area ellipse that contains the opponent's rectangle grown by the
+    ego's circle (``fcgen.obstacles.containing_ellipse_axes``); ``paper``: the paper's semi-axes sqrt(2) L + r,
+    sqrt(2) W + r, which leave up to 0.34 m of that grown rectangle uncovered near a truck's corners.
+    """
+
+    shape: str = "minkowski"
     kind: str = field(default="ellipse", init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        _check(self.shape in ELLIPSE_SHAPES, "obstacles.shape", self.shape, f"one of {ELLIPSE_SHAPES}")
+
+
+CIRCLE_RADII = ("cover", "paper")
 
 
 @dataclass(frozen=True)
@@ -255,9 +271,14 @@ class CoveringCircles:
 
     n: int = 3
     n_ego: int | None = None
+    # ``cover`` (default): every circle just large enough that the n circles cover the rectangle; ``paper``: radius
+    # w / sqrt(2) (SPEC section 4), which leaves the rectangle's sides uncovered when the spacing exceeds w
+    # (a truck with 5 circles); the conventional formulation's fitted boxes always use ``cover``
+    radius: str = "cover"
     kind: str = field(default="covering_circles", init=False, repr=False)
 
     def __post_init__(self) -> None:
+        _check(self.radius in CIRCLE_RADII, "obstacles.radius", self.radius, f"one of {CIRCLE_RADII}")
         _check(isinstance(self.n, int) and 1 <= self.n <= 20, "obstacles.n", self.n, "an integer in [1, 20]")
         if self.n_ego is not None:
             _check(isinstance(self.n_ego, int) and 1 <= self.n_ego <= 20, "obstacles.n_ego", self.n_ego,
@@ -274,14 +295,21 @@ class SeparatingHyperplane:
 
     ``margin``: distance [m] the ego's vertices keep from the plane. The paper's exact form (0) lets the one-step
     RTI linearization graze opponents (3-62 mm deep in 8 of 10 truck runs); 0.1 m left 1 of 10, 0.2 m none.
+    ``proximal``: weight of a proximal term 1/2 proximal |theta - theta_guess|^2 in the scaled QP (its largest
+    Hessian entry is 1): the plane is not unique where the vehicles are far apart, so without it (0, the paper's
+    presets) rounding alone picks one and C and Python closed loops part after ~14 samples; it vanishes at a
+    converged solution (a step of 0 costs nothing).
     """
 
     margin: float = 0.2
+    proximal: float = 1e-3
     kind: str = field(default="separating_hyperplane", init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check(0.0 <= _finite("obstacles.margin", self.margin) <= 2.0, "obstacles.margin", self.margin,
                "[0, 2] m")
+        _check(0.0 <= _finite("obstacles.proximal", self.proximal) <= 1.0, "obstacles.proximal", self.proximal,
+               "[0, 1]")
 
 
 ObstacleModel = Union[Ellipse, CoveringCircles, SeparatingHyperplane]
@@ -387,6 +415,22 @@ class RoadWindow:
         return int(math.ceil(self.length / self.ds)) + 1
 
 
+@dataclass(frozen=True)
+class PlanCheck:
+    """After each feedback: the plan's clearance to every opponent's true rectangle (separating axes), and a reaction.
+
+    ``react_stages``: where the clearance of stages 1..min(react_stages, N) is below 0 the solver brakes instead of applying
+    the plan's u0 (status.plan_reaction = 1; F_d = -min(F_d_max, m v0 / dt), the plan's steering rate); 0: report
+    only (the paper's presets).
+    """
+
+    react_stages: int = 10
+
+    def __post_init__(self) -> None:
+        _check(type(self.react_stages) is int and 0 <= self.react_stages <= 500, "plan_check.react_stages",
+               self.react_stages, "an integer in [0, 500] (0: report only)")
+
+
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 
 
@@ -407,6 +451,7 @@ class Problem:
     soft: SoftPenalties = SoftPenalties()
     qp: QpOptions = QpOptions()
     road: RoadWindow = RoadWindow()
+    plan_check: PlanCheck = PlanCheck()
 
     def __post_init__(self) -> None:
         _check(isinstance(self.name, str) and bool(_NAME.match(self.name)), "name", self.name,
@@ -421,12 +466,13 @@ class Problem:
                self.obstacles, "Ellipse(), CoveringCircles(n) or SeparatingHyperplane()")
         for f, t in (("ego", Vehicle), ("opponents", Opponents), ("wind", Wind), ("horizon", Horizon),
                      ("weights", Weights), ("reference", Reference), ("bounds", Bounds),
-                     ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow)):
+                     ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow),
+                     ("plan_check", PlanCheck)):
             _check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
         reach = self.bounds.v_max * self.horizon.N * self.horizon.dt
         _check(self.road.length >= reach + 4 * self.road.ds, "road.length", self.road.length,
                f">= v_max*N*dt + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")
-        if isinstance(self.obstacles, CoveringCircles):
+        if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
             for who, veh, n in (("opponents", self.opponents.vehicle, self.obstacles.n),
                                 ("ego", self.ego, self.obstacles.ego_circles)):
                 if not circles_cover(veh.l_ch, veh.w_ch, n):

@@ -83,18 +83,63 @@ def _sqrt(v):
     return ca.sqrt(v) if isinstance(v, (ca.SX, ca.MX)) else np.sqrt(v)
 
 
-def ellipse_h(px, py, opp: Shape, r):
-    """Ellipse covering ``opp`` (semi-axes sqrt(2) L, sqrt(2) W) enlarged by r: sqrt(d^T R D^-2 R^T d) - 1.
+def ellipse_h(px, py, opp: Shape, a, b):
+    """Ellipse with semi-axes (a, b) along ``opp``'s axes, centred on it: sqrt(d^T R D^-2 R^T d) - 1.
 
     The square root keeps the row's gradient of the size 1/a at every distance (the squared form grows with it
     and ruins the QP's conditioning); the zero level set and the sign are the paper's.
     """
-    a, b = SQRT2 * opp.L + r, SQRT2 * opp.W + r
     c, s = _cos(opp.angle), _sin(opp.angle)
     dx, dy = px - opp.cx, py - opp.cy
     e1 = c * dx + s * dy
     e2 = -s * dx + c * dy
     return _sqrt(e1 * e1 / (a * a) + e2 * e2 / (b * b) + 1e-12) - 1
+
+
+def paper_ellipse_axes(L, W, r):
+    """The paper's ellipse (SPEC section 4): semi-axes sqrt(2) L + r, sqrt(2) W + r (not containing, see below)."""
+    return SQRT2 * L + r, SQRT2 * W + r
+
+
+def paper_ellipse_h(px, py, opp: Shape, r):
+    """The paper's ellipse row of an ego circle of radius r (``Ellipse(shape="paper")``)."""
+    return ellipse_h(px, py, opp, *paper_ellipse_axes(opp.L, opp.W, r))
+
+
+ELLIPSE_GRID = 20001   # directions of the support-function condition (a quarter turn)
+ELLIPSE_SAFETY = 1e-6  # relative growth of b over the grid's maximum: covers the directions between grid points
+
+
+def containing_ellipse_axes(L, W, r):
+    """Semi-axes (a, b) of an ellipse along a half-``L`` x half-``W`` rectangle's axes that contains the rectangle
+    grown by a disk of radius ``r`` (the Minkowski sum: every point within r of the rectangle).
+
+    A convex set contains another iff its support function is at least the other's in every direction u = (c, s):
+    sqrt(a^2 c^2 + b^2 s^2) >= L |c| + W |s| + r. For numbers: the smallest-area such ellipse (for each a > L + r
+    the least b is a maximum over directions; a 1-D search over a; b grown by ``ELLIPSE_SAFETY``). For CasADi
+    expressions (the conventional formulation's fitted boxes, sized at run time): sqrt(2) (L + r), sqrt(2) (W + r),
+    the covering ellipse of the (L + r) x (W + r) rectangle, which contains the grown one
+    ((x + y)^2 <= 2 (x^2 + y^2) and c + s >= 1).
+    """
+    if any(isinstance(v, (ca.SX, ca.MX)) for v in (L, W, r)):
+        return SQRT2 * (L + r), SQRT2 * (W + r)
+    return _containing_axes(float(L), float(W), float(r))
+
+
+def _containing_axes(L: float, W: float, r: float) -> tuple[float, float]:
+    from scipy.optimize import minimize_scalar
+    t = np.linspace(0.0, 0.5 * math.pi, ELLIPSE_GRID)[1:]
+    c, s = np.cos(t), np.sin(t)
+    need = (L * c + W * s + r) ** 2
+
+    def b_of(a: float) -> float:
+        return math.sqrt(max(0.0, float(np.max((need - a * a * c * c) / (s * s)))))
+
+    lo = L + r
+    res = minimize_scalar(lambda a: a * b_of(a), bounds=(lo * (1 + 1e-6), 4.0 * (lo + W + r)), method="bounded",
+                          options={"xatol": 1e-9 * lo})
+    a = float(res.x)
+    return a, b_of(a) * (1.0 + ELLIPSE_SAFETY)
 
 
 def circles_h(ego: Shape, n_ego: int, opp: Shape, n_opp: int, cover: bool) -> list:
@@ -137,12 +182,14 @@ def thetas_per_opponent(model: ObstacleModel) -> int:
 
 
 def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float):
-    """(soft rows h >= 0, equality rows == 0) of one opponent at one stage."""
+    """(soft rows h >= 0, equality rows == 0) of one opponent at one stage; ``cover``: covering circles whatever the
+    model's radius rule (the conventional formulation's fitted boxes)."""
     if isinstance(model, Ellipse):
         r = (ego.L * ego.L + ego.W * ego.W) ** 0.5
-        return [ellipse_h(ego.cx, ego.cy, opp, r)], []
+        axes = containing_ellipse_axes if model.shape == "minkowski" else paper_ellipse_axes
+        return [ellipse_h(ego.cx, ego.cy, opp, *axes(opp.L, opp.W, r))], []
     if isinstance(model, CoveringCircles):
-        return circles_h(ego, model.ego_circles, opp, model.n, cover), []
+        return circles_h(ego, model.ego_circles, opp, model.n, cover or model.radius == "cover"), []
     rows, eq = hyperplane_h(ego, opp, theta, length, model.margin)
     return rows, [eq]
 

@@ -237,6 +237,7 @@ def build_ocp(problem: Problem) -> Ocp:
         hess_diag[key] = np.diag(H) * D * D
     cost_scale = 1.0 / max(float(h.max()) for h in hess_diag.values())
 
+    proximal = getattr(model, "proximal", 0.0)
     s_idx = 0  # s is the first state in both representations
     stage_types = {}
     costs = {}
@@ -251,10 +252,13 @@ def build_ocp(problem: Problem) -> Ocp:
         # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + k dt v_ref
         qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
         q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
+        P_diag = cost_scale * hess_diag[key]
+        if n_theta and key != "first":  # the hyperplanes' proximal term (obstacles.proximal; theta's scale is 1)
+            P_diag[nx + (nu if key == "middle" else 0):][:n_theta] += proximal
         stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),
                                      np.array([r[2] for r in rows], dtype=float),
                                      np.array([r[3] for r in rows], dtype=float), D,
-                                     cost_scale * hess_diag[key], q_ds0, fun, fun.sparsity_out(1))
+                                     P_diag, q_ds0, fun, fun.sparsity_out(1))
         costs[key] = ca.Function(f"cost_{key}", [wk, p], [cost])
 
     dyn = ca.Function("dynamics", [xs, us, p], [x_next], ["x", "u", "p"], ["x_next"])

@@ -4,8 +4,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
-from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, Problem,
-                  ProblemError, QpOptions, SeparatingHyperplane, Vehicle)
+from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, PlanCheck,
+                  Problem, ProblemError, QpOptions, SeparatingHyperplane, SoftPenalties, Vehicle)
 
 CAR = Vehicle()
 TRUCK = Vehicle(l_f=10.0, l_r=10.0, l_f_ch=13.0, l_r_ch=13.0, w_ch=4.0, m=3000.0)
@@ -19,32 +19,56 @@ SHORT = {"conventional": "conv", "direct_elimination": "de", "lifted": "lift",
          "ellipse": "el", "circles": "c", "hyperplane": "hp"}
 
 
-def obstacle_model(name: str, scenario: str, circles: int | None = None):
-    """Obstacle model by CLI name: ``ellipse``, ``circles`` (paper default count), ``hyperplane``."""
+PROFILES = ("paper", "safe")
+"""``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults (docs/safe_profile.md)."""
+PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
+PAPER_PLAN_CHECK = PlanCheck(react_stages=0)
+
+
+def obstacle_model(name: str, scenario: str, circles: int | None = None, profile: str = "paper"):
+    """Obstacle model by CLI name: ``ellipse``, ``circles`` (paper default count), ``hyperplane``; in a profile."""
+    paper = profile == "paper"
     if name == "ellipse":
-        return Ellipse()
+        return Ellipse(shape="paper") if paper else Ellipse()
     if name == "circles":
-        return CoveringCircles(circles or DEFAULT_CIRCLES[scenario])
+        n = circles or DEFAULT_CIRCLES[scenario]
+        return CoveringCircles(n, radius="paper") if paper else CoveringCircles(n)
     if name == "hyperplane":
-        return SeparatingHyperplane()
+        return SeparatingHyperplane(proximal=0.0) if paper else SeparatingHyperplane()
     raise ProblemError(f"obstacles = {name!r} is invalid: allowed one of {OBSTACLES}")
 
 
+def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circles: int | None = None) -> Problem:
+    """``pb`` with the settings of a profile (the same scenario, formulation, horizon, weights and QP backend)."""
+    if profile not in PROFILES:
+        raise ProblemError(f"profile = {profile!r} is invalid: allowed one of {PROFILES}")
+    if profile == "paper":
+        return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "paper"), soft=PAPER_SOFT,
+                        plan_check=PAPER_PLAN_CHECK)
+    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=SoftPenalties(),
+                    plan_check=PlanCheck())
+
+
 def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
-                  circles: int | None = None, name: str | None = None, **overrides) -> Problem:
-    """A problem of the paper's experiment (SPEC section 7)."""
+                  circles: int | None = None, name: str | None = None, profile: str = "paper",
+                  **overrides) -> Problem:
+    """A problem of the paper's experiment (SPEC section 7), with the paper's settings or the safe profile's."""
     if scenario not in SCENARIOS:
         raise ProblemError(f"scenario = {scenario!r} is invalid: allowed one of {SCENARIOS}")
     if formulation not in FORMULATIONS:
         raise ProblemError(f"formulation = {formulation!r} is invalid: allowed one of {tuple(FORMULATIONS)}")
-    model = obstacle_model(obstacles, scenario, circles)
+    if profile not in PROFILES:
+        raise ProblemError(f"profile = {profile!r} is invalid: allowed one of {PROFILES}")
+    model = obstacle_model(obstacles, scenario, circles, profile)
     n_bound = 10.0 if scenario == "truck" else 8.5
     opp = TRUCK if scenario == "truck" else CAR
     if name is None:
         tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
         name = f"{scenario}_{SHORT[formulation]}_{tag}"
+    profiled = {"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK} if profile == "paper" else {}
     return Problem(name=name, formulation=FORMULATIONS[formulation](), obstacles=model, ego=CAR,
-                   opponents=Opponents(3, opp), bounds=Bounds(n_min=-n_bound, n_max=n_bound), **overrides)
+                   opponents=Opponents(3, opp), bounds=Bounds(n_min=-n_bound, n_max=n_bound),
+                   **{**profiled, **overrides})
 
 
 def preset_names() -> list[str]:
@@ -54,11 +78,19 @@ def preset_names() -> list[str]:
 
 BACKEND_SUFFIXES = ("ipm",)
 """A preset name may end in ``_<backend>`` for a QP backend other than the default OSQP (``truck_lifted_ellipse_ipm``)."""
+SAFE_SUFFIX = "safe"
+"""... and then in ``_safe`` for the safe profile (``truck_lifted_hyperplane_ipm_safe``)."""
 
 
 def preset(name: str) -> Problem:
-    """A preset by name, e.g. ``truck_lifted_ellipse`` (OSQP) or ``truck_lifted_ellipse_ipm`` (the IPM backend)."""
+    """A preset by name, e.g. ``truck_lifted_ellipse`` (OSQP), ``truck_lifted_ellipse_ipm`` (the IPM backend),
+    ``truck_lifted_ellipse_ipm_safe`` (the safe profile)."""
     base, _, suffix = name.rpartition("_")
+    if suffix == SAFE_SUFFIX and base and not base.endswith("_" + SAFE_SUFFIX) and is_preset(base):
+        pb = preset(base)
+        sc, f, o = _parts(base)
+        return with_profile(pb, "safe", sc, o, getattr(pb.obstacles, "n", None)).with_(
+            name=f"{pb.name}_{SAFE_SUFFIX}")
     if suffix in BACKEND_SUFFIXES and base in preset_names():
         pb = preset(base)
         return pb.with_(name=f"{pb.name}_{suffix}", qp=QpOptions(backend=suffix))
@@ -68,7 +100,18 @@ def preset(name: str) -> Problem:
                 if name == f"{sc}_{f}_{o}":
                     return paper_problem(sc, f, o)
     raise ProblemError(f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())} "
-                       f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)})")
+                       f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)}, "
+                       f"then optionally _{SAFE_SUFFIX} for the safe profile)")
+
+
+def _parts(name: str) -> tuple[str, str, str]:
+    """(scenario, formulation, obstacles) of a preset name (a backend suffix ignored)."""
+    for sc in SCENARIOS:
+        for f in FORMULATIONS:
+            for o in OBSTACLES:
+                if name == f"{sc}_{f}_{o}" or name.startswith(f"{sc}_{f}_{o}_"):
+                    return sc, f, o
+    raise ProblemError(f"preset = {name!r} is unknown")
 
 
 def is_preset(name: str) -> bool:

@@ -1,0 +1,133 @@
+"""The safe profile: obstacle shapes that contain what they stand for, the presets' profiles, exact penalties."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from fcgen import obstacles as obs
+from fcgen.dsl import CoveringCircles, Ellipse, PlanCheck, Problem, ProblemError, SeparatingHyperplane
+from fcgen.presets import CAR, PAPER_SOFT, TRUCK, preset, preset_names
+from fcgen.sim.collision import chassis_corners, sat_overlap
+
+
+def polygon_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Smallest distance from a vertex of polygon ``a`` to an edge of ``b`` (with the converse: the distance of two
+    disjoint convex polygons)."""
+    best = math.inf
+    for i in range(len(b)):
+        p0, p1 = b[i], b[(i + 1) % len(b)]
+        d = p1 - p0
+        t = np.clip(((a - p0) @ d) / (d @ d), 0.0, 1.0)
+        best = min(best, float(np.min(np.linalg.norm(a - (p0 + t[:, None] * d), axis=1))))
+    return best
+
+
+def grown_rectangle_boundary(L: float, W: float, r: float, n: int = 4000) -> np.ndarray:
+    """Points on the boundary of the half-L x half-W rectangle grown by a disk of radius r (a stadium-cornered box):
+    four straight sides pushed out by r and four quarter circles around the corners."""
+    t = np.linspace(0.0, 0.5 * math.pi, n)
+    pts = []
+    for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
+        pts.append(np.stack([sx * (L + r * np.cos(t)), sy * (W + r * np.sin(t))], axis=1))
+    u = np.linspace(-1.0, 1.0, n)
+    pts += [np.stack([L * u, np.full(n, W + r)], 1), np.stack([L * u, np.full(n, -W - r)], 1),
+            np.stack([np.full(n, L + r), W * u], 1), np.stack([np.full(n, -L - r), W * u], 1)]
+    return np.concatenate(pts)
+
+
+@pytest.mark.parametrize("opp, ego", [(TRUCK, CAR), (CAR, CAR), (CAR, TRUCK)], ids=["truck", "car", "car-by-truck"])
+def test_the_safe_ellipse_contains_the_rectangle_grown_by_the_ego_circle(opp, ego):
+    L, W, r = opp.l_ch / 2, opp.w_ch / 2, ego.r_cover
+    sh = obs.Shape(0.0, 0.0, 0.0, L, W)
+    P = grown_rectangle_boundary(L, W, r)
+    a, b = obs.containing_ellipse_axes(L, W, r)
+    h = obs.ellipse_h(P[:, 0], P[:, 1], sh, a, b)
+    assert h.max() <= 0.0                                   # every boundary point inside (or on) the ellipse
+    assert h.max() > -1e-3                                  # and it touches: no larger than it needs to be
+    # the paper's ellipse does not contain it (a second method: collision_kind.ellipse_shortfall's 0.3 m for a truck)
+    assert obs.paper_ellipse_h(P[:, 0], P[:, 1], sh, r).max() > 0.0
+    # the smallest area: a 1 % smaller ellipse in either axis leaves a point out
+    assert obs.ellipse_h(P[:, 0], P[:, 1], sh, 0.99 * a, b).max() > 0.0
+    assert obs.ellipse_h(P[:, 0], P[:, 1], sh, a, 0.99 * b).max() > 0.0
+    # the closed form for shapes sized at run time (CasADi) contains it too
+    Ls, Ws, rs = ca.SX.sym("L"), ca.SX.sym("W"), ca.SX.sym("r")
+    f = ca.Function("ab", [Ls, Ws, rs], list(obs.containing_ellipse_axes(Ls, Ws, rs)))
+    ac, bc = (float(v) for v in f(L, W, r))
+    assert obs.ellipse_h(P[:, 0], P[:, 1], sh, ac, bc).max() <= 0.0
+    assert ac * bc >= a * b                                 # and is no smaller than the optimum
+
+
+def test_the_safe_circles_cover_the_chassis_where_the_papers_do_not():
+    # a truck with 5 circles: spacing (26 - 4) / 4 = 5.5 m > w = 4 m, the paper's radius w / sqrt(2) leaves gaps
+    sh = obs.chassis_shape(0.0, 0.0, 0.3, TRUCK)
+    P = chassis_corners(0.0, 0.0, 0.3, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch)
+    edge = np.concatenate([P[i] + np.linspace(0, 1, 400)[:, None] * (P[(i + 1) % 4] - P[i]) for i in range(4)])
+
+    def covered(cover: bool) -> bool:
+        rad = obs.circle_radius(sh.L, sh.W, 5, cover)
+        C = np.array(obs.circle_centres(sh, 5))
+        d = np.linalg.norm(edge[:, None, :] - C[None], axis=2).min(axis=1)
+        return bool(d.max() <= rad + 1e-12)
+
+    assert covered(True) and not covered(False)
+    rows_safe, _ = obs.constraint_rows(CoveringCircles(5), sh, sh, None, cover=False, length=4.0)
+    rows_paper, _ = obs.constraint_rows(CoveringCircles(5, radius="paper"), sh, sh, None, cover=False, length=4.0)
+    assert min(rows_safe) < min(rows_paper)               # larger circles: deeper inside for the same pose
+
+
+def test_hyperplane_rows_that_hold_separate_the_true_rectangles_by_the_margin():
+    """If every ego vertex is >= margin on one side of a unit-normal plane and every opponent vertex on the other,
+    the rectangles are apart by at least the margin (convexity); the SAT judge agrees on random poses."""
+    rng = np.random.default_rng(3)
+    model = SeparatingHyperplane(margin=0.2)
+    held = 0
+    for _ in range(3000):
+        ex, ey, ephi, ox, oy, ophi = rng.uniform([-30, -8, -1, -5, -3, -0.5], [30, 8, 1, 5, 3, 0.5])
+        ego, opp = obs.chassis_shape(ex, ey, ephi, CAR), obs.chassis_shape(ox, oy, ophi, TRUCK)
+        ang = rng.uniform(-math.pi, math.pi)
+        theta = (math.cos(ang), math.sin(ang), rng.uniform(-20, 20))
+        rows, (eq,) = obs.constraint_rows(model, ego, opp, theta, cover=False, length=CAR.l_ch)
+        assert abs(eq) < 1e-12
+        if min(rows) >= 0.0:
+            held += 1
+            ce = chassis_corners(ex, ey, ephi, CAR.l, CAR.l_r_ch, CAR.l_f_ch, CAR.w_ch)
+            co = chassis_corners(ox, oy, ophi, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch)
+            assert sat_overlap(ce, co) < 0.0                 # the judge: apart
+            assert min(polygon_distance(ce, co), polygon_distance(co, ce)) >= 0.2 - 1e-9
+    assert held > 50
+
+
+def test_profiles_of_the_presets():
+    paper, safe = preset("truck_lifted_hyperplane_ipm"), preset("truck_lifted_hyperplane_ipm_safe")
+    assert safe.name == "truck_lift_hp_ipm_safe" and safe.qp.backend == "ipm"
+    # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
+    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "qp", "road"):
+        assert getattr(paper, f) == getattr(safe, f), f
+    assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.proximal == 0.0
+    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.proximal > 0
+    # Problem()'s defaults are the safe profile
+    d = Problem("x")
+    assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0
+    assert d.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1 and d.soft.obstacle_l1 > PAPER_SOFT.obstacle_l1
+    for name in preset_names():
+        assert preset(name + "_safe").soft == d.soft
+        assert preset(name + "_ipm_safe").qp.backend == "ipm"
+    with pytest.raises(ProblemError, match="unknown"):
+        preset("truck_lifted_ellipse_safe_ipm")        # the profile comes last
+    with pytest.raises(ProblemError, match="unknown"):
+        preset("truck_lifted_ellipse_safe_safe")
+
+
+@pytest.mark.parametrize("bad, field", [(dict(shape="round"), "obstacles.shape")])
+def test_bad_profile_fields_are_named(bad, field):
+    with pytest.raises(ProblemError, match=field):
+        Ellipse(**bad)
+    with pytest.raises(ProblemError, match="obstacles.radius"):
+        CoveringCircles(3, radius="tight")
+    with pytest.raises(ProblemError, match=r"obstacles.proximal.*\[0, 1\]"):
+        SeparatingHyperplane(proximal=-1e-3)
+    with pytest.raises(ProblemError, match=r"plan_check.react_stages.*\[0, 500\]"):
+        PlanCheck(react_stages=-1)
