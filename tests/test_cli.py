@@ -53,7 +53,7 @@ def test_presets_command_lists_all(runner):
     res = runner.invoke(main, ["presets"])
     assert res.exit_code == 0
     assert res.stdout.split() == preset_names()
-    assert "_ipm" in res.stderr
+    assert "_ipm" in res.stderr and "_safe" in res.stderr
 
 
 def assert_clean_error(res, *words, code=None):

@@ -106,8 +106,8 @@ def test_profiles_of_the_presets():
     # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
     for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "qp", "road"):
         assert getattr(paper, f) == getattr(safe, f), f
-    assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.proximal == 0.0
-    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.proximal > 0
+    assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
+    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
     d = Problem("x")
     assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0
@@ -127,7 +127,44 @@ def test_bad_profile_fields_are_named(bad, field):
         Ellipse(**bad)
     with pytest.raises(ProblemError, match="obstacles.radius"):
         CoveringCircles(3, radius="tight")
-    with pytest.raises(ProblemError, match=r"obstacles.proximal.*\[0, 1\]"):
-        SeparatingHyperplane(proximal=-1e-3)
+    with pytest.raises(ProblemError, match=r"obstacles.anchor.*\[0, 1\]"):
+        SeparatingHyperplane(anchor=-1e-3)
     with pytest.raises(ProblemError, match=r"plan_check.react_stages.*\[0, 500\]"):
         PlanCheck(react_stages=-1)
+
+
+def test_sat_clearance_is_minus_the_judges_overlap():
+    """The plan check's CasADi geometry against the campaign's judge (numpy, edges from corners), random poses."""
+    import casadi as ca
+    a_s, b_s = ca.SX.sym("a", 3), ca.SX.sym("b", 3)
+    f = ca.Function("c", [a_s, b_s], [obs.sat_clearance(obs.chassis_shape(a_s[0], a_s[1], a_s[2], CAR),
+                                                        obs.chassis_shape(b_s[0], b_s[1], b_s[2], TRUCK))])
+    rng = np.random.default_rng(7)
+    n_overlap = 0
+    for _ in range(2000):
+        a = rng.uniform([-20, -6, -math.pi], [20, 6, math.pi])
+        b = rng.uniform([-10, -3, -math.pi], [10, 3, math.pi])
+        judge = sat_overlap(chassis_corners(*a, CAR.l, CAR.l_r_ch, CAR.l_f_ch, CAR.w_ch),
+                            chassis_corners(*b, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch))
+        assert float(f(a, b)) == pytest.approx(-judge, abs=1e-9)
+        n_overlap += judge > 0
+    assert 100 < n_overlap < 1900     # both signs exercised
+
+
+def test_responsibility_rule_on_hand_made_contacts():
+    from fcgen.sim.collision_kind import responsible
+    kept = np.full(11, 2.0)                       # the ego's n over the last second: its lane kept
+    moved = np.linspace(0.0, 2.0, 11)             # changed its lane by 2 m
+    ego_c, east = np.array([0.0, 0.0]), 0.0
+    v_ego = np.array([20.0, 0.0])
+    # a faster opponent behind the ego: it ran into the ego's rear, whatever the ego's lane
+    assert responsible(ego_c, east, v_ego, np.array([-4.0, 0.5]), np.array([25.0, 0.0]), moved) \
+        == "opponent_from_behind"
+    # a slower opponent ahead: the ego ran into it (lane kept or not)
+    assert responsible(ego_c, east, v_ego, np.array([4.0, 0.0]), np.array([15.0, 0.0]), moved) == "ego_into_opponent"
+    # beside the ego, the ego kept its lane: the opponent came into it (a swept truck front)
+    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), kept) \
+        == "opponent_from_side"
+    # the same contact after the ego changed lanes: the ego's
+    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) \
+        == "ego_into_opponent"

@@ -46,6 +46,7 @@ typedef char check_truck_conv_el_stage_middle[(truck_conv_el_stage_middle_SZ_ARG
 typedef char check_truck_conv_el_stage_last[(truck_conv_el_stage_last_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_last_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_last_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_last_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_init_state[(truck_conv_el_init_state_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_init_state_SZ_RES <= CASADI_SZ_RES && truck_conv_el_init_state_SZ_IW <= CASADI_SZ_IW && truck_conv_el_init_state_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_theta_init[(truck_conv_el_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_theta_init_SZ_RES <= CASADI_SZ_RES && truck_conv_el_theta_init_SZ_IW <= CASADI_SZ_IW && truck_conv_el_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_conv_el_plan_clearance[(truck_conv_el_plan_clearance_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plan_clearance_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plan_clearance_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plan_clearance_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_plant_SZ_RES <= CASADI_SZ_RES && truck_conv_el_plant_SZ_IW <= CASADI_SZ_IW && truck_conv_el_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
@@ -1899,6 +1900,46 @@ static void apply_control(const truck_conv_el_real_t *w) {
   ws.status.u_violation = worst;
 }
 
+/* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
+ * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
+ * among stages 1..REACT_STAGES has it ahead of the ego. */
+static void plan_check(void) {
+  int k;
+  int j;
+  int react = 0;
+  double best = INFINITY;
+  int best_k = -1;
+  truck_conv_el_real_t c[OPP_DIM];
+  truck_conv_el_real_t ahead[OPP_DIM];
+  int met[OPP_DIM] = {0};
+  for (k = 0; (TRUCK_CONV_EL_NOPP > 0) && (k <= TRUCK_CONV_EL_N); ++k) {
+    if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_CONV_EL_OK) {
+      continue;
+    }
+    call3(truck_conv_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], c, ahead, NULL);
+    for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+      if ((double)c[j] < best) {
+        best = (double)c[j];
+        best_k = k;
+      }
+      if ((k >= 1) && (k <= TRUCK_CONV_EL_REACT_STAGES) && (c[j] < REAL_0) && (met[j] == 0)) {
+        met[j] = 1; /* its first overlapping stage decides */
+        if (ahead[j] > REAL_0) {
+          react = 1;
+        }
+      }
+    }
+  }
+  ws.status.plan_clearance = best;
+  ws.status.plan_clearance_stage = best_k;
+  ws.status.plan_reaction = react;
+  if (react != 0) {
+    const truck_conv_el_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
+    const truck_conv_el_real_t f = (truck_conv_el_real_t)11600.0 * v0;
+    ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
+  }
+}
+
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_conv_el_init(void) {
   clock_fn_t clock = ws.clock;
@@ -2120,6 +2161,7 @@ int truck_conv_el_feedback(void) {
   }
   ws.have_guess = 1;
   apply_control(ws.w);
+  plan_check();
   ws.status.exit_code = code;
   ws.status.time_feedback = now() - t0;
   return code;

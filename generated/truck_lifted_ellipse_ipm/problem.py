@@ -4,7 +4,8 @@ from fcgen.dsl import *  # noqa: F401,F403
 problem = Problem(
     name='truck_lift_el_ipm',
     formulation=Lifted(),
-    obstacles=Ellipse(),
+    obstacles=Ellipse(
+        shape='paper'),
     ego=Vehicle(
         l_f=1.7,
         l_r=1.7,
@@ -74,4 +75,6 @@ problem = Problem(
         ipm_tol=0.0001),
     road=RoadWindow(
         ds=2.0,
-        length=280.0))
+        length=280.0),
+    plan_check=PlanCheck(
+        react_stages=0))

@@ -35,6 +35,7 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_fabs CASADI_PREFIX(fabs)
 #define casadi_fmax CASADI_PREFIX(fmax)
 #define casadi_fmin CASADI_PREFIX(fmin)
@@ -45,6 +46,8 @@ extern "C" {
 #define casadi_s12 CASADI_PREFIX(s12)
 #define casadi_s13 CASADI_PREFIX(s13)
 #define casadi_s14 CASADI_PREFIX(s14)
+#define casadi_s15 CASADI_PREFIX(s15)
+#define casadi_s16 CASADI_PREFIX(s16)
 #define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_s4 CASADI_PREFIX(s4)
@@ -141,8 +144,10 @@ static const casadi_int casadi_s10[49] =
   12};
 static const casadi_int casadi_s11[3] = {5, 1, 1};
 static const casadi_int casadi_s12[3] = {0, 1, 1};
-static const casadi_int casadi_s13[3] = {2, 1, 1};
-static const casadi_int casadi_s14[3] = {30, 1, 1};
+static const casadi_int casadi_s13[3] = {9, 1, 1};
+static const casadi_int casadi_s14[3] = {3, 1, 1};
+static const casadi_int casadi_s15[3] = {2, 1, 1};
+static const casadi_int casadi_s16[3] = {30, 1, 1};
 
 /* truck_lift_el_ipm_stage_first:(w[10],x_next[8],p[44])->(g[18],J[18x18,66nz],q[10]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
@@ -4752,8 +4757,869 @@ int truck_lift_el_ipm_theta_init_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
   return 0;
 }
 
-/* truck_lift_el_ipm_plant:(i0[5],i1[2],i2[30])->(o0[5]) */
+/* truck_lift_el_ipm_plan_clearance:(x[8],p[44],opp[9])->(clearance[3],ahead[3]) */
 static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42;
+  a00=arg[0]? arg[0][7] : 0;
+  a01=cos(a00);
+  a02=arg[0]? arg[0][5] : 0;
+  a03=1.7000000000000000e+00;
+  a04=cos(a00);
+  a04=(a03*a04);
+  a02=(a02+a04);
+  a04=cos(a00);
+  a05=(2.*a04);
+  a05=(a02+a05);
+  a06=9.4999999999999996e-01;
+  a07=sin(a00);
+  a08=(a06*a07);
+  a05=(a05-a08);
+  a08=(a01*a05);
+  a09=sin(a00);
+  a10=arg[0]? arg[0][6] : 0;
+  a11=sin(a00);
+  a03=(a03*a11);
+  a10=(a10+a03);
+  a03=(2.*a07);
+  a03=(a10+a03);
+  a11=(a06*a04);
+  a03=(a03+a11);
+  a11=(a09*a03);
+  a08=(a08+a11);
+  a11=(2.*a04);
+  a11=(a02+a11);
+  a12=-9.4999999999999996e-01;
+  a13=(a12*a07);
+  a11=(a11-a13);
+  a13=(a01*a11);
+  a14=(2.*a07);
+  a14=(a10+a14);
+  a15=(a12*a04);
+  a14=(a14+a15);
+  a15=(a09*a14);
+  a13=(a13+a15);
+  a15=casadi_fmin(a08,a13);
+  a16=-2.;
+  a17=(a16*a04);
+  a17=(a02+a17);
+  a18=(a12*a07);
+  a17=(a17-a18);
+  a18=(a01*a17);
+  a19=(a16*a07);
+  a19=(a10+a19);
+  a20=(a12*a04);
+  a19=(a19+a20);
+  a20=(a09*a19);
+  a18=(a18+a20);
+  a15=casadi_fmin(a15,a18);
+  a20=(a16*a04);
+  a20=(a02+a20);
+  a21=(a06*a07);
+  a20=(a20-a21);
+  a21=(a01*a20);
+  a07=(a16*a07);
+  a07=(a10+a07);
+  a04=(a06*a04);
+  a07=(a07+a04);
+  a04=(a09*a07);
+  a21=(a21+a04);
+  a15=casadi_fmin(a15,a21);
+  a04=arg[2]? arg[2][0] : 0;
+  a22=10.;
+  a23=arg[2]? arg[2][2] : 0;
+  a24=cos(a23);
+  a24=(a22*a24);
+  a04=(a04+a24);
+  a24=13.;
+  a25=cos(a23);
+  a26=(a24*a25);
+  a26=(a04+a26);
+  a27=sin(a23);
+  a28=(2.*a27);
+  a26=(a26-a28);
+  a28=(a01*a26);
+  a29=arg[2]? arg[2][1] : 0;
+  a30=sin(a23);
+  a30=(a22*a30);
+  a29=(a29+a30);
+  a30=(a24*a27);
+  a30=(a29+a30);
+  a31=(2.*a25);
+  a30=(a30+a31);
+  a31=(a09*a30);
+  a28=(a28+a31);
+  a31=(a24*a25);
+  a31=(a04+a31);
+  a32=(a16*a27);
+  a31=(a31-a32);
+  a32=(a01*a31);
+  a33=(a24*a27);
+  a33=(a29+a33);
+  a34=(a16*a25);
+  a33=(a33+a34);
+  a34=(a09*a33);
+  a32=(a32+a34);
+  a34=casadi_fmin(a28,a32);
+  a35=-13.;
+  a36=(a35*a25);
+  a36=(a04+a36);
+  a37=(a16*a27);
+  a36=(a36-a37);
+  a37=(a01*a36);
+  a38=(a35*a27);
+  a38=(a29+a38);
+  a39=(a16*a25);
+  a38=(a38+a39);
+  a39=(a09*a38);
+  a37=(a37+a39);
+  a34=casadi_fmin(a34,a37);
+  a39=(a35*a25);
+  a39=(a04+a39);
+  a40=(2.*a27);
+  a39=(a39-a40);
+  a01=(a01*a39);
+  a27=(a35*a27);
+  a27=(a29+a27);
+  a25=(2.*a25);
+  a27=(a27+a25);
+  a09=(a09*a27);
+  a01=(a01+a09);
+  a34=casadi_fmin(a34,a01);
+  a15=casadi_fmax(a15,a34);
+  a08=casadi_fmax(a08,a13);
+  a08=casadi_fmax(a08,a18);
+  a08=casadi_fmax(a08,a21);
+  a28=casadi_fmax(a28,a32);
+  a28=casadi_fmax(a28,a37);
+  a28=casadi_fmax(a28,a01);
+  a08=casadi_fmin(a08,a28);
+  a15=(a15-a08);
+  a08=cos(a00);
+  a28=(a08*a03);
+  a01=sin(a00);
+  a37=(a01*a05);
+  a28=(a28-a37);
+  a37=(a08*a14);
+  a32=(a01*a11);
+  a37=(a37-a32);
+  a32=casadi_fmin(a28,a37);
+  a21=(a08*a19);
+  a18=(a01*a17);
+  a21=(a21-a18);
+  a32=casadi_fmin(a32,a21);
+  a18=(a08*a07);
+  a13=(a01*a20);
+  a18=(a18-a13);
+  a32=casadi_fmin(a32,a18);
+  a13=(a08*a30);
+  a34=(a01*a26);
+  a13=(a13-a34);
+  a34=(a08*a33);
+  a09=(a01*a31);
+  a34=(a34-a09);
+  a09=casadi_fmin(a13,a34);
+  a25=(a08*a38);
+  a40=(a01*a36);
+  a25=(a25-a40);
+  a09=casadi_fmin(a09,a25);
+  a08=(a08*a27);
+  a01=(a01*a39);
+  a08=(a08-a01);
+  a09=casadi_fmin(a09,a08);
+  a32=casadi_fmax(a32,a09);
+  a28=casadi_fmax(a28,a37);
+  a28=casadi_fmax(a28,a21);
+  a28=casadi_fmax(a28,a18);
+  a13=casadi_fmax(a13,a34);
+  a13=casadi_fmax(a13,a25);
+  a13=casadi_fmax(a13,a08);
+  a28=casadi_fmin(a28,a13);
+  a32=(a32-a28);
+  a15=casadi_fmax(a15,a32);
+  a32=cos(a23);
+  a28=(a32*a05);
+  a13=sin(a23);
+  a08=(a13*a03);
+  a28=(a28+a08);
+  a08=(a32*a11);
+  a25=(a13*a14);
+  a08=(a08+a25);
+  a25=casadi_fmin(a28,a08);
+  a34=(a32*a17);
+  a18=(a13*a19);
+  a34=(a34+a18);
+  a25=casadi_fmin(a25,a34);
+  a18=(a32*a20);
+  a21=(a13*a07);
+  a18=(a18+a21);
+  a25=casadi_fmin(a25,a18);
+  a21=(a32*a26);
+  a37=(a13*a30);
+  a21=(a21+a37);
+  a37=(a32*a31);
+  a09=(a13*a33);
+  a37=(a37+a09);
+  a09=casadi_fmin(a21,a37);
+  a01=(a32*a36);
+  a40=(a13*a38);
+  a01=(a01+a40);
+  a09=casadi_fmin(a09,a01);
+  a32=(a32*a39);
+  a13=(a13*a27);
+  a32=(a32+a13);
+  a09=casadi_fmin(a09,a32);
+  a25=casadi_fmax(a25,a09);
+  a28=casadi_fmax(a28,a08);
+  a28=casadi_fmax(a28,a34);
+  a28=casadi_fmax(a28,a18);
+  a21=casadi_fmax(a21,a37);
+  a21=casadi_fmax(a21,a01);
+  a21=casadi_fmax(a21,a32);
+  a28=casadi_fmin(a28,a21);
+  a25=(a25-a28);
+  a15=casadi_fmax(a15,a25);
+  a25=cos(a23);
+  a03=(a25*a03);
+  a23=sin(a23);
+  a05=(a23*a05);
+  a03=(a03-a05);
+  a14=(a25*a14);
+  a11=(a23*a11);
+  a14=(a14-a11);
+  a11=casadi_fmin(a03,a14);
+  a19=(a25*a19);
+  a17=(a23*a17);
+  a19=(a19-a17);
+  a11=casadi_fmin(a11,a19);
+  a07=(a25*a07);
+  a20=(a23*a20);
+  a07=(a07-a20);
+  a11=casadi_fmin(a11,a07);
+  a30=(a25*a30);
+  a26=(a23*a26);
+  a30=(a30-a26);
+  a33=(a25*a33);
+  a31=(a23*a31);
+  a33=(a33-a31);
+  a31=casadi_fmin(a30,a33);
+  a38=(a25*a38);
+  a36=(a23*a36);
+  a38=(a38-a36);
+  a31=casadi_fmin(a31,a38);
+  a25=(a25*a27);
+  a23=(a23*a39);
+  a25=(a25-a23);
+  a31=casadi_fmin(a31,a25);
+  a11=casadi_fmax(a11,a31);
+  a03=casadi_fmax(a03,a14);
+  a03=casadi_fmax(a03,a19);
+  a03=casadi_fmax(a03,a07);
+  a30=casadi_fmax(a30,a33);
+  a30=casadi_fmax(a30,a38);
+  a30=casadi_fmax(a30,a25);
+  a03=casadi_fmin(a03,a30);
+  a11=(a11-a03);
+  a15=casadi_fmax(a15,a11);
+  if (res[0]!=0) res[0][0]=a15;
+  a15=cos(a00);
+  a11=cos(a00);
+  a03=(2.*a11);
+  a03=(a02+a03);
+  a30=sin(a00);
+  a25=(a06*a30);
+  a03=(a03-a25);
+  a25=(a15*a03);
+  a38=sin(a00);
+  a33=(2.*a30);
+  a33=(a10+a33);
+  a07=(a06*a11);
+  a33=(a33+a07);
+  a07=(a38*a33);
+  a25=(a25+a07);
+  a07=(2.*a11);
+  a07=(a02+a07);
+  a19=(a12*a30);
+  a07=(a07-a19);
+  a19=(a15*a07);
+  a14=(2.*a30);
+  a14=(a10+a14);
+  a31=(a12*a11);
+  a14=(a14+a31);
+  a31=(a38*a14);
+  a19=(a19+a31);
+  a31=casadi_fmin(a25,a19);
+  a23=(a16*a11);
+  a23=(a02+a23);
+  a39=(a12*a30);
+  a23=(a23-a39);
+  a39=(a15*a23);
+  a27=(a16*a30);
+  a27=(a10+a27);
+  a36=(a12*a11);
+  a27=(a27+a36);
+  a36=(a38*a27);
+  a39=(a39+a36);
+  a31=casadi_fmin(a31,a39);
+  a36=(a16*a11);
+  a36=(a02+a36);
+  a26=(a06*a30);
+  a36=(a36-a26);
+  a26=(a15*a36);
+  a30=(a16*a30);
+  a30=(a10+a30);
+  a11=(a06*a11);
+  a30=(a30+a11);
+  a11=(a38*a30);
+  a26=(a26+a11);
+  a31=casadi_fmin(a31,a26);
+  a11=arg[2]? arg[2][3] : 0;
+  a20=arg[2]? arg[2][5] : 0;
+  a17=cos(a20);
+  a17=(a22*a17);
+  a11=(a11+a17);
+  a17=cos(a20);
+  a05=(a24*a17);
+  a05=(a11+a05);
+  a28=sin(a20);
+  a21=(2.*a28);
+  a05=(a05-a21);
+  a21=(a15*a05);
+  a32=arg[2]? arg[2][4] : 0;
+  a01=sin(a20);
+  a01=(a22*a01);
+  a32=(a32+a01);
+  a01=(a24*a28);
+  a01=(a32+a01);
+  a37=(2.*a17);
+  a01=(a01+a37);
+  a37=(a38*a01);
+  a21=(a21+a37);
+  a37=(a24*a17);
+  a37=(a11+a37);
+  a18=(a16*a28);
+  a37=(a37-a18);
+  a18=(a15*a37);
+  a34=(a24*a28);
+  a34=(a32+a34);
+  a08=(a16*a17);
+  a34=(a34+a08);
+  a08=(a38*a34);
+  a18=(a18+a08);
+  a08=casadi_fmin(a21,a18);
+  a09=(a35*a17);
+  a09=(a11+a09);
+  a13=(a16*a28);
+  a09=(a09-a13);
+  a13=(a15*a09);
+  a40=(a35*a28);
+  a40=(a32+a40);
+  a41=(a16*a17);
+  a40=(a40+a41);
+  a41=(a38*a40);
+  a13=(a13+a41);
+  a08=casadi_fmin(a08,a13);
+  a41=(a35*a17);
+  a41=(a11+a41);
+  a42=(2.*a28);
+  a41=(a41-a42);
+  a15=(a15*a41);
+  a28=(a35*a28);
+  a28=(a32+a28);
+  a17=(2.*a17);
+  a28=(a28+a17);
+  a38=(a38*a28);
+  a15=(a15+a38);
+  a08=casadi_fmin(a08,a15);
+  a31=casadi_fmax(a31,a08);
+  a25=casadi_fmax(a25,a19);
+  a25=casadi_fmax(a25,a39);
+  a25=casadi_fmax(a25,a26);
+  a21=casadi_fmax(a21,a18);
+  a21=casadi_fmax(a21,a13);
+  a21=casadi_fmax(a21,a15);
+  a25=casadi_fmin(a25,a21);
+  a31=(a31-a25);
+  a25=cos(a00);
+  a21=(a25*a33);
+  a15=sin(a00);
+  a13=(a15*a03);
+  a21=(a21-a13);
+  a13=(a25*a14);
+  a18=(a15*a07);
+  a13=(a13-a18);
+  a18=casadi_fmin(a21,a13);
+  a26=(a25*a27);
+  a39=(a15*a23);
+  a26=(a26-a39);
+  a18=casadi_fmin(a18,a26);
+  a39=(a25*a30);
+  a19=(a15*a36);
+  a39=(a39-a19);
+  a18=casadi_fmin(a18,a39);
+  a19=(a25*a01);
+  a08=(a15*a05);
+  a19=(a19-a08);
+  a08=(a25*a34);
+  a38=(a15*a37);
+  a08=(a08-a38);
+  a38=casadi_fmin(a19,a08);
+  a17=(a25*a40);
+  a42=(a15*a09);
+  a17=(a17-a42);
+  a38=casadi_fmin(a38,a17);
+  a25=(a25*a28);
+  a15=(a15*a41);
+  a25=(a25-a15);
+  a38=casadi_fmin(a38,a25);
+  a18=casadi_fmax(a18,a38);
+  a21=casadi_fmax(a21,a13);
+  a21=casadi_fmax(a21,a26);
+  a21=casadi_fmax(a21,a39);
+  a19=casadi_fmax(a19,a08);
+  a19=casadi_fmax(a19,a17);
+  a19=casadi_fmax(a19,a25);
+  a21=casadi_fmin(a21,a19);
+  a18=(a18-a21);
+  a31=casadi_fmax(a31,a18);
+  a18=cos(a20);
+  a21=(a18*a03);
+  a19=sin(a20);
+  a25=(a19*a33);
+  a21=(a21+a25);
+  a25=(a18*a07);
+  a17=(a19*a14);
+  a25=(a25+a17);
+  a17=casadi_fmin(a21,a25);
+  a08=(a18*a23);
+  a39=(a19*a27);
+  a08=(a08+a39);
+  a17=casadi_fmin(a17,a08);
+  a39=(a18*a36);
+  a26=(a19*a30);
+  a39=(a39+a26);
+  a17=casadi_fmin(a17,a39);
+  a26=(a18*a05);
+  a13=(a19*a01);
+  a26=(a26+a13);
+  a13=(a18*a37);
+  a38=(a19*a34);
+  a13=(a13+a38);
+  a38=casadi_fmin(a26,a13);
+  a15=(a18*a09);
+  a42=(a19*a40);
+  a15=(a15+a42);
+  a38=casadi_fmin(a38,a15);
+  a18=(a18*a41);
+  a19=(a19*a28);
+  a18=(a18+a19);
+  a38=casadi_fmin(a38,a18);
+  a17=casadi_fmax(a17,a38);
+  a21=casadi_fmax(a21,a25);
+  a21=casadi_fmax(a21,a08);
+  a21=casadi_fmax(a21,a39);
+  a26=casadi_fmax(a26,a13);
+  a26=casadi_fmax(a26,a15);
+  a26=casadi_fmax(a26,a18);
+  a21=casadi_fmin(a21,a26);
+  a17=(a17-a21);
+  a31=casadi_fmax(a31,a17);
+  a17=cos(a20);
+  a33=(a17*a33);
+  a20=sin(a20);
+  a03=(a20*a03);
+  a33=(a33-a03);
+  a14=(a17*a14);
+  a07=(a20*a07);
+  a14=(a14-a07);
+  a07=casadi_fmin(a33,a14);
+  a27=(a17*a27);
+  a23=(a20*a23);
+  a27=(a27-a23);
+  a07=casadi_fmin(a07,a27);
+  a30=(a17*a30);
+  a36=(a20*a36);
+  a30=(a30-a36);
+  a07=casadi_fmin(a07,a30);
+  a01=(a17*a01);
+  a05=(a20*a05);
+  a01=(a01-a05);
+  a34=(a17*a34);
+  a37=(a20*a37);
+  a34=(a34-a37);
+  a37=casadi_fmin(a01,a34);
+  a40=(a17*a40);
+  a09=(a20*a09);
+  a40=(a40-a09);
+  a37=casadi_fmin(a37,a40);
+  a17=(a17*a28);
+  a20=(a20*a41);
+  a17=(a17-a20);
+  a37=casadi_fmin(a37,a17);
+  a07=casadi_fmax(a07,a37);
+  a33=casadi_fmax(a33,a14);
+  a33=casadi_fmax(a33,a27);
+  a33=casadi_fmax(a33,a30);
+  a01=casadi_fmax(a01,a34);
+  a01=casadi_fmax(a01,a40);
+  a01=casadi_fmax(a01,a17);
+  a33=casadi_fmin(a33,a01);
+  a07=(a07-a33);
+  a31=casadi_fmax(a31,a07);
+  if (res[0]!=0) res[0][1]=a31;
+  a31=cos(a00);
+  a07=cos(a00);
+  a33=(2.*a07);
+  a33=(a02+a33);
+  a01=sin(a00);
+  a17=(a06*a01);
+  a33=(a33-a17);
+  a17=(a31*a33);
+  a40=sin(a00);
+  a34=(2.*a01);
+  a34=(a10+a34);
+  a30=(a06*a07);
+  a34=(a34+a30);
+  a30=(a40*a34);
+  a17=(a17+a30);
+  a30=(2.*a07);
+  a30=(a02+a30);
+  a27=(a12*a01);
+  a30=(a30-a27);
+  a27=(a31*a30);
+  a14=(2.*a01);
+  a14=(a10+a14);
+  a37=(a12*a07);
+  a14=(a14+a37);
+  a37=(a40*a14);
+  a27=(a27+a37);
+  a37=casadi_fmin(a17,a27);
+  a20=(a16*a07);
+  a20=(a02+a20);
+  a41=(a12*a01);
+  a20=(a20-a41);
+  a41=(a31*a20);
+  a28=(a16*a01);
+  a28=(a10+a28);
+  a12=(a12*a07);
+  a28=(a28+a12);
+  a12=(a40*a28);
+  a41=(a41+a12);
+  a37=casadi_fmin(a37,a41);
+  a12=(a16*a07);
+  a12=(a02+a12);
+  a09=(a06*a01);
+  a12=(a12-a09);
+  a09=(a31*a12);
+  a01=(a16*a01);
+  a01=(a10+a01);
+  a06=(a06*a07);
+  a01=(a01+a06);
+  a06=(a40*a01);
+  a09=(a09+a06);
+  a37=casadi_fmin(a37,a09);
+  a06=arg[2]? arg[2][6] : 0;
+  a07=arg[2]? arg[2][8] : 0;
+  a05=cos(a07);
+  a05=(a22*a05);
+  a06=(a06+a05);
+  a05=cos(a07);
+  a36=(a24*a05);
+  a36=(a06+a36);
+  a23=sin(a07);
+  a03=(2.*a23);
+  a36=(a36-a03);
+  a03=(a31*a36);
+  a21=arg[2]? arg[2][7] : 0;
+  a26=sin(a07);
+  a22=(a22*a26);
+  a21=(a21+a22);
+  a22=(a24*a23);
+  a22=(a21+a22);
+  a26=(2.*a05);
+  a22=(a22+a26);
+  a26=(a40*a22);
+  a03=(a03+a26);
+  a26=(a24*a05);
+  a26=(a06+a26);
+  a18=(a16*a23);
+  a26=(a26-a18);
+  a18=(a31*a26);
+  a24=(a24*a23);
+  a24=(a21+a24);
+  a15=(a16*a05);
+  a24=(a24+a15);
+  a15=(a40*a24);
+  a18=(a18+a15);
+  a15=casadi_fmin(a03,a18);
+  a13=(a35*a05);
+  a13=(a06+a13);
+  a39=(a16*a23);
+  a13=(a13-a39);
+  a39=(a31*a13);
+  a08=(a35*a23);
+  a08=(a21+a08);
+  a16=(a16*a05);
+  a08=(a08+a16);
+  a16=(a40*a08);
+  a39=(a39+a16);
+  a15=casadi_fmin(a15,a39);
+  a16=(a35*a05);
+  a16=(a06+a16);
+  a25=(2.*a23);
+  a16=(a16-a25);
+  a31=(a31*a16);
+  a35=(a35*a23);
+  a35=(a21+a35);
+  a05=(2.*a05);
+  a35=(a35+a05);
+  a40=(a40*a35);
+  a31=(a31+a40);
+  a15=casadi_fmin(a15,a31);
+  a37=casadi_fmax(a37,a15);
+  a17=casadi_fmax(a17,a27);
+  a17=casadi_fmax(a17,a41);
+  a17=casadi_fmax(a17,a09);
+  a03=casadi_fmax(a03,a18);
+  a03=casadi_fmax(a03,a39);
+  a03=casadi_fmax(a03,a31);
+  a17=casadi_fmin(a17,a03);
+  a37=(a37-a17);
+  a17=cos(a00);
+  a03=(a17*a34);
+  a31=sin(a00);
+  a39=(a31*a33);
+  a03=(a03-a39);
+  a39=(a17*a14);
+  a18=(a31*a30);
+  a39=(a39-a18);
+  a18=casadi_fmin(a03,a39);
+  a09=(a17*a28);
+  a41=(a31*a20);
+  a09=(a09-a41);
+  a18=casadi_fmin(a18,a09);
+  a41=(a17*a01);
+  a27=(a31*a12);
+  a41=(a41-a27);
+  a18=casadi_fmin(a18,a41);
+  a27=(a17*a22);
+  a15=(a31*a36);
+  a27=(a27-a15);
+  a15=(a17*a24);
+  a40=(a31*a26);
+  a15=(a15-a40);
+  a40=casadi_fmin(a27,a15);
+  a05=(a17*a08);
+  a23=(a31*a13);
+  a05=(a05-a23);
+  a40=casadi_fmin(a40,a05);
+  a17=(a17*a35);
+  a31=(a31*a16);
+  a17=(a17-a31);
+  a40=casadi_fmin(a40,a17);
+  a18=casadi_fmax(a18,a40);
+  a03=casadi_fmax(a03,a39);
+  a03=casadi_fmax(a03,a09);
+  a03=casadi_fmax(a03,a41);
+  a27=casadi_fmax(a27,a15);
+  a27=casadi_fmax(a27,a05);
+  a27=casadi_fmax(a27,a17);
+  a03=casadi_fmin(a03,a27);
+  a18=(a18-a03);
+  a37=casadi_fmax(a37,a18);
+  a18=cos(a07);
+  a03=(a18*a33);
+  a27=sin(a07);
+  a17=(a27*a34);
+  a03=(a03+a17);
+  a17=(a18*a30);
+  a05=(a27*a14);
+  a17=(a17+a05);
+  a05=casadi_fmin(a03,a17);
+  a15=(a18*a20);
+  a41=(a27*a28);
+  a15=(a15+a41);
+  a05=casadi_fmin(a05,a15);
+  a41=(a18*a12);
+  a09=(a27*a01);
+  a41=(a41+a09);
+  a05=casadi_fmin(a05,a41);
+  a09=(a18*a36);
+  a39=(a27*a22);
+  a09=(a09+a39);
+  a39=(a18*a26);
+  a40=(a27*a24);
+  a39=(a39+a40);
+  a40=casadi_fmin(a09,a39);
+  a31=(a18*a13);
+  a23=(a27*a08);
+  a31=(a31+a23);
+  a40=casadi_fmin(a40,a31);
+  a18=(a18*a16);
+  a27=(a27*a35);
+  a18=(a18+a27);
+  a40=casadi_fmin(a40,a18);
+  a05=casadi_fmax(a05,a40);
+  a03=casadi_fmax(a03,a17);
+  a03=casadi_fmax(a03,a15);
+  a03=casadi_fmax(a03,a41);
+  a09=casadi_fmax(a09,a39);
+  a09=casadi_fmax(a09,a31);
+  a09=casadi_fmax(a09,a18);
+  a03=casadi_fmin(a03,a09);
+  a05=(a05-a03);
+  a37=casadi_fmax(a37,a05);
+  a05=cos(a07);
+  a34=(a05*a34);
+  a07=sin(a07);
+  a33=(a07*a33);
+  a34=(a34-a33);
+  a14=(a05*a14);
+  a30=(a07*a30);
+  a14=(a14-a30);
+  a30=casadi_fmin(a34,a14);
+  a28=(a05*a28);
+  a20=(a07*a20);
+  a28=(a28-a20);
+  a30=casadi_fmin(a30,a28);
+  a01=(a05*a01);
+  a12=(a07*a12);
+  a01=(a01-a12);
+  a30=casadi_fmin(a30,a01);
+  a22=(a05*a22);
+  a36=(a07*a36);
+  a22=(a22-a36);
+  a24=(a05*a24);
+  a26=(a07*a26);
+  a24=(a24-a26);
+  a26=casadi_fmin(a22,a24);
+  a08=(a05*a08);
+  a13=(a07*a13);
+  a08=(a08-a13);
+  a26=casadi_fmin(a26,a08);
+  a05=(a05*a35);
+  a07=(a07*a16);
+  a05=(a05-a07);
+  a26=casadi_fmin(a26,a05);
+  a30=casadi_fmax(a30,a26);
+  a34=casadi_fmax(a34,a14);
+  a34=casadi_fmax(a34,a28);
+  a34=casadi_fmax(a34,a01);
+  a22=casadi_fmax(a22,a24);
+  a22=casadi_fmax(a22,a08);
+  a22=casadi_fmax(a22,a05);
+  a34=casadi_fmin(a34,a22);
+  a30=(a30-a34);
+  a37=casadi_fmax(a37,a30);
+  if (res[0]!=0) res[0][2]=a37;
+  a04=(a04-a02);
+  a37=cos(a00);
+  a04=(a04*a37);
+  a29=(a29-a10);
+  a37=sin(a00);
+  a29=(a29*a37);
+  a04=(a04+a29);
+  if (res[1]!=0) res[1][0]=a04;
+  a11=(a11-a02);
+  a04=cos(a00);
+  a11=(a11*a04);
+  a32=(a32-a10);
+  a04=sin(a00);
+  a32=(a32*a04);
+  a11=(a11+a32);
+  if (res[1]!=0) res[1][1]=a11;
+  a06=(a06-a02);
+  a02=cos(a00);
+  a06=(a06*a02);
+  a21=(a21-a10);
+  a00=sin(a00);
+  a21=(a21*a00);
+  a06=(a06+a21);
+  if (res[1]!=0) res[1][2]=a06;
+  return 0;
+}
+
+int truck_lift_el_ipm_plan_clearance(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+int truck_lift_el_ipm_plan_clearance_checkout(void) {
+  return 0;
+}
+
+void truck_lift_el_ipm_plan_clearance_release(int mem) {
+}
+
+void truck_lift_el_ipm_plan_clearance_incref(void) {
+}
+
+void truck_lift_el_ipm_plan_clearance_decref(void) {
+}
+
+casadi_int truck_lift_el_ipm_plan_clearance_n_in(void) { return 3;}
+
+casadi_int truck_lift_el_ipm_plan_clearance_n_out(void) { return 2;}
+
+casadi_real truck_lift_el_ipm_plan_clearance_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+const char* truck_lift_el_ipm_plan_clearance_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "x";
+    case 1: return "p";
+    case 2: return "opp";
+    default: return 0;
+  }
+}
+
+const char* truck_lift_el_ipm_plan_clearance_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "clearance";
+    case 1: return "ahead";
+    default: return 0;
+  }
+}
+
+const casadi_int* truck_lift_el_ipm_plan_clearance_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    case 2: return casadi_s13;
+    default: return 0;
+  }
+}
+
+const casadi_int* truck_lift_el_ipm_plan_clearance_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s14;
+    case 1: return casadi_s14;
+    default: return 0;
+  }
+}
+
+int truck_lift_el_ipm_plan_clearance_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 3;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+int truck_lift_el_ipm_plan_clearance_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* truck_lift_el_ipm_plant:(i0[5],i1[2],i2[30])->(o0[5]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -5358,7 +6224,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 int truck_lift_el_ipm_plant(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 int truck_lift_el_ipm_plant_checkout(void) {
@@ -5403,8 +6269,8 @@ const char* truck_lift_el_ipm_plant_name_out(casadi_int i) {
 const casadi_int* truck_lift_el_ipm_plant_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s11;
-    case 1: return casadi_s13;
-    case 2: return casadi_s14;
+    case 1: return casadi_s15;
+    case 2: return casadi_s16;
     default: return 0;
   }
 }

@@ -107,6 +107,24 @@ int truck_lift_el_ipm_theta_init_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 #define truck_lift_el_ipm_theta_init_SZ_RES 1
 #define truck_lift_el_ipm_theta_init_SZ_IW 0
 #define truck_lift_el_ipm_theta_init_SZ_W 0
+int truck_lift_el_ipm_plan_clearance(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int truck_lift_el_ipm_plan_clearance_checkout(void);
+void truck_lift_el_ipm_plan_clearance_release(int mem);
+void truck_lift_el_ipm_plan_clearance_incref(void);
+void truck_lift_el_ipm_plan_clearance_decref(void);
+casadi_int truck_lift_el_ipm_plan_clearance_n_in(void);
+casadi_int truck_lift_el_ipm_plan_clearance_n_out(void);
+casadi_real truck_lift_el_ipm_plan_clearance_default_in(casadi_int i);
+const char* truck_lift_el_ipm_plan_clearance_name_in(casadi_int i);
+const char* truck_lift_el_ipm_plan_clearance_name_out(casadi_int i);
+const casadi_int* truck_lift_el_ipm_plan_clearance_sparsity_in(casadi_int i);
+const casadi_int* truck_lift_el_ipm_plan_clearance_sparsity_out(casadi_int i);
+int truck_lift_el_ipm_plan_clearance_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int truck_lift_el_ipm_plan_clearance_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define truck_lift_el_ipm_plan_clearance_SZ_ARG 3
+#define truck_lift_el_ipm_plan_clearance_SZ_RES 2
+#define truck_lift_el_ipm_plan_clearance_SZ_IW 0
+#define truck_lift_el_ipm_plan_clearance_SZ_W 0
 int truck_lift_el_ipm_plant(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int truck_lift_el_ipm_plant_checkout(void);
 void truck_lift_el_ipm_plant_release(int mem);

@@ -46,6 +46,7 @@ typedef char check_truck_lift_el_ipm_stage_middle[(truck_lift_el_ipm_stage_middl
 typedef char check_truck_lift_el_ipm_stage_last[(truck_lift_el_ipm_stage_last_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_stage_last_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_stage_last_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_stage_last_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_init_state[(truck_lift_el_ipm_init_state_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_init_state_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_init_state_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_init_state_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_theta_init[(truck_lift_el_ipm_theta_init_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_theta_init_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_theta_init_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_theta_init_SZ_W <= CASADI_SZ_W) ? 1 : -1];
+typedef char check_truck_lift_el_ipm_plan_clearance[(truck_lift_el_ipm_plan_clearance_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_plan_clearance_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_plan_clearance_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_plan_clearance_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_plant[(truck_lift_el_ipm_plant_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_plant_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_plant_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_plant_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
@@ -5726,6 +5727,46 @@ static void apply_control(const truck_lift_el_ipm_real_t *w) {
   ws.status.u_violation = worst;
 }
 
+/* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
+ * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
+ * among stages 1..REACT_STAGES has it ahead of the ego. */
+static void plan_check(void) {
+  int k;
+  int j;
+  int react = 0;
+  double best = INFINITY;
+  int best_k = -1;
+  truck_lift_el_ipm_real_t c[OPP_DIM];
+  truck_lift_el_ipm_real_t ahead[OPP_DIM];
+  int met[OPP_DIM] = {0};
+  for (k = 0; (TRUCK_LIFT_EL_IPM_NOPP > 0) && (k <= TRUCK_LIFT_EL_IPM_N); ++k) {
+    if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_LIFT_EL_IPM_OK) {
+      continue;
+    }
+    call3(truck_lift_el_ipm_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], c, ahead, NULL);
+    for (j = 0; j < TRUCK_LIFT_EL_IPM_NOPP; ++j) {
+      if ((double)c[j] < best) {
+        best = (double)c[j];
+        best_k = k;
+      }
+      if ((k >= 1) && (k <= TRUCK_LIFT_EL_IPM_REACT_STAGES) && (c[j] < REAL_0) && (met[j] == 0)) {
+        met[j] = 1; /* its first overlapping stage decides */
+        if (ahead[j] > REAL_0) {
+          react = 1;
+        }
+      }
+    }
+  }
+  ws.status.plan_clearance = best;
+  ws.status.plan_clearance_stage = best_k;
+  ws.status.plan_reaction = react;
+  if (react != 0) {
+    const truck_lift_el_ipm_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
+    const truck_lift_el_ipm_real_t f = (truck_lift_el_ipm_real_t)11600.0 * v0;
+    ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
+  }
+}
+
 /* ---- API ------------------------------------------------------------------------------------------------------- */
 int truck_lift_el_ipm_init(void) {
   clock_fn_t clock = ws.clock;
@@ -5945,6 +5986,7 @@ int truck_lift_el_ipm_feedback(void) {
   }
   ws.have_guess = 1;
   apply_control(ws.w);
+  plan_check();
   ws.status.exit_code = code;
   ws.status.time_feedback = now() - t0;
   return code;

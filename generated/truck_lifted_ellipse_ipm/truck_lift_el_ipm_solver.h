@@ -28,7 +28,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_IPM_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_IPM_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
-#define TRUCK_LIFT_EL_IPM_WORKSPACE_BYTES 259672 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_IPM_WORKSPACE_BYTES 259688 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_IPM_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -106,6 +106,14 @@ enum {
  *   q is loaded before the matrices; one scale/unscale rounding of q remains, a step differs by ~1e-11 at most).
  */
 
+/* Plan check (after every feedback that solved or fell back): the plan's true chassis against every opponent's true
+ *   rectangle (the poses given to set_opponents) at stages 0..N, by separating axes: status.plan_clearance (> 0
+ *   apart, < 0 overlapping by that much) and its stage. Where an opponent's first overlap among stages
+ *   1..TRUCK_LIFT_EL_IPM_REACT_STAGES has its centre ahead of the ego's (along the ego's heading: braking opens that gap;
+ *   for one beside or behind it would close it), get_u0 brakes: F_d = -min(F_d_max, m max(v0, 0) / dt) (v0 the measured speed), the steering rate kept, and
+ *   status.plan_reaction = 1; the plan itself is not changed. TRUCK_LIFT_EL_IPM_REACT_STAGES 0: report only. */
+#define TRUCK_LIFT_EL_IPM_REACT_STAGES 0
+
 /* A usable QP's step may leave the input box by this much (max_i excess_i / limit_i); beyond: ERR_QP_INPUT_BOUNDS. */
 #define TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION (0.05)
 
@@ -119,7 +127,10 @@ typedef struct {
   int opp_outside;    /* conventional: (stage, opponent) pairs the last prepare left out, being off the road */
   int qp_unusable_run; /* feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart) */
   int cold_restarts;  /* prepares that cold-started after TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER unusable QPs in a row */
+  int plan_clearance_stage; /* the stage of plan_clearance (-1: no opponent) */
+  int plan_reaction;  /* 1: the plan check braked: get_u0 is the braking control (see Plan check) */
   double u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
+  double plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
   double time_prepare;
   double time_feedback;
 } truck_lift_el_ipm_status_t;

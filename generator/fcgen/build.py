@@ -103,8 +103,9 @@ class _CStatus(ctypes.Structure):
     """The C status struct (``<name>_get_status``), field by field as ``reference.Status``."""
 
     _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected",
-                                             "opp_outside", "qp_unusable_run", "cold_restarts")] + \
-        [(f, ctypes.c_double) for f in ("u_violation", "time_prepare", "time_feedback")]
+                                             "opp_outside", "qp_unusable_run", "cold_restarts",
+                                             "plan_clearance_stage", "plan_reaction")] + \
+        [(f, ctypes.c_double) for f in ("u_violation", "plan_clearance", "time_prepare", "time_feedback")]
 
 
 _STATUS_FIELDS = tuple(f for f, _ in _CStatus._fields_)
@@ -294,9 +295,9 @@ class CSolver:
         st = self.status()
         if rc:  # the control get_u0 gives after an error: the fallback (unusable QP) or the last one (rejected)
             return StepResult(self.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                              math.nan)
+                              math.nan, st.plan_reaction)
         return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                          self.max_slack())
+                          self.max_slack(), st.plan_reaction)
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
@@ -335,8 +336,8 @@ class CSolver:
             q["get_u0"], q["max_slack"]
         st, u0, ndarray, floor, nan = self._status, self._u0, np.ndarray, math.floor, math.nan
         unpack = _STATUS_STRUCT.unpack_from
-        i_status, i_iter, i_prep, i_fb = (_STATUS_FIELDS.index(k) for k in ("qp_status", "qp_iter", "time_prepare",
-                                                                            "time_feedback"))
+        i_status, i_iter, i_prep, i_fb, i_react = (_STATUS_FIELDS.index(k) for k in (
+            "qp_status", "qp_iter", "time_prepare", "time_feedback", "plan_reaction"))
 
         def state(x0) -> bool:   # _input("x0", x0, 5)
             if type(x0) is ndarray and x0.shape == (5,):
@@ -378,7 +379,7 @@ class CSolver:
             get_u0(u0_ptr)
             v = unpack(st)
             return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep], v[i_fb],
-                              nan if rc else max_slack())
+                              nan if rc else max_slack(), v[i_react])
 
         step.road_arrays = arrays   # the arrays whose addresses set_road gets live as long as the function
         return step

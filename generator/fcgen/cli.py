@@ -133,8 +133,11 @@ def _names(text: str) -> list[str]:
 @click.option("--cflags", default=None, help="C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
               "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)")
 @click.option("--force-report", is_flag=True, help="replace an existing report in the --report folder")
+@click.option("--profile", type=click.Choice(["paper", "safe"]), default="paper", show_default=True,
+              help="the paper's settings (Table III) or the safe profile (docs/safe_profile.md); a seed's scenario "
+              "is the same in both, so the two compare seed by seed (the same --out may hold both)")
 def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir, cflags, force_report):
+             scheduler, cache_dir, out, report_dir, cflags, force_report, profile):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
     from .campaign.runner import run_campaign
@@ -147,7 +150,8 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
         if s not in SCENARIOS:
             _fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
-        configs = paper_grid(_names(scenarios), _names(formulations), _names(obstacle_list), controller, backend)
+        configs = paper_grid(_names(scenarios), _names(formulations), _names(obstacle_list), controller, backend,
+                             profile)
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:
@@ -184,6 +188,26 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
     if report_dir:
         from .report.page import write_report
         click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
+
+
+@main.command()
+@click.argument("paper", type=click.Path(exists=True, file_okay=False))
+@click.argument("safe", type=click.Path(exists=True, file_okay=False))
+@click.option("--out", type=click.Path(dir_okay=False), default=None, help="also write the table (Markdown) here")
+def profiles(paper, safe, out):
+    """The paper profile's campaign results (PAPER) against the safe profile's (SAFE), seed by seed."""
+    from .campaign.store import read_results
+    from .report.profiles import compare, markdown
+
+    try:
+        text = markdown(compare(read_results(paper), read_results(safe)))
+    except (ValueError, KeyError) as exc:
+        _fail(f"profiles: {exc}")
+    click.echo(text, nl=False)
+    if out:
+        from .atomic import write_text
+        write_text(out, text)
+        click.echo(f"written to {out}")
 
 
 @main.command()
@@ -567,8 +591,11 @@ def list_presets() -> None:
     """List the preset problems (one name a line on stdout; what the names mean on stderr)."""
     for n in preset_names():
         click.echo(n)
-    click.echo("Each is the paper's configuration <scenario>_<formulation>_<obstacle model>, with OSQP. Append _ipm for "
-               "the same problem with the IPM backend (truck_lifted_ellipse_ipm).", err=True)
+    click.echo("Each is the paper's configuration <scenario>_<formulation>_<obstacle model> with the paper's settings, "
+               "with OSQP. Append _ipm for the same problem with the IPM backend (truck_lifted_ellipse_ipm), then "
+               "_safe for our safe profile (truck_lifted_ellipse_ipm_safe: obstacle shapes that contain the true "
+               "rectangles, exact penalties, the plan check's braking; docs/safe_profile.md). A problem of your own "
+               "(Problem(...)) gets the safe profile's settings by default.", err=True)
 
 
 if __name__ == "__main__":  # pragma: no cover

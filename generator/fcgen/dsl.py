@@ -177,7 +177,7 @@ class SoftPenalties:
 
     obstacle_l1: float = 1e8
     obstacle_l2: float = 1e6
-    a_lat_l1: float = 1e7
+    a_lat_l1: float = 1e6
     a_lat_l2: float = 1e4
     soft_road: bool = False
     road_l1: float = 1e5
@@ -295,21 +295,20 @@ class SeparatingHyperplane:
 
     ``margin``: distance [m] the ego's vertices keep from the plane. The paper's exact form (0) lets the one-step
     RTI linearization graze opponents (3-62 mm deep in 8 of 10 truck runs); 0.1 m left 1 of 10, 0.2 m none.
-    ``proximal``: weight of a proximal term 1/2 proximal |theta - theta_guess|^2 in the scaled QP (its largest
-    Hessian entry is 1): the plane is not unique where the vehicles are far apart, so without it (0, the paper's
-    presets) rounding alone picks one and C and Python closed loops part after ~14 samples; it vanishes at a
-    converged solution (a step of 0 costs nothing).
+    ``anchor``: weight w of 1/2 w |theta - theta_mid|^2 in the scaled QP (its largest Hessian entry is 1), theta_mid
+    the plane halfway between the two centres (the initial guess's), evaluated at the linearization point: the plane
+    is not unique where the vehicles are apart, so without it (0, the paper's presets) each real-time iteration
+    moves the free planes by rounding-level amounts that grow, and C and Python closed loops part after ~50 samples.
     """
 
     margin: float = 0.2
-    proximal: float = 1e-3
+    anchor: float = 1e-2
     kind: str = field(default="separating_hyperplane", init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check(0.0 <= _finite("obstacles.margin", self.margin) <= 2.0, "obstacles.margin", self.margin,
                "[0, 2] m")
-        _check(0.0 <= _finite("obstacles.proximal", self.proximal) <= 1.0, "obstacles.proximal", self.proximal,
-               "[0, 1]")
+        _check(0.0 <= _finite("obstacles.anchor", self.anchor) <= 1.0, "obstacles.anchor", self.anchor, "[0, 1]")
 
 
 ObstacleModel = Union[Ellipse, CoveringCircles, SeparatingHyperplane]

@@ -28,6 +28,15 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "soft"): ("-", "a `SoftPenalties`", "slack penalties of the soft rows"),
     ("Problem", "qp"): ("-", "a `QpOptions`", "QP backend and its settings"),
     ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max N dt + 4 ds", "the road the solver sees"),
+    ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
+    ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only",
+                                    "brake where one of stages 1..min(this, N) of the plan overlaps an opponent"),
+    ("Ellipse", "shape"): ("-", "`minkowski` or `paper`", "the ellipse containing the opponent grown by the ego's "
+                           "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r"),
+    ("CoveringCircles", "radius"): ("-", "`cover` or `paper`", "circles just large enough to cover the rectangle, or "
+                                    "the paper's w / sqrt(2)"),
+    ("SeparatingHyperplane", "anchor"): ("-", "[0, 1]", "weight pulling the planes toward the midpoint plane (makes "
+                                         "them unique: C = Python over whole runs)"),
     ("Vehicle", "l_f"): ("m", "> 0", "front part of the wheelbase l = l_f + l_r (reference point: rear axle)"),
     ("Vehicle", "l_r"): ("m", "> 0", "rear part of the wheelbase; the chassis is centred at l/2 ahead of the "
                                    "rear axle"),
@@ -92,7 +101,7 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
 }
 
 CLASSES = ("Problem", "Vehicle", "Opponents", "Wind", "Horizon", "Weights", "Reference", "Bounds", "SoftPenalties",
-           "QpOptions", "RoadWindow", "Conventional", "DirectElimination", "Lifted", "Ellipse", "CoveringCircles",
+           "QpOptions", "RoadWindow", "PlanCheck", "Conventional", "DirectElimination", "Lifted", "Ellipse", "CoveringCircles",
            "SeparatingHyperplane")
 
 

@@ -168,6 +168,37 @@ def hyperplane_h(ego: Shape, opp: Shape, theta, length: float, margin: float = 0
     return rows, t1 * t1 + t2 * t2 - 1
 
 
+def midpoint_plane(ego: Shape, opp: Shape) -> list:
+    """The plane halfway between the two centres, normal from the ego's to the opponent's: [t1, t2, t3] relative to
+    the opponent's centre (``hyperplane_h``); the initial guess and the safe profile's anchor."""
+    dx, dy = opp.cx - ego.cx, opp.cy - ego.cy
+    d = _sqrt(dx * dx + dy * dy + 1e-12)
+    return [dx / d, dy / d, d / 2]
+
+
+def sat_clearance(a: Shape, b: Shape):
+    """Separating-axis clearance of two rectangles (CasADi): the largest gap of their projections over the four edge
+    normals; positive: apart (a lower bound of their distance), negative: overlapping by its magnitude (the
+    penetration depth). Minus ``fcgen.sim.collision.sat_overlap`` of the same rectangles: the campaign's judge."""
+    ca_, cb = vertices(a), vertices(b)
+    gaps = []
+    for ang in (a.angle, b.angle):
+        for ux, uy in ((ca.cos(ang), ca.sin(ang)), (-ca.sin(ang), ca.cos(ang))):
+            pa = [ux * x + uy * y for x, y in ca_]
+            pb = [ux * x + uy * y for x, y in cb]
+            lo_a, hi_a = _fold(ca.fmin, pa), _fold(ca.fmax, pa)
+            lo_b, hi_b = _fold(ca.fmin, pb), _fold(ca.fmax, pb)
+            gaps.append(ca.fmax(lo_a, lo_b) - ca.fmin(hi_a, hi_b))   # minus the projections' overlap
+    return _fold(ca.fmax, gaps)
+
+
+def _fold(op, values: list):
+    out = values[0]
+    for v in values[1:]:
+        out = op(out, v)
+    return out
+
+
 def rows_per_opponent(model: ObstacleModel) -> int:
     """Soft constraint rows per opponent and stage."""
     if isinstance(model, Ellipse):

@@ -70,6 +70,7 @@ class Ocp:
     dynamics: ca.Function      # (x, u, p) -> x_next: one RK4 step (shift, plant, tests)
     init_state: ca.Function    # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
     a_lat: ca.Function         # (x) -> lateral acceleration
+    plan_clearance: ca.Function | None = None  # (x, p, opp poses) -> per opponent the SAT clearance (plan check)
     cost: tuple = field(default=())  # (first, middle, last) unscaled cost functions (w, p) -> J, for IPOPT
     fit: OppFit | None = None  # conventional: the prepare phase's opponent fit (pose -> FRENET_SHAPE)
 
@@ -165,6 +166,7 @@ def build_ocp(problem: Problem) -> Ocp:
     else:
         ego_pose = casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, rp.samples)
     length = ego.l_ch
+    theta_mid: list = []   # per opponent the plane halfway between the centres (the anchor of the safe profile)
     for j in range(n_opp):
         pj = p_opp[j * n_opp_stage:(j + 1) * n_opp_stage]
         if conventional:
@@ -174,6 +176,9 @@ def build_ocp(problem: Problem) -> Ocp:
             opp = obs.chassis_shape(pj[0], pj[1], pj[2], pb.opponents.vehicle)
             ego_sh = obs.chassis_shape(*ego_pose, ego)
         th = ths[3 * j:3 * j + 3] if n_theta else None
+        if n_theta:
+            mid_sh = obs.frenet_ego_shape(*ego_pose, 1.0, ego) if conventional else ego_sh
+            theta_mid += obs.midpoint_plane(mid_sh, opp)
         rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=length)
         for r_i, h in enumerate(rows):
             soft_rows.append((f"opp{j}_h{r_i}", h + sgs[isg], 0.0, INF))
@@ -237,7 +242,7 @@ def build_ocp(problem: Problem) -> Ocp:
         hess_diag[key] = np.diag(H) * D * D
     cost_scale = 1.0 / max(float(h.max()) for h in hess_diag.values())
 
-    proximal = getattr(model, "proximal", 0.0)
+    anchor = getattr(model, "anchor", 0.0)
     s_idx = 0  # s is the first state in both representations
     stage_types = {}
     costs = {}
@@ -247,14 +252,17 @@ def build_ocp(problem: Problem) -> Ocp:
         J = ca.jacobian(g, ca.vertcat(wk, xn))
         J = ca.mtimes(J, ca.diag(ca.DM(np.r_[D, Dx])))
         q = cost_scale * ca.gradient(cost, wk) * D
+        if n_theta and anchor > 0 and key != "first":  # anchor * (theta - theta_mid(x, p)): theta_mid held fixed
+            i0 = nx + (nu if key == "middle" else 0)
+            q[i0:i0 + n_theta] += anchor * (ths - ca.vertcat(*theta_mid))
         fun = ca.Function(f"stage_{key}", [wk, xn, p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
         q_ds0 = np.zeros(len(D))
         # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + k dt v_ref
         qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
         q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
         P_diag = cost_scale * hess_diag[key]
-        if n_theta and key != "first":  # the hyperplanes' proximal term (obstacles.proximal; theta's scale is 1)
-            P_diag[nx + (nu if key == "middle" else 0):][:n_theta] += proximal
+        if n_theta and key != "first":  # the hyperplanes' anchor (obstacles.anchor; theta's scale is 1)
+            P_diag[nx + (nu if key == "middle" else 0):][:n_theta] += anchor
         stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),
                                      np.array([r[2] for r in rows], dtype=float),
                                      np.array([r[3] for r in rows], dtype=float), D,
@@ -272,4 +280,25 @@ def build_ocp(problem: Problem) -> Ocp:
     alat = ca.Function("a_lat", [xs], [a])
     return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, len(obs.CARTESIAN_POSE), n_opp_stage, np_stage, cost_scale,
                stage_types["first"], stage_types["middle"], stage_types["last"], dyn, init, alat,
+               plan_clearance_function(pb, xs, p, p_road, rp.samples, lifted),
                (costs["first"], costs["middle"], costs["last"]), build_oppfit(pb))
+
+
+def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bool) -> ca.Function:
+    """The plan check of one stage: the ego's true chassis at the plan's state (Frenet states: F^-1 on the stage's
+    road window) against every opponent's true chassis at its pose [x, y, phi] (as given to set_opponents): the SAT
+    clearance, and how far ahead of the ego (along its heading) the opponent's centre is."""
+    n_opp = pb.opponents.count
+    opp = ca.SX.sym("opp", n_opp * len(obs.CARTESIAN_POSE))
+    pose = (xs[5], xs[6], xs[7]) if lifted else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples)
+    ego_sh = obs.chassis_shape(*pose, pb.ego)
+    clearance, ahead = [], []
+    for j in range(n_opp):
+        opp_sh = obs.chassis_shape(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], pb.opponents.vehicle)
+        clearance.append(obs.sat_clearance(ego_sh, opp_sh))
+        # the opponent's centre along the ego's heading from the ego's centre: > 0 ahead (braking opens the gap)
+        ahead.append((opp_sh.cx - ego_sh.cx) * ca.cos(pose[2]) + (opp_sh.cy - ego_sh.cy) * ca.sin(pose[2]))
+    empty = ca.SX(0, 1)
+    return ca.Function("plan_clearance", [xs, p, opp], [ca.vertcat(*clearance) if n_opp else empty,
+                                                        ca.vertcat(*ahead) if n_opp else empty],
+                       ["x", "p", "opp"], ["clearance", "ahead"])

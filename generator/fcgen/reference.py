@@ -119,6 +119,9 @@ class Status:
     opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
     qp_unusable_run: int = 0   # feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart)
     cold_restarts: int = 0     # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
+    plan_clearance_stage: int = 0  # the stage of plan_clearance (-1: no opponent)
+    plan_reaction: int = 0     # 1: the plan check braked (get_u0 is the braking control, not the plan's u0)
+    plan_clearance: float = 0.0    # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -144,16 +147,13 @@ def theta_init(ocp: Ocp) -> ca.Function:
         pj = p[ocp.p_opp][j * ocp.n_opp_stage:(j + 1) * ocp.n_opp_stage]
         if isinstance(pb.formulation, Conventional):
             ego = obs.frenet_ego_shape(x[0], x[1], x[2], 1.0, pb.ego)
-            co = (pj[0], pj[1])
+            opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
         else:
             pose = (x[5], x[6], x[7]) if ocp.state_kind == "lifted" else casadi_to_cartesian(
                 x[0], x[1], x[2], p[ocp.p_road], rp.samples)
             ego = obs.chassis_shape(*pose, pb.ego)
             opp = obs.chassis_shape(pj[0], pj[1], pj[2], pb.opponents.vehicle)
-            co = (opp.cx, opp.cy)
-        dx, dy = co[0] - ego.cx, co[1] - ego.cy
-        d = ca.sqrt(dx * dx + dy * dy + 1e-12)
-        out += [dx / d, dy / d, d / 2]
+        out += obs.midpoint_plane(ego, opp)
     return ca.Function("theta_init", [x, p], [ca.vertcat(*out)])
 
 
@@ -350,6 +350,8 @@ class RtiSolver:
         st = self.status
         self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=st.u_projected,
                              u_violation=st.u_violation, opp_outside=opp_outside,
+                             plan_clearance=st.plan_clearance, plan_clearance_stage=st.plan_clearance_stage,
+                             plan_reaction=st.plan_reaction,
                              qp_unusable_run=0 if restart else st.qp_unusable_run,
                              cold_restarts=min(st.cold_restarts + int(restart), INT_MAX))
 
@@ -392,6 +394,7 @@ class RtiSolver:
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
         self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
+        self._plan_check(st)
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
@@ -400,6 +403,40 @@ class RtiSolver:
             raise SolverError(code, f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
                                     f"{res.raw_status}{why}): step not taken, fallback control")
         return self.u0()
+
+    def _plan_check(self, st: Status) -> None:
+        """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
+        parameters on the prepared guess's s, as prepare built them); where an opponent's first overlap among stages
+        1..min(react_stages, N) has its centre ahead of the ego's (braking opens that gap; for one beside or behind
+        it closes it), brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
+        ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
+        best, best_k, react, met = math.inf, -1, False, set()
+        K = min(pb.plan_check.react_stages, ocp.N)
+        if pb.opponents.count:
+            for k in range(ocp.N + 1):
+                s = self.w_prep[lay.s_vars[k]]
+                if not self._window_ok(s):
+                    continue
+                c, ahead = (np.array(a).ravel() for a in ocp.plan_clearance(
+                    self._stage_w(k)[:ocp.nx], self.stage_params(k, s), self.opp[k]))
+                for j, (v, d) in enumerate(zip(c, ahead)):
+                    if v < best:
+                        best, best_k = float(v), k
+                    if 1 <= k <= K and v < 0.0 and j not in met:   # its first overlapping stage decides
+                        met.add(j)
+                        react = react or d > 0.0
+        st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
+        if react:
+            v0 = max(float(self.x0[3]), 0.0)
+            self.u_applied[0] = -min(pb.bounds.F_d_max, pb.ego.m * v0 / ocp.dt)
+
+    def _window_ok(self, s: float) -> bool:
+        """The road window of a stage at s exists (``_road_params`` without raising)."""
+        road, rp = self.road, self.ocp.road_params
+        if road is None or not math.isfinite(s):
+            return False
+        i0 = int(math.floor((s - road.s0) / road.ds)) - 1
+        return i0 >= 0 and i0 + rp.samples <= road.size
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:

@@ -52,7 +52,9 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("w", "feedback", TOL_SOLUTION, "iterate x, u"),
     ("u0", "feedback", TOL_SOLUTION, "first control u0"),
     ("max_slack", "feedback", TOL_SOLUTION, "max slack"),
+    ("plan_clearance", "feedback", TOL_SOLUTION, "plan check clearance"),
     ("exit_code", "status", 0, "exit code mismatches"),
+    ("plan_check", "status", 0, "plan check stage/reaction mismatches"),
     ("qp_status", "status", 0, "QP status mismatches"),
     ("qp_iter", "status", 0, "QP iteration mismatches"),
     ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
@@ -60,7 +62,7 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
     ("cl_exit_code", "closed-loop", 0, "non-zero exit codes, C minus Python"),
 )
-_COUNTS = {"exit_code", "qp_status", "qp_iter", "cl_qp_iter", "cl_exit_code"}
+_COUNTS = {"exit_code", "qp_status", "qp_iter", "plan_check", "cl_qp_iter", "cl_exit_code"}
 
 
 def rel_diff(c, r) -> float:
@@ -260,6 +262,12 @@ class _Lockstep:
         self._upd("exit_code", float(c_res.exit_code != res.exit_code))  # the reference and C share EXIT_CODES
         self._upd("qp_status", float(c_res.qp_status != res.qp_status))
         self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
+        st_c, st_py = cs.status(), sv.status
+        if c_res.exit_code == res.exit_code:   # the same outcome: the same plan check (or none, kept as it was)
+            self._upd("plan_check", float((st_c.plan_clearance_stage, st_c.plan_reaction)
+                                          != (st_py.plan_clearance_stage, st_py.plan_reaction)))
+            both_inf = math.isinf(st_c.plan_clearance) and math.isinf(st_py.plan_clearance)
+            self._upd("plan_clearance", 0.0 if both_inf else rel_diff(st_c.plan_clearance, st_py.plan_clearance))
         if not c_res.exit_code and not res.exit_code:
             qp = cs.get_qp()
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))

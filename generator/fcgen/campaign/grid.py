@@ -5,7 +5,7 @@ import warnings
 from dataclasses import asdict, dataclass, fields
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
-from ..presets import FORMULATIONS, SCENARIOS, paper_problem
+from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
 PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
@@ -24,8 +24,10 @@ class Config:
     circles: int = 0                # the number of covering circles (circles only)
     controller: str = "c"
     backend: str = "osqp"
+    profile: str = "paper"          # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
 
     def __post_init__(self) -> None:
+        _one_of("profile", self.profile, PROFILES)
         _one_of("scenario", self.scenario, SCENARIOS)
         _one_of("formulation", self.formulation, tuple(FORMULATIONS))
         _one_of("obstacles", self.obstacles, OBSTACLE_NAMES)
@@ -43,7 +45,8 @@ class Config:
     @property
     def key(self) -> str:
         """Identifies the configuration in the results (with the seed and the sample count: one run)."""
-        return f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
+        key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
+        return key if self.profile == "paper" else f"{key}/{self.profile}"   # paper keys as before the profiles
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -56,7 +59,9 @@ class Config:
                                f"'backend' field yet (allowed: 'osqp')")
         with warnings.catch_warnings():  # C5 does not cover a truck: the paper's choice, warned about once in presets
             warnings.simplefilter("ignore", UserWarning)
-            return paper_problem(self.scenario, self.formulation, self.obstacles, self.circles or None, **over)
+            pb = paper_problem(self.scenario, self.formulation, self.obstacles, self.circles or None,
+                               profile=self.profile, **over)
+        return pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -83,7 +88,7 @@ def obstacle_variants(scenario: str, name: str) -> list[tuple[str, int]]:
 
 
 def paper_grid(scenarios=SCENARIOS, formulations=tuple(FORMULATIONS), obstacles=OBSTACLE_NAMES,
-               controller: str = "c", backend: str = "osqp") -> list[Config]:
+               controller: str = "c", backend: str = "osqp", profile: str = "paper") -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
     for sc in scenarios:
@@ -91,7 +96,7 @@ def paper_grid(scenarios=SCENARIOS, formulations=tuple(FORMULATIONS), obstacles=
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(Config(sc, form, kind, n, controller, backend))
+                    out.append(Config(sc, form, kind, n, controller, backend, profile))
     return out
 
 

@@ -114,13 +114,16 @@ def collision_columns(road, log) -> dict:
     """How the run's collision looked (``sim.collision_kind``): its depth, the kind of its first contact and how far
     the bend had swept the touched corner out of the opponent's lane; 0 / "" without a collision."""
     from ..sim.collision_kind import first_collision
+    none = {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0, "collision_responsibility": ""}
     if not np.any(log.collision):   # the log's collision column is the same overlap test of the same poses
-        return {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0}
+        return none
     info = first_collision(road, np.asarray(log.ego_cartesian), log.ego, np.asarray(log.opp_cartesian),
-                           np.asarray(log.opp_frenet), log.opponents)
+                           np.asarray(log.opp_frenet), log.opponents, np.asarray(log.ego_frenet)[:, 1],
+                           float(log.meta["dt"]))
     if info is None:
-        return {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0}
-    return {"collision_depth_m": info.depth, "collision_kind": info.kind, "collision_sweep_m": info.sweep}
+        return none
+    return {"collision_depth_m": info.depth, "collision_kind": info.kind, "collision_sweep_m": info.sweep,
+            "collision_responsibility": info.responsibility}
 
 
 def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str,
@@ -143,6 +146,7 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["time_total_ms_std"] = float(np.std(t_ms)) if t_ms.size else math.nan
     row["collision"] = bool(s["n_collision_samples"] > 0)
     row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
+    row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))   # samples the plan check braked
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
     row.update(collision or {})
     row.update(sizes)

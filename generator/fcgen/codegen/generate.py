@@ -112,7 +112,7 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
     """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
     funs = {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
-            "init_state": ocp.init_state, "theta_init": theta_init(ocp),
+            "init_state": ocp.init_state, "theta_init": theta_init(ocp), "plan_clearance": ocp.plan_clearance,
             "plant": plant_function(ocp.problem, ocp.road_params.samples)}
     if ocp.fit is not None:
         funs.update(opp_points=ocp.fit.points)
@@ -288,8 +288,8 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     return -(-off // align_max) * align_max
 
 
-STATUS_BYTES = 56
-"""sizeof(<name>_status_t) on an LP64 target: 8 ints, 3 doubles."""
+STATUS_BYTES = 72
+"""sizeof(<name>_status_t) on an LP64 target: 10 ints, 4 doubles."""
 FIRST_STATE_MEMBER = "w"
 """The first workspace member reset() zeroes (the inputs and the clock come before it)."""
 
@@ -469,6 +469,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
         "max_iter": problem.qp.max_iter, "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
+        "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
+        "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),
         "qp_files": qp_files, "qp_lib": qp_files.library, "static_libs": static_libs,
         "make_products": ", ".join(["static library", *([f"{qp_files.library.label} library"] if qp_files.library
                                                          else []), "shared library", "example"]),

@@ -127,6 +127,10 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True,
     only with ``force``, and then its files that the report does not write are carried over."""
     check_report_target(out_dir, force)
     df = read_results(results)
+    if "profile" in df.columns and df["profile"].fillna("paper").nunique() > 1:
+        raise ValueError(f"results {str(results)!r} hold runs of several profiles "
+                         f"({', '.join(sorted(df['profile'].fillna('paper').unique()))}): a report is of one profile; "
+                         f"give each profile its own campaign --out, and compare them with `fcgen profiles`")
     with staged_folder(out_dir) as tmp:
         _write_report(df, tmp, example)
         if Path(out_dir).is_dir():

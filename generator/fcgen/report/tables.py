@@ -104,6 +104,9 @@ def _collision_kinds(sub: pd.DataFrame) -> dict:
     out = {"collision_kinds": {k: int(n) for k, n in kinds.value_counts().sort_index().items()},
            "collision_depths_m": [float(v) for v in hit["collision_depth_m"]]}
     out["collision_sweeps_m"] = [float(v) for v, k in zip(hit["collision_sweep_m"], kinds) if k == "swept_front"]
+    if "collision_responsibility" in hit.columns:   # rows since the responsibility classes (sim.collision_kind)
+        who = hit["collision_responsibility"].fillna("").astype(str)
+        out["collision_responsibility"] = {k: int(n) for k, n in who.value_counts().sort_index().items() if k}
     return out
 
 

@@ -36,6 +36,7 @@ class StepResult:
     time_prepare: float
     time_feedback: float
     max_slack: float
+    plan_reaction: int = 0     # 1: the plan check braked this sample (status.plan_reaction)
 
 
 class Controller(Protocol):
@@ -118,11 +119,12 @@ class ReferenceController:
                 u = sv.feedback()
                 st = sv.status
                 return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                                  float(np.max(sv.slacks(), initial=0.0)))
+                                  float(np.max(sv.slacks(), initial=0.0)), st.plan_reaction)
             except SolverError as exc:
                 rc = exc.exit_code
         st = sv.status  # the control after an error: the fallback (unusable QP) or the last one (rejected call)
-        return StepResult(sv.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan)
+        return StepResult(sv.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan,
+                          st.plan_reaction)
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
@@ -317,7 +319,8 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
                      obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=sc.seed,
                      N=problem.horizon.N, dt=problem.horizon.dt, controller=controller.kind,
                      n_bound=problem.bounds.n_max,
-                     extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code))})
+                     extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
+                            "plan_reactions": int(sum(r.plan_reaction for r in results))})
     road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
                  "phi_gamma": road.phi, "ds": road.ds}
     return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=t, ego_frenet=xs, ego_cartesian=ego_cart,

@@ -9,6 +9,15 @@ true poses only (never the solver's slacks). The kinds of the first colliding sa
   sideways (a 26 m truck on a 25 m radius bend: ~10 m), over the ego's side of the road.
 - ``rear_corner``: the ego clips a *rear* corner of the opponent (it swerves past it while overtaking).
 - ``front_corner``: any other front-corner contact.
+
+Who moved into whom (``responsibility``), at the first colliding sample, from the true poses (rule ``responsible``):
+
+- ``opponent_from_behind``: the opponent's centre is behind the ego's (along the ego's heading) and the opponent is
+  faster along that heading: it ran into the ego's rear.
+- ``opponent_from_side``: otherwise, if the ego kept its lane (its Frenet n within ``LANE_KEPT`` of its value at
+  contact over the ``LANE_WINDOW`` before): the opponent came into the ego's lane (a truck's front swept across it
+  by a bend is the usual case).
+- ``ego_into_opponent``: everything else: the ego changed its lane into the opponent, or ran into a slower one ahead.
 """
 from __future__ import annotations
 
@@ -23,6 +32,9 @@ from .collision import corners_from_dims, penetration_over_run
 
 SWEEP_MIN = 1.0   # m beyond the half width off its lane: the opponent's front corner has been swept by the bend
 KINDS = ("swept_front", "rear_corner", "front_corner")
+RESPONSIBILITIES = ("ego_into_opponent", "opponent_from_behind", "opponent_from_side")
+LANE_KEPT = 0.25    # m: the ego's n stayed this close to its value at contact ...
+LANE_WINDOW = 1.0   # s: ... over this long before contact: it kept its lane
 #: chassis corner order of ``collision.chassis_corners``: rear-right, front-right, front-left, rear-left
 FRONT_CORNERS = (1, 2)
 
@@ -37,6 +49,7 @@ class CollisionInfo:
     corner: int         # the opponent's corner nearest the ego's chassis centre (0..3, chassis_corners order)
     sweep: float        # that corner's lateral distance from the opponent's lane beyond its half width, m
     kind: str           # one of KINDS
+    responsibility: str = ""  # one of RESPONSIBILITIES
 
 
 def corner_frenet_n(road: Road, xy: np.ndarray, s_guess: float) -> float:
@@ -53,11 +66,25 @@ def classify(kind_corner: int, sweep: float) -> str:
     return "swept_front" if sweep > SWEEP_MIN else "front_corner"
 
 
+def responsible(ego_c: np.ndarray, ego_phi: float, ego_v: np.ndarray, opp_c: np.ndarray, opp_v: np.ndarray,
+                n_before: np.ndarray) -> str:
+    """The responsibility class (module docstring) of a contact: chassis centres ``ego_c``/``opp_c``, the ego's
+    heading, both velocities (m/s, Cartesian), the ego's Frenet n over ``LANE_WINDOW`` up to the contact."""
+    h = np.array([math.cos(ego_phi), math.sin(ego_phi)])
+    if float((opp_c - ego_c) @ h) < 0.0 and float(opp_v @ h) > float(ego_v @ h):
+        return "opponent_from_behind"
+    if len(n_before) and float(np.max(np.abs(n_before - n_before[-1]))) <= LANE_KEPT:
+        return "opponent_from_side"
+    return "ego_into_opponent"
+
+
 def first_collision(road: Road, ego_pose: np.ndarray, ego_dims: Mapping[str, float], opp_pose: np.ndarray,
-                    opp_frenet: np.ndarray, opp_dims: Sequence[Mapping[str, float]]) -> CollisionInfo | None:
+                    opp_frenet: np.ndarray, opp_dims: Sequence[Mapping[str, float]],
+                    ego_n: np.ndarray | None = None, dt: float = 0.1) -> CollisionInfo | None:
     """The run's collisions (``None`` if there is none): poses ``(K, 3)`` / ``(K, n_opp, 3)`` of the rear axles,
     ``opp_frenet`` ``(K, n_opp, 3)`` their Frenet poses ``[s, n, alpha]`` (lane ``n``), dimension mappings as
-    ``collision.DIM_KEYS``."""
+    ``collision.DIM_KEYS``; ``ego_n`` the ego's Frenet n per sample and ``dt`` the sample time (responsibility;
+    without ``ego_n`` it is not classified)."""
     pen = penetration_over_run(ego_pose, ego_dims, opp_pose, opp_dims)
     hit = np.nonzero(pen.max(axis=1, initial=0.0) > 0.0)[0]
     if not hit.size:
@@ -72,7 +99,16 @@ def first_collision(road: Road, ego_pose: np.ndarray, ego_dims: Mapping[str, flo
     along = half_l + half_ch if ci in FRONT_CORNERS else half_l - half_ch   # the corner ahead of the rear axle
     n = corner_frenet_n(road, oc[ci], float(opp_frenet[j, k, 0]) + along)
     sweep = abs(n - float(opp_frenet[j, k, 1])) - 0.5 * float(opp_dims[k]["w_ch"])
-    return CollisionInfo(float(pen.max()), j, k, ci, sweep, classify(ci, sweep))
+    who = ""
+    if ego_n is not None:
+        j0 = max(j - 1, 0)   # velocities from the sample before contact (forward difference into it)
+        span = max(j - j0, 1) * dt
+        ego_v = (ego_pose[j, :2] - ego_pose[j0, :2]) / span
+        opp_v = (opp_pose[j, k, :2] - opp_pose[j0, k, :2]) / span
+        w = int(round(LANE_WINDOW / dt))
+        who = responsible(centre, float(ego_pose[j, 2]), ego_v, oc.mean(axis=0), opp_v,
+                          np.asarray(ego_n[max(0, j - w):j + 1], dtype=float))
+    return CollisionInfo(float(pen.max()), j, k, ci, sweep, classify(ci, sweep), who)
 
 
 def ellipse_shortfall(half_length: float, half_width: float, r: float, samples: int = 20001) -> float:
