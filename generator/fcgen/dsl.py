@@ -297,8 +297,9 @@ class SeparatingHyperplane:
     RTI linearization graze opponents (3-62 mm deep in 8 of 10 truck runs); 0.1 m left 1 of 10, 0.2 m none.
     ``anchor``: weight w of 1/2 w |theta - theta_mid|^2 in the scaled QP (its largest Hessian entry is 1), theta_mid
     the plane halfway between the two centres (the initial guess's), evaluated at the linearization point: the plane
-    is not unique where the vehicles are apart, so without it (0, the paper's presets) each real-time iteration
-    moves the free planes by rounding-level amounts that grow, and C and Python closed loops part after ~50 samples.
+    is not unique where the vehicles are apart, so without it (0) each real-time iteration moves the free planes by
+    rounding-level amounts that grow, and C and Python closed loops part after ~50 samples. The paper leaves the
+    planes free (any separating plane will do), so the paper's presets have the anchor too.
     """
 
     margin: float = 0.2
@@ -418,9 +419,9 @@ class RoadWindow:
 class PlanCheck:
     """After each feedback: the plan's clearance to every opponent's true rectangle (separating axes), and a reaction.
 
-    ``react_stages``: where the clearance of stages 1..min(react_stages, N) is below 0 the solver brakes instead of applying
-    the plan's u0 (status.plan_reaction = 1; F_d = -min(F_d_max, m v0 / dt), the plan's steering rate); 0: report
-    only (the paper's presets).
+    ``react_stages``: where an opponent's first overlap among stages 1..min(react_stages, N) has its centre ahead of
+    the ego's, the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1; F_d = -min(F_d_max,
+    m v0 / dt), the plan's steering rate); 0: report only (the paper's presets).
     """
 
     react_stages: int = 10

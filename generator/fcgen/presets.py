@@ -34,7 +34,7 @@ def obstacle_model(name: str, scenario: str, circles: int | None = None, profile
         n = circles or DEFAULT_CIRCLES[scenario]
         return CoveringCircles(n, radius="paper") if paper else CoveringCircles(n)
     if name == "hyperplane":
-        return SeparatingHyperplane(anchor=0.0) if paper else SeparatingHyperplane()
+        return SeparatingHyperplane()   # the anchor in both: a numerical rule for free planes, not a paper value
     raise ProblemError(f"obstacles = {name!r} is invalid: allowed one of {OBSTACLES}")
 
 
