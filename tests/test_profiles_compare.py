@@ -80,3 +80,15 @@ def test_a_report_is_of_one_profile(tmp_path):
                                     "--out", str(tmp_path / "cmp.md")])
     assert res.exit_code == 0, res.output
     assert "| truck lifted HP | 1 | 0 / 0 |" in res.output and (tmp_path / "cmp.md").read_text() in res.output
+
+
+def test_the_report_splits_collisions_by_responsibility():
+    from fcgen.report.findings import collision_why
+    rows = [{"model": "HP", "runs_with_collision": 2, "collision_kinds": {"rear_corner": 1, "swept_front": 1},
+             "collision_depths_m": [0.1, 0.3], "collision_sweeps_m": [2.0],
+             "collision_responsibility": {"ego_into_opponent": 1, "opponent_from_side": 1}, "scenario": "truck"},
+            {"model": "C5", "runs_with_collision": 1, "collision_kinds": {"rear_corner": 1},
+             "collision_depths_m": [0.2], "collision_sweeps_m": [],
+             "collision_responsibility": {"ego_into_opponent": 1}, "scenario": "truck"}]
+    text = collision_why(rows)
+    assert "by responsibility (first contact): ego into opponent 2, opponent from side 1" in text

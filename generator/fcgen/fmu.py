@@ -82,6 +82,10 @@ def variables(sizes: dict[str, int]) -> list[Var]:
         Var("controls", "Float64", False, (N, NU), "planned controls, stages 0..N-1"),
         Var("time_prepare", "Float64", False, (), "time of the preparation phase (s, host clock)"),
         Var("time_feedback", "Float64", False, (), "time of the feedback phase (s, host clock)"),
+        Var("plan_clearance", "Float64", False, (), "the plan's smallest clearance to an opponent's true rectangle "
+            "over stages 0..N (m; < 0: overlapping; +inf without opponents)"),
+        Var("plan_clearance_stage", "Int32", False, (), "the stage of plan_clearance (-1: no opponent)"),
+        Var("plan_reaction", "Int32", False, (), "1: the plan check braked (u0 is the braking control)"),
     ]
 
 
@@ -396,7 +400,8 @@ class FmuController:
         slack = float(self._get("max_slack")[0])
         return StepResult(u0, rc, int(self._get("qp_status", integer=True)[0]),
                           int(self._get("qp_iter", integer=True)[0]), float(self._get("time_prepare")[0]),
-                          float(self._get("time_feedback")[0]), float("nan") if rc else slack)
+                          float(self._get("time_feedback")[0]), float("nan") if rc else slack,
+                          int(self._get("plan_reaction", integer=True)[0]))
 
     def close(self) -> None:
         self.fmu.terminate()

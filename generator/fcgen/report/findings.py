@@ -134,7 +134,20 @@ def collision_why(prog_rows) -> str:
     elif cart:
         parts.append(GENERIC)
     parts.append(_ellipse_why(prog_rows))
+    parts.append(_responsibility(hit))
     return _join(*parts)
+
+
+def _responsibility(hit) -> str:
+    """The colliding runs by who moved into whom (``sim.collision_kind.responsible``), where the rows have it."""
+    who: dict[str, int] = {}
+    for r in hit:
+        for k, v in r.get("collision_responsibility", {}).items():
+            who[k] = who.get(k, 0) + v
+    if not who:
+        return ""
+    return ("by responsibility (first contact): " + ", ".join(f"{k.replace('_', ' ')} {n}"
+                                                             for k, n in sorted(who.items())))
 
 
 def _join(*parts: str) -> str:
