@@ -49,9 +49,10 @@ IPM_SIZE = ("the interior-point QP runs until converged (its iterations are in t
 SIZE_WHY = {"osqp": CAPPED, "ipm": IPM_SIZE}
 SAME_QP = ("direct elimination keeps the conventional QP (same variables and rows); its only extra work, the obstacle "
            "rows through the Frenet-to-Cartesian map, is a small part of the prepare phase")
-ELLIPSE = ("the covering ellipse (semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a 13 x 2 m "
-           "half truck) keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or "
-           "few circles do, so it overtakes later")
+ELLIPSE = ("the covering ellipse (the paper's semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a "
+           "13 x 2 m half truck; the safe profile's, containing the rectangle grown by the ego's circle: 19.3 x 5.8 m) "
+           "keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or few circles "
+           "do, so it overtakes later")
 
 
 FIT = ("the conventional solver's prepare phase holds its opponent fit (each opponent's corners projected onto the "
