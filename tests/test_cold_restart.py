@@ -15,7 +15,7 @@ import pytest
 
 from fcgen.build import CSolver, build
 from fcgen.codegen.generate import EXIT_CODES, generate
-from fcgen.dsl import ProblemError, QpOptions, SeparatingHyperplane
+from fcgen.dsl import ProblemError, QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver, SolverError
@@ -170,9 +170,7 @@ def test_k_one_restarts_after_every_refusal(inputs):
 
 
 def _seed6(samples: int, k: int):
-    # the grid's case as it was found: free hyperplanes (anchor 0; with the anchor this seed's stale plan meets the
-    # state again at sample 26 even without the rule)
-    pb = preset("truck_conventional_hyperplane").with_(obstacles=SeparatingHyperplane(anchor=0.0))
+    pb = preset("truck_conventional_hyperplane")
     sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, cold_restart_after=k))
     log = run_closed_loop(pb, make_scenario("truck", 6, samples=samples), ReferenceController(sv.ocp, sv),
                           exit_codes=True)

@@ -106,9 +106,8 @@ def test_profiles_of_the_presets():
     # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
     for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "qp", "road"):
         assert getattr(paper, f) == getattr(safe, f), f
-    assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0
-    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck()
-    assert paper.obstacles == safe.obstacles and safe.obstacles.anchor > 0   # the anchor: both profiles
+    assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
+    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
     d = Problem("x")
     assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0

@@ -297,9 +297,10 @@ class SeparatingHyperplane:
     RTI linearization graze opponents (3-62 mm deep in 8 of 10 truck runs); 0.1 m left 1 of 10, 0.2 m none.
     ``anchor``: weight w of 1/2 w |theta - theta_mid|^2 in the scaled QP (its largest Hessian entry is 1), theta_mid
     the plane halfway between the two centres (the initial guess's), evaluated at the linearization point: the plane
-    is not unique where the vehicles are apart, so without it (0) each real-time iteration moves the free planes by
-    rounding-level amounts that grow, and C and Python closed loops part after ~50 samples. The paper leaves the
-    planes free (any separating plane will do), so the paper's presets have the anchor too.
+    is not unique where the vehicles are apart, so without it (0, the paper's presets) each real-time iteration moves
+    the free planes by rounding-level amounts that grow, and C and Python closed loops part after ~50 samples. It is
+    no vanishing regularization: where the rows are active it trades the cost against a plane nearer the midpoint
+    one, so the converged solution differs from the paper's NLP's (the paper's presets keep it at 0).
     """
 
     margin: float = 0.2

@@ -34,7 +34,8 @@ def obstacle_model(name: str, scenario: str, circles: int | None = None, profile
         n = circles or DEFAULT_CIRCLES[scenario]
         return CoveringCircles(n, radius="paper") if paper else CoveringCircles(n)
     if name == "hyperplane":
-        return SeparatingHyperplane()   # the anchor in both: a numerical rule for free planes, not a paper value
+        # the paper's planes are free (anchor 0): the anchor changes the optimum where the rows are active
+        return SeparatingHyperplane(anchor=0.0) if paper else SeparatingHyperplane()
     raise ProblemError(f"obstacles = {name!r} is invalid: allowed one of {OBSTACLES}")
 
 
