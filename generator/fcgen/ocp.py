@@ -252,17 +252,17 @@ def build_ocp(problem: Problem) -> Ocp:
         J = ca.jacobian(g, ca.vertcat(wk, xn))
         J = ca.mtimes(J, ca.diag(ca.DM(np.r_[D, Dx])))
         q = cost_scale * ca.gradient(cost, wk) * D
-        if n_theta and anchor > 0 and key != "first":  # anchor * (theta - theta_mid(x, p)): theta_mid held fixed
-            i0 = nx + (nu if key == "middle" else 0)
-            q[i0:i0 + n_theta] += anchor * (ths - ca.vertcat(*theta_mid))
+        P_diag = cost_scale * hess_diag[key]
+        i_theta = nx + (nu if key == "middle" else 0)   # the stage's first hyperplane variable (none at k = 0)
+        if n_theta and anchor > 0 and key != "first":   # the hyperplanes' anchor (theta's scale is 1): Hessian +
+            # anchor, gradient anchor * (theta - theta_mid(x, p)) with theta_mid held at the linearization point
+            q[i_theta:i_theta + n_theta] += anchor * (ths - ca.vertcat(*theta_mid))
+            P_diag[i_theta:i_theta + n_theta] += anchor
         fun = ca.Function(f"stage_{key}", [wk, xn, p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
         q_ds0 = np.zeros(len(D))
         # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + k dt v_ref
         qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
         q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
-        P_diag = cost_scale * hess_diag[key]
-        if n_theta and key != "first":  # the hyperplanes' anchor (obstacles.anchor; theta's scale is 1)
-            P_diag[nx + (nu if key == "middle" else 0):][:n_theta] += anchor
         stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),
                                      np.array([r[2] for r in rows], dtype=float),
                                      np.array([r[3] for r in rows], dtype=float), D,

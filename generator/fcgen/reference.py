@@ -177,6 +177,7 @@ class RtiSolver:
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
         self._fun_last = ocp.last.fun
         self._theta_init = theta_init(ocp)
+        self._plan_clearance = ocp.plan_clearance.map(N + 1)   # the plan check: every stage in one call
         self._box = input_box(ocp.problem)
         self.qp = make_backend(self.lay, self.qp_opts)
         self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
@@ -239,16 +240,23 @@ class RtiSolver:
         self.x0 = x0
 
     # -- parameters --------------------------------------------------------------------------------
+    def _window_start(self, s: float) -> int | None:
+        """First road sample of the stage window around s (the C window_start), or None if the road does not cover
+        it (``s`` finite, a road set)."""
+        road = self.road
+        i0 = int(math.floor((s - road.s0) / road.ds)) - 1
+        return i0 if i0 >= 0 and i0 + self.ocp.road_params.samples <= road.size else None
+
     def _road_params(self, s: float) -> np.ndarray:
-        road, rp = self.road, self.ocp.road_params
+        road = self.road
         if road is None:
             raise self._fail("ERR_ROAD_WINDOW", "road window not set")
         if not math.isfinite(s):
             raise self._fail("ERR_ROAD_WINDOW", "non-finite s in the guess")
-        i0 = int(math.floor((s - road.s0) / road.ds)) - 1
-        if i0 < 0 or i0 + rp.samples > road.size:
+        i0 = self._window_start(s)
+        if i0 is None:
             raise self._fail("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
-        return rp.pack(road, i0)
+        return self.ocp.road_params.pack(road, i0)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
@@ -413,15 +421,15 @@ class RtiSolver:
         best, best_k, react, met = math.inf, -1, False, set()
         K = min(pb.plan_check.react_stages, ocp.N)
         if pb.opponents.count:
-            for k in range(ocp.N + 1):
-                s = self.w_prep[lay.s_vars[k]]
-                if not self._window_ok(s):
-                    continue
-                c, ahead = (np.array(a).ravel() for a in ocp.plan_clearance(
-                    self._stage_w(k)[:ocp.nx], self.stage_params(k, s), self.opp[k]))
-                for j, (v, d) in enumerate(zip(c, ahead)):
+            s_k = self.w_prep[lay.s_vars]
+            ok = [self.road is not None and math.isfinite(s) and self._window_start(s) is not None for s in s_k]
+            P = np.stack([self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
+                          for k, (s, good) in enumerate(zip(s_k, ok))], axis=1)
+            C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T))
+            for k in np.flatnonzero(ok):   # stages whose window the road no longer covers are skipped
+                for j, (v, d) in enumerate(zip(C[:, k], A[:, k])):
                     if v < best:
-                        best, best_k = float(v), k
+                        best, best_k = float(v), int(k)
                     if 1 <= k <= K and v < 0.0 and j not in met:   # its first overlapping stage decides
                         met.add(j)
                         react = react or d > 0.0
@@ -429,14 +437,6 @@ class RtiSolver:
         if react:
             v0 = max(float(self.x0[3]), 0.0)
             self.u_applied[0] = -min(pb.bounds.F_d_max, pb.ego.m * v0 / ocp.dt)
-
-    def _window_ok(self, s: float) -> bool:
-        """The road window of a stage at s exists (``_road_params`` without raising)."""
-        road, rp = self.road, self.ocp.road_params
-        if road is None or not math.isfinite(s):
-            return False
-        i0 = int(math.floor((s - road.s0) / road.ds)) - 1
-        return i0 >= 0 and i0 + rp.samples <= road.size
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:
