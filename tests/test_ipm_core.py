@@ -80,14 +80,16 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
                 f.write(np.concatenate([*e[1:5], [float(e[5])]]).tobytes())
     subprocess.run([str(exe), str(n), str(m), str(nnz), str(tmp_path / "events.bin"), str(tmp_path / "out.bin")],
                    check=True)
-    out = np.fromfile(tmp_path / "out.bin").reshape(-1, 3 + n + m)
+    out = np.fromfile(tmp_path / "out.bin").reshape(-1, 7 + n + m)
     solves = [e for e in events if e[0] == "S"]
     assert len(out) == len(solves) >= 6
     P = next(e for e in events if e[0] == "M")
     for row, (_, q, l, u, y_warm, it, res) in zip(out, solves):
-        status, raw, iters = (int(v) for v in row[:3])
-        z, y = row[3:3 + n], row[3 + n:]
+        status, raw, iters, start, checks, steps, end = (int(v) for v in row[:7])
+        z, y = row[7:7 + n], row[7 + n:]
         assert (status, raw, iters) == (res.status, res.raw_status, res.iter)
+        # the timing probe (fcgen wcet): each phase once per iteration, a solved QP's last check stops it
+        assert (start, checks, steps, end) == (1, iters + 1, iters, 1)
         assert status == QP_SOLVED
         scale = max(1.0, float(np.max(np.abs(res.z))))
         assert np.max(np.abs(z - res.z)) <= 1e-9 * scale

@@ -1014,6 +1014,19 @@ static const int QP_EXIT[9 + 1] = {
   [TRUCK_CONV_EL_QP_OTHER] = TRUCK_CONV_EL_ERR_QP,
 };
 
+/* A timing probe at the QP's phases: nothing, unless the build defines TRUCK_CONV_EL_PROBE (the harness of `fcgen wcet`
+ * measures each phase's instructions with it): then truck_conv_el_probe(event), which the harness provides */
+#define QPB_PROBE_START 0 /* the QP's iterates initialized */
+#define QPB_PROBE_CHECK 1 /* an iterate's residuals and stopping test done */
+#define QPB_PROBE_STEP 2 /* one step (direction, step length, update) done */
+#define QPB_PROBE_END 3 /* the result composed */
+#ifdef TRUCK_CONV_EL_PROBE
+void truck_conv_el_probe(int event);
+#define QPB_PROBE(event) truck_conv_el_probe(event)
+#else
+#define QPB_PROBE(event) ((void)0)
+#endif
+
 /* A backend defines qpb_reset, qpb_set_matrices, qpb_solve (static); it may read the tables above.
  * The core calls qpb_reset() before the backend's first use after program start, init(), reset() or a failure. */
 /* ---- QP backend: OSQP 1.1.3, embedded mode 2 (included once by truck_conv_el_solver.c) ------------------------------ */
@@ -1064,7 +1077,9 @@ static int qpb_solve(const truck_conv_el_real_t *q, const truck_conv_el_real_t *
   if (max_iter != QPB_MAX_ITER) {
     qpb_set_max_iter(max_iter);
   }
+  QPB_PROBE(QPB_PROBE_START);
   rc = osqp_solve(QPB_SOLVER);
+  QPB_PROBE(QPB_PROBE_END);
   if (max_iter != QPB_MAX_ITER) {
     qpb_set_max_iter(QPB_MAX_ITER);
   }

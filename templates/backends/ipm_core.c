@@ -7,7 +7,8 @@
  * workspace struct IPM_W, the real type ipm_real_t, IPM_SQRT / IPM_FABS of that type, the raw-to-generic status
  * map IPM_STATUS) comes from the problem header fcgen renders (templates/backends/ipm_problem.h.j2), included
  * before this file. It also needs from its includer <string.h>, <math.h>, REAL_0 (zero of the real type) and
- * qpb_result_t (the RTI core's view of a solve: status, raw_status, iter, z, y). The generated <name>_solver.c
+ * qpb_result_t (the RTI core's view of a solve: status, raw_status, iter, z, y) and QPB_PROBE(event) (a timing probe,
+ * nothing in a normal build). The generated <name>_solver.c
  * contains the problem header and this file, in that order; tests/c/ipm_core_test.c compiles it on its own with a
  * rendered header.
  * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
@@ -349,8 +350,10 @@ static void ipm_sr_hessian(int k) {
   int r;
   int q;
   for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
-    for (q = 0; q < IPM_SR_NT; ++q) {
-      IPM_W.H[IPM_SR_RUN_V[r][IPM_SR_QA[q]]][IPM_SR_RUN_V[r][IPM_SR_QB[q]]] += IPM_W.srh[r][q];
+    for (q = 0; q < IPM_SR_NT; ++q) { /* on and above the diagonal (a padding entry: slot 0, a term 0) */
+      const int va = IPM_SR_RUN_V[r][IPM_SR_QA[q]];
+      const int vb = IPM_SR_RUN_V[r][IPM_SR_QB[q]];
+      IPM_W.H[(va < vb) ? va : vb][(va < vb) ? vb : va] += IPM_W.srh[r][q];
     }
   }
 }
@@ -582,10 +585,6 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
   return amax;
 }
 
-/* value of entry e of stage k's [F G] (x_{k+1} = F x + G u + c): -A / E */
-#define IPM_FG(k, e) ((-IPM_W.Ax[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]])
-/* the same, cached by qpb_set_matrices (entry e - IPM_DYN_PTR[k] of stage k) */
-#define IPM_FGV(k, e) IPM_W.fgv[k][(e) - IPM_DYN_PTR[k]]
 static void qpb_reset(void) {
   (void)memset(&IPM_W, 0, sizeof IPM_W);
 }
@@ -597,13 +596,16 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
   (void)q;
   IPM_W.Pd = P_x;
   IPM_W.Ax = A_x;
-  for (k = 0; k < IPM_N; ++k) {
+  for (k = 0; k < IPM_N; ++k) { /* [F G] = -A / E, packed by bands (entries of a band outside the pattern: 0) */
     int e;
     for (i = 0; i < IPM_NX; ++i) {
       IPM_W.Einv[k][i] = IPM_ONE / A_x[IPM_DYN_NEXT[(k * IPM_NX) + i]];
     }
+    for (i = 0; i < IPM_NFGB; ++i) {
+      IPM_W.fgb[k][i] = REAL_0;
+    }
     for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) {
-      IPM_FGV(k, e) = IPM_FG(k, e);
+      IPM_W.fgb[k][IPM_DYN_B[e]] = (-A_x[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]];
     }
   }
   for (i = 0; i < IPM_NX; ++i) {
@@ -644,15 +646,6 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
 #define IPM_SG0(k, s) IPM_SG_BEG[k][s]
 #define IPM_SG1(k, s) IPM_SG_END[k][s]
 #define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
-
-/* stage k's [F G] (x_{k+1} = F x + G u + c) as a dense NX x NXU block in IPM_W.FGd */
-static void ipm_stage_fg(int k) {
-  int e;
-  (void)memset(IPM_W.FGd, 0, sizeof IPM_W.FGd);
-  for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) {
-    IPM_W.FGd[IPM_DYN_I[e]][IPM_DYN_J[e]] = IPM_FGV(k, e);
-  }
-}
 
 /* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
  * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k] */
@@ -708,7 +701,8 @@ static void ipm_stage_weights(int k) {
   }
 }
 
-/* stage k's Hessian block IPM_W.H over (x_k, u_k): its rows' weights, P + box weights (IPM_W.h), slack couplings */
+/* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
+ * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings */
 static void ipm_stage_hessian(int k) {
   int g;
   int a;
@@ -717,7 +711,7 @@ static void ipm_stage_hessian(int k) {
   int p;
   int q;
   (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
-  /* the rows' W c c' on and above the diagonal (a row's slots ascend), then mirrored */
+  /* the rows' W c c' (a row's slots ascend) */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
@@ -729,15 +723,10 @@ static void ipm_stage_hessian(int k) {
   }
   ipm_sr_hessian(k);
   for (a = 0; a < IPM_NXU; ++a) {
-    for (b = a + 1; b < IPM_NXU; ++b) {
-      IPM_W.H[b][a] = IPM_W.H[a][b];
-    }
-  }
-  for (a = 0; a < IPM_NXU; ++a) {
     const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
     IPM_W.H[a][a] += (v >= 0) ? IPM_W.hd[v] : IPM_ONE;
   }
-  /* two rows of one slack couple by -W_i e_i W_j e_j / d_s */
+  /* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose) */
   for (s = 0; s < IPM_NS; ++s) {
     if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
       continue; /* one row or none: no coupling */
@@ -752,8 +741,15 @@ static void ipm_stage_hessian(int k) {
         for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
           const ipm_real_t cx = mij * IPM_W.gax[x];
           for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
-            IPM_W.H[IPM_GEN_V[x]][IPM_GEN_V[y]] += cx * IPM_W.gax[y];
-            IPM_W.H[IPM_GEN_V[y]][IPM_GEN_V[x]] += cx * IPM_W.gax[y];
+            const int vx = IPM_GEN_V[x];
+            const int vy = IPM_GEN_V[y];
+            const int lo = (vx < vy) ? vx : vy;
+            const int hi = (vx < vy) ? vy : vx;
+            const ipm_real_t v = cx * IPM_W.gax[y];
+            IPM_W.H[lo][hi] += v;
+            if (lo == hi) {
+              IPM_W.H[lo][hi] += v; /* the transpose's term on the diagonal */
+            }
           }
         }
       }
@@ -761,35 +757,105 @@ static void ipm_stage_hessian(int k) {
   }
 }
 
-/* H[x|u][x] += [F G]' P_{k+1} F and H[u][u] += G' P_{k+1} G (the cost-to-go through stage k's dynamics) */
+/* ---- dense kernels on the bands of [F G] (fg_bands): column j of stage k's [F G] is c = &IPM_W.fgb[k][IPM_FG_OFF[j]],
+ * its rows IPM_FG_A0[j] .. IPM_FG_A1[j] - 1; no index is read inside a loop ---- */
+/* x'c over column j's band (x: a full NX vector) */
+static ipm_real_t ipm_band_dot(const ipm_real_t *fg, int j, const ipm_real_t *x) {
+  const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
+  const ipm_real_t *xb = &x[IPM_FG_A0[j]];
+  const int nb = IPM_FG_A1[j] - IPM_FG_A0[j];
+  ipm_real_t s0 = REAL_0;
+  ipm_real_t s1 = REAL_0;
+  int b;
+  for (b = 0; (b + 1) < nb; b += 2) {
+    s0 += c[b] * xb[b];
+    s1 += c[b + 1] * xb[b + 1];
+  }
+  if (b < nb) {
+    s0 += c[b] * xb[b];
+  }
+  return s0 + s1;
+}
+
+/* sum_b c[b] X[b0 + b][j .. j + 3] over a band (b < nb) into o[0 .. 3] (X: rows of IPM_NXU, contiguous columns):
+ * four columns a pass, each c[b] read once */
+static void ipm_band_rows4(const ipm_real_t *c, int nb, const ipm_real_t (*X)[IPM_NXU], int j, ipm_real_t *o) {
+  ipm_real_t s0 = REAL_0;
+  ipm_real_t s1 = REAL_0;
+  ipm_real_t s2 = REAL_0;
+  ipm_real_t s3 = REAL_0;
+  int b;
+  for (b = 0; b < nb; ++b) {
+    const ipm_real_t cb = c[b];
+    const ipm_real_t *x = &X[b][j];
+    s0 += cb * x[0];
+    s1 += cb * x[1];
+    s2 += cb * x[2];
+    s3 += cb * x[3];
+  }
+  o[0] = s0;
+  o[1] = s1;
+  o[2] = s2;
+  o[3] = s3;
+}
+
+/* H[i][j] += ([F G]' P_{k+1} [F G])[i][j] on and above the diagonal (i <= j < IPM_NFGC; the cost-to-go through
+ * stage k's dynamics): PFG[a][j] = (P c_j)[a] = sum over c_j's band of c_j[b] P[b][a] (P symmetric), then
+ * H[i][j] += sum over c_i's band of c_i[b] PFG[b][j]; four a (or j) a pass */
 static void ipm_stage_cost_to_go(int k) {
+  const ipm_real_t *fg = IPM_W.fgb[k];
+  ipm_real_t o[4];
   int i;
   int j;
   int a;
-  /* PFG = P [F G] (dense, contiguous rows; [F G]'s columns that are zero at every stage stay 0) */
-  ipm_stage_fg(k);
-  (void)memset(IPM_W.PFG, 0, sizeof IPM_W.PFG);
-  for (i = 0; i < IPM_NX; ++i) {
-    for (a = 0; a < IPM_NX; ++a) {
-      const ipm_real_t pv = IPM_W.P[k + 1][i][a];
-      for (j = 0; j < IPM_NFGC; ++j) {
-        IPM_W.PFG[i][j] += pv * IPM_W.FGd[a][j];
+  int b;
+  for (j = 0; j < IPM_NFGC; ++j) {
+    const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
+    const int b0 = IPM_FG_A0[j];
+    const int nb = IPM_FG_A1[j] - b0;
+    for (a = 0; (a + 3) < IPM_NX; a += 4) {
+      ipm_real_t s0 = REAL_0;
+      ipm_real_t s1 = REAL_0;
+      ipm_real_t s2 = REAL_0;
+      ipm_real_t s3 = REAL_0;
+      for (b = 0; b < nb; ++b) {
+        const ipm_real_t cb = c[b];
+        const ipm_real_t *x = &IPM_W.P[k + 1][b0 + b][a];
+        s0 += cb * x[0];
+        s1 += cb * x[1];
+        s2 += cb * x[2];
+        s3 += cb * x[3];
       }
+      IPM_W.PFG[a][j] = s0;
+      IPM_W.PFG[a + 1][j] = s1;
+      IPM_W.PFG[a + 2][j] = s2;
+      IPM_W.PFG[a + 3][j] = s3;
+    }
+    for (; a < IPM_NX; ++a) {
+      ipm_real_t s = REAL_0;
+      for (b = 0; b < nb; ++b) {
+        s += c[b] * IPM_W.P[k + 1][b0 + b][a];
+      }
+      IPM_W.PFG[a][j] = s;
     }
   }
-  for (a = 0; a < IPM_NX; ++a) {
-    for (i = 0; i < IPM_NFGC; ++i) {
-      const ipm_real_t f = IPM_W.FGd[a][i];
-      int jn = IPM_NFGC;
-      if (f == REAL_0) {
-        continue; /* structurally zero */
+  for (i = 0; i < IPM_NFGC; ++i) {
+    const ipm_real_t *c = &fg[IPM_FG_OFF[i]];
+    const int b0 = IPM_FG_A0[i];
+    const int nb = IPM_FG_A1[i] - b0;
+    for (j = i; (j + 3) < IPM_NFGC; j += 4) {
+      ipm_band_rows4(c, nb, &IPM_W.PFG[b0], j, o);
+      IPM_W.H[i][j] += o[0];
+      IPM_W.H[i][j + 1] += o[1];
+      IPM_W.H[i][j + 2] += o[2];
+      IPM_W.H[i][j + 3] += o[3];
+    }
+    for (; j < IPM_NFGC; ++j) {
+      ipm_real_t s = REAL_0;
+      for (b = 0; b < nb; ++b) {
+        s += c[b] * IPM_W.PFG[b0 + b][j];
       }
-      if (i < IPM_NX) {
-        jn = IPM_NX;
-      }
-      for (j = 0; j < jn; ++j) {
-        IPM_W.H[i][j] += f * IPM_W.PFG[a][j];
-      }
+      IPM_W.H[i][j] += s;
     }
   }
 }
@@ -836,8 +902,8 @@ static int ipm_stage_equalities(int k) {
     }
   }
   ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, &IPM_W.W2[0][0], IPM_NE1, IPM_NX, IPM_NX);
-  for (i = 0; i < IPM_NX; ++i) {
-    for (j = 0; j < IPM_NX; ++j) {
+  for (i = 0; i < IPM_NX; ++i) { /* on and below the diagonal, as ipm_factor_stage's Pk */
+    for (j = 0; j <= i; ++j) {
       ipm_real_t v = REAL_0;
       for (a = 0; a < IPM_NE1; ++a) {
         v += IPM_W.W2[a][i] * IPM_W.W2[a][j];
@@ -899,9 +965,10 @@ static int ipm_factor_stage(int k) {
   if (k < IPM_N) {
     ipm_stage_cost_to_go(k);
   }
-  for (i = 0; i < IPM_NU; ++i) {
-    for (j = 0; j < IPM_NU; ++j) {
+  for (i = 0; i < IPM_NU; ++i) { /* R (both triangles: the Cholesky factorization reads the lower one) */
+    for (j = i; j < IPM_NU; ++j) {
       IPM_W.R[i][j] = IPM_W.H[IPM_NX + i][IPM_NX + j];
+      IPM_W.R[j][i] = IPM_W.R[i][j];
     }
     IPM_W.R[i][i] += IPM_REG;
   }
@@ -910,26 +977,17 @@ static int ipm_factor_stage(int k) {
   }
   for (i = 0; i < IPM_NU; ++i) {
     for (j = 0; j < IPM_NX; ++j) {
-      IPM_W.W1[k][i][j] = IPM_W.H[IPM_NX + i][j];
+      IPM_W.W1[k][i][j] = IPM_W.H[j][IPM_NX + i];
     }
   }
   ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
   for (i = 0; i < IPM_NX; ++i) { /* Pk = H[x][x] - W1' W1: on and below the diagonal, row by row */
     for (j = 0; j <= i; ++j) {
-      IPM_W.Pk[i][j] = IPM_W.H[i][j];
-    }
-  }
-  for (a = 0; a < IPM_NU; ++a) {
-    for (i = 0; i < IPM_NX; ++i) {
-      const ipm_real_t wi = IPM_W.W1[k][a][i];
-      for (j = 0; j <= i; ++j) {
-        IPM_W.Pk[i][j] -= wi * IPM_W.W1[k][a][j];
+      ipm_real_t v = IPM_W.H[j][i];
+      for (a = 0; a < IPM_NU; ++a) {
+        v -= IPM_W.W1[k][a][i] * IPM_W.W1[k][a][j];
       }
-    }
-  }
-  for (i = 0; i < IPM_NX; ++i) {
-    for (j = i + 1; j < IPM_NX; ++j) {
-      IPM_W.Pk[i][j] = IPM_W.Pk[j][i];
+      IPM_W.Pk[i][j] = v;
     }
   }
 #if IPM_NE > 0
@@ -937,13 +995,18 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  for (i = 0; i < IPM_NX; ++i) {
-    for (j = 0; j < IPM_NX; ++j) {
-      const ipm_real_t v = IPM_HALF * (IPM_W.Pk[i][j] + IPM_W.Pk[j][i]);
-      if (isfinite(v) == 0) {
-        return 1;
+  { /* P_k from the lower triangle, mirrored; 0 times every entry sums to NaN once one is not finite */
+    ipm_real_t nf = REAL_0;
+    for (i = 0; i < IPM_NX; ++i) {
+      for (j = 0; j <= i; ++j) {
+        const ipm_real_t v = IPM_W.Pk[i][j];
+        nf += v * REAL_0;
+        IPM_W.P[k][i][j] = v;
+        IPM_W.P[k][j][i] = v;
       }
-      IPM_W.P[k][i][j] = v;
+    }
+    if (isfinite(nf) == 0) {
+      return 1;
     }
   }
   return 0;
@@ -994,7 +1057,6 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int i;
   int j;
   int a;
-  int e;
   ipm_real_t pn[IPM_NX] = {0};
   ipm_real_t qb[IPM_NX];
   ipm_real_t rb[IPM_NU];
@@ -1013,16 +1075,8 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     ipm_stage_rhs(k, ht, hs);
     ipm_sr_rhs(k, corr, sm, ht);
     ipm_stage_eq(k, cdyn, deq);
-    for (i = 0; i < IPM_NX; ++i) {
-      qb[i] = ht[i];
-    }
-    for (i = 0; i < IPM_NU; ++i) {
-      rb[i] = ht[IPM_NX + i];
-    }
-    if (k < IPM_N) {
+    if (k < IPM_N) { /* plus [F G]' (P_{k+1} c_k + p_{k+1}) */
       ipm_real_t pc[IPM_NX];
-      ipm_real_t qr[IPM_NXU] = {0}; /* [F G]' pc over the non-zeros */
-      const int e0 = IPM_DYN_PTR[k];
       for (i = 0; i < IPM_NX; ++i) {
         ipm_real_t v = REAL_0;
         for (j = 0; j < IPM_NX; ++j) {
@@ -1030,15 +1084,15 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
         }
         pc[i] = v + pn[i];
       }
-      for (e = e0; e < IPM_DYN_PTR[k + 1]; ++e) {
-        qr[IPM_DYN_J[e]] += IPM_W.fgv[k][e - e0] * pc[IPM_DYN_I[e]];
+      for (j = 0; j < IPM_NFGC; ++j) {
+        ht[j] += ipm_band_dot(IPM_W.fgb[k], j, pc);
       }
-      for (i = 0; i < IPM_NX; ++i) {
-        qb[i] += qr[i];
-      }
-      for (i = 0; i < IPM_NU; ++i) {
-        rb[i] += qr[IPM_NX + i];
-      }
+    }
+    for (i = 0; i < IPM_NX; ++i) {
+      qb[i] = ht[i];
+    }
+    for (i = 0; i < IPM_NU; ++i) {
+      rb[i] = ht[IPM_NX + i];
     }
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.lr[k][i] = rb[i];
@@ -1158,10 +1212,8 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
 static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
   int k;
   int i;
-  int e;
   ipm_real_t amax = IPM_ONE;
   ipm_real_t dx[IPM_NX];
-  ipm_real_t dxn[IPM_NX];
   ipm_real_t dv[IPM_NXU];
   ipm_real_t cdyn[IPM_NX] = {0};
   ipm_real_t deq[IPM_NE1];
@@ -1175,16 +1227,20 @@ static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
     ipm_stage_eq(k, cdyn, deq);
     ipm_forward_stage(k, corr, dx, deq, dv);
     amax = ipm_sr_forward(k, corr, sm, dv, amax);
-    if (k < IPM_N) {
-      const int e0 = IPM_DYN_PTR[k];
+    if (k < IPM_N) { /* dx_{k+1} = [F G] dv + c, column by column over the bands */
+      const ipm_real_t *fg = IPM_W.fgb[k];
+      int j;
+      int b;
       for (i = 0; i < IPM_NX; ++i) {
-        dxn[i] = REAL_0;
+        dx[i] = cdyn[i];
       }
-      for (e = e0; e < IPM_DYN_PTR[k + 1]; ++e) {
-        dxn[IPM_DYN_I[e]] += IPM_W.fgv[k][e - e0] * dv[IPM_DYN_J[e]];
-      }
-      for (i = 0; i < IPM_NX; ++i) {
-        dx[i] = dxn[i] + cdyn[i];
+      for (j = 0; j < IPM_NFGC; ++j) {
+        const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
+        ipm_real_t *xb = &dx[IPM_FG_A0[j]];
+        const ipm_real_t vj = dv[j];
+        for (b = 0; b < (IPM_FG_A1[j] - IPM_FG_A0[j]); ++b) {
+          xb[b] += c[b] * vj;
+        }
       }
     }
   }
@@ -1436,20 +1492,24 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
   for (j = 0; j < IPM_NGV; ++j) {
     IPM_W.z[IPM_GV[j]] = REAL_0;
   }
+  QPB_PROBE(QPB_PROBE_START);
   while (raw == IPM_GOING) {
     ipm_real_t mu;
     raw = ipm_check(q, l, &mu);
+    QPB_PROBE(QPB_PROBE_CHECK);
     if ((raw == IPM_GOING) && (it >= max_iter)) {
       raw = IPM_RAW_QP_MAX_ITER;
     }
     if (raw == IPM_GOING) {
       raw = ipm_step(mu);
+      QPB_PROBE(QPB_PROBE_STEP);
       if (raw == IPM_GOING) {
         ++it;
       }
     }
   }
   ipm_compose_y();
+  QPB_PROBE(QPB_PROBE_END);
   res->raw_status = raw;
   res->status = IPM_STATUS[raw];
   res->iter = it;

@@ -6,7 +6,8 @@
  *   'R'                               qpb_reset()
  *   'M' P_x[n] A_x[nnzA] q[n]         qpb_set_matrices
  *   'S' q[n] l[m] u[m] y_warm[m] it   qpb_solve (it: the iteration cap, as a double)
- * For every 'S' the results file gets: status raw iter (as doubles), z[n], y[m]. */
+ * For every 'S' the results file gets: status raw iter, the probe's counts of its four events (as doubles), z[n],
+ * y[m]. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -24,6 +25,13 @@ typedef struct {
   const tipm_real_t *z;
   const tipm_real_t *y;
 } qpb_result_t;
+/* the QP phases' timing probe (the solver's QPB_PROBE): counted, so a test sees each phase once per iteration */
+static long g_probe[4];
+#define QPB_PROBE_START 0
+#define QPB_PROBE_CHECK 1
+#define QPB_PROBE_STEP 2
+#define QPB_PROBE_END 3
+#define QPB_PROBE(event) (++g_probe[(event)])
 
 #include "ipm_problem.h"
 #include "ipm_core.c"
@@ -55,9 +63,10 @@ int main(int argc, char **argv) {
       qpb_result_t res;
       if (!read_all(ev, q, n) || !read_all(ev, l, m) || !read_all(ev, u, m) || !read_all(ev, yw, m) ||
           !read_all(ev, &it, 1)) return 3;
+      (void)memset(g_probe, 0, sizeof g_probe);
       (void)qpb_solve(q, l, u, yw, (int)it, &res);
-      double head[3] = {res.status, res.raw_status, res.iter};
-      fwrite(head, sizeof(double), 3, out);
+      double head[7] = {res.status, res.raw_status, res.iter, g_probe[0], g_probe[1], g_probe[2], g_probe[3]};
+      fwrite(head, sizeof(double), 7, out);
       fwrite(res.z, sizeof(double), (size_t)n, out);
       fwrite(res.y, sizeof(double), (size_t)m, out);
     } else {

@@ -428,10 +428,10 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     """The real arrays of the C workspace struct (name, dims, doc), in declaration order."""
     N, NX, NU, NS, NG = sv.N, sv.nx, sv.NU, sv.NS, sv.NG
     NE1, NXU, n, m, ns = max(sv.NE, 1), sv.nx + sv.NU, lay.n, lay.m, len(sv.side_row)
-    NFG = int(np.max(np.diff(sv.dyn_ptr)))
+    NFGB = int(fg_bands(sv)[2][-1])
     spec = [
         ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
-        ("fgv", (N, NFG), "the non-zeros of [F G] of stage k (x_{k+1} = F x + G u + c)"),
+        ("fgb", (N, NFGB), "[F G] of stage k (x_{k+1} = F x + G u + c), column j's band at IPM_FG_OFF[j] (fg_bands)"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
         ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
         ("h", (n,), "Newton right-hand side"), ("hd", (n,), "the Newton matrix's diagonal: P + box weights"),
@@ -453,7 +453,7 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("d", (N + 1, NS), "slack pivots"),
         ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
         ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
-        ("FGd", (NX, NXU), "scratch: [F G] of a stage, dense"), ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
+        ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
         ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
     if sv.NE == 0:  # the stage-equality arrays exist only with stage equalities (the template's code too)
@@ -517,6 +517,22 @@ def _slack_entries(tab: _Tables, N: int, NS: int, NG: int) -> tuple[np.ndarray, 
             ent.extend(range(tab.gen_xu_ptr[gi], tab.gen_xu_ptr[gi + 1]))
         ptr.append(len(ent))
     return np.array(ptr, dtype=np.int64), np.array(ent, dtype=np.int64)
+
+
+def fg_bands(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """[F G]'s columns as bands of rows, the same at every stage: column j's non-zeros (over all stages) lie in rows
+    a0[j] .. a1[j] - 1 and are stored at off[j] .. in a stage's packed array (``IPM_W.fgb``); ``pos[e]``: where
+    dynamics entry e goes. Dense kernels over bands read no index inside their loops."""
+    nfgc = int(np.max(sv.dyn_j, initial=sv.nx - 1)) + 1
+    a0 = np.zeros(nfgc, dtype=np.int64)
+    a1 = np.zeros(nfgc, dtype=np.int64)
+    for j in range(nfgc):
+        rows = sv.dyn_i[sv.dyn_j == j]
+        if rows.size:
+            a0[j], a1[j] = int(rows.min()), int(rows.max()) + 1
+    off = np.r_[0, np.cumsum(a1 - a0)].astype(np.int64)
+    pos = off[sv.dyn_j] + sv.dyn_i - a0[sv.dyn_j]
+    return a0, a1, off, pos
 
 
 def _generic_A(layout: QpLayout, sr: SoftRows) -> tuple[np.ndarray, ...]:
@@ -611,6 +627,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     run_ptr, pad = padded_runs(sr)
+    fg_a0, fg_a1, fg_off, fg_pos = fg_bands(sv)
     sr_weight = "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)"  # a constant 1 without padding rows
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
@@ -634,7 +651,10 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_DYN_ROWS", sv.dyn_rows, "[k][i]: dynamics row i of stage k"),
         ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
         ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
-        ("IPM_DYN_J", sv.dyn_j, "stage slot"), ("IPM_DYN_A", sv.dyn_a, "data index"),
+        ("IPM_DYN_A", sv.dyn_a, "data index"),
+        ("IPM_DYN_B", fg_pos, "its place in the stage's packed [F G] (IPM_W.fgb)"),
+        ("IPM_FG_A0", fg_a0, "[F G] column j's band: its first row"), ("IPM_FG_A1", fg_a1, "one past its last"),
+        ("IPM_FG_OFF", fg_off, "where the band starts in IPM_W.fgb[k]"),
         ("IPM_INIT_ROWS", layout.init_rows, "init row of x_0[i]"), ("IPM_INIT_A", sv.init_a, "its data index"),
         ("IPM_EQ_ROW", eq_row, "[k][e]: stage equality row"), ("IPM_EQ_PTR", sv.eq_ptr, "entries of slot k NE + e"),
         ("IPM_EQ_J", sv.eq_j, "input index"), ("IPM_EQ_A", sv.eq_a, "data index"),
@@ -671,7 +691,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
             "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": sr_weight,
-            "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": int(np.max(sv.dyn_j, initial=NX - 1)) + 1, "NA": sr.NA,
+            "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": len(fg_a0), "NFGB": int(fg_off[-1]), "NA": sr.NA,
             "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
