@@ -1344,13 +1344,11 @@ static int fail(int code) {
 
 static int all_finite(const truck_lift_el_real_t *v, int n) {
   int i;
-  int ok = 1;
+  truck_lift_el_real_t nf = REAL_0; /* 0 times each entry: the sum is NaN once one is not finite, else 0 */
   for (i = 0; i < n; ++i) {
-    if (!isfinite(v[i])) {
-      ok = 0;
-    }
+    nf += v[i] * REAL_0;
   }
-  return ok;
+  return isfinite(nf) ? 1 : 0;
 }
 
 static void copy(const truck_lift_el_real_t *src, truck_lift_el_real_t *dst, int n) {

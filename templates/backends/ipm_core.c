@@ -109,10 +109,22 @@ static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
   }
 }
 
-/* ---- sparse products with the layout's CSC pattern ---- */
-/* A z on the rows IPM_AR_ROW (not the soft rows): row by row, a gather, no scatter */
+/* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of
+ * stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the others with the layout's
+ * sparse pattern ---- */
+/* stage k's (x, u) from a vector of variables (0 for a slot without a variable) */
+static void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
+  int a;
+  for (a = 0; a < IPM_NXU; ++a) {
+    const int vi = IPM_VMAP_XU[(k * IPM_NXU) + a];
+    v[a] = (vi >= 0) ? x[vi] : REAL_0;
+  }
+}
+
+/* A z on the rows but the soft rows */
 static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
   int i;
+  int k;
   int p;
   for (i = 0; i < IPM_NAR; ++i) {
     ipm_real_t s = REAL_0;
@@ -120,6 +132,19 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
       s += IPM_W.Ax[IPM_AR_K[p]] * x[IPM_AR_J[p]];
     }
     out[IPM_AR_ROW[i]] = s;
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    out[IPM_INIT_ROWS[i]] = IPM_W.einit[i] * x[IPM_VMAP_XU[i]];
+  }
+  for (k = 0; k < IPM_N; ++k) {
+    ipm_real_t v[IPM_NXU];
+    ipm_real_t f[IPM_NX] = {0};
+    ipm_gather_xu(k, x, v);
+    ipm_fg_axpy(IPM_W.fgb[k], v, f);
+    for (i = 0; i < IPM_NX; ++i) {
+      const int r = (k * IPM_NX) + i;
+      out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+    }
   }
 }
 
@@ -134,6 +159,25 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
       s += IPM_W.Ax[IPM_A_K[k]] * v[IPM_A_I[k]];
     }
     out[j] = base[j] + s;
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    out[IPM_VMAP_XU[i]] += IPM_W.einit[i] * v[IPM_INIT_ROWS[i]];
+  }
+  for (k = 0; k < IPM_N; ++k) { /* E_i v_i on x_{k+1}[i], -[F G]' (E v) on (x_k, u_k) */
+    ipm_real_t w[IPM_NX];
+    ipm_real_t g[IPM_NXU] = {0};
+    for (i = 0; i < IPM_NX; ++i) {
+      const int r = (k * IPM_NX) + i;
+      w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
+      out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+    }
+    ipm_fg_tdot(IPM_W.fgb[k], w, g);
+    for (i = 0; i < IPM_NFGC; ++i) {
+      const int vi = IPM_VMAP_XU[(k * IPM_NXU) + i];
+      if (vi >= 0) {
+        out[vi] -= g[i];
+      }
+    }
   }
 }
 
@@ -513,8 +557,16 @@ static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
                      : (IPM_W.t[j] * IPM_W.lam[j]);
 }
 
+/* side j's share of its row's right-hand side g (sign (rc + lam r_p) / t) into IPM_W.ar (the row's first side sets) */
+static inline void ipm_side_g(int j, ipm_real_t rc) {
+  const int r = IPM_SIDE_ROW[j];
+  const ipm_real_t g = (((ipm_real_t)IPM_SIDE_SIGN[j]) * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+  IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
+}
+
 /* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
- * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows) */
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The sides' loop
+ * is written once per target (ipm_rc's corr a constant in each) */
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
@@ -522,10 +574,14 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   for (a = 0; a < IPM_NGV; ++a) {
     IPM_W.h[IPM_GV[a]] = IPM_W.r_d[IPM_GV[a]];
   }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    const int r = IPM_SIDE_ROW[j];
-    const ipm_real_t g = (IPM_SIDE_SIGN[j] * (ipm_rc(corr, sm, j) + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
-    IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
+  if (corr != 0) {
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      ipm_side_g(j, ipm_rc(1, sm, j));
+    }
+  } else {
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      ipm_side_g(j, ipm_rc(0, REAL_0, j));
+    }
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
     ipm_real_t gv;
@@ -545,8 +601,25 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   }
 }
 
+/* side j's step dt, dlam from its row's a'dz (IPM_W.ar) and target rc; returns amax cut to its boundary */
+static inline ipm_real_t ipm_side_step(int j, ipm_real_t rc, ipm_real_t amax) {
+  ipm_real_t am = amax;
+  const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
+  const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
+  /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
+  if ((IPM_W.t[j] + (am * dt)) < REAL_0) {
+    am = (-IPM_W.t[j]) / dt;
+  }
+  if ((IPM_W.lam[j] + (am * dl)) < REAL_0) {
+    am = (-IPM_W.lam[j]) / dl;
+  }
+  IPM_W.dt[j] = dt;
+  IPM_W.dlam[j] = dl;
+  return am;
+}
+
 /* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
- * pass over the sides); returns the largest step to the boundary (at most amax0) */
+ * pass over the sides, written once per target); returns the largest step to the boundary (at most amax0) */
 static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
   int gs;
   int a;
@@ -568,19 +641,14 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
   for (a = 0; a < IPM_NBOX; ++a) {
     IPM_W.ar[IPM_BOX_ROW[a]] = IPM_W.bax[a] * IPM_W.dz[IPM_BOX_VAR[a]];
   }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    const ipm_real_t rc = ipm_rc(corr, sm, j);
-    const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
-    const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
-    /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
-    if ((IPM_W.t[j] + (amax * dt)) < REAL_0) {
-      amax = (-IPM_W.t[j]) / dt;
+  if (corr != 0) {
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      amax = ipm_side_step(j, ipm_rc(1, sm, j), amax);
     }
-    if ((IPM_W.lam[j] + (amax * dl)) < REAL_0) {
-      amax = (-IPM_W.lam[j]) / dl;
+  } else {
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      amax = ipm_side_step(j, ipm_rc(0, REAL_0, j), amax);
     }
-    IPM_W.dt[j] = dt;
-    IPM_W.dlam[j] = dl;
   }
   return amax;
 }
@@ -757,108 +825,6 @@ static void ipm_stage_hessian(int k) {
   }
 }
 
-/* ---- dense kernels on the bands of [F G] (fg_bands): column j of stage k's [F G] is c = &IPM_W.fgb[k][IPM_FG_OFF[j]],
- * its rows IPM_FG_A0[j] .. IPM_FG_A1[j] - 1; no index is read inside a loop ---- */
-/* x'c over column j's band (x: a full NX vector) */
-static ipm_real_t ipm_band_dot(const ipm_real_t *fg, int j, const ipm_real_t *x) {
-  const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
-  const ipm_real_t *xb = &x[IPM_FG_A0[j]];
-  const int nb = IPM_FG_A1[j] - IPM_FG_A0[j];
-  ipm_real_t s0 = REAL_0;
-  ipm_real_t s1 = REAL_0;
-  int b;
-  for (b = 0; (b + 1) < nb; b += 2) {
-    s0 += c[b] * xb[b];
-    s1 += c[b + 1] * xb[b + 1];
-  }
-  if (b < nb) {
-    s0 += c[b] * xb[b];
-  }
-  return s0 + s1;
-}
-
-/* sum_b c[b] X[b0 + b][j .. j + 3] over a band (b < nb) into o[0 .. 3] (X: rows of IPM_NXU, contiguous columns):
- * four columns a pass, each c[b] read once */
-static void ipm_band_rows4(const ipm_real_t *c, int nb, const ipm_real_t (*X)[IPM_NXU], int j, ipm_real_t *o) {
-  ipm_real_t s0 = REAL_0;
-  ipm_real_t s1 = REAL_0;
-  ipm_real_t s2 = REAL_0;
-  ipm_real_t s3 = REAL_0;
-  int b;
-  for (b = 0; b < nb; ++b) {
-    const ipm_real_t cb = c[b];
-    const ipm_real_t *x = &X[b][j];
-    s0 += cb * x[0];
-    s1 += cb * x[1];
-    s2 += cb * x[2];
-    s3 += cb * x[3];
-  }
-  o[0] = s0;
-  o[1] = s1;
-  o[2] = s2;
-  o[3] = s3;
-}
-
-/* H[i][j] += ([F G]' P_{k+1} [F G])[i][j] on and above the diagonal (i <= j < IPM_NFGC; the cost-to-go through
- * stage k's dynamics): PFG[a][j] = (P c_j)[a] = sum over c_j's band of c_j[b] P[b][a] (P symmetric), then
- * H[i][j] += sum over c_i's band of c_i[b] PFG[b][j]; four a (or j) a pass */
-static void ipm_stage_cost_to_go(int k) {
-  const ipm_real_t *fg = IPM_W.fgb[k];
-  ipm_real_t o[4];
-  int i;
-  int j;
-  int a;
-  int b;
-  for (j = 0; j < IPM_NFGC; ++j) {
-    const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
-    const int b0 = IPM_FG_A0[j];
-    const int nb = IPM_FG_A1[j] - b0;
-    for (a = 0; (a + 3) < IPM_NX; a += 4) {
-      ipm_real_t s0 = REAL_0;
-      ipm_real_t s1 = REAL_0;
-      ipm_real_t s2 = REAL_0;
-      ipm_real_t s3 = REAL_0;
-      for (b = 0; b < nb; ++b) {
-        const ipm_real_t cb = c[b];
-        const ipm_real_t *x = &IPM_W.P[k + 1][b0 + b][a];
-        s0 += cb * x[0];
-        s1 += cb * x[1];
-        s2 += cb * x[2];
-        s3 += cb * x[3];
-      }
-      IPM_W.PFG[a][j] = s0;
-      IPM_W.PFG[a + 1][j] = s1;
-      IPM_W.PFG[a + 2][j] = s2;
-      IPM_W.PFG[a + 3][j] = s3;
-    }
-    for (; a < IPM_NX; ++a) {
-      ipm_real_t s = REAL_0;
-      for (b = 0; b < nb; ++b) {
-        s += c[b] * IPM_W.P[k + 1][b0 + b][a];
-      }
-      IPM_W.PFG[a][j] = s;
-    }
-  }
-  for (i = 0; i < IPM_NFGC; ++i) {
-    const ipm_real_t *c = &fg[IPM_FG_OFF[i]];
-    const int b0 = IPM_FG_A0[i];
-    const int nb = IPM_FG_A1[i] - b0;
-    for (j = i; (j + 3) < IPM_NFGC; j += 4) {
-      ipm_band_rows4(c, nb, &IPM_W.PFG[b0], j, o);
-      IPM_W.H[i][j] += o[0];
-      IPM_W.H[i][j + 1] += o[1];
-      IPM_W.H[i][j + 2] += o[2];
-      IPM_W.H[i][j + 3] += o[3];
-    }
-    for (; j < IPM_NFGC; ++j) {
-      ipm_real_t s = REAL_0;
-      for (b = 0; b < nb; ++b) {
-        s += c[b] * IPM_W.PFG[b0 + b][j];
-      }
-      IPM_W.H[i][j] += s;
-    }
-  }
-}
 #if IPM_NE > 0
 
 /* stage k's equalities D u = d: UD = L^-1 D', M = UD' UD (+1 on padded rows), W2 = LM^-1 UD' W1; P_k += W2' W2 */
@@ -958,12 +924,11 @@ static void ipm_hd(void) {
 static int ipm_factor_stage(int k) {
   int i;
   int j;
-  int a;
   ipm_stage_weights(k);
   ipm_stage_hessian(k);
   /* Q = H[x][x], S = H[u][x], R = H[u][u]; plus the cost-to-go through the dynamics */
   if (k < IPM_N) {
-    ipm_stage_cost_to_go(k);
+    ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
   }
   for (i = 0; i < IPM_NU; ++i) { /* R (both triangles: the Cholesky factorization reads the lower one) */
     for (j = i; j < IPM_NU; ++j) {
@@ -981,15 +946,7 @@ static int ipm_factor_stage(int k) {
     }
   }
   ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
-  for (i = 0; i < IPM_NX; ++i) { /* Pk = H[x][x] - W1' W1: on and below the diagonal, row by row */
-    for (j = 0; j <= i; ++j) {
-      ipm_real_t v = IPM_W.H[j][i];
-      for (a = 0; a < IPM_NU; ++a) {
-        v -= IPM_W.W1[k][a][i] * IPM_W.W1[k][a][j];
-      }
-      IPM_W.Pk[i][j] = v;
-    }
-  }
+  ipm_pk(IPM_W.H, IPM_W.W1[k], IPM_W.Pk); /* Pk = H[x][x] - W1' W1: on and below the diagonal */
 #if IPM_NE > 0
   if (ipm_stage_equalities(k) != 0) {
     return 1;
@@ -1055,8 +1012,6 @@ static void ipm_stage_eq(int k, ipm_real_t *cdyn, ipm_real_t *deq) {
 static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int k;
   int i;
-  int j;
-  int a;
   ipm_real_t pn[IPM_NX] = {0};
   ipm_real_t qb[IPM_NX];
   ipm_real_t rb[IPM_NU];
@@ -1077,16 +1032,11 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     ipm_stage_eq(k, cdyn, deq);
     if (k < IPM_N) { /* plus [F G]' (P_{k+1} c_k + p_{k+1}) */
       ipm_real_t pc[IPM_NX];
+      ipm_mv(IPM_W.P[k + 1], cdyn, pc);
       for (i = 0; i < IPM_NX; ++i) {
-        ipm_real_t v = REAL_0;
-        for (j = 0; j < IPM_NX; ++j) {
-          v += IPM_W.P[k + 1][i][j] * cdyn[j];
-        }
-        pc[i] = v + pn[i];
+        pc[i] += pn[i];
       }
-      for (j = 0; j < IPM_NFGC; ++j) {
-        ht[j] += ipm_band_dot(IPM_W.fgb[k], j, pc);
-      }
+      ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
     for (i = 0; i < IPM_NX; ++i) {
       qb[i] = ht[i];
@@ -1104,13 +1054,10 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 #if IPM_NE > 0
     ipm_eq_project(k, deq, tv, nh);
 #endif
+    ipm_wtx(IPM_W.W1[k], tv, pn);
     for (i = 0; i < IPM_NX; ++i) {
-      ipm_real_t v = REAL_0;
-      for (a = 0; a < IPM_NU; ++a) {
-        v += IPM_W.W1[k][a][i] * tv[a];
-      }
-      IPM_W.p[k][i] = qb[i] - v;
-      pn[i] = IPM_W.p[k][i];
+      pn[i] = qb[i] - pn[i];
+      IPM_W.p[k][i] = pn[i];
     }
     ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
     for (i = 0; i < IPM_NU; ++i) {
@@ -1123,7 +1070,6 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 /* stage k's primal step dv = (dx, du) (dz of its slacks and variables) and, with duals, its equality rows' duals */
 static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_real_t *deq, ipm_real_t *dv) {
   int i;
-  int j;
   int a;
   int s;
   int p;
@@ -1139,13 +1085,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
   }
   /* du = K dx + kk with K = -L^-T (W1 - UD M^-1 UD' W1) */
-  for (i = 0; i < IPM_NU; ++i) {
-    ipm_real_t v = REAL_0;
-    for (j = 0; j < IPM_NX; ++j) {
-      v += IPM_W.W1[k][i][j] * dx[j];
-    }
-    tv[i] = v;
-  }
+  ipm_wx(IPM_W.W1[k], dx, tv);
 #if IPM_NE > 0
   ipm_eq_project(k, NULL, tv, nh);
 #endif
@@ -1156,28 +1096,25 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   for (i = 0; i < IPM_NU; ++i) {
     dv[IPM_NX + i] = IPM_W.kk[k][i] - tv[i];
   }
-  for (i = 0; (i < IPM_NX) && (duals != 0); ++i) {
-    ipm_real_t v = REAL_0;
-    for (j = 0; j < IPM_NX; ++j) {
-      v += IPM_W.P[k][i][j] * dx[j];
-    }
-    v += IPM_W.p[k][i];
-    if (k == 0) {
-      IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
-    } else {
-      IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+  if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
+    ipm_real_t pd[IPM_NX];
+    ipm_mv(IPM_W.P[k], dx, pd);
+    for (i = 0; i < IPM_NX; ++i) {
+      const ipm_real_t v = pd[i] + IPM_W.p[k][i];
+      if (k == 0) {
+        IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
+      } else {
+        IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+      }
     }
   }
 #if IPM_NE > 0
   if (duals != 0) {
     int e;
     ipm_real_t wl[IPM_NU];
+    ipm_wx(IPM_W.W1[k], dx, wl);
     for (i = 0; i < IPM_NU; ++i) {
-      ipm_real_t v = REAL_0;
-      for (j = 0; j < IPM_NX; ++j) {
-        v += IPM_W.W1[k][i][j] * dx[j];
-      }
-      wl[i] = v + IPM_W.lr[k][i];
+      wl[i] += IPM_W.lr[k][i];
     }
     ipm_eq_project(k, deq, wl, nh);
     for (e = 0; e < IPM_NE1; ++e) {
@@ -1227,21 +1164,11 @@ static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
     ipm_stage_eq(k, cdyn, deq);
     ipm_forward_stage(k, corr, dx, deq, dv);
     amax = ipm_sr_forward(k, corr, sm, dv, amax);
-    if (k < IPM_N) { /* dx_{k+1} = [F G] dv + c, column by column over the bands */
-      const ipm_real_t *fg = IPM_W.fgb[k];
-      int j;
-      int b;
+    if (k < IPM_N) { /* dx_{k+1} = [F G] dv + c */
       for (i = 0; i < IPM_NX; ++i) {
         dx[i] = cdyn[i];
       }
-      for (j = 0; j < IPM_NFGC; ++j) {
-        const ipm_real_t *c = &fg[IPM_FG_OFF[j]];
-        ipm_real_t *xb = &dx[IPM_FG_A0[j]];
-        const ipm_real_t vj = dv[j];
-        for (b = 0; b < (IPM_FG_A1[j] - IPM_FG_A0[j]); ++b) {
-          xb[b] += c[b] * vj;
-        }
-      }
+      ipm_fg_axpy(IPM_W.fgb[k], dv, dx);
     }
   }
   return amax;
@@ -1343,14 +1270,15 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     }
   }
   mu /= (ipm_real_t)IPM_NCOMP;
-  for (i = 0; i < IPM_NGV; ++i) {
-    j = IPM_GV[i];
-    if (isfinite(IPM_W.r_d[j]) == 0) {
-      rmax = IPM_W.r_d[j];
-    } else if (IPM_FABS(IPM_W.r_d[j]) > rmax) {
-      rmax = IPM_FABS(IPM_W.r_d[j]);
-    } else {
-      /* within rmax */
+  { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite */
+    ipm_real_t nf = REAL_0;
+    for (i = 0; i < IPM_NGV; ++i) {
+      const ipm_real_t r = IPM_W.r_d[IPM_GV[i]];
+      nf += r * REAL_0;
+      rmax = ipm_max(IPM_FABS(r), rmax);
+    }
+    if (isfinite(nf) == 0) {
+      rmax = nf;
     }
   }
   if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
@@ -1370,7 +1298,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
  * status it stops with */
 static int ipm_step(ipm_real_t mu) {
   int j;
-  int finite = 1;
+  ipm_real_t nf = REAL_0;
   ipm_real_t a_aff = REAL_0;
   ipm_real_t mu_aff = REAL_0;
   ipm_real_t ratio;
@@ -1396,12 +1324,10 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  for (j = 0; j < IPM_NGV; ++j) {
-    if (isfinite(IPM_W.dz[IPM_GV[j]]) == 0) {
-      finite = 0;
-    }
+  for (j = 0; j < IPM_NGV; ++j) { /* 0 times each entry of the step sums to NaN once one is not finite */
+    nf += IPM_W.dz[IPM_GV[j]] * REAL_0;
   }
-  if (finite == 0) {
+  if (isfinite(nf) == 0) {
     return IPM_RAW_QP_NONFINITE;
   }
   if (alpha < IPM_ALPHA_MIN) {

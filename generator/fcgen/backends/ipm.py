@@ -452,7 +452,7 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
         ("d", (N + 1, NS), "slack pivots"),
         ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
-        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"), ("PFG", (NX, NXU), "scratch: P [F G]"),
+        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"),
         ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
         ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
     ]
@@ -535,13 +535,76 @@ def fg_bands(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return a0, a1, off, pos
 
 
-def _generic_A(layout: QpLayout, sr: SoftRows) -> tuple[np.ndarray, ...]:
-    """A without the soft rows and their slacks' bound rows (the C's generic A z and A' y; the soft rows have loops
-    of their own): row-major (rows, pointers, columns, data indices) and column-major (pointers, rows, data
-    indices)."""
+def fg_kernels(sv: StageView) -> dict[str, str]:
+    """Bodies of the stage kernels on [F G]'s sparsity (the same at every stage; column j's band packed at off[j]),
+    written out statement by statement as a code generator for a fixed pattern does (acados', CasADi's): no loop,
+    no index, only [F G]'s structural non-zeros multiplied. ``ctg``: H[i][j] += ([F G]' P [F G])[i][j] for i <= j
+    (P [F G] first, into locals); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``: y += [F G] v. Each sum runs over the
+    band's rows in ascending order (the order the Python reference's dense products need not share: verify compares
+    within tolerances)."""
+    a0, a1, off, _ = fg_bands(sv)
+    nx, nfgc = sv.nx, len(a0)
+    nz = np.zeros((nx, nfgc), dtype=bool)  # the pattern over all stages (a band may hold a zero: skip it)
+    nz[sv.dyn_i, sv.dyn_j] = True
+
+    def el(b: int, j: int) -> str:
+        return f"fg[{int(off[j] + b - a0[j])}]"
+
+    def total(terms: list[str]) -> str:
+        return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
+
+    ctg = []
+    # m_a_j = (P [F G])[a][j], only where H's upper triangle reads it: a a non-zero row of a column i <= j
+    need = {(a, j) for j in range(nfgc) if nz[:, j].any() for i in range(j + 1) for a in np.flatnonzero(nz[:, i])}
+    for j in range(nfgc):
+        rows = [b for b in range(nx) if nz[b, j]]
+        for a in range(nx):
+            if (a, j) in need:
+                ctg.append(f"const ipm_real_t m{a}_{j} = {total([f'(P[{a}][{b}] * {el(b, j)})' for b in rows])};")
+    for i in range(nfgc):
+        rows = [b for b in range(nx) if nz[b, i]]
+        for j in range(i, nfgc):
+            terms = [f"({el(b, i)} * m{b}_{j})" for b in rows if (b, j) in need]
+            if terms:
+                ctg.append(f"H[{i}][{j}] += {total(terms)};")
+    tdot = []
+    for j in range(nfgc):
+        terms = [f"({el(b, j)} * x[{b}])" for b in range(nx) if nz[b, j]]
+        if terms:
+            tdot.append(f"out[{j}] += {total(terms)};")
+    axpy = []
+    for b in range(nx):
+        terms = [f"({el(b, j)} * v[{j}])" for j in range(nfgc) if nz[b, j]]
+        if terms:
+            axpy.append(f"y[{b}] += {total(terms)};")
+    return {"ctg": "\n  ".join(ctg), "tdot": "\n  ".join(tdot), "axpy": "\n  ".join(axpy)}
+
+
+def dense_kernels(nx: int, nu: int) -> dict[str, str]:
+    """Bodies of the small dense stage kernels at this problem's sizes, written out (every size a compile-time
+    constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX);
+    ``wx``: y = W1 x (NU x NX); ``wtx``: y = W1' x; ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's
+    upper triangle read)."""
+    def total(terms: list[str]) -> str:
+        return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
+
+    mv = [f"y[{i}] = {total([f'(P[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nx)]
+    wx = [f"y[{i}] = {total([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
+    wtx = [f"y[{i}] = {total([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
+    pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {total([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
+          for i in range(nx) for j in range(i + 1)]
+    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("wtx", wtx), ("pk", pk))}
+
+
+def _generic_A(layout: QpLayout, sr: SoftRows, sv: StageView) -> tuple[np.ndarray, ...]:
+    """A without the soft rows and their slacks' bound rows, the dynamics and the init rows (the C's generic A z
+    and A' y; the others have loops of their own: the soft rows', and the stage kernels on [F G] for the dynamics):
+    row-major (rows, pointers, columns, data indices) and column-major (pointers, rows, data indices)."""
     keep = np.ones(layout.m, dtype=bool)
     keep[sr.row] = False
     keep[sr.brow] = False
+    keep[sv.dyn_rows.ravel()] = False
+    keep[layout.init_rows] = False
     ent = np.flatnonzero(keep[layout.A_indices])            # CSC positions = data indices of the kept entries
     rows = layout.A_indices[ent]
     cols = np.repeat(np.arange(layout.n), np.diff(layout.A_indptr))[ent]
@@ -622,7 +685,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gen_e = np.where(tab.gen_e < layout.nnz_A, tab.gen_e, -1)
     eq_row = -np.ones((N + 1, NE1), dtype=np.int64)
     eq_row[:, :NE] = sv.eq_rows
-    ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr)
+    ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr, sv)
     ub = input_blocks(sv, sr)
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
@@ -652,9 +715,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_DYN_NEXT", sv.dyn_next, "[k][i]: data index of its x_{k+1}[i] coefficient"),
         ("IPM_DYN_PTR", sv.dyn_ptr, "[A B] entries of stage k"), ("IPM_DYN_I", sv.dyn_i, "row i"),
         ("IPM_DYN_A", sv.dyn_a, "data index"),
-        ("IPM_DYN_B", fg_pos, "its place in the stage's packed [F G] (IPM_W.fgb)"),
-        ("IPM_FG_A0", fg_a0, "[F G] column j's band: its first row"), ("IPM_FG_A1", fg_a1, "one past its last"),
-        ("IPM_FG_OFF", fg_off, "where the band starts in IPM_W.fgb[k]"),
+        ("IPM_DYN_B", fg_pos, "its place in the stage's packed [F G] (IPM_W.fgb, fg_bands)"),
         ("IPM_INIT_ROWS", layout.init_rows, "init row of x_0[i]"), ("IPM_INIT_A", sv.init_a, "its data index"),
         ("IPM_EQ_ROW", eq_row, "[k][e]: stage equality row"), ("IPM_EQ_PTR", sv.eq_ptr, "entries of slot k NE + e"),
         ("IPM_EQ_J", sv.eq_j, "input index"), ("IPM_EQ_A", sv.eq_a, "data index"),
@@ -698,7 +759,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
-            "core_source": core_source()}
+            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU)}, "core_source": core_source()}
 
 
 def core_source() -> str:
