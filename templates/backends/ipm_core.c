@@ -292,11 +292,14 @@ static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm
       acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l] += ap * fb[l];
     }
   }
-  for (q = 0; q < IPM_SR_NT; ++q) {
-    const int qa = IPM_SR_QA[q];
-    const int qb = IPM_SR_QB[q];
-    for (l = 0; l < IPM_LANES; ++l) {
-      acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[qa][j + l]) * IPM_SR.a[qb][j + l];
+  q = 0; /* the upper triangle row by row (IPM_SR_QA, IPM_SR_QB's order) */
+  for (p = 0; p < IPM_NA; ++p) {
+    int b;
+    for (b = p; b < IPM_NA; ++b) {
+      for (l = 0; l < IPM_LANES; ++l) {
+        acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[p][j + l]) * IPM_SR.a[b][j + l];
+      }
+      ++q;
     }
   }
 }
@@ -560,7 +563,7 @@ static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
 /* side j's share of its row's right-hand side g (sign (rc + lam r_p) / t) into IPM_W.ar (the row's first side sets) */
 static inline void ipm_side_g(int j, ipm_real_t rc) {
   const int r = IPM_SIDE_ROW[j];
-  const ipm_real_t g = (((ipm_real_t)IPM_SIDE_SIGN[j]) * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+  const ipm_real_t g = (IPM_SIDE_SG[j] * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
   IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
 }
 
@@ -604,7 +607,7 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
 /* side j's step dt, dlam from its row's a'dz (IPM_W.ar) and target rc; returns amax cut to its boundary */
 static inline ipm_real_t ipm_side_step(int j, ipm_real_t rc, ipm_real_t amax) {
   ipm_real_t am = amax;
-  const ipm_real_t dt = (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
+  const ipm_real_t dt = (IPM_SIDE_SG[j] * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
   const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
   /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
   if ((IPM_W.t[j] + (am * dt)) < REAL_0) {
@@ -1193,7 +1196,7 @@ static void ipm_compose_y(void) {
   for (i = 0; i < IPM_NIN; ++i) { /* equality rows: their multipliers, all along */
     ipm_real_t v = REAL_0;
     for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-      v -= ((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j];
+      v -= IPM_SIDE_SG[j] * IPM_W.lam[j];
     }
     IPM_W.y[IPM_IN_ROW[i]] = v;
   }
@@ -1230,8 +1233,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     if (second == 0) {
       az = IPM_W.wr[r];
     }
-    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (((ipm_real_t)IPM_SIDE_SIGN[j]) * IPM_W.lam[j]);
-    IPM_W.r_p[j] = ((((ipm_real_t)IPM_SIDE_SIGN[j]) * az) - IPM_W.bs[j]) - IPM_W.t[j];
+    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * IPM_W.lam[j]);
+    IPM_W.r_p[j] = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - IPM_W.t[j];
     IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
     if (IPM_FABS(IPM_W.r_p[j]) > rmax) {

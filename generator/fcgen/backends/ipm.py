@@ -748,6 +748,10 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_SR_BSIGN", pad(sr.bsign, 0), "its slack's bound side"),
         ("IPM_SIDE_SIGN", sv.side_sign, "+1: lower side (a'z >= l), -1: upper side (a'z <= u)"),
         ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"))]
+    sg = np.asarray(sv.side_sign, dtype=np.int64)  # the sides' signs in the real type: a multiply, no conversion
+    out.append({"name": "IPM_SIDE_SG", "kind": "real", "dims": f"[{max(1, sg.size)}]",
+                "doc": "IPM_SIDE_SIGN as a real", "body": ", ".join(("IPM_SG_P" if v > 0 else "IPM_SG_M") for v in sg)
+                or "IPM_SG_P"})
     members = _members(sv, layout)
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
