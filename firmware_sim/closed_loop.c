@@ -17,7 +17,8 @@
  * collision flags by the exact separating-axis rectangle test, a_lat = v^2 tan(delta) / l.
  *
  * Compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -I<generated folder> (see the Makefile). Static memory only;
- * the platform (fs_platform.h) gives the clock: fs_host.c (the solver folder's POSIX clock) on a host,
+ * the platform (fs_platform.h) gives the clock (integer ticks, FS_TICKS_PER_SECOND of them a second; the run log
+ * keeps seconds): fs_host.c (the solver folder's POSIX clock, nanoseconds) on a host,
  * fs_baremetal.c (startup, SysTick, semihosting command line) on a Cortex-M; stdio is the C library's (newlib's over
  * semihosting on the bare-metal image), so the same loop runs on both;
  * the per-sample loop reads the sample's inputs (opponent parameters) from the file stream, like sensor data.
@@ -36,16 +37,13 @@
 #error "compile with -DSOLVER_UPPER=<SOLVER NAME IN UPPER CASE>"
 #endif
 
-#define FS_CAT_(a, b) a##b
-#define FS_CAT(a, b) FS_CAT_(a, b)
-#define FS_STR_(x) #x
-#define FS_STR(x) FS_STR_(x)
+#include "fs_platform.h" /* FS_CAT, FS_STR, the clock */
+
 #define S_(x) FS_CAT(SOLVER, x)       /* S_(_init) -> <name>_init */
 #define U_(x) FS_CAT(SOLVER_UPPER, x) /* U_(_N) -> <NAME>_N */
 
 #include FS_STR(S_(_solver).h)
 #include FS_STR(S_(_model).h)
-#include "fs_platform.h"
 
 typedef S_(_real_t) real_t;
 typedef S_(_status_t) status_t;
@@ -736,8 +734,8 @@ int main(int argc, char **argv) {
       g_slack[j] = (double)S_(_max_slack)();
     }
     g_exit[j] = rc;
-    g_tp[j] = st.time_prepare;
-    g_tf[j] = st.time_feedback;
+    g_tp[j] = (double)st.ticks_prepare / (double)FS_TICKS_PER_SECOND; /* the run log keeps seconds */
+    g_tf[j] = (double)st.ticks_feedback / (double)FS_TICKS_PER_SECOND;
     g_qi[j] = st.qp_iter;
     g_qs[j] = st.qp_status;
     /* plant: i0 = floor((s - s0) / ds) - 1, p = [s0 + i0 ds, ds, kappa, phi, gx, gy] over the local window */

@@ -5,18 +5,18 @@
  * split the semihosting command line (SYS_GET_CMDLINE) into argv, call main and exit with its return code (newlib's
  * exit -> SYS_EXIT_EXTENDED, so QEMU returns the code). A fault prints one line and exits with code 70.
  * Clock: SysTick on the processor clock (FS_SYSTICK_HZ, the board's, from fcgen's target table), free-running, its
- * 24-bit count extended to 64 bits on every read; under `qemu -icount shift=0` one instruction takes 1 ns, so
- * time * 1e9 is an instruction count (with the tick's granularity). Link with the linker script rendered by fcgen
+ * 24-bit count extended to 32 bits (modulo 2^32) on every read: fs_clock gives the solver integer ticks, no floating
+ * point; under `qemu -icount shift=0` one instruction takes 1 ns, so ticks * 1e9 / FS_SYSTICK_HZ is an instruction
+ * count (with the tick's granularity). Link with the linker script rendered by fcgen
  * (templates/targets/cortexm.ld.j2), --specs=rdimon.specs -nostartfiles. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "fs_platform.h"
-
-#ifndef FS_SYSTICK_HZ
-#error "compile with -DFS_SYSTICK_HZ=<SysTick clock in Hz> (fcgen's target table)"
+#ifndef FS_BAREMETAL
+#define FS_BAREMETAL /* this file is the bare-metal platform (fs_platform.h's branch) */
 #endif
+#include "fs_platform.h"
 
 extern uint32_t __data_load__, __data_start__, __data_end__, __bss_start__, __bss_end__, __stack_top__;
 extern uint32_t __fs_harness_start__, __fs_harness_end__;
@@ -43,7 +43,7 @@ static int sh_call(int op, void *arg) {
 }
 
 /* ------------------------------------------------------------------------------------------------ clock */
-static uint64_t g_ticks;
+static uint32_t g_ticks;
 static uint32_t g_last;
 
 static void clock_start(void) {
@@ -53,11 +53,11 @@ static void clock_start(void) {
   g_last = SYST_CVR;
 }
 
-double fs_clock(void) {
+uint32_t fs_clock(void) {
   uint32_t now = SYST_CVR;
-  g_ticks += (uint64_t)((g_last - now) & 0x00FFFFFFu); /* down-counter; read at least once per 2^24 ticks */
+  g_ticks += (g_last - now) & 0x00FFFFFFu; /* down-counter; read at least once per 2^24 ticks */
   g_last = now;
-  return (double)g_ticks * (1.0 / (double)FS_SYSTICK_HZ); /* a multiply: cheaper than a divide in software double */
+  return g_ticks;
 }
 
 /* ------------------------------------------------------------------------------------------------ startup */

@@ -443,3 +443,70 @@ def test_build_restores_osqp_library(tmp_path: Path) -> None:
     shutil.rmtree(info.out_dir / "osqp" / "lib")
     lib = build(info.out_dir)
     assert lib.is_file() and (info.out_dir / "osqp/lib/osqp_configure.h").is_file()
+
+
+def _fake_clock(start: int, step: int):
+    """A clock hook returning start, start + step, start + 2 step, ... modulo 2^32 (one reading per call)."""
+    import ctypes
+    state = {"t": start % 2**32}
+
+    @ctypes.CFUNCTYPE(ctypes.c_uint32)
+    def clock() -> int:
+        t = state["t"]
+        state["t"] = (t + step) % 2**32
+        return t
+    return clock
+
+
+@pytest.mark.parametrize("use_float", [False, True])
+def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
+    """The status struct: C's layout (sizeof, offsetof) is the binding's and the generator's for either precision;
+    u_violation and plan_clearance have the real type. The clock hook returns integer ticks: each phase reads it twice,
+    so a fake clock advancing STEP ticks a reading gives ticks_prepare = ticks_feedback = STEP, also when the counter
+    wraps past 2^32 within the phase; the binding reports them in seconds (ticks / ticks_per_second)."""
+    import ctypes
+
+    from fcgen.build import _STATUS, _STATUS_FIELDS
+    from fcgen.codegen.generate import status_layout
+    p = paper_problem("car", "lifted", "ellipse", name="car_tick")
+    p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4))
+    info = generate(p, tmp_path / "t", use_float=use_float)
+    header = (info.out_dir / "car_tick_solver.h").read_text()
+    real = "float" if use_float else "double"
+    assert "  car_tick_real_t u_violation;" in header and "  car_tick_real_t plan_clearance;" in header
+    assert f"typedef {real} car_tick_real_t;" in header and "  uint32_t ticks_prepare;" in header
+    # the layout as C compiles it
+    probe = tmp_path / "layout.c"
+    probe.write_text("#include <stddef.h>\n#include <stdio.h>\n#include \"car_tick_solver.h\"\nint main(void) {\n"
+                     "  printf(\"sizeof %zu\\n\", sizeof(car_tick_status_t));\n"
+                     + "".join(f"  printf(\"{f} %zu\\n\", offsetof(car_tick_status_t, {f}));\n" for f in _STATUS_FIELDS)
+                     + "  return 0;\n}\n")
+    exe = tmp_path / "layout"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", f"-I{info.out_dir}", str(probe), "-o", str(exe)],
+                   check=True, capture_output=True, text=True)
+    c_layout = dict((k, int(v)) for k, v in (ln.split() for ln in subprocess.run(
+        [str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()))
+    cls, packed = _STATUS[use_float]
+    assert c_layout == {"sizeof": ctypes.sizeof(cls), **{f: getattr(cls, f).offset for f in _STATUS_FIELDS}}
+    assert c_layout["sizeof"] == packed.size == status_layout(4 if use_float else 8)[0] == (56 if use_float else 64)
+    # the tick clock: exact differences, across a wrap of the counter too
+    cs = CSolver(build(info.out_dir))
+    cs.ticks_per_second = 1000
+    sc = make_scenario("car", 0, samples=8)
+    opp = OpponentParams(p, sc)
+    stepper = cs.window_stepper(sc.road, p.road.samples)  # the closed loop's fast path: its own conversion
+    step, j, x = 123_457, 0, sc.x0
+    for start in (5, 2**32 - step // 2, 2**32 - 2 * step - step // 2):  # no wrap, a wrap in prepare, in feedback
+        for fast in (False, True):
+            clock = _fake_clock(start, step)
+            cs._f("set_clock")(ctypes.cast(clock, ctypes.c_void_p))
+            s_start = x[0] - WINDOW_BEHIND
+            r = stepper(x, s_start, opp.horizon(j)) if fast else \
+                cs.step(x, sc.road.window(s_start, p.road.samples), opp.horizon(j))
+            st, raw = cs.status(), cs._status
+            assert r.exit_code == 0 and (raw.ticks_prepare, raw.ticks_feedback) == (step, step), (start, fast)
+            assert r.time_prepare == r.time_feedback == st.time_prepare == st.time_feedback == step / 1000
+            x, j = x + np.array([1.0, 0.0, 0.0, 0.0, 0.0]), j + 1
+    cs._f("set_clock")(None)  # no clock: no timing
+    r = cs.step(x, sc.road.window(x[0] - WINDOW_BEHIND, p.road.samples), opp.horizon(j))
+    assert r.exit_code == 0 and (cs._status.ticks_prepare, cs._status.ticks_feedback) == (0, 0)

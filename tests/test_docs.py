@@ -83,7 +83,7 @@ def _header_symbols(header: Path, name: str) -> set[str]:
     consts = {m.replace(NAME, "<NAME>", 1) for m in re.findall(rf"\b({NAME}_[A-Z0-9_]+)\b", text)
               if not m.endswith("_H")}
     status = re.search(r"typedef struct \{(.*?)\} " + name + r"_status_t;", text, re.S).group(1)
-    fields = set(re.findall(r"^\s+(?:int|double|float)\s+(\w+);", status, re.M))
+    fields = set(re.findall(rf"^\s+(?:int|uint32_t|{name}_real_t)\s+(\w+);", status, re.M))
     return funcs | consts | fields
 
 
@@ -102,4 +102,4 @@ def test_header_symbol_reader_sees_the_api():
     """The check above reads what it should: the known API is among what it finds."""
     syms = _header_symbols(ROOT / "generated/truck_lifted_ellipse/truck_lift_el_solver.h", "truck_lift_el")
     assert {"<name>_feedback", "<NAME>_ERR_QP_INPUT_BOUNDS", "<NAME>_QP_OTHER", "<NAME>_NX", "qp_unusable_run",
-            "time_feedback"} <= syms
+            "u_violation", "ticks_feedback"} <= syms

@@ -131,6 +131,55 @@ def test_cmake_toolchain_file_cross_build(gen_double, tmp_path) -> None:
     assert "truck_lift_el_solver.c.obj" in sizes
 
 
+DOUBLE_ROUTINE = re.compile(r"__aeabi_(?:d[a-z0-9]+|[a-z0-9]+2d)|__[a-z]+df[a-z0-9]*")
+"""The software double-precision routines of the Arm EABI (``__aeabi_dadd``, ``__aeabi_f2d``, ``__aeabi_i2d``, ...) and
+libgcc's generic names (``__adddf3``, ``__extendsfdf2``)."""
+
+
+def _undefined_symbols(libs: list[Path]) -> dict[str, set[str]]:
+    """Per ``archive:object``, the symbols it references but does not define (``arm-none-eabi-nm -A -u``)."""
+    out = subprocess.run(["arm-none-eabi-nm", "-A", "-u", *map(str, libs)], capture_output=True, text=True,
+                         check=True).stdout
+    refs: dict[str, set[str]] = {}
+    for where, _, sym in (ln.split() for ln in out.splitlines() if " U " in ln):
+        refs.setdefault(where.rstrip(":").rsplit("/", 1)[-1], set()).add(sym)
+    return refs
+
+
+@needs_toolchain
+@pytest.mark.parametrize("formulation, obstacles, backend", [("lifted", "ellipse", "osqp"),
+                                                              ("conventional", "hyperplane", "ipm")])
+def test_float_libraries_do_no_double_arithmetic_on_m4f(tmp_path, formulation, obstacles, backend) -> None:
+    """--float on the Cortex-M4F (single-precision FPU): neither the solver and model library nor OSQP's references a
+    software double routine, and every math call is the float variant (sinf, sqrtf, ...). The conventional IPM
+    solver covers the opponent fit's C code. OSQP's sources need -fsingle-precision-constant for it (their unsuffixed
+    literals): compiled without it, its library calls double routines again."""
+    from dataclasses import replace as dc_replace
+
+    from fcgen.codegen.generate import C_MATH
+    from fcgen.dsl import QpOptions
+    from fcgen.presets import paper_problem
+    p = paper_problem("car", formulation, obstacles, name=f"car_sp_{backend}")
+    p = dc_replace(p, horizon=dc_replace(p.horizon, N=4), qp=QpOptions(backend=backend))
+    info = generate(p, tmp_path / "f", use_float=True)
+    lib = build(info.out_dir, target="cortex-m4f")
+    libs = sorted(lib.parent.glob("*.a"))
+    assert [x.name for x in libs] == [f"lib{info.name}.a", *([f"lib{info.name}_osqp.a"] if backend == "osqp" else [])]
+    refs = _undefined_symbols(libs)
+    assert f"lib{info.name}.a:{info.name}_solver.o" in refs and f"lib{info.name}.a:{info.name}_model.o" in refs
+    doubles = {obj: sorted(s for s in syms if DOUBLE_ROUTINE.fullmatch(s)) for obj, syms in refs.items()}
+    assert not {k: v for k, v in doubles.items() if v}, doubles
+    math_calls = set().union(*refs.values()) & {*C_MATH, *(f"{f}f" for f in C_MATH)}
+    assert {"sinf", "cosf", "sqrtf"} <= math_calls and not math_calls & set(C_MATH), sorted(math_calls)
+    if backend == "osqp":  # the flag is what it takes: OSQP's library without it does double arithmetic
+        tgt = get_target("cortex-m4f")
+        subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/no-sp", f"CC={tgt.cc}",
+                        f"CFLAGS={tgt.cflags('-O2')}", "QPLIBFLAGS=", *tgt.make_variables()],
+                       capture_output=True, text=True, check=True)
+        plain = _undefined_symbols([info.out_dir / "build/no-sp" / f"lib{info.name}_osqp.a"])
+        assert any(DOUBLE_ROUTINE.fullmatch(s) for s in plain[f"lib{info.name}_osqp.a:auxil.o"])
+
+
 # ----------------------------------------------------------------------------- closed loop under QEMU
 
 def _close(log_t, log_h, atol_state: float, same_qp: bool = True) -> None:

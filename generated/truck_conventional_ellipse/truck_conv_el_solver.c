@@ -51,7 +51,7 @@ typedef char check_truck_conv_el_plant[(truck_conv_el_plant_SZ_ARG <= CASADI_SZ_
 typedef char check_truck_conv_el_opp_points[(truck_conv_el_opp_points_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_opp_points_SZ_RES <= CASADI_SZ_RES && truck_conv_el_opp_points_SZ_IW <= CASADI_SZ_IW && truck_conv_el_opp_points_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 
 typedef uint16_t index_t;
-typedef double (*clock_fn_t)(void);
+typedef uint32_t (*clock_fn_t)(void);
 typedef int (*casadi_fn_t)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 
 /* ---- stages ------------------------------------------------------------------------------------------------- */
@@ -1159,7 +1159,8 @@ static truck_conv_el_workspace_t truck_conv_el_ws;
 #define ws truck_conv_el_ws
 
 /* ---- helpers --------------------------------------------------------------------------------------------------- */
-static double now(void) { return ws.clock ? ws.clock() : 0.0; }
+/* The clock's tick count (0 without one); a phase's duration is a difference modulo 2^32. */
+static uint32_t now(void) { return (ws.clock != NULL) ? ws.clock() : 0u; }
 
 static int fail(int code) {
   ws.status.exit_code = code;
@@ -1920,7 +1921,7 @@ static void plan_check(void) {
   int k;
   int j;
   int react = 0;
-  double best = INFINITY;
+  truck_conv_el_real_t best = (truck_conv_el_real_t)INFINITY;
   int best_k = -1;
   truck_conv_el_real_t c[OPP_DIM];
   truck_conv_el_real_t ahead[OPP_DIM];
@@ -1931,8 +1932,8 @@ static void plan_check(void) {
     }
     call3(truck_conv_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], c, ahead, NULL);
     for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
-      if ((double)c[j] < best) {
-        best = (double)c[j];
+      if (c[j] < best) {
+        best = c[j];
         best_k = k;
       }
       if ((k >= 1) && (k <= TRUCK_CONV_EL_REACT_STAGES) && (c[j] < REAL_0) && (met[j] == 0)) {
@@ -1961,7 +1962,7 @@ int truck_conv_el_init(void) {
   return TRUCK_CONV_EL_OK;
 }
 
-void truck_conv_el_set_clock(double (*clock_seconds)(void)) { ws.clock = clock_seconds; }
+void truck_conv_el_set_clock(uint32_t (*clock_ticks)(void)) { ws.clock = clock_ticks; }
 
 int truck_conv_el_set_state(const truck_conv_el_real_t x0[5]) {
   if (!x0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
@@ -2008,7 +2009,7 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
  * change only once every check has passed. The constraint values g are built in u and the Jacobian in A_x's memory
  * (RAM): after a prepare rejected for non-finite model values, get_qp's u and A_x show that call's values. */
 int truck_conv_el_prepare(void) {
-  const double t0 = now();
+  const uint32_t t0 = now();
   int i;
   int k;
   int rc;
@@ -2097,19 +2098,19 @@ int truck_conv_el_prepare(void) {
   ws.status.qp_raw_status = 0;
   ws.status.qp_iter = 0;
   ws.status.opp_outside = ws.fit_outside;
-  ws.status.time_prepare = 0.0;
-  ws.status.time_feedback = 0.0;
+  ws.status.ticks_prepare = 0u;
+  ws.status.ticks_feedback = 0u;
   ws.q_cur = ws.q;
   ws.cold = cold;
   ws.prepared = 1;
-  ws.status.time_prepare = now() - t0;
+  ws.status.ticks_prepare = (uint32_t)(now() - t0);
   return TRUCK_CONV_EL_OK;
 }
 
 /* Transactional up to the QP: a rejected call (order, state, road window, non-finite embedding) changes nothing but
  * exit_code. From the QP on, the sample is consumed: see the QP outcome contract in the header. */
 int truck_conv_el_feedback(void) {
-  const double t0 = now();
+  const uint32_t t0 = now();
   int i;
   int rc;
   int qs;
@@ -2155,7 +2156,7 @@ int truck_conv_el_feedback(void) {
     for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
       ws.w[i] = ws.w_tmp[i] + (D[i] * res.z[i]);
     }
-    if ((double)project_u0(ws.w, u_step) > TRUCK_CONV_EL_MAX_INPUT_VIOLATION) {
+    if (project_u0(ws.w, u_step) > TRUCK_CONV_EL_MAX_INPUT_VIOLATION) {
       code = TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS; /* a usable status, but the step is far outside the input box */
     }
   }
@@ -2176,7 +2177,7 @@ int truck_conv_el_feedback(void) {
   apply_control(ws.w);
   plan_check();
   ws.status.exit_code = code;
-  ws.status.time_feedback = now() - t0;
+  ws.status.ticks_feedback = (uint32_t)(now() - t0);
   return code;
 }
 

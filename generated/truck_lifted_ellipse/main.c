@@ -8,6 +8,7 @@
 
 #define ROAD_DS 2.0
 #define N_OPP_ALL (TRUCK_LIFT_EL_NOPP * TRUCK_LIFT_EL_NOPP_PAR)
+#define MS_PER_TICK (1e3 / (double)TRUCK_LIFT_EL_HOST_TICKS_PER_SECOND)
 
 /* one opponent far away from the road (its parameter row) */
 static const truck_lift_el_real_t FAR_OPPONENT[TRUCK_LIFT_EL_NOPP_PAR] = { -1000.0, 500.0, 0.0 };
@@ -42,7 +43,7 @@ int main(void) {
   truck_lift_el_get_u0(u);
   truck_lift_el_get_status(&st);
   printf("truck_lift_el: exit %d, qp status %d, %d iterations, prepare %.3f ms, feedback %.3f ms\n", st.exit_code,
-         st.qp_status, st.qp_iter, 1e3 * st.time_prepare, 1e3 * st.time_feedback);
+         st.qp_status, st.qp_iter, MS_PER_TICK * (double)st.ticks_prepare, MS_PER_TICK * (double)st.ticks_feedback);
   printf("u0 = [%.6g N, %.6g rad/s], max slack %.3g, workspace %d bytes\n", (double)u[0], (double)u[1],
          (double)truck_lift_el_max_slack(), TRUCK_LIFT_EL_WORKSPACE_BYTES);
   if (rc != TRUCK_LIFT_EL_OK || !isfinite(u[0]) || !isfinite(u[1])) return 1;

@@ -4,14 +4,13 @@
 
 #include "truck_lift_el_host.h"
 
-double truck_lift_el_host_clock(void) {
+/* nanoseconds of clock `id` modulo 2^32 (0 if it cannot be read) */
+static uint32_t ns_ticks(clockid_t id) {
   struct timespec ts;
-  if (clock_gettime(CLOCK_MONOTONIC, &ts) != 0) return 0.0;
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+  if (clock_gettime(id, &ts) != 0) return 0u;
+  return (uint32_t)((uint32_t)ts.tv_sec * 1000000000u + (uint32_t)ts.tv_nsec);
 }
 
-double truck_lift_el_host_cpu_clock(void) {
-  struct timespec ts;
-  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0.0;
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+uint32_t truck_lift_el_host_clock(void) { return ns_ticks(CLOCK_MONOTONIC); }
+
+uint32_t truck_lift_el_host_cpu_clock(void) { return ns_ticks(CLOCK_THREAD_CPUTIME_ID); }

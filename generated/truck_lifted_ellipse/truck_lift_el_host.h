@@ -2,14 +2,19 @@
 #ifndef TRUCK_LIFT_EL_HOST_H
 #define TRUCK_LIFT_EL_HOST_H
 
+#include <stdint.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* Monotonic clock in seconds (POSIX clock_gettime); pass it to truck_lift_el_set_clock on a host. */
-double truck_lift_el_host_clock(void);
-/* CPU time of the calling thread in seconds (CLOCK_THREAD_CPUTIME_ID): timings without preemption by other loads. */
-double truck_lift_el_host_cpu_clock(void);
+/* Ticks per second of the host clocks below: they count nanoseconds (modulo 2^32, a wrap every 4.29 s). */
+#define TRUCK_LIFT_EL_HOST_TICKS_PER_SECOND 1000000000u
+
+/* Monotonic clock (POSIX clock_gettime) in ticks; pass it to truck_lift_el_set_clock on a host. */
+uint32_t truck_lift_el_host_clock(void);
+/* CPU time of the calling thread in ticks (CLOCK_THREAD_CPUTIME_ID): timings without preemption by other loads. */
+uint32_t truck_lift_el_host_cpu_clock(void);
 
 #ifdef __cplusplus
 }

@@ -7,6 +7,8 @@
 #ifndef TRUCK_LIFT_EL_SOLVER_H
 #define TRUCK_LIFT_EL_SOLVER_H
 
+#include <stdint.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -28,7 +30,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_LIFT_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
-#define TRUCK_LIFT_EL_WORKSPACE_BYTES 488896 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_WORKSPACE_BYTES 488888 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -114,10 +116,12 @@ enum {
  *   status.plan_reaction = 1; the plan itself is not changed. TRUCK_LIFT_EL_REACT_STAGES 0: report only. */
 #define TRUCK_LIFT_EL_REACT_STAGES 0
 
-/* A usable QP's step may leave the input box by this much (max_i excess_i / limit_i); beyond: ERR_QP_INPUT_BOUNDS. */
+/* A usable QP's step may leave the input box by this much (max_i excess_i / limit_i); beyond: ERR_QP_INPUT_BOUNDS.
+ * A constant of the real type. */
 #define TRUCK_LIFT_EL_MAX_INPUT_VIOLATION (0.05)
 
-/* What the last call reported. time_*: seconds measured with the clock given to set_clock (0 without one). */
+/* What the last call reported. ticks_*: the phase's duration in ticks of the clock given to set_clock, a difference
+ * modulo 2^32 (right across one wrap of the counter; 0 without a clock). */
 typedef struct {
   int exit_code;      /* TRUCK_LIFT_EL_OK or an error code */
   int qp_status;      /* generic status of the last QP: TRUCK_LIFT_EL_QP_SOLVED, ... (0: none since prepare) */
@@ -129,17 +133,18 @@ typedef struct {
   int cold_restarts;  /* prepares that cold-started after TRUCK_LIFT_EL_COLD_RESTART_AFTER unusable QPs in a row */
   int plan_clearance_stage; /* the stage of plan_clearance (-1: no opponent) */
   int plan_reaction;  /* 1: the plan check braked: get_u0 is the braking control (see Plan check) */
-  double u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
-  double plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
-  double time_prepare;
-  double time_feedback;
+  truck_lift_el_real_t u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
+  truck_lift_el_real_t plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
+  uint32_t ticks_prepare;  /* duration of the last prepare that prepared */
+  uint32_t ticks_feedback; /* duration of the last feedback that consumed its sample (0 after a prepare) */
 } truck_lift_el_status_t;
 
 /* ---- API -------------------------------------------------------------------------------------------------------- */
 /* Everything back to the zero-initialized solver except the clock (inputs, plan, QP data, backend). Optional at start. */
 int truck_lift_el_init(void);
-/* Timing hook provided by the host (seconds, monotonic); NULL disables timing. */
-void truck_lift_el_set_clock(double (*clock_seconds)(void));
+/* Timing hook: a free-running tick counter of the host or ECU (any rate, wrapping modulo 2^32); NULL disables
+ * timing. The solver only subtracts two readings (no floating-point arithmetic on time). */
+void truck_lift_el_set_clock(uint32_t (*clock_ticks)(void));
 /* Measured Frenet state x0 = [s, n, alpha, v, delta]. */
 int truck_lift_el_set_state(const truck_lift_el_real_t x0[5]);
 /* Road samples on the grid s0 + i ds, i < n, 2 <= n <= TRUCK_LIFT_EL_ROAD_MAX; copied. It must cover the horizon. */

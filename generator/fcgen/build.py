@@ -17,7 +17,7 @@ import numpy as np
 
 from .backends import BACKENDS, backend_module
 from .codegen.consistency import check_folder, read_macros  # noqa: F401 (read_macros re-exported)
-from .codegen.generate import EXIT_CODES
+from .codegen.generate import EXIT_CODES, HOST_TICKS_PER_SECOND
 from .reference import Status
 from .road import Road
 from .sim.closedloop import StepResult
@@ -99,19 +99,27 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
     return gen_dir / out / (f"lib{name}.a" if tgt.bare_metal else f"lib{name}.so")
 
 
-class _CStatus(ctypes.Structure):
-    """The C status struct (``<name>_get_status``), field by field as ``reference.Status``."""
-
-    _fields_ = [(f, ctypes.c_int) for f in ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected",
-                                             "opp_outside", "qp_unusable_run", "cold_restarts",
-                                             "plan_clearance_stage", "plan_reaction")] + \
-        [(f, ctypes.c_double) for f in ("u_violation", "plan_clearance", "time_prepare", "time_feedback")]
+_STATUS_INTS = ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected", "opp_outside", "qp_unusable_run",
+                "cold_restarts", "plan_clearance_stage", "plan_reaction")
+_STATUS_REALS = ("u_violation", "plan_clearance")
+_STATUS_TICKS = ("ticks_prepare", "ticks_feedback")
 
 
-_STATUS_FIELDS = tuple(f for f, _ in _CStatus._fields_)
-#: the status struct's layout for ``struct``: all its fields in one call (native alignment, as ctypes lays it out)
-_STATUS_STRUCT = struct.Struct("@" + "".join("i" if t is ctypes.c_int else "d" for _, t in _CStatus._fields_))
-assert _STATUS_STRUCT.size == ctypes.sizeof(_CStatus)
+def _status_struct(use_float: bool) -> tuple[type[ctypes.Structure], struct.Struct]:
+    """The C status struct (``<name>_get_status``) of a precision as a ctypes class, and its layout for ``struct``
+    (all fields in one call; native alignment, as ctypes lays it out)."""
+    real, code = (ctypes.c_float, "f") if use_float else (ctypes.c_double, "d")
+    fields = [(f, ctypes.c_int) for f in _STATUS_INTS] + [(f, real) for f in _STATUS_REALS] + \
+        [(f, ctypes.c_uint32) for f in _STATUS_TICKS]
+    cls = type(f"_CStatus{'Float' if use_float else 'Double'}", (ctypes.Structure,), {"_fields_": fields})
+    layout = struct.Struct("@" + "i" * len(_STATUS_INTS) + code * len(_STATUS_REALS) + "I" * len(_STATUS_TICKS))
+    assert layout.size == ctypes.sizeof(cls)
+    return cls, layout
+
+
+#: per precision (``use_float``): the ctypes class and the ``struct`` layout of ``<name>_status_t``
+_STATUS = {use_float: _status_struct(use_float) for use_float in (False, True)}
+_STATUS_FIELDS = _STATUS_INTS + _STATUS_REALS + _STATUS_TICKS
 
 
 class CSolver:
@@ -135,6 +143,8 @@ class CSolver:
         self.n, self.m, self.nnz_A = s["QP_N"], s["QP_M"], s["QP_NNZ_A"]
         self.dtype = np.float32 if s.get("USE_FLOAT") else np.float64
         self._real = ctypes.c_float if s.get("USE_FLOAT") else ctypes.c_double
+        self._status_cls, self._status_layout = _STATUS[bool(s.get("USE_FLOAT"))]
+        self.ticks_per_second = HOST_TICKS_PER_SECOND  # of the host clocks given to set_clock below
         self.lib = ctypes.CDLL(str(lib_path.resolve()))
         self._declare()
         if init:
@@ -171,12 +181,12 @@ class CSolver:
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
                "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
                "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_opp_params": ([PR], None),
-               "host_clock": ([], ctypes.c_double), "host_cpu_clock": ([], ctypes.c_double)}
+               "host_clock": ([], ctypes.c_uint32), "host_cpu_clock": ([], ctypes.c_uint32)}
         for fn, (args, res) in sig.items():
             f = self._f(fn)
             f.argtypes, f.restype = args, res
             self._fns[fn] = f
-        self._status = _CStatus()
+        self._status = self._status_cls()
         self._status_addr = ctypes.addressof(self._status)
         self._u0 = np.zeros(self.nu, dtype=self.dtype)
         self._u0_addr = self._u0.ctypes.data
@@ -256,9 +266,12 @@ class CSolver:
         return float(self._fns["max_slack"]())
 
     def status(self) -> Status:
+        """The C status; its phase durations (ticks of the host clock) in seconds, as ``Status`` keeps them."""
         st = self._status
         self._fns["get_status"](self._status_addr)
-        return Status(**{f: getattr(st, f) for f in _STATUS_FIELDS})
+        tps = self.ticks_per_second
+        return Status(**{f: getattr(st, f) for f in _STATUS_INTS + _STATUS_REALS},
+                      time_prepare=st.ticks_prepare / tps, time_feedback=st.ticks_feedback / tps)
 
     def get_qp(self) -> dict[str, np.ndarray]:
         """Copies of the QP data: q, l, u, A_x, P_x, z (the backend's primal solution), y (dual guess)."""
@@ -335,9 +348,9 @@ class CSolver:
         prepare, feedback, get_status, get_u0, max_slack = f["prepare"], f["feedback"], q["get_status"], \
             q["get_u0"], q["max_slack"]
         st, u0, ndarray, floor, nan = self._status, self._u0, np.ndarray, math.floor, math.nan
-        unpack = _STATUS_STRUCT.unpack_from
+        unpack, tps = self._status_layout.unpack_from, self.ticks_per_second
         i_status, i_iter, i_prep, i_fb, i_react = (_STATUS_FIELDS.index(k) for k in (
-            "qp_status", "qp_iter", "time_prepare", "time_feedback", "plan_reaction"))
+            "qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction"))
 
         def state(x0) -> bool:   # _input("x0", x0, 5)
             if type(x0) is ndarray and x0.shape == (5,):
@@ -378,7 +391,7 @@ class CSolver:
             get_status(st_ptr)
             get_u0(u0_ptr)
             v = unpack(st)
-            return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep], v[i_fb],
+            return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep] / tps, v[i_fb] / tps,
                               nan if rc else max_slack(), v[i_react])
 
         step.road_arrays = arrays   # the arrays whose addresses set_road gets live as long as the function

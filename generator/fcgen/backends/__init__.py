@@ -60,6 +60,8 @@ class BackendLibrary:
     opt_reason: str    # why they get their own flags
     sources_note: str  # README: its sources' flags and where the git-ignored ones come from
     symbols_note: str  # README: how its symbols carry the solver's prefix
+    cflags: tuple[str, ...] = ()  # fixed flags of its sources alone, after opt_var's (the precision's, not tuning)
+    cflags_reason: str = ""       # why (a build-file comment)
 
 
 @dataclass(frozen=True)

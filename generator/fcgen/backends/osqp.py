@@ -134,6 +134,13 @@ def _array_bytes(workspace_c: str, real_size: int) -> int:
     return sum(sizes[t] * int(n) for t, n in _OSQP_ARRAY.findall(workspace_c))
 
 
+FLOAT_LIBRARY_CFLAGS = ("-fsingle-precision-constant",)
+"""Extra flags of OSQP's library sources in a float build: their unsuffixed literals (``1.0 / OSQP_INFTY``,
+``sca == 1.``, ``? 1.0 : v``) would otherwise make the compiler compute those expressions in double (software
+routines on a single-precision FPU)."""
+FLOAT_LIBRARY_REASON = "float build: OSQP's unsuffixed literals as float, no double arithmetic"
+
+
 def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path, use_float: bool) -> BackendFiles:
     """Export OSQP's workspace (problem-specific) and library into ``out_dir/osqp``; returns the folder's files."""
     out_dir = Path(out_dir)
@@ -141,10 +148,14 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
     name = ocp.problem.name
     exp = export_osqp(P, A, q, l, u, osqp_settings(opts, use_float), out_dir, f"{name}_", use_float)
     private = ", ".join(f"`{d}`" for d in exp.private_include_dirs)
+    lib_flags = FLOAT_LIBRARY_CFLAGS if use_float else ()
     library = BackendLibrary(
         suffix="osqp", label="OSQP", opt_var="OSQP_OPTFLAGS", opt_flags="-O3",
         opt_reason="the ADMM iterations are most of the run time",
-        sources_note=f"OSQP's own files get `{' '.join(exp.cflags)}` and the private include folder {private}.\n"
+        cflags=lib_flags, cflags_reason=FLOAT_LIBRARY_REASON if use_float else "",
+        sources_note=f"OSQP's own files get `{' '.join(exp.cflags)}` and the private include folder {private}"
+                     + (f"; its library sources also `{' '.join(lib_flags)}` ({FLOAT_LIBRARY_REASON})" if lib_flags
+                        else "") + ".\n"
                      "The OSQP library sources in `osqp/lib/` are not committed: `fcgen build` restores them from the "
                      "installed osqp package.",
         symbols_note=f"OSQP's and QDLDL's included (`{name}_osqp_solve`, ...:\n`osqp/{name}_osqp_rename.h`, included "

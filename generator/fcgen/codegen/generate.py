@@ -84,6 +84,11 @@ def _c_real(x: float) -> str:
     return repr(x)
 
 
+def _c_real_literal(x: float, use_float: bool) -> str:
+    """A C literal of the solver's real type: ``0.05`` (double) or ``0.05f`` (float, rounded by the compiler)."""
+    return _c_real(x) + ("f" if use_float else "")
+
+
 def _c_list(values: Sequence, fmt=str, per_line: int = 12) -> str:
     """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
     items = [fmt(v) for v in values] or ["0"]
@@ -288,8 +293,15 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
     return -(-off // align_max) * align_max
 
 
-STATUS_BYTES = 72
-"""sizeof(<name>_status_t) on an LP64 target: 10 ints, 4 doubles."""
+HOST_TICKS_PER_SECOND = 1_000_000_000
+"""Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32; ``<NAME>_HOST_TICKS_PER_SECOND``)."""
+
+
+def status_layout(real_size: int) -> tuple[int, int]:
+    """sizeof and alignment of ``<name>_status_t``: 10 ints, 2 reals (u_violation, plan_clearance), 2 uint32 ticks."""
+    members = [(4, 4, 10), (real_size, real_size, 2), (4, 4, 2)]
+    return _struct_size(members), max(a for _, a, _ in members)
+
 FIRST_STATE_MEMBER = "w"
 """The first workspace member reset() zeroes (the inputs and the clock come before it)."""
 
@@ -326,7 +338,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
         ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
         ("const NAME_real_t *", "q_cur", [], P), ("const NAME_real_t *", "qp_z", [], P),
-        ("NAME_status_t", "status", [], (STATUS_BYTES, 8)),
+        ("NAME_status_t", "status", [], status_layout(real_size)),
         ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
     ]
@@ -446,10 +458,11 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
                                         for s in range(1, len(QP_STATUSES) + 1)],
         "qp_contract": QP_CONTRACT, "max_input_violation": _c_real(MAX_INPUT_VIOLATION),
+        "max_input_violation_c": _c_real_literal(MAX_INPUT_VIOLATION, use_float),
         "cold_restart_note": COLD_RESTART_NOTE.replace("COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"),
         "cold_restart_lines": _wrap_comment(f"Cold restart: {COLD_RESTART_NOTE}.".replace(
             "COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"), 114),
-        "first_state_member": FIRST_STATE_MEMBER,
+        "first_state_member": FIRST_STATE_MEMBER, "host_ticks_per_second": HOST_TICKS_PER_SECOND,
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(opp_names),
         "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
