@@ -1245,6 +1245,7 @@ void truck_lift_el_ipm_probe(int event);
 #define IPM_NUB 2 /* input blocks per stage (at most; IPM_UB) */
 #define IPM_NFGC 10 /* columns of [F G] that can be non-zero: the first IPM_NFGC (x, then u) */
 #define IPM_NFGB 51 /* entries of a stage's packed [F G]: its columns' bands of rows (fg_bands) */
+#define IPM_NV 568 /* variables */
 #define IPM_NGV 448 /* variables but the soft rows' slacks (IPM_GV; those live in IPM_W.sr) */
 #define IPM_NAR 360 /* rows of A z (all but the soft rows and their slacks' bound rows) */
 #define IPM_NSR 120 /* soft rows: one side, a slack of their own bounded by a box row (qp.split_soft_rows) */
@@ -1624,6 +1625,24 @@ static const ipm_idx_t IPM_VMAP_XU[410] = { /* [k][v]: variable of stage k's x/i
   532, 533, 534, 535, 536, 537, 542, 543, 544, 545, 546, 547,
   548, 549, 550, 551, 556, 557, 558, 559, 560, 561, 562, 563,
   -1, -1
+};
+static const ipm_idx_t IPM_XU_LO[41] = { /* stage k's first slot with a variable */
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+  0, 0, 0, 0, 0
+};
+static const ipm_idx_t IPM_XU_HI[41] = { /* one past its last */
+  10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10,
+  10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10,
+  10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10, 10,
+  10, 10, 10, 10, 8
+};
+static const ipm_idx_t IPM_XU_V[41] = { /* the variable of slot IPM_XU_LO[k] (the others follow it) */
+  0, 10, 24, 38, 52, 66, 80, 94, 108, 122, 136, 150,
+  164, 178, 192, 206, 220, 234, 248, 262, 276, 290, 304, 318,
+  332, 346, 360, 374, 388, 402, 416, 430, 444, 458, 472, 486,
+  500, 514, 528, 542, 556
 };
 static const ipm_idx_t IPM_VMAP_S[41][1] = { /* [k][s]: variable of stage k's slack s */
   {-1},
@@ -3611,12 +3630,31 @@ static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
 /* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of
  * stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the others with the layout's
  * sparse pattern ---- */
-/* stage k's (x, u) from a vector of variables (0 for a slot without a variable) */
-static void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
+/* stage k's (x, u) slots with a variable are IPM_XU_LO[k] .. IPM_XU_HI[k] - 1, on consecutive variables from
+ * IPM_XU_V[k] (codegen_context checks): its (x, u) from a vector of variables (0 for a slot without a variable) */
+static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   int a;
-  for (a = 0; a < IPM_NXU; ++a) {
-    const int vi = IPM_VMAP_XU[(k * IPM_NXU) + a];
-    v[a] = (vi >= 0) ? x[vi] : REAL_0;
+  const int lo = IPM_XU_LO[k];
+  const int hi = IPM_XU_HI[k];
+  const ipm_real_t *xs = &x[IPM_XU_V[k] - lo];
+  for (a = 0; a < lo; ++a) {
+    v[a] = REAL_0;
+  }
+  for (; a < hi; ++a) {
+    v[a] = xs[a];
+  }
+  for (; a < IPM_NXU; ++a) {
+    v[a] = REAL_0;
+  }
+}
+
+/* x[variable of slot a] += v[a] (or =, with set) over stage k's slots with a variable */
+static inline void ipm_scatter_xu(int k, const ipm_real_t *v, ipm_real_t *x, int set) {
+  int a;
+  ipm_real_t *xs = &x[IPM_XU_V[k]];
+  const int lo = IPM_XU_LO[k];
+  for (a = lo; a < IPM_XU_HI[k]; ++a) {
+    xs[a - lo] = ((set != 0) ? REAL_0 : xs[a - lo]) + v[a];
   }
 }
 
@@ -3672,11 +3710,9 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
     for (i = 0; i < IPM_NFGC; ++i) {
-      const int vi = IPM_VMAP_XU[(k * IPM_NXU) + i];
-      if (vi >= 0) {
-        out[vi] -= g[i];
-      }
+      g[i] = -g[i];
     }
+    ipm_scatter_xu(k, g, out, 0);
   }
 }
 
@@ -3697,17 +3733,17 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
 #define IPM_SR_NACC (4 + IPM_SR_NT + (3 * IPM_NA)) /* ipm_sr_check's sums per lane (see ipm_sr_check_row) */
 
 /* the larger of v and m (m if v is NaN: a NaN never replaces a maximum) */
-static ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
+static inline ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
   return (v > m) ? v : m;
 }
 
 /* the smaller of v and m (m if v is NaN) */
-static ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
   return (v < m) ? v : m;
 }
 
 /* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */
-static void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
+static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
   int l;
   int p;
   for (l = 0; l < IPM_LANES; ++l) {
@@ -3829,9 +3865,8 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
     }
   }
   for (k = 0; k <= IPM_N; ++k) {
+    ipm_gather_xu(k, IPM_W.z, zl);
     for (p = 0; p < IPM_NXU; ++p) {
-      const int v = IPM_VMAP_XU[(k * IPM_NXU) + p];
-      zl[p] = (v >= 0) ? IPM_W.z[v] : REAL_0;
       rl[p] = REAL_0;
     }
     for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
@@ -3869,12 +3904,7 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
         IPM_W.srh[r][q] = s;
       }
     }
-    for (p = 0; p < IPM_NXU; ++p) {
-      const int v = IPM_VMAP_XU[(k * IPM_NXU) + p];
-      if (v >= 0) {
-        IPM_W.r_d[v] += rl[p];
-      }
-    }
+    ipm_scatter_xu(k, rl, IPM_W.r_d, 0);
   }
   for (l = 0; l < IPM_LANES; ++l) {
     mu += acc[0][l];
@@ -4073,9 +4103,7 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
   int j;
-  for (a = 0; a < IPM_NGV; ++a) {
-    IPM_W.h[IPM_GV[a]] = IPM_W.r_d[IPM_GV[a]];
-  }
+  (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
   if (corr != 0) {
     for (j = 0; j < IPM_NSIDE; ++j) {
       ipm_side_g(j, ipm_rc(1, sm, j));
@@ -4147,10 +4175,20 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
     for (j = 0; j < IPM_NSIDE; ++j) {
       amax = ipm_side_step(j, ipm_rc(1, sm, j), amax);
     }
-  } else {
+  } else { /* the predictor also sums t lam, t dlam + lam dt, dt dlam into IPM_W.aff (mu_aff for any step length) */
+    ipm_real_t s0 = REAL_0;
+    ipm_real_t s1 = REAL_0;
+    ipm_real_t s2 = REAL_0;
     for (j = 0; j < IPM_NSIDE; ++j) {
-      amax = ipm_side_step(j, ipm_rc(0, REAL_0, j), amax);
+      const ipm_real_t rc = ipm_rc(0, REAL_0, j);
+      amax = ipm_side_step(j, rc, amax);
+      s0 += rc;
+      s1 += (IPM_W.t[j] * IPM_W.dlam[j]) + (IPM_W.lam[j] * IPM_W.dt[j]);
+      s2 += IPM_W.dt[j] * IPM_W.dlam[j];
     }
+    IPM_W.aff[0] += s0;
+    IPM_W.aff[1] += s1;
+    IPM_W.aff[2] += s2;
   }
   return amax;
 }
@@ -4292,9 +4330,12 @@ static void ipm_stage_hessian(int k) {
     }
   }
   ipm_sr_hessian(k);
-  for (a = 0; a < IPM_NXU; ++a) {
-    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
-    IPM_W.H[a][a] += (v >= 0) ? IPM_W.hd[v] : IPM_ONE;
+  { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
+    ipm_real_t dg[IPM_NXU];
+    ipm_gather_xu(k, IPM_W.hd, dg);
+    for (a = 0; a < IPM_NXU; ++a) {
+      IPM_W.H[a][a] += ((a >= IPM_XU_LO[k]) && (a < IPM_XU_HI[k])) ? dg[a] : IPM_ONE;
+    }
   }
   /* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose) */
   for (s = 0; s < IPM_NS; ++s) {
@@ -4475,13 +4516,9 @@ static int ipm_factor_stage(int k) {
  * with duals, the equality multipliers' step IPM_W.dnu (the predictor needs dz only) ---- */
 /* stage k's reduced right-hand side ht (slacks eliminated) and slack right-hand side hs, from IPM_W.h */
 static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
-  int a;
   int s;
   int p;
-  for (a = 0; a < IPM_NXU; ++a) {
-    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
-    ht[a] = (v >= 0) ? IPM_W.h[v] : REAL_0;
-  }
+  ipm_gather_xu(k, IPM_W.h, ht);
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[k][s];
     ipm_real_t f;
@@ -4493,19 +4530,23 @@ static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
   }
 }
 
-/* stage k's equality right-hand sides: -r_eq on its dynamics rows (scaled: c_k) and stage equality rows */
-static void ipm_stage_eq(int k, ipm_real_t *cdyn, ipm_real_t *deq) {
-  int i;
-  for (i = 0; (i < IPM_NX) && (k < IPM_N); ++i) {
-    cdyn[i] = (-IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]]) * IPM_W.Einv[k][i];
-  }
+/* stage k < N's dynamics right-hand side c_k = -r_eq / E: ipm_check leaves it in IPM_W.wr on the stage's dynamics
+ * rows (consecutive rows: fg_bands' caller checks) */
+static const ipm_real_t *ipm_stage_c(int k) {
+  return &IPM_W.wr[IPM_DYN_ROWS[((k < IPM_N) ? k : 0) * IPM_NX]];
+}
+
+/* stage k's equality right-hand sides on its stage equality rows: -r_eq */
+static void ipm_stage_eq(int k, ipm_real_t *deq) {
 #if IPM_NE > 0
+  int i;
   for (i = 0; i < IPM_NE1; ++i) {
     const int r = IPM_EQ_ROW[(k * IPM_NE1) + i];
     deq[i] = (r >= 0) ? (-IPM_W.wr[r]) : REAL_0;
   }
 #else
-  (void)deq; /* no stage equalities */
+  (void)k; /* no stage equalities */
+  (void)deq;
 #endif
 }
 
@@ -4520,18 +4561,18 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   ipm_real_t tv[IPM_NU];
   ipm_real_t ht[IPM_NXU];
   ipm_real_t hs[IPM_NS];
-  ipm_real_t cdyn[IPM_NX] = {0};
   ipm_real_t deq[IPM_NE1];
 #if IPM_NE > 0
   ipm_real_t nh[IPM_NE1];
 #endif
   for (k = IPM_N; k >= 0; --k) {
+    const ipm_real_t *cdyn = ipm_stage_c(k);
     if ((factor != 0) && (ipm_factor_stage(k) != 0)) {
       return 1;
     }
     ipm_stage_rhs(k, ht, hs);
     ipm_sr_rhs(k, corr, sm, ht);
-    ipm_stage_eq(k, cdyn, deq);
+    ipm_stage_eq(k, deq);
     if (k < IPM_N) { /* plus [F G]' (P_{k+1} c_k + p_{k+1}) */
       ipm_real_t pc[IPM_NX];
       ipm_mv(IPM_W.P[k + 1], cdyn, pc);
@@ -4572,7 +4613,6 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 /* stage k's primal step dv = (dx, du) (dz of its slacks and variables) and, with duals, its equality rows' duals */
 static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_real_t *deq, ipm_real_t *dv) {
   int i;
-  int a;
   int s;
   int p;
   ipm_real_t tv[IPM_NU];
@@ -4609,24 +4649,24 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
         IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
       }
     }
-  }
 #if IPM_NE > 0
-  if (duals != 0) {
-    int e;
-    ipm_real_t wl[IPM_NU];
-    ipm_wx(IPM_W.W1[k], dx, wl);
-    for (i = 0; i < IPM_NU; ++i) {
-      wl[i] += IPM_W.lr[k][i];
-    }
-    ipm_eq_project(k, deq, wl, nh);
-    for (e = 0; e < IPM_NE1; ++e) {
-      const int r = IPM_EQ_ROW[(k * IPM_NE1) + e];
-      if (r >= 0) {
-        IPM_W.gd[r] = -nh[e];
+    { /* and the stage equality rows' */
+      int e;
+      ipm_real_t wl[IPM_NU];
+      ipm_wx(IPM_W.W1[k], dx, wl);
+      for (i = 0; i < IPM_NU; ++i) {
+        wl[i] += IPM_W.lr[k][i];
+      }
+      ipm_eq_project(k, deq, wl, nh);
+      for (e = 0; e < IPM_NE1; ++e) {
+        const int r = IPM_EQ_ROW[(k * IPM_NE1) + e];
+        if (r >= 0) {
+          IPM_W.gd[r] = -nh[e];
+        }
       }
     }
-  }
 #endif
+  }
   for (s = 0; s < IPM_NS; ++s) {
     const int v = IPM_VMAP_S[k][s];
     ipm_real_t acc = REAL_0;
@@ -4637,12 +4677,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
       IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
     }
   }
-  for (a = 0; a < IPM_NXU; ++a) {
-    const int v = IPM_VMAP_XU[(k * IPM_NXU) + a];
-    if (v >= 0) {
-      IPM_W.dz[v] = dv[a];
-    }
-  }
+  ipm_scatter_xu(k, dv, IPM_W.dz, 1);
 }
 
 /* the forward sweep of the Newton step for the target ipm_rc (corr, sm), after ipm_backward: dz, the soft rows'
@@ -4654,7 +4689,6 @@ static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
   ipm_real_t amax = IPM_ONE;
   ipm_real_t dx[IPM_NX];
   ipm_real_t dv[IPM_NXU];
-  ipm_real_t cdyn[IPM_NX] = {0};
   ipm_real_t deq[IPM_NE1];
   IPM_W.aff[0] = REAL_0;
   IPM_W.aff[1] = REAL_0;
@@ -4663,7 +4697,8 @@ static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
     dx[i] = (-IPM_W.wr[IPM_INIT_ROWS[i]]) / IPM_W.einit[i];
   }
   for (k = 0; k <= IPM_N; ++k) {
-    ipm_stage_eq(k, cdyn, deq);
+    const ipm_real_t *cdyn = ipm_stage_c(k);
+    ipm_stage_eq(k, deq);
     ipm_forward_stage(k, corr, dx, deq, dv);
     amax = ipm_sr_forward(k, corr, sm, dv, amax);
     if (k < IPM_N) { /* dx_{k+1} = [F G] dv + c */
@@ -4747,8 +4782,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
       lmax = IPM_W.lam[j];
     }
   }
-  for (i = 0; i < IPM_NGV; ++i) {
-    j = IPM_GV[i];
+  for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries are not read */
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   for (j = 0; j < IPM_NFREE; ++j) {
@@ -4770,6 +4804,9 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     if (IPM_FABS(IPM_W.wr[r]) > rmax) {
       rmax = IPM_FABS(IPM_W.wr[r]);
     }
+  }
+  for (i = 0; i < (IPM_N * IPM_NX); ++i) { /* the dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+    IPM_W.wr[IPM_DYN_ROWS[i]] *= -IPM_W.Einv[i / IPM_NX][i % IPM_NX];
   }
   mu /= (ipm_real_t)IPM_NCOMP;
   { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite */
@@ -4813,11 +4850,8 @@ static int ipm_step(ipm_real_t mu) {
   if (ipm_direction(0, REAL_0, 1, &a_aff) != 0) {
     return IPM_RAW_QP_NUMERICAL;
   }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    mu_aff += (IPM_W.t[j] + (a_aff * IPM_W.dt[j])) * (IPM_W.lam[j] + (a_aff * IPM_W.dlam[j]));
-  }
-  /* the soft rows' sum of (t + a dt) (lam + a dlam), from the sums of their forward sweep */
-  mu_aff += IPM_W.aff[0] + (a_aff * (IPM_W.aff[1] + (a_aff * IPM_W.aff[2])));
+  /* the sum of (t + a dt) (lam + a dlam) over the sides and the soft rows, from the predictor's sums */
+  mu_aff = IPM_W.aff[0] + (a_aff * (IPM_W.aff[1] + (a_aff * IPM_W.aff[2])));
   mu_aff /= (ipm_real_t)IPM_NCOMP;
   ratio = mu_aff / mu;
   sigma = (ratio * ratio) * ratio;
@@ -4826,8 +4860,9 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  for (j = 0; j < IPM_NGV; ++j) { /* 0 times each entry of the step sums to NaN once one is not finite */
-    nf += IPM_W.dz[IPM_GV[j]] * REAL_0;
+  for (j = 0; j < IPM_NV; ++j) { /* 0 times each entry of the step sums to NaN once one is not finite (the soft
+                                    * rows' slacks' entries: 0) */
+    nf += IPM_W.dz[j] * REAL_0;
   }
   if (isfinite(nf) == 0) {
     return IPM_RAW_QP_NONFINITE;
@@ -4835,8 +4870,8 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha < IPM_ALPHA_MIN) {
     return IPM_RAW_QP_NUMERICAL;
   }
-  for (j = 0; j < IPM_NGV; ++j) {
-    IPM_W.z[IPM_GV[j]] += alpha * IPM_W.dz[IPM_GV[j]];
+  for (j = 0; j < IPM_NV; ++j) {
+    IPM_W.z[j] += alpha * IPM_W.dz[j];
   }
   for (j = 0; j < IPM_NEQ; ++j) {
     IPM_W.y[IPM_EQ_ALL[j]] += alpha * IPM_W.gd[IPM_EQ_ALL[j]];

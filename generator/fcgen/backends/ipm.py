@@ -519,6 +519,20 @@ def _slack_entries(tab: _Tables, N: int, NS: int, NG: int) -> tuple[np.ndarray, 
     return np.array(ptr, dtype=np.int64), np.array(ent, dtype=np.int64)
 
 
+def xu_ranges(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per stage, the (x, u) slots with a variable: lo .. hi - 1, on consecutive variables from v (the layout puts a
+    stage's variables together; raises if not, as the C gathers a stage's (x, u) by a range)."""
+    nxu = sv.nx + sv.NU
+    lo, hi, v = (np.zeros(sv.N + 1, dtype=np.int64) for _ in range(3))
+    for k in range(sv.N + 1):
+        vm = sv.vmap[k, :nxu]
+        pres = np.flatnonzero(vm >= 0)
+        if not pres.size or not (np.all(np.diff(pres) == 1) and np.all(np.diff(vm[pres]) == 1)):
+            raise AssertionError(f"stage {k}: its (x, u) variables must be consecutive slots and variables")
+        lo[k], hi[k], v[k] = pres[0], pres[-1] + 1, vm[pres[0]]
+    return lo, hi, v
+
+
 def fg_bands(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """[F G]'s columns as bands of rows, the same at every stage: column j's non-zeros (over all stages) lie in rows
     a0[j] .. a1[j] - 1 and are stored at off[j] .. in a stage's packed array (``IPM_W.fgb``); ``pos[e]``: where
@@ -691,6 +705,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     run_ptr, pad = padded_runs(sr)
     fg_a0, fg_a1, fg_off, fg_pos = fg_bands(sv)
+    if sv.N and not np.all(np.diff(sv.dyn_rows, axis=1) == 1):  # the C reads a stage's c_k in place (ipm_stage_c)
+        raise AssertionError("the IPM needs each stage's dynamics rows consecutive in the QP layout")
+    xu_lo, xu_hi, xu_v = xu_ranges(sv)
     sr_weight = "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)"  # a constant 1 without padding rows
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
@@ -698,6 +715,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_AR_ROW", ar_row, "rows of A without the soft rows"), ("IPM_AR_P", ar_p, "their entries (row-major)"),
         ("IPM_AR_J", ar_j, "column of row-major entry p"), ("IPM_AR_K", ar_k, "its data index"),
         ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
+        ("IPM_XU_LO", xu_lo, "stage k's first slot with a variable"), ("IPM_XU_HI", xu_hi, "one past its last"),
+        ("IPM_XU_V", xu_v, "the variable of slot IPM_XU_LO[k] (the others follow it)"),
         ("IPM_VMAP_S", sv.vmap[:, nxu:].reshape(N + 1, NS), "[k][s]: variable of stage k's slack s"),
         ("IPM_GEN_ROW", sv.gen_rows, "[k][g]: general inequality row"),
         ("IPM_GEN_PTR", gptr, "entries of general slot k NG + g"), ("IPM_GEN_V", gv, "stage slot v of the entry"),
@@ -756,7 +775,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     return {"N": N, "NX": NX, "NU": NU, "NS": NS, "NG": NG, "NE": NE, "NE1": NE1, "RS": tab.slack_rows.shape[2],
             "NSIDE": len(sv.side_row), "NIN": len(tab.in_rows), "NEQ": len(sv.eq_all), "NBOX": len(sv.box_rows),
             "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": sr_weight,
-            "NUB": ub.shape[1] - 1, "NGV": len(gvars), "NFGC": len(fg_a0), "NFGB": int(fg_off[-1]), "NA": sr.NA,
+            "NUB": ub.shape[1] - 1, "NV": layout.n, "NGV": len(gvars), "NFGC": len(fg_a0), "NFGB": int(fg_off[-1]), "NA": sr.NA,
             "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
