@@ -3636,25 +3636,39 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   int a;
   const int lo = IPM_XU_LO[k];
   const int hi = IPM_XU_HI[k];
-  const ipm_real_t *xs = &x[IPM_XU_V[k] - lo];
+  const ipm_real_t *xs = &x[IPM_XU_V[k]];
   for (a = 0; a < lo; ++a) {
     v[a] = REAL_0;
   }
   for (; a < hi; ++a) {
-    v[a] = xs[a];
+    v[a] = xs[a - lo];
   }
   for (; a < IPM_NXU; ++a) {
     v[a] = REAL_0;
   }
 }
 
-/* x[variable of slot a] += v[a] (or =, with set) over stage k's slots with a variable */
-static inline void ipm_scatter_xu(int k, const ipm_real_t *v, ipm_real_t *x, int set) {
-  int a;
-  ipm_real_t *xs = &x[IPM_XU_V[k]];
+/* x[variable of slot a] += v[a] over stage k's slots with a variable */
+static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   const int lo = IPM_XU_LO[k];
-  for (a = lo; a < IPM_XU_HI[k]; ++a) {
-    xs[a - lo] = ((set != 0) ? REAL_0 : xs[a - lo]) + v[a];
+  const int n = IPM_XU_HI[k] - lo;
+  const ipm_real_t *vs = &v[lo];
+  ipm_real_t *xs = &x[IPM_XU_V[k]];
+  int a;
+  for (a = 0; a < n; ++a) {
+    xs[a] += vs[a];
+  }
+}
+
+/* x[variable of slot a] = v[a] over stage k's slots with a variable */
+static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
+  const int lo = IPM_XU_LO[k];
+  const int n = IPM_XU_HI[k] - lo;
+  const ipm_real_t *vs = &v[lo];
+  ipm_real_t *xs = &x[IPM_XU_V[k]];
+  int a;
+  for (a = 0; a < n; ++a) {
+    xs[a] = vs[a];
   }
 }
 
@@ -3712,7 +3726,7 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
     for (i = 0; i < IPM_NFGC; ++i) {
       g[i] = -g[i];
     }
-    ipm_scatter_xu(k, g, out, 0);
+    ipm_add_xu(k, g, out);
   }
 }
 
@@ -3904,7 +3918,7 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
         IPM_W.srh[r][q] = s;
       }
     }
-    ipm_scatter_xu(k, rl, IPM_W.r_d, 0);
+    ipm_add_xu(k, rl, IPM_W.r_d);
   }
   for (l = 0; l < IPM_LANES; ++l) {
     mu += acc[0][l];
@@ -4331,10 +4345,15 @@ static void ipm_stage_hessian(int k) {
   }
   ipm_sr_hessian(k);
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
-    ipm_real_t dg[IPM_NXU];
-    ipm_gather_xu(k, IPM_W.hd, dg);
-    for (a = 0; a < IPM_NXU; ++a) {
-      IPM_W.H[a][a] += ((a >= IPM_XU_LO[k]) && (a < IPM_XU_HI[k])) ? dg[a] : IPM_ONE;
+    const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
+    for (a = 0; a < IPM_XU_LO[k]; ++a) {
+      IPM_W.H[a][a] += IPM_ONE;
+    }
+    for (; a < IPM_XU_HI[k]; ++a) {
+      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
+    }
+    for (; a < IPM_NXU; ++a) {
+      IPM_W.H[a][a] += IPM_ONE;
     }
   }
   /* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose) */
@@ -4677,7 +4696,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
       IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
     }
   }
-  ipm_scatter_xu(k, dv, IPM_W.dz, 1);
+  ipm_set_xu(k, dv, IPM_W.dz);
 }
 
 /* the forward sweep of the Newton step for the target ipm_rc (corr, sm), after ipm_backward: dz, the soft rows'
