@@ -5057,11 +5057,16 @@ static int fail(int code) {
 
 static int all_finite(const truck_lift_el_ipm_real_t *v, int n) {
   int i;
-  truck_lift_el_ipm_real_t nf = REAL_0; /* 0 times each entry: the sum is NaN once one is not finite, else 0 */
-  for (i = 0; i < n; ++i) {
-    nf += v[i] * REAL_0;
+  truck_lift_el_ipm_real_t nf0 = REAL_0; /* 0 times each entry: the sum is NaN once one is not finite, else 0 */
+  truck_lift_el_ipm_real_t nf1 = REAL_0;
+  for (i = 0; (i + 1) < n; i += 2) {
+    nf0 += v[i] * REAL_0;
+    nf1 += v[i + 1] * REAL_0;
   }
-  return isfinite(nf) ? 1 : 0;
+  if (i < n) {
+    nf0 += v[i] * REAL_0;
+  }
+  return isfinite(nf0 + nf1) ? 1 : 0;
 }
 
 static void copy(const truck_lift_el_ipm_real_t *src, truck_lift_el_ipm_real_t *dst, int n) {
