@@ -1016,7 +1016,8 @@ static const int QP_EXIT[9 + 1] = {
 };
 
 /* A timing probe at the QP's phases: nothing, unless the build defines TRUCK_CONV_EL_PROBE (the harness of `fcgen wcet`
- * measures each phase's instructions with it): then truck_conv_el_probe(event), which the harness provides */
+ * measures each phase's instructions with it): then truck_conv_el_probe(event), which the harness provides (the
+ * conventional fit adds events 4, 5 around its scan: opp_fit) */
 #define QPB_PROBE_START 0 /* the QP's iterates initialized */
 #define QPB_PROBE_CHECK 1 /* an iterate's residuals and stopping test done */
 #define QPB_PROBE_STEP 2 /* one step (direction, step length, update) done */
@@ -1293,6 +1294,8 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_C4 ((truck_conv_el_real_t)2.48015873015873e-05)
 #define FIT_C5 ((truck_conv_el_real_t)-2.755731922398589e-07)
 #define FIT_NEV 11        /* a road evaluation (oppfit.EVAL) */
+#define QPB_PROBE_FIT_SCAN 4 /* the timing probe (QPB_PROBE): fit_nearest_all's scan starts */
+#define QPB_PROBE_FIT_STEP 5 /* one sample of that scan done (at most road_n of them a scan) */
 #define REAL_HALF ((truck_conv_el_real_t)0.5)
 #define REAL_1 ((truck_conv_el_real_t)1.0)
 #define REAL_2 ((truck_conv_el_real_t)2.0)
@@ -1334,6 +1337,7 @@ static int fit_nearest_all(truck_conv_el_real_t px, truck_conv_el_real_t py, int
   truck_conv_el_real_t dmin = fit_d2(hint, px, py);
   truck_conv_el_real_t rmin = sqrt(dmin);
   int i = 0;
+  QPB_PROBE(QPB_PROBE_FIT_SCAN);
   while (i <= last) {
     const truck_conv_el_real_t d = fit_d2(i, px, py);
     int step = 1;
@@ -1354,6 +1358,7 @@ static int fit_nearest_all(truck_conv_el_real_t px, truck_conv_el_real_t py, int
       }
     }
     i += step;
+    QPB_PROBE(QPB_PROBE_FIT_STEP);
   }
   return best;
 }

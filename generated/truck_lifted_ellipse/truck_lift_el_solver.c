@@ -1212,7 +1212,8 @@ static const int QP_EXIT[9 + 1] = {
 };
 
 /* A timing probe at the QP's phases: nothing, unless the build defines TRUCK_LIFT_EL_PROBE (the harness of `fcgen wcet`
- * measures each phase's instructions with it): then truck_lift_el_probe(event), which the harness provides */
+ * measures each phase's instructions with it): then truck_lift_el_probe(event), which the harness provides (the
+ * conventional fit adds events 4, 5 around its scan: opp_fit) */
 #define QPB_PROBE_START 0 /* the QP's iterates initialized */
 #define QPB_PROBE_CHECK 1 /* an iterate's residuals and stopping test done */
 #define QPB_PROBE_STEP 2 /* one step (direction, step length, update) done */
