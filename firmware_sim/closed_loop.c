@@ -662,6 +662,87 @@ static int write_log(const char *path, int exit_nonzero) {
   return k != 0;
 }
 
+/* ------------------------------------------------------------------------------------------------ timing probe */
+/* -DFS_PROBE (bare metal; `fcgen wcet`, with a solver built with -D<NAME>_PROBE): every sample's events with the
+ * raw tick count (fs_ticks) at each: the harness's around prepare (10, 11) and feedback (12, 13), the solver's
+ * QPB_PROBE events (<name>_probe: 0 QP start, 1 check, 2 step, 3 QP end, 4 fit scan start, 5 fit scan step), into
+ * the side file RUN_LOG.probe: a line "fcgen-probe/1 TICKS_PER_SECOND RESET_EVERY", then per sample
+ * "s J RESET N EVENT TICKS ...". -DFS_PROBE_RESET=R: reset() before every R-th sample (cold starts, the longest QPs). */
+#ifdef FS_PROBE
+#ifndef FS_BAREMETAL
+#error "FS_PROBE needs the bare-metal platform (fs_ticks: SysTick under qemu -icount)"
+#endif
+#ifndef FS_PROBE_MAX
+#define FS_PROBE_MAX 16384 /* events per sample */
+#endif
+#ifndef FS_PROBE_RESET
+#define FS_PROBE_RESET 0
+#endif
+FS_HARNESS_MEM static unsigned char g_pev[FS_PROBE_MAX];
+FS_HARNESS_MEM static uint32_t g_pt[FS_PROBE_MAX];
+static long g_pn;
+static int g_preset;
+static FILE *g_pf;
+
+static void fs_mark(int event) {
+  const uint32_t t = fs_ticks();
+  if (g_pn < FS_PROBE_MAX) {
+    g_pev[g_pn] = (unsigned char)event;
+    g_pt[g_pn] = t;
+  }
+  ++g_pn;
+}
+
+void S_(_probe)(int event);
+void S_(_probe)(int event) { fs_mark(event); }
+
+static void fs_probe_open(const char *log) {
+  char path[600];
+  snprintf(path, sizeof path, "%s.probe", log);
+  g_pf = fopen(path, "w");
+  if (!g_pf) {
+    fprintf(stderr, "closed_loop: cannot write %s\n", path);
+    exit(4);
+  }
+  fprintf(g_pf, "fcgen-probe/1 %ld %d\n", (long)FS_SYSTICK_HZ, FS_PROBE_RESET);
+}
+
+static void fs_probe_begin(int j) {
+  g_pn = 0;
+  g_preset = (FS_PROBE_RESET > 0) && (j > 0) && (j % FS_PROBE_RESET == 0);
+  if (g_preset) S_(_reset)();
+}
+
+static void fs_probe_end(int j) {
+  long i;
+  if (g_pn > FS_PROBE_MAX) {
+    fprintf(stderr, "closed_loop: sample %d: %ld probe events, more than FS_PROBE_MAX = %d\n", j, g_pn, FS_PROBE_MAX);
+    exit(3);
+  }
+  fprintf(g_pf, "s %d %d %ld", j, g_preset, g_pn);
+  for (i = 0; i < g_pn; ++i) fprintf(g_pf, " %u %lu", (unsigned)g_pev[i], (unsigned long)g_pt[i]);
+  fputc('\n', g_pf);
+}
+
+static void fs_probe_close(void) {
+  if (fclose(g_pf) != 0) {
+    fprintf(stderr, "closed_loop: cannot write the probe file\n");
+    exit(4);
+  }
+}
+#define FS_MARK(event) fs_mark(event)
+#define FS_PROBE_OPEN(log) fs_probe_open(log)
+#define FS_PROBE_BEGIN(j) fs_probe_begin(j)
+#define FS_PROBE_END(j) fs_probe_end(j)
+#define FS_PROBE_CLOSE() fs_probe_close()
+#else
+#define FS_MARK(event) ((void)0)
+#define FS_PROBE_OPEN(log) ((void)0)
+#define FS_PROBE_BEGIN(j) ((void)0)
+#define FS_PROBE_END(j) ((void)0)
+#define FS_PROBE_CLOSE() ((void)0)
+#endif
+
 /* ------------------------------------------------------------------------------------------------ the loop */
 /* one controller sample: the calls and their order of CSolver.step (generator/fcgen/build.py) */
 static int controller_step(const double x[5], int w0) {
@@ -677,9 +758,17 @@ static int controller_step(const double x[5], int w0) {
   rc = S_(_set_road)(s0, ds, g_road_window, g_win_kappa, g_win_phi, g_win_gx, g_win_gy);
   if (!rc) rc = S_(_set_opponents)(g_opp_params);
   if (!rc && !S_(_has_guess)()) rc = S_(_set_state)(xr);
-  if (!rc) rc = S_(_prepare)();
+  if (!rc) {
+    FS_MARK(10);
+    rc = S_(_prepare)();
+    FS_MARK(11);
+  }
   if (!rc) rc = S_(_set_state)(xr);
-  if (!rc) rc = S_(_feedback)();
+  if (!rc) {
+    FS_MARK(12);
+    rc = S_(_feedback)();
+    FS_MARK(13);
+  }
   return rc;
 }
 
@@ -698,6 +787,7 @@ int main(int argc, char **argv) {
   }
   read_header();
   K = g_samples;
+  FS_PROBE_OPEN(argv[2]);
 
   S_(_init)();
   S_(_set_clock)(fs_clock);
@@ -720,7 +810,9 @@ int main(int argc, char **argv) {
       return 3;
     }
     w0 = (int)fw;
+    FS_PROBE_BEGIN(j);
     rc = controller_step(x, w0);
+    FS_PROBE_END(j);
     S_(_get_status)(&st);
     /* get_u0 is always the control to apply: after an unusable QP the solver's fallback, after a rejected call the
      * last control; both inside the input box */
@@ -771,6 +863,7 @@ int main(int argc, char **argv) {
   }
   read_sample(K);
   expect_key("end");
+  FS_PROBE_CLOSE();
   fclose(g_in);
 
   /* after the loop, as run_closed_loop: time, Cartesian poses, collisions, lateral acceleration */

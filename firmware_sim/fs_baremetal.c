@@ -108,3 +108,12 @@ __attribute__((section(".vectors"), used)) static const uintptr_t g_vectors[16] 
     (uintptr_t)Fault_Handler,  (uintptr_t)Fault_Handler, (uintptr_t)Fault_Handler, 0u,
     0u,                        0u,                       0u,                       (uintptr_t)Fault_Handler,
     (uintptr_t)Fault_Handler,  0u,                       (uintptr_t)Fault_Handler, (uintptr_t)Fault_Handler};
+
+/* ------------------------------------------------------------------------------------------------ probe ticks */
+/* fs_platform.h: the SysTick count itself (FS_SYSTICK_HZ a second, modulo 2^32), the one fs_clock accumulates. */
+uint32_t fs_ticks(void) {
+  const uint32_t now = SYST_CVR;
+  g_ticks += (g_last - now) & 0x00FFFFFFu; /* down-counter; read at least once per 2^24 ticks */
+  g_last = now;
+  return (uint32_t)g_ticks;
+}

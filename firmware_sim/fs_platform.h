@@ -30,4 +30,9 @@
 /* The solver's timing hook (<name>_set_clock): a free-running tick counter (modulo 2^32). */
 uint32_t fs_clock(void);
 
+/* The raw tick counter for the timing probe of `fcgen wcet` (closed_loop.c with -DFS_PROBE): on the bare-metal
+ * platform the SysTick count the clock hook accumulates (FS_SYSTICK_HZ ticks a second; modulo 2^32). */
+#include <stdint.h>
+uint32_t fs_ticks(void);
+
 #endif /* FS_PLATFORM_H */

@@ -15,8 +15,8 @@
 #define QP_INF ((truck_conv_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define FLOOR floor /* floor of double */
 #define REAL_0 ((truck_conv_el_real_t)0.0) /* zero of the real type (no promotion to double in float) */
-#define MAX_ITER 60
-#define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
+#define MAX_ITER 60 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
+#define MAX_ITER_COLD 400 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
@@ -39,8 +39,9 @@
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
 
-/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there) */
+/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there); the caps within the budget */
 typedef char truck_conv_el_check_casadi_real[(sizeof(truck_conv_el_real_t) == sizeof(casadi_real)) ? 1 : -1];
+typedef char truck_conv_el_check_rti_budget[((MAX_ITER <= TRUCK_CONV_EL_RTI_BUDGET) && (MAX_ITER_COLD <= TRUCK_CONV_EL_RTI_BUDGET)) ? 1 : -1];
 typedef char check_truck_conv_el_stage_first[(truck_conv_el_stage_first_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_first_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_first_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_first_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_stage_middle[(truck_conv_el_stage_middle_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_middle_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_middle_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_middle_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_conv_el_stage_last[(truck_conv_el_stage_last_SZ_ARG <= CASADI_SZ_ARG && truck_conv_el_stage_last_SZ_RES <= CASADI_SZ_RES && truck_conv_el_stage_last_SZ_IW <= CASADI_SZ_IW && truck_conv_el_stage_last_SZ_W <= CASADI_SZ_W) ? 1 : -1];
@@ -1015,7 +1016,8 @@ static const int QP_EXIT[9 + 1] = {
 };
 
 /* A timing probe at the QP's phases: nothing, unless the build defines TRUCK_CONV_EL_PROBE (the harness of `fcgen wcet`
- * measures each phase's instructions with it): then truck_conv_el_probe(event), which the harness provides */
+ * measures each phase's instructions with it): then truck_conv_el_probe(event), which the harness provides (the
+ * conventional fit adds events 4, 5 around its scan: opp_fit) */
 #define QPB_PROBE_START 0 /* the QP's iterates initialized */
 #define QPB_PROBE_CHECK 1 /* an iterate's residuals and stopping test done */
 #define QPB_PROBE_STEP 2 /* one step (direction, step length, update) done */
@@ -1296,6 +1298,8 @@ static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) 
 #define FIT_C4 ((truck_conv_el_real_t)2.48015873015873e-05)
 #define FIT_C5 ((truck_conv_el_real_t)-2.755731922398589e-07)
 #define FIT_NEV 11        /* a road evaluation (oppfit.EVAL) */
+#define QPB_PROBE_FIT_SCAN 4 /* the timing probe (QPB_PROBE): fit_nearest_all's scan starts */
+#define QPB_PROBE_FIT_STEP 5 /* one sample of that scan done (at most road_n of them a scan) */
 #define REAL_HALF ((truck_conv_el_real_t)0.5)
 #define REAL_1 ((truck_conv_el_real_t)1.0)
 #define REAL_2 ((truck_conv_el_real_t)2.0)
@@ -1337,6 +1341,7 @@ static int fit_nearest_all(truck_conv_el_real_t px, truck_conv_el_real_t py, int
   truck_conv_el_real_t dmin = fit_d2(hint, px, py);
   truck_conv_el_real_t rmin = sqrt(dmin);
   int i = 0;
+  QPB_PROBE(QPB_PROBE_FIT_SCAN);
   while (i <= last) {
     const truck_conv_el_real_t d = fit_d2(i, px, py);
     int step = 1;
@@ -1357,6 +1362,7 @@ static int fit_nearest_all(truck_conv_el_real_t px, truck_conv_el_real_t py, int
       }
     }
     i += step;
+    QPB_PROBE(QPB_PROBE_FIT_STEP);
   }
   return best;
 }

@@ -71,6 +71,7 @@ problem = Problem(
         warm_start=True,
         max_iter_cold=400,
         cold_restart_after=3,
+        rti_budget=None,
         backend='ipm',
         ipm_tol=0.0001),
     road=RoadWindow(

@@ -15,8 +15,8 @@
 #define QP_INF ((truck_lift_el_ipm_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define FLOOR floor /* floor of double */
 #define REAL_0 ((truck_lift_el_ipm_real_t)0.0) /* zero of the real type (no promotion to double in float) */
-#define MAX_ITER 60
-#define MAX_ITER_COLD 400 /* a cold-started QP (no shifted guess) gets this budget */
+#define MAX_ITER 60 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
+#define MAX_ITER_COLD 60 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
@@ -39,8 +39,9 @@
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
 
-/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there) */
+/* compile-time checks: one real type for the API, CasADi and the QP backend (checked there); the caps within the budget */
 typedef char truck_lift_el_ipm_check_casadi_real[(sizeof(truck_lift_el_ipm_real_t) == sizeof(casadi_real)) ? 1 : -1];
+typedef char truck_lift_el_ipm_check_rti_budget[((MAX_ITER <= TRUCK_LIFT_EL_IPM_RTI_BUDGET) && (MAX_ITER_COLD <= TRUCK_LIFT_EL_IPM_RTI_BUDGET)) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_stage_first[(truck_lift_el_ipm_stage_first_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_stage_first_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_stage_first_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_stage_first_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_stage_middle[(truck_lift_el_ipm_stage_middle_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_stage_middle_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_stage_middle_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_stage_middle_SZ_W <= CASADI_SZ_W) ? 1 : -1];
 typedef char check_truck_lift_el_ipm_stage_last[(truck_lift_el_ipm_stage_last_SZ_ARG <= CASADI_SZ_ARG && truck_lift_el_ipm_stage_last_SZ_RES <= CASADI_SZ_RES && truck_lift_el_ipm_stage_last_SZ_IW <= CASADI_SZ_IW && truck_lift_el_ipm_stage_last_SZ_W <= CASADI_SZ_W) ? 1 : -1];
@@ -1211,7 +1212,8 @@ static const int QP_EXIT[9 + 1] = {
 };
 
 /* A timing probe at the QP's phases: nothing, unless the build defines TRUCK_LIFT_EL_IPM_PROBE (the harness of `fcgen wcet`
- * measures each phase's instructions with it): then truck_lift_el_ipm_probe(event), which the harness provides */
+ * measures each phase's instructions with it): then truck_lift_el_ipm_probe(event), which the harness provides (the
+ * conventional fit adds events 4, 5 around its scan: opp_fit) */
 #define QPB_PROBE_START 0 /* the QP's iterates initialized */
 #define QPB_PROBE_CHECK 1 /* an iterate's residuals and stopping test done */
 #define QPB_PROBE_STEP 2 /* one step (direction, step length, update) done */

@@ -396,6 +396,53 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     click.echo(f"results written to {path}")
 
 
+@main.command(name="wcet")
+@click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("--target", type=click.Choice(tuple(t for t, v in TARGETS.items() if v.bare_metal)), required=True,
+              help="the emulated Cortex-M (QEMU -icount shift=0: one instruction per ns)")
+@click.option("--seeds", type=click.IntRange(1, 1000), default=3, show_default=True,
+              help="probe runs: seeds 0 .. SEEDS-1 of the problem's scenario")
+@click.option("--samples", type=click.IntRange(1, 20000), default=200, show_default=True,
+              help="samples of every probe and validation run")
+@click.option("--validate-seeds", type=click.IntRange(0, 1000), default=0, show_default=True,
+              help="check the bound on the normal build's closed loops, seeds 0 .. K-1 (exit 1 if a sample exceeds it)")
+@click.option("--cflags", default=None, help="C optimization flags (default -O2; the target's CPU flags are added)")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True, help="QEMU runs at a time")
+@click.option("--timeout", type=click.FloatRange(min=1), default=None, help="seconds per QEMU run")
+@click.option("--out", type=click.Path(dir_okay=False), default=None,
+              help="results file [default: results/wcet_<name>_<target>.json]")
+@click.option("--force", is_flag=True, help="replace an existing results file")
+@click.option("--bound-scale", type=float, default=1.0, hidden=True,
+              help="multiply the bound before the validation (tests: a bound too low must fail)")
+def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, timeout, out, force, bound_scale):
+    """Worst-case instructions of prepare, feedback and one RTI of SOLVER_DIR's build on an emulated --target.
+
+    The bound: the solver's caps (the RTI budget's QP iterations, OSQP's termination checks, the conventional fit's
+    scans) times each phase's worst path, measured by a probe build under QEMU (docs/wcet.md)."""
+    from .atomic import check_file_target
+    from .bench import write_results
+    from .build import BuildError, solver_name
+    from .sim.export import HarnessError
+    from .wcet import BoundError, ProbeError, WcetError, format_wcet, wcet
+
+    name = solver_name(Path(solver_dir))
+    out = out or f"results/wcet_{name}_{target}.json"
+    check_file_target(out, "a wcet results file", force)
+    click.echo(f"wcet: results will be written to {out} (--out to choose)", err=True)
+    try:
+        res = wcet(Path(solver_dir), target, seeds=seeds, samples=samples, validate_seeds=validate_seeds,
+                   cflags=cflags, timeout=timeout, jobs=jobs, bound_scale=bound_scale)
+    except (HarnessError, BuildError, WcetError, BoundError, ProbeError) as exc:
+        _fail(str(exc))
+    click.echo(format_wcet(res))
+    path = write_results(res, out)
+    click.echo(f"results written to {path}")
+    if res["validated"]["passed"] is False:
+        over = res["validated"]["exceeding_samples"]
+        _fail("validation failed: samples above the bound (" + ", ".join(f"{k} {v}" for k, v in over.items() if v)
+              + f"); the bound is not an upper bound for this build: see {path}")
+
+
 @main.command(name="firmware-sim")
 @click.argument("solver_dir", type=click.Path(file_okay=False, exists=True))
 @click.option("--scenario", type=click.Choice(SCENARIOS), default="truck", show_default=True)

@@ -17,6 +17,14 @@ BACKENDS = ("osqp", "ipm")
 """Names ``QpOptions.backend`` accepts; each is a module of ``fcgen.backends`` (the DSL owns the names, the backends
 import them: imports run one way)."""
 
+RTI_BUDGET_DEFAULT: dict[str, int | None] = {"osqp": None, "ipm": 60}
+"""The RTI budget of ``QpOptions.rti_budget = None``, per backend (None: no cap beyond ``max_iter`` and
+``max_iter_cold``). IPM 60: no IPM QP of the committed paper grid (12,000 runs) ran more than 60 iterations, 3 of the
+safe grid's 12,000 runs had one (two unconverged cold starts at 400, one solved at 118); on 20 truck seeds x 200
+samples of six presets (``scripts/rti_budget.py``) 60 is identical to no budget, 40 moves a seed's progress by up to
+0.08 %, 25-30 up to 9.5 %, 20 up to 19 % (docs/wcet.md, "The RTI budget"). OSQP: no extra cap (its cold starts keep
+``max_iter_cold``)."""
+
 
 class ProblemError(ValueError):
     """An invalid problem description: names the field and the allowed range."""
@@ -357,6 +365,10 @@ class QpOptions:
     with no larger slacks or lateral accelerations; rho <= 0.15 undershoots the soft constraints (larger slacks).
     ``sigma``: a float build raises it to ``fcgen.backends.osqp.FLOAT_SIGMA_MIN`` (1e-3): with 1e-6 float's
     factorization of OSQP's KKT matrix is unstable (docs/performance.md, "Single precision in closed loop").
+    ``rti_budget``: the most QP iterations any feedback runs, cold starts included (the caps are
+    ``min(max_iter, budget)`` warm, ``min(max(max_iter, max_iter_cold), budget)`` cold): what `fcgen wcet`'s bound
+    multiplies. Reaching it is QP_MAX_ITER (a finite step inside the input box's margin is taken, else the fallback).
+    None: the backend's ``RTI_BUDGET_DEFAULT``.
     """
 
     max_iter: int = 60
@@ -371,8 +383,20 @@ class QpOptions:
     warm_start: bool = True
     max_iter_cold: int = 400
     cold_restart_after: int = 3
+    rti_budget: int | None = None  # QP iterations any feedback may run (None: the backend's RTI_BUDGET_DEFAULT)
     backend: str = "osqp"  # the QP backend (BACKENDS)
     ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
+
+    @property
+    def budget(self) -> int | None:
+        """The RTI budget in force: ``rti_budget``, or the backend's default (None: no cap beyond the two caps)."""
+        return self.rti_budget if self.rti_budget is not None else RTI_BUDGET_DEFAULT.get(self.backend)
+
+    @property
+    def caps(self) -> tuple[int, int]:
+        """(warm, cold) QP iteration caps: ``min(max_iter, budget)``, ``min(max(max_iter, max_iter_cold), budget)``."""
+        b = self.budget if self.budget is not None else 1_000_000
+        return min(self.max_iter, b), min(max(self.max_iter, self.max_iter_cold), b)
 
     @classmethod
     def converged(cls) -> "QpOptions":
@@ -386,6 +410,8 @@ class QpOptions:
                self.max_iter_cold, "an integer in [1, 1e6]")
         _check(type(self.cold_restart_after) is int and 0 <= self.cold_restart_after <= 1_000_000,
                "qp.cold_restart_after", self.cold_restart_after, "an integer in [0, 1e6] (0: never)")
+        _check(self.rti_budget is None or (type(self.rti_budget) is int and 1 <= self.rti_budget <= 1_000_000),
+               "qp.rti_budget", self.rti_budget, "an integer in [1, 1e6], or None (the backend's default)")
         for f in ("eps_abs", "eps_rel"):
             _check(0 <= _finite(f"qp.{f}", getattr(self, f)) < 1, f"qp.{f}", getattr(self, f), "[0, 1)")
         _check(self.eps_abs > 0 or self.eps_rel > 0, "qp.eps_abs", self.eps_abs, "> 0 when eps_rel = 0")

@@ -85,6 +85,9 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("QpOptions", "max_iter_cold"): ("-", "integer in [1, 1e6]", "iteration cap of a cold-started QP (at least max_iter is used)"),
     ("QpOptions", "cold_restart_after"): ("-", "integer in [0, 1e6]; 0: never",
                                           "unusable QPs in a row after which prepare cold-starts"),
+    ("QpOptions", "rti_budget"): ("-", "integer in [1, 1e6], or None (the backend's default)",
+                                  "QP iterations any feedback may run, cold starts included: caps max_iter and "
+                                  "max_iter_cold (docs/wcet.md)"),
     ("QpOptions", "backend"): ("-", "one of " + ", ".join(f"`{b}`" for b in dsl.BACKENDS), "the QP backend"),
     ("QpOptions", "ipm_tol"): ("-", "(0, 1)", "IPM tolerance: stationarity, primal residuals, each t lam (scaled)"),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),

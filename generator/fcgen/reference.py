@@ -127,8 +127,13 @@ class Status:
 
 
 def cold_max_iter(opts: QpOptions) -> int:
-    """Iteration budget of a cold-started QP (no shifted guess): never below the warm one."""
-    return max(opts.max_iter, opts.max_iter_cold)
+    """Iteration cap of a cold-started QP (no shifted guess): never below the warm one, never above the RTI budget."""
+    return opts.caps[1]
+
+
+def warm_max_iter(opts: QpOptions) -> int:
+    """Iteration cap of a warm-started QP (the shifted plan): ``max_iter``, never above the RTI budget."""
+    return opts.caps[0]
 
 
 def theta_init(ocp: Ocp) -> ca.Function:
@@ -382,7 +387,7 @@ class RtiSolver:
         self.q_fb = q
         self.prepared = False
         res = self.qp.solve(q, self.l, self.u, self.y_prep,
-                            cold_max_iter(self.qp_opts) if self.cold else self.qp_opts.max_iter)
+                            cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts))
         qs = res.status
         if res.z is not None:
             self.z = res.z

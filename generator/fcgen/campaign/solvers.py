@@ -18,7 +18,7 @@ from ..testhook import pause_point
 
 READY = ".fcgen-ready"
 #: package parts that do not decide the generated C (the fingerprint leaves them out)
-NOT_GENERATOR = ("campaign", "report", "sim", "cli.py", "bench.py", "verify.py", "demo.py", "firmware_sim")
+NOT_GENERATOR = ("campaign", "report", "sim", "wcet", "cli.py", "bench.py", "verify.py", "demo.py", "firmware_sim")
 
 
 @lru_cache(maxsize=1)

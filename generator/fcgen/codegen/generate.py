@@ -27,7 +27,7 @@ from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
-                         input_box, theta_init)
+                         input_box, theta_init, warm_max_iter)
 from ..sim.closedloop import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
@@ -47,6 +47,7 @@ MACRO_DOC = {
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
     "COLD_RESTART_AFTER": "unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never)",
+    "RTI_BUDGET": "the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default)",
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
 MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "init_state", "theta_init", "plant")
@@ -275,7 +276,8 @@ def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
     return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
             "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
             "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
-            "NNZ_J": int(lay.jac_off[-1]), "COLD_RESTART_AFTER": pb.qp.cold_restart_after}
+            "NNZ_J": int(lay.jac_off[-1]), "COLD_RESTART_AFTER": pb.qp.cold_restart_after,
+            "RTI_BUDGET": cold_max_iter(pb.qp)}
 
 
 def problem_sizes(problem: Problem) -> dict[str, int]:
@@ -481,7 +483,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "max_iter": problem.qp.max_iter, "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
+        "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
         "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),
         "qp_files": qp_files, "qp_lib": qp_files.library, "static_libs": static_libs,

@@ -140,12 +140,15 @@ def harness_source_dir() -> Path:
 
 
 def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str | None = None,
-                  cflags: str | None = None, target: str = "host") -> Path:
+                  cflags: str | None = None, target: str = "host", variant: str | None = None,
+                  extra_cflags: str = "", harness_defines: tuple[str, ...] = ()) -> Path:
     """Build the solver folder (``fcgen.build.build``) and the harness against it; returns the executable.
 
-    The harness goes into ``<solver build>/firmware_sim`` (``build[/<target>][/verify]/firmware_sim``). For a
-    bare-metal target it is a semihosting image (``closed_loop.elf``) linked with our startup (``fs_baremetal.c``)
-    and the linker script rendered from the target's memory map.
+    The harness goes into ``<solver build>/firmware_sim`` (``build[/<target>][/<variant>][/verify]/firmware_sim``).
+    For a bare-metal target it is a semihosting image (``closed_loop.elf``) linked with our startup
+    (``fs_baremetal.c``) and the linker script rendered from the target's memory map. ``variant``, ``extra_cflags``:
+    a solver build of its own with these flags added (``fcgen wcet``'s probe build); ``harness_defines``: ``-D``
+    flags of the harness alone (its ``CPPFLAGS``).
     """
     from ..build import BuildError, build, build_dir, run_make, solver_name
     from ..targets import get_target
@@ -154,13 +157,14 @@ def build_harness(solver_dir: str | PathLike[str], verify: bool = False, cc: str
     solver_dir = Path(solver_dir).resolve()
     name = solver_name(solver_dir)
     try:
-        build(solver_dir, verify=verify, cc=cc, cflags=cflags, target=target)
+        build(solver_dir, verify=verify, cc=cc, cflags=cflags, target=target, extra_cflags=extra_cflags,
+              variant=variant)
     except BuildError as exc:
         raise HarnessError(str(exc)) from None
-    lib_dir = build_dir(solver_dir, verify, target)
+    lib_dir = build_dir(solver_dir, verify, target, variant)
     out = lib_dir / "firmware_sim"
     variables = [f"SOLVER_DIR={solver_dir}", f"SOLVER={name}", f"SOLVER_BUILD={lib_dir}", f"BUILD={out}",
-                 f"VERIFY={int(verify)}"]
+                 f"VERIFY={int(verify)}", *([f"CPPFLAGS={' '.join(harness_defines)}"] if harness_defines else [])]
     if tgt.bare_metal:
         ld = out / f"{tgt.name}.ld"
         out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,73 @@
+"""The RTI budget (``QpOptions.rti_budget``): validated, the caps it gives (Python reference and generated C alike),
+the header's ``<NAME>_RTI_BUDGET``; a tiny budget runs a closed loop without a crash, C = Python: QP_MAX_ITER
+statuses, finite controls within the input box."""
+from __future__ import annotations
+
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from fcgen.backends import QP_MAX_ITER
+from fcgen.build import CSolver, build
+from fcgen.codegen.generate import generate
+from fcgen.dsl import RTI_BUDGET_DEFAULT, Horizon, ProblemError, QpOptions
+from fcgen.presets import paper_problem, preset
+from fcgen.reference import cold_max_iter, input_box, warm_max_iter
+from fcgen.sim.closedloop import run_closed_loop
+from fcgen.sim.scenario import make_scenario
+
+needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+
+
+@pytest.mark.parametrize("bad", [0, 1_000_001, 2.5, True, "10"])
+def test_rti_budget_is_validated(bad):
+    with pytest.raises(ProblemError, match=re.escape("qp.rti_budget") + r".*\[1, 1e6\]"):
+        QpOptions(rti_budget=bad)
+
+
+def test_caps_are_the_budget_applied_to_both_caps():
+    assert QpOptions(rti_budget=25).caps == (25, 25)
+    assert QpOptions(rti_budget=100).caps == (60, 100)
+    assert QpOptions(rti_budget=1_000_000).caps == (60, 400)
+    assert QpOptions(max_iter=80, max_iter_cold=10, rti_budget=50).caps == (50, 50)  # cold never below warm
+    o = QpOptions(rti_budget=7)
+    assert (warm_max_iter(o), cold_max_iter(o)) == (7, 7)
+
+
+def test_default_budget_is_the_backends():
+    """None resolves per backend: OSQP keeps its two caps, the IPM gets its measured default."""
+    assert RTI_BUDGET_DEFAULT["osqp"] is None and QpOptions().caps == (60, 400)
+    ipm = QpOptions(backend="ipm")
+    assert ipm.budget == RTI_BUDGET_DEFAULT["ipm"]
+    assert ipm.caps == (min(60, ipm.budget or 60), min(400, ipm.budget or 400))
+    assert preset("truck_lifted_ellipse_ipm").qp.rti_budget is None  # the presets keep the paper's settings
+
+
+@needs_cc
+@pytest.mark.parametrize("backend", ["ipm", "osqp"])
+def test_tiny_budget_closed_loop(backend, tmp_path):
+    """Budget 2: every QP stops at QP_MAX_ITER; its step is taken where finite and its u0 within the input box's
+    margin, else the fallback: either way the applied control is finite and inside the box, and C (verification
+    build) = Python sample by sample."""
+    pb = paper_problem("truck", "lifted", "ellipse", horizon=Horizon(N=10), name=f"tiny_{backend}",
+                       qp=QpOptions(backend=backend, rti_budget=2))
+    info = generate(pb, tmp_path / "gen")
+    header = (info.out_dir / f"{info.name}_solver.h").read_text()
+    solver = (info.out_dir / f"{info.name}_solver.c").read_text()
+    assert f"#define {info.name.upper()}_RTI_BUDGET 2 " in header
+    assert re.search(r"^#define MAX_ITER 2 ", solver, re.M) and re.search(r"^#define MAX_ITER_COLD 2 ", solver, re.M)
+    lib = build(info.out_dir, verify=True)
+    sc = make_scenario("truck", 1, n_opp=pb.opponents.count, samples=40, dt=pb.horizon.dt)
+    log_c = run_closed_loop(pb, sc, controller=CSolver(lib), exit_codes=True)
+    log_py = run_closed_loop(pb, sc, exit_codes=True)
+    lo, hi, _ = input_box(pb)
+    for log in (log_c, log_py):
+        assert np.all(log.qp_iter <= 2) and np.all(log.qp_status == QP_MAX_ITER)
+        assert np.all(np.isfinite(log.control)) and np.all(log.control >= lo) and np.all(log.control <= hi)
+        assert np.all(np.isfinite(log.ego_frenet))
+    np.testing.assert_array_equal(log_c.qp_iter, log_py.qp_iter)
+    np.testing.assert_array_equal(log_c.qp_status, log_py.qp_status)
+    np.testing.assert_array_equal(log_c.exit_code, log_py.exit_code)
+    np.testing.assert_allclose(log_c.ego_frenet, log_py.ego_frenet, rtol=0, atol=1e-6)
