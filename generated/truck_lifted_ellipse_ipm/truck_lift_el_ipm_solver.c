@@ -4220,15 +4220,13 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
   (void)q;
   IPM_W.Pd = P_x;
   IPM_W.Ax = A_x;
-  for (k = 0; k < IPM_N; ++k) { /* [F G] = -A / E, packed by bands (entries of a band outside the pattern: 0) */
+  for (k = 0; k < IPM_N; ++k) { /* [F G] = -A / E, packed by bands (the pattern is fixed: entries of a band outside
+                                 * it are never written, so they stay 0 from qpb_reset) */
     int e;
     for (i = 0; i < IPM_NX; ++i) {
       IPM_W.Einv[k][i] = IPM_ONE / A_x[IPM_DYN_NEXT[(k * IPM_NX) + i]];
     }
-    for (i = 0; i < IPM_NFGB; ++i) {
-      IPM_W.fgb[k][i] = REAL_0;
-    }
-    for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) {
+    for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) { /* a band's other entries: 0 since qpb_reset */
       IPM_W.fgb[k][IPM_DYN_B[e]] = (-A_x[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]];
     }
   }
@@ -4596,9 +4594,14 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     ipm_stage_eq(k, deq);
     if (k < IPM_N) { /* plus [F G]' (P_{k+1} c_k + p_{k+1}) */
       ipm_real_t pc[IPM_NX];
-      ipm_mv(IPM_W.P[k + 1], cdyn, pc);
+      /* P_{k+1} c_k is the same for both targets: the factoring sweep keeps it in IPM_W.gd on the stage's dynamics
+       * rows (free until the corrector's forward sweep writes the multipliers' step there), the other reads it */
+      ipm_real_t *pcs = &IPM_W.gd[IPM_DYN_ROWS[k * IPM_NX]];
+      if (factor != 0) {
+        ipm_mv(IPM_W.P[k + 1], cdyn, pcs);
+      }
       for (i = 0; i < IPM_NX; ++i) {
-        pc[i] += pn[i];
+        pc[i] = pcs[i] + pn[i];
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
