@@ -549,6 +549,11 @@ def fg_bands(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     return a0, a1, off, pos
 
 
+def _c_sum(terms: list[str]) -> str:
+    """A C sum of terms, left to right, parenthesized when there are several (MISRA's explicit precedence)."""
+    return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
+
+
 def fg_kernels(sv: StageView) -> dict[str, str]:
     """Bodies of the stage kernels on [F G]'s sparsity (the same at every stage; column j's band packed at off[j]),
     written out statement by statement as a code generator for a fixed pattern does (acados', CasADi's): no loop,
@@ -564,9 +569,6 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
     def el(b: int, j: int) -> str:
         return f"fg[{int(off[j] + b - a0[j])}]"
 
-    def total(terms: list[str]) -> str:
-        return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
-
     ctg = []
     # m_a_j = (P [F G])[a][j], only where H's upper triangle reads it: a a non-zero row of a column i <= j
     need = {(a, j) for j in range(nfgc) if nz[:, j].any() for i in range(j + 1) for a in np.flatnonzero(nz[:, i])}
@@ -574,23 +576,23 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
         rows = [b for b in range(nx) if nz[b, j]]
         for a in range(nx):
             if (a, j) in need:
-                ctg.append(f"const ipm_real_t m{a}_{j} = {total([f'(P[{a}][{b}] * {el(b, j)})' for b in rows])};")
+                ctg.append(f"const ipm_real_t m{a}_{j} = {_c_sum([f'(P[{a}][{b}] * {el(b, j)})' for b in rows])};")
     for i in range(nfgc):
         rows = [b for b in range(nx) if nz[b, i]]
         for j in range(i, nfgc):
             terms = [f"({el(b, i)} * m{b}_{j})" for b in rows if (b, j) in need]
             if terms:
-                ctg.append(f"H[{i}][{j}] += {total(terms)};")
+                ctg.append(f"H[{i}][{j}] += {_c_sum(terms)};")
     tdot = []
     for j in range(nfgc):
         terms = [f"({el(b, j)} * x[{b}])" for b in range(nx) if nz[b, j]]
         if terms:
-            tdot.append(f"out[{j}] += {total(terms)};")
+            tdot.append(f"out[{j}] += {_c_sum(terms)};")
     axpy = []
     for b in range(nx):
         terms = [f"({el(b, j)} * v[{j}])" for j in range(nfgc) if nz[b, j]]
         if terms:
-            axpy.append(f"y[{b}] += {total(terms)};")
+            axpy.append(f"y[{b}] += {_c_sum(terms)};")
     return {"ctg": "\n  ".join(ctg), "tdot": "\n  ".join(tdot), "axpy": "\n  ".join(axpy)}
 
 
@@ -599,13 +601,10 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX);
     ``wx``: y = W1 x (NU x NX); ``wtx``: y = W1' x; ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's
     upper triangle read)."""
-    def total(terms: list[str]) -> str:
-        return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
-
-    mv = [f"y[{i}] = {total([f'(P[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nx)]
-    wx = [f"y[{i}] = {total([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
-    wtx = [f"y[{i}] = {total([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
-    pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {total([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
+    mv = [f"y[{i}] = {_c_sum([f'(P[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nx)]
+    wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
+    wtx = [f"y[{i}] = {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
+    pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
           for i in range(nx) for j in range(i + 1)]
     return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("wtx", wtx), ("pk", pk))}
 
@@ -704,7 +703,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     run_ptr, pad = padded_runs(sr)
-    fg_a0, fg_a1, fg_off, fg_pos = fg_bands(sv)
+    fg_a0, _, fg_off, fg_pos = fg_bands(sv)
     if sv.N and not np.all(np.diff(sv.dyn_rows, axis=1) == 1):  # the C reads a stage's c_k in place (ipm_stage_c)
         raise AssertionError("the IPM needs each stage's dynamics rows consecutive in the QP layout")
     xu_lo, xu_hi, xu_v = xu_ranges(sv)
