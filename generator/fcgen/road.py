@@ -82,7 +82,9 @@ def _segment(tau, h, k0, k1, p0, p1, x0, x1, y0, y1, c0, c1, s0, s1):
 
 @dataclass(frozen=True, eq=False)
 class Road:
-    """Road samples on the uniform grid ``s0 + i ds``, i = 0..M-1."""
+    """Road samples on the uniform grid ``s0 + i ds``, i = 0..M-1; optionally the drivable band at each sample,
+    ``n_min`` (right edge, m) < ``n_max`` (left edge): the ego's lateral bounds there (None: the problem's
+    ``Bounds.n_min``/``n_max`` everywhere)."""
 
     s0: float
     ds: float
@@ -90,6 +92,8 @@ class Road:
     phi: np.ndarray
     gx: np.ndarray
     gy: np.ndarray
+    n_min: np.ndarray | None = None
+    n_max: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = len(self.kappa)
@@ -100,6 +104,20 @@ class Road:
         for name in ("kappa", "phi", "gx", "gy"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"road.{name} contains NaN or infinite values")
+        if (self.n_min is None) != (self.n_max is None):
+            raise ValueError("road: n_min and n_max are given together or not at all")
+        if self.n_min is not None:
+            lo, hi = np.asarray(self.n_min, dtype=float), np.asarray(self.n_max, dtype=float)
+            if lo.shape != (m,) or hi.shape != (m,):
+                raise ValueError(f"road: n_min and n_max must have one value per sample ({m})")
+            if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+                raise ValueError("road.n_min/n_max contain NaN or infinite values")
+            bad = np.flatnonzero(~(lo < hi))
+            if bad.size:
+                i = int(bad[0])
+                raise ValueError(f"road.n_min[{i}] = {lo[i]!r} is invalid: allowed < n_max[{i}] = {hi[i]!r}")
+            object.__setattr__(self, "n_min", lo)
+            object.__setattr__(self, "n_max", hi)
 
     @classmethod
     def from_curvature(cls, kappa, ds: float, s0: float = 0.0, x0=(0.0, 0.0, 0.0)) -> "Road":
@@ -152,9 +170,22 @@ class Road:
         # loop takes one window per sample)
         win = object.__new__(Road)
         for name, value in (("s0", self.s0 + i0 * self.ds), ("ds", self.ds), ("kappa", self.kappa[sl].copy()),
-                            ("phi", self.phi[sl].copy()), ("gx", self.gx[sl].copy()), ("gy", self.gy[sl].copy())):
+                            ("phi", self.phi[sl].copy()), ("gx", self.gx[sl].copy()), ("gy", self.gy[sl].copy()),
+                            ("n_min", None if self.n_min is None else self.n_min[sl].copy()),
+                            ("n_max", None if self.n_max is None else self.n_max[sl].copy())):
             object.__setattr__(win, name, value)
         return win
+
+    def band_at(self, s: float) -> tuple[float, float] | None:
+        """The drivable band ``(n_min, n_max)`` at ``s``: linear between samples (held beyond the ends); None without
+        per-sample bounds. The solver's formula (Python and C alike): a + tau (b - a) on the segment of s."""
+        if self.n_min is None:
+            return None
+        t = (s - self.s0) / self.ds
+        i = min(max(int(math.floor(t)), 0), self.size - 2)
+        tau = min(max(t - i, 0.0), 1.0)
+        lo, hi = self.n_min, self.n_max
+        return (float(lo[i] + tau * (lo[i + 1] - lo[i])), float(hi[i] + tau * (hi[i + 1] - hi[i])))
 
     # -- numpy evaluation ------------------------------------------------------------------------
     def _locate(self, s):
