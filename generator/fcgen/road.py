@@ -115,7 +115,7 @@ class Road:
             bad = np.flatnonzero(~(lo < hi))
             if bad.size:
                 i = int(bad[0])
-                raise ValueError(f"road.n_min[{i}] = {lo[i]!r} is invalid: allowed < n_max[{i}] = {hi[i]!r}")
+                raise ValueError(f"road.n_min[{i}] = {float(lo[i])!r} is invalid: allowed < n_max[{i}] = {float(hi[i])!r}")
             object.__setattr__(self, "n_min", lo)
             object.__setattr__(self, "n_max", hi)
 
