@@ -229,10 +229,13 @@ def test_closed_loop_float_on_m4f_matches_host(gen_float, tmp_path) -> None:
     # single precision: newlib's and glibc's sinf/cosf/... differ in the last bit. With OSQP's sigma = 1e-6 in float
     # (unstable KKT factorization, FLOAT_SIGMA_MIN) the cold-started first QP then stopped at another termination
     # check (160 vs 280 iterations) and the runs drifted apart by 0.1 m; with sigma = 1e-3 the QP iterations and
-    # statuses are identical and the states differ by 2.4e-4 m over these 25 samples
-    _close(log_t, log_h, 2e-3, same_qp=True)
+    # statuses are identical and the states differ by 2.4e-4 m over these 25 samples. The per-sample drift stays below
+    # 3e-5 m up to sample 13; there a QP amplifies the two libraries' last bits (controls 1 N apart, then up to 38 N
+    # at sample 18): 3.6e-4 m before the opponents' shapes became run-time data, 8.3e-3 m since (the same calls,
+    # other float roundings; QP iterations and statuses still identical).
+    _close(log_t, log_h, 1e-2, same_qp=True)
     assert np.array_equal(log_t.ego_frenet[0], log_h.ego_frenet[0])
-    np.testing.assert_allclose(log_t.ego_frenet[-1, 0], log_h.ego_frenet[-1, 0], rtol=0, atol=2e-3)  # progress
+    np.testing.assert_allclose(log_t.ego_frenet[-1, 0], log_h.ego_frenet[-1, 0], rtol=0, atol=1e-2)  # progress
 
 
 @needs_toolchain

@@ -19,6 +19,7 @@
 #define MAX_ITER_COLD 400 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
+#define DT ((truck_conv_el_real_t)0.1) /* the sample time (set_reference: s_ref,k = s0 + (k DT) v_ref) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
 #define P_ROAD_DS 1
@@ -30,11 +31,17 @@
 #define P_OPP 35
 #define N_OPP_ALL (TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_PAR)
 #define OPP_DIM 9 /* N_OPP_ALL, at least 1 */
+#define SHAPE_DIM 9 /* NOPP * NOPP_SHAPE, at least 1 */
+#define N_BAND 80 /* rows whose bound is the road's band at the stage's s (BAND_ROW, BAND_STAGE, BAND_SIDE) */
+#define BAND_SCALE ((truck_conv_el_real_t)5.0) /* such a row is n / BAND_SCALE (+ a slack) */
+#define N_MIN ((truck_conv_el_real_t)-10.0) /* the band set_road_bounds accepts: Bounds.n_min .. n_max */
+#define N_MAX ((truck_conv_el_real_t)10.0)
+#define R_EGO ((truck_conv_el_real_t)2.2141589825484527) /* the ego's covering radius (the containing ellipse's check) */
 #define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
 /* CasADi work sizes: max over the generated model functions (at least 3, 3, 1, 1; checked below) */
-#define CASADI_SZ_ARG 3
+#define CASADI_SZ_ARG 4
 #define CASADI_SZ_RES 3
 #define CASADI_SZ_IW 1
 #define CASADI_SZ_W 1
@@ -469,6 +476,33 @@ static const index_t SLACK_VARS[160] = {
   377, 378, 379, 380, 388, 389, 390, 391, 399, 400, 401, 402,
   410, 411, 412, 413, 421, 422, 423, 424, 432, 433, 434, 435,
   441, 442, 443, 444
+};
+static const index_t BAND_ROW[80] = {
+  22, 22, 42, 42, 62, 62, 82, 82, 102, 102, 122, 122,
+  142, 142, 162, 162, 182, 182, 202, 202, 222, 222, 242, 242,
+  262, 262, 282, 282, 302, 302, 322, 322, 342, 342, 362, 362,
+  382, 382, 402, 402, 422, 422, 442, 442, 462, 462, 482, 482,
+  502, 502, 522, 522, 542, 542, 562, 562, 582, 582, 602, 602,
+  622, 622, 642, 642, 662, 662, 682, 682, 702, 702, 722, 722,
+  742, 742, 762, 762, 782, 782, 797, 797
+};
+static const index_t BAND_STAGE[80] = {
+  1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6,
+  7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12,
+  13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18,
+  19, 19, 20, 20, 21, 21, 22, 22, 23, 23, 24, 24,
+  25, 25, 26, 26, 27, 27, 28, 28, 29, 29, 30, 30,
+  31, 31, 32, 32, 33, 33, 34, 34, 35, 35, 36, 36,
+  37, 37, 38, 38, 39, 39, 40, 40
+};
+static const index_t BAND_SIDE[80] = {
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1,
+  0, 1, 0, 1, 0, 1, 0, 1
 };
 static const truck_conv_el_real_t P_DIAG[445] = {
   0.0001, 0.0125, 0.00025, 0.1, 0.0009000000000000001, 0.1,
@@ -987,6 +1021,10 @@ static const truck_conv_el_real_t U_HI[2] = {
 static const truck_conv_el_real_t U_LIM[2] = {
   10000.0, 0.39
 };
+static const truck_conv_el_real_t SHAPE_DEFAULT[9] = {
+  26.0, 4.0, 10.0, 26.0, 4.0, 10.0,
+  26.0, 4.0, 10.0
+};
 static const truck_conv_el_real_t ZERO_N[TRUCK_CONV_EL_QP_N] = {0};
 
 /* ---- QP backend ------------------------------------------------------------------------------------------------ */
@@ -1103,10 +1141,18 @@ typedef struct {
   truck_conv_el_real_t road_phi[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t road_gx[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t road_gy[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t road_nmin[TRUCK_CONV_EL_ROAD_MAX];
+  truck_conv_el_real_t road_nmax[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t opp[TRUCK_CONV_EL_N + 1][OPP_DIM];
+  truck_conv_el_real_t opp_shape[SHAPE_DIM];
   clock_fn_t clock;
   int road_n;
   int road_set;
+  truck_conv_el_real_t ref_v;
+  truck_conv_el_real_t ref_n;
+  int road_band;
+  int opp_shape_set;
+  int ref_set;
   int have_x0;
   truck_conv_el_real_t w[TRUCK_CONV_EL_QP_N];
   truck_conv_el_real_t y[TRUCK_CONV_EL_QP_M];
@@ -1122,6 +1168,7 @@ typedef struct {
   truck_conv_el_real_t l[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t u_applied[TRUCK_CONV_EL_NU];
+  truck_conv_el_real_t band_val[N_BAND];
   truck_conv_el_real_t xa[TRUCK_CONV_EL_NX];
   const casadi_real *arg[CASADI_SZ_ARG];
   casadi_real *res[CASADI_SZ_RES];
@@ -1206,6 +1253,17 @@ static void jac_to_csc(truck_conv_el_real_t *v) {
   }
 }
 
+static void call4(const casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
+                  const casadi_real *a3, casadi_real *r0, casadi_real *r1) {
+  ws.arg[0] = a0;
+  ws.arg[1] = a1;
+  ws.arg[2] = a2;
+  ws.arg[3] = a3;
+  ws.res[0] = r0;
+  ws.res[1] = r1;
+  (void)f(ws.arg, ws.res, ws.iw, ws.cw, 0); /* SX functions cannot fail */
+}
+
 static void call3(const casadi_fn_t f, const casadi_real *a0, const casadi_real *a1, const casadi_real *a2,
                   casadi_real *r0, casadi_real *r1, casadi_real *r2) {
   ws.arg[0] = a0;
@@ -1244,20 +1302,45 @@ static int road_window(truck_conv_el_real_t *p, truck_conv_el_real_t s) {
   return TRUCK_CONV_EL_OK;
 }
 
+/* The opponents' shape values: as set_opponent_shapes gave them, else the problem's opponent vehicle. */
+static const truck_conv_el_real_t *opp_shapes(void) { return (ws.opp_shape_set != 0) ? ws.opp_shape : SHAPE_DEFAULT; }
+
+/* The opponents' part of stage k's parameters into dst (the fitted boxes). */
+static void stage_opponents(truck_conv_el_real_t *dst, int k) {
+  copy(ws.opp_stage[k], dst, N_OPP_STAGE);
+}
+
 /* p_k = [road window at s | x_ref_k | opponents of stage k] */
 static int stage_params(truck_conv_el_real_t *p, int k, truck_conv_el_real_t s) {
-  int i;
   const int rc = road_window(p, s);
   if (rc != TRUCK_CONV_EL_OK) return rc;
-  p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
-  p[P_REF + 1] = N_REF;
-  p[P_REF + 2] = 0.0;
-  p[P_REF + 3] = V_REF;
-  p[P_REF + 4] = 0.0;
-  for (i = 0; i < N_OPP_STAGE; ++i) {
-    p[P_OPP + i] = ws.opp_stage[k][i];
+  if (ws.ref_set != 0) { /* set_reference */
+    p[P_REF] = ws.s0_guess + (((truck_conv_el_real_t)k * DT) * ws.ref_v);
+    p[P_REF + 1] = ws.ref_n;
+    p[P_REF + 3] = ws.ref_v;
+  } else {
+    p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
+    p[P_REF + 1] = N_REF;
+    p[P_REF + 3] = V_REF;
   }
+  p[P_REF + 2] = 0.0;
+  p[P_REF + 4] = 0.0;
+  stage_opponents(&p[P_OPP], k);
   return TRUCK_CONV_EL_OK;
+}
+
+/* The road's band edge a (road_nmin or road_nmax) at s: linear between samples, held beyond the ends (Road.band_at). */
+static truck_conv_el_real_t band_at(const truck_conv_el_real_t *a, truck_conv_el_real_t s) {
+  const truck_conv_el_real_t t = (s - ws.road_s0) / ws.road_ds;
+  const truck_conv_el_real_t last = (truck_conv_el_real_t)ws.road_n - (truck_conv_el_real_t)2;
+  truck_conv_el_real_t fi = FLOOR(t);
+  truck_conv_el_real_t tau;
+  int i;
+  fi = (fi < REAL_0) ? REAL_0 : ((fi > last) ? last : fi);
+  i = (int)fi;
+  tau = t - fi;
+  tau = (tau < REAL_0) ? REAL_0 : ((tau > (truck_conv_el_real_t)1) ? (truck_conv_el_real_t)1 : tau);
+  return a[i] + (tau * (a[i + 1] - a[i]));
 }
 
 /* ---- the conventional formulation's opponent fit (fcgen.oppfit; the Python reference does the same steps) ------ */
@@ -1941,7 +2024,7 @@ static void plan_check(void) {
     if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_CONV_EL_OK) {
       continue;
     }
-    call3(truck_conv_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], c, ahead, NULL);
+    call4(truck_conv_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], opp_shapes(), c, ahead);
     for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
       if (c[j] < best) {
         best = c[j];
@@ -2002,6 +2085,47 @@ int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int
   copy(gamma_x, ws.road_gx, n);
   copy(gamma_y, ws.road_gy, n);
   ws.road_set = 1;
+  ws.road_band = 0; /* a new road: the problem's constant band until set_road_bounds */
+  return TRUCK_CONV_EL_OK;
+}
+
+int truck_conv_el_set_road_bounds(const truck_conv_el_real_t *n_min, const truck_conv_el_real_t *n_max) {
+  int i;
+  if ((ws.road_set == 0) || (n_min == NULL) || (n_max == NULL)) return fail(TRUCK_CONV_EL_ERR_ROAD_BOUNDS);
+  if (!all_finite(n_min, ws.road_n) || !all_finite(n_max, ws.road_n)) return fail(TRUCK_CONV_EL_ERR_NONFINITE_ROAD);
+  for (i = 0; i < ws.road_n; ++i) {
+    if (!((n_min[i] >= N_MIN) && (n_max[i] <= N_MAX) && (n_min[i] < n_max[i]))) return fail(TRUCK_CONV_EL_ERR_ROAD_BOUNDS);
+  }
+  copy(n_min, ws.road_nmin, ws.road_n);
+  copy(n_max, ws.road_nmax, ws.road_n);
+  ws.road_band = 1;
+  return TRUCK_CONV_EL_OK;
+}
+
+int truck_conv_el_set_reference(truck_conv_el_real_t v_ref, truck_conv_el_real_t n_ref) {
+  if (!isfinite(v_ref) || !isfinite(n_ref) || !(v_ref >= REAL_0)) return fail(TRUCK_CONV_EL_ERR_REFERENCE);
+  ws.ref_v = v_ref;
+  ws.ref_n = n_ref;
+  ws.ref_set = 1;
+  return TRUCK_CONV_EL_OK;
+}
+
+int truck_conv_el_set_opponent_shapes(const truck_conv_el_real_t *shapes) {
+  int j;
+  if (TRUCK_CONV_EL_NOPP == 0) return TRUCK_CONV_EL_OK;
+  if ((shapes == NULL) || !all_finite(shapes, TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_SHAPE)) return fail(TRUCK_CONV_EL_ERR_OPP_SHAPE);
+  for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+    const truck_conv_el_real_t *v = &shapes[j * TRUCK_CONV_EL_NOPP_SHAPE];
+    if (!((v[0] > REAL_0) && (v[1] > REAL_0))) return fail(TRUCK_CONV_EL_ERR_OPP_SHAPE);
+    {
+      int i; /* the conventional fit is generated for the problem's opponent vehicle */
+      for (i = 0; i < TRUCK_CONV_EL_NOPP_SHAPE; ++i) {
+        if (v[i] != SHAPE_DEFAULT[(j * TRUCK_CONV_EL_NOPP_SHAPE) + i]) return fail(TRUCK_CONV_EL_ERR_OPP_SHAPE);
+      }
+    }
+  }
+  copy(shapes, ws.opp_shape, TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_SHAPE);
+  ws.opp_shape_set = 1;
   return TRUCK_CONV_EL_OK;
 }
 
@@ -2076,6 +2200,11 @@ int truck_conv_el_prepare(void) {
   for (i = 0; i < TRUCK_CONV_EL_NX; ++i) {
     ws.g_init[i] = ws.u[INIT_ROWS[i]];
   }
+  for (i = 0; (ws.road_band != 0) && (i < N_BAND); ++i) { /* the road's band at the stage's s, minus g */
+    const truck_conv_el_real_t s = ws.w_tmp[STAGES[BAND_STAGE[i]].s];
+    const truck_conv_el_real_t edge = band_at((BAND_SIDE[i] == 0u) ? ws.road_nmin : ws.road_nmax, s);
+    ws.band_val[i] = (edge / BAND_SCALE) - ws.u[BAND_ROW[i]];
+  }
   for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
     const truck_conv_el_real_t g = ws.u[i];
     ws.l[i] = L[i] - g;
@@ -2085,6 +2214,13 @@ int truck_conv_el_prepare(void) {
     }
     if (ws.u[i] > QP_INF) {
       ws.u[i] = QP_INF;
+    }
+  }
+  for (i = 0; (ws.road_band != 0) && (i < N_BAND); ++i) {
+    if (BAND_SIDE[i] == 0u) {
+      ws.l[BAND_ROW[i]] = ws.band_val[i];
+    } else {
+      ws.u[BAND_ROW[i]] = ws.band_val[i];
     }
   }
   if (restart != 0) { /* as reset() would: the backend restored before its use */
@@ -2238,7 +2374,7 @@ int truck_conv_el_has_guess(void) { return ws.have_guess; }
 void truck_conv_el_get_opp_params(truck_conv_el_real_t *p) {
   int k;
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
-    copy(ws.opp_stage[k], &p[k * N_OPP_STAGE], N_OPP_STAGE);
+    stage_opponents(&p[k * N_OPP_STAGE], k);
   }
 }
 

@@ -19,7 +19,8 @@ extern "C" {
 #define TRUCK_CONV_EL_N 40 /* shooting intervals */
 #define TRUCK_CONV_EL_NOPP 3 /* opponents */
 #define TRUCK_CONV_EL_NOPP_PAR 3 /* parameters per opponent and stage (set_opponents: the pose x, y, phi) */
-#define TRUCK_CONV_EL_NOPP_STAGE 6 /* parameters per opponent in a stage's parameters (conventional: the fitted Frenet box) */
+#define TRUCK_CONV_EL_NOPP_STAGE 6 /* parameters per opponent in a stage's parameters (its pose and shape; conventional: the fitted Frenet box) */
+#define TRUCK_CONV_EL_NOPP_SHAPE 3 /* shape values per opponent (set_opponent_shapes: length, width, centre offset; containing ellipse: + semi-axes a, b) */
 #define TRUCK_CONV_EL_ROAD_MAX 141 /* road samples set_road accepts at most */
 #define TRUCK_CONV_EL_ROAD_WINDOW 7 /* road samples in a stage's local window */
 #define TRUCK_CONV_EL_NP 53 /* parameters per stage */
@@ -31,7 +32,7 @@ extern "C" {
 #define TRUCK_CONV_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_CONV_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
 #define TRUCK_CONV_EL_RTI_BUDGET 400 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
-#define TRUCK_CONV_EL_WORKSPACE_BYTES 410892 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_CONV_EL_WORKSPACE_BYTES 413892 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_CONV_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -54,7 +55,10 @@ enum {
   TRUCK_CONV_EL_ERR_QP_NONFINITE = 12,
   TRUCK_CONV_EL_ERR_QP_NUMERICAL = 13,
   TRUCK_CONV_EL_ERR_OPP_FRENET = 14,
-  TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS = 15
+  TRUCK_CONV_EL_ERR_QP_INPUT_BOUNDS = 15,
+  TRUCK_CONV_EL_ERR_ROAD_BOUNDS = 16,
+  TRUCK_CONV_EL_ERR_OPP_SHAPE = 17,
+  TRUCK_CONV_EL_ERR_REFERENCE = 18
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -151,8 +155,22 @@ int truck_conv_el_set_state(const truck_conv_el_real_t x0[5]);
 /* Road samples on the grid s0 + i ds, i < n, 2 <= n <= TRUCK_CONV_EL_ROAD_MAX; copied. It must cover the horizon. */
 int truck_conv_el_set_road(truck_conv_el_real_t s0, truck_conv_el_real_t ds, int n, const truck_conv_el_real_t *kappa,
     const truck_conv_el_real_t *phi_gamma, const truck_conv_el_real_t *gamma_x, const truck_conv_el_real_t *gamma_y);
-/* Opponent poses [x, y, phi] (rear axle) of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. */
+/* The road's drivable band at each sample of the road set last: n_min[i] < n_max[i], within [Bounds.n_min,
+ * Bounds.n_max] of the problem (-10.0, 10.0 m), road_n values each; copied. A stage's n bound is the band at
+ * its s (linear between samples, held for the QP). set_road resets the band to the problem's constant one.
+ * ERR_ROAD_BOUNDS (no road set, NULL, outside the range or n_min >= n_max) or ERR_NONFINITE_ROAD: nothing changed. */
+int truck_conv_el_set_road_bounds(const truck_conv_el_real_t *n_min, const truck_conv_el_real_t *n_max);
+/* Opponent poses [x, y, phi] of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. The pose's point is
+ * where its shape's offset says (the problem's vehicle: its rear axle). */
 int truck_conv_el_set_opponents(const truck_conv_el_real_t *params);
+/* The tracking reference from now on: speed v_ref >= 0 (m/s) and lateral offset n_ref (m), e.g. a road's speed
+ * limit and a lane's centre (init: the problem's, 40.0 and 0.0). ERR_REFERENCE: nothing changed. */
+int truck_conv_el_set_reference(truck_conv_el_real_t v_ref, truck_conv_el_real_t n_ref);
+/* Every opponent's shape: NOPP x NOPP_SHAPE values [length, width, offset] (chassis length and width > 0,
+ * m; how far its centre lies ahead of the pose's point along its heading);
+ * copied, kept until set again (init: the problem's opponent vehicle). The conventional formulation's fit is
+ * generated for the problem's opponent vehicle: other shapes are refused. ERR_OPP_SHAPE: nothing changed. */
+int truck_conv_el_set_opponent_shapes(const truck_conv_el_real_t *shapes);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
  * x0, load the QP backend's matrices. A no-op while prepared. The initial guess follows the road: the state's n, v,
  * delta held, alpha 0, s_k = s0 + k dt v, stopped at the last s whose local window lies on the road set. */

@@ -121,7 +121,7 @@ const casadi_int* truck_de_el_plan_clearance_sparsity_in(casadi_int i);
 const casadi_int* truck_de_el_plan_clearance_sparsity_out(casadi_int i);
 int truck_de_el_plan_clearance_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int truck_de_el_plan_clearance_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define truck_de_el_plan_clearance_SZ_ARG 3
+#define truck_de_el_plan_clearance_SZ_ARG 4
 #define truck_de_el_plan_clearance_SZ_RES 2
 #define truck_de_el_plan_clearance_SZ_IW 0
 #define truck_de_el_plan_clearance_SZ_W 0

@@ -178,6 +178,7 @@ class CSolver:
         self._fns: dict = {}
         sig = {"init": ([], I), "set_clock": ([ctypes.c_void_p], None), "set_state": ([PR], I),
                "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
+               "set_road_bounds": ([PR, PR], I), "set_opponent_shapes": ([PR], I), "set_reference": ([R, R], I),
                "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
                "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
                "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_opp_params": ([PR], None),
@@ -224,9 +225,23 @@ class CSolver:
         return self._fns["set_state"](self._input("x0", x0, 5))
 
     def set_road(self, road: Road) -> int:
+        """set_road, then (a road with a drivable band) set_road_bounds."""
         n, inp = road.size, self._input
-        return self._fns["set_road"](road.s0, road.ds, n, inp("kappa", road.kappa, n), inp("phi", road.phi, n),
-                                     inp("gx", road.gx, n), inp("gy", road.gy, n))
+        rc = self._fns["set_road"](road.s0, road.ds, n, inp("kappa", road.kappa, n), inp("phi", road.phi, n),
+                                   inp("gx", road.gx, n), inp("gy", road.gy, n))
+        if rc or road.n_min is None:
+            return rc
+        return self.set_road_bounds(road.n_min, road.n_max)
+
+    def set_road_bounds(self, n_min, n_max) -> int:
+        n = int(np.asarray(n_min).size)
+        return self._fns["set_road_bounds"](self._input("nmin", n_min, n), self._input("nmax", n_max, n))
+
+    def set_reference(self, v_ref: float, n_ref: float) -> int:
+        return self._fns["set_reference"](v_ref, n_ref)
+
+    def set_opponent_shapes(self, shapes) -> int:
+        return self._fns["set_opponent_shapes"](self._input("shape", shapes, self.n_opp * self.sizes["NOPP_SHAPE"]))
 
     def set_road_raw(self, s0: float, ds: float, kappa, phi, gx, gy) -> int:
         k, p, x, y = (self._arr(a) for a in (kappa, phi, gx, gy))
@@ -323,13 +338,15 @@ class CSolver:
     def window_stepper(self, road: Road, samples: int):
         """For a closed loop's samples on one road: ``step(x0, s_start, opp)``, the same as
         ``self.step(x0, road.window(s_start, samples), opp)`` (the same C calls in the same order with the same
-        values, the same results and errors) without building the window or converting inputs per call: set_road is
+        values, the same results and errors) without building the window or converting inputs per call (a road with a
+        drivable band: on the built window): set_road is
         given the road's own arrays at the window's offset (converted to the solver's real type once), the state and
         the opponents are copied into preallocated buffers, the status is read from its struct.
 
         A subclass that overrides a part of ``step`` (``QpRecorder``) or an instance with a replaced method gets
         ``step`` on a built window."""
-        if any(m in self.__dict__ or getattr(type(self), m) is not getattr(CSolver, m) for m in _STEP_PARTS):
+        if road.n_min is not None or any(m in self.__dict__ or getattr(type(self), m) is not getattr(CSolver, m)
+                                         for m in _STEP_PARTS):
             return lambda x0, s_start, opp: self.step(x0, road.window(s_start, samples), opp)
         arrays = [np.ascontiguousarray(a, dtype=self.dtype) for a in (road.kappa, road.phi, road.gx, road.gy)]
         ak, ap, ax, ay = (a.ctypes.data for a in arrays)

@@ -20,6 +20,12 @@ SQRT2 = math.sqrt(2.0)
 FRENET_SHAPE = ("c_s", "c_n", "angle", "L", "W", "f")
 # A Cartesian opponent pose: rear axle and heading.
 CARTESIAN_POSE = ("x", "y", "phi")
+# An opponent's own shape (set_opponent_shapes): chassis length and width, and how far its centre lies ahead of the
+# pose's point along the heading (a rear-axle pose: half the wheelbase; a centre pose, as CommonRoad's: 0).
+OPP_SHAPE = ("length", "width", "offset")
+# Ellipse(shape="minkowski") also takes the ellipse's semi-axes per opponent: containing_ellipse_axes is a numerical
+# search (not a run-time expression), so the caller computes them (``opponent_shape``) and the solver checks them.
+ELLIPSE_AXES = ("a", "b")
 
 
 @dataclass(frozen=True)
@@ -45,6 +51,61 @@ def chassis_shape(x, y, phi, veh: Vehicle) -> Shape:
     """Chassis rectangle of a vehicle whose rear axle is at (x, y) with heading phi."""
     c, s = _cos(phi), _sin(phi)
     return Shape(x + veh.l / 2 * c, y + veh.l / 2 * s, phi, veh.l_ch / 2, veh.w_ch / 2)
+
+
+def shape_of(x, y, phi, shape) -> Shape:
+    """The chassis rectangle of an opponent at pose (x, y, phi) with its ``OPP_SHAPE`` values ``shape`` (floats or
+    CasADi): ``chassis_shape`` with the vehicle's dimensions as data."""
+    c, s = _cos(phi), _sin(phi)
+    return Shape(x + shape[2] * c, y + shape[2] * s, phi, shape[0] / 2, shape[1] / 2)
+
+
+def shape_names(model: ObstacleModel) -> tuple[str, ...]:
+    """The per-opponent shape values a problem's solver takes: ``OPP_SHAPE`` (+ ``ELLIPSE_AXES`` for the
+    containing ellipse)."""
+    return OPP_SHAPE + (ELLIPSE_AXES if isinstance(model, Ellipse) and model.shape == "minkowski" else ())
+
+
+def ego_radius(ego: Vehicle) -> float:
+    """The radius of the ego's one covering circle (the ellipse rows' r): half its chassis diagonal."""
+    L, W = ego.l_ch / 2, ego.w_ch / 2
+    return (L * L + W * W) ** 0.5
+
+
+def opponent_shape(model: ObstacleModel, ego: Vehicle, length: float, width: float, offset: float) -> np.ndarray:
+    """The solver's shape values of one opponent (``shape_names(model)``); checks them as the solver does."""
+    out = np.array([length, width, offset], dtype=float)
+    check_opponent_shape(model, ego, out[:3])
+    if isinstance(model, Ellipse) and model.shape == "minkowski":
+        out = np.r_[out, containing_ellipse_axes(out[0] / 2, out[1] / 2, ego_radius(ego))]
+    return out
+
+
+def vehicle_shape(model: ObstacleModel, ego: Vehicle, veh: Vehicle) -> np.ndarray:
+    """The shape values of an opponent given by a rear-axle pose of ``veh`` (the problem's default opponent)."""
+    return opponent_shape(model, ego, veh.l_ch, veh.w_ch, veh.l / 2)
+
+
+def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> str | None:
+    """Why one opponent's shape values are refused (``ValueError`` naming the value and its range), as the C's
+    ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width > 0; the ellipse's semi-axes at least
+    half the length (width) plus the ego's radius (necessary for containment; ``opponent_shape`` computes them)."""
+    v = np.asarray(values, dtype=float)
+    names = shape_names(model)[:len(v)]
+    for nm, x in zip(names, v):
+        if not math.isfinite(x):
+            raise ValueError(f"opponent shape {nm} = {x!r} is invalid: allowed a finite value")
+    for i, nm in enumerate(("length", "width")):
+        if not v[i] > 0.0:
+            raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed > 0")
+    if len(v) > 3:
+        r = ego_radius(ego)
+        for i, nm in ((3, "a"), (4, "b")):
+            need = v[i - 3] / 2 + r
+            if not v[i] >= need:
+                raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed >= {need!r} "
+                                 "(half the size plus the ego's radius)")
+    return None
 
 
 def vertices(sh: Shape) -> list[tuple]:
@@ -212,13 +273,16 @@ def thetas_per_opponent(model: ObstacleModel) -> int:
     return 3 if isinstance(model, SeparatingHyperplane) else 0
 
 
-def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float):
+def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float,
+                    axes=None):
     """(soft rows h >= 0, equality rows == 0) of one opponent at one stage; ``cover``: covering circles whatever the
-    model's radius rule (the conventional formulation's fitted boxes)."""
+    model's radius rule (the conventional formulation's fitted boxes); ``axes``: the containing ellipse's semi-axes
+    given with the opponent's shape (else computed from its size)."""
     if isinstance(model, Ellipse):
         r = (ego.L * ego.L + ego.W * ego.W) ** 0.5
-        axes = containing_ellipse_axes if model.shape == "minkowski" else paper_ellipse_axes
-        return [ellipse_h(ego.cx, ego.cy, opp, *axes(opp.L, opp.W, r))], []
+        if axes is None:
+            axes = (containing_ellipse_axes if model.shape == "minkowski" else paper_ellipse_axes)(opp.L, opp.W, r)
+        return [ellipse_h(ego.cx, ego.cy, opp, *axes)], []
     if isinstance(model, CoveringCircles):
         return circles_h(ego, model.ego_circles, opp, model.n, cover or model.radius == "cover"), []
     rows, eq = hyperplane_h(ego, opp, theta, length, model.margin)

@@ -61,7 +61,9 @@ class Ocp:
     n_sigma: int
     road_params: RoadWindowParams
     n_opp_par: int             # per opponent and stage given to set_opponents: its pose [x, y, phi]
-    n_opp_stage: int           # per opponent in a stage's parameters (conventional: the fitted FRENET_SHAPE)
+    n_opp_stage: int           # per opponent in a stage's parameters (pose + shape; conventional: the fitted
+    #                            FRENET_SHAPE)
+    n_opp_shape: int           # per opponent given to set_opponent_shapes (obstacles.shape_names)
     np_stage: int
     cost_scale: float
     first: StageType
@@ -98,6 +100,13 @@ class Ocp:
     def p_opp(self) -> slice:
         return slice(self.road_params.size + 5, self.np_stage)
 
+    def default_shapes(self) -> np.ndarray:
+        """Every opponent's shape values until ``set_opponent_shapes``: the problem's opponent vehicle at a rear-axle
+        pose, shape (n_opp, n_opp_shape)."""
+        pb = self.problem
+        one = obs.vehicle_shape(pb.obstacles, pb.ego, pb.opponents.vehicle)
+        return np.tile(one, (pb.opponents.count, 1))
+
 
 def road_window_samples(problem: Problem) -> int:
     """Samples of the per-stage local road window: from one ds behind s_k to twice the farthest RK4 reach."""
@@ -121,7 +130,8 @@ def build_ocp(problem: Problem) -> Ocp:
     n_obs_rows = n_opp * obs.rows_per_opponent(model)
     n_sigma = 1 + (1 if soft_road else 0) + n_obs_rows
     rp = RoadWindowParams(road_window_samples(pb))
-    n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE)
+    n_shape = len(obs.shape_names(model))
+    n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE) + n_shape
     np_stage = rp.size + 5 + n_opp * n_opp_stage
     dt = pb.horizon.dt
     ego, bnd, soft = pb.ego, pb.bounds, pb.soft
@@ -169,17 +179,20 @@ def build_ocp(problem: Problem) -> Ocp:
     theta_mid: list = []   # per opponent the plane halfway between the centres (the anchor of the safe profile)
     for j in range(n_opp):
         pj = p_opp[j * n_opp_stage:(j + 1) * n_opp_stage]
+        axes = None
         if conventional:
             opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
             ego_sh = obs.frenet_ego_shape(*ego_pose, pj[5], ego)
         else:
-            opp = obs.chassis_shape(pj[0], pj[1], pj[2], pb.opponents.vehicle)
+            opp = obs.shape_of(pj[0], pj[1], pj[2], pj[3:])
             ego_sh = obs.chassis_shape(*ego_pose, ego)
+            if n_shape > len(obs.OPP_SHAPE):
+                axes = (pj[6], pj[7])
         th = ths[3 * j:3 * j + 3] if n_theta else None
         if n_theta:
             mid_sh = obs.frenet_ego_shape(*ego_pose, 1.0, ego) if conventional else ego_sh
             theta_mid += obs.midpoint_plane(mid_sh, opp)
-        rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=length)
+        rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=length, axes=axes)
         for r_i, h in enumerate(rows):
             soft_rows.append((f"opp{j}_h{r_i}", h + sgs[isg], 0.0, INF))
             isg += 1
@@ -278,7 +291,8 @@ def build_ocp(problem: Problem) -> Ocp:
         x0_full = x0F
     init = ca.Function("init_state", [x0F, p], [x0_full], ["x0", "p"], ["x"])
     alat = ca.Function("a_lat", [xs], [a])
-    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, len(obs.CARTESIAN_POSE), n_opp_stage, np_stage, cost_scale,
+    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, len(obs.CARTESIAN_POSE), n_opp_stage, n_shape, np_stage,
+               cost_scale,
                stage_types["first"], stage_types["middle"], stage_types["last"], dyn, init, alat,
                plan_clearance_function(pb, xs, p, p_road, rp.samples, lifted),
                (costs["first"], costs["middle"], costs["last"]), build_oppfit(pb))
@@ -286,19 +300,22 @@ def build_ocp(problem: Problem) -> Ocp:
 
 def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bool) -> ca.Function:
     """The plan check of one stage: the ego's true chassis at the plan's state (Frenet states: F^-1 on the stage's
-    road window) against every opponent's true chassis at its pose [x, y, phi] (as given to set_opponents): the SAT
-    clearance, and how far ahead of the ego (along its heading) the opponent's centre is."""
+    road window) against every opponent's true chassis at its pose [x, y, phi] (as given to set_opponents) with its
+    shape (set_opponent_shapes): the SAT clearance, and how far ahead of the ego (along its heading) the opponent's
+    centre is."""
     n_opp = pb.opponents.count
+    ns = len(obs.shape_names(pb.obstacles))
     opp = ca.SX.sym("opp", n_opp * len(obs.CARTESIAN_POSE))
+    shape = ca.SX.sym("shape", n_opp * ns)
     pose = (xs[5], xs[6], xs[7]) if lifted else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples)
     ego_sh = obs.chassis_shape(*pose, pb.ego)
     clearance, ahead = [], []
     for j in range(n_opp):
-        opp_sh = obs.chassis_shape(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], pb.opponents.vehicle)
+        opp_sh = obs.shape_of(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], shape[ns * j:ns * j + 3])
         clearance.append(obs.sat_clearance(ego_sh, opp_sh))
         # the opponent's centre along the ego's heading from the ego's centre: > 0 ahead (braking opens the gap)
         ahead.append((opp_sh.cx - ego_sh.cx) * ca.cos(pose[2]) + (opp_sh.cy - ego_sh.cy) * ca.sin(pose[2]))
     empty = ca.SX(0, 1)
-    return ca.Function("plan_clearance", [xs, p, opp], [ca.vertcat(*clearance) if n_opp else empty,
-                                                        ca.vertcat(*ahead) if n_opp else empty],
-                       ["x", "p", "opp"], ["clearance", "ahead"])
+    return ca.Function("plan_clearance", [xs, p, opp, shape], [ca.vertcat(*clearance) if n_opp else empty,
+                                                               ca.vertcat(*ahead) if n_opp else empty],
+                       ["x", "p", "opp", "shape"], ["clearance", "ahead"])

@@ -11,7 +11,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .ocp import INF, Ocp
+from .ocp import INF, STATE_SCALE, Ocp
+
+# Rows whose bound comes from the road's drivable band (Road.n_min/n_max) at the stage's s when the road has one:
+# row name -> the sides it takes (0: lower <- n_min, 1: upper <- n_max); every such row is n / BAND_SCALE (+ slack).
+BAND_ROW_SIDES = {"bound_n": (0, 1), "road_lo": (0,), "road_hi": (1,)}
+BAND_SCALE = STATE_SCALE["n"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +42,8 @@ class QpLayout:
     row_shift: np.ndarray      # shifted duals: y_new[i] = y_old[row_shift[i]]
     var_names: tuple[str, ...]
     row_names: tuple[str, ...]
+    band_rows: np.ndarray      # (rows, 3): [row, stage k, side] taking the road band at s_k (BAND_ROW_SIDES)
+    band_scale: float = BAND_SCALE
 
     @property
     def nnz_A(self) -> int:
@@ -112,8 +119,11 @@ def build_layout(ocp: Ocp) -> QpLayout:
     row_shift = shift(row_off, lambda st: st.row_names)
     var_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.var_names)
     row_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.row_names)
+    band = [(row_off[k] + i, k, side) for k, st in enumerate(stages) for i, nm in enumerate(st.row_names)
+            for side in BAND_ROW_SIDES.get(nm, ())]
+    band_rows = np.array(band, dtype=np.int64).reshape(-1, 3)
     return QpLayout(n, m, var_off, row_off, jac_off, indptr, rows.astype(np.int64), src.astype(np.int64),
-                    P_diag, L, U, D, q_ds0, init_rows, s_vars, var_shift, row_shift, var_names, row_names)
+                    P_diag, L, U, D, q_ds0, init_rows, s_vars, var_shift, row_shift, var_names, row_names, band_rows)
 
 
 def assert_finite_bounds(L: np.ndarray, U: np.ndarray) -> None:

@@ -14,6 +14,7 @@ import numpy as np
 
 from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINITE, QP_NUMERICAL, QP_OTHER,
                        QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
+from . import obstacles as obs
 from .dsl import QpOptions, SeparatingHyperplane
 from .guess import cold_start_frenet, last_window_s, stage_times
 from .ocp import Ocp, build_ocp
@@ -25,7 +26,7 @@ from .road import Road
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
               "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
               "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET",
-              "ERR_QP_INPUT_BOUNDS")
+              "ERR_QP_INPUT_BOUNDS", "ERR_ROAD_BOUNDS", "ERR_OPP_SHAPE", "ERR_REFERENCE")
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
 appended, so a code keeps its number)."""
 
@@ -138,7 +139,6 @@ def warm_max_iter(opts: QpOptions) -> int:
 
 def theta_init(ocp: Ocp) -> ca.Function:
     """Initial separating hyperplanes: normal from the ego centre to the opponent centre, through the midpoint."""
-    from . import obstacles as obs
     from .dsl import Conventional
     from .road import casadi_to_cartesian
     x = ca.SX.sym("x", ocp.nx)
@@ -157,7 +157,7 @@ def theta_init(ocp: Ocp) -> ca.Function:
             pose = (x[5], x[6], x[7]) if ocp.state_kind == "lifted" else casadi_to_cartesian(
                 x[0], x[1], x[2], p[ocp.p_road], rp.samples)
             ego = obs.chassis_shape(*pose, pb.ego)
-            opp = obs.chassis_shape(pj[0], pj[1], pj[2], pb.opponents.vehicle)
+            opp = obs.shape_of(pj[0], pj[1], pj[2], pj[3:])
         out += obs.midpoint_plane(ego, opp)
     return ca.Function("theta_init", [x, p], [ca.vertcat(*out)])
 
@@ -192,6 +192,8 @@ class RtiSolver:
         """Everything back to a freshly constructed solver: inputs, plan, preparation, status, QP backend."""
         self.road: Road | None = None
         self.opp = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_par))
+        self.opp_shape = self.ocp.default_shapes()   # (n_opp, n_opp_shape): set_opponent_shapes
+        self.ref: tuple[float, float] | None = None  # (v_ref, n_ref) of set_reference; None: the problem's
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
@@ -224,9 +226,44 @@ class RtiSolver:
 
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
+        """The road (window); its drivable band ``road.n_min``/``n_max`` (if given) must lie within the problem's
+        ``Bounds`` (the C: set_road, then set_road_bounds)."""
         if road.size > self.ocp.problem.road.samples:
             raise self._fail("ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
+        if road.n_min is not None:
+            b = self.ocp.problem.bounds
+            for name, a, ok in (("n_min", road.n_min, road.n_min >= b.n_min), ("n_max", road.n_max, road.n_max <= b.n_max)):
+                if not np.all(ok):
+                    i = int(np.flatnonzero(~ok)[0])
+                    raise self._fail("ERR_ROAD_BOUNDS", f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
+                                     f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)")
         self.road = road
+
+    def set_reference(self, v_ref: float, n_ref: float) -> None:
+        """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
+        a road's speed limit, a lane's centre."""
+        if not (math.isfinite(v_ref) and math.isfinite(n_ref) and v_ref >= 0.0):
+            raise self._fail("ERR_REFERENCE", f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed finite, "
+                             "v_ref >= 0")
+        self.ref = (float(v_ref), float(n_ref))
+
+    def set_opponent_shapes(self, shapes: np.ndarray) -> None:
+        """Every opponent's shape values, shape (n_opp, n_opp_shape) (``obstacles.shape_names``); kept until set
+        again (``init`` restores the problem's opponent vehicle)."""
+        shapes = np.asarray(shapes, dtype=float)
+        ocp = self.ocp
+        want = (ocp.problem.opponents.count, ocp.n_opp_shape)
+        if shapes.shape != want:
+            raise self._fail("ERR_OPP_SHAPE", f"opponent shapes: shape {shapes.shape}, expected {want}")
+        for j, v in enumerate(shapes):
+            try:
+                obs.check_opponent_shape(ocp.problem.obstacles, ocp.problem.ego, v)
+            except ValueError as e:
+                raise self._fail("ERR_OPP_SHAPE", f"opponent {j}: {e}") from None
+        if ocp.fit is not None and not np.array_equal(shapes, ocp.default_shapes()):
+            raise self._fail("ERR_OPP_SHAPE", "opponent shapes: the conventional fit is generated for the problem's "
+                             "opponent vehicle; allowed only its shape")
+        self.opp_shape = shapes.copy()
 
     def set_opponents(self, params: np.ndarray) -> None:
         """Per-stage opponent parameters, shape (N+1, n_opp, n_opp_par)."""
@@ -265,10 +302,14 @@ class RtiSolver:
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
-        xref = [self.s0_guess + k * self.ocp.dt * pb.reference.v_ref, pb.reference.n_ref, 0.0,
-                pb.reference.v_ref, 0.0]
-        opp = self.opp if self._fitter is None else self.opp_stage
-        return np.concatenate([self._road_params(s), xref, opp[k]])
+        v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
+        xref = [self.s0_guess + k * self.ocp.dt * v_ref, n_ref, 0.0, v_ref, 0.0]
+        if self._fitter is None:   # per opponent its pose at stage k, then its shape
+            n = self.ocp.problem.opponents.count
+            opp = np.concatenate([self.opp[k].reshape(n, -1), self.opp_shape], axis=1).ravel()
+        else:
+            opp = self.opp_stage[k]
+        return np.concatenate([self._road_params(s), xref, opp])
 
     def _fit_opponents(self) -> int:
         """Conventional: the opponents' poses -> their fitted Frenet boxes in ``opp_stage`` (``fcgen.oppfit``), as the
@@ -356,6 +397,10 @@ class RtiSolver:
         self.A_data = jac[lay.a_src]
         self.l = lay.L - g
         self.u = lay.U - g
+        if self.road.n_min is not None:   # the road's band at each stage's s (held for the QP: no d/ds)
+            for row, k, side in lay.band_rows:
+                band = self.road.band_at(float(w[lay.s_vars[k]]))
+                (self.l if side == 0 else self.u)[row] = band[side] / lay.band_scale - g[row]
         if restart:  # as reset() would: the backend restored before its use
             self.qp.reset()
         self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
@@ -430,7 +475,8 @@ class RtiSolver:
             ok = [self.road is not None and math.isfinite(s) and self._window_start(s) is not None for s in s_k]
             P = np.stack([self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
                           for k, (s, good) in enumerate(zip(s_k, ok))], axis=1)
-            C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T))
+            shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
+            C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
             for k in np.flatnonzero(ok):   # stages whose window the road no longer covers are skipped
                 for j, (v, d) in enumerate(zip(C[:, k], A[:, k])):
                     if v < best:

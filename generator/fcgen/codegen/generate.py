@@ -41,7 +41,8 @@ MODEL_CFLAGS = ("-Wno-unused-parameter",)
 MACRO_DOC = {
     "NX": "states per stage", "NU": "controls per stage [F_d, r]", "N": "shooting intervals",
     "NOPP": "opponents", "NOPP_PAR": "parameters per opponent and stage (set_opponents: the pose x, y, phi)",
-    "NOPP_STAGE": "parameters per opponent in a stage's parameters (conventional: the fitted Frenet box)",
+    "NOPP_STAGE": "parameters per opponent in a stage's parameters (its pose and shape; conventional: the fitted Frenet box)",
+    "NOPP_SHAPE": "shape values per opponent (set_opponent_shapes: length, width, centre offset; containing ellipse: + semi-axes a, b)",
     "ROAD_MAX": "road samples set_road accepts at most", "ROAD_WINDOW": "road samples in a stage's local window",
     "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
     "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
@@ -274,7 +275,7 @@ def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
     """The size macros of ``<name>_solver.h`` (keys without the ``NAME_`` prefix), in header order."""
     pb = ocp.problem
     return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
-            "NOPP_STAGE": ocp.n_opp_stage, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
+            "NOPP_STAGE": ocp.n_opp_stage, "NOPP_SHAPE": ocp.n_opp_shape, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
             "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
             "NNZ_J": int(lay.jac_off[-1]), "COLD_RESTART_AFTER": pb.qp.cold_restart_after,
             "RTI_BUDGET": cold_max_iter(pb.qp)}
@@ -309,7 +310,7 @@ FIRST_STATE_MEMBER = "w"
 
 
 def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
-                      opp_dim: int, fit: dict | None = None) -> tuple[list[dict[str, Any]], int]:
+                      opp_dim: int, fit: dict | None = None, n_band: int = 0) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
     R, I, P = (real_size, real_size), (4, 4), (8, 8)
@@ -323,8 +324,12 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("NAME_real_t", "x0", [5], R), ("NAME_real_t", "road_s0", [], R), ("NAME_real_t", "road_ds", [], R),
         ("NAME_real_t", "road_kappa", [road], R), ("NAME_real_t", "road_phi", [road], R),
         ("NAME_real_t", "road_gx", [road], R), ("NAME_real_t", "road_gy", [road], R),
+        ("NAME_real_t", "road_nmin", [road], R), ("NAME_real_t", "road_nmax", [road], R),
         ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
+        ("NAME_real_t", "opp_shape", [("SHAPE_DIM", max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"]))], R),
         ("clock_fn_t", "clock", [], P), ("int", "road_n", [], I), ("int", "road_set", [], I),
+        ("NAME_real_t", "ref_v", [], R), ("NAME_real_t", "ref_n", [], R),
+        ("int", "road_band", [], I), ("int", "opp_shape_set", [], I), ("int", "ref_set", [], I),
         ("int", "have_x0", [], I),
         # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
         ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
@@ -334,6 +339,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
         ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R),
         ("NAME_real_t", "u_applied", [M("NU")], R),
+        ("NAME_real_t", "band_val", [("N_BAND", max(1, n_band))], R),
         ("NAME_real_t", "xa", [M("NX")], R),
         ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
@@ -431,19 +437,22 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     a_cycles = permutation_cycles(lay.a_src)
     index_tables = {"A_SRC": lay.a_src, "A_CYCLES": a_cycles,
                     "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
-                    "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks}
+                    "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks,
+                    "BAND_ROW": lay.band_rows[:, 0], "BAND_STAGE": lay.band_rows[:, 1],
+                    "BAND_SIDE": lay.band_rows[:, 2]}
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
     u_lo, u_hi, u_lim = input_box(problem)
     real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
-                   "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim}
+                   "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
+                   "SHAPE_DEFAULT": ocp.default_shapes().ravel()}
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
     stages = stage_table(ocp, lay)
 
     fit = fit_context(ocp)
-    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit)
+    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows))
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
                    + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
@@ -474,7 +483,10 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
         "c_fabs": "fabsf" if use_float else "fabs", "c_atan2": "atan2f" if use_float else "atan2",
         "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
-        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else "ws.opp",
+        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else None,
+        "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": _c_real(lay.band_scale),
+        "n_min": _c_real(problem.bounds.n_min), "n_max": _c_real(problem.bounds.n_max),
+        "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE), "ego_radius": _c_real(obs.ego_radius(problem.ego)),
         "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
                          for k, v in index_tables.items()},
         "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},
@@ -483,6 +495,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
+        "dt": _c_real(problem.horizon.dt),
         "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
         "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),

@@ -129,6 +129,22 @@ class ReferenceController:
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
 
+    def set_opponent_shapes(self, shapes: np.ndarray) -> int:
+        """Every opponent's shape values (``obstacles.shape_names``); returns the exit code (as the C's)."""
+        try:
+            self.solver.set_opponent_shapes(shapes)
+        except SolverError as exc:
+            return exc.exit_code
+        return 0
+
+    def set_reference(self, v_ref: float, n_ref: float) -> int:
+        """The tracking reference's speed and lateral offset; returns the exit code (as the C's)."""
+        try:
+            self.solver.set_reference(v_ref, n_ref)
+        except SolverError as exc:
+            return exc.exit_code
+        return 0
+
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.solver.states(), self.solver.controls()
