@@ -103,7 +103,7 @@ def test_left_out_when_far_from_the_road_beside_a_bend():
     fit = build_oppfit(pb)
     assert fit.far == pytest.approx(10.0 + pb.ego.l + pb.ego.l_ch + pb.ego.w_ch + math.hypot(13.0, 2.0))
     fitter = OppFitter(fit, 1, 1)
-    P = np.array(fitter._points(_inside_bend60(10.0))[0])                 # (2, npt): the mapped points
+    P = np.array(fitter._points(_inside_bend60(10.0), fit.shape0)[0])     # (2, npt): the mapped points
     gap = np.min(np.hypot(BEND60.gx[None, :] - P[0][:, None], BEND60.gy[None, :] - P[1][:, None]))
     assert gap > 10.0 + fit.reach                                         # independent: out of the ego's reach
     for off in (5.0, 10.0, 15.0):                                         # centre 40-55 m from the road
@@ -214,7 +214,7 @@ def test_c_fit_breaks_distance_ties_as_numpy(c_solver):
     fr[:, 1] = (45.0, -4.0, 0.0)
     win = STRAIGHT.window(-60.0, pb.road.samples)
     fit = build_oppfit(pb)
-    P, _ = OppFitter(fit, 1, 2)._points(poses_on(win, fr[0]).T)
+    P, _ = OppFitter(fit, 1, 2)._points(poses_on(win, fr[0]).T, np.tile(np.reshape(fit.shape0, (3, 1)), (1, 2)))
     px = np.array(P)[0]
     assert np.count_nonzero((px - win.s0) % (2 * win.ds) == win.ds) > 20    # exactly halfway: ties
     c_par, py_par, c_out, py_out = _c_and_python(c_solver, win, fr)
@@ -352,7 +352,7 @@ def test_foot_points_reach_the_converged_projection(road):
     rng = np.random.default_rng(3)
     fr = np.stack([rng.uniform(lo, hi, 25), rng.uniform(-5, 5, 25), rng.uniform(-0.3, 0.3, 25)], axis=1)
     fitter = OppFitter(fit, len(fr), 1)
-    P, d = fitter._points(poses_on(road, fr).T)
+    P, d = fitter._points(poses_on(road, fr).T, fit.shape0)
     P = np.array(P).reshape(2, len(fr), fit.npt)
     d = np.array(d).T
     ref = np.argmin((road.gx[None, :] - P[0, :, fit.ref_point, None]) ** 2

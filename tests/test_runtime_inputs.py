@@ -22,6 +22,7 @@ pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "ma
 
 SAFE_EL = preset("car_lifted_ellipse_ipm_safe")       # Ellipse(shape="minkowski"): shapes carry the semi-axes
 PAPER_CC = preset("car_direct_elimination_circles")   # the paper's covering circles, OSQP
+CONV = preset("car_conventional_circles")               # the conventional fit around each opponent's shape
 BEHIND = 20.0
 
 
@@ -43,7 +44,7 @@ def _far(pb) -> np.ndarray:
 @pytest.fixture(scope="module")
 def c_solvers(tmp_path_factory):
     out = {}
-    for pb in (SAFE_EL, PAPER_CC):
+    for pb in (SAFE_EL, PAPER_CC, CONV):
         gen = generate(pb, tmp_path_factory.mktemp(pb.name) / "s")
         out[pb.name] = CSolver(build(gen.out_dir, verify=True))
     return out
@@ -208,8 +209,8 @@ def _default_rows(pb, road, opp, x0):
 
 def test_c_and_python_run_in_lockstep_with_a_band_and_shapes(c_solvers):
     """A band that narrows and three opponents of three sizes (one standing in the ego's lane ahead): 30 samples,
-    the C's states and controls equal the reference's."""
-    for pb in (SAFE_EL, PAPER_CC):
+    the C's states and controls equal the reference's (the conventional fit too)."""
+    for pb in (SAFE_EL, PAPER_CC, CONV):
         road = _road(pb, _narrowing, length=800.0)
         shapes = np.array([obs.opponent_shape(pb.obstacles, pb.ego, ln, wd, off)
                            for ln, wd, off in ((4.5, 1.8, 0.0), (12.0, 2.5, 3.0), (6.0, 2.1, 1.0))])
@@ -270,18 +271,30 @@ def test_bad_bands_and_shapes_are_refused_and_change_nothing(c_solvers):
         obs.opponent_shape(pb.obstacles, pb.ego, 5.0, 0.0, 0.0)
 
 
-def test_the_conventional_fit_refuses_other_shapes():
-    """The conventional formulation fits its Frenet boxes around the problem's opponent vehicle: its own shape is
-    accepted, another is refused (not silently used with the wrong size)."""
+def test_the_conventional_fit_takes_the_shape():
+    """Second method: the conventional formulation fits its Frenet boxes around an opponent of the given shape
+    (its points on the shape's edges, their spacing, its reach): the fitted boxes equal those of the same problem
+    generated for an opponent vehicle of that size; the problem's own vehicle fits other boxes."""
     pb = preset("car_conventional_ellipse")
-    ocp = build_ocp(pb)
-    sv = RtiSolver(ocp)
-    sv.set_opponent_shapes(ocp.default_shapes())
-    other = ocp.default_shapes()
-    other[0, 0] += 1.0
-    with pytest.raises(SolverError) as e:
-        sv.set_opponent_shapes(other)
-    assert e.value.code == "ERR_OPP_SHAPE" and "conventional" in str(e.value)
+    van = Vehicle(l_f=1.9, l_r=1.6, l_f_ch=2.6, l_r_ch=2.6, w_ch=2.2)
+    pb_van = pb.with_(opponents=Opponents(pb.opponents.count, van))
+    road = _road(pb)
+    opp = _far(pb)
+    opp[:, 1, 0], opp[:, 1, 1], opp[:, 1, 2] = 45.0, -2.0, 0.1
+    opp[:, 2, 0], opp[:, 2, 1] = 70.0, 3.0
+    boxes = []
+    for p, shapes in ((pb, np.tile(obs.vehicle_shape(pb.obstacles, pb.ego, van), (pb.opponents.count, 1))),
+                      (pb_van, None), (pb, None)):
+        sv = RtiSolver(build_ocp(p))
+        sv.set_road(road)
+        sv.set_opponents(opp)
+        if shapes is not None:
+            sv.set_opponent_shapes(shapes)
+        sv.set_state(np.array([0.0, 1.0, 0.0, 15.0, 0.0]))
+        sv.prepare()
+        boxes.append(sv.opp_stage.copy())
+    np.testing.assert_allclose(boxes[0], boxes[1], rtol=0, atol=1e-12)
+    assert np.max(np.abs(boxes[0] - boxes[2])) > 0.1
 
 
 # --- the reference speed -----------------------------------------------------------------------------------------

@@ -157,7 +157,7 @@ const casadi_int* truck_conv_el_opp_points_sparsity_in(casadi_int i);
 const casadi_int* truck_conv_el_opp_points_sparsity_out(casadi_int i);
 int truck_conv_el_opp_points_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int truck_conv_el_opp_points_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define truck_conv_el_opp_points_SZ_ARG 1
+#define truck_conv_el_opp_points_SZ_ARG 2
 #define truck_conv_el_opp_points_SZ_RES 2
 #define truck_conv_el_opp_points_SZ_IW 0
 #define truck_conv_el_opp_points_SZ_W 0

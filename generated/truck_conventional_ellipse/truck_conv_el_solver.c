@@ -1191,7 +1191,6 @@ typedef struct {
   truck_conv_el_real_t fit_ihmax;
   truck_conv_el_real_t fit_skip;
   truck_conv_el_real_t fit_uni;
-  truck_conv_el_real_t fit_far2;
   truck_conv_el_real_t fit_cos[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_sin[TRUCK_CONV_EL_ROAD_MAX];
   truck_conv_el_real_t fit_dd_phi[TRUCK_CONV_EL_ROAD_MAX];
@@ -1352,10 +1351,11 @@ static truck_conv_el_real_t band_at(const truck_conv_el_real_t *a, truck_conv_el
 #define FIT_NEDGE 60       /* edge points; then the centre, the rear centre, the front centre */
 #define FIT_FULL 1        /* road evaluations (a Halley step each) after the nearest sample's step */
 #define FIT_DG_MIN ((truck_conv_el_real_t)0.05)
-#define FIT_SPACING ((truck_conv_el_real_t)1.0) /* the largest distance of neighbouring edge points */
+#define FIT_CW ((truck_conv_el_real_t)4) /* points on a width edge (its spacing: width / FIT_CW) */
+#define FIT_CL ((truck_conv_el_real_t)26) /* points on a length edge */
 #define FIT_MARGIN ((truck_conv_el_real_t)0.0)
 #define FIT_REACH ((truck_conv_el_real_t)9.3) /* the ego's reach from its rear axle */
-#define FIT_FAR ((truck_conv_el_real_t)32.452946437965906) /* beyond this (+ fit_hmax) from the road: left out (oppfit.OppFit.far) */
+#define FIT_FAR_BASE ((truck_conv_el_real_t)19.3) /* oppfit.OppFit.far_of: + the opponent's own reach */
 #define FIT_SAG_SAFETY ((truck_conv_el_real_t)2.0)
 #define FIT_STRETCH_MAX ((truck_conv_el_real_t)0.9)
 #define FIT_N_MIN ((truck_conv_el_real_t)-10.0)
@@ -1772,10 +1772,9 @@ static truck_conv_el_real_t fit_nk(truck_conv_el_real_t n_hi, truck_conv_el_real
   return st;
 }
 
-/* obstacles.chord_sag_bound: how far a mapped edge piece leaves its chord, from the mapped points' n range b[9..10]
- * and the curvatures k; 0 if the bound does not apply (then *sag is untouched). */
-static int fit_sag(const truck_conv_el_real_t *b, const truck_conv_el_real_t *k, truck_conv_el_real_t *sag) {
-  const truck_conv_el_real_t h = FIT_SPACING;
+/* obstacles.chord_sag_bound: how far a mapped edge piece (at most h long) leaves its chord, from the mapped points'
+ * n range b[9..10] and the curvatures k; 0 if the bound does not apply (then *sag is untouched). */
+static int fit_sag(const truck_conv_el_real_t *b, const truck_conv_el_real_t *k, truck_conv_el_real_t h, truck_conv_el_real_t *sag) {
   const truck_conv_el_real_t nl = b[10] - (REAL_HALF * h);
   const truck_conv_el_real_t nh = b[9] + (REAL_HALF * h);
   const truck_conv_el_real_t q = REAL_1 - fit_nk(nh, nl, k);
@@ -1792,10 +1791,12 @@ static int fit_sag(const truck_conv_el_real_t *b, const truck_conv_el_real_t *k,
   return 1;
 }
 
-/* One opponent at one stage: its pose -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the road (out untouched).
- * *iref: in, a guess of the reference point's nearest sample (any sample; it changes the search's cost only; < 0:
- * none, then every FIT_HINT_STRIDE-th sample is tried), out, that nearest sample. */
-static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, int *iref) {
+/* One opponent at one stage: its pose and shape (OPP_SHAPE) -> FRENET_SHAPE in out; FIT_OUTSIDE if it is off the
+ * road (out untouched). far2: (its far_of + fit_hmax)^2. *iref: in, a guess of the reference point's nearest sample
+ * (any sample; it changes the search's cost only; < 0: none, then every FIT_HINT_STRIDE-th sample is tried), out,
+ * that nearest sample. */
+static int fit_one(const truck_conv_el_real_t *pose, const truck_conv_el_real_t *shape, truck_conv_el_real_t far2,
+                   truck_conv_el_real_t *out, int *iref) {
   const int m = ws.road_n;
   const int last = m - 1;
   const int half = FIT_WIN / 2;
@@ -1809,7 +1810,7 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, 
   truck_conv_el_real_t sag = REAL_0;
   truck_conv_el_real_t pad;
   truck_conv_el_real_t k[3];
-  call3(truck_conv_el_opp_points, pose, NULL, NULL, ws.fit_P, ws.fit_d, NULL);
+  call3(truck_conv_el_opp_points, pose, shape, NULL, ws.fit_P, ws.fit_d, NULL);
   ir = *iref;
   if ((ir < 0) || (ir > last)) {
     truck_conv_el_real_t dmin = fit_d2(0, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]);
@@ -1825,7 +1826,7 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, 
   ir = fit_nearest_all(ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1], ir);
   *iref = ir;
   if ((ir == 0) || (ir == last)) return FIT_OUTSIDE; /* the reference point is not next to the road */
-  if (fit_d2(ir, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]) > ws.fit_far2) return FIT_OUTSIDE; /* nor near */
+  if (fit_d2(ir, ws.fit_P[2 * FIT_REF], ws.fit_P[(2 * FIT_REF) + 1]) > far2) return FIT_OUTSIDE; /* nor near */
   for (i = 0; i < FIT_NPT; ++i) {
     const int g = ir + fit_floor((ws.fit_d[i] / ds) + REAL_HALF);
     int lo = g - FIT_SEARCH;
@@ -1856,7 +1857,11 @@ static int fit_one(const truck_conv_el_real_t *pose, truck_conv_el_real_t *out, 
   fit_curvature(s_lo, s_hi, k);
   st = fit_nk(b[5], b[6], k); /* the ego is stretched by 1 / (1 - n kappa) only where n kappa > 0 */
   if (st >= FIT_STRETCH_MAX) return TRUCK_CONV_EL_ERR_OPP_FRENET;
-  if (fit_sag(b, k, &sag) == 0) return TRUCK_CONV_EL_ERR_OPP_FRENET;
+  {
+    const truck_conv_el_real_t hw = shape[1] / FIT_CW; /* oppfit.OppFit.spacing_of */
+    const truck_conv_el_real_t hl = shape[0] / FIT_CL;
+    if (fit_sag(b, k, (hw >= hl) ? hw : hl, &sag) == 0) return TRUCK_CONV_EL_ERR_OPP_FRENET;
+  }
   pad = FIT_MARGIN + (FIT_SAG_SAFETY * sag);
   copy(b, out, 3);
   out[3] = b[3] + pad;
@@ -1905,7 +1910,6 @@ static void fit_road_data(void) {
   /* 1 / the largest neighbour distance, widened by 0.1 % (and 1 um for a road of repeated samples) */
   ws.fit_hmax = (sqrt(h2) * ((truck_conv_el_real_t)1.001)) + ((truck_conv_el_real_t)1e-6);
   ws.fit_ihmax = REAL_1 / ws.fit_hmax;
-  ws.fit_far2 = (FIT_FAR + ws.fit_hmax) * (FIT_FAR + ws.fit_hmax); /* oppfit.far_squared */
   ws.fit_skip = FIT_SKIP_ABS + (FIT_SKIP_REL * cmax);
   ws.fit_uni = FIT_UNI_MIN * (ds * ds);
   fit_unimodal_bounds();
@@ -1916,16 +1920,25 @@ static int fit_opponents(void) {
   int k;
   int j;
   int hint[TRUCK_CONV_EL_NOPP]; /* per opponent: the previous stage's reference sample, the guess of the next */
+  truck_conv_el_real_t far2[TRUCK_CONV_EL_NOPP]; /* per opponent: oppfit.far_squared of its far_of */
+  const truck_conv_el_real_t *shapes = opp_shapes();
   if (ws.road_set == 0) return TRUCK_CONV_EL_ERR_ROAD_WINDOW;
   ws.fit_outside = 0;
   fit_road_data();
   for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
+    const truck_conv_el_real_t *sh = &shapes[j * TRUCK_CONV_EL_NOPP_SHAPE];
+    const truck_conv_el_real_t half_l = sh[0] / REAL_2;
+    const truck_conv_el_real_t half_w = sh[1] / REAL_2;
+    const truck_conv_el_real_t far = (FIT_FAR_BASE + REAL_0) +
+                                  sqrt((half_l * half_l) + (half_w * half_w));
+    far2[j] = (far + ws.fit_hmax) * (far + ws.fit_hmax);
     hint[j] = -1; /* none at stage 0 */
   }
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) {
     for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
       truck_conv_el_real_t *o = &ws.opp_stage[k][6 * j];
-      const int rc = fit_one(&ws.opp[k][TRUCK_CONV_EL_NOPP_PAR * j], o, &hint[j]);
+      const int rc = fit_one(&ws.opp[k][TRUCK_CONV_EL_NOPP_PAR * j], &shapes[j * TRUCK_CONV_EL_NOPP_SHAPE], far2[j], o,
+                             &hint[j]);
       if (rc == FIT_OUTSIDE) { /* left out: a unit box 1000 m behind the road */
         o[0] = (truck_conv_el_real_t)-1000.0 + ws.road_s0;
         o[1] = (truck_conv_el_real_t)0.0;
@@ -2117,12 +2130,6 @@ int truck_conv_el_set_opponent_shapes(const truck_conv_el_real_t *shapes) {
   for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
     const truck_conv_el_real_t *v = &shapes[j * TRUCK_CONV_EL_NOPP_SHAPE];
     if (!((v[0] > REAL_0) && (v[1] > REAL_0))) return fail(TRUCK_CONV_EL_ERR_OPP_SHAPE);
-    {
-      int i; /* the conventional fit is generated for the problem's opponent vehicle */
-      for (i = 0; i < TRUCK_CONV_EL_NOPP_SHAPE; ++i) {
-        if (v[i] != SHAPE_DEFAULT[(j * TRUCK_CONV_EL_NOPP_SHAPE) + i]) return fail(TRUCK_CONV_EL_ERR_OPP_SHAPE);
-      }
-    }
   }
   copy(shapes, ws.opp_shape, TRUCK_CONV_EL_NOPP * TRUCK_CONV_EL_NOPP_SHAPE);
   ws.opp_shape_set = 1;

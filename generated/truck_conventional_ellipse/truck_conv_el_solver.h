@@ -32,7 +32,7 @@ extern "C" {
 #define TRUCK_CONV_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_CONV_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
 #define TRUCK_CONV_EL_RTI_BUDGET 400 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
-#define TRUCK_CONV_EL_WORKSPACE_BYTES 413892 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_CONV_EL_WORKSPACE_BYTES 413884 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_CONV_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -168,8 +168,7 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params);
 int truck_conv_el_set_reference(truck_conv_el_real_t v_ref, truck_conv_el_real_t n_ref);
 /* Every opponent's shape: NOPP x NOPP_SHAPE values [length, width, offset] (chassis length and width > 0,
  * m; how far its centre lies ahead of the pose's point along its heading);
- * copied, kept until set again (init: the problem's opponent vehicle). The conventional formulation's fit is
- * generated for the problem's opponent vehicle: other shapes are refused. ERR_OPP_SHAPE: nothing changed. */
+ * copied, kept until set again (init: the problem's opponent vehicle). ERR_OPP_SHAPE: nothing changed. */
 int truck_conv_el_set_opponent_shapes(const truck_conv_el_real_t *shapes);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
  * x0, load the QP backend's matrices. A no-op while prepared. The initial guess follows the road: the state's n, v,

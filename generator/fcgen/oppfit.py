@@ -48,7 +48,7 @@ the opponent would go unnoticed). The scenario generator's realistic roads keep 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -80,10 +80,13 @@ def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int
 
 @dataclass(frozen=True)
 class OppFit:
-    """The fit's CasADi functions and constants for one problem (``None`` for a non-conventional one)."""
+    """The fit's CasADi functions and constants for one problem (``None`` for a non-conventional one). An opponent's
+    shape (``obstacles.OPP_SHAPE``: length, width, centre offset) is data: its edges get the point counts of the
+    problem's opponent vehicle (``counts``), so the spacing of its points and how far it reaches depend on it
+    (``spacing_of``, ``far_of``); ``spacing`` and ``far`` are the problem's vehicle's."""
 
-    points: ca.Function     # (pose[3]) -> (P[2 x npt], d[npt])
-    box: ca.Function        # (FR[3 x npt], pose[3]) -> (box: BOX; L, W without padding)
+    points: ca.Function     # (pose[3], shape[3]) -> (P[2 x npt], d[npt])
+    box: ca.Function        # (FR[3 x npt], pose[3], shape[3]) -> (box: BOX; L, W without padding)
     npt: int
     ref_point: int          # index of the reference point of the global search
     n_min: float            # the ego's lateral band (state bounds on n)
@@ -93,6 +96,22 @@ class OppFit:
     margin: float           # the box's margin (0 for overapprox="none")
     reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
     far: float              # a reference point farther than this (+ a road spacing) from every road sample: left out
+    counts: tuple[int, int] = (0, 0)   # points on a width edge, on a length edge (0, 0: no edges)
+    far_base: float = 0.0   # far less the opponent's own reach (``far_of``)
+    shape0: tuple[float, ...] = ()   # the problem's opponent vehicle as OPP_SHAPE values
+
+    def spacing_of(self, shape) -> float:
+        """The largest distance of neighbouring edge points of an opponent of ``shape`` (0: no edges)."""
+        if not self.n_edge:
+            return 0.0
+        return max(float(shape[1]) / self.counts[0], float(shape[0]) / self.counts[1])
+
+    def far_of(self, shape) -> float:
+        """``far`` for an opponent of ``shape``: the band and the ego's reach, plus how far the opponent's chassis
+        reaches from its reference point (its centre; the pose's point for ``overapprox="none"``)."""
+        half_l, half_w = float(shape[0]) / 2, float(shape[1]) / 2
+        to_centre = 0.0 if self.n_edge else float(shape[2])
+        return (self.far_base + to_centre) + math.sqrt((half_l * half_l) + (half_w * half_w))
 
 
 def build_oppfit(problem: Problem) -> OppFit | None:
@@ -102,14 +121,16 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         return None
     opp, ego = problem.opponents.vehicle, problem.ego
     pose = ca.SX.sym("pose", 3)
+    shape = ca.SX.sym("shape", len(obs.OPP_SHAPE))
     x, y, phi = pose[0], pose[1], pose[2]
     c, s = ca.cos(phi), ca.sin(phi)
+    counts = (0, 0, 0, 0)
     if form.overapprox == "none":
         P = ca.vertcat(x, y)
         d = ca.SX(1, 1)
         ref, spacing = 0, 0.0
     else:
-        sh = obs.chassis_shape(x, y, phi, opp)
+        sh = obs.shape_of(x, y, phi, shape)
         corners = obs.vertices(sh)
         counts = edge_counts(opp.l_ch, opp.w_ch, form.points_per_metre)
         pts = []
@@ -124,13 +145,13 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         d = ca.vertcat(*[(px - sh.cx) * c + (py - sh.cy) * s for px, py in allp])
         spacing = obs.edge_spacing(opp, form.points_per_metre)
     npt = P.shape[1]
-    points = ca.Function("opp_points", [pose], [P, d], ["pose"], ["P", "d"])
+    points = ca.Function("opp_points", [pose, shape], [P, d], ["pose", "shape"], ["P", "d"])
 
     # -- the box around the mapped points (its padding, which needs the road's curvature, comes after)
     FR = ca.SX.sym("FR", 3, npt)
     reach = ego.l + ego.l_ch + ego.w_ch
     if form.overapprox == "none":
-        sh = obs.chassis_shape(FR[0, 0], FR[1, 0], pose[2] - FR[2, 0], opp)
+        sh = obs.shape_of(FR[0, 0], FR[1, 0], pose[2] - FR[2, 0], shape)
         out = [sh.cx, sh.cy, sh.angle, sh.L, sh.W, 0.0, 0.0, FR[0, 0], FR[0, 0], 0.0, 0.0]
     else:
         n_edge = ref
@@ -146,16 +167,22 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         out = [ca_ * axs - cb * axn, ca_ * axn + cb * axs, angle, 0.5 * (a_hi - a_lo), 0.5 * (b_hi - b_lo),
                ca.mmax(bn) + reach, ca.mmin(bn) - reach, ca.mmin(bs) - reach, ca.mmax(bs) + reach,
                ca.mmax(bn), ca.mmin(bn)]
-    box = ca.Function("opp_box", [FR, pose], [ca.vertcat(*out)], ["FR", "pose"], ["box"])
+    box = ca.Function("opp_box", [FR, pose, shape], [ca.vertcat(*out)], ["FR", "pose", "shape"], ["box"])
     margin = 0.0 if form.overapprox == "none" else form.margin
     n_edge = 0 if form.overapprox == "none" else ref
     # beyond `far` from the road no point of the opponent is within the band plus the ego's reach (its chassis
     # reaches hypot(l_ch, w_ch) / 2 from its centre; the rear-axle reference point is l / 2 behind the centre)
-    to_centre = opp.l / 2 if form.overapprox == "none" else 0.0
-    far = (max(abs(problem.bounds.n_min), abs(problem.bounds.n_max)) + reach + to_centre
-           + math.hypot(opp.l_ch / 2, opp.w_ch / 2))
-    return OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach,
-                  far)
+    far_base = max(abs(problem.bounds.n_min), abs(problem.bounds.n_max)) + reach
+    fit = OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach,
+                 0.0, (counts[0], counts[1]), far_base)
+    shape0 = default_shape(problem)
+    return replace(fit, far=fit.far_of(shape0), shape0=tuple(float(v) for v in shape0))
+
+
+def default_shape(problem: Problem) -> np.ndarray:
+    """The problem's opponent vehicle as ``OPP_SHAPE`` values (its pose is its rear axle)."""
+    v = problem.opponents.vehicle
+    return np.array([v.l_ch, v.w_ch, v.l / 2])
 
 
 def neutral(s0: float) -> np.ndarray:
@@ -320,12 +347,12 @@ def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray, rd: RoadData |
     return s, fn, fp, w0
 
 
-def far_squared(fit: OppFit, road) -> float:
-    """(fit.far + the largest distance of neighbouring road samples)^2, as the C computes it (``fit_road_data``):
-    a reference point farther than this from its nearest sample is left out (no curve point is more than that
-    spacing from a sample)."""
+def far_squared(far: float, road) -> float:
+    """(far + the largest distance of neighbouring road samples)^2, as the C computes it (``fit_road_data``,
+    ``fit_opponents``): a reference point farther than this from its nearest sample is left out (no curve point is
+    more than that spacing from a sample)."""
     h2 = float(np.max(np.diff(road.gx) ** 2 + np.diff(road.gy) ** 2)) if road.size > 1 else 0.0
-    far = fit.far + (math.sqrt(h2) * 1.001 + 1e-6)
+    far = far + (math.sqrt(h2) * 1.001 + 1e-6)
     return far * far
 
 
@@ -340,17 +367,20 @@ class OppFitter:
         self._points = fit.points.map(cnt)
         self._box = fit.box.map(cnt)
 
-    def __call__(self, road, poses: np.ndarray) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
+    def __call__(self, road, poses: np.ndarray, shapes: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
         """Fitted parameters (stages, n_opp * 6), the count left out, the (stage, opponent) pairs that cannot be
         mapped (a foot point outside its window, a stretch >= STRETCH_MAX, an edge beyond the chord bound), in
         stage-major order.
 
-        ``poses``: (stages, n_opp, 3).
+        ``poses``: (stages, n_opp, 3); ``shapes``: (n_opp, 3) ``OPP_SHAPE`` values (None: the problem's vehicle).
         """
         f, npt = self.fit, self.fit.npt
         cnt = self.stages * self.n_opp
         pz = np.asarray(poses, dtype=float).reshape(cnt, 3)
-        P, d = self._points(pz.T)
+        one = f.shape0 if shapes is None else np.asarray(shapes, dtype=float)[:, :3]
+        shp = np.tile(np.asarray(one, dtype=float).reshape(-1, 3), (cnt // len(np.atleast_2d(one)), 1))
+        P, d = self._points(pz.T, shp.T)
         P = np.array(P).reshape(2, cnt, npt)                  # [coord, pair, point]: the map's columns are pair-major
         d = np.array(d).T                                     # [pair, point]
         M = road.size
@@ -358,7 +388,7 @@ class OppFitter:
         rx, ry = P[0, :, f.ref_point], P[1, :, f.ref_point]
         d2 = (road.gx[None, :] - rx[:, None]) ** 2 + (road.gy[None, :] - ry[:, None]) ** 2
         i_ref = np.argmin(d2, axis=1)
-        far2 = far_squared(f, road)
+        far2 = np.array([far_squared(f.far_of(shp[p]), road) for p in range(cnt)])
         is_far = d2[np.arange(cnt), i_ref] > far2
         # every point's nearest sample within SEARCH of its guess
         g = i_ref[:, None] + np.floor(d / road.ds + 0.5).astype(np.int64)
@@ -372,7 +402,7 @@ class OppFitter:
         half = FOOT_WINDOW // 2
         bad_pt = ~np.any(valid, axis=2) | (ist < half) | (ist > M - 1 - half)
         fs, fn, fp, w0 = map_points(f, road, P, np.where(bad_pt, half, ist))
-        boxes = np.array(self._box(_fr_columns(fs, fn, fp), pz.T))
+        boxes = np.array(self._box(_fr_columns(fs, fn, fp), pz.T, shp.T))
         # a foot outside its window: the nearest sample was not next to it (the point cannot be mapped)
         lost = ~((fs >= w0) & (fs <= w0 + (FOOT_WINDOW - 1) * road.ds))
         first = np.argmax(bad_pt | lost, axis=1)   # the C stops at the first such point
@@ -396,7 +426,7 @@ class OppFitter:
                 continue
             kap = road.kappa[(s_grid >= lo) & (s_grid <= hi)]
             st, fac = stretch_factor(bx, kap)
-            sag = obs.chord_sag_bound(f.spacing, float(bx[10]), float(bx[9]), kap, road.ds, f.reach)
+            sag = obs.chord_sag_bound(f.spacing_of(shp[p]), float(bx[10]), float(bx[9]), kap, road.ds, f.reach)
             if st >= STRETCH_MAX or sag is None:
                 singular.append(divmod(p, self.n_opp))
                 continue

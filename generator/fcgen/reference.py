@@ -260,9 +260,6 @@ class RtiSolver:
                 obs.check_opponent_shape(ocp.problem.obstacles, ocp.problem.ego, v)
             except ValueError as e:
                 raise self._fail("ERR_OPP_SHAPE", f"opponent {j}: {e}") from None
-        if ocp.fit is not None and not np.array_equal(shapes, ocp.default_shapes()):
-            raise self._fail("ERR_OPP_SHAPE", "opponent shapes: the conventional fit is generated for the problem's "
-                             "opponent vehicle; allowed only its shape")
         self.opp_shape = shapes.copy()
 
     def set_opponents(self, params: np.ndarray) -> None:
@@ -318,7 +315,7 @@ class RtiSolver:
             return 0
         if self.road is None:
             raise self._fail("ERR_ROAD_WINDOW", "road window not set")
-        out, outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3))
+        out, outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3), self.opp_shape)
         if singular:
             k, j = singular[0]
             raise self._fail("ERR_OPP_FRENET", f"opponent {j} at stage {k} cannot be mapped into the Frenet frame "

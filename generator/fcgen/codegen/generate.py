@@ -242,8 +242,8 @@ def fit_context(ocp: Ocp) -> dict[str, Any] | None:
             "sixth": _c_real(1.0 / 6.0),
             "full": oppfit.FULL_EVALS, "rot_max": _c_real(oppfit.ROT_MAX),
             "sin_c": [_c_real(c) for c in oppfit.SIN_C], "cos_c": [_c_real(c) for c in oppfit.COS_C],
-            "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "spacing": _c_real(f.spacing), "margin": _c_real(f.margin),
-            "reach": _c_real(f.reach), "far": _c_real(f.far), "sag_safety": _c_real(oppfit.SAG_SAFETY),
+            "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "counts": f.counts, "margin": _c_real(f.margin),
+            "reach": _c_real(f.reach), "far_base": _c_real(f.far_base), "sag_safety": _c_real(oppfit.SAG_SAFETY),
             "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
             "stretch_max": _c_real(oppfit.STRETCH_MAX), "n_min": _c_real(f.n_min), "n_max": _c_real(f.n_max),
             "neutral": [_c_real(v) for v in oppfit.neutral(0.0)]}
@@ -357,7 +357,6 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
                     ("NAME_real_t", "fit_box", [fit["nbox"]], R),
                     ("NAME_real_t", "fit_hmax", [], R), ("NAME_real_t", "fit_ihmax", [], R),
                     ("NAME_real_t", "fit_skip", [], R), ("NAME_real_t", "fit_uni", [], R),
-                    ("NAME_real_t", "fit_far2", [], R),
                     ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
         members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
         wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
