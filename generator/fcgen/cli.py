@@ -61,9 +61,16 @@ def _fmt_summary(s: dict) -> str:
               help="an FMU written by `fcgen fmu` (with --controller fmu; its problem unless --problem)")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="write the run log (JSON)")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="write a picture of the run (PNG)")
+@click.option("--commonroad", "cr_file", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="a CommonRoad scenario (XML): its road, recorded traffic and ego start instead of the paper's random "
+              "scenario (docs/commonroad.md); --samples then caps the scenario's own length")
+@click.option("--planning-problem", "cr_pp", type=int, default=None,
+              help="with --commonroad: the planning problem's id (default: the file's first)")
+@click.option("--solution", "cr_solution", type=click.Path(dir_okay=False), default=None,
+              help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)")
 def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samples, controller, solver_dir, fmu_path,
-             out, plot):
-    """Run one randomized closed-loop scenario (paper section V) and print its summary."""
+             out, plot, cr_file, cr_pp, cr_solution):
+    """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from .sim.closedloop import run_closed_loop
     from .sim.runlog import summary
     from .sim.scenario import make_scenario
@@ -75,7 +82,6 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     ctrl = None
     if controller == "fmu":
         from .fmu import FmuController, FmuError
@@ -88,6 +94,12 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         if solver_dir is None:
             _fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
         ctrl = CSolver(build(Path(solver_dir)))
+    if cr_file:
+        _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution)
+        return
+    if cr_pp is not None or cr_solution:
+        _fail("--planning-problem and --solution go with --commonroad")
+    sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {_fmt_summary(s)}")
@@ -98,6 +110,44 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         from .sim.plots import plot_run
         plot_run(log, plot)
         click.echo(f"plot written to {plot}")
+
+
+def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution) -> None:
+    """``simulate --commonroad``: one CommonRoad scenario; its verdicts printed; a refused scenario: one line, exit 1."""
+    from dataclasses import replace as dc_replace
+
+    from .campaign.commonroad import load_for
+    from .commonroad import ScenarioRefused, plot_run, write_solution
+    from .sim.commonroad_run import run_commonroad
+    from .sim.runlog import summary
+    try:
+        sc = load_for(pb, cr_file, cr_pp)
+        if samples < sc.samples:
+            sc = dc_replace(sc, samples=samples)
+        run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
+    except ScenarioRefused as exc:
+        _fail(f"refused: {exc}")
+    log = run.log
+    click.echo(f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "
+               f"{_fmt_summary(summary(log))}")
+    ck, own = run.checker, run.fcgen
+    click.echo(f"collision: fcgen {_verdict(own)}, drivability checker {_verdict(ck)}"
+               f"{'' if run.agree else ' (DISAGREE)'}; road departure (checker): "
+               f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
+               + (f"; responsibility: {run.responsibility}" if run.responsibility else ""))
+    if out:
+        log.to_json(out)
+        click.echo(f"run log written to {out}")
+    if solution:
+        write_solution(sc, run.ego_states, solution)
+        click.echo(f"CommonRoad solution written to {solution}")
+    if plot:
+        plot_run(sc, run.ego_centres, plot)
+        click.echo(f"plot written to {plot}")
+
+
+def _verdict(v: dict) -> str:
+    return f"yes (step {v.get('collision_step')})" if v.get("collision") else "none"
 
 
 def _names(text: str) -> list[str]:
@@ -136,8 +186,11 @@ def _names(text: str) -> list[str]:
 @click.option("--profile", type=click.Choice(["paper", "safe"]), default="paper", show_default=True,
               help="the paper's settings (Table III) or the safe profile (docs/safe_profile.md); a seed's scenario "
               "is the same in both, so the two compare seed by seed (the same --out may hold both)")
+@click.option("--commonroad", "cr_dir", type=click.Path(file_okay=False, exists=True), default=None,
+              help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
+              "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)")
 def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir, cflags, force_report, profile):
+             scheduler, cache_dir, out, report_dir, cflags, force_report, profile, cr_dir):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from .campaign.grid import make_tasks, paper_grid
     from .campaign.runner import run_campaign
@@ -159,6 +212,17 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
     from .atomic import check_folder_target
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
+    if cr_dir:
+        from .campaign.commonroad import run_cr_campaign
+        try:
+            rows = run_cr_campaign(configs, cr_dir, out, str(Path(cache_dir).resolve()), jobs=jobs, echo=click.echo)
+        except ValueError as exc:
+            _fail(str(exc))
+        ran = [r for r in rows if r["status"] == "ran"]
+        click.echo(f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen {sum(r['collision_fcgen'] for r in ran)}, "
+                   f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
+                   f"{len(ran)}; summary {Path(out) / 'commonroad.md'}")
+        return
     if report_dir:
         from .report.page import check_report_target
         check_report_target(report_dir, force_report)

@@ -1,0 +1,10 @@
+"""CommonRoad scenarios in, CommonRoad solutions out (docs/commonroad.md): a scenario's lanelet network becomes fcgen's
+road with its drivable band, its recorded traffic the opponents' predictions, its planning problem the ego's start;
+a run is judged by the drivability checker beside fcgen's own check and written as a solution file."""
+from .judge import drivability_verdict, fcgen_collisions, write_solution
+from .plot import plot_run
+from .scenario import CrScenario, load_scenario
+from .traffic import CrObstacle, ScenarioRefused, opponent_horizon, select_opponents
+
+__all__ = ["CrObstacle", "CrScenario", "ScenarioRefused", "drivability_verdict", "fcgen_collisions",
+           "load_scenario", "opponent_horizon", "plot_run", "select_opponents", "write_solution"]

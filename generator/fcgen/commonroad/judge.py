@@ -1,0 +1,81 @@
+"""A run on a scenario, judged twice: by the CommonRoad drivability checker (``commonroad_dc``: the ego's rectangle
+against every obstacle of the scenario over time, and against the road boundary) and by fcgen's own rectangle check
+(separating axes, the campaign's judge) against the same obstacles at the same steps; and written out as a
+CommonRoad solution file.
+
+``ego_centres`` (K + 1, 3): the ego chassis' centre pose [x, y, phi] at steps ``sc.first_step + j``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..sim.collision import corners_from_dims, sat_overlap
+
+
+def _rect(pycrcc, length: float, width: float, pose) -> object:
+    return pycrcc.RectOBB(length / 2, width / 2, float(pose[2]), float(pose[0]), float(pose[1]))
+
+
+def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
+    """The checker's verdict: ``collision`` / ``collision_step`` (first closed-loop sample touching an obstacle,
+    None without), ``obstacle_id``, ``road_departure`` / ``departure_step`` (the ego's rectangle touching the road
+    boundary of the lanelet network, obb_rectangles)."""
+    import commonroad_dc.pycrcc as pycrcc
+    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_checker
+    cc = create_collision_checker(sc.scenario)
+    _, boundary = create_road_boundary_obstacle(sc.scenario, method="obb_rectangles")
+    hit = dep = None
+    for j, pose in enumerate(np.asarray(ego_centres, dtype=float)):
+        r = _rect(pycrcc, length, width, pose)
+        if hit is None and cc.time_slice(sc.first_step + j).collide(r):
+            hit = j
+        if dep is None and boundary.collide(r):
+            dep = j
+        if hit is not None and dep is not None:
+            break
+    return {"collision": hit is not None, "collision_step": hit, "road_departure": dep is not None,
+            "departure_step": dep}
+
+
+def fcgen_collisions(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
+    """fcgen's verdict with its own rectangle check against every obstacle present at each step: ``collision``,
+    ``collision_step``, ``obstacle_id`` (of the first contact), ``depth`` (the deepest SAT penetration, m)."""
+    dims = {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
+    first, who, depth = None, None, 0.0
+    for j, pose in enumerate(np.asarray(ego_centres, dtype=float)):
+        ego = corners_from_dims(pose, dims)
+        for ob in sc.obstacles:
+            if not ob.present(sc.first_step + j):
+                continue
+            p = ob.pose(sc.first_step + j)
+            od = {"l_f": 0.0, "l_r": 0.0, "l_r_ch": ob.length / 2, "l_f_ch": ob.length / 2, "w_ch": ob.width}
+            d = float(sat_overlap(ego, corners_from_dims(p, od)))
+            if d > 0.0:
+                depth = max(depth, d)
+                if first is None:
+                    first, who = j, ob.id
+    return {"collision": first is not None, "collision_step": first, "obstacle_id": who, "depth": depth}
+
+
+def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:
+    """A CommonRoad solution file of the run: planning problem ``sc.planning_problem_id``, kinematic single-track
+    model (KS: its position is the rear axle, as fcgen's state), vehicle type BMW 320i, cost function SM1;
+    ``ego_states`` (K + 1, 5): rear axle [x, y, phi], speed, steering angle per sample."""
+    from commonroad.common.solution import (CommonRoadSolutionWriter, CostFunction, PlanningProblemSolution,
+                                            Solution, VehicleModel, VehicleType)
+    from commonroad.scenario.state import KSState
+    from commonroad.scenario.trajectory import Trajectory
+    states = [KSState(time_step=sc.first_step + j, position=np.array([x[0], x[1]]), orientation=float(x[2]),
+                      velocity=float(x[3]), steering_angle=float(x[4]))
+              for j, x in enumerate(np.asarray(ego_states, dtype=float))]
+    pps = PlanningProblemSolution(planning_problem_id=sc.planning_problem_id, vehicle_model=VehicleModel.KS,
+                                  vehicle_type=VehicleType.BMW_320i, cost_function=CostFunction.SM1,
+                                  trajectory=Trajectory(sc.first_step, states))
+    sol = Solution(sc.scenario.scenario_id, [pps])
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(CommonRoadSolutionWriter(sol).dump())
+    return out

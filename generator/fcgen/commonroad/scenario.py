@@ -1,0 +1,118 @@
+"""Load a CommonRoad scenario as what fcgen drives: the road with its band, the ego's start and reference speed, the
+obstacles; or refuse it with one line naming the reason.
+
+- **Ego**: the planning problem's initial state (CommonRoad's position is the vehicle's centre: fcgen's state is the
+  rear axle, half the ego's wheelbase behind it), its speed, steering angle 0.
+- **Reference speed** (``v_ref_source``): the initial lanelet's speed limit (a ``MAX_SPEED`` sign), else the centre
+  of the goal's velocity interval, else the initial speed.
+- **Samples** (``samples_source``): to the end of the goal's time interval, else to the last recorded obstacle step,
+  at least 1.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..dsl import Vehicle
+from ..road import Road
+from .reference_path import build_road, initial_lanelet, lanelet_chain
+from .traffic import CrObstacle, ScenarioRefused, obstacle_from
+
+
+@dataclass(frozen=True, eq=False)
+class CrScenario:
+    """A CommonRoad scenario as fcgen drives it."""
+
+    name: str
+    dt: float
+    first_step: int            # the planning problem's initial time step: closed-loop sample j is step first_step + j
+    samples: int
+    road: Road                 # with the drivable band n_min / n_max
+    x0: np.ndarray             # ego Frenet state of the rear axle [s, n, alpha, v, delta]
+    v_ref: float
+    v_ref_source: str          # "speed limit", "goal velocity" or "initial speed"
+    samples_source: str        # "goal time" or "recording"
+    obstacles: tuple[CrObstacle, ...]
+    ego_length: float
+    ego_width: float
+    planning_problem_id: int
+    road_info: dict = field(default_factory=dict)
+    scenario: object = None    # the commonroad-io Scenario (checker, writer, renderer)
+    planning_problem: object = None
+
+
+def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, ego: Vehicle, ds: float = 2.0,
+                  horizon_s: float = 4.0, v_max: float = 40.0, window_m: float = 280.0,
+                  behind_m: float = 50.0) -> CrScenario:
+    """Read ``path`` (CommonRoad XML) for an ego ``ego`` on fcgen's road grid ``ds``. The reference path must reach
+    the horizon (``horizon_s`` at the larger of the initial and the reference speed) ahead of the ego's start; the road
+    reaches as far as the run can take the ego at ``v_max`` plus the solver's road ``window_m``. Raises
+    ``ScenarioRefused``."""
+    from commonroad.common.file_reader import CommonRoadFileReader
+    try:
+        scenario, pps = CommonRoadFileReader(str(path)).open()
+    except Exception as exc:   # a file commonroad-io cannot read
+        raise ScenarioRefused(f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
+                              f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    name = str(scenario.scenario_id)
+    problems = pps.planning_problem_dict
+    if not problems:
+        raise ScenarioRefused(f"{name}: no planning problem")
+    if planning_problem_id is None:
+        planning_problem_id = sorted(problems)[0]
+    if planning_problem_id not in problems:
+        raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
+    pp = problems[planning_problem_id]
+    dt = float(scenario.dt)
+    obstacles = tuple(obstacle_from(ob, dt) for ob in
+                      sorted(list(scenario.dynamic_obstacles) + list(scenario.static_obstacles),
+                             key=lambda o: o.obstacle_id))
+    st = pp.initial_state
+    heading = float(st.orientation)
+    centre = np.asarray(st.position, dtype=float)
+    rear = centre - (ego.l / 2) * np.array([math.cos(heading), math.sin(heading)])
+    net = scenario.lanelet_network
+    first = initial_lanelet(net, centre, heading)
+    goals = set()
+    for ids in (pp.goal.lanelets_of_goal_position or {}).values():
+        goals |= set(ids)
+    v0 = float(getattr(st, "velocity", 0.0) or 0.0)
+    v_ref, v_src = reference_speed(net, first, pp, v0)
+    step0 = int(st.time_step)
+    samples, s_src = run_length(pp, obstacles, step0)
+    horizon_m = horizon_s * max(v0, v_ref)
+    chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
+    road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
+    if info["path_ahead_m"] < horizon_m:
+        raise ScenarioRefused(f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
+                              f"shorter than the horizon's {horizon_m:.0f} m")
+    s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
+    x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
+    return CrScenario(name, dt, step0, samples, road, x0, v_ref, v_src, s_src, obstacles, ego.l_ch, ego.w_ch,
+                      int(planning_problem_id), info, scenario, pp)
+
+
+def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:
+    """The reference speed and where it came from (module docstring)."""
+    for sid in sorted(net.find_lanelet_by_id(lanelet_id).traffic_signs or []):
+        sign = net.find_traffic_sign_by_id(sid)
+        for el in sign.traffic_sign_elements:
+            if "MAX_SPEED" in str(el.traffic_sign_element_id.name) and el.additional_values:
+                return float(el.additional_values[0]), "speed limit"
+    for gs in pp.goal.state_list:
+        v = getattr(gs, "velocity", None)
+        if v is not None and hasattr(v, "start"):
+            return 0.5 * (float(v.start) + float(v.end)), "goal velocity"
+    return float(v0), "initial speed"
+
+
+def run_length(pp, obstacles, step0: int) -> tuple[int, str]:
+    """Closed-loop samples (module docstring)."""
+    ends = [int(gs.time_step.end) for gs in pp.goal.state_list if getattr(gs, "time_step", None) is not None]
+    if ends:
+        return max(1, max(ends) - step0), "goal time"
+    last = max((ob.last_step for ob in obstacles if not ob.static), default=step0 + 1)
+    return max(1, last - step0), "recording"

@@ -1,0 +1,128 @@
+"""A scenario's obstacles as fcgen's opponents: their shapes, their recorded trajectories as predictions, and which
+of them fill the solver's opponent slots.
+
+Rules (tested in tests/test_commonroad.py):
+
+- **Shape**: a CommonRoad ``Rectangle`` (length, width) whose pose is its centre (shape offset 0). Any other shape
+  refuses the scenario (``ScenarioRefused`` naming the obstacle).
+- **Prediction = the recording** (the paper's perfect-prediction assumption): the recorded centre pose at every
+  recorded step; **after the recorded end, constant velocity along the last heading** (the last state's velocity,
+  else the last two positions' difference); before its first step an obstacle is not there (``None``). A static
+  obstacle stands at its pose at every step.
+- **Presence**: an obstacle is present at step t when it is static or recorded at t (it appears at its first step
+  and disappears after its last: the drivability checker sees it over the same steps).
+- **Relevance** (``select_opponents``): of the obstacles present at a step, the ``n_slots`` nearest to the ego's
+  centre (Euclidean distance of the centres at that step), ties by obstacle id.
+- **Empty slots**: a neutral opponent, a 4 m x 2 m box 1 km beyond the road's bounding box (south-west of it),
+  heading 0, standing: it never constrains the plan (the conventional fit leaves it out).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+NEUTRAL_SHAPE = (4.0, 2.0, 0.0)
+NEUTRAL_DISTANCE = 1000.0
+
+
+class ScenarioRefused(ValueError):
+    """A scenario fcgen cannot drive; the message is one line naming the reason."""
+
+
+@dataclass(frozen=True, eq=False)
+class CrObstacle:
+    """One obstacle: its rectangle and its recorded centre poses ``centres[i]`` at step ``first_step + i``."""
+
+    id: int
+    static: bool
+    length: float
+    width: float
+    first_step: int
+    last_step: int
+    centres: np.ndarray        # (steps, 3): x, y, orientation of the rectangle's centre
+    last_velocity: float       # m/s along the last heading (the extrapolation's)
+    dt: float
+
+    def present(self, step: int) -> bool:
+        """Recorded at ``step`` (a static obstacle: always)."""
+        return self.static or self.first_step <= step <= self.last_step
+
+    def pose(self, step: int) -> np.ndarray | None:
+        """Centre pose at ``step``: recorded, extrapolated at constant velocity after the end, None before it."""
+        if self.static:
+            return self.centres[0].copy()
+        if step < self.first_step:
+            return None
+        if step <= self.last_step:
+            return self.centres[step - self.first_step].copy()
+        x, y, phi = self.centres[-1]
+        d = self.last_velocity * (step - self.last_step) * self.dt
+        return np.array([x + d * math.cos(phi), y + d * math.sin(phi), phi])
+
+
+def obstacle_from(ob, dt: float) -> CrObstacle:
+    """A commonroad-io static or dynamic obstacle as a ``CrObstacle`` (refused unless a rectangle)."""
+    from commonroad.geometry.shape import Rectangle
+    from commonroad.scenario.obstacle import StaticObstacle
+    shape = ob.obstacle_shape
+    if not isinstance(shape, Rectangle):
+        raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle")
+    states = [ob.initial_state]
+    static = isinstance(ob, StaticObstacle)
+    if not static and ob.prediction is not None and hasattr(ob.prediction, "trajectory"):
+        states += [s for s in ob.prediction.trajectory.state_list if s.time_step > ob.initial_state.time_step]
+    states.sort(key=lambda s: s.time_step)
+    steps = [int(s.time_step) for s in states]
+    if steps != list(range(steps[0], steps[0] + len(steps))):
+        raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its recorded time steps are not consecutive")
+    centres = np.array([[float(s.position[0]), float(s.position[1]), float(getattr(s, "orientation", 0.0) or 0.0)]
+                        for s in states])
+    v = getattr(states[-1], "velocity", None)
+    if v is None:
+        v = (float(np.hypot(*(centres[-1, :2] - centres[-2, :2]))) / dt) if len(states) > 1 else 0.0
+    return CrObstacle(int(ob.obstacle_id), static, float(shape.length), float(shape.width), steps[0], steps[-1],
+                      centres, float(v), dt)
+
+
+def select_opponents(obstacles, step: int, ego_xy, n_slots: int) -> tuple[int | None, ...]:
+    """Indices into ``obstacles`` of the ``n_slots`` present obstacles nearest to ``ego_xy`` at ``step`` (ties by
+    id); ``None`` for the slots left empty."""
+    cand = []
+    for i, ob in enumerate(obstacles):
+        if ob.present(step):
+            p = ob.pose(step)
+            cand.append((math.hypot(p[0] - ego_xy[0], p[1] - ego_xy[1]), ob.id, i))
+    cand.sort()
+    chosen = [i for _, _, i in cand[:n_slots]]
+    return tuple(chosen) + (None,) * (n_slots - len(chosen))
+
+
+def neutral_pose(road) -> np.ndarray:
+    """Where an empty slot's opponent stands: ``NEUTRAL_DISTANCE`` beyond the road's bounding box."""
+    return np.array([float(np.min(road.gx)) - NEUTRAL_DISTANCE, float(np.min(road.gy)) - NEUTRAL_DISTANCE, 0.0])
+
+
+def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int):
+    """The solver's opponents at closed-loop sample ``step`` (scenario step ``sc.first_step + step``): centre poses
+    (N+1, n_slots, 3) over the horizon, shapes (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
+    (None for an empty slot)."""
+    t0 = sc.first_step + step
+    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots)
+    poses = np.zeros((N + 1, n_slots, 3))
+    shapes = np.zeros((n_slots, 3))
+    ids = []
+    far = neutral_pose(sc.road)
+    for j, i in enumerate(idx):
+        if i is None:
+            poses[:, j] = far
+            shapes[j] = NEUTRAL_SHAPE
+            ids.append(None)
+            continue
+        ob = sc.obstacles[i]
+        for k in range(N + 1):
+            poses[k, j] = ob.pose(t0 + k)
+        shapes[j] = (ob.length, ob.width, 0.0)
+        ids.append(ob.id)
+    return poses, shapes, tuple(ids)

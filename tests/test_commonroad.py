@@ -1,0 +1,207 @@
+"""CommonRoad scenarios in, CommonRoad solutions out: on small scenarios the tests write with commonroad-io (a straight
+and a curved three-lane road, a lane that ends, a truck and cars with given trajectories), the road, its band, the
+opponents, the refusals and the two collision checks against hand-derived values; a closed loop with the C = Python."""
+from __future__ import annotations
+
+import math
+import shutil
+import warnings
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from crscenes import LANE, write_scenario
+from fcgen.campaign.commonroad import load_for
+from fcgen.commonroad import (ScenarioRefused, drivability_verdict, fcgen_collisions, load_scenario,
+                              opponent_horizon, select_opponents, write_solution)
+from fcgen.presets import preset
+
+pytestmark = [pytest.mark.filterwarnings("ignore::UserWarning"), pytest.mark.filterwarnings("ignore::DeprecationWarning")]
+PB = preset("car_lifted_ellipse_ipm")
+CAR = PB.ego
+# obstacles: (id, lane, s0, speed, recorded steps, length, width[, first step])
+STANDING = (1, 1, 150.0, 0.0, 120, 4.5, 1.8)
+TRUCK = (2, 0, 40.0, 15.0, 30, 12.0, 2.5)
+LATE = (3, 2, 80.0, 25.0, 20, 4.5, 1.8, 10)
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    path = write_scenario(tmp_path_factory.mktemp("cr") / "straight.xml", obstacles=[STANDING, TRUCK, LATE])
+    return load_for(PB, path)
+
+
+def test_a_straight_three_lane_road(straight):
+    """Lanes of 3.5 m, the ego on the middle one: the band is [-5.25, 5.25] at every sample (the scan's tolerance
+    2 cm), the curvature 0; the ego's Frenet start is its rear axle, half the wheelbase behind its centre (50, 0)."""
+    sc = straight
+    assert np.all(np.abs(sc.road.kappa) < 1e-9)
+    np.testing.assert_allclose(sc.road.n_min, -1.5 * LANE, atol=0.021)
+    np.testing.assert_allclose(sc.road.n_max, 1.5 * LANE, atol=0.021)
+    x, y, phi = sc.road.to_cartesian(sc.x0[0], sc.x0[1], sc.x0[2])
+    assert (float(x), float(y), float(phi)) == pytest.approx((50.0 - CAR.l / 2, 0.0, 0.0), abs=1e-9)
+    assert sc.x0[3] == 20.0 and sc.x0[4] == 0.0
+    assert (sc.v_ref, sc.v_ref_source) == (20.0, "initial speed")
+    assert (sc.samples, sc.samples_source) == (40, "goal time")
+    assert sc.road_info["max_deviation_m"] < 1e-6
+    # the road reaches the window behind the ego and what the run can reach ahead at v_max, plus the solver's window
+    assert sc.road.s0 <= sc.x0[0] - 50.0
+    assert sc.road.s_end >= sc.x0[0] + sc.samples * sc.dt * PB.bounds.v_max + (PB.road.samples - 1) * PB.road.ds
+
+
+def test_a_bend_of_constant_radius(tmp_path):
+    """A left bend of radius 200 m: the curvature 1/200 on the lanelets (within 1.5 %: the smoothing spline through
+    the 2 m polyline), the band still +-5.25 m along the normals, the centre line reproduced within 5 cm."""
+    sc = load_for(PB, write_scenario(tmp_path / "bend.xml", radius=200.0, length=500.0, goal_steps=(20, 30)))
+    on = slice(30, 200)   # samples on the lanelets, away from their ends
+    np.testing.assert_allclose(sc.road.kappa[on], 1 / 200.0, rtol=0.015)
+    np.testing.assert_allclose(sc.road.n_min[on], -1.5 * LANE, atol=0.03)
+    np.testing.assert_allclose(sc.road.n_max[on], 1.5 * LANE, atol=0.03)
+    assert sc.road_info["max_deviation_m"] < 0.05
+
+
+def test_a_lane_that_ends_narrows_the_band(tmp_path):
+    """The left lane ends 150 m along the road: left of the centre line 5.25 m before, 1.75 m after it."""
+    sc = load_for(PB, write_scenario(tmp_path / "merge.xml", end_lane=(2, 150.0), goal_steps=(20, 30)))
+    s_xy = sc.road.gx   # the road runs along x from x = 0
+    before, after = (s_xy > 10.0) & (s_xy < 140.0), (s_xy > 160.0) & (s_xy < 390.0)
+    np.testing.assert_allclose(sc.road.n_max[before], 1.5 * LANE, atol=0.021)
+    np.testing.assert_allclose(sc.road.n_max[after], 0.5 * LANE, atol=0.021)
+    np.testing.assert_allclose(sc.road.n_min[before | after], -1.5 * LANE, atol=0.021)
+
+
+def test_obstacles_shapes_recordings_and_extrapolation(straight):
+    """The truck (12 x 2.5 m, lane 0: y = -3.5, 15 m/s from x = 40, recorded steps 0..29): at step 5 x = 47.5; past
+    its end (step 39) at constant velocity x = 40 + 15 x 3.9; the late car is not there before step 10."""
+    sc = straight
+    truck = next(o for o in sc.obstacles if o.id == 2)
+    late = next(o for o in sc.obstacles if o.id == 3)
+    assert (truck.length, truck.width, truck.first_step, truck.last_step) == (12.0, 2.5, 0, 29)
+    np.testing.assert_allclose(truck.pose(5), [47.5, -LANE, 0.0], atol=1e-9)
+    np.testing.assert_allclose(truck.pose(39), [40.0 + 15.0 * 3.9, -LANE, 0.0], atol=1e-9)
+    assert truck.present(29) and not truck.present(30)
+    assert late.pose(9) is None and not late.present(9) and late.present(10)
+    np.testing.assert_allclose(late.pose(10), [80.0, LANE, 0.0], atol=1e-9)
+
+
+def test_the_relevance_rule_and_empty_slots(straight):
+    """Nearest first among the present obstacles: at step 0 from (50, 0) the truck (10.6 m), the standing car
+    (100 m), the late car not yet there (an empty slot); at step 12 the late car (85, 3.5) comes before the standing
+    car. An empty slot holds a small box far beyond the road."""
+    sc = straight
+    ids = [o.id for o in sc.obstacles]
+    assert [ids[i] if i is not None else None for i in select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)] == \
+        [2, 1, None]
+    assert [ids[i] for i in select_opponents(sc.obstacles, 12, (50.0, 0.0), 3)] == [2, 3, 1]
+    poses, shapes, slot_ids = opponent_horizon(sc, 0, (50.0, 0.0), 3, PB.horizon.N)
+    assert slot_ids == (2, 1, None)
+    np.testing.assert_array_equal(shapes[0], [12.0, 2.5, 0.0])
+    np.testing.assert_allclose(poses[10, 0], [40.0 + 15.0, -LANE, 0.0], atol=1e-9)   # 1 s later
+    assert poses[0, 2, 0] < float(np.min(sc.road.gx)) - 999.0
+
+
+def test_unusable_scenarios_are_refused_with_one_line(tmp_path):
+    cases = [
+        (dict(ego_x=50.0, ego_lane=5, lanes=3), "no lanelet at the ego's start"),
+        (dict(length=80.0, ego_x=40.0), "shorter than the horizon"),
+        (dict(obstacles=[(7, 0, 60.0, 0.0, 5, 4.0, 2.0)], shape="circle"), "obstacle 7: its shape is a Circle"),
+    ]
+    for i, (kw, reason) in enumerate(cases):
+        path = write_scenario(tmp_path / f"bad{i}.xml", **kw)
+        with pytest.raises(ScenarioRefused, match=reason) as e:
+            load_for(PB, path)
+        assert "\n" not in str(e.value)
+    with pytest.raises(ScenarioRefused, match="no planning problem 9"):
+        load_for(PB, write_scenario(tmp_path / "ok.xml"), 9)
+
+
+def _line(y: float, x0: float = 100.0, steps: int = 60) -> np.ndarray:
+    return np.stack([x0 + np.arange(steps), np.full(steps, y), np.zeros(steps)], axis=1)
+
+
+def test_the_drivability_checker_and_fcgen_agree_with_the_hand_derived_contact(straight):
+    """The ego (4 x 1.9 m, centre) drives along y = 0 at 1 m a step from x = 100 into the standing car (4.5 m long,
+    centred at x = 150): their rectangles meet when 100 + j + 2 > 147.75, first at step 46; along y = -3.5 it passes
+    (1.65 m apart); at y = 4.5 its left side (5.45 m) is beyond the road's edge (5.25 m) from step 0."""
+    sc = straight
+    hit = _line(0.0)
+    for verdict in (drivability_verdict(sc, hit, CAR.l_ch, CAR.w_ch), fcgen_collisions(sc, hit, CAR.l_ch, CAR.w_ch)):
+        assert verdict["collision"] and verdict["collision_step"] == 46
+    assert fcgen_collisions(sc, hit, CAR.l_ch, CAR.w_ch)["obstacle_id"] == 1
+    past = _line(-LANE)   # the right lane: the truck (behind, recorded to step 29) does not reach it
+    ck = drivability_verdict(sc, past, CAR.l_ch, CAR.w_ch)
+    assert not ck["collision"] and not fcgen_collisions(sc, past, CAR.l_ch, CAR.w_ch)["collision"]
+    assert not ck["road_departure"]
+    off = drivability_verdict(sc, _line(4.5), CAR.l_ch, CAR.w_ch)
+    assert off["road_departure"] and off["departure_step"] == 0
+
+
+def test_the_solution_file_reads_back(straight, tmp_path):
+    from commonroad.common.solution import CommonRoadSolutionReader, VehicleModel
+    states = np.column_stack([_line(0.0, steps=5), np.full(5, 20.0), np.zeros(5)])
+    write_solution(straight, states, tmp_path / "sol.xml")
+    sol = CommonRoadSolutionReader.open(str(tmp_path / "sol.xml"))
+    pps = sol.planning_problem_solutions[0]
+    assert pps.vehicle_model == VehicleModel.KS and pps.planning_problem_id == 1
+    st = pps.trajectory.state_list
+    assert len(st) == 5 and st[-1].time_step == 4
+    np.testing.assert_allclose(st[3].position, [103.0, 0.0])
+    assert st[3].velocity == 20.0
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_a_closed_loop_on_the_scenario_c_equals_python(straight, tmp_path):
+    """The ego passes the standing car (the plan moves it left of the car): no collision by either check, inside the
+    band, the C's run equal to the reference's; the picture and the run log are written."""
+    from fcgen.build import CSolver, build
+    from fcgen.codegen.generate import generate
+    from fcgen.sim.commonroad_run import run_commonroad
+    from fcgen.sim.runlog import RunLog
+    sc = straight
+    py = run_commonroad(PB, sc)
+    cs = CSolver(build(generate(PB, tmp_path / "s").out_dir))
+    c = run_commonroad(PB, sc, controller=cs)
+    np.testing.assert_allclose(c.log.ego_frenet, py.log.ego_frenet, rtol=0, atol=1e-8)
+    for run in (py, c):
+        assert run.agree and not run.fcgen["collision"] and not run.checker["road_departure"]
+    n = np.asarray(py.log.ego_frenet)[:, 1]
+    assert np.all(n >= -1.5 * LANE + CAR.w_ch / 2 - 0.05) and np.all(n <= 1.5 * LANE)
+    assert c.log.meta["extra"]["commonroad"]["slots"][0] == [2, 1, -1]
+    c.log.to_json(tmp_path / "run.json")
+    back = RunLog.from_json(tmp_path / "run.json")
+    assert back.meta["extra"]["commonroad"]["agree"] is True
+    assert len(back.opponents) == len(sc.obstacles)
+
+
+def test_simulate_and_campaign_commands(straight, tmp_path):
+    """``fcgen simulate --commonroad`` prints both verdicts and writes the log, the solution and the picture; a
+    scenario it cannot drive is one line, exit 1; ``campaign --commonroad`` runs a folder (one refused) into rows and a
+    summary."""
+    from fcgen.cli import main
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    good = write_scenario(folder / "a_straight.xml", obstacles=[STANDING, TRUCK], goal_steps=(8, 10))
+    bad = write_scenario(folder / "b_short.xml", length=80.0, ego_x=40.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = CliRunner().invoke(main, ["simulate", "--commonroad", str(good), "--problem", "car_lifted_ellipse_ipm",
+                                      "--out", str(tmp_path / "log.json"), "--solution", str(tmp_path / "sol.xml"),
+                                      "--plot", str(tmp_path / "run.png")])
+        assert r.exit_code == 0, r.output
+        assert "collision: fcgen none, drivability checker none" in r.output
+        assert all((tmp_path / f).is_file() for f in ("log.json", "sol.xml", "run.png"))
+        r = CliRunner().invoke(main, ["simulate", "--commonroad", str(bad), "--problem", "car_lifted_ellipse_ipm"])
+        assert r.exit_code == 1 and r.output.count("\n") == 1 and "refused:" in r.output and "horizon" in r.output
+        out = tmp_path / "res"
+        r = CliRunner().invoke(main, ["campaign", "--commonroad", str(folder), "--scenarios", "car",
+                                      "--formulations", "lifted", "--obstacles", "ellipse", "--controller", "python",
+                                      "--jobs", "1", "--out", str(out), "--cache", str(tmp_path / "cache")])
+    assert r.exit_code == 0, r.output
+    import pandas as pd
+    df = pd.read_parquet(out / "commonroad.parquet")
+    assert sorted(df.status) == ["ran", "refused"]
+    assert "horizon" in df[df.status == "refused"].reason.iloc[0]
+    assert bool(df[df.status == "ran"].agree.iloc[0])
+    assert "Agreement: 1 of 1 runs" in (out / "commonroad.md").read_text()
+    assert math.isfinite(float(df[df.status == "ran"].progress_m.iloc[0]))
