@@ -3,8 +3,9 @@ obstacles; or refuse it with one line naming the reason.
 
 - **Ego**: the planning problem's initial state (CommonRoad's position is the vehicle's centre: fcgen's state is the
   rear axle, half the ego's wheelbase behind it), its speed, steering angle 0.
-- **Reference speed** (``v_ref_source``): the initial lanelet's speed limit (a ``MAX_SPEED`` sign), else the centre
-  of the goal's velocity interval, else the initial speed.
+- **Reference speed** (``v_ref_source``): the initial lanelet's speed limit (a ``MAX_SPEED`` sign), else the
+  initial speed brought into the goal's velocity interval (the ego keeps the traffic's speed where the goal allows
+  it: the recorded traffic does not react to an ego that slows down), else the initial speed.
 - **Samples** (``samples_source``): to the end of the goal's time interval, else to the last recorded obstacle step,
   at least 1.
 """
@@ -105,7 +106,7 @@ def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:
     for gs in pp.goal.state_list:
         v = getattr(gs, "velocity", None)
         if v is not None and hasattr(v, "start"):
-            return 0.5 * (float(v.start) + float(v.end)), "goal velocity"
+            return min(max(float(v0), float(v.start)), float(v.end)), "goal velocity"
     return float(v0), "initial speed"
 
 

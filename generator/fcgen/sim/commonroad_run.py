@@ -8,9 +8,11 @@ and their shapes (``set_opponent_shapes`` when a slot's occupant changes); the r
 solver as in the paper's loop; the plant is the same kinematic model. The reference is ``set_reference(v_ref, 0)``:
 the scenario's speed and the reference path's lane centre.
 
-The problem's road band ``Bounds.n_min``/``n_max`` stays what it is: where the scenario's drivable band is wider,
-the solver gets the band cut to it (stated in the log's ``extra.commonroad.band_cut``); a scenario's time step must be
-the problem's ``dt`` (else the scenario is refused).
+The solver's lateral bound is on the ego's reference point (its rear axle), so it gets the drivable band shrunk by
+half the ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners):
+the chassis stays on the road while the bound holds. The problem's road band ``Bounds.n_min``/``n_max`` stays what it
+is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
+``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
 """
 from __future__ import annotations
 
@@ -56,12 +58,18 @@ def centre_dims(length: float, width: float) -> dict:
     return {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
 
 
+HEADING_MARGIN = 0.25   # m: the band's extra shrink for the chassis' corners at a small heading
+
+
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
-    """The scenario's road with its band cut to the problem's ``Bounds`` (the solver refuses a wider one); and how
-    much was cut at most (m, 0: none)."""
+    """The scenario's road with the band the ego's rear axle may use (shrunk by half its width and
+    ``HEADING_MARGIN``), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
+    most (m, 0: none)."""
     road, b = sc.road, problem.bounds
-    lo, hi = np.maximum(road.n_min, b.n_min), np.minimum(road.n_max, b.n_max)
-    cut = float(max(np.max(lo - road.n_min), np.max(road.n_max - hi), 0.0))
+    inset = problem.ego.w_ch / 2 + HEADING_MARGIN
+    lo0, hi0 = road.n_min + inset, road.n_max - inset
+    lo, hi = np.maximum(lo0, b.n_min), np.minimum(hi0, b.n_max)
+    cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
         i = int(np.flatnonzero(lo >= hi)[0])
         raise ValueError(f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
