@@ -14,6 +14,11 @@ import numpy as np
 from ..sim.collision import corners_from_dims, sat_overlap
 
 
+def centre_dims(length: float, width: float) -> dict:
+    """Run-log / ``sim.collision`` dimensions of a rectangle whose pose is its centre (CommonRoad's obstacles)."""
+    return {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
+
+
 def _rect(pycrcc, length: float, width: float, pose) -> object:
     return pycrcc.RectOBB(length / 2, width / 2, float(pose[2]), float(pose[0]), float(pose[1]))
 
@@ -40,24 +45,34 @@ def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float
             "departure_step": dep}
 
 
-def fcgen_collisions(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
-    """fcgen's verdict with its own rectangle check against every obstacle present at each step: ``collision``,
-    ``collision_step``, ``obstacle_id`` (of the first contact), ``depth`` (the deepest SAT penetration, m)."""
-    dims = {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
-    first, who, depth = None, None, 0.0
-    for j, pose in enumerate(np.asarray(ego_centres, dtype=float)):
+def penetrations(sc, ego_centres: np.ndarray, length: float, width: float) -> np.ndarray:
+    """(K + 1, obstacles): the separating-axis penetration depth (m, 0 apart) of the ego's rectangle and every
+    obstacle present at each step (the campaign's judge)."""
+    c = np.asarray(ego_centres, dtype=float)
+    pen = np.zeros((len(c), len(sc.obstacles)))
+    dims = centre_dims(length, width)
+    for j, pose in enumerate(c):
         ego = corners_from_dims(pose, dims)
-        for ob in sc.obstacles:
-            if not ob.present(sc.first_step + j):
-                continue
-            p = ob.pose(sc.first_step + j)
-            od = {"l_f": 0.0, "l_r": 0.0, "l_r_ch": ob.length / 2, "l_f_ch": ob.length / 2, "w_ch": ob.width}
-            d = float(sat_overlap(ego, corners_from_dims(p, od)))
-            if d > 0.0:
-                depth = max(depth, d)
-                if first is None:
-                    first, who = j, ob.id
-    return {"collision": first is not None, "collision_step": first, "obstacle_id": who, "depth": depth}
+        for i, ob in enumerate(sc.obstacles):
+            if ob.present(sc.first_step + j):
+                opp = corners_from_dims(ob.pose(sc.first_step + j), centre_dims(ob.length, ob.width))
+                pen[j, i] = max(0.0, float(sat_overlap(ego, opp)))
+    return pen
+
+
+def fcgen_verdict(sc, pen: np.ndarray) -> dict:
+    """fcgen's verdict from ``penetrations``: ``collision``, ``collision_step``, ``obstacle_id`` (of the first
+    contact), ``depth`` (the deepest penetration, m)."""
+    hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
+    first = int(hit[0]) if hit.size else None
+    who = sc.obstacles[int(np.flatnonzero(pen[first] > 0.0)[0])].id if first is not None else None
+    return {"collision": first is not None, "collision_step": first, "obstacle_id": who,
+            "depth": float(pen.max(initial=0.0))}
+
+
+def fcgen_collisions(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
+    """fcgen's verdict with its own rectangle check against every obstacle present at each step (``fcgen_verdict``)."""
+    return fcgen_verdict(sc, penetrations(sc, ego_centres, length, width))
 
 
 def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:

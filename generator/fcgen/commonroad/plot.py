@@ -1,5 +1,5 @@
-"""A picture of a run on the scenario's lanelet network: CommonRoad's own renderer draws the lanes and the obstacles
-(at a few moments, fading), ours the ego's path, its rectangle at those moments and fcgen's reference path."""
+"""A picture of a run on the scenario's lanelet network: CommonRoad's own renderer draws the lanes; ours the obstacles
+and the ego at a few moments (colour), the ego's path, fcgen's reference path and its drivable band."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -33,6 +33,9 @@ def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) ->
         ax.annotate(f"{j * sc.dt:.1f} s", (c[j, 0], c[j, 1]), xytext=(0, 8), textcoords="offset points",
                     fontsize=7, color="red", zorder=41)
     ax.plot(sc.road.gx, sc.road.gy, "k--", lw=0.6, zorder=35, label="fcgen's reference path")
+    for edge, lab in ((sc.road.n_min, "drivable band"), (sc.road.n_max, None)):
+        ex, ey, _ = sc.road.to_cartesian(sc.road.s, edge, np.zeros_like(edge))
+        ax.plot(ex, ey, "b-", lw=0.8, zorder=35, label=lab)
     ax.plot(c[:, 0], c[:, 1], "r-", lw=1.2, zorder=39, label="ego (chassis centre)")
     ax.set_xlim(lim[0], lim[1])
     ax.set_ylim(lim[2], lim[3])

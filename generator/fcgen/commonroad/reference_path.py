@@ -40,14 +40,16 @@ def initial_lanelet(net, xy, heading: float) -> int:
     if not ids:
         raise ScenarioRefused(f"no lanelet at the ego's start ({xy[0]:.1f}, {xy[1]:.1f})")
 
-    def mismatch(lid):
-        cv = net.find_lanelet_by_id(lid).center_vertices
-        i = int(np.argmin(np.hypot(cv[:, 0] - xy[0], cv[:, 1] - xy[1])))
-        j = min(i + 1, len(cv) - 1)
-        i = j - 1
-        h = math.atan2(cv[j, 1] - cv[i, 1], cv[j, 0] - cv[i, 0])
-        return abs(math.remainder(h - heading, 2 * math.pi))
-    return min(ids, key=lambda lid: (mismatch(lid), lid))
+    return min(ids, key=lambda lid: (abs(math.remainder(lanelet_heading(net, lid, xy) - heading, 2 * math.pi)), lid))
+
+
+def lanelet_heading(net, lid: int, xy) -> float:
+    """The heading of a lanelet's centre line at its vertex nearest ``xy`` (the segment from it onwards)."""
+    cv = net.find_lanelet_by_id(lid).center_vertices
+    i = int(np.argmin(np.hypot(cv[:, 0] - xy[0], cv[:, 1] - xy[1])))
+    j = min(i + 1, len(cv) - 1)
+    i = j - 1
+    return math.atan2(cv[j, 1] - cv[i, 1], cv[j, 0] - cv[i, 0])
 
 
 def _reaches(net, start: int, goals: set[int], depth: int = 50) -> bool:
@@ -168,15 +170,8 @@ def _rigid_fit(a: np.ndarray, b: np.ndarray) -> tuple[float, np.ndarray]:
 
 
 def _same_direction(net, lids: list[int], heading: float, xy) -> bool:
-    for lid in lids:
-        cv = net.find_lanelet_by_id(lid).center_vertices
-        i = int(np.argmin(np.hypot(cv[:, 0] - xy[0], cv[:, 1] - xy[1])))
-        j = min(i + 1, len(cv) - 1)
-        i = j - 1
-        h = math.atan2(cv[j, 1] - cv[i, 1], cv[j, 0] - cv[i, 0])
-        if math.cos(h - heading) > 0.0:
-            return True
-    return False
+    """Whether one of the lanelets runs within 90 degrees of ``heading`` at ``xy``."""
+    return any(math.cos(lanelet_heading(net, lid, xy) - heading) > 0.0 for lid in lids)
 
 
 def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,6 @@ from ..dsl import Problem
 from ..ocp import Ocp, build_ocp
 from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
-from .collision import corners_from_dims, sat_overlap
 from .collision_kind import LANE_WINDOW, responsible
 from .runlog import RunLog, make_meta
 
@@ -53,11 +52,6 @@ class CommonRoadRun:
         return bool(self.checker["collision"]) == bool(self.fcgen["collision"])
 
 
-def centre_dims(length: float, width: float) -> dict:
-    """Run-log dimensions of a rectangle whose pose is its centre (CommonRoad's obstacles)."""
-    return {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
-
-
 HEADING_MARGIN = 0.25   # m: the band's extra shrink for the chassis' corners at a small heading
 
 
@@ -81,6 +75,7 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
                    plan: str = "none", progress: bool = False) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``)."""
     from .. import commonroad as cr
+    from ..commonroad.judge import centre_dims, fcgen_verdict, penetrations
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt "
@@ -152,16 +147,11 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
                     opp_cart[j, i] = p
     opp_dims = [centre_dims(ob.length, ob.width) for ob in sc.obstacles]
     ego_dims = dims(ego)
-    pen = np.zeros((K + 1, O))
-    ego_corners = np.array([corners_from_dims(ego_cart[j], ego_dims) for j in range(K + 1)])
-    for i in range(O):
-        present = np.flatnonzero(np.isfinite(opp_cart[:, i, 0]))
-        for j in present:
-            pen[j, i] = max(0.0, float(sat_overlap(ego_corners[j], corners_from_dims(opp_cart[j, i], opp_dims[i]))))
+    pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
     coll = (pen > 0.0).any(axis=1)
     who = _responsibility(pen, ego_cart, centres, xs, opp_cart, sc.dt)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
-    own = cr.fcgen_collisions(sc, centres, ego.l_ch, ego.w_ch)
+    own = fcgen_verdict(sc, pen)
     opp_fr = np.full_like(opp_cart, np.nan)
     ok = np.isfinite(opp_cart[..., 0])
     if ok.any():
