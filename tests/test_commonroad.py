@@ -150,17 +150,23 @@ def test_the_solution_file_reads_back(straight, tmp_path):
     assert st[3].velocity == 20.0
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
-def test_a_closed_loop_on_the_scenario_c_equals_python(straight, tmp_path):
+@pytest.fixture(scope="module")
+def solver_dir(tmp_path_factory):
+    from fcgen.codegen.generate import generate
+    if shutil.which("gcc") is None:
+        pytest.skip("needs gcc")
+    return generate(PB, tmp_path_factory.mktemp("crs") / "s").out_dir
+
+
+def test_a_closed_loop_on_the_scenario_c_equals_python(straight, solver_dir, tmp_path):
     """The ego passes the standing car (the plan moves it left of the car): no collision by either check, inside the
     band, the C's run equal to the reference's; the picture and the run log are written."""
     from fcgen.build import CSolver, build
-    from fcgen.codegen.generate import generate
     from fcgen.sim.commonroad_run import run_commonroad
     from fcgen.sim.runlog import RunLog
     sc = straight
     py = run_commonroad(PB, sc)
-    cs = CSolver(build(generate(PB, tmp_path / "s").out_dir))
+    cs = CSolver(build(solver_dir))
     c = run_commonroad(PB, sc, controller=cs)
     np.testing.assert_allclose(c.log.ego_frenet, py.log.ego_frenet, rtol=0, atol=1e-8)
     for run in (py, c):
@@ -205,3 +211,21 @@ def test_simulate_and_campaign_commands(straight, tmp_path):
     assert bool(df[df.status == "ran"].agree.iloc[0])
     assert "Agreement: 1 of 1 runs" in (out / "commonroad.md").read_text()
     assert math.isfinite(float(df[df.status == "ran"].progress_m.iloc[0]))
+
+
+def test_record_and_regress_a_commonroad_suite(solver_dir, tmp_path):
+    """``fcgen record --commonroad`` keeps the run log and a copy of the scenario; ``fcgen regress`` replays it (and
+    runs it again in closed loop) within the same-build tolerances; a changed scenario file is unusable input (2)."""
+    from fcgen.cli import main
+    xml = write_scenario(tmp_path / "rec.xml", obstacles=[STANDING, TRUCK], goal_steps=(15, 20))
+    suite = tmp_path / "suite"
+    r = CliRunner().invoke(main, ["record", str(solver_dir), "-o", str(suite), "--commonroad", str(xml), "--verify",
+                                  "--plan", "controls"])
+    assert r.exit_code == 0, r.output
+    assert (suite / "rec.xml").read_bytes() == xml.read_bytes()
+    for extra in ([], ["--mode", "closed-loop"]):
+        r = CliRunner().invoke(main, ["regress", str(solver_dir), str(suite), *extra])
+        assert r.exit_code == 0 and "PASS" in r.output, r.output
+    (suite / "rec.xml").write_bytes(xml.read_bytes() + b"<!-- changed -->\n")
+    r = CliRunner().invoke(main, ["regress", str(solver_dir), str(suite)])
+    assert r.exit_code == 2 and "rec.xml" in r.output, r.output

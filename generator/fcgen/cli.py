@@ -628,7 +628,12 @@ def fmu_cmd(solver_dir, out, fmi, force):
               help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
                    "settings (2 seeds x 200 samples, verification build, planned controls, no timing)")
 @click.option("--force", is_flag=True, help="replace an existing golden suite in the output folder")
-def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root, force):
+@click.option("--commonroad", "cr_file", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="record the run on this CommonRoad scenario instead of the seeds (the suite keeps a copy of the "
+              "file; `fcgen regress` runs it again)")
+@click.option("--planning-problem", "cr_pp", type=int, default=None, help="with --commonroad: the planning problem")
+def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root, force,
+           cr_file, cr_pp):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from .build import BuildError
     from .suite import SuiteSettings, parse_seeds, record_goldens, record_suite
@@ -643,14 +648,19 @@ def record(solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, 
         if solver_dir is None:
             _fail("give SOLVER_DIR (a folder written by `fcgen generate`) or --golden-for ROOT")
         st = SuiteSettings(scenario=scenario, seeds=parse_seeds(seeds), samples=samples, plan=plan, verify=verify,
-                           cc=cc, cflags=cflags, timing=timing)
+                           cc=cc, cflags=cflags, timing=timing, commonroad=cr_file, planning_problem=cr_pp)
         out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
         man = record_suite(Path(solver_dir), out, st, progress=sys.stderr.isatty(), force=force)
     except BuildError as exc:
         _fail(str(exc))
+    except ValueError as exc:   # a CommonRoad scenario refused: one line
+        if type(exc).__name__ != "ScenarioRefused":
+            raise
+        _fail(f"refused: {exc}")
     size = sum(p.stat().st_size for p in out.iterdir() if p.is_file())
-    click.echo(f"{man['solver']}: {len(man['logs'])} run logs x {samples} samples ({man['settings']['scenario']}, "
-               f"seeds {seeds}, plan {plan}) written to {out}: {size / 1024:.1f} KiB")
+    what = f"CommonRoad {cr_file}" if cr_file else f"seeds {seeds}"
+    click.echo(f"{man['solver']}: {len(man['logs'])} run logs x {man['settings']['samples']} samples "
+               f"({man['settings']['scenario']}, {what}, plan {plan}) written to {out}: {size / 1024:.1f} KiB")
 
 
 @main.command()

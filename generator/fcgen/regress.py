@@ -484,6 +484,7 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
     if build_kw.get("verify") is None:   # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(new, controller, build_kw, progress)
+    runner.golden_dir = golden if golden.is_dir() else golden.parent   # where a CommonRoad log's scenario file is
     if runner.lib is not None:
         stamp = runner.lib.parent / "flags.txt"
         notes.append(f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'} "
@@ -537,6 +538,26 @@ def _check_problem(info: dict[str, Any], man: dict[str, Any], new: Path, golden:
 class _Runner:
     """Builds the new solver once and runs it (replay or closed loop) on each golden log."""
 
+    golden_dir: Path = Path(".")
+
+    def _commonroad(self, gold: RunLog, mode: str) -> RunLog:
+        """A CommonRoad log: its scenario file (beside the golden log, by name and sha256) run again, in replay on
+        the logged states."""
+        import hashlib
+
+        from .campaign.commonroad import load_for
+        from .sim.commonroad_run import run_commonroad
+        from .sim.replay import plan_level
+        cr = gold.meta["extra"]["commonroad"]
+        path = self.golden_dir / cr.get("file", "")
+        if not path.is_file() or hashlib.sha256(path.read_bytes()).hexdigest() != cr.get("sha256"):
+            raise ValueError(f"{path}: the CommonRoad scenario of the golden log ({cr.get('scenario')}, sha256 "
+                             f"{str(cr.get('sha256'))[:12]}) is not there or differs")
+        sc = load_for(self.problem, path, cr.get("planning_problem"))
+        states = np.asarray(gold.ego_frenet) if mode == "replay" else None
+        return run_commonroad(self.problem, sc, controller=self.make(), ocp=self.ocp, plan=plan_level(gold),
+                              progress=self.progress, states=states).log
+
     def __init__(self, gen_dir: Path, controller: str, build_kw: dict, progress: bool):
         from .ocp import build_ocp
         from .verify import load_solver_problem
@@ -562,6 +583,8 @@ class _Runner:
         from .sim.closedloop import run_closed_loop
         from .sim.replay import plan_level, replay, scenario_of
 
+        if "commonroad" in gold.meta.get("extra", {}):
+            return _unusable(self._commonroad, gold, mode)
         if mode == "replay":
             return _unusable(replay, self.problem, gold, self.make(), None, self.progress)
         sc = _unusable(scenario_of, gold, self.problem)

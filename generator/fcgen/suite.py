@@ -47,6 +47,8 @@ class SuiteSettings:
     cc: str | None = None
     cflags: str | None = None
     timing: bool = True
+    commonroad: str | None = None          # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
+    planning_problem: int | None = None
 
 
 #: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated --force``):
@@ -152,7 +154,7 @@ def check_suite_target(out: Path | str, force: bool = False) -> None:
 
 
 def _is_suite_file(p: Path) -> bool:
-    return p.name == MANIFEST or p.name.endswith(".json.xz")
+    return p.name == MANIFEST or p.name.endswith(".json.xz") or p.suffix.lower() == ".xml"
 
 
 def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings = SuiteSettings(),
@@ -171,7 +173,7 @@ def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings =
         raise ValueError(f"--plan {settings.plan!r} is invalid: allowed {', '.join(PLAN_LEVELS)}")
     if settings.samples < 1:
         raise ValueError(f"--samples {settings.samples} is invalid: allowed >= 1")
-    if not settings.seeds:
+    if not settings.seeds and settings.commonroad is None:
         raise ValueError("--seeds: allowed at least one seed")
     name, pb = load_solver_problem(gen_dir)
     info = solver_info(gen_dir)
@@ -195,7 +197,22 @@ def _record_into(out: Path, pb, lib, info, comp, scenario, settings, progress, e
     from .sim.scenario import make_scenario
 
     entries = []
-    for seed in settings.seeds:
+    if settings.commonroad is not None:   # one CommonRoad scenario: its run log and a copy of its file
+        from .campaign.commonroad import load_for
+        from .sim.commonroad_run import run_commonroad
+        sc = load_for(pb, settings.commonroad, settings.planning_problem)
+        log = run_commonroad(pb, sc, controller=CSolver(lib), plan=settings.plan, progress=progress).log
+        log = _finish(log, info["precision"], settings.timing)
+        fname = f"cr_{sc.name}.json.xz"
+        log.to_json(out / fname)
+        import shutil
+        shutil.copyfile(settings.commonroad, out / sc.file)
+        entries.append({"file": fname, "scenario": sc.name, "seed": 0, "samples": log.n_controls,
+                        "sha256": text_sha256(log), "commonroad": {"file": sc.file, "sha256": sc.sha256,
+                                                                   "planning_problem": sc.planning_problem_id}})
+        scenario = sc.name
+        settings = SuiteSettings(**{**settings.__dict__, "seeds": (0,), "samples": log.n_controls})
+    for seed in (settings.seeds if settings.commonroad is None else ()):
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
         log = run_closed_loop(pb, sc, controller=CSolver(lib), exit_codes=True, plan=settings.plan,
                               progress=progress)
@@ -217,7 +234,8 @@ def _record_into(out: Path, pb, lib, info, comp, scenario, settings, progress, e
         "qp_backend": info["qp_backend"],
         "runlog_format": FORMAT_VERSION,
         "settings": {"scenario": scenario, "seeds": list(settings.seeds), "samples": settings.samples,
-                     "plan": settings.plan, "timing": settings.timing, "controller": "c"},
+                     "plan": settings.plan, "timing": settings.timing, "controller": "c",
+                     **({"commonroad": entries[0]["commonroad"]} if settings.commonroad is not None else {})},
         "logs": entries,
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
@@ -338,7 +356,8 @@ def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
         "settings.controller": lambda lg: lg.meta.get("controller"),
         "problem.sizes.N": lambda lg: lg.meta.get("N"),
         "problem.sizes.NU": lambda lg: int(np.shape(lg.control)[-1]),
-        "problem.sizes.NOPP": lambda lg: len(lg.opponents),
+        "problem.sizes.NOPP": lambda lg: (len(lg.meta["extra"]["commonroad"]["slots"][0])   # the solver's slots
+                                          if "commonroad" in lg.meta.get("extra", {}) else len(lg.opponents)),
     }
     facts: dict[str, Any] = {}
     for key, fn in per_log.items():

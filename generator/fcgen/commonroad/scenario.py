@@ -43,6 +43,8 @@ class CrScenario:
     road_info: dict = field(default_factory=dict)
     scenario: object = None    # the commonroad-io Scenario (checker, writer, renderer)
     planning_problem: object = None
+    file: str = ""             # the XML's file name and sha256 (a suite keeps a copy; regress finds it by them)
+    sha256: str = ""
 
 
 def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, ego: Vehicle, ds: float = 2.0,
@@ -92,8 +94,10 @@ def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, e
                               f"shorter than the horizon's {horizon_m:.0f} m")
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
+    import hashlib
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(name, dt, step0, samples, road, x0, v_ref, v_src, s_src, obstacles, ego.l_ch, ego.w_ch,
-                      int(planning_problem_id), info, scenario, pp)
+                      int(planning_problem_id), info, scenario, pp, Path(path).name, digest)
 
 
 def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:

@@ -72,8 +72,11 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
 
 
 def run_commonroad(problem: Problem, sc, controller: Controller | None = None, ocp: Ocp | None = None,
-                   plan: str = "none", progress: bool = False) -> CommonRoadRun:
-    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``)."""
+                   plan: str = "none", progress: bool = False, states: np.ndarray | None = None) -> CommonRoadRun:
+    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
+
+    ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
+    plant's, sample by sample, and the log keeps them."""
     from .. import commonroad as cr
     from ..commonroad.judge import centre_dims, fcgen_verdict, penetrations
 
@@ -86,9 +89,11 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
     N, n_slots, ego = problem.horizon.N, problem.opponents.count, problem.ego
     road, cut = scenario_road(problem, sc)
     plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
-    K = sc.samples
+    K = sc.samples if states is None else len(states) - 1
     xs = np.zeros((K + 1, 5))
     xs[0] = sc.x0
+    if states is not None:
+        xs[:] = states
     us = np.zeros((K, 2))
     planlog = PlanLog(K, N, plan)
     rc = controller.set_reference(sc.v_ref, 0.0)
@@ -128,7 +133,8 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
         else:
             planlog.exit_code[j] = r.exit_code
         results.append(r)
-        xs[j + 1] = plant.step(x, us[j], road)
+        if states is None:
+            xs[j + 1] = plant.step(x, us[j], road)
     t = np.arange(K + 1) * sc.dt
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
@@ -159,7 +165,8 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
         opp_fr[ok] = np.stack([s, n, a], axis=-1)
     extra = {"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
              "plan_reactions": int(sum(r.plan_reaction for r in results)),
-             "commonroad": {"scenario": sc.name, "v_ref": float(sc.v_ref), "band_cut": cut,
+             "commonroad": {"scenario": sc.name, "file": sc.file, "sha256": sc.sha256,
+                            "planning_problem": sc.planning_problem_id, "v_ref": float(sc.v_ref), "band_cut": cut,
                             "obstacle_ids": [int(ob.id) for ob in sc.obstacles], "slots": slot_ids,
                             "checker": _plain(checker), "fcgen": _plain(own), "responsibility": who,
                             "agree": bool(checker["collision"]) == bool(own["collision"])}}
