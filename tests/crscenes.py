@@ -32,10 +32,11 @@ def reference(length: float = 400.0, radius: float | None = None, step: float = 
 def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: float = 400.0,
                    radius: float | None = None, ego_x: float = 50.0, ego_v: float = 20.0, obstacles=(),
                    goal_steps: tuple[int, int] = (30, 40), end_lane: tuple[int, float] | None = None,
-                   shape: str = "rectangle", speed_limit: float | None = None, dt: float = 0.1) -> Path:
+                   shape: str = "rectangle", speed_limit: float | None = None, dt: float = 0.1, statics=()) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
-    constant speed for ``steps`` recorded steps (speed 0: standing); ``end_lane``: (lane, s) that lane ends at s."""
+    constant speed for ``steps`` recorded steps (speed 0: standing); ``end_lane``: (lane, s) that lane ends at s;
+    ``statics``: (id, lane, s, length, width) static obstacles; ``speed_limit``: a MAX_SPEED sign on the ego's lane."""
     from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
     from commonroad.common.util import Interval
     from commonroad.geometry.shape import Circle, Rectangle
@@ -43,7 +44,7 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
     from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
     from commonroad.prediction.prediction import TrajectoryPrediction
     from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
-    from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
+    from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
     from commonroad.scenario.scenario import Scenario, ScenarioID
     from commonroad.scenario.state import CustomState, InitialState, KSState
     from commonroad.scenario.trajectory import Trajectory
@@ -72,7 +73,6 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
         sc.add_objects(sign, {100 + ego_lane})
 
     def pose(lane: int, s: float):
-        p, n = reference(s + 2.0, radius, step=s + 1e-9 if s > 0 else 1.0)
         th = 0.0 if radius is None else s / radius
         base = np.array([s, 0.0]) if radius is None else np.array([radius * math.sin(th), radius * (1 - math.cos(th))])
         nv = np.array([-math.sin(th), math.cos(th)])
@@ -92,6 +92,11 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
         shp = Rectangle(ln, wd) if shape == "rectangle" or oid != obstacles[0][0] else Circle(ln / 2)
         pred = TrajectoryPrediction(Trajectory(first + 1, traj), shp) if traj else None
         sc.add_objects(DynamicObstacle(oid, ObstacleType.CAR if ln < 6 else ObstacleType.TRUCK, shp, init, pred))
+    for oid, lane, s0, ln, wd in statics:
+        xy, th = pose(lane, s0)
+        sc.add_objects(StaticObstacle(oid, ObstacleType.PARKED_VEHICLE, Rectangle(ln, wd),
+                                      InitialState(position=xy, orientation=th, velocity=0.0, time_step=0,
+                                                   yaw_rate=0.0, slip_angle=0.0, acceleration=0.0)))
     exy, eth = pose(ego_lane, ego_x)
     pp = PlanningProblem(1, InitialState(position=exy, orientation=eth, velocity=ego_v, time_step=0, yaw_rate=0.0,
                                           slip_angle=0.0, acceleration=0.0),

@@ -71,6 +71,27 @@ def test_a_lane_that_ends_narrows_the_band(tmp_path):
     np.testing.assert_allclose(sc.road.n_min[before | after], -1.5 * LANE, atol=0.021)
 
 
+def test_past_the_lanelets_the_road_keeps_its_last_curvature_then_runs_straight(tmp_path):
+    """A bend of radius 200 m whose lanelets end 200 m on: the road continues with curvature 1/200 for the horizon
+    (4 s at 20 m/s: 80 m), then straight; the band past the end is the last one on the lanelets."""
+    sc = load_for(PB, write_scenario(tmp_path / "end.xml", radius=200.0, length=200.0, goal_steps=(20, 30)))
+    end = int(np.argmin(np.hypot(sc.road.gx - 200.0 * math.sin(1.0), sc.road.gy - 200.0 * (1 - math.cos(1.0)))))
+    held = sc.road.kappa[end:end + 30]   # the spline's last 8 m are extended over too
+    assert np.all(held == held[0]) and held[0] == pytest.approx(1 / 200.0, rel=0.03)   # the spline end effect
+    assert np.all(sc.road.kappa[end + 40:] == 0.0) and sc.road.size > end + 60
+    np.testing.assert_array_equal(sc.road.n_max[end + 5:], sc.road.n_max[end + 5])
+
+
+def test_a_parked_car_and_a_speed_limit(tmp_path):
+    """A static obstacle stands at its pose at every step and is always present; a MAX_SPEED sign of 25 m/s on the
+    ego's lane sets the reference speed."""
+    sc = load_for(PB, write_scenario(tmp_path / "park.xml", statics=[(9, 0, 120.0, 4.4, 1.8)], speed_limit=25.0))
+    car = next(o for o in sc.obstacles if o.id == 9)
+    assert car.static and car.present(0) and car.present(500)
+    np.testing.assert_allclose(car.pose(300), [120.0, -LANE, 0.0], atol=1e-9)
+    assert (sc.v_ref, sc.v_ref_source) == (25.0, "speed limit")
+
+
 def test_obstacles_shapes_recordings_and_extrapolation(straight):
     """The truck (12 x 2.5 m, lane 0: y = -3.5, 15 m/s from x = 40, recorded steps 0..29): at step 5 x = 47.5; past
     its end (step 39) at constant velocity x = 40 + 15 x 3.9; the late car is not there before step 10."""

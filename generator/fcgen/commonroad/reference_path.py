@@ -7,11 +7,13 @@ Rules (tested in tests/test_commonroad.py):
   whose heading is nearest the ego's) and its successors; at a fork the successor from which a goal lanelet can be
   reached, else the first listed; behind the start, its predecessors (the first listed) up to ``behind`` metres.
 - **fcgen's road**: the path resampled every ``ds`` metres of arc length, its heading from a smoothing spline (a
-  polyline's kinks would make curvature spikes), the curvature its derivative, integrated by
+  polyline's kinks would make curvature spikes; its first and last ``END_TRIM`` samples, where a spline bends away,
+  are left out and extended over), the curvature its derivative, integrated by
   ``Road.from_curvature`` from the path's first pose; the integrated centre line must stay within
   ``MAX_DEVIATION`` of the lanelets' (refused otherwise).
 - **Extension**: where the lanelets start less than ``behind`` before the ego, the road is extended backwards
-  straight; past the lanelets' end it continues with the last curvature for ``horizon`` metres, then straight (what
+  straight; past the lanelets' end it continues with the last curvature (the median of the path's last ``HOLD_SAMPLES``
+  samples: a spline's end is its least certain part) for ``horizon`` metres, then straight (what
   the run needs beyond: the horizon from the last sample the ego can reach).
 - **Band**: at each sample, from the centre line outwards along the normal, the extent of the lanelets of the same
   driving direction (heading within 90 degrees of the road's) that hold the point, found by stepping
@@ -31,6 +33,8 @@ MAX_DEVIATION = 1.0   # m: the integrated centre line against the lanelets' (els
 BAND_STEP = 0.5       # m: the band's outward steps ...
 BAND_TOL = 0.02       # m: ... then bisection to this
 BAND_MAX = 30.0       # m: the farthest a band edge is looked for
+HOLD_SAMPLES = 10     # the extension's curvature: the median over the path's last samples
+END_TRIM = 4          # samples left out at either end of the spline (its end effects), extended over instead
 SMOOTHING = 0.01      # m: the smoothing spline may leave a vertex by about this much (root mean square)
 
 
@@ -135,13 +139,16 @@ def build_road(net, chain: list[int], start_xy, ds: float, behind: float, horizo
     facts about it."""
     poly = centre_polyline(net, chain)
     pts, heading, kappa = smooth_heading(poly, ds)
+    if len(pts) > 4 * END_TRIM:   # a spline's ends bend away (end effects): the extensions replace them
+        pts, heading, kappa = pts[END_TRIM:-END_TRIM], heading[END_TRIM:-END_TRIM], kappa[END_TRIM:-END_TRIM]
     # where the ego starts along the path
     i0 = int(np.argmin(np.hypot(pts[:, 0] - start_xy[0], pts[:, 1] - start_xy[1])))
     s_start = i0 * ds
     n_back = max(0, int(math.ceil((behind - s_start) / ds)))   # straight extension behind
     n_more = max(1, int(math.ceil((ahead - (len(pts) - 1 - i0) * ds) / ds)))
     n_bend = min(n_more, int(math.ceil(horizon / ds)))
-    kap = np.r_[np.zeros(n_back), kappa, np.full(n_bend, kappa[-1]), np.zeros(n_more - n_bend)]
+    last = float(np.median(kappa[-min(len(kappa), HOLD_SAMPLES):]))   # a spline's end is its least certain part
+    kap = np.r_[np.zeros(n_back), kappa, np.full(n_bend, last), np.zeros(n_more - n_bend)]
     lo, hi = n_back, n_back + len(pts)
     # the start pose that lays the integrated centre line best onto the path (least squares, rotation and shift:
     # a spline's end tangent is its least certain heading)
