@@ -75,6 +75,8 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
     from .sim.runlog import summary
     from .sim.scenario import make_scenario
 
+    if cr_file and controller == "fmu":
+        _fail("--commonroad runs the Python reference or the C controller (--controller python|c), not an FMU")
     if controller == "fmu" and fmu_path is None:
         _fail("--controller fmu needs --fmu (a file written by `fcgen fmu`)")
     if controller == "fmu" and not problem_spec:
