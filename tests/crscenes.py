@@ -51,7 +51,6 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
     from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDGermany
 
     pts, nrm = reference(length, radius)
-    middle = (lanes - 1) / 2.0
     lls = []
     for i in range(lanes):
         left, centre, right = _lane_polylines(pts, nrm, (i - ego_lane) * LANE)
@@ -63,7 +62,6 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
                            adjacent_left_same_direction=True if i + 1 < lanes else None,
                            adjacent_right=100 + i - 1 if i > 0 else None,
                            adjacent_right_same_direction=True if i > 0 else None))
-    del middle
     net = LaneletNetwork.create_from_lanelet_list(lls)
     sc = Scenario(dt, scenario_id=ScenarioID(country_id="ZAM", map_name="Fcgen", map_id=1))
     sc.add_objects(net)

@@ -86,8 +86,8 @@ def vehicle_shape(model: ObstacleModel, ego: Vehicle, veh: Vehicle) -> np.ndarra
     return opponent_shape(model, ego, veh.l_ch, veh.w_ch, veh.l / 2)
 
 
-def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> str | None:
-    """Why one opponent's shape values are refused (``ValueError`` naming the value and its range), as the C's
+def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
+    """Refuse one opponent's shape values with a ``ValueError`` naming the value and its range, as the C's
     ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width > 0; the ellipse's semi-axes at least
     half the length (width) plus the ego's radius (necessary for containment; ``opponent_shape`` computes them)."""
     v = np.asarray(values, dtype=float)
@@ -101,11 +101,10 @@ def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> str | No
     if len(v) > 3:
         r = ego_radius(ego)
         for i, nm in ((3, "a"), (4, "b")):
-            need = v[i - 3] / 2 + r
+            need = float(v[i - 3] / 2 + r)
             if not v[i] >= need:
                 raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed >= {need!r} "
                                  "(half the size plus the ego's radius)")
-    return None
 
 
 def vertices(sh: Shape) -> list[tuple]:
