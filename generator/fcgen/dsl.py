@@ -448,10 +448,11 @@ class PlanCheck:
 
     ``react_stages``: where an opponent's first overlap among stages 1..min(react_stages, N) has its centre ahead of
     the ego's, the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1; F_d = -min(F_d_max,
-    m v0 / dt), the plan's steering rate); 0: report only (the paper's presets).
+    m v0 / dt), the plan's steering rate); 0: report only (the paper's presets); the default, 500, is the whole
+    horizon of any problem (measured on the full grid: docs/safe_profile.md).
     """
 
-    react_stages: int = 10
+    react_stages: int = 500
 
     def __post_init__(self) -> None:
         _check(type(self.react_stages) is int and 0 <= self.react_stages <= 500, "plan_check.react_stages",
