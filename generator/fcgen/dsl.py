@@ -23,7 +23,7 @@ RTI_BUDGET_DEFAULT: dict[str, int | None] = {"osqp": None, "ipm": 60}
 safe grid's 12,000 runs had one (two unconverged cold starts at 400, one solved at 118); on 20 truck seeds x 200
 samples of six presets (``scripts/rti_budget.py``) 60 is identical to no budget, 40 moves a seed's progress by up to
 0.08 %, 25-30 up to 9.5 %, 20 up to 19 % (docs/wcet.md, "The RTI budget"). OSQP: no extra cap (its cold starts keep
-``max_iter_cold``)."""
+``max_iter_cold``). Presets of configurations measured to afford less set it (``fcgen.presets.IPM_RTI_BUDGET``)."""
 
 
 class ProblemError(ValueError):

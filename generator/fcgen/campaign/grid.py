@@ -5,7 +5,7 @@ import warnings
 from dataclasses import asdict, dataclass, fields
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
-from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem
+from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
 PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
@@ -53,7 +53,7 @@ class Config:
         over = {}
         has_backend = "backend" in {f.name for f in fields(QpOptions)}
         if has_backend:
-            over["qp"] = QpOptions(backend=self.backend)
+            over["qp"] = preset_qp(self.backend, self.formulation, self.obstacles, self.profile)
         elif self.backend != "osqp":
             raise ProblemError(f"backend = {self.backend!r} is not available in this fcgen: QpOptions has no "
                                f"'backend' field yet (allowed: 'osqp')")
