@@ -42,7 +42,24 @@ def test_default_budget_is_the_backends():
     ipm = QpOptions(backend="ipm")
     assert ipm.budget == RTI_BUDGET_DEFAULT["ipm"]
     assert ipm.caps == (min(60, ipm.budget or 60), min(400, ipm.budget or 400))
-    assert preset("truck_lifted_ellipse_ipm").qp.rti_budget is None  # the presets keep the paper's settings
+    assert preset("truck_lifted_hyperplane_ipm").qp.rti_budget is None  # not measured: the backend's default
+
+
+def test_measured_presets_and_campaign_runs_share_the_budget():
+    """IPM_RTI_BUDGET's configurations: their _ipm preset and the campaign's IPM run of them carry the budget (one
+    problem, the one fcgen wcet bounds); the safe profile, OSQP and the other configurations keep the default."""
+    from fcgen.campaign.grid import Config
+    from fcgen.presets import IPM_RTI_BUDGET
+    assert IPM_RTI_BUDGET[("paper", "lifted", "ellipse")] == 10
+    for sc in ("car", "truck"):
+        for f in ("conventional", "direct_elimination", "lifted"):
+            for o, n in (("ellipse", 0), ("hyperplane", 0)):
+                want = IPM_RTI_BUDGET.get(("paper", f, o))
+                pb = preset(f"{sc}_{f}_{o}_ipm")
+                assert pb.qp.rti_budget == want and pb.qp.budget == (want or RTI_BUDGET_DEFAULT["ipm"])
+                assert Config(sc, f, o, n, backend="ipm").problem().qp == pb.qp
+                assert preset(f"{sc}_{f}_{o}_ipm_safe").qp == QpOptions(backend="ipm")
+                assert preset(f"{sc}_{f}_{o}").qp == QpOptions()
 
 
 @needs_cc
