@@ -137,6 +137,24 @@ def dirty_sample(cs: CSolver, inp) -> int:
     return rc
 
 
+def test_finiteness_check_is_exact_where_a_sum_overflows(fresh, inputs):
+    """The inputs' finiteness test sums the entries first (one operation each) and decides exactly only where that sum
+    is not finite: large finite entries whose sum overflows are accepted, one infinity among them or +inf with -inf
+    (whose sum is NaN) rejected."""
+    cs = fresh("finite", init=True)
+    opp = inputs[0][2]
+    big = np.full_like(opp, 1e308)                 # finite; the sum of two already overflows to inf
+    assert not np.isfinite(big.sum()) and cs.set_opponents(big) == 0
+    for bad in (np.inf, -np.inf, np.nan):
+        b = big.copy()
+        b.flat[b.size // 2] = bad
+        rejected(cs, lambda: cs.set_opponents(b), "ERR_NONFINITE_OPPONENTS")
+    pm = np.ones_like(opp)
+    pm.flat[0], pm.flat[-1] = np.inf, -np.inf
+    rejected(cs, lambda: cs.set_opponents(pm), "ERR_NONFINITE_OPPONENTS")
+    assert cs.set_opponents(opp) == 0
+
+
 def test_rejected_calls_leave_the_solver_bitwise_unchanged(fresh, inputs):
     clean, dirty = fresh("clean"), fresh("dirty")
     for j, inp in enumerate(inputs):

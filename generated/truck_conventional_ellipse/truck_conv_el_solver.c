@@ -1217,16 +1217,23 @@ static int fail(int code) {
 
 static int all_finite(const truck_conv_el_real_t *v, int n) {
   int i;
-  truck_conv_el_real_t nf0 = REAL_0; /* 0 times each entry: the sum is NaN once one is not finite, else 0 */
-  truck_conv_el_real_t nf1 = REAL_0;
+  truck_conv_el_real_t s0 = REAL_0; /* the entries' sum: finite only if every entry is (an infinity or a NaN stays one) */
+  truck_conv_el_real_t s1 = REAL_0;
   for (i = 0; (i + 1) < n; i += 2) {
-    nf0 += v[i] * REAL_0;
-    nf1 += v[i + 1] * REAL_0;
+    s0 += v[i];
+    s1 += v[i + 1];
   }
   if (i < n) {
-    nf0 += v[i] * REAL_0;
+    s0 += v[i];
   }
-  return isfinite(nf0 + nf1) ? 1 : 0;
+  if (isfinite(s0 + s1) != 0) {
+    return 1;
+  }
+  s0 = REAL_0; /* the sum overflowed or an entry is not finite: 0 times each entry is NaN only for the latter */
+  for (i = 0; i < n; ++i) {
+    s0 += v[i] * REAL_0;
+  }
+  return isfinite(s0) ? 1 : 0;
 }
 
 static void copy(const truck_conv_el_real_t *src, truck_conv_el_real_t *dst, int n) {

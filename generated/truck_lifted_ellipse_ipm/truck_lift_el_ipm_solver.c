@@ -4820,32 +4820,43 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
   ipm_real_t az = REAL_0;
+  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here */
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    IPM_W.t[j] += alpha * IPM_W.dt[j];
+    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
+  }
+  for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries (dz = 0) are not read */
+    IPM_W.z[j] += alpha * IPM_W.dz[j];
+    IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
+  }
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
   /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
    * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const int second = IPM_SIDE_2ND[j];
+    const ipm_real_t t = IPM_W.t[j];
+    const ipm_real_t lam = IPM_W.lam[j];
+    const ipm_real_t it = IPM_ONE / t;
+    ipm_real_t rp;
     if (second == 0) {
       az = IPM_W.wr[r];
     }
-    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * IPM_W.lam[j]);
-    IPM_W.r_p[j] = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - IPM_W.t[j];
-    IPM_W.it[j] = IPM_ONE / IPM_W.t[j];
-    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (IPM_W.lam[j] * IPM_W.it[j]);
-    if (IPM_FABS(IPM_W.r_p[j]) > rmax) {
-      rmax = IPM_FABS(IPM_W.r_p[j]);
+    rp = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - t;
+    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * lam);
+    IPM_W.r_p[j] = rp;
+    IPM_W.it[j] = it;
+    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
+    if (IPM_FABS(rp) > rmax) {
+      rmax = IPM_FABS(rp);
     }
-    mu += IPM_W.t[j] * IPM_W.lam[j];
-    if ((IPM_W.t[j] * IPM_W.lam[j]) > rmax) {
-      rmax = IPM_W.t[j] * IPM_W.lam[j];
+    mu += t * lam;
+    if ((t * lam) > rmax) {
+      rmax = t * lam;
     }
-    if (IPM_W.lam[j] > lmax) {
-      lmax = IPM_W.lam[j];
+    if (lam > lmax) {
+      lmax = lam;
     }
-  }
-  for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries are not read */
-    IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   for (j = 0; j < IPM_NFREE; ++j) {
     const int v = IPM_FREE[j];
@@ -4932,17 +4943,10 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha < IPM_ALPHA_MIN) {
     return IPM_RAW_QP_NUMERICAL;
   }
-  for (j = 0; j < IPM_NV; ++j) {
-    IPM_W.z[j] += alpha * IPM_W.dz[j];
-  }
   for (j = 0; j < IPM_NEQ; ++j) {
     IPM_W.y[IPM_EQ_ALL[j]] += alpha * IPM_W.gd[IPM_EQ_ALL[j]];
   }
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.t[j] += alpha * IPM_W.dt[j];
-    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
-  }
-  IPM_W.aff[3] = alpha; /* the soft rows take this step in the next ipm_check's pass */
+  IPM_W.aff[3] = alpha; /* z, the sides' t, lam and the soft rows take this step in the next ipm_check's passes */
   return IPM_GOING;
 }
 
@@ -4956,6 +4960,8 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     const ipm_real_t lw = (IPM_WARM != 0) ? ((-IPM_SIDE_SIGN[j]) * y_warm[r]) : REAL_0;
     const ipm_real_t b = ipm_side_b(l, u, j);
     IPM_W.bs[j] = b;
+    IPM_W.dt[j] = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0): ipm_check takes the last step */
+    IPM_W.dlam[j] = REAL_0;
     IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
     IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
   }
@@ -5016,6 +5022,7 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
   }
   for (j = 0; j < IPM_NGV; ++j) {
     IPM_W.z[IPM_GV[j]] = REAL_0;
+    IPM_W.dz[IPM_GV[j]] = REAL_0; /* the soft rows' slacks' entries stay 0 */
   }
   QPB_PROBE(QPB_PROBE_START);
   while (raw == IPM_GOING) {
@@ -5109,16 +5116,23 @@ static int fail(int code) {
 
 static int all_finite(const truck_lift_el_ipm_real_t *v, int n) {
   int i;
-  truck_lift_el_ipm_real_t nf0 = REAL_0; /* 0 times each entry: the sum is NaN once one is not finite, else 0 */
-  truck_lift_el_ipm_real_t nf1 = REAL_0;
+  truck_lift_el_ipm_real_t s0 = REAL_0; /* the entries' sum: finite only if every entry is (an infinity or a NaN stays one) */
+  truck_lift_el_ipm_real_t s1 = REAL_0;
   for (i = 0; (i + 1) < n; i += 2) {
-    nf0 += v[i] * REAL_0;
-    nf1 += v[i + 1] * REAL_0;
+    s0 += v[i];
+    s1 += v[i + 1];
   }
   if (i < n) {
-    nf0 += v[i] * REAL_0;
+    s0 += v[i];
   }
-  return isfinite(nf0 + nf1) ? 1 : 0;
+  if (isfinite(s0 + s1) != 0) {
+    return 1;
+  }
+  s0 = REAL_0; /* the sum overflowed or an entry is not finite: 0 times each entry is NaN only for the latter */
+  for (i = 0; i < n; ++i) {
+    s0 += v[i] * REAL_0;
+  }
+  return isfinite(s0) ? 1 : 0;
 }
 
 static void copy(const truck_lift_el_ipm_real_t *src, truck_lift_el_ipm_real_t *dst, int n) {
