@@ -54,7 +54,7 @@ def record_events(pb, samples: int, seed: int = 1):
 def build_harness(ocp, lay, opts, tmp: Path) -> Path:
     ctx = codegen_context(ocp, lay, opts)
     (tmp / "ipm_problem.h").write_text(render_template("backends/ipm_problem.h.j2", name="tipm", NAME="TIPM",
-                                                       backend=ctx, c_sqrt="sqrt", c_fabs="fabs"))
+                                                       backend=ctx, c_sqrt="sqrt", c_fabs="fabs", c_fmin="fmin"))
     exe = tmp / "ipm_core_test"
     subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
                     "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{templates_dir() / 'backends'}",

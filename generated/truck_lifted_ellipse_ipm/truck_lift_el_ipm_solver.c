@@ -3332,6 +3332,7 @@ static truck_lift_el_ipm_ipm_ws_t truck_lift_el_ipm_ipm;
 #define IPM_HALF ((ipm_real_t)0.5)
 #define IPM_SQRT sqrt /* sqrt, fabs of the real type (no promotion to double in float) */
 #define IPM_FABS fabs
+#define IPM_FMIN fmin
 #define IPM_GOING 0 /* not a raw status: the iteration goes on */
 
 /* ---- stage kernels on [F G]'s pattern (fg_kernels: the same at every stage; fg = IPM_W.fgb[k], column j's band at
@@ -3791,9 +3792,21 @@ static inline ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
   return (v > m) ? v : m;
 }
 
-/* the smaller of v and m (m if v is NaN) */
+/* the smaller of v and m (m if v is NaN). Where the FPU has VMINNM (FPv5, the Cortex-M7's: ARMv7E-M with a double
+ * FPU) fmin is that one instruction instead of a compare and a conditional move. They differ only where m is a NaN:
+ * in the soft rows' step limits (the only use) a NaN comes from a non-finite t, lam or step, which the next check
+ * finds either way (its sum of t lam is not finite) */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+#if ((__ARM_FP & 8) != 0)
+#define IPM_MINNM 1
+#endif
+#endif
 static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+#if defined(IPM_MINNM)
+  return IPM_FMIN(v, m);
+#else
   return (v < m) ? v : m;
+#endif
 }
 
 /* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */

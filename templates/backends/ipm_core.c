@@ -233,9 +233,21 @@ static inline ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
   return (v > m) ? v : m;
 }
 
-/* the smaller of v and m (m if v is NaN) */
+/* the smaller of v and m (m if v is NaN). Where the FPU has VMINNM (FPv5, the Cortex-M7's: ARMv7E-M with a double
+ * FPU) fmin is that one instruction instead of a compare and a conditional move. They differ only where m is a NaN:
+ * in the soft rows' step limits (the only use) a NaN comes from a non-finite t, lam or step, which the next check
+ * finds either way (its sum of t lam is not finite) */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+#if ((__ARM_FP & 8) != 0)
+#define IPM_MINNM 1
+#endif
+#endif
 static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+#if defined(IPM_MINNM)
+  return IPM_FMIN(v, m);
+#else
   return (v < m) ? v : m;
+#endif
 }
 
 /* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */

@@ -480,7 +480,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
         "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
         "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
-        "c_fabs": "fabsf" if use_float else "fabs", "c_atan2": "atan2f" if use_float else "atan2",
+        "c_fabs": "fabsf" if use_float else "fabs", "c_fmin": "fminf" if use_float else "fmin", "c_atan2": "atan2f" if use_float else "atan2",
         "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
         "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else None,
         "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": _c_real(lay.band_scale),
