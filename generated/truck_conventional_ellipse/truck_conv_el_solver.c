@@ -1158,7 +1158,6 @@ typedef struct {
   truck_conv_el_real_t y[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t s0_guess;
   truck_conv_el_real_t w_tmp[TRUCK_CONV_EL_QP_N];
-  truck_conv_el_real_t y_tmp[TRUCK_CONV_EL_QP_M];
   truck_conv_el_real_t p[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t p_fb[TRUCK_CONV_EL_NP];
   truck_conv_el_real_t g_init[TRUCK_CONV_EL_NX];
@@ -1967,8 +1966,8 @@ static int fit_opponents(void) {
 /* The cold-start guess (fcgen.guess.cold_start_frenet) into w: every stage keeps x0's n, v, delta, has alpha = 0
  * for k >= 1 and s_k = s0 + k dt v0 clipped to [s0, the last s whose stage window lies on the road]; the stage
  * state is init_state of that Frenet state (lifted: F^-1 on the stage's window); hyperplanes between ego and
- * opponents; zero inputs, slacks, duals y. */
-static int initial_guess(truck_conv_el_real_t *w, truck_conv_el_real_t *y) {
+ * opponents; zero inputs and slacks (a cold start's duals are zero: prepare sets them when it commits). */
+static int initial_guess(truck_conv_el_real_t *w) {
   int i;
   int k;
   int rc;
@@ -1997,9 +1996,6 @@ static int initial_guess(truck_conv_el_real_t *w, truck_conv_el_real_t *y) {
     if (STAGES[k].theta >= 0) {
       call3(truck_conv_el_theta_init, &w[STAGES[k].var], ws.p, NULL, &w[STAGES[k].theta], NULL, NULL);
     }
-  }
-  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-    y[i] = 0.0;
   }
   return TRUCK_CONV_EL_OK;
 }
@@ -2153,7 +2149,7 @@ int truck_conv_el_set_opponents(const truck_conv_el_real_t *params) {
   return TRUCK_CONV_EL_OK;
 }
 
-/* Transactional: the prepared guess (w_tmp, y_tmp), q, p are private until prepared = 1 and are built first (every
+/* Transactional: the prepared guess w_tmp, q, p are private until prepared = 1 and are built first (every
  * road window is checked before anything is written); the guess, the duals, the QP backend, the status and `prepared`
  * change only once every check has passed. The constraint values g are built in u and the Jacobian in A_x's memory
  * (RAM): after a prepare rejected for non-finite model values, get_qp's u and A_x show that call's values. */
@@ -2179,14 +2175,11 @@ int truck_conv_el_prepare(void) {
   }
   if (cold != 0) {
     if (ws.have_x0 == 0) return fail(TRUCK_CONV_EL_ERR_NO_STATE);
-    rc = initial_guess(ws.w_tmp, ws.y_tmp);
+    rc = initial_guess(ws.w_tmp);
     if (rc != TRUCK_CONV_EL_OK) return fail(rc);
   } else {
     for (i = 0; i < TRUCK_CONV_EL_QP_N; ++i) {
       ws.w_tmp[i] = ws.w[VAR_SHIFT[i]];
-    }
-    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
-      ws.y_tmp[i] = ws.y[ROW_SHIFT[i]];
     }
   }
   for (k = 0; k <= TRUCK_CONV_EL_N; ++k) { /* every road window first: a rejected call changes nothing */
@@ -2235,6 +2228,11 @@ int truck_conv_el_prepare(void) {
       ws.l[BAND_ROW[i]] = ws.band_val[i];
     } else {
       ws.u[BAND_ROW[i]] = ws.band_val[i];
+    }
+  }
+  if (cold != 0) { /* a cold start's duals are zero (feedback shifts them: still zero) */
+    for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+      ws.y[i] = REAL_0;
     }
   }
   if (restart != 0) { /* as reset() would: the backend restored before its use */
@@ -2299,7 +2297,12 @@ int truck_conv_el_feedback(void) {
   }
   ws.q_cur = ws.q_fb;
   ws.prepared = 0;
-  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y_tmp, (ws.cold != 0) ? MAX_ITER_COLD : MAX_ITER, &res);
+  /* the duals' guess, shifted by one stage in place (one buffer less; zero after a cold prepare): it reads
+   * y[ROW_SHIFT[i]] with ROW_SHIFT[i] >= i (the generator checks it), an entry not yet overwritten */
+  for (i = 0; i < TRUCK_CONV_EL_QP_M; ++i) {
+    ws.y[i] = ws.y[ROW_SHIFT[i]];
+  }
+  rc = qpb_solve(ws.q_fb, ws.l, ws.u, ws.y, (ws.cold != 0) ? MAX_ITER_COLD : MAX_ITER, &res);
   qs = (rc != 0) ? TRUCK_CONV_EL_QP_NUMERICAL : res.status;
   if (res.z != NULL) {
     ws.qp_z = res.z;
@@ -2323,9 +2326,8 @@ int truck_conv_el_feedback(void) {
   }
   if (code == TRUCK_CONV_EL_OK) {
     copy(res.y, ws.y, TRUCK_CONV_EL_QP_M);
-  } else { /* the step is not taken: the plan becomes the prepared (shifted) guess */
+  } else { /* the step is not taken: the plan becomes the prepared (shifted) guess, y holds its duals already */
     copy(ws.w_tmp, ws.w, TRUCK_CONV_EL_QP_N);
-    copy(ws.y_tmp, ws.y, TRUCK_CONV_EL_QP_M);
   }
   if (code == TRUCK_CONV_EL_OK) {
     ws.status.qp_unusable_run = 0;

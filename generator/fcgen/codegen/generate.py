@@ -333,7 +333,7 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("int", "have_x0", [], I),
         # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
         ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
-        ("NAME_real_t", "w_tmp", [n], R), ("NAME_real_t", "y_tmp", [m], R),
+        ("NAME_real_t", "w_tmp", [n], R),
         ("NAME_real_t", "p", [M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
         ("NAME_real_t", "g_init", [M("NX")], R), ("NAME_real_t", "jac", [nnz], R),
         ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
@@ -433,6 +433,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     n_opp_all = max(1, n_opp * n_opp_par)
     if sizes["NNZ_J"] != sizes["QP_NNZ_A"]:
         raise AssertionError("stacked Jacobian and A differ in size: A_x cannot share the Jacobian's memory")
+    if np.any(lay.row_shift < np.arange(lay.m)):
+        raise AssertionError("a row's shifted dual comes from an earlier row: feedback cannot shift y in place")
     a_cycles = permutation_cycles(lay.a_src)
     index_tables = {"A_SRC": lay.a_src, "A_CYCLES": a_cycles,
                     "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
