@@ -3312,7 +3312,7 @@ typedef struct {
   ipm_real_t dlam[600]; /* per inequality side */
   ipm_real_t L[41][2][2]; /* Cholesky factor of R_bar */
   ipm_real_t W1[41][2][8]; /* L^-1 S_bar */
-  ipm_real_t P[41][8][8]; /* cost-to-go Hessian */
+  ipm_real_t P[41][8][8]; /* cost-to-go Hessian (on and below the diagonal) */
   ipm_real_t d[41][1]; /* slack pivots */
   ipm_real_t lr[41][2]; /* L^-1 r_bar */
   ipm_real_t kk[41][2]; /* feedforward */
@@ -3320,7 +3320,6 @@ typedef struct {
   ipm_real_t H[10][10]; /* stage Newton block (scratch) */
   ipm_real_t R[2][2]; /* scratch */
   ipm_real_t Weff[2]; /* scratch */
-  ipm_real_t Pk[8][8]; /* scratch */
   ipm_sr_t sr; /* the soft rows */
   ipm_real_t srh[IPM_NRUN1][IPM_SR_NT]; /* per run of soft rows: its Newton block terms (ipm_sr_check) */
   ipm_real_t srr[3][IPM_NRUN1][IPM_NA]; /* its right-hand side: predictor's, corrector's but sigma mu, -sigma mu's coefficient */
@@ -3339,69 +3338,69 @@ static truck_lift_el_ipm_ipm_ws_t truck_lift_el_ipm_ipm;
  * IPM_FG_OFF[j]), written out per non-zero: no loop, no index ---- */
 /* H[i][j] += ([F G]' P [F G])[i][j], i <= j < IPM_NFGC (the cost-to-go through the stage's dynamics) */
 static void ipm_fg_ctg(const ipm_real_t *fg, ipm_real_t (*P)[IPM_NX], ipm_real_t (*H)[IPM_NXU]) {
-  const ipm_real_t m0_0 = ((P[0][0] * fg[0]) + (P[0][1] * fg[1]) + (P[0][2] * fg[2]));
-  const ipm_real_t m1_0 = ((P[1][0] * fg[0]) + (P[1][1] * fg[1]) + (P[1][2] * fg[2]));
+  const ipm_real_t m0_0 = ((P[0][0] * fg[0]) + (P[1][0] * fg[1]) + (P[2][0] * fg[2]));
+  const ipm_real_t m1_0 = ((P[1][0] * fg[0]) + (P[1][1] * fg[1]) + (P[2][1] * fg[2]));
   const ipm_real_t m2_0 = ((P[2][0] * fg[0]) + (P[2][1] * fg[1]) + (P[2][2] * fg[2]));
-  const ipm_real_t m0_1 = ((P[0][0] * fg[3]) + (P[0][1] * fg[4]) + (P[0][2] * fg[5]));
-  const ipm_real_t m1_1 = ((P[1][0] * fg[3]) + (P[1][1] * fg[4]) + (P[1][2] * fg[5]));
+  const ipm_real_t m0_1 = ((P[0][0] * fg[3]) + (P[1][0] * fg[4]) + (P[2][0] * fg[5]));
+  const ipm_real_t m1_1 = ((P[1][0] * fg[3]) + (P[1][1] * fg[4]) + (P[2][1] * fg[5]));
   const ipm_real_t m2_1 = ((P[2][0] * fg[3]) + (P[2][1] * fg[4]) + (P[2][2] * fg[5]));
-  const ipm_real_t m0_2 = ((P[0][0] * fg[6]) + (P[0][1] * fg[7]) + (P[0][2] * fg[8]));
-  const ipm_real_t m1_2 = ((P[1][0] * fg[6]) + (P[1][1] * fg[7]) + (P[1][2] * fg[8]));
+  const ipm_real_t m0_2 = ((P[0][0] * fg[6]) + (P[1][0] * fg[7]) + (P[2][0] * fg[8]));
+  const ipm_real_t m1_2 = ((P[1][0] * fg[6]) + (P[1][1] * fg[7]) + (P[2][1] * fg[8]));
   const ipm_real_t m2_2 = ((P[2][0] * fg[6]) + (P[2][1] * fg[7]) + (P[2][2] * fg[8]));
-  const ipm_real_t m0_3 = ((P[0][0] * fg[9]) + (P[0][1] * fg[10]) + (P[0][2] * fg[11]) + (P[0][3] * fg[12]) + (P[0][5] * fg[14]) + (P[0][6] * fg[15]) + (P[0][7] * fg[16]));
-  const ipm_real_t m1_3 = ((P[1][0] * fg[9]) + (P[1][1] * fg[10]) + (P[1][2] * fg[11]) + (P[1][3] * fg[12]) + (P[1][5] * fg[14]) + (P[1][6] * fg[15]) + (P[1][7] * fg[16]));
-  const ipm_real_t m2_3 = ((P[2][0] * fg[9]) + (P[2][1] * fg[10]) + (P[2][2] * fg[11]) + (P[2][3] * fg[12]) + (P[2][5] * fg[14]) + (P[2][6] * fg[15]) + (P[2][7] * fg[16]));
-  const ipm_real_t m3_3 = ((P[3][0] * fg[9]) + (P[3][1] * fg[10]) + (P[3][2] * fg[11]) + (P[3][3] * fg[12]) + (P[3][5] * fg[14]) + (P[3][6] * fg[15]) + (P[3][7] * fg[16]));
-  const ipm_real_t m5_3 = ((P[5][0] * fg[9]) + (P[5][1] * fg[10]) + (P[5][2] * fg[11]) + (P[5][3] * fg[12]) + (P[5][5] * fg[14]) + (P[5][6] * fg[15]) + (P[5][7] * fg[16]));
-  const ipm_real_t m6_3 = ((P[6][0] * fg[9]) + (P[6][1] * fg[10]) + (P[6][2] * fg[11]) + (P[6][3] * fg[12]) + (P[6][5] * fg[14]) + (P[6][6] * fg[15]) + (P[6][7] * fg[16]));
+  const ipm_real_t m0_3 = ((P[0][0] * fg[9]) + (P[1][0] * fg[10]) + (P[2][0] * fg[11]) + (P[3][0] * fg[12]) + (P[5][0] * fg[14]) + (P[6][0] * fg[15]) + (P[7][0] * fg[16]));
+  const ipm_real_t m1_3 = ((P[1][0] * fg[9]) + (P[1][1] * fg[10]) + (P[2][1] * fg[11]) + (P[3][1] * fg[12]) + (P[5][1] * fg[14]) + (P[6][1] * fg[15]) + (P[7][1] * fg[16]));
+  const ipm_real_t m2_3 = ((P[2][0] * fg[9]) + (P[2][1] * fg[10]) + (P[2][2] * fg[11]) + (P[3][2] * fg[12]) + (P[5][2] * fg[14]) + (P[6][2] * fg[15]) + (P[7][2] * fg[16]));
+  const ipm_real_t m3_3 = ((P[3][0] * fg[9]) + (P[3][1] * fg[10]) + (P[3][2] * fg[11]) + (P[3][3] * fg[12]) + (P[5][3] * fg[14]) + (P[6][3] * fg[15]) + (P[7][3] * fg[16]));
+  const ipm_real_t m5_3 = ((P[5][0] * fg[9]) + (P[5][1] * fg[10]) + (P[5][2] * fg[11]) + (P[5][3] * fg[12]) + (P[5][5] * fg[14]) + (P[6][5] * fg[15]) + (P[7][5] * fg[16]));
+  const ipm_real_t m6_3 = ((P[6][0] * fg[9]) + (P[6][1] * fg[10]) + (P[6][2] * fg[11]) + (P[6][3] * fg[12]) + (P[6][5] * fg[14]) + (P[6][6] * fg[15]) + (P[7][6] * fg[16]));
   const ipm_real_t m7_3 = ((P[7][0] * fg[9]) + (P[7][1] * fg[10]) + (P[7][2] * fg[11]) + (P[7][3] * fg[12]) + (P[7][5] * fg[14]) + (P[7][6] * fg[15]) + (P[7][7] * fg[16]));
-  const ipm_real_t m0_4 = ((P[0][0] * fg[17]) + (P[0][1] * fg[18]) + (P[0][2] * fg[19]) + (P[0][3] * fg[20]) + (P[0][4] * fg[21]) + (P[0][5] * fg[22]) + (P[0][6] * fg[23]) + (P[0][7] * fg[24]));
-  const ipm_real_t m1_4 = ((P[1][0] * fg[17]) + (P[1][1] * fg[18]) + (P[1][2] * fg[19]) + (P[1][3] * fg[20]) + (P[1][4] * fg[21]) + (P[1][5] * fg[22]) + (P[1][6] * fg[23]) + (P[1][7] * fg[24]));
-  const ipm_real_t m2_4 = ((P[2][0] * fg[17]) + (P[2][1] * fg[18]) + (P[2][2] * fg[19]) + (P[2][3] * fg[20]) + (P[2][4] * fg[21]) + (P[2][5] * fg[22]) + (P[2][6] * fg[23]) + (P[2][7] * fg[24]));
-  const ipm_real_t m3_4 = ((P[3][0] * fg[17]) + (P[3][1] * fg[18]) + (P[3][2] * fg[19]) + (P[3][3] * fg[20]) + (P[3][4] * fg[21]) + (P[3][5] * fg[22]) + (P[3][6] * fg[23]) + (P[3][7] * fg[24]));
-  const ipm_real_t m4_4 = ((P[4][0] * fg[17]) + (P[4][1] * fg[18]) + (P[4][2] * fg[19]) + (P[4][3] * fg[20]) + (P[4][4] * fg[21]) + (P[4][5] * fg[22]) + (P[4][6] * fg[23]) + (P[4][7] * fg[24]));
-  const ipm_real_t m5_4 = ((P[5][0] * fg[17]) + (P[5][1] * fg[18]) + (P[5][2] * fg[19]) + (P[5][3] * fg[20]) + (P[5][4] * fg[21]) + (P[5][5] * fg[22]) + (P[5][6] * fg[23]) + (P[5][7] * fg[24]));
-  const ipm_real_t m6_4 = ((P[6][0] * fg[17]) + (P[6][1] * fg[18]) + (P[6][2] * fg[19]) + (P[6][3] * fg[20]) + (P[6][4] * fg[21]) + (P[6][5] * fg[22]) + (P[6][6] * fg[23]) + (P[6][7] * fg[24]));
+  const ipm_real_t m0_4 = ((P[0][0] * fg[17]) + (P[1][0] * fg[18]) + (P[2][0] * fg[19]) + (P[3][0] * fg[20]) + (P[4][0] * fg[21]) + (P[5][0] * fg[22]) + (P[6][0] * fg[23]) + (P[7][0] * fg[24]));
+  const ipm_real_t m1_4 = ((P[1][0] * fg[17]) + (P[1][1] * fg[18]) + (P[2][1] * fg[19]) + (P[3][1] * fg[20]) + (P[4][1] * fg[21]) + (P[5][1] * fg[22]) + (P[6][1] * fg[23]) + (P[7][1] * fg[24]));
+  const ipm_real_t m2_4 = ((P[2][0] * fg[17]) + (P[2][1] * fg[18]) + (P[2][2] * fg[19]) + (P[3][2] * fg[20]) + (P[4][2] * fg[21]) + (P[5][2] * fg[22]) + (P[6][2] * fg[23]) + (P[7][2] * fg[24]));
+  const ipm_real_t m3_4 = ((P[3][0] * fg[17]) + (P[3][1] * fg[18]) + (P[3][2] * fg[19]) + (P[3][3] * fg[20]) + (P[4][3] * fg[21]) + (P[5][3] * fg[22]) + (P[6][3] * fg[23]) + (P[7][3] * fg[24]));
+  const ipm_real_t m4_4 = ((P[4][0] * fg[17]) + (P[4][1] * fg[18]) + (P[4][2] * fg[19]) + (P[4][3] * fg[20]) + (P[4][4] * fg[21]) + (P[5][4] * fg[22]) + (P[6][4] * fg[23]) + (P[7][4] * fg[24]));
+  const ipm_real_t m5_4 = ((P[5][0] * fg[17]) + (P[5][1] * fg[18]) + (P[5][2] * fg[19]) + (P[5][3] * fg[20]) + (P[5][4] * fg[21]) + (P[5][5] * fg[22]) + (P[6][5] * fg[23]) + (P[7][5] * fg[24]));
+  const ipm_real_t m6_4 = ((P[6][0] * fg[17]) + (P[6][1] * fg[18]) + (P[6][2] * fg[19]) + (P[6][3] * fg[20]) + (P[6][4] * fg[21]) + (P[6][5] * fg[22]) + (P[6][6] * fg[23]) + (P[7][6] * fg[24]));
   const ipm_real_t m7_4 = ((P[7][0] * fg[17]) + (P[7][1] * fg[18]) + (P[7][2] * fg[19]) + (P[7][3] * fg[20]) + (P[7][4] * fg[21]) + (P[7][5] * fg[22]) + (P[7][6] * fg[23]) + (P[7][7] * fg[24]));
-  const ipm_real_t m0_5 = (P[0][5] * fg[25]);
-  const ipm_real_t m1_5 = (P[1][5] * fg[25]);
-  const ipm_real_t m2_5 = (P[2][5] * fg[25]);
-  const ipm_real_t m3_5 = (P[3][5] * fg[25]);
-  const ipm_real_t m4_5 = (P[4][5] * fg[25]);
+  const ipm_real_t m0_5 = (P[5][0] * fg[25]);
+  const ipm_real_t m1_5 = (P[5][1] * fg[25]);
+  const ipm_real_t m2_5 = (P[5][2] * fg[25]);
+  const ipm_real_t m3_5 = (P[5][3] * fg[25]);
+  const ipm_real_t m4_5 = (P[5][4] * fg[25]);
   const ipm_real_t m5_5 = (P[5][5] * fg[25]);
   const ipm_real_t m6_5 = (P[6][5] * fg[25]);
   const ipm_real_t m7_5 = (P[7][5] * fg[25]);
-  const ipm_real_t m0_6 = (P[0][6] * fg[26]);
-  const ipm_real_t m1_6 = (P[1][6] * fg[26]);
-  const ipm_real_t m2_6 = (P[2][6] * fg[26]);
-  const ipm_real_t m3_6 = (P[3][6] * fg[26]);
-  const ipm_real_t m4_6 = (P[4][6] * fg[26]);
-  const ipm_real_t m5_6 = (P[5][6] * fg[26]);
+  const ipm_real_t m0_6 = (P[6][0] * fg[26]);
+  const ipm_real_t m1_6 = (P[6][1] * fg[26]);
+  const ipm_real_t m2_6 = (P[6][2] * fg[26]);
+  const ipm_real_t m3_6 = (P[6][3] * fg[26]);
+  const ipm_real_t m4_6 = (P[6][4] * fg[26]);
+  const ipm_real_t m5_6 = (P[6][5] * fg[26]);
   const ipm_real_t m6_6 = (P[6][6] * fg[26]);
   const ipm_real_t m7_6 = (P[7][6] * fg[26]);
-  const ipm_real_t m0_7 = ((P[0][0] * fg[27]) + (P[0][1] * fg[28]) + (P[0][2] * fg[29]) + (P[0][3] * fg[30]) + (P[0][5] * fg[32]) + (P[0][6] * fg[33]) + (P[0][7] * fg[34]));
-  const ipm_real_t m1_7 = ((P[1][0] * fg[27]) + (P[1][1] * fg[28]) + (P[1][2] * fg[29]) + (P[1][3] * fg[30]) + (P[1][5] * fg[32]) + (P[1][6] * fg[33]) + (P[1][7] * fg[34]));
-  const ipm_real_t m2_7 = ((P[2][0] * fg[27]) + (P[2][1] * fg[28]) + (P[2][2] * fg[29]) + (P[2][3] * fg[30]) + (P[2][5] * fg[32]) + (P[2][6] * fg[33]) + (P[2][7] * fg[34]));
-  const ipm_real_t m3_7 = ((P[3][0] * fg[27]) + (P[3][1] * fg[28]) + (P[3][2] * fg[29]) + (P[3][3] * fg[30]) + (P[3][5] * fg[32]) + (P[3][6] * fg[33]) + (P[3][7] * fg[34]));
-  const ipm_real_t m4_7 = ((P[4][0] * fg[27]) + (P[4][1] * fg[28]) + (P[4][2] * fg[29]) + (P[4][3] * fg[30]) + (P[4][5] * fg[32]) + (P[4][6] * fg[33]) + (P[4][7] * fg[34]));
-  const ipm_real_t m5_7 = ((P[5][0] * fg[27]) + (P[5][1] * fg[28]) + (P[5][2] * fg[29]) + (P[5][3] * fg[30]) + (P[5][5] * fg[32]) + (P[5][6] * fg[33]) + (P[5][7] * fg[34]));
-  const ipm_real_t m6_7 = ((P[6][0] * fg[27]) + (P[6][1] * fg[28]) + (P[6][2] * fg[29]) + (P[6][3] * fg[30]) + (P[6][5] * fg[32]) + (P[6][6] * fg[33]) + (P[6][7] * fg[34]));
+  const ipm_real_t m0_7 = ((P[0][0] * fg[27]) + (P[1][0] * fg[28]) + (P[2][0] * fg[29]) + (P[3][0] * fg[30]) + (P[5][0] * fg[32]) + (P[6][0] * fg[33]) + (P[7][0] * fg[34]));
+  const ipm_real_t m1_7 = ((P[1][0] * fg[27]) + (P[1][1] * fg[28]) + (P[2][1] * fg[29]) + (P[3][1] * fg[30]) + (P[5][1] * fg[32]) + (P[6][1] * fg[33]) + (P[7][1] * fg[34]));
+  const ipm_real_t m2_7 = ((P[2][0] * fg[27]) + (P[2][1] * fg[28]) + (P[2][2] * fg[29]) + (P[3][2] * fg[30]) + (P[5][2] * fg[32]) + (P[6][2] * fg[33]) + (P[7][2] * fg[34]));
+  const ipm_real_t m3_7 = ((P[3][0] * fg[27]) + (P[3][1] * fg[28]) + (P[3][2] * fg[29]) + (P[3][3] * fg[30]) + (P[5][3] * fg[32]) + (P[6][3] * fg[33]) + (P[7][3] * fg[34]));
+  const ipm_real_t m4_7 = ((P[4][0] * fg[27]) + (P[4][1] * fg[28]) + (P[4][2] * fg[29]) + (P[4][3] * fg[30]) + (P[5][4] * fg[32]) + (P[6][4] * fg[33]) + (P[7][4] * fg[34]));
+  const ipm_real_t m5_7 = ((P[5][0] * fg[27]) + (P[5][1] * fg[28]) + (P[5][2] * fg[29]) + (P[5][3] * fg[30]) + (P[5][5] * fg[32]) + (P[6][5] * fg[33]) + (P[7][5] * fg[34]));
+  const ipm_real_t m6_7 = ((P[6][0] * fg[27]) + (P[6][1] * fg[28]) + (P[6][2] * fg[29]) + (P[6][3] * fg[30]) + (P[6][5] * fg[32]) + (P[6][6] * fg[33]) + (P[7][6] * fg[34]));
   const ipm_real_t m7_7 = ((P[7][0] * fg[27]) + (P[7][1] * fg[28]) + (P[7][2] * fg[29]) + (P[7][3] * fg[30]) + (P[7][5] * fg[32]) + (P[7][6] * fg[33]) + (P[7][7] * fg[34]));
-  const ipm_real_t m0_8 = ((P[0][0] * fg[35]) + (P[0][1] * fg[36]) + (P[0][2] * fg[37]) + (P[0][3] * fg[38]) + (P[0][5] * fg[40]) + (P[0][6] * fg[41]) + (P[0][7] * fg[42]));
-  const ipm_real_t m1_8 = ((P[1][0] * fg[35]) + (P[1][1] * fg[36]) + (P[1][2] * fg[37]) + (P[1][3] * fg[38]) + (P[1][5] * fg[40]) + (P[1][6] * fg[41]) + (P[1][7] * fg[42]));
-  const ipm_real_t m2_8 = ((P[2][0] * fg[35]) + (P[2][1] * fg[36]) + (P[2][2] * fg[37]) + (P[2][3] * fg[38]) + (P[2][5] * fg[40]) + (P[2][6] * fg[41]) + (P[2][7] * fg[42]));
-  const ipm_real_t m3_8 = ((P[3][0] * fg[35]) + (P[3][1] * fg[36]) + (P[3][2] * fg[37]) + (P[3][3] * fg[38]) + (P[3][5] * fg[40]) + (P[3][6] * fg[41]) + (P[3][7] * fg[42]));
-  const ipm_real_t m4_8 = ((P[4][0] * fg[35]) + (P[4][1] * fg[36]) + (P[4][2] * fg[37]) + (P[4][3] * fg[38]) + (P[4][5] * fg[40]) + (P[4][6] * fg[41]) + (P[4][7] * fg[42]));
-  const ipm_real_t m5_8 = ((P[5][0] * fg[35]) + (P[5][1] * fg[36]) + (P[5][2] * fg[37]) + (P[5][3] * fg[38]) + (P[5][5] * fg[40]) + (P[5][6] * fg[41]) + (P[5][7] * fg[42]));
-  const ipm_real_t m6_8 = ((P[6][0] * fg[35]) + (P[6][1] * fg[36]) + (P[6][2] * fg[37]) + (P[6][3] * fg[38]) + (P[6][5] * fg[40]) + (P[6][6] * fg[41]) + (P[6][7] * fg[42]));
+  const ipm_real_t m0_8 = ((P[0][0] * fg[35]) + (P[1][0] * fg[36]) + (P[2][0] * fg[37]) + (P[3][0] * fg[38]) + (P[5][0] * fg[40]) + (P[6][0] * fg[41]) + (P[7][0] * fg[42]));
+  const ipm_real_t m1_8 = ((P[1][0] * fg[35]) + (P[1][1] * fg[36]) + (P[2][1] * fg[37]) + (P[3][1] * fg[38]) + (P[5][1] * fg[40]) + (P[6][1] * fg[41]) + (P[7][1] * fg[42]));
+  const ipm_real_t m2_8 = ((P[2][0] * fg[35]) + (P[2][1] * fg[36]) + (P[2][2] * fg[37]) + (P[3][2] * fg[38]) + (P[5][2] * fg[40]) + (P[6][2] * fg[41]) + (P[7][2] * fg[42]));
+  const ipm_real_t m3_8 = ((P[3][0] * fg[35]) + (P[3][1] * fg[36]) + (P[3][2] * fg[37]) + (P[3][3] * fg[38]) + (P[5][3] * fg[40]) + (P[6][3] * fg[41]) + (P[7][3] * fg[42]));
+  const ipm_real_t m4_8 = ((P[4][0] * fg[35]) + (P[4][1] * fg[36]) + (P[4][2] * fg[37]) + (P[4][3] * fg[38]) + (P[5][4] * fg[40]) + (P[6][4] * fg[41]) + (P[7][4] * fg[42]));
+  const ipm_real_t m5_8 = ((P[5][0] * fg[35]) + (P[5][1] * fg[36]) + (P[5][2] * fg[37]) + (P[5][3] * fg[38]) + (P[5][5] * fg[40]) + (P[6][5] * fg[41]) + (P[7][5] * fg[42]));
+  const ipm_real_t m6_8 = ((P[6][0] * fg[35]) + (P[6][1] * fg[36]) + (P[6][2] * fg[37]) + (P[6][3] * fg[38]) + (P[6][5] * fg[40]) + (P[6][6] * fg[41]) + (P[7][6] * fg[42]));
   const ipm_real_t m7_8 = ((P[7][0] * fg[35]) + (P[7][1] * fg[36]) + (P[7][2] * fg[37]) + (P[7][3] * fg[38]) + (P[7][5] * fg[40]) + (P[7][6] * fg[41]) + (P[7][7] * fg[42]));
-  const ipm_real_t m0_9 = ((P[0][0] * fg[43]) + (P[0][1] * fg[44]) + (P[0][2] * fg[45]) + (P[0][3] * fg[46]) + (P[0][4] * fg[47]) + (P[0][5] * fg[48]) + (P[0][6] * fg[49]) + (P[0][7] * fg[50]));
-  const ipm_real_t m1_9 = ((P[1][0] * fg[43]) + (P[1][1] * fg[44]) + (P[1][2] * fg[45]) + (P[1][3] * fg[46]) + (P[1][4] * fg[47]) + (P[1][5] * fg[48]) + (P[1][6] * fg[49]) + (P[1][7] * fg[50]));
-  const ipm_real_t m2_9 = ((P[2][0] * fg[43]) + (P[2][1] * fg[44]) + (P[2][2] * fg[45]) + (P[2][3] * fg[46]) + (P[2][4] * fg[47]) + (P[2][5] * fg[48]) + (P[2][6] * fg[49]) + (P[2][7] * fg[50]));
-  const ipm_real_t m3_9 = ((P[3][0] * fg[43]) + (P[3][1] * fg[44]) + (P[3][2] * fg[45]) + (P[3][3] * fg[46]) + (P[3][4] * fg[47]) + (P[3][5] * fg[48]) + (P[3][6] * fg[49]) + (P[3][7] * fg[50]));
-  const ipm_real_t m4_9 = ((P[4][0] * fg[43]) + (P[4][1] * fg[44]) + (P[4][2] * fg[45]) + (P[4][3] * fg[46]) + (P[4][4] * fg[47]) + (P[4][5] * fg[48]) + (P[4][6] * fg[49]) + (P[4][7] * fg[50]));
-  const ipm_real_t m5_9 = ((P[5][0] * fg[43]) + (P[5][1] * fg[44]) + (P[5][2] * fg[45]) + (P[5][3] * fg[46]) + (P[5][4] * fg[47]) + (P[5][5] * fg[48]) + (P[5][6] * fg[49]) + (P[5][7] * fg[50]));
-  const ipm_real_t m6_9 = ((P[6][0] * fg[43]) + (P[6][1] * fg[44]) + (P[6][2] * fg[45]) + (P[6][3] * fg[46]) + (P[6][4] * fg[47]) + (P[6][5] * fg[48]) + (P[6][6] * fg[49]) + (P[6][7] * fg[50]));
+  const ipm_real_t m0_9 = ((P[0][0] * fg[43]) + (P[1][0] * fg[44]) + (P[2][0] * fg[45]) + (P[3][0] * fg[46]) + (P[4][0] * fg[47]) + (P[5][0] * fg[48]) + (P[6][0] * fg[49]) + (P[7][0] * fg[50]));
+  const ipm_real_t m1_9 = ((P[1][0] * fg[43]) + (P[1][1] * fg[44]) + (P[2][1] * fg[45]) + (P[3][1] * fg[46]) + (P[4][1] * fg[47]) + (P[5][1] * fg[48]) + (P[6][1] * fg[49]) + (P[7][1] * fg[50]));
+  const ipm_real_t m2_9 = ((P[2][0] * fg[43]) + (P[2][1] * fg[44]) + (P[2][2] * fg[45]) + (P[3][2] * fg[46]) + (P[4][2] * fg[47]) + (P[5][2] * fg[48]) + (P[6][2] * fg[49]) + (P[7][2] * fg[50]));
+  const ipm_real_t m3_9 = ((P[3][0] * fg[43]) + (P[3][1] * fg[44]) + (P[3][2] * fg[45]) + (P[3][3] * fg[46]) + (P[4][3] * fg[47]) + (P[5][3] * fg[48]) + (P[6][3] * fg[49]) + (P[7][3] * fg[50]));
+  const ipm_real_t m4_9 = ((P[4][0] * fg[43]) + (P[4][1] * fg[44]) + (P[4][2] * fg[45]) + (P[4][3] * fg[46]) + (P[4][4] * fg[47]) + (P[5][4] * fg[48]) + (P[6][4] * fg[49]) + (P[7][4] * fg[50]));
+  const ipm_real_t m5_9 = ((P[5][0] * fg[43]) + (P[5][1] * fg[44]) + (P[5][2] * fg[45]) + (P[5][3] * fg[46]) + (P[5][4] * fg[47]) + (P[5][5] * fg[48]) + (P[6][5] * fg[49]) + (P[7][5] * fg[50]));
+  const ipm_real_t m6_9 = ((P[6][0] * fg[43]) + (P[6][1] * fg[44]) + (P[6][2] * fg[45]) + (P[6][3] * fg[46]) + (P[6][4] * fg[47]) + (P[6][5] * fg[48]) + (P[6][6] * fg[49]) + (P[7][6] * fg[50]));
   const ipm_real_t m7_9 = ((P[7][0] * fg[43]) + (P[7][1] * fg[44]) + (P[7][2] * fg[45]) + (P[7][3] * fg[46]) + (P[7][4] * fg[47]) + (P[7][5] * fg[48]) + (P[7][6] * fg[49]) + (P[7][7] * fg[50]));
   H[0][0] += ((fg[0] * m0_0) + (fg[1] * m1_0) + (fg[2] * m2_0));
   H[0][1] += ((fg[0] * m0_1) + (fg[1] * m1_1) + (fg[2] * m2_1));
@@ -3489,13 +3488,13 @@ static void ipm_fg_axpy(const ipm_real_t *fg, const ipm_real_t *v, ipm_real_t *y
 /* ---- small dense stage kernels at this problem's sizes (dense_kernels), written out ---- */
 /* y = P x (P: NX x NX) */
 static void ipm_mv(ipm_real_t (*P)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) {
-  y[0] = ((P[0][0] * x[0]) + (P[0][1] * x[1]) + (P[0][2] * x[2]) + (P[0][3] * x[3]) + (P[0][4] * x[4]) + (P[0][5] * x[5]) + (P[0][6] * x[6]) + (P[0][7] * x[7]));
-  y[1] = ((P[1][0] * x[0]) + (P[1][1] * x[1]) + (P[1][2] * x[2]) + (P[1][3] * x[3]) + (P[1][4] * x[4]) + (P[1][5] * x[5]) + (P[1][6] * x[6]) + (P[1][7] * x[7]));
-  y[2] = ((P[2][0] * x[0]) + (P[2][1] * x[1]) + (P[2][2] * x[2]) + (P[2][3] * x[3]) + (P[2][4] * x[4]) + (P[2][5] * x[5]) + (P[2][6] * x[6]) + (P[2][7] * x[7]));
-  y[3] = ((P[3][0] * x[0]) + (P[3][1] * x[1]) + (P[3][2] * x[2]) + (P[3][3] * x[3]) + (P[3][4] * x[4]) + (P[3][5] * x[5]) + (P[3][6] * x[6]) + (P[3][7] * x[7]));
-  y[4] = ((P[4][0] * x[0]) + (P[4][1] * x[1]) + (P[4][2] * x[2]) + (P[4][3] * x[3]) + (P[4][4] * x[4]) + (P[4][5] * x[5]) + (P[4][6] * x[6]) + (P[4][7] * x[7]));
-  y[5] = ((P[5][0] * x[0]) + (P[5][1] * x[1]) + (P[5][2] * x[2]) + (P[5][3] * x[3]) + (P[5][4] * x[4]) + (P[5][5] * x[5]) + (P[5][6] * x[6]) + (P[5][7] * x[7]));
-  y[6] = ((P[6][0] * x[0]) + (P[6][1] * x[1]) + (P[6][2] * x[2]) + (P[6][3] * x[3]) + (P[6][4] * x[4]) + (P[6][5] * x[5]) + (P[6][6] * x[6]) + (P[6][7] * x[7]));
+  y[0] = ((P[0][0] * x[0]) + (P[1][0] * x[1]) + (P[2][0] * x[2]) + (P[3][0] * x[3]) + (P[4][0] * x[4]) + (P[5][0] * x[5]) + (P[6][0] * x[6]) + (P[7][0] * x[7]));
+  y[1] = ((P[1][0] * x[0]) + (P[1][1] * x[1]) + (P[2][1] * x[2]) + (P[3][1] * x[3]) + (P[4][1] * x[4]) + (P[5][1] * x[5]) + (P[6][1] * x[6]) + (P[7][1] * x[7]));
+  y[2] = ((P[2][0] * x[0]) + (P[2][1] * x[1]) + (P[2][2] * x[2]) + (P[3][2] * x[3]) + (P[4][2] * x[4]) + (P[5][2] * x[5]) + (P[6][2] * x[6]) + (P[7][2] * x[7]));
+  y[3] = ((P[3][0] * x[0]) + (P[3][1] * x[1]) + (P[3][2] * x[2]) + (P[3][3] * x[3]) + (P[4][3] * x[4]) + (P[5][3] * x[5]) + (P[6][3] * x[6]) + (P[7][3] * x[7]));
+  y[4] = ((P[4][0] * x[0]) + (P[4][1] * x[1]) + (P[4][2] * x[2]) + (P[4][3] * x[3]) + (P[4][4] * x[4]) + (P[5][4] * x[5]) + (P[6][4] * x[6]) + (P[7][4] * x[7]));
+  y[5] = ((P[5][0] * x[0]) + (P[5][1] * x[1]) + (P[5][2] * x[2]) + (P[5][3] * x[3]) + (P[5][4] * x[4]) + (P[5][5] * x[5]) + (P[6][5] * x[6]) + (P[7][5] * x[7]));
+  y[6] = ((P[6][0] * x[0]) + (P[6][1] * x[1]) + (P[6][2] * x[2]) + (P[6][3] * x[3]) + (P[6][4] * x[4]) + (P[6][5] * x[5]) + (P[6][6] * x[6]) + (P[7][6] * x[7]));
   y[7] = ((P[7][0] * x[0]) + (P[7][1] * x[1]) + (P[7][2] * x[2]) + (P[7][3] * x[3]) + (P[7][4] * x[4]) + (P[7][5] * x[5]) + (P[7][6] * x[6]) + (P[7][7] * x[7]));
 }
 
@@ -4164,8 +4163,8 @@ static inline void ipm_side_g(int j, ipm_real_t rc) {
 }
 
 /* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
- * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The sides' loop
- * is written once per target (ipm_rc's corr a constant in each) */
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The predictor's g
+ * is ipm_check's (its pass over the sides leaves it in IPM_W.ar); the corrector's, a pass over the sides here */
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
@@ -4174,10 +4173,6 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   if (corr != 0) {
     for (j = 0; j < IPM_NSIDE; ++j) {
       ipm_side_g(j, ipm_rc(1, sm, j));
-    }
-  } else {
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      ipm_side_g(j, ipm_rc(0, REAL_0, j));
     }
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
@@ -4481,13 +4476,13 @@ static int ipm_stage_equalities(int k) {
     }
   }
   ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, &IPM_W.W2[0][0], IPM_NE1, IPM_NX, IPM_NX);
-  for (i = 0; i < IPM_NX; ++i) { /* on and below the diagonal, as ipm_factor_stage's Pk */
+  for (i = 0; i < IPM_NX; ++i) { /* on and below the diagonal, as ipm_factor_stage keeps P_k */
     for (j = 0; j <= i; ++j) {
       ipm_real_t v = REAL_0;
       for (a = 0; a < IPM_NE1; ++a) {
         v += IPM_W.W2[a][i] * IPM_W.W2[a][j];
       }
-      IPM_W.Pk[i][j] += v;
+      IPM_W.P[k][i][j] += v;
     }
   }
   return 0;
@@ -4559,20 +4554,18 @@ static int ipm_factor_stage(int k) {
     }
   }
   ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
-  ipm_pk(IPM_W.H, IPM_W.W1[k], IPM_W.Pk); /* Pk = H[x][x] - W1' W1: on and below the diagonal */
+  ipm_pk(IPM_W.H, IPM_W.W1[k], IPM_W.P[k]); /* P_k = H[x][x] - W1' W1: on and below the diagonal (all that is kept
+                                              * of it: its readers, ipm_fg_ctg and ipm_mv, read the lower triangle) */
 #if IPM_NE > 0
   if (ipm_stage_equalities(k) != 0) {
     return 1;
   }
 #endif
-  { /* P_k from the lower triangle, mirrored; 0 times every entry sums to NaN once one is not finite */
+  { /* 0 times every entry of P_k sums to NaN once one is not finite */
     ipm_real_t nf = REAL_0;
     for (i = 0; i < IPM_NX; ++i) {
       for (j = 0; j <= i; ++j) {
-        const ipm_real_t v = IPM_W.Pk[i][j];
-        nf += v * REAL_0;
-        IPM_W.P[k][i][j] = v;
-        IPM_W.P[k][j][i] = v;
+        nf += IPM_W.P[k][i][j] * REAL_0;
       }
     }
     if (isfinite(nf) == 0) {
@@ -4843,8 +4836,9 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
-   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
+  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t, its
+   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) and its share of
+   * the predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here) */
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const int second = IPM_SIDE_2ND[j];
@@ -4860,6 +4854,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.r_p[j] = rp;
     IPM_W.it[j] = it;
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
+    IPM_W.ar[r] = ((second != 0) ? IPM_W.ar[r] : REAL_0) + ((IPM_SIDE_SG[j] * ((t * lam) + (lam * rp))) * it);
     if (IPM_FABS(rp) > rmax) {
       rmax = IPM_FABS(rp);
     }

@@ -605,8 +605,8 @@ static inline void ipm_side_g(int j, ipm_real_t rc) {
 }
 
 /* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
- * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The sides' loop
- * is written once per target (ipm_rc's corr a constant in each) */
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The predictor's g
+ * is ipm_check's (its pass over the sides leaves it in IPM_W.ar); the corrector's, a pass over the sides here */
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
@@ -615,10 +615,6 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   if (corr != 0) {
     for (j = 0; j < IPM_NSIDE; ++j) {
       ipm_side_g(j, ipm_rc(1, sm, j));
-    }
-  } else {
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      ipm_side_g(j, ipm_rc(0, REAL_0, j));
     }
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
@@ -922,13 +918,13 @@ static int ipm_stage_equalities(int k) {
     }
   }
   ipm_fwd(&IPM_W.LM[k][0][0], IPM_NE1, &IPM_W.W2[0][0], IPM_NE1, IPM_NX, IPM_NX);
-  for (i = 0; i < IPM_NX; ++i) { /* on and below the diagonal, as ipm_factor_stage's Pk */
+  for (i = 0; i < IPM_NX; ++i) { /* on and below the diagonal, as ipm_factor_stage keeps P_k */
     for (j = 0; j <= i; ++j) {
       ipm_real_t v = REAL_0;
       for (a = 0; a < IPM_NE1; ++a) {
         v += IPM_W.W2[a][i] * IPM_W.W2[a][j];
       }
-      IPM_W.Pk[i][j] += v;
+      IPM_W.P[k][i][j] += v;
     }
   }
   return 0;
@@ -1000,20 +996,18 @@ static int ipm_factor_stage(int k) {
     }
   }
   ipm_fwd_u(k, &IPM_W.L[k][0][0], &IPM_W.W1[k][0][0], IPM_NX, IPM_NX);
-  ipm_pk(IPM_W.H, IPM_W.W1[k], IPM_W.Pk); /* Pk = H[x][x] - W1' W1: on and below the diagonal */
+  ipm_pk(IPM_W.H, IPM_W.W1[k], IPM_W.P[k]); /* P_k = H[x][x] - W1' W1: on and below the diagonal (all that is kept
+                                              * of it: its readers, ipm_fg_ctg and ipm_mv, read the lower triangle) */
 #if IPM_NE > 0
   if (ipm_stage_equalities(k) != 0) {
     return 1;
   }
 #endif
-  { /* P_k from the lower triangle, mirrored; 0 times every entry sums to NaN once one is not finite */
+  { /* 0 times every entry of P_k sums to NaN once one is not finite */
     ipm_real_t nf = REAL_0;
     for (i = 0; i < IPM_NX; ++i) {
       for (j = 0; j <= i; ++j) {
-        const ipm_real_t v = IPM_W.Pk[i][j];
-        nf += v * REAL_0;
-        IPM_W.P[k][i][j] = v;
-        IPM_W.P[k][j][i] = v;
+        nf += IPM_W.P[k][i][j] * REAL_0;
       }
     }
     if (isfinite(nf) == 0) {
@@ -1284,8 +1278,9 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t and its
-   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) */
+  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t, its
+   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) and its share of
+   * the predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here) */
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const int second = IPM_SIDE_2ND[j];
@@ -1301,6 +1296,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.r_p[j] = rp;
     IPM_W.it[j] = it;
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
+    IPM_W.ar[r] = ((second != 0) ? IPM_W.ar[r] : REAL_0) + ((IPM_SIDE_SG[j] * ((t * lam) + (lam * rp))) * it);
     if (IPM_FABS(rp) > rmax) {
       rmax = IPM_FABS(rp);
     }

@@ -448,13 +448,13 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("gd", (m,), "the multiplier step on the equality rows"),
         *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
         ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
-("P", (N + 1, NX, NX), "cost-to-go Hessian"),
+("P", (N + 1, NX, NX), "cost-to-go Hessian (on and below the diagonal)"),
         ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
         ("d", (N + 1, NS), "slack pivots"),
         ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
         ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"),
         ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
-        ("W2", (NE1, NX), "scratch"), ("Pk", (NX, NX), "scratch"),
+        ("W2", (NE1, NX), "scratch"),
     ]
     if sv.NE == 0:  # the stage-equality arrays exist only with stage equalities (the template's code too)
         spec = [m for m in spec if m[0] not in ("UD", "LM", "D", "M", "W2")]
@@ -554,12 +554,17 @@ def _c_sum(terms: list[str]) -> str:
     return " + ".join(terms) if len(terms) < 2 else "(" + " + ".join(terms) + ")"
 
 
+def _lower(name: str, i: int, j: int) -> str:
+    """Entry (i, j) of a symmetric matrix of which the C keeps the lower triangle only (the cost-to-go P)."""
+    return f"{name}[{max(i, j)}][{min(i, j)}]"
+
+
 def fg_kernels(sv: StageView) -> dict[str, str]:
     """Bodies of the stage kernels on [F G]'s sparsity (the same at every stage; column j's band packed at off[j]),
     written out statement by statement as a code generator for a fixed pattern does (acados', CasADi's): no loop,
     no index, only [F G]'s structural non-zeros multiplied. ``ctg``: H[i][j] += ([F G]' P [F G])[i][j] for i <= j
-    (P [F G] first, into locals); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``: y += [F G] v. Each sum runs over the
-    band's rows in ascending order (the order the Python reference's dense products need not share: verify compares
+    (P [F G] first, into locals; P read on and below its diagonal); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``:
+    y += [F G] v. Each sum runs over the band's rows in ascending order (the order the Python reference's dense products need not share: verify compares
     within tolerances)."""
     a0, a1, off, _ = fg_bands(sv)
     nx, nfgc = sv.nx, len(a0)
@@ -576,7 +581,8 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
         rows = [b for b in range(nx) if nz[b, j]]
         for a in range(nx):
             if (a, j) in need:
-                ctg.append(f"const ipm_real_t m{a}_{j} = {_c_sum([f'(P[{a}][{b}] * {el(b, j)})' for b in rows])};")
+                terms = [f"({_lower('P', a, b)} * {el(b, j)})" for b in rows]
+                ctg.append(f"const ipm_real_t m{a}_{j} = {_c_sum(terms)};")
     for i in range(nfgc):
         rows = [b for b in range(nx) if nz[b, i]]
         for j in range(i, nfgc):
@@ -598,10 +604,12 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
 
 def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     """Bodies of the small dense stage kernels at this problem's sizes, written out (every size a compile-time
-    constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX);
+    constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX, its
+    lower triangle read);
     ``wx``: y = W1 x (NU x NX); ``wtx``: y = W1' x; ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's
     upper triangle read)."""
-    mv = [f"y[{i}] = {_c_sum([f'(P[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nx)]
+    mv = [f"y[{i}] = {_c_sum([f'({pij} * x[{j}])' for j, pij in enumerate(_lower('P', i, j) for j in range(nx))])};"
+          for i in range(nx)]
     wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
     wtx = [f"y[{i}] = {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
     pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
