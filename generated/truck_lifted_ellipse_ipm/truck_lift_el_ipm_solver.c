@@ -4821,16 +4821,13 @@ static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
 static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
   int i;
   int j;
+  int k;
   int raw = IPM_GOING;
   ipm_real_t mu = REAL_0;
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
   ipm_real_t az = REAL_0;
-  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here */
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.t[j] += alpha * IPM_W.dt[j];
-    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
-  }
+  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here (the sides' in their pass) */
   for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries (dz = 0) are not read */
     IPM_W.z[j] += alpha * IPM_W.dz[j];
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
@@ -4842,8 +4839,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const int second = IPM_SIDE_2ND[j];
-    const ipm_real_t t = IPM_W.t[j];
-    const ipm_real_t lam = IPM_W.lam[j];
+    const ipm_real_t t = IPM_W.t[j] + (alpha * IPM_W.dt[j]);
+    const ipm_real_t lam = IPM_W.lam[j] + (alpha * IPM_W.dlam[j]);
     const ipm_real_t it = IPM_ONE / t;
     ipm_real_t rp;
     if (second == 0) {
@@ -4851,6 +4848,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     }
     rp = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - t;
     IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * lam);
+    IPM_W.t[j] = t;
+    IPM_W.lam[j] = lam;
     IPM_W.r_p[j] = rp;
     IPM_W.it[j] = it;
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
@@ -4886,8 +4885,10 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
       rmax = IPM_FABS(IPM_W.wr[r]);
     }
   }
-  for (i = 0; i < (IPM_N * IPM_NX); ++i) { /* the dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
-    IPM_W.wr[IPM_DYN_ROWS[i]] *= -IPM_W.Einv[i / IPM_NX][i % IPM_NX];
+  for (k = 0; k < IPM_N; ++k) { /* the dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+    for (i = 0; i < IPM_NX; ++i) {
+      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
+    }
   }
   mu /= (ipm_real_t)IPM_NCOMP;
   { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite */
