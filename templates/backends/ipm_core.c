@@ -610,9 +610,9 @@ static inline void ipm_side_g(int j, ipm_real_t rc) {
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
-  int j;
   (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
   if (corr != 0) {
+    int j;
     for (j = 0; j < IPM_NSIDE; ++j) {
       ipm_side_g(j, ipm_rc(1, sm, j));
     }
