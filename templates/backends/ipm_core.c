@@ -1269,7 +1269,11 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   ipm_real_t rmax = REAL_0;
   ipm_real_t lmax = REAL_0;
   ipm_real_t az = REAL_0;
-  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here (the sides' in their pass) */
+  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here */
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    IPM_W.t[j] += alpha * IPM_W.dt[j];
+    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
+  }
   for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries (dz = 0) are not read */
     IPM_W.z[j] += alpha * IPM_W.dz[j];
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
@@ -1281,8 +1285,8 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const int second = IPM_SIDE_2ND[j];
-    const ipm_real_t t = IPM_W.t[j] + (alpha * IPM_W.dt[j]);
-    const ipm_real_t lam = IPM_W.lam[j] + (alpha * IPM_W.dlam[j]);
+    const ipm_real_t t = IPM_W.t[j];
+    const ipm_real_t lam = IPM_W.lam[j];
     const ipm_real_t it = IPM_ONE / t;
     ipm_real_t rp;
     if (second == 0) {
@@ -1290,8 +1294,6 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     }
     rp = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - t;
     IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * lam);
-    IPM_W.t[j] = t;
-    IPM_W.lam[j] = lam;
     IPM_W.r_p[j] = rp;
     IPM_W.it[j] = it;
     IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
