@@ -588,8 +588,11 @@ static ipm_real_t ipm_sr_forward(int k, int corr, ipm_real_t sm, const ipm_real_
   return am;
 }
 
-/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first);
- * a per-row sum over them runs flat over the sides: the row's first side sets it, a second (IPM_SIDE_2ND) adds */
+/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first).
+ * ipm_check's pass runs over the rows in order, hence over the sides in order, the row's sums in registers: two sides
+ * (IPM_IN_TWO) are a lower and an upper one, whose signs are constants (the generator checks); one side has its sign
+ * from IPM_SIDE_SG. The other passes run flat over the sides (IPM_SIDE_ROW; a per-row sum: the row's first side
+ * sets it, a second (IPM_SIDE_2ND) adds): measured, that is cheaper for them on the Cortex-M7 and no dearer on x86 */
 /* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
  * still in IPM_W.dt, IPM_W.dlam) */
 static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
@@ -597,11 +600,9 @@ static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
                      : (IPM_W.t[j] * IPM_W.lam[j]);
 }
 
-/* side j's share of its row's right-hand side g (sign (rc + lam r_p) / t) into IPM_W.ar (the row's first side sets) */
-static inline void ipm_side_g(int j, ipm_real_t rc) {
-  const int r = IPM_SIDE_ROW[j];
-  const ipm_real_t g = (IPM_SIDE_SG[j] * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
-  IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + g;
+/* side j's (sign sg) share of its row's right-hand side g: sign (rc + lam r_p) / t */
+static inline ipm_real_t ipm_side_g(int j, ipm_real_t sg, ipm_real_t rc) {
+  return (sg * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
 }
 
 /* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
@@ -611,10 +612,11 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int gs;
   int a;
   (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
-  if (corr != 0) {
+  if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows) */
     int j;
     for (j = 0; j < IPM_NSIDE; ++j) {
-      ipm_side_g(j, ipm_rc(1, sm, j));
+      const int r = IPM_SIDE_ROW[j];
+      IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], ipm_rc(1, sm, j));
     }
   }
   for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
@@ -635,10 +637,10 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   }
 }
 
-/* side j's step dt, dlam from its row's a'dz (IPM_W.ar) and target rc; returns amax cut to its boundary */
-static inline ipm_real_t ipm_side_step(int j, ipm_real_t rc, ipm_real_t amax) {
+/* side j's (sign sg) step dt, dlam from its row's a'dz (ad) and target rc; returns amax cut to its boundary */
+static inline ipm_real_t ipm_side_step(int j, ipm_real_t sg, ipm_real_t ad, ipm_real_t rc, ipm_real_t amax) {
   ipm_real_t am = amax;
-  const ipm_real_t dt = (IPM_SIDE_SG[j] * IPM_W.ar[IPM_SIDE_ROW[j]]) + IPM_W.r_p[j];
+  const ipm_real_t dt = (sg * ad) + IPM_W.r_p[j];
   const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
   /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
   if ((IPM_W.t[j] + (am * dt)) < REAL_0) {
@@ -675,9 +677,9 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
   for (a = 0; a < IPM_NBOX; ++a) {
     IPM_W.ar[IPM_BOX_ROW[a]] = IPM_W.bax[a] * IPM_W.dz[IPM_BOX_VAR[a]];
   }
-  if (corr != 0) {
+  if (corr != 0) { /* flat over the sides (measured: cheaper here than by rows) */
     for (j = 0; j < IPM_NSIDE; ++j) {
-      amax = ipm_side_step(j, ipm_rc(1, sm, j), amax);
+      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], ipm_rc(1, sm, j), amax);
     }
   } else { /* the predictor also sums t lam, t dlam + lam dt, dt dlam into IPM_W.aff (mu_aff for any step length) */
     ipm_real_t s0 = REAL_0;
@@ -685,7 +687,7 @@ static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
     ipm_real_t s2 = REAL_0;
     for (j = 0; j < IPM_NSIDE; ++j) {
       const ipm_real_t rc = ipm_rc(0, REAL_0, j);
-      amax = ipm_side_step(j, rc, amax);
+      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], rc, amax);
       s0 += rc;
       s1 += (IPM_W.t[j] * IPM_W.dlam[j]) + (IPM_W.lam[j] * IPM_W.dt[j]);
       s2 += IPM_W.dt[j] * IPM_W.dlam[j];
@@ -1259,16 +1261,41 @@ static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
   return (IPM_SIDE_SIGN[j] > 0) ? l[IPM_SIDE_ROW[j]] : (-u[IPM_SIDE_ROW[j]]);
 }
 
+/* ipm_check's work on side j (sign sg) of a row whose A z is az: its r_p and 1 / t, into the row's sums row (its y,
+ * its weight W = sum lam / t, the predictor's g: both sides of a row add to the same three, from 0) and the stopping
+ * test's acc (the sum of t lam, the largest residual or product, the largest multiplier) */
+static inline void ipm_check_side(int j, ipm_real_t sg, ipm_real_t az, ipm_real_t *row, ipm_real_t *acc) {
+  const ipm_real_t t = IPM_W.t[j];
+  const ipm_real_t lam = IPM_W.lam[j];
+  const ipm_real_t it = IPM_ONE / t;
+  const ipm_real_t rp = ((sg * az) - IPM_W.bs[j]) - t;
+  row[0] -= sg * lam;
+  row[1] += lam * it;
+  row[2] += (sg * ((t * lam) + (lam * rp))) * it;
+  IPM_W.r_p[j] = rp;
+  IPM_W.it[j] = it;
+  if (IPM_FABS(rp) > acc[1]) {
+    acc[1] = IPM_FABS(rp);
+  }
+  acc[0] += t * lam;
+  if ((t * lam) > acc[1]) {
+    acc[1] = t * lam;
+  }
+  if (lam > acc[2]) {
+    acc[2] = lam;
+  }
+}
+
 /* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
 static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
   int i;
   int j;
   int k;
   int raw = IPM_GOING;
-  ipm_real_t mu = REAL_0;
-  ipm_real_t rmax = REAL_0;
-  ipm_real_t lmax = REAL_0;
-  ipm_real_t az = REAL_0;
+  ipm_real_t mu;
+  ipm_real_t rmax;
+  ipm_real_t lmax;
+  ipm_real_t acc[3] = {REAL_0, REAL_0, REAL_0};
   const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here */
   for (j = 0; j < IPM_NSIDE; ++j) {
     IPM_W.t[j] += alpha * IPM_W.dt[j];
@@ -1279,36 +1306,30 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
   }
   ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  /* per side: its row's y (as ipm_compose_y), its r_p, t lam, lam; and for the step ipm_step may take, 1 / t, its
-   * row's weight W = sum lam / t (in IPM_W.wr, over the row's A z once its first side has read it) and its share of
-   * the predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here) */
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    const int r = IPM_SIDE_ROW[j];
-    const int second = IPM_SIDE_2ND[j];
-    const ipm_real_t t = IPM_W.t[j];
-    const ipm_real_t lam = IPM_W.lam[j];
-    const ipm_real_t it = IPM_ONE / t;
-    ipm_real_t rp;
-    if (second == 0) {
-      az = IPM_W.wr[r];
+  /* per inequality row, over its sides: its y (as ipm_compose_y), each side's r_p, t lam, lam; and for the step
+   * ipm_step may take, 1 / t, the row's weight W = sum lam / t (in IPM_W.wr, over its A z once read) and its
+   * predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here). A row's
+   * two sides are a lower and an upper one (IPM_IN_TWO): their signs are constants, the row's sums stay in registers */
+  j = 0;
+  for (i = 0; i < IPM_NIN; ++i) {
+    const int r = IPM_IN_ROW[i];
+    const ipm_real_t az = IPM_W.wr[r];
+    ipm_real_t row[3] = {REAL_0, REAL_0, REAL_0};
+    if (IPM_IN_TWO[i] != 0) {
+      ipm_check_side(j, IPM_SG_P, az, row, acc);
+      ipm_check_side(j + 1, IPM_SG_M, az, row, acc);
+      j += 2;
+    } else {
+      ipm_check_side(j, IPM_SIDE_SG[j], az, row, acc);
+      ++j;
     }
-    rp = ((IPM_SIDE_SG[j] * az) - IPM_W.bs[j]) - t;
-    IPM_W.y[r] = ((second != 0) ? IPM_W.y[r] : REAL_0) - (IPM_SIDE_SG[j] * lam);
-    IPM_W.r_p[j] = rp;
-    IPM_W.it[j] = it;
-    IPM_W.wr[r] = ((second != 0) ? IPM_W.wr[r] : REAL_0) + (lam * it);
-    IPM_W.ar[r] = ((second != 0) ? IPM_W.ar[r] : REAL_0) + ((IPM_SIDE_SG[j] * ((t * lam) + (lam * rp))) * it);
-    if (IPM_FABS(rp) > rmax) {
-      rmax = IPM_FABS(rp);
-    }
-    mu += t * lam;
-    if ((t * lam) > rmax) {
-      rmax = t * lam;
-    }
-    if (lam > lmax) {
-      lmax = lam;
-    }
+    IPM_W.y[r] = row[0];
+    IPM_W.wr[r] = row[1];
+    IPM_W.ar[r] = row[2];
   }
+  mu = acc[0];
+  rmax = acc[1];
+  lmax = acc[2];
   for (j = 0; j < IPM_NFREE; ++j) {
     const int v = IPM_FREE[j];
     IPM_W.h[v] = ((IPM_W.Pd[v] + IPM_PROX) * IPM_W.z[v]) + q[v];

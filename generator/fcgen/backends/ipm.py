@@ -769,11 +769,16 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
     out = [_table(nm, "idx", t, doc) for nm, t, doc in tables]
     second = np.r_[False, sv.side_row[1:] == sv.side_row[:-1]] if len(sv.side_row) else np.zeros(0, dtype=bool)
+    two = np.diff(tab.in_ptr) == 2
+    pairs = tab.in_ptr[:-1][two]
+    if not (np.all(sv.side_sign[pairs] > 0) and np.all(sv.side_sign[pairs + 1] < 0)):
+        raise ValueError("a two-sided inequality row's sides must be lower, then upper (the C's pair loops assume it)")
     out += [_table(nm, "sign", t, doc) for nm, t, doc in (
         ("IPM_SR_SIGN", pad(sr.sign, 0), "soft row j's side: +1 lower, -1 upper (0: a padding row)"),
         ("IPM_SR_BSIGN", pad(sr.bsign, 0), "its slack's bound side"),
         ("IPM_SIDE_SIGN", sv.side_sign, "+1: lower side (a'z >= l), -1: upper side (a'z <= u)"),
-        ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"))]
+        ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"),
+        ("IPM_IN_TWO", two, "1: inequality row i has two sides (lower, then upper), 0: one"))]
     sg = np.asarray(sv.side_sign, dtype=np.int64)  # the sides' signs in the real type: a multiply, no conversion
     out.append({"name": "IPM_SIDE_SG", "kind": "real", "dims": f"[{max(1, sg.size)}]",
                 "doc": "IPM_SIDE_SIGN as a real", "body": ", ".join(("IPM_SG_P" if v > 0 else "IPM_SG_M") for v in sg)
