@@ -3588,6 +3588,61 @@ static void ipm_pk(ipm_real_t (*H)[IPM_NXU], ipm_real_t (*W)[IPM_NX], ipm_real_t
   Pk[7][7] = H[7][7] - ((W[0][7] * W[0][7]) + (W[1][7] * W[1][7]));
 }
 
+/* ---- the soft rows' per-row kernels at this problem's IPM_NA (sr_kernels), written out inside the loop over the
+ * lanes (row j + l on lane l); each sum adds in the order a loop over the entries would ---- */
+/* out[l] = a'v of row j + l */
+static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
+  int l;
+  for (l = 0; l < IPM_LANES; ++l) {
+    const ipm_real_t a0 = IPM_W.sr.a[0][j + l];
+    const ipm_real_t a1 = IPM_W.sr.a[1][j + l];
+    const ipm_real_t a2 = IPM_W.sr.a[2][j + l];
+    out[l] = ((a0 * v[0]) + (a1 * v[1]) + (a2 * v[2]));
+  }
+}
+
+/* ipm_sr_check's sums of rows j .. j + IPM_LANES - 1 into their lanes of acc (see ipm_sr_check_rows) */
+static inline void ipm_sr_check_sums(int j, const ipm_real_t *weff, const ipm_real_t *l1v, const ipm_real_t *f,
+                                     const ipm_real_t *fb, ipm_real_t (*acc)[IPM_LANES]) {
+  int l;
+  for (l = 0; l < IPM_LANES; ++l) {
+    const ipm_real_t a0 = IPM_W.sr.a[0][j + l];
+    const ipm_real_t a1 = IPM_W.sr.a[1][j + l];
+    const ipm_real_t a2 = IPM_W.sr.a[2][j + l];
+    const ipm_real_t w0 = weff[l] * a0;
+    const ipm_real_t w1 = weff[l] * a1;
+    const ipm_real_t w2 = weff[l] * a2;
+    acc[4][l] -= a0 * l1v[l];
+    acc[5][l] -= a1 * l1v[l];
+    acc[6][l] -= a2 * l1v[l];
+    acc[7][l] += w0 * a0;
+    acc[8][l] += w0 * a1;
+    acc[9][l] += w0 * a2;
+    acc[10][l] += w1 * a1;
+    acc[11][l] += w1 * a2;
+    acc[12][l] += w2 * a2;
+    acc[13][l] += a0 * f[l];
+    acc[14][l] += a1 * f[l];
+    acc[15][l] += a2 * f[l];
+    acc[16][l] += a0 * fb[l];
+    acc[17][l] += a1 * fb[l];
+    acc[18][l] += a2 * fb[l];
+  }
+}
+
+/* the predictor's forward pass: acc[3 + p][l] += a_p f[l] for rows j .. j + IPM_LANES - 1 */
+static inline void ipm_sr_forward_sums(int j, const ipm_real_t *f, ipm_real_t (*acc)[IPM_LANES]) {
+  int l;
+  for (l = 0; l < IPM_LANES; ++l) {
+    const ipm_real_t a0 = IPM_W.sr.a[0][j + l];
+    const ipm_real_t a1 = IPM_W.sr.a[1][j + l];
+    const ipm_real_t a2 = IPM_W.sr.a[2][j + l];
+    acc[3][l] += a0 * f[l];
+    acc[4][l] += a1 * f[l];
+    acc[5][l] += a2 * f[l];
+  }
+}
+
 /* ---- fcgen's Riccati interior-point QP backend: the algorithm (plain C99, the same for every problem) ------------
  * Mehrotra predictor-corrector on the layout's QP; the Newton system is solved stage by stage: box rows on the
  * diagonal, each slack eliminated with its rows, a Riccati recursion over (x_k, u_k). The Python reference is
@@ -3840,20 +3895,6 @@ static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
 #endif
 }
 
-/* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */
-static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
-  int l;
-  int p;
-  for (l = 0; l < IPM_LANES; ++l) {
-    out[l] = REAL_0;
-  }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      out[l] += IPM_SR.a[p][j + l] * v[p];
-    }
-  }
-}
-
 /* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
  * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
  * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
@@ -3862,8 +3903,6 @@ static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
  * times the corrector's sigma mu coefficient. Every loop over the lanes is innermost (whole SIMD registers) */
 static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm_real_t (*acc)[IPM_LANES]) {
   int l;
-  int p;
-  int q;
   ipm_real_t az[IPM_LANES];
   ipm_real_t l1v[IPM_LANES];
   ipm_real_t weff[IPM_LANES];
@@ -3917,24 +3956,7 @@ static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm
     acc[2][l] = ipm_max(w * ipm_max(l1, l2), acc[2][l]);
     acc[3][l] += rds * REAL_0;
   }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      const ipm_real_t ap = IPM_SR.a[p][j + l];
-      acc[4 + p][l] -= ap * l1v[l];
-      acc[4 + IPM_NA + IPM_SR_NT + p][l] += ap * f[l];
-      acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l] += ap * fb[l];
-    }
-  }
-  q = 0; /* the upper triangle row by row (IPM_SR_QA, IPM_SR_QB's order) */
-  for (p = 0; p < IPM_NA; ++p) {
-    int b;
-    for (b = p; b < IPM_NA; ++b) {
-      for (l = 0; l < IPM_LANES; ++l) {
-        acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[p][j + l]) * IPM_SR.a[b][j + l];
-      }
-      ++q;
-    }
-  }
+  ipm_sr_check_sums(j, weff, l1v, f, fb, acc); /* written out at IPM_NA (the problem header) */
 }
 
 /* ipm_check's part: the last step's t, lam (IPM_W.aff[3]: its length, 0 for none); both sides' residuals and 1 / t;
@@ -4052,7 +4074,6 @@ static void ipm_sr_rhs(int k, int corr, ipm_real_t sm, ipm_real_t *ht) {
 static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, const ipm_real_t *vr,
                                 ipm_real_t (*acc)[IPM_LANES], ipm_real_t *mn) {
   int l;
-  int p;
   ipm_real_t adv[IPM_LANES];
   ipm_real_t f[IPM_LANES];
   ipm_sr_av(j, vr, adv);
@@ -4100,10 +4121,8 @@ static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, c
       acc[2][l] += w * ((dt1 * dl1) + (dt2 * dl2));
     }
   }
-  for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      acc[3 + p][l] += IPM_SR.a[p][j + l] * f[l];
-    }
+  if (corr == 0) {
+    ipm_sr_forward_sums(j, f, acc); /* written out at IPM_NA (the problem header) */
   }
 }
 

@@ -250,20 +250,6 @@ static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
 #endif
 }
 
-/* out[l] = a'v of row j + l (v: the run's (x, u) entries), l = 0 .. IPM_LANES - 1 */
-static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
-  int l;
-  int p;
-  for (l = 0; l < IPM_LANES; ++l) {
-    out[l] = REAL_0;
-  }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      out[l] += IPM_SR.a[p][j + l] * v[p];
-    }
-  }
-}
-
 /* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
  * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
  * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
@@ -272,8 +258,6 @@ static inline void ipm_sr_av(int j, const ipm_real_t *v, ipm_real_t *out) {
  * times the corrector's sigma mu coefficient. Every loop over the lanes is innermost (whole SIMD registers) */
 static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm_real_t (*acc)[IPM_LANES]) {
   int l;
-  int p;
-  int q;
   ipm_real_t az[IPM_LANES];
   ipm_real_t l1v[IPM_LANES];
   ipm_real_t weff[IPM_LANES];
@@ -327,24 +311,7 @@ static void ipm_sr_check_rows(int j, ipm_real_t alpha, const ipm_real_t *zr, ipm
     acc[2][l] = ipm_max(w * ipm_max(l1, l2), acc[2][l]);
     acc[3][l] += rds * REAL_0;
   }
-  for (p = 0; p < IPM_NA; ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      const ipm_real_t ap = IPM_SR.a[p][j + l];
-      acc[4 + p][l] -= ap * l1v[l];
-      acc[4 + IPM_NA + IPM_SR_NT + p][l] += ap * f[l];
-      acc[4 + (2 * IPM_NA) + IPM_SR_NT + p][l] += ap * fb[l];
-    }
-  }
-  q = 0; /* the upper triangle row by row (IPM_SR_QA, IPM_SR_QB's order) */
-  for (p = 0; p < IPM_NA; ++p) {
-    int b;
-    for (b = p; b < IPM_NA; ++b) {
-      for (l = 0; l < IPM_LANES; ++l) {
-        acc[4 + IPM_NA + q][l] += (weff[l] * IPM_SR.a[p][j + l]) * IPM_SR.a[b][j + l];
-      }
-      ++q;
-    }
-  }
+  ipm_sr_check_sums(j, weff, l1v, f, fb, acc); /* written out at IPM_NA (the problem header) */
 }
 
 /* ipm_check's part: the last step's t, lam (IPM_W.aff[3]: its length, 0 for none); both sides' residuals and 1 / t;
@@ -462,7 +429,6 @@ static void ipm_sr_rhs(int k, int corr, ipm_real_t sm, ipm_real_t *ht) {
 static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, const ipm_real_t *vr,
                                 ipm_real_t (*acc)[IPM_LANES], ipm_real_t *mn) {
   int l;
-  int p;
   ipm_real_t adv[IPM_LANES];
   ipm_real_t f[IPM_LANES];
   ipm_sr_av(j, vr, adv);
@@ -510,10 +476,8 @@ static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, c
       acc[2][l] += w * ((dt1 * dl1) + (dt2 * dl2));
     }
   }
-  for (p = 0; (p < IPM_NA) && (corr == 0); ++p) {
-    for (l = 0; l < IPM_LANES; ++l) {
-      acc[3 + p][l] += IPM_SR.a[p][j + l] * f[l];
-    }
+  if (corr == 0) {
+    ipm_sr_forward_sums(j, f, acc); /* written out at IPM_NA (the problem header) */
   }
 }
 

@@ -617,6 +617,29 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("wtx", wtx), ("pk", pk))}
 
 
+def sr_kernels(na: int) -> dict[str, str]:
+    """Bodies of the soft rows' per-row kernels for ``na`` (x, u) entries a row (``IPM_NA``), written out inside the
+    core's loop over the lanes (row j + l on lane l; a_p = IPM_W.sr.a[p][j + l]): ``av``: out[l] = a'v;
+    ``check``: ipm_sr_check's sums of a row into its lanes of acc ([4 + p] -= a_p l1, the upper triangle of
+    weff a a' row-major from [4 + na], [4 + na + nt + p] += a_p f, [4 + 2 na + nt + p] += a_p fb); ``fwd``: the
+    predictor's [3 + p] += a_p f. Each acc entry adds in the same order as a loop would: results are unchanged."""
+    nt = na * (na + 1) // 2
+    a = [f"a{p}" for p in range(na)]
+    load = [f"const ipm_real_t a{p} = IPM_W.sr.a[{p}][j + l];" for p in range(na)]
+    av = load + [f"out[l] = {_c_sum([f'(a{p} * v[{p}])' for p in range(na)])};"]
+    check = load + [f"const ipm_real_t w{p} = weff[l] * a{p};" for p in range(na)]
+    check += [f"acc[{4 + p}][l] -= {a[p]} * l1v[l];" for p in range(na)]
+    q = 0
+    for p_ in range(na):
+        for b in range(p_, na):
+            check.append(f"acc[{4 + na + q}][l] += w{p_} * {a[b]};")
+            q += 1
+    check += [f"acc[{4 + na + nt + p}][l] += {a[p]} * f[l];" for p in range(na)]
+    check += [f"acc[{4 + 2 * na + nt + p}][l] += {a[p]} * fb[l];" for p in range(na)]
+    fwd = load + [f"acc[{3 + p}][l] += {a[p]} * f[l];" for p in range(na)]
+    return {"sr_av": "\n    ".join(av), "sr_check": "\n    ".join(check), "sr_fwd": "\n    ".join(fwd)}
+
+
 def _generic_A(layout: QpLayout, sr: SoftRows, sv: StageView) -> tuple[np.ndarray, ...]:
     """A without the soft rows and their slacks' bound rows, the dynamics and the init rows (the C's generic A z
     and A' y; the others have loops of their own: the soft rows', and the stage kernels on [F G] for the dynamics):
@@ -794,7 +817,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
-            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU)}, "core_source": core_source()}
+            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA)},
+            "core_source": core_source()}
 
 
 def core_source() -> str:
