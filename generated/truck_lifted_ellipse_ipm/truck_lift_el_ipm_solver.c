@@ -1283,6 +1283,7 @@ void truck_lift_el_ipm_probe(int event);
 #define IPM_NIN 360 /* inequality rows */
 #define IPM_NGA 160 /* (x, u) entries of the general rows */
 #define IPM_NUB 2 /* input blocks per stage (at most; IPM_UB) */
+#define IPM_U_DENSE 1 /* 1: R's factor and solves written out for all NU inputs (kernels below) */
 #define IPM_NFGC 10 /* columns of [F G] that can be non-zero: the first IPM_NFGC (x, then u) */
 #define IPM_NFGB 51 /* entries of a stage's packed [F G]: its columns' bands of rows (fg_bands) */
 #define IPM_NV 568 /* variables */
@@ -2792,49 +2793,6 @@ static const ipm_idx_t IPM_EQ_ALL[328] = { /* equality rows */
 static const ipm_idx_t IPM_FREE[1] = { /* inputs without cost (proximal weight) */
   0
 };
-static const ipm_idx_t IPM_UB[41][3] = { /* [k][b]: stage k's input block b: inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1 */
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 2, 2},
-  {0, 1, 2}
-};
 static const ipm_idx_t IPM_GV[448] = { /* the variables but the soft rows' slacks */
   0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
   12, 13, 14, 15, 16, 17, 18, 19, 20, 24, 25, 26,
@@ -3588,6 +3546,48 @@ static void ipm_pk(ipm_real_t (*H)[IPM_NXU], ipm_real_t (*W)[IPM_NX], ipm_real_t
   Pk[7][7] = H[7][7] - ((W[0][7] * W[0][7]) + (W[1][7] * W[1][7]));
 }
 
+#if IPM_U_DENSE
+/* ---- R's factor and solves at this problem's IPM_NU (u_kernels), for all inputs at once: the generic loops'
+ * operations, written out (a block-diagonal R's factor has exact zeros between its blocks) ---- */
+/* lower Cholesky factor of A (NU x NU, stride NU) into Lo; 1 if a pivot is not positive */
+static int ipm_chol_nu(const ipm_real_t *A, ipm_real_t *Lo) {
+  ipm_real_t s;
+  s = A[0];
+  if (!(s > REAL_0)) {
+    return 1;
+  }
+  s = IPM_SQRT(s);
+  Lo[0] = s;
+  Lo[2] = (A[2]) / s;
+  s = A[3] - (Lo[2] * Lo[2]);
+  if (!(s > REAL_0)) {
+    return 1;
+  }
+  s = IPM_SQRT(s);
+  Lo[3] = s;
+  Lo[1] = REAL_0;
+  return 0;
+}
+
+/* X := Lo^-1 X (NU x m, stride ldx) */
+static void ipm_fwd_nu(const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
+  const ipm_real_t d0 = IPM_ONE / Lo[0];
+  const ipm_real_t d1 = IPM_ONE / Lo[3];
+  int c;
+  for (c = 0; c < m; ++c) {
+    X[c] *= d0;
+    X[ldx + c] -= Lo[2] * X[c];
+    X[ldx + c] *= d1;
+  }
+}
+
+/* x := Lo^-T x (a vector of NU) */
+static void ipm_bwd_nu(const ipm_real_t *Lo, ipm_real_t *x) {
+  x[1] = x[1] / Lo[3];
+  x[0] = (x[0] - (Lo[2] * x[1])) / Lo[0];
+}
+#endif
+
 /* ---- the soft rows' per-row kernels at this problem's IPM_NA (sr_kernels), written out inside the loop over the
  * lanes (row j + l on lane l); each sum adds in the order a loop over the entries would ---- */
 /* out[l] = a'v of row j + l */
@@ -3658,7 +3658,9 @@ static inline void ipm_sr_forward_sums(int j, const ipm_real_t *f, ipm_real_t (*
  * rendered header.
  * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
 
-/* ---- small dense kernels (row-major, fixed sizes) ---- */
+/* ---- small dense kernels (row-major, fixed sizes): for the input blocks (where not written out: IPM_U_DENSE) and
+ * the stage equalities ---- */
+#if (IPM_U_DENSE == 0) || (IPM_NE > 0)
 /* lower Cholesky factor of the n x n matrix A (stride ld) into Lo; 1 if a pivot is not positive */
 static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
   int i;
@@ -3722,10 +3724,15 @@ static void ipm_bwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, 
     }
   }
 }
+#endif
 
 /* ---- stage k's R_bar is block diagonal over its input blocks IPM_UB[k] (inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1:
  * e.g. the controls, then each opponent's hyperplane variables): its factor L, every solve with it, block by block */
 static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
+#if IPM_U_DENSE
+  (void)k; /* all inputs at once, written out in the problem header (IPM_UB's blocks come out exactly) */
+  return ipm_chol_nu(A, Lo);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
@@ -3734,24 +3741,35 @@ static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
     }
   }
   return 0;
+#endif
 }
 
 /* X := L_k^-1 X (NU x m, stride ldx) */
 static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
+#if IPM_U_DENSE
+  (void)k;
+  ipm_fwd_nu(Lo, X, m, ldx);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_fwd(&Lo[(o * IPM_NU) + o], IPM_NU, &X[o * ldx], IPM_UB[k][b + 1] - o, m, ldx);
   }
+#endif
 }
 
 /* x := L_k^-T x (a vector of NU) */
 static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+#if IPM_U_DENSE
+  (void)k;
+  ipm_bwd_nu(Lo, x);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
   }
+#endif
 }
 
 /* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of

@@ -13,7 +13,9 @@
  * rendered header.
  * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
 
-/* ---- small dense kernels (row-major, fixed sizes) ---- */
+/* ---- small dense kernels (row-major, fixed sizes): for the input blocks (where not written out: IPM_U_DENSE) and
+ * the stage equalities ---- */
+#if (IPM_U_DENSE == 0) || (IPM_NE > 0)
 /* lower Cholesky factor of the n x n matrix A (stride ld) into Lo; 1 if a pivot is not positive */
 static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
   int i;
@@ -77,10 +79,15 @@ static void ipm_bwd(const ipm_real_t *Lo, int ldl, ipm_real_t *X, int n, int m, 
     }
   }
 }
+#endif
 
 /* ---- stage k's R_bar is block diagonal over its input blocks IPM_UB[k] (inputs IPM_UB[k][b] .. IPM_UB[k][b + 1] - 1:
  * e.g. the controls, then each opponent's hyperplane variables): its factor L, every solve with it, block by block */
 static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
+#if IPM_U_DENSE
+  (void)k; /* all inputs at once, written out in the problem header (IPM_UB's blocks come out exactly) */
+  return ipm_chol_nu(A, Lo);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
@@ -89,24 +96,35 @@ static int ipm_chol_u(int k, const ipm_real_t *A, ipm_real_t *Lo) {
     }
   }
   return 0;
+#endif
 }
 
 /* X := L_k^-1 X (NU x m, stride ldx) */
 static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
+#if IPM_U_DENSE
+  (void)k;
+  ipm_fwd_nu(Lo, X, m, ldx);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_fwd(&Lo[(o * IPM_NU) + o], IPM_NU, &X[o * ldx], IPM_UB[k][b + 1] - o, m, ldx);
   }
+#endif
 }
 
 /* x := L_k^-T x (a vector of NU) */
 static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+#if IPM_U_DENSE
+  (void)k;
+  ipm_bwd_nu(Lo, x);
+#else
   int b;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
   }
+#endif
 }
 
 /* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of

@@ -617,6 +617,55 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("wtx", wtx), ("pk", pk))}
 
 
+#: the largest NU for which R's factor and solves are written out for all inputs at once (``u_kernels``)
+U_KERNEL_MAX = 4
+
+
+def u_kernels(nu: int) -> dict[str, str]:
+    """Bodies of the Cholesky factor of R (NU x NU, stride NU) and of the solves with it, written out for all NU
+    inputs at once (``IPM_U_DENSE``, NU <= U_KERNEL_MAX): ``u_chol`` (0, or 1 if a pivot is not positive), ``u_fwd``:
+    X := L^-1 X over m columns of stride ldx, ``u_bwd``: x := L^-T x. The operations and their order per entry are
+    the generic loops' (ipm_chol, ipm_fwd, ipm_bwd), but for the sums' leading 0; where a stage's R is block diagonal
+    (IPM_UB) the dense factor's entries between blocks come out exactly 0 (each product has a factor 0), so the
+    factor and the solves equal the blockwise ones for finite data."""
+    def el(m: str, i: int, j: int) -> str:  # entry (i, j) of an NU x NU row-major array
+        return f"{m}[{i * nu + j}]"
+    chol = ["ipm_real_t s;"]
+    for j in range(nu):
+        terms = " - ".join([el("A", j, j)] + [f"({el('Lo', j, k)} * {el('Lo', j, k)})" for k in range(j)])
+        chol.append(f"s = {_left(terms)};")
+        chol += ["if (!(s > REAL_0)) {", "  return 1;", "}", "s = IPM_SQRT(s);", f"{el('Lo', j, j)} = s;"]
+        for i in range(j + 1, nu):
+            t = " - ".join([el("A", i, j)] + [f"({el('Lo', i, k)} * {el('Lo', j, k)})" for k in range(j)])
+            chol.append(f"{el('Lo', i, j)} = ({_left(t)}) / s;")
+        chol += [f"{el('Lo', i, j)} = REAL_0;" for i in range(j)]
+    chol.append("return 0;")
+    def xr(i: int) -> str:  # X's row i, column c (no multiplication by 0 or 1: MISRA 2.2)
+        return "X[c]" if i == 0 else ("X[ldx + c]" if i == 1 else f"X[({i} * ldx) + c]")
+    fwd = [f"const ipm_real_t d{i} = IPM_ONE / {el('Lo', i, i)};" for i in range(nu)] + ["int c;",
+           "for (c = 0; c < m; ++c) {"]
+    for i in range(nu):
+        for j in range(i):
+            fwd.append(f"  {xr(i)} -= {el('Lo', i, j)} * {xr(j)};")
+        fwd.append(f"  {xr(i)} *= d{i};")
+    fwd.append("}")
+    bwd = []
+    for i in reversed(range(nu)):
+        terms = [f"({el('Lo', j, i)} * x[{j}])" for j in range(i + 1, nu)]
+        bwd.append(f"x[{i}] = (x[{i}] - {_c_sum(terms)}) / {el('Lo', i, i)};" if terms
+                   else f"x[{i}] = x[{i}] / {el('Lo', i, i)};")
+    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd": "\n  ".join(bwd)}
+
+
+def _left(expr: str) -> str:
+    """``a - b - c`` parenthesized left to right, ``((a - b) - c)`` (MISRA's explicit precedence, a loop's order)."""
+    parts = expr.split(" - ")
+    out = parts[0]
+    for p in parts[1:]:
+        out = f"({out} - {p})"
+    return out[1:-1] if len(parts) > 1 else out
+
+
 def sr_kernels(na: int) -> dict[str, str]:
     """Bodies of the soft rows' per-row kernels for ``na`` (x, u) entries a row (``IPM_NA``), written out inside the
     core's loop over the lanes (row j + l on lane l; a_p = IPM_W.sr.a[p][j + l]): ``av``: out[l] = a'v;
@@ -788,6 +837,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     ]
     if NE == 0:  # the template emits the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
+    if NU <= U_KERNEL_MAX:  # R factored for all inputs at once (u_kernels): the blocks' table is not read
+        tables = [t for t in tables if t[0] != "IPM_UB"]
     top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
     out = [_table(nm, "idx", t, doc) for nm, t, doc in tables]
@@ -817,7 +868,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
-            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA)},
+            "U_DENSE": int(NU <= U_KERNEL_MAX),
+            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU)},
             "core_source": core_source()}
 
 
