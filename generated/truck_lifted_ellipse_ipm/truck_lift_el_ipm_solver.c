@@ -1289,6 +1289,10 @@ void truck_lift_el_ipm_probe(int event);
 #define IPM_NV 568 /* variables */
 #define IPM_NGV 448 /* variables but the soft rows' slacks (IPM_GV; those live in IPM_W.sr) */
 #define IPM_NAR 360 /* rows of A z (all but the soft rows and their slacks' bound rows) */
+#define IPM_NAR_OTHER 0 /* of them neither box nor general rows (IPM_AR_OTHER) */
+#define IPM_NCOL0 168 /* generic variables with no entry in A z's rows, one, several */
+#define IPM_NCOL1 160
+#define IPM_NCOLM 120
 #define IPM_NSR 120 /* soft rows: one side, a slack of their own bounded by a box row (qp.split_soft_rows) */
 #define IPM_NSRP 120 /* their storage: runs padded to IPM_LANES rows (padding rows: no data) */
 #define IPM_NSR1 120 /* max(IPM_NSRP, 1): array dimension */
@@ -1629,6 +1633,85 @@ static const ipm_idx_t IPM_AR_K[520] = { /* its data index */
   3202, 3231, 3240, 3243, 3272, 3284, 3325, 3273, 3285, 3326, 3258, 3263,
   3274, 3286, 3315, 3324, 3327, 3340, 3344, 3359, 3341, 3345, 3360, 3336,
   3338, 3342, 3346, 3361
+};
+static const ipm_idx_t IPM_AR_OTHER[1] = { /* the rows i of IPM_AR_ROW that are neither box nor general rows */
+  0
+};
+static const ipm_idx_t IPM_A_COL0[168] = { /* generic variables without an entry in the generic A */
+  0, 1, 2, 3, 4, 5, 6, 7, 10, 15, 16, 17,
+  24, 29, 30, 31, 38, 43, 44, 45, 52, 57, 58, 59,
+  66, 71, 72, 73, 80, 85, 86, 87, 94, 99, 100, 101,
+  108, 113, 114, 115, 122, 127, 128, 129, 136, 141, 142, 143,
+  150, 155, 156, 157, 164, 169, 170, 171, 178, 183, 184, 185,
+  192, 197, 198, 199, 206, 211, 212, 213, 220, 225, 226, 227,
+  234, 239, 240, 241, 248, 253, 254, 255, 262, 267, 268, 269,
+  276, 281, 282, 283, 290, 295, 296, 297, 304, 309, 310, 311,
+  318, 323, 324, 325, 332, 337, 338, 339, 346, 351, 352, 353,
+  360, 365, 366, 367, 374, 379, 380, 381, 388, 393, 394, 395,
+  402, 407, 408, 409, 416, 421, 422, 423, 430, 435, 436, 437,
+  444, 449, 450, 451, 458, 463, 464, 465, 472, 477, 478, 479,
+  486, 491, 492, 493, 500, 505, 506, 507, 514, 519, 520, 521,
+  528, 533, 534, 535, 542, 547, 548, 549, 556, 561, 562, 563
+};
+static const ipm_idx_t IPM_A_COL1[160] = { /* generic variables with one entry */
+  8, 9, 11, 12, 18, 19, 25, 26, 32, 33, 39, 40,
+  46, 47, 53, 54, 60, 61, 67, 68, 74, 75, 81, 82,
+  88, 89, 95, 96, 102, 103, 109, 110, 116, 117, 123, 124,
+  130, 131, 137, 138, 144, 145, 151, 152, 158, 159, 165, 166,
+  172, 173, 179, 180, 186, 187, 193, 194, 200, 201, 207, 208,
+  214, 215, 221, 222, 228, 229, 235, 236, 242, 243, 249, 250,
+  256, 257, 263, 264, 270, 271, 277, 278, 284, 285, 291, 292,
+  298, 299, 305, 306, 312, 313, 319, 320, 326, 327, 333, 334,
+  340, 341, 347, 348, 354, 355, 361, 362, 368, 369, 375, 376,
+  382, 383, 389, 390, 396, 397, 403, 404, 410, 411, 417, 418,
+  424, 425, 431, 432, 438, 439, 445, 446, 452, 453, 459, 460,
+  466, 467, 473, 474, 480, 481, 487, 488, 494, 495, 501, 502,
+  508, 509, 515, 516, 522, 523, 529, 530, 536, 537, 543, 544,
+  550, 551, 557, 558
+};
+static const ipm_idx_t IPM_A_COL1_I[160] = { /* its row */
+  16, 17, 31, 32, 35, 36, 54, 55, 58, 59, 77, 78,
+  81, 82, 100, 101, 104, 105, 123, 124, 127, 128, 146, 147,
+  150, 151, 169, 170, 173, 174, 192, 193, 196, 197, 215, 216,
+  219, 220, 238, 239, 242, 243, 261, 262, 265, 266, 284, 285,
+  288, 289, 307, 308, 311, 312, 330, 331, 334, 335, 353, 354,
+  357, 358, 376, 377, 380, 381, 399, 400, 403, 404, 422, 423,
+  426, 427, 445, 446, 449, 450, 468, 469, 472, 473, 491, 492,
+  495, 496, 514, 515, 518, 519, 537, 538, 541, 542, 560, 561,
+  564, 565, 583, 584, 587, 588, 606, 607, 610, 611, 629, 630,
+  633, 634, 652, 653, 656, 657, 675, 676, 679, 680, 698, 699,
+  702, 703, 721, 722, 725, 726, 744, 745, 748, 749, 767, 768,
+  771, 772, 790, 791, 794, 795, 813, 814, 817, 818, 836, 837,
+  840, 841, 859, 860, 863, 864, 882, 883, 886, 887, 905, 906,
+  909, 910, 920, 921
+};
+static const ipm_idx_t IPM_A_COL1_K[160] = { /* its data index */
+  48, 57, 66, 71, 123, 132, 150, 155, 207, 216, 234, 239,
+  291, 300, 318, 323, 375, 384, 402, 407, 459, 468, 486, 491,
+  543, 552, 570, 575, 627, 636, 654, 659, 711, 720, 738, 743,
+  795, 804, 822, 827, 879, 888, 906, 911, 963, 972, 990, 995,
+  1047, 1056, 1074, 1079, 1131, 1140, 1158, 1163, 1215, 1224, 1242, 1247,
+  1299, 1308, 1326, 1331, 1383, 1392, 1410, 1415, 1467, 1476, 1494, 1499,
+  1551, 1560, 1578, 1583, 1635, 1644, 1662, 1667, 1719, 1728, 1746, 1751,
+  1803, 1812, 1830, 1835, 1887, 1896, 1914, 1919, 1971, 1980, 1998, 2003,
+  2055, 2064, 2082, 2087, 2139, 2148, 2166, 2171, 2223, 2232, 2250, 2255,
+  2307, 2316, 2334, 2339, 2391, 2400, 2418, 2423, 2475, 2484, 2502, 2507,
+  2559, 2568, 2586, 2591, 2643, 2652, 2670, 2675, 2727, 2736, 2754, 2759,
+  2811, 2820, 2838, 2843, 2895, 2904, 2922, 2927, 2979, 2988, 3006, 3011,
+  3063, 3072, 3090, 3095, 3147, 3156, 3174, 3179, 3231, 3240, 3258, 3263,
+  3315, 3324, 3336, 3338
+};
+static const ipm_idx_t IPM_A_COLM[120] = { /* generic variables with several entries (IPM_A_P) */
+  13, 14, 20, 27, 28, 34, 41, 42, 48, 55, 56, 62,
+  69, 70, 76, 83, 84, 90, 97, 98, 104, 111, 112, 118,
+  125, 126, 132, 139, 140, 146, 153, 154, 160, 167, 168, 174,
+  181, 182, 188, 195, 196, 202, 209, 210, 216, 223, 224, 230,
+  237, 238, 244, 251, 252, 258, 265, 266, 272, 279, 280, 286,
+  293, 294, 300, 307, 308, 314, 321, 322, 328, 335, 336, 342,
+  349, 350, 356, 363, 364, 370, 377, 378, 384, 391, 392, 398,
+  405, 406, 412, 419, 420, 426, 433, 434, 440, 447, 448, 454,
+  461, 462, 468, 475, 476, 482, 489, 490, 496, 503, 504, 510,
+  517, 518, 524, 531, 532, 538, 545, 546, 552, 559, 560, 564
 };
 static const ipm_idx_t IPM_VMAP_XU[410] = { /* [k][v]: variable of stage k's x/input slot v */
   0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
@@ -3822,12 +3905,31 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
   int i;
   int k;
   int p;
-  for (i = 0; i < IPM_NAR; ++i) {
+  /* the rows of the generic A by kind (codegen_context checks that each kind's entries are the CSR's, in its order,
+   * so every sum is the CSR loop's): box rows, one entry each; general rows; the others (stage equalities) */
+  for (i = 0; i < IPM_NBOX; ++i) {
+    out[IPM_BOX_ROW[i]] = REAL_0 + (IPM_W.bax[i] * x[IPM_BOX_VAR[i]]);
+  }
+  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
     ipm_real_t s = REAL_0;
-    for (p = IPM_AR_P[i]; p < IPM_AR_P[i + 1]; ++p) {
+    if (IPM_GEN_ROW[i] < 0) {
+      continue;
+    }
+    for (p = IPM_GEN_PTR[i]; p < IPM_GEN_PTR[i + 1]; ++p) {
+      s += IPM_W.gax[p] * x[IPM_GEN_VAR[p]];
+    }
+    if (IPM_GEN_E[i] >= 0) {
+      s += IPM_W.gex[i] * x[IPM_GEN_SVAR[i]];
+    }
+    out[IPM_GEN_ROW[i]] = s;
+  }
+  for (k = 0; k < IPM_NAR_OTHER; ++k) {
+    const int r = IPM_AR_OTHER[k];
+    ipm_real_t s = REAL_0;
+    for (p = IPM_AR_P[r]; p < IPM_AR_P[r + 1]; ++p) {
       s += IPM_W.Ax[IPM_AR_K[p]] * x[IPM_AR_J[p]];
     }
-    out[IPM_AR_ROW[i]] = s;
+    out[IPM_AR_ROW[r]] = s;
   }
   for (i = 0; i < IPM_NX; ++i) {
     out[IPM_INIT_ROWS[i]] = IPM_W.einit[i] * x[IPM_VMAP_XU[i]];
@@ -3848,8 +3950,17 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
 static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
   int k;
   int i;
-  for (i = 0; i < IPM_NGV; ++i) {
-    const int j = IPM_GV[i];
+  /* the generic variables by their entries' count (no inner loop for none or one; the sums are the CSC loop's) */
+  for (i = 0; i < IPM_NCOL0; ++i) {
+    const int j = IPM_A_COL0[i];
+    out[j] = base[j] + REAL_0;
+  }
+  for (i = 0; i < IPM_NCOL1; ++i) {
+    const int j = IPM_A_COL1[i];
+    out[j] = base[j] + (REAL_0 + (IPM_W.Ax[IPM_A_COL1_K[i]] * v[IPM_A_COL1_I[i]]));
+  }
+  for (i = 0; i < IPM_NCOLM; ++i) {
+    const int j = IPM_A_COLM[i];
     ipm_real_t s = REAL_0;
     for (k = IPM_A_P[j]; k < IPM_A_P[j + 1]; ++k) {
       s += IPM_W.Ax[IPM_A_K[k]] * v[IPM_A_I[k]];

@@ -177,12 +177,31 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
   int i;
   int k;
   int p;
-  for (i = 0; i < IPM_NAR; ++i) {
+  /* the rows of the generic A by kind (codegen_context checks that each kind's entries are the CSR's, in its order,
+   * so every sum is the CSR loop's): box rows, one entry each; general rows; the others (stage equalities) */
+  for (i = 0; i < IPM_NBOX; ++i) {
+    out[IPM_BOX_ROW[i]] = REAL_0 + (IPM_W.bax[i] * x[IPM_BOX_VAR[i]]);
+  }
+  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
     ipm_real_t s = REAL_0;
-    for (p = IPM_AR_P[i]; p < IPM_AR_P[i + 1]; ++p) {
+    if (IPM_GEN_ROW[i] < 0) {
+      continue;
+    }
+    for (p = IPM_GEN_PTR[i]; p < IPM_GEN_PTR[i + 1]; ++p) {
+      s += IPM_W.gax[p] * x[IPM_GEN_VAR[p]];
+    }
+    if (IPM_GEN_E[i] >= 0) {
+      s += IPM_W.gex[i] * x[IPM_GEN_SVAR[i]];
+    }
+    out[IPM_GEN_ROW[i]] = s;
+  }
+  for (k = 0; k < IPM_NAR_OTHER; ++k) {
+    const int r = IPM_AR_OTHER[k];
+    ipm_real_t s = REAL_0;
+    for (p = IPM_AR_P[r]; p < IPM_AR_P[r + 1]; ++p) {
       s += IPM_W.Ax[IPM_AR_K[p]] * x[IPM_AR_J[p]];
     }
-    out[IPM_AR_ROW[i]] = s;
+    out[IPM_AR_ROW[r]] = s;
   }
   for (i = 0; i < IPM_NX; ++i) {
     out[IPM_INIT_ROWS[i]] = IPM_W.einit[i] * x[IPM_VMAP_XU[i]];
@@ -203,8 +222,17 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
 static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
   int k;
   int i;
-  for (i = 0; i < IPM_NGV; ++i) {
-    const int j = IPM_GV[i];
+  /* the generic variables by their entries' count (no inner loop for none or one; the sums are the CSC loop's) */
+  for (i = 0; i < IPM_NCOL0; ++i) {
+    const int j = IPM_A_COL0[i];
+    out[j] = base[j] + REAL_0;
+  }
+  for (i = 0; i < IPM_NCOL1; ++i) {
+    const int j = IPM_A_COL1[i];
+    out[j] = base[j] + (REAL_0 + (IPM_W.Ax[IPM_A_COL1_K[i]] * v[IPM_A_COL1_I[i]]));
+  }
+  for (i = 0; i < IPM_NCOLM; ++i) {
+    const int j = IPM_A_COLM[i];
     ipm_real_t s = REAL_0;
     for (k = IPM_A_P[j]; k < IPM_A_P[j + 1]; ++k) {
       s += IPM_W.Ax[IPM_A_K[k]] * v[IPM_A_I[k]];

@@ -708,6 +708,33 @@ def _generic_A(layout: QpLayout, sr: SoftRows, sv: StageView) -> tuple[np.ndarra
     return kept_rows, ar_p, cols[order], ent[order], a_p, rows, ent
 
 
+def _split_A(tab: "_Tables", sv: StageView, ar: tuple[np.ndarray, ...], gen_e: np.ndarray) -> dict[str, np.ndarray]:
+    """The generic A's rows and columns by kind, so that A z and A' y run without an inner loop where there is one
+    entry: rows that are neither box nor general rows (stage equalities; box and general rows go through their own
+    tables, IPM_BOX_* and IPM_GEN_*, in the CSR's order of entries, checked here, so the sums are the CSR loop's)
+    and the generic variables' columns with no entry, one entry (its row and data index), several (the CSC)."""
+    ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k, gvars = ar
+    pos = {int(r): i for i, r in enumerate(ar_row)}
+    gen_rows = [int(r) for r in sv.gen_rows.ravel() if r >= 0]
+    for a, r in enumerate(sv.box_rows):
+        i = pos[int(r)]
+        if ar_p[i + 1] - ar_p[i] != 1 or ar_k[ar_p[i]] != sv.box_a[a] or ar_j[ar_p[i]] != sv.box_var[a]:
+            raise AssertionError("a box row is not one entry of the generic A")
+    for gs, r in enumerate(sv.gen_rows.ravel()):
+        if r < 0:
+            continue
+        i = pos[int(r)]
+        gen = list(tab.gen_var[tab.gen_xu_ptr[gs]:tab.gen_xu_ptr[gs + 1]])
+        gen += [int(tab.gen_svar[gs])] if gen_e[gs] >= 0 else []
+        if gen != [int(v) for v in ar_j[ar_p[i]:ar_p[i + 1]]]:
+            raise AssertionError("a general row's entries are not in the generic A's order")
+    other = [i for i, r in enumerate(ar_row) if int(r) not in set(sv.box_rows.tolist()) | set(gen_rows)]
+    counts = np.diff(a_p)[gvars]
+    one = gvars[counts == 1]
+    return {"ar_other": np.array(other, dtype=np.int64), "col0": gvars[counts == 0], "col1": one,
+            "col1_row": a_i[a_p[one]], "col1_k": a_k[a_p[one]], "colm": gvars[counts > 1]}
+
+
 def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
     """Per stage, the boundaries of the blocks of consecutive inputs over which R_bar = H_uu + G' P G is block
     diagonal: inputs that a row or the dynamics couple are in one block (e.g. the controls; each opponent's
@@ -781,6 +808,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k = _generic_A(layout, sr, sv)
     ub = input_blocks(sv, sr)
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
+    split = _split_A(tab, sv, (ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k, gvars), gen_e.ravel())
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
     run_ptr, pad = padded_runs(sr)
     fg_a0, _, fg_off, fg_pos = fg_bands(sv)
@@ -793,6 +821,11 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_A_K", a_k, "their data index"),
         ("IPM_AR_ROW", ar_row, "rows of A without the soft rows"), ("IPM_AR_P", ar_p, "their entries (row-major)"),
         ("IPM_AR_J", ar_j, "column of row-major entry p"), ("IPM_AR_K", ar_k, "its data index"),
+        ("IPM_AR_OTHER", split["ar_other"], "the rows i of IPM_AR_ROW that are neither box nor general rows"),
+        ("IPM_A_COL0", split["col0"], "generic variables without an entry in the generic A"),
+        ("IPM_A_COL1", split["col1"], "generic variables with one entry"), ("IPM_A_COL1_I", split["col1_row"], "its row"),
+        ("IPM_A_COL1_K", split["col1_k"], "its data index"),
+        ("IPM_A_COLM", split["colm"], "generic variables with several entries (IPM_A_P)"),
         ("IPM_VMAP_XU", sv.vmap[:, :nxu], "[k][v]: variable of stage k's x/input slot v"),
         ("IPM_XU_LO", xu_lo, "stage k's first slot with a variable"), ("IPM_XU_HI", xu_hi, "one past its last"),
         ("IPM_XU_V", xu_v, "the variable of slot IPM_XU_LO[k] (the others follow it)"),
@@ -863,6 +896,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "NGA": len(gv), "NSR": sr.count, "NSRP": int(run_ptr[-1]), "LANES": sr_lanes(sr), "sr_weight": sr_weight,
             "NUB": ub.shape[1] - 1, "NV": layout.n, "NGV": len(gvars), "NFGC": len(fg_a0), "NFGB": int(fg_off[-1]), "NA": sr.NA,
             "NRUN": len(sr.run_ptr) - 1, "NAR": len(ar_row), "sr_fields": SR_FIELDS,
+            "NAR_OTHER": len(split["ar_other"]), "NCOL0": len(split["col0"]), "NCOL1": len(split["col1"]),
+            "NCOLM": len(split["colm"]),
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
