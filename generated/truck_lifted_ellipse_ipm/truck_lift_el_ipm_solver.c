@@ -3741,6 +3741,26 @@ static inline void ipm_sr_forward_sums(int j, const ipm_real_t *f, ipm_real_t (*
  * rendered header.
  * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
 
+/* 0 times each of v[0 .. n - 1], summed in four independent chains: NaN once one is not finite (a finiteness test
+ * whose adds overlap instead of waiting on each other) */
+static ipm_real_t ipm_nonfinite(const ipm_real_t *v, int n) {
+  ipm_real_t s0 = REAL_0;
+  ipm_real_t s1 = REAL_0;
+  ipm_real_t s2 = REAL_0;
+  ipm_real_t s3 = REAL_0;
+  int i;
+  for (i = 0; (i + 3) < n; i += 4) {
+    s0 += v[i] * REAL_0;
+    s1 += v[i + 1] * REAL_0;
+    s2 += v[i + 2] * REAL_0;
+    s3 += v[i + 3] * REAL_0;
+  }
+  for (; i < n; ++i) {
+    s0 += v[i] * REAL_0;
+  }
+  return (s0 + s1) + (s2 + s3);
+}
+
 /* ---- small dense kernels (row-major, fixed sizes): for the input blocks (where not written out: IPM_U_DENSE) and
  * the stage equalities ---- */
 #if (IPM_U_DENSE == 0) || (IPM_NE > 0)
@@ -4743,18 +4763,8 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  { /* 0 times every entry of P_k sums to NaN once one is not finite */
-    ipm_real_t nf = REAL_0;
-    for (i = 0; i < IPM_NX; ++i) {
-      for (j = 0; j <= i; ++j) {
-        nf += IPM_W.P[k][i][j] * REAL_0;
-      }
-    }
-    if (isfinite(nf) == 0) {
-      return 1;
-    }
-  }
-  return 0;
+  /* every entry of P_k finite? (its upper triangle is never written: 0 since qpb_reset) */
+  return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
 }
 
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals IPM_W.r_eq -> IPM_W.dz and,
@@ -5094,15 +5104,23 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
     }
   }
   mu /= (ipm_real_t)IPM_NCOMP;
-  { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite */
-    ipm_real_t nf = REAL_0;
-    for (i = 0; i < IPM_NGV; ++i) {
-      const ipm_real_t r = IPM_W.r_d[IPM_GV[i]];
-      nf += r * REAL_0;
-      rmax = ipm_max(IPM_FABS(r), rmax);
+  { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite (two
+     * chains of each, the even and the odd entries: their maxima and sums overlap) */
+    ipm_real_t nf0 = REAL_0;
+    ipm_real_t nf1 = REAL_0;
+    ipm_real_t rm1 = REAL_0;
+    for (i = 0; i < IPM_NGV; i += 2) {
+      const ipm_real_t r0 = IPM_W.r_d[IPM_GV[i]];
+      const ipm_real_t r1 = ((i + 1) < IPM_NGV) ? IPM_W.r_d[IPM_GV[i + 1]] : REAL_0;
+      nf0 += r0 * REAL_0;
+      nf1 += r1 * REAL_0;
+      rmax = ipm_max(IPM_FABS(r0), rmax);
+      rm1 = ipm_max(IPM_FABS(r1), rm1);
     }
-    if (isfinite(nf) == 0) {
-      rmax = nf;
+    rmax = ipm_max(rm1, rmax);
+    nf0 += nf1;
+    if (isfinite(nf0) == 0) {
+      rmax = nf0;
     }
   }
   if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
@@ -5122,7 +5140,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
  * status it stops with */
 static int ipm_step(ipm_real_t mu) {
   int j;
-  ipm_real_t nf = REAL_0;
+  ipm_real_t nf;
   ipm_real_t a_aff = REAL_0;
   ipm_real_t mu_aff = REAL_0;
   ipm_real_t ratio;
@@ -5145,10 +5163,7 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  for (j = 0; j < IPM_NV; ++j) { /* 0 times each entry of the step sums to NaN once one is not finite (the soft
-                                    * rows' slacks' entries: 0) */
-    nf += IPM_W.dz[j] * REAL_0;
-  }
+  nf = ipm_nonfinite(IPM_W.dz, IPM_NV); /* NaN once an entry of the step is not finite (the soft rows' slacks': 0) */
   if (isfinite(nf) == 0) {
     return IPM_RAW_QP_NONFINITE;
   }
