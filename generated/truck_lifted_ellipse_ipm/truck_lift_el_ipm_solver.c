@@ -3577,16 +3577,16 @@ static void ipm_wx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) 
   y[1] = ((W[1][0] * x[0]) + (W[1][1] * x[1]) + (W[1][2] * x[2]) + (W[1][3] * x[3]) + (W[1][4] * x[4]) + (W[1][5] * x[5]) + (W[1][6] * x[6]) + (W[1][7] * x[7]));
 }
 
-/* y = W' x (W: NU x NX) */
-static void ipm_wtx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) {
-  y[0] = ((W[0][0] * x[0]) + (W[1][0] * x[1]));
-  y[1] = ((W[0][1] * x[0]) + (W[1][1] * x[1]));
-  y[2] = ((W[0][2] * x[0]) + (W[1][2] * x[1]));
-  y[3] = ((W[0][3] * x[0]) + (W[1][3] * x[1]));
-  y[4] = ((W[0][4] * x[0]) + (W[1][4] * x[1]));
-  y[5] = ((W[0][5] * x[0]) + (W[1][5] * x[1]));
-  y[6] = ((W[0][6] * x[0]) + (W[1][6] * x[1]));
-  y[7] = ((W[0][7] * x[0]) + (W[1][7] * x[1]));
+/* y = q - W' x (W: NU x NX; q, y: NX) */
+static void ipm_q_wtx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, const ipm_real_t *q, ipm_real_t *y) {
+  y[0] = q[0] - ((W[0][0] * x[0]) + (W[1][0] * x[1]));
+  y[1] = q[1] - ((W[0][1] * x[0]) + (W[1][1] * x[1]));
+  y[2] = q[2] - ((W[0][2] * x[0]) + (W[1][2] * x[1]));
+  y[3] = q[3] - ((W[0][3] * x[0]) + (W[1][3] * x[1]));
+  y[4] = q[4] - ((W[0][4] * x[0]) + (W[1][4] * x[1]));
+  y[5] = q[5] - ((W[0][5] * x[0]) + (W[1][5] * x[1]));
+  y[6] = q[6] - ((W[0][6] * x[0]) + (W[1][6] * x[1]));
+  y[7] = q[7] - ((W[0][7] * x[0]) + (W[1][7] * x[1]));
 }
 
 /* Pk = H[x][x] - W' W on and below the diagonal (H: its upper triangle) */
@@ -4810,9 +4810,6 @@ static void ipm_stage_eq(int k, ipm_real_t *deq) {
 static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int k;
   int i;
-  ipm_real_t pn[IPM_NX] = {0};
-  ipm_real_t qb[IPM_NX];
-  ipm_real_t rb[IPM_NU];
   ipm_real_t tv[IPM_NU];
   ipm_real_t ht[IPM_NXU];
   ipm_real_t hs[IPM_NS];
@@ -4837,18 +4834,12 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
         ipm_mv(IPM_W.P[k + 1], cdyn, pcs);
       }
       for (i = 0; i < IPM_NX; ++i) {
-        pc[i] = pcs[i] + pn[i];
+        pc[i] = pcs[i] + IPM_W.p[k + 1][i];
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
-    for (i = 0; i < IPM_NX; ++i) {
-      qb[i] = ht[i];
-    }
     for (i = 0; i < IPM_NU; ++i) {
-      rb[i] = ht[IPM_NX + i];
-    }
-    for (i = 0; i < IPM_NU; ++i) {
-      IPM_W.lr[k][i] = rb[i];
+      IPM_W.lr[k][i] = ht[IPM_NX + i];
     }
     ipm_fwd_u(k, &IPM_W.L[k][0][0], IPM_W.lr[k], 1, 1);
     for (i = 0; i < IPM_NU; ++i) {
@@ -4857,11 +4848,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 #if IPM_NE > 0
     ipm_eq_project(k, deq, tv, nh);
 #endif
-    ipm_wtx(IPM_W.W1[k], tv, pn);
-    for (i = 0; i < IPM_NX; ++i) {
-      pn[i] = qb[i] - pn[i];
-      IPM_W.p[k][i] = pn[i];
-    }
+    ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
     ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.kk[k][i] = -tv[i];

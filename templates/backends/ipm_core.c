@@ -1082,9 +1082,6 @@ static void ipm_stage_eq(int k, ipm_real_t *deq) {
 static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int k;
   int i;
-  ipm_real_t pn[IPM_NX] = {0};
-  ipm_real_t qb[IPM_NX];
-  ipm_real_t rb[IPM_NU];
   ipm_real_t tv[IPM_NU];
   ipm_real_t ht[IPM_NXU];
   ipm_real_t hs[IPM_NS];
@@ -1109,18 +1106,12 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
         ipm_mv(IPM_W.P[k + 1], cdyn, pcs);
       }
       for (i = 0; i < IPM_NX; ++i) {
-        pc[i] = pcs[i] + pn[i];
+        pc[i] = pcs[i] + IPM_W.p[k + 1][i];
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
-    for (i = 0; i < IPM_NX; ++i) {
-      qb[i] = ht[i];
-    }
     for (i = 0; i < IPM_NU; ++i) {
-      rb[i] = ht[IPM_NX + i];
-    }
-    for (i = 0; i < IPM_NU; ++i) {
-      IPM_W.lr[k][i] = rb[i];
+      IPM_W.lr[k][i] = ht[IPM_NX + i];
     }
     ipm_fwd_u(k, &IPM_W.L[k][0][0], IPM_W.lr[k], 1, 1);
     for (i = 0; i < IPM_NU; ++i) {
@@ -1129,11 +1120,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 #if IPM_NE > 0
     ipm_eq_project(k, deq, tv, nh);
 #endif
-    ipm_wtx(IPM_W.W1[k], tv, pn);
-    for (i = 0; i < IPM_NX; ++i) {
-      pn[i] = qb[i] - pn[i];
-      IPM_W.p[k][i] = pn[i];
-    }
+    ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
     ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.kk[k][i] = -tv[i];

@@ -605,16 +605,16 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
 def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     """Bodies of the small dense stage kernels at this problem's sizes, written out (every size a compile-time
     constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX, its
-    lower triangle read);
-    ``wx``: y = W1 x (NU x NX); ``wtx``: y = W1' x; ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's
-    upper triangle read)."""
+    lower triangle read); ``wx``: y = W1 x (NU x NX); ``q_wtx``: y = q - W1' x (p_k straight from the kernel: no
+    copy that reads back values just stored); ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's upper
+    triangle read)."""
     mv = [f"y[{i}] = {_c_sum([f'({pij} * x[{j}])' for j, pij in enumerate(_lower('P', i, j) for j in range(nx))])};"
           for i in range(nx)]
     wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
-    wtx = [f"y[{i}] = {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
+    q_wtx = [f"y[{i}] = q[{i}] - {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
     pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
           for i in range(nx) for j in range(i + 1)]
-    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("wtx", wtx), ("pk", pk))}
+    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
 
 
 #: the largest NU for which R's factor and solves are written out for all inputs at once (``u_kernels``)
