@@ -3571,6 +3571,35 @@ static void ipm_mv(ipm_real_t (*P)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) 
   y[7] = ((P[7][0] * x[0]) + (P[7][1] * x[1]) + (P[7][2] * x[2]) + (P[7][3] * x[3]) + (P[7][4] * x[4]) + (P[7][5] * x[5]) + (P[7][6] * x[6]) + (P[7][7] * x[7]));
 }
 
+/* y = P x and z = y + a (z from the registers: no read-back of y) */
+static void ipm_mv_add(ipm_real_t (*P)[IPM_NX], const ipm_real_t *x, const ipm_real_t *a, ipm_real_t *y,
+                       ipm_real_t *z) {
+  const ipm_real_t y0 = ((P[0][0] * x[0]) + (P[1][0] * x[1]) + (P[2][0] * x[2]) + (P[3][0] * x[3]) + (P[4][0] * x[4]) + (P[5][0] * x[5]) + (P[6][0] * x[6]) + (P[7][0] * x[7]));
+  y[0] = y0;
+  z[0] = y0 + a[0];
+  const ipm_real_t y1 = ((P[1][0] * x[0]) + (P[1][1] * x[1]) + (P[2][1] * x[2]) + (P[3][1] * x[3]) + (P[4][1] * x[4]) + (P[5][1] * x[5]) + (P[6][1] * x[6]) + (P[7][1] * x[7]));
+  y[1] = y1;
+  z[1] = y1 + a[1];
+  const ipm_real_t y2 = ((P[2][0] * x[0]) + (P[2][1] * x[1]) + (P[2][2] * x[2]) + (P[3][2] * x[3]) + (P[4][2] * x[4]) + (P[5][2] * x[5]) + (P[6][2] * x[6]) + (P[7][2] * x[7]));
+  y[2] = y2;
+  z[2] = y2 + a[2];
+  const ipm_real_t y3 = ((P[3][0] * x[0]) + (P[3][1] * x[1]) + (P[3][2] * x[2]) + (P[3][3] * x[3]) + (P[4][3] * x[4]) + (P[5][3] * x[5]) + (P[6][3] * x[6]) + (P[7][3] * x[7]));
+  y[3] = y3;
+  z[3] = y3 + a[3];
+  const ipm_real_t y4 = ((P[4][0] * x[0]) + (P[4][1] * x[1]) + (P[4][2] * x[2]) + (P[4][3] * x[3]) + (P[4][4] * x[4]) + (P[5][4] * x[5]) + (P[6][4] * x[6]) + (P[7][4] * x[7]));
+  y[4] = y4;
+  z[4] = y4 + a[4];
+  const ipm_real_t y5 = ((P[5][0] * x[0]) + (P[5][1] * x[1]) + (P[5][2] * x[2]) + (P[5][3] * x[3]) + (P[5][4] * x[4]) + (P[5][5] * x[5]) + (P[6][5] * x[6]) + (P[7][5] * x[7]));
+  y[5] = y5;
+  z[5] = y5 + a[5];
+  const ipm_real_t y6 = ((P[6][0] * x[0]) + (P[6][1] * x[1]) + (P[6][2] * x[2]) + (P[6][3] * x[3]) + (P[6][4] * x[4]) + (P[6][5] * x[5]) + (P[6][6] * x[6]) + (P[7][6] * x[7]));
+  y[6] = y6;
+  z[6] = y6 + a[6];
+  const ipm_real_t y7 = ((P[7][0] * x[0]) + (P[7][1] * x[1]) + (P[7][2] * x[2]) + (P[7][3] * x[3]) + (P[7][4] * x[4]) + (P[7][5] * x[5]) + (P[7][6] * x[6]) + (P[7][7] * x[7]));
+  y[7] = y7;
+  z[7] = y7 + a[7];
+}
+
 /* y = W x (W: NU x NX) */
 static void ipm_wx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) {
   y[0] = ((W[0][0] * x[0]) + (W[0][1] * x[1]) + (W[0][2] * x[2]) + (W[0][3] * x[3]) + (W[0][4] * x[4]) + (W[0][5] * x[5]) + (W[0][6] * x[6]) + (W[0][7] * x[7]));
@@ -3664,10 +3693,17 @@ static void ipm_fwd_nu(const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
   }
 }
 
-/* x := Lo^-T x (a vector of NU) */
-static void ipm_bwd_nu(const ipm_real_t *Lo, ipm_real_t *x) {
-  x[1] = x[1] / Lo[3];
-  x[0] = (x[0] - (Lo[2] * x[1])) / Lo[0];
+/* out := base - Lo^-T x, or -Lo^-T x without base (NULL); x is not changed */
+static void ipm_bwd_nu_sub(const ipm_real_t *Lo, const ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
+  const ipm_real_t r1 = x[1] / Lo[3];
+  const ipm_real_t r0 = (x[0] - (Lo[2] * r1)) / Lo[0];
+  if (base != NULL) {
+    out[0] = base[0] - r0;
+    out[1] = base[1] - r1;
+  } else {
+    out[0] = -r0;
+    out[1] = -r1;
+  }
 }
 #endif
 
@@ -3861,16 +3897,21 @@ static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx
 #endif
 }
 
-/* x := L_k^-T x (a vector of NU) */
-static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+/* out := base - L_k^-T x, or -L_k^-T x without base (NULL); x may be overwritten. Written out (IPM_U_DENSE), the
+ * result goes from registers to out: a loop over a copy would read back values just stored */
+static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
 #if IPM_U_DENSE
   (void)k;
-  ipm_bwd_nu(Lo, x);
+  ipm_bwd_nu_sub(Lo, x, base, out);
 #else
   int b;
+  int i;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    out[i] = (base != NULL) ? (base[i] - x[i]) : (-x[i]);
   }
 #endif
 }
@@ -3905,6 +3946,18 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   int a;
   for (a = 0; a < n; ++a) {
     xs[a] += vs[a];
+  }
+}
+
+/* x[variable of slot a] -= v[a] over stage k's slots with a variable */
+static inline void ipm_sub_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
+  const int lo = IPM_XU_LO[k];
+  const int n = IPM_XU_HI[k] - lo;
+  const ipm_real_t *vs = &v[lo];
+  ipm_real_t *xs = &x[IPM_XU_V[k]];
+  int a;
+  for (a = 0; a < n; ++a) {
+    xs[a] -= vs[a];
   }
 }
 
@@ -3999,10 +4052,7 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
       out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
-    for (i = 0; i < IPM_NFGC; ++i) {
-      g[i] = -g[i];
-    }
-    ipm_add_xu(k, g, out);
+    ipm_sub_xu(k, g, out); /* x - g: the x + (-g) of a negation pass, exactly */
   }
 }
 
@@ -4831,10 +4881,11 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
        * rows (free until the corrector's forward sweep writes the multipliers' step there), the other reads it */
       ipm_real_t *pcs = &IPM_W.gd[IPM_DYN_ROWS[k * IPM_NX]];
       if (factor != 0) {
-        ipm_mv(IPM_W.P[k + 1], cdyn, pcs);
-      }
-      for (i = 0; i < IPM_NX; ++i) {
-        pc[i] = pcs[i] + IPM_W.p[k + 1][i];
+        ipm_mv_add(IPM_W.P[k + 1], cdyn, IPM_W.p[k + 1], pcs, pc);
+      } else {
+        for (i = 0; i < IPM_NX; ++i) {
+          pc[i] = pcs[i] + IPM_W.p[k + 1][i];
+        }
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
@@ -4849,10 +4900,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     ipm_eq_project(k, deq, tv, nh);
 #endif
     ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
-    ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
-    for (i = 0; i < IPM_NU; ++i) {
-      IPM_W.kk[k][i] = -tv[i];
-    }
+    ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, NULL, IPM_W.kk[k]); /* kk_k = -L^-T tv */
   }
   return 0;
 }
@@ -4878,13 +4926,10 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
 #if IPM_NE > 0
   ipm_eq_project(k, NULL, tv, nh);
 #endif
-  ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
   for (i = 0; i < IPM_NX; ++i) {
     dv[i] = dx[i];
   }
-  for (i = 0; i < IPM_NU; ++i) {
-    dv[IPM_NX + i] = IPM_W.kk[k][i] - tv[i];
-  }
+  ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, IPM_W.kk[k], &dv[IPM_NX]); /* du = kk_k - L^-T tv */
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);

@@ -133,16 +133,21 @@ static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx
 #endif
 }
 
-/* x := L_k^-T x (a vector of NU) */
-static void ipm_bwd_u(int k, const ipm_real_t *Lo, ipm_real_t *x) {
+/* out := base - L_k^-T x, or -L_k^-T x without base (NULL); x may be overwritten. Written out (IPM_U_DENSE), the
+ * result goes from registers to out: a loop over a copy would read back values just stored */
+static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
 #if IPM_U_DENSE
   (void)k;
-  ipm_bwd_nu(Lo, x);
+  ipm_bwd_nu_sub(Lo, x, base, out);
 #else
   int b;
+  int i;
   for (b = 0; b < IPM_NUB; ++b) {
     const int o = IPM_UB[k][b];
     ipm_bwd(&Lo[(o * IPM_NU) + o], IPM_NU, &x[o], IPM_UB[k][b + 1] - o, 1, 1);
+  }
+  for (i = 0; i < IPM_NU; ++i) {
+    out[i] = (base != NULL) ? (base[i] - x[i]) : (-x[i]);
   }
 #endif
 }
@@ -177,6 +182,18 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   int a;
   for (a = 0; a < n; ++a) {
     xs[a] += vs[a];
+  }
+}
+
+/* x[variable of slot a] -= v[a] over stage k's slots with a variable */
+static inline void ipm_sub_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
+  const int lo = IPM_XU_LO[k];
+  const int n = IPM_XU_HI[k] - lo;
+  const ipm_real_t *vs = &v[lo];
+  ipm_real_t *xs = &x[IPM_XU_V[k]];
+  int a;
+  for (a = 0; a < n; ++a) {
+    xs[a] -= vs[a];
   }
 }
 
@@ -271,10 +288,7 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
       out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
-    for (i = 0; i < IPM_NFGC; ++i) {
-      g[i] = -g[i];
-    }
-    ipm_add_xu(k, g, out);
+    ipm_sub_xu(k, g, out); /* x - g: the x + (-g) of a negation pass, exactly */
   }
 }
 
@@ -1103,10 +1117,11 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
        * rows (free until the corrector's forward sweep writes the multipliers' step there), the other reads it */
       ipm_real_t *pcs = &IPM_W.gd[IPM_DYN_ROWS[k * IPM_NX]];
       if (factor != 0) {
-        ipm_mv(IPM_W.P[k + 1], cdyn, pcs);
-      }
-      for (i = 0; i < IPM_NX; ++i) {
-        pc[i] = pcs[i] + IPM_W.p[k + 1][i];
+        ipm_mv_add(IPM_W.P[k + 1], cdyn, IPM_W.p[k + 1], pcs, pc);
+      } else {
+        for (i = 0; i < IPM_NX; ++i) {
+          pc[i] = pcs[i] + IPM_W.p[k + 1][i];
+        }
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
@@ -1121,10 +1136,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
     ipm_eq_project(k, deq, tv, nh);
 #endif
     ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
-    ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
-    for (i = 0; i < IPM_NU; ++i) {
-      IPM_W.kk[k][i] = -tv[i];
-    }
+    ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, NULL, IPM_W.kk[k]); /* kk_k = -L^-T tv */
   }
   return 0;
 }
@@ -1150,13 +1162,10 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
 #if IPM_NE > 0
   ipm_eq_project(k, NULL, tv, nh);
 #endif
-  ipm_bwd_u(k, &IPM_W.L[k][0][0], tv);
   for (i = 0; i < IPM_NX; ++i) {
     dv[i] = dx[i];
   }
-  for (i = 0; i < IPM_NU; ++i) {
-    dv[IPM_NX + i] = IPM_W.kk[k][i] - tv[i];
-  }
+  ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, IPM_W.kk[k], &dv[IPM_NX]); /* du = kk_k - L^-T tv */
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);

@@ -614,7 +614,11 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     q_wtx = [f"y[{i}] = q[{i}] - {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
     pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
           for i in range(nx) for j in range(i + 1)]
-    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
+    mv_add = []
+    for i in range(nx):
+        terms = [f"({_lower('P', i, j)} * x[{j}])" for j in range(nx)]
+        mv_add += [f"const ipm_real_t y{i} = {_c_sum(terms)};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];"]
+    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("mv_add", mv_add), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
 
 
 #: the largest NU for which R's factor and solves are written out for all inputs at once (``u_kernels``)
@@ -624,7 +628,8 @@ U_KERNEL_MAX = 4
 def u_kernels(nu: int) -> dict[str, str]:
     """Bodies of the Cholesky factor of R (NU x NU, stride NU) and of the solves with it, written out for all NU
     inputs at once (``IPM_U_DENSE``, NU <= U_KERNEL_MAX): ``u_chol`` (0, or 1 if a pivot is not positive), ``u_fwd``:
-    X := L^-1 X over m columns of stride ldx, ``u_bwd``: x := L^-T x. The operations and their order per entry are
+    X := L^-1 X over m columns of stride ldx, ``u_bwd_sub``: out := base - L^-T x (-L^-T x without base, the
+    solve in registers, x unchanged). The operations and their order per entry are
     the generic loops' (ipm_chol, ipm_fwd, ipm_bwd), but for the sums' leading 0; where a stage's R is block diagonal
     (IPM_UB) the dense factor's entries between blocks come out exactly 0 (each product has a factor 0), so the
     factor and the solves equal the blockwise ones for finite data."""
@@ -651,10 +656,12 @@ def u_kernels(nu: int) -> dict[str, str]:
     fwd.append("}")
     bwd = []
     for i in reversed(range(nu)):
-        terms = [f"({el('Lo', j, i)} * x[{j}])" for j in range(i + 1, nu)]
-        bwd.append(f"x[{i}] = (x[{i}] - {_c_sum(terms)}) / {el('Lo', i, i)};" if terms
-                   else f"x[{i}] = x[{i}] / {el('Lo', i, i)};")
-    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd": "\n  ".join(bwd)}
+        terms = [f"({el('Lo', j, i)} * r{j})" for j in range(i + 1, nu)]
+        bwd.append(f"const ipm_real_t r{i} = (x[{i}] - {_c_sum(terms)}) / {el('Lo', i, i)};" if terms
+                   else f"const ipm_real_t r{i} = x[{i}] / {el('Lo', i, i)};")
+    bwd += ["if (base != NULL) {"] + [f"  out[{i}] = base[{i}] - r{i};" for i in range(nu)] + ["} else {"]
+    bwd += [f"  out[{i}] = -r{i};" for i in range(nu)] + ["}"]
+    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd_sub": "\n  ".join(bwd)}
 
 
 def _left(expr: str) -> str:
