@@ -3937,27 +3937,15 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   }
 }
 
-/* x[variable of slot a] += v[a] over stage k's slots with a variable */
-static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
+/* x[variable of slot a] += v[a] (sub: -= v[a]) over stage k's slots with a variable */
+static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x, int sub) {
   const int lo = IPM_XU_LO[k];
   const int n = IPM_XU_HI[k] - lo;
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
   for (a = 0; a < n; ++a) {
-    xs[a] += vs[a];
-  }
-}
-
-/* x[variable of slot a] -= v[a] over stage k's slots with a variable */
-static inline void ipm_sub_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
-  const int lo = IPM_XU_LO[k];
-  const int n = IPM_XU_HI[k] - lo;
-  const ipm_real_t *vs = &v[lo];
-  ipm_real_t *xs = &x[IPM_XU_V[k]];
-  int a;
-  for (a = 0; a < n; ++a) {
-    xs[a] -= vs[a];
+    xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
   }
 }
 
@@ -4052,7 +4040,7 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
       out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
-    ipm_sub_xu(k, g, out); /* x - g: the x + (-g) of a negation pass, exactly */
+    ipm_add_xu(k, g, out, 1); /* x - g: the x + (-g) of a negation pass, exactly */
   }
 }
 
@@ -4223,7 +4211,7 @@ static ipm_real_t ipm_sr_check(ipm_real_t *m) {
         IPM_W.srh[r][q] = s;
       }
     }
-    ipm_add_xu(k, rl, IPM_W.r_d);
+    ipm_add_xu(k, rl, IPM_W.r_d, 0);
   }
   for (l = 0; l < IPM_LANES; ++l) {
     mu += acc[0][l];
