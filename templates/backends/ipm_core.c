@@ -197,29 +197,35 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   }
 }
 
+/* a'x on the box and general inequality rows, into out by row (their entries are the generic A's, in its CSR
+ * order: codegen_context checks, so each sum is the CSR loop's) */
+static void ipm_ineq_Ax(const ipm_real_t *x, ipm_real_t *out) {
+  int gs;
+  int a;
+  for (a = 0; a < IPM_NBOX; ++a) {
+    out[IPM_BOX_ROW[a]] = IPM_W.bax[a] * x[IPM_BOX_VAR[a]];
+  }
+  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
+    ipm_real_t s = REAL_0;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      s += IPM_W.gax[a] * x[IPM_GEN_VAR[a]];
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      s += IPM_W.gex[gs] * x[IPM_GEN_SVAR[gs]];
+    }
+    out[IPM_GEN_ROW[gs]] = s;
+  }
+}
+
 /* A z on the rows but the soft rows */
 static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
   int i;
   int k;
   int p;
-  /* the rows of the generic A by kind (codegen_context checks that each kind's entries are the CSR's, in its order,
-   * so every sum is the CSR loop's): box rows, one entry each; general rows; the others (stage equalities) */
-  for (i = 0; i < IPM_NBOX; ++i) {
-    out[IPM_BOX_ROW[i]] = REAL_0 + (IPM_W.bax[i] * x[IPM_BOX_VAR[i]]);
-  }
-  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
-    ipm_real_t s = REAL_0;
-    if (IPM_GEN_ROW[i] < 0) {
-      continue;
-    }
-    for (p = IPM_GEN_PTR[i]; p < IPM_GEN_PTR[i + 1]; ++p) {
-      s += IPM_W.gax[p] * x[IPM_GEN_VAR[p]];
-    }
-    if (IPM_GEN_E[i] >= 0) {
-      s += IPM_W.gex[i] * x[IPM_GEN_SVAR[i]];
-    }
-    out[IPM_GEN_ROW[i]] = s;
-  }
+  ipm_ineq_Ax(x, out); /* the generic A's box and general rows; then its others (stage equalities) */
   for (k = 0; k < IPM_NAR_OTHER; ++k) {
     const int r = IPM_AR_OTHER[k];
     ipm_real_t s = REAL_0;
@@ -689,26 +695,9 @@ static inline ipm_real_t ipm_side_step(int j, ipm_real_t sg, ipm_real_t ad, ipm_
 /* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
  * pass over the sides, written once per target); returns the largest step to the boundary (at most amax0) */
 static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
-  int gs;
-  int a;
   int j;
   ipm_real_t amax = amax0;
-  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
-    ipm_real_t s = REAL_0;
-    if (IPM_GEN_ROW[gs] < 0) {
-      continue;
-    }
-    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      s += IPM_W.gax[a] * IPM_W.dz[IPM_GEN_VAR[a]];
-    }
-    if (IPM_GEN_E[gs] >= 0) {
-      s += IPM_W.gex[gs] * IPM_W.dz[IPM_GEN_SVAR[gs]];
-    }
-    IPM_W.ar[IPM_GEN_ROW[gs]] = s;
-  }
-  for (a = 0; a < IPM_NBOX; ++a) {
-    IPM_W.ar[IPM_BOX_ROW[a]] = IPM_W.bax[a] * IPM_W.dz[IPM_BOX_VAR[a]];
-  }
+  ipm_ineq_Ax(IPM_W.dz, IPM_W.ar);
   if (corr != 0) { /* flat over the sides (measured: cheaper here than by rows) */
     for (j = 0; j < IPM_NSIDE; ++j) {
       amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], ipm_rc(1, sm, j), amax);

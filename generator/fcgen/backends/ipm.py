@@ -564,8 +564,8 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
     written out statement by statement as a code generator for a fixed pattern does (acados', CasADi's): no loop,
     no index, only [F G]'s structural non-zeros multiplied. ``ctg``: H[i][j] += ([F G]' P [F G])[i][j] for i <= j
     (P [F G] first, into locals; P read on and below its diagonal); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``:
-    y += [F G] v. Each sum runs over the band's rows in ascending order (the order the Python reference's dense products need not share: verify compares
-    within tolerances)."""
+    y += [F G] v. Each sum runs over the band's rows in ascending order (the order the Python reference's dense
+    products need not share: verify compares within tolerances)."""
     a0, a1, off, _ = fg_bands(sv)
     nx, nfgc = sv.nx, len(a0)
     nz = np.zeros((nx, nfgc), dtype=bool)  # the pattern over all stages (a band may hold a zero: skip it)
@@ -608,16 +608,14 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     lower triangle read); ``wx``: y = W1 x (NU x NX); ``q_wtx``: y = q - W1' x (p_k straight from the kernel: no
     copy that reads back values just stored); ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's upper
     triangle read)."""
-    mv = [f"y[{i}] = {_c_sum([f'({pij} * x[{j}])' for j, pij in enumerate(_lower('P', i, j) for j in range(nx))])};"
-          for i in range(nx)]
+    pxs = [_c_sum([f"({_lower('P', i, j)} * x[{j}])" for j in range(nx)]) for i in range(nx)]  # (P x)[i]
+    mv = [f"y[{i}] = {pxs[i]};" for i in range(nx)]
     wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
     q_wtx = [f"y[{i}] = q[{i}] - {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
     pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
           for i in range(nx) for j in range(i + 1)]
-    mv_add = []
-    for i in range(nx):
-        terms = [f"({_lower('P', i, j)} * x[{j}])" for j in range(nx)]
-        mv_add += [f"const ipm_real_t y{i} = {_c_sum(terms)};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];"]
+    mv_add = [ln for i in range(nx)
+              for ln in (f"const ipm_real_t y{i} = {pxs[i]};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];")]
     return {k: "\n  ".join(v) for k, v in (("mv", mv), ("mv_add", mv_add), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
 
 
@@ -735,7 +733,8 @@ def _split_A(tab: "_Tables", sv: StageView, ar: tuple[np.ndarray, ...], gen_e: n
         gen += [int(tab.gen_svar[gs])] if gen_e[gs] >= 0 else []
         if gen != [int(v) for v in ar_j[ar_p[i]:ar_p[i + 1]]]:
             raise AssertionError("a general row's entries are not in the generic A's order")
-    other = [i for i, r in enumerate(ar_row) if int(r) not in set(sv.box_rows.tolist()) | set(gen_rows)]
+    own = set(sv.box_rows.tolist()) | set(gen_rows)  # rows with tables of their own
+    other = [i for i, r in enumerate(ar_row) if int(r) not in own]
     counts = np.diff(a_p)[gvars]
     one = gvars[counts == 1]
     return {"ar_other": np.array(other, dtype=np.int64), "col0": gvars[counts == 0], "col1": one,
@@ -877,7 +876,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     ]
     if NE == 0:  # the template emits the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
-    if NU <= U_KERNEL_MAX:  # R factored for all inputs at once (u_kernels): the blocks' table is not read
+    u_dense = NU <= U_KERNEL_MAX
+    if u_dense:  # R factored for all inputs at once (u_kernels): the blocks' table is not read
         tables = [t for t in tables if t[0] != "IPM_UB"]
     top = max(int(np.max(np.asarray(t), initial=0)) for _, t, _ in tables)
     idx_ctype = "int16_t" if top < 2 ** 15 else "int32_t"
@@ -910,7 +910,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
-            "U_DENSE": int(NU <= U_KERNEL_MAX),
+            "U_DENSE": int(u_dense),
             "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU)},
             "core_source": core_source()}
 
