@@ -208,6 +208,36 @@ def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
     assert compared == len(qps) >= 3
 
 
+def test_ipm_scaled_start_same_solution_fewer_iterations():
+    """The scaled start (t0 = max(-b, t_min / max(1, lam0)): no initial t lam above t_min) and the floor start
+    (max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of one objective value); on the safe profile's QPs, whose
+    soft rows' slack bounds carry multipliers near their L1 weights (1e8, 1e6), the scaled start needs fewer
+    iterations in all, and with the rows' multipliers below 1 both starts are the same iterate (bit for bit)."""
+    pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
+    ref, qps = closed_loop_qps(pb, samples=12)
+    lay = ref.lay
+    tight = {s: IpmBackend(lay, QpOptions(backend="ipm", ipm_tol=1e-8, ipm_scaled_start=s)) for s in (False, True)}
+    rt = {s: IpmBackend(lay, QpOptions(backend="ipm", ipm_scaled_start=s)) for s in (False, True)}
+    iters = {False: 0, True: 0}
+    for P_x, A_x, q, l, u, y_warm, _ in qps:
+        res = {}
+        for s in (False, True):
+            for be in (tight[s], rt[s]):
+                be.set_matrices(P_x, A_x, q)
+            res[s] = tight[s].solve(q, l, u, y_warm, 200)
+            assert res[s].status == QP_SOLVED
+            iters[s] += rt[s].solve(q, l, u, y_warm, 60).iter
+        for r in res.values():   # both KKT points of the QP, of the same objective (its primal need not be unique)
+            r_d, viol, comp = kkt(lay, P_x, A_x, q, l, u, r.z, r.y)
+            assert r_d < 1e-7 and viol < 1e-7 and comp < 1e-6, (r_d, viol, comp)
+        obj = [0.5 * r.z @ (P_x * r.z) + q @ r.z for r in res.values()]
+        assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))   # the gap: ~400 pairs of t lam <= 1e-8
+        cold = (np.zeros_like(y_warm),) * 2   # no warm multipliers: every lam0 = lam_min < 1, the same start
+        a, b = (rt[s].solve(q, l, u, cold[0], 60) for s in (False, True))
+        assert a.iter == b.iter and np.array_equal(a.z, b.z)
+    assert iters[True] < iters[False], iters
+
+
 def test_ipm_through_make_backend_and_reset():
     """make_backend selects the IPM; a reset backend and a fresh one give bit-identical results."""
     ref, qps = closed_loop_qps(short("truck", "lifted", "ellipse"), samples=2)

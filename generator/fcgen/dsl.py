@@ -369,6 +369,10 @@ class QpOptions:
     ``min(max_iter, budget)`` warm, ``min(max(max_iter, max_iter_cold), budget)`` cold): what `fcgen wcet`'s bound
     multiplies. Reaching it is QP_MAX_ITER (a finite step inside the input box's margin is taken, else the fallback).
     None: the backend's ``RTI_BUDGET_DEFAULT``.
+    ``ipm_scaled_start``: the IPM's initial side slacks ``max(-b, t_min / max(1, lam))`` from the warm multipliers
+    lam, so that no initial product t lam exceeds t_min: a soft row's slack bound carries a multiplier near its L1
+    weight, and starting it at t_min cost the safe profile's large weights ~0.8 iterations a QP (docs/safe_profile.md).
+    The paper's presets keep ``False`` (``max(-b, t_min)``: their results as published here before).
     """
 
     max_iter: int = 60
@@ -386,6 +390,7 @@ class QpOptions:
     rti_budget: int | None = None  # QP iterations any feedback may run (None: the backend's RTI_BUDGET_DEFAULT)
     backend: str = "osqp"  # the QP backend (BACKENDS)
     ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
+    ipm_scaled_start: bool = True  # backend "ipm": initial t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
 
     @property
     def budget(self) -> int | None:
@@ -424,6 +429,7 @@ class QpOptions:
                "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
         _check(0 < _finite("qp.ipm_tol", self.ipm_tol) < 1, "qp.ipm_tol", self.ipm_tol, "(0, 1)")
         _check(self.backend in BACKENDS, "qp.backend", self.backend, "one of " + ", ".join(BACKENDS))
+        _check(isinstance(self.ipm_scaled_start, bool), "qp.ipm_scaled_start", self.ipm_scaled_start, "True or False")
 
 
 @dataclass(frozen=True)

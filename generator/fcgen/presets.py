@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import importlib.util
+from dataclasses import replace
 from pathlib import Path
 
 from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, PlanCheck,
@@ -23,6 +24,8 @@ PROFILES = ("paper", "safe")
 """``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
 PAPER_PLAN_CHECK = PlanCheck(react_stages=0)
+PAPER_QP = QpOptions(ipm_scaled_start=False)
+"""The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP)."""
 
 
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
@@ -38,7 +41,7 @@ campaign's IPM runs use. Every other configuration keeps ``QpOptions``' default 
 def preset_qp(backend: str, formulation: str, obstacles: str, profile: str = "paper") -> QpOptions:
     """The QP options of a preset or a campaign configuration: the backend, with the IPM's measured RTI budget."""
     budget = IPM_RTI_BUDGET.get((profile, formulation, obstacles)) if backend == "ipm" else None
-    return QpOptions(backend=backend, rti_budget=budget)
+    return QpOptions(backend=backend, rti_budget=budget, ipm_scaled_start=profile != "paper")
 
 
 def obstacle_model(name: str, scenario: str, circles: int | None = None, profile: str = "paper"):
@@ -61,9 +64,9 @@ def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circl
         raise ProblemError(f"profile = {profile!r} is invalid: allowed one of {PROFILES}")
     if profile == "paper":
         return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "paper"), soft=PAPER_SOFT,
-                        plan_check=PAPER_PLAN_CHECK)
+                        plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False))
     return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=SoftPenalties(),
-                    plan_check=PlanCheck())
+                    plan_check=PlanCheck(), qp=replace(pb.qp, ipm_scaled_start=True))
 
 
 def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
@@ -82,7 +85,7 @@ def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacle
     if name is None:
         tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
         name = f"{scenario}_{SHORT[formulation]}_{tag}"
-    profiled = {"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK} if profile == "paper" else {}
+    profiled = {"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK, "qp": PAPER_QP} if profile == "paper" else {}
     return Problem(name=name, formulation=FORMULATIONS[formulation](), obstacles=model, ego=CAR,
                    opponents=Opponents(3, opp), bounds=Bounds(n_min=-n_bound, n_max=n_bound),
                    **{**profiled, **overrides})

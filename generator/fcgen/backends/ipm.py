@@ -56,6 +56,7 @@ class IpmSettings:
     lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
     alpha_min: float = 1e-12 # a step below it: numerical trouble
     warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
+    scaled_start: bool = False  # initial t = max(-b, t_min / max(1, lam)): no initial t lam above t_min
 
 
 def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -155,7 +156,7 @@ class _Tables:
 
 def ipm_settings(opts: "QpOptions") -> IpmSettings:
     """The IPM's settings of a problem's QpOptions."""
-    return IpmSettings(tol=opts.ipm_tol)
+    return IpmSettings(tol=opts.ipm_tol, scaled_start=opts.ipm_scaled_start)
 
 
 class Backend:
@@ -341,8 +342,8 @@ class Backend:
         ns = len(rows)
         yw = np.zeros(m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
         z = np.zeros(n)
-        t = np.maximum(-b, st.t_min)
         lam = np.maximum(-sign * yw[rows], st.lam_min)
+        t = np.maximum(-b, st.t_min / np.maximum(1.0, lam) if st.scaled_start else st.t_min)
         lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / ns)) / t)   # a centred start (see IpmSettings)
         nu = yw[eq].copy()
         raw = 2
@@ -908,7 +909,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "NFREE": int(np.count_nonzero(tab.free_inputs)), "prox": _c_real(st.prox),
             "tol": _c_real(st.tol), "tau": _c_real(st.tau), "reg": _c_real(st.reg), "t_min": _c_real(st.t_min), "lam_center": _c_real(st.lam_center),
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
-            "warm": int(st.warm), "idx_ctype": idx_ctype, "tables": out, "members": members,
+            "warm": int(st.warm), "scaled_start": int(st.scaled_start), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
             "U_DENSE": int(u_dense),
             "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU)},
