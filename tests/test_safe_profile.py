@@ -2,9 +2,11 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import casadi as ca
 import numpy as np
+
 import pytest
 
 from fcgen import obstacles as obs
@@ -104,8 +106,13 @@ def test_profiles_of_the_presets():
     paper, safe = preset("truck_lifted_hyperplane_ipm"), preset("truck_lifted_hyperplane_ipm_safe")
     assert safe.name == "truck_lift_hp_ipm_safe" and safe.qp.backend == "ipm"
     # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
-    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "qp", "road"):
+    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "road"):
         assert getattr(paper, f) == getattr(safe, f), f
+    # of the QP options only the IPM's start (the safe profile's and the DSL's default: scaled)
+    assert replace(paper.qp, ipm_scaled_start=True) == safe.qp and not paper.qp.ipm_scaled_start
+    assert Problem("x").qp.ipm_scaled_start
+    # the safe weights' order: where the hard problem is infeasible, an obstacle row gives way before a_lat
+    assert safe.soft.a_lat_l1 > safe.soft.obstacle_l1 > PAPER_SOFT.obstacle_l1
     assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
     assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
