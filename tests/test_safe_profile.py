@@ -111,8 +111,8 @@ def test_profiles_of_the_presets():
     # of the QP options only the IPM's start (the safe profile's and the DSL's default: scaled)
     assert replace(paper.qp, ipm_scaled_start=True) == safe.qp and not paper.qp.ipm_scaled_start
     assert Problem("x").qp.ipm_scaled_start
-    # the safe weights' order: where the hard problem is infeasible, an obstacle row gives way before a_lat
-    assert safe.soft.a_lat_l1 > safe.soft.obstacle_l1 > PAPER_SOFT.obstacle_l1
+    # the safe weights' order: where the hard problem is infeasible, a_lat gives way before an obstacle row
+    assert safe.soft.obstacle_l1 > safe.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1
     assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
     assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
