@@ -209,8 +209,8 @@ def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
 
 
 def test_ipm_scaled_start_same_solution_fewer_iterations():
-    """The scaled start (t0 = max(-b, t_min / max(1, lam0)): no initial t lam above t_min) and the floor start
-    (max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of one objective value); on the safe profile's QPs, whose
+    """The scaled start (a soft row's slack bound at t0 = max(-b, t_min / max(1, lam0)): no such initial t lam above
+    t_min) and the floor start (every side at max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of one objective value); on the safe profile's QPs, whose
     soft rows' slack bounds carry multipliers near their L1 weights (1e8, 1e6), the scaled start needs fewer
     iterations in all, and with the rows' multipliers below 1 both starts are the same iterate (bit for bit)."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)

@@ -371,10 +371,11 @@ class QpOptions:
     ``min(max_iter, budget)`` warm, ``min(max(max_iter, max_iter_cold), budget)`` cold): what `fcgen wcet`'s bound
     multiplies. Reaching it is QP_MAX_ITER (a finite step inside the input box's margin is taken, else the fallback).
     None: the backend's ``RTI_BUDGET_DEFAULT``.
-    ``ipm_scaled_start``: the IPM's initial side slacks ``max(-b, t_min / max(1, lam))`` from the warm multipliers
-    lam, so that no initial product t lam exceeds t_min: a soft row's slack bound carries a multiplier near its L1
-    weight, and starting it at t_min cost the safe profile's large weights ~0.8 iterations a QP (docs/safe_profile.md).
-    The paper's presets keep ``False`` (``max(-b, t_min)``: their results as published here before).
+    ``ipm_scaled_start``: the IPM starts each soft row's slack bound at ``t = max(-b, t_min / max(1, lam))`` from its
+    warm multiplier lam (every other side at ``max(-b, t_min)``), so that no such initial product t lam exceeds
+    t_min: the bound carries a multiplier near its row's L1 weight, and starting it at t_min cost the safe profile's
+    large weights ~0.9 iterations a QP (docs/safe_profile.md). The paper's presets keep ``False`` (their results as
+    published here before).
     """
 
     max_iter: int = 60
@@ -392,7 +393,7 @@ class QpOptions:
     rti_budget: int | None = None  # QP iterations any feedback may run (None: the backend's RTI_BUDGET_DEFAULT)
     backend: str = "osqp"  # the QP backend (BACKENDS)
     ipm_tol: float = 1e-4  # backend "ipm": stationarity, primal residuals, each t*lam (scaled QP)
-    ipm_scaled_start: bool = True  # backend "ipm": initial t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
+    ipm_scaled_start: bool = True  # backend "ipm": slack bounds start at t = max(-b, t_min / max(1, lam))
 
     @property
     def budget(self) -> int | None:

@@ -90,7 +90,7 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
                                   "max_iter_cold (docs/wcet.md)"),
     ("QpOptions", "backend"): ("-", "one of " + ", ".join(f"`{b}`" for b in dsl.BACKENDS), "the QP backend"),
     ("QpOptions", "ipm_tol"): ("-", "(0, 1)", "IPM tolerance: stationarity, primal residuals, each t lam (scaled)"),
-    ("QpOptions", "ipm_scaled_start"): ("-", "True / False", "IPM: initial t = max(-b, t_min / max(1, lam)) (paper presets: False)"),
+    ("QpOptions", "ipm_scaled_start"): ("-", "True / False", "IPM: soft rows' slack bounds start at t = max(-b, t_min / max(1, lam)) (paper presets: False)"),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
     ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),
     ("Opponents", "count"): ("-", "integer in [0, 10]", "number of opponents"),

@@ -1422,20 +1422,16 @@ static int ipm_step(ipm_real_t mu) {
   return IPM_GOING;
 }
 
-/* the floor of a side's initial t given its initial lam: IPM_T_MIN / max(1, lam) (IPM_SCALED_START: no initial t lam
- * above IPM_T_MIN, where a soft row's slack bound carries a multiplier near its L1 weight), else IPM_T_MIN */
-static inline ipm_real_t ipm_t_floor(ipm_real_t lam) {
+/* a soft row's slack bound's initial t given its initial lam: max(-b, IPM_T_MIN / max(1, lam)) with
+ * IPM_SCALED_START (no initial t lam above IPM_T_MIN: the bound carries a multiplier near the row's L1 weight), else
+ * max(-b, IPM_T_MIN) as every other side */
+static inline ipm_real_t ipm_t2_start(ipm_real_t b, ipm_real_t lam) {
 #if IPM_SCALED_START
-  return IPM_T_MIN / ((IPM_ONE > lam) ? IPM_ONE : lam);
+  const ipm_real_t f = IPM_T_MIN / ((IPM_ONE > lam) ? IPM_ONE : lam);
 #else
+  const ipm_real_t f = IPM_T_MIN;
   (void)lam;
-  return IPM_T_MIN;
 #endif
-}
-
-/* a side's initial t: max(-b, floor) */
-static inline ipm_real_t ipm_t_start(ipm_real_t b, ipm_real_t lam) {
-  const ipm_real_t f = ipm_t_floor(lam);
   return ((-b) > f) ? (-b) : f;
 }
 
@@ -1451,8 +1447,8 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     IPM_W.bs[j] = b;
     IPM_W.dt[j] = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0): ipm_check takes the last step */
     IPM_W.dlam[j] = REAL_0;
+    IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
     IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
-    IPM_W.t[j] = ipm_t_start(b, IPM_W.lam[j]);
   }
   for (j = 0; j < IPM_NSRP; ++j) {
     const int r = IPM_SR_ROW[j];
@@ -1476,10 +1472,10 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
       const ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
       IPM_SR.b1[j] = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
       IPM_SR.b2[j] = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
+      IPM_SR.t1[j] = ((-IPM_SR.b1[j]) > IPM_T_MIN) ? (-IPM_SR.b1[j]) : IPM_T_MIN;
       IPM_SR.l1[j] = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
       IPM_SR.l2[j] = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
-      IPM_SR.t1[j] = ipm_t_start(IPM_SR.b1[j], IPM_SR.l1[j]);
-      IPM_SR.t2[j] = ipm_t_start(IPM_SR.b2[j], IPM_SR.l2[j]);
+      IPM_SR.t2[j] = ipm_t2_start(IPM_SR.b2[j], IPM_SR.l2[j]);
       IPM_SR.qs[j] = q[IPM_SR_SVAR[j]];
     }
   }

@@ -56,7 +56,7 @@ class IpmSettings:
     lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
     alpha_min: float = 1e-12 # a step below it: numerical trouble
     warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
-    scaled_start: bool = False  # initial t = max(-b, t_min / max(1, lam)): no initial t lam above t_min
+    scaled_start: bool = False  # a soft row's slack bound starts at t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
 
 
 def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -169,6 +169,8 @@ class Backend:
         self.sv = stage_view(layout)
         self.tab = _Tables(layout, self.sv)
         self.set = settings or ipm_settings(opts)
+        # the sides of the soft rows' slack bounds (the C's IPM_SR t2): where scaled_start applies
+        self.slack_bound_side = np.isin(self.sv.side_row, split_soft_rows(layout, self.sv)[1].brow)
         self.trace: list | None = None  # set to [] to record (|r_d|, |r_eq|, |r_p|, max t lam, mu) per iteration
         self.reset()
 
@@ -343,7 +345,8 @@ class Backend:
         yw = np.zeros(m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
         z = np.zeros(n)
         lam = np.maximum(-sign * yw[rows], st.lam_min)
-        t = np.maximum(-b, st.t_min / np.maximum(1.0, lam) if st.scaled_start else st.t_min)
+        t = np.maximum(-b, np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min)
+                       if st.scaled_start else st.t_min)
         lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / ns)) / t)   # a centred start (see IpmSettings)
         nu = yw[eq].copy()
         raw = 2
