@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import shutil
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -59,7 +60,8 @@ def test_measured_presets_and_campaign_runs_share_the_budget():
                 assert pb.qp.rti_budget == want and pb.qp.budget == (want or RTI_BUDGET_DEFAULT["ipm"])
                 assert Config(sc, f, o, n, backend="ipm").problem().qp == pb.qp
                 assert preset(f"{sc}_{f}_{o}_ipm_safe").qp == QpOptions(backend="ipm")
-                assert preset(f"{sc}_{f}_{o}").qp == QpOptions()
+                # the paper's OSQP presets: the defaults but the IPM's start (the paper profile's, no effect on OSQP)
+                assert preset(f"{sc}_{f}_{o}").qp == replace(QpOptions(), ipm_scaled_start=False)
 
 
 @needs_cc
