@@ -15,7 +15,7 @@ from fcgen.codegen.generate import generate
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver
-from fcgen.verify import QUANTITIES, TOL_QP_DATA, TOL_SOLUTION, infer_scenario, rel_diff, verify
+from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, TOL_SOLUTION, infer_scenario, rel_diff, verify
 from test_guess import BEND
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
@@ -83,6 +83,44 @@ def test_cli_verify_fails_on_mismatch(gen_root: Path, tmp_path: Path) -> None:
     (d / "problem.py").write_text(text.replace("N=40", "N=30"))
     res = CliRunner().invoke(main, ["verify", str(d), "--samples", "3"])
     assert res.exit_code != 0 and "do not match" in res.output, res.output
+
+
+def test_verify_catches_a_c_that_differs_and_the_envelope_does_not_hide_it(gen_root: Path, tmp_path: Path) -> None:
+    """The C solves the problem with its steering-rate weight, the reference with 1.5x that: the lockstep fails
+    although the reference takes over the C's iterate each sample, and the closed loops part by far more than the
+    reference's own rounding envelope allows."""
+    d = tmp_path / "other_weight"
+    shutil.copytree(_gen(gen_root, "car_lifted_ellipse"), d, ignore=shutil.ignore_patterns("build"))
+    text = (d / "problem.py").read_text()
+    assert "2000000.0)" in text
+    (d / "problem.py").write_text(text.replace("2000000.0)", "3000000.0)"))
+    rep = verify(d, samples=30)
+    assert not rep.passed
+    assert rep.check("P_x").sample == 0                  # P is the same every sample: first seen at sample 0
+    for key in ("P_x", "q", "z", "u0"):
+        c = rep.check(key)
+        assert not c.passed and c.allowed == c.tol, (key, c)
+    tr = rep.check("trajectory")   # the envelope is measured (the closed loops part) but far below the difference
+    assert tr.envelope > 0 and tr.max_diff > 10 * ENVELOPE_FACTOR * tr.envelope and not tr.passed, tr
+
+
+def test_verify_free_hyperplanes_lockstep_exact_closed_loops_within_the_envelope(tmp_path: Path) -> None:
+    """The paper's free planes (car_lifted_hyperplane_ipm): C and numpy round differently, the problem amplifies it
+    and the independent closed loops part (measured: 5e-3 by sample 50); the lockstep, the reference restarted each
+    sample from the C's iterate, stays within its tolerances throughout, and the reference perturbed at rounding level
+    parts from itself as much as from the C."""
+    d = tmp_path / "g"
+    generate(preset("car_lifted_hyperplane_ipm"), d)
+    rep = verify(d, samples=60)
+    print(rep.format())
+    for c in rep.checks:
+        if c.group != "closed-loop":
+            assert c.envelope == 0 and c.passed and c.compared == 60, c
+    tr = rep.check("trajectory")
+    assert tr.max_diff > 1e3 * tr.tol, tr          # the closed loops do part ...
+    assert tr.envelope > 1e3 * tr.tol, tr          # ... and so does the reference from itself
+    assert rep.passed, rep.format()
+    assert any("envelope" in n for n in rep.notes)
 
 
 def test_cli_bench(gen_root: Path, tmp_path: Path) -> None:

@@ -6,11 +6,17 @@ Two comparisons on one seeded scenario:
    every sample the C solver (verification build: no floating-point contraction) gets exactly the same measured state,
    road window and opponent poses and performs the same calls. After preparation the stage parameters (for the
    conventional formulation with the opponent boxes its prepare phase fitted) and the QP data (``P``, ``q``,
-   ``A`` values, ``l``, ``u``) are compared, after feedback the QP data with ``x0`` embedded, OSQP's primal and dual
+   ``A`` values, ``l``, ``u``) are compared, after feedback the QP data with ``x0`` embedded, the QP's primal and dual
    solution ``z``, ``y``, the SQP iterate (states and controls over the horizon) and ``u0``, plus the exit code, QP
-   status and QP iteration count. The C solver keeps its own warm start, so differences may accumulate.
-2. **Independent closed loops**: the Python plant driven by the C controller vs driven by the Python controller; the
-   largest difference of the ego's trajectory (each Frenet state relative to ``max(1, max |state|)`` over the run).
+   status and QP iteration count. Then the reference takes over the C's committed plan and duals (``_resync``), so
+   every sample compares the one-step map from the same start over the whole run: a backend whose C and Python agree
+   to rounding only (the IPM) cannot drift into a different run where the problem amplifies rounding.
+2. **Independent closed loops**: the Python plant driven by the C controller vs driven by the Python controller, each
+   on its own: the ego's trajectory (each Frenet state relative to ``max(1, max |state|)`` over the run), the applied
+   controls, QP iterations and statuses, exit codes. Where these part beyond the tolerances, the reference runs again
+   with its measured state perturbed at rounding level (``ENVELOPE_EPS``); the C passes if it stays within
+   ``ENVELOPE_FACTOR`` times how far the reference parts from itself (the paper's free hyperplanes: no implementation
+   that is not bit-identical can keep these runs equal).
 
 Differences of arrays are relative: ``max |c - r| / max(1, max |r|)`` with ``r`` the reference; bounds are clipped
 to OSQP's infinity (1e30) on both sides first, as the osqp Python interface does.
@@ -35,6 +41,12 @@ from .sim.scenario import make_scenario
 TOL_QP_DATA = 1e-12
 TOL_SOLUTION = 1e-9
 TOL_TRAJECTORY = 1e-6
+ENVELOPE_EPS = (1e-15, -1e-15, 1e-13, -1e-13)
+"""Relative perturbations of the measured state with which the reference drives the plant again where the independent
+closed loops part beyond the tolerance: how far the reference parts from itself under rounding-level changes."""
+ENVELOPE_FACTOR = 2.0
+"""A closed-loop difference passes within this factor of that envelope (the largest over ``ENVELOPE_EPS``)."""
+CLOSED_LOOP = ("trajectory", "cl_control", "cl_qp_iter", "cl_exit_code")
 
 # (key, group, tolerance, description) in table order
 QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
@@ -101,10 +113,16 @@ class Check:
     sample: int = -1          # sample of the largest difference (-1: none / all zero)
     count: int = 0            # for mismatch counts: samples that differ
     compared: int = 0         # samples compared
+    envelope: float = 0.0     # closed loops: the reference's own difference under ENVELOPE_EPS (0: not measured)
+
+    @property
+    def allowed(self) -> float:
+        """The tolerance, or ENVELOPE_FACTOR times the reference's own rounding envelope where that is larger."""
+        return max(self.tol, ENVELOPE_FACTOR * self.envelope)
 
     @property
     def passed(self) -> bool:
-        return bool(self.max_diff <= self.tol)  # NaN fails
+        return bool(self.max_diff <= self.allowed)  # NaN fails
 
     def update(self, diff: float, sample: int) -> None:
         self.compared += 1
@@ -151,7 +169,7 @@ class VerifyReport:
     def to_dict(self) -> dict:
         d = asdict(self)
         for c, cd in zip(self.checks, d["checks"]):
-            cd["passed"] = c.passed
+            cd["passed"], cd["allowed"] = c.passed, c.allowed
         d["passed"] = self.passed
         return d
 
@@ -171,8 +189,12 @@ class VerifyReport:
                 diff = f"{c.count}/{c.compared}"
             else:
                 diff = f"{c.max_diff:.3e}"
-            rows.append((c.group, c.description, diff, str(c.sample) if c.sample >= 0 else "-",
-                         f"{c.tol:.0e}" if c.tol else "0", "ok" if c.passed else "FAIL"))
+            tol = f"{c.tol:.0e}" if c.tol else "0"
+            if c.allowed > c.tol:
+                env = f"({ENVELOPE_FACTOR:g}x envelope)"
+                tol = f"{c.allowed:.0f} {env}" if c.key in _COUNTS else f"{c.allowed:.1e} {env}"
+            rows.append((c.group, c.description, diff, str(c.sample) if c.sample >= 0 else "-", tol,
+                         "ok" if c.passed else "FAIL"))
         w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
         lines = [head]
         for i, r in enumerate(rows):
@@ -280,8 +302,59 @@ class _Lockstep:
             self._upd("w", rel_diff(w_c, w_r))
             self._upd("u0", rel_diff(c_res.u, res.u))
             self._upd("max_slack", rel_diff(c_res.max_slack, res.max_slack))
+        if not rc and not rc_py:
+            self._resync(c_res.exit_code == 0)
         self.j += 1
         return res
+
+    def _resync(self, c_ok: bool) -> None:
+        """The reference continues from the C's committed plan, duals and unusable-QP count, as the C computed them
+        (``w = w_prep + D z``, the same operations): each sample then compares the one-step map from one start, and
+        rounding differences cannot accumulate into a different run where the problem amplifies them (free
+        hyperplanes, the conventional fit's boxes). Where they agree bit for bit (OSQP) nothing changes."""
+        sv, cs = self.ref, self.cs
+        qp = cs.get_qp()
+        sv.w = sv.w_prep + sv.lay.D * qp["z"] if c_ok else sv.w_prep.copy()
+        sv.y = qp["y"]
+        st = cs.status()
+        sv.status.qp_unusable_run, sv.status.cold_restarts = st.qp_unusable_run, st.cold_restarts
+
+
+class _PerturbedReference(ReferenceController):
+    """The reference with its measured state scaled by ``1 + eps``: the plant is not perturbed, only what it reports."""
+
+    def __init__(self, ocp, eps: float):
+        super().__init__(ocp)
+        self.eps = eps
+
+    def prepare_phase(self, x0: np.ndarray, road, opp: np.ndarray) -> int:
+        return super().prepare_phase(x0 * (1.0 + self.eps), road, opp)
+
+    def feedback_phase(self, x0: np.ndarray, rc: int = 0) -> StepResult:
+        return super().feedback_phase(x0 * (1.0 + self.eps), rc)
+
+
+def _closed_loop_diffs(log_c, log_py) -> dict[str, tuple[float, int, int, int]]:
+    """Two closed loops' differences, per ``CLOSED_LOOP`` key: (max_diff, sample, count, compared). States and
+    controls relative to ``max(1, max |reference|)`` per component; counts of samples whose QP iterations or status
+    differ; the difference of the numbers of non-zero exit codes."""
+    out = {}
+    scale = np.maximum(1.0, np.max(np.abs(log_py.ego_frenet), axis=0))
+    d = np.abs(log_c.ego_frenet - log_py.ego_frenet) / scale
+    per_sample = np.max(np.where(np.isnan(d), np.inf, d), axis=1)
+    mx = float(np.max(per_sample))
+    out["trajectory"] = (mx, int(np.argmax(per_sample)) if mx > 0 else -1, 0, len(per_sample))
+    scale_u = np.maximum(1.0, np.max(np.abs(log_py.control), axis=0))
+    du = np.max(np.abs(log_c.control - log_py.control) / scale_u, axis=1)
+    du = np.where(np.isnan(du), np.inf, du)
+    mx = float(np.max(du, initial=0.0))
+    out["cl_control"] = (mx, int(np.argmax(du)) if mx > 0 else -1, 0, len(du))
+    bad = np.flatnonzero((log_c.qp_iter != log_py.qp_iter) | (log_c.qp_status != log_py.qp_status))
+    out["cl_qp_iter"] = (float(len(bad)), int(bad[0]) if len(bad) else -1, len(bad), len(log_c.qp_iter))
+    # run logs keep only the number of non-zero exit codes
+    n = abs(log_c.meta["extra"]["exit_codes_nonzero"] - log_py.meta["extra"]["exit_codes_nonzero"])
+    out["cl_exit_code"] = (float(n), -1, n, 1)
+    return out
 
 
 def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samples: int = 200,
@@ -315,44 +388,35 @@ def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samp
     if cs.init() != 0:
         raise RuntimeError(f"{name}_init() failed")
     log_py = run_closed_loop(pb, sc, controller=_Lockstep(ref, cs, checks), ocp=ocp)
+    nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
     if closed_loop:
         if cs.init() != 0:
             raise RuntimeError(f"{name}_init() failed")
         log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
-        tr = checks["trajectory"]
-        xa, xb = log_c.ego_frenet, log_py.ego_frenet
-        scale = np.maximum(1.0, np.max(np.abs(xb), axis=0))
-        d = np.abs(xa - xb) / scale
-        d = np.where(np.isnan(d), np.inf, d)
-        per_sample = np.max(d, axis=1)
-        tr.compared = len(per_sample)
-        tr.max_diff = float(np.max(per_sample))
-        tr.sample = int(np.argmax(per_sample)) if tr.max_diff > 0 else -1
-        cc = checks["cl_control"]
-        scale_u = np.maximum(1.0, np.max(np.abs(log_py.control), axis=0))
-        du = np.max(np.abs(log_c.control - log_py.control) / scale_u, axis=1)
-        du = np.where(np.isnan(du), np.inf, du)
-        cc.compared, cc.max_diff = len(du), float(np.max(du, initial=0.0))
-        cc.sample = int(np.argmax(du)) if cc.max_diff > 0 else -1
-        ch = checks["cl_qp_iter"]
-        bad = np.flatnonzero((log_c.qp_iter != log_py.qp_iter) | (log_c.qp_status != log_py.qp_status))
-        ch.compared, ch.count, ch.max_diff = len(log_c.qp_iter), len(bad), float(len(bad))
-        ch.sample = int(bad[0]) if len(bad) else -1
-        ch = checks["cl_exit_code"]  # run logs keep only the number of non-zero exit codes
-        n_c, n_py = log_c.meta["extra"]["exit_codes_nonzero"], log_py.meta["extra"]["exit_codes_nonzero"]
-        ch.compared, ch.count = 1, abs(n_c - n_py)
-        ch.max_diff = float(ch.count)
+        # the lockstep's reference followed the C's iterates: the Python closed loop runs again on its own
+        log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp)
+        for key, (max_diff, sample, count, compared) in _closed_loop_diffs(log_c, log_py).items():
+            ch = checks[key]
+            ch.max_diff, ch.sample, ch.count, ch.compared = max_diff, sample, count, compared
+        if not all(checks[k].passed for k in CLOSED_LOOP):
+            for eps in ENVELOPE_EPS:
+                log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp)
+                for key, d in _closed_loop_diffs(log_e, log_py).items():
+                    checks[key].envelope = max(checks[key].envelope, d[0])
+            rep.notes.append(
+                "the closed loops part beyond the tolerance; the reference itself, its measured state changed by a "
+                f"relative {', '.join(f'{e:+.0e}' for e in ENVELOPE_EPS)}, parts from its own run by up to the "
+                f"'envelope' (this problem amplifies rounding): allowed {ENVELOPE_FACTOR:g}x that")
         from .sim.runlog import summary
         s_c, s_py = summary(log_c), summary(log_py)
         rep.extra = {"progress_c": s_c["progress"], "progress_python": s_py["progress"],
                      "collisions_c": s_c["n_collision_samples"], "collisions_python": s_py["n_collision_samples"],
                      "qp_iter_mean_c": s_c["qp_iter_mean"], "qp_iter_mean_python": s_py["qp_iter_mean"]}
     else:
-        for k in ("trajectory", "cl_control", "cl_qp_iter", "cl_exit_code"):
+        for k in CLOSED_LOOP:
             del checks[k]
         rep.notes.append("independent closed loops skipped")
     rep.checks = list(checks.values())
-    nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
     if nz:
         rep.notes.append(f"the Python reference reported a non-zero exit code on {nz} samples")
     for k in ("q", "z"):
