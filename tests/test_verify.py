@@ -15,7 +15,7 @@ from fcgen.codegen.generate import generate
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver
-from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, TOL_SOLUTION, infer_scenario, rel_diff, verify
+from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, _same_minimiser, TOL_SOLUTION, infer_scenario, rel_diff, verify
 from test_guess import BEND
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
@@ -212,3 +212,14 @@ def test_rel_diff_is_not_hidden_by_infinite_bounds():
     c = r.copy()
     c[0] = -1e3                      # a finite bound where the reference has none
     assert rel_diff(c, r) == np.inf
+
+
+def test_the_plan_checks_stage_may_differ_only_where_two_stages_tie_to_rounding():
+    """Two stages whose clearances are 1e-12 apart: either is the smallest (C and numpy round differently); a stage
+    1.0 farther, or none, is a mismatch."""
+    per_stage = np.array([5.0, 1.0, 1.0 + 1e-12, 2.0, np.inf])
+    assert _same_minimiser(1, 1, per_stage, 1e-8)
+    assert _same_minimiser(2, 1, per_stage, 1e-8)
+    assert not _same_minimiser(3, 1, per_stage, 1e-8)
+    assert not _same_minimiser(4, 1, per_stage, 1e-8)
+    assert not _same_minimiser(-1, 1, per_stage, 1e-8)

@@ -218,6 +218,7 @@ class RtiSolver:
         self.z: np.ndarray | None = None
         self.s0_guess = 0.0
         self.u_applied = np.zeros(self.ocp.nu)
+        self.stage_clearance = np.full(self.ocp.N + 1, math.inf)  # the plan check's, per stage (verify)
         self.qp.reset()
 
     def _fail(self, code: str, message: str) -> SolverError:
@@ -466,6 +467,7 @@ class RtiSolver:
         it closes it), brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
         ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
         best, best_k, react, met = math.inf, -1, False, set()
+        self.stage_clearance = np.full(ocp.N + 1, math.inf)   # per stage, the smallest over the opponents
         K = min(pb.plan_check.react_stages, ocp.N)
         if pb.opponents.count:
             s_k = self.w_prep[lay.s_vars]
@@ -474,6 +476,7 @@ class RtiSolver:
                           for k, (s, good) in enumerate(zip(s_k, ok))], axis=1)
             shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
             C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
+            self.stage_clearance = np.where(ok, np.min(C, axis=0), math.inf)
             for k in np.flatnonzero(ok):   # stages whose window the road no longer covers are skipped
                 for j, (v, d) in enumerate(zip(C[:, k], A[:, k])):
                     if v < best:

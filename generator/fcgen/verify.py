@@ -255,6 +255,17 @@ def check_sizes(gen_dir: Path, name: str, ref: RtiSolver) -> None:
 
 # --- lockstep -----------------------------------------------------------------------------------------------------
 
+def _same_minimiser(k_c: int, k_py: int, per_stage: np.ndarray, tol: float) -> bool:
+    """The C's stage of the smallest clearance is the reference's, or (two stages whose clearances tie to rounding)
+    a stage where the reference's clearance is the smallest within ``tol`` (relative to ``max(1, |smallest|)``)."""
+    if k_c == k_py:
+        return True
+    if not (0 <= k_c < len(per_stage) and 0 <= k_py < len(per_stage)):
+        return False
+    best = float(per_stage[k_py])
+    return bool(abs(float(per_stage[k_c]) - best) <= tol * max(1.0, abs(best)))
+
+
 class _Lockstep:
     """A closed-loop controller: the Python reference drives the plant; the C solver repeats every call in lockstep."""
 
@@ -286,9 +297,11 @@ class _Lockstep:
         self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
         st_c, st_py = cs.status(), sv.status
         if c_res.exit_code == res.exit_code:   # the same outcome: the same plan check (or none, kept as it was)
-            self._upd("plan_check", float((st_c.plan_clearance_stage, st_c.plan_reaction)
-                                          != (st_py.plan_clearance_stage, st_py.plan_reaction)))
             both_inf = math.isinf(st_c.plan_clearance) and math.isinf(st_py.plan_clearance)
+            clr_tol = self.checks["plan_clearance"].tol
+            self._upd("plan_check", float(st_c.plan_reaction != st_py.plan_reaction
+                                          or not _same_minimiser(st_c.plan_clearance_stage, st_py.plan_clearance_stage,
+                                                                 sv.stage_clearance, clr_tol)))
             self._upd("plan_clearance", 0.0 if both_inf else rel_diff(st_c.plan_clearance, st_py.plan_clearance))
         if not c_res.exit_code and not res.exit_code:
             qp = cs.get_qp()
