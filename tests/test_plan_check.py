@@ -102,3 +102,21 @@ def test_an_opponent_running_into_the_ego_from_behind_does_not_make_it_brake(c_s
     assert st_py.plan_reaction == st_c.plan_reaction == 0
     assert st_c.plan_clearance == pytest.approx(st_py.plan_clearance, abs=1e-9)
     np.testing.assert_allclose(u_c, u_py, atol=1e-9)
+
+
+def test_an_opponent_ahead_now_that_the_plan_would_pass_into_makes_the_ego_brake(c_solvers):
+    """An opponent 30 m ahead in the next lane now, predicted from the next stage on 1 m behind the ego in its lane
+    (where the ego would be at 20 m/s: no plan gets clear of it within 0.1 s): its first overlap has it behind the ego, but it is ahead now, so
+    the plan would have to pass it to get there; braking keeps the ego behind it (truck lifted HP seed 104: the ego
+    passed a truck into a bend and cut in ahead of its front)."""
+    pb, cs = c_solvers["safe"]
+    road, x0, opp = _inputs(pb, (30.0, 5.0))
+    k = np.arange(1, pb.horizon.N + 1)
+    opp[1:, 0, 0], opp[1:, 0, 1] = 20.0 + 20.0 * pb.horizon.dt * k - 1.0, 0.0
+    st_py, u_py = _python(pb, road, x0, opp)
+    st_c, u_c = _c(cs, road, x0, opp)
+    assert st_py.plan_clearance < 0.0 and st_py.plan_clearance_stage >= 1
+    assert st_py.plan_reaction == st_c.plan_reaction == 1
+    brake = -min(pb.bounds.F_d_max, pb.ego.m * 20.0 / pb.horizon.dt)
+    assert u_py[0] == pytest.approx(brake, rel=1e-12)
+    np.testing.assert_allclose(u_c, u_py, atol=1e-9)

@@ -2026,7 +2026,7 @@ static void apply_control(const truck_conv_el_real_t *w) {
 
 /* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
  * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
- * among stages 1..REACT_STAGES has it ahead of the ego. */
+ * among stages 1..REACT_STAGES has it ahead of the ego there or at stage 0. */
 static void plan_check(void) {
   int k;
   int j;
@@ -2036,11 +2036,15 @@ static void plan_check(void) {
   truck_conv_el_real_t c[OPP_DIM];
   truck_conv_el_real_t ahead[OPP_DIM];
   int met[OPP_DIM] = {0};
+  truck_conv_el_real_t ahead0[OPP_DIM] = {0};
   for (k = 0; (TRUCK_CONV_EL_NOPP > 0) && (k <= TRUCK_CONV_EL_N); ++k) {
     if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_CONV_EL_OK) {
       continue;
     }
     call4(truck_conv_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], opp_shapes(), c, ahead);
+    if (k == 0) { /* where each opponent is now: ahead of the ego or not */
+      copy(ahead, ahead0, TRUCK_CONV_EL_NOPP);
+    }
     for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) {
       if (c[j] < best) {
         best = c[j];
@@ -2048,7 +2052,7 @@ static void plan_check(void) {
       }
       if ((k >= 1) && (k <= TRUCK_CONV_EL_REACT_STAGES) && (c[j] < REAL_0) && (met[j] == 0)) {
         met[j] = 1; /* its first overlapping stage decides */
-        if (ahead[j] > REAL_0) {
+        if ((ahead[j] > REAL_0) || (ahead0[j] > REAL_0)) {
           react = 1;
         }
       }

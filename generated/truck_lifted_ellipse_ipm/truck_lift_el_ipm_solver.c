@@ -5570,7 +5570,7 @@ static void apply_control(const truck_lift_el_ipm_real_t *w) {
 
 /* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
  * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
- * among stages 1..REACT_STAGES has it ahead of the ego. */
+ * among stages 1..REACT_STAGES has it ahead of the ego there or at stage 0. */
 static void plan_check(void) {
   int k;
   int j;
@@ -5580,11 +5580,15 @@ static void plan_check(void) {
   truck_lift_el_ipm_real_t c[OPP_DIM];
   truck_lift_el_ipm_real_t ahead[OPP_DIM];
   int met[OPP_DIM] = {0};
+  truck_lift_el_ipm_real_t ahead0[OPP_DIM] = {0};
   for (k = 0; (TRUCK_LIFT_EL_IPM_NOPP > 0) && (k <= TRUCK_LIFT_EL_IPM_N); ++k) {
     if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_LIFT_EL_IPM_OK) {
       continue;
     }
     call4(truck_lift_el_ipm_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], opp_shapes(), c, ahead);
+    if (k == 0) { /* where each opponent is now: ahead of the ego or not */
+      copy(ahead, ahead0, TRUCK_LIFT_EL_IPM_NOPP);
+    }
     for (j = 0; j < TRUCK_LIFT_EL_IPM_NOPP; ++j) {
       if (c[j] < best) {
         best = c[j];
@@ -5592,7 +5596,7 @@ static void plan_check(void) {
       }
       if ((k >= 1) && (k <= TRUCK_LIFT_EL_IPM_REACT_STAGES) && (c[j] < REAL_0) && (met[j] == 0)) {
         met[j] = 1; /* its first overlapping stage decides */
-        if (ahead[j] > REAL_0) {
+        if ((ahead[j] > REAL_0) || (ahead0[j] > REAL_0)) {
           react = 1;
         }
       }

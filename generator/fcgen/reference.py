@@ -463,8 +463,9 @@ class RtiSolver:
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
         parameters on the prepared guess's s, as prepare built them); where an opponent's first overlap among stages
-        1..min(react_stages, N) has its centre ahead of the ego's (braking opens that gap; for one beside or behind
-        it closes it), brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
+        1..min(react_stages, N) has its centre ahead of the ego's there or now, at stage 0 (braking opens that gap;
+        for one beside or behind it closes it; a plan that overlaps an opponent on the way past it does not pass),
+        brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
         ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
         best, best_k, react, met = math.inf, -1, False, set()
         self.stage_clearance = np.full(ocp.N + 1, math.inf)   # per stage, the smallest over the opponents
@@ -483,7 +484,7 @@ class RtiSolver:
                         best, best_k = float(v), int(k)
                     if 1 <= k <= K and v < 0.0 and j not in met:   # its first overlapping stage decides
                         met.add(j)
-                        react = react or d > 0.0
+                        react = react or d > 0.0 or (bool(ok[0]) and A[j, 0] > 0.0)
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
             v0 = max(float(self.x0[3]), 0.0)
