@@ -116,8 +116,8 @@ enum {
 /* Plan check (after every feedback that solved or fell back): the plan's true chassis against every opponent's true
  *   rectangle (the poses given to set_opponents) at stages 0..N, by separating axes: status.plan_clearance (> 0
  *   apart, < 0 overlapping by that much) and its stage. Where an opponent's first overlap among stages
- *   1..TRUCK_LIFT_EL_IPM_REACT_STAGES has its centre ahead of the ego's (along the ego's heading: braking opens that gap;
- *   for one beside or behind it would close it), get_u0 brakes: F_d = -min(F_d_max, m max(v0, 0) / dt) (v0 the measured speed), the steering rate kept, and
+ *   1..TRUCK_LIFT_EL_IPM_REACT_STAGES has its centre ahead of the ego's there or at stage 0 (along the ego's heading:
+ *   braking opens that gap; for one beside or behind it would close it), get_u0 brakes: F_d = -min(F_d_max, m max(v0, 0) / dt) (v0 the measured speed), the steering rate kept, and
  *   status.plan_reaction = 1; the plan itself is not changed. TRUCK_LIFT_EL_IPM_REACT_STAGES 0: report only. */
 #define TRUCK_LIFT_EL_IPM_REACT_STAGES 0
 

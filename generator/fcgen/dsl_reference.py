@@ -30,7 +30,7 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max N dt + 4 ds", "the road the solver sees"),
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
     ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only; 500: the whole horizon",
-                                    "brake where an opponent's first overlap with the plan among stages 1..min(this, N) is ahead of the ego"),
+                                    "brake where an opponent's first overlap with the plan among stages 1..min(this, N) is ahead of the ego there or now"),
     ("Ellipse", "shape"): ("-", "`minkowski` or `paper`", "the ellipse containing the opponent grown by the ego's "
                            "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r"),
     ("CoveringCircles", "radius"): ("-", "`cover` or `paper`", "circles just large enough to cover the rectangle, or "
