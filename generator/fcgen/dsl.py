@@ -456,8 +456,8 @@ class PlanCheck:
     """After each feedback: the plan's clearance to every opponent's true rectangle (separating axes), and a reaction.
 
     ``react_stages``: where an opponent's first overlap among stages 1..min(react_stages, N) has its centre ahead of
-    the ego's there or now (stage 0), the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1; F_d = -min(F_d_max,
-    m v0 / dt), the plan's steering rate); 0: report only (the paper's presets); the default, 500, is the whole
+    the ego's there or now (stage 0), the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1;
+    F_d = -min(F_d_max, m v0 / dt), the plan's steering rate); 0: report only (the paper's presets); the default, 500, is the whole
     horizon of any problem (measured on the full grid: docs/safe_profile.md).
     """
 

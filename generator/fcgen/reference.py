@@ -468,7 +468,6 @@ class RtiSolver:
         brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
         ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
         best, best_k, react, met = math.inf, -1, False, set()
-        self.stage_clearance = np.full(ocp.N + 1, math.inf)   # per stage, the smallest over the opponents
         K = min(pb.plan_check.react_stages, ocp.N)
         if pb.opponents.count:
             s_k = self.w_prep[lay.s_vars]

@@ -319,11 +319,11 @@ class _Lockstep:
             self._upd("u0", rel_diff(c_res.u, res.u))
             self._upd("max_slack", rel_diff(c_res.max_slack, res.max_slack))
         if not rc and not rc_py:
-            self._resync(c_res.exit_code == 0)
+            self._resync(c_res.exit_code == 0, st_c)
         self.j += 1
         return res
 
-    def _resync(self, c_ok: bool) -> None:
+    def _resync(self, c_ok: bool, st_c) -> None:
         """The reference continues from the C's committed plan, duals and unusable-QP count, as the C computed them
         (``w = w_prep + D z``, the same operations): each sample then compares the one-step map from one start, and
         rounding differences cannot accumulate into a different run where the problem amplifies them (free
@@ -332,8 +332,7 @@ class _Lockstep:
         qp = cs.get_qp()
         sv.w = sv.w_prep + sv.lay.D * qp["z"] if c_ok else sv.w_prep.copy()
         sv.y = qp["y"]
-        st = cs.status()
-        sv.status.qp_unusable_run, sv.status.cold_restarts = st.qp_unusable_run, st.cold_restarts
+        sv.status.qp_unusable_run, sv.status.cold_restarts = st_c.qp_unusable_run, st_c.cold_restarts
 
 
 class _PerturbedReference(ReferenceController):
