@@ -476,9 +476,7 @@ static void ipm_sr_hessian(int k) {
   int q;
   for (r = IPM_SR_RPTR[k]; r < IPM_SR_RPTR[k + 1]; ++r) {
     for (q = 0; q < IPM_SR_NT; ++q) { /* on and above the diagonal (a padding entry: slot 0, a term 0) */
-      const int va = IPM_SR_RUN_V[r][IPM_SR_QA[q]];
-      const int vb = IPM_SR_RUN_V[r][IPM_SR_QB[q]];
-      IPM_W.H[(va < vb) ? va : vb][(va < vb) ? vb : va] += IPM_W.srh[r][q];
+      IPM_W.H[IPM_SR_HLO[r][q]][IPM_SR_HHI[r][q]] += IPM_W.srh[r][q];
     }
   }
 }
@@ -843,7 +841,11 @@ static void ipm_stage_hessian(int k) {
   int s;
   int p;
   int q;
-  (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  if (k < IPM_N) { /* the cost-to-go through the stage's dynamics sets the upper triangle; the rows add to it */
+    ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
+  } else {
+    (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  }
   /* the rows' W c c' (a row's slots ascend) */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
@@ -999,10 +1001,7 @@ static int ipm_factor_stage(int k) {
   int j;
   ipm_stage_weights(k);
   ipm_stage_hessian(k);
-  /* Q = H[x][x], S = H[u][x], R = H[u][u]; plus the cost-to-go through the dynamics */
-  if (k < IPM_N) {
-    ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
-  }
+  /* Q = H[x][x], S = H[u][x], R = H[u][u] (with the cost-to-go through the dynamics) */
   for (i = 0; i < IPM_NU; ++i) { /* R (both triangles: the Cholesky factorization reads the lower one) */
     for (j = i; j < IPM_NU; ++j) {
       IPM_W.R[i][j] = IPM_W.H[IPM_NX + i][IPM_NX + j];

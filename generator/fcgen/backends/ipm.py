@@ -574,10 +574,11 @@ def _lower(name: str, i: int, j: int) -> str:
 def fg_kernels(sv: StageView) -> dict[str, str]:
     """Bodies of the stage kernels on [F G]'s sparsity (the same at every stage; column j's band packed at off[j]),
     written out statement by statement as a code generator for a fixed pattern does (acados', CasADi's): no loop,
-    no index, only [F G]'s structural non-zeros multiplied. ``ctg``: H[i][j] += ([F G]' P [F G])[i][j] for i <= j
-    (P [F G] first, into locals; P read on and below its diagonal); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``:
-    y += [F G] v. Each sum runs over the band's rows in ascending order (the order the Python reference's dense
-    products need not share: verify compares within tolerances)."""
+    no index, only [F G]'s structural non-zeros multiplied. ``ctg``: H[i][j] = ([F G]' P [F G])[i][j] for i <= j
+    (the whole upper triangle: 0 beyond column NFGC; P [F G] into locals, a column at a time; P read on and below
+    its diagonal); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``: y += [F G] v. Each sum runs over the band's rows in
+    ascending order (the order the Python reference's dense products need not share: verify compares within
+    tolerances)."""
     a0, a1, off, _ = fg_bands(sv)
     nx, nfgc = sv.nx, len(a0)
     nz = np.zeros((nx, nfgc), dtype=bool)  # the pattern over all stages (a band may hold a zero: skip it)
@@ -586,21 +587,24 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
     def el(b: int, j: int) -> str:
         return f"fg[{int(off[j] + b - a0[j])}]"
 
-    ctg = []
-    # m_a_j = (P [F G])[a][j], only where H's upper triangle reads it: a a non-zero row of a column i <= j
-    need = {(a, j) for j in range(nfgc) if nz[:, j].any() for i in range(j + 1) for a in np.flatnonzero(nz[:, i])}
-    for j in range(nfgc):
-        rows = [b for b in range(nx) if nz[b, j]]
-        for a in range(nx):
-            if (a, j) in need:
-                terms = [f"({_lower('P', a, b)} * {el(b, j)})" for b in rows]
-                ctg.append(f"const ipm_real_t m{a}_{j} = {_c_sum(terms)};")
+    # H[i][j] = FG_s' (P FG_d) with d the denser of columns i, j (a tie: j) and s the other: m_a_d = (P FG_d)[a] for
+    # the rows a of the sparser columns s paired with d (the fewest products for [F G]'s pattern)
+    cnt = nz.sum(axis=0)
+    pairs = {d: [] for d in range(nfgc)}
     for i in range(nfgc):
-        rows = [b for b in range(nx) if nz[b, i]]
         for j in range(i, nfgc):
-            terms = [f"({el(b, i)} * m{b}_{j})" for b in rows if (b, j) in need]
-            if terms:
-                ctg.append(f"H[{i}][{j}] += {_c_sum(terms)};")
+            pairs[j if cnt[j] >= cnt[i] else i].append((i, j))
+    ctg = []
+    for d in range(nfgc):  # column by column: its m's, then the entries they serve (the m's in registers)
+        other = {(i, j): (i if j == d else j) for i, j in pairs[d]}
+        need = sorted({a for s in other.values() for a in np.flatnonzero(nz[:, s])})
+        for a in need:
+            terms = [f"({_lower('P', a, b)} * {el(b, d)})" for b in range(nx) if nz[b, d]]
+            ctg.append(f"const ipm_real_t m{a}_{d} = {_c_sum(terms) if terms else 'REAL_0'};")
+        for (i, j), s_ in other.items():
+            terms = [f"({el(b, s_)} * m{b}_{d})" for b in range(nx) if nz[b, s_]]
+            ctg.append(f"H[{i}][{j}] = {_c_sum(terms) if terms else 'REAL_0'};")
+    ctg += [f"H[{i}][{j}] = REAL_0;" for j in range(nfgc, sv.nx + sv.NU) for i in range(j + 1)]
     tdot = []
     for j in range(nfgc):
         terms = [f"({el(b, j)} * x[{b}])" for b in range(nx) if nz[b, j]]
@@ -792,7 +796,8 @@ def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
 
 
 #: the tables the C indexes ``[k][s]`` (no index arithmetic with a size that may be 1: MISRA 2.2); the rest is flat
-TABLES_2D = ("IPM_UB", "IPM_VMAP_S", "IPM_SG_BEG", "IPM_SG_END", "IPM_SE_BEG", "IPM_SE_END", "IPM_SR_RUN_V", "IPM_SR_A")
+TABLES_2D = ("IPM_UB", "IPM_VMAP_S", "IPM_SG_BEG", "IPM_SG_END", "IPM_SE_BEG", "IPM_SE_END", "IPM_SR_RUN_V", "IPM_SR_A",
+             "IPM_SR_HLO", "IPM_SR_HHI")
 
 
 def _table(name: str, kind: str, values, doc: str) -> dict:
@@ -834,6 +839,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         raise AssertionError("the IPM needs each stage's dynamics rows consecutive in the QP layout")
     xu_lo, xu_hi, xu_v = xu_ranges(sv)
     sr_weight = "(IPM_SR.w[i])" if run_ptr[-1] > sr.count else "(IPM_ONE)"  # a constant 1 without padding rows
+    run_v = sr.run_v.reshape(-1, sr.NA)
+    hq_a, hq_b = run_v[:, np.triu_indices(sr.NA)[0]], run_v[:, np.triu_indices(sr.NA)[1]]  # a run's upper triangle
     tables = [
         ("IPM_A_P", a_p, "column pointers of A without the soft rows"), ("IPM_A_I", a_i, "their rows"),
         ("IPM_A_K", a_k, "their data index"),
@@ -883,8 +890,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_SR_E", pad(sr.e), "data index of the slack's coefficient"),
         ("IPM_SR_BROW", pad(sr.brow), "the slack's bound row"),
         ("IPM_SR_BA", pad(sr.ba), "data index of the bound row's coefficient"),
-        ("IPM_SR_QA", np.triu_indices(sr.NA)[0], "entry q of a run's upper triangle (row-major): its row"),
-        ("IPM_SR_QB", np.triu_indices(sr.NA)[1], "its column"),
+        ("IPM_SR_HLO", np.minimum(hq_a, hq_b), "[r][q]: the Newton block's row of entry q of run r's upper triangle "
+         "(row-major; on or above the diagonal)"),
+        ("IPM_SR_HHI", np.maximum(hq_a, hq_b), "[r][q]: its column"),
     ]
     if NE == 0:  # the template emits the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
