@@ -69,6 +69,7 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     ocp, lay, events = record_events(pb.with_(name=f"{sc}_x"), samples=6)
     ctx = codegen_context(ocp, lay, pb.qp)
     assert (ctx["NE"] > 0) == (form == "conventional")   # both branches of the core's #if IPM_NE > 0
+    assert (ctx["NE"] == 0 and ctx["U_DENSE"] == 1) == (form == "lifted")   # and of #if IPM_U_FUSED
     exe = build_harness(ocp, lay, pb.qp, tmp_path)
     n, m, nnz = lay.n, lay.m, lay.nnz_A
     with open(tmp_path / "events.bin", "wb") as f:

@@ -1284,6 +1284,7 @@ void truck_lift_el_ipm_probe(int event);
 #define IPM_NGA 160 /* (x, u) entries of the general rows */
 #define IPM_NUB 2 /* input blocks per stage (at most; IPM_UB) */
 #define IPM_U_DENSE 1 /* 1: R's factor and solves written out for all NU inputs (kernels below) */
+#define IPM_U_FUSED ((IPM_U_DENSE != 0) && (IPM_NE == 0)) /* 1: the sweeps' input steps one kernel each (below) */
 #define IPM_NFGC 10 /* columns of [F G] that can be non-zero: the first IPM_NFGC (x, then u) */
 #define IPM_NFGB 51 /* entries of a stage's packed [F G]: its columns' bands of rows (fg_bands) */
 #define IPM_NV 568 /* variables */
@@ -3466,7 +3467,6 @@ typedef struct {
   ipm_real_t W1[41][2][8]; /* L^-1 S_bar */
   ipm_real_t P[41][8][8]; /* cost-to-go Hessian (on and below the diagonal) */
   ipm_real_t d[41][1]; /* slack pivots */
-  ipm_real_t lr[41][2]; /* L^-1 r_bar */
   ipm_real_t kk[41][2]; /* feedforward */
   ipm_real_t p[41][8]; /* cost-to-go gradient */
   ipm_real_t H[10][10]; /* stage Newton block (scratch) */
@@ -3670,6 +3670,7 @@ static void ipm_mv_add(ipm_real_t (*P)[IPM_NX], const ipm_real_t *x, const ipm_r
   z[7] = y7 + a[7];
 }
 
+#if !IPM_U_FUSED
 /* y = W x (W: NU x NX) */
 static void ipm_wx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, ipm_real_t *y) {
   y[0] = ((W[0][0] * x[0]) + (W[0][1] * x[1]) + (W[0][2] * x[2]) + (W[0][3] * x[3]) + (W[0][4] * x[4]) + (W[0][5] * x[5]) + (W[0][6] * x[6]) + (W[0][7] * x[7]));
@@ -3687,6 +3688,7 @@ static void ipm_q_wtx(ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, const ipm_re
   y[6] = q[6] - ((W[0][6] * x[0]) + (W[1][6] * x[1]));
   y[7] = q[7] - ((W[0][7] * x[0]) + (W[1][7] * x[1]));
 }
+#endif
 
 /* Pk = H[x][x] - W' W on and below the diagonal (H: its upper triangle) */
 static void ipm_pk(ipm_real_t (*H)[IPM_NXU], ipm_real_t (*W)[IPM_NX], ipm_real_t (*Pk)[IPM_NX]) {
@@ -3763,6 +3765,38 @@ static void ipm_fwd_nu(const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx) {
   }
 }
 
+#if IPM_U_FUSED
+/* the backward sweep's input step (no stage equalities): l = Lo^-1 h_u, p = h_x - W' l, kk = -Lo^-T l (h: the
+ * stage's (x, u) right-hand side) */
+static void ipm_u_rhs(const ipm_real_t *Lo, ipm_real_t (*W)[IPM_NX], const ipm_real_t *h, ipm_real_t *p,
+                      ipm_real_t *kk) {
+  const ipm_real_t l0 = (h[8]) * (IPM_ONE / Lo[0]);
+  const ipm_real_t l1 = (h[9] - (Lo[2] * l0)) * (IPM_ONE / Lo[3]);
+  p[0] = h[0] - ((W[0][0] * l0) + (W[1][0] * l1));
+  p[1] = h[1] - ((W[0][1] * l0) + (W[1][1] * l1));
+  p[2] = h[2] - ((W[0][2] * l0) + (W[1][2] * l1));
+  p[3] = h[3] - ((W[0][3] * l0) + (W[1][3] * l1));
+  p[4] = h[4] - ((W[0][4] * l0) + (W[1][4] * l1));
+  p[5] = h[5] - ((W[0][5] * l0) + (W[1][5] * l1));
+  p[6] = h[6] - ((W[0][6] * l0) + (W[1][6] * l1));
+  p[7] = h[7] - ((W[0][7] * l0) + (W[1][7] * l1));
+  const ipm_real_t r1 = l1 / Lo[3];
+  const ipm_real_t r0 = (l0 - (Lo[2] * r1)) / Lo[0];
+  kk[0] = -r0;
+  kk[1] = -r1;
+}
+
+/* the forward sweep's: du = kk - Lo^-T (W x) */
+static void ipm_u_du(const ipm_real_t *Lo, ipm_real_t (*W)[IPM_NX], const ipm_real_t *x, const ipm_real_t *kk,
+                     ipm_real_t *du) {
+  const ipm_real_t t0 = ((W[0][0] * x[0]) + (W[0][1] * x[1]) + (W[0][2] * x[2]) + (W[0][3] * x[3]) + (W[0][4] * x[4]) + (W[0][5] * x[5]) + (W[0][6] * x[6]) + (W[0][7] * x[7]));
+  const ipm_real_t t1 = ((W[1][0] * x[0]) + (W[1][1] * x[1]) + (W[1][2] * x[2]) + (W[1][3] * x[3]) + (W[1][4] * x[4]) + (W[1][5] * x[5]) + (W[1][6] * x[6]) + (W[1][7] * x[7]));
+  const ipm_real_t r1 = t1 / Lo[3];
+  const ipm_real_t r0 = (t0 - (Lo[2] * r1)) / Lo[0];
+  du[0] = kk[0] - r0;
+  du[1] = kk[1] - r1;
+}
+#else
 /* out := base - Lo^-T x, or -Lo^-T x without base (NULL); x is not changed */
 static void ipm_bwd_nu_sub(const ipm_real_t *Lo, const ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
   const ipm_real_t r1 = x[1] / Lo[3];
@@ -3775,6 +3809,7 @@ static void ipm_bwd_nu_sub(const ipm_real_t *Lo, const ipm_real_t *x, const ipm_
     out[1] = -r1;
   }
 }
+#endif
 #endif
 
 /* ---- the soft rows' per-row kernels at this problem's IPM_NA (sr_kernels), written out inside the loop over the
@@ -3967,6 +4002,7 @@ static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx
 #endif
 }
 
+#if !IPM_U_FUSED
 /* out := base - L_k^-T x, or -L_k^-T x without base (NULL); x may be overwritten. Written out (IPM_U_DENSE), the
  * result goes from registers to out: a loop over a copy would read back values just stored */
 static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
@@ -3985,6 +4021,7 @@ static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_
   }
 #endif
 }
+#endif
 
 /* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of
  * stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the others with the layout's
@@ -4906,7 +4943,9 @@ static void ipm_stage_eq(int k, ipm_real_t *deq) {
 static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int k;
   int i;
+#if !IPM_U_FUSED
   ipm_real_t tv[IPM_NU];
+#endif
   ipm_real_t ht[IPM_NXU];
   ipm_real_t hs[IPM_NS];
   ipm_real_t deq[IPM_NE1];
@@ -4935,6 +4974,9 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
+#if IPM_U_FUSED
+    ipm_u_rhs(&IPM_W.L[k][0][0], IPM_W.W1[k], ht, IPM_W.p[k], IPM_W.kk[k]); /* the steps below in one kernel */
+#else
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.lr[k][i] = ht[IPM_NX + i];
     }
@@ -4947,6 +4989,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 #endif
     ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
     ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, NULL, IPM_W.kk[k]); /* kk_k = -L^-T tv */
+#endif
   }
   return 0;
 }
@@ -4956,7 +4999,9 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   int i;
   int s;
   int p;
+#if !IPM_U_FUSED
   ipm_real_t tv[IPM_NU];
+#endif
   ipm_real_t hs[IPM_NS];
 #if IPM_NE > 0
   ipm_real_t nh[IPM_NE1];
@@ -4968,14 +5013,18 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
   }
   /* du = K dx + kk with K = -L^-T (W1 - UD M^-1 UD' W1) */
+  for (i = 0; i < IPM_NX; ++i) {
+    dv[i] = dx[i];
+  }
+#if IPM_U_FUSED
+  ipm_u_du(&IPM_W.L[k][0][0], IPM_W.W1[k], dx, IPM_W.kk[k], &dv[IPM_NX]);
+#else
   ipm_wx(IPM_W.W1[k], dx, tv);
 #if IPM_NE > 0
   ipm_eq_project(k, NULL, tv, nh);
 #endif
-  for (i = 0; i < IPM_NX; ++i) {
-    dv[i] = dx[i];
-  }
   ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, IPM_W.kk[k], &dv[IPM_NX]); /* du = kk_k - L^-T tv */
+#endif
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);

@@ -133,6 +133,7 @@ static void ipm_fwd_u(int k, const ipm_real_t *Lo, ipm_real_t *X, int m, int ldx
 #endif
 }
 
+#if !IPM_U_FUSED
 /* out := base - L_k^-T x, or -L_k^-T x without base (NULL); x may be overwritten. Written out (IPM_U_DENSE), the
  * result goes from registers to out: a loop over a copy would read back values just stored */
 static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_real_t *base, ipm_real_t *out) {
@@ -151,6 +152,7 @@ static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_
   }
 #endif
 }
+#endif
 
 /* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of
  * stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the others with the layout's
@@ -1072,7 +1074,9 @@ static void ipm_stage_eq(int k, ipm_real_t *deq) {
 static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   int k;
   int i;
+#if !IPM_U_FUSED
   ipm_real_t tv[IPM_NU];
+#endif
   ipm_real_t ht[IPM_NXU];
   ipm_real_t hs[IPM_NS];
   ipm_real_t deq[IPM_NE1];
@@ -1101,6 +1105,9 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
       }
       ipm_fg_tdot(IPM_W.fgb[k], pc, ht);
     }
+#if IPM_U_FUSED
+    ipm_u_rhs(&IPM_W.L[k][0][0], IPM_W.W1[k], ht, IPM_W.p[k], IPM_W.kk[k]); /* the steps below in one kernel */
+#else
     for (i = 0; i < IPM_NU; ++i) {
       IPM_W.lr[k][i] = ht[IPM_NX + i];
     }
@@ -1113,6 +1120,7 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
 #endif
     ipm_q_wtx(IPM_W.W1[k], tv, ht, IPM_W.p[k]); /* p_k = q_bar - W1' tv (ht's first NX entries: q_bar) */
     ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, NULL, IPM_W.kk[k]); /* kk_k = -L^-T tv */
+#endif
   }
   return 0;
 }
@@ -1122,7 +1130,9 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   int i;
   int s;
   int p;
+#if !IPM_U_FUSED
   ipm_real_t tv[IPM_NU];
+#endif
   ipm_real_t hs[IPM_NS];
 #if IPM_NE > 0
   ipm_real_t nh[IPM_NE1];
@@ -1134,14 +1144,18 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
   }
   /* du = K dx + kk with K = -L^-T (W1 - UD M^-1 UD' W1) */
+  for (i = 0; i < IPM_NX; ++i) {
+    dv[i] = dx[i];
+  }
+#if IPM_U_FUSED
+  ipm_u_du(&IPM_W.L[k][0][0], IPM_W.W1[k], dx, IPM_W.kk[k], &dv[IPM_NX]);
+#else
   ipm_wx(IPM_W.W1[k], dx, tv);
 #if IPM_NE > 0
   ipm_eq_project(k, NULL, tv, nh);
 #endif
-  for (i = 0; i < IPM_NX; ++i) {
-    dv[i] = dx[i];
-  }
   ipm_bwd_u_sub(k, &IPM_W.L[k][0][0], tv, IPM_W.kk[k], &dv[IPM_NX]); /* du = kk_k - L^-T tv */
+#endif
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);

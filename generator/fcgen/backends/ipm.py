@@ -470,6 +470,8 @@ def _members(sv: StageView, lay: QpLayout) -> list[dict]:
     ]
     if sv.NE == 0:  # the stage-equality arrays exist only with stage equalities (the template's code too)
         spec = [m for m in spec if m[0] not in ("UD", "LM", "D", "M", "W2")]
+        if sv.NU <= U_KERNEL_MAX:  # IPM_U_FUSED: L^-1 r_bar lives in the backward sweep's registers
+            spec = [m for m in spec if m[0] != "lr"]
     return [{"name": nm, "dims": [max(1, int(d)) for d in dims], "doc": doc or nm} for nm, dims, doc in spec]
 
 
@@ -639,7 +641,7 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
 U_KERNEL_MAX = 4
 
 
-def u_kernels(nu: int) -> dict[str, str]:
+def u_kernels(nu: int, nx: int) -> dict[str, str]:
     """Bodies of the Cholesky factor of R (NU x NU, stride NU) and of the solves with it, written out for all NU
     inputs at once (``IPM_U_DENSE``, NU <= U_KERNEL_MAX): ``u_chol`` (0, or 1 if a pivot is not positive), ``u_fwd``:
     X := L^-1 X over m columns of stride ldx, ``u_bwd_sub``: out := base - L^-T x (-L^-T x without base, the
@@ -675,7 +677,35 @@ def u_kernels(nu: int) -> dict[str, str]:
                    else f"const ipm_real_t r{i} = x[{i}] / {el('Lo', i, i)};")
     bwd += ["if (base != NULL) {"] + [f"  out[{i}] = base[{i}] - r{i};" for i in range(nu)] + ["} else {"]
     bwd += [f"  out[{i}] = -r{i};" for i in range(nu)] + ["}"]
-    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd_sub": "\n  ".join(bwd)}
+    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd_sub": "\n  ".join(bwd),
+            **u_fused_kernels(nu, nx)}
+
+
+def _u_back(nu: int, x: str, r: str) -> list[str]:
+    """Statements r_i = (L^-T x)_i, i = NU-1 .. 0, for x given as locals ``{x}{i}`` (u_bwd_sub's operations)."""
+    out = []
+    for i in reversed(range(nu)):
+        terms = [f"(Lo[{j * nu + i}] * {r}{j})" for j in range(i + 1, nu)]
+        out.append(f"const ipm_real_t {r}{i} = ({x}{i} - {_c_sum(terms)}) / Lo[{i * nu + i}];" if terms
+                   else f"const ipm_real_t {r}{i} = {x}{i} / Lo[{i * nu + i}];")
+    return out
+
+
+def u_fused_kernels(nu: int, nx: int) -> dict[str, str]:
+    """The backward and forward sweeps' input steps without stage equalities (``IPM_U_FUSED``), each one kernel
+    whose few-entry intermediates stay in registers (stored and read back, a vectorizing compiler pairs them into
+    loads that wait on two stores): ``u_rhs``: l = L^-1 h_u, p = h_x - W1' l, kk = -L^-T l (u_fwd, q_wtx and
+    u_bwd_sub in a row); ``u_du``: du = kk - L^-T (W1 x) (wx, then u_bwd_sub). The same operations in the same
+    order as those kernels: results are unchanged."""
+    rhs = []
+    for i in range(nu):
+        t = " - ".join([f"h[{nx + i}]"] + [f"(Lo[{i * nu + j}] * l{j})" for j in range(i)])
+        rhs.append(f"const ipm_real_t l{i} = ({_left(t)}) * (IPM_ONE / Lo[{i * nu + i}]);")
+    rhs += [f"p[{i}] = h[{i}] - {_c_sum([f'(W[{a}][{i}] * l{a})' for a in range(nu)])};" for i in range(nx)]
+    rhs += _u_back(nu, "l", "r") + [f"kk[{i}] = -r{i};" for i in range(nu)]
+    du = [f"const ipm_real_t t{i} = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
+    du += _u_back(nu, "t", "r") + [f"du[{i}] = kk[{i}] - r{i};" for i in range(nu)]
+    return {"u_rhs": "\n  ".join(rhs), "u_du": "\n  ".join(du)}
 
 
 def _left(expr: str) -> str:
@@ -931,7 +961,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "warm": int(st.warm), "scaled_start": int(st.scaled_start), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
             "U_DENSE": int(u_dense),
-            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU)},
+            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU, NX)},
             "core_source": core_source()}
 
 
