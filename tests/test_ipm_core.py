@@ -51,15 +51,31 @@ def record_events(pb, samples: int, seed: int = 1):
     return ocp, ref.lay, events
 
 
-def build_harness(ocp, lay, opts, tmp: Path) -> Path:
+def build_harness(ocp, lay, opts, tmp: Path, generic_rows: bool = False) -> Path:
     ctx = codegen_context(ocp, lay, opts)
+    if generic_rows:  # every stage's general rows by the generic loops (no IPM_GEN_PAT table, no written-out kernels)
+        ctx = {**ctx, "GEN_WRITTEN": 0, "tables": [t for t in ctx["tables"] if t["name"] != "IPM_GEN_PAT"]}
     (tmp / "ipm_problem.h").write_text(render_template("backends/ipm_problem.h.j2", name="tipm", NAME="TIPM",
                                                        backend=ctx, c_sqrt="sqrt", c_fabs="fabs", c_fmin="fmin"))
-    exe = tmp / "ipm_core_test"
+    exe = tmp / ("ipm_core_test_generic" if generic_rows else "ipm_core_test")
     subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
                     "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{templates_dir() / 'backends'}",
                     str(HARNESS), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
     return exe
+
+
+def run_harness(exe: Path, lay, events, tmp: Path) -> np.ndarray:
+    """The harness on the recorded backend calls: per solve, status, raw status, iterations, the probes, z, y."""
+    with open(tmp / "events.bin", "wb") as f:
+        for e in events:
+            f.write(e[0].encode())
+            if e[0] == "M":
+                f.write(np.concatenate(e[1:4]).tobytes())
+            elif e[0] == "S":
+                f.write(np.concatenate([*e[1:5], [float(e[5])]]).tobytes())
+    out = tmp / f"out_{exe.name}.bin"
+    subprocess.run([str(exe), str(lay.n), str(lay.m), str(lay.nnz_A), str(tmp / "events.bin"), str(out)], check=True)
+    return np.fromfile(out).reshape(-1, 7 + lay.n + lay.m)
 
 
 @pytest.mark.parametrize("sc,form,ob", [("truck", "lifted", "ellipse"), ("car", "conventional", "hyperplane")],
@@ -71,17 +87,8 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     assert (ctx["NE"] > 0) == (form == "conventional")   # both branches of the core's #if IPM_NE > 0
     assert (ctx["NE"] == 0 and ctx["U_DENSE"] == 1) == (form == "lifted")   # and of #if IPM_U_FUSED
     exe = build_harness(ocp, lay, pb.qp, tmp_path)
-    n, m, nnz = lay.n, lay.m, lay.nnz_A
-    with open(tmp_path / "events.bin", "wb") as f:
-        for e in events:
-            f.write(e[0].encode())
-            if e[0] == "M":
-                f.write(np.concatenate(e[1:4]).tobytes())
-            elif e[0] == "S":
-                f.write(np.concatenate([*e[1:5], [float(e[5])]]).tobytes())
-    subprocess.run([str(exe), str(n), str(m), str(nnz), str(tmp_path / "events.bin"), str(tmp_path / "out.bin")],
-                   check=True)
-    out = np.fromfile(tmp_path / "out.bin").reshape(-1, 7 + n + m)
+    n, m = lay.n, lay.m
+    out = run_harness(exe, lay, events, tmp_path)
     solves = [e for e in events if e[0] == "S"]
     assert len(out) == len(solves) >= 6
     P = next(e for e in events if e[0] == "M")
@@ -100,6 +107,20 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     r_d, viol, comp = kkt(lay, last_M[1], last_M[2], solves[-1][1], solves[-1][2], solves[-1][3], z, y)
     assert r_d < 1e-2 and viol < 1e-2 and comp < 1e-2, (r_d, viol, comp)
     assert P is not None
+
+
+def test_written_out_general_rows_equal_the_generic_loops(tmp_path):
+    """The general rows of the stages of the commonest pattern (gen_kernels: the a_lat rows, two rows on (v, delta)
+    sharing one slack) written out give the generic loops' results bit for bit, over whole closed-loop QPs."""
+    pb = paper_problem("truck", "lifted", "ellipse", horizon=Horizon(N=10), qp=QpOptions(backend="ipm"))
+    ocp, lay, events = record_events(pb.with_(name="truck_x"), samples=6)
+    ctx = codegen_context(ocp, lay, pb.qp)
+    flags = [f.strip() for f in next(t for t in ctx["tables"] if t["name"] == "IPM_GEN_PAT")["body"].split(",")]
+    assert ctx["GEN_WRITTEN"] == 1 and flags == ["0"] + ["1"] * 10   # stage 0 has no a_lat rows
+    assert "IPM_W.H[3][4] +=" in ctx["kernels"]["gen_h"]               # rows on slots 3, 4 (v, delta), written out
+    written = run_harness(build_harness(ocp, lay, pb.qp, tmp_path), lay, events, tmp_path)
+    generic = run_harness(build_harness(ocp, lay, pb.qp, tmp_path, generic_rows=True), lay, events, tmp_path)
+    assert len(written) >= 6 and np.array_equal(written, generic)
 
 
 def test_the_core_is_not_a_template():

@@ -202,23 +202,33 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
 /* a'x on the box and general inequality rows, into out by row (their entries are the generic A's, in its CSR
  * order: codegen_context checks, so each sum is the CSR loop's) */
 static void ipm_ineq_Ax(const ipm_real_t *x, ipm_real_t *out) {
-  int gs;
+  int k;
+  int g;
   int a;
   for (a = 0; a < IPM_NBOX; ++a) {
     out[IPM_BOX_ROW[a]] = IPM_W.bax[a] * x[IPM_BOX_VAR[a]];
   }
-  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
-    ipm_real_t s = REAL_0;
-    if (IPM_GEN_ROW[gs] < 0) {
+  for (k = 0; k <= IPM_N; ++k) {
+#if IPM_GEN_WRITTEN
+    if (IPM_GEN_PAT[k] != 0) { /* the stage's rows written out */
+      ipm_gen_ax(k, x, out);
       continue;
     }
-    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      s += IPM_W.gax[a] * x[IPM_GEN_VAR[a]];
+#endif
+    for (g = 0; g < IPM_NG; ++g) {
+      const int gs = (k * IPM_NG) + g;
+      ipm_real_t s = REAL_0;
+      if (IPM_GEN_ROW[gs] < 0) {
+        continue;
+      }
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        s += IPM_W.gax[a] * x[IPM_GEN_VAR[a]];
+      }
+      if (IPM_GEN_E[gs] >= 0) {
+        s += IPM_W.gex[gs] * x[IPM_GEN_SVAR[gs]];
+      }
+      out[IPM_GEN_ROW[gs]] = s;
     }
-    if (IPM_GEN_E[gs] >= 0) {
-      s += IPM_W.gex[gs] * x[IPM_GEN_SVAR[gs]];
-    }
-    out[IPM_GEN_ROW[gs]] = s;
   }
 }
 
@@ -647,7 +657,8 @@ static inline ipm_real_t ipm_side_g(int j, ipm_real_t sg, ipm_real_t rc) {
  * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The predictor's g
  * is ipm_check's (its pass over the sides leaves it in IPM_W.ar); the corrector's, a pass over the sides here */
 static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
-  int gs;
+  int k;
+  int g;
   int a;
   (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
   if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows) */
@@ -657,17 +668,26 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
       IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], ipm_rc(1, sm, j));
     }
   }
-  for (gs = 0; gs < ((IPM_N + 1) * IPM_NG); ++gs) {
-    ipm_real_t gv;
-    if (IPM_GEN_ROW[gs] < 0) {
+  for (k = 0; k <= IPM_N; ++k) {
+#if IPM_GEN_WRITTEN
+    if (IPM_GEN_PAT[k] != 0) { /* the stage's rows written out */
+      ipm_gen_atx(k);
       continue;
     }
-    gv = IPM_W.ar[IPM_GEN_ROW[gs]];
-    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
-    }
-    if (IPM_GEN_E[gs] >= 0) {
-      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
+#endif
+    for (g = 0; g < IPM_NG; ++g) {
+      const int gs = (k * IPM_NG) + g;
+      ipm_real_t gv;
+      if (IPM_GEN_ROW[gs] < 0) {
+        continue;
+      }
+      gv = IPM_W.ar[IPM_GEN_ROW[gs]];
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
+      }
+      if (IPM_GEN_E[gs] >= 0) {
+        IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
+      }
     }
   }
   for (a = 0; a < IPM_NBOX; ++a) {
@@ -781,8 +801,9 @@ static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const 
 #define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
 
 /* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
- * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k] */
-static void ipm_stage_weights(int k) {
+ * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k]; the generic
+ * loops (a stage IPM_GEN_PAT flags: ipm_gen_weights, written out) */
+static void ipm_stage_weights_any(int k) {
   int g;
   int s;
   int p;
@@ -834,21 +855,23 @@ static void ipm_stage_weights(int k) {
   }
 }
 
-/* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
- * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings */
-static void ipm_stage_hessian(int k) {
+static void ipm_stage_weights(int k) {
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) {
+    ipm_gen_weights(k);
+  } else {
+    ipm_stage_weights_any(k);
+  }
+#else
+  ipm_stage_weights_any(k);
+#endif
+}
+
+/* stage k's rows' W c c' into IPM_W.H (a row's slots ascend): the generic loops */
+static void ipm_rows_h_any(int k) {
   int g;
   int a;
   int b;
-  int s;
-  int p;
-  int q;
-  if (k < IPM_N) { /* the cost-to-go through the stage's dynamics sets the upper triangle; the rows add to it */
-    ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
-  } else {
-    (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
-  }
-  /* the rows' W c c' (a row's slots ascend) */
   for (g = 0; g < IPM_NG; ++g) {
     const int gs = IPM_GSLOT(k, g);
     for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
@@ -858,20 +881,13 @@ static void ipm_stage_hessian(int k) {
       }
     }
   }
-  ipm_sr_hessian(k);
-  { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
-    const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
-    for (a = 0; a < IPM_XU_LO[k]; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
-    }
-    for (; a < IPM_XU_HI[k]; ++a) {
-      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
-    }
-    for (; a < IPM_NXU; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
-    }
-  }
-  /* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose) */
+}
+
+/* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose): the generic loops */
+static void ipm_couple_h_any(int k) {
+  int s;
+  int p;
+  int q;
   for (s = 0; s < IPM_NS; ++s) {
     if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
       continue; /* one row or none: no coupling */
@@ -900,6 +916,49 @@ static void ipm_stage_hessian(int k) {
       }
     }
   }
+}
+
+/* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
+ * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings (the rows' parts written out at a stage
+ * IPM_GEN_PAT flags) */
+static void ipm_stage_hessian(int k) {
+  int a;
+  if (k < IPM_N) { /* the cost-to-go through the stage's dynamics sets the upper triangle; the rows add to it */
+    ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
+  } else {
+    (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
+  }
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) {
+    ipm_gen_rows_h(k);
+  } else {
+    ipm_rows_h_any(k);
+  }
+#else
+  ipm_rows_h_any(k);
+#endif
+  ipm_sr_hessian(k);
+  { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
+    const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
+    for (a = 0; a < IPM_XU_LO[k]; ++a) {
+      IPM_W.H[a][a] += IPM_ONE;
+    }
+    for (; a < IPM_XU_HI[k]; ++a) {
+      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
+    }
+    for (; a < IPM_NXU; ++a) {
+      IPM_W.H[a][a] += IPM_ONE;
+    }
+  }
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) {
+    ipm_gen_couple_h(k);
+  } else {
+    ipm_couple_h_any(k);
+  }
+#else
+  ipm_couple_h_any(k);
+#endif
 }
 
 #if IPM_NE > 0
@@ -985,9 +1044,7 @@ static void ipm_eq_project(int k, const ipm_real_t *base, ipm_real_t *tv, ipm_re
 /* its diagonal hd = P (+ the proximal weight) + the box rows' weights */
 static void ipm_hd(void) {
   int i;
-  for (i = 0; i < IPM_NGV; ++i) {
-    IPM_W.hd[IPM_GV[i]] = IPM_W.Pd[IPM_GV[i]];
-  }
+  (void)memcpy(IPM_W.hd, IPM_W.Pd, sizeof IPM_W.hd); /* every variable's (the soft rows' slacks' are not read) */
   for (i = 0; i < IPM_NFREE; ++i) {
     IPM_W.hd[IPM_FREE[i]] = IPM_W.Pd[IPM_FREE[i]] + IPM_PROX;
   }
@@ -1038,13 +1095,21 @@ static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
   int s;
   int p;
   ipm_gather_xu(k, IPM_W.h, ht);
-  for (s = 0; s < IPM_NS; ++s) {
-    const int v = IPM_VMAP_S[k][s];
-    ipm_real_t f;
-    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
-    f = hs[s] / IPM_W.d[k][s];
-    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) { /* written out */
+    ipm_gen_rhs(k, ht, hs);
+  } else {
+#else
+  {
+#endif
+    for (s = 0; s < IPM_NS; ++s) {
+      const int v = IPM_VMAP_S[k][s];
+      ipm_real_t f;
+      hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+      f = hs[s] / IPM_W.d[k][s];
+      for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+        ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
+      }
     }
   }
 }
@@ -1185,14 +1250,22 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     }
 #endif
   }
-  for (s = 0; s < IPM_NS; ++s) {
-    const int v = IPM_VMAP_S[k][s];
-    ipm_real_t acc = REAL_0;
-    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
-    }
-    if (v >= 0) {
-      IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) { /* written out */
+    ipm_gen_dz(k, dv, hs);
+  } else {
+#else
+  {
+#endif
+    for (s = 0; s < IPM_NS; ++s) {
+      const int v = IPM_VMAP_S[k][s];
+      ipm_real_t acc = REAL_0;
+      for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+        acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
+      }
+      if (v >= 0) {
+        IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
+      }
     }
   }
   ipm_set_xu(k, dv, IPM_W.dz);

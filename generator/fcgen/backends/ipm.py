@@ -717,6 +717,139 @@ def _left(expr: str) -> str:
     return out[1:-1] if len(parts) > 1 else out
 
 
+def gen_kernels(sv: StageView, tab: "_Tables", se_ptr: np.ndarray, gen_e: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The general rows' part of a stage's factorization written out for the stages that share the commonest pattern
+    (the same rows present, the same (x, u) slots per row, the same slacks and their rows: the a_lat rows of every
+    stage but the first, typically): per stage a flag (``IPM_GEN_PAT``) and three bodies taking k, with the generic
+    loops' operations in their order (results unchanged), the data at the stage's offsets: ``gen_w`` (its rows'
+    weights, slack pivots and slack entries: ipm_stage_weights), ``gen_h`` (the rows' W c c' into H), ``gen_c``
+    (two rows of one slack coupled), ``gen_ax`` (A z on the rows: ipm_ineq_Ax), ``gen_atx`` (A' g: ipm_ineq_ATx),
+    ``gen_rhs`` (the slacks eliminated from the right-hand side: ipm_stage_rhs) and ``gen_dz`` (their step:
+    ipm_forward_stage). No such stage: all flags 0 and no bodies."""
+    N, NG, NS, nxu = sv.N, sv.NG, sv.NS, sv.nx + sv.NU
+    gptr, gv = tab.gen_xu_ptr, tab.gen_xu_v
+
+    def signature(k: int) -> tuple:
+        rows = tuple((bool(sv.gen_rows[k, g] >= 0), tuple(gv[gptr[k * NG + g]:gptr[k * NG + g + 1]]),
+                      bool(gen_e[k, g] >= 0)) for g in range(NG))
+        groups = tuple((tuple(int(g) for g in tab.sg_g[tab.sg_ptr[k * NS + j]:tab.sg_ptr[k * NS + j + 1]]),
+                        bool(sv.vmap[k, nxu + j] >= 0)) for j in range(NS))
+        return rows, groups
+
+    sigs = [signature(k) for k in range(N + 1)]
+    counts = {}
+    for sg in sigs:
+        if any(r[1] for r in sg[0]):  # a pattern worth writing out: some row with an (x, u) entry
+            counts[sg] = counts.get(sg, 0) + 1
+    if not counts:
+        return np.zeros(N + 1, dtype=np.int64), {}
+    pat = max(counts, key=lambda sg: (counts[sg], -sigs.index(sg)))
+    flags = np.array([sg == pat for sg in sigs], dtype=np.int64)
+    rows, groups = pat
+    off, n = [], 0  # row g's first (x, u) entry from the stage's first
+    for _, slots, _ in rows:
+        off.append(n)
+        n += len(slots)
+    for k in np.flatnonzero(flags):  # the offsets hold at every flagged stage (entries and slack entries by slot)
+        if any(gptr[k * NG + g] - gptr[k * NG] != off[g] for g in range(NG)):
+            raise AssertionError("general rows: a flagged stage's entries are not at the pattern's offsets")
+        if any(se_ptr[k * NS + j] - se_ptr[k * NS] != sum(len(rows[g][1]) for gr, _ in groups[:j] for g in gr)
+               for j in range(NS)):
+            raise AssertionError("general rows: a flagged stage's slack entries are not at the pattern's offsets")
+    x = [f"x{e}" for e in range(n)]
+    plus = lambda b, o: f"{b} + {o}" if o else b  # noqa: E731  (no "+ 0": MISRA 2.2)
+    gs, at = "const int gs = k * IPM_NG;", "const int a = IPM_GEN_PTR[gs];"
+    load = [f"const ipm_real_t {x[e]} = IPM_W.gax[{plus('a', e)}];" for e in range(n)]
+    in_groups = sorted({g for gr, _ in groups for g in gr})
+    w = [gs] + ([at] if any(rows[g][1] for g in in_groups) else [])
+    stores = []  # the declarations first, then the stores
+    for g, (present, _, slack) in enumerate(rows):
+        if present:
+            w.append(f"const ipm_real_t w{g} = IPM_W.wr[IPM_GEN_ROW[{plus('gs', g)}]];")
+        if slack:
+            w += [f"const ipm_real_t gx{g} = IPM_W.gex[{plus('gs', g)}];", f"const ipm_real_t wg{g} = w{g} * gx{g};"]
+        stores += [f"IPM_W.Weff[{g}] = {f'w{g}' if present else 'REAL_0'};",
+                   f"IPM_W.wg[{plus('gs', g)}] = {f'wg{g}' if slack else 'REAL_0'};"]
+    w += stores
+    for j, (gr, has_var) in enumerate(groups):
+        dd = f"hs{j}"
+        for g in gr:
+            dd = f"({dd} + (wg{g} * gx{g}))"
+        w += ["{", f"  const ipm_real_t hs{j} = {f'IPM_W.hd[IPM_VMAP_S[k][{j}]]' if has_var else 'IPM_ONE'};",
+              f"  const ipm_real_t dd{j} = {dd};", f"  IPM_W.d[k][{j}] = dd{j};"]
+        c = 0
+        for g in gr:
+            for e in range(len(rows[g][1])):
+                w.append(f"  IPM_W.wc[{plus(f'IPM_SE_BEG[k][{j}]', c)}] = wg{g} * IPM_W.gax[{plus('a', off[g] + e)}];")
+                c += 1
+        for g in gr:
+            others = f"hs{j}"
+            for q in gr:
+                if q != g:
+                    others = f"({others} + (wg{q} * gx{q}))"
+            w.append(f"  IPM_W.Weff[{g}] = (w{g} * {others}) / dd{j};")
+        w.append("}")
+    h = [gs, at] + load
+    for g, (_, slots, _) in enumerate(rows):
+        for i in range(len(slots)):
+            h += ["{", f"  const ipm_real_t ca = IPM_W.Weff[{g}] * {x[off[g] + i]};"]
+            h += [f"  IPM_W.H[{slots[i]}][{slots[jj]}] += ca * {x[off[g] + jj]};" for jj in range(i, len(slots))]
+            h.append("}")
+    cp = []
+    for j, (gr, _) in enumerate(groups):
+        for pi in range(len(gr)):
+            for qi in range(pi + 1, len(gr)):
+                gi, gj = gr[pi], gr[qi]
+                cp += ["{", f"  const ipm_real_t m = ((-IPM_W.wg[{plus('gs', gi)}]) * IPM_W.wg[{plus('gs', gj)}]) / "
+                            f"IPM_W.d[k][{j}];"]
+                for xi, vx in enumerate(rows[gi][1]):
+                    cp += ["  {", f"    const ipm_real_t cx = m * {x[off[gi] + xi]};"]
+                    for yi, vy in enumerate(rows[gj][1]):
+                        lo, hi = min(vx, vy), max(vx, vy)
+                        cp += ["    {", f"      const ipm_real_t v = cx * {x[off[gj] + yi]};",
+                               f"      IPM_W.H[{lo}][{hi}] += v;"]
+                        cp += [f"      IPM_W.H[{lo}][{hi}] += v;"] if lo == hi else []
+                        cp.append("    }")
+                    cp.append("  }")
+                cp.append("}")
+    used = {e for ln in cp for e in range(n) if f"* {x[e]};" in ln}
+    cp = ([gs, at] + [ln for e, ln in enumerate(load) if e in used] + cp) if cp else ["(void)k;"]
+    ax, atx = [gs, at], [gs, at]  # A z and A' g on the stage's rows (ipm_ineq_Ax, ipm_ineq_ATx)
+    for g, (present, slots, slack) in enumerate(rows):
+        if not present:
+            continue
+        terms = [f"(IPM_W.gax[{plus('a', off[g] + e)}] * x[IPM_GEN_VAR[{plus('a', off[g] + e)}]])"
+                 for e in range(len(slots))]
+        terms += [f"(IPM_W.gex[{plus('gs', g)}] * x[IPM_GEN_SVAR[{plus('gs', g)}]])"] if slack else []
+        sm = "REAL_0"
+        for t in terms:
+            sm = f"({sm} + {t})"
+        ax.append(f"out[IPM_GEN_ROW[{plus('gs', g)}]] = {sm[1:-1] if terms else sm};")
+        atx += ["{", f"  const ipm_real_t gv = IPM_W.ar[IPM_GEN_ROW[{plus('gs', g)}]];"]
+        atx += [f"  IPM_W.h[IPM_GEN_VAR[{plus('a', off[g] + e)}]] += IPM_W.gax[{plus('a', off[g] + e)}] * gv;"
+                for e in range(len(slots))]
+        atx += [f"  IPM_W.h[IPM_GEN_SVAR[{plus('gs', g)}]] += IPM_W.gex[{plus('gs', g)}] * gv;"] if slack else []
+        atx.append("}")
+    rhs, dz = [], []  # the slacks eliminated from the right-hand side (ipm_stage_rhs), their step (ipm_forward_stage)
+    for j, (gr, has_var) in enumerate(groups):
+        ent = [(rows[g][1][e], c) for c, (g, e) in enumerate((g, e) for g in gr for e in range(len(rows[g][1])))]
+        rhs.append(f"hs[{j}] = {f'IPM_W.h[IPM_VMAP_S[k][{j}]]' if has_var else 'REAL_0'};")
+        if ent:
+            rhs += ["{", f"  const ipm_real_t f = hs[{j}] / IPM_W.d[k][{j}];"]
+            rhs += [f"  ht[{v}] -= IPM_W.wc[{plus(f'IPM_SE_BEG[k][{j}]', c)}] * f;" for v, c in ent] + ["}"]
+        if has_var:
+            acc = "REAL_0"
+            for v, c in ent:
+                acc = f"({acc} + (IPM_W.wc[{plus(f'IPM_SE_BEG[k][{j}]', c)}] * dv[{v}]))"
+            dz.append(f"IPM_W.dz[IPM_VMAP_S[k][{j}]] = (-({acc} + hs[{j}])) / IPM_W.d[k][{j}];")
+    if not dz:
+        dz = ["(void)k;", "(void)dv;", "(void)hs;"]
+    if not any(sl for _, sl, _ in rows):  # no (x, u) entry: a is not read
+        ax, atx = [ln for ln in ax if ln != at], [ln for ln in atx if ln != at]
+    bodies = {"gen_w": w, "gen_h": h, "gen_c": cp, "gen_ax": ax, "gen_atx": atx, "gen_rhs": rhs, "gen_dz": dz}
+    return flags, {k: "\n  ".join(v) for k, v in bodies.items()}
+
+
 def sr_kernels(na: int) -> dict[str, str]:
     """Bodies of the soft rows' per-row kernels for ``na`` (x, u) entries a row (``IPM_NA``), written out inside the
     core's loop over the lanes (row j + l on lane l; a_p = IPM_W.sr.a[p][j + l]): ``av``: out[l] = a'v;
@@ -863,6 +996,7 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
     gvars = np.setdiff1d(np.arange(layout.n), sr.svar)
     split = _split_A(tab, sv, (ar_row, ar_p, ar_j, ar_k, a_p, a_i, a_k, gvars), gen_e.ravel())
     se_ptr, se_a = _slack_entries(tab, N, NS, NG)
+    gen_pat, gen_k = gen_kernels(sv, tab, se_ptr, gen_e)
     run_ptr, pad = padded_runs(sr)
     fg_a0, _, fg_off, fg_pos = fg_bands(sv)
     if sv.N and not np.all(np.diff(sv.dyn_rows, axis=1) == 1):  # the C reads a stage's c_k in place (ipm_stage_c)
@@ -942,7 +1076,9 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
         ("IPM_SR_BSIGN", pad(sr.bsign, 0), "its slack's bound side"),
         ("IPM_SIDE_SIGN", sv.side_sign, "+1: lower side (a'z >= l), -1: upper side (a'z <= u)"),
         ("IPM_SIDE_2ND", second, "1: the second side of its row (the per-row sums add, the first side sets)"),
-        ("IPM_IN_TWO", two, "1: inequality row i has two sides (lower, then upper), 0: one"))]
+        ("IPM_IN_TWO", two, "1: inequality row i has two sides (lower, then upper), 0: one"),
+        *([("IPM_GEN_PAT", gen_pat, "1: stage k's general rows follow the written-out pattern (gen_kernels)")]
+          if gen_pat.any() else []))]
     sg = np.asarray(sv.side_sign, dtype=np.int64)  # the sides' signs in the real type: a multiply, no conversion
     out.append({"name": "IPM_SIDE_SG", "kind": "real", "dims": f"[{max(1, sg.size)}]",
                 "doc": "IPM_SIDE_SIGN as a real", "body": ", ".join(("IPM_SG_P" if v > 0 else "IPM_SG_M") for v in sg)
@@ -960,8 +1096,8 @@ def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
             "lam_min": _c_real(st.lam_min), "lam_max": _c_real(st.lam_max), "alpha_min": _c_real(st.alpha_min),
             "warm": int(st.warm), "scaled_start": int(st.scaled_start), "idx_ctype": idx_ctype, "tables": out, "members": members,
             "raw_status": [(i + 1, QP_STATUSES[RAW_TO_QP[i] - 1]) for i in range(len(RAW_STATUS))],
-            "U_DENSE": int(u_dense),
-            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU, NX)},
+            "U_DENSE": int(u_dense), "GEN_WRITTEN": int(gen_pat.any()),
+            "kernels": {**fg_kernels(sv), **dense_kernels(NX, NU), **sr_kernels(sr.NA), **u_kernels(NU, NX), **gen_k},
             "core_source": core_source()}
 
 
