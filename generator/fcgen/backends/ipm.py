@@ -717,6 +717,10 @@ def _left(expr: str) -> str:
     return out[1:-1] if len(parts) > 1 else out
 
 
+#: the bodies ``gen_kernels`` writes out (the problem header renders them under ``#if IPM_GEN_WRITTEN``)
+GEN_KERNELS = ("gen_w", "gen_h", "gen_c", "gen_ax", "gen_atx", "gen_rhs", "gen_dz")
+
+
 def gen_kernels(sv: StageView, tab: "_Tables", se_ptr: np.ndarray, gen_e: np.ndarray) -> tuple[np.ndarray, dict]:
     """The general rows' part of a stage's factorization written out for the stages that share the commonest pattern
     (the same rows present, the same (x, u) slots per row, the same slacks and their rows: the a_lat rows of every
@@ -741,8 +745,8 @@ def gen_kernels(sv: StageView, tab: "_Tables", se_ptr: np.ndarray, gen_e: np.nda
     for sg in sigs:
         if any(r[1] for r in sg[0]):  # a pattern worth writing out: some row with an (x, u) entry
             counts[sg] = counts.get(sg, 0) + 1
-    if not counts:
-        return np.zeros(N + 1, dtype=np.int64), {}
+    if not counts:  # no general row with an (x, u) entry: nothing written out (IPM_GEN_WRITTEN 0)
+        return np.zeros(N + 1, dtype=np.int64), {k: "" for k in GEN_KERNELS}
     pat = max(counts, key=lambda sg: (counts[sg], -sigs.index(sg)))
     flags = np.array([sg == pat for sg in sigs], dtype=np.int64)
     rows, groups = pat
@@ -750,12 +754,11 @@ def gen_kernels(sv: StageView, tab: "_Tables", se_ptr: np.ndarray, gen_e: np.nda
     for _, slots, _ in rows:
         off.append(n)
         n += len(slots)
-    for k in np.flatnonzero(flags):  # the offsets hold at every flagged stage (entries and slack entries by slot)
-        if any(gptr[k * NG + g] - gptr[k * NG] != off[g] for g in range(NG)):
-            raise AssertionError("general rows: a flagged stage's entries are not at the pattern's offsets")
-        if any(se_ptr[k * NS + j] - se_ptr[k * NS] != sum(len(rows[g][1]) for gr, _ in groups[:j] for g in gr)
-               for j in range(NS)):
-            raise AssertionError("general rows: a flagged stage's slack entries are not at the pattern's offsets")
+    for k in np.flatnonzero(flags):  # the pattern's offsets (entries, slack entries) hold, else the generic loops
+        if (any(gptr[k * NG + g] - gptr[k * NG] != off[g] for g in range(NG))
+                or any(se_ptr[k * NS + j] - se_ptr[k * NS] != sum(len(rows[g][1]) for gr, _ in groups[:j] for g in gr)
+                       for j in range(NS))):
+            flags[k] = 0
     x = [f"x{e}" for e in range(n)]
     plus = lambda b, o: f"{b} + {o}" if o else b  # noqa: E731  (no "+ 0": MISRA 2.2)
     gs, at = "const int gs = k * IPM_NG;", "const int a = IPM_GEN_PTR[gs];"
