@@ -5106,27 +5106,32 @@ static int ipm_factor_stage(int k) {
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals IPM_W.r_eq -> IPM_W.dz and,
  * with duals, the equality multipliers' step IPM_W.dnu (the predictor needs dz only) ---- */
 /* stage k's reduced right-hand side ht (slacks eliminated) and slack right-hand side hs, from IPM_W.h */
-static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
+/* its slacks' part, the generic loops: hs, and the slacks eliminated from ht */
+static void ipm_slacks_rhs_any(int k, ipm_real_t *ht, ipm_real_t *hs) {
   int s;
   int p;
-  ipm_gather_xu(k, IPM_W.h, ht);
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) { /* written out */
-    ipm_gen_rhs(k, ht, hs);
-  } else {
-#else
-  {
-#endif
-    for (s = 0; s < IPM_NS; ++s) {
-      const int v = IPM_VMAP_S[k][s];
-      ipm_real_t f;
-      hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
-      f = hs[s] / IPM_W.d[k][s];
-      for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-        ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
-      }
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t f;
+    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+    f = hs[s] / IPM_W.d[k][s];
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
     }
   }
+}
+
+static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
+  ipm_gather_xu(k, IPM_W.h, ht);
+#if IPM_GEN_WRITTEN
+  if (IPM_GEN_PAT[k] != 0) {
+    ipm_gen_rhs(k, ht, hs);
+  } else {
+    ipm_slacks_rhs_any(k, ht, hs);
+  }
+#else
+  ipm_slacks_rhs_any(k, ht, hs);
+#endif
 }
 
 /* stage k < N's dynamics right-hand side c_k = -r_eq / E: ipm_check leaves it in IPM_W.wr on the stage's dynamics
@@ -5205,11 +5210,26 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   return 0;
 }
 
+/* stage k's slacks' step from its (x, u) step dv and slack right-hand sides hs, the generic loops */
+static void ipm_slacks_dz_any(int k, const ipm_real_t *dv, const ipm_real_t *hs) {
+  int s;
+  int p;
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t acc = REAL_0;
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
+    }
+    if (v >= 0) {
+      IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
+    }
+  }
+}
+
 /* stage k's primal step dv = (dx, du) (dz of its slacks and variables) and, with duals, its equality rows' duals */
 static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_real_t *deq, ipm_real_t *dv) {
   int i;
   int s;
-  int p;
 #if !IPM_U_FUSED
   ipm_real_t tv[IPM_NU];
 #endif
@@ -5266,23 +5286,14 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
 #endif
   }
 #if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) { /* written out */
+  if (IPM_GEN_PAT[k] != 0) {
     ipm_gen_dz(k, dv, hs);
   } else {
-#else
-  {
-#endif
-    for (s = 0; s < IPM_NS; ++s) {
-      const int v = IPM_VMAP_S[k][s];
-      ipm_real_t acc = REAL_0;
-      for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-        acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
-      }
-      if (v >= 0) {
-        IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
-      }
-    }
+    ipm_slacks_dz_any(k, dv, hs);
   }
+#else
+  ipm_slacks_dz_any(k, dv, hs);
+#endif
   ipm_set_xu(k, dv, IPM_W.dz);
 }
 

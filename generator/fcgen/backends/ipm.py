@@ -670,24 +670,20 @@ def u_kernels(nu: int, nx: int) -> dict[str, str]:
             fwd.append(f"  {xr(i)} -= {el('Lo', i, j)} * {xr(j)};")
         fwd.append(f"  {xr(i)} *= d{i};")
     fwd.append("}")
-    bwd = []
-    for i in reversed(range(nu)):
-        terms = [f"({el('Lo', j, i)} * r{j})" for j in range(i + 1, nu)]
-        bwd.append(f"const ipm_real_t r{i} = (x[{i}] - {_c_sum(terms)}) / {el('Lo', i, i)};" if terms
-                   else f"const ipm_real_t r{i} = x[{i}] / {el('Lo', i, i)};")
+    bwd = _u_back(nu, lambda i: f"x[{i}]", "r")
     bwd += ["if (base != NULL) {"] + [f"  out[{i}] = base[{i}] - r{i};" for i in range(nu)] + ["} else {"]
     bwd += [f"  out[{i}] = -r{i};" for i in range(nu)] + ["}"]
     return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd_sub": "\n  ".join(bwd),
             **u_fused_kernels(nu, nx)}
 
 
-def _u_back(nu: int, x: str, r: str) -> list[str]:
-    """Statements r_i = (L^-T x)_i, i = NU-1 .. 0, for x given as locals ``{x}{i}`` (u_bwd_sub's operations)."""
+def _u_back(nu: int, x, r: str) -> list[str]:
+    """Statements r_i = (L^-T x)_i, i = NU-1 .. 0 (Lo row-major, stride NU), x_i the C expression ``x(i)``."""
     out = []
     for i in reversed(range(nu)):
         terms = [f"(Lo[{j * nu + i}] * {r}{j})" for j in range(i + 1, nu)]
-        out.append(f"const ipm_real_t {r}{i} = ({x}{i} - {_c_sum(terms)}) / Lo[{i * nu + i}];" if terms
-                   else f"const ipm_real_t {r}{i} = {x}{i} / Lo[{i * nu + i}];")
+        out.append(f"const ipm_real_t {r}{i} = ({x(i)} - {_c_sum(terms)}) / Lo[{i * nu + i}];" if terms
+                   else f"const ipm_real_t {r}{i} = {x(i)} / Lo[{i * nu + i}];")
     return out
 
 
@@ -702,9 +698,9 @@ def u_fused_kernels(nu: int, nx: int) -> dict[str, str]:
         t = " - ".join([f"h[{nx + i}]"] + [f"(Lo[{i * nu + j}] * l{j})" for j in range(i)])
         rhs.append(f"const ipm_real_t l{i} = ({_left(t)}) * (IPM_ONE / Lo[{i * nu + i}]);")
     rhs += [f"p[{i}] = h[{i}] - {_c_sum([f'(W[{a}][{i}] * l{a})' for a in range(nu)])};" for i in range(nx)]
-    rhs += _u_back(nu, "l", "r") + [f"kk[{i}] = -r{i};" for i in range(nu)]
+    rhs += _u_back(nu, lambda i: f"l{i}", "r") + [f"kk[{i}] = -r{i};" for i in range(nu)]
     du = [f"const ipm_real_t t{i} = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
-    du += _u_back(nu, "t", "r") + [f"du[{i}] = kk[{i}] - r{i};" for i in range(nu)]
+    du += _u_back(nu, lambda i: f"t{i}", "r") + [f"du[{i}] = kk[{i}] - r{i};" for i in range(nu)]
     return {"u_rhs": "\n  ".join(rhs), "u_du": "\n  ".join(du)}
 
 
