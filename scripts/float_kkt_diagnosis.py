@@ -119,7 +119,7 @@ def main() -> None:
     pb = preset(PRESET)
     ocp = build_ocp(pb)
     rec = QpRecorder(build(generate(pb.with_(name="kd_loop"), root / "kd_loop", force=True).out_dir),
-                   build_layout(ocp).row_shift)
+                   build_layout(ocp))
     for seed in (int(s) for s in args.seeds.split(",")):
         rec.init()
         run_closed_loop(pb, make_scenario("truck", seed, n_opp=3, samples=200, dt=pb.horizon.dt), controller=rec,

@@ -39,7 +39,7 @@ def record(folder: Path, seeds: int) -> tuple[str, list[dict]]:
     """The folder's C solver in closed loop on seeds 0..seeds-1: its name and every warm-started QP."""
     name, pb = load_solver_problem(folder)
     ocp = build_ocp(pb)
-    rec = QpRecorder(build(folder), build_layout(ocp).row_shift)
+    rec = QpRecorder(build(folder), build_layout(ocp))
     for seed in range(seeds):
         rec.init()
         sc = make_scenario(infer_scenario(pb), seed, n_opp=pb.opponents.count, samples=200, dt=pb.horizon.dt)

@@ -510,3 +510,23 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     cs._f("set_clock")(None)  # no clock: no timing
     r = cs.step(x, sc.road.window(x[0] - WINDOW_BEHIND, p.road.samples), opp.horizon(j))
     assert r.exit_code == 0 and (cs._status.ticks_prepare, cs._status.ticks_feedback) == (0, 0)
+
+
+def test_the_header_gives_the_stages_samples(tmp_path: Path) -> None:
+    """<NAME>_STAGE_OFFSETS: the sample of each node, what set_opponents' stages are predicted at; compiled into an
+    array by a C program, it prints the grid's offsets (20 fine intervals, then every third sample to 80)."""
+    from fcgen.dsl import Horizon, RoadWindow
+    pb = paper_problem("car", "lifted", "ellipse", profile="safe").with_(horizon=Horizon(stride=3, fine=20),
+                                                                          road=RoadWindow(length=340.0))
+    info = generate(pb, tmp_path / "g")
+    name = pb.name
+    prog = tmp_path / "off.c"
+    prog.write_text(f'#include <stdio.h>\n#include "{name}_solver.h"\n'
+                    f"static const int off[{name.upper()}_N + 1] = {name.upper()}_STAGE_OFFSETS;\n"
+                    f"int main(void) {{ int k; for (k = 0; k <= {name.upper()}_N; ++k) printf(\"%d \", off[k]); "
+                    "return 0; }\n")
+    exe = tmp_path / "off"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{info.out_dir}", str(prog), "-o", str(exe)],
+                   check=True)
+    got = [int(v) for v in subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()]
+    assert got == list(range(21)) + list(range(23, 81, 3)) == list(pb.horizon.offsets)

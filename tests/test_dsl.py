@@ -40,6 +40,21 @@ def test_vehicle_defaults_are_the_papers():
 def test_wind_horizon_reference_defaults():
     assert (Wind().v, Wind().phi) == (20.0, 0.0)
     assert (Horizon().N, Horizon().dt) == (40, 0.1)
+    # the default: the paper's grid, 40 intervals of one sample
+    d = Horizon()
+    assert (d.stride, d.n_fine, d.uniform, d.interval, d.offsets[-1]) == (1, 40, True, 0.1, 40)
+    # an unequal grid: 20 intervals of one 0.1 s sample, then 20 of three: 2 s + 6 s = 8 s ahead
+    h = Horizon(stride=3, fine=20)
+    assert (h.stride, h.fine, h.n_fine, h.uniform, h.interval, h.length) == (3, 20, 20, False, 0.1, 8.0)
+    assert h.stage_samples == (1,) * 20 + (3,) * 20 and h.offsets[:3] == (0, 1, 2) and h.offsets[-2:] == (77, 80)
+    assert h.times[20] == pytest.approx(2.0) and h.times[21] == pytest.approx(2.3)
+    assert h.max_interval == pytest.approx(0.3)
+    # stride 1: the paper's uniform grid, times k dt (the same floats as before the field existed)
+    p = Horizon(N=40, dt=0.1, stride=1)
+    assert (p.uniform, p.interval, p.n_fine, p.times[7]) == (True, 0.1, 40, 7 * 0.1) and p.length == pytest.approx(4.0)
+    # all intervals coarse (fine = 0): uniform, 0.2 s each
+    c = Horizon(N=40, dt=0.1, stride=2, fine=0)
+    assert (c.uniform, c.interval, c.offsets[-1], c.times[3]) == (True, 0.2, 80, 3 * 0.2)
     assert (Reference().v_ref, Reference().n_ref) == (40.0, 0.0)
 
 
@@ -125,6 +140,14 @@ INVALID = [
     ("road ds", lambda: RoadWindow(ds=0.0), "road.ds", "[0.1, 20]"),
     # the window must cover the horizon: 40 m/s * 40 * 0.1 s + 4 * 2 m = 168 m
     ("road too short", lambda: Problem(name="p", road=RoadWindow(length=100.0)), "road.length", "168"),
+    # ... an unequal grid's 8 s: 40 m/s * 8 s + 4 * 2 m = 328 m
+    ("road too short, 8 s", lambda: Problem(name="p", horizon=Horizon(stride=3, fine=20)), "road.length", "328"),
+    ("stride 0", lambda: Horizon(stride=0), "horizon.stride", "[1, 10]"),
+    ("fine < 0", lambda: Horizon(fine=-1), "horizon.fine", ">= 0"),
+    ("stride float", lambda: Horizon(stride=1.5), "horizon.stride", "integer"),
+    ("stride beyond 10 s", lambda: Horizon(dt=2.0, stride=6), "horizon.stride", "dt * stride <= 10 s"),
+    ("a_lat margin < 0", lambda: Bounds(a_lat_margin=-0.1), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
+    ("a_lat margin >= bound", lambda: Bounds(a_lat_margin=5.0), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
     ("formulation type", lambda: Problem(name="p", formulation="lifted"), "formulation", "Lifted()"),
 ]
 

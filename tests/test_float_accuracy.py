@@ -33,7 +33,7 @@ def _float_vs_double(tmp: Path) -> np.ndarray:
     pb = preset(PRESET).with_(name="flacc")
     ocp = build_ocp(pb)
     lay = build_layout(ocp)
-    rec = QpRecorder(build(generate(pb, tmp / "f", use_float=True, force=True).out_dir), lay.row_shift)
+    rec = QpRecorder(build(generate(pb, tmp / "f", use_float=True, force=True).out_dir), lay)
     run_closed_loop(pb, make_scenario("truck", 0, n_opp=3, samples=SAMPLES, dt=pb.horizon.dt), controller=rec,
                     ocp=ocp)
     ref = osqp_backend.Backend(lay, dataclasses.replace(pb.qp, sigma=osqp_backend.osqp_sigma(pb.qp, True)))

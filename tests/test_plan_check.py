@@ -95,7 +95,7 @@ def test_an_opponent_running_into_the_ego_from_behind_does_not_make_it_brake(c_s
     pb, cs = c_solvers["safe"]
     road, x0, opp = _inputs(pb, (0.0, 0.0))
     k = np.arange(pb.horizon.N + 1)
-    opp[:, 0, 0] = 20.0 - 6.0 + 30.0 * pb.horizon.dt * k
+    opp[:, 0, 0] = 20.0 - 6.0 + 30.0 * pb.horizon.interval * k
     st_py, u_py = _python(pb, road, x0, opp)
     st_c, u_c = _c(cs, road, x0, opp)
     assert st_py.plan_clearance < 0.0 and 1 <= st_py.plan_clearance_stage <= 10
@@ -112,7 +112,7 @@ def test_an_opponent_ahead_now_that_the_plan_would_pass_into_makes_the_ego_brake
     pb, cs = c_solvers["safe"]
     road, x0, opp = _inputs(pb, (30.0, 5.0))
     k = np.arange(1, pb.horizon.N + 1)
-    opp[1:, 0, 0], opp[1:, 0, 1] = 20.0 + 20.0 * pb.horizon.dt * k - 1.0, 0.0
+    opp[1:, 0, 0], opp[1:, 0, 1] = 20.0 + 20.0 * pb.horizon.interval * k - 1.0, 0.0
     st_py, u_py = _python(pb, road, x0, opp)
     st_c, u_c = _c(cs, road, x0, opp)
     assert st_py.plan_clearance < 0.0 and st_py.plan_clearance_stage >= 1

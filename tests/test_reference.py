@@ -7,17 +7,18 @@ ground truth for the formulation).
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 import casadi as ca
 import numpy as np
 import pytest
 
-from fcgen.dsl import Horizon, Opponents, QpOptions
+from fcgen.dsl import Horizon, Opponents, QpOptions, RoadWindow
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import TRUCK, paper_problem
 from fcgen.qp import build_layout
 from fcgen.reference import RtiSolver, SolverError
-from fcgen.road import random_road
+from fcgen.road import random_road, straight_road
 
 ROAD = random_road(3, length=600.0, s0=-50.0)
 X0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
@@ -26,7 +27,8 @@ TIGHT = QpOptions(eps_abs=1e-9, eps_rel=1e-9, max_iter=100000)
 
 def short_problem(form="lifted", ob="ellipse", N=10, qp=TIGHT, n_opp=1):
     """A short-horizon truck problem with one opponent (validation allows N = 10: window 280 m >= 48 m)."""
-    return paper_problem("truck", form, ob, horizon=Horizon(N=N), qp=qp).with_(opponents=Opponents(n_opp, TRUCK))
+    return paper_problem("truck", form, ob, horizon=Horizon(stride=1, N=N), qp=qp).with_(
+        opponents=Opponents(n_opp, TRUCK))
 
 
 def static_opponent(ocp, s_opp, n_opp, road=ROAD):
@@ -53,7 +55,7 @@ LAYOUT_CASES = [("lifted", "ellipse", 40), ("conventional", "circles", 10), ("di
 @pytest.fixture(scope="module", params=LAYOUT_CASES, ids=[f"{a}-{b}-N{c}" for a, b, c in LAYOUT_CASES])
 def ocp_layout(request):
     form, ob, N = request.param
-    pb = paper_problem("truck", form, ob, horizon=Horizon(N=N))
+    pb = paper_problem("truck", form, ob, horizon=Horizon(stride=1, N=N))
     ocp = build_ocp(pb)
     return ocp, build_layout(ocp)
 
@@ -230,6 +232,74 @@ def test_cost_weights_apply_dt_exactly_once():
         np.sum(q * dt * e**2) + np.sum(r * dt * u**2) + np.sum(l1 * sig + l2 * sig**2), rel=1e-12)
     assert float(ocp.cost[2](np.r_[x, sig], p)) == pytest.approx(np.sum(qN * e**2) + np.sum(l1 * sig + l2 * sig**2),
                                                                  rel=1e-12)
+
+
+def test_unequal_intervals_integrate_each_stages_length_and_weigh_the_first():
+    """The safe grid (0.1 s, then 0.3 s intervals): a stage steps over the interval its parameters carry (a straight
+    road, no steering: s advances the interval at the mean speed, the speed changes three times as much over 0.3 s
+    as over 0.1 s); the costs weigh every stage like the first interval; the a_lat rows keep the margin inside the
+    bound. An all-coarse uniform grid (stride 2) steps and weighs 0.2 s."""
+    pb = paper_problem("truck", "direct_elimination", "ellipse", profile="safe")
+    pb = pb.with_(horizon=Horizon(stride=3, fine=20), road=RoadWindow(length=340.0),
+                  bounds=replace(pb.bounds, a_lat_margin=0.15))
+    assert (pb.horizon.interval, pb.horizon.max_interval) == (0.1, 0.1 * 3)
+    ocp = build_ocp(pb)
+    x = np.array([10.0, 1.0, 0.0, 20.0, 0.0])
+    p = np.zeros(ocp.np_stage)
+    p[ocp.p_road] = ocp.road_params.pack(straight_road(400.0, s0=0.0), 0)
+    step = {}
+    for h in (0.1, 0.3):
+        p[ocp.p_dt] = h
+        step[h] = np.array(ocp.dynamics(x, np.zeros(2), p)).ravel() - x
+        assert step[h][0] == pytest.approx(h * (20.0 + 0.5 * step[h][3]), abs=1e-4)   # nearly constant deceleration
+        np.testing.assert_allclose(step[h][[1, 2, 4]], 0.0, atol=1e-12)
+    assert step[0.1][3] < 0 and step[0.3][3] == pytest.approx(3 * step[0.1][3], rel=0.01)
+    xref = np.array([12.0, 1.0, 0.0, 40.0, 0.0])
+    p[ocp.p_ref] = xref
+    u = np.array([2000.0, 0.1])
+    e = x - xref
+    q, r = np.array(pb.weights.q), np.array(pb.weights.r)
+    for p_dt in (0.1, 0.3):   # the weight does not follow the stage's interval
+        p[ocp.p_dt] = p_dt
+        assert float(ocp.cost[0](np.r_[x, u], p)) == pytest.approx(np.sum(q * 0.1 * e**2) + np.sum(r * 0.1 * u**2),
+                                                                   rel=1e-12)
+    mid = ocp.middle
+    lo, hi = mid.row_names.index("a_lat_lo"), mid.row_names.index("a_lat_hi")
+    assert (mid.L[lo], mid.U[hi]) == (-(5.0 - 0.15) / 5.0, (5.0 - 0.15) / 5.0)
+    coarse = build_ocp(pb.with_(horizon=Horizon(N=40, dt=0.1, stride=2, fine=0)))
+    assert coarse.p_dt is None   # a uniform grid: the interval is a constant of the stage functions
+    pc = np.zeros(coarse.np_stage)
+    pc[coarse.p_ref] = xref
+    assert float(coarse.cost[0](np.r_[x, u], pc)) == pytest.approx(np.sum(q * 0.2 * e**2) + np.sum(r * 0.2 * u**2),
+                                                                   rel=1e-12)
+    pc[coarse.p_road] = coarse.road_params.pack(straight_road(400.0, s0=0.0), 0)
+    dx = np.array(coarse.dynamics(x, np.zeros(2), pc)).ravel() - x
+    assert dx[0] == pytest.approx(0.2 * (20.0 + 0.5 * dx[3]), abs=1e-4)
+
+
+def test_a_stride_shifts_the_plan_by_one_sample_interpolated(ocp_layout):
+    """A plan whose every entry is linear in time t_k (node k's time): one sample later the shift is exactly the plan
+    at t_k + dt for stages 0..N-1 (fine stages take the next stage's entry, coarse ones move 1 / stride of the way);
+    on the paper's grid it is the index shift. Uniform grids of 1, 2, 3 samples an interval and the safe grid."""
+    ocp, lay0 = ocp_layout
+    pb = ocp.problem
+    grids = [Horizon(N=pb.horizon.N, stride=s, fine=0) for s in (1, 2, 3)]
+    grids.append(Horizon(N=pb.horizon.N, stride=3, fine=pb.horizon.N // 2))
+    for hz in grids:
+        lay = build_layout(build_ocp(pb.with_(horizon=hz, road=RoadWindow(length=40.0 * hz.length + 8.0))))
+        assert np.array_equal(lay.var_shift, lay0.var_shift)       # the stages' layout does not depend on the grid
+        stage_of = np.searchsorted(lay.var_off, np.arange(lay.n), side="right") - 1
+        t = np.array(hz.times)[stage_of]
+        names = [re.sub(r"\[\d+\]$", "", nm) for nm in lay.var_names]
+        rate = {nm: 1.0 + i for i, nm in enumerate(dict.fromkeys(names))}
+        slope = np.array([rate[nm] for nm in names])   # per variable its own rate
+        w = 5.0 + slope * t
+        new = lay.shift_vars(w)
+        if hz.stride == 1:
+            np.testing.assert_array_equal(new, w[lay.var_shift])
+        moved = lay.var_shift != np.arange(lay.n)   # entries that have a next stage (not the last one's)
+        np.testing.assert_allclose(new[moved], (5.0 + slope * (t + hz.dt))[moved], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(new[~moved], w[~moved])
 
 
 def test_assembled_A_equals_block_assembly_of_stage_jacobians(prepared):

@@ -225,7 +225,7 @@ def test_c_and_python_run_in_lockstep_with_a_band_and_shapes(c_solvers):
         for j in range(30):
             opp = _far(pb)
             opp[:, 0, 0], opp[:, 0, 1] = 80.0, -1.0         # standing in the way (its centre)
-            opp[:, 1, 0] = 20.0 + 12.0 * (j + np.arange(pb.horizon.N + 1)) * pb.horizon.dt
+            opp[:, 1, 0] = 20.0 + 12.0 * (j * pb.horizon.dt + np.arange(pb.horizon.N + 1) * pb.horizon.interval)
             opp[:, 1, 1] = -1.5
             for xl, ctl in ((xs, ref), (xc, cs)):
                 x = xl[-1]

@@ -5,8 +5,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from fcgen.road import random_road
-from fcgen.sim.scenario import (ROAD_BEHIND, ROAD_CHECKED, ROAD_MIN_ARC, ROAD_MIN_GAP, make_scenario,
-                                road_is_realistic)
+from fcgen.sim.scenario import (ROAD_BEHIND, ROAD_CHECKED, ROAD_MIN_ARC, ROAD_MIN_GAP, OpponentParams,
+                                make_scenario, road_is_realistic)
 
 
 def close_far_pairs(road) -> int:
@@ -51,3 +51,20 @@ def test_same_seed_same_road_and_crossing_seeds_are_redrawn():
     # different seeds still give different roads
     assert not np.array_equal(make_scenario("truck", crossing[0]).road.kappa,
                               make_scenario("truck", crossing[1]).road.kappa)
+
+
+def test_opponents_are_predicted_at_every_stages_sample():
+    """Stage k of sample j is sample j + offsets[k] (fine stages one sample apart, coarse ones stride): the poses the
+    scenario gives at that time; the per-sample rows (the run log's) are the samples themselves."""
+    from fcgen.dsl import Horizon
+    from fcgen.presets import paper_problem
+    sc = make_scenario("truck", 3, samples=30)
+    for stride, fine, last in ((1, 0, 12), (2, 0, 24), (3, 5, 5 + 7 * 3)):
+        pb = paper_problem("truck", "lifted", "ellipse", profile="safe").with_(
+            horizon=Horizon(N=12, stride=stride, fine=fine))
+        assert pb.horizon.offsets[-1] == last
+        op = OpponentParams(pb, sc)
+        for j in (0, 7, 29, 40):   # 40: beyond the table (computed on demand)
+            np.testing.assert_array_equal(op.horizon(j), np.stack([sc.opp_cartesian((j + o) * sc.dt)
+                                                                   for o in pb.horizon.offsets]))
+        np.testing.assert_array_equal(op.samples(30), sc.opp_cartesian(np.arange(31) * sc.dt))

@@ -23,10 +23,14 @@ FINDING = re.compile(r"^(?P<file>[^\s:]+):(?P<line>\d+):\d+: (?P<sev>\w+): (?P<m
 
 
 def _small(formulation: str, obstacles: str, name: str, use_float: bool, out: Path,
-           backend: str = "osqp") -> GenerateInfo:
-    """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same."""
+           backend: str = "osqp", fine: int | None = None) -> GenerateInfo:
+    """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same.
+    ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid)."""
     p = paper_problem("car", formulation, obstacles, name=name)
-    p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4), qp=QpOptions(backend=backend))
+    hz = dataclasses.replace(p.horizon, N=4)
+    if fine is not None:
+        hz = dataclasses.replace(hz, stride=3, fine=fine)
+    p = dataclasses.replace(p, horizon=hz, qp=QpOptions(backend=backend))
     return generate(p, out, use_float=use_float)
 
 
@@ -37,7 +41,8 @@ def folders(tmp_path_factory) -> list[GenerateInfo]:
     return [_small("lifted", "ellipse", "sa_d", False, tmp / "d"),
             _small("conventional", "hyperplane", "sa_f", True, tmp / "f"),
             _small("lifted", "ellipse", "sa_id", False, tmp / "id", "ipm"),
-            _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm")]
+            _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm"),
+            _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2)]
 
 
 def _expected_misra(info: GenerateInfo) -> set[str]:

@@ -19,7 +19,7 @@
 #define MAX_ITER_COLD 400 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
-#define DT ((truck_conv_el_real_t)0.1) /* the sample time (set_reference: s_ref,k = s0 + (k DT) v_ref) */
+#define DT ((truck_conv_el_real_t)0.1) /* the shooting interval (set_reference: s_ref,k = s0 + (k DT) v_ref) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
 #define P_ROAD_DS 1
@@ -80,8 +80,8 @@ typedef struct {
   int s;                 /* variable s_k */
   int u;                 /* variable F_d of u_k; -1 at k = N */
   int theta;             /* first hyperplane variable set by the initial guess; -1 if none */
-  truck_conv_el_real_t s_ref;  /* k dt v_ref */
-  truck_conv_el_real_t t;      /* k dt (the cold-start guess: s_k = s0 + t v0) */
+  truck_conv_el_real_t s_ref;  /* t v_ref */
+  truck_conv_el_real_t t;      /* the node's time, k dt on a uniform grid (cold-start guess: s_k = s0 + t v0) */
 } stage_t;
 
 static const stage_t STAGES[TRUCK_CONV_EL_N + 1] = {

@@ -121,6 +121,13 @@ enum {
  *   status.plan_reaction = 1; the plan itself is not changed. TRUCK_LIFT_EL_IPM_REACT_STAGES 0: report only. */
 #define TRUCK_LIFT_EL_IPM_REACT_STAGES 0
 
+/* The sample of node k = 0..N, counted from the current one: set_opponents' stage k is the opponents' pose that many
+ * samples of dt ahead. An initializer:
+ *   static const int off[TRUCK_LIFT_EL_IPM_N + 1] = TRUCK_LIFT_EL_IPM_STAGE_OFFSETS; */
+#define TRUCK_LIFT_EL_IPM_STAGE_OFFSETS {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, \
+  20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, \
+  40}
+
 /* A usable QP's step may leave the input box by this much (max_i excess_i / limit_i); beyond: ERR_QP_INPUT_BOUNDS.
  * A constant of the real type. */
 #define TRUCK_LIFT_EL_IPM_MAX_INPUT_VIOLATION (0.05)

@@ -437,11 +437,12 @@ _STEP_PARTS = ("step", "prepare_phase", "feedback_phase", "set_road", "set_oppon
 
 class QpRecorder(CSolver):
     """A C solver in closed loop that keeps every warm-started QP it solved (get_qp's data and solution, plus
-    ``y_warm``: the previous duals shifted by ``row_shift``, the warm start the backend was given)."""
+    ``y_warm``: the previous duals shifted one sample by the problem's ``QpLayout``, the warm start the backend was
+    given)."""
 
-    def __init__(self, lib, row_shift):
+    def __init__(self, lib, layout):
         super().__init__(lib)
-        self.row_shift, self.qps = row_shift, []
+        self.layout, self.qps = layout, []
 
     def prepare_phase(self, x0, road, opp):
         self._warm, self._y_prev = self.has_guess(), self.get_qp()["y"]
@@ -450,5 +451,5 @@ class QpRecorder(CSolver):
     def feedback_phase(self, x0, rc=0):
         r = super().feedback_phase(x0, rc)
         if self._warm and rc == 0:
-            self.qps.append({**self.get_qp(), "y_warm": self._y_prev[self.row_shift]})
+            self.qps.append({**self.get_qp(), "y_warm": self.layout.shift_duals(self._y_prev)})
         return r

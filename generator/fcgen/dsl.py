@@ -107,15 +107,76 @@ class Wind:
 
 @dataclass(frozen=True)
 class Horizon:
-    """N shooting intervals of length dt."""
+    """N shooting intervals; the controller runs once a sample of ``dt``.
+
+    The first ``fine`` intervals are one sample long, the others ``stride`` samples (default: every interval one
+    sample, the paper's 40 x 0.1 s). A stride looks further ahead with the same QP size (``Horizon(stride=3,
+    fine=20)``: 2 s + 6 s = 8 s); each sample the plan is shifted by one sample (a coarse stage 1 / stride of the way
+    to the next, interpolated) and the opponents are predicted at the nodes' samples (``offsets``). Obstacle rows
+    hold at the nodes only: measured on the campaign's grid it collides more (docs/collisions.md).
+    """
 
     N: int = 40
     dt: float = 0.1
+    stride: int = 1
+    fine: int = 0
 
     def __post_init__(self) -> None:
         _check(isinstance(self.N, int) and not isinstance(self.N, bool) and 1 <= self.N <= 500,
                "horizon.N", self.N, "an integer in [1, 500]")
         _check(_finite("horizon.dt", self.dt) > 0 and self.dt <= 10, "horizon.dt", self.dt, "(0, 10] s")
+        _check(isinstance(self.stride, int) and not isinstance(self.stride, bool) and 1 <= self.stride <= 10,
+               "horizon.stride", self.stride, "an integer in [1, 10] (samples per coarse shooting interval)")
+        _check(self.dt * self.stride <= 10, "horizon.stride", self.stride,
+               f"at most {int(10 // self.dt)} (dt * stride <= 10 s)")
+        _check(isinstance(self.fine, int) and not isinstance(self.fine, bool) and 0 <= self.fine,
+               "horizon.fine", self.fine, "an integer >= 0 (intervals of one sample before the coarse ones)")
+
+    @property
+    def n_fine(self) -> int:
+        """Intervals of one sample (all of them for stride 1)."""
+        return self.N if self.stride == 1 else min(self.fine, self.N)
+
+    @property
+    def uniform(self) -> bool:
+        """Every interval equally long (stride 1, no fine intervals, or only fine ones)."""
+        return self.n_fine in (0, self.N)
+
+    @property
+    def interval(self) -> float:
+        """The first interval's length (s), which weighs every stage's costs: ``dt``, or ``dt * stride`` where all
+        intervals are coarse; the uniform grid's interval."""
+        return self.dt if self.n_fine > 0 else self.dt * self.stride
+
+    @property
+    def stage_samples(self) -> tuple[int, ...]:
+        """Samples per interval, k = 0..N-1."""
+        return (1,) * self.n_fine + (self.stride,) * (self.N - self.n_fine)
+
+    @property
+    def offsets(self) -> tuple[int, ...]:
+        """The sample of node k = 0..N, counted from the current one."""
+        out = [0]
+        for m in self.stage_samples:
+            out.append(out[-1] + m)
+        return tuple(out)
+
+    @property
+    def times(self) -> tuple[float, ...]:
+        """The time of node k = 0..N (s): ``k interval`` on a uniform grid, else ``offsets[k] dt``."""
+        if self.uniform:
+            return tuple(k * self.interval for k in range(self.N + 1))
+        return tuple(o * self.dt for o in self.offsets)
+
+    @property
+    def max_interval(self) -> float:
+        """The longest interval (s)."""
+        return self.dt * max(self.stage_samples)
+
+    @property
+    def length(self) -> float:
+        """The time the horizon covers (s)."""
+        return self.dt * self.offsets[-1]
 
 
 @dataclass(frozen=True)
@@ -134,7 +195,8 @@ class Weights:
 
 @dataclass(frozen=True)
 class Reference:
-    """Tracking reference: s_ref,k = s0 + k dt v_ref, lateral n_ref, alpha_ref = delta_ref = 0."""
+    """Tracking reference: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on the paper's grid), lateral n_ref,
+    alpha_ref = delta_ref = 0."""
 
     v_ref: float = 40.0
     n_ref: float = 0.0
@@ -146,7 +208,12 @@ class Reference:
 
 @dataclass(frozen=True)
 class Bounds:
-    """Box bounds (paper Table I); the road bounds are on the ego's n."""
+    """Box bounds (paper Table I); the road bounds are on the ego's n.
+
+    ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``: the bound is planned at the shooting nodes,
+    and with intervals of several samples the plant's samples between them overshoot it (0.15 m/s^2 kept 0.2 s
+    intervals within 5.05 m/s^2 in all but 4 of 3,600 samples, docs/collisions.md).
+    """
 
     F_d_max: float = 1e4
     r_max: float = 0.39
@@ -158,10 +225,13 @@ class Bounds:
     n_max: float = 10.0
     a_lat_max: float = 5.0
     v_N_max: float = 15.0
+    a_lat_margin: float = 0.0
 
     def __post_init__(self) -> None:
         for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
             _positive(f"bounds.{f}", getattr(self, f))
+        _check(0 <= _finite("bounds.a_lat_margin", self.a_lat_margin) < self.a_lat_max, "bounds.a_lat_margin",
+               self.a_lat_margin, f"[0, a_lat_max = {self.a_lat_max}) m/s^2")
         _check(0 < _finite("bounds.alpha_max", self.alpha_max) < math.pi / 2,
                "bounds.alpha_max", self.alpha_max, "(0, pi/2)")
         _check(0 <= _finite("bounds.v_min", self.v_min) < _finite("bounds.v_max", self.v_max),
@@ -506,9 +576,9 @@ class Problem:
                      ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow),
                      ("plan_check", PlanCheck)):
             _check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
-        reach = self.bounds.v_max * self.horizon.N * self.horizon.dt
+        reach = self.bounds.v_max * self.horizon.length
         _check(self.road.length >= reach + 4 * self.road.ds, "road.length", self.road.length,
-               f">= v_max*N*dt + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")
+               f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")
         if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
             for who, veh, n in (("opponents", self.opponents.vehicle, self.obstacles.n),
                                 ("ego", self.ego, self.obstacles.ego_circles)):

@@ -27,7 +27,7 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "bounds"): ("-", "a `Bounds`", "box bounds of states and inputs"),
     ("Problem", "soft"): ("-", "a `SoftPenalties`", "slack penalties of the soft rows"),
     ("Problem", "qp"): ("-", "a `QpOptions`", "QP backend and its settings"),
-    ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max N dt + 4 ds", "the road the solver sees"),
+    ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max horizon.length + 4 ds", "the road the solver sees"),
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
     ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only; 500: the whole horizon",
                                     "brake where an opponent's first overlap with the plan among stages 1..min(this, N) is ahead of the ego there or now"),
@@ -49,11 +49,17 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Wind", "v"): ("m/s", ">= 0", "wind speed"),
     ("Wind", "phi"): ("rad", "finite", "direction the wind comes from"),
     ("Horizon", "N"): ("-", "integer in [1, 500]", "shooting intervals"),
-    ("Horizon", "dt"): ("s", "(0, 10]", "interval length (also the sample time of the closed loop)"),
+    ("Horizon", "dt"): ("s", "(0, 10]", "the sample time of the closed loop, and the length of a fine interval"),
+    ("Horizon", "stride"): ("-", "integer in [1, 10], dt * stride <= 10 s",
+                            "samples per coarse interval (1: every interval one sample, the paper's grid)"),
+    ("Horizon", "fine"): ("-", "integer >= 0", "intervals of one sample before the coarse ones (stride 3, fine 20: "
+                          "2 s of 0.1 s, then 6 s of 0.3 s, 8 s ahead with the paper's QP size; the plan is shifted one "
+                          "sample, a coarse stage interpolated; opponents predicted at the nodes' samples, "
+                          "`<NAME>_STAGE_OFFSETS`; neither profile uses it: docs/collisions.md)"),
     ("Weights", "q"): ("-", "5 numbers >= 0", "stage weights of (s, n, alpha, v, delta), times dt"),
     ("Weights", "q_N"): ("-", "5 numbers >= 0", "terminal weights of (s, n, alpha, v, delta)"),
     ("Weights", "r"): ("-", "2 numbers >= 0", "input weights of (F_d, r), times dt"),
-    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + k dt v_ref"),
+    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on the paper's grid)"),
     ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
     ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
     ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
@@ -65,6 +71,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
     ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
     ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
+    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max (the bound "
+                                 "holds at the shooting nodes; with coarse intervals the samples between them overshoot)"),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),

@@ -21,9 +21,10 @@ import numpy as np
 from .road import Road
 
 
-def stage_times(N: int, dt: float) -> list[float]:
-    """``k dt`` for k = 0..N, rounded as the C table ``STAGES[k].t`` holds them."""
-    return [k * dt for k in range(N + 1)]
+def stage_times(horizon) -> list[float]:
+    """The nodes' times (``Horizon.times``: ``k dt`` on the paper's grid), rounded as the C table ``STAGES[k].t``
+    holds them."""
+    return list(horizon.times)
 
 
 def last_window_s(road: Road, window: int) -> float:

@@ -82,7 +82,13 @@ class Ocp:
 
     @property
     def dt(self) -> float:
+        """The sample time (s)."""
         return self.problem.horizon.dt
+
+    @property
+    def interval(self) -> float:
+        """The (first) shooting interval (s), which weighs the stages' costs (``Horizon.interval``)."""
+        return self.problem.horizon.interval
 
     def stage(self, k: int) -> StageType:
         return self.first if k == 0 else self.last if k == self.N else self.middle
@@ -98,7 +104,13 @@ class Ocp:
 
     @property
     def p_opp(self) -> slice:
-        return slice(self.road_params.size + 5, self.np_stage)
+        start = self.road_params.size + 5
+        return slice(start, start + self.problem.opponents.count * self.n_opp_stage)
+
+    @property
+    def p_dt(self) -> int | None:
+        """Index of the stage's interval length in its parameters (a grid of unequal intervals; else None)."""
+        return None if self.problem.horizon.uniform else self.np_stage - 1
 
     def default_shapes(self) -> np.ndarray:
         """Every opponent's shape values until ``set_opponent_shapes``: the problem's opponent vehicle at a rear-axle
@@ -110,7 +122,7 @@ class Ocp:
 
 def road_window_samples(problem: Problem) -> int:
     """Samples of the per-stage local road window: from one ds behind s_k to twice the farthest RK4 reach."""
-    reach = 2.0 * problem.bounds.v_max * problem.horizon.dt
+    reach = 2.0 * problem.bounds.v_max * problem.horizon.max_interval
     return int(math.ceil((reach + 2 * problem.road.ds) / problem.road.ds)) + 1
 
 
@@ -132,8 +144,9 @@ def build_ocp(problem: Problem) -> Ocp:
     rp = RoadWindowParams(road_window_samples(pb))
     n_shape = len(obs.shape_names(model))
     n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE) + n_shape
-    np_stage = rp.size + 5 + n_opp * n_opp_stage
-    dt = pb.horizon.dt
+    uniform = pb.horizon.uniform
+    np_stage = rp.size + 5 + n_opp * n_opp_stage + (0 if uniform else 1)   # [road | x_ref | opponents | (interval)]
+    dt = pb.horizon.interval   # the (first) shooting interval: the costs' weight, the uniform grid's step
     ego, bnd, soft = pb.ego, pb.bounds, pb.soft
 
     xs = ca.SX.sym("x", nx)
@@ -144,14 +157,14 @@ def build_ocp(problem: Problem) -> Ocp:
     p = ca.SX.sym("p", np_stage)
     p_road = p[0:rp.size]
     xref = p[rp.size:rp.size + 5]
-    p_opp = p[rp.size + 5:]
+    p_opp = p[rp.size + 5:rp.size + 5 + n_opp * n_opp_stage]
 
     def road(s):
         kappa, phi_g, *_ = casadi_road(s, p_road, rp.samples)
         return kappa, phi_g
 
     f = models.ode(kind, road, ego, pb.wind)
-    x_next = models.rk4(f, xs, us, dt)
+    x_next = models.rk4(f, xs, us, dt if uniform else p[np_stage - 1])
     Dx = np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]])
     Du = np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES])
     Dth = np.ones(n_theta)
@@ -160,8 +173,9 @@ def build_ocp(problem: Problem) -> Ocp:
 
     # --- path constraints at stages 1..N: soft rows (with slack index), equality rows -----------
     a = models.a_lat(xs[3], xs[4], ego)
-    soft_rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -1.0, INF),
-                 ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, 1.0)]
+    lim = (bnd.a_lat_max - bnd.a_lat_margin) / bnd.a_lat_max   # the planned bound (1.0 without a margin)
+    soft_rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
+                 ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim)]
     isg = 1
     if soft_road:
         sn = STATE_SCALE["n"]
@@ -273,7 +287,7 @@ def build_ocp(problem: Problem) -> Ocp:
             P_diag[i_theta:i_theta + n_theta] += anchor
         fun = ca.Function(f"stage_{key}", [wk, xn, p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
         q_ds0 = np.zeros(len(D))
-        # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + k dt v_ref
+        # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + t_k v_ref
         qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
         q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
         stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),

@@ -38,12 +38,23 @@ class QpLayout:
     q_ds0: np.ndarray          # d q / d s0 at the measured s0
     init_rows: np.ndarray      # rows holding x_0 = measured state
     s_vars: np.ndarray         # index of s_k for k = 0..N
-    var_shift: np.ndarray      # shifted guess: w_new[i] = w_old[var_shift[i]]
-    row_shift: np.ndarray      # shifted duals: y_new[i] = y_old[row_shift[i]]
+    var_shift: np.ndarray      # shifted guess: w_new[i] = w_old[var_shift[i]] (stride 1; ``shifted``)
+    row_shift: np.ndarray      # shifted duals: y_new[i] = y_old[row_shift[i]] (stride 1; ``shifted``)
     var_names: tuple[str, ...]
     row_names: tuple[str, ...]
     band_rows: np.ndarray      # (rows, 3): [row, stage k, side] taking the road band at s_k (BAND_ROW_SIDES)
     band_scale: float = BAND_SCALE
+    shift_fraction: float = 1.0  # a sample is this fraction of a coarse interval: 1 / stride (1: none)
+    shift_split_var: int = 0     # the variables before it (fine stages) take the next stage's entry exactly
+    shift_split_row: int = 0     # ... and the rows
+
+    def shift_vars(self, w: np.ndarray) -> np.ndarray:
+        """The plan one sample later (``shifted``)."""
+        return shifted(w, self.var_shift, self.shift_fraction, self.shift_split_var)
+
+    def shift_duals(self, y: np.ndarray) -> np.ndarray:
+        """The duals one sample later (``shifted``)."""
+        return shifted(y, self.row_shift, self.shift_fraction, self.shift_split_row)
 
     @property
     def nnz_A(self) -> int:
@@ -123,7 +134,28 @@ def build_layout(ocp: Ocp) -> QpLayout:
             for side in BAND_ROW_SIDES.get(nm, ())]
     band_rows = np.array(band, dtype=np.int64).reshape(-1, 3)
     return QpLayout(n, m, var_off, row_off, jac_off, indptr, rows.astype(np.int64), src.astype(np.int64),
-                    P_diag, L, U, D, q_ds0, init_rows, s_vars, var_shift, row_shift, var_names, row_names, band_rows)
+                    P_diag, L, U, D, q_ds0, init_rows, s_vars, var_shift, row_shift, var_names, row_names, band_rows,
+                    **shift_fields(ocp.problem.horizon, var_off, row_off))
+
+
+def shift_fields(hz, var_off: np.ndarray, row_off: np.ndarray) -> dict:
+    """How a plan moves by one sample: a fine stage takes the next stage's entries, a coarse one moves 1 / stride of
+    the way to them."""
+    if hz.n_fine == hz.N:
+        return {"shift_fraction": 1.0}
+    return {"shift_fraction": 1.0 / hz.stride, "shift_split_var": int(var_off[hz.n_fine]),
+            "shift_split_row": int(row_off[hz.n_fine])}
+
+
+def shifted(v: np.ndarray, index: np.ndarray, fraction: float, split: int = 0) -> np.ndarray:
+    """A plan (or its duals) one sample later: ``v[index]`` (the next stage's entries) where a sample is a whole
+    shooting interval (the entries before ``split``, or all for ``fraction`` 1); beyond ``split`` interpolated a
+    ``fraction`` of the way to them, ``v + fraction (v[index] - v)`` (the C's operations)."""
+    if fraction == 1.0:
+        return v[index]
+    out = v + fraction * (v[index] - v)
+    out[:split] = v[index[:split]]
+    return out
 
 
 def assert_finite_bounds(L: np.ndarray, U: np.ndarray) -> None:

@@ -178,6 +178,9 @@ class RtiSolver:
         self.lay = layout or build_layout(ocp)
         self.qp_opts = qp or ocp.problem.qp
         N = ocp.N
+        hz = ocp.problem.horizon
+        self._times = hz.times                                       # node k's time: s_ref,k = s0 + t_k v_ref
+        self._stage_dt = [m * hz.dt for m in hz.stage_samples] + [0.0]   # a stage's interval (unequal grids)
         self._fun_first = ocp.first.fun
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
         self._fun_last = ocp.last.fun
@@ -301,13 +304,14 @@ class RtiSolver:
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
-        xref = [self.s0_guess + k * self.ocp.dt * v_ref, n_ref, 0.0, v_ref, 0.0]
+        xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
         if self._fitter is None:   # per opponent its pose at stage k, then its shape
             n = self.ocp.problem.opponents.count
             opp = np.concatenate([self.opp[k].reshape(n, -1), self.opp_shape], axis=1).ravel()
         else:
             opp = self.opp_stage[k]
-        return np.concatenate([self._road_params(s), xref, opp])
+        dt = [] if self.ocp.p_dt is None else [self._stage_dt[k]]
+        return np.concatenate([self._road_params(s), xref, opp, dt])
 
     def _fit_opponents(self) -> int:
         """Conventional: the opponents' poses -> their fitted Frenet boxes in ``opp_stage`` (``fcgen.oppfit``), as the
@@ -342,7 +346,7 @@ class RtiSolver:
         self.s0_guess = self.x0[0]
         self.stage_params(0, self.x0[0])  # no road or x0 off it: ERR_ROAD_WINDOW before anything else
         s_last = last_window_s(self.road, ocp.road_params.samples)
-        xf = cold_start_frenet(self.x0, stage_times(ocp.N, ocp.dt), s_last)
+        xf = cold_start_frenet(self.x0, stage_times(ocp.problem.horizon), s_last)
         for k in range(ocp.N + 1):
             o = lay.var_off[k]
             p = self.stage_params(k, xf[k, 0])
@@ -368,7 +372,7 @@ class RtiSolver:
         if cold:
             w, y = self.initial_guess()
         elif shift:
-            w, y = self.w[lay.var_shift], self.y[lay.row_shift]
+            w, y = lay.shift_vars(self.w), lay.shift_duals(self.y)
         else:
             w, y = self.w.copy(), self.y.copy()
         N = ocp.N

@@ -39,7 +39,7 @@ def row_groups(problem: Problem) -> RowGroups:
     names = lay.row_names
     obstacle = np.array([i for i, n in enumerate(names) if _OBSTACLE_ROW.match(n)], dtype=int)
     a_lat = np.array([i for i, n in enumerate(names) if _ALAT_ROW.match(n)], dtype=int)
-    per = 1.0 / (ocp.cost_scale * ocp.dt)
+    per = 1.0 / (ocp.cost_scale * ocp.interval)   # the costs weigh a stage by the (first) interval
     return RowGroups(obstacle, a_lat, per, per / problem.bounds.a_lat_max)   # a_lat rows are divided by a_lat_max
 
 

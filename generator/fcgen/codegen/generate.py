@@ -91,6 +91,13 @@ def _c_real_literal(x: float, use_float: bool) -> str:
     return _c_real(x) + ("f" if use_float else "")
 
 
+def _c_macro_list(values: Sequence, per_line: int = 20) -> str:
+    """A brace initializer as a macro's body, continued over lines of ``per_line`` values."""
+    items = [str(v) for v in values]
+    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+    return "{" + ", \\\n  ".join(lines) + "}"
+
+
 def _c_list(values: Sequence, fmt=str, per_line: int = 12) -> str:
     """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
     items = [fmt(v) for v in values] or ["0"]
@@ -192,7 +199,7 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
     """Per-stage descriptors: function kind and the offsets of its variables, rows, Jacobian, successor state."""
     N, nx, nu = ocp.N, ocp.nx, ocp.nu
     v_ref = ocp.problem.reference.v_ref
-    times = stage_times(N, ocp.dt)
+    times = stage_times(ocp.problem.horizon)
     out = []
     for k in range(N + 1):
         st = ocp.stage(k)
@@ -209,8 +216,8 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
             "u": var + names.index("F_d") if k < N else -1,
             "theta": var + nx + nu * (k < N) if (k >= 1 and ocp.n_theta) else -1,
             "sigma": var + names.index("sigma0") if "sigma0" in names else -1,
-            "s_ref": _c_real(k * ocp.dt * v_ref),  # the reference's s_ref offset, same rounding
-            "t": _c_real(times[k]),  # the cold-start guess's k dt (fcgen.guess.stage_times)
+            "s_ref": _c_real(times[k] * v_ref),  # the reference's s_ref offset, same rounding
+            "t": _c_real(times[k]),  # the node's time (fcgen.guess.stage_times), also the cold-start guess's
         })
         assert names[0] == "s" and out[-1]["s"] == var
         if k < N:
@@ -382,6 +389,16 @@ def problem_source(obj: Any, indent: int = 0) -> str:
     return f"{type(obj).__name__}(\n" + ",\n".join(args) + ")"
 
 
+def shift_statement(dst: str, src: str, table: str, fraction: float, split: int, name: str) -> str:
+    """The C statement that shifts entry i of a plan or its duals by one sample (``qp.shifted``: the next stage's
+    entry, or beyond ``split`` a ``fraction`` of the way to it where an interval is several samples)."""
+    exact = f"{src}[{table}[i]]"
+    if fraction == 1.0:
+        return f"{dst}[i] = {exact};"
+    moved = f"{src}[i] + ((({name}_real_t){_c_real(fraction)}) * ({src}[{table}[i]] - {src}[i]))"
+    return f"{dst}[i] = {moved};" if split == 0 else f"{dst}[i] = (i < {split}) ? {exact} : ({moved});"
+
+
 def _wrap_comment(text: str, width: int) -> list[str]:
     """A paragraph as C comment lines: the first ``width`` wide, the rest 2 narrower (the template indents them)."""
     first, *rest = textwrap.wrap(text, width)
@@ -447,6 +464,9 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
                    "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
                    "SHAPE_DEFAULT": ocp.default_shapes().ravel()}
+    hz = problem.horizon
+    if ocp.p_dt is not None:   # unequal intervals: each stage's length is a parameter (the reference's _stage_dt)
+        real_tables["STAGE_DT"] = [m * hz.dt for m in hz.stage_samples] + [0.0]
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
@@ -496,7 +516,13 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "dt": _c_real(problem.horizon.dt),
+        "dt": _c_real(problem.horizon.interval),
+        "p_dt": ocp.p_dt,
+        "stage_offsets": _c_macro_list(problem.horizon.offsets),
+        # node k's time in set_reference's s_ref,k: k DT on a uniform grid (the same rounding as k * interval)
+        "ref_time": f"(({name}_real_t)k * DT)" if ocp.p_dt is None else "STAGES[k].t",
+        "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
+        "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
         "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
         "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),

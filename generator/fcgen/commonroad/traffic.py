@@ -104,9 +104,10 @@ def neutral_pose(road) -> np.ndarray:
     return np.array([float(np.min(road.gx)) - NEUTRAL_DISTANCE, float(np.min(road.gy)) - NEUTRAL_DISTANCE, 0.0])
 
 
-def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int):
+def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None):
     """The solver's opponents at closed-loop sample ``step`` (scenario step ``sc.first_step + step``): centre poses
-    (N+1, n_slots, 3) over the horizon, shapes (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
+    (N+1, n_slots, 3) over the horizon (stage k: ``offsets[k]`` scenario steps later, default k), shapes
+    (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
     (None for an empty slot)."""
     t0 = sc.first_step + step
     idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots)
@@ -122,7 +123,7 @@ def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int):
             continue
         ob = sc.obstacles[i]
         for k in range(N + 1):
-            poses[k, j] = ob.pose(t0 + k)
+            poses[k, j] = ob.pose(t0 + (k if offsets is None else int(offsets[k])))
         shapes[j] = (ob.length, ob.width, 0.0)
         ids.append(ob.id)
     return poses, shapes, tuple(ids)

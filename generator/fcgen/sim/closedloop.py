@@ -259,7 +259,7 @@ def opponent_params(problem: Problem, sc: Scenario) -> OpponentParams:
         return OpponentParams(problem, sc)
     a, b = np.asarray(sc.opp_s0), np.asarray(sc.opp_n)
     key = (sc.road, a.dtype.str, a.shape, a.tobytes(), b.dtype.str, b.shape, b.tobytes(), sc.samples, sc.dt,
-           problem.horizon.N)
+           problem.horizon.offsets)
     with _OPP_LOCK:
         op = _OPP_TABLES.pop(key, None)
     if op is None:
@@ -326,7 +326,7 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
     # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
-    opp_cart = np.concatenate([horizon(j) for j in range(0, K + 1, opp_params.n_stages)])[:K + 1]
+    opp_cart = np.array(opp_params.samples(K))
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)

@@ -111,7 +111,7 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
         x = xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
         centre = (rx + half_l * math.cos(rphi), ry + half_l * math.sin(rphi))
-        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N)
+        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
         key = tuple(map(tuple, np.asarray(shapes, dtype=float)))
         if key != slots_now:
             vals = []

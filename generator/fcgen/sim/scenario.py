@@ -97,7 +97,9 @@ class OpponentParams:
         self.problem = problem
         self.sc = scenario
         self.n_stages = problem.horizon.N + 1
-        table = scenario.opp_cartesian(np.arange(scenario.samples + self.n_stages) * scenario.dt)
+        self.offsets = np.array(problem.horizon.offsets)   # stage k is sample j + offsets[k]
+        self.span = int(self.offsets[-1]) + 1
+        table = scenario.opp_cartesian(np.arange(scenario.samples + self.span) * scenario.dt)
         table.flags.writeable = False
         self._table = table
 
@@ -108,7 +110,17 @@ class OpponentParams:
         return self.sc.opp_cartesian(j * self.sc.dt)
 
     def horizon(self, j: int) -> np.ndarray:
-        """Poses for stages 0..N at sample j: shape (N+1, n_opp, 3) (read-only)."""
-        if 0 <= j and j + self.n_stages <= len(self._table):
-            return self._table[j: j + self.n_stages]
-        return np.stack([self.at_index(j + k) for k in range(self.n_stages)])
+        """Poses for stages 0..N at sample j (stage k: sample j + offsets[k]): shape (N+1, n_opp, 3) (read-only)."""
+        if 0 <= j and j + self.span <= len(self._table):
+            if self.span == self.n_stages:       # one sample per stage: a view
+                return self._table[j: j + self.span]
+            out = self._table[j + self.offsets]
+            out.flags.writeable = False
+            return out
+        return np.stack([self.at_index(j + int(o)) for o in self.offsets])
+
+    def samples(self, K: int) -> np.ndarray:
+        """Poses at samples 0..K: shape (K+1, n_opp, 3) (the rows the solver was given)."""
+        if K + 1 <= len(self._table):
+            return self._table[:K + 1]
+        return np.stack([self.at_index(j) for j in range(K + 1)])
