@@ -12,6 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from crscenes import LANE, write_scenario
+from fcgen.dsl import Horizon
 from fcgen.campaign.commonroad import load_for
 from fcgen.commonroad import (ScenarioRefused, drivability_verdict, fcgen_collisions, load_scenario,
                               opponent_horizon, select_opponents, write_solution)
@@ -120,6 +121,11 @@ def test_the_relevance_rule_and_empty_slots(straight):
     np.testing.assert_array_equal(shapes[0], [12.0, 2.5, 0.0])
     np.testing.assert_allclose(poses[10, 0], [40.0 + 15.0, -LANE, 0.0], atol=1e-9)   # 1 s later
     assert poses[0, 2, 0] < float(np.min(sc.road.gx)) - 999.0
+    # a grid of coarse intervals: stage k at the node's step (10 one-step intervals, then steps of three)
+    offsets = Horizon(N=20, stride=3, fine=10).offsets
+    grid, _, _ = opponent_horizon(sc, 0, (50.0, 0.0), 3, 20, offsets)
+    np.testing.assert_array_equal(grid[:11], poses[:11])
+    np.testing.assert_allclose(grid[12, 0], [40.0 + 1.5 * 16, -LANE, 0.0], atol=1e-9)   # offsets[12] = 16 steps
 
 
 def test_unusable_scenarios_are_refused_with_one_line(tmp_path):
