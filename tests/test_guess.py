@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fcgen.guess import cold_start_frenet, last_window_s, stage_times
+from fcgen.guess import cold_start_frenet, last_window_s
 from fcgen.dsl import Horizon
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem
@@ -52,7 +52,7 @@ def zero_input_rollout(sv):
 
 
 def test_cold_start_frenet_formula():
-    times = stage_times(Horizon(N=4, dt=0.1, stride=1))
+    times = list(Horizon(N=4, dt=0.1, stride=1).times)
     g = cold_start_frenet([10.0, -2.0, 0.3, 20.0, 0.05], times, s_last=15.0)
     expect = np.array([[10.0, -2.0, 0.3, 20.0, 0.05], [12.0, -2.0, 0.0, 20.0, 0.05], [14.0, -2.0, 0.0, 20.0, 0.05],
                        [15.0, -2.0, 0.0, 20.0, 0.05], [15.0, -2.0, 0.0, 20.0, 0.05]])

@@ -21,12 +21,6 @@ import numpy as np
 from .road import Road
 
 
-def stage_times(horizon) -> list[float]:
-    """The nodes' times (``Horizon.times``: ``k dt`` on the paper's grid), rounded as the C table ``STAGES[k].t``
-    holds them."""
-    return list(horizon.times)
-
-
 def last_window_s(road: Road, window: int) -> float:
     """The largest s (on the sample grid) whose ``window``-sample stage window lies on ``road``: the prepare phase
     accepts s while ``floor((s - s0) / ds) <= size - window + 1`` (``RtiSolver._road_params``, C ``window_start``)."""

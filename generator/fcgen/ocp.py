@@ -112,6 +112,11 @@ class Ocp:
         """Index of the stage's interval length in its parameters (a grid of unequal intervals; else None)."""
         return None if self.problem.horizon.uniform else self.np_stage - 1
 
+    def stage_dt(self) -> list[float]:
+        """The value at ``p_dt`` of stages 0..N: each interval's length (s), 0 at the last stage (no dynamics)."""
+        hz = self.problem.horizon
+        return [m * hz.dt for m in hz.stage_samples] + [0.0]
+
     def default_shapes(self) -> np.ndarray:
         """Every opponent's shape values until ``set_opponent_shapes``: the problem's opponent vehicle at a rear-axle
         pose, shape (n_opp, n_opp_shape)."""

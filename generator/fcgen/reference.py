@@ -16,7 +16,7 @@ from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINI
                        QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
 from . import obstacles as obs
 from .dsl import QpOptions, SeparatingHyperplane
-from .guess import cold_start_frenet, last_window_s, stage_times
+from .guess import cold_start_frenet, last_window_s
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
@@ -179,8 +179,8 @@ class RtiSolver:
         self.qp_opts = qp or ocp.problem.qp
         N = ocp.N
         hz = ocp.problem.horizon
-        self._times = hz.times                                       # node k's time: s_ref,k = s0 + t_k v_ref
-        self._stage_dt = [m * hz.dt for m in hz.stage_samples] + [0.0]   # a stage's interval (unequal grids)
+        self._times = hz.times                 # node k's time: s_ref,k = s0 + t_k v_ref
+        self._stage_dt = ocp.stage_dt()        # a stage's interval (unequal grids)
         self._fun_first = ocp.first.fun
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
         self._fun_last = ocp.last.fun
@@ -346,7 +346,7 @@ class RtiSolver:
         self.s0_guess = self.x0[0]
         self.stage_params(0, self.x0[0])  # no road or x0 off it: ERR_ROAD_WINDOW before anything else
         s_last = last_window_s(self.road, ocp.road_params.samples)
-        xf = cold_start_frenet(self.x0, stage_times(ocp.problem.horizon), s_last)
+        xf = cold_start_frenet(self.x0, list(ocp.problem.horizon.times), s_last)
         for k in range(ocp.N + 1):
             o = lay.var_off[k]
             p = self.stage_params(k, xf[k, 0])

@@ -22,7 +22,6 @@ import numpy as np
 from .. import __version__
 from .. import obstacles as obs
 from ..dsl import Problem
-from ..guess import stage_times
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
@@ -199,7 +198,7 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
     """Per-stage descriptors: function kind and the offsets of its variables, rows, Jacobian, successor state."""
     N, nx, nu = ocp.N, ocp.nx, ocp.nu
     v_ref = ocp.problem.reference.v_ref
-    times = stage_times(ocp.problem.horizon)
+    times = ocp.problem.horizon.times
     out = []
     for k in range(N + 1):
         st = ocp.stage(k)
@@ -217,7 +216,7 @@ def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
             "theta": var + nx + nu * (k < N) if (k >= 1 and ocp.n_theta) else -1,
             "sigma": var + names.index("sigma0") if "sigma0" in names else -1,
             "s_ref": _c_real(times[k] * v_ref),  # the reference's s_ref offset, same rounding
-            "t": _c_real(times[k]),  # the node's time (fcgen.guess.stage_times), also the cold-start guess's
+            "t": _c_real(times[k]),  # the node's time (Horizon.times), also the cold-start guess's
         })
         assert names[0] == "s" and out[-1]["s"] == var
         if k < N:
@@ -464,9 +463,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
                    "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
                    "SHAPE_DEFAULT": ocp.default_shapes().ravel()}
-    hz = problem.horizon
-    if ocp.p_dt is not None:   # unequal intervals: each stage's length is a parameter (the reference's _stage_dt)
-        real_tables["STAGE_DT"] = [m * hz.dt for m in hz.stage_samples] + [0.0]
+    if ocp.p_dt is not None:   # unequal intervals: each stage's length is a parameter (Ocp.stage_dt)
+        real_tables["STAGE_DT"] = ocp.stage_dt()
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
