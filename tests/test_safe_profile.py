@@ -10,8 +10,11 @@ import numpy as np
 import pytest
 
 from fcgen import obstacles as obs
-from fcgen.dsl import CoveringCircles, Ellipse, PlanCheck, Problem, ProblemError, SeparatingHyperplane
-from fcgen.presets import CAR, PAPER_SOFT, TRUCK, preset, preset_names
+from fcgen.dsl import CoveringCircles, Ellipse, Horizon, PlanCheck, Problem, ProblemError, SeparatingHyperplane
+from fcgen.ocp import build_ocp
+from fcgen.presets import CAR, PAPER_SOFT, SAFE_SOFT_CONVENTIONAL, TRUCK, preset, preset_names
+from fcgen.reference import RtiSolver
+from fcgen.road import straight_road
 from fcgen.sim.collision import chassis_corners, sat_overlap
 
 
@@ -106,8 +109,11 @@ def test_profiles_of_the_presets():
     paper, safe = preset("truck_lifted_hyperplane_ipm"), preset("truck_lifted_hyperplane_ipm_safe")
     assert safe.name == "truck_lift_hp_ipm_safe" and safe.qp.backend == "ipm"
     # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
-    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "bounds", "road"):
+    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "road"):
         assert getattr(paper, f) == getattr(safe, f), f
+    # of the bounds only the planning margin inside the a_lat bound (the paper plans up to it)
+    assert replace(paper.bounds, a_lat_margin=safe.bounds.a_lat_margin) == safe.bounds
+    assert paper.bounds.a_lat_margin == 0.0 < safe.bounds.a_lat_margin == Problem("x").bounds.a_lat_margin
     # of the QP options only the IPM's start (the safe profile's and the DSL's default: scaled)
     assert replace(paper.qp, ipm_scaled_start=True) == safe.qp and not paper.qp.ipm_scaled_start
     assert Problem("x").qp.ipm_scaled_start
@@ -120,7 +126,12 @@ def test_profiles_of_the_presets():
     assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0
     assert d.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1 and d.soft.obstacle_l1 > PAPER_SOFT.obstacle_l1
     for name in preset_names():
-        assert preset(name + "_safe").soft == d.soft
+        # the DSL's weights, but for the conventional formulation's (obstacle 1e8: its QPs' conditioning)
+        conventional = "_conventional_" in name
+        assert preset(name + "_safe").soft == (SAFE_SOFT_CONVENTIONAL if conventional else d.soft)
+        assert SAFE_SOFT_CONVENTIONAL == replace(d.soft, obstacle_l1=1e8)
+        assert preset(name + "_safe").bounds.a_lat_margin == d.bounds.a_lat_margin
+        assert preset(name).bounds.a_lat_margin == 0.0
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):
         preset("truck_lifted_ellipse_safe_ipm")        # the profile comes last
@@ -175,3 +186,34 @@ def test_responsibility_rule_on_hand_made_contacts():
     # the same contact after the ego changed lanes: the ego's
     assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) \
         == "ego_into_opponent"
+
+
+def _converged_slacks(pb, gap: float, offset: float):
+    """Full SQP (to a 1e-7 step) of ``pb`` with the ego at 20 m/s on a straight road and a car standing ``gap`` m
+    ahead, ``offset`` m to the left: the largest obstacle slack, the largest a_lat slack (m/s^2)."""
+    road = straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
+    opp = np.zeros((pb.horizon.N + 1, pb.opponents.count, 3))
+    opp[..., 0], opp[..., 1] = -1000.0, 500.0            # the others far away
+    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + gap, offset      # the ego's s = 0 is x = 20
+    sv = RtiSolver(build_ocp(pb))
+    sv.set_road(road)
+    sv.set_opponents(opp)
+    assert sv.solve_converged(np.array([0.0, 0.0, 0.0, 20.0, 0.0]), max_sqp=60, tol=1e-7) < 60
+    sl = sv.slacks()
+    return float(sl[:, 1:].max()), float(sl[:, 0].max())
+
+
+def test_where_the_hard_problem_has_no_solution_the_a_lat_row_gives_way_not_the_obstacle_row():
+    """A car standing 15 m ahead, 1 m to the left of the ego's line, the ego at 20 m/s: it cannot stop short of it
+    (20^2 / (2 F_d_max / m) = 23 m) and with |a_lat| held at its bound (a_lat L1 1e11) the converged plan keeps an
+    obstacle slack: the hard problem has no solution. With the safe weights the plan keeps the obstacle row exactly
+    and exceeds the a_lat bound instead; at obstacle / a_lat = 100 (stop 34's 1e8 / 1e6) the row's slack is cheaper
+    than the swerve that removes it (as in truck lifted HP seed 417's contact): it is kept, 0.04 here."""
+    base = preset("car_lifted_ellipse_ipm_safe").with_(horizon=Horizon(N=20))
+    assert 20.0 ** 2 / (2 * base.bounds.F_d_max / base.ego.m) > 15.0 + base.ego.l_ch
+    obstacle, a_lat = _converged_slacks(base.with_(soft=replace(base.soft, a_lat_l1=1e11)), 15.0, 1.0)
+    assert obstacle > 0.1 and a_lat < 1e-6                 # a_lat held: the obstacle row must give
+    obstacle, a_lat = _converged_slacks(base, 15.0, 1.0)
+    assert obstacle < 1e-6 and a_lat > 1.0                 # the safe weights: the obstacle row holds
+    obstacle, a_lat = _converged_slacks(base.with_(soft=replace(base.soft, obstacle_l1=1e8)), 15.0, 1.0)
+    assert obstacle > 0.01 and a_lat > 1.0                 # ratio 100: the obstacle row gives a little

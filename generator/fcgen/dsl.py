@@ -210,8 +210,10 @@ class Reference:
 class Bounds:
     """Box bounds (paper Table I); the road bounds are on the ego's n.
 
-    ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``: the bound is planned at the shooting nodes,
-    and with intervals of several samples the plant's samples between them overshoot it (0.15 m/s^2 kept 0.2 s
+    ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``. The default (the safe profile's, 0.05 m/s^2)
+    absorbs what one real-time iteration's linearization leaves where the plan holds the bound: on the safe grid it
+    takes the samples above 5.05 m/s^2 from 1.03 % to 0.45 % (docs/safe_profile.md); the paper's presets keep 0. With
+    intervals of several samples the plant's samples between the nodes overshoot more (0.15 m/s^2 kept 0.2 s
     intervals within 5.05 m/s^2 in all but 4 of 3,600 samples, docs/collisions.md).
     """
 
@@ -225,7 +227,7 @@ class Bounds:
     n_max: float = 10.0
     a_lat_max: float = 5.0
     v_N_max: float = 15.0
-    a_lat_margin: float = 0.0
+    a_lat_margin: float = 0.05
 
     def __post_init__(self) -> None:
         for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
@@ -246,16 +248,19 @@ class Bounds:
 class SoftPenalties:
     """L1 + L2 slack penalties (multiplied by dt per stage); road bounds may be softened too.
 
-    Defaults: the safe profile (``docs/safe_profile.md``): each L1 weight 4-8x the 99th percentile of the multipliers
-    its rows take in closed loop with the rows hard (calibrated: ``python -m fcgen.safety``), so a slack is used
-    (almost) only where the hard problem is infeasible; there obstacle / a_lat = 100 decides: a_lat gives way (the
-    other order, a_lat 3e8, kept the bound but had 114 instead of 12 colliding runs on the full grid). The paper's
+    Defaults: the safe profile (``docs/safe_profile.md``): each L1 weight above the 99th percentile of the multipliers
+    its rows take in closed loop with the rows hard (a_lat 5x, obstacles 80x; calibrated: ``python -m fcgen.safety``),
+    so a slack is used (almost) only where the hard problem is infeasible; there obstacle / a_lat = 1000 decides: a_lat
+    gives way (the other order, a_lat 3e8, kept the bound but had 114 instead of 12 colliding runs on the full grid;
+    obstacle / a_lat = 100 left an obstacle slack of 0.5 m cheaper than the swerve that avoids it). With the
+    conventional formulation use ``obstacle_l1=1e8`` (its safe presets do, ``presets.SAFE_SOFT_CONVENTIONAL``): its
+    fitted boxes leave QPs without a hard solution that 1e9 conditions too badly for the IPM. The paper's
     presets keep ``PAPER_SOFT`` (obstacle 1e7 / 1e6, a_lat 1e5 / 1e4: the a_lat row is then a cost, exceeded in 40-56 %
     of the samples). ``SoftPenalties(obstacle_l1=1e6, obstacle_l2=1e5)``: the acados
     benchmark's values.
     """
 
-    obstacle_l1: float = 1e8
+    obstacle_l1: float = 1e9
     obstacle_l2: float = 1e6
     a_lat_l1: float = 1e6
     a_lat_l2: float = 1e4

@@ -71,8 +71,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
     ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
     ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
-    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max (the bound "
-                                 "holds at the shooting nodes; with coarse intervals the samples between them overshoot)"),
+    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max (a real-time "
+                                 "iteration's linearization and coarse intervals overshoot it; the paper's presets: 0)"),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),

@@ -26,6 +26,17 @@ PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat
 PAPER_PLAN_CHECK = PlanCheck(react_stages=0)
 PAPER_QP = QpOptions(ipm_scaled_start=False)
 """The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP)."""
+PAPER_A_LAT_MARGIN = 0.0
+"""The paper plans |a_lat| up to its bound (``Bounds.a_lat_margin``; the safe profile keeps the default inside it)."""
+SAFE_SOFT_CONVENTIONAL = SoftPenalties(obstacle_l1=1e8)
+"""The safe profile's weights for the conventional formulation: its fitted boxes leave no hard solution in 7.5 % of
+the truck HP QPs, and with the obstacle weight 1e9 those QPs are conditioned so badly that the C and the Python IPM
+part by up to 2e-5 (``fcgen verify``: 1e-7); 1e8 keeps them within it (docs/safe_profile.md)."""
+
+
+def safe_soft(formulation: str) -> SoftPenalties:
+    """The safe profile's slack penalties of a formulation (the DSL's defaults but for the conventional one)."""
+    return SAFE_SOFT_CONVENTIONAL if formulation == "conventional" else SoftPenalties()
 
 
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
@@ -64,9 +75,12 @@ def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circl
         raise ProblemError(f"profile = {profile!r} is invalid: allowed one of {PROFILES}")
     if profile == "paper":
         return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "paper"), soft=PAPER_SOFT,
-                        plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False))
-    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=SoftPenalties(),
-                    plan_check=PlanCheck(), qp=replace(pb.qp, ipm_scaled_start=True))
+                        plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False),
+                        bounds=replace(pb.bounds, a_lat_margin=PAPER_A_LAT_MARGIN))
+    form = next(k for k, v in FORMULATIONS.items() if isinstance(pb.formulation, v))
+    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=safe_soft(form),
+                    plan_check=PlanCheck(), qp=replace(pb.qp, ipm_scaled_start=True),
+                    bounds=replace(pb.bounds, a_lat_margin=Bounds().a_lat_margin))
 
 
 def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
@@ -85,9 +99,12 @@ def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacle
     if name is None:
         tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
         name = f"{scenario}_{SHORT[formulation]}_{tag}"
-    profiled = {"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK, "qp": PAPER_QP} if profile == "paper" else {}
+    profiled = ({"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK, "qp": PAPER_QP} if profile == "paper"
+                else {"soft": safe_soft(formulation)})
     return Problem(name=name, formulation=FORMULATIONS[formulation](), obstacles=model, ego=CAR,
-                   opponents=Opponents(3, opp), bounds=Bounds(n_min=-n_bound, n_max=n_bound),
+                   opponents=Opponents(3, opp),
+                   bounds=Bounds(n_min=-n_bound, n_max=n_bound,
+                                 a_lat_margin=PAPER_A_LAT_MARGIN if profile == "paper" else Bounds().a_lat_margin),
                    **{**profiled, **overrides})
 
 
