@@ -34,9 +34,9 @@ the truck HP QPs, and with the obstacle weight 1e9 those QPs are conditioned so 
 part by up to 2e-5 (``fcgen verify``: 1e-7); 1e8 keeps them within it (docs/safe_profile.md)."""
 
 
-def safe_soft(formulation: str) -> SoftPenalties:
+def safe_soft(formulation) -> SoftPenalties:
     """The safe profile's slack penalties of a formulation (the DSL's defaults but for the conventional one)."""
-    return SAFE_SOFT_CONVENTIONAL if formulation == "conventional" else SoftPenalties()
+    return SAFE_SOFT_CONVENTIONAL if isinstance(formulation, Conventional) else SoftPenalties()
 
 
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
@@ -77,8 +77,7 @@ def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circl
         return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "paper"), soft=PAPER_SOFT,
                         plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False),
                         bounds=replace(pb.bounds, a_lat_margin=PAPER_A_LAT_MARGIN))
-    form = next(k for k, v in FORMULATIONS.items() if isinstance(pb.formulation, v))
-    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=safe_soft(form),
+    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=safe_soft(pb.formulation),
                     plan_check=PlanCheck(), qp=replace(pb.qp, ipm_scaled_start=True),
                     bounds=replace(pb.bounds, a_lat_margin=Bounds().a_lat_margin))
 
@@ -99,9 +98,10 @@ def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacle
     if name is None:
         tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
         name = f"{scenario}_{SHORT[formulation]}_{tag}"
+    form = FORMULATIONS[formulation]()
     profiled = ({"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK, "qp": PAPER_QP} if profile == "paper"
-                else {"soft": safe_soft(formulation)})
-    return Problem(name=name, formulation=FORMULATIONS[formulation](), obstacles=model, ego=CAR,
+                else {"soft": safe_soft(form)})
+    return Problem(name=name, formulation=form, obstacles=model, ego=CAR,
                    opponents=Opponents(3, opp),
                    bounds=Bounds(n_min=-n_bound, n_max=n_bound,
                                  a_lat_margin=PAPER_A_LAT_MARGIN if profile == "paper" else Bounds().a_lat_margin),
