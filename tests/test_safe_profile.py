@@ -109,8 +109,11 @@ def test_profiles_of_the_presets():
     paper, safe = preset("truck_lifted_hyperplane_ipm"), preset("truck_lifted_hyperplane_ipm_safe")
     assert safe.name == "truck_lift_hp_ipm_safe" and safe.qp.backend == "ipm"
     # the same scenario, formulation, horizon, weights, backend: only the profile's fields differ
-    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "reference", "road"):
+    for f in ("formulation", "ego", "opponents", "wind", "horizon", "weights", "road"):
         assert getattr(paper, f) == getattr(safe, f), f
+    # of the reference only the curve speed (the paper asks v_ref everywhere)
+    assert replace(paper.reference, curve_a_lat=safe.reference.curve_a_lat) == safe.reference
+    assert paper.reference.curve_a_lat == 0.0 < safe.reference.curve_a_lat == Problem("x").reference.curve_a_lat
     # of the bounds only the planning margin inside the a_lat bound (the paper plans up to it)
     assert replace(paper.bounds, a_lat_margin=safe.bounds.a_lat_margin) == safe.bounds
     assert paper.bounds.a_lat_margin == 0.0 < safe.bounds.a_lat_margin == Problem("x").bounds.a_lat_margin
@@ -126,12 +129,14 @@ def test_profiles_of_the_presets():
     assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0
     assert d.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1 and d.soft.obstacle_l1 > PAPER_SOFT.obstacle_l1
     for name in preset_names():
-        # the DSL's weights, but for the conventional formulation's (obstacle 1e8: its QPs' conditioning)
+        # the DSL's weights, but for the conventional formulation's (obstacle 1e8: its QPs' conditioning; its boxes
+        # give way before a_lat, 3e8)
         conventional = "_conventional_" in name
         assert preset(name + "_safe").soft == (SAFE_SOFT_CONVENTIONAL if conventional else d.soft)
-        assert SAFE_SOFT_CONVENTIONAL == replace(d.soft, obstacle_l1=1e8)
+        assert SAFE_SOFT_CONVENTIONAL == replace(d.soft, obstacle_l1=1e8, a_lat_l1=3e8)
         assert preset(name + "_safe").bounds.a_lat_margin == d.bounds.a_lat_margin
         assert preset(name).bounds.a_lat_margin == 0.0
+        assert preset(name + "_safe").reference == d.reference and preset(name).reference.curve_a_lat == 0.0
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):
         preset("truck_lifted_ellipse_safe_ipm")        # the profile comes last

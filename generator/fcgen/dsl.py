@@ -195,15 +195,29 @@ class Weights:
 
 @dataclass(frozen=True)
 class Reference:
-    """Tracking reference: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on the paper's grid), lateral n_ref,
-    alpha_ref = delta_ref = 0."""
+    """Tracking reference: s_ref,k = s0 + t_k v, v_ref,k = v, n_ref, alpha_ref = delta_ref = 0 (v: v_ref capped).
+
+    t_k is node k's time (k dt on the paper's grid).
+
+    ``v`` is ``v_ref`` capped by the **curve speed** of the road ahead (the safe profile's; ``curve_a_lat = 0`` turns
+    it off, as the paper's presets do): the largest speed from which the ego, decelerating at ``curve_decel``, reaches
+    every road sample ahead no faster than ``sqrt(curve_a_lat / |kappa|)``, so that following the centre line needs
+    at most ``curve_a_lat``. Without it the reference asks for 40 m/s into a hairpin, and the plan accelerates towards
+    a bend and then pays the a_lat slack or brakes into trouble (docs/safe_profile.md "The curve speed").
+    """
 
     v_ref: float = 40.0
     n_ref: float = 0.0
+    curve_a_lat: float = 8.0
+    curve_decel: float = 7.0
 
     def __post_init__(self) -> None:
         _nonneg("reference.v_ref", self.v_ref)
         _finite("reference.n_ref", self.n_ref)
+        _check(0 <= _finite("reference.curve_a_lat", self.curve_a_lat) <= 50, "reference.curve_a_lat",
+               self.curve_a_lat, "[0, 50] m/s^2 (0: no curve speed)")
+        _check(0 < _finite("reference.curve_decel", self.curve_decel) <= 50, "reference.curve_decel",
+               self.curve_decel, "(0, 50] m/s^2")
 
 
 @dataclass(frozen=True)

@@ -61,6 +61,10 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Weights", "r"): ("-", "2 numbers >= 0", "input weights of (F_d, r), times dt"),
     ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on the paper's grid)"),
     ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
+    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref capped so that braking at curve_decel "
+                                   "reaches every road sample ahead no faster than sqrt(curve_a_lat / abs(kappa)) "
+                                   "(0: off, the paper's presets)"),
+    ("Reference", "curve_decel"): ("m/s^2", "(0, 50]", "the curve speed's deceleration"),
     ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
     ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
     ("Bounds", "delta_max"): ("rad", "> 0", "|delta| bound (steering angle)"),

@@ -20,7 +20,7 @@ from .guess import cold_start_frenet, last_window_s
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
-from .road import Road
+from .road import Road, curve_speed
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
@@ -220,6 +220,7 @@ class RtiSolver:
         self.A_data = np.zeros(lay.nnz_A)
         self.z: np.ndarray | None = None
         self.s0_guess = 0.0
+        self.v_curve = math.inf   # the reference speed's cap (Reference.curve_a_lat), set with s0_guess
         self.u_applied = np.zeros(self.ocp.nu)
         self.stage_clearance = np.full(self.ocp.N + 1, math.inf)  # the plan check's, per stage (verify)
         self.qp.reset()
@@ -301,9 +302,17 @@ class RtiSolver:
             raise self._fail("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
         return self.ocp.road_params.pack(road, i0)
 
+    def _set_curve_speed(self) -> None:
+        """The reference speed's cap at the plan's start (``Reference.curve_a_lat``; inf when off or without a road)."""
+        ref, bnd = self.ocp.problem.reference, self.ocp.problem.bounds
+        self.v_curve = math.inf
+        if ref.curve_a_lat > 0.0 and self.road is not None:
+            self.v_curve = curve_speed(self.road, float(self.s0_guess), ref.curve_a_lat, ref.curve_decel, bnd.v_max)
+
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
+        v_ref = self.v_curve if self.v_curve < v_ref else v_ref
         xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
         if self._fitter is None:   # per opponent its pose at stage k, then its shape
             n = self.ocp.problem.opponents.count
@@ -344,6 +353,7 @@ class RtiSolver:
         ocp, lay = self.ocp, self.lay
         w = np.zeros(lay.n)
         self.s0_guess = self.x0[0]
+        self._set_curve_speed()
         self.stage_params(0, self.x0[0])  # no road or x0 off it: ERR_ROAD_WINDOW before anything else
         s_last = last_window_s(self.road, ocp.road_params.samples)
         xf = cold_start_frenet(self.x0, list(ocp.problem.horizon.times), s_last)
@@ -377,6 +387,7 @@ class RtiSolver:
             w, y = self.w.copy(), self.y.copy()
         N = ocp.N
         self.s0_guess = w[lay.s_vars[0]]
+        self._set_curve_speed()
         P = np.stack([self.stage_params(k, w[lay.s_vars[k]]) for k in range(N + 1)], axis=1)
         Xn = np.stack([w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
         g, J, q = [], [], []

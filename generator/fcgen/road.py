@@ -241,6 +241,19 @@ class Road:
         return s, n, phi - phi_g
 
 
+def curve_speed(road: Road, s: float, a_lat: float, decel: float, v_max: float) -> float:
+    """The largest speed at ``s`` from which braking at ``decel`` reaches every sample ahead (from one ds behind) no
+    faster than ``sqrt(a_lat / |kappa|)``: ``sqrt(min(v_max^2, min_i a_lat / |kappa_i| + 2 decel max(s_i - s, 0)))``.
+
+    The generated C's ``curve_speed`` does the same operations in the same order (bit-equal in double)."""
+    ss = road.s0 + np.arange(len(road.kappa)) * road.ds
+    d = ss - s
+    k = np.abs(road.kappa)
+    use = (d >= -road.ds) & (k > 0.0)
+    v2 = a_lat / k[use] + (2.0 * decel) * np.maximum(d[use], 0.0)
+    return math.sqrt(min(v_max * v_max, float(np.min(v2, initial=math.inf))))
+
+
 def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
                 knot_spacing: float = 25.0, s0: float = 0.0) -> Road:
     """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max).

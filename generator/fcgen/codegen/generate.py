@@ -77,6 +77,15 @@ class GenerateInfo:
 
 # --- small helpers --------------------------------------------------------------------------------------------
 
+
+def _curve_speed_constants(problem: Problem) -> dict | None:
+    """The curve speed's literals (``fcgen.road.curve_speed``): a_lat, 2 decel, v_max^2; None when it is off."""
+    ref, v_max = problem.reference, problem.bounds.v_max
+    if ref.curve_a_lat <= 0.0:
+        return None
+    return {"a_lat": _c_real(ref.curve_a_lat), "two_decel": _c_real(2.0 * ref.curve_decel),
+            "v2_max": _c_real(v_max * v_max)}
+
 def _c_real(x: float) -> str:
     """An exact C double literal (shortest round-trip repr)."""
     x = float(x)
@@ -316,7 +325,8 @@ FIRST_STATE_MEMBER = "w"
 
 
 def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
-                      opp_dim: int, fit: dict | None = None, n_band: int = 0) -> tuple[list[dict[str, Any]], int]:
+                      opp_dim: int, fit: dict | None = None, n_band: int = 0,
+                      curve: bool = False) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
     R, I, P = (real_size, real_size), (4, 4), (8, 8)
@@ -356,6 +366,8 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
     ]
+    if curve:  # the reference speed's cap at the plan's start (Reference.curve_a_lat)
+        members += [("NAME_real_t", "v_curve", [], R)]
     if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
         members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
                     ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
@@ -471,7 +483,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     stages = stage_table(ocp, lay)
 
     fit = fit_context(ocp)
-    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows))
+    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows),
+                                             curve=_curve_speed_constants(problem) is not None)
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
                    + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
@@ -514,6 +527,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
+        "curve": _curve_speed_constants(problem),
         "dt": _c_real(problem.horizon.interval),
         "p_dt": ocp.p_dt,
         "stage_offsets": _c_macro_list(problem.horizon.offsets),

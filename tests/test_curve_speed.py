@@ -1,0 +1,101 @@
+"""The curve speed (``Reference.curve_a_lat``, ``fcgen.road.curve_speed``): the reference speed capped so that the ego,
+braking at ``curve_decel``, takes every bend ahead with at most ``curve_a_lat`` on the centre line.
+
+Independent expectations: the cap worked out by hand on a road of one constant bend; the same cap in the QP's cost
+vector (q = -Q x_ref) of the generated C and of the Python reference; and a closed loop of the campaign that, without
+the cap, drives into a bend too fast for the a_lat bound (measured on the safe grid of stop 36: 7.3 m/s^2 above it).
+"""
+from __future__ import annotations
+
+import math
+import shutil
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fcgen.build import CSolver, build
+from fcgen.codegen.generate import generate
+from fcgen.ocp import build_ocp
+from fcgen.presets import preset
+from fcgen.reference import RtiSolver
+from fcgen.road import Road, curve_speed, straight_road
+from fcgen.sim.closedloop import run_closed_loop
+from fcgen.sim.scenario import make_scenario
+from fcgen.verify import TOL_QP_DATA, rel_diff
+
+needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+
+# straight to s = 100 m, then a constant left bend of radius 25 m (kappa 0.04), sampled every 2 m
+S = np.arange(-20.0, 802.0, 2.0)
+BEND = Road.from_curvature(np.where(S >= 100.0, 0.04, 0.0), 2.0, s0=-20.0)
+
+
+def test_curve_speed_by_hand():
+    a, dec = 8.0, 7.0
+    # 40 m before the bend: the bend's first sample is the binding one, v^2 = a / kappa + 2 dec d = 200 + 14 * 40
+    assert curve_speed(BEND, 60.0, a, dec, 40.0) == pytest.approx(math.sqrt(200.0 + 14.0 * 40.0), rel=1e-15)
+    # in the bend: sqrt(a / kappa) = sqrt(200) = 14.1 m/s; one ds past its start too (the sample behind counts)
+    assert curve_speed(BEND, 150.0, a, dec, 40.0) == pytest.approx(math.sqrt(200.0), rel=1e-15)
+    assert curve_speed(BEND, 101.0, a, dec, 40.0) == pytest.approx(math.sqrt(200.0), rel=1e-15)
+    # 100 m before it: 200 + 1400 = 1600, exactly v_max^2: the cap is v_max, and so is a straight road's
+    assert curve_speed(BEND, 0.0, a, dec, 40.0) == 40.0
+    assert curve_speed(straight_road(400.0), 0.0, a, dec, 40.0) == 40.0
+    # a gentler deceleration brakes earlier: 100 m before the bend at 3 m/s^2, sqrt(200 + 600) = 28.3 m/s
+    assert curve_speed(BEND, 0.0, a, 3.0, 40.0) == pytest.approx(math.sqrt(800.0), rel=1e-15)
+
+
+def _prepared(pb, x0):
+    ocp = build_ocp(pb)
+    road = BEND.window(-10.0, ocp.road_params.samples + 100)
+    pose = np.array([road.to_cartesian(s, 6.0, 0.0) for s in (300.0, 320.0, 340.0)][:pb.opponents.count])
+    opp = np.tile(pose, (ocp.N + 1, 1, 1))
+    sv = RtiSolver(ocp)
+    sv.set_road(road)
+    sv.set_opponents(opp)
+    sv.set_state(np.asarray(x0, dtype=float))
+    sv.prepare()
+    return ocp, sv, road, opp
+
+
+@needs_cc
+def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
+    """Ego at 30 m/s 60 m before the bend: the reference asks sqrt(200 + 14 * 60) = 32.2 m/s on every stage (the problem's
+    v_ref 40 without the cap), and the C's QP cost vector equals the reference's (which holds it through -Q x_ref)."""
+    pb = preset("car_direct_elimination_ellipse_safe")
+    x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
+    ocp, sv, road, opp = _prepared(pb, x0)
+    v_cap = curve_speed(road, 40.0, pb.reference.curve_a_lat, pb.reference.curve_decel, pb.bounds.v_max)
+    assert v_cap == pytest.approx(math.sqrt(8.0 / 0.04 + 14.0 * 60.0), rel=1e-12) and v_cap < pb.reference.v_ref
+    ref = sv.P[:, ocp.p_ref]
+    assert np.all(ref[:, 3] == v_cap)                                   # v_ref,k
+    assert np.allclose(ref[:, 0] - 40.0, np.asarray(pb.horizon.times) * v_cap, rtol=0, atol=1e-12)  # s_ref,k
+    _, off, *_ = _prepared(pb.with_(reference=replace(pb.reference, curve_a_lat=0.0)), x0)
+    assert np.all(off.P[:, ocp.p_ref][:, 3] == pb.reference.v_ref)     # off: the paper's reference
+    generate(pb, tmp_path / "c")
+    cs = CSolver(build(tmp_path / "c", verify=True))
+    assert cs.init() == 0
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
+    assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
+    assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2            # and the cap is what made q what it is
+
+
+@needs_cc
+def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_path):
+    """Car, direct elimination, ellipse, IPM, campaign seed 289: with the paper's reference (40 m/s into every bend) the
+    safe profile's closed loop accelerates towards a bend it then takes 7.3 m/s^2 above the bound (stop 36's grid);
+    with the curve speed it keeps |a_lat| within the bound and 5.05 m/s^2 (the campaign's threshold) on all 200 samples."""
+    pb = preset("car_direct_elimination_ellipse_ipm_safe")
+    out = {}
+    for tag, ref in (("on", pb.reference), ("off", replace(pb.reference, curve_a_lat=0.0))):
+        p = pb.with_(name=f"cs_{tag}", reference=ref)
+        generate(p, tmp_path / tag)
+        cs = CSolver(build(tmp_path / tag))
+        assert cs.init() == 0
+        sc = make_scenario("car", 289, n_opp=p.opponents.count, samples=200, dt=p.horizon.dt)
+        log = run_closed_loop(p, sc, controller=cs)
+        assert not log.collision.any(), tag
+        out[tag] = float(np.max(np.abs(log.a_lat)))
+    assert out["on"] <= 5.05, out
+    assert out["off"] > 5.55, out
