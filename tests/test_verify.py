@@ -15,7 +15,7 @@ from fcgen.codegen.generate import generate
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver
-from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, _same_minimiser, TOL_SOLUTION, infer_scenario, rel_diff, verify
+from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, _clearance_diff, _same_minimiser, TOL_SOLUTION, infer_scenario, rel_diff, verify
 from test_guess import BEND
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
@@ -243,3 +243,14 @@ def test_the_plan_checks_stage_may_differ_only_where_two_stages_tie_to_rounding(
     assert not _same_minimiser(3, 1, per_stage, 1e-8)
     assert not _same_minimiser(4, 1, per_stage, 1e-8)
     assert not _same_minimiser(-1, 1, per_stage, 1e-8)
+
+
+def test_the_clearance_is_compared_at_the_scale_of_the_plans_positions():
+    """A clearance is a length built from the plan's positions, which verify compares relative to the plan's largest
+    state (the arc length s): 4e-5 m on a plan reaching s = 400 m is 1e-7 of it, at the tolerance's edge, where relative
+    to the clearance (0.5 m) alone it was 8e-5; a short plan (s below 1 m) falls back to max(1, |clearance|)."""
+    plan = np.zeros((41, 5))
+    plan[:, 0] = np.linspace(0.0, 400.0, 41)
+    assert _clearance_diff(0.5 + 4e-5, 0.5, plan) == pytest.approx(1e-7, rel=1e-9)
+    assert _clearance_diff(0.5 + 4e-5, 0.5, plan * 1e-3) == pytest.approx(4e-5, rel=1e-9)
+    assert _clearance_diff(np.inf, np.inf, plan) == 0.0 and _clearance_diff(np.inf, 0.5, plan) == np.inf
