@@ -267,8 +267,9 @@ class SoftPenalties:
     so a slack is used (almost) only where the hard problem is infeasible; there obstacle / a_lat = 1000 decides: a_lat
     gives way (the other order, a_lat 3e8, kept the bound but had 114 instead of 12 colliding runs on the full grid;
     obstacle / a_lat = 100 left an obstacle slack of 0.5 m cheaper than the swerve that avoids it). With the
-    conventional formulation use ``obstacle_l1=1e8`` (its safe presets do, ``presets.SAFE_SOFT_CONVENTIONAL``): its
-    fitted boxes leave QPs without a hard solution that 1e9 conditions too badly for the IPM. The paper's
+    conventional formulation use ``obstacle_l1=1e8, a_lat_l1=3e8`` (its safe presets do,
+    ``presets.SAFE_SOFT_CONVENTIONAL``): its fitted boxes leave QPs without a hard solution that 1e9 conditions too
+    badly for the IPM, and there the over-approximated box should give way, not a_lat. The paper's
     presets keep ``PAPER_SOFT`` (obstacle 1e7 / 1e6, a_lat 1e5 / 1e4: the a_lat row is then a cost, exceeded in 40-56 %
     of the samples). ``SoftPenalties(obstacle_l1=1e6, obstacle_l2=1e5)``: the acados
     benchmark's values.
