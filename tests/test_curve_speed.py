@@ -18,11 +18,11 @@ from fcgen.build import CSolver, build
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
-from fcgen.reference import RtiSolver
 from fcgen.road import Road, curve_speed, straight_road
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.scenario import make_scenario
 from fcgen.verify import TOL_QP_DATA, rel_diff
+from test_guess import solver_at
 
 needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -46,16 +46,12 @@ def test_curve_speed_by_hand():
 
 
 def _prepared(pb, x0):
+    """The reference prepared at x0 on BEND, the opponents well ahead (test_guess.solver_at)."""
     ocp = build_ocp(pb)
     road = BEND.window(-10.0, ocp.road_params.samples + 100)
-    pose = np.array([road.to_cartesian(s, 6.0, 0.0) for s in (300.0, 320.0, 340.0)][:pb.opponents.count])
-    opp = np.tile(pose, (ocp.N + 1, 1, 1))
-    sv = RtiSolver(ocp)
-    sv.set_road(road)
-    sv.set_opponents(opp)
-    sv.set_state(np.asarray(x0, dtype=float))
+    sv = solver_at(ocp, road, np.asarray(x0, dtype=float), n_opp_s=(300.0, 320.0, 340.0))
     sv.prepare()
-    return ocp, sv, road, opp
+    return ocp, sv, road, sv.opp.reshape(ocp.N + 1, -1, 3)
 
 
 @needs_cc
