@@ -483,8 +483,9 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     stages = stage_table(ocp, lay)
 
     fit = fit_context(ocp)
+    curve = _curve_speed_constants(problem)
     ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows),
-                                             curve=_curve_speed_constants(problem) is not None)
+                                             curve=curve is not None)
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
                    + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
@@ -527,7 +528,7 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
         "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "curve": _curve_speed_constants(problem),
+        "curve": curve,
         "dt": _c_real(problem.horizon.interval),
         "p_dt": ocp.p_dt,
         "stage_offsets": _c_macro_list(problem.horizon.offsets),
