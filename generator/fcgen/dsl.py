@@ -204,12 +204,19 @@ class Reference:
     every road sample ahead no faster than ``sqrt(curve_a_lat / |kappa|)``, so that following the centre line needs
     at most ``curve_a_lat``. Without it the reference asks for 40 m/s into a hairpin, and the plan accelerates towards
     a bend and then pays the a_lat slack or brakes into trouble (docs/safe_profile.md "The curve speed").
+
+    ``curve_a_lat`` above the a_lat bound counts on a line straighter than the centre line across the road's width;
+    with traffic near the plan (the last plan check's clearance to an opponent below ``curve_traffic_clearance``)
+    that line may not be free, and the cap uses ``curve_a_lat_traffic`` instead (``curve_traffic_clearance = 0``:
+    never; docs/safe_profile.md "The curve speed in traffic").
     """
 
     v_ref: float = 40.0
     n_ref: float = 0.0
     curve_a_lat: float = 8.0
     curve_decel: float = 7.0
+    curve_a_lat_traffic: float = 5.0
+    curve_traffic_clearance: float = 6.0
 
     def __post_init__(self) -> None:
         _nonneg("reference.v_ref", self.v_ref)
@@ -218,6 +225,10 @@ class Reference:
                self.curve_a_lat, "[0, 50] m/s^2 (0: no curve speed)")
         _check(0 < _finite("reference.curve_decel", self.curve_decel) <= 50, "reference.curve_decel",
                self.curve_decel, "(0, 50] m/s^2")
+        _check(0 < _finite("reference.curve_a_lat_traffic", self.curve_a_lat_traffic) <= 50,
+               "reference.curve_a_lat_traffic", self.curve_a_lat_traffic, "(0, 50] m/s^2")
+        _check(0 <= _finite("reference.curve_traffic_clearance", self.curve_traffic_clearance) <= 100,
+               "reference.curve_traffic_clearance", self.curve_traffic_clearance, "[0, 100] m (0: never)")
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,10 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
                                    "reaches every road sample ahead no faster than sqrt(curve_a_lat / abs(kappa)) "
                                    "(0: off, the paper's presets)"),
     ("Reference", "curve_decel"): ("m/s^2", "(0, 50]", "the curve speed's deceleration"),
+    ("Reference", "curve_a_lat_traffic"): ("m/s^2", "(0, 50]", "the curve speed's lateral acceleration with traffic "
+                                           "near the plan (instead of curve_a_lat)"),
+    ("Reference", "curve_traffic_clearance"): ("m", "[0, 100]", "traffic near the plan: the last plan check's "
+                                               "clearance to an opponent below this (0: never)"),
     ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
     ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
     ("Bounds", "delta_max"): ("rad", "> 0", "|delta| bound (steering angle)"),

@@ -303,11 +303,14 @@ class RtiSolver:
         return self.ocp.road_params.pack(road, i0)
 
     def _set_curve_speed(self) -> None:
-        """The reference speed's cap at the plan's start (``Reference.curve_a_lat``; inf when off or without a road)."""
+        """The reference speed's cap at the plan's start (``Reference.curve_a_lat``; inf when off or without a road);
+        with traffic near the plan (the last plan check's clearance) at ``curve_a_lat_traffic``."""
         ref, bnd = self.ocp.problem.reference, self.ocp.problem.bounds
         self.v_curve = math.inf
         if ref.curve_a_lat > 0.0 and self.road is not None:
-            self.v_curve = curve_speed(self.road, float(self.s0_guess), ref.curve_a_lat, ref.curve_decel, bnd.v_max)
+            traffic = ref.curve_traffic_clearance > 0.0 and self.status.plan_clearance < ref.curve_traffic_clearance
+            a_lat = ref.curve_a_lat_traffic if traffic else ref.curve_a_lat
+            self.v_curve = curve_speed(self.road, float(self.s0_guess), a_lat, ref.curve_decel, bnd.v_max)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem

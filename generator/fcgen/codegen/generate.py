@@ -79,12 +79,15 @@ class GenerateInfo:
 
 
 def _curve_speed_constants(problem: Problem) -> dict | None:
-    """The curve speed's literals (``fcgen.road.curve_speed``): a_lat, 2 decel, v_max^2; None when it is off."""
+    """The curve speed's literals (``fcgen.road.curve_speed``): a_lat, its value in traffic (a_lat when that is off)
+    and the clearance that means traffic, 2 decel, v_max^2; None when it is off."""
     ref, v_max = problem.reference, problem.bounds.v_max
     if ref.curve_a_lat <= 0.0:
         return None
+    traffic = ref.curve_traffic_clearance > 0.0
     return {"a_lat": _c_real(ref.curve_a_lat), "two_decel": _c_real(2.0 * ref.curve_decel),
-            "v2_max": _c_real(v_max * v_max)}
+            "a_lat_traffic": _c_real(ref.curve_a_lat_traffic if traffic else ref.curve_a_lat),
+            "traffic_clearance": _c_real(ref.curve_traffic_clearance), "v2_max": _c_real(v_max * v_max)}
 
 def _c_real(x: float) -> str:
     """An exact C double literal (shortest round-trip repr)."""
