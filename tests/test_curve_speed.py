@@ -3,7 +3,10 @@ braking at ``curve_decel``, takes every bend ahead with at most ``curve_a_lat`` 
 
 Independent expectations: the cap worked out by hand on a road of one constant bend; the same cap in the QP's cost
 vector (q = -Q x_ref) of the generated C and of the Python reference; and a closed loop of the campaign that, without
-the cap, drives into a bend too fast for the a_lat bound (measured on the safe grid of stop 36: 7.3 m/s^2 above it).
+the cap, drives into a bend too fast for the a_lat bound (measured on the safe grid of stop 36: 7.3 m/s^2 above it);
+the rule for traffic (``curve_a_lat_traffic`` where the last plan check's clearance is below
+``curve_traffic_clearance``) by hand in Python and C, and on a closed loop of the safe grid where a truck ahead blocks
+the line across a bend (stop 37's grid: 2.03 m/s^2 above the bound without the rule).
 """
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ import numpy as np
 import pytest
 
 from fcgen.build import CSolver, build
+from fcgen.campaign.grid import Config
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
@@ -45,29 +49,38 @@ def test_curve_speed_by_hand():
     assert curve_speed(BEND, 0.0, a, 3.0, 40.0) == pytest.approx(math.sqrt(800.0), rel=1e-15)
 
 
-def _prepared(pb, x0):
-    """The reference prepared at x0 on BEND, the opponents well ahead (test_guess.solver_at)."""
+def _prepared(pb, x0, n_opp_s=(300.0, 320.0, 340.0)):
+    """The reference prepared at x0 on BEND, the opponents at n = 3 m and n_opp_s (test_guess.solver_at)."""
     ocp = build_ocp(pb)
     road = BEND.window(-10.0, ocp.road_params.samples + 100)
-    sv = solver_at(ocp, road, np.asarray(x0, dtype=float), n_opp_s=(300.0, 320.0, 340.0))
+    sv = solver_at(ocp, road, np.asarray(x0, dtype=float), n_opp_s=n_opp_s)
     sv.prepare()
     return ocp, sv, road, sv.opp.reshape(ocp.N + 1, -1, 3)
 
 
+def _v_ref(ocp, sv) -> np.ndarray:
+    """The prepared stages' reference speeds (v_ref,k of the stage parameters)."""
+    return sv.P[:, ocp.p_ref][:, 3]
+
+
 @needs_cc
 def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
-    """Ego at 30 m/s 60 m before the bend: the reference asks sqrt(200 + 14 * 60) = 32.2 m/s on every stage (the problem's
-    v_ref 40 without the cap), and the C's QP cost vector equals the reference's (which holds it through -Q x_ref)."""
+    """Ego at 30 m/s 60 m before the bend, the opponents 260 m ahead. The first prepare has no plan check behind it and
+    counts on traffic: v = sqrt(6.5 / 0.04 + 14 * 60) = 31.7 m/s on every stage. After a feedback whose plan stays far
+    from every opponent (clearance > 6 m) the next prepare, at the shifted plan's s0, uses curve_a_lat:
+    sqrt(8 / 0.04 + 14 (100 - s0)). Without the cap: the problem's v_ref 40. The C's QP cost vector (which holds the
+    reference through -Q x_ref) equals the reference's at both."""
     pb = preset("car_direct_elimination_ellipse_safe")
     x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
     ocp, sv, road, opp = _prepared(pb, x0)
-    v_cap = curve_speed(road, 40.0, pb.reference.curve_a_lat, pb.reference.curve_decel, pb.bounds.v_max)
-    assert v_cap == pytest.approx(math.sqrt(8.0 / 0.04 + 14.0 * 60.0), rel=1e-12) and v_cap < pb.reference.v_ref
+    assert sv.status.plan_clearance == 0.0                              # no plan checked yet: traffic assumed
+    v_cap = curve_speed(road, 40.0, pb.reference.curve_a_lat_traffic, pb.reference.curve_decel, pb.bounds.v_max)
+    assert v_cap == pytest.approx(math.sqrt(6.5 / 0.04 + 14.0 * 60.0), rel=1e-12) and v_cap < pb.reference.v_ref
+    assert np.all(_v_ref(ocp, sv) == v_cap)                             # v_ref,k
     ref = sv.P[:, ocp.p_ref]
-    assert np.all(ref[:, 3] == v_cap)                                   # v_ref,k
     assert np.allclose(ref[:, 0] - 40.0, np.asarray(pb.horizon.times) * v_cap, rtol=0, atol=1e-12)  # s_ref,k
     _, off, *_ = _prepared(pb.with_(reference=replace(pb.reference, curve_a_lat=0.0)), x0)
-    assert np.all(off.P[:, ocp.p_ref][:, 3] == pb.reference.v_ref)     # off: the paper's reference
+    assert np.all(_v_ref(ocp, off) == pb.reference.v_ref)               # off: the paper's reference
     generate(pb, tmp_path / "c")
     cs = CSolver(build(tmp_path / "c", verify=True))
     assert cs.init() == 0
@@ -75,6 +88,50 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     assert cs.prepare() == 0
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
     assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2            # and the cap is what made q what it is
+    # one sample on: the plan check found no traffic, the cap is curve_a_lat's at the shifted plan's start
+    sv.feedback()
+    assert cs.feedback() == 0
+    assert sv.status.plan_clearance > pb.reference.curve_traffic_clearance
+    assert cs.status().plan_clearance == pytest.approx(sv.status.plan_clearance, rel=1e-9)
+    x1 = np.array(sv.states()[1][:5])
+    sv.set_state(x1)
+    sv.prepare()
+    assert cs.set_state(x1) == 0 and cs.prepare() == 0
+    s0 = float(sv.s0_guess)
+    assert 40.0 < s0 < 45.0
+    v8 = math.sqrt(8.0 / 0.04 + 14.0 * (100.0 - s0))
+    assert np.all(_v_ref(ocp, sv) == pytest.approx(v8, rel=1e-12))
+    assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
+
+
+@needs_cc
+def test_traffic_near_the_plan_caps_at_curve_a_lat_traffic(tmp_path):
+    """The same start with an opponent 2.5 m beside the ego's lane 20 m ahead (n = 3 m, the ego at 0.5): the plan check
+    measures it within 6 m of the plan, and the next prepare keeps curve_a_lat_traffic; with
+    curve_traffic_clearance = 0 (never) it uses curve_a_lat. The C equals the reference in both."""
+    pb = preset("car_direct_elimination_ellipse_safe")
+    x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
+    for tag, ref in (("on", pb.reference), ("never", replace(pb.reference, curve_traffic_clearance=0.0))):
+        p = pb.with_(name=f"tr_{tag}", reference=ref)
+        ocp, sv, road, opp = _prepared(p, x0, n_opp_s=(60.0, 320.0, 340.0))
+        generate(p, tmp_path / tag)
+        cs = CSolver(build(tmp_path / tag, verify=True))
+        assert cs.init() == 0
+        assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
+        assert cs.prepare() == 0 and cs.feedback() == 0
+        sv.feedback()
+        clr = sv.status.plan_clearance
+        assert 0.0 < clr < 6.0, clr                                    # near the plan, not touching it
+        assert cs.status().plan_clearance == pytest.approx(clr, rel=1e-9)
+        x1 = np.array(sv.states()[1][:5])
+        sv.set_state(x1)
+        sv.prepare()
+        assert cs.set_state(x1) == 0 and cs.prepare() == 0
+        a = 6.5 if tag == "on" else 8.0
+        s0 = float(sv.s0_guess)
+        v = math.sqrt(a / 0.04 + 14.0 * (100.0 - s0))
+        assert np.all(_v_ref(ocp, sv) == pytest.approx(v, rel=1e-12)), tag
+        assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 
 @needs_cc
@@ -95,3 +152,25 @@ def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_
         out[tag] = float(np.max(np.abs(log.a_lat)))
     assert out["on"] <= 5.05, out
     assert out["off"] > 5.55, out
+
+
+@needs_cc
+def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_the_bend(tmp_path):
+    """Truck scenario, direct elimination, 5 covering circles, IPM, campaign seed 282: the ego, on the outer edge of a
+    right bend with one truck 27 m ahead in the middle of the road and one behind, cannot take the line across the bend
+    that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its |a_lat| reaches 7.0 m/s^2 (stop 37's
+    grid: 2.03 above the bound); with it (the truck within 6 m of the plan: 6.5 m/s^2 on the centre line) at most
+    5.05."""
+    pb = Config("truck", "direct_elimination", "circles", 5, backend="ipm", profile="safe").problem()   # the grid's
+    out = {}
+    for tag, ref in (("on", pb.reference), ("never", replace(pb.reference, curve_traffic_clearance=0.0))):
+        p = pb.with_(name=f"ct_{tag}", reference=ref)
+        generate(p, tmp_path / tag)
+        cs = CSolver(build(tmp_path / tag))
+        assert cs.init() == 0
+        sc = make_scenario("truck", 282, n_opp=p.opponents.count, samples=200, dt=p.horizon.dt)
+        log = run_closed_loop(p, sc, controller=cs)
+        assert not log.collision.any(), tag
+        out[tag] = float(np.max(np.abs(log.a_lat)))
+    assert out["on"] <= 5.05, out
+    assert out["never"] > 6.5, out

@@ -215,7 +215,7 @@ class Reference:
     n_ref: float = 0.0
     curve_a_lat: float = 8.0
     curve_decel: float = 7.0
-    curve_a_lat_traffic: float = 5.0
+    curve_a_lat_traffic: float = 6.5
     curve_traffic_clearance: float = 6.0
 
     def __post_init__(self) -> None:
