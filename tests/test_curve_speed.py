@@ -134,22 +134,29 @@ def test_traffic_near_the_plan_caps_at_curve_a_lat_traffic(tmp_path):
         assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 
+def _max_abs_a_lat(tmp_path, scenario: str, seed: int, pb, **references) -> dict[str, float]:
+    """The campaign's closed loop of ``seed`` in C with ``pb`` ("on") and with each of ``references`` instead of its
+    reference: the largest |a_lat| of each (none of them may collide)."""
+    out = {}
+    for tag, ref in (("on", pb.reference), *references.items()):
+        p = pb.with_(name=f"cs_{tag}", reference=ref)
+        generate(p, tmp_path / tag)
+        cs = CSolver(build(tmp_path / tag))
+        assert cs.init() == 0
+        sc = make_scenario(scenario, seed, n_opp=p.opponents.count, samples=200, dt=p.horizon.dt)
+        log = run_closed_loop(p, sc, controller=cs)
+        assert not log.collision.any(), tag
+        out[tag] = float(np.max(np.abs(log.a_lat)))
+    return out
+
+
 @needs_cc
 def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_path):
     """Car, direct elimination, ellipse, IPM, campaign seed 289: with the paper's reference (40 m/s into every bend) the
     safe profile's closed loop accelerates towards a bend it then takes 7.3 m/s^2 above the bound (stop 36's grid);
     with the curve speed it keeps |a_lat| within the bound and 5.05 m/s^2 (the campaign's threshold) on all 200 samples."""
     pb = preset("car_direct_elimination_ellipse_ipm_safe")
-    out = {}
-    for tag, ref in (("on", pb.reference), ("off", replace(pb.reference, curve_a_lat=0.0))):
-        p = pb.with_(name=f"cs_{tag}", reference=ref)
-        generate(p, tmp_path / tag)
-        cs = CSolver(build(tmp_path / tag))
-        assert cs.init() == 0
-        sc = make_scenario("car", 289, n_opp=p.opponents.count, samples=200, dt=p.horizon.dt)
-        log = run_closed_loop(p, sc, controller=cs)
-        assert not log.collision.any(), tag
-        out[tag] = float(np.max(np.abs(log.a_lat)))
+    out = _max_abs_a_lat(tmp_path, "car", 289, pb, off=replace(pb.reference, curve_a_lat=0.0))
     assert out["on"] <= 5.05, out
     assert out["off"] > 5.55, out
 
@@ -162,15 +169,6 @@ def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_th
     grid: 2.03 above the bound); with it (the truck within 6 m of the plan: 6.5 m/s^2 on the centre line) at most
     5.05."""
     pb = Config("truck", "direct_elimination", "circles", 5, backend="ipm", profile="safe").problem()   # the grid's
-    out = {}
-    for tag, ref in (("on", pb.reference), ("never", replace(pb.reference, curve_traffic_clearance=0.0))):
-        p = pb.with_(name=f"ct_{tag}", reference=ref)
-        generate(p, tmp_path / tag)
-        cs = CSolver(build(tmp_path / tag))
-        assert cs.init() == 0
-        sc = make_scenario("truck", 282, n_opp=p.opponents.count, samples=200, dt=p.horizon.dt)
-        log = run_closed_loop(p, sc, controller=cs)
-        assert not log.collision.any(), tag
-        out[tag] = float(np.max(np.abs(log.a_lat)))
+    out = _max_abs_a_lat(tmp_path, "truck", 282, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
     assert out["on"] <= 5.05, out
     assert out["never"] > 6.5, out
