@@ -97,11 +97,11 @@ def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circl
                         plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False),
                         bounds=replace(pb.bounds, a_lat_margin=PAPER_A_LAT_MARGIN),
                         reference=replace(pb.reference, curve_a_lat=PAPER_CURVE_A_LAT))
+    ref = safe_reference(pb.formulation)   # its curve speed; the speed and lateral offset stay pb's
     return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=safe_soft(pb.formulation),
                     plan_check=PlanCheck(), qp=replace(pb.qp, ipm_scaled_start=True),
                     bounds=replace(pb.bounds, a_lat_margin=Bounds().a_lat_margin),
-                    reference=replace(pb.reference, curve_a_lat=Reference().curve_a_lat,
-                                      curve_traffic_clearance=safe_reference(pb.formulation).curve_traffic_clearance))
+                    reference=replace(ref, v_ref=pb.reference.v_ref, n_ref=pb.reference.n_ref))
 
 
 def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
