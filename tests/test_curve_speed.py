@@ -1,12 +1,14 @@
 """The curve speed (``Reference.curve_a_lat``, ``fcgen.road.curve_speed``): the reference speed capped so that the ego,
-braking at ``curve_decel``, takes every bend ahead with at most ``curve_a_lat`` on the centre line.
+braking at ``curve_decel``, takes every bend ahead with at most ``curve_a_lat`` on the centre line; per node of the
+horizon at the node's own s (``fcgen.road.curve_reference``), so that the reference itself brakes for a bend.
 
-Independent expectations: the cap worked out by hand on a road of one constant bend; the same cap in the QP's cost
-vector (q = -Q x_ref) of the generated C and of the Python reference; and a closed loop of the campaign that, without
+Independent expectations: the cap worked out by hand on a road of one constant bend, and the reference along the
+horizon by the same closed form stepped node by node; the same reference in the QP's cost vector (q = -Q x_ref) of
+the generated C and of the Python reference; and a closed loop of the campaign that, without
 the cap, drives into a bend too fast for the a_lat bound (measured on the safe grid of stop 36: 7.3 m/s^2 above it);
 the rule for traffic (``curve_a_lat_traffic`` where the last plan check's clearance is below
-``curve_traffic_clearance``) by hand in Python and C, and on a closed loop of the safe grid where a truck ahead blocks
-the line across a bend (stop 37's grid: 2.03 m/s^2 above the bound without the rule).
+``curve_traffic_clearance``) by hand in Python and C, and on a closed loop of the safe grid where trucks near the
+plan block the line across a bend (a grid without the rule, stop 39: 5.2 m/s^2 above the bound).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from fcgen.campaign.grid import Config
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
-from fcgen.road import Road, curve_speed, straight_road
+from fcgen.road import Road, curve_reference, curve_speed, straight_road
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.scenario import make_scenario
 from fcgen.verify import TOL_QP_DATA, rel_diff
@@ -49,6 +51,33 @@ def test_curve_speed_by_hand():
     assert curve_speed(BEND, 0.0, a, 3.0, 40.0) == pytest.approx(math.sqrt(800.0), rel=1e-15)
 
 
+def _by_hand(s0: float, a: float, times, v_set: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+    """The reference along the horizon on BEND, by the closed form: v(s) = sqrt(min(40^2, a / 0.04 + 14 max(100 - s,
+    0))) (the bend's first sample binds before it, any of its samples in it), s stepped at the node's speed."""
+    s, v, ss, vs = s0, 0.0, [], []
+    for k, t in enumerate(times):
+        if k:
+            s += (t - times[k - 1]) * v
+        v = min(v_set, math.sqrt(min(1600.0, a / 0.04 + 14.0 * max(100.0 - s, 0.0))))
+        ss.append(s)
+        vs.append(v)
+    return np.array(ss), np.array(vs)
+
+
+def test_curve_reference_brakes_along_the_horizon_by_hand():
+    """From s = 40 at 30 m/s: the nodes' speeds fall from sqrt(8 / 0.04 + 14 * 60) = 32.2 m/s towards the bend's
+    sqrt(200) = 14.1 m/s, and each node lies where the one before's speed took it. v_set below the cap wins."""
+    times = [0.1 * k for k in range(41)]
+    s_ref, v_ref = curve_reference(BEND, 40.0, times, 40.0, 8.0, 7.0, 40.0)
+    hs, hv = _by_hand(40.0, 8.0, times)
+    assert np.allclose(s_ref, hs, rtol=1e-13, atol=0) and np.allclose(v_ref, hv, rtol=1e-13, atol=0)
+    assert v_ref[0] == pytest.approx(math.sqrt(200.0 + 14.0 * 60.0), rel=1e-15)
+    assert v_ref[-1] == pytest.approx(math.sqrt(200.0), rel=1e-15) and s_ref[-1] > 100.0   # in the bend by t = 4 s
+    assert np.all(np.diff(v_ref) <= 0.0) and np.all(np.diff(s_ref) > 0.0)
+    _, v_low = curve_reference(BEND, 40.0, times, 12.0, 8.0, 7.0, 40.0)
+    assert np.all(np.asarray(v_low) == 12.0)
+
+
 def _prepared(pb, x0, n_opp_s=(300.0, 320.0, 340.0)):
     """The reference prepared at x0 on BEND, the opponents at n = 3 m and n_opp_s (test_guess.solver_at)."""
     ocp = build_ocp(pb)
@@ -58,29 +87,36 @@ def _prepared(pb, x0, n_opp_s=(300.0, 320.0, 340.0)):
     return ocp, sv, road, sv.opp.reshape(ocp.N + 1, -1, 3)
 
 
-def _v_ref(ocp, sv) -> np.ndarray:
-    """The prepared stages' reference speeds (v_ref,k of the stage parameters)."""
-    return sv.P[:, ocp.p_ref][:, 3]
+def _ref(ocp, sv) -> tuple[np.ndarray, np.ndarray]:
+    """The prepared stages' reference (s_ref,k and v_ref,k of the stage parameters)."""
+    ref = sv.P[:, ocp.p_ref]
+    return ref[:, 0], ref[:, 3]
+
+
+def _assert_reference(ocp, sv, pb, a: float) -> None:
+    """The prepared reference is the closed form's from the prepared plan's start, with curve_a_lat = a."""
+    hs, hv = _by_hand(float(sv.s0_guess), a, list(pb.horizon.times))
+    s_ref, v_ref = _ref(ocp, sv)
+    assert np.allclose(s_ref, hs, rtol=1e-12, atol=0) and np.allclose(v_ref, hv, rtol=1e-12, atol=0)
 
 
 @needs_cc
 def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     """Ego at 30 m/s 60 m before the bend, the opponents 260 m ahead. The first prepare has no plan check behind it and
-    counts on traffic: v = sqrt(6.5 / 0.04 + 14 * 60) = 31.7 m/s on every stage. After a feedback whose plan stays far
-    from every opponent (clearance > 6 m) the next prepare, at the shifted plan's s0, uses curve_a_lat:
-    sqrt(8 / 0.04 + 14 (100 - s0)). Without the cap: the problem's v_ref 40. The C's QP cost vector (which holds the
-    reference through -Q x_ref) equals the reference's at both."""
+    counts on traffic: v_0 = sqrt(6.5 / 0.04 + 14 * 60) = 31.7 m/s, falling along the horizon to the bend's 12.7.
+    After a feedback whose plan stays far from every opponent (clearance > 6 m) the next prepare, at the shifted
+    plan's s0, uses curve_a_lat = 8. Without the cap: the problem's v_ref 40 on every node. The C's QP cost vector
+    (which holds the reference through -Q x_ref) equals the reference's at both."""
     pb = preset("car_direct_elimination_ellipse_safe")
     x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
     ocp, sv, road, opp = _prepared(pb, x0)
     assert sv.status.plan_clearance == 0.0                              # no plan checked yet: traffic assumed
     v_cap = curve_speed(road, 40.0, pb.reference.curve_a_lat_traffic, pb.reference.curve_decel, pb.bounds.v_max)
     assert v_cap == pytest.approx(math.sqrt(6.5 / 0.04 + 14.0 * 60.0), rel=1e-12) and v_cap < pb.reference.v_ref
-    assert np.all(_v_ref(ocp, sv) == v_cap)                             # v_ref,k
-    ref = sv.P[:, ocp.p_ref]
-    assert np.allclose(ref[:, 0] - 40.0, np.asarray(pb.horizon.times) * v_cap, rtol=0, atol=1e-12)  # s_ref,k
+    _assert_reference(ocp, sv, pb, 6.5)
+    assert _ref(ocp, sv)[1][0] == v_cap and _ref(ocp, sv)[1][-1] == pytest.approx(math.sqrt(162.5), rel=1e-12)
     _, off, *_ = _prepared(pb.with_(reference=replace(pb.reference, curve_a_lat=0.0)), x0)
-    assert np.all(_v_ref(ocp, off) == pb.reference.v_ref)               # off: the paper's reference
+    assert np.all(_ref(ocp, off)[1] == pb.reference.v_ref)               # off: the paper's reference
     generate(pb, tmp_path / "c")
     cs = CSolver(build(tmp_path / "c", verify=True))
     assert cs.init() == 0
@@ -88,7 +124,7 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     assert cs.prepare() == 0
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
     assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2            # and the cap is what made q what it is
-    # one sample on: the plan check found no traffic, the cap is curve_a_lat's at the shifted plan's start
+    # one sample on: the plan check found no traffic, the reference is curve_a_lat's from the shifted plan's start
     sv.feedback()
     assert cs.feedback() == 0
     assert sv.status.plan_clearance > pb.reference.curve_traffic_clearance
@@ -97,10 +133,8 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     sv.set_state(x1)
     sv.prepare()
     assert cs.set_state(x1) == 0 and cs.prepare() == 0
-    s0 = float(sv.s0_guess)
-    assert 40.0 < s0 < 45.0
-    v8 = math.sqrt(8.0 / 0.04 + 14.0 * (100.0 - s0))
-    assert np.all(_v_ref(ocp, sv) == pytest.approx(v8, rel=1e-12))
+    assert 40.0 < float(sv.s0_guess) < 45.0
+    _assert_reference(ocp, sv, pb, 8.0)
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 
@@ -127,10 +161,7 @@ def test_traffic_near_the_plan_caps_at_curve_a_lat_traffic(tmp_path):
         sv.set_state(x1)
         sv.prepare()
         assert cs.set_state(x1) == 0 and cs.prepare() == 0
-        a = 6.5 if tag == "on" else 8.0
-        s0 = float(sv.s0_guess)
-        v = math.sqrt(a / 0.04 + 14.0 * (100.0 - s0))
-        assert np.all(_v_ref(ocp, sv) == pytest.approx(v, rel=1e-12)), tag
+        _assert_reference(ocp, sv, p, 6.5 if tag == "on" else 8.0)
         assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 
@@ -163,12 +194,29 @@ def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_
 
 @needs_cc
 def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_the_bend(tmp_path):
-    """Truck scenario, direct elimination, 5 covering circles, IPM, campaign seed 282: the ego, on the outer edge of a
-    right bend with one truck 27 m ahead in the middle of the road and one behind, cannot take the line across the bend
-    that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its |a_lat| reaches 7.0 m/s^2 (stop 37's
-    grid: 2.03 above the bound); with it (the truck within 6 m of the plan: 6.5 m/s^2 on the centre line) at most
-    5.05."""
-    pb = Config("truck", "direct_elimination", "circles", 5, backend="ipm", profile="safe").problem()   # the grid's
-    out = _max_abs_a_lat(tmp_path, "truck", 282, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
+    """Truck scenario, direct elimination, 7 covering circles, IPM, campaign seed 20: with trucks near the plan the ego
+    cannot take the line across a bend that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its
+    |a_lat| reaches 10.2 m/s^2 (a safe grid without the rule, stop 39); with it (a truck within 6 m of the plan: 6.5
+    m/s^2 on the centre line) at most 5.05."""
+    pb = Config("truck", "direct_elimination", "circles", 7, backend="ipm", profile="safe").problem()   # the grid's
+    out = _max_abs_a_lat(tmp_path, "truck", 20, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
     assert out["on"] <= 5.05, out
     assert out["never"] > 6.5, out
+
+
+@needs_cc
+def test_the_reference_brakes_for_the_bend_along_the_horizon(tmp_path):
+    """Truck scenario, direct elimination, 5 covering circles, IPM, campaign seed 41: accelerating towards a left bend
+    behind a truck, the plan tracked one capped speed over its whole horizon (the cap at its start) and braked for the
+    bend through its a_lat rows, too late: 7.58 m/s^2 (stop 38's grid, the largest excess there). With the reference
+    capped at every node's own s it keeps 5.05 on all 200 samples, and drives no slower than 0.95 of that run's
+    progress (377.6 m)."""
+    pb = Config("truck", "direct_elimination", "circles", 5, backend="ipm", profile="safe").problem()   # the grid's
+    generate(pb, tmp_path / "c")
+    cs = CSolver(build(tmp_path / "c"))
+    assert cs.init() == 0
+    sc = make_scenario("truck", 41, n_opp=pb.opponents.count, samples=200, dt=pb.horizon.dt)
+    log = run_closed_loop(pb, sc, controller=cs)
+    assert not log.collision.any()
+    assert float(np.max(np.abs(log.a_lat))) <= 5.05
+    assert log.ego_frenet[-1, 0] - log.ego_frenet[0, 0] >= 0.95 * 377.6

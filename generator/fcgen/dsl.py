@@ -195,15 +195,19 @@ class Weights:
 
 @dataclass(frozen=True)
 class Reference:
-    """Tracking reference: s_ref,k = s0 + t_k v, v_ref,k = v, n_ref, alpha_ref = delta_ref = 0 (v: v_ref capped).
+    """Tracking reference per node k: s_ref,k, v_ref,k (v_ref, capped by the curve speed), n_ref, alpha = delta = 0.
 
-    t_k is node k's time (k dt on the paper's grid).
+    Without the curve speed s_ref,k = s0 + t_k v_ref and v_ref,k = v_ref; with it v_ref,k = min(v_ref, curve speed at
+    s_ref,k) and s_ref,k = s_ref,k-1 + (t_k - t_k-1) v_ref,k-1 (s_ref,0 = s0). t_k is node k's time (k dt on the
+    paper's grid).
 
-    ``v`` is ``v_ref`` capped by the **curve speed** of the road ahead (the safe profile's; ``curve_a_lat = 0`` turns
-    it off, as the paper's presets do): the largest speed from which the ego, decelerating at ``curve_decel``, reaches
-    every road sample ahead no faster than ``sqrt(curve_a_lat / |kappa|)``, so that following the centre line needs
-    at most ``curve_a_lat``. Without it the reference asks for 40 m/s into a hairpin, and the plan accelerates towards
-    a bend and then pays the a_lat slack or brakes into trouble (docs/safe_profile.md "The curve speed").
+    The **curve speed** of the road ahead (the safe profile's; ``curve_a_lat = 0`` turns it off, as the paper's
+    presets do) is the largest speed from which the ego, decelerating at ``curve_decel``, reaches every road sample
+    ahead no faster than ``sqrt(curve_a_lat / |kappa|)``, so that following the centre line needs at most
+    ``curve_a_lat``. Without it the reference asks for 40 m/s into a hairpin, and the plan accelerates towards a bend
+    and then pays the a_lat slack or brakes into trouble (docs/safe_profile.md "The curve speed"); taken at each
+    node's own s the reference itself brakes for the bend (docs/safe_profile.md "The curve reference along the
+    horizon").
 
     ``curve_a_lat`` above the a_lat bound counts on a line straighter than the centre line across the road's width;
     with traffic near the plan (the last plan check's clearance to an opponent below ``curve_traffic_clearance``)

@@ -59,9 +59,10 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Weights", "q"): ("-", "5 numbers >= 0", "stage weights of (s, n, alpha, v, delta), times dt"),
     ("Weights", "q_N"): ("-", "5 numbers >= 0", "terminal weights of (s, n, alpha, v, delta)"),
     ("Weights", "r"): ("-", "2 numbers >= 0", "input weights of (F_d, r), times dt"),
-    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on the paper's grid)"),
+    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on "
+                             "the paper's grid); with the curve speed capped per node"),
     ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
-    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref capped so that braking at curve_decel "
+    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref,k capped at s_ref,k so that braking at curve_decel "
                                    "reaches every road sample ahead no faster than sqrt(curve_a_lat / abs(kappa)) "
                                    "(0: off, the paper's presets)"),
     ("Reference", "curve_decel"): ("m/s^2", "(0, 50]", "the curve speed's deceleration"),

@@ -20,7 +20,7 @@ from .guess import cold_start_frenet, last_window_s
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
-from .road import Road, curve_speed
+from .road import Road, curve_reference
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
@@ -179,7 +179,7 @@ class RtiSolver:
         self.qp_opts = qp or ocp.problem.qp
         N = ocp.N
         hz = ocp.problem.horizon
-        self._times = hz.times                 # node k's time: s_ref,k = s0 + t_k v_ref
+        self._times = hz.times                 # node k's time: s_ref,k = s0 + t_k v_ref (no curve speed)
         self._stage_dt = ocp.stage_dt()        # a stage's interval (unequal grids)
         self._fun_first = ocp.first.fun
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
@@ -220,7 +220,7 @@ class RtiSolver:
         self.A_data = np.zeros(lay.nnz_A)
         self.z: np.ndarray | None = None
         self.s0_guess = 0.0
-        self.v_curve = math.inf   # the reference speed's cap (Reference.curve_a_lat), set with s0_guess
+        self.curve_ref: tuple[list[float], list[float]] | None = None   # (s_ref, v_ref) per node, with s0_guess
         self.u_applied = np.zeros(self.ocp.nu)
         self.stage_clearance = np.full(self.ocp.N + 1, math.inf)  # the plan check's, per stage (verify)
         self.qp.reset()
@@ -303,20 +303,26 @@ class RtiSolver:
         return self.ocp.road_params.pack(road, i0)
 
     def _set_curve_speed(self) -> None:
-        """The reference speed's cap at the plan's start (``Reference.curve_a_lat``; inf when off or without a road);
-        with traffic near the plan (the last plan check's clearance) at ``curve_a_lat_traffic``."""
-        ref, bnd = self.ocp.problem.reference, self.ocp.problem.bounds
-        self.v_curve = math.inf
+        """The reference along the horizon capped by the curve speed (``Reference.curve_a_lat``, ``road.curve_reference``;
+        None when off or without a road); with traffic near the plan (the last plan check's clearance) at
+        ``curve_a_lat_traffic``."""
+        pb = self.ocp.problem
+        ref, bnd = pb.reference, pb.bounds
+        self.curve_ref = None
         if ref.curve_a_lat > 0.0 and self.road is not None:
             traffic = ref.curve_traffic_clearance > 0.0 and self.status.plan_clearance < ref.curve_traffic_clearance
             a_lat = ref.curve_a_lat_traffic if traffic else ref.curve_a_lat
-            self.v_curve = curve_speed(self.road, float(self.s0_guess), a_lat, ref.curve_decel, bnd.v_max)
+            v_set = self.ref[0] if self.ref is not None else ref.v_ref
+            self.curve_ref = curve_reference(self.road, float(self.s0_guess), self._times, v_set, a_lat,
+                                             ref.curve_decel, bnd.v_max)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
-        v_ref = self.v_curve if self.v_curve < v_ref else v_ref
-        xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
+        if self.curve_ref is not None:
+            xref = [self.curve_ref[0][k], n_ref, 0.0, self.curve_ref[1][k], 0.0]
+        else:
+            xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
         if self._fitter is None:   # per opponent its pose at stage k, then its shape
             n = self.ocp.problem.opponents.count
             opp = np.concatenate([self.opp[k].reshape(n, -1), self.opp_shape], axis=1).ravel()

@@ -254,6 +254,27 @@ def curve_speed(road: Road, s: float, a_lat: float, decel: float, v_max: float) 
     return math.sqrt(min(v_max * v_max, float(np.min(v2, initial=math.inf))))
 
 
+def curve_reference(road: Road, s0: float, times: Sequence[float], v_set: float, a_lat: float, decel: float,
+                    v_max: float) -> tuple[list[float], list[float]]:
+    """The reference along the horizon that brakes for the bends ahead: per node k, ``v_k = min(v_set,
+    curve_speed(s_k))`` at ``s_k``, with ``s_0 = s0`` and ``s_k = s_(k-1) + (t_k - t_(k-1)) v_(k-1)``.
+
+    A speed capped only at the plan's start asks for that speed over the whole horizon, and the plan then brakes
+    for a bend through its a_lat rows; per node it brakes through the tracking cost. The C's ``curve_reference``
+    does the same operations in the same order."""
+    s_ref, v_ref = [], []
+    s, v, t_prev = float(s0), 0.0, 0.0
+    for k, t in enumerate(times):
+        if k > 0:
+            s = s + (t - t_prev) * v
+        c = curve_speed(road, s, a_lat, decel, v_max)
+        v = c if c < v_set else v_set
+        s_ref.append(s)
+        v_ref.append(v)
+        t_prev = t
+    return s_ref, v_ref
+
+
 def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
                 knot_spacing: float = 25.0, s0: float = 0.0) -> Road:
     """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max).

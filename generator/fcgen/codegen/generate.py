@@ -369,8 +369,9 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
     ]
-    if curve:  # the reference speed's cap at the plan's start (Reference.curve_a_lat)
-        members += [("NAME_real_t", "v_curve", [], R)]
+    if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
+        members += [("NAME_real_t", "curve_c", [road], R),
+                    ("NAME_real_t", "curve_s", [M("N", 1)], R), ("NAME_real_t", "curve_v", [M("N", 1)], R)]
     if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
         members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
                     ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
