@@ -78,6 +78,16 @@ def test_curve_reference_brakes_along_the_horizon_by_hand():
     assert np.all(np.asarray(v_low) == 12.0)
 
 
+def test_curve_reference_at_the_plan_s_start_only_by_hand():
+    """``along = False`` (the safe profile's conventional formulation): the cap at s0, sqrt(8 / 0.04 + 14 * 60), on
+    every node, and s_ref,k = s0 + t_k v, as before the reference was taken along the horizon."""
+    times = [0.1 * k for k in range(41)]
+    s_ref, v_ref = curve_reference(BEND, 40.0, times, 40.0, 8.0, 7.0, 40.0, along=False)
+    v0 = math.sqrt(200.0 + 14.0 * 60.0)
+    assert np.all(np.asarray(v_ref) == pytest.approx(v0, rel=1e-15))
+    assert np.asarray(s_ref) == pytest.approx(40.0 + np.asarray(times) * v0, rel=1e-15)
+
+
 def _prepared(pb, x0, n_opp_s=(300.0, 320.0, 340.0)):
     """The reference prepared at x0 on BEND, the opponents at n = 3 m and n_opp_s (test_guess.solver_at)."""
     ocp = build_ocp(pb)
@@ -135,6 +145,26 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     assert cs.set_state(x1) == 0 and cs.prepare() == 0
     assert 40.0 < float(sv.s0_guess) < 45.0
     _assert_reference(ocp, sv, pb, 8.0)
+    assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
+
+
+@needs_cc
+def test_the_curve_speed_at_the_plan_s_start_only_in_python_and_c_alike(tmp_path):
+    """``Reference.curve_along_horizon = False``: every node tracks the cap at the plan's start (here with traffic
+    assumed, sqrt(6.5 / 0.04 + 14 * 60)), s_ref,k = s0 + t_k v; the C's QP cost vector equals the reference's."""
+    base = preset("car_direct_elimination_ellipse_safe")
+    pb = base.with_(name="at_start", reference=replace(base.reference, curve_along_horizon=False))
+    x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
+    ocp, sv, road, opp = _prepared(pb, x0)
+    v0 = math.sqrt(6.5 / 0.04 + 14.0 * 60.0)
+    s_ref, v_ref = _ref(ocp, sv)
+    assert np.allclose(v_ref, v0, rtol=1e-12, atol=0)
+    assert np.allclose(s_ref, 40.0 + np.asarray(pb.horizon.times) * v0, rtol=1e-12, atol=0)
+    generate(pb, tmp_path / "c")
+    cs = CSolver(build(tmp_path / "c", verify=True))
+    assert cs.init() == 0
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 

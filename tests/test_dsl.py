@@ -141,6 +141,8 @@ INVALID = [
      "[0, 100]"),
     ("traffic clearance inf", lambda: Reference(curve_traffic_clearance=math.inf), "reference.curve_traffic_clearance",
      "finite"),
+    ("curve along not a bool", lambda: Reference(curve_along_horizon=1), "reference.curve_along_horizon",
+     "True or False"),
     ("opponents count", lambda: Opponents(count=11), "opponents.count", "[0, 10]"),
     ("qp eps", lambda: QpOptions(eps_abs=1.5), "qp.eps_abs", "[0, 1)"),
     ("qp alpha", lambda: QpOptions(alpha=2.0), "qp.alpha", "(0, 2)"),

@@ -136,9 +136,11 @@ def test_profiles_of_the_presets():
         assert SAFE_SOFT_CONVENTIONAL == replace(d.soft, obstacle_l1=1e8, a_lat_l1=3e8)
         assert preset(name + "_safe").bounds.a_lat_margin == d.bounds.a_lat_margin
         assert preset(name).bounds.a_lat_margin == 0.0
-        # the DSL's reference, but the conventional formulation's curve speed has no traffic rule (verify's 1e-7)
-        assert preset(name + "_safe").reference == (replace(d.reference, curve_traffic_clearance=0.0) if conventional
-                                                    else d.reference)
+        # the DSL's reference, but the conventional formulation's curve speed has no traffic rule and is taken at the
+        # plan's start only (verify's 1e-7)
+        assert preset(name + "_safe").reference == (
+            replace(d.reference, curve_traffic_clearance=0.0, curve_along_horizon=False) if conventional
+            else d.reference)
         assert preset(name).reference.curve_a_lat == 0.0
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):

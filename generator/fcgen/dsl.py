@@ -198,8 +198,10 @@ class Reference:
     """Tracking reference per node k: s_ref,k, v_ref,k (v_ref, capped by the curve speed), n_ref, alpha = delta = 0.
 
     Without the curve speed s_ref,k = s0 + t_k v_ref and v_ref,k = v_ref; with it v_ref,k = min(v_ref, curve speed at
-    s_ref,k) and s_ref,k = s_ref,k-1 + (t_k - t_k-1) v_ref,k-1 (s_ref,0 = s0). t_k is node k's time (k dt on the
-    paper's grid).
+    s_ref,k) and s_ref,k = s_ref,k-1 + (t_k - t_k-1) v_ref,k-1 (s_ref,0 = s0); with ``curve_along_horizon = False``
+    the curve speed at the plan's start only, v_ref,k = min(v_ref, curve speed at s0) and s_ref,k = s0 + t_k v_ref,k
+    (the safe profile's conventional formulation, stop 38's rule for every formulation). t_k is node k's time (k dt
+    on the paper's grid).
 
     The **curve speed** of the road ahead (the safe profile's; ``curve_a_lat = 0`` turns it off, as the paper's
     presets do) is the largest speed from which the ego, decelerating at ``curve_decel``, reaches every road sample
@@ -221,6 +223,7 @@ class Reference:
     curve_decel: float = 7.0
     curve_a_lat_traffic: float = 6.5
     curve_traffic_clearance: float = 6.0
+    curve_along_horizon: bool = True
 
     def __post_init__(self) -> None:
         _nonneg("reference.v_ref", self.v_ref)
@@ -233,6 +236,8 @@ class Reference:
                "reference.curve_a_lat_traffic", self.curve_a_lat_traffic, "(0, 50] m/s^2")
         _check(0 <= _finite("reference.curve_traffic_clearance", self.curve_traffic_clearance) <= 100,
                "reference.curve_traffic_clearance", self.curve_traffic_clearance, "[0, 100] m (0: never)")
+        _check(isinstance(self.curve_along_horizon, bool), "reference.curve_along_horizon", self.curve_along_horizon,
+               "True or False")
 
 
 @dataclass(frozen=True)

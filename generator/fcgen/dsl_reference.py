@@ -70,6 +70,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
                                            "near the plan (instead of curve_a_lat)"),
     ("Reference", "curve_traffic_clearance"): ("m", "[0, 100]", "traffic near the plan: the last plan check's "
                                                "clearance to an opponent below this (0: never)"),
+    ("Reference", "curve_along_horizon"): ("-", "True or False", "the curve speed at every node's reference position "
+                                           "(False: at the plan's start, for the whole horizon)"),
     ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
     ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
     ("Bounds", "delta_max"): ("rad", "> 0", "|delta| bound (steering angle)"),

@@ -314,7 +314,7 @@ class RtiSolver:
             a_lat = ref.curve_a_lat_traffic if traffic else ref.curve_a_lat
             v_set = self.ref[0] if self.ref is not None else ref.v_ref
             self.curve_ref = curve_reference(self.road, float(self.s0_guess), self._times, v_set, a_lat,
-                                             ref.curve_decel, bnd.v_max)
+                                             ref.curve_decel, bnd.v_max, ref.curve_along_horizon)
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem

@@ -255,9 +255,10 @@ def curve_speed(road: Road, s: float, a_lat: float, decel: float, v_max: float) 
 
 
 def curve_reference(road: Road, s0: float, times: Sequence[float], v_set: float, a_lat: float, decel: float,
-                    v_max: float) -> tuple[list[float], list[float]]:
+                    v_max: float, along: bool = True) -> tuple[list[float], list[float]]:
     """The reference along the horizon that brakes for the bends ahead: per node k, ``v_k = min(v_set,
-    curve_speed(s_k))`` at ``s_k``, with ``s_0 = s0`` and ``s_k = s_(k-1) + (t_k - t_(k-1)) v_(k-1)``.
+    curve_speed(s_k))`` at ``s_k``, with ``s_0 = s0`` and ``s_k = s_(k-1) + (t_k - t_(k-1)) v_(k-1)``; ``along =
+    False``: ``v_k = v_0`` and ``s_k = s0 + t_k v_0`` (the curve speed at the plan's start only).
 
     A speed capped only at the plan's start asks for that speed over the whole horizon, and the plan then brakes
     for a bend through its a_lat rows; per node it brakes through the tracking cost. The C's ``curve_reference``
@@ -266,9 +267,10 @@ def curve_reference(road: Road, s0: float, times: Sequence[float], v_set: float,
     s, v, t_prev = float(s0), 0.0, 0.0
     for k, t in enumerate(times):
         if k > 0:
-            s = s + (t - t_prev) * v
-        c = curve_speed(road, s, a_lat, decel, v_max)
-        v = c if c < v_set else v_set
+            s = s + (t - t_prev) * v if along else float(s0) + t * v
+        if along or k == 0:
+            c = curve_speed(road, s, a_lat, decel, v_max)
+            v = c if c < v_set else v_set
         s_ref.append(s)
         v_ref.append(v)
         t_prev = t

@@ -87,7 +87,8 @@ def _curve_speed_constants(problem: Problem) -> dict | None:
     traffic = ref.curve_traffic_clearance > 0.0
     return {"a_lat": _c_real(ref.curve_a_lat), "two_decel": _c_real(2.0 * ref.curve_decel),
             "a_lat_traffic": _c_real(ref.curve_a_lat_traffic if traffic else ref.curve_a_lat),
-            "traffic_clearance": _c_real(ref.curve_traffic_clearance), "v2_max": _c_real(v_max * v_max)}
+            "traffic_clearance": _c_real(ref.curve_traffic_clearance), "v2_max": _c_real(v_max * v_max),
+            "along": ref.curve_along_horizon}
 
 def _c_real(x: float) -> str:
     """An exact C double literal (shortest round-trip repr)."""
