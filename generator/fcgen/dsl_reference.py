@@ -62,9 +62,9 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on "
                              "the paper's grid); with the curve speed capped per node"),
     ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
-    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref,k capped at s_ref,k so that braking at curve_decel "
-                                   "reaches every road sample ahead no faster than sqrt(curve_a_lat / abs(kappa)) "
-                                   "(0: off, the paper's presets)"),
+    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref,k capped at s_ref,k so that braking "
+                                   "at curve_decel reaches every road sample ahead no faster than "
+                                   "sqrt(curve_a_lat / abs(kappa)) (0: off, the paper's presets)"),
     ("Reference", "curve_decel"): ("m/s^2", "(0, 50]", "the curve speed's deceleration"),
     ("Reference", "curve_a_lat_traffic"): ("m/s^2", "(0, 50]", "the curve speed's lateral acceleration with traffic "
                                            "near the plan (instead of curve_a_lat)"),

@@ -303,9 +303,9 @@ class RtiSolver:
         return self.ocp.road_params.pack(road, i0)
 
     def _set_curve_speed(self) -> None:
-        """The reference along the horizon capped by the curve speed (``Reference.curve_a_lat``, ``road.curve_reference``;
-        None when off or without a road); with traffic near the plan (the last plan check's clearance) at
-        ``curve_a_lat_traffic``."""
+        """The reference along the horizon capped by the curve speed (``Reference.curve_a_lat``,
+        ``road.curve_reference``; None when off or without a road); with traffic near the plan (the last plan check's
+        clearance) at ``curve_a_lat_traffic``."""
         pb = self.ocp.problem
         ref, bnd = pb.reference, pb.bounds
         self.curve_ref = None
