@@ -97,6 +97,16 @@ def _prepared(pb, x0, n_opp_s=(300.0, 320.0, 340.0)):
     return ocp, sv, road, sv.opp.reshape(ocp.N + 1, -1, 3)
 
 
+def _c_prepared(pb, folder, road, opp, x0) -> CSolver:
+    """``pb``'s generated C solver (verify build), given the same inputs as ``_prepared``'s reference and prepared."""
+    generate(pb, folder)
+    cs = CSolver(build(folder, verify=True))
+    assert cs.init() == 0
+    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
+    assert cs.prepare() == 0
+    return cs
+
+
 def _ref(ocp, sv) -> tuple[np.ndarray, np.ndarray]:
     """The prepared stages' reference (s_ref,k and v_ref,k of the stage parameters)."""
     ref = sv.P[:, ocp.p_ref]
@@ -127,11 +137,7 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     assert _ref(ocp, sv)[1][0] == v_cap and _ref(ocp, sv)[1][-1] == pytest.approx(math.sqrt(162.5), rel=1e-12)
     _, off, *_ = _prepared(pb.with_(reference=replace(pb.reference, curve_a_lat=0.0)), x0)
     assert np.all(_ref(ocp, off)[1] == pb.reference.v_ref)               # off: the paper's reference
-    generate(pb, tmp_path / "c")
-    cs = CSolver(build(tmp_path / "c", verify=True))
-    assert cs.init() == 0
-    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
-    assert cs.prepare() == 0
+    cs = _c_prepared(pb, tmp_path / "c", road, opp, x0)
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
     assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2            # and the cap is what made q what it is
     # one sample on: the plan check found no traffic, the reference is curve_a_lat's from the shifted plan's start
@@ -160,11 +166,7 @@ def test_the_curve_speed_at_the_plan_s_start_only_in_python_and_c_alike(tmp_path
     s_ref, v_ref = _ref(ocp, sv)
     assert np.allclose(v_ref, v0, rtol=1e-12, atol=0)
     assert np.allclose(s_ref, 40.0 + np.asarray(pb.horizon.times) * v0, rtol=1e-12, atol=0)
-    generate(pb, tmp_path / "c")
-    cs = CSolver(build(tmp_path / "c", verify=True))
-    assert cs.init() == 0
-    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
-    assert cs.prepare() == 0
+    cs = _c_prepared(pb, tmp_path / "c", road, opp, x0)
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
 
 
@@ -178,11 +180,8 @@ def test_traffic_near_the_plan_caps_at_curve_a_lat_traffic(tmp_path):
     for tag, ref in (("on", pb.reference), ("never", replace(pb.reference, curve_traffic_clearance=0.0))):
         p = pb.with_(name=f"tr_{tag}", reference=ref)
         ocp, sv, road, opp = _prepared(p, x0, n_opp_s=(60.0, 320.0, 340.0))
-        generate(p, tmp_path / tag)
-        cs = CSolver(build(tmp_path / tag, verify=True))
-        assert cs.init() == 0
-        assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
-        assert cs.prepare() == 0 and cs.feedback() == 0
+        cs = _c_prepared(p, tmp_path / tag, road, opp, x0)
+        assert cs.feedback() == 0
         sv.feedback()
         clr = sv.status.plan_clearance
         assert 0.0 < clr < 6.0, clr                                    # near the plan, not touching it
