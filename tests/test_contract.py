@@ -21,7 +21,8 @@ from fcgen.codegen.generate import EXIT_CODES, generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reference import QP_EXIT, RtiSolver, SolverError, input_box
-from fcgen.sim.closedloop import WINDOW_BEHIND, plant_function
+from fcgen.plant import plant_function
+from fcgen.sim.closedloop import WINDOW_BEHIND
 from fcgen.sim.scenario import OpponentParams, make_scenario
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")

@@ -11,8 +11,8 @@ import warnings
 import pytest
 
 from fcgen.dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Horizon, Lifted, Opponents,
-                       Problem, ProblemError, QpOptions, Reference, RoadWindow, SeparatingHyperplane, SoftPenalties,
-                       Vehicle, Weights, Wind, circles_cover)
+                       PlanCheck, Problem, ProblemError, QpOptions, Reference, RoadWindow, SeparatingHyperplane,
+                       SoftPenalties, Vehicle, Weights, Wind, circles_cover)
 from fcgen.presets import TRUCK, load_problem, paper_problem, preset, preset_names
 
 NAN = float("nan")
@@ -160,6 +160,9 @@ INVALID = [
     ("a_lat margin < 0", lambda: Bounds(a_lat_margin=-0.1), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
     ("a_lat margin >= bound", lambda: Bounds(a_lat_margin=5.0), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
     ("formulation type", lambda: Problem(name="p", formulation="lifted"), "formulation", "Lifted()"),
+    ("a_lat guard not a bool", lambda: PlanCheck(a_lat_guard=1), "plan_check.a_lat_guard", "True or False"),
+    ("a_lat guard without margin", lambda: Problem(name="p", bounds=Bounds(a_lat_margin=0.0)), "bounds.a_lat_margin",
+     "(0, a_lat_max = 5.0) m/s^2 with plan_check.a_lat_guard"),
 ]
 
 

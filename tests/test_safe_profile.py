@@ -123,6 +123,7 @@ def test_profiles_of_the_presets():
     # the safe weights' order: where the hard problem is infeasible, a_lat gives way before an obstacle row
     assert safe.soft.obstacle_l1 > safe.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1
     assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
+    assert not paper.plan_check.a_lat_guard and safe.plan_check.a_lat_guard   # the paper applies its plan's u0
     assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
     d = Problem("x")
@@ -142,6 +143,10 @@ def test_profiles_of_the_presets():
             replace(d.reference, curve_traffic_clearance=0.0, curve_along_horizon=False) if conventional
             else d.reference)
         assert preset(name).reference.curve_a_lat == 0.0
+        # the DSL's plan check, but the conventional formulation's has no a_lat guard (its a_lat rows hold the bound)
+        assert preset(name + "_safe").plan_check == (replace(d.plan_check, a_lat_guard=False) if conventional
+                                                     else d.plan_check)
+        assert not preset(name).plan_check.a_lat_guard
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):
         preset("truck_lifted_ellipse_safe_ipm")        # the profile comes last

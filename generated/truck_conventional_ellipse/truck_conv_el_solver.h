@@ -120,6 +120,11 @@ enum {
  *   braking opens that gap; for one beside or behind it would close it), get_u0 brakes: F_d = -min(F_d_max, m max(v0, 0) / dt) (v0 the measured speed), the steering rate kept, and
  *   status.plan_reaction = 1; the plan itself is not changed. TRUCK_CONV_EL_REACT_STAGES 0: report only. */
 #define TRUCK_CONV_EL_REACT_STAGES 0
+/* The a_lat guard (1: on): where the plant's step from x0 with the control to apply would end above a_lat_max =
+ * 5.0 m/s^2 in |a_lat|, get_u0's steering rate is the one that ends at a_lat_max - a_lat_margin
+ * (status.a_lat_guard = 1); where the step with that rate still ends above a_lat_max (the rate bound cut it short),
+ * the solver also brakes as the plan check does (2). The plan is not changed. */
+#define TRUCK_CONV_EL_A_LAT_GUARD 0
 
 /* The sample of node k = 0..N, counted from the current one: set_opponents' stage k is the opponents' pose that many
  * samples of dt ahead. An initializer:
@@ -145,6 +150,7 @@ typedef struct {
   int cold_restarts;  /* prepares that cold-started after TRUCK_CONV_EL_COLD_RESTART_AFTER unusable QPs in a row */
   int plan_clearance_stage; /* the stage of plan_clearance (-1: no opponent) */
   int plan_reaction;  /* 1: the plan check braked: get_u0 is the braking control (see Plan check) */
+  int a_lat_guard;    /* 1: the a_lat guard set get_u0's steering rate, 2: it braked too (see TRUCK_CONV_EL_A_LAT_GUARD) */
   truck_conv_el_real_t u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   truck_conv_el_real_t plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
   uint32_t ticks_prepare;  /* duration of the last prepare that prepared */

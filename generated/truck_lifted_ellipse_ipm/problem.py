@@ -87,4 +87,5 @@ problem = Problem(
         ds=2.0,
         length=280.0),
     plan_check=PlanCheck(
-        react_stages=0))
+        react_stages=0,
+        a_lat_guard=False))

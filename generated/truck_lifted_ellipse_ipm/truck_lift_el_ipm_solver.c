@@ -20,6 +20,10 @@
 #define N_REF 0.0
 #define V_REF 40.0
 #define DT ((truck_lift_el_ipm_real_t)0.1) /* the shooting interval (set_reference: s_ref,k = s0 + (k DT) v_ref) */
+#define SAMPLE_DT ((truck_lift_el_ipm_real_t)0.1) /* the sample time: the plant's step (the a_lat guard) */
+#define L_WHEELBASE ((truck_lift_el_ipm_real_t)3.4) /* the ego's l = l_f + l_r */
+#define A_LAT_MAX ((truck_lift_el_ipm_real_t)5.0) /* the a_lat guard's bound, Bounds.a_lat_max */
+#define A_LAT_GUARD_TO ((truck_lift_el_ipm_real_t)5.0) /* where its steering rate ends: a_lat_max - a_lat_margin */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
 #define P_ROAD_DS 1
@@ -5915,6 +5919,34 @@ static void apply_control(const truck_lift_el_ipm_real_t *w) {
   ws.status.u_violation = worst;
 }
 
+/* |a_lat| = v^2 |tan(delta)| / l of x1, the plant's state one sample after x0 under get_u0 (p_fb's road window). */
+static truck_lift_el_ipm_real_t next_a_lat(truck_lift_el_ipm_real_t x1[5]) {
+  call3(truck_lift_el_ipm_plant, ws.x0, ws.u_applied, ws.p_fb, x1, NULL, NULL);
+  return fabs(x1[3] * x1[3] * tan(x1[4]) / L_WHEELBASE);
+}
+
+/* The a_lat guard (fcgen.reference.RtiSolver._a_lat_guard; before the plan check, while p_fb is stage 0's): where
+ * the plant's step with get_u0 ends above A_LAT_MAX in |a_lat|, the steering rate that ends at A_LAT_GUARD_TO (with
+ * wind the speed moves a little with the rate: the margin covers it), and where the step with that rate still ends
+ * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. */
+static void a_lat_guard(void) {
+  truck_lift_el_ipm_real_t x1[5];
+  truck_lift_el_ipm_real_t r;
+  ws.status.a_lat_guard = 0;
+  if ((TRUCK_LIFT_EL_IPM_A_LAT_GUARD == 0) || (next_a_lat(x1) <= A_LAT_MAX)) {
+    return;
+  }
+  r = (copysign(atan((A_LAT_GUARD_TO * L_WHEELBASE) / (x1[3] * x1[3])), x1[4]) - ws.x0[4]) / SAMPLE_DT;
+  ws.u_applied[1] = (r < U_LO[1]) ? U_LO[1] : ((r > U_HI[1]) ? U_HI[1] : r);
+  ws.status.a_lat_guard = 1;
+  if (next_a_lat(x1) > A_LAT_MAX) { /* the rate bound cut it short */
+    const truck_lift_el_ipm_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
+    const truck_lift_el_ipm_real_t f = (truck_lift_el_ipm_real_t)11600.0 * v0;
+    ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
+    ws.status.a_lat_guard = 2;
+  }
+}
+
 /* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
  * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
  * among stages 1..REACT_STAGES has it ahead of the ego there or at stage 0. */
@@ -6231,6 +6263,7 @@ int truck_lift_el_ipm_feedback(void) {
   }
   ws.have_guess = 1;
   apply_control(ws.w);
+  a_lat_guard();
   plan_check();
   ws.status.exit_code = code;
   ws.status.ticks_feedback = (uint32_t)(now() - t0);

@@ -100,7 +100,7 @@ def build(gen_dir: Path | str, verify: bool = False, cc: str | None = None, cfla
 
 
 _STATUS_INTS = ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected", "opp_outside", "qp_unusable_run",
-                "cold_restarts", "plan_clearance_stage", "plan_reaction")
+                "cold_restarts", "plan_clearance_stage", "plan_reaction", "a_lat_guard")
 _STATUS_REALS = ("u_violation", "plan_clearance")
 _STATUS_TICKS = ("ticks_prepare", "ticks_feedback")
 
@@ -323,9 +323,9 @@ class CSolver:
         st = self.status()
         if rc:  # the control get_u0 gives after an error: the fallback (unusable QP) or the last one (rejected)
             return StepResult(self.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                              math.nan, st.plan_reaction)
+                              math.nan, st.plan_reaction, st.a_lat_guard)
         return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                          self.max_slack(), st.plan_reaction)
+                          self.max_slack(), st.plan_reaction, st.a_lat_guard)
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
@@ -366,8 +366,8 @@ class CSolver:
             q["get_u0"], q["max_slack"]
         st, u0, ndarray, floor, nan = self._status, self._u0, np.ndarray, math.floor, math.nan
         unpack, tps = self._status_layout.unpack_from, self.ticks_per_second
-        i_status, i_iter, i_prep, i_fb, i_react = (_STATUS_FIELDS.index(k) for k in (
-            "qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction"))
+        i_status, i_iter, i_prep, i_fb, i_react, i_guard = (_STATUS_FIELDS.index(k) for k in (
+            "qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction", "a_lat_guard"))
 
         def state(x0) -> bool:   # _input("x0", x0, 5)
             if type(x0) is ndarray and x0.shape == (5,):
@@ -409,7 +409,7 @@ class CSolver:
             get_u0(u0_ptr)
             v = unpack(st)
             return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep] / tps, v[i_fb] / tps,
-                              nan if rc else max_slack(), v[i_react])
+                              nan if rc else max_slack(), v[i_react], v[i_guard])
 
         step.road_arrays = arrays   # the arrays whose addresses set_road gets live as long as the function
         return step

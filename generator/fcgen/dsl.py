@@ -569,13 +569,23 @@ class PlanCheck:
     the ego's there or now (stage 0), the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1;
     F_d = -min(F_d_max, m v0 / dt), the plan's steering rate); 0: report only (the paper's presets); the default, 500, is the whole
     horizon of any problem (measured on the full grid: docs/safe_profile.md).
+
+    ``a_lat_guard``: the control to apply keeps the next sample's |a_lat| within ``bounds.a_lat_max``: where the plant's
+    step with it would exceed the bound, the steering rate is the one that ends at ``a_lat_max - a_lat_margin``
+    (status.a_lat_guard = 1), and where the step with that rate still exceeds the bound (the rate bound cut it short),
+    the solver brakes as above too (2). The plan is not changed. It needs ``bounds.a_lat_margin > 0``: with wind the
+    speed, and so the end, moves a little with the steering rate (the car's 20 m/s: up to 4e-5 m/s^2). A guarantee at
+    the actuator behind the plan's soft a_lat rows (docs/safe_profile.md "The a_lat guard"). False: the paper's
+    presets, and the conventional formulation's safe ones (``presets.SAFE_PLAN_CHECK_CONVENTIONAL``).
     """
 
     react_stages: int = 500
+    a_lat_guard: bool = True
 
     def __post_init__(self) -> None:
         _check(type(self.react_stages) is int and 0 <= self.react_stages <= 500, "plan_check.react_stages",
                self.react_stages, "an integer in [0, 500] (0: report only)")
+        _check(type(self.a_lat_guard) is bool, "plan_check.a_lat_guard", self.a_lat_guard, "True or False")
 
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
@@ -616,6 +626,9 @@ class Problem:
                      ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow),
                      ("plan_check", PlanCheck)):
             _check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
+        _check(not self.plan_check.a_lat_guard or self.bounds.a_lat_margin > 0, "bounds.a_lat_margin",
+               self.bounds.a_lat_margin, f"(0, a_lat_max = {self.bounds.a_lat_max}) m/s^2 with plan_check.a_lat_guard "
+               "(the guard steers to a_lat_max - a_lat_margin; False allows 0)")
         reach = self.bounds.v_max * self.horizon.length
         _check(self.road.length >= reach + 4 * self.road.ds, "road.length", self.road.length,
                f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")

@@ -31,6 +31,9 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
     ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only; 500: the whole horizon",
                                     "brake where an opponent's first overlap with the plan among stages 1..min(this, N) is ahead of the ego there or now"),
+    ("PlanCheck", "a_lat_guard"): ("-", "True or False", "the applied control keeps the next sample's lateral "
+                                   "acceleration within +-bounds.a_lat_max (steering rate, else braking; needs "
+                                   "bounds.a_lat_margin > 0)"),
     ("Ellipse", "shape"): ("-", "`minkowski` or `paper`", "the ellipse containing the opponent grown by the ego's "
                            "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r"),
     ("CoveringCircles", "radius"): ("-", "`cover` or `paper`", "circles just large enough to cover the rectangle, or "

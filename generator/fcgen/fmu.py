@@ -86,6 +86,7 @@ def variables(sizes: dict[str, int]) -> list[Var]:
             "over stages 0..N (m; < 0: overlapping; +inf without opponents)"),
         Var("plan_clearance_stage", "Int32", False, (), "the stage of plan_clearance (-1: no opponent)"),
         Var("plan_reaction", "Int32", False, (), "1: the plan check braked (u0 is the braking control)"),
+        Var("a_lat_guard", "Int32", False, (), "1: the a_lat guard set u0's steering rate, 2: it braked too"),
     ]
 
 
@@ -401,7 +402,8 @@ class FmuController:
         return StepResult(u0, rc, int(self._get("qp_status", integer=True)[0]),
                           int(self._get("qp_iter", integer=True)[0]), float(self._get("time_prepare")[0]),
                           float(self._get("time_feedback")[0]), float("nan") if rc else slack,
-                          int(self._get("plan_reaction", integer=True)[0]))
+                          int(self._get("plan_reaction", integer=True)[0]),
+                          int(self._get("a_lat_guard", integer=True)[0]))
 
     def close(self) -> None:
         self.fmu.terminate()

@@ -18,6 +18,7 @@ from . import obstacles as obs
 from .dsl import QpOptions, SeparatingHyperplane
 from .guess import cold_start_frenet, last_window_s
 from .ocp import Ocp, build_ocp
+from .plant import plant_function
 from .oppfit import STRETCH_MAX, OppFitter
 from .qp import QpLayout, build_layout
 from .road import Road, curve_reference
@@ -122,6 +123,7 @@ class Status:
     cold_restarts: int = 0     # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
     plan_clearance_stage: int = 0  # the stage of plan_clearance (-1: no opponent)
     plan_reaction: int = 0     # 1: the plan check braked (get_u0 is the braking control, not the plan's u0)
+    a_lat_guard: int = 0       # 1: the a_lat guard set get_u0's steering rate, 2: it braked too (PlanCheck.a_lat_guard)
     plan_clearance: float = 0.0    # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
@@ -187,6 +189,7 @@ class RtiSolver:
         self._theta_init = theta_init(ocp)
         self._plan_clearance = ocp.plan_clearance.map(N + 1)   # the plan check: every stage in one call
         self._box = input_box(ocp.problem)
+        self._plant = plant_function(ocp.problem, ocp.road_params.samples)   # the a_lat guard's step
         self.qp = make_backend(self.lay, self.qp_opts)
         self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
         self.init()
@@ -443,7 +446,8 @@ class RtiSolver:
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
-        x0_full = np.array(ocp.init_state(self.x0, self.stage_params(0, self.x0[0]))).ravel()
+        p0 = self.stage_params(0, self.x0[0])
+        x0_full = np.array(ocp.init_state(self.x0, p0)).ravel()
         q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
@@ -474,6 +478,7 @@ class RtiSolver:
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
         self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
+        self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
@@ -483,6 +488,33 @@ class RtiSolver:
             raise SolverError(code, f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
                                     f"{res.raw_status}{why}): step not taken, fallback control")
         return self.u0()
+
+    def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
+        """Where the plant's step from x0 with get_u0 ends above ``a_lat_max`` in |a_lat|, the steering rate that ends
+        at ``a_lat_max - a_lat_margin`` (status 1; with wind the speed, and so the end, moves a little with the rate:
+        the margin covers it), and where the step with that rate still ends above the bound (the rate bound cut it
+        short), braking as the plan check does (2). The C's operations in the C's order."""
+        pb = self.ocp.problem
+        st.a_lat_guard = 0
+        if not pb.plan_check.a_lat_guard:
+            return
+        b, l, dt = pb.bounds, pb.ego.l, pb.horizon.dt
+        x1 = self._plant_step(p_road)
+        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) <= b.a_lat_max:
+            return
+        d1 = math.copysign(math.atan((b.a_lat_max - b.a_lat_margin) * l / (x1[3] * x1[3])), x1[4])
+        r = (d1 - float(self.x0[4])) / dt
+        lo, hi = float(self._box[0][1]), float(self._box[1][1])
+        self.u_applied[1] = lo if r < lo else (hi if r > hi else r)
+        st.a_lat_guard = 1
+        x1 = self._plant_step(p_road)
+        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) > b.a_lat_max:
+            self.u_applied[0] = -min(b.F_d_max, pb.ego.m * max(float(self.x0[3]), 0.0) / dt)
+            st.a_lat_guard = 2
+
+    def _plant_step(self, p_road: np.ndarray) -> list[float]:
+        """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
+        return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage

@@ -67,7 +67,7 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("max_slack", "feedback", TOL_SOLUTION, "max slack"),
     ("plan_clearance", "feedback", TOL_SOLUTION, "plan check clearance"),
     ("exit_code", "status", 0, "exit code mismatches"),
-    ("plan_check", "status", 0, "plan check stage/reaction mismatches"),
+    ("plan_check", "status", 0, "plan check stage/reaction, a_lat guard mismatches"),
     ("qp_status", "status", 0, "QP status mismatches"),
     ("qp_iter", "status", 0, "QP iteration mismatches"),
     ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
@@ -313,6 +313,7 @@ class _Lockstep:
             both_inf = math.isinf(st_c.plan_clearance) and math.isinf(st_py.plan_clearance)
             clr_tol = self.checks["plan_clearance"].tol
             self._upd("plan_check", float(st_c.plan_reaction != st_py.plan_reaction
+                                          or st_c.a_lat_guard != st_py.a_lat_guard
                                           or not _same_minimiser(st_c.plan_clearance_stage, st_py.plan_clearance_stage,
                                                                  sv.stage_clearance, clr_tol)))
             self._upd("plan_clearance", 0.0 if both_inf else

@@ -58,7 +58,7 @@ def _prepared(config: Config, cache_dir: str, cflags: str | None = None) -> tupl
     """Per process and configuration: its problem, its solver hash and (C controller) its compiled library, generated
     and built into the cache on first use."""
     from ..ocp import road_window_samples
-    from ..sim.closedloop import plant_function
+    from ..plant import plant_function
     from .solvers import ensure_solver, solver_hash
     pb = config.problem()
     lib = str(ensure_solver(pb, cache_dir, cflags=cflags)) if config.controller == "c" else None
@@ -147,6 +147,7 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["collision"] = bool(s["n_collision_samples"] > 0)
     row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
     row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))   # samples the plan check braked
+    row["a_lat_guards"] = int(log.meta["extra"].get("a_lat_guards", 0))   # samples the a_lat guard acted
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
     row.update(collision or {})
     row.update(sizes)

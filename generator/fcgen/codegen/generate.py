@@ -27,7 +27,7 @@ from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
                          input_box, theta_init, warm_max_iter)
-from ..sim.closedloop import plant_function
+from ..plant import plant_function
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
 from .folder import staged
@@ -520,6 +520,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
         "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
         "c_fabs": "fabsf" if use_float else "fabs", "c_fmin": "fminf" if use_float else "fmin", "c_atan2": "atan2f" if use_float else "atan2",
+        "c_tan": "tanf" if use_float else "tan", "c_atan": "atanf" if use_float else "atan",
+        "c_copysign": "copysignf" if use_float else "copysign",
         "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
         "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else None,
         "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": _c_real(lay.band_scale),
@@ -544,6 +546,9 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
         "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
         "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),
+        "a_lat_guard": int(problem.plan_check.a_lat_guard), "sample_dt": _c_real(problem.horizon.dt),
+        "wheelbase": _c_real(problem.ego.l), "a_lat_max": _c_real(problem.bounds.a_lat_max),
+        "a_lat_guard_to": _c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
         "qp_files": qp_files, "qp_lib": qp_files.library, "static_libs": static_libs,
         "make_products": ", ".join(["static library", *([f"{qp_files.library.label} library"] if qp_files.library
                                                          else []), "shared library", "example"]),

@@ -7,14 +7,13 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Protocol
 
-import casadi as ca
 import numpy as np
 
-from .. import models
 from ..dsl import Problem, Vehicle
 from ..ocp import Ocp, build_ocp, road_window_samples
+from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
-from ..road import Road, RoadWindowParams, casadi_road
+from ..road import Road, RoadWindowParams
 from .collision import collisions_over_run
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
@@ -37,6 +36,7 @@ class StepResult:
     time_feedback: float
     max_slack: float
     plan_reaction: int = 0     # 1: the plan check braked this sample (status.plan_reaction)
+    a_lat_guard: int = 0       # 1: the a_lat guard set the steering rate, 2: it braked too (status.a_lat_guard)
 
 
 class Controller(Protocol):
@@ -119,12 +119,12 @@ class ReferenceController:
                 u = sv.feedback()
                 st = sv.status
                 return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                                  float(np.max(sv.slacks(), initial=0.0)), st.plan_reaction)
+                                  float(np.max(sv.slacks(), initial=0.0)), st.plan_reaction, st.a_lat_guard)
             except SolverError as exc:
                 rc = exc.exit_code
         st = sv.status  # the control after an error: the fallback (unusable QP) or the last one (rejected call)
         return StepResult(sv.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan,
-                          st.plan_reaction)
+                          st.plan_reaction, st.a_lat_guard)
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
@@ -148,27 +148,6 @@ class ReferenceController:
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.solver.states(), self.solver.controls()
-
-
-def plant_function(problem: Problem, samples: int) -> ca.Function:
-    """One RK4 step of the 5-state Frenet model with a road window parameter (same formula as the NLP); built once per
-    problem and window size in a process (a CasADi Function is immutable)."""
-    try:
-        return _cached_plant(problem, samples)
-    except TypeError:   # a problem that cannot be hashed (a hand-made field): built every time
-        return _build_plant(problem, samples)
-
-
-@lru_cache(maxsize=64)
-def _cached_plant(problem: Problem, samples: int) -> ca.Function:
-    return _build_plant(problem, samples)
-
-
-def _build_plant(problem: Problem, samples: int) -> ca.Function:
-    rp = RoadWindowParams(samples)
-    x, u, p = ca.SX.sym("x", 5), ca.SX.sym("u", 2), ca.SX.sym("p", rp.size)
-    f = models.ode("frenet", lambda s: casadi_road(s, p, samples)[:2], problem.ego, problem.wind)
-    return ca.Function("plant", [x, u, p], [models.rk4(f, x, u, problem.horizon.dt)])
 
 
 class Plant:
@@ -336,7 +315,8 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
                      N=problem.horizon.N, dt=problem.horizon.dt, controller=controller.kind,
                      n_bound=problem.bounds.n_max,
                      extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
-                            "plan_reactions": int(sum(r.plan_reaction for r in results))})
+                            "plan_reactions": int(sum(r.plan_reaction for r in results)),
+                            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results))})
     road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
                  "phi_gamma": road.phi, "ds": road.ds}
     return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=t, ego_frenet=xs, ego_cartesian=ego_cart,

@@ -165,6 +165,7 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
         opp_fr[ok] = np.stack([s, n, a], axis=-1)
     extra = {"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
              "plan_reactions": int(sum(r.plan_reaction for r in results)),
+             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
              "commonroad": {"scenario": sc.name, "file": sc.file, "sha256": sc.sha256,
                             "planning_problem": sc.planning_problem_id, "v_ref": float(sc.v_ref), "band_cut": cut,
                             "obstacle_ids": [int(ob.id) for ob in sc.obstacles], "slots": slot_ids,
