@@ -9,7 +9,6 @@ reference sample by sample.
 """
 from __future__ import annotations
 
-import math
 import shutil
 from dataclasses import replace
 
@@ -20,10 +19,9 @@ from fcgen.build import CSolver, build
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
-from fcgen.reference import RtiSolver, SolverError
-from fcgen.road import straight_road
 from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.scenario import make_scenario
+from test_plan_check import _c, _inputs, _python
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -48,24 +46,11 @@ def test_a_state_the_steering_rate_cannot_bring_back_makes_the_solver_brake(c_gu
     takes delta to 0.261 (31 m/s^2 at about 20 m/s), far from the 0.042 rad that 4.95 m/s^2 allows: the guard steers at
     -r_max and brakes with F_d = -min(F_d_max, m v0 / dt) = -1e4 N (status 2), in C and in Python alike."""
     pb = GUARDED
-    road = straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
+    road, _, opp = _inputs(pb, (500.0, 500.0))   # every opponent far away
     x0 = np.array([0.0, 0.0, 0.0, 20.0, 0.3])
-    opp = np.zeros((pb.horizon.N + 1, pb.opponents.count, 3))
-    opp[..., 0], opp[..., 1] = -1000.0, 500.0   # far away
-    sv = RtiSolver(build_ocp(pb))
-    sv.set_road(road)
-    sv.set_opponents(opp)
-    try:
-        sv.step(x0)
-    except SolverError:
-        pass   # a fallback control is guarded too
-    cs = c_guarded
-    assert cs.init() == 0
-    assert cs.set_road(road) == 0 and cs.set_opponents(opp) == 0 and cs.set_state(x0) == 0
-    assert cs.prepare() == 0
-    cs.feedback()
+    results = (_python(pb, road, x0, opp), _c(c_guarded, road, x0, opp))
     expected = [-pb.bounds.F_d_max, -pb.bounds.r_max]
-    for st, u in ((sv.status, sv.u0()), (cs.status(), cs.u0())):
+    for st, u in results:
         assert st.a_lat_guard == 2
         np.testing.assert_array_equal(u, expected)
 
@@ -81,27 +66,25 @@ def test_plans_above_the_bound_are_applied_within_it_in_c_as_in_python(c_guarded
     |a_lat| is a_lat_max - a_lat_margin. The C's controls and guard flags equal the Python reference's."""
     free = _closed_loop(PAPER, ReferenceController(build_ocp(PAPER)))
     assert np.max(np.abs(free.a_lat)) > 5.5
-    flags = {}
+    flags: dict[str, list[int]] = {}
 
-    class Recorder:   # the C solver, recording each sample's guard flag
-        kind = "c"
-
-        def __init__(self, cs):
-            self.cs = cs
+    class Recorder:   # a controller that records each sample's guard flag
+        def __init__(self, inner):
+            self.inner, self.kind = inner, inner.kind
 
         def step(self, x, road, opp):
-            r = self.cs.step(x, road, opp)
-            flags.setdefault("c", []).append(r.a_lat_guard)
+            r = self.inner.step(x, road, opp)
+            flags.setdefault(self.kind, []).append(r.a_lat_guard)
             return r
 
     assert c_guarded.init() == 0
     c = _closed_loop(GUARDED, Recorder(c_guarded))
-    py_ctrl = ReferenceController(build_ocp(GUARDED))
-    py = _closed_loop(GUARDED, py_ctrl)
+    py = _closed_loop(GUARDED, Recorder(ReferenceController(build_ocp(GUARDED))))
     b = GUARDED.bounds
     for log in (c, py):
         assert np.max(np.abs(log.a_lat)) <= b.a_lat_max
-    guard = np.array(flags["c"])
+    guard = np.array(flags[c_guarded.kind])
+    np.testing.assert_array_equal(guard, flags[ReferenceController.kind])
     assert np.count_nonzero(guard == 1) >= 5 and not np.any(guard == 2)
     # a guarded sample whose rate stayed inside its bound ends at the guard's target (the 20 m/s wind moves the
     # speed with the rate: within 1e-4 m/s^2)
@@ -112,4 +95,3 @@ def test_plans_above_the_bound_are_applied_within_it_in_c_as_in_python(c_guarded
                                rtol=0, atol=1e-4)
     np.testing.assert_allclose(c.control, py.control, rtol=0, atol=1e-7)
     np.testing.assert_allclose(c.ego_frenet, py.ego_frenet, rtol=0, atol=1e-7)
-    assert math.isclose(c.ego_frenet[-1, 0], py.ego_frenet[-1, 0], abs_tol=1e-7)

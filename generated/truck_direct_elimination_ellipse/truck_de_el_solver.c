@@ -1412,18 +1412,29 @@ static truck_de_el_real_t next_a_lat(truck_de_el_real_t x1[5]) {
 /* The a_lat guard (fcgen.reference.RtiSolver._a_lat_guard; before the plan check, while p_fb is stage 0's): where
  * the plant's step with get_u0 ends above A_LAT_MAX in |a_lat|, the steering rate that ends at A_LAT_GUARD_TO (with
  * wind the speed moves a little with the rate: the margin covers it), and where the step with that rate still ends
- * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. */
+ * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. Both plant steps run on every path,
+ * acting or not: a fixed cost, which fcgen wcet's measured feedback tail therefore covers. */
 static void a_lat_guard(void) {
   truck_de_el_real_t x1[5];
-  truck_de_el_real_t r;
+  const truck_de_el_real_t r_plan = ws.u_applied[1];
+  truck_de_el_real_t r = REAL_0;
+  int over;
+  int still;
   ws.status.a_lat_guard = 0;
-  if ((TRUCK_DE_EL_A_LAT_GUARD == 0) || (next_a_lat(x1) <= A_LAT_MAX)) {
+  if (TRUCK_DE_EL_A_LAT_GUARD == 0) {
     return;
   }
-  r = (copysign(atan((A_LAT_GUARD_TO * L_WHEELBASE) / (x1[3] * x1[3])), x1[4]) - ws.x0[4]) / SAMPLE_DT;
+  over = next_a_lat(x1) > A_LAT_MAX;
+  if (x1[3] != REAL_0) { /* standing: |a_lat| is 0, the rate is not used */
+    r = (copysign(atan((A_LAT_GUARD_TO * L_WHEELBASE) / (x1[3] * x1[3])), x1[4]) - ws.x0[4]) / SAMPLE_DT;
+  }
   ws.u_applied[1] = (r < U_LO[1]) ? U_LO[1] : ((r > U_HI[1]) ? U_HI[1] : r);
-  ws.status.a_lat_guard = 1;
-  if (next_a_lat(x1) > A_LAT_MAX) { /* the rate bound cut it short */
+  still = next_a_lat(x1) > A_LAT_MAX;
+  if (over == 0) {
+    ws.u_applied[1] = r_plan;
+  } else if (still == 0) {
+    ws.status.a_lat_guard = 1;
+  } else { /* the rate bound cut it short */
     const truck_de_el_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
     const truck_de_el_real_t f = (truck_de_el_real_t)11600.0 * v0;
     ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
