@@ -574,7 +574,7 @@ class PlanCheck:
     step with it would exceed the bound, the steering rate is the one that ends at ``a_lat_max - a_lat_margin``
     (status.a_lat_guard = 1), and where the step with that rate still exceeds the bound (the rate bound cut it short),
     the solver brakes as above too (2). The plan is not changed. It needs ``bounds.a_lat_margin > 0``: with wind the
-    speed, and so the end, moves a little with the steering rate (the car's 20 m/s: up to 4e-5 m/s^2). A guarantee at
+    speed, and so the end, moves a little with the steering rate (the scenarios' 20 m/s wind: up to 4e-5 m/s^2). A guarantee at
     the actuator behind the plan's soft a_lat rows (docs/safe_profile.md "The a_lat guard"). False: the paper's
     presets, and the conventional formulation's safe ones (``presets.SAFE_PLAN_CHECK_CONVENTIONAL``).
     """

@@ -18,8 +18,8 @@ from . import obstacles as obs
 from .dsl import QpOptions, SeparatingHyperplane
 from .guess import cold_start_frenet, last_window_s
 from .ocp import Ocp, build_ocp
-from .plant import plant_function
 from .oppfit import STRETCH_MAX, OppFitter
+from .plant import plant_function
 from .qp import QpLayout, build_layout
 from .road import Road, curve_reference
 
@@ -493,7 +493,8 @@ class RtiSolver:
         """Where the plant's step from x0 with get_u0 ends above ``a_lat_max`` in |a_lat|, the steering rate that ends
         at ``a_lat_max - a_lat_margin`` (status 1; with wind the speed, and so the end, moves a little with the rate:
         the margin covers it), and where the step with that rate still ends above the bound (the rate bound cut it
-        short), braking as the plan check does (2). The C's operations in the C's order."""
+        short), braking as the plan check does (2). The C's operations in the C's order (the C runs both steps in every
+        feedback and keeps the plan's rate where the first ends within the bound: the same control and flag)."""
         pb = self.ocp.problem
         st.a_lat_guard = 0
         if not pb.plan_check.a_lat_guard:
