@@ -23,10 +23,11 @@ FINDING = re.compile(r"^(?P<file>[^\s:]+):(?P<line>\d+):\d+: (?P<sev>\w+): (?P<m
 
 
 def _small(formulation: str, obstacles: str, name: str, use_float: bool, out: Path,
-           backend: str = "osqp", fine: int | None = None) -> GenerateInfo:
+           backend: str = "osqp", fine: int | None = None, profile: str = "paper") -> GenerateInfo:
     """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same.
-    ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid)."""
-    p = paper_problem("car", formulation, obstacles, name=name)
+    ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid); ``profile``:
+    the safe one adds code of its own (the curve reference, the a_lat guard)."""
+    p = paper_problem("car", formulation, obstacles, name=name, profile=profile)
     hz = dataclasses.replace(p.horizon, N=4)
     if fine is not None:
         hz = dataclasses.replace(hz, stride=3, fine=fine)
@@ -36,13 +37,15 @@ def _small(formulation: str, obstacles: str, name: str, use_float: bool, out: Pa
 
 @pytest.fixture(scope="module")
 def folders(tmp_path_factory) -> list[GenerateInfo]:
-    """Both backends, double and float; the IPM with (hyperplane) and without stage equalities (its code differs)."""
+    """Both backends, double and float; the IPM with (hyperplane) and without stage equalities (its code differs); the
+    paper profile and the safe one."""
     tmp = tmp_path_factory.mktemp("sa")
     return [_small("lifted", "ellipse", "sa_d", False, tmp / "d"),
             _small("conventional", "hyperplane", "sa_f", True, tmp / "f"),
             _small("lifted", "ellipse", "sa_id", False, tmp / "id", "ipm"),
             _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm"),
-            _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2)]
+            _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2),
+            _small("direct_elimination", "hyperplane", "sa_s", False, tmp / "s", "ipm", profile="safe")]
 
 
 def _expected_misra(info: GenerateInfo) -> set[str]:

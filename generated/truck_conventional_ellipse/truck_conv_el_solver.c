@@ -84,7 +84,7 @@ typedef struct {
   int s;                 /* variable s_k */
   int u;                 /* variable F_d of u_k; -1 at k = N */
   int theta;             /* first hyperplane variable set by the initial guess; -1 if none */
-  truck_conv_el_real_t s_ref;  /* t v_ref */
+  truck_conv_el_real_t s_ref;  /* t v_ref (the curve reference computes its own) */
   truck_conv_el_real_t t;      /* the node's time, k dt on a uniform grid (cold-start guess: s_k = s0 + t v0) */
 } stage_t;
 
@@ -2043,18 +2043,22 @@ static void a_lat_guard(void) {
   truck_conv_el_real_t x1[5];
   const truck_conv_el_real_t r_plan = ws.u_applied[1];
   truck_conv_el_real_t r = REAL_0;
-  int over;
-  int still;
+  int over = 0;
+  int still = 0;
   ws.status.a_lat_guard = 0;
   if (TRUCK_CONV_EL_A_LAT_GUARD == 0) {
     return;
   }
-  over = next_a_lat(x1) > A_LAT_MAX;
+  if (next_a_lat(x1) > A_LAT_MAX) {
+    over = 1;
+  }
   if (x1[3] != REAL_0) { /* standing: |a_lat| is 0, the rate is not used */
     r = (copysign(atan((A_LAT_GUARD_TO * L_WHEELBASE) / (x1[3] * x1[3])), x1[4]) - ws.x0[4]) / SAMPLE_DT;
   }
   ws.u_applied[1] = (r < U_LO[1]) ? U_LO[1] : ((r > U_HI[1]) ? U_HI[1] : r);
-  still = next_a_lat(x1) > A_LAT_MAX;
+  if (next_a_lat(x1) > A_LAT_MAX) {
+    still = 1;
+  }
   if (over == 0) {
     ws.u_applied[1] = r_plan;
   } else if (still == 0) {

@@ -32,7 +32,7 @@ extern "C" {
 #define TRUCK_DE_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_DE_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
 #define TRUCK_DE_EL_RTI_BUDGET 400 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
-#define TRUCK_DE_EL_WORKSPACE_BYTES 386988 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_DE_EL_WORKSPACE_BYTES 386996 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_DE_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */

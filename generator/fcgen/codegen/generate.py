@@ -320,8 +320,8 @@ HOST_TICKS_PER_SECOND = 1_000_000_000
 
 
 def status_layout(real_size: int) -> tuple[int, int]:
-    """sizeof and alignment of ``<name>_status_t``: 10 ints, 2 reals (u_violation, plan_clearance), 2 uint32 ticks."""
-    members = [(4, 4, 10), (real_size, real_size, 2), (4, 4, 2)]
+    """sizeof and alignment of ``<name>_status_t``: 11 ints, 2 reals (u_violation, plan_clearance), 2 uint32 ticks."""
+    members = [(4, 4, 11), (real_size, real_size, 2), (4, 4, 2)]
     return _struct_size(members), max(a for _, a, _ in members)
 
 FIRST_STATE_MEMBER = "w"
@@ -492,7 +492,8 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows),
                                              curve=curve is not None)
     const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
-                   + sum(len(t) for t in real_tables.values()) * real_size + len(stages) * (8 * 4 + real_size))
+                   + sum(len(t) for t in real_tables.values()) * real_size
+                   + len(stages) * (8 * 4 + real_size * (1 if curve is not None else 2)))   # stage_t: 8 ints, t, s_ref
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
 
     values = {**sizes, "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
