@@ -27,7 +27,7 @@ def test_demo_shows_the_ipm_beside_osqp_on_the_same_scenario(tmp_path):
     res = CliRunner().invoke(main, ["demo", "--samples", "8", "--seed", "2", "--out", str(out), "--no-plot"])
     assert res.exit_code == 0, res.output
     header = next(line for line in res.output.splitlines() if "C, OSQP (asked for)" in line)
-    assert "Python reference, OSQP" in header and "C, IPM" in header
+    assert "Python reference, OSQP" in header and "C, IPM" in header and "C, IPM, safe profile" in header
     c, ipm = RunLog.from_json(out / "run_c.json"), RunLog.from_json(out / "run_c_ipm.json")
     # the same scenario: the same start and the same opponents' initial poses, then each controller's own plan
     assert (c.ego_frenet[0] == ipm.ego_frenet[0]).all()
@@ -39,3 +39,17 @@ def test_demo_shows_the_ipm_beside_osqp_on_the_same_scenario(tmp_path):
         assert counts[2] == int((ipm.qp_status == 1).sum())
         assert any(line.strip().startswith(f"{st}: ") for line in res.output.splitlines())
     assert "which to pick" in res.output
+
+
+def test_demo_shows_the_safe_profile_beside_the_papers_settings(tmp_path):
+    """The recommended settings on the same scenario: the safe profile's IPM preset of the problem, in C. Over the
+    default run's first 120 samples (the ego enters the first bends) the paper's settings exceed the a_lat bound and
+    the safe profile keeps it."""
+    out = tmp_path / "demo"
+    res = CliRunner().invoke(main, ["demo", "--samples", "120", "--out", str(out), "--no-plot", "--no-ipm"])
+    assert res.exit_code == 0, res.output
+    c, safe = RunLog.from_json(out / "run_c.json"), RunLog.from_json(out / "run_c_safe.json")
+    assert safe.meta["problem"] == "truck_lift_el_ipm_safe" and (c.ego_frenet[0] == safe.ego_frenet[0]).all()
+    assert abs(c.a_lat).max() > 5.5 and abs(safe.a_lat).max() <= 5.0
+    assert not safe.collision.any()
+    assert "for an actuator: the safe profile" in res.output

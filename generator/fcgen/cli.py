@@ -582,11 +582,14 @@ def footprint_cmd(solver_dir, target, out, readme):
 @click.option("--plot/--no-plot", default=True, show_default=True)
 @click.option("--ipm/--no-ipm", default=True, show_default=True,
               help="also run the same problem with the IPM backend in C (one more column)")
-def demo(problem_name, seed, samples, out_dir, plot, ipm):
+@click.option("--safe/--no-safe", default=True, show_default=True,
+              help="also run the same problem in the safe profile with the IPM in C, our recommended settings "
+                   "(one more column)")
+def demo(problem_name, seed, samples, out_dir, plot, ipm, safe):
     """The main job: generate, build, closed loop in the C harness vs the Python reference, summary."""
     from .demo import run_demo
 
-    res = run_demo(out_dir, problem_name, seed, samples, plot, echo=click.echo, ipm=ipm)
+    res = run_demo(out_dir, problem_name, seed, samples, plot, echo=click.echo, ipm=ipm, safe=safe)
     click.echo(res.format())
     if not res.matches:
         _fail("the generated C does not reproduce the Python reference within the tolerance")

@@ -29,9 +29,19 @@ STATUS_NOTES = {
 
 
 @dataclass(frozen=True)
+class Column:
+    """One more closed loop in C on the same scenario: another backend or profile of the problem."""
+
+    label: str
+    log: RunLog
+    summary: dict
+    workspace_bytes: int
+
+
+@dataclass(frozen=True)
 class DemoResult:
-    """The run logs (C with OSQP, the Python reference, C with the IPM), their summaries and the C-vs-Python
-    differences."""
+    """The run logs (C with the asked-for solver, the Python reference), their summaries, the C-vs-Python differences,
+    and the extra C columns (the IPM backend, the safe profile)."""
 
     c_log: RunLog
     py_log: RunLog
@@ -40,18 +50,15 @@ class DemoResult:
     differences: dict[str, float]
     workspace_bytes: int
     out_dir: Path
-    ipm_log: RunLog | None = None
-    ipm_summary: dict | None = None
-    ipm_workspace_bytes: int | None = None
+    extra: tuple[Column, ...] = ()
 
     @property
     def matches(self) -> bool:
         return all(self.differences[k] <= TRAJECTORY_TOL for k in _COMPARED)
 
     def format(self) -> str:
-        cols = [("C, OSQP (asked for)", self.c_summary), ("Python reference, OSQP", self.py_summary)]
-        if self.ipm_summary is not None:
-            cols.append(("C, IPM", self.ipm_summary))
+        cols = [("C, OSQP (asked for)", self.c_summary), ("Python reference, OSQP", self.py_summary),
+                *((x.label, x.summary) for x in self.extra)]
         rows = [("", *(c[0] for c in cols))]
 
         def row(label, f):
@@ -81,13 +88,20 @@ class DemoResult:
                   f"{TRAJECTORY_TOL:g}) -> {'MATCH' if self.matches else 'MISMATCH'}",
                   f"C median total time is {speed:.1f}x faster than the Python reference",
                   f"solver workspace (static RAM on a 64-bit host, whole solver): OSQP {_kib(self.workspace_bytes)}"
-                  + (f", IPM {_kib(self.ipm_workspace_bytes)}" if self.ipm_workspace_bytes else "")]
-        if self.ipm_summary is not None:
-            i = self.ipm_summary
-            ratio = i["time_total_ms"]["median"] / c["time_total_ms"]["median"]
-            lines.append(f"which to pick: the IPM takes {ratio:.2f}x OSQP's median time here and solves its QPs to "
-                         f"its tolerance (QpOptions(backend='ipm'), presets '_ipm'); OSQP is what was asked for, "
-                         f"with a fixed iteration budget per sample")
+                  + "".join(f", {x.label.removeprefix('C, ')} {_kib(x.workspace_bytes)}" for x in self.extra)]
+        for x in self.extra:
+            ratio = x.summary["time_total_ms"]["median"] / c["time_total_ms"]["median"]
+            if x.label == IPM_LABEL:
+                lines.append(f"which to pick: the IPM takes {ratio:.2f}x OSQP's median time here and solves its QPs "
+                             f"to its tolerance (QpOptions(backend='ipm'), presets '_ipm'); OSQP is what was asked "
+                             f"for, with a fixed iteration budget per sample")
+            else:
+                xs = x.summary
+                lines.append(f"for an actuator: the safe profile (Problem()'s defaults, presets '_ipm_safe'; "
+                             f"docs/safe_profile.md): largest |a_lat| {xs['max_abs_a_lat']:.2f} m/s^2 (bound 5), "
+                             f"{xs['n_collision_samples']} samples in collision, {xs['progress'] / c['progress']:.2f}x "
+                             f"the progress and {ratio:.2f}x the median time of the paper's settings (kept for the "
+                             f"paper's experiment)")
         lines.append(f"logs and plot in {self.out_dir}/")
         return "\n".join(lines)
 
@@ -96,15 +110,22 @@ def _kib(n: int) -> str:
     return f"{n:,} bytes ({n / 1024:.1f} KiB)"
 
 
+IPM_LABEL = "C, IPM"
+SAFE_LABEL = "C, IPM, safe profile"
+
+
 def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRESET, seed: int = 3,
-             samples: int = 200, plot: bool = True, echo=print, ipm: bool = True) -> DemoResult:
-    """Generate ``problem_name`` into ``out_dir``, run C and Python closed loops on one truck/car scenario, and
-    (``ipm``) the same problem with the IPM backend in C on the same scenario."""
+             samples: int = 200, plot: bool = True, echo=print, ipm: bool = True, safe: bool = True) -> DemoResult:
+    """Generate ``problem_name`` into ``out_dir``, run C and Python closed loops on one truck/car scenario, and in C on
+    the same scenario (``ipm``) the same problem with the IPM backend and (``safe``) its safe profile with the IPM,
+    our recommended settings."""
     out_dir = Path(out_dir)
     pb = preset(problem_name)
     scenario = problem_name.split("_", 1)[0]
-    ipm_pb = preset(f"{problem_name}_ipm") if ipm and pb.qp.backend != "ipm" else None
-    steps = 5 if ipm_pb is not None else 4
+    more = [(IPM_LABEL, preset(f"{problem_name}_ipm"), "run_c_ipm.json")] if ipm and pb.qp.backend != "ipm" else []
+    if safe and not problem_name.endswith("_safe"):
+        more.append((SAFE_LABEL, preset(f"{problem_name.removesuffix('_ipm')}_ipm_safe"), "run_c_safe.json"))
+    steps = 4 + len(more)
     gen_dir = out_dir / problem_name
     echo(f"[1/{steps}] generate {problem_name} -> {gen_dir}")
     info = generate(pb, gen_dir)
@@ -115,16 +136,17 @@ def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRES
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     py_log = run_closed_loop(pb, sc)
     py_log.to_json(out_dir / "run_python.json")
-    ipm_log = ipm_info = None
-    if ipm_pb is not None:
-        ipm_dir = out_dir / ipm_pb.name
-        echo(f"[4/{steps}] the same problem with the IPM backend -> {ipm_dir}, closed loop in C")
-        ipm_info = generate(ipm_pb, ipm_dir)
-        ipm_log = firmware_sim(ipm_dir, scenario, seed, samples, out=out_dir / "run_c_ipm.json", problem=ipm_pb)
+    extra = []
+    for i, (label, x_pb, log_name) in enumerate(more):
+        x_dir = out_dir / x_pb.name
+        what = "with the IPM backend" if label == IPM_LABEL else "in the safe profile with the IPM"
+        echo(f"[{4 + i}/{steps}] the same problem {what} -> {x_dir}, closed loop in C")
+        x_info = generate(x_pb, x_dir)
+        x_log = firmware_sim(x_dir, scenario, seed, samples, out=out_dir / log_name, problem=x_pb)
+        extra.append(Column(label, x_log, summary(x_log), x_info.workspace_bytes))
     echo(f"[{steps}/{steps}] compare")
     if plot:
         from .sim.plots import plot_run
         plot_run(c_log, out_dir / "run_c.png")
     return DemoResult(c_log, py_log, summary(c_log), summary(py_log), compare(c_log, py_log),
-                      info.workspace_bytes, out_dir, ipm_log, summary(ipm_log) if ipm_log is not None else None,
-                      ipm_info.workspace_bytes if ipm_info is not None else None)
+                      info.workspace_bytes, out_dir, tuple(extra))
