@@ -30,7 +30,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max horizon.length + 4 ds", "the road the solver sees"),
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
     ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only; 500: the whole horizon",
-                                    "brake where an opponent's first overlap with the plan among stages 1..min(this, N) is ahead of the ego there or now"),
+                                    "brake where an opponent's first overlap with the plan among stages "
+                                    "1..min(this, N) is ahead of the ego there or now"),
     ("PlanCheck", "a_lat_guard"): ("-", "True or False", "the applied control keeps the next sample's lateral "
                                    "acceleration within +-bounds.a_lat_max (steering rate, else braking; needs "
                                    "bounds.a_lat_margin > 0)"),
@@ -56,8 +57,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Horizon", "stride"): ("-", "integer in [1, 10], dt * stride <= 10 s",
                             "samples per coarse interval (1: every interval one sample, the paper's grid)"),
     ("Horizon", "fine"): ("-", "integer >= 0", "intervals of one sample before the coarse ones (stride 3, fine 20: "
-                          "2 s of 0.1 s, then 6 s of 0.3 s, 8 s ahead with the paper's QP size; the plan is shifted one "
-                          "sample, a coarse stage interpolated; opponents predicted at the nodes' samples, "
+                          "2 s of 0.1 s, then 6 s of 0.3 s, 8 s ahead with the paper's QP size; the plan is shifted "
+                          "one sample, a coarse stage interpolated; opponents predicted at the nodes' samples, "
                           "`<NAME>_STAGE_OFFSETS`; neither profile uses it: docs/collisions.md)"),
     ("Weights", "q"): ("-", "5 numbers >= 0", "stage weights of (s, n, alpha, v, delta), times dt"),
     ("Weights", "q_N"): ("-", "5 numbers >= 0", "terminal weights of (s, n, alpha, v, delta)"),
@@ -85,8 +86,9 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
     ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
     ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
-    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max (a real-time "
-                                 "iteration's linearization and coarse intervals overshoot it; the paper's presets: 0)"),
+    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max "
+                                 "(a real-time iteration's linearization and coarse intervals overshoot it; the "
+                                 "paper's presets: 0)"),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),
@@ -104,7 +106,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("QpOptions", "scaling"): ("-", "integer in [0, 100]", "OSQP Ruiz scaling passes"),
     ("QpOptions", "check_termination"): ("-", "integer in [1, 1000]", "OSQP: iterations between termination checks"),
     ("QpOptions", "warm_start"): ("-", "True or False", "warm-start the QP from the shifted plan"),
-    ("QpOptions", "max_iter_cold"): ("-", "integer in [1, 1e6]", "iteration cap of a cold-started QP (at least max_iter is used)"),
+    ("QpOptions", "max_iter_cold"): ("-", "integer in [1, 1e6]", "iteration cap of a cold-started QP (at least "
+                                     "max_iter is used)"),
     ("QpOptions", "cold_restart_after"): ("-", "integer in [0, 1e6]; 0: never",
                                           "unusable QPs in a row after which prepare cold-starts"),
     ("QpOptions", "rti_budget"): ("-", "integer in [1, 1e6], or None (the backend's default)",
@@ -112,7 +115,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
                                   "max_iter_cold (docs/wcet.md)"),
     ("QpOptions", "backend"): ("-", "one of " + ", ".join(f"`{b}`" for b in dsl.BACKENDS), "the QP backend"),
     ("QpOptions", "ipm_tol"): ("-", "(0, 1)", "IPM tolerance: stationarity, primal residuals, each t lam (scaled)"),
-    ("QpOptions", "ipm_scaled_start"): ("-", "True / False", "IPM: soft rows' slack bounds start at t = max(-b, t_min / max(1, lam)) (paper presets: False)"),
+    ("QpOptions", "ipm_scaled_start"): ("-", "True / False", "IPM: soft rows' slack bounds start at "
+                                        "t = max(-b, t_min / max(1, lam)) (paper presets: False)"),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
     ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),
     ("Opponents", "count"): ("-", "integer in [0, 10]", "number of opponents"),
@@ -127,8 +131,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
 }
 
 CLASSES = ("Problem", "Vehicle", "Opponents", "Wind", "Horizon", "Weights", "Reference", "Bounds", "SoftPenalties",
-           "QpOptions", "RoadWindow", "PlanCheck", "Conventional", "DirectElimination", "Lifted", "Ellipse", "CoveringCircles",
-           "SeparatingHyperplane")
+           "QpOptions", "RoadWindow", "PlanCheck", "Conventional", "DirectElimination", "Lifted", "Ellipse",
+           "CoveringCircles", "SeparatingHyperplane")
 
 
 def documented_fields(cls: type) -> list[dataclasses.Field]:

@@ -1,0 +1,45 @@
+"""Box bounds of the states and inputs, the road band and the lateral acceleration (paper Table I)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .validation import check, finite, positive
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Box bounds (paper Table I); the road bounds are on the ego's n.
+
+    ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``. The default (the safe profile's, 0.05 m/s^2)
+    absorbs what one real-time iteration's linearization leaves where the plan holds the bound: on the safe grid it
+    takes the samples above 5.05 m/s^2 from 1.03 % to 0.45 % (docs/safe_profile.md); the paper's presets keep 0. With
+    intervals of several samples the plant's samples between the nodes overshoot more (0.15 m/s^2 kept 0.2 s
+    intervals within 5.05 m/s^2 in all but 4 of 3,600 samples, docs/collisions.md).
+    """
+
+    F_d_max: float = 1e4
+    r_max: float = 0.39
+    delta_max: float = 0.3
+    v_min: float = 0.0
+    v_max: float = 40.0
+    alpha_max: float = math.pi / 4
+    n_min: float = -10.0
+    n_max: float = 10.0
+    a_lat_max: float = 5.0
+    v_N_max: float = 15.0
+    a_lat_margin: float = 0.05
+
+    def __post_init__(self) -> None:
+        for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
+            positive(f"bounds.{f}", getattr(self, f))
+        check(0 <= finite("bounds.a_lat_margin", self.a_lat_margin) < self.a_lat_max, "bounds.a_lat_margin",
+              self.a_lat_margin, f"[0, a_lat_max = {self.a_lat_max}) m/s^2")
+        check(0 < finite("bounds.alpha_max", self.alpha_max) < math.pi / 2,
+              "bounds.alpha_max", self.alpha_max, "(0, pi/2)")
+        check(0 <= finite("bounds.v_min", self.v_min) < finite("bounds.v_max", self.v_max),
+              "bounds.v_min", self.v_min, f"0 <= v_min < v_max = {self.v_max}")
+        check(self.v_min <= finite("bounds.v_N_max", self.v_N_max) <= self.v_max,
+              "bounds.v_N_max", self.v_N_max, f"[v_min, v_max] = [{self.v_min}, {self.v_max}]")
+        check(finite("bounds.n_min", self.n_min) < finite("bounds.n_max", self.n_max),
+              "bounds.n_min", self.n_min, f"< n_max = {self.n_max}")

@@ -1,0 +1,33 @@
+"""The check of each feedback's plan against the opponents' true rectangles, its reaction and the a_lat guard."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .validation import check
+
+
+@dataclass(frozen=True)
+class PlanCheck:
+    """After each feedback: the plan's clearance to every opponent's true rectangle (separating axes), and a reaction.
+
+    ``react_stages``: where an opponent's first overlap among stages 1..min(react_stages, N) has its centre ahead of
+    the ego's there or now (stage 0), the solver brakes instead of applying the plan's u0 (status.plan_reaction = 1;
+    F_d = -min(F_d_max, m v0 / dt), the plan's steering rate); 0: report only (the paper's presets); the default, 500,
+    is the whole horizon of any problem (measured on the full grid: docs/safe_profile.md).
+
+    ``a_lat_guard``: the control to apply keeps the next sample's |a_lat| within ``bounds.a_lat_max``: where the plant's
+    step with it would exceed the bound, the steering rate is the one that ends at ``a_lat_max - a_lat_margin``
+    (status.a_lat_guard = 1), and where the step with that rate still exceeds the bound (the rate bound cut it short),
+    the solver brakes as above too (2). The plan is not changed. It needs ``bounds.a_lat_margin > 0``: with wind the
+    speed, and so the end, moves a little with the steering rate (the scenarios' 20 m/s wind: up to 4e-5 m/s^2). A
+    guarantee at the actuator behind the plan's soft a_lat rows (docs/safe_profile.md "The a_lat guard"). False: the
+    paper's presets, and the conventional formulation's safe ones (``presets.SAFE_PLAN_CHECK_CONVENTIONAL``).
+    """
+
+    react_stages: int = 500
+    a_lat_guard: bool = True
+
+    def __post_init__(self) -> None:
+        check(type(self.react_stages) is int and 0 <= self.react_stages <= 500, "plan_check.react_stages",
+              self.react_stages, "an integer in [0, 500] (0: report only)")
+        check(type(self.a_lat_guard) is bool, "plan_check.a_lat_guard", self.a_lat_guard, "True or False")
