@@ -131,73 +131,126 @@ def road_window_samples(problem: Problem) -> int:
     return int(math.ceil((reach + 2 * problem.road.ds) / problem.road.ds)) + 1
 
 
-def build_ocp(problem: Problem) -> Ocp:
-    """Assemble the CasADi stage functions of a problem (built once; both reference and C use them)."""
-    pb = problem
-    form = pb.formulation
-    lifted = isinstance(form, Lifted)
-    conventional = isinstance(form, Conventional)
+@dataclass(frozen=True, eq=False)
+class _Stage:
+    """The symbols of a stage and the sizes and scales they follow from: what the parts of ``build_ocp`` share."""
+
+    kind: str                  # the state representation: "lifted" or "frenet"
+    lifted: bool
+    conventional: bool
+    nx: int
+    nu: int
+    n_opp: int
+    n_theta: int
+    n_sigma: int
+    n_obs_rows: int
+    n_shape: int
+    n_opp_stage: int
+    np_stage: int
+    uniform: bool
+    dt: float                  # the (first) shooting interval: the costs' weight, the uniform grid's step
+    rp: RoadWindowParams
+    xs: ca.SX
+    us: ca.SX
+    ths: ca.SX
+    sgs: ca.SX
+    xn: ca.SX
+    p: ca.SX
+    Dx: np.ndarray
+    Du: np.ndarray
+    Dth: np.ndarray
+    Dsg: np.ndarray
+
+    @property
+    def names_x(self) -> tuple[str, ...]:
+        return models.STATE_NAMES[self.kind]
+
+    @property
+    def p_road(self) -> ca.SX:
+        return self.p[0:self.rp.size]
+
+    @property
+    def xref(self) -> ca.SX:
+        return self.p[self.rp.size:self.rp.size + 5]
+
+    @property
+    def p_opp(self) -> ca.SX:
+        return self.p[self.rp.size + 5:self.rp.size + 5 + self.n_opp * self.n_opp_stage]
+
+
+def _stage_symbols(pb: Problem) -> _Stage:
+    """The sizes of a problem's stages, their CasADi symbols and the variables' scales."""
+    form, model = pb.formulation, pb.obstacles
+    lifted, conventional = isinstance(form, Lifted), isinstance(form, Conventional)
     kind = "lifted" if lifted else "frenet"
     nx, nu = models.NX[kind], models.NU
     n_opp = pb.opponents.count
-    model = pb.obstacles
     n_theta = n_opp * obs.thetas_per_opponent(model)
-    soft_road = pb.soft.soft_road
     # slacks: a_lat, (road), obstacles
     n_obs_rows = n_opp * obs.rows_per_opponent(model)
-    n_sigma = 1 + (1 if soft_road else 0) + n_obs_rows
+    n_sigma = 1 + (1 if pb.soft.soft_road else 0) + n_obs_rows
     rp = RoadWindowParams(road_window_samples(pb))
     n_shape = len(obs.shape_names(model))
     n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE) + n_shape
     uniform = pb.horizon.uniform
     np_stage = rp.size + 5 + n_opp * n_opp_stage + (0 if uniform else 1)   # [road | x_ref | opponents | (interval)]
-    dt = pb.horizon.interval   # the (first) shooting interval: the costs' weight, the uniform grid's step
-    ego, bnd, soft = pb.ego, pb.bounds, pb.soft
+    return _Stage(kind, lifted, conventional, nx, nu, n_opp, n_theta, n_sigma, n_obs_rows, n_shape, n_opp_stage,
+                  np_stage, uniform, pb.horizon.interval, rp,
+                  ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("theta", n_theta), ca.SX.sym("sigma", n_sigma),
+                  ca.SX.sym("x_next", nx), ca.SX.sym("p", np_stage),
+                  np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]]),
+                  np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES]), np.ones(n_theta), np.ones(n_sigma))
 
-    xs = ca.SX.sym("x", nx)
-    us = ca.SX.sym("u", nu)
-    ths = ca.SX.sym("theta", n_theta)
-    sgs = ca.SX.sym("sigma", n_sigma)
-    xn = ca.SX.sym("x_next", nx)
-    p = ca.SX.sym("p", np_stage)
-    p_road = p[0:rp.size]
-    xref = p[rp.size:rp.size + 5]
-    p_opp = p[rp.size + 5:rp.size + 5 + n_opp * n_opp_stage]
+
+def _dynamics(pb: Problem, st: _Stage) -> ca.SX:
+    """x_{k+1} of one RK4 step of the formulation's ODE on the stage's road window (a non-uniform grid: the
+    interval from the stage's parameters)."""
+    p_road = st.p_road
 
     def road(s):
-        kappa, phi_g, *_ = casadi_road(s, p_road, rp.samples)
+        kappa, phi_g, *_ = casadi_road(s, p_road, st.rp.samples)
         return kappa, phi_g
 
-    f = models.ode(kind, road, ego, pb.wind)
-    x_next = models.rk4(f, xs, us, dt if uniform else p[np_stage - 1])
-    Dx = np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]])
-    Du = np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES])
-    Dth = np.ones(n_theta)
-    Dsg = np.ones(n_sigma)
-    names_x = models.STATE_NAMES[kind]
+    f = models.ode(st.kind, road, pb.ego, pb.wind)
+    return models.rk4(f, st.xs, st.us, st.dt if st.uniform else st.p[st.np_stage - 1])
 
-    # --- path constraints at stages 1..N: soft rows (with slack index), equality rows -----------
-    a = models.a_lat(xs[3], xs[4], ego)
+
+def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
+    """The soft rows of the lateral acceleration (inside ``a_lat_max - a_lat_margin``) and, with ``soft_road``, of
+    the road bounds: (name, g, lower, upper), slacks 0 and 1."""
+    bnd, xs, sgs = pb.bounds, st.xs, st.sgs
     lim = (bnd.a_lat_max - bnd.a_lat_margin) / bnd.a_lat_max   # the planned bound (1.0 without a margin)
-    soft_rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
-                 ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim)]
-    isg = 1
-    if soft_road:
+    rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
+            ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim)]
+    if pb.soft.soft_road:
         sn = STATE_SCALE["n"]
-        soft_rows += [("road_lo", (xs[1] + sgs[isg]) / sn, bnd.n_min / sn, INF),
-                      ("road_hi", (xs[1] - sgs[isg]) / sn, -INF, bnd.n_max / sn)]
-        isg += 1
-    eq_rows = []
-    if conventional:
-        ego_pose = (xs[0], xs[1], xs[2])
-    elif lifted:
-        ego_pose = (xs[5], xs[6], xs[7])
-    else:
-        ego_pose = casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, rp.samples)
-    length = ego.l_ch
+        rows += [("road_lo", (xs[1] + sgs[1]) / sn, bnd.n_min / sn, INF),
+                 ("road_hi", (xs[1] - sgs[1]) / sn, -INF, bnd.n_max / sn)]
+    return rows
+
+
+def _ego_pose(st: _Stage) -> tuple:
+    """The ego's pose the obstacle rows use: (s, n, alpha) for the conventional formulation, else [x, y, phi] (the
+    lifted states, or F^-1 on the stage's road window)."""
+    xs = st.xs
+    if st.conventional:
+        return (xs[0], xs[1], xs[2])
+    if st.lifted:
+        return (xs[5], xs[6], xs[7])
+    return casadi_to_cartesian(xs[0], xs[1], xs[2], st.p_road, st.rp.samples)
+
+
+def _obstacle_rows(pb: Problem, st: _Stage, first_slack: int) -> tuple[list[tuple], list[tuple], list]:
+    """Per opponent the obstacle model's soft rows (one slack each, from ``first_slack``), its equality rows (the
+    hyperplanes' norm) and the midpoint plane that anchors its hyperplane variables (the safe profile)."""
+    ego, model, conventional = pb.ego, pb.obstacles, st.conventional
+    ego_pose = _ego_pose(st)
+    p_opp, ths, sgs = st.p_opp, st.ths, st.sgs
+    soft_rows, eq_rows = [], []
     theta_mid: list = []   # per opponent the plane halfway between the centres (the anchor of the safe profile)
-    for j in range(n_opp):
-        pj = p_opp[j * n_opp_stage:(j + 1) * n_opp_stage]
+    isg = first_slack
+    for j in range(st.n_opp):
+        pj = p_opp[j * st.n_opp_stage:(j + 1) * st.n_opp_stage]
         axes = None
         if conventional:
             opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
@@ -205,24 +258,32 @@ def build_ocp(problem: Problem) -> Ocp:
         else:
             opp = obs.shape_of(pj[0], pj[1], pj[2], pj[3:])
             ego_sh = obs.chassis_shape(*ego_pose, ego)
-            if n_shape > len(obs.OPP_SHAPE):
+            if st.n_shape > len(obs.OPP_SHAPE):
                 axes = (pj[6], pj[7])
-        th = ths[3 * j:3 * j + 3] if n_theta else None
-        if n_theta:
+        th = ths[3 * j:3 * j + 3] if st.n_theta else None
+        if st.n_theta:
             mid_sh = obs.frenet_ego_shape(*ego_pose, 1.0, ego) if conventional else ego_sh
             theta_mid += obs.midpoint_plane(mid_sh, opp)
-        rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=length, axes=axes)
+        rows, eqs = obs.constraint_rows(model, ego_sh, opp, th, cover=conventional, length=ego.l_ch, axes=axes)
         for r_i, h in enumerate(rows):
             soft_rows.append((f"opp{j}_h{r_i}", h + sgs[isg], 0.0, INF))
             isg += 1
         for e in eqs:
             eq_rows.append((f"opp{j}_hp_norm", e, 0.0, 0.0))
-    assert isg == n_sigma
+    assert isg == st.n_sigma
+    return soft_rows, eq_rows, theta_mid
 
-    # --- box bounds ------------------------------------------------------------------------------
+
+def _box_rows(pb: Problem, st: _Stage, x_next: ca.SX) -> dict[str, list[tuple]]:
+    """The one-variable rows (state bounds at stages 1..N-1 and N, input and slack bounds), the dynamics rows and the
+    init rows, scaled: (name, g, lower, upper)."""
+    bnd, xs, us, sgs = pb.bounds, st.xs, st.us, st.sgs
+    Dx, Du, Dsg = st.Dx, st.Du, st.Dsg
+    soft_road = pb.soft.soft_road
+
     def state_bounds(terminal: bool):
         out = []
-        for i, nm in enumerate(names_x):
+        for i, nm in enumerate(st.names_x):
             lo, hi = {"n": (bnd.n_min, bnd.n_max) if not soft_road else None,
                       "alpha": (-bnd.alpha_max, bnd.alpha_max),
                       "v": (bnd.v_min, bnd.v_N_max if terminal else bnd.v_max),
@@ -231,89 +292,123 @@ def build_ocp(problem: Problem) -> Ocp:
                 out.append((f"bound_{nm}", xs[i] / Dx[i], lo / Dx[i], hi / Dx[i]))
         return out
 
-    u_bounds = [(f"bound_{nm}", us[i] / Du[i], -lim / Du[i], lim / Du[i])
-                for i, (nm, lim) in enumerate(zip(models.CONTROL_NAMES, (bnd.F_d_max, bnd.r_max)))]
-    sg_bounds = [(f"bound_sigma{i}", sgs[i] / Dsg[i], 0.0, INF) for i in range(n_sigma)]
-    dyn_rows = [(f"dyn_{nm}", (x_next[i] - xn[i]) / Dx[i], 0.0, 0.0) for i, nm in enumerate(names_x)]
-    init_rows = [(f"init_{nm}", xs[i] / Dx[i], 0.0, 0.0) for i, nm in enumerate(names_x)]
+    return {
+        "state": state_bounds(False),
+        "state_N": state_bounds(True),
+        "u": [(f"bound_{nm}", us[i] / Du[i], -lim / Du[i], lim / Du[i])
+              for i, (nm, lim) in enumerate(zip(models.CONTROL_NAMES, (bnd.F_d_max, bnd.r_max)))],
+        "sigma": [(f"bound_sigma{i}", sgs[i] / Dsg[i], 0.0, INF) for i in range(st.n_sigma)],
+        "dyn": [(f"dyn_{nm}", (x_next[i] - st.xn[i]) / Dx[i], 0.0, 0.0) for i, nm in enumerate(st.names_x)],
+        "init": [(f"init_{nm}", xs[i] / Dx[i], 0.0, 0.0) for i, nm in enumerate(st.names_x)],
+    }
 
-    # --- costs (unscaled), slack weights per slack ----------------------------------------------
-    xF = xs[0:5]
-    w = pb.weights
+
+def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
+    """The unscaled least-squares costs: tracking of stages 0..N-1 and of N, inputs, slacks (L1 + L2 per slack);
+    stage weights times the interval."""
+    w, soft, dt = pb.weights, pb.soft, st.dt
     q_stage = np.array(w.q) * dt
     r_stage = np.array(w.r) * dt
-    l1 = np.array([soft.a_lat_l1] + ([soft.road_l1] if soft_road else []) + [soft.obstacle_l1] * n_obs_rows) * dt
-    l2 = np.array([soft.a_lat_l2] + ([soft.road_l2] if soft_road else []) + [soft.obstacle_l2] * n_obs_rows) * dt
-    ex = xF - xref
-    track = ca.sum1(q_stage * ex * ex)
-    track_N = ca.sum1(np.array(w.q_N) * ex * ex)
-    uc = ca.sum1(r_stage * us * us)
-    sc = ca.sum1(l1 * sgs + l2 * sgs * sgs)
+    road_l1, road_l2 = ([soft.road_l1], [soft.road_l2]) if soft.soft_road else ([], [])
+    l1 = np.array([soft.a_lat_l1] + road_l1 + [soft.obstacle_l1] * st.n_obs_rows) * dt
+    l2 = np.array([soft.a_lat_l2] + road_l2 + [soft.obstacle_l2] * st.n_obs_rows) * dt
+    ex = st.xs[0:5] - st.xref
+    return {"track": ca.sum1(q_stage * ex * ex), "track_N": ca.sum1(np.array(w.q_N) * ex * ex),
+            "u": ca.sum1(r_stage * st.us * st.us), "sigma": ca.sum1(l1 * st.sgs + l2 * st.sgs * st.sgs)}
 
-    specs = {
-        "first": (ca.vertcat(xs, us), [init_rows, dyn_rows, u_bounds], track + uc, np.r_[Dx, Du]),
-        "middle": (ca.vertcat(xs, us, ths, sgs), [dyn_rows, soft_rows, eq_rows, state_bounds(False), u_bounds,
-                                                  sg_bounds], track + uc + sc, np.r_[Dx, Du, Dth, Dsg]),
-        "last": (ca.vertcat(xs, ths, sgs), [soft_rows, eq_rows, state_bounds(True), sg_bounds],
-                 track_N + sc, np.r_[Dx, Dth, Dsg]),
-    }
-    var_names = {
-        "first": list(names_x) + list(models.CONTROL_NAMES),
-        "middle": list(names_x) + list(models.CONTROL_NAMES) + [f"theta{i}" for i in range(n_theta)]
-        + [f"sigma{i}" for i in range(n_sigma)],
-        "last": list(names_x) + [f"theta{i}" for i in range(n_theta)] + [f"sigma{i}" for i in range(n_sigma)],
+
+def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict) -> dict[str, tuple]:
+    """Per stage shape (first, middle, last): its variables, its row groups in order, its cost, its variables'
+    scales and names."""
+    xs, us, ths, sgs = st.xs, st.us, st.ths, st.sgs
+    names_u = list(models.CONTROL_NAMES)
+    names_th = [f"theta{i}" for i in range(st.n_theta)]
+    names_sg = [f"sigma{i}" for i in range(st.n_sigma)]
+    return {
+        "first": (ca.vertcat(xs, us), [box["init"], box["dyn"], box["u"]], cost["track"] + cost["u"],
+                  np.r_[st.Dx, st.Du], list(st.names_x) + names_u),
+        "middle": (ca.vertcat(xs, us, ths, sgs), [box["dyn"], soft_rows, eq_rows, box["state"], box["u"],
+                                                  box["sigma"]], cost["track"] + cost["u"] + cost["sigma"],
+                   np.r_[st.Dx, st.Du, st.Dth, st.Dsg], list(st.names_x) + names_u + names_th + names_sg),
+        "last": (ca.vertcat(xs, ths, sgs), [soft_rows, eq_rows, box["state_N"], box["sigma"]],
+                 cost["track_N"] + cost["sigma"], np.r_[st.Dx, st.Dth, st.Dsg], list(st.names_x) + names_th + names_sg),
     }
 
-    # cost scale: the largest scaled Hessian entry over all stages becomes 1
+
+def _scaled_hessians(st: _Stage, specs: dict[str, tuple]) -> tuple[dict[str, np.ndarray], float]:
+    """Each stage's scaled cost Hessian diagonal (the cost must have a constant diagonal Hessian), and the cost scale
+    that makes the largest entry over all stages 1."""
     hess_diag = {}
-    for key, (wk, _, cost, D) in specs.items():
-        H = ca.Function("H", [wk, p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()), np.zeros(np_stage))
+    for key, (wk, _, cost, D, _) in specs.items():
+        H = ca.Function("H", [wk, st.p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()), np.zeros(st.np_stage))
         H = np.array(H)
         if np.count_nonzero(H - np.diag(np.diag(H))):
             raise AssertionError("cost Hessian must be diagonal")
         hess_diag[key] = np.diag(H) * D * D
-    cost_scale = 1.0 / max(float(h.max()) for h in hess_diag.values())
+    return hess_diag, 1.0 / max(float(h.max()) for h in hess_diag.values())
 
-    anchor = getattr(model, "anchor", 0.0)
+
+def _stage_type(pb: Problem, st: _Stage, key: str, spec: tuple, hess_diag: np.ndarray, cost_scale: float,
+                theta_mid: list) -> tuple[StageType, ca.Function]:
+    """One stage shape's function (w, x_next, p) -> (g, J, q) in the scaled variables, its bounds and constant
+    Hessian; and its unscaled cost function (for IPOPT)."""
+    wk, groups, cost, D, var_names = spec
+    rows = [r for g in groups for r in g]
+    g = ca.vertcat(*[r[1] for r in rows])
+    J = ca.jacobian(g, ca.vertcat(wk, st.xn))
+    J = ca.mtimes(J, ca.diag(ca.DM(np.r_[D, st.Dx])))
+    q = cost_scale * ca.gradient(cost, wk) * D
+    P_diag = cost_scale * hess_diag
+    anchor = getattr(pb.obstacles, "anchor", 0.0)
+    n_theta = st.n_theta
+    i_theta = st.nx + (st.nu if key == "middle" else 0)   # the stage's first hyperplane variable (none at k = 0)
+    if n_theta and anchor > 0 and key != "first":   # the hyperplanes' anchor (theta's scale is 1): Hessian +
+        # anchor, gradient anchor * (theta - theta_mid(x, p)) with theta_mid held at the linearization point
+        q[i_theta:i_theta + n_theta] += anchor * (st.ths - ca.vertcat(*theta_mid))
+        P_diag[i_theta:i_theta + n_theta] += anchor
+    fun = ca.Function(f"stage_{key}", [wk, st.xn, st.p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
+    q_ds0 = np.zeros(len(D))
+    # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + t_k v_ref
     s_idx = 0  # s is the first state in both representations
-    stage_types = {}
-    costs = {}
-    for key, (wk, groups, cost, D) in specs.items():
-        rows = [r for g in groups for r in g]
-        g = ca.vertcat(*[r[1] for r in rows])
-        J = ca.jacobian(g, ca.vertcat(wk, xn))
-        J = ca.mtimes(J, ca.diag(ca.DM(np.r_[D, Dx])))
-        q = cost_scale * ca.gradient(cost, wk) * D
-        P_diag = cost_scale * hess_diag[key]
-        i_theta = nx + (nu if key == "middle" else 0)   # the stage's first hyperplane variable (none at k = 0)
-        if n_theta and anchor > 0 and key != "first":   # the hyperplanes' anchor (theta's scale is 1): Hessian +
-            # anchor, gradient anchor * (theta - theta_mid(x, p)) with theta_mid held at the linearization point
-            q[i_theta:i_theta + n_theta] += anchor * (ths - ca.vertcat(*theta_mid))
-            P_diag[i_theta:i_theta + n_theta] += anchor
-        fun = ca.Function(f"stage_{key}", [wk, xn, p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
-        q_ds0 = np.zeros(len(D))
-        # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + t_k v_ref
-        qs = (np.array(w.q_N) if key == "last" else q_stage)[0]
-        q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
-        stage_types[key] = StageType(key, tuple(var_names[key]), tuple(r[0] for r in rows),
-                                     np.array([r[2] for r in rows], dtype=float),
-                                     np.array([r[3] for r in rows], dtype=float), D,
-                                     P_diag, q_ds0, fun, fun.sparsity_out(1))
-        costs[key] = ca.Function(f"cost_{key}", [wk, p], [cost])
+    qs = (np.array(pb.weights.q_N) if key == "last" else np.array(pb.weights.q) * st.dt)[0]
+    q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
+    stage = StageType(key, tuple(var_names), tuple(r[0] for r in rows), np.array([r[2] for r in rows], dtype=float),
+                      np.array([r[3] for r in rows], dtype=float), D, P_diag, q_ds0, fun, fun.sparsity_out(1))
+    return stage, ca.Function(f"cost_{key}", [wk, st.p], [cost])
 
-    dyn = ca.Function("dynamics", [xs, us, p], [x_next], ["x", "u", "p"], ["x_next"])
+
+def _init_state_function(st: _Stage) -> ca.Function:
+    """(x0 Frenet, p) -> x_0 of the formulation: the lifted one appends F^-1 on the stage's road window."""
     x0F = ca.SX.sym("x0", 5)
-    if lifted:
-        cart = casadi_to_cartesian(x0F[0], x0F[1], x0F[2], p_road, rp.samples)
+    if st.lifted:
+        cart = casadi_to_cartesian(x0F[0], x0F[1], x0F[2], st.p_road, st.rp.samples)
         x0_full = ca.vertcat(x0F, *cart)
     else:
         x0_full = x0F
-    init = ca.Function("init_state", [x0F, p], [x0_full], ["x0", "p"], ["x"])
-    alat = ca.Function("a_lat", [xs], [a])
-    return Ocp(pb, kind, nx, nu, n_theta, n_sigma, rp, len(obs.CARTESIAN_POSE), n_opp_stage, n_shape, np_stage,
-               cost_scale,
-               stage_types["first"], stage_types["middle"], stage_types["last"], dyn, init, alat,
-               plan_clearance_function(pb, xs, p, p_road, rp.samples, lifted),
+    return ca.Function("init_state", [x0F, st.p], [x0_full], ["x0", "p"], ["x"])
+
+
+def build_ocp(problem: Problem) -> Ocp:
+    """Assemble the CasADi stage functions of a problem (built once; both reference and C use them)."""
+    pb = problem
+    st = _stage_symbols(pb)
+    x_next = _dynamics(pb, st)
+    # path constraints at stages 1..N: soft rows (with slack index), equality rows
+    a = models.a_lat(st.xs[3], st.xs[4], pb.ego)
+    soft_rows = _a_lat_and_road_rows(pb, st, a)
+    obstacle_rows, eq_rows, theta_mid = _obstacle_rows(pb, st, first_slack=1 + int(pb.soft.soft_road))  # a_lat, road
+    box = _box_rows(pb, st, x_next)
+    specs = _stage_specs(st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st))
+    hess_diag, cost_scale = _scaled_hessians(st, specs)
+    stages, costs = {}, {}
+    for key, spec in specs.items():
+        stages[key], costs[key] = _stage_type(pb, st, key, spec, hess_diag[key], cost_scale, theta_mid)
+    dyn = ca.Function("dynamics", [st.xs, st.us, st.p], [x_next], ["x", "u", "p"], ["x_next"])
+    alat = ca.Function("a_lat", [st.xs], [a])
+    return Ocp(pb, st.kind, st.nx, st.nu, st.n_theta, st.n_sigma, st.rp, len(obs.CARTESIAN_POSE), st.n_opp_stage,
+               st.n_shape, st.np_stage, cost_scale, stages["first"], stages["middle"], stages["last"], dyn,
+               _init_state_function(st), alat,
+               plan_clearance_function(pb, st.xs, st.p, st.p_road, st.rp.samples, st.lifted),
                (costs["first"], costs["middle"], costs["last"]), build_oppfit(pb))
 
 
