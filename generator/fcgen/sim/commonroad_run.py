@@ -78,7 +78,7 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
     ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
     plant's, sample by sample, and the log keeps them."""
     from .. import commonroad as cr
-    from ..commonroad.judge import centre_dims, fcgen_verdict, penetrations
+    from ..commonroad.judge import fcgen_verdict, penetrations
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt "
@@ -86,105 +86,156 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
     if controller is None:
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
-    N, n_slots, ego = problem.horizon.N, problem.opponents.count, problem.ego
     road, cut = scenario_road(problem, sc)
     plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
+    loop = _drive(problem, sc, controller, road, plant, plan, progress, states)
+    ego = problem.ego
+    ego_cart, centres = _ego_poses(road, loop.xs, ego.l / 2)
+    opp_cart = _obstacle_poses(sc, len(loop.xs))
+    pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
+    who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
+    checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
+    own = fcgen_verdict(sc, pen)
+    extra = {"exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
+             "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
+             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+             "commonroad": {"scenario": sc.name, "file": sc.file, "sha256": sc.sha256,
+                            "planning_problem": sc.planning_problem_id, "v_ref": float(sc.v_ref), "band_cut": cut,
+                            "obstacle_ids": [int(ob.id) for ob in sc.obstacles], "slots": loop.slot_ids,
+                            "checker": _plain(checker), "fcgen": _plain(own), "responsibility": who,
+                            "agree": bool(checker["collision"]) == bool(own["collision"])}}
+    log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, (pen > 0.0).any(axis=1), extra)
+    return CommonRoadRun(log, checker, own, who, centres)
+
+
+@dataclass(eq=False)
+class _Loop:
+    """What the closed loop on a scenario leaves: the ego's states and controls, each sample's step result, the
+    scenario obstacles in the solver's slots and the plan log."""
+
+    xs: np.ndarray           # (K + 1, 5) Frenet states
+    us: np.ndarray           # (K, 2) controls
+    results: list            # each sample's StepResult
+    slot_ids: list           # per sample the obstacle id in each opponent slot (-1: empty)
+    planlog: PlanLog
+
+
+def _drive(problem: Problem, sc, controller: Controller, road: Road, plant: Plant, plan: str, progress: bool,
+           states: np.ndarray | None) -> _Loop:
+    """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
+    changes), one controller step, one plant step (or the replayed state)."""
+    from .. import commonroad as cr
+
+    N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
-    xs = np.zeros((K + 1, 5))
-    xs[0] = sc.x0
+    loop = _Loop(np.zeros((K + 1, 5)), np.zeros((K, 2)), [], [], PlanLog(K, N, plan))
+    loop.xs[0] = sc.x0
     if states is not None:
-        xs[:] = states
-    us = np.zeros((K, 2))
-    planlog = PlanLog(K, N, plan)
+        loop.xs[:] = states
     rc = controller.set_reference(sc.v_ref, 0.0)
     if rc:
         raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, 0) refused (exit code {rc})")
-    shape_cache: dict[tuple, np.ndarray] = {}
-    slots_now: tuple | None = None
-    results, slot_ids = [], []
+    shapes_in = _SlotShapes(problem, sc, controller)
     it = range(K)
     if progress:
         from tqdm import tqdm
         it = tqdm(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
-    half_l = ego.l / 2
+    half_l = problem.ego.l / 2
     for j in it:
-        x = xs[j]
+        x = loop.xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
         centre = (rx + half_l * math.cos(rphi), ry + half_l * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
-        key = tuple(map(tuple, np.asarray(shapes, dtype=float)))
-        if key != slots_now:
-            vals = []
-            for length, width, offset in key:
-                v = shape_cache.get((length, width, offset))
-                if v is None:
-                    v = shape_cache[(length, width, offset)] = obs.opponent_shape(problem.obstacles, ego, length,
-                                                                                   width, offset)
-                vals.append(v)
-            rc = controller.set_opponent_shapes(np.array(vals).reshape(n_slots, -1))
-            if rc:
-                raise ValueError(f"scenario {sc.name}: set_opponent_shapes refused at sample {j} (exit code {rc})")
-            slots_now = key
-        slot_ids.append([-1 if i is None else int(i) for i in ids])
+        shapes_in.set(j, shapes)
+        loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         r = controller.step(x, solver_window(problem, road, x), poses)
-        us[j] = r.u
+        loop.us[j] = r.u
         if plan != "none":
-            planlog.add(j, controller, r)
+            loop.planlog.add(j, controller, r)
         else:
-            planlog.exit_code[j] = r.exit_code
-        results.append(r)
+            loop.planlog.exit_code[j] = r.exit_code
+        loop.results.append(r)
         if states is None:
-            xs[j + 1] = plant.step(x, us[j], road)
-    t = np.arange(K + 1) * sc.dt
+            loop.xs[j + 1] = plant.step(x, loop.us[j], road)
+    return loop
+
+
+class _SlotShapes:
+    """The opponent slots' shapes as the controller has them: ``set_opponent_shapes`` only when an occupant's
+    (length, width, offset) changes, each shape's values computed once."""
+
+    def __init__(self, problem: Problem, sc, controller: Controller):
+        self.problem, self.sc, self.controller = problem, sc, controller
+        self.cache: dict[tuple, np.ndarray] = {}
+        self.now: tuple | None = None
+
+    def set(self, j: int, shapes) -> None:
+        """Give the controller the slots' (length, width, offset) of sample ``j`` if they changed."""
+        key = tuple(map(tuple, np.asarray(shapes, dtype=float)))
+        if key == self.now:
+            return
+        pb, vals = self.problem, []
+        for length, width, offset in key:
+            v = self.cache.get((length, width, offset))
+            if v is None:
+                v = self.cache[(length, width, offset)] = obs.opponent_shape(pb.obstacles, pb.ego, length, width,
+                                                                              offset)
+            vals.append(v)
+        rc = self.controller.set_opponent_shapes(np.array(vals).reshape(pb.opponents.count, -1))
+        if rc:
+            raise ValueError(f"scenario {self.sc.name}: set_opponent_shapes refused at sample {j} (exit code {rc})")
+        self.now = key
+
+
+def _ego_poses(road: Road, xs: np.ndarray, half_l: float) -> tuple[np.ndarray, np.ndarray]:
+    """(K + 1, 3) the ego's rear-axle poses [x, y, phi] and its chassis centre poses (half the wheelbase ahead)."""
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
     centres = ego_cart.copy()
     centres[:, 0] += half_l * np.cos(ephi)
     centres[:, 1] += half_l * np.sin(ephi)
-    # every obstacle of the scenario at every sample where it is recorded (NaN elsewhere)
-    O = len(sc.obstacles)
-    opp_cart = np.full((K + 1, O, 3), np.nan)
+    return ego_cart, centres
+
+
+def _obstacle_poses(sc, n_states: int) -> np.ndarray:
+    """(K + 1, O, 3) every obstacle of the scenario at every sample where it is recorded (NaN elsewhere)."""
+    opp_cart = np.full((n_states, len(sc.obstacles), 3), np.nan)
     for i, ob in enumerate(sc.obstacles):
-        for j in range(K + 1):
+        for j in range(n_states):
             step = sc.first_step + j
             if ob.static or ob.first_step <= step <= ob.last_step:
                 p = ob.pose(step)
                 if p is not None:
                     opp_cart[j, i] = p
+    return opp_cart
+
+
+def _run_log(problem: Problem, sc, controller_kind: str, road: Road, loop: _Loop, ego_cart: np.ndarray,
+             opp_cart: np.ndarray, collision: np.ndarray, extra: dict) -> RunLog:
+    """The run's log: the ego's states and poses, every scenario obstacle (Cartesian and on the road's Frenet frame,
+    NaN where not recorded), the solver's statistics and the verdicts in ``extra``."""
+    from ..commonroad.judge import centre_dims
+
+    xs, ego = loop.xs, problem.ego
     opp_dims = [centre_dims(ob.length, ob.width) for ob in sc.obstacles]
-    ego_dims = dims(ego)
-    pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
-    coll = (pen > 0.0).any(axis=1)
-    who = _responsibility(pen, ego_cart, centres, xs, opp_cart, sc.dt)
-    checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
-    own = fcgen_verdict(sc, pen)
     opp_fr = np.full_like(opp_cart, np.nan)
     ok = np.isfinite(opp_cart[..., 0])
     if ok.any():
         s, n, a = road.to_frenet(opp_cart[..., 0][ok], opp_cart[..., 1][ok], opp_cart[..., 2][ok])
         opp_fr[ok] = np.stack([s, n, a], axis=-1)
-    extra = {"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
-             "plan_reactions": int(sum(r.plan_reaction for r in results)),
-             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
-             "commonroad": {"scenario": sc.name, "file": sc.file, "sha256": sc.sha256,
-                            "planning_problem": sc.planning_problem_id, "v_ref": float(sc.v_ref), "band_cut": cut,
-                            "obstacle_ids": [int(ob.id) for ob in sc.obstacles], "slots": slot_ids,
-                            "checker": _plain(checker), "fcgen": _plain(own), "responsibility": who,
-                            "agree": bool(checker["collision"]) == bool(own["collision"])}}
     meta = make_meta(problem=problem.name, formulation=problem.formulation.kind,
-                     obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=0, N=N, dt=problem.horizon.dt,
-                     controller=controller.kind, n_bound=problem.bounds.n_max, extra=extra)
+                     obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=0, N=problem.horizon.N,
+                     dt=problem.horizon.dt, controller=controller_kind, n_bound=problem.bounds.n_max, extra=extra)
     road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
                  "phi_gamma": road.phi, "ds": road.ds}
     a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / ego.l
-    stats = {key: np.array([getattr(r, key) for r in results]) for key in
+    stats = {key: np.array([getattr(r, key) for r in loop.results]) for key in
              ("time_prepare", "time_feedback", "qp_iter", "qp_status", "max_slack")}
-    log = RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=t, ego_frenet=xs, ego_cartesian=ego_cart,
-                 opp_cartesian=opp_cart, opp_frenet=opp_fr, collision=coll, a_lat=a_lat, control=us,
-                 time_prepare=stats["time_prepare"], time_feedback=stats["time_feedback"],
-                 time_total=stats["time_prepare"] + stats["time_feedback"], qp_iter=stats["qp_iter"],
-                 qp_status=stats["qp_status"], max_slack=stats["max_slack"], ego=ego_dims, **planlog.fields())
-    return CommonRoadRun(log, checker, own, who, centres)
+    return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=np.arange(len(xs)) * sc.dt, ego_frenet=xs,
+                  ego_cartesian=ego_cart, opp_cartesian=opp_cart, opp_frenet=opp_fr, collision=collision, a_lat=a_lat,
+                  control=loop.us, time_prepare=stats["time_prepare"], time_feedback=stats["time_feedback"],
+                  time_total=stats["time_prepare"] + stats["time_feedback"], qp_iter=stats["qp_iter"],
+                  qp_status=stats["qp_status"], max_slack=stats["max_slack"], ego=dims(ego), **loop.planlog.fields())
 
 
 def _responsibility(pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray,
