@@ -141,10 +141,13 @@ def documented_fields(cls: type) -> list[dataclasses.Field]:
 
 
 def _default(f: dataclasses.Field) -> str:
-    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+    if f.default is not dataclasses.MISSING:
+        v = f.default
+    elif f.default_factory is not dataclasses.MISSING:
+        v = f.default_factory()
+    else:
         return "required"
-    v = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-    if dataclasses.is_dataclass(v):
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
         return f"`{type(v).__name__}()`" + (" (its defaults)" if v == type(v)() else " (see below)")
     if isinstance(v, float):
         return f"{v:.6g}" if not math.isclose(v, math.pi / 4) else "pi/4"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -229,7 +230,7 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
     return rows
 
 
-def _ego_pose(st: _Stage) -> tuple:
+def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:
     """The ego's pose the obstacle rows use: (s, n, alpha) for the conventional formulation, else [x, y, phi] (the
     lifted states, or F^-1 on the stage's road window)."""
     xs = st.xs
@@ -340,8 +341,8 @@ def _scaled_hessians(st: _Stage, specs: dict[str, tuple]) -> tuple[dict[str, np.
     that makes the largest entry over all stages 1."""
     hess_diag = {}
     for key, (wk, _, cost, D, _) in specs.items():
-        H = ca.Function("H", [wk, st.p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()), np.zeros(st.np_stage))
-        H = np.array(H)
+        H = np.array(ca.Function("H", [wk, st.p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()),
+                                                                         np.zeros(st.np_stage)))
         if np.count_nonzero(H - np.diag(np.diag(H))):
             raise AssertionError("cost Hessian must be diagonal")
         hess_diag[key] = np.diag(H) * D * D
@@ -421,7 +422,8 @@ def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bo
     ns = len(obs.shape_names(pb.obstacles))
     opp = ca.SX.sym("opp", n_opp * len(obs.CARTESIAN_POSE))
     shape = ca.SX.sym("shape", n_opp * ns)
-    pose = (xs[5], xs[6], xs[7]) if lifted else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples)
+    pose: tuple[Any, Any, Any] = ((xs[5], xs[6], xs[7]) if lifted
+                                  else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples))
     ego_sh = obs.chassis_shape(*pose, pb.ego)
     clearance, ahead = [], []
     for j in range(n_opp):

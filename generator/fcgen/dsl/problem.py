@@ -5,6 +5,7 @@ import math
 import re
 import warnings
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 from ..cnames import name_clash
 from .bounds import Bounds
@@ -75,7 +76,7 @@ class Problem:
         return replace(self, **changes)
 
 
-def describe(obj) -> dict:
+def describe(obj) -> Any:
     """A plain, JSON-able description of a DSL object (for run logs and generated READMEs)."""
     if hasattr(obj, "__dataclass_fields__"):
         return {f.name: describe(getattr(obj, f.name)) for f in fields(obj)}

@@ -84,7 +84,7 @@ def build_layout(ocp: Ocp) -> QpLayout:
         jac_off[k + 1] = jac_off[k] + st.jac_sparsity.nnz()
     n, m = int(var_off[-1]), int(row_off[-1])
 
-    rows, cols, src = [], [], []
+    row_parts, col_parts, src_parts = [], [], []
     for k, st in enumerate(stages):
         sparsity = st.jac_sparsity
         r_loc = np.array(sparsity.row(), dtype=np.int64)
@@ -94,10 +94,10 @@ def build_layout(ocp: Ocp) -> QpLayout:
         if k == N and np.any(~own):
             raise AssertionError("the last stage has no successor state")
         c_glob = np.where(own, var_off[k] + c_loc, var_off[min(k + 1, N)] + (c_loc - st.nw))
-        rows.append(row_off[k] + r_loc)
-        cols.append(c_glob)
-        src.append(jac_off[k] + np.arange(len(r_loc)))
-    rows, cols, src = np.concatenate(rows), np.concatenate(cols), np.concatenate(src)
+        row_parts.append(row_off[k] + r_loc)
+        col_parts.append(c_glob)
+        src_parts.append(jac_off[k] + np.arange(len(r_loc)))
+    rows, cols, src = np.concatenate(row_parts), np.concatenate(col_parts), np.concatenate(src_parts)
     order = np.lexsort((rows, cols))
     rows, cols, src = rows[order], cols[order], src[order]
     if np.any((np.diff(cols) == 0) & (np.diff(rows) == 0)):
