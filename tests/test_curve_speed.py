@@ -4,11 +4,11 @@ horizon at the node's own s (``fcgen.road.curve_reference``), so that the refere
 
 Independent expectations: the cap worked out by hand on a road of one constant bend, and the reference along the
 horizon by the same closed form stepped node by node; the same reference in the QP's cost vector (q = -Q x_ref) of
-the generated C and of the Python reference; and a closed loop of the campaign that, without
-the cap, drives into a bend too fast for the a_lat bound (measured on the safe grid of stop 36: 7.3 m/s^2 above it);
-the rule for traffic (``curve_a_lat_traffic`` where the last plan check's clearance is below
-``curve_traffic_clearance``) by hand in Python and C, and on a closed loop of the safe grid where trucks near the
-plan block the line across a bend (a grid without the rule, stop 39: 5.2 m/s^2 above the bound).
+the generated C and of the Python reference; and a closed loop of the campaign that, without the cap, drives into a
+bend too fast for the a_lat bound (measured on the safe grid of commit 78d0f50: 7.3 m/s^2 above it); the rule for
+traffic (``curve_a_lat_traffic`` where the last plan check's clearance is below ``curve_traffic_clearance``) by hand
+in Python and C, and on a closed loop of the safe grid where trucks near the plan block the line across a bend (a
+grid without the rule, measured for commit d6dac44: 5.2 m/s^2 above the bound).
 """
 from __future__ import annotations
 
@@ -218,8 +218,9 @@ def _max_abs_a_lat(tmp_path, scenario: str, seed: int, pb, **references) -> dict
 @needs_cc
 def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_path):
     """Car, direct elimination, ellipse, IPM, campaign seed 289: with the paper's reference (40 m/s into every bend) the
-    safe profile's closed loop accelerates towards a bend it then takes 7.3 m/s^2 above the bound (stop 36's grid);
-    with the curve speed it keeps |a_lat| within the bound and 5.05 m/s^2 (the campaign's threshold) on all 200 samples."""
+    safe profile's closed loop accelerates towards a bend it then takes 7.3 m/s^2 above the bound (the grid of commit
+    78d0f50); with the curve speed it keeps |a_lat| within the bound and 5.05 m/s^2 (the campaign's threshold) on all
+    200 samples."""
     pb = preset("car_direct_elimination_ellipse_ipm_safe")
     out = _max_abs_a_lat(tmp_path, "car", 289, pb, off=replace(pb.reference, curve_a_lat=0.0))
     assert out["on"] <= 5.05, out
@@ -230,8 +231,8 @@ def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_
 def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_the_bend(tmp_path):
     """Truck scenario, direct elimination, 7 covering circles, IPM, campaign seed 20: with trucks near the plan the ego
     cannot take the line across a bend that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its
-    |a_lat| reaches 10.2 m/s^2 (a safe grid without the rule, stop 39); with it (a truck within 6 m of the plan: 6.5
-    m/s^2 on the centre line) at most 5.05."""
+    |a_lat| reaches 10.2 m/s^2 (a safe grid without the rule, measured for commit d6dac44); with it (a truck within
+    6 m of the plan: 6.5 m/s^2 on the centre line) at most 5.05."""
     pb = Config("truck", "direct_elimination", "circles", 7, backend="ipm", profile="safe").problem()   # the grid's
     out = _max_abs_a_lat(tmp_path, "truck", 20, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
     assert out["on"] <= 5.05, out
@@ -242,9 +243,9 @@ def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_th
 def test_the_reference_brakes_for_the_bend_along_the_horizon(tmp_path):
     """Truck scenario, direct elimination, 5 covering circles, IPM, campaign seed 41: accelerating towards a left bend
     behind a truck, the plan tracked one capped speed over its whole horizon (the cap at its start) and braked for the
-    bend through its a_lat rows, too late: 7.58 m/s^2 (stop 38's grid, the largest excess there). With the reference
-    capped at every node's own s it keeps 5.05 on all 200 samples, and drives no slower than 0.95 of that run's
-    progress (377.6 m)."""
+    bend through its a_lat rows, too late: 7.58 m/s^2 (the grid of commit 3e51e81, the largest excess there). With
+    the reference capped at every node's own s it keeps 5.05 on all 200 samples, and drives no slower than 0.95 of
+    that run's progress (377.6 m)."""
     pb = _plan_only(Config("truck", "direct_elimination", "circles", 5, backend="ipm", profile="safe").problem())
     generate(pb, tmp_path / "c")
     cs = CSolver(build(tmp_path / "c"))

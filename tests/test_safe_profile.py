@@ -222,8 +222,9 @@ def test_where_the_hard_problem_has_no_solution_the_a_lat_row_gives_way_not_the_
     """A car standing 15 m ahead, 1 m to the left of the ego's line, the ego at 20 m/s: it cannot stop short of it
     (20^2 / (2 F_d_max / m) = 23 m) and with |a_lat| held at its bound (a_lat L1 1e11) the converged plan keeps an
     obstacle slack: the hard problem has no solution. With the safe weights the plan keeps the obstacle row exactly
-    and exceeds the a_lat bound instead; at obstacle / a_lat = 100 (stop 34's 1e8 / 1e6) the row's slack is cheaper
-    than the swerve that removes it (as in truck lifted HP seed 417's contact): it is kept, 0.04 here."""
+    and exceeds the a_lat bound instead; at obstacle / a_lat = 100 (1e8 / 1e6, the weights before commit 70450cc) the
+    row's slack is cheaper than the swerve that removes it (as in truck lifted HP seed 417's contact): it is kept,
+    0.04 here."""
     base = preset("car_lifted_ellipse_ipm_safe").with_(horizon=Horizon(N=20))
     assert 20.0 ** 2 / (2 * base.bounds.F_d_max / base.ego.m) > 15.0 + base.ego.l_ch
     obstacle, a_lat = _converged_slacks(base.with_(soft=replace(base.soft, a_lat_l1=1e11)), 15.0, 1.0)

@@ -35,9 +35,9 @@ SAFE_SOFT_CONVENTIONAL = SoftPenalties(obstacle_l1=1e8, a_lat_l1=3e8)
 the truck HP QPs, and with the obstacle weight 1e9 those QPs are conditioned so badly that the C and the Python IPM
 part by up to 2e-5 (``fcgen verify``: 1e-7); 1e8 keeps them within it. Where a box leaves no hard solution the a_lat
 row is the dearer one (3e8): the box is an over-approximation, so its slack is mostly margin, not contact (the plan
-check judges the true rectangles), while a_lat given way to a box drove |a_lat| to 37 m/s^2 (stop 36). 1e9 parts the
-two IPMs by 5e-6 again; 1e8 (equal) leaves 3 of 50 truck HP runs above the bound by up to 3 m/s^2
-(docs/safe_profile.md "The curve speed")."""
+check judges the true rectangles), while a_lat given way to a box drove |a_lat| to 37 m/s^2 (the safe grid of
+commit 78d0f50). 1e9 parts the two IPMs by 5e-6 again; 1e8 (equal) leaves 3 of 50 truck HP runs above the bound by
+up to 3 m/s^2 (docs/safe_profile.md "The curve speed")."""
 
 
 def safe_soft(formulation) -> SoftPenalties:
@@ -47,11 +47,12 @@ def safe_soft(formulation) -> SoftPenalties:
 
 SAFE_REFERENCE_CONVENTIONAL = Reference(curve_traffic_clearance=0.0, curve_along_horizon=False)
 """The safe profile's reference for the conventional formulation: the curve speed without its traffic rule, at the
-plan's start only. Measured on the full grid (stops 38, 39), the rule moved the conventional formulation's two contacts
-to other seeds and kept its excesses as they were (at most 0.41 m/s^2); the curve speed along the horizon moved them
-too (two to one, both "opponent from behind"), and with either its ill-conditioned QPs (the a_lat rows at 3e8) part
-the C and the Python IPM by 1.6e-7 .. 1.9e-7 on truck HP seed 0 (``fcgen verify``: 1e-7); without both they stay
-within (docs/safe_profile.md "The curve speed in traffic", "The curve reference along the horizon")."""
+plan's start only. Measured on the full grids of commits 3e51e81 and d6dac44, the rule moved the conventional
+formulation's two contacts to other seeds and kept its excesses as they were (at most 0.41 m/s^2); the curve speed
+along the horizon moved them too (two to one, both "opponent from behind"), and with either its ill-conditioned QPs
+(the a_lat rows at 3e8) part the C and the Python IPM by 1.6e-7 .. 1.9e-7 on truck HP seed 0 (``fcgen verify``:
+1e-7); without both they stay within (docs/safe_profile.md "The curve speed in traffic", "The curve reference along
+the horizon")."""
 
 
 def safe_reference(formulation) -> Reference:
@@ -62,8 +63,8 @@ def safe_reference(formulation) -> Reference:
 SAFE_PLAN_CHECK_CONVENTIONAL = PlanCheck(a_lat_guard=False)
 """The safe profile's plan check for the conventional formulation: without the a_lat guard. Its a_lat rows are the
 dearer ones (3e8, ``SAFE_SOFT_CONVENTIONAL``), and its plans keep the bound on their own within 0.37 m/s^2 on the full
-grid (stop 39); with the guard (stop 40) the guard acted in 144 of its 4,000 runs (200 samples), none above 0.5 m/s^2
-before, and moved one of them, truck HP seed 45, onto a path that ended in a contact the ego caused
+grid (commit d6dac44); with the guard (commit 7e4bd04) the guard acted in 144 of its 4,000 runs (200 samples), none
+above 0.5 m/s^2 before, and moved one of them, truck HP seed 45, onto a path that ended in a contact the ego caused
 (docs/safe_profile.md "The a_lat guard")."""
 
 
