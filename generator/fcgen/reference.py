@@ -21,6 +21,7 @@ from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .plant import plant_function
 from .qp import QpLayout, build_layout
+from .reactions import braking_force, guard_steering_rate, lateral_acceleration
 from .road import Road, curve_reference
 
 
@@ -501,16 +502,15 @@ class RtiSolver:
             return
         b, l, dt = pb.bounds, pb.ego.l, pb.horizon.dt
         x1 = self._plant_step(p_road)
-        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) <= b.a_lat_max:
+        if abs(lateral_acceleration(x1[3], x1[4], l)) <= b.a_lat_max:
             return
-        d1 = math.copysign(math.atan((b.a_lat_max - b.a_lat_margin) * l / (x1[3] * x1[3])), x1[4])
-        r = (d1 - float(self.x0[4])) / dt
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        self.u_applied[1] = lo if r < lo else (hi if r > hi else r)
+        self.u_applied[1] = guard_steering_rate(x1[3], x1[4], float(self.x0[4]), b.a_lat_max - b.a_lat_margin, l, dt,
+                                                lo, hi)
         st.a_lat_guard = 1
         x1 = self._plant_step(p_road)
-        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) > b.a_lat_max:
-            self.u_applied[0] = -min(b.F_d_max, pb.ego.m * max(float(self.x0[3]), 0.0) / dt)
+        if abs(lateral_acceleration(x1[3], x1[4], l)) > b.a_lat_max:
+            self.u_applied[0] = braking_force(float(self.x0[3]), pb.ego.m / dt, b.F_d_max)
             st.a_lat_guard = 2
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
@@ -543,8 +543,7 @@ class RtiSolver:
                         react = react or d > 0.0 or (bool(ok[0]) and A[j, 0] > 0.0)
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            v0 = max(float(self.x0[3]), 0.0)
-            self.u_applied[0] = -min(pb.bounds.F_d_max, pb.ego.m * v0 / ocp.dt)
+            self.u_applied[0] = braking_force(float(self.x0[3]), pb.ego.m / ocp.dt, pb.bounds.F_d_max)
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:
