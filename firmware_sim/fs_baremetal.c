@@ -1,9 +1,10 @@
 /* fs_baremetal.c -- the bare-metal platform of closed_loop.c on an Arm Cortex-M (QEMU mps2 boards, or a real part
  * with a semihosting debugger): vector table, reset handler, SysTick clock and the command line from semihosting.
  *
- * Reset: copy .data from flash, zero .bss and the harness's buffers (.bss.fs_harness, external RAM), give the FPU full access (CPACR), open newlib's semihosting file handles,
- * split the semihosting command line (SYS_GET_CMDLINE) into argv, call main and exit with its return code (newlib's
- * exit -> SYS_EXIT_EXTENDED, so QEMU returns the code). A fault prints one line and exits with code 70.
+ * Reset: copy .data from flash, zero .bss and the harness's buffers (.bss.fs_harness, external RAM), give the FPU
+ * full access (CPACR), open newlib's semihosting file handles, split the semihosting command line (SYS_GET_CMDLINE)
+ * into argv, call main and exit with its return code (newlib's exit -> SYS_EXIT_EXTENDED, so QEMU returns the code).
+ * A fault prints one line and exits with code 70.
  * Clock: SysTick on the processor clock (FS_SYSTICK_HZ, the board's, from fcgen's target table), free-running, its
  * 24-bit count extended to 32 bits (modulo 2^32) on every read: fs_clock gives the solver integer ticks, no floating
  * point; under `qemu -icount shift=0` one instruction takes 1 ns, so ticks * 1e9 / FS_SYSTICK_HZ is an instruction

@@ -24,6 +24,7 @@
 #define L_WHEELBASE ((truck_de_el_real_t)3.4) /* the ego's l = l_f + l_r */
 #define A_LAT_MAX ((truck_de_el_real_t)5.0) /* the a_lat guard's bound, Bounds.a_lat_max */
 #define A_LAT_GUARD_TO ((truck_de_el_real_t)5.0) /* where its steering rate ends: a_lat_max - a_lat_margin */
+#define BRAKE_M_PER_DT ((truck_de_el_real_t)11600.0) /* m / dt of the braking control (braking_force) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
 #define P_ROAD_DS 1
@@ -1403,10 +1404,36 @@ static void apply_control(const truck_de_el_real_t *w) {
   ws.status.u_violation = worst;
 }
 
-/* |a_lat| = v^2 |tan(delta)| / l of x1, the plant's state one sample after x0 under get_u0 (p_fb's road window). */
+/* The braking control of the plan check and the a_lat guard: F_d = -min(f_max, m_per_dt max(v0, 0)) with
+ * m_per_dt = m / dt (fcgen.reactions.braking_force: the same operations). */
+static truck_de_el_real_t braking_force(truck_de_el_real_t v0, truck_de_el_real_t m_per_dt, truck_de_el_real_t f_max) {
+  const truck_de_el_real_t v = (v0 > REAL_0) ? v0 : REAL_0;
+  const truck_de_el_real_t f = m_per_dt * v;
+  return -((f < f_max) ? f : f_max);
+}
+
+/* The lateral acceleration v^2 tan(delta) / l at the rear axle (fcgen.reactions.lateral_acceleration). */
+static truck_de_el_real_t lateral_acceleration(truck_de_el_real_t v, truck_de_el_real_t delta, truck_de_el_real_t l) {
+  return v * v * tan(delta) / l;
+}
+
+/* The a_lat guard's steering rate (fcgen.reactions.guard_steering_rate: the same operations): from delta0, in one
+ * sample time dt, to the steering angle at which speed v on wheelbase l gives |a_lat| = a_to, on delta's side; within
+ * [lo, hi]; 0 (within [lo, hi]) for v = 0 (standing: |a_lat| is 0, the rate is not used). */
+static truck_de_el_real_t guard_steering_rate(truck_de_el_real_t v, truck_de_el_real_t delta, truck_de_el_real_t delta0,
+                                            truck_de_el_real_t a_to, truck_de_el_real_t l, truck_de_el_real_t dt,
+                                            truck_de_el_real_t lo, truck_de_el_real_t hi) {
+  truck_de_el_real_t r = REAL_0;
+  if (v != REAL_0) {
+    r = (copysign(atan((a_to * l) / (v * v)), delta) - delta0) / dt;
+  }
+  return (r < lo) ? lo : ((r > hi) ? hi : r);
+}
+
+/* |a_lat| of x1, the plant's state one sample after x0 under get_u0 (p_fb's road window). */
 static truck_de_el_real_t next_a_lat(truck_de_el_real_t x1[5]) {
   call3(truck_de_el_plant, ws.x0, ws.u_applied, ws.p_fb, x1, NULL, NULL);
-  return fabs(x1[3] * x1[3] * tan(x1[4]) / L_WHEELBASE);
+  return fabs(lateral_acceleration(x1[3], x1[4], L_WHEELBASE));
 }
 
 /* The a_lat guard (fcgen.reference.RtiSolver._a_lat_guard; before the plan check, while p_fb is stage 0's): where
@@ -1417,7 +1444,6 @@ static truck_de_el_real_t next_a_lat(truck_de_el_real_t x1[5]) {
 static void a_lat_guard(void) {
   truck_de_el_real_t x1[5];
   const truck_de_el_real_t r_plan = ws.u_applied[1];
-  truck_de_el_real_t r = REAL_0;
   int over = 0;
   int still = 0;
   ws.status.a_lat_guard = 0;
@@ -1427,10 +1453,8 @@ static void a_lat_guard(void) {
   if (next_a_lat(x1) > A_LAT_MAX) {
     over = 1;
   }
-  if (x1[3] != REAL_0) { /* standing: |a_lat| is 0, the rate is not used */
-    r = (copysign(atan((A_LAT_GUARD_TO * L_WHEELBASE) / (x1[3] * x1[3])), x1[4]) - ws.x0[4]) / SAMPLE_DT;
-  }
-  ws.u_applied[1] = (r < U_LO[1]) ? U_LO[1] : ((r > U_HI[1]) ? U_HI[1] : r);
+  ws.u_applied[1] =
+      guard_steering_rate(x1[3], x1[4], ws.x0[4], A_LAT_GUARD_TO, L_WHEELBASE, SAMPLE_DT, U_LO[1], U_HI[1]);
   if (next_a_lat(x1) > A_LAT_MAX) {
     still = 1;
   }
@@ -1439,9 +1463,7 @@ static void a_lat_guard(void) {
   } else if (still == 0) {
     ws.status.a_lat_guard = 1;
   } else { /* the rate bound cut it short */
-    const truck_de_el_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
-    const truck_de_el_real_t f = (truck_de_el_real_t)11600.0 * v0;
-    ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
+    ws.u_applied[0] = braking_force(ws.x0[3], BRAKE_M_PER_DT, U_HI[0]);
     ws.status.a_lat_guard = 2;
   }
 }
@@ -1484,9 +1506,7 @@ static void plan_check(void) {
   ws.status.plan_clearance_stage = best_k;
   ws.status.plan_reaction = react;
   if (react != 0) {
-    const truck_de_el_real_t v0 = (ws.x0[3] > REAL_0) ? ws.x0[3] : REAL_0;
-    const truck_de_el_real_t f = (truck_de_el_real_t)11600.0 * v0;
-    ws.u_applied[0] = -((f < U_HI[0]) ? f : U_HI[0]);
+    ws.u_applied[0] = braking_force(ws.x0[3], BRAKE_M_PER_DT, U_HI[0]);
   }
 }
 

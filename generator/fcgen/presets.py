@@ -78,7 +78,7 @@ IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
     ("paper", "direct_elimination", "ellipse"): 10,
 }
 """The IPM's RTI budget of the configurations (profile, formulation, obstacles) where it was measured to leave the
-closed loop where it was (``scripts/rti_budget.py``: progress within 0.1 % of the default budget's and no new
+closed loop where it was (``benchmarks/rti_budget.py``: progress within 0.1 % of the default budget's and no new
 collision on 100 seeds x 200 samples of the car and the truck; docs/wcet.md): what their ``_ipm`` presets and the
 campaign's IPM runs use. Every other configuration keeps ``QpOptions``' default (``RTI_BUDGET_DEFAULT``)."""
 

@@ -2,6 +2,9 @@
 
 It performs exactly the steps the generated C performs, in the same order, with CasADi's functions, scipy sparse
 matrices and the QP backend's Python side (``fcgen.backends``), so C and reference can be compared number for number.
+The jobs it calls live apart: the QP outcome contract and the iteration caps (``fcgen.qp_outcome``), the plan check
+and the a_lat guard after the QP (``fcgen.plan_check``, with the formulas of ``fcgen.reactions``), the hyperplanes'
+cold-start guess (``fcgen.hyperplane_guess``).
 """
 from __future__ import annotations
 
@@ -9,19 +12,27 @@ import math
 import time
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
-from .backends import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_NONFINITE, QP_NUMERICAL, QP_OTHER,
-                       QP_PRIMAL_INFEASIBLE, QP_SOLVED, QP_SOLVED_INACCURATE, QP_STATUSES, QP_USABLE, make_backend)
+from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
 from . import obstacles as obs
-from .dsl import QpOptions, SeparatingHyperplane
+from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
+from .hyperplane_guess import theta_init
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
+from .plan_check import a_lat_guard, braking_control, plan_verdict
 from .plant import plant_function
 from .qp import QpLayout, build_layout
+from .qp_outcome import (COLD_RESTART_NOTE, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter, input_box,
+                         project_control, warm_max_iter)
 from .road import Road, curve_reference
+
+__all__ = ["COLD_RESTART_NOTE", "EXIT_CODES", "INT_MAX", "MAX_INPUT_VIOLATION", "QP_CONTRACT", "QP_EXIT", "RtiSolver",
+           "SolverError", "Status", "cold_max_iter", "input_box", "make_reference", "project_control", "theta_init",
+           "warm_max_iter"]
+"""The outcome contract (``fcgen.qp_outcome``) and ``theta_init`` are re-exported: importers read them here, and
+feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
 
 
 EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
@@ -30,70 +41,6 @@ EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "
               "ERR_QP_INPUT_BOUNDS", "ERR_ROAD_BOUNDS", "ERR_OPP_SHAPE", "ERR_REFERENCE")
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
 appended, so a code keeps its number)."""
-
-MAX_INPUT_VIOLATION = 0.05
-"""The largest input-box violation (``u_violation``: max_i excess_i / limit_i) a usable QP's step may have: beyond
-it the QP counts as unusable (``ERR_QP_INPUT_BOUNDS``). A usable QP's u0 leaves the box only by its tolerance: normal
-closed loops (capped at 60 iterations) peak at 0.0008, a cold start capped at 60 left 0.016; a warm-started QP
-capped on an absurd state (n = 100 m, 1e15) left 10 .. 1e14 with a garbage plan. 5 % of the bound is 3x the worst
-tolerance case and far below the garbage. Emitted as ``<NAME>_MAX_INPUT_VIOLATION``."""
-
-QP_EXIT = {0: "ERR_QP", QP_SOLVED: "OK", QP_SOLVED_INACCURATE: "OK", QP_MAX_ITER: "OK",
-           QP_PRIMAL_INFEASIBLE: "ERR_QP_INFEASIBLE", QP_DUAL_INFEASIBLE: "ERR_QP_DUAL_INFEASIBLE",
-           QP_NONCONVEX: "ERR_QP_NONCONVEX", QP_NONFINITE: "ERR_QP_NONFINITE", QP_NUMERICAL: "ERR_QP_NUMERICAL",
-           QP_OTHER: "ERR_QP"}
-"""The QP outcome contract: the exit code feedback() returns for each generic QP status (OK: the step is taken).
-A usable status with a non-finite step or multipliers counts as QP_NONFINITE; one whose step's u0 leaves the input box
-by more than MAX_INPUT_VIOLATION gives ERR_QP_INPUT_BOUNDS (the status stays the backend's)."""
-assert set(QP_EXIT) == set(range(len(QP_STATUSES) + 1)) and {s for s, c in QP_EXIT.items() if c == "OK"} == set(QP_USABLE)
-
-KEPT = "kept: the shifted previous plan (see the cold restart)"
-"""What becomes of the guess after an unusable QP."""
-
-QP_CONTRACT = (
-    (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation <= {MAX_INPUT_VIOLATION:g})",
-     "OK", "u0 of the new plan, projected on the input box", "the new plan (guess + step), its multipliers"),
-    (f"QP_SOLVED, QP_SOLVED_INACCURATE, QP_MAX_ITER (finite step, its u0's u_violation > {MAX_INPUT_VIOLATION:g}"
-     ": far outside the input box)", "ERR_QP_INPUT_BOUNDS", "fallback", KEPT),
-    ("QP_PRIMAL_INFEASIBLE", "ERR_QP_INFEASIBLE", "fallback", KEPT),
-    ("QP_DUAL_INFEASIBLE", "ERR_QP_DUAL_INFEASIBLE", "fallback", KEPT),
-    ("QP_NONCONVEX", "ERR_QP_NONCONVEX", "fallback", KEPT),
-    ("QP_NONFINITE (or a usable status with a non-finite step)", "ERR_QP_NONFINITE", "fallback", KEPT),
-    ("QP_NUMERICAL (the backend failed)", "ERR_QP_NUMERICAL", "fallback", KEPT),
-    ("QP_OTHER", "ERR_QP", "fallback", KEPT),
-)
-"""(QP status, exit code, what get_u0 returns, what becomes of the guess) for the README and the header.
-Fallback: u_1 of the previous plan (= u0 of the shifted guess), projected on the input box; zeros on a cold start.
-After ``qp.cold_restart_after`` unusable QPs in a row the next prepare cold-starts (:data:`COLD_RESTART_NOTE`)."""
-
-COLD_RESTART_NOTE = (
-    "after COLD_RESTART_AFTER unusable QPs in a row (status.qp_unusable_run; 0 = never) the next prepare does not "
-    "shift the kept plan but cold-starts: the initial guess from the state set last, zero duals, a reset QP backend, "
-    "the cold iteration budget (what reset() would give; the inputs are kept, status.cold_restarts counts it). "
-    "Without it (0) a plan shifted N times is its last stage repeated, its fallback u_{N-1} held forever; with "
-    "1 <= COLD_RESTART_AFTER < N the plan is never shifted past its end (with more, u_{N-1} is "
-    "held until the restart), and a cold guess's fallback is zero input")
-"""The cold-restart rule, for the README and the header (the macro name is prefixed there)."""
-
-
-def input_box(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The hard input box [F_d, r]: lower, upper bound and the limit the violation is measured against."""
-    lim = np.array([problem.bounds.F_d_max, problem.bounds.r_max], dtype=float)
-    return -lim, lim.copy(), lim
-
-
-def project_control(u: np.ndarray, lo: np.ndarray, hi: np.ndarray, lim: np.ndarray) -> tuple[np.ndarray, float]:
-    """u projected on [lo, hi] and the largest excess relative to the limit (0: inside); the C arithmetic."""
-    out = np.empty(len(u))
-    worst = 0.0
-    for i, v in enumerate(np.asarray(u, dtype=float).tolist()):
-        a, b = float(lo[i]), float(hi[i])
-        excess = (a - v) / float(lim[i]) if v < a else ((v - b) / float(lim[i]) if v > b else 0.0)
-        out[i] = a if v < a else (b if v > b else v)
-        if excess > worst:
-            worst = excess
-    return out, worst
-
 
 INT_MAX = 2**31 - 1
 """The status counters saturate here (the C's int)."""
@@ -127,41 +74,6 @@ class Status:
     plan_clearance: float = 0.0    # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
-
-
-def cold_max_iter(opts: QpOptions) -> int:
-    """Iteration cap of a cold-started QP (no shifted guess): never below the warm one, never above the RTI budget."""
-    return opts.caps[1]
-
-
-def warm_max_iter(opts: QpOptions) -> int:
-    """Iteration cap of a warm-started QP (the shifted plan): ``max_iter``, never above the RTI budget."""
-    return opts.caps[0]
-
-
-def theta_init(ocp: Ocp) -> ca.Function:
-    """Initial separating hyperplanes: normal from the ego centre to the opponent centre, through the midpoint."""
-    from .dsl import Conventional
-    from .road import casadi_to_cartesian
-    x = ca.SX.sym("x", ocp.nx)
-    p = ca.SX.sym("p", ocp.np_stage)
-    pb = ocp.problem
-    if not isinstance(pb.obstacles, SeparatingHyperplane):
-        return ca.Function("theta_init", [x, p], [ca.SX(0, 1)])
-    rp = ocp.road_params
-    out = []
-    for j in range(pb.opponents.count):
-        pj = p[ocp.p_opp][j * ocp.n_opp_stage:(j + 1) * ocp.n_opp_stage]
-        if isinstance(pb.formulation, Conventional):
-            ego = obs.frenet_ego_shape(x[0], x[1], x[2], 1.0, pb.ego)
-            opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
-        else:
-            pose = (x[5], x[6], x[7]) if ocp.state_kind == "lifted" else casadi_to_cartesian(
-                x[0], x[1], x[2], p[ocp.p_road], rp.samples)
-            ego = obs.chassis_shape(*pose, pb.ego)
-            opp = obs.shape_of(pj[0], pj[1], pj[2], pj[3:])
-        out += obs.midpoint_plane(ego, opp)
-    return ca.Function("theta_init", [x, p], [ca.vertcat(*out)])
 
 
 class RtiSolver:
@@ -490,28 +402,10 @@ class RtiSolver:
         return self.u0()
 
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
-        """Where the plant's step from x0 with get_u0 ends above ``a_lat_max`` in |a_lat|, the steering rate that ends
-        at ``a_lat_max - a_lat_margin`` (status 1; with wind the speed, and so the end, moves a little with the rate:
-        the margin covers it), and where the step with that rate still ends above the bound (the rate bound cut it
-        short), braking as the plan check does (2). The C's operations in the C's order (the C runs both steps in every
-        feedback and keeps the plan's rate where the first ends within the bound: the same control and flag)."""
-        pb = self.ocp.problem
-        st.a_lat_guard = 0
-        if not pb.plan_check.a_lat_guard:
-            return
-        b, l, dt = pb.bounds, pb.ego.l, pb.horizon.dt
-        x1 = self._plant_step(p_road)
-        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) <= b.a_lat_max:
-            return
-        d1 = math.copysign(math.atan((b.a_lat_max - b.a_lat_margin) * l / (x1[3] * x1[3])), x1[4])
-        r = (d1 - float(self.x0[4])) / dt
+        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        self.u_applied[1] = lo if r < lo else (hi if r > hi else r)
-        st.a_lat_guard = 1
-        x1 = self._plant_step(p_road)
-        if abs(x1[3] * x1[3] * math.tan(x1[4]) / l) > b.a_lat_max:
-            self.u_applied[0] = -min(b.F_d_max, pb.ego.m * max(float(self.x0[3]), 0.0) / dt)
-            st.a_lat_guard = 2
+        st.a_lat_guard = a_lat_guard(self.ocp.problem, self.x0, self.u_applied, lo, hi,
+                                     lambda: self._plant_step(p_road))
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
         """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
@@ -519,13 +413,11 @@ class RtiSolver:
 
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
-        parameters on the prepared guess's s, as prepare built them); where an opponent's first overlap among stages
-        1..min(react_stages, N) has its centre ahead of the ego's there or now, at stage 0 (braking opens that gap;
-        for one beside or behind it closes it; a plan that overlaps an opponent on the way past it does not pass),
-        brake: F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
+        parameters on the prepared guess's s, as prepare built them; a stage whose window the road no longer covers is
+        skipped), its verdict (``plan_check.plan_verdict``) and, where it says so, braking:
+        F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
         ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
-        best, best_k, react, met = math.inf, -1, False, set()
-        K = min(pb.plan_check.react_stages, ocp.N)
+        best, best_k, react = math.inf, -1, False
         if pb.opponents.count:
             s_k = self.w_prep[lay.s_vars]
             ok = [self.road is not None and math.isfinite(s) and self._window_start(s) is not None for s in s_k]
@@ -534,17 +426,10 @@ class RtiSolver:
             shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
             C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
             self.stage_clearance = np.where(ok, np.min(C, axis=0), math.inf)
-            for k in np.flatnonzero(ok):   # stages whose window the road no longer covers are skipped
-                for j, (v, d) in enumerate(zip(C[:, k], A[:, k])):
-                    if v < best:
-                        best, best_k = float(v), int(k)
-                    if 1 <= k <= K and v < 0.0 and j not in met:   # its first overlapping stage decides
-                        met.add(j)
-                        react = react or d > 0.0 or (bool(ok[0]) and A[j, 0] > 0.0)
+            best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            v0 = max(float(self.x0[3]), 0.0)
-            self.u_applied[0] = -min(pb.bounds.F_d_max, pb.ego.m * v0 / ocp.dt)
+            self.u_applied[0] = braking_control(pb, self.x0)
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:

@@ -13,7 +13,7 @@ RTI_BUDGET_DEFAULT: dict[str, int | None] = {"osqp": None, "ipm": 60}
 """The RTI budget of ``QpOptions.rti_budget = None``, per backend (None: no cap beyond ``max_iter`` and
 ``max_iter_cold``). IPM 60: no IPM QP of the committed paper grid (12,000 runs) ran more than 60 iterations, 3 of the
 safe grid's 12,000 runs had one (two unconverged cold starts at 400, one solved at 118); on 20 truck seeds x 200
-samples of six presets (``scripts/rti_budget.py``) 60 is identical to no budget, 40 moves a seed's progress by up to
+samples of six presets (``benchmarks/rti_budget.py``) 60 is identical to no budget, 40 moves a seed's progress by up to
 0.08 %, 25-30 up to 9.5 %, 20 up to 19 % (docs/wcet.md, "The RTI budget"). OSQP: no extra cap (its cold starts keep
 ``max_iter_cold``). Presets of configurations measured to afford less set it (``fcgen.presets.IPM_RTI_BUDGET``)."""
 

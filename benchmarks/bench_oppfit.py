@@ -1,7 +1,7 @@
 """Prepare-phase timing of the four conventional presets (truck/car, ellipse/hyperplane), several builds alternated.
 
-    python scripts/bench_oppfit.py gen ROOT TAG        # generate + build the presets into ROOT/TAG/<preset>
-    python scripts/bench_oppfit.py run ROOT A,B [SEEDS] [SAMPLES]
+    python benchmarks/bench_oppfit.py gen ROOT TAG        # generate + build the presets into ROOT/TAG/<preset>
+    python benchmarks/bench_oppfit.py run ROOT A,B [SEEDS] [SAMPLES]
 
 ``run`` closes the loop (C solver, CPU clock of the solver thread) on seeds 0..SEEDS-1, per seed each build in turn,
 and prints per build the median / mean / max prepare and the median feedback time [ms] and the mean progress [m].
@@ -10,9 +10,9 @@ the same ROOT. ``FULL=2`` in the environment of ``gen``: two road evaluations pe
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -61,9 +61,24 @@ def run(root: Path, tags: list[str], seeds: int, samples: int) -> None:
         print(" | ".join(line), flush=True)
 
 
-if __name__ == "__main__":
-    if sys.argv[1] == "gen":
-        gen(Path(sys.argv[2]), sys.argv[3])
+def main() -> None:
+    ap = argparse.ArgumentParser(description="Prepare-phase timing of the four conventional presets, builds "
+                                             "alternated (docs/problem.md).")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    g = sub.add_parser("gen", help="generate and build the presets into ROOT/TAG/<preset>")
+    g.add_argument("root", type=Path)
+    g.add_argument("tag")
+    r = sub.add_parser("run", help="close the loop with each build in turn and print the timings")
+    r.add_argument("root", type=Path)
+    r.add_argument("tags", help="comma-separated TAGs written by gen")
+    r.add_argument("seeds", type=int, nargs="?", default=2)
+    r.add_argument("samples", type=int, nargs="?", default=200)
+    args = ap.parse_args()
+    if args.cmd == "gen":
+        gen(args.root, args.tag)
     else:
-        run(Path(sys.argv[2]), sys.argv[3].split(","), int(sys.argv[4]) if len(sys.argv) > 4 else 2,
-            int(sys.argv[5]) if len(sys.argv) > 5 else 200)
+        run(args.root, args.tags.split(","), args.seeds, args.samples)
+
+
+if __name__ == "__main__":
+    main()

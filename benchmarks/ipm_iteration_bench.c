@@ -1,4 +1,4 @@
-/* The IPM's QP solve alone, timed per QP iteration on recorded QPs (scripts/ipm_iteration_bench.py).
+/* The IPM's QP solve alone, timed per QP iteration on recorded QPs (benchmarks/ipm_iteration_bench.py).
  *
  * Built once per solver folder with -DSOLVER_C='"<folder>/<name>_solver.c"': the solver's own translation unit is
  * included, so its static backend (qpb_reset, qpb_set_matrices, qpb_solve) is called as feedback calls it.

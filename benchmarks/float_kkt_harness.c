@@ -1,4 +1,4 @@
-/* Diagnosis harness for scripts/float_kkt_diagnosis.py (not part of any generated solver).
+/* Diagnosis harness for benchmarks/float_kkt_diagnosis.py (not part of any generated solver).
  *
  * Compiled together with a generated folder's OSQP workspace and library (float or double, symbols prefixed):
  * loads one QP into OSQP's embedded workspace the way the generated solver does, solves it from a given warm start,

@@ -1,6 +1,6 @@
 """Instructions per RTI of the safe vs the paper profile, per grid configuration (docs/performance.md).
 
-    python scripts/profiles_instructions.py [--seeds 100,101,102] [--only car/lifted] [--cache DIR] [--out FILE]
+    python benchmarks/profiles_instructions.py [--seeds 100,101,102] [--only car/lifted] [--cache DIR] [--out FILE]
 
 Each configuration of the campaign's grid (IPM backend) in both profiles: the solver (`-O2`, the campaign's build),
 its C closed loop on the host (`fcgen.sim.export.firmware_sim`: the harness a user's ECU test would run), then the same

@@ -1,9 +1,9 @@
 """Why float OSQP is less accurate per iteration than double, per sigma (docs/performance.md, float section).
 
-Usage: .venv/bin/python scripts/float_kkt_diagnosis.py [OUT_DIR] [--sigmas 1e-6,1e-4,1e-3] [--seeds 0] [--every 5]
+Usage: .venv/bin/python benchmarks/float_kkt_diagnosis.py [OUT_DIR] [--sigmas 1e-6,1e-4,1e-3] [--seeds 0] [--every 5]
 
 The QPs of a double closed loop of truck_lifted_ellipse (C, truck seeds, every EVERY-th warm-started sample) are
-solved by OSQP's embedded code built for each sigma in double and in float (scripts/float_kkt_harness.c compiled
+solved by OSQP's embedded code built for each sigma in double and in float (benchmarks/float_kkt_harness.c compiled
 with the generated folder's OSQP sources; the float builds take sigma as given, FLOAT_SIGMA_MIN disabled), against a
 converged double solution (eps 1e-9). Per sigma and precision (median / max over the QPs):
   kkt      one KKT solve at the converged solution, from OSQP's own right-hand side: |x_tilde - x| (scaled), which

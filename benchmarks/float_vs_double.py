@@ -1,6 +1,6 @@
 """Float vs double closed loop of truck_lifted_ellipse in C, both QP backends, truck seeds 0-19 x 200 samples.
 
-Usage: .venv/bin/python scripts/float_vs_double.py [OUT_DIR] [--backends osqp,ipm] [--seeds 20]
+Usage: .venv/bin/python benchmarks/float_vs_double.py [OUT_DIR] [--backends osqp,ipm] [--seeds 20]
 Prints one line per build and one comparison line per backend (mean progress float - double, per-seed range, seeds
 beyond 0.5 %); writes OUT_DIR/float_vs_double.json. The float builds use the generator's float settings (OSQP:
 ``sigma`` raised to ``fcgen.backends.osqp.FLOAT_SIGMA_MIN``); the IPM's float build is generated with ``ipm_tol`` 1e-3.

@@ -1,6 +1,6 @@
 """The RTI budget's closed-loop effect: each preset with several budgets against no extra cap (docs/wcet.md).
 
-    python scripts/rti_budget.py [--seeds 20] [--samples 200] [--budgets 400,30,25,20,15,12,10] [PRESET ...]
+    python benchmarks/rti_budget.py [--seeds 20] [--samples 200] [--budgets 400,30,25,20,15,12,10] [PRESET ...]
 
 Per preset (default: truck_lifted_ellipse_ipm, truck_direct_elimination_ellipse_ipm,
 truck_lifted_hyperplane_ipm_safe) and budget, the C solver (generated and built once into ``.fcgen-cache``,

@@ -1,0 +1,51 @@
+/* fs_scenario.h -- the scenario data file (format fcgen-scenario/1, docs/scenario_file.md, written by
+ * fcgen.sim.export.export_scenario): its header, the road, and the per-sample opponent records, read like sensor data.
+ * A bad file, or one that does not match the compiled solver, ends the program with exit code 2 and one line naming
+ * what is wrong. */
+#ifndef FS_SCENARIO_H
+#define FS_SCENARIO_H
+
+#include "fs_solver.h"
+
+#define SCENARIO_FORMAT "fcgen-scenario/1"
+
+/* a vehicle's dimensions (sim/collision.py's chassis) */
+typedef struct {
+  double l_f, l_r, l_r_ch, l_f_ch, w_ch;
+} fs_dims_t;
+
+/* the file's header: the run's metadata, the ego, the opponents' dimensions, x0 and the road's grid */
+typedef struct {
+  char problem[FS_MAX_WORD], formulation[FS_MAX_WORD], obstacle_model[FS_MAX_WORD];
+  char scenario[FS_MAX_WORD], controller[FS_MAX_WORD];
+  char version_key[FS_MAX_VERSIONS][FS_MAX_WORD], version_val[FS_MAX_VERSIONS][FS_MAX_WORD];
+  int n_versions;
+  long seed;
+  int samples, road_window, road_size;
+  double dt, window_behind, n_bound, ego_l;
+  fs_dims_t ego_dims, opp_dims[NOPP + 1];
+  double x0[5];
+  double road_s0, road_ds;
+} fs_scenario_t;
+
+extern fs_scenario_t fs_sc;
+/* the road's samples (fs_sc.road_size of them; FS_HARNESS_MEM: the board's external RAM on the bare-metal image) */
+extern double fs_kappa[FS_MAX_ROAD], fs_phi[FS_MAX_ROAD], fs_gx[FS_MAX_ROAD], fs_gy[FS_MAX_ROAD];
+/* the opponents' poses at t_0 .. t_K (NOPP x 3 a sample), for the run log */
+extern double fs_opp_cart[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
+extern double fs_opp_fr[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
+/* the current sample's opponent block for the solver's set_opponents */
+extern real_t fs_opp_params[OPP_BLOCK + 1];
+
+/* Open the file (0; else 2 after one line on stderr). */
+int fs_scenario_open(const char *path);
+/* Read the header into fs_sc and the road, checking it against the compiled solver. */
+void fs_read_header(void);
+/* Read the record of sample j (j = 0 .. K): the opponents' poses and, for j < K, the solver's opponent block. */
+void fs_read_sample(int j);
+/* Read the closing "end" line. */
+void fs_read_end(void);
+/* Close the file. */
+void fs_scenario_close(void);
+
+#endif /* FS_SCENARIO_H */
