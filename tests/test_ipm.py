@@ -159,7 +159,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     """The C's soft-row storage: C7's runs of 147 rows (one per stage) read 4 rows at a time, so each is padded to 148
     with one row of no data at its end; the ellipse's runs of 3 rows would gain 33 % padding, so they keep one lane
     and no padding."""
-    from fcgen.backends.ipm import padded_runs, sr_lanes
+    from fcgen.codegen.ipm_layout import padded_runs, sr_lanes
     lay = build_layout(build_ocp(short("truck", "lifted", "circles")))
     sv, sr = split_soft_rows(lay, stage_view(lay))
     assert sr_lanes(sr) == 4

@@ -1,4 +1,4 @@
-"""The IPM's algorithm as plain C (templates/backends/ipm_core.c), compiled on its own with a problem header rendered
+"""The IPM's algorithm as plain C (csrc/ipm/ipm_core.c and its parts), compiled on its own with a problem header rendered
 by fcgen, on the QPs a Python closed loop solved: the same statuses, iterations and solutions as the Python IPM, and
 (an independent check) its solutions satisfy the QP's optimality conditions."""
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from fcgen.backends import QP_SOLVED
-from fcgen.backends.ipm import codegen_context
-from fcgen.codegen.render import render_template, templates_dir
+from fcgen.codegen.ipm_header import codegen_context, core_files
+from fcgen.codegen.render import csrc_dir, render_template
 from fcgen.dsl import Horizon, QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem
@@ -59,7 +59,7 @@ def build_harness(ocp, lay, opts, tmp: Path, generic_rows: bool = False) -> Path
                                                        backend=ctx, c_sqrt="sqrt", c_fabs="fabs", c_fmin="fmin"))
     exe = tmp / ("ipm_core_test_generic" if generic_rows else "ipm_core_test")
     subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
-                    "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{templates_dir() / 'backends'}",
+                    "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{csrc_dir() / 'ipm'}",
                     str(HARNESS), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
     return exe
 
@@ -124,6 +124,8 @@ def test_written_out_general_rows_equal_the_generic_loops(tmp_path):
 
 
 def test_the_core_is_not_a_template():
-    src = (templates_dir() / "backends" / "ipm_core.c").read_text()
+    files = core_files()
+    assert files[0].name == "ipm_core.c" and len(files) > 2
+    src = "".join(f.read_text() for f in files)
     assert "{{" not in src and "{%" not in src and "{#" not in src
     assert "qpb_solve" in src and "#if IPM_NE > 0" in src

@@ -156,7 +156,7 @@ def test_float_libraries_do_no_double_arithmetic_on_m4f(tmp_path, formulation, o
     literals): compiled without it, its library calls double routines again."""
     from dataclasses import replace as dc_replace
 
-    from fcgen.codegen.generate import C_MATH
+    from fcgen.codegen.model_code import C_MATH
     from fcgen.dsl import QpOptions
     from fcgen.presets import paper_problem
     p = paper_problem("car", formulation, obstacles, name=f"car_sp_{backend}")

@@ -4023,15 +4023,21 @@ static inline void ipm_sr_forward_sums(int j, const ipm_real_t *f, ipm_real_t (*
  * diagonal, each slack eliminated with its rows, a Riccati recursion over (x_k, u_k). The Python reference is
  * fcgen/backends/ipm.py (same algorithm, same order of operations).
  *
- * Not a template: what varies per problem (every size as a macro IPM_*, the index tables of the stage view, the
- * workspace struct IPM_W, the real type ipm_real_t, IPM_SQRT / IPM_FABS of that type, the raw-to-generic status
- * map IPM_STATUS) comes from the problem header fcgen renders (templates/backends/ipm_problem.h.j2), included
- * before this file. It also needs from its includer <string.h>, <math.h>, REAL_0 (zero of the real type) and
- * qpb_result_t (the RTI core's view of a solve: status, raw_status, iter, z, y) and QPB_PROBE(event) (a timing probe,
- * nothing in a normal build). The generated <name>_solver.c
- * contains the problem header and this file, in that order; tests/c/ipm_core_test.c compiles it on its own with a
- * rendered header.
- * It defines the backend interface qpb_reset, qpb_set_matrices and qpb_solve (static). */
+ * Hand-written, not a template: what varies per problem (every size as a macro IPM_*, the index tables of the stage
+ * view, the workspace struct IPM_W, the real type ipm_real_t, IPM_SQRT / IPM_FABS / IPM_FMIN of that type, the
+ * raw-to-generic status map IPM_STATUS, the kernels written out at the problem's sizes) comes from the problem header
+ * fcgen renders (templates/backends/ipm_problem.h.j2), included before this file. It also needs from its includer
+ * <string.h>, <math.h>, REAL_0 (zero of the real type), qpb_result_t (the RTI core's view of a solve: status,
+ * raw_status, iter, z, y) and QPB_PROBE(event) (a timing probe, nothing in a normal build). It defines the backend
+ * interface qpb_reset, qpb_set_matrices and qpb_solve; every function is static.
+ *
+ * One translation unit of the parts below, in this order (each uses only what comes before it). The generated
+ * <name>_solver.c contains the problem header and the parts in this order (fcgen reads this list);
+ * tests/c/ipm_core_test.c compiles this file on its own with a rendered header. */
+
+/* ---- the IPM's small dense kernels (row-major, fixed sizes; plain C99) -------------------------------------------
+ * A finiteness test, NaN-aware max/min, Cholesky factor and triangular solves, and the solves with a stage's R_bar
+ * over its input blocks (or written out for all inputs: IPM_U_DENSE, u_kernels in the problem header). */
 
 /* 0 times each of v[0 .. n - 1], summed in four independent chains: NaN once one is not finite (a finiteness test
  * whose adds overlap instead of waiting on each other) */
@@ -4053,8 +4059,30 @@ static ipm_real_t ipm_nonfinite(const ipm_real_t *v, int n) {
   return (s0 + s1) + (s2 + s3);
 }
 
-/* ---- small dense kernels (row-major, fixed sizes): for the input blocks (where not written out: IPM_U_DENSE) and
- * the stage equalities ---- */
+/* the larger of v and m (m if v is NaN: a NaN never replaces a maximum) */
+static inline ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
+  return (v > m) ? v : m;
+}
+
+/* the smaller of v and m (m if v is NaN). Where the FPU has VMINNM (FPv5, the Cortex-M7's: ARMv7E-M with a double
+ * FPU) fmin is that one instruction instead of a compare and a conditional move. They differ only where m is a NaN:
+ * in the soft rows' step limits (the only use) a NaN comes from a non-finite t, lam or step, which the next check
+ * finds either way (its sum of t lam is not finite) */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
+#if ((__ARM_FP & 8) != 0)
+#define IPM_MINNM 1
+#endif
+#endif
+static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
+#if defined(IPM_MINNM)
+  return IPM_FMIN(v, m);
+#else
+  return (v < m) ? v : m;
+#endif
+}
+
+/* Cholesky factor and triangular solves (row-major, fixed sizes): for the input blocks (where not written out:
+ * IPM_U_DENSE) and the stage equalities */
 #if (IPM_U_DENSE == 0) || (IPM_NE > 0)
 /* lower Cholesky factor of the n x n matrix A (stride ld) into Lo; 1 if a pivot is not positive */
 static int ipm_chol(const ipm_real_t *A, ipm_real_t *Lo, int n, int ld) {
@@ -4174,9 +4202,207 @@ static void ipm_bwd_u_sub(int k, const ipm_real_t *Lo, ipm_real_t *x, const ipm_
 }
 #endif
 
-/* ---- products with A but its soft rows: the dynamics and init rows by stage (the [F G] kernels: a dynamics row of
- * stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the others with the layout's
- * sparse pattern ---- */
+/* ---- the general rows of a stage (IPM_GEN_*): the generic loops over the stage view's tables, and the one switch to
+ * the kernels the problem header writes out for the stages of the commonest pattern (IPM_GEN_PAT, gen_kernels) -------
+ * A general row is an inequality row on a stage's (x, u) and at most one slack; a slack's rows (its group) are
+ * eliminated with it. Each *_any function here is the generic loops of one operation on stage k's rows; its
+ * written-out counterpart ipm_gen_* does the same operations in the same order at the pattern's fixed offsets. */
+
+/* The one switch between a stage's general rows written out and the generic loops: the written-out call at a stage
+ * IPM_GEN_PAT flags, else the generic one. Without a stage written out (IPM_GEN_WRITTEN 0: the problem header has no
+ * ipm_gen_* and no IPM_GEN_PAT) the generic call alone. */
+#if IPM_GEN_WRITTEN
+#define IPM_GEN_ROWS(k, written, generic) ((IPM_GEN_PAT[(k)] != 0) ? (written) : (generic))
+#else
+#define IPM_GEN_ROWS(k, written, generic) (generic)
+#endif
+
+/* slack s of stage k: its rows' general slots IPM_SG_G[p], p = IPM_SG_BEG[k][s] .. IPM_SG_END[k][s] - 1 */
+#define IPM_SG0(k, s) IPM_SG_BEG[k][s]
+#define IPM_SG1(k, s) IPM_SG_END[k][s]
+#define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
+
+/* a'x on stage k's general rows, into out by row: the generic loops */
+static void ipm_rows_ax_any(int k, const ipm_real_t *x, ipm_real_t *out) {
+  int g;
+  int a;
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = (k * IPM_NG) + g;
+    ipm_real_t s = REAL_0;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      s += IPM_W.gax[a] * x[IPM_GEN_VAR[a]];
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      s += IPM_W.gex[gs] * x[IPM_GEN_SVAR[gs]];
+    }
+    out[IPM_GEN_ROW[gs]] = s;
+  }
+}
+
+/* IPM_W.h += A' g over stage k's general rows, g in IPM_W.ar: the generic loops */
+static void ipm_rows_atx_any(int k) {
+  int g;
+  int a;
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = (k * IPM_NG) + g;
+    ipm_real_t gv;
+    if (IPM_GEN_ROW[gs] < 0) {
+      continue;
+    }
+    gv = IPM_W.ar[IPM_GEN_ROW[gs]];
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
+    }
+    if (IPM_GEN_E[gs] >= 0) {
+      IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
+    }
+  }
+}
+
+/* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
+ * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k]; the generic
+ * loops (a stage IPM_GEN_PAT flags: ipm_gen_weights, written out) */
+static void ipm_stage_weights_any(int k) {
+  int g;
+  int s;
+  int p;
+  int q;
+  int c = IPM_SE_BEG[k][0]; /* the next entry of IPM_W.wc */
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = IPM_GSLOT(k, g);
+    const int r = IPM_GEN_ROW[gs];
+    IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
+    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.gex[gs]) : REAL_0;
+  }
+  for (s = 0; s < IPM_NS; ++s) {
+    const int vs = IPM_VMAP_S[k][s];
+    const ipm_real_t hs = (vs >= 0) ? IPM_W.hd[vs] : IPM_ONE;
+    ipm_real_t dd = hs;
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      dd += IPM_W.wg[gs] * IPM_W.gex[gs];
+    }
+    IPM_W.d[k][s] = dd;
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) == 1) { /* one row (the common case): it weighs W hd_s / d_s */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[IPM_SG0(k, s)]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+      IPM_W.Weff[IPM_SG_G[IPM_SG0(k, s)]] = (IPM_W.wr[IPM_GEN_ROW[gs]] * hs) / dd;
+      continue;
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) { /* W e a of the rows' entries, in IPM_SE order */
+      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
+      int a;
+      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
+        ++c;
+      }
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      ipm_real_t others = hs;
+      for (q = IPM_SG0(k, s); q < IPM_SG1(k, s); ++q) {
+        if (q != p) {
+          const int gq = IPM_GSLOT(k, IPM_SG_G[q]);
+          others += IPM_W.wg[gq] * IPM_W.gex[gq];
+        }
+      }
+      IPM_W.Weff[IPM_SG_G[p]] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, IPM_SG_G[p])]] * others) / dd;
+    }
+  }
+}
+
+/* stage k's rows' W c c' into IPM_W.H (a row's slots ascend): the generic loops */
+static void ipm_rows_h_any(int k) {
+  int g;
+  int a;
+  int b;
+  for (g = 0; g < IPM_NG; ++g) {
+    const int gs = IPM_GSLOT(k, g);
+    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
+      const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.gax[a];
+      for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
+        IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.gax[b];
+      }
+    }
+  }
+}
+
+/* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose): the generic loops */
+static void ipm_couple_h_any(int k) {
+  int s;
+  int p;
+  int q;
+  for (s = 0; s < IPM_NS; ++s) {
+    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
+      continue; /* one row or none: no coupling */
+    }
+    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
+      for (q = p + 1; q < IPM_SG1(k, s); ++q) {
+        const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
+        const int gj = IPM_GSLOT(k, IPM_SG_G[q]);
+        const ipm_real_t mij = ((-IPM_W.wg[gi]) * IPM_W.wg[gj]) / IPM_W.d[k][s];
+        int x;
+        int y;
+        for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
+          const ipm_real_t cx = mij * IPM_W.gax[x];
+          for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
+            const int vx = IPM_GEN_V[x];
+            const int vy = IPM_GEN_V[y];
+            const int lo = (vx < vy) ? vx : vy;
+            const int hi = (vx < vy) ? vy : vx;
+            const ipm_real_t v = cx * IPM_W.gax[y];
+            IPM_W.H[lo][hi] += v;
+            if (lo == hi) {
+              IPM_W.H[lo][hi] += v; /* the transpose's term on the diagonal */
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+/* stage k's slacks' part of its reduced right-hand side, the generic loops: hs, and the slacks eliminated from ht */
+static void ipm_slacks_rhs_any(int k, ipm_real_t *ht, ipm_real_t *hs) {
+  int s;
+  int p;
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t f;
+    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
+    f = hs[s] / IPM_W.d[k][s];
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
+    }
+  }
+}
+
+/* stage k's slacks' step from its (x, u) step dv and slack right-hand sides hs, the generic loops */
+static void ipm_slacks_dz_any(int k, const ipm_real_t *dv, const ipm_real_t *hs) {
+  int s;
+  int p;
+  for (s = 0; s < IPM_NS; ++s) {
+    const int v = IPM_VMAP_S[k][s];
+    ipm_real_t acc = REAL_0;
+    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
+      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
+    }
+    if (v >= 0) {
+      IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
+    }
+  }
+}
+
+/* ---- products with the QP's A but its soft rows, by stage: the dynamics and init rows (the [F G] kernels: a
+ * dynamics row of stage k is E_i (x_{k+1}[i] - ([F G] v_k)[i]), E_i its x_{k+1}[i] coefficient), the box and general
+ * rows, the others with the layout's sparse pattern; and a stage's (x, u) gathered from and scattered into a vector
+ * of variables ---- */
 /* stage k's (x, u) slots with a variable are IPM_XU_LO[k] .. IPM_XU_HI[k] - 1, on consecutive variables from
  * IPM_XU_V[k] (codegen_context checks): its (x, u) from a vector of variables (0 for a slot without a variable) */
 static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
@@ -4223,32 +4449,12 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
  * order: codegen_context checks, so each sum is the CSR loop's) */
 static void ipm_ineq_Ax(const ipm_real_t *x, ipm_real_t *out) {
   int k;
-  int g;
   int a;
   for (a = 0; a < IPM_NBOX; ++a) {
     out[IPM_BOX_ROW[a]] = IPM_W.bax[a] * x[IPM_BOX_VAR[a]];
   }
   for (k = 0; k <= IPM_N; ++k) {
-#if IPM_GEN_WRITTEN
-    if (IPM_GEN_PAT[k] != 0) { /* the stage's rows written out */
-      ipm_gen_ax(k, x, out);
-      continue;
-    }
-#endif
-    for (g = 0; g < IPM_NG; ++g) {
-      const int gs = (k * IPM_NG) + g;
-      ipm_real_t s = REAL_0;
-      if (IPM_GEN_ROW[gs] < 0) {
-        continue;
-      }
-      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-        s += IPM_W.gax[a] * x[IPM_GEN_VAR[a]];
-      }
-      if (IPM_GEN_E[gs] >= 0) {
-        s += IPM_W.gex[gs] * x[IPM_GEN_SVAR[gs]];
-      }
-      out[IPM_GEN_ROW[gs]] = s;
-    }
+    IPM_GEN_ROWS(k, ipm_gen_ax(k, x, out), ipm_rows_ax_any(k, x, out));
   }
 }
 
@@ -4318,7 +4524,7 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   }
 }
 
-/* ---- the soft rows (IPM_SR_*): soft row j's side t1 = a'v + e s - b1 and its slack's bound t2 = bb s - b2 (the
+/* ---- the soft rows (IPM_SR_*), their fused passes: soft row j's side t1 = a'v + e s - b1 and its slack's bound t2 = bb s - b2 (the
  * coefficients multiplied by the sides' signs in the prepare phase, so both are lower sides here); the slack is
  * eliminated with its two sides (pivot d = hd_s + W1 e^2, hd_s = P_s + W2 bb^2), so a soft row adds W1 hd_s / d a a'
  * to its stage's Newton block: the generic rows' algebra. A stage's soft rows come in runs of rows on the same (x, u)
@@ -4333,29 +4539,6 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
  * pragma, no intrinsics) ---- */
 #define IPM_SR IPM_W.sr
 #define IPM_SR_NACC (4 + IPM_SR_NT + (3 * IPM_NA)) /* ipm_sr_check's sums per lane (see ipm_sr_check_row) */
-
-/* the larger of v and m (m if v is NaN: a NaN never replaces a maximum) */
-static inline ipm_real_t ipm_max(ipm_real_t v, ipm_real_t m) {
-  return (v > m) ? v : m;
-}
-
-/* the smaller of v and m (m if v is NaN). Where the FPU has VMINNM (FPv5, the Cortex-M7's: ARMv7E-M with a double
- * FPU) fmin is that one instruction instead of a compare and a conditional move. They differ only where m is a NaN:
- * in the soft rows' step limits (the only use) a NaN comes from a non-finite t, lam or step, which the next check
- * finds either way (its sum of t lam is not finite) */
-#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP)
-#if ((__ARM_FP & 8) != 0)
-#define IPM_MINNM 1
-#endif
-#endif
-static inline ipm_real_t ipm_min(ipm_real_t v, ipm_real_t m) {
-#if defined(IPM_MINNM)
-  return IPM_FMIN(v, m);
-#else
-  return (v < m) ? v : m;
-#endif
-}
-
 /* ipm_sr_check's rows j .. j + IPM_LANES - 1 (row j + l on lane l): the last step (alpha) taken; both sides'
  * residuals and 1 / t; the slack's stationarity residual; the slack's elimination (1 / d, c = W1 e) and the
  * predictor's slack right-hand side. Into the lanes of acc: [0] t lam (sum), [1] residuals and products (max), [2]
@@ -4656,310 +4839,172 @@ static ipm_real_t ipm_sr_forward(int k, int corr, ipm_real_t sm, const ipm_real_
   return am;
 }
 
-/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first).
- * ipm_check's pass runs over the rows in order, hence over the sides in order, the row's sums in registers: two sides
- * (IPM_IN_TWO) are a lower and an upper one, whose signs are constants (the generator checks); one side has its sign
- * from IPM_SIDE_SG. The other passes run flat over the sides (IPM_SIDE_ROW; a per-row sum: the row's first side
- * sets it, a second (IPM_SIDE_2ND) adds): measured, that is cheaper for them on the Cortex-M7 and no dearer on x86 */
-/* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
- * still in IPM_W.dt, IPM_W.dlam) */
-static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
-  return (corr != 0) ? (((IPM_W.t[j] * IPM_W.lam[j]) + (IPM_W.dt[j] * IPM_W.dlam[j])) - sm)
-                     : (IPM_W.t[j] * IPM_W.lam[j]);
-}
+/* ---- the residuals of an iterate and the stopping tests (ipm_check: one pass over the data, which also takes the
+ * last step and prepares the next step's weights and the predictor's right-hand side) ---- */
 
-/* side j's (sign sg) share of its row's right-hand side g: sign (rc + lam r_p) / t */
-static inline ipm_real_t ipm_side_g(int j, ipm_real_t sg, ipm_real_t rc) {
-  return (sg * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
-}
-
-/* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
- * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The predictor's g
- * is ipm_check's (its pass over the sides leaves it in IPM_W.ar); the corrector's, a pass over the sides here */
-static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
-  int k;
-  int g;
-  int a;
-  (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
-  if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows) */
-    int j;
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      const int r = IPM_SIDE_ROW[j];
-      IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], ipm_rc(1, sm, j));
-    }
+/* ipm_check's work on side j (sign sg) of a row whose A z is az: its r_p and 1 / t, into the row's sums row (its y,
+ * its weight W = sum lam / t, the predictor's g: both sides of a row add to the same three, from 0) and the stopping
+ * test's acc (the sum of t lam, the largest residual or product, the largest multiplier) */
+static inline void ipm_check_side(int j, ipm_real_t sg, ipm_real_t az, ipm_real_t *row, ipm_real_t *acc) {
+  const ipm_real_t t = IPM_W.t[j];
+  const ipm_real_t lam = IPM_W.lam[j];
+  const ipm_real_t it = IPM_ONE / t;
+  const ipm_real_t rp = ((sg * az) - IPM_W.bs[j]) - t;
+  row[0] -= sg * lam;
+  row[1] += lam * it;
+  row[2] += (sg * ((t * lam) + (lam * rp))) * it;
+  IPM_W.r_p[j] = rp;
+  IPM_W.it[j] = it;
+  if (IPM_FABS(rp) > acc[1]) {
+    acc[1] = IPM_FABS(rp);
   }
-  for (k = 0; k <= IPM_N; ++k) {
-#if IPM_GEN_WRITTEN
-    if (IPM_GEN_PAT[k] != 0) { /* the stage's rows written out */
-      ipm_gen_atx(k);
-      continue;
-    }
-#endif
-    for (g = 0; g < IPM_NG; ++g) {
-      const int gs = (k * IPM_NG) + g;
-      ipm_real_t gv;
-      if (IPM_GEN_ROW[gs] < 0) {
-        continue;
-      }
-      gv = IPM_W.ar[IPM_GEN_ROW[gs]];
-      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-        IPM_W.h[IPM_GEN_VAR[a]] += IPM_W.gax[a] * gv;
-      }
-      if (IPM_GEN_E[gs] >= 0) {
-        IPM_W.h[IPM_GEN_SVAR[gs]] += IPM_W.gex[gs] * gv;
-      }
-    }
+  acc[0] += t * lam;
+  if ((t * lam) > acc[1]) {
+    acc[1] = t * lam;
   }
-  for (a = 0; a < IPM_NBOX; ++a) {
-    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.bax[a] * IPM_W.ar[IPM_BOX_ROW[a]];
+  if (lam > acc[2]) {
+    acc[2] = lam;
   }
 }
 
-/* side j's (sign sg) step dt, dlam from its row's a'dz (ad) and target rc; returns amax cut to its boundary */
-static inline ipm_real_t ipm_side_step(int j, ipm_real_t sg, ipm_real_t ad, ipm_real_t rc, ipm_real_t amax) {
-  ipm_real_t am = amax;
-  const ipm_real_t dt = (sg * ad) + IPM_W.r_p[j];
-  const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
-  /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
-  if ((IPM_W.t[j] + (am * dt)) < REAL_0) {
-    am = (-IPM_W.t[j]) / dt;
-  }
-  if ((IPM_W.lam[j] + (am * dl)) < REAL_0) {
-    am = (-IPM_W.lam[j]) / dl;
-  }
-  IPM_W.dt[j] = dt;
-  IPM_W.dlam[j] = dl;
-  return am;
-}
-
-/* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
- * pass over the sides, written once per target); returns the largest step to the boundary (at most amax0) */
-static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
+/* the last step (IPM_W.aff[3]: its length, 0 for none) taken on the sides' t, lam and on z; then h = P z + q */
+static void ipm_take_step(const ipm_real_t *q) {
   int j;
-  ipm_real_t amax = amax0;
-  ipm_ineq_Ax(IPM_W.dz, IPM_W.ar);
-  if (corr != 0) { /* flat over the sides (measured: cheaper here than by rows) */
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], ipm_rc(1, sm, j), amax);
-    }
-  } else { /* the predictor also sums t lam, t dlam + lam dt, dt dlam into IPM_W.aff (mu_aff for any step length) */
-    ipm_real_t s0 = REAL_0;
-    ipm_real_t s1 = REAL_0;
-    ipm_real_t s2 = REAL_0;
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      const ipm_real_t rc = ipm_rc(0, REAL_0, j);
-      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], rc, amax);
-      s0 += rc;
-      s1 += (IPM_W.t[j] * IPM_W.dlam[j]) + (IPM_W.lam[j] * IPM_W.dt[j]);
-      s2 += IPM_W.dt[j] * IPM_W.dlam[j];
-    }
-    IPM_W.aff[0] += s0;
-    IPM_W.aff[1] += s1;
-    IPM_W.aff[2] += s2;
+  const ipm_real_t alpha = IPM_W.aff[3];
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    IPM_W.t[j] += alpha * IPM_W.dt[j];
+    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
   }
-  return amax;
+  for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries (dz = 0) are not read */
+    IPM_W.z[j] += alpha * IPM_W.dz[j];
+    IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
+  }
 }
 
-static void qpb_reset(void) {
-  (void)memset(&IPM_W, 0, sizeof IPM_W);
-}
-
-/* prepare phase: the dynamics blocks of this sample */
-static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const ipm_real_t *q) {
-  int k;
+/* per inequality row, over its sides (A z in IPM_W.wr): its y (as ipm_compose_y), each side's r_p, t lam, lam; and
+ * for the step ipm_step may take, 1 / t, the row's weight W = sum lam / t (in IPM_W.wr, over its A z once read) and
+ * its predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here). A row's
+ * two sides are a lower and an upper one (IPM_IN_TWO): their signs are constants, the row's sums stay in registers.
+ * Into acc: the sum of t lam, the largest residual or product, the largest multiplier */
+static void ipm_ineq_rows(ipm_real_t *acc) {
   int i;
-  (void)q;
-  IPM_W.Pd = P_x;
-  IPM_W.Ax = A_x;
-  for (k = 0; k < IPM_N; ++k) { /* [F G] = -A / E, packed by bands (the pattern is fixed: entries of a band outside
-                                 * it are never written, so they stay 0 from qpb_reset) */
-    int e;
-    for (i = 0; i < IPM_NX; ++i) {
-      IPM_W.Einv[k][i] = IPM_ONE / A_x[IPM_DYN_NEXT[(k * IPM_NX) + i]];
-    }
-    for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) { /* a band's other entries: 0 since qpb_reset */
-      IPM_W.fgb[k][IPM_DYN_B[e]] = (-A_x[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]];
-    }
-  }
-  for (i = 0; i < IPM_NX; ++i) {
-    IPM_W.einit[i] = A_x[IPM_INIT_A[i]];
-  }
-  for (i = 0; i < IPM_NGA; ++i) { /* the inequality rows' coefficients in the order the feedback loops read them */
-    IPM_W.gax[i] = A_x[IPM_GEN_A[i]];
-  }
-  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
-    IPM_W.gex[i] = (IPM_GEN_E[i] >= 0) ? A_x[IPM_GEN_E[i]] : REAL_0;
-  }
-  for (i = 0; i < IPM_NBOX; ++i) {
-    IPM_W.bax[i] = A_x[IPM_BOX_A[i]];
-  }
-  for (i = 0; i < IPM_NSRP; ++i) { /* times the sides' signs: both sides of a soft row are lower sides */
-    const ipm_real_t sg = (ipm_real_t)IPM_SR_SIGN[i];
-    int p;
-    for (p = 0; p < IPM_NA; ++p) {
-      const int da = IPM_SR_A[i][p];
-      IPM_SR.a[p][i] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
-    }
-    if (IPM_SR_ROW[i] < 0) { /* a padding row: no data, P_s = 1 */
-      IPM_SR.e[i] = REAL_0;
-      IPM_SR.ps[i] = IPM_ONE;
-      IPM_SR.bb[i] = REAL_0;
-      IPM_SR.w[i] = REAL_0;
+  int j = 0;
+  for (i = 0; i < IPM_NIN; ++i) {
+    const int r = IPM_IN_ROW[i];
+    const ipm_real_t az = IPM_W.wr[r];
+    ipm_real_t row[3] = {REAL_0, REAL_0, REAL_0};
+    if (IPM_IN_TWO[i] != 0) {
+      ipm_check_side(j, IPM_SG_P, az, row, acc);
+      ipm_check_side(j + 1, IPM_SG_M, az, row, acc);
+      j += 2;
     } else {
-      IPM_SR.e[i] = sg * A_x[IPM_SR_E[i]];
-      IPM_SR.ps[i] = P_x[IPM_SR_SVAR[i]];
-      IPM_SR.bb[i] = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
-      IPM_SR.w[i] = IPM_ONE;
+      ipm_check_side(j, IPM_SIDE_SG[j], az, row, acc);
+      ++j;
     }
-  }
-  return 0;
-}
-
-/* slack s of stage k: its rows' general slots IPM_SG_G[p], p = IPM_SG_BEG[k][s] .. IPM_SG_END[k][s] - 1 */
-#define IPM_SG0(k, s) IPM_SG_BEG[k][s]
-#define IPM_SG1(k, s) IPM_SG_END[k][s]
-#define IPM_GSLOT(k, g) (((k) * IPM_NG) + (g))
-
-/* stage k's row weights: W e of its general slots (IPM_W.wg, 0 without a slack), the effective weights IPM_W.Weff
- * (a slack's rows weigh W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s) and the slack pivots IPM_W.d[k]; the generic
- * loops (a stage IPM_GEN_PAT flags: ipm_gen_weights, written out) */
-static void ipm_stage_weights_any(int k) {
-  int g;
-  int s;
-  int p;
-  int q;
-  int c = IPM_SE_BEG[k][0]; /* the next entry of IPM_W.wc */
-  for (g = 0; g < IPM_NG; ++g) {
-    const int gs = IPM_GSLOT(k, g);
-    const int r = IPM_GEN_ROW[gs];
-    IPM_W.Weff[g] = (r >= 0) ? IPM_W.wr[r] : REAL_0;
-    IPM_W.wg[gs] = (IPM_GEN_E[gs] >= 0) ? (IPM_W.wr[r] * IPM_W.gex[gs]) : REAL_0;
-  }
-  for (s = 0; s < IPM_NS; ++s) {
-    const int vs = IPM_VMAP_S[k][s];
-    const ipm_real_t hs = (vs >= 0) ? IPM_W.hd[vs] : IPM_ONE;
-    ipm_real_t dd = hs;
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
-      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
-      dd += IPM_W.wg[gs] * IPM_W.gex[gs];
-    }
-    IPM_W.d[k][s] = dd;
-    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) == 1) { /* one row (the common case): it weighs W hd_s / d_s */
-      const int gs = IPM_GSLOT(k, IPM_SG_G[IPM_SG0(k, s)]);
-      int a;
-      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
-        ++c;
-      }
-      IPM_W.Weff[IPM_SG_G[IPM_SG0(k, s)]] = (IPM_W.wr[IPM_GEN_ROW[gs]] * hs) / dd;
-      continue;
-    }
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) { /* W e a of the rows' entries, in IPM_SE order */
-      const int gs = IPM_GSLOT(k, IPM_SG_G[p]);
-      int a;
-      for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-        IPM_W.wc[c] = IPM_W.wg[gs] * IPM_W.gax[a];
-        ++c;
-      }
-    }
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
-      ipm_real_t others = hs;
-      for (q = IPM_SG0(k, s); q < IPM_SG1(k, s); ++q) {
-        if (q != p) {
-          const int gq = IPM_GSLOT(k, IPM_SG_G[q]);
-          others += IPM_W.wg[gq] * IPM_W.gex[gq];
-        }
-      }
-      IPM_W.Weff[IPM_SG_G[p]] = (IPM_W.wr[IPM_GEN_ROW[IPM_GSLOT(k, IPM_SG_G[p])]] * others) / dd;
-    }
+    IPM_W.y[r] = row[0];
+    IPM_W.wr[r] = row[1];
+    IPM_W.ar[r] = row[2];
   }
 }
 
-static void ipm_stage_weights(int k) {
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) {
-    ipm_gen_weights(k);
+/* the equality rows' residuals A z - l in IPM_W.wr; returns their largest magnitude, at least rmax0. Then the
+ * dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+static ipm_real_t ipm_eq_residuals(const ipm_real_t *l, ipm_real_t rmax0) {
+  int i;
+  int j;
+  int k;
+  ipm_real_t rmax = rmax0;
+  for (j = 0; j < IPM_NEQ; ++j) {
+    const int r = IPM_EQ_ALL[j];
+    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
+    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
+      rmax = IPM_FABS(IPM_W.wr[r]);
+    }
+  }
+  for (k = 0; k < IPM_N; ++k) {
+    for (i = 0; i < IPM_NX; ++i) {
+      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
+    }
+  }
+  return rmax;
+}
+
+/* the stationarity residuals' largest magnitude, at least rmax0; NaN once one is not finite: 0 times each summed
+ * (two chains of each, the even and the odd entries: their maxima and sums overlap) */
+static ipm_real_t ipm_stationarity_max(ipm_real_t rmax0) {
+  int i;
+  ipm_real_t rmax = rmax0;
+  ipm_real_t nf0 = REAL_0;
+  ipm_real_t nf1 = REAL_0;
+  ipm_real_t rm1 = REAL_0;
+  for (i = 0; i < IPM_NGV; i += 2) {
+    const ipm_real_t r0 = IPM_W.r_d[IPM_GV[i]];
+    const ipm_real_t r1 = ((i + 1) < IPM_NGV) ? IPM_W.r_d[IPM_GV[i + 1]] : REAL_0;
+    nf0 += r0 * REAL_0;
+    nf1 += r1 * REAL_0;
+    rmax = ipm_max(IPM_FABS(r0), rmax);
+    rm1 = ipm_max(IPM_FABS(r1), rm1);
+  }
+  rmax = ipm_max(rm1, rmax);
+  nf0 += nf1;
+  if (isfinite(nf0) == 0) {
+    rmax = nf0;
+  }
+  return rmax;
+}
+
+/* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
+static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
+  int j;
+  int raw = IPM_GOING;
+  ipm_real_t mu;
+  ipm_real_t rmax;
+  ipm_real_t m[2];
+  ipm_real_t acc[3] = {REAL_0, REAL_0, REAL_0};
+  ipm_take_step(q);
+  ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
+  ipm_ineq_rows(acc);
+  for (j = 0; j < IPM_NFREE; ++j) {
+    const int v = IPM_FREE[j];
+    IPM_W.h[v] = ((IPM_W.Pd[v] + IPM_PROX) * IPM_W.z[v]) + q[v];
+  }
+  ipm_ATx(IPM_W.h, IPM_W.y, IPM_W.r_d);
+  m[0] = acc[1]; /* the largest residual or product, the largest multiplier: the soft rows' too */
+  m[1] = acc[2];
+  mu = acc[0] + ipm_sr_check(m);
+  rmax = ipm_eq_residuals(l, m[0]);
+  mu /= (ipm_real_t)IPM_NCOMP;
+  rmax = ipm_stationarity_max(rmax);
+  if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
+    raw = IPM_RAW_QP_NONFINITE;
+  } else if (rmax <= IPM_TOL) {
+    raw = IPM_RAW_QP_SOLVED;
+  } else if (m[1] > IPM_LAM_MAX) {
+    raw = IPM_RAW_QP_PRIMAL_INFEASIBLE;
   } else {
-    ipm_stage_weights_any(k);
+    /* not converged */
   }
-#else
-  ipm_stage_weights_any(k);
-#endif
+  *mu_out = mu;
+  return raw;
 }
 
-/* stage k's rows' W c c' into IPM_W.H (a row's slots ascend): the generic loops */
-static void ipm_rows_h_any(int k) {
-  int g;
-  int a;
-  int b;
-  for (g = 0; g < IPM_NG; ++g) {
-    const int gs = IPM_GSLOT(k, g);
-    for (a = IPM_GEN_PTR[gs]; a < IPM_GEN_PTR[gs + 1]; ++a) {
-      const ipm_real_t ca = IPM_W.Weff[g] * IPM_W.gax[a];
-      for (b = a; b < IPM_GEN_PTR[gs + 1]; ++b) {
-        IPM_W.H[IPM_GEN_V[a]][IPM_GEN_V[b]] += ca * IPM_W.gax[b];
-      }
-    }
-  }
-}
-
-/* two rows of one slack couple by -W_i e_i W_j e_j / d_s (m c_i c_j' + its transpose): the generic loops */
-static void ipm_couple_h_any(int k) {
-  int s;
-  int p;
-  int q;
-  for (s = 0; s < IPM_NS; ++s) {
-    if ((IPM_SG1(k, s) - IPM_SG0(k, s)) < 2) {
-      continue; /* one row or none: no coupling */
-    }
-    for (p = IPM_SG0(k, s); p < IPM_SG1(k, s); ++p) {
-      for (q = p + 1; q < IPM_SG1(k, s); ++q) {
-        const int gi = IPM_GSLOT(k, IPM_SG_G[p]);
-        const int gj = IPM_GSLOT(k, IPM_SG_G[q]);
-        const ipm_real_t mij = ((-IPM_W.wg[gi]) * IPM_W.wg[gj]) / IPM_W.d[k][s];
-        int x;
-        int y;
-        for (x = IPM_GEN_PTR[gi]; x < IPM_GEN_PTR[gi + 1]; ++x) {
-          const ipm_real_t cx = mij * IPM_W.gax[x];
-          for (y = IPM_GEN_PTR[gj]; y < IPM_GEN_PTR[gj + 1]; ++y) {
-            const int vx = IPM_GEN_V[x];
-            const int vy = IPM_GEN_V[y];
-            const int lo = (vx < vy) ? vx : vy;
-            const int hi = (vx < vy) ? vy : vx;
-            const ipm_real_t v = cx * IPM_W.gax[y];
-            IPM_W.H[lo][hi] += v;
-            if (lo == hi) {
-              IPM_W.H[lo][hi] += v; /* the transpose's term on the diagonal */
-            }
-          }
-        }
-      }
-    }
-  }
-}
-
+/* ---- the Newton (KKT) system, stage by stage: its factorization (box weights on the diagonal, each slack eliminated
+ * with its rows, the stage equalities by a Schur complement of their own, a Riccati recursion k = N..0) and its
+ * solve (the backward sweep's p_k, kk_k; the forward sweep's step) ---- */
 /* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
  * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings (the rows' parts written out at a stage
  * IPM_GEN_PAT flags) */
 static void ipm_stage_hessian(int k) {
-  int a;
   if (k < IPM_N) { /* the cost-to-go through the stage's dynamics sets the upper triangle; the rows add to it */
     ipm_fg_ctg(IPM_W.fgb[k], IPM_W.P[k + 1], IPM_W.H);
   } else {
     (void)memset(IPM_W.H, 0, sizeof IPM_W.H);
   }
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) {
-    ipm_gen_rows_h(k);
-  } else {
-    ipm_rows_h_any(k);
-  }
-#else
-  ipm_rows_h_any(k);
-#endif
+  IPM_GEN_ROWS(k, ipm_gen_rows_h(k), ipm_rows_h_any(k));
   ipm_sr_hessian(k);
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
     const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
+    int a;
     for (a = 0; a < IPM_XU_LO[k]; ++a) {
       IPM_W.H[a][a] += IPM_ONE;
     }
@@ -4970,15 +5015,7 @@ static void ipm_stage_hessian(int k) {
       IPM_W.H[a][a] += IPM_ONE;
     }
   }
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) {
-    ipm_gen_couple_h(k);
-  } else {
-    ipm_couple_h_any(k);
-  }
-#else
-  ipm_couple_h_any(k);
-#endif
+  IPM_GEN_ROWS(k, ipm_gen_couple_h(k), ipm_couple_h_any(k));
 }
 
 #if IPM_NE > 0
@@ -5060,8 +5097,7 @@ static void ipm_eq_project(int k, const ipm_real_t *base, ipm_real_t *tv, ipm_re
 }
 #endif
 
-/* ---- the Newton matrix: box weights, slack groups, Riccati recursion (k = N..0) ---- */
-/* its diagonal hd = P (+ the proximal weight) + the box rows' weights */
+/* the Newton matrix's diagonal hd = P (+ the proximal weight) + the box rows' weights */
 static void ipm_hd(void) {
   int i;
   (void)memcpy(IPM_W.hd, IPM_W.Pd, sizeof IPM_W.hd); /* every variable's (the soft rows' slacks' are not read) */
@@ -5078,7 +5114,7 @@ static void ipm_hd(void) {
 static int ipm_factor_stage(int k) {
   int i;
   int j;
-  ipm_stage_weights(k);
+  IPM_GEN_ROWS(k, ipm_gen_weights(k), ipm_stage_weights_any(k)); /* the rows' weights, the slack pivots */
   ipm_stage_hessian(k);
   /* Q = H[x][x], S = H[u][x], R = H[u][u] (with the cost-to-go through the dynamics) */
   for (i = 0; i < IPM_NU; ++i) { /* R (both triangles: the Cholesky factorization reads the lower one) */
@@ -5108,35 +5144,12 @@ static int ipm_factor_stage(int k) {
   return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
 }
 
-/* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals IPM_W.r_eq -> IPM_W.dz and,
- * with duals, the equality multipliers' step IPM_W.dnu (the predictor needs dz only) ---- */
+/* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals (ipm_check leaves them in
+ * IPM_W.wr) -> IPM_W.dz and, with duals, the equality multipliers' step IPM_W.gd (the predictor needs dz only) ---- */
 /* stage k's reduced right-hand side ht (slacks eliminated) and slack right-hand side hs, from IPM_W.h */
-/* its slacks' part, the generic loops: hs, and the slacks eliminated from ht */
-static void ipm_slacks_rhs_any(int k, ipm_real_t *ht, ipm_real_t *hs) {
-  int s;
-  int p;
-  for (s = 0; s < IPM_NS; ++s) {
-    const int v = IPM_VMAP_S[k][s];
-    ipm_real_t f;
-    hs[s] = (v >= 0) ? IPM_W.h[v] : REAL_0;
-    f = hs[s] / IPM_W.d[k][s];
-    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-      ht[IPM_SE_V[p]] -= IPM_W.wc[p] * f;
-    }
-  }
-}
-
 static void ipm_stage_rhs(int k, ipm_real_t *ht, ipm_real_t *hs) {
   ipm_gather_xu(k, IPM_W.h, ht);
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) {
-    ipm_gen_rhs(k, ht, hs);
-  } else {
-    ipm_slacks_rhs_any(k, ht, hs);
-  }
-#else
-  ipm_slacks_rhs_any(k, ht, hs);
-#endif
+  IPM_GEN_ROWS(k, ipm_gen_rhs(k, ht, hs), ipm_slacks_rhs_any(k, ht, hs));
 }
 
 /* stage k < N's dynamics right-hand side c_k = -r_eq / E: ipm_check leaves it in IPM_W.wr on the stage's dynamics
@@ -5215,22 +5228,6 @@ static int ipm_backward(int corr, ipm_real_t sm, int factor) {
   return 0;
 }
 
-/* stage k's slacks' step from its (x, u) step dv and slack right-hand sides hs, the generic loops */
-static void ipm_slacks_dz_any(int k, const ipm_real_t *dv, const ipm_real_t *hs) {
-  int s;
-  int p;
-  for (s = 0; s < IPM_NS; ++s) {
-    const int v = IPM_VMAP_S[k][s];
-    ipm_real_t acc = REAL_0;
-    for (p = IPM_SE_BEG[k][s]; p < IPM_SE_END[k][s]; ++p) {
-      acc += IPM_W.wc[p] * dv[IPM_SE_V[p]];
-    }
-    if (v >= 0) {
-      IPM_W.dz[v] = (-(acc + hs[s])) / IPM_W.d[k][s];
-    }
-  }
-}
-
 /* stage k's primal step dv = (dx, du) (dz of its slacks and variables) and, with duals, its equality rows' duals */
 static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_real_t *deq, ipm_real_t *dv) {
   int i;
@@ -5290,15 +5287,7 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
     }
 #endif
   }
-#if IPM_GEN_WRITTEN
-  if (IPM_GEN_PAT[k] != 0) {
-    ipm_gen_dz(k, dv, hs);
-  } else {
-    ipm_slacks_dz_any(k, dv, hs);
-  }
-#else
-  ipm_slacks_dz_any(k, dv, hs);
-#endif
+  IPM_GEN_ROWS(k, ipm_gen_dz(k, dv, hs), ipm_slacks_dz_any(k, dv, hs));
   ipm_set_xu(k, dv, IPM_W.dz);
 }
 
@@ -5333,6 +5322,92 @@ static ipm_real_t ipm_forward(int corr, ipm_real_t sm) {
   return amax;
 }
 
+/* ---- the core of an interior-point step: the sides' complementarity targets and right-hand sides, their steps and
+ * the step to the boundary, one Newton direction, and Mehrotra's predictor-corrector step with its centring ---- */
+/* the sides j of inequality row i (IPM_IN_ROW[i]) are IPM_IN_PTR[i] .. IPM_IN_PTR[i + 1] - 1 (lower side first).
+ * ipm_check's pass runs over the rows in order, hence over the sides in order, the row's sums in registers: two sides
+ * (IPM_IN_TWO) are a lower and an upper one, whose signs are constants (the generator checks); one side has its sign
+ * from IPM_SIDE_SG. The other passes run flat over the sides (IPM_SIDE_ROW; a per-row sum: the row's first side
+ * sets it, a second (IPM_SIDE_2ND) adds): measured, that is cheaper for them on the Cortex-M7 and no dearer on x86 */
+/* complementarity target of side j: t lam (predictor) or t lam + dt dlam - sm (corrector, with the predictor's step
+ * still in IPM_W.dt, IPM_W.dlam) */
+static ipm_real_t ipm_rc(int corr, ipm_real_t sm, int j) {
+  return (corr != 0) ? (((IPM_W.t[j] * IPM_W.lam[j]) + (IPM_W.dt[j] * IPM_W.dlam[j])) - sm)
+                     : (IPM_W.t[j] * IPM_W.lam[j]);
+}
+
+/* side j's (sign sg) share of its row's right-hand side g: sign (rc + lam r_p) / t */
+static inline ipm_real_t ipm_side_g(int j, ipm_real_t sg, ipm_real_t rc) {
+  return (sg * (rc + (IPM_W.lam[j] * IPM_W.r_p[j]))) * IPM_W.it[j];
+}
+
+/* h = r_d + A_in' g, g the inequality rows' right-hand sides: per row (IPM_W.ar), the sum over its sides of
+ * sign (rc + lam r_p) / t; then scattered over the rows' entries (general slots, then box rows). The predictor's g
+ * is ipm_check's (its pass over the sides leaves it in IPM_W.ar); the corrector's, a pass over the sides here */
+static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
+  int k;
+  int a;
+  (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
+  if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows) */
+    int j;
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      const int r = IPM_SIDE_ROW[j];
+      IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], ipm_rc(1, sm, j));
+    }
+  }
+  for (k = 0; k <= IPM_N; ++k) {
+    IPM_GEN_ROWS(k, ipm_gen_atx(k), ipm_rows_atx_any(k));
+  }
+  for (a = 0; a < IPM_NBOX; ++a) {
+    IPM_W.h[IPM_BOX_VAR[a]] += IPM_W.bax[a] * IPM_W.ar[IPM_BOX_ROW[a]];
+  }
+}
+
+/* side j's (sign sg) step dt, dlam from its row's a'dz (ad) and target rc; returns amax cut to its boundary */
+static inline ipm_real_t ipm_side_step(int j, ipm_real_t sg, ipm_real_t ad, ipm_real_t rc, ipm_real_t amax) {
+  ipm_real_t am = amax;
+  const ipm_real_t dt = (sg * ad) + IPM_W.r_p[j];
+  const ipm_real_t dl = (-(rc + (IPM_W.lam[j] * dt))) * IPM_W.it[j];
+  /* t + a dt < 0 only if dt < 0 (t, a > 0): a branch that is rarely taken, so well predicted */
+  if ((IPM_W.t[j] + (am * dt)) < REAL_0) {
+    am = (-IPM_W.t[j]) / dt;
+  }
+  if ((IPM_W.lam[j] + (am * dl)) < REAL_0) {
+    am = (-IPM_W.lam[j]) / dl;
+  }
+  IPM_W.dt[j] = dt;
+  IPM_W.dlam[j] = dl;
+  return am;
+}
+
+/* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
+ * pass over the sides, written once per target); returns the largest step to the boundary (at most amax0) */
+static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
+  int j;
+  ipm_real_t amax = amax0;
+  ipm_ineq_Ax(IPM_W.dz, IPM_W.ar);
+  if (corr != 0) { /* flat over the sides (measured: cheaper here than by rows) */
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], ipm_rc(1, sm, j), amax);
+    }
+  } else { /* the predictor also sums t lam, t dlam + lam dt, dt dlam into IPM_W.aff (mu_aff for any step length) */
+    ipm_real_t s0 = REAL_0;
+    ipm_real_t s1 = REAL_0;
+    ipm_real_t s2 = REAL_0;
+    for (j = 0; j < IPM_NSIDE; ++j) {
+      const ipm_real_t rc = ipm_rc(0, REAL_0, j);
+      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], rc, amax);
+      s0 += rc;
+      s1 += (IPM_W.t[j] * IPM_W.dlam[j]) + (IPM_W.lam[j] * IPM_W.dt[j]);
+      s2 += IPM_W.dt[j] * IPM_W.dlam[j];
+    }
+    IPM_W.aff[0] += s0;
+    IPM_W.aff[1] += s1;
+    IPM_W.aff[2] += s2;
+  }
+  return amax;
+}
+
 /* direction for the complementarity target ipm_rc -> IPM_W.dz, IPM_W.dt, IPM_W.dlam (and the equality duals' step
  * in IPM_W.gd); with factor, the Newton matrix is factored in the same backward sweep. The largest step to the
  * boundary (at most 1) in *amax; 1 if a pivot is not positive */
@@ -5343,159 +5418,6 @@ static int ipm_direction(int corr, ipm_real_t sm, int factor, ipm_real_t *amax) 
   }
   *amax = ipm_ineq_sides(corr, sm, ipm_forward(corr, sm));
   return 0;
-}
-
-/* y: equality rows nu, inequality rows lam_upper - lam_lower */
-static void ipm_compose_y(void) {
-  int i;
-  int j;
-  for (i = 0; i < IPM_NIN; ++i) { /* equality rows: their multipliers, all along */
-    ipm_real_t v = REAL_0;
-    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
-      v -= IPM_SIDE_SG[j] * IPM_W.lam[j];
-    }
-    IPM_W.y[IPM_IN_ROW[i]] = v;
-  }
-  for (i = 0; i < IPM_NSRP; ++i) {
-    if (IPM_SR_ROW[i] < 0) {
-      continue; /* a padding row */
-    }
-    IPM_W.z[IPM_SR_SVAR[i]] = IPM_SR.zs[i];
-    IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_SR.l1[i]);
-    IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_SR.l2[i]);
-  }
-}
-
-/* side j: sign a'z - b >= 0 with b = l (lower side) or -u (upper side) */
-static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
-  return (IPM_SIDE_SIGN[j] > 0) ? l[IPM_SIDE_ROW[j]] : (-u[IPM_SIDE_ROW[j]]);
-}
-
-/* ipm_check's work on side j (sign sg) of a row whose A z is az: its r_p and 1 / t, into the row's sums row (its y,
- * its weight W = sum lam / t, the predictor's g: both sides of a row add to the same three, from 0) and the stopping
- * test's acc (the sum of t lam, the largest residual or product, the largest multiplier) */
-static inline void ipm_check_side(int j, ipm_real_t sg, ipm_real_t az, ipm_real_t *row, ipm_real_t *acc) {
-  const ipm_real_t t = IPM_W.t[j];
-  const ipm_real_t lam = IPM_W.lam[j];
-  const ipm_real_t it = IPM_ONE / t;
-  const ipm_real_t rp = ((sg * az) - IPM_W.bs[j]) - t;
-  row[0] -= sg * lam;
-  row[1] += lam * it;
-  row[2] += (sg * ((t * lam) + (lam * rp))) * it;
-  IPM_W.r_p[j] = rp;
-  IPM_W.it[j] = it;
-  if (IPM_FABS(rp) > acc[1]) {
-    acc[1] = IPM_FABS(rp);
-  }
-  acc[0] += t * lam;
-  if ((t * lam) > acc[1]) {
-    acc[1] = t * lam;
-  }
-  if (lam > acc[2]) {
-    acc[2] = lam;
-  }
-}
-
-/* residuals and the stopping tests of the current iterate: IPM_GOING, or the raw status it stops with; mu */
-static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_out) {
-  int i;
-  int j;
-  int k;
-  int raw = IPM_GOING;
-  ipm_real_t mu;
-  ipm_real_t rmax;
-  ipm_real_t lmax;
-  ipm_real_t acc[3] = {REAL_0, REAL_0, REAL_0};
-  const ipm_real_t alpha = IPM_W.aff[3]; /* the last step's length (0: none), taken here */
-  for (j = 0; j < IPM_NSIDE; ++j) {
-    IPM_W.t[j] += alpha * IPM_W.dt[j];
-    IPM_W.lam[j] += alpha * IPM_W.dlam[j];
-  }
-  for (j = 0; j < IPM_NV; ++j) { /* every variable: the soft rows' slacks' entries (dz = 0) are not read */
-    IPM_W.z[j] += alpha * IPM_W.dz[j];
-    IPM_W.h[j] = (IPM_W.Pd[j] * IPM_W.z[j]) + q[j];
-  }
-  ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
-  /* per inequality row, over its sides: its y (as ipm_compose_y), each side's r_p, t lam, lam; and for the step
-   * ipm_step may take, 1 / t, the row's weight W = sum lam / t (in IPM_W.wr, over its A z once read) and its
-   * predictor's right-hand side g (ipm_side_g of ipm_rc(0): the pass ipm_ineq_ATx would make, fused here). A row's
-   * two sides are a lower and an upper one (IPM_IN_TWO): their signs are constants, the row's sums stay in registers */
-  j = 0;
-  for (i = 0; i < IPM_NIN; ++i) {
-    const int r = IPM_IN_ROW[i];
-    const ipm_real_t az = IPM_W.wr[r];
-    ipm_real_t row[3] = {REAL_0, REAL_0, REAL_0};
-    if (IPM_IN_TWO[i] != 0) {
-      ipm_check_side(j, IPM_SG_P, az, row, acc);
-      ipm_check_side(j + 1, IPM_SG_M, az, row, acc);
-      j += 2;
-    } else {
-      ipm_check_side(j, IPM_SIDE_SG[j], az, row, acc);
-      ++j;
-    }
-    IPM_W.y[r] = row[0];
-    IPM_W.wr[r] = row[1];
-    IPM_W.ar[r] = row[2];
-  }
-  mu = acc[0];
-  rmax = acc[1];
-  lmax = acc[2];
-  for (j = 0; j < IPM_NFREE; ++j) {
-    const int v = IPM_FREE[j];
-    IPM_W.h[v] = ((IPM_W.Pd[v] + IPM_PROX) * IPM_W.z[v]) + q[v];
-  }
-  ipm_ATx(IPM_W.h, IPM_W.y, IPM_W.r_d);
-  {
-    ipm_real_t m[2];
-    m[0] = rmax;
-    m[1] = lmax;
-    mu += ipm_sr_check(m);
-    rmax = m[0];
-    lmax = m[1];
-  }
-  for (j = 0; j < IPM_NEQ; ++j) {
-    const int r = IPM_EQ_ALL[j];
-    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
-    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
-      rmax = IPM_FABS(IPM_W.wr[r]);
-    }
-  }
-  for (k = 0; k < IPM_N; ++k) { /* the dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
-    for (i = 0; i < IPM_NX; ++i) {
-      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
-    }
-  }
-  mu /= (ipm_real_t)IPM_NCOMP;
-  { /* the stationarity residuals: their largest magnitude; 0 times each sums to NaN once one is not finite (two
-     * chains of each, the even and the odd entries: their maxima and sums overlap) */
-    ipm_real_t nf0 = REAL_0;
-    ipm_real_t nf1 = REAL_0;
-    ipm_real_t rm1 = REAL_0;
-    for (i = 0; i < IPM_NGV; i += 2) {
-      const ipm_real_t r0 = IPM_W.r_d[IPM_GV[i]];
-      const ipm_real_t r1 = ((i + 1) < IPM_NGV) ? IPM_W.r_d[IPM_GV[i + 1]] : REAL_0;
-      nf0 += r0 * REAL_0;
-      nf1 += r1 * REAL_0;
-      rmax = ipm_max(IPM_FABS(r0), rmax);
-      rm1 = ipm_max(IPM_FABS(r1), rm1);
-    }
-    rmax = ipm_max(rm1, rmax);
-    nf0 += nf1;
-    if (isfinite(nf0) == 0) {
-      rmax = nf0;
-    }
-  }
-  if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
-    raw = IPM_RAW_QP_NONFINITE;
-  } else if (rmax <= IPM_TOL) {
-    raw = IPM_RAW_QP_SOLVED;
-  } else if (lmax > IPM_LAM_MAX) {
-    raw = IPM_RAW_QP_PRIMAL_INFEASIBLE;
-  } else {
-    /* not converged */
-  }
-  *mu_out = mu;
-  return raw;
 }
 
 /* one predictor-corrector step from the iterate ipm_check left (mu: its complementarity): IPM_GOING, or the raw
@@ -5539,6 +5461,90 @@ static int ipm_step(ipm_real_t mu) {
   return IPM_GOING;
 }
 
+/* ---- the backend interface, the IPM's driver: qpb_reset, the prepare phase qpb_set_matrices, and
+ * qpb_solve, which starts from z = 0 and the warm duals and alternates ipm_check and ipm_step ---- */
+/* the workspace zeroed: the state of program start */
+static void qpb_reset(void) {
+  (void)memset(&IPM_W, 0, sizeof IPM_W);
+}
+
+/* prepare phase: the dynamics blocks of this sample */
+static int qpb_set_matrices(const ipm_real_t *P_x, const ipm_real_t *A_x, const ipm_real_t *q) {
+  int k;
+  int i;
+  (void)q;
+  IPM_W.Pd = P_x;
+  IPM_W.Ax = A_x;
+  for (k = 0; k < IPM_N; ++k) { /* [F G] = -A / E, packed by bands (the pattern is fixed: entries of a band outside
+                                 * it are never written, so they stay 0 from qpb_reset) */
+    int e;
+    for (i = 0; i < IPM_NX; ++i) {
+      IPM_W.Einv[k][i] = IPM_ONE / A_x[IPM_DYN_NEXT[(k * IPM_NX) + i]];
+    }
+    for (e = IPM_DYN_PTR[k]; e < IPM_DYN_PTR[k + 1]; ++e) { /* a band's other entries: 0 since qpb_reset */
+      IPM_W.fgb[k][IPM_DYN_B[e]] = (-A_x[IPM_DYN_A[e]]) * IPM_W.Einv[k][IPM_DYN_I[e]];
+    }
+  }
+  for (i = 0; i < IPM_NX; ++i) {
+    IPM_W.einit[i] = A_x[IPM_INIT_A[i]];
+  }
+  for (i = 0; i < IPM_NGA; ++i) { /* the inequality rows' coefficients in the order the feedback loops read them */
+    IPM_W.gax[i] = A_x[IPM_GEN_A[i]];
+  }
+  for (i = 0; i < ((IPM_N + 1) * IPM_NG); ++i) {
+    IPM_W.gex[i] = (IPM_GEN_E[i] >= 0) ? A_x[IPM_GEN_E[i]] : REAL_0;
+  }
+  for (i = 0; i < IPM_NBOX; ++i) {
+    IPM_W.bax[i] = A_x[IPM_BOX_A[i]];
+  }
+  for (i = 0; i < IPM_NSRP; ++i) { /* times the sides' signs: both sides of a soft row are lower sides */
+    const ipm_real_t sg = (ipm_real_t)IPM_SR_SIGN[i];
+    int p;
+    for (p = 0; p < IPM_NA; ++p) {
+      const int da = IPM_SR_A[i][p];
+      IPM_SR.a[p][i] = (da >= 0) ? (sg * A_x[da]) : REAL_0;
+    }
+    if (IPM_SR_ROW[i] < 0) { /* a padding row: no data, P_s = 1 */
+      IPM_SR.e[i] = REAL_0;
+      IPM_SR.ps[i] = IPM_ONE;
+      IPM_SR.bb[i] = REAL_0;
+      IPM_SR.w[i] = REAL_0;
+    } else {
+      IPM_SR.e[i] = sg * A_x[IPM_SR_E[i]];
+      IPM_SR.ps[i] = P_x[IPM_SR_SVAR[i]];
+      IPM_SR.bb[i] = ((ipm_real_t)IPM_SR_BSIGN[i]) * A_x[IPM_SR_BA[i]];
+      IPM_SR.w[i] = IPM_ONE;
+    }
+  }
+  return 0;
+}
+
+/* y: equality rows nu, inequality rows lam_upper - lam_lower */
+static void ipm_compose_y(void) {
+  int i;
+  int j;
+  for (i = 0; i < IPM_NIN; ++i) { /* equality rows: their multipliers, all along */
+    ipm_real_t v = REAL_0;
+    for (j = IPM_IN_PTR[i]; j < IPM_IN_PTR[i + 1]; ++j) {
+      v -= IPM_SIDE_SG[j] * IPM_W.lam[j];
+    }
+    IPM_W.y[IPM_IN_ROW[i]] = v;
+  }
+  for (i = 0; i < IPM_NSRP; ++i) {
+    if (IPM_SR_ROW[i] < 0) {
+      continue; /* a padding row */
+    }
+    IPM_W.z[IPM_SR_SVAR[i]] = IPM_SR.zs[i];
+    IPM_W.y[IPM_SR_ROW[i]] = -(((ipm_real_t)IPM_SR_SIGN[i]) * IPM_SR.l1[i]);
+    IPM_W.y[IPM_SR_BROW[i]] = -(((ipm_real_t)IPM_SR_BSIGN[i]) * IPM_SR.l2[i]);
+  }
+}
+
+/* side j: sign a'z - b >= 0 with b = l (lower side) or -u (upper side) */
+static ipm_real_t ipm_side_b(const ipm_real_t *l, const ipm_real_t *u, int j) {
+  return (IPM_SIDE_SIGN[j] > 0) ? l[IPM_SIDE_ROW[j]] : (-u[IPM_SIDE_ROW[j]]);
+}
+
 /* a soft row's slack bound's initial t given its initial lam: max(-b, IPM_T_MIN / max(1, lam)) with
  * IPM_SCALED_START (no initial t lam above IPM_T_MIN: the bound carries a multiplier near the row's L1 weight), else
  * max(-b, IPM_T_MIN) as every other side */
@@ -5552,11 +5558,9 @@ static inline ipm_real_t ipm_t2_start(ipm_real_t b, ipm_real_t lam) {
   return ((-b) > f) ? (-b) : f;
 }
 
-static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
-                     const ipm_real_t *y_warm, int max_iter, qpb_result_t *res) {
+/* the sides' b and initial t, lam (lam from the warm duals, at least IPM_LAM_MIN; t at least IPM_T_MIN), no step */
+static void ipm_start_sides(const ipm_real_t *l, const ipm_real_t *u, const ipm_real_t *y_warm) {
   int j;
-  int it = 0;
-  int raw = IPM_GOING;
   for (j = 0; j < IPM_NSIDE; ++j) {
     const int r = IPM_SIDE_ROW[j];
     const ipm_real_t lw = (IPM_WARM != 0) ? ((-IPM_SIDE_SIGN[j]) * y_warm[r]) : REAL_0;
@@ -5567,6 +5571,12 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
     IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
     IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
   }
+}
+
+/* the soft rows' b and initial iterates (as the sides'; the slack z_s = 0), no step */
+static void ipm_start_soft_rows(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
+                                const ipm_real_t *y_warm) {
+  int j;
   for (j = 0; j < IPM_NSRP; ++j) {
     const int r = IPM_SR_ROW[j];
     const int rb = IPM_SR_BROW[j];
@@ -5596,29 +5606,43 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
       IPM_SR.qs[j] = q[IPM_SR_SVAR[j]];
     }
   }
-  IPM_W.aff[3] = REAL_0;
-  { /* a centred start: every lam at least IPM_LAM_CENTER mean(t lam) / t */
-    ipm_real_t c = REAL_0;
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      c += IPM_W.t[j] * IPM_W.lam[j];
-    }
-    for (j = 0; j < IPM_NSRP; ++j) {
-      c += (IPM_SR.t1[j] * IPM_SR.l1[j]) + (IPM_SR.t2[j] * IPM_SR.l2[j]); /* a padding row: lam = 0 here */
-    }
-    c = IPM_LAM_CENTER * (c / (ipm_real_t)IPM_NCOMP);
-    for (j = 0; j < IPM_NSIDE; ++j) {
-      const ipm_real_t lc = c / IPM_W.t[j];
-      IPM_W.lam[j] = (lc > IPM_W.lam[j]) ? lc : IPM_W.lam[j];
-    }
-    for (j = 0; j < IPM_NSRP; ++j) {
-      if (IPM_SR_ROW[j] >= 0) { /* a padding row keeps lam = 0 */
-        const ipm_real_t lc1 = c / IPM_SR.t1[j];
-        const ipm_real_t lc2 = c / IPM_SR.t2[j];
-        IPM_SR.l1[j] = (lc1 > IPM_SR.l1[j]) ? lc1 : IPM_SR.l1[j];
-        IPM_SR.l2[j] = (lc2 > IPM_SR.l2[j]) ? lc2 : IPM_SR.l2[j];
-      }
+}
+
+/* a centred start: every lam at least IPM_LAM_CENTER mean(t lam) / t */
+static void ipm_centre(void) {
+  int j;
+  ipm_real_t c = REAL_0;
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    c += IPM_W.t[j] * IPM_W.lam[j];
+  }
+  for (j = 0; j < IPM_NSRP; ++j) {
+    c += (IPM_SR.t1[j] * IPM_SR.l1[j]) + (IPM_SR.t2[j] * IPM_SR.l2[j]); /* a padding row: lam = 0 here */
+  }
+  c = IPM_LAM_CENTER * (c / (ipm_real_t)IPM_NCOMP);
+  for (j = 0; j < IPM_NSIDE; ++j) {
+    const ipm_real_t lc = c / IPM_W.t[j];
+    IPM_W.lam[j] = (lc > IPM_W.lam[j]) ? lc : IPM_W.lam[j];
+  }
+  for (j = 0; j < IPM_NSRP; ++j) {
+    if (IPM_SR_ROW[j] >= 0) { /* a padding row keeps lam = 0 */
+      const ipm_real_t lc1 = c / IPM_SR.t1[j];
+      const ipm_real_t lc2 = c / IPM_SR.t2[j];
+      IPM_SR.l1[j] = (lc1 > IPM_SR.l1[j]) ? lc1 : IPM_SR.l1[j];
+      IPM_SR.l2[j] = (lc2 > IPM_SR.l2[j]) ? lc2 : IPM_SR.l2[j];
     }
   }
+}
+
+/* the QP of this sample (q, bounds l <= A z <= u) from z = 0 and the warm duals y_warm, at most max_iter steps */
+static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
+                     const ipm_real_t *y_warm, int max_iter, qpb_result_t *res) {
+  int j;
+  int it = 0;
+  int raw = IPM_GOING;
+  ipm_start_sides(l, u, y_warm);
+  ipm_start_soft_rows(q, l, u, y_warm);
+  IPM_W.aff[3] = REAL_0;
+  ipm_centre();
   for (j = 0; j < IPM_NEQ; ++j) {
     IPM_W.y[IPM_EQ_ALL[j]] = (IPM_WARM != 0) ? y_warm[IPM_EQ_ALL[j]] : REAL_0;
   }

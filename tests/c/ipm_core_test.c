@@ -1,4 +1,4 @@
-/* The IPM's algorithm (templates/backends/ipm_core.c) compiled on its own, with a problem header rendered by fcgen
+/* The IPM's algorithm (csrc/ipm/ipm_core.c and its parts) compiled on its own, with a problem header rendered by fcgen
  * (ipm_problem.h: sizes, tables, workspace), the way HPIPM's library is separate from the interfaces that size it.
  * tests/test_ipm_core.py renders the header, writes the QPs a Python closed loop solved and compares the results.
  *

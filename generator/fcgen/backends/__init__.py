@@ -1,7 +1,9 @@
 """QP backends behind one interface: the RTI core never names a backend.
 
-A backend is one module here (``<b>.py``: the Python side, its C tables and its extra files) plus one template
-``templates/backends/<b>.c.j2`` (the static ``qpb_*`` functions ``solver.c.j2`` includes once).
+A backend is one module here (``<b>.py``: its Python solver, which the reference runs, its label and the restore of
+its git-ignored library for ``fcgen build``), its C side in ``fcgen.codegen`` (``codegen.qp_backend``: the context of
+its template and its extra files) and one template ``templates/backends/<b>.c.j2`` (the static ``qpb_*`` functions
+``solver.c.j2`` includes once).
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ import re
 from pathlib import Path
 
 from .folder import solvers_in
-from .osqp_export import LIB_DIR
+from ..backends.osqp_export import LIB_DIR
 
 
 def read_macros(header: Path, name: str) -> dict[str, int]:

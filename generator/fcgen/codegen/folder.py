@@ -35,6 +35,14 @@ RECORD = Path(".fcgen-generated.json")
 generator output: git-ignored in generated/, left out by ``regenerate --check``)."""
 
 
+def write_if_changed(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` (folders made) unless it holds exactly that already."""
+    data = text.encode()
+    if not path.is_file() or path.read_bytes() != data:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+
+
 class FolderError(ValueError):
     """The output folder cannot take the solver (one line: names the folder, what is there and ``--force``)."""
 

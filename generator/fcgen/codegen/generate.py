@@ -1,41 +1,36 @@
 """Turn a problem into a complete, static-memory C solver folder.
 
 Steps: build the OCP and its QP layout; emit CasADi C code of the functions the solver needs (every symbol prefixed
-with the problem name); write the QP backend's files (OSQP: its embedded workspace, prefix ``<name>_``); render
-``templates/`` with every index table computed here. Same problem -> byte-identical files (no time stamps, no absolute paths).
+with the problem name, :mod:`.model_code`); write the QP backend's files (OSQP: its embedded workspace, prefix
+``<name>_``; :mod:`.qp_backend`); render ``templates/`` with every index table computed here and in :mod:`.tables`.
+Same problem -> byte-identical files (no time stamps, no absolute paths).
 """
 from __future__ import annotations
 
 import dataclasses
-
-import math
-import re
 import textwrap
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-import casadi as ca
 import numpy as np
 
 from .. import __version__
 from .. import obstacles as obs
+from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
-                         input_box, theta_init, warm_max_iter)
-from ..plant import plant_function
+                         input_box, warm_max_iter)
 from ..targets import README_BEGIN, README_END, cross_targets
 from .misra import MISRA_DEVIATIONS
-from .folder import staged
+from .folder import staged, write_if_changed
+from .model_code import MODEL_CFLAGS, write_model
+from .qp_backend import backend_c
 from .render import environment, render_template
-
-
-MODEL_CFLAGS = ("-Wno-unused-parameter",)
-"""Extra flags for the CasADi-generated model file (its functions ignore iw/w/mem) with -Wall -Wextra -Werror."""
+from .tables import curve_speed_constants, far_opponent_row, fit_context, permutation_cycles, slack_vars, stage_table
 
 MACRO_DOC = {
     "NX": "states per stage", "NU": "controls per stage [F_d, r]", "N": "shooting intervals",
@@ -50,11 +45,6 @@ MACRO_DOC = {
     "RTI_BUDGET": "the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default)",
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
 }
-MODEL_FUNCTIONS = ("stage_first", "stage_middle", "stage_last", "init_state", "theta_init", "plant")
-FIT_FUNCTIONS = ("opp_points", "opp_box")
-"""The conventional formulation's opponent fit (``fcgen.oppfit``), generated only for it (``opp_box`` only for the
-naive ``overapprox="none"``: the fitted box is plain C)."""
-_HELPER_DEF = re.compile(r"^(casadi_real|casadi_int|void|int) (casadi_[a-z0-9_]+)\(", re.M)
 
 
 @dataclass(frozen=True)
@@ -74,218 +64,6 @@ class GenerateInfo:
     library_files: tuple[str, ...]  # the backend's library copy (git-ignored, restorable)
     qp_files: BackendFiles
 
-
-# --- small helpers --------------------------------------------------------------------------------------------
-
-
-def _curve_speed_constants(problem: Problem) -> dict | None:
-    """The curve speed's literals (``fcgen.road.curve_speed``): a_lat, its value in traffic (a_lat when that is off)
-    and the clearance that means traffic, 2 decel, v_max^2; None when it is off."""
-    ref, v_max = problem.reference, problem.bounds.v_max
-    if ref.curve_a_lat <= 0.0:
-        return None
-    traffic = ref.curve_traffic_clearance > 0.0
-    return {"a_lat": _c_real(ref.curve_a_lat), "two_decel": _c_real(2.0 * ref.curve_decel),
-            "a_lat_traffic": _c_real(ref.curve_a_lat_traffic if traffic else ref.curve_a_lat),
-            "traffic_clearance": _c_real(ref.curve_traffic_clearance), "v2_max": _c_real(v_max * v_max),
-            "along": ref.curve_along_horizon}
-
-def _c_real(x: float) -> str:
-    """An exact C double literal (shortest round-trip repr)."""
-    x = float(x)
-    if not math.isfinite(x):
-        raise ValueError(f"non-finite constant {x!r} cannot be emitted")
-    return repr(x)
-
-
-def _c_real_literal(x: float, use_float: bool) -> str:
-    """A C literal of the solver's real type: ``0.05`` (double) or ``0.05f`` (float, rounded by the compiler)."""
-    return _c_real(x) + ("f" if use_float else "")
-
-
-def _c_macro_list(values: Sequence, per_line: int = 20) -> str:
-    """A brace initializer as a macro's body, continued over lines of ``per_line`` values."""
-    items = [str(v) for v in values]
-    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
-    return "{" + ", \\\n  ".join(lines) + "}"
-
-
-def _c_list(values: Sequence, fmt=str, per_line: int = 12) -> str:
-    """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
-    items = [fmt(v) for v in values] or ["0"]
-    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
-    return ",\n  ".join(lines)
-
-
-def _write(path: Path, text: str) -> None:
-    data = text.encode()
-    if not path.is_file() or path.read_bytes() != data:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
-
-
-# --- CasADi model code ---------------------------------------------------------------------------------------
-
-def _renamed(f: ca.Function, name: str) -> ca.Function:
-    """The same SX algorithm under a new name (checked: identical instruction count)."""
-    x = f.sx_in()
-    g = ca.Function(name, x, f.call(x), f.name_in(), f.name_out())
-    if g.n_instructions() != f.n_instructions():
-        raise AssertionError(f"renaming {f.name()} changed its algorithm")
-    return g
-
-
-def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
-    """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
-    funs = {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
-            "init_state": ocp.init_state, "theta_init": theta_init(ocp), "plan_clearance": ocp.plan_clearance,
-            "plant": plant_function(ocp.problem, ocp.road_params.samples)}
-    if ocp.fit is not None:
-        funs.update(opp_points=ocp.fit.points)
-        if not ocp.fit.n_edge:  # the fitted box is plain C (opp_fit.c: fit_box); the naive one's CasADi
-            funs.update(opp_box=ocp.fit.box)
-    return funs
-
-
-C_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh",
-          "exp", "expm1", "log", "log1p", "log10", "log2", "pow", "sqrt", "cbrt", "hypot", "fabs", "fmin", "fmax",
-          "floor", "ceil", "round", "trunc", "fmod", "remainder", "copysign", "erf", "erfc", "fma", "lgamma", "tgamma")
-"""The double functions of <math.h> (C99) that have a float counterpart ``<name>f``."""
-_C_MATH_CALL = re.compile(r"\b(" + "|".join(C_MATH) + r")(\s*\()")
-_C_DOUBLE_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)(?![\w.])")
-
-
-def float_math(src: str) -> str:
-    """CasADi's C code in single precision: ``sin`` -> ``sinf``, ... and ``2.`` -> ``2.f`` (CasADi has no option for it;
-    with ``casadi_real = float`` alone it computes in double: every literal and math call promotes).
-
-    Comments are left as they are (a version number like ``3.8.2`` is no literal: the pattern needs a number that
-    neither follows nor precedes a word character or a dot).
-    """
-    out = []
-    for part in re.split(r"(/\*.*?\*/|//[^\n]*)", src, flags=re.S):  # odd parts: comments
-        if part.startswith(("/*", "//")):
-            out.append(part)
-        else:
-            out.append(_C_DOUBLE_LITERAL.sub(r"\1f", _C_MATH_CALL.sub(r"\1f\2", part)))
-    return "".join(out)
-
-
-def _write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
-    """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
-    funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
-    opts = {"with_header": True, "casadi_real": real, "casadi_int": "int", "prefix": f"{name}_",
-            "with_export": False, "verbose": False, "include_math": True}
-    with tempfile.TemporaryDirectory() as tmp:
-        cg = ca.CodeGenerator(f"{name}_model.c", opts)
-        for f in funs.values():
-            cg.add(f)
-        cg.generate(str(Path(tmp)) + "/")
-        src = (Path(tmp) / f"{name}_model.c").read_text()
-        hdr = (Path(tmp) / f"{name}_model.h").read_text()
-    # CasADi's runtime helpers (casadi_fmin, casadi_sq, ...) are emitted non-static: make them file-local
-    src = _HELPER_DEF.sub(r"static \1 \2(", src)
-    if real == "float":
-        src = float_math(src)
-    for text in (src, hdr):
-        if tmp in text or "/tmp" in text:
-            raise AssertionError("CasADi wrote a path into the model code")
-    _write(out_dir / f"{name}_model.c", src)
-    _write(out_dir / f"{name}_model.h", hdr)
-    # the generated code's own work sizes (SX code keeps its work in locals: sz_w there is 0, not f.sz_w())
-    found = re.findall(rf"^#define {name}_(\w+)_SZ_(ARG|RES|IW|W) (\d+)$", hdr, re.M)
-    sz = {(fn, key): int(v) for fn, key, v in found}
-    if {fn for fn, _ in sz} != set(funs):
-        raise AssertionError("CasADi header without the expected work-size macros")
-
-    def most(key: str, least: int) -> int:
-        return max(least, *(v for (_, k), v in sz.items() if k == key))
-
-    return {"sz_arg": most("ARG", 3), "sz_res": most("RES", 3), "sz_iw": most("IW", 1), "sz_w": most("W", 1),
-            "functions": [f"{name}_{k}" for k in funs]}
-
-
-# --- tables ---------------------------------------------------------------------------------------------------
-
-def stage_table(ocp: Ocp, lay: QpLayout) -> list[dict[str, Any]]:
-    """Per-stage descriptors: function kind and the offsets of its variables, rows, Jacobian, successor state."""
-    N, nx, nu = ocp.N, ocp.nx, ocp.nu
-    v_ref = ocp.problem.reference.v_ref
-    times = ocp.problem.horizon.times
-    out = []
-    for k in range(N + 1):
-        st = ocp.stage(k)
-        var = int(lay.var_off[k])
-        names = st.var_names
-        out.append({
-            "k": k,
-            "kind": "STAGE_" + st.name.upper(),
-            "var": var,
-            "row": int(lay.row_off[k]),
-            "jac": int(lay.jac_off[k]),
-            "next": int(lay.var_off[k + 1]) if k < N else -1,
-            "s": int(lay.s_vars[k]),
-            "u": var + names.index("F_d") if k < N else -1,
-            "theta": var + nx + nu * (k < N) if (k >= 1 and ocp.n_theta) else -1,
-            "sigma": var + names.index("sigma0") if "sigma0" in names else -1,
-            "s_ref": _c_real(times[k] * v_ref),  # the reference's s_ref offset, same rounding
-            "t": _c_real(times[k]),  # the node's time (Horizon.times), also the cold-start guess's
-        })
-        assert names[0] == "s" and out[-1]["s"] == var
-        if k < N:
-            assert names[nx:nx + nu] == ("F_d", "r") and out[-1]["u"] == var + nx
-    return out
-
-
-def slack_vars(ocp: Ocp, lay: QpLayout) -> np.ndarray:
-    """Indices of the slack variables of stages 1..N (the reference's ``slacks()``)."""
-    return np.concatenate([np.arange(lay.var_off[k + 1] - ocp.n_sigma, lay.var_off[k + 1])
-                           for k in range(1, ocp.N + 1)]).astype(np.int64)
-
-
-def far_opponent_row(ocp: Ocp) -> np.ndarray:
-    """Parameters of one opponent far away from any ego position on the example's straight road."""
-    return np.array([-1000.0, 500.0, 0.0])  # every formulation takes poses; the conventional one leaves it out
-
-
-def fit_context(ocp: Ocp) -> dict[str, Any] | None:
-    """Constants of the conventional opponent fit for the template (``None`` for the other formulations)."""
-    from .. import oppfit
-    f = ocp.fit
-    if f is None:
-        return None
-    if oppfit.FULL_EVALS < 1:
-        raise AssertionError("the C fit takes n and phi_gamma from a road evaluation: FULL_EVALS >= 1")
-    return {"npt": f.npt, "ref": f.ref_point, "search": oppfit.SEARCH, "window": oppfit.FOOT_WINDOW,
-            "nbox": len(oppfit.BOX), "nedge": f.n_edge, "nev": len(oppfit.EVAL), "par": ocp.n_opp_stage,
-            "sixth": _c_real(1.0 / 6.0),
-            "full": oppfit.FULL_EVALS, "rot_max": _c_real(oppfit.ROT_MAX),
-            "sin_c": [_c_real(c) for c in oppfit.SIN_C], "cos_c": [_c_real(c) for c in oppfit.COS_C],
-            "dg_min": _c_real(oppfit.NEWTON_DG_MIN), "counts": f.counts, "margin": _c_real(f.margin),
-            "reach": _c_real(f.reach), "far_base": _c_real(f.far_base), "sag_safety": _c_real(oppfit.SAG_SAFETY),
-            "n_opp_stage": max(1, ocp.problem.opponents.count * ocp.n_opp_stage),
-            "stretch_max": _c_real(oppfit.STRETCH_MAX), "n_min": _c_real(f.n_min), "n_max": _c_real(f.n_max),
-            "neutral": [_c_real(v) for v in oppfit.neutral(0.0)]}
-
-
-def permutation_cycles(src: np.ndarray) -> np.ndarray:
-    """One start index per non-trivial cycle of the permutation ``i -> src[i]`` (to apply ``v[i] = v[src[i]]`` in
-    place: follow each cycle from its start, one saved value per cycle)."""
-    src = np.asarray(src, dtype=np.int64)
-    if sorted(src.tolist()) != list(range(len(src))):
-        raise AssertionError("A_SRC is no permutation of the stacked Jacobian: A_x cannot share its memory")
-    seen = np.zeros(len(src), dtype=bool)
-    starts = []
-    for i0 in range(len(src)):
-        if seen[i0] or src[i0] == i0:
-            seen[i0] = True
-            continue
-        starts.append(i0)
-        i = i0
-        while not seen[i]:
-            seen[i] = True
-            i = int(src[i])
-    return np.array(starts, dtype=np.int64)
 
 
 # --- sizes -------------------------------------------------------------------------------------------------------
@@ -411,7 +189,7 @@ def shift_statement(dst: str, src: str, table: str, fraction: float, split: int,
     exact = f"{src}[{table}[i]]"
     if fraction == 1.0:
         return f"{dst}[i] = {exact};"
-    moved = f"{src}[i] + ((({name}_real_t){_c_real(fraction)}) * ({src}[{table}[i]] - {src}[i]))"
+    moved = f"{src}[i] + ((({name}_real_t){c_real(fraction)}) * ({src}[{table}[i]] - {src}[i]))"
     return f"{dst}[i] = {moved};" if split == 0 else f"{dst}[i] = (i < {split}) ? {exact} : ({moved});"
 
 
@@ -445,25 +223,31 @@ def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, for
 def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> GenerateInfo:
     """Write every file of the solver into the (new, empty) folder ``out_dir``."""
     name = problem.name
-    NAME = name.upper()
     ocp = build_ocp(problem)
     lay = build_layout(ocp)
-    real = "float" if use_float else "double"
-    real_size = 4 if use_float else 8
-    nx = ocp.nx
-    n_opp, n_opp_par = problem.opponents.count, ocp.n_opp_par
-    rp = ocp.road_params
+    work = write_model(ocp, out_dir, name, "float" if use_float else "double")
+    qp_c = backend_c(problem.qp.backend)
+    qp_files = qp_c.write_files(ocp, lay, problem.qp, out_dir, use_float)
+    tab = _tables(problem, ocp, lay)
+    mem = _memory(problem, ocp, lay, tab, work, qp_files, use_float)
+    ctx = {**_solver_context(problem, ocp, tab, mem, qp_files, use_float), **_problem_context(problem, ocp, lay),
+           "backend": qp_c.codegen_context(ocp, lay, problem.qp),
+           "backend_template": f"backends/{problem.qp.backend}.c.j2",
+           "backend_label": backend_module(problem.qp.backend).LABEL}
+    written = _write_folder(out_dir, problem, ctx, use_float)
+    lib_files = (*qp_files.library_sources, *qp_files.library_headers)
+    files = tuple(sorted([*written, f"{name}_model.c", f"{name}_model.h", *qp_files.sources, *qp_files.headers]))
+    return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=tab["sizes"],
+                        workspace_bytes=mem["workspace_bytes"], solver_workspace_bytes=mem["solver_workspace_bytes"],
+                        qp_array_bytes=qp_files.array_bytes, qp_struct_bytes=qp_files.struct_bytes,
+                        const_bytes=mem["const_bytes"], files=files, library_files=lib_files, qp_files=qp_files)
 
-    work = _write_model(ocp, out_dir, name, real)
 
-    backend = backend_module(problem.qp.backend)
-    qp_files = backend.write_files(ocp, lay, problem.qp, out_dir, use_float)
-    static_libs = [f"lib{name}.a", *([f"lib{name}_{qp_files.library.suffix}.a"] if qp_files.library else [])]
-
-    # -- sizes (public macros) and private dimensions -----------------------------------------------------------
+def _tables(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
+    """The size macros and the solver's constant tables (index tables in the smallest unsigned type that holds them,
+    real tables, stage descriptors); checks what the C's in-place updates assume of the layout."""
     sizes = size_macros(ocp, lay)
     slacks = slack_vars(ocp, lay)
-    n_opp_all = max(1, n_opp * n_opp_par)
     if sizes["NNZ_J"] != sizes["QP_NNZ_A"]:
         raise AssertionError("stacked Jacobian and A differ in size: A_x cannot share the Jacobian's memory")
     if np.any(lay.row_shift < np.arange(lay.m)):
@@ -478,106 +262,130 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
     u_lo, u_hi, u_lim = input_box(problem)
     real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
-                   "INIT_D": lay.D[:nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
+                   "INIT_D": lay.D[:ocp.nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
                    "SHAPE_DEFAULT": ocp.default_shapes().ravel()}
     if ocp.p_dt is not None:   # unequal intervals: each stage's length is a parameter (Ocp.stage_dt)
         real_tables["STAGE_DT"] = ocp.stage_dt()
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
-    stages = stage_table(ocp, lay)
+    return {"sizes": sizes, "slacks": slacks, "a_cycles": a_cycles, "index_tables": index_tables,
+            "index_ctype": index_ctype, "index_size": index_size, "real_tables": real_tables,
+            "stages": stage_table(ocp, lay)}
 
+
+def _memory(problem: Problem, ocp: Ocp, lay: QpLayout, tab: dict[str, Any], work: dict, qp_files: BackendFiles,
+            use_float: bool) -> dict[str, Any]:
+    """The solver's workspace struct and its static memory (RAM: the workspaces; flash: our const tables), the
+    opponent fit's and the curve speed's constants it depends on, and the header's size macros."""
+    real_size = 4 if use_float else 8
+    n_opp_all = max(1, problem.opponents.count * ocp.n_opp_par)
     fit = fit_context(ocp)
-    curve = _curve_speed_constants(problem)
-    ws_members, ws_bytes = workspace_members(name, sizes, work, real_size, n_opp_all, fit, len(lay.band_rows),
-                                             curve=curve is not None)
-    const_bytes = (sum(len(t) for t in index_tables.values()) * index_size
-                   + sum(len(t) for t in real_tables.values()) * real_size
-                   + len(stages) * (8 * 4 + real_size * (1 if curve is not None else 2)))   # stage_t: 8 ints, t, s_ref
+    curve = curve_speed_constants(problem)
+    ws_members, ws_bytes = workspace_members(problem.name, tab["sizes"], work, real_size, n_opp_all, fit,
+                                             len(lay.band_rows), curve=curve is not None)
+    const_bytes = (sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
+                   + sum(len(t) for t in tab["real_tables"].values()) * real_size
+                   + len(tab["stages"]) * (8 * 4 + real_size * (1 if curve is not None else 2)))  # stage_t
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
+    values = {**tab["sizes"], "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
+    macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:ocp.nx])})"}
+    return {"fit": fit, "curve": curve, "work": work, "ws_members": ws_members, "solver_workspace_bytes": ws_bytes,
+            "const_bytes": const_bytes, "workspace_bytes": workspace_bytes, "opp_dim": n_opp_all,
+            "macros": [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()]}
 
-    values = {**sizes, "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
-    macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:nx])})"}
-    macros = [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()]
-    opp_names = obs.CARTESIAN_POSE
-    ctx = {
-        "name": name, "NAME": NAME, "version": __version__, "real": real, "use_float": use_float,
-        "sizes": sizes, "macros": macros, "exit_codes": list(enumerate(EXIT_CODES)),
+
+def _math_names(use_float: bool) -> dict[str, str]:
+    """The <math.h> functions of the real type (``c_sqrt``: ``sqrtf`` in float, ...)."""
+    return {f"c_{f}": f + ("f" if use_float else "") for f in
+            ("floor", "cos", "sin", "sqrt", "fabs", "fmin", "atan2", "tan", "atan", "copysign")}
+
+
+def _solver_context(problem: Problem, ocp: Ocp, tab: dict[str, Any], mem: dict[str, Any], qp_files: BackendFiles,
+                    use_float: bool) -> dict[str, Any]:
+    """The templates' context of the solver's API, contract, memory, tables and build."""
+    name, NAME = problem.name, problem.name.upper()
+    lib = qp_files.library
+    cold_note = COLD_RESTART_NOTE.replace("COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER")
+    return {
+        "name": name, "NAME": NAME, "version": __version__, "real": "float" if use_float else "double",
+        "use_float": use_float, "sizes": tab["sizes"], "macros": mem["macros"],
+        "exit_codes": list(enumerate(EXIT_CODES)),
         "qp_statuses": list(enumerate(QP_STATUSES, start=1)), "n_qp_statuses": len(QP_STATUSES),
         "qp_usable": [QP_STATUSES[s - 1] for s in QP_USABLE],
         "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
                                         for s in range(1, len(QP_STATUSES) + 1)],
-        "qp_contract": QP_CONTRACT, "max_input_violation": _c_real(MAX_INPUT_VIOLATION),
-        "max_input_violation_c": _c_real_literal(MAX_INPUT_VIOLATION, use_float),
-        "cold_restart_note": COLD_RESTART_NOTE.replace("COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"),
-        "cold_restart_lines": _wrap_comment(f"Cold restart: {COLD_RESTART_NOTE}.".replace(
-            "COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER"), 114),
+        "qp_contract": QP_CONTRACT, "max_input_violation": c_real(MAX_INPUT_VIOLATION),
+        "max_input_violation_c": c_real_literal(MAX_INPUT_VIOLATION, use_float),
+        "cold_restart_note": cold_note, "cold_restart_lines": _wrap_comment(f"Cold restart: {cold_note}.", 114),
         "first_state_member": FIRST_STATE_MEMBER, "host_ticks_per_second": HOST_TICKS_PER_SECOND,
         "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
-        "opp_params": ", ".join(opp_names),
-        "workspace_bytes": workspace_bytes, "solver_workspace_bytes": ws_bytes,
+        "opp_params": ", ".join(obs.CARTESIAN_POSE),
+        "workspace_bytes": mem["workspace_bytes"], "solver_workspace_bytes": mem["solver_workspace_bytes"],
         "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
-        "const_bytes": const_bytes, "ws_members": ws_members, "work": work,
-        "misra_deviations": MISRA_DEVIATIONS, "c_floor": "floorf" if use_float else "floor", "c_cos": "cosf" if use_float else "cos",
-        "c_sin": "sinf" if use_float else "sin", "c_sqrt": "sqrtf" if use_float else "sqrt",
-        "c_fabs": "fabsf" if use_float else "fabs", "c_fmin": "fminf" if use_float else "fmin", "c_atan2": "atan2f" if use_float else "atan2",
-        "c_tan": "tanf" if use_float else "tan", "c_atan": "atanf" if use_float else "atan",
-        "c_copysign": "copysignf" if use_float else "copysign",
-        "index_ctype": index_ctype, "opp_dim": n_opp_all, "n_a_cycles": len(a_cycles), "fit": fit,
-        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if fit else None,
-        "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": _c_real(lay.band_scale),
-        "n_min": _c_real(problem.bounds.n_min), "n_max": _c_real(problem.bounds.n_max),
-        "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE), "ego_radius": _c_real(obs.ego_radius(problem.ego)),
-        "index_tables": {k: {"len": max(1, len(v)), "body": _c_list([int(x) for x in v])}
-                         for k, v in index_tables.items()},
-        "real_tables": {k: {"len": max(1, len(v)), "body": _c_list(v, _c_real, 6)} for k, v in real_tables.items()},
-        "n_slack": len(slacks), "stages": stages,
+        "const_bytes": mem["const_bytes"], "ws_members": mem["ws_members"], "work": mem["work"],
+        "misra_deviations": MISRA_DEVIATIONS, **_math_names(use_float),
+        "index_ctype": tab["index_ctype"], "opp_dim": mem["opp_dim"], "n_a_cycles": len(tab["a_cycles"]),
+        "fit": mem["fit"], "curve": mem["curve"],
+        "index_tables": {k: {"len": max(1, len(v)), "body": c_list([int(x) for x in v])}
+                         for k, v in tab["index_tables"].items()},
+        "real_tables": {k: {"len": max(1, len(v)), "body": c_list(v, c_real, 6)}
+                        for k, v in tab["real_tables"].items()},
+        "n_slack": len(tab["slacks"]), "stages": tab["stages"],
+        "qp_files": qp_files, "qp_lib": lib,
+        "static_libs": [f"lib{name}.a", *([f"lib{name}_{lib.suffix}.a"] if lib else [])],
+        "make_products": ", ".join(["static library", *([f"{lib.label} library"] if lib else []), "shared library",
+                                    "example"]),
+        "model_cflags": MODEL_CFLAGS, "cross_targets": cross_targets(use_float),
+        "footprint_marker_begin": README_BEGIN, "footprint_marker_end": README_END,
+    }
+
+
+def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
+    """The templates' context of the problem's constants: opponents, road, reference, horizon, shift, plan check."""
+    name, rp = problem.name, ocp.road_params
+    n_opp = problem.opponents.count
+    return {
+        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if ocp.fit is not None else None,
+        "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": c_real(lay.band_scale),
+        "n_min": c_real(problem.bounds.n_min), "n_max": c_real(problem.bounds.n_max),
+        "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE), "ego_radius": c_real(obs.ego_radius(problem.ego)),
         "p_road": {"S0": 0, "DS": 1, "KAPPA": 2, "PHI": 2 + rp.samples, "GX": 2 + 2 * rp.samples,
                    "GY": 2 + 3 * rp.samples},
         "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
-        "n_ref": _c_real(problem.reference.n_ref), "v_ref": _c_real(problem.reference.v_ref),
-        "curve": curve,
-        "dt": _c_real(problem.horizon.interval),
+        "n_ref": c_real(problem.reference.n_ref), "v_ref": c_real(problem.reference.v_ref),
+        "dt": c_real(problem.horizon.interval),
         "p_dt": ocp.p_dt,
-        "stage_offsets": _c_macro_list(problem.horizon.offsets),
+        "stage_offsets": c_macro_list(problem.horizon.offsets),
         # node k's time in set_reference's s_ref,k: k DT on a uniform grid (the same rounding as k * interval)
         "ref_time": f"(({name}_real_t)k * DT)" if ocp.p_dt is None else "STAGES[k].t",
         "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
         "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
-        "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": _c_real(INF),
+        "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
-        "brake_m_per_dt": _c_real(problem.ego.m / problem.horizon.dt),
-        "a_lat_guard": int(problem.plan_check.a_lat_guard), "sample_dt": _c_real(problem.horizon.dt),
-        "wheelbase": _c_real(problem.ego.l), "a_lat_max": _c_real(problem.bounds.a_lat_max),
-        "a_lat_guard_to": _c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
-        "qp_files": qp_files, "qp_lib": qp_files.library, "static_libs": static_libs,
-        "make_products": ", ".join(["static library", *([f"{qp_files.library.label} library"] if qp_files.library
-                                                         else []), "shared library", "example"]),
-        "model_cflags": MODEL_CFLAGS,
-        "backend": backend.codegen_context(ocp, lay, problem.qp),
-        "backend_template": f"backends/{problem.qp.backend}.c.j2", "backend_label": backend.LABEL,
-        "far_opp": _c_list(far_opponent_row(ocp), _c_real), "road_ds": _c_real(problem.road.ds),
-        "cross_targets": cross_targets(use_float),
-        "footprint_marker_begin": README_BEGIN, "footprint_marker_end": README_END,
+        "brake_m_per_dt": c_real(problem.ego.m / problem.horizon.dt),
+        "a_lat_guard": int(problem.plan_check.a_lat_guard), "sample_dt": c_real(problem.horizon.dt),
+        "wheelbase": c_real(problem.ego.l), "a_lat_max": c_real(problem.bounds.a_lat_max),
+        "a_lat_guard_to": c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
+        "far_opp": c_list(far_opponent_row(ocp), c_real), "road_ds": c_real(problem.road.ds),
     }
+
+
+def _write_folder(out_dir: Path, problem: Problem, ctx: dict[str, Any], use_float: bool) -> list[str]:
+    """Render the templates, the toolchain files and ``problem.py`` into ``out_dir``; returns the files written."""
     env = environment()
     outputs = {
-        f"{name}_solver.h": "solver.h.j2", f"{name}_solver.c": "solver.c.j2", f"{name}_host.h": "host.h.j2",
-        f"{name}_host.c": "host.c.j2", "main.c": "main.c.j2", "CMakeLists.txt": "CMakeLists.txt.j2",
-        "Makefile": "Makefile.j2", "README.md": "README.md.j2",
+        f"{problem.name}_solver.h": "solver.h.j2", f"{problem.name}_solver.c": "solver.c.j2",
+        f"{problem.name}_host.h": "host.h.j2", f"{problem.name}_host.c": "host.c.j2", "main.c": "main.c.j2",
+        "CMakeLists.txt": "CMakeLists.txt.j2", "Makefile": "Makefile.j2", "README.md": "README.md.j2",
     }
     for fname, tpl in outputs.items():
-        _write(out_dir / fname, env.get_template(tpl).render(**ctx))
+        write_if_changed(out_dir / fname, env.get_template(tpl).render(**ctx))
     toolchains = toolchain_files(use_float)
     for fname, text in toolchains.items():
-        _write(out_dir / fname, text)
-    _write(out_dir / "problem.py",
-           f'"""The problem of solver {name!r}, written by fcgen {__version__}: `fcgen verify` and `fcgen bench` '
-           f'load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\nproblem = {problem_source(problem)}\n')
-    lib_files = (*qp_files.library_sources, *qp_files.library_headers)
-    files = tuple(sorted([*outputs, *toolchains, "problem.py", f"{name}_model.c", f"{name}_model.h",
-                          *qp_files.sources, *qp_files.headers]))
-    return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=sizes,
-                        workspace_bytes=workspace_bytes, solver_workspace_bytes=ws_bytes,
-                        qp_array_bytes=qp_files.array_bytes, qp_struct_bytes=qp_files.struct_bytes,
-                        const_bytes=const_bytes, files=files, library_files=lib_files, qp_files=qp_files)
+        write_if_changed(out_dir / fname, text)
+    write_if_changed(out_dir / "problem.py",
+                     f'"""The problem of solver {problem.name!r}, written by fcgen {__version__}: `fcgen verify` and '
+                     f'`fcgen bench` load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\n'
+                     f'problem = {problem_source(problem)}\n')
+    return [*outputs, *toolchains, "problem.py"]

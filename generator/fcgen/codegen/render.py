@@ -18,6 +18,11 @@ def templates_dir() -> Path:
     return Path(str(importlib.resources.files("fcgen") / "templates"))
 
 
+def csrc_dir() -> Path:
+    """The hand-written C (``csrc/``: the IPM's algorithm) shipped inside the package."""
+    return Path(str(importlib.resources.files("fcgen") / "csrc"))
+
+
 def environment() -> jinja2.Environment:
     """The one Jinja2 environment of the templates (strict undefined, no autoescape, trimmed blocks)."""
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(templates_dir())), undefined=jinja2.StrictUndefined,
