@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, float_math, generate
+from fcgen.codegen.generate import GenerateInfo, float_math, generate
+from fcgen.contract import EXIT_CODES
 from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem, preset

@@ -266,7 +266,7 @@ def test_c_leaves_out_an_opponent_far_beside_a_bend_as_python(c_solver):
 
 @needs_cc
 def test_c_singular_and_unset_road_codes(c_solver):
-    from fcgen.reference import EXIT_CODES
+    from fcgen.contract import EXIT_CODES
     pb, cs = c_solver
     N = pb.horizon.N
     assert cs.init() == 0
