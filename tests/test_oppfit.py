@@ -136,7 +136,8 @@ needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make
 
 @pytest.fixture(scope="module")
 def c_solver(tmp_path_factory):
-    from fcgen.build import CSolver, build
+    from fcgen.build import build
+    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
     pb = problem(n_opp=2, N=10).with_(name="conv_fit")
     out = tmp_path_factory.mktemp("oppfit") / "conv_fit"

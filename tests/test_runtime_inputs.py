@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from fcgen import obstacles as obs
-from fcgen.build import CSolver, build
+from fcgen.build import build
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.contract import EXIT_CODES
 from fcgen.dsl import Opponents, Vehicle

@@ -18,7 +18,8 @@ EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "
 appended, so a code keeps its number)."""
 
 HOST_TICKS_PER_SECOND = 1_000_000_000
-"""Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32; ``<NAME>_HOST_TICKS_PER_SECOND``)."""
+"""Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32;
+``<NAME>_HOST_TICKS_PER_SECOND``)."""
 
 
 @dataclass
