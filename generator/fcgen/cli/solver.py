@@ -7,7 +7,6 @@ from pathlib import Path
 
 import click
 
-from ..solver_folder import read_folder
 from ..targets import get_target
 from .options import (TARGET, cc_option, cflags_option, fail, fmt_summary, force_option, out_file_option,
                       samples_option, scenario_option, seed_option, seeds_option, solver_dir_argument, target_option)
@@ -24,6 +23,7 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
 
     With a bare-metal --target: the two static libraries alone, cross-compiled, in SOLVER_DIR/build/<target>."""
     from ..build import BuildError, build
+    from ..solver_folder import read_folder
 
     try:
         lib = build(read_folder(solver_dir), verify=verify, cc=cc, cflags=cflags, target=target)
@@ -43,6 +43,7 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
 def verify_cmd(solver_dir, scenario, seed, samples, out):
     """Compare a generated solver (verification build) with the Python reference, sample by sample."""
     from ..build import BuildError
+    from ..solver_folder import read_folder
     from ..verify import verify
 
     try:   # its sizes are compared in the lockstep's terms first, the rest of the folder checked by the build
@@ -86,6 +87,7 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     from ..atomic import check_file_target
     from ..build import BuildError
     from ..sim.harness import HarnessError
+    from ..solver_folder import read_folder
 
     folder = read_folder(solver_dir)
     bare_metal = get_target(target).bare_metal
@@ -140,6 +142,7 @@ def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, t
     from ..bench import write_results
     from ..build import BuildError
     from ..sim.harness import HarnessError
+    from ..solver_folder import read_folder
     from ..wcet import BoundError, ProbeError, WcetError, format_wcet, wcet
 
     folder = read_folder(solver_dir)
@@ -178,6 +181,7 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
     With a bare-metal --target the harness is a semihosting image run under QEMU (-icount shift=0)."""
     from ..sim.harness import HarnessError, firmware_sim
     from ..sim.runlog import compare, summary
+    from ..solver_folder import read_folder
 
     folder = read_folder(solver_dir)
     try:
@@ -208,6 +212,7 @@ def footprint_cmd(solver_dir, target, out, readme):
     """Flash, RAM and worst stack of the solver's libraries on a target, per object and in total."""
     from ..build import BuildError
     from ..footprint import FOOTPRINT_VARIANT, fill_readme, footprint, format_footprint, write_footprint
+    from ..solver_folder import read_folder
 
     folder = read_folder(solver_dir)
     try:
@@ -231,6 +236,7 @@ def fmu_cmd(solver_dir, out, fmi, force):
     from ..atomic import check_file_target
     from ..build import BuildError
     from ..fmu import FmuError, build_fmu
+    from ..solver_folder import read_folder
 
     check_file_target(out, "an FMU", force, option="-o")
     try:
