@@ -194,7 +194,8 @@ def format_bench(res: dict) -> str:
         q = r["quality"]
         rows.append((label, f"{r['qp_iter']['mean']:.1f}", str(r["qp_iter"]["max"]),
                      ", ".join(f"{k} {v}" for k, v in r["qp_status_counts"].items()),
-                     f"{q['progress_mean']:.2f}", f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
+                     f"{q['progress_mean']:.2f}",
+                     f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
                      f"{q['max_slack']:.3g}", f"{q['max_abs_a_lat']:.2f}"))
     w = [max(len(x[i]) for x in rows) for i in range(len(hdr))]
     for i, x in enumerate(rows):

@@ -290,7 +290,8 @@ class _Lockstep:
         rc = cs.prepare_phase(x0, road, opp)
         if not rc and not rc_py:
             qp = cs.get_qp()
-            self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))  # conventional: with the fitted opponent boxes
+            # conventional: with the fitted opponent boxes
+            self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))
             for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
                            ("u", _clip(sv.u))):
                 self._upd(key, rel_diff(qp[key], r))

@@ -68,7 +68,8 @@ def parse_tol(spec: str) -> tuple[str, Tol]:
     name, sep, vals = spec.partition("=")
     name = name.strip()
     if not sep or name not in ALL_FIELDS:
-        raise UnusableInput(f"--tol {spec!r} is invalid: allowed FIELD=ABS,REL with FIELD one of {', '.join(ALL_FIELDS)}")
+        raise UnusableInput(f"--tol {spec!r} is invalid: allowed FIELD=ABS,REL with FIELD one of "
+                            f"{', '.join(ALL_FIELDS)}")
     try:
         a, r = (float(v) for v in vals.split(","))
     except ValueError:
