@@ -31,7 +31,7 @@ STAT_KEYS = ("mean", "median", "p99", "max")
 
 
 def _solver(lib: str):
-    from ..build import CSolver
+    from ..csolver import CSolver
     with _LOCK:
         if lib not in _SOLVERS:
             _SOLVERS[lib] = (CSolver(lib), threading.Lock())
