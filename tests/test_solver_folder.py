@@ -3,6 +3,7 @@ the C binding and the firmware harness are handed: what it holds, what it refuse
 path reads the folder again."""
 from __future__ import annotations
 
+import pickle
 import shutil
 from pathlib import Path
 
@@ -40,6 +41,7 @@ def test_the_folder_holds_what_generate_wrote(generated):
     assert f.problem == PROBLEM                                      # problem.py gives back the problem generated
     assert (f.precision, f.use_float, f.backend) == ("double", False, "osqp")
     assert read_folder(generated["float"].out_dir).precision == "float"
+    assert pickle.loads(pickle.dumps(f)) == f                        # it can be handed to a worker process
 
 
 def test_the_build_paths_per_target_and_variant(generated):

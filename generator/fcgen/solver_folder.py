@@ -8,8 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
-from typing import Mapping, Union
+from typing import Union
 
 from .codegen.consistency import check_folder, read_macros, the_solver
 from .dsl import Problem
@@ -40,7 +39,7 @@ class SolverFolder:
 
     path: Path
     name: str
-    sizes: Mapping[str, int] = field(repr=False, hash=False)   # every integer macro of <name>_solver.h, by key
+    sizes: dict[str, int] = field(repr=False, hash=False)   # every integer macro of <name>_solver.h, by key
     problem: Problem = field(repr=False, hash=False, compare=False)
     checked: bool = True
 
@@ -100,7 +99,7 @@ def read_folder(path: Path | str, check: bool = True) -> SolverFolder:
             raise FileNotFoundError(f"{path} is not a generated solver folder (no problem.py; regenerate it: "
                                     f"fcgen generate PRESET -o {path} --force)")
     sizes = read_macros(path / f"{name}{HEADER_SUFFIX}", name)
-    return SolverFolder(path, name, MappingProxyType(sizes), load_problem(str(path / "problem.py")), check)
+    return SolverFolder(path, name, sizes, load_problem(str(path / "problem.py")), check)
 
 
 def as_folder(folder: FolderLike, check: bool = True) -> SolverFolder:
