@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fcgen.build import CSolver, build
+from fcgen.build import build
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset

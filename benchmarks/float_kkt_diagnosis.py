@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 import fcgen.backends.osqp as osqp_backend
-from fcgen.build import QpRecorder, build
+from fcgen.build import build
+from fcgen.csolver import QpRecorder
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fcgen.build import QpRecorder, build
+from fcgen.build import build
+from fcgen.csolver import QpRecorder
 from fcgen.ocp import build_ocp
 from fcgen.qp import build_layout
 from fcgen.sim.closedloop import run_closed_loop

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fcgen.build import CSolver
+from fcgen.csolver import CSolver
 from fcgen.campaign.solvers import ensure_solver
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset

@@ -15,7 +15,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from fcgen.build import CSolver, build
+from fcgen.build import build
+
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset

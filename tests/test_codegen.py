@@ -12,9 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, GenerateInfo, generate
+from fcgen.build import build
+from fcgen.codegen.generate import GenerateInfo, generate
 from fcgen.codegen.model_code import float_math
+from fcgen.contract import EXIT_CODES
+from fcgen.csolver import CSolver
 from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem, preset
@@ -467,7 +469,7 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     wraps past 2^32 within the phase; the binding reports them in seconds (ticks / ticks_per_second)."""
     import ctypes
 
-    from fcgen.build import _STATUS, _STATUS_FIELDS
+    from fcgen.csolver import _STATUS, _STATUS_FIELDS
     from fcgen.codegen.generate import status_layout
     p = paper_problem("car", "lifted", "ellipse", name="car_tick")
     p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4))

@@ -13,8 +13,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, generate
+from fcgen.build import build
+
+from fcgen.csolver import CSolver
+from fcgen.codegen.generate import generate
+from fcgen.contract import EXIT_CODES
 from fcgen.dsl import ProblemError, QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset

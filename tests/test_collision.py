@@ -1,4 +1,4 @@
-"""Tests of the exact separating-axis rectangle-overlap check (fcgen.sim.collision)."""
+"""Tests of the exact separating-axis rectangle-overlap check (fcgen.collision)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fcgen.sim.collision import (
+from fcgen.collision import (
     chassis_corners,
     collisions_over_run,
     corners_from_dims,

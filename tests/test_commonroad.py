@@ -188,7 +188,8 @@ def solver_dir(tmp_path_factory):
 def test_a_closed_loop_on_the_scenario_c_equals_python(straight, solver_dir, tmp_path):
     """The ego passes the standing car (the plan moves it left of the car): no collision by either check, inside the
     band, the C's run equal to the reference's; the picture and the run log are written."""
-    from fcgen.build import CSolver, build
+    from fcgen.build import build
+    from fcgen.csolver import CSolver
     from fcgen.sim.commonroad_run import run_commonroad
     from fcgen.sim.runlog import RunLog
     sc = straight

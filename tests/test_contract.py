@@ -16,8 +16,10 @@ import numpy as np
 import pytest
 
 from fcgen.backends import QP_PRIMAL_INFEASIBLE, QP_USABLE
-from fcgen.build import CSolver, build
-from fcgen.codegen.generate import EXIT_CODES, generate
+from fcgen.build import build
+from fcgen.csolver import CSolver
+from fcgen.codegen.generate import generate
+from fcgen.contract import EXIT_CODES
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reference import QP_EXIT, RtiSolver, SolverError, input_box

@@ -14,7 +14,8 @@ from fcgen.cli import main
 from fcgen.codegen.generate import GenerateInfo, generate
 from fcgen.presets import load_problem, preset
 from fcgen.sim.closedloop import run_closed_loop
-from fcgen.sim.export import FORMAT, build_harness, export_scenario, harness_source_dir, run_harness
+from fcgen.sim.export import FORMAT, export_scenario
+from fcgen.sim.harness import build_harness, harness_source_dir, run_harness
 from fcgen.sim.runlog import RunLog, compare
 from fcgen.sim.scenario import make_scenario
 

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from fcgen.backends import osqp as osqp_backend
-from fcgen.build import QpRecorder, build
+from fcgen.build import build
+from fcgen.csolver import QpRecorder
 from fcgen.codegen.generate import generate
 from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp

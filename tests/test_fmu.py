@@ -14,7 +14,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from fcgen.build import CSolver, build
+from fcgen.build import build
+
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.fmu import FmuController, build_fmu, variables
 from fcgen.presets import preset

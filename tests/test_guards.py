@@ -130,7 +130,8 @@ FLOAT_SEEDS = range(20)
 
 def _progress(tmp: Path, tag: str, use_float: bool, seeds) -> list[float]:
     """Closed-loop progress (m) of truck_lifted_ellipse's C build on truck seeds x 200 samples."""
-    from fcgen.build import CSolver, build
+    from fcgen.build import build
+    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
     from fcgen.presets import preset
     from fcgen.sim.closedloop import run_closed_loop

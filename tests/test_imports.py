@@ -1,13 +1,22 @@
 """The house's imports run one way: no module of fcgen imports, directly or through others, a module that imports it
-back (function-level imports included: a lazy import hides a circle, it does not remove it)."""
+back, and none imports a module of a higher layer (the layers declared once, in pyproject.toml's
+``[tool.importlinter]``, checked by ``lint-imports``). Function-level imports included: a lazy import hides a circle
+or an arrow up, it does not remove it."""
 from __future__ import annotations
 
 import ast
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 import fcgen
 
 ROOT = Path(fcgen.__file__).resolve().parent
+PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 
 
 def module_imports(root: Path = ROOT) -> dict[str, set[str]]:
@@ -94,3 +103,41 @@ def test_lower_layers_import_no_higher_ones():
     assert not set().union(*(edges[m] for m in dsl)) - dsl - {"fcgen.cnames"}
     assert "fcgen.codegen.generate" not in edges["fcgen.targets"]
     assert "fcgen.build" not in edges["fcgen.codegen.consistency"]
+
+
+def lint_imports(python_path: Path | None = None) -> subprocess.CompletedProcess:
+    """``lint-imports`` with the repository's contracts on the installed fcgen, or on the one under ``python_path``."""
+    exe = shutil.which("lint-imports", path=str(Path(sys.executable).parent)) or shutil.which("lint-imports")
+    assert exe, "lint-imports not found: install the test extra (pip install -e .[test])"
+    env = dict(os.environ)
+    if python_path is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(python_path), *filter(None, [env.get("PYTHONPATH")])])
+    return subprocess.run([exe, "--config", str(PYPROJECT), "--no-cache"], capture_output=True, text=True, env=env,
+                          timeout=300)
+
+
+def test_fcgen_keeps_its_layers():
+    res = lint_imports()
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "1 kept, 0 broken" in res.stdout, res.stdout
+
+
+@pytest.mark.parametrize("module, planted, arrow", [
+    # a lazy import from the bottom layer to the top one
+    ("dsl.py", "def _planted():\n    from .cli import main\n", "fcgen.dsl -> fcgen.cli"),
+    # the targets (data) rendering with the code generator: the arrow up this layering took out
+    ("targets.py", "from .codegen.render import render_template\n", "fcgen.targets -> fcgen.codegen.render"),
+    # the C binding reaching up into the closed loop for its result type (now fcgen.contract's)
+    ("csolver.py", "from .sim.closedloop import run_closed_loop\n", "fcgen.csolver -> fcgen.sim.closedloop"),
+    # a backend's exemption covers codegen only
+    ("backends/osqp.py", "from ..reference import QP_EXIT\n", "fcgen.backends.osqp -> fcgen.reference"),
+])
+def test_the_layer_check_fails_on_an_import_up(tmp_path, module, planted, arrow):
+    """A copy of fcgen with one import up planted: ``lint-imports`` fails and names that arrow."""
+    copy = tmp_path / "fcgen"
+    shutil.copytree(ROOT, copy, ignore=shutil.ignore_patterns("templates", "firmware_sim", "__pycache__"))
+    f = copy / module
+    f.write_text(f.read_text() + "\n\n" + planted)
+    res = lint_imports(tmp_path)
+    assert res.returncode != 0 and "0 kept, 1 broken" in res.stdout, res.stdout + res.stderr
+    assert arrow in res.stdout, res.stdout   # only the copy has it: the copy was checked

@@ -299,7 +299,8 @@ def test_ipm_generates_and_verifies(tmp_path, sc, form, ob):
 def test_ipm_single_precision_closed_loop(tmp_path):
     """A float build (ipm_tol 1e-3: float's ~1e-7 resolution times the QP's scaling) runs a closed loop: every QP
     solved to its tolerance, no error exit, the same progress as the double Python reference to 0.1 %."""
-    from fcgen.build import CSolver, build
+    from fcgen.build import build
+    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
     from fcgen.sim.runlog import summary
     pb = short("truck", "lifted", "ellipse", N=20, qp=QpOptions(backend="ipm", ipm_tol=1e-3))

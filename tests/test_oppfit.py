@@ -136,7 +136,8 @@ needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make
 
 @pytest.fixture(scope="module")
 def c_solver(tmp_path_factory):
-    from fcgen.build import CSolver, build
+    from fcgen.build import build
+    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
     pb = problem(n_opp=2, N=10).with_(name="conv_fit")
     out = tmp_path_factory.mktemp("oppfit") / "conv_fit"
@@ -266,7 +267,7 @@ def test_c_leaves_out_an_opponent_far_beside_a_bend_as_python(c_solver):
 
 @needs_cc
 def test_c_singular_and_unset_road_codes(c_solver):
-    from fcgen.reference import EXIT_CODES
+    from fcgen.contract import EXIT_CODES
     pb, cs = c_solver
     N = pb.horizon.N
     assert cs.init() == 0

@@ -7,7 +7,9 @@ import shutil
 import numpy as np
 import pytest
 
-from fcgen.build import CSolver, build
+from fcgen.build import build
+
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.dsl import PlanCheck
 from fcgen.ocp import build_ocp

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fcgen.sim.collision import collisions_over_run
+from fcgen.collision import collisions_over_run
 from fcgen.sim.plots import plot_run, project_to_road
 from fcgen.sim.runlog import RunLog, make_meta
 

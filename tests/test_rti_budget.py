@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from fcgen.backends import QP_MAX_ITER
-from fcgen.build import CSolver, build
+from fcgen.build import build
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.dsl import RTI_BUDGET_DEFAULT, Horizon, ProblemError, QpOptions
 from fcgen.presets import paper_problem, preset

@@ -9,12 +9,14 @@ import numpy as np
 import pytest
 
 from fcgen import obstacles as obs
-from fcgen.build import CSolver, build
+from fcgen.build import build
+from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.contract import EXIT_CODES
 from fcgen.dsl import Opponents, Vehicle
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
-from fcgen.reference import EXIT_CODES, RtiSolver, SolverError
+from fcgen.reference import RtiSolver, SolverError
 from fcgen.road import Road, straight_road
 from fcgen.sim.closedloop import Plant, ReferenceController
 

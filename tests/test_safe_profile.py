@@ -15,7 +15,7 @@ from fcgen.ocp import build_ocp
 from fcgen.presets import CAR, PAPER_SOFT, SAFE_SOFT_CONVENTIONAL, TRUCK, preset, preset_names
 from fcgen.reference import RtiSolver
 from fcgen.road import straight_road
-from fcgen.sim.collision import chassis_corners, sat_overlap
+from fcgen.collision import chassis_corners, sat_overlap
 
 
 def polygon_distance(a: np.ndarray, b: np.ndarray) -> float:

@@ -14,7 +14,8 @@ import pytest
 from fcgen.build import build, run_make
 from fcgen.codegen.generate import generate
 from fcgen.presets import load_problem, preset
-from fcgen.sim.export import build_harness, export_scenario
+from fcgen.sim.export import export_scenario
+from fcgen.sim.harness import build_harness
 from fcgen.sim.runlog import RunLog, summary
 from fcgen.sim.scenario import make_scenario
 

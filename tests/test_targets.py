@@ -11,13 +11,14 @@ import pytest
 from click.testing import CliRunner
 
 from fcgen.bench import bench_target
-from fcgen.build import build, build_dir
+from fcgen.build import build
 from fcgen.cli import main
 from fcgen.codegen.generate import GenerateInfo, generate
 from fcgen.footprint import footprint, section_sizes
 from fcgen.presets import preset
-from fcgen.sim.export import firmware_sim
+from fcgen.sim.harness import firmware_sim, linker_script
 from fcgen.sim.runlog import compare
+from fcgen.solver_folder import build_dir
 from fcgen.targets import TARGETS, TargetError, get_target
 
 TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-size", "qemu-system-arm", "make", "gcc")
@@ -48,7 +49,7 @@ def test_linker_script_memory_map() -> None:
     """The mps2 boards as QEMU maps them: code SSRAM at 0, data SSRAM at 0x20000000 (512 KiB of it used, as an ECU's
     SRAM), PSRAM for the harness's buffers at 0x60000000 (AN500) / 0x21000000 (AN386)."""
     for name, xram in (("cortex-m7", "0x60000000"), ("cortex-m4f", "0x21000000")):
-        text = get_target(name).linker_script()
+        text = linker_script(get_target(name))
         assert re.search(r"FLASH \(rx\) *: ORIGIN = 0x00000000, LENGTH = 4194304", text)
         assert re.search(r"RAM \(rwx\) *: ORIGIN = 0x20000000, LENGTH = 524288", text)
         assert re.search(rf"XRAM \(rw\) *: ORIGIN = {xram}, LENGTH = 16777216", text)
@@ -358,7 +359,7 @@ def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
     """A double and a float solver (prefixed OSQP each) linked into one Cortex-M7 image run under QEMU: each computes
     there exactly what it computes in an image of its own."""
     from fcgen.presets import paper_problem
-    from fcgen.sim.export import harness_source_dir
+    from fcgen.sim.harness import harness_source_dir
 
     other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car", use_float=True)
     tgt = get_target("cortex-m7")
@@ -375,7 +376,7 @@ def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
 
     from fcgen.targets import Region
     ld = tmp_path / "m7.ld"
-    ld.write_text(replace(tgt, ram=Region(0x20000000, 4 * 1024 * 1024)).linker_script())
+    ld.write_text(linker_script(replace(tgt, ram=Region(0x20000000, 4 * 1024 * 1024))))
     fw = harness_source_dir()
     runs = {}
     for tag, solvers in (("both", {"A": gen_double, "B": other}), ("a", {"A": gen_double}), ("b", {"B": other})):
@@ -419,12 +420,12 @@ def test_clock_hook_counts_instructions(tmp_path) -> None:
     """Under -icount shift=0 the clock hook's time x 1e9 is the number of instructions executed: a loop of 2 x 10^6
     instructions (`subs; bne` written in assembly) measures 2 x 10^6, up to the hook's own call and one SysTick
     period (40 instructions)."""
-    from fcgen.sim.export import harness_source_dir
+    from fcgen.sim.harness import harness_source_dir
 
     for name in ("cortex-m7", "cortex-m4f"):
         tgt = get_target(name)
         ld = tmp_path / f"{name}.ld"
-        ld.write_text(tgt.linker_script())
+        ld.write_text(linker_script(tgt))
         fw = harness_source_dir()
         image = tmp_path / f"probe_{name}.elf"
         subprocess.run([tgt.cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", *tgt.cpu_flags, "-DFS_BAREMETAL",

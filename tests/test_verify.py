@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from fcgen.build import CSolver, build
+from fcgen.build import build
+
+from fcgen.csolver import CSolver
 from fcgen.cli import main
 from fcgen.codegen.generate import generate
 from fcgen.ocp import INF, build_ocp

@@ -16,11 +16,17 @@ from pathlib import Path
 
 import numpy as np
 
+from .build import build
+from .codegen.generate import generate
+from .csolver import CSolver
 from .ocp import build_ocp
 from .sim.closedloop import run_closed_loop
+from .sim.harness import firmware_sim
 from .sim.runlog import qp_status_name, summary
 from .sim.scenario import make_scenario
-from .verify import infer_scenario, load_solver_problem
+from .solver_folder import FolderLike, as_folder, read_folder
+from .targets import TARGETS, get_target
+from .verify import infer_scenario
 
 TIME_KEYS = ("prepare", "feedback", "total")
 STAT_KEYS = ("median", "p99", "max", "mean")
@@ -83,27 +89,26 @@ def aggregate(logs: list) -> dict:
     }
 
 
-def bench(gen_dir: Path | str, scenario: str | None = None, seeds: int = 3, samples: int = 200,
+def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, samples: int = 200,
           python: bool = True, python_seeds: int | None = None, python_samples: int | None = None,
           cc: str | None = None, cflags: str | None = None, progress: bool = False) -> dict:
-    """Benchmark a generated folder; returns the JSON-able results (see ``format_bench``).
+    """Benchmark a generated folder (a :class:`~.solver_folder.SolverFolder` or its path); returns the JSON-able
+    results (see ``format_bench``).
 
     Seeds are ``0 .. seeds-1``. The Python reference runs on the first ``python_seeds`` seeds (default: all) with
     ``python_samples`` samples (default: ``samples``).
     """
-    from .build import CSolver, build
-
-    gen_dir = Path(gen_dir)
-    name, pb = load_solver_problem(gen_dir)
+    folder = as_folder(folder)
+    name, pb, gen_dir = folder.name, folder.problem, folder.path
     scenario = scenario or infer_scenario(pb)
     if seeds < 1 or samples < 1:
         raise ValueError("seeds and samples must be >= 1")
     py_seeds = seeds if python_seeds is None else min(python_seeds, seeds)
     py_samples = samples if python_samples is None else python_samples
     t_build = time.perf_counter()
-    lib = build(gen_dir, verify=False, cc=cc, cflags=cflags)
+    lib = build(folder, verify=False, cc=cc, cflags=cflags)
     t_build = time.perf_counter() - t_build
-    cs = CSolver(lib)
+    cs = CSolver(lib, folder=folder)
     ocp = build_ocp(pb)
     logs_c, logs_py = [], []
     wall = {"c": 0.0, "python": 0.0}
@@ -189,7 +194,8 @@ def format_bench(res: dict) -> str:
         q = r["quality"]
         rows.append((label, f"{r['qp_iter']['mean']:.1f}", str(r["qp_iter"]["max"]),
                      ", ".join(f"{k} {v}" for k, v in r["qp_status_counts"].items()),
-                     f"{q['progress_mean']:.2f}", f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
+                     f"{q['progress_mean']:.2f}",
+                     f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
                      f"{q['max_slack']:.3g}", f"{q['max_abs_a_lat']:.2f}"))
     w = [max(len(x[i]) for x in rows) for i in range(len(hdr))]
     for i, x in enumerate(rows):
@@ -213,7 +219,7 @@ def _instr_stats(x: np.ndarray) -> dict[str, float]:
             "mean": float(np.mean(x))}
 
 
-def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, seeds: int = 1,
+def bench_target(folder: FolderLike, target: str, scenario: str | None = None, seeds: int = 1,
                  samples: int = 50, timeout: float | None = None, cflags: str | None = None) -> dict:
     """Instructions per prepare and per feedback on an emulated target (``fcgen bench --target``).
 
@@ -222,22 +228,18 @@ def bench_target(gen_dir: Path | str, target: str, scenario: str | None = None, 
     ``time_prepare`` / ``time_feedback`` times 1e9 are instruction counts (granularity: one SysTick period),
     independent of the machine's load.
     """
-    from .sim.export import firmware_sim
-    from .targets import get_target
-
     tgt = get_target(target)
     if not tgt.bare_metal:
-        from .targets import TARGETS
         raise ValueError(f"--target {target}: instruction counts need an emulated target "
                          f"({', '.join(t for t, v in TARGETS.items() if v.bare_metal)})")
-    gen_dir = Path(gen_dir)
-    name, pb = load_solver_problem(gen_dir)
+    folder = as_folder(folder)
+    name, pb, gen_dir = folder.name, folder.problem, folder.path
     scenario = scenario or infer_scenario(pb)
     logs = []
     t0 = time.perf_counter()
     for seed in range(seeds):
         out = gen_dir / tgt.build_subdir / "bench" / f"run_{scenario}_seed{seed}_{samples}.json"
-        logs.append(firmware_sim(gen_dir, scenario, seed, samples, out, target=target, timeout=timeout,
+        logs.append(firmware_sim(folder, scenario, seed, samples, out, target=target, timeout=timeout,
                                 cflags=cflags))
     wall = time.perf_counter() - t0
     scale = tgt.instructions_per_second
@@ -286,6 +288,16 @@ BACKEND_VARIANTS = ("osqp", "osqp-converged", "ipm")
 """``--backends`` names: OSQP's real-time mode (QpOptions()), OSQP converged (QpOptions.converged()), the IPM."""
 
 
+def parse_backends(text: str) -> list[str]:
+    """The variants of a ``--backends`` list (comma-separated names of ``BACKEND_VARIANTS``); one-line error else."""
+    variants = [v.strip() for v in text.split(",") if v.strip()]
+    bad = [v for v in variants if v not in BACKEND_VARIANTS]
+    if bad or not variants:
+        raise ValueError(f"--backends: {', '.join(bad) or 'empty'} invalid; allowed a comma list of "
+                         f"{', '.join(BACKEND_VARIANTS)}")
+    return variants
+
+
 def variant_qp(variant: str, own):
     """The QpOptions of a ``--backends`` variant; a variant of the folder's own backend keeps its settings."""
     import dataclasses
@@ -300,7 +312,7 @@ def variant_qp(variant: str, own):
     raise ValueError(f"backends: {variant!r} is not a variant; allowed: {', '.join(BACKEND_VARIANTS)}")
 
 
-def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | None = None, seeds: int = 3,
+def bench_backends(folder: FolderLike, variants: list[str], scenario: str | None = None, seeds: int = 3,
                    samples: int = 200, cc: str | None = None, cflags: str | None = None,
                    progress: bool = False, clock: str = "wall") -> dict:
     """One run, several QP backends: the folder's problem generated once per variant (``<dir>/build/variants``),
@@ -308,11 +320,8 @@ def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | Non
     is shared alike). Ratios against the first variant's median time per RTI."""
     import dataclasses
 
-    from .build import CSolver, build, read_macros
-    from .codegen.generate import generate
-
-    gen_dir = Path(gen_dir)
-    _, pb = load_solver_problem(gen_dir)
+    folder = as_folder(folder)
+    pb, gen_dir = folder.problem, folder.path
     scenario = scenario or infer_scenario(pb)
     if not variants:
         raise ValueError("backends: give at least one variant")
@@ -323,9 +332,10 @@ def bench_backends(gen_dir: Path | str, variants: list[str], scenario: str | Non
         pv = dataclasses.replace(pb, name=f"{pb.name}_{tags[v]}", qp=qp)
         out = gen_dir / "build" / "variants" / v
         info = generate(pv, out)
-        libs[v] = build(out, verify=False, cc=cc, cflags=cflags)
-        solvers[v] = CSolver(libs[v], clock=clock)
-        ram[v] = read_macros(out / f"{pv.name}_solver.h", pv.name)["WORKSPACE_BYTES"]
+        variant = read_folder(info.out_dir)
+        libs[v] = build(variant, verify=False, cc=cc, cflags=cflags)
+        solvers[v] = CSolver(libs[v], clock=clock, folder=variant)
+        ram[v] = variant.sizes["WORKSPACE_BYTES"]
         assert info.workspace_bytes == ram[v]
     ocp = build_ocp(pb)
     logs: dict[str, list] = {v: [] for v in variants}

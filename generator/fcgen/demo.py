@@ -7,9 +7,10 @@ from pathlib import Path
 from .codegen.generate import generate
 from .presets import preset
 from .sim.closedloop import run_closed_loop
-from .sim.export import firmware_sim
+from .sim.harness import firmware_sim
 from .sim.runlog import RunLog, compare, summary
 from .sim.scenario import make_scenario
+from .solver_folder import read_folder
 
 DEFAULT_PRESET = "truck_lifted_ellipse"
 TRAJECTORY_TOL = 1e-6
@@ -131,7 +132,7 @@ def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRES
     info = generate(pb, gen_dir)
     echo(f"[2/{steps}] build the solver and the firmware harness; closed loop in C ({scenario}, seed {seed}, "
          f"{samples} samples)")
-    c_log = firmware_sim(gen_dir, scenario, seed, samples, out=out_dir / "run_c.json", problem=pb)
+    c_log = firmware_sim(read_folder(info.out_dir), scenario, seed, samples, out=out_dir / "run_c.json", problem=pb)
     echo(f"[3/{steps}] closed loop with the Python reference")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     py_log = run_closed_loop(pb, sc)
@@ -142,7 +143,7 @@ def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRES
         what = "with the IPM backend" if label == IPM_LABEL else "in the safe profile with the IPM"
         echo(f"[{4 + i}/{steps}] the same problem {what} -> {x_dir}, closed loop in C")
         x_info = generate(x_pb, x_dir)
-        x_log = firmware_sim(x_dir, scenario, seed, samples, out=out_dir / log_name, problem=x_pb)
+        x_log = firmware_sim(read_folder(x_info.out_dir), scenario, seed, samples, out=out_dir / log_name, problem=x_pb)
         extra.append(Column(label, x_log, summary(x_log), x_info.workspace_bytes))
     echo(f"[{steps}/{steps}] compare")
     if plot:

@@ -20,9 +20,11 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from . import __version__
-from .codegen.consistency import read_macros
+from .build import build
 from .codegen.render import render_template
-from .reference import EXIT_CODES, QP_EXIT
+from .contract import EXIT_CODES, StepResult
+from .reference import QP_EXIT
+from .solver_folder import FolderLike, SolverFolder, as_folder
 
 PLATFORM = {3: "x86_64-linux", 2: "linux64"}
 """The folder of this platform's binary under ``binaries/`` (FMI 3.0 and 2.0 name it differently)."""
@@ -222,24 +224,41 @@ def _solver_sources(gen_dir: Path, name: str) -> list[Path]:
     return [gen_dir / s for s in srcs]
 
 
-def build_fmu(gen_dir: Path | str, out: Path | str, fmi: int = 3, cc: str = "cc") -> Path:
-    """Package the generated solver folder ``gen_dir`` as a co-simulation FMU at ``out``; returns ``out``."""
-    from .build import build, solver_name
-    from .verify import load_solver_problem
+def build_fmu(folder: FolderLike, out: Path | str, fmi: int = 3, cc: str = "cc") -> Path:
+    """Package a generated solver folder (a :class:`~.solver_folder.SolverFolder` or its path) as a co-simulation
+    FMU at ``out``; returns ``out``."""
     if fmi not in FMI_VERSIONS:
         raise FmuError(f"--fmi {fmi}: allowed 3 or 2")
-    gen_dir, out = Path(gen_dir), Path(out)
+    out = Path(out)
     if out.suffix != ".fmu":
         raise FmuError(f"-o {out}: allowed a file name ending in .fmu")
-    name = solver_name(gen_dir)
-    build(gen_dir)                                 # restores OSQP's library sources, checks the folder
-    _, pb = load_solver_problem(gen_dir)
-    sizes = read_macros(gen_dir / f"{name}_solver.h", name)
-    vs = variables(sizes)
-    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "fcgen:" + (gen_dir / "problem.py").read_text())) + "}"
-    hdr = fmi_headers()
+    folder = as_folder(folder)
+    build(folder)                                 # restores OSQP's library sources
+    vs = variables(folder.sizes)
+    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "fcgen:" + folder.problem_file.read_text())) + "}"
+    wrapper = wrapper_sources(folder, vs, token, fmi)
+    pb = folder.problem
+    desc = f"fcgen NMPC controller {folder.name} ({pb.formulation.kind}, {pb.obstacles.kind}, N = {pb.horizon.N}, " \
+           f"dt = {pb.horizon.dt} s): one SQP real-time iteration per doStep"
+    with tempfile.TemporaryDirectory(prefix=".fcgen-fmu-", dir=out.parent if out.parent.is_dir() else None) as tmp:
+        root = Path(tmp) / "fmu"
+        all_srcs = _write_sources(folder, root / "sources", wrapper, fmi)
+        _compile_binary(folder, root, wrapper, fmi, cc)
+        (root / "modelDescription.xml").write_text(model_description(folder.name, pb.horizon.dt, vs, token, fmi,
+                                                                     desc, sources=all_srcs))
+        _write_documents(folder, root)
+        tmp_fmu = Path(tmp) / "out.fmu"
+        _zip_folder(root, tmp_fmu)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(tmp_fmu), out)
+    return out
+
+
+def wrapper_sources(folder: SolverFolder, vs: list[Var], token: str, fmi: int) -> dict[str, str]:
+    """The FMU's own C (file name -> text): the core over the solver's API and the FMI layer of version ``fmi``."""
+    name, hdr = folder.name, fmi_headers()
     fallback = sorted({c for c in QP_EXIT.values() if c != "OK"} | {"ERR_QP_INPUT_BOUNDS"})
-    ctx = dict(name=name, NAME=name.upper(), dt=repr(pb.horizon.dt), token=token,
+    ctx = dict(name=name, NAME=name.upper(), dt=repr(folder.problem.horizon.dt), token=token,
                exit_codes=EXIT_CODES, fallback_codes=fallback,
                variables=[dict(name=v.name, ctype="double" if v.type == "Float64" else "int",
                                type="FMU_F64" if v.type == "Float64" else "FMU_I32", input=int(v.input),
@@ -254,61 +273,69 @@ def build_fmu(gen_dir: Path | str, out: Path | str, fmi: int = 3, cc: str = "cc"
     else:
         wrapper["fmi2.c"] = render_template("fmu/fmi2.c.j2", **ctx, bases=", ".join(map(str, fmi2_bases(vs))),
                                             stubs=_c_stubs(hdr / "fmi2FunctionTypes.h", "fmi2", _FMI2_DONE))
-    desc = f"fcgen NMPC controller {name} ({pb.formulation.kind}, {pb.obstacles.kind}, N = {pb.horizon.N}, " \
-           f"dt = {pb.horizon.dt} s): one SQP real-time iteration per doStep"
-    lib_dir = gen_dir / "build"
+    return wrapper
+
+
+def _write_sources(folder: SolverFolder, src: Path, wrapper: dict[str, str], fmi: int) -> list[str]:
+    """The solver's sources and headers and the wrapper under ``sources/`` (FMI 3.0: with its build description);
+    returns the C files, relative to ``sources/``."""
+    gen_dir = folder.path
+    src.mkdir(parents=True)
+    solver_srcs = _solver_sources(gen_dir, folder.name)
+    headers = list(gen_dir.glob("*.h")) + list(gen_dir.glob("osqp/**/*.h"))
+    for f in solver_srcs + headers:
+        dst = src / f.relative_to(gen_dir)
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(f, dst)
+    for fname, text in wrapper.items():
+        (src / fname).write_text(text)
+    all_srcs = [str(f.relative_to(gen_dir)) for f in solver_srcs] + sorted(f for f in wrapper if f.endswith(".c"))
+    incs = ["."] + (["osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private"]
+                    if (gen_dir / "osqp").is_dir() else [])
+    if fmi == 3:
+        (src / "buildDescription.xml").write_text(build_description(folder.name, all_srcs, incs))
+    return all_srcs
+
+
+def _compile_binary(folder: SolverFolder, root: Path, wrapper: dict[str, str], fmi: int, cc: str) -> Path:
+    """The binary for this platform: the wrapper and the host clock compiled here, the solver from the folder's own
+    static libraries (the objects of lib<name>.so: the same code as the C library fcgen's closed loops load)."""
+    name, src, lib_dir = folder.name, root / "sources", folder.build_dir()
     libs = [lib_dir / f"lib{name}.a"] + ([lib_dir / f"lib{name}_osqp.a"] if (lib_dir / f"lib{name}_osqp.a").is_file()
                                           else [])
-    with tempfile.TemporaryDirectory(prefix=".fcgen-fmu-", dir=out.parent if out.parent.is_dir() else None) as tmp:
-        root = Path(tmp) / "fmu"
-        src = root / "sources"
-        src.mkdir(parents=True)
-        solver_srcs = _solver_sources(gen_dir, name)
-        headers = list(gen_dir.glob("*.h")) + list(gen_dir.glob("osqp/**/*.h"))
-        for f in solver_srcs + headers:
-            dst = src / f.relative_to(gen_dir)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(f, dst)
-        for fname, text in wrapper.items():
-            (src / fname).write_text(text)
-        bindir = root / "binaries" / PLATFORM[fmi]
-        bindir.mkdir(parents=True)
-        so = bindir / f"{name}.so"
-        # the binary: the wrapper and the host clock compiled here, the solver from the folder's own static
-        # libraries (the objects of lib<name>.so: the same code as the C library fcgen's closed loops load)
-        cmd = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{src}", f"-I{hdr}",
-               *[str(src / f) for f in wrapper if f.endswith(".c")], str(gen_dir / f"{name}_host.c"),
-               *map(str, libs), "-o", str(so), "-lm"]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise FmuError(f"compiling the FMU's binary failed:\n{res.stderr[-3000:]}")
-        wrapper_srcs = sorted(f for f in wrapper if f.endswith(".c"))
-        all_srcs = [str(f.relative_to(gen_dir)) for f in solver_srcs] + wrapper_srcs
-        incs = ["."] + (["osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private"]
-                        if (gen_dir / "osqp").is_dir() else [])
-        if fmi == 3:
-            (src / "buildDescription.xml").write_text(build_description(name, all_srcs, incs))
-        (root / "modelDescription.xml").write_text(model_description(name, pb.horizon.dt, vs, token, fmi, desc,
-                                                                     sources=all_srcs))
-        (root / "resources").mkdir()
-        shutil.copy2(gen_dir / "problem.py", root / "resources" / "problem.py")
-        doc = root / "documentation"
-        doc.mkdir()
-        readme = (gen_dir / "README.md").read_text()
-        (doc / "README.md").write_text(readme)
-        (doc / "index.html").write_text(f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{name}</title>"
-                                        f"</head><body><pre>{escape(readme)}</pre></body></html>\n")
-        tmp_fmu = Path(tmp) / "out.fmu"
-        with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as z:
-            for p in sorted(root.rglob("*")):
-                if p.is_file():
-                    info = zipfile.ZipInfo(str(p.relative_to(root)), date_time=(1980, 1, 1, 0, 0, 0))
-                    info.compress_type = zipfile.ZIP_DEFLATED
-                    info.external_attr = 0o644 << 16
-                    z.writestr(info, p.read_bytes())
-        out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(tmp_fmu), out)
-    return out
+    bindir = root / "binaries" / PLATFORM[fmi]
+    bindir.mkdir(parents=True)
+    so = bindir / f"{name}.so"
+    cmd = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{src}", f"-I{fmi_headers()}",
+           *[str(src / f) for f in wrapper if f.endswith(".c")], str(folder.path / f"{name}_host.c"),
+           *map(str, libs), "-o", str(so), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise FmuError(f"compiling the FMU's binary failed:\n{res.stderr[-3000:]}")
+    return so
+
+
+def _write_documents(folder: SolverFolder, root: Path) -> None:
+    """``resources/problem.py`` (the problem an FMU user can load) and the folder's README under ``documentation/``."""
+    (root / "resources").mkdir()
+    shutil.copy2(folder.problem_file, root / "resources" / "problem.py")
+    doc = root / "documentation"
+    doc.mkdir()
+    readme = (folder.path / "README.md").read_text()
+    (doc / "README.md").write_text(readme)
+    (doc / "index.html").write_text(f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{folder.name}</title>"
+                                    f"</head><body><pre>{escape(readme)}</pre></body></html>\n")
+
+
+def _zip_folder(root: Path, path: Path) -> None:
+    """The FMU archive of ``root``: sorted entries, fixed dates and modes (the same solver gives the same bytes)."""
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        for p in sorted(root.rglob("*")):
+            if p.is_file():
+                info = zipfile.ZipInfo(str(p.relative_to(root)), date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                z.writestr(info, p.read_bytes())
 
 
 def fmu_problem(path: Path | str):
@@ -385,7 +412,6 @@ class FmuController:
         return np.asarray(vals, dtype=np.int64 if integer else float)
 
     def step(self, x0: np.ndarray, road, opp: np.ndarray):
-        from .sim.closedloop import StepResult
         self._set("state", x0)
         self._set("road_s0", [road.s0])
         self._set("road_ds", [road.ds])

@@ -23,12 +23,15 @@ import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .build import build, build_dir, solver_name
+from .build import build
+from .solver_folder import FolderLike, as_folder
 from .targets import README_BEGIN, README_END, get_target
 
 SHF_WRITE, SHF_ALLOC, SHF_EXECINSTR, SHT_NOBITS = 0x1, 0x2, 0x4, 8
 KEYS = ("text", "rodata", "data", "bss")
 INDIRECT = "__indirect_call"
+FOOTPRINT_VARIANT = "footprint"
+"""The build variant measured (``build/<target>/footprint``; its objects carry the stack-usage output)."""
 _BRANCH_RELOCS = ("R_ARM_THM_CALL", "R_ARM_THM_JUMP24", "R_ARM_THM_JUMP19", "R_ARM_CALL", "R_ARM_JUMP24",
                   "R_ARM_PLT32", "R_X86_64_PLT32", "R_X86_64_PC32")
 
@@ -157,13 +160,14 @@ def api_functions(header: Path, name: str) -> list[str]:
     return list(dict.fromkeys(found))
 
 
-def footprint(gen_dir: Path | str, target: str = "cortex-m7") -> dict:
-    """Build the libraries for ``target`` with stack-usage output and measure them; returns the JSON-able result."""
+def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
+    """Build the libraries for ``target`` with stack-usage output and measure them; returns the JSON-able result.
+    ``folder``: a :class:`~.solver_folder.SolverFolder` or its path."""
     tgt = get_target(target)
-    gen_dir = Path(gen_dir)
-    name = solver_name(gen_dir)
-    build(gen_dir, target=target, variant="footprint", extra_cflags="-fstack-usage -fcallgraph-info=su")
-    obj_dir = build_dir(gen_dir, target=target, variant="footprint") / "obj"
+    folder = as_folder(folder)
+    name = folder.name
+    build(folder, target=target, variant=FOOTPRINT_VARIANT, extra_cflags="-fstack-usage -fcallgraph-info=su")
+    obj_dir = folder.build_dir(target=target, variant=FOOTPRINT_VARIANT) / "obj"
     objs = sorted(obj_dir.rglob("*.o"))
     if not objs:
         raise FileNotFoundError(f"{obj_dir}: no object files")
@@ -183,7 +187,7 @@ def footprint(gen_dir: Path | str, target: str = "cortex-m7") -> dict:
     total = {k: sum(r[k] for r in per_object) for k in (*KEYS, "flash", "ram")}
     stack = {}
     unknown: set[str] = set()
-    for fn in api_functions(gen_dir / f"{name}_solver.h", name):
+    for fn in api_functions(folder.header, name):
         d, chain, unk = graph.worst(f"{name}_{fn}")
         unknown |= unk
         stack[fn] = {"bytes": d, "chain": chain, "bytes_direct": graph.worst(f"{name}_{fn}", indirect=False)[0]}

@@ -239,7 +239,7 @@ def midpoint_plane(ego: Shape, opp: Shape) -> list:
 def sat_clearance(a: Shape, b: Shape):
     """Separating-axis clearance of two rectangles (CasADi): the largest gap of their projections over the four edge
     normals; positive: apart (a lower bound of their distance), negative: overlapping by its magnitude (the
-    penetration depth). Minus ``fcgen.sim.collision.sat_overlap`` of the same rectangles: the campaign's judge."""
+    penetration depth). Minus ``fcgen.collision.sat_overlap`` of the same rectangles: the campaign's judge."""
     ca_, cb = vertices(a), vertices(b)
     gaps = []
     for ang in (a.angle, b.angle):

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
 from . import obstacles as obs
+from .contract import EXIT_CODES, Status
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
@@ -35,12 +35,6 @@ __all__ = ["COLD_RESTART_NOTE", "EXIT_CODES", "INT_MAX", "MAX_INPUT_VIOLATION", 
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
 
 
-EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
-              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET",
-              "ERR_QP_INPUT_BOUNDS", "ERR_ROAD_BOUNDS", "ERR_OPP_SHAPE", "ERR_REFERENCE")
-"""Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
-appended, so a code keeps its number)."""
 
 INT_MAX = 2**31 - 1
 """The status counters saturate here (the C's int)."""
@@ -55,25 +49,6 @@ class SolverError(RuntimeError):
         self.exit_code = EXIT_CODES.index(code)
 
 
-@dataclass
-class Status:
-    """What one sample's solve reports (mirrors the C status struct)."""
-
-    exit_code: int = 0
-    qp_status: int = 0      # generic QP_* status (fcgen.backends.QP_STATUSES; 0: no QP solved)
-    qp_raw_status: int = 0  # the backend's own status value
-    qp_iter: int = 0
-    u_projected: int = 0       # 1: get_u0 is the plan's u0 projected on the input box
-    u_violation: float = 0.0   # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
-    opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
-    qp_unusable_run: int = 0   # feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart)
-    cold_restarts: int = 0     # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
-    plan_clearance_stage: int = 0  # the stage of plan_clearance (-1: no opponent)
-    plan_reaction: int = 0     # 1: the plan check braked (get_u0 is the braking control, not the plan's u0)
-    a_lat_guard: int = 0       # 1: the a_lat guard set get_u0's steering rate, 2: it braked too (PlanCheck.a_lat_guard)
-    plan_clearance: float = 0.0    # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
-    time_prepare: float = 0.0
-    time_feedback: float = 0.0
 
 
 class RtiSolver:

@@ -58,8 +58,9 @@ def multipliers(problem: Problem, scenario: str, seeds, samples: int = 200) -> d
     import tempfile
     from pathlib import Path
 
-    from .build import CSolver, build
+    from .build import build
     from .codegen.generate import generate
+    from .csolver import CSolver
     from .sim.closedloop import run_closed_loop
     from .sim.scenario import make_scenario
 

@@ -26,9 +26,14 @@ from typing import Any
 import numpy as np
 
 from .atomic import carry, check_folder_target, describe, staged_folder, write_text
-from .sim.closedloop import PLAN_LEVELS
+from .build import DEFAULT_BUILD, VERIFY_BUILD, build
+from .csolver import CSolver
+from .sim.closedloop import PLAN_LEVELS, run_closed_loop
 from .sim.runlog import FORMAT_VERSION, RunLog, package_versions, read_text
+from .sim.scenario import make_scenario
+from .solver_folder import FolderLike, SolverFolder, as_folder
 from .testhook import pause_point
+from .verify import infer_scenario
 
 SUITE_FORMAT = "fcgen-suite/1"
 MANIFEST = "manifest.json"
@@ -83,22 +88,17 @@ def text_sha256(log: RunLog) -> str:
 
 # ----------------------------------------------------------------------------- what built the solver
 
-def solver_info(gen_dir: Path) -> dict[str, Any]:
+def solver_info(folder: SolverFolder) -> dict[str, Any]:
     """Name, problem record (sizes, problem.py hash), precision and QP backend of a generated folder."""
-    from .build import read_macros, solver_name
-    from .verify import load_solver_problem
-
-    name, pb = load_solver_problem(gen_dir)
-    macros = read_macros(gen_dir / f"{solver_name(gen_dir)}_solver.h", name)
+    pb, macros = folder.problem, folder.sizes
     sizes = {k: macros[k] for k in ("N", "NX", "NU", "NOPP", "NOPP_PAR", "QP_N", "QP_M", "QP_NNZ_A") if k in macros}
-    problem_py = (gen_dir / "problem.py").read_bytes()
     return {
-        "name": name,
+        "name": folder.name,
         "problem": {"name": pb.name, "formulation": pb.formulation.kind, "obstacle_model": pb.obstacles.kind,
                     "N": pb.horizon.N, "dt": pb.horizon.dt, "sizes": sizes,
-                    "problem_py_sha256": hashlib.sha256(problem_py).hexdigest()},
-        "precision": "float" if macros.get("USE_FLOAT") else "double",
-        "qp_backend": "osqp" if (gen_dir / "osqp").is_dir() else "unknown",
+                    "problem_py_sha256": hashlib.sha256(folder.problem_file.read_bytes()).hexdigest()},
+        "precision": folder.precision,
+        "qp_backend": "osqp" if (folder.path / "osqp").is_dir() else "unknown",
     }
 
 
@@ -157,17 +157,15 @@ def _is_suite_file(p: Path) -> bool:
     return p.name == MANIFEST or p.name.endswith(".json.xz") or p.suffix.lower() == ".xml"
 
 
-def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings = SuiteSettings(),
+def record_suite(folder: FolderLike, out: Path | str, settings: SuiteSettings = SuiteSettings(),
                  progress: bool = False, echo=None, force: bool = False) -> dict[str, Any]:
-    """Build ``gen_dir`` (``settings``' build), run the C closed loop on every seed, write logs + manifest.
+    """Build ``folder`` (a :class:`~.solver_folder.SolverFolder` or its path; ``settings``' build), run the C closed
+    loop on every seed, write logs + manifest.
 
     ``out`` must be new or empty, or (with ``force``) hold a golden suite; the suite is written into a temporary
     folder beside ``out`` and swapped in when complete (``fcgen.atomic``): a kill at any moment leaves the old
     suite or the new one, whole. With ``force`` files of ``out`` that are no suite's are kept."""
-    from .build import DEFAULT_BUILD, VERIFY_BUILD, build
-    from .verify import infer_scenario, load_solver_problem
-
-    gen_dir, out = Path(gen_dir), Path(out)
+    out = Path(out)
     check_suite_target(out, force)
     if settings.plan not in PLAN_LEVELS:
         raise ValueError(f"--plan {settings.plan!r} is invalid: allowed {', '.join(PLAN_LEVELS)}")
@@ -175,33 +173,32 @@ def record_suite(gen_dir: Path | str, out: Path | str, settings: SuiteSettings =
         raise ValueError(f"--samples {settings.samples} is invalid: allowed >= 1")
     if not settings.seeds and settings.commonroad is None:
         raise ValueError("--seeds: allowed at least one seed")
-    name, pb = load_solver_problem(gen_dir)
-    info = solver_info(gen_dir)
-    scenario = settings.scenario or infer_scenario(pb)
-    lib = build(gen_dir, verify=settings.verify, cc=settings.cc, cflags=settings.cflags)
-    comp = compiler_info(gen_dir, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc, settings.cflags)
+    folder = as_folder(folder, check=False)   # build() checks it before compiling
+    info = solver_info(folder)
+    scenario = settings.scenario or infer_scenario(folder.problem)
+    lib = build(folder, verify=settings.verify, cc=settings.cc, cflags=settings.cflags)
+    comp = compiler_info(folder.path, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc,
+                         settings.cflags)
     with staged_folder(out) as tmp:
         if out.is_dir():    # --force: the folder's files that are no suite's stay
             for p in out.iterdir():
                 if not _is_suite_file(p):
                     carry(p, tmp / p.name)
-        manifest = _record_into(tmp, pb, lib, info, comp, scenario, settings, progress, echo)
+        manifest = _record_into(tmp, folder, lib, info, comp, scenario, settings, progress, echo)
         pause_point("record:before-swap")
     pause_point("record:after-swap")
     return manifest
 
 
-def _record_into(out: Path, pb, lib, info, comp, scenario, settings, progress, echo) -> dict[str, Any]:
-    from .build import CSolver
-    from .sim.closedloop import run_closed_loop
-    from .sim.scenario import make_scenario
-
-    entries = []
+def _record_into(out: Path, folder: SolverFolder, lib: Path, info, comp, scenario, settings, progress,
+                 echo) -> dict[str, Any]:
+    pb, entries = folder.problem, []
     if settings.commonroad is not None:   # one CommonRoad scenario: its run log and a copy of its file
         from .campaign.commonroad import load_for
         from .sim.commonroad_run import run_commonroad
         sc = load_for(pb, settings.commonroad, settings.planning_problem)
-        log = run_commonroad(pb, sc, controller=CSolver(lib), plan=settings.plan, progress=progress).log
+        log = run_commonroad(pb, sc, controller=CSolver(lib, folder=folder), plan=settings.plan,
+                             progress=progress).log
         log = _finish(log, info["precision"], settings.timing)
         fname = f"cr_{sc.name}.json.xz"
         log.to_json(out / fname)
@@ -214,7 +211,7 @@ def _record_into(out: Path, pb, lib, info, comp, scenario, settings, progress, e
         settings = SuiteSettings(**{**settings.__dict__, "seeds": (0,), "samples": log.n_controls})
     for seed in (settings.seeds if settings.commonroad is None else ()):
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
-        log = run_closed_loop(pb, sc, controller=CSolver(lib), exit_codes=True, plan=settings.plan,
+        log = run_closed_loop(pb, sc, controller=CSolver(lib, folder=folder), exit_codes=True, plan=settings.plan,
                               progress=progress)
         log = _finish(log, info["precision"], settings.timing)
         fname = log_name(scenario, seed)

@@ -2,7 +2,8 @@
 
 A :class:`Target` holds everything a command needs to build and run for it: compiler and binutils, CPU/FPU flags,
 whether it can run a double-precision solver, the QEMU machine that emulates it, the memory map of the linker
-script, the link flags of the bare-metal harness (startup, semihosting) and the tick rate of its SysTick under QEMU.
+script (rendered by ``fcgen.sim.harness.linker_script``), the link flags of the bare-metal harness (startup,
+semihosting) and the tick rate of its SysTick under QEMU.
 ``build``, ``firmware-sim``, ``bench`` and ``footprint`` take a target name, look it up here and use its fields;
 none of them branches on a target name.
 """
@@ -105,14 +106,6 @@ class Target:
     def instructions_per_second(self) -> float:
         """Instructions per second of the clock hook's time under ``-icount shift=0`` (one instruction per ns)."""
         return 1e9
-
-    def linker_script(self) -> str:
-        """The harness image's linker script: vectors + code + constants in flash, data/bss/heap/stack in RAM."""
-        if self.flash is None or self.ram is None or self.xram is None:
-            raise TargetError(f"--target {self.name}: no memory map")
-        from .codegen.render import render_template
-        return render_template(self.linker_template, target=self, flash=self.flash, ram=self.ram,
-                               xram=self.xram, stack=HARNESS_STACK)
 
     @property
     def harness_executable(self) -> str:

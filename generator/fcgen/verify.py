@@ -31,12 +31,15 @@ from pathlib import Path
 import numpy as np
 
 from .backends import backend_module
+from .contract import StepResult
+from .csolver import CSolver
 from .dsl import Problem, ProblemError
 from .ocp import INF, build_ocp
-from .presets import CAR, SCENARIOS, TRUCK, load_problem
+from .presets import CAR, SCENARIOS, TRUCK
 from .reference import RtiSolver
-from .sim.closedloop import ReferenceController, StepResult, run_closed_loop
+from .sim.closedloop import ReferenceController, run_closed_loop
 from .sim.scenario import make_scenario
+from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
 
 TOL_QP_DATA = 1e-12
 TOL_SOLUTION = 1e-9
@@ -82,7 +85,7 @@ def _clearance_diff(c: float, r: float, plan: np.ndarray) -> float:
     """The plan check's clearance, C vs reference, at the scale of the positions it is computed from: ``|c - r| /
     max(1, |r|, max |s_k|)``. The plans are compared relative to their largest state (the arc length s, hundreds of
     metres: the iterate's row of the table); a length built from those positions inherits their rounding, so relative
-    to max(1, |r|) alone it was held 100-1000x tighter than the plan it is measured on (stop 37)."""
+    to max(1, |r|) alone it was held 100-1000x tighter than the plan it is measured on."""
     if c == r:
         return 0.0
     if math.isinf(c) or math.isinf(r):
@@ -241,25 +244,13 @@ def infer_scenario(problem: Problem) -> str:
 
 def load_solver_problem(gen_dir: Path | str) -> tuple[str, Problem]:
     """The solver name and the Problem of a generated folder (its ``problem.py``); clear errors otherwise."""
-    from .build import solver_name
-    gen_dir = Path(gen_dir)
-    if not gen_dir.is_dir():
-        raise FileNotFoundError(f"{gen_dir}: no such solver folder")
-    try:
-        name = solver_name(gen_dir)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"{gen_dir} is not a generated solver folder (no <name>_solver.h; write one with "
-                                f"`fcgen generate PRESET -o DIR`)") from None
-    if not (gen_dir / "problem.py").is_file():
-        raise FileNotFoundError(f"{gen_dir} is not a generated solver folder (no problem.py)")
-    return name, load_problem(str(gen_dir / "problem.py"))
+    folder = read_folder(gen_dir, check=False)
+    return folder.name, folder.problem
 
 
-def check_sizes(gen_dir: Path, name: str, ref: RtiSolver) -> None:
+def check_sizes(folder: SolverFolder, ref: RtiSolver) -> None:
     """The sizes in ``<name>_solver.h`` must be those of the problem rebuilt from ``problem.py``."""
-    from .build import read_macros
-    s = read_macros(gen_dir / f"{name}_solver.h", name)
-    lay = ref.lay
+    s, name, lay = folder.sizes, folder.name, ref.lay
     c = tuple(s.get(k) for k in ("N", "QP_N", "QP_M", "QP_NNZ_A"))
     if c != (ref.ocp.N, lay.n, lay.m, lay.nnz_A):
         raise ProblemError(f"solver {name}: C sizes N={c[0]}, n={c[1]}, m={c[2]}, nnz(A)={c[3]} do not match "
@@ -299,7 +290,8 @@ class _Lockstep:
         rc = cs.prepare_phase(x0, road, opp)
         if not rc and not rc_py:
             qp = cs.get_qp()
-            self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))  # conventional: with the fitted opponent boxes
+            # conventional: with the fitted opponent boxes
+            self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))
             for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
                            ("u", _clip(sv.u))):
                 self._upd(key, rel_diff(qp[key], r))
@@ -386,17 +378,16 @@ def _closed_loop_diffs(log_c, log_py) -> dict[str, tuple[float, int, int, int]]:
     return out
 
 
-def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samples: int = 200,
+def verify(folder: FolderLike, scenario: str | None = None, seed: int = 0, samples: int = 200,
            closed_loop: bool = True, build_kw: dict | None = None) -> VerifyReport:
     """Compare the generated C (verification build) with the Python reference on one seeded scenario.
 
-    ``scenario``: ``'car'`` or ``'truck'``; default from the problem (``infer_scenario``). ``closed_loop=False``
-    skips the second comparison (two independent closed loops).
+    ``folder``: a :class:`~.solver_folder.SolverFolder` or its path. ``scenario``: ``'car'`` or ``'truck'``; default
+    from the problem (``infer_scenario``). ``closed_loop=False`` skips the second comparison (two independent closed
+    loops).
     """
-    from .build import CSolver, build
-
-    gen_dir = Path(gen_dir)
-    name, pb = load_solver_problem(gen_dir)
+    folder = as_folder(folder, check=False)   # the sizes checked in the lockstep's terms below, the rest by build
+    name, pb = folder.name, folder.problem
     if scenario is None:
         scenario = infer_scenario(pb)
     if samples < 1:
@@ -404,9 +395,9 @@ def verify(gen_dir: Path | str, scenario: str | None = None, seed: int = 0, samp
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     ocp = build_ocp(pb)
     ref = RtiSolver(ocp)
-    check_sizes(gen_dir, name, ref)
-    cs = CSolver(build(gen_dir, verify=True, **(build_kw or {})))
-    rep = VerifyReport(solver=name, gen_dir=str(gen_dir), problem=pb.name, scenario=scenario, seed=seed,
+    check_sizes(folder, ref)
+    cs = CSolver.from_dir(folder, verify=True, **(build_kw or {}))
+    rep = VerifyReport(solver=name, gen_dir=str(folder.path), problem=pb.name, scenario=scenario, seed=seed,
                        samples=samples)
     # a backend that is not bit-exact C vs Python (the IPM: numpy vs C loops) has its own solution tolerances; the
     # variables without cost curvature (P_ii = 0: the paper's free hyperplanes) are fixed by the rows and the

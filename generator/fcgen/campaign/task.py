@@ -3,7 +3,7 @@
 Per process it keeps the loaded solvers (one static workspace per shared library, re-initialised before each run,
 guarded by a lock so that a multi-threaded worker serialises runs of one solver instead of corrupting it), each
 configuration's problem, solver hash and plant function, and the Python OCPs (the Python controller only: a C run
-needs none). Collisions are the true-rectangle check of ``sim.collision`` (the run log's ``collision`` field), never
+needs none). Collisions are the true-rectangle check of ``fcgen.collision`` (the run log's ``collision`` field), never
 the slacks.
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ STAT_KEYS = ("mean", "median", "p99", "max")
 
 
 def _solver(lib: str):
-    from ..build import CSolver
+    from ..csolver import CSolver
     with _LOCK:
         if lib not in _SOLVERS:
             _SOLVERS[lib] = (CSolver(lib), threading.Lock())

@@ -21,6 +21,7 @@ from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
+from ..contract import HOST_TICKS_PER_SECOND
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
                          input_box, warm_max_iter)
@@ -91,10 +92,6 @@ def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
         off = -(-off // align) * align + size * count
         align_max = max(align_max, align)
     return -(-off // align_max) * align_max
-
-
-HOST_TICKS_PER_SECOND = 1_000_000_000
-"""Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32; ``<NAME>_HOST_TICKS_PER_SECOND``)."""
 
 
 def status_layout(real_size: int) -> tuple[int, int]:

@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..sim.collision import corners_from_dims, sat_overlap
+from ..collision import corners_from_dims, sat_overlap
 
 
 def centre_dims(length: float, width: float) -> dict:
-    """Run-log / ``sim.collision`` dimensions of a rectangle whose pose is its centre (CommonRoad's obstacles)."""
+    """Run-log / ``fcgen.collision`` dimensions of a rectangle whose pose is its centre (CommonRoad's obstacles)."""
     return {"l_f": 0.0, "l_r": 0.0, "l_r_ch": length / 2, "l_f_ch": length / 2, "w_ch": width}
 
 

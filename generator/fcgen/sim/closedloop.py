@@ -3,18 +3,18 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
 from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
 
+from ..contract import StepResult
 from ..dsl import Problem, Vehicle
 from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
-from .collision import collisions_over_run
+from ..collision import collisions_over_run
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
@@ -22,21 +22,6 @@ WINDOW_BEHIND = 50.0  # m of road the solver's window keeps behind the ego (cove
 
 #: what ``run_closed_loop``/``replay`` log of each sample's planned trajectory (optional run-log fields)
 PLAN_LEVELS: tuple[str, ...] = ("none", "controls", "full")
-
-
-@dataclass
-class StepResult:
-    """What a controller returns for one sample."""
-
-    u: np.ndarray
-    exit_code: int
-    qp_status: int
-    qp_iter: int
-    time_prepare: float
-    time_feedback: float
-    max_slack: float
-    plan_reaction: int = 0     # 1: the plan check braked this sample (status.plan_reaction)
-    a_lat_guard: int = 0       # 1: the a_lat guard set the steering rate, 2: it braked too (status.a_lat_guard)
 
 
 class Controller(Protocol):

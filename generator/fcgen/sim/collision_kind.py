@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..road import Road
-from .collision import corners_from_dims, penetration_over_run
+from ..collision import corners_from_dims, penetration_over_run
 
 SWEEP_MIN = 1.0   # m beyond the half width off its lane: the opponent's front corner has been swept by the bend
 KINDS = ("swept_front", "rear_corner", "front_corner")

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 from numpy.typing import NDArray
 
-from .collision import corners_from_dims
+from ..collision import corners_from_dims
 from .runlog import RunLog, summary
 
 __all__ = ["DEFAULT_EGO_DIMS", "project_to_road", "plot_run"]

@@ -15,12 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..build import read_macros, solver_name, solver_uses_float
-from ..dsl import Conventional, Problem
-from ..sim.export import build_harness, export_scenario, run_harness
+from ..dsl import Conventional
+from ..sim.export import export_scenario
+from ..sim.harness import build_harness, run_harness
 from ..sim.scenario import make_scenario
+from ..solver_folder import FolderLike, SolverFolder, as_folder
 from ..targets import get_target
-from ..verify import infer_scenario, load_solver_problem
+from ..verify import infer_scenario
 from .bound import Caps, compute_bound, exceedances, phase_stats
 from .probe import SampleProbe, read_probe, tick_instructions
 
@@ -34,10 +35,10 @@ class WcetError(RuntimeError):
     """The folder or the target cannot give a bound (an old folder, an unsupported setting)."""
 
 
-def solver_caps(gen_dir: Path, name: str, pb: Problem) -> Caps:
+def solver_caps(folder: SolverFolder) -> Caps:
     """The caps of a folder: its header's ``<NAME>_RTI_BUDGET`` (= the problem's cold cap), OSQP's termination
     checks, the conventional fit's scans."""
-    macros = read_macros(gen_dir / f"{name}_solver.h", name)
+    gen_dir, name, pb, macros = folder.path, folder.name, folder.problem, folder.sizes
     if "RTI_BUDGET" not in macros:
         raise WcetError(f"{gen_dir}: its header has no {name.upper()}_RTI_BUDGET (generated before the RTI budget): "
                         f"regenerate it with fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}")
@@ -64,11 +65,11 @@ def _run_all(jobs: int, fn, seeds: list[int]) -> list:
         return list(ex.map(fn, seeds))
 
 
-def probe_runs(gen_dir: Path, pb: Problem, target: str, seeds: int, samples: int, cflags: str | None,
+def probe_runs(folder: SolverFolder, target: str, seeds: int, samples: int, cflags: str | None,
                timeout: float | None, jobs: int = 1) -> tuple[list[SampleProbe], list[int], int]:
     """The probe build's closed loops on seeds 0..seeds-1: every sample's phases, its QP iterations, the tick."""
-    name = solver_name(gen_dir)
-    exe = build_harness(gen_dir, cflags=cflags, target=target, variant=PROBE_VARIANT,
+    name, pb = folder.name, folder.problem
+    exe = build_harness(folder, cflags=cflags, target=target, variant=PROBE_VARIANT,
                         extra_cflags=f"-D{name.upper()}_PROBE",
                         harness_defines=("-DFS_PROBE", f"-DFS_PROBE_RESET={RESET_EVERY}"))
     scenario = infer_scenario(pb)
@@ -88,11 +89,11 @@ def probe_runs(gen_dir: Path, pb: Problem, target: str, seeds: int, samples: int
     return [s for r in res for s in r[0]], [i for r in res for i in r[1]], res[0][2]
 
 
-def validation_runs(gen_dir: Path, pb: Problem, target: str, seeds: int, samples: int, cflags: str | None,
+def validation_runs(folder: SolverFolder, target: str, seeds: int, samples: int, cflags: str | None,
                     timeout: float | None, jobs: int = 1) -> dict[str, np.ndarray]:
     """The normal build's closed loops on seeds 0..seeds-1: every sample's prepare, feedback and RTI instructions."""
-    name = solver_name(gen_dir)
-    exe = build_harness(gen_dir, cflags=cflags, target=target)
+    name, pb = folder.name, folder.problem
+    exe = build_harness(folder, cflags=cflags, target=target)
     scenario = infer_scenario(pb)
     scale = get_target(target).instructions_per_second
 
@@ -120,25 +121,26 @@ def validate(observed: dict[str, np.ndarray], bound: dict[str, int], seeds: int,
             "passed": not any(over.values())}
 
 
-def wcet(gen_dir: Path | str, target: str, seeds: int = 3, samples: int = 200, validate_seeds: int = 0,
+def wcet(folder: FolderLike, target: str, seeds: int = 3, samples: int = 200, validate_seeds: int = 0,
          cflags: str | None = None, timeout: float | None = None, jobs: int = 1, bound_scale: float = 1.0) -> dict:
     """The bound of a folder's build on an emulated target, validated on ``validate_seeds`` closed loops; the
-    results (``FORMAT``). ``bound_scale`` (a test's hook) multiplies the bound before the validation."""
-    gen_dir = Path(gen_dir)
+    results (``FORMAT``). ``folder``: a :class:`~..solver_folder.SolverFolder` or its path. ``bound_scale`` (a test's
+    hook) multiplies the bound before the validation."""
     tgt = get_target(target)
     if not tgt.bare_metal:
         raise WcetError(f"--target {target}: instruction counts need an emulated target (cortex-m7, cortex-m4f)")
     t0 = time.perf_counter()
-    name, pb = load_solver_problem(gen_dir)
-    caps = solver_caps(gen_dir, name, pb)
-    samples_p, qp_iter, tick = probe_runs(gen_dir, pb, target, seeds, samples, cflags, timeout, jobs)
+    folder = as_folder(folder)
+    name, pb = folder.name, folder.problem
+    caps = solver_caps(folder)
+    samples_p, qp_iter, tick = probe_runs(folder, target, seeds, samples, cflags, timeout, jobs)
     bound = compute_bound(samples_p, qp_iter, caps, pb.qp.backend, tick)
     if bound_scale != 1.0:
         bound = {k: int(v * bound_scale) for k, v in bound.items()}
     stats = phase_stats(samples_p)
     res = {
-        "format": FORMAT, "solver": name, "gen_dir": str(gen_dir), "problem": pb.name, "backend": pb.qp.backend,
-        "precision": "float" if solver_uses_float(gen_dir) else "double", "target": tgt.name,
+        "format": FORMAT, "solver": name, "gen_dir": str(folder.path), "problem": pb.name, "backend": pb.qp.backend,
+        "precision": folder.precision, "target": tgt.name,
         "target_description": tgt.description, "cflags": tgt.cflags(cflags if cflags is not None else "-O2"),
         "unit": "instructions", "tick_instructions": tick,
         "bound": {k: bound[k] for k in ("prepare", "feedback", "rti")}, "per_iteration": bound["per_iteration"],
@@ -155,7 +157,7 @@ def wcet(gen_dir: Path | str, target: str, seeds: int = 3, samples: int = 200, v
     if bound_scale != 1.0:
         res["bound_scale"] = bound_scale
     if validate_seeds > 0:
-        observed = validation_runs(gen_dir, pb, target, validate_seeds, samples, cflags, timeout, jobs)
+        observed = validation_runs(folder, target, validate_seeds, samples, cflags, timeout, jobs)
         res["validated"] = validate(observed, bound, validate_seeds, samples)
     res["wall_seconds"] = time.perf_counter() - t0
     return res
