@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 from fcgen.codegen.generate import generate
-from fcgen.build import build, CSolver
+from fcgen.build import build
+from fcgen.csolver import CSolver
 from fcgen.presets import preset
 from fcgen.sim.scenario import make_scenario
 from fcgen.sim.closedloop import run_closed_loop

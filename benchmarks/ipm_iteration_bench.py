@@ -4,7 +4,7 @@
                                           [--seeds 2] [--rounds 12] [--repeats 3] [--out FILE]
 
 The folder's solver (this checkout) closes the loop on seeds 0..SEEDS-1 of its scenario and keeps every warm-started
-QP (``fcgen.build.QpRecorder``: the data and the shifted duals the backend was given). Both the folder and the same
+QP (``fcgen.csolver.QpRecorder``: the data and the shifted duals the backend was given). Both the folder and the same
 folder at commit OLD are compiled with ``benchmarks/ipm_iteration_bench.c`` (their own ``qpb_*`` backend, the
 Makefile's default flags ``-O2 -ffp-contract=off -fno-tree-slp-vectorize`` unless --cflags) and solve all QPs, the
 two alternated ROUNDS times (old, new, old, new, ...; each REPEATS passes, the fastest kept). Printed: microseconds

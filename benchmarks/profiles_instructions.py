@@ -3,7 +3,7 @@
     python benchmarks/profiles_instructions.py [--seeds 100,101,102] [--only car/lifted] [--cache DIR] [--out FILE]
 
 Each configuration of the campaign's grid (IPM backend) in both profiles: the solver (`-O2`, the campaign's build),
-its C closed loop on the host (`fcgen.sim.export.firmware_sim`: the harness a user's ECU test would run), then the same
+its C closed loop on the host (`fcgen.sim.harness.firmware_sim`: the harness a user's ECU test would run), then the same
 run under valgrind's callgrind. Per RTI = the inclusive instructions of `<name>_prepare` and `<name>_feedback` over
 the run's samples. Instruction counts do not depend on the machine's load, unlike the campaign's times. Printed: the
 table (pooled over the seeds: the mean of each seed's figure) with the ratio safe / paper; written: JSON.
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from fcgen.campaign.grid import paper_grid
 from fcgen.campaign.solvers import ensure_solver
-from fcgen.sim.export import firmware_sim
+from fcgen.sim.harness import firmware_sim
 
 
 def instructions(exe: Path, data: Path, name: str, work: Path) -> int:
