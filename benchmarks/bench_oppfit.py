@@ -8,6 +8,7 @@ and prints per build the median / mean / max prepare and the median feedback tim
 To compare against an older generator, run ``gen`` from a checkout of that commit (e.g. ``git worktree add``) into
 the same ROOT. ``FULL=2`` in the environment of ``gen``: two road evaluations per fitted point (oppfit.FULL_EVALS).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,24 +19,29 @@ from pathlib import Path
 import numpy as np
 
 from fcgen.build import build
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.scenario import make_scenario
 
-NAMES = ["truck_conventional_ellipse", "truck_conventional_hyperplane", "car_conventional_ellipse",
-         "car_conventional_hyperplane"]
+NAMES = [
+    "truck_conventional_ellipse",
+    "truck_conventional_hyperplane",
+    "car_conventional_ellipse",
+    "car_conventional_hyperplane",
+]
 
 
 def gen(root: Path, tag: str) -> None:
     if os.environ.get("FULL"):
         from fcgen import oppfit
+
         oppfit.FULL_EVALS = int(os.environ["FULL"])
     for n in NAMES:
         pb = preset(n)
-        pv = dataclasses.replace(pb, name=f"{n[:3]}{n.split('_')[-1][:2]}_{tag}")   # distinct symbols per build
+        pv = dataclasses.replace(pb, name=f"{n[:3]}{n.split('_')[-1][:2]}_{tag}")  # distinct symbols per build
         out = root / tag / n
         generate(pv, out)
         print(build(out, verify=False))
@@ -57,14 +63,17 @@ def run(root: Path, tags: list[str], seeds: int, samples: int) -> None:
             tp = 1e3 * np.concatenate([np.asarray(lg.time_prepare) for lg in logs[t]])
             tf = 1e3 * np.concatenate([np.asarray(lg.time_feedback) for lg in logs[t]])
             prog = np.mean([lg.ego_frenet[-1, 0] - lg.ego_frenet[0, 0] for lg in logs[t]])
-            line.append(f"{t}: prepare median {np.median(tp):.3f} mean {tp.mean():.3f} max {tp.max():.3f}, "
-                        f"feedback median {np.median(tf):.3f}, progress {prog:.1f}")
+            line.append(
+                f"{t}: prepare median {np.median(tp):.3f} mean {tp.mean():.3f} max {tp.max():.3f}, "
+                f"feedback median {np.median(tf):.3f}, progress {prog:.1f}"
+            )
         print(" | ".join(line), flush=True)
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description="Prepare-phase timing of the four conventional presets, builds "
-                                             "alternated (docs/problem.md).")
+    ap = argparse.ArgumentParser(
+        description="Prepare-phase timing of the four conventional presets, builds alternated (docs/problem.md)."
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     g = sub.add_parser("gen", help="generate and build the presets into ROOT/TAG/<preset>")
     g.add_argument("root", type=Path)

@@ -13,6 +13,7 @@ converged double solution (eps 1e-9). Per sigma and precision (median / max over
   capped   the real-time solve (the problem's settings: 60 iterations, check every 40) minus the double one of the
            same sigma, and minus the double build's (sigma 1e-6), max |z - z'| (scaled step); status counts
 """
+
 import argparse
 import collections
 import ctypes
@@ -24,8 +25,8 @@ import numpy as np
 
 import fcgen.backends.osqp as osqp_backend
 from fcgen.build import build
-from fcgen.csolver import QpRecorder
 from fcgen.codegen.generate import generate
+from fcgen.csolver import QpRecorder
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.qp import build_layout
@@ -42,11 +43,30 @@ class Harness:
     def __init__(self, folder: Path, name: str, use_float: bool):
         so = folder / "harness.so"
         inc = [f"-I{folder / d}" for d in ("osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private")]
-        srcs = [str(HARNESS), str(folder / f"osqp/{name}_workspace.c"),
-                *sorted(map(str, (folder / "osqp/lib/src").glob("*.c")))]
-        subprocess.run(["cc", "-O2", "-fPIC", "-shared", "-std=c99", "-w", *inc, f'-DWS_HEADER="{name}_workspace.h"',
-                        f"-DSOLVER={name}_solver", f"-DRESET={name}_workspace_reset", *srcs, "-o", str(so), "-lm"],
-                       check=True)
+        srcs = [
+            str(HARNESS),
+            str(folder / f"osqp/{name}_workspace.c"),
+            *sorted(map(str, (folder / "osqp/lib/src").glob("*.c"))),
+        ]
+        subprocess.run(
+            [
+                "cc",
+                "-O2",
+                "-fPIC",
+                "-shared",
+                "-std=c99",
+                "-w",
+                *inc,
+                f'-DWS_HEADER="{name}_workspace.h"',
+                f"-DSOLVER={name}_solver",
+                f"-DRESET={name}_workspace_reset",
+                *srcs,
+                "-o",
+                str(so),
+                "-lm",
+            ],
+            check=True,
+        )
         self.lib = ctypes.CDLL(str(so))
         self.lib.h_settings.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_double]
         self.dt = np.float32 if use_float else np.float64
@@ -81,7 +101,7 @@ class Harness:
         """x_tilde of one KKT solve of b (nref steps of iterative refinement)."""
         b = self._a(b)
         self.lib.h_kkt(self._p(b), nref)
-        return b[:self.n].astype(float)
+        return b[: self.n].astype(float)
 
     def kkt_error(self, x, y, nref: int, b=None) -> float:
         """One KKT solve at (x, y) from OSQP's right-hand side (or b): max |x_tilde - x| (scaled)."""
@@ -119,16 +139,19 @@ def main() -> None:
     osqp_backend.FLOAT_SIGMA_MIN = 0.0  # the float builds take each sigma as given
     pb = preset(PRESET)
     ocp = build_ocp(pb)
-    rec = QpRecorder(build(generate(pb.with_(name="kd_loop"), root / "kd_loop", force=True).out_dir),
-                   build_layout(ocp))
+    rec = QpRecorder(build(generate(pb.with_(name="kd_loop"), root / "kd_loop", force=True).out_dir), build_layout(ocp))
     for seed in (int(s) for s in args.seeds.split(",")):
         rec.init()
-        run_closed_loop(pb, make_scenario("truck", seed, n_opp=3, samples=200, dt=pb.horizon.dt), controller=rec,
-                        ocp=ocp)
-    qps = rec.qps[::args.every]
+        run_closed_loop(
+            pb, make_scenario("truck", seed, n_opp=3, samples=200, dt=pb.horizon.dt), controller=rec, ocp=ocp
+        )
+    qps = rec.qps[:: args.every]
     sigmas = [float(s) for s in args.sigmas.split(",")]
-    builds = {(s, fl): Harness(*folder(root, s, fl, f"{'f' if fl else 'd'}{i}"), fl)
-              for i, s in enumerate(sigmas) for fl in (False, True)}
+    builds = {
+        (s, fl): Harness(*folder(root, s, fl, f"{'f' if fl else 'd'}{i}"), fl)
+        for i, s in enumerate(sigmas)
+        for fl in (False, True)
+    }
     base = builds.get((pb.qp.sigma, False)) or Harness(*folder(root, pb.qp.sigma, False, "base"), False)
     ref, z_base = [], []
     for qp in qps:  # converged double solution and the double build's capped solve
@@ -153,7 +176,8 @@ def main() -> None:
                     kkt_d.append(h.kkt_error(*ref[j], 0, b=b_dbl))
                 kkt1.append(h.kkt_error(*ref[j], 1))
                 lo, hi = h.pivots()
-                pmin.append(lo); pmax.append(hi)
+                pmin.append(lo)
+                pmax.append(hi)
                 st, z, _ = h.solve(qp["y_warm"])
                 status[st] += 1
                 if not fl:
@@ -162,10 +186,12 @@ def main() -> None:
                 cap_base.append(np.max(np.abs(z - z_base[j])))
             dr = f" (double rhs {med_max(kkt_d)})" if fl else ""
             prec = "float " if fl else "double"
-            print(f"sigma {s:g} {prec}: kkt {med_max(kkt)}{dr} | kkt+1 {med_max(kkt1)} | pivots "
-                  f"min {np.median(pmin):.1e}, max |neg| {np.median(pmax):.1e} | capped - double same sigma "
-                  f"{med_max(cap_same)}, - double build {med_max(cap_base)} | status {dict(sorted(status.items()))}",
-                  flush=True)
+            print(
+                f"sigma {s:g} {prec}: kkt {med_max(kkt)}{dr} | kkt+1 {med_max(kkt1)} | pivots "
+                f"min {np.median(pmin):.1e}, max |neg| {np.median(pmax):.1e} | capped - double same sigma "
+                f"{med_max(cap_same)}, - double build {med_max(cap_base)} | status {dict(sorted(status.items()))}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

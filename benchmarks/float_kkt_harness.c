@@ -26,8 +26,8 @@ static void ensure(void) {
 }
 
 /* the QP's data, in the generated solver's order (q first: OSQP scales with the q it holds) */
-int h_load(const OSQPFloat *Px, const OSQPFloat *Ax, const OSQPFloat *q, const OSQPFloat *l, const OSQPFloat *u,
-           int n, int nnzA) {
+int h_load(const OSQPFloat *Px, const OSQPFloat *Ax, const OSQPFloat *q, const OSQPFloat *l, const OSQPFloat *u, int n,
+           int nnzA) {
   ensure();
   if (osqp_update_data_vec(SV, q, OSQP_NULL, OSQP_NULL)) return 1;
   if (osqp_update_data_mat(SV, Px, OSQP_NULL, n, Ax, OSQP_NULL, nnzA)) return 2;

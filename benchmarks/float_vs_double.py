@@ -5,6 +5,7 @@ Prints one line per build and one comparison line per backend (mean progress flo
 beyond 0.5 %); writes OUT_DIR/float_vs_double.json. The float builds use the generator's float settings (OSQP:
 ``sigma`` raised to ``fcgen.backends.osqp.FLOAT_SIGMA_MIN``); the IPM's float build is generated with ``ipm_tol`` 1e-3.
 """
+
 import argparse
 import collections
 import dataclasses
@@ -12,14 +13,15 @@ import json
 from pathlib import Path
 
 import numpy as np
-from fcgen.codegen.generate import generate
+
 from fcgen.build import build
+from fcgen.codegen.generate import generate
 from fcgen.csolver import CSolver
+from fcgen.ocp import build_ocp
 from fcgen.presets import preset
-from fcgen.sim.scenario import make_scenario
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.runlog import summary
-from fcgen.ocp import build_ocp
+from fcgen.sim.scenario import make_scenario
 
 ap = argparse.ArgumentParser()
 ap.add_argument("out_dir", nargs="?", default="runs/float_vs_double")
@@ -44,16 +46,25 @@ for backend in args.backends.split(","):
             sc = make_scenario("truck", seed, n_opp=3, samples=200, dt=pb.horizon.dt)
             lg = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
             s = summary(lg)
-            prog.append(s["progress"]); coll += s["n_collision_samples"] > 0
+            prog.append(s["progress"])
+            coll += s["n_collision_samples"] > 0
             st.update(s["qp_status_counts"])
-        out[f"{backend}-{'float' if fl else 'double'}"] = dict(progress_mean=float(np.mean(prog)), runs_with_collision=coll,
-                                                              qp_status=dict(st), progress=prog)
+        out[f"{backend}-{'float' if fl else 'double'}"] = dict(
+            progress_mean=float(np.mean(prog)), runs_with_collision=coll, qp_status=dict(st), progress=prog
+        )
         print(backend, "float" if fl else "double", f"{np.mean(prog):.2f}", coll, dict(st), flush=True)
     dbl, flt = (np.array(out[f"{backend}-{p}"]["progress"]) for p in ("double", "float"))
     rel = 100 * (flt / dbl - 1)
-    out[f"{backend}-compare"] = dict(mean_rel_pct=float(100 * (flt.mean() / dbl.mean() - 1)),
-                                     seed_min_pct=float(rel.min()), seed_max_pct=float(rel.max()),
-                                     seeds_beyond_half_pct=int(np.sum(np.abs(rel) > 0.5)))
-    print(backend, "float - double: mean %+.3f %%, per seed %+.2f .. %+.2f %%, %d seeds beyond 0.5 %%"
-          % tuple(out[f"{backend}-compare"].values()), flush=True)
+    out[f"{backend}-compare"] = dict(
+        mean_rel_pct=float(100 * (flt.mean() / dbl.mean() - 1)),
+        seed_min_pct=float(rel.min()),
+        seed_max_pct=float(rel.max()),
+        seeds_beyond_half_pct=int(np.sum(np.abs(rel) > 0.5)),
+    )
+    print(
+        backend,
+        "float - double: mean %+.3f %%, per seed %+.2f .. %+.2f %%, %d seeds beyond 0.5 %%"
+        % tuple(out[f"{backend}-compare"].values()),
+        flush=True,
+    )
 (root / "float_vs_double.json").write_text(json.dumps(out, indent=1))

@@ -11,6 +11,7 @@ two alternated ROUNDS times (old, new, old, new, ...; each REPEATS passes, the f
 per QP iteration of each (median over rounds), the ratio old / new per round (median, min, max), iterations of
 each. Only QP sizes equal in both commits can be compared (checked).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -66,15 +67,26 @@ def sizes(folder: Path, name: str) -> dict[str, int]:
 
 
 def compile_harness(folder: Path, name: str, exe: Path, cc: str, cflags: list[str]) -> None:
-    cmd = [cc, "-std=c99", *cflags, f'-DSOLVER_C="{folder / (name + "_solver.c")}"',
-           f"-DQPH_PREFIX={name.upper()}", f"-I{folder}", str(HARNESS), str(folder / f"{name}_model.c"),
-           "-o", str(exe), "-lm"]
+    cmd = [
+        cc,
+        "-std=c99",
+        *cflags,
+        f'-DSOLVER_C="{folder / (name + "_solver.c")}"',
+        f"-DQPH_PREFIX={name.upper()}",
+        f"-I{folder}",
+        str(HARNESS),
+        str(folder / f"{name}_model.c"),
+        "-o",
+        str(exe),
+        "-lm",
+    ]
     subprocess.run(cmd, check=True)
 
 
 def run(exe: Path, qps_file: Path, repeats: int, max_iter: int) -> tuple[float, int]:
-    out = subprocess.run([str(exe), str(qps_file), str(repeats), str(max_iter)], check=True, capture_output=True,
-                         text=True).stdout.split("\n")
+    out = subprocess.run(
+        [str(exe), str(qps_file), str(repeats), str(max_iter)], check=True, capture_output=True, text=True
+    ).stdout.split("\n")
     rows = [line.split() for line in out if line.strip()]
     return min(float(r[0]) for r in rows), int(rows[0][1])
 
@@ -97,10 +109,14 @@ def main() -> None:
         shutil.copytree(ROOT / args.folder, new, ignore=shutil.ignore_patterns("build", "golden"))
         old = tmp / "old"
         old.mkdir()
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.old, args.folder], check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old), "--strip-components", str(len(Path(args.folder).parts))],
-                       input=archive, check=True)
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", args.old, args.folder], check=True, capture_output=True
+        ).stdout
+        subprocess.run(
+            ["tar", "-x", "-C", str(old), "--strip-components", str(len(Path(args.folder).parts))],
+            input=archive,
+            check=True,
+        )
         name, qps = record(new, args.seeds)
         if sizes(old, name) != sizes(new, name):
             raise SystemExit(f"the QP sizes differ: {sizes(old, name)} (old) vs {sizes(new, name)}")
@@ -118,15 +134,26 @@ def main() -> None:
                 per_iter[tag].append(1e6 * t / it)
                 iters[tag] = it
     ratios = [o / n for o, n in zip(per_iter["old"], per_iter["new"])]
-    result = {"folder": args.folder, "old": args.old, "qps": len(qps), "seeds": args.seeds, "cflags": args.cflags,
-              "rounds": args.rounds, "iterations": iters,
-              "us_per_iteration": {k: statistics.median(v) for k, v in per_iter.items()},
-              "ratio_old_over_new": {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios)}}
-    print(f"{len(qps)} warm-started QPs of {args.folder} (seeds 0..{args.seeds - 1}), {args.cflags}, "
-          f"{args.rounds} rounds alternated")
+    result = {
+        "folder": args.folder,
+        "old": args.old,
+        "qps": len(qps),
+        "seeds": args.seeds,
+        "cflags": args.cflags,
+        "rounds": args.rounds,
+        "iterations": iters,
+        "us_per_iteration": {k: statistics.median(v) for k, v in per_iter.items()},
+        "ratio_old_over_new": {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios)},
+    }
+    print(
+        f"{len(qps)} warm-started QPs of {args.folder} (seeds 0..{args.seeds - 1}), {args.cflags}, "
+        f"{args.rounds} rounds alternated"
+    )
     for tag in ("old", "new"):
-        print(f"  {tag:3s} ({args.old if tag == 'old' else 'this checkout'}): "
-              f"{result['us_per_iteration'][tag]:.2f} us per QP iteration, {iters[tag]} iterations")
+        print(
+            f"  {tag:3s} ({args.old if tag == 'old' else 'this checkout'}): "
+            f"{result['us_per_iteration'][tag]:.2f} us per QP iteration, {iters[tag]} iterations"
+        )
     r = result["ratio_old_over_new"]
     print(f"  old / new per round: median {r['median']:.3f} (min {r['min']:.3f}, max {r['max']:.3f})")
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ run under valgrind's callgrind. Per RTI = the inclusive instructions of `<name>_
 the run's samples. Instruction counts do not depend on the machine's load, unlike the campaign's times. Printed: the
 table (pooled over the seeds: the mean of each seed's figure) with the ratio safe / paper; written: JSON.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,10 +27,17 @@ from fcgen.sim.harness import firmware_sim
 def instructions(exe: Path, data: Path, name: str, work: Path) -> int:
     """Inclusive instructions of prepare + feedback of one harness run under callgrind."""
     out = work / "callgrind.out"
-    subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", str(exe), str(data),
-                    str(work / "run.json")], check=True, capture_output=True)
-    ann = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)], check=True,
-                         capture_output=True, text=True).stdout
+    subprocess.run(
+        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", str(exe), str(data), str(work / "run.json")],
+        check=True,
+        capture_output=True,
+    )
+    ann = subprocess.run(
+        ["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
     total = 0
     for phase in ("prepare", "feedback"):
         m = re.search(rf"^\s*([\d,]+) \([^)]*\)\s+\S*:{re.escape(name)}_{phase} \[", ann, re.M)
@@ -65,13 +73,25 @@ def main() -> None:
                     figs.append(instructions(exe, data, pb.name, work) / len(log.qp_iter))
                 per[cfg.profile] = figs
             ratio = sum(per["safe"]) / sum(per["paper"])
-            rows.append({"config": paper.key.removesuffix("/c/ipm"), "seeds": seeds, "paper": per["paper"],
-                         "safe": per["safe"], "ratio": ratio})
-            print(f"{rows[-1]['config']:32s} paper {sum(per['paper']) / len(seeds) / 1e6:8.3f} M  "
-                  f"safe {sum(per['safe']) / len(seeds) / 1e6:8.3f} M  safe/paper {ratio:.3f}", flush=True)
+            rows.append(
+                {
+                    "config": paper.key.removesuffix("/c/ipm"),
+                    "seeds": seeds,
+                    "paper": per["paper"],
+                    "safe": per["safe"],
+                    "ratio": ratio,
+                }
+            )
+            print(
+                f"{rows[-1]['config']:32s} paper {sum(per['paper']) / len(seeds) / 1e6:8.3f} M  "
+                f"safe {sum(per['safe']) / len(seeds) / 1e6:8.3f} M  safe/paper {ratio:.3f}",
+                flush=True,
+            )
     if rows:
         gm = math.exp(sum(math.log(r["ratio"]) for r in rows) / len(rows))
-        print(f"geometric mean {gm:.3f}, max {max(r['ratio'] for r in rows):.3f}, min {min(r['ratio'] for r in rows):.3f}")
+        print(
+            f"geometric mean {gm:.3f}, max {max(r['ratio'] for r in rows):.3f}, min {min(r['ratio'] for r in rows):.3f}"
+        )
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps({"rows": rows, "geometric_mean": gm}, indent=1) + "\n")

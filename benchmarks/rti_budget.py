@@ -10,6 +10,7 @@ budget: mean progress and its difference to the baseline (mean, and the largest 
 runs with a collision the baseline does not have, QP statuses, QP iterations (max; at sample 0, the cold start: max
 over seeds). ``--json FILE`` also writes the numbers.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -19,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fcgen.csolver import CSolver
 from fcgen.campaign.solvers import ensure_solver
+from fcgen.csolver import CSolver
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.sim.closedloop import run_closed_loop
@@ -52,12 +53,15 @@ def figures(logs: list, base: list | None) -> dict:
     coll = np.array([int(np.count_nonzero(lg.collision)) for lg in logs])
     qs = np.concatenate([lg.qp_status for lg in logs])
     names, counts = np.unique([qp_status_name(s) for s in qs.tolist()], return_counts=True)
-    out = {"progress_mean": float(prog.mean()), "collision_samples": int(coll.sum()),
-           "runs_with_collision": int(np.count_nonzero(coll)),
-           "qp_status_counts": {str(k): int(v) for k, v in zip(names, counts)},
-           "qp_iter_max": int(max(int(np.max(lg.qp_iter)) for lg in logs)),
-           "qp_iter_mean": float(np.mean(np.concatenate([lg.qp_iter for lg in logs]))),
-           "qp_iter_sample0_max": int(max(int(lg.qp_iter[0]) for lg in logs))}
+    out = {
+        "progress_mean": float(prog.mean()),
+        "collision_samples": int(coll.sum()),
+        "runs_with_collision": int(np.count_nonzero(coll)),
+        "qp_status_counts": {str(k): int(v) for k, v in zip(names, counts)},
+        "qp_iter_max": int(max(int(np.max(lg.qp_iter)) for lg in logs)),
+        "qp_iter_mean": float(np.mean(np.concatenate([lg.qp_iter for lg in logs]))),
+        "qp_iter_sample0_max": int(max(int(lg.qp_iter[0]) for lg in logs)),
+    }
     if base is not None:
         p0 = np.array([lg.ego_frenet[-1, 0] - lg.ego_frenet[0, 0] for lg in base])
         c0 = np.array([int(np.count_nonzero(lg.collision)) for lg in base])
@@ -70,17 +74,23 @@ def figures(logs: list, base: list | None) -> dict:
 
 def table(name: str, res: dict[int, dict]) -> str:
     """A Markdown table of one preset's budgets."""
-    lines = [f"**{name}**", "", "| budget | progress m | vs baseline | worst seed | collision samples (runs) | "
-             "new collision runs | QP statuses | QP iter mean / max | sample 0 iter (max) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"**{name}**",
+        "",
+        "| budget | progress m | vs baseline | worst seed | collision samples (runs) | "
+        "new collision runs | QP statuses | QP iter mean / max | sample 0 iter (max) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for b, r in res.items():
         st = ", ".join(f"{k.removeprefix('QP_').lower()} {v}" for k, v in r["qp_status_counts"].items())
         diff = "baseline" if "progress_diff_pct" not in r else f"{r['progress_diff_pct']:+.3f} %"
         worst = "-" if "progress_diff_pct" not in r else f"{r['progress_diff_pct_worst_seed']:.3f} %"
         new = "-" if "new_collision_runs" not in r else str(r["new_collision_runs"])
-        lines.append(f"| {b} | {r['progress_mean']:.2f} | {diff} | {worst} | {r['collision_samples']} "
-                     f"({r['runs_with_collision']}) | {new} | {st} | {r['qp_iter_mean']:.2f} / {r['qp_iter_max']} | "
-                     f"{r['qp_iter_sample0_max']} |")
+        lines.append(
+            f"| {b} | {r['progress_mean']:.2f} | {diff} | {worst} | {r['collision_samples']} "
+            f"({r['runs_with_collision']}) | {new} | {st} | {r['qp_iter_mean']:.2f} / {r['qp_iter_max']} | "
+            f"{r['qp_iter_sample0_max']} |"
+        )
     return "\n".join(lines)
 
 

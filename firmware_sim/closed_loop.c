@@ -89,7 +89,9 @@ static void fs_mark(int event) {
 }
 
 void S_(_probe)(int event);
-void S_(_probe)(int event) { fs_mark(event); }
+void S_(_probe)(int event) {
+  fs_mark(event);
+}
 
 static void fs_probe_open(const char *log) {
   char path[600];

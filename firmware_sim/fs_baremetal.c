@@ -101,14 +101,27 @@ static void Fault_Handler(void) {
 }
 
 /* newlib's exit() calls _fini (no C++ constructors/destructors here) */
-void _init(void) {}
-void _fini(void) {}
+void _init(void) {
+}
+void _fini(void) {
+}
 
-__attribute__((section(".vectors"), used)) static const uintptr_t g_vectors[16] = {
-    (uintptr_t)&__stack_top__, (uintptr_t)Reset_Handler, (uintptr_t)Fault_Handler, (uintptr_t)Fault_Handler,
-    (uintptr_t)Fault_Handler,  (uintptr_t)Fault_Handler, (uintptr_t)Fault_Handler, 0u,
-    0u,                        0u,                       0u,                       (uintptr_t)Fault_Handler,
-    (uintptr_t)Fault_Handler,  0u,                       (uintptr_t)Fault_Handler, (uintptr_t)Fault_Handler};
+__attribute__((section(".vectors"), used)) static const uintptr_t g_vectors[16] = {(uintptr_t)&__stack_top__,
+                                                                                   (uintptr_t)Reset_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   0u,
+                                                                                   0u,
+                                                                                   0u,
+                                                                                   0u,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   0u,
+                                                                                   (uintptr_t)Fault_Handler,
+                                                                                   (uintptr_t)Fault_Handler};
 
 /* ------------------------------------------------------------------------------------------------ probe ticks */
 /* fs_platform.h: the SysTick count itself (FS_SYSTICK_HZ a second, modulo 2^32), the one fs_clock accumulates. */

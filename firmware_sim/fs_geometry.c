@@ -85,4 +85,6 @@ int fs_collides(const double ego[3], const double *opp) {
   return hit;
 }
 
-double fs_a_lat(const double x[5]) { return x[3] * x[3] * tan(x[4]) / fs_sc.ego_l; }
+double fs_a_lat(const double x[5]) {
+  return x[3] * x[3] * tan(x[4]) / fs_sc.ego_l;
+}

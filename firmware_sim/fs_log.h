@@ -8,19 +8,19 @@
 
 /* what the closed loop recorded: K = samples controls, K + 1 states (row-major arrays) */
 typedef struct {
-  int samples;                  /* K */
-  int exit_nonzero;             /* samples whose solver call returned an error (meta.extra.exit_codes_nonzero) */
-  const double *t;              /* K + 1 */
-  const double *ego_frenet;     /* (K + 1) x 5 */
-  const double *ego_cartesian;  /* (K + 1) x 3 */
-  const int *collision;         /* K + 1 */
-  const double *a_lat;          /* K + 1 */
-  const double *control;        /* K x 2 */
-  const double *max_slack;      /* K */
-  const double *time_prepare;   /* K, seconds */
-  const double *time_feedback;  /* K, seconds */
-  const int *qp_iter;           /* K */
-  const int *qp_status;         /* K */
+  int samples; /* K */
+  int exit_nonzero; /* samples whose solver call returned an error (meta.extra.exit_codes_nonzero) */
+  const double *t; /* K + 1 */
+  const double *ego_frenet; /* (K + 1) x 5 */
+  const double *ego_cartesian; /* (K + 1) x 3 */
+  const int *collision; /* K + 1 */
+  const double *a_lat; /* K + 1 */
+  const double *control; /* K x 2 */
+  const double *max_slack; /* K */
+  const double *time_prepare; /* K, seconds */
+  const double *time_feedback; /* K, seconds */
+  const int *qp_iter; /* K */
+  const int *qp_status; /* K */
 } fs_run_t;
 
 /* Write the run log to path: 0, or 1 if it cannot be written. */

@@ -190,6 +190,10 @@ void fs_read_sample(int j) {
   if (j < fs_sc.samples) read_reals("opp_params", fs_opp_params, OPP_BLOCK);
 }
 
-void fs_read_end(void) { expect_key("end"); }
+void fs_read_end(void) {
+  expect_key("end");
+}
 
-void fs_scenario_close(void) { fclose(g_in); }
+void fs_scenario_close(void) {
+  fclose(g_in);
+}

@@ -14,7 +14,7 @@
 
 #include "fs_platform.h" /* FS_CAT, FS_STR, the clock, FS_HARNESS_MEM */
 
-#define S_(x) FS_CAT(SOLVER, x)       /* S_(_init) -> <name>_init */
+#define S_(x) FS_CAT(SOLVER, x) /* S_(_init) -> <name>_init */
 #define U_(x) FS_CAT(SOLVER_UPPER, x) /* U_(_N) -> <NAME>_N */
 
 #include FS_STR(S_(_solver).h)

@@ -1,5 +1,6 @@
 """Small CommonRoad scenarios the tests write themselves with commonroad-io: multi-lane roads (straight or a constant
 radius bend), a lane that ends, obstacles with given trajectories."""
+
 from __future__ import annotations
 
 import math
@@ -29,10 +30,23 @@ def reference(length: float = 400.0, radius: float | None = None, step: float = 
     return pts, nrm
 
 
-def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: float = 400.0,
-                   radius: float | None = None, ego_x: float = 50.0, ego_v: float = 20.0, obstacles=(),
-                   goal_steps: tuple[int, int] = (30, 40), end_lane: tuple[int, float] | None = None,
-                   shape: str = "rectangle", speed_limit: float | None = None, dt: float = 0.1, statics=()) -> Path:
+def write_scenario(
+    path: Path,
+    *,
+    lanes: int = 3,
+    ego_lane: int = 1,
+    length: float = 400.0,
+    radius: float | None = None,
+    ego_x: float = 50.0,
+    ego_v: float = 20.0,
+    obstacles=(),
+    goal_steps: tuple[int, int] = (30, 40),
+    end_lane: tuple[int, float] | None = None,
+    shape: str = "rectangle",
+    speed_limit: float | None = None,
+    dt: float = 0.1,
+    statics=(),
+) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
     constant speed for ``steps`` recorded steps (speed 0: standing); ``end_lane``: (lane, s) that lane ends at s;
@@ -47,8 +61,8 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
     from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
     from commonroad.scenario.scenario import Scenario, ScenarioID
     from commonroad.scenario.state import CustomState, InitialState, KSState
-    from commonroad.scenario.trajectory import Trajectory
     from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDGermany
+    from commonroad.scenario.trajectory import Trajectory
 
     pts, nrm = reference(length, radius)
     lls = []
@@ -57,17 +71,28 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
         if end_lane is not None and end_lane[0] == i:
             keep = int(end_lane[1] / 2.0) + 1
             left, centre, right = left[:keep], centre[:keep], right[:keep]
-        lls.append(Lanelet(left, centre, right, 100 + i,
-                           adjacent_left=100 + i + 1 if i + 1 < lanes else None,
-                           adjacent_left_same_direction=True if i + 1 < lanes else None,
-                           adjacent_right=100 + i - 1 if i > 0 else None,
-                           adjacent_right_same_direction=True if i > 0 else None))
+        lls.append(
+            Lanelet(
+                left,
+                centre,
+                right,
+                100 + i,
+                adjacent_left=100 + i + 1 if i + 1 < lanes else None,
+                adjacent_left_same_direction=True if i + 1 < lanes else None,
+                adjacent_right=100 + i - 1 if i > 0 else None,
+                adjacent_right_same_direction=True if i > 0 else None,
+            )
+        )
     net = LaneletNetwork.create_from_lanelet_list(lls)
     sc = Scenario(dt, scenario_id=ScenarioID(country_id="ZAM", map_name="Fcgen", map_id=1))
     sc.add_objects(net)
     if speed_limit is not None:
-        sign = TrafficSign(900, [TrafficSignElement(TrafficSignIDGermany.MAX_SPEED, [str(speed_limit)])],
-                           {100 + ego_lane}, pts[0] + 0.0)
+        sign = TrafficSign(
+            900,
+            [TrafficSignElement(TrafficSignIDGermany.MAX_SPEED, [str(speed_limit)])],
+            {100 + ego_lane},
+            pts[0] + 0.0,
+        )
         sc.add_objects(sign, {100 + ego_lane})
 
     def pose(lane: int, s: float):
@@ -83,22 +108,50 @@ def write_scenario(path: Path, *, lanes: int = 3, ego_lane: int = 1, length: flo
         for k in range(steps):
             xy, th = pose(lane, s0 + v * k * dt)
             st.append((xy, th))
-        init = InitialState(position=st[0][0], orientation=st[0][1], velocity=v, time_step=first,
-                            yaw_rate=0.0, slip_angle=0.0, acceleration=0.0)
-        traj = [KSState(position=xy, orientation=th, velocity=v, steering_angle=0.0, time_step=first + k)
-                for k, (xy, th) in enumerate(st) if k > 0]
+        init = InitialState(
+            position=st[0][0],
+            orientation=st[0][1],
+            velocity=v,
+            time_step=first,
+            yaw_rate=0.0,
+            slip_angle=0.0,
+            acceleration=0.0,
+        )
+        traj = [
+            KSState(position=xy, orientation=th, velocity=v, steering_angle=0.0, time_step=first + k)
+            for k, (xy, th) in enumerate(st)
+            if k > 0
+        ]
         shp = Rectangle(ln, wd) if shape == "rectangle" or oid != obstacles[0][0] else Circle(ln / 2)
         pred = TrajectoryPrediction(Trajectory(first + 1, traj), shp) if traj else None
         sc.add_objects(DynamicObstacle(oid, ObstacleType.CAR if ln < 6 else ObstacleType.TRUCK, shp, init, pred))
     for oid, lane, s0, ln, wd in statics:
         xy, th = pose(lane, s0)
-        sc.add_objects(StaticObstacle(oid, ObstacleType.PARKED_VEHICLE, Rectangle(ln, wd),
-                                      InitialState(position=xy, orientation=th, velocity=0.0, time_step=0,
-                                                   yaw_rate=0.0, slip_angle=0.0, acceleration=0.0)))
+        sc.add_objects(
+            StaticObstacle(
+                oid,
+                ObstacleType.PARKED_VEHICLE,
+                Rectangle(ln, wd),
+                InitialState(
+                    position=xy,
+                    orientation=th,
+                    velocity=0.0,
+                    time_step=0,
+                    yaw_rate=0.0,
+                    slip_angle=0.0,
+                    acceleration=0.0,
+                ),
+            )
+        )
     exy, eth = pose(ego_lane, ego_x)
-    pp = PlanningProblem(1, InitialState(position=exy, orientation=eth, velocity=ego_v, time_step=0, yaw_rate=0.0,
-                                          slip_angle=0.0, acceleration=0.0),
-                         GoalRegion([CustomState(time_step=Interval(*goal_steps))]))
-    CommonRoadFileWriter(sc, PlanningProblemSet([pp]), "fcgen tests", "fcgen", "written by the tests", set()) \
-        .write_to_file(str(path), OverwriteExistingFile.ALWAYS)
+    pp = PlanningProblem(
+        1,
+        InitialState(
+            position=exy, orientation=eth, velocity=ego_v, time_step=0, yaw_rate=0.0, slip_angle=0.0, acceleration=0.0
+        ),
+        GoalRegion([CustomState(time_step=Interval(*goal_steps))]),
+    )
+    CommonRoadFileWriter(
+        sc, PlanningProblemSet([pp]), "fcgen tests", "fcgen", "written by the tests", set()
+    ).write_to_file(str(path), OverwriteExistingFile.ALWAYS)
     return path

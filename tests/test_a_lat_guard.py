@@ -7,6 +7,7 @@ row a cost: 40-56 % of its samples above the bound) and where the guard acted th
 ``a_lat_max - a_lat_margin`` (the closed form of the rate that ends there); the generated C equal to the Python
 reference sample by sample.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -14,22 +15,24 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_plan_check import _c, _inputs, _python
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.scenario import make_scenario
-from test_plan_check import _c, _inputs, _python
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
-PAPER = preset("car_direct_elimination_ellipse")   # the paper's weights: the a_lat row is a cost
-GUARDED = PAPER.with_(name="car_guarded", plan_check=replace(PAPER.plan_check, a_lat_guard=True),
-                      bounds=replace(PAPER.bounds, a_lat_margin=0.05))   # the guard needs a margin
+PAPER = preset("car_direct_elimination_ellipse")  # the paper's weights: the a_lat row is a cost
+GUARDED = PAPER.with_(
+    name="car_guarded",
+    plan_check=replace(PAPER.plan_check, a_lat_guard=True),
+    bounds=replace(PAPER.bounds, a_lat_margin=0.05),
+)  # the guard needs a margin
 SEED = 3
 
 
@@ -48,7 +51,7 @@ def test_a_state_the_steering_rate_cannot_bring_back_makes_the_solver_brake(c_gu
     takes delta to 0.261 (31 m/s^2 at about 20 m/s), far from the 0.042 rad that 4.95 m/s^2 allows: the guard steers at
     -r_max and brakes with F_d = -min(F_d_max, m v0 / dt) = -1e4 N (status 2), in C and in Python alike."""
     pb = GUARDED
-    road, _, opp = _inputs(pb, (500.0, 500.0))   # every opponent far away
+    road, _, opp = _inputs(pb, (500.0, 500.0))  # every opponent far away
     x0 = np.array([0.0, 0.0, 0.0, 20.0, 0.3])
     results = (_python(pb, road, x0, opp), _c(c_guarded, road, x0, opp))
     expected = [-pb.bounds.F_d_max, -pb.bounds.r_max]
@@ -72,7 +75,7 @@ def test_plans_above_the_bound_are_applied_within_it_in_c_as_in_python(c_guarded
     assert np.max(np.abs(free.a_lat)) > 5.5
     flags: dict[str, list[int]] = {}
 
-    class Recorder:   # a controller that records each sample's guard flag
+    class Recorder:  # a controller that records each sample's guard flag
         def __init__(self, inner):
             self.inner, self.kind = inner, inner.kind
 
@@ -95,7 +98,8 @@ def test_plans_above_the_bound_are_applied_within_it_in_c_as_in_python(c_guarded
     rate = c.control[:, 1]
     hit = np.flatnonzero((guard[:-1] == 1) & (np.abs(rate[:-1]) < b.r_max))
     assert hit.size
-    np.testing.assert_allclose(np.abs(_a_lat(c.ego_frenet[hit + 1], GUARDED)), b.a_lat_max - b.a_lat_margin,
-                               rtol=0, atol=1e-4)
+    np.testing.assert_allclose(
+        np.abs(_a_lat(c.ego_frenet[hit + 1], GUARDED)), b.a_lat_max - b.a_lat_margin, rtol=0, atol=1e-4
+    )
     np.testing.assert_allclose(c.control, py.control, rtol=0, atol=1e-7)
     np.testing.assert_allclose(c.ego_frenet, py.ego_frenet, rtol=0, atol=1e-7)

@@ -1,4 +1,5 @@
 """``fcgen build`` checks that a folder's files belong together before compiling; the Makefile names missing files."""
+
 from __future__ import annotations
 
 import shutil

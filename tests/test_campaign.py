@@ -1,5 +1,6 @@
 """fcgen campaign: the paper's grid, cached compiled solvers, the one task function on a process pool and on a local
 Dask cluster (2 worker processes), Parquet rows written as runs finish, resume after partial results or a kill."""
+
 from __future__ import annotations
 
 import os
@@ -59,23 +60,24 @@ def test_solver_cache_is_keyed_by_the_problem_and_built_once(cache):
     lib = ensure_solver(a, cache)
     assert lib.is_file() and solver_hash(a) in lib.parent.parent.name
     mtime = lib.stat().st_mtime_ns
-    assert ensure_solver(a, cache) == lib and lib.stat().st_mtime_ns == mtime   # not rebuilt
+    assert ensure_solver(a, cache) == lib and lib.stat().st_mtime_ns == mtime  # not rebuilt
 
 
 def test_solver_cache_rebuilds_a_folder_built_since_with_other_flags(cache):
     """A cache folder rebuilt by hand with other flags (as `fcgen simulate --solver-dir` does with $CFLAGS) is
     built again with the cache's flags before it is used: the rows' cflags say how their solver was compiled."""
     from fcgen.build import build
+
     pb = CONFIGS[1].problem()
     lib = ensure_solver(pb, cache, cflags="-O1")
     flags = lib.parent / "flags.txt"
     assert " -O1 " in flags.read_text()
-    build(lib.parent.parent, cflags="-O0")                     # someone else's build of the cache folder
+    build(lib.parent.parent, cflags="-O0")  # someone else's build of the cache folder
     assert " -O0 " in flags.read_text()
     assert ensure_solver(pb, cache, cflags="-O1") == lib
     assert " -O1 " in flags.read_text() and " -O0 " not in flags.read_text()
     mtime = lib.stat().st_mtime_ns
-    assert ensure_solver(pb, cache, cflags="-O1") == lib and lib.stat().st_mtime_ns == mtime   # then kept
+    assert ensure_solver(pb, cache, cflags="-O1") == lib and lib.stat().st_mtime_ns == mtime  # then kept
 
 
 def test_campaign_cflags_build_their_own_cached_solver_and_are_recorded(cache):
@@ -117,7 +119,7 @@ def test_dask_cluster_and_process_pool_give_the_same_rows(cache, tmp_path):
         res = run_campaign(tasks, tmp_path / "dask", scheduler=cluster.scheduler_address, flush_every=1)
     assert (res.computed, res.skipped, res.failed, res.workers) == (4, 0, [], 2)
     dask_rows = ResultStore(tmp_path / "dask").read()
-    assert len(ResultStore(tmp_path / "dask").parts()) == 4             # written run by run
+    assert len(ResultStore(tmp_path / "dask").parts()) == 4  # written run by run
     pool = run_campaign(tasks, tmp_path / "pool", jobs=2)
     assert pool.computed == 4 and not pool.failed
     pool_rows = ResultStore(tmp_path / "pool").read()
@@ -139,14 +141,14 @@ def test_resume_computes_only_the_missing_runs(cache, tmp_path):
     store = ResultStore(out)
     lost = store.parts()[1]
     lost_run = pd.read_parquet(lost)[["config", "seed"]].iloc[0]
-    lost.unlink()                                                   # partial results: one run missing
-    (out / ".part-x.tmp").write_bytes(b"half a file")              # a write cut short is ignored
-    tasks = make_tasks(CONFIGS, range(3), SAMPLES, cache)          # and one more seed
+    lost.unlink()  # partial results: one run missing
+    (out / ".part-x.tmp").write_bytes(b"half a file")  # a write cut short is ignored
+    tasks = make_tasks(CONFIGS, range(3), SAMPLES, cache)  # and one more seed
     again = run_campaign(tasks, out, jobs=1, flush_every=1)
     assert (again.computed, again.skipped) == (3, 3)
     done = store.done()
     assert {t.run_id for t in tasks} == done and (lost_run["config"], SAMPLES, int(lost_run["seed"]), "cpu") in done
-    assert run_campaign(tasks, out, jobs=1).computed == 0         # finished: nothing recomputed
+    assert run_campaign(tasks, out, jobs=1).computed == 0  # finished: nothing recomputed
     assert store.compact() is not None and len(store.parts()) == 1 and len(store.read()) == 6
 
 
@@ -167,7 +169,7 @@ def test_a_killed_campaign_resumes_where_it_stopped(cache, tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
     before = len(ResultStore(out).done())
-    assert 2 <= before < 20, before                               # killed part-way through
+    assert 2 <= before < 20, before  # killed part-way through
     res = run_campaign(make_tasks(CONFIGS, range(10), 60, cache), out, jobs=2)
     assert (res.computed, res.skipped) == (20 - before, before)
     assert len(ResultStore(out).read()) == 20
@@ -179,13 +181,30 @@ def test_cli_campaign_then_report(cache, tmp_path):
     from fcgen.cli import main
 
     out, rep = tmp_path / "res", tmp_path / "rep"
-    args = ["campaign", "--scenarios", "truck", "--formulations", "lifted", "--obstacles", "ellipse", "--seeds", "2",
-            "--samples", "4", "--jobs", "1", "--cache", cache, "--out", str(out)]
+    args = [
+        "campaign",
+        "--scenarios",
+        "truck",
+        "--formulations",
+        "lifted",
+        "--obstacles",
+        "ellipse",
+        "--seeds",
+        "2",
+        "--samples",
+        "4",
+        "--jobs",
+        "1",
+        "--cache",
+        cache,
+        "--out",
+        str(out),
+    ]
     res = CliRunner().invoke(main, args + ["--report", str(rep)])
     assert res.exit_code == 0, res.output
     assert "1 configurations x 2 seeds x 4 samples = 2 runs" in res.output
     assert "2 runs computed, 0 already done" in res.output
-    assert len(ResultStore(out).parts()) == 1                      # finished: compacted into one file
+    assert len(ResultStore(out).parts()) == 1  # finished: compacted into one file
     assert "## Table III" in (rep / "README.md").read_text() and (rep / "boxplots_truck.svg").is_file()
     res = CliRunner().invoke(main, args)
     assert res.exit_code == 0 and "0 runs computed, 2 already done" in res.output
@@ -199,6 +218,7 @@ def test_local_pool_workers_run_single_threaded_blas(monkeypatch):
     """The pool's workers get one BLAS/OpenMP thread each (idle BLAS threads spin on the other workers' cores); a
     value the user set is kept."""
     from fcgen.campaign.runner import executor
+
     for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         monkeypatch.delenv(v, raising=False)
     monkeypatch.setenv("MKL_NUM_THREADS", "3")
@@ -212,7 +232,9 @@ def test_solvers_are_built_before_the_runs_one_per_configuration(cache):
     """run_campaign builds each configuration's solver once, up front (every worker building at the same time),
     whatever the number of its runs."""
     import concurrent.futures as cf
+
     from fcgen.campaign.runner import _build_solvers
+
     tasks = make_tasks(CONFIGS, range(3), SAMPLES, cache)
     calls = []
     with cf.ThreadPoolExecutor(2) as ex:

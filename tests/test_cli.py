@@ -1,4 +1,5 @@
 """Tests of the ``fcgen`` command line (fcgen.cli) with click's CliRunner."""
+
 from __future__ import annotations
 
 import textwrap
@@ -39,11 +40,14 @@ def test_simulate_writes_log_and_plot(runner, tmp_path):
 
 
 def test_simulate_with_a_problem_file(runner, tmp_path):
-    path = write_problem(tmp_path / "mine.py", """
+    path = write_problem(
+        tmp_path / "mine.py",
+        """
         from fcgen.presets import paper_problem
         from fcgen.dsl import Horizon
         problem = paper_problem("truck", "direct_elimination", "ellipse", name="mine", horizon=Horizon(N=20))
-    """)
+    """,
+    )
     res = runner.invoke(main, ["simulate", "--problem", path, "--samples", "3"])
     assert res.exit_code == 0, res.output
     assert res.output.startswith("mine | truck seed 0 | progress ")
@@ -88,10 +92,13 @@ def test_unknown_preset(runner):
 
 
 def test_problem_file_with_an_invalid_value(runner, tmp_path):
-    path = write_problem(tmp_path / "bad.py", """
+    path = write_problem(
+        tmp_path / "bad.py",
+        """
         from fcgen.dsl import Problem, Bounds
         problem = Problem(name="bad", bounds=Bounds(n_min=3.0, n_max=-3.0))
-    """)
+    """,
+    )
     res = runner.invoke(main, ["simulate", "--problem", path, "--samples", "2"])
     assert_clean_error(res, "bounds.n_min", "allowed", "< n_max", code=1)
 
@@ -104,10 +111,13 @@ def test_problem_file_that_raises(runner, tmp_path):
 
 def test_problem_file_whose_make_problem_raises(runner, tmp_path):
     # a user's make_problem() that fails is a user error too: one line, no traceback
-    path = write_problem(tmp_path / "factory.py", """
+    path = write_problem(
+        tmp_path / "factory.py",
+        """
         def make_problem():
             raise KeyError("no such setting")
-    """)
+    """,
+    )
     res = runner.invoke(main, ["simulate", "--problem", path, "--samples", "2"])
     assert_clean_error(res, "factory.py", code=1)
 
@@ -121,6 +131,7 @@ def test_campaign_rejects_unknown_names(runner, tmp_path):
     res = runner.invoke(main, ["campaign", "--scenarios", "bus", "--seeds", "1", "--out", str(out)])
     assert_clean_error(res, "bus", "truck", code=1)
     from fcgen.backends import BACKENDS
+
     if "ipm" not in BACKENDS:  # until the interior-point backend lands: a one-line error naming the field
         res = runner.invoke(main, ["campaign", "--backend", "ipm", "--seeds", "1", "--out", str(out)])
         assert_clean_error(res, "qp.backend = 'ipm' is invalid", "osqp", code=1)

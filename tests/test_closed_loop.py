@@ -1,4 +1,5 @@
 """Closed-loop tests (fcgen.sim, SPEC section 7): a quick 30-sample run, and (slow) the paper's truck campaign."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -34,7 +35,7 @@ def test_quick_run_is_safe_and_sane(quick_run):
     assert s["progress"] == pytest.approx(log.ego_frenet[-1, 0] - sc.x0[0])
     v = log.ego_frenet[:, 3]
     assert np.all(v >= 0.0) and np.all(v <= 40.0)
-    assert np.all(np.abs(log.ego_frenet[:, 1]) <= 10.0 + 1e-6)          # truck scenario road bounds
+    assert np.all(np.abs(log.ego_frenet[:, 1]) <= 10.0 + 1e-6)  # truck scenario road bounds
     # input bounds, up to the QP tolerance: eps_abs = eps_rel = 1e-3 on rows u / u_max (the cold-started first QP
     # gets QpOptions.max_iter_cold iterations; capped at 60 it gave |r| = 0.3933)
     assert np.all(np.abs(log.control[:, 0]) <= 1e4 * (1 + 3e-3))
@@ -56,8 +57,13 @@ def test_quick_run_follows_the_plant_model(quick_run):
         kappa, phi_g = (float(a) for a in road.eval(s)[:2])
         sdot = v * math.cos(alpha) / (1 - n * kappa)
         v_rel = v + wind.v * math.cos(phi_g + alpha - wind.phi)
-        return [sdot, v * math.sin(alpha), v * math.tan(delta) / veh.l - kappa * sdot,
-                (u[0] - veh.c_air * v_rel * abs(v_rel) - veh.c_roll) / veh.m, u[1]]
+        return [
+            sdot,
+            v * math.sin(alpha),
+            v * math.tan(delta) / veh.l - kappa * sdot,
+            (u[0] - veh.c_air * v_rel * abs(v_rel) - veh.c_roll) / veh.m,
+            u[1],
+        ]
 
     for j in range(30):
         x_next = solve_ivp(rhs, (0, 0.1), log.ego_frenet[j], args=(log.control[j],), rtol=1e-11, atol=1e-11).y[:, -1]
@@ -94,9 +100,10 @@ def test_opponent_tables_are_kept_per_scenario_on_a_read_only_road(quick_run):
     for j in (0, 5, 29):
         assert op.horizon(j).tobytes() == fresh.horizon(j).tobytes()
     assert opponent_params(pb, make_scenario("truck", 1, samples=30)) is not op
-    own = dataclasses.replace(sc, road=Road(sc.road.s0, sc.road.ds, *(np.array(a) for a in
-                                                                      (sc.road.kappa, sc.road.phi, sc.road.gx,
-                                                                       sc.road.gy))))
+    own = dataclasses.replace(
+        sc,
+        road=Road(sc.road.s0, sc.road.ds, *(np.array(a) for a in (sc.road.kappa, sc.road.phi, sc.road.gx, sc.road.gy))),
+    )
     assert opponent_params(pb, own) is not opponent_params(pb, own)
 
 

@@ -3,6 +3,7 @@
 The reserved sets are derived again here from the real artefacts (``nm`` of a built OSQP library and its headers,
 the C99 headers through ``cc``, CasADi's generated code) and must be covered by fcgen.cnames.
 """
+
 from __future__ import annotations
 
 import re
@@ -13,8 +14,15 @@ from pathlib import Path
 import pytest
 
 from fcgen.build import BuildError, build, run_make
-from fcgen.cnames import (C99_KEYWORDS, C_LIBRARY, C_LIBRARY_NAMESPACES, C_RESERVED_START, CASADI_NAMESPACES,
-                          OSQP_NAMESPACES, name_clash)
+from fcgen.cnames import (
+    C99_KEYWORDS,
+    C_LIBRARY,
+    C_LIBRARY_NAMESPACES,
+    C_RESERVED_START,
+    CASADI_NAMESPACES,
+    OSQP_NAMESPACES,
+    name_clash,
+)
 from fcgen.codegen.generate import generate
 from fcgen.dsl import Horizon, Opponents, Problem, ProblemError
 from fcgen.presets import preset, preset_names
@@ -22,14 +30,36 @@ from fcgen.presets import preset, preset_names
 needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("cc", "make", "nm")), reason="needs cc, make, nm")
 
 REFUSED = [  # (name, words the message must hold)
-    ("osqp", "OSQP's namespace: osqp_solve"), ("qdldl", "OSQP's namespace"), ("csc", "csc_Axpy"),
-    ("osqp_truck", "osqp_"), ("update", "update_info"), ("reset", "reset_info"), ("c", "c_absval"),
-    ("casadi", "CasADi's namespace"), ("casadi_x", "casadi_"), ("sin", "C standard library"),
-    ("exp", "C standard library"), ("sqrtf", "C standard library"), ("main", "C standard library"),
-    ("errno", "C standard library"), ("printf", "C standard library"), ("int", "C keyword"),
-    ("while", "C keyword"), ("restrict", "C keyword"), ("bool", "C keyword"), ("string", "'str'"),
-    ("memo", "'mem'"), ("island", "'is'"), ("tokyo", "'to'"), ("size", "size_t"), ("uint8", "uint8_t"),
-    ("flt", "FLT_MAX"), ("va", "va_list"), ("int_mpc", "int_fast16_t"), ("a_", "'__'"), ("a__b", "'__'"),
+    ("osqp", "OSQP's namespace: osqp_solve"),
+    ("qdldl", "OSQP's namespace"),
+    ("csc", "csc_Axpy"),
+    ("osqp_truck", "osqp_"),
+    ("update", "update_info"),
+    ("reset", "reset_info"),
+    ("c", "c_absval"),
+    ("casadi", "CasADi's namespace"),
+    ("casadi_x", "casadi_"),
+    ("sin", "C standard library"),
+    ("exp", "C standard library"),
+    ("sqrtf", "C standard library"),
+    ("main", "C standard library"),
+    ("errno", "C standard library"),
+    ("printf", "C standard library"),
+    ("int", "C keyword"),
+    ("while", "C keyword"),
+    ("restrict", "C keyword"),
+    ("bool", "C keyword"),
+    ("string", "'str'"),
+    ("memo", "'mem'"),
+    ("island", "'is'"),
+    ("tokyo", "'to'"),
+    ("size", "size_t"),
+    ("uint8", "uint8_t"),
+    ("flt", "FLT_MAX"),
+    ("va", "va_list"),
+    ("int_mpc", "int_fast16_t"),
+    ("a_", "'__'"),
+    ("a__b", "'__'"),
 ]
 
 
@@ -42,8 +72,25 @@ def test_clashing_names_are_refused_with_a_one_line_message(name, words):
     assert words in msg and "allowed" in msg and "\n" not in msg, msg
 
 
-@pytest.mark.parametrize("name", ["p", "a", "m", "to", "st", "truck_nmpc", "my_nmpc", "x1_2", "ego", "e1",
-                                  "car_lift_el", "solver", "mpc_osqp", "nmpc_update"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "p",
+        "a",
+        "m",
+        "to",
+        "st",
+        "truck_nmpc",
+        "my_nmpc",
+        "x1_2",
+        "ego",
+        "e1",
+        "car_lift_el",
+        "solver",
+        "mpc_osqp",
+        "nmpc_update",
+    ],
+)
 def test_names_that_clash_with_nothing_are_accepted(name):
     assert name_clash(name) is None
     assert Problem(name=name).name == name
@@ -107,8 +154,12 @@ def test_osqp_namespaces_cover_what_the_built_library_exports_and_its_headers_de
         ids |= set(re.findall(r"typedef\s+[\w\s*]+?\b(\w+)\s*;", t))
         for body in re.findall(r"enum\s*\w*\s*{([^}]*)}", t):
             ids |= set(re.findall(r"^\s*(\w+)", body, re.M))
-    nm = subprocess.run(["nm", "-g", "--defined-only", str(built / "build" / "libprobe_osqp.a")],
-                        capture_output=True, text=True, check=True).stdout
+    nm = subprocess.run(
+        ["nm", "-g", "--defined-only", str(built / "build" / "libprobe_osqp.a")],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     # OSQP's own names: the library's symbols carry the solver's prefix (probe_), the headers' names do not
     exported = {ln.split()[-1].removeprefix("probe_") for ln in nm.splitlines() if len(ln.split()) == 3}
     assert {"osqp_solve", "csc_Axpy", "QDLDL_factor", "update_info"} <= exported  # the derivation sees real symbols
@@ -128,8 +179,10 @@ def test_casadi_names_are_covered(built):
     assert "casadi" in heads and heads - set(CASADI_NAMESPACES) == set()
 
 
-C99_HEADERS = ("assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal stdarg stdbool "
-               "stddef stdint stdio stdlib string tgmath time wchar wctype").split()
+C99_HEADERS = (
+    "assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal stdarg stdbool "
+    "stddef stdint stdio stdlib string tgmath time wchar wctype"
+).split()
 
 
 @needs_cc
@@ -139,8 +192,9 @@ def test_c_library_sets_cover_the_c99_headers(tmp_path):
     aux = tmp_path / "aux.txt"
     subprocess.run(["cc", "-std=c99", f"-aux-info={aux}", "-fsyntax-only", str(src)], check=True)
     funcs = set(re.findall(r"\b([a-z][a-z0-9_]*) \(", aux.read_text()))
-    macros = subprocess.run(["cc", "-std=c99", "-E", "-dM", str(src)], capture_output=True, text=True,
-                            check=True).stdout
+    macros = subprocess.run(
+        ["cc", "-std=c99", "-E", "-dM", str(src)], capture_output=True, text=True, check=True
+    ).stdout
     macro_names = {ln.split()[1].split("(")[0] for ln in macros.splitlines() if ln.startswith("#define ")}
     text = subprocess.run(["cc", "-std=c99", "-E", str(src)], capture_output=True, text=True, check=True).stdout
     types = set(re.findall(r"\b([a-z][a-z0-9]*_[a-z0-9_]*_t|[a-z][a-z0-9]*_t)\b", text))

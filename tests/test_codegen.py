@@ -1,4 +1,5 @@
 """Generated C solver: static memory, prefixed symbols, determinism, C == Python reference, bad inputs, linking."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -25,12 +26,26 @@ from fcgen.road import straight_road
 from fcgen.sim.closedloop import WINDOW_BEHIND, plant_function, run_closed_loop
 from fcgen.sim.scenario import OpponentParams, make_scenario
 
-pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make", "nm")),
-                                reason="needs gcc, make and nm")
+pytestmark = pytest.mark.skipif(
+    any(shutil.which(t) is None for t in ("gcc", "make", "nm")), reason="needs gcc, make and nm"
+)
 
 PRESET = "truck_lifted_ellipse"
-FORBIDDEN = {"malloc", "calloc", "realloc", "free", "printf", "fprintf", "fopen", "puts", "putchar", "fputs",
-             "fwrite", "sprintf", "snprintf"}
+FORBIDDEN = {
+    "malloc",
+    "calloc",
+    "realloc",
+    "free",
+    "printf",
+    "fprintf",
+    "fopen",
+    "puts",
+    "putchar",
+    "fputs",
+    "fwrite",
+    "sprintf",
+    "snprintf",
+}
 CODE = {c: i for i, c in enumerate(EXIT_CODES)}
 
 
@@ -51,9 +66,11 @@ def cs(gen: GenerateInfo) -> CSolver:
 
 
 def _hashes(root: Path) -> dict[str, str]:
-    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file() and "build" not in p.relative_to(root).parts
-            and p.name != ".fcgen-generated.json"}   # the record of what generate wrote, not generator output
+    return {
+        p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and "build" not in p.relative_to(root).parts and p.name != ".fcgen-generated.json"
+    }  # the record of what generate wrote, not generator output
 
 
 def _nm(args: list[str], obj: Path) -> list[str]:
@@ -63,11 +80,15 @@ def _nm(args: list[str], obj: Path) -> list[str]:
 
 def _our_objects(gen: GenerateInfo, build_dir: Path) -> list[Path]:
     obj = build_dir / "obj"
-    return [obj / f"{gen.name}_solver.o", obj / f"{gen.name}_model.o",
-            *(obj / Path(s).with_suffix(".o") for s in gen.qp_files.sources)]
+    return [
+        obj / f"{gen.name}_solver.o",
+        obj / f"{gen.name}_model.o",
+        *(obj / Path(s).with_suffix(".o") for s in gen.qp_files.sources),
+    ]
 
 
 # --- static properties ------------------------------------------------------------------------------------------
+
 
 def test_no_heap_no_stdio(gen: GenerateInfo, default_build: Path) -> None:
     for obj in _our_objects(gen, default_build):
@@ -79,8 +100,10 @@ def test_global_symbols_prefixed(gen: GenerateInfo, default_build: Path) -> None
     for obj in _our_objects(gen, default_build):
         names = _nm(["-g", "--defined-only"], obj)
         assert names, obj.name
-        assert all(n.startswith(f"{gen.name}_") for n in names), (obj.name, [n for n in names
-                                                                            if not n.startswith(gen.name)])
+        assert all(n.startswith(f"{gen.name}_") for n in names), (
+            obj.name,
+            [n for n in names if not n.startswith(gen.name)],
+        )
 
 
 def test_workspace_bytes_match_objects(gen: GenerateInfo, default_build: Path) -> None:
@@ -95,7 +118,9 @@ def test_workspace_bytes_match_objects(gen: GenerateInfo, default_build: Path) -
     # may pad between objects (x86-64 aligns arrays of 32 bytes or more to 32)
     sections = {}
     ws_obj = next(o for o in objs if o.name == Path(gen.qp_files.sources[0]).with_suffix(".o").name)
-    for line in subprocess.run(["size", "-A", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines():
+    for line in subprocess.run(
+        ["size", "-A", str(ws_obj)], check=True, capture_output=True, text=True
+    ).stdout.splitlines():
         parts = line.split()
         if len(parts) >= 2 and parts[0].startswith("."):
             sections[parts[0]] = int(parts[1])
@@ -103,8 +128,10 @@ def test_workspace_bytes_match_objects(gen: GenerateInfo, default_build: Path) -
     n_objects = len(re.findall(r"^\w+\s+\w+(?:\[\d+\])?;$", (gen.out_dir / gen.qp_files.sources[0]).read_text(), re.M))
     assert 0 <= sections[".bss"] - (gen.qp_array_bytes + gen.qp_struct_bytes) < 32 * n_objects
     assert ws[0] > 0  # the const copies (text + rodata)
-    assert f"#define {gen.name.upper()}_WORKSPACE_BYTES {gen.workspace_bytes} " in \
-        (gen.out_dir / f"{gen.name}_solver.h").read_text()
+    assert (
+        f"#define {gen.name.upper()}_WORKSPACE_BYTES {gen.workspace_bytes} "
+        in (gen.out_dir / f"{gen.name}_solver.h").read_text()
+    )
 
 
 def test_deterministic(gen: GenerateInfo, tmp_path: Path) -> None:
@@ -124,6 +151,7 @@ def test_example_runs(gen: GenerateInfo, default_build: Path) -> None:
 
 
 # --- C == Python reference ---------------------------------------------------------------------------------------
+
 
 def _rel(c: np.ndarray, r: np.ndarray) -> float:
     return float(np.max(np.abs(c - r) / np.maximum(np.abs(r), 1.0), initial=0.0))
@@ -187,9 +215,12 @@ def test_controller_protocol(cs: CSolver) -> None:
 
 def _same_result(a, b) -> bool:
     """Two StepResults bit for bit, the solver's own times left out."""
-    return (a.u.dtype == b.u.dtype and a.u.tobytes() == b.u.tobytes() and
-            (a.exit_code, a.qp_status, a.qp_iter) == (b.exit_code, b.qp_status, b.qp_iter) and
-            (a.max_slack == b.max_slack or (math.isnan(a.max_slack) and math.isnan(b.max_slack))))
+    return (
+        a.u.dtype == b.u.dtype
+        and a.u.tobytes() == b.u.tobytes()
+        and (a.exit_code, a.qp_status, a.qp_iter) == (b.exit_code, b.qp_status, b.qp_iter)
+        and (a.max_slack == b.max_slack or (math.isnan(a.max_slack) and math.isnan(b.max_slack)))
+    )
 
 
 def test_window_stepper_is_step(cs: CSolver) -> None:
@@ -222,8 +253,7 @@ def test_window_stepper_is_step(cs: CSolver) -> None:
         step = cs.window_stepper(road, road.size)
         for x, o in ((x0, opp), (x0, bad_opp), (bad_x, opp), (x0, opp), (x0, opp)):
             results.append(step(x, road.s0, o) if way == "stepper" else cs.step(x, road, o))
-    assert [r.exit_code for r in results[:5]] == [0, CODE["ERR_NONFINITE_OPPONENTS"], CODE["ERR_NONFINITE_STATE"], 0,
-                                                  0]
+    assert [r.exit_code for r in results[:5]] == [0, CODE["ERR_NONFINITE_OPPONENTS"], CODE["ERR_NONFINITE_STATE"], 0, 0]
     assert all(_same_result(a, b) for a, b in zip(results[:5], results[5:]))
     step = cs.window_stepper(road, road.size)
     with pytest.raises(ValueError, match="outside the road"):
@@ -244,6 +274,7 @@ def test_window_stepper_is_step(cs: CSolver) -> None:
 
 
 # --- bad inputs ----------------------------------------------------------------------------------------------------
+
 
 def _inputs(cs: CSolver, s_ego: float = 0.0):
     pb = preset(PRESET)
@@ -329,10 +360,14 @@ def _libs(g: GenerateInfo, sub: str) -> list[str]:
 
 def _unprefixed(g: GenerateInfo, sub: str) -> list[str]:
     """Global symbols defined in lib<name>.a + lib<name>_osqp.a that do not carry the solver's prefix."""
-    out = subprocess.run(["nm", "-g", "--defined-only", *_libs(g, sub)], check=True, capture_output=True,
-                         text=True).stdout
-    return [f[2] for f in (line.split() for line in out.splitlines()) if len(f) == 3 and f[1] in "TDBRCVWtdbr"
-            and not f[2].startswith(f"{g.name}_")]
+    out = subprocess.run(
+        ["nm", "-g", "--defined-only", *_libs(g, sub)], check=True, capture_output=True, text=True
+    ).stdout
+    return [
+        f[2]
+        for f in (line.split() for line in out.splitlines())
+        if len(f) == 3 and f[1] in "TDBRCVWtdbr" and not f[2].startswith(f"{g.name}_")
+    ]
 
 
 def test_two_solvers_one_image(gen: GenerateInfo, tmp_path: Path) -> None:
@@ -342,19 +377,36 @@ def test_two_solvers_one_image(gen: GenerateInfo, tmp_path: Path) -> None:
     other = generate(paper_problem("car", "direct_elimination", "ellipse"), tmp_path / "car", use_float=True)
     assert other.name == "car_de_el"
     for g in (gen, other):
-        subprocess.run(["make", "-C", str(g.out_dir), "-j2", "BUILD=build/lib", "lib"], check=True,
-                       capture_output=True, text=True)
+        subprocess.run(
+            ["make", "-C", str(g.out_dir), "-j2", "BUILD=build/lib", "lib"], check=True, capture_output=True, text=True
+        )
         assert _unprefixed(g, "build/lib") == []
     runs = {}
     for tag, solvers in (("both", {"A": gen, "B": other}), ("a", {"A": gen}), ("b", {"B": other})):
-        defs = [d for ab, g in solvers.items()
-                for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")]
+        defs = [
+            d for ab, g in solvers.items() for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")
+        ]
         solvers = list(solvers.values())
         exe = tmp_path / f"two_{tag}"
-        subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", *defs,
-                        *(f"-I{g.out_dir}" for g in solvers), str(TWO_SOLVERS_C),
-                        *(lib for g in solvers for lib in _libs(g, "build/lib")), "-lm", "-o", str(exe)],
-                       check=True, capture_output=True, text=True)
+        subprocess.run(
+            [
+                "gcc",
+                "-std=c99",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                *defs,
+                *(f"-I{g.out_dir}" for g in solvers),
+                str(TWO_SOLVERS_C),
+                *(lib for g in solvers for lib in _libs(g, "build/lib")),
+                "-lm",
+                "-o",
+                str(exe),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         res = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
         assert res.returncode == 0, res.stdout + res.stderr
         runs[tag] = res.stdout.splitlines()
@@ -370,8 +422,12 @@ def test_two_solvers_one_image(gen: GenerateInfo, tmp_path: Path) -> None:
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
 def test_cmake_build(gen: GenerateInfo, tmp_path: Path) -> None:
     b = tmp_path / "cmake-build"
-    subprocess.run(["cmake", "-S", str(gen.out_dir), "-B", str(b), f"-D{gen.name.upper()}_VERIFY=ON"], check=True,
-                   capture_output=True, text=True)
+    subprocess.run(
+        ["cmake", "-S", str(gen.out_dir), "-B", str(b), f"-D{gen.name.upper()}_VERIFY=ON"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     subprocess.run(["cmake", "--build", str(b), "-j8"], check=True, capture_output=True, text=True)
     assert {f"lib{gen.name}.a", f"lib{gen.name}_osqp.a", f"lib{gen.name}.so"} <= {p.name for p in b.iterdir()}
     assert subprocess.run([str(b / f"{gen.name}_example")], capture_output=True, timeout=60).returncode == 0
@@ -395,8 +451,11 @@ def test_float_build(tmp_path: Path) -> None:
         step, x = fs.window_stepper(sc.road, pb.road.samples), sc.x0
         for j in range(5):
             s_start = x[0] - WINDOW_BEHIND
-            r = step(x, s_start, opp.horizon(j)) if way == "stepper" else \
-                fs.step(x, sc.road.window(s_start, pb.road.samples), opp.horizon(j))
+            r = (
+                step(x, s_start, opp.horizon(j))
+                if way == "stepper"
+                else fs.step(x, sc.road.window(s_start, pb.road.samples), opp.horizon(j))
+            )
             results.append(r)
             x = x + np.array([1.5, 0.0, 0.0, 0.0, 0.0])
     assert all(r.exit_code == 0 for r in results)
@@ -404,12 +463,16 @@ def test_float_build(tmp_path: Path) -> None:
 
 
 def test_float_math_rewrites_literals_and_calls_only() -> None:
-    src = ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fmin(x, y); }\n"
-           "a001=10.; a2=(2.*a004); a3=2.9999999999999999e-01; a4=1e-3+.5; a5=sqrt (a6)+floor(a7); a008=a9[2];\n")
+    src = (
+        "/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fmin(x, y); }\n"
+        "a001=10.; a2=(2.*a004); a3=2.9999999999999999e-01; a4=1e-3+.5; a5=sqrt (a6)+floor(a7); a008=a9[2];\n"
+    )
     out = float_math(src)
-    assert out == ("/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fminf(x, y); }\n"
-                   "a001=10.f; a2=(2.f*a004); a3=2.9999999999999999e-01f; a4=1e-3f+.5f; a5=sqrtf (a6)+floorf(a7); "
-                   "a008=a9[2];\n")
+    assert out == (
+        "/* CasADi 3.8.2: sin(x) 2. */\nstatic float casadi_fmin(float x, float y) { return fminf(x, y); }\n"
+        "a001=10.f; a2=(2.f*a004); a3=2.9999999999999999e-01f; a4=1e-3f+.5f; a5=sqrtf (a6)+floorf(a7); "
+        "a008=a9[2];\n"
+    )
 
 
 def test_float_model_is_single_precision(tmp_path: Path) -> None:
@@ -420,8 +483,18 @@ def test_float_model_is_single_precision(tmp_path: Path) -> None:
     assert re.search(r"\b(sin|cos|tan|sqrt|fabs|fmin|fmax|floor)\(", src) is None
     assert "sinf(" in src and "cosf(" in src
     objs = [f"build/sp/obj/car_fm_{part}.o" for part in ("model", "solver")]
-    res = subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/sp",
-                          "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", *objs], capture_output=True, text=True)
+    res = subprocess.run(
+        [
+            "make",
+            "-C",
+            str(info.out_dir),
+            "BUILD=build/sp",
+            "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion",
+            *objs,
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     assert all((info.out_dir / o).is_file() for o in objs)
 
@@ -435,8 +508,18 @@ def test_float_ipm_solver_is_single_precision(tmp_path: Path, obstacles: str) ->
     info = generate(p, tmp_path / "f", use_float=True)
     src = re.sub(r"/\*.*?\*/", "", (info.out_dir / "car_ipmf_solver.c").read_text(), flags=re.S)  # code only
     assert re.search(r"\b(sqrt|fabs|floor|sin|cos)\(", src) is None and "sqrtf" in src and "fabsf" in src
-    res = subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/sp",
-                          "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion", "lib"], capture_output=True, text=True)
+    res = subprocess.run(
+        [
+            "make",
+            "-C",
+            str(info.out_dir),
+            "BUILD=build/sp",
+            "WARNFLAGS=-Wall -Wextra -Werror -Wdouble-promotion",
+            "lib",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     assert sorted(p.name for p in (info.out_dir / "build/sp").glob("*.a")) == ["libcar_ipmf.a"]
 
@@ -451,6 +534,7 @@ def test_build_restores_osqp_library(tmp_path: Path) -> None:
 def _fake_clock(start: int, step: int):
     """A clock hook returning start, start + step, start + 2 step, ... modulo 2^32 (one reading per call)."""
     import ctypes
+
     state = {"t": start % 2**32}
 
     @ctypes.CFUNCTYPE(ctypes.c_uint32)
@@ -458,6 +542,7 @@ def _fake_clock(start: int, step: int):
         t = state["t"]
         state["t"] = (t + step) % 2**32
         return t
+
     return clock
 
 
@@ -469,8 +554,9 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     wraps past 2^32 within the phase; the binding reports them in seconds (ticks / ticks_per_second)."""
     import ctypes
 
-    from fcgen.csolver import _STATUS, _STATUS_FIELDS
     from fcgen.codegen.generate import status_layout
+    from fcgen.csolver import _STATUS, _STATUS_FIELDS
+
     p = paper_problem("car", "lifted", "ellipse", name="car_tick")
     p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4))
     info = generate(p, tmp_path / "t", use_float=use_float)
@@ -480,15 +566,26 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     assert f"typedef {real} car_tick_real_t;" in header and "  uint32_t ticks_prepare;" in header
     # the layout as C compiles it
     probe = tmp_path / "layout.c"
-    probe.write_text("#include <stddef.h>\n#include <stdio.h>\n#include \"car_tick_solver.h\"\nint main(void) {\n"
-                     "  printf(\"sizeof %zu\\n\", sizeof(car_tick_status_t));\n"
-                     + "".join(f"  printf(\"{f} %zu\\n\", offsetof(car_tick_status_t, {f}));\n" for f in _STATUS_FIELDS)
-                     + "  return 0;\n}\n")
+    probe.write_text(
+        '#include <stddef.h>\n#include <stdio.h>\n#include "car_tick_solver.h"\nint main(void) {\n'
+        '  printf("sizeof %zu\\n", sizeof(car_tick_status_t));\n'
+        + "".join(f'  printf("{f} %zu\\n", offsetof(car_tick_status_t, {f}));\n' for f in _STATUS_FIELDS)
+        + "  return 0;\n}\n"
+    )
     exe = tmp_path / "layout"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", f"-I{info.out_dir}", str(probe), "-o", str(exe)],
-                   check=True, capture_output=True, text=True)
-    c_layout = dict((k, int(v)) for k, v in (ln.split() for ln in subprocess.run(
-        [str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()))
+    subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Werror", f"-I{info.out_dir}", str(probe), "-o", str(exe)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    c_layout = dict(
+        (k, int(v))
+        for k, v in (
+            ln.split()
+            for ln in subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()
+        )
+    )
     cls, packed = _STATUS[use_float]
     assert c_layout == {"sizeof": ctypes.sizeof(cls), **{f: getattr(cls, f).offset for f in _STATUS_FIELDS}}
     assert c_layout["sizeof"] == packed.size == status_layout(4 if use_float else 8)[0] == (60 if use_float else 72)
@@ -504,8 +601,11 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
             clock = _fake_clock(start, step)
             cs._f("set_clock")(ctypes.cast(clock, ctypes.c_void_p))
             s_start = x[0] - WINDOW_BEHIND
-            r = stepper(x, s_start, opp.horizon(j)) if fast else \
-                cs.step(x, sc.road.window(s_start, p.road.samples), opp.horizon(j))
+            r = (
+                stepper(x, s_start, opp.horizon(j))
+                if fast
+                else cs.step(x, sc.road.window(s_start, p.road.samples), opp.horizon(j))
+            )
             st, raw = cs.status(), cs._status
             assert r.exit_code == 0 and (raw.ticks_prepare, raw.ticks_feedback) == (step, step), (start, fast)
             assert r.time_prepare == r.time_feedback == st.time_prepare == st.time_feedback == step / 1000
@@ -519,17 +619,22 @@ def test_the_header_gives_the_stages_samples(tmp_path: Path) -> None:
     """<NAME>_STAGE_OFFSETS: the sample of each node, what set_opponents' stages are predicted at; compiled into an
     array by a C program, it prints the grid's offsets (20 fine intervals, then every third sample to 80)."""
     from fcgen.dsl import Horizon, RoadWindow
-    pb = paper_problem("car", "lifted", "ellipse", profile="safe").with_(horizon=Horizon(stride=3, fine=20),
-                                                                          road=RoadWindow(length=340.0))
+
+    pb = paper_problem("car", "lifted", "ellipse", profile="safe").with_(
+        horizon=Horizon(stride=3, fine=20), road=RoadWindow(length=340.0)
+    )
     info = generate(pb, tmp_path / "g")
     name = pb.name
     prog = tmp_path / "off.c"
-    prog.write_text(f'#include <stdio.h>\n#include "{name}_solver.h"\n'
-                    f"static const int off[{name.upper()}_N + 1] = {name.upper()}_STAGE_OFFSETS;\n"
-                    f"int main(void) {{ int k; for (k = 0; k <= {name.upper()}_N; ++k) printf(\"%d \", off[k]); "
-                    "return 0; }\n")
+    prog.write_text(
+        f'#include <stdio.h>\n#include "{name}_solver.h"\n'
+        f"static const int off[{name.upper()}_N + 1] = {name.upper()}_STAGE_OFFSETS;\n"
+        f'int main(void) {{ int k; for (k = 0; k <= {name.upper()}_N; ++k) printf("%d ", off[k]); '
+        "return 0; }\n"
+    )
     exe = tmp_path / "off"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{info.out_dir}", str(prog), "-o", str(exe)],
-                   check=True)
+    subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{info.out_dir}", str(prog), "-o", str(exe)], check=True
+    )
     got = [int(v) for v in subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()]
     assert got == list(range(21)) + list(range(23, 81, 3)) == list(pb.horizon.offsets)

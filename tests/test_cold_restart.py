@@ -5,6 +5,7 @@ hyperplane, seed 6, OSQP capped at 60: refused from sample 14 on, until the plan
 into reverse). After K refusals in a row the solver does what reset() + set_state would: the cold-start guess from
 the state, zero duals, a reset QP backend, the cold iteration budget. C == Python bitwise (the verification build).
 """
+
 from __future__ import annotations
 
 import shutil
@@ -12,20 +13,18 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_contract import _inputs, good_sample, snapshot
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.contract import EXIT_CODES
+from fcgen.csolver import CSolver
 from fcgen.dsl import ProblemError, QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver, SolverError
 from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.scenario import make_scenario
-
-from test_contract import _inputs, good_sample, snapshot
 
 needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -36,7 +35,9 @@ BAD_N = 1e15  # an absurd lateral offset: on a warm start the capped QP's step i
 
 @pytest.mark.parametrize("value", [-1, 1.5, True, "3", 1_000_001])
 def test_cold_restart_after_is_validated(value):
-    with pytest.raises(ProblemError, match=r"^qp\.cold_restart_after = .* is invalid: allowed an integer in \[0, 1e6\]"):
+    with pytest.raises(
+        ProblemError, match=r"^qp\.cold_restart_after = .* is invalid: allowed an integer in \[0, 1e6\]"
+    ):
         QpOptions(cold_restart_after=value)
 
 
@@ -99,7 +100,7 @@ def test_k_unusable_qps_then_a_cold_start_c_and_python(lib, tmp_path, inputs):
     sv = RtiSolver(build_ocp(preset(PRESET)))
     for inp in inputs[:4]:
         assert good_sample(auto, inp) == OK and good_sample(manual, inp) == OK and _py_sample(sv, inp) == "OK"
-    for j, inp in enumerate(inputs[4:4 + K]):
+    for j, inp in enumerate(inputs[4 : 4 + K]):
         rc = _c_bad_sample(auto, inp)
         assert _c_bad_sample(manual, inp) == rc != OK
         assert _py_sample(sv, inp, np.r_[inp[0][0], BAD_N, inp[0][2:]]) == EXIT_CODES[rc]
@@ -175,8 +176,9 @@ def test_k_one_restarts_after_every_refusal(inputs):
 def _seed6(samples: int, k: int):
     pb = preset("truck_conventional_hyperplane")
     sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, cold_restart_after=k))
-    log = run_closed_loop(pb, make_scenario("truck", 6, samples=samples), ReferenceController(sv.ocp, sv),
-                          exit_codes=True)
+    log = run_closed_loop(
+        pb, make_scenario("truck", 6, samples=samples), ReferenceController(sv.ocp, sv), exit_codes=True
+    )
     return log, sv
 
 

@@ -149,11 +149,13 @@ def test_run_helpers():
     ego_dims = {"l_f": 1.7, "l_r": 1.7, "l_r_ch": 2.0, "l_f_ch": 2.0, "w_ch": 1.9}
     truck = {"l_f": 10.0, "l_r": 10.0, "l_r_ch": 13.0, "l_f_ch": 13.0, "w_ch": 4.0}
     ego = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [20.0, 0.0, 0.0]])
-    opp = np.array([
-        [[5.0, 0.0, 0.0], [0.0, 10.0, 0.0]],    # car 1 m ahead of the ego's front; truck far to the left
-        [[14.0, 0.0, 0.0], [0.0, 10.0, 0.0]],   # car rear touches the ego's front: no overlap
-        [[22.0, 1.0, 0.5], [5.0, 3.0, 0.0]],    # car overlaps; truck: y in [1, 5] vs ego [-0.95, 0.95]: no
-    ])
+    opp = np.array(
+        [
+            [[5.0, 0.0, 0.0], [0.0, 10.0, 0.0]],  # car 1 m ahead of the ego's front; truck far to the left
+            [[14.0, 0.0, 0.0], [0.0, 10.0, 0.0]],  # car rear touches the ego's front: no overlap
+            [[22.0, 1.0, 0.5], [5.0, 3.0, 0.0]],  # car overlaps; truck: y in [1, 5] vs ego [-0.95, 0.95]: no
+        ]
+    )
     flags = collisions_over_run(ego, ego_dims, opp, [ego_dims, truck])
     depth = penetration_over_run(ego, ego_dims, opp, [ego_dims, truck])
     assert flags.shape == (3, 2) and depth.shape == (3, 2)
@@ -184,8 +186,9 @@ def test_run_helpers_skip_only_pairs_that_are_apart():
         ego_dims, opp_dims = (car, truck)[trial % 2], [(car, truck)[int(rng.integers(2))] for _ in range(n)]
         base = rng.uniform(-2000.0, 2000.0, 2)
         ego = np.column_stack([base[0] + rng.normal(0, 15, k), base[1] + rng.normal(0, 15, k), rng.uniform(-4, 4, k)])
-        opp = ego[:, None, :] + np.stack([rng.normal(0, 12, (k, n)), rng.normal(0, 6, (k, n)),
-                                          rng.normal(0, 0.5, (k, n))], axis=-1)
+        opp = ego[:, None, :] + np.stack(
+            [rng.normal(0, 12, (k, n)), rng.normal(0, 6, (k, n)), rng.normal(0, 0.5, (k, n))], axis=-1
+        )
         opp[0, 0] = ego[0]
         if trial % 5 == 0:
             ego[-1, 1] = math.nan

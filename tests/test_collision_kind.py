@@ -1,5 +1,6 @@
 """sim.collision_kind: the depth and kind of a run's first contact, and the paper's ellipse's shortfall, against
 hand-derived geometry (a straight road, a circular bend) and a second method (a grid of ego-circle centres)."""
+
 from __future__ import annotations
 
 import math
@@ -20,7 +21,7 @@ def rear_axle(centre, phi, veh):
 
 
 def test_kinds_by_corner_and_sweep():
-    assert classify(0, 5.0) == classify(3, 0.0) == "rear_corner"       # rear-right, rear-left
+    assert classify(0, 5.0) == classify(3, 0.0) == "rear_corner"  # rear-right, rear-left
     assert classify(1, 1.5) == classify(2, 8.0) == "swept_front"
     assert classify(2, 0.2) == "front_corner"
 
@@ -34,7 +35,7 @@ def test_no_collision_gives_none():
 
 def test_clipping_a_rear_corner_on_a_straight_road():
     road = Road.from_curvature(np.zeros(100), 2.0)
-    opp_c = np.array([20.0 + 0.5 * CAR.l, 1.0])                  # opponent chassis centre, lane n = 1
+    opp_c = np.array([20.0 + 0.5 * CAR.l, 1.0])  # opponent chassis centre, lane n = 1
     # the ego's centre 3.5 m behind and 1.5 m right of the opponent's: it overlaps the rear-right corner by
     # 4 - 3.5 = 0.5 m along and 1.9 - 1.5 = 0.4 m across: SAT depth 0.4 m
     ego = rear_axle(opp_c + np.array([-3.5, -1.5]), 0.0, CAR)[None]
@@ -42,7 +43,7 @@ def test_clipping_a_rear_corner_on_a_straight_road():
     info = first_collision(road, ego, dims(CAR), opp, opp, [dims(CAR)])
     assert info.depth == pytest.approx(0.4) and info.sample == 0 and info.opponent == 0
     assert info.corner == 0 and info.kind == "rear_corner"
-    assert info.sweep == pytest.approx(0.0, abs=1e-9)           # the corner is on its lane's edge: n = 1 - 0.95
+    assert info.sweep == pytest.approx(0.0, abs=1e-9)  # the corner is on its lane's edge: n = 1 - 0.95
 
 
 def test_a_truck_front_swept_by_a_bend():
@@ -51,7 +52,7 @@ def test_a_truck_front_swept_by_a_bend():
     pose = road.to_cartesian(np.array([s_opp]), np.array([0.0]), np.array([0.0]))
     x, y, phi = (float(np.ravel(v)[0]) for v in pose)
     t, nrm = np.array([math.cos(phi), math.sin(phi)]), np.array([-math.sin(phi), math.cos(phi)])
-    corner = np.array([x, y]) + 23.0 * t + 2.0 * nrm               # front-left: 10 + 13 ahead, 2 to the left
+    corner = np.array([x, y]) + 23.0 * t + 2.0 * nrm  # front-left: 10 + 13 ahead, 2 to the left
     # the ego (heading the truck's way) centred 0.5 m ahead of that corner on the truck's left edge line:
     # overlap 2 - 0.5 = 1.5 m along and 0.95 m across: depth 0.95 m
     ego = rear_axle(corner + 0.5 * t, phi, CAR)[None]

@@ -1,6 +1,7 @@
 """CommonRoad scenarios in, CommonRoad solutions out: on small scenarios the tests write with commonroad-io (a straight
 and a curved three-lane road, a lane that ends, a truck and cars with given trajectories), the road, its band, the
 opponents, the refusals and the two collision checks against hand-derived values; a closed loop with the C = Python."""
+
 from __future__ import annotations
 
 import math
@@ -10,15 +11,25 @@ import warnings
 import numpy as np
 import pytest
 from click.testing import CliRunner
-
 from crscenes import LANE, write_scenario
-from fcgen.dsl import Horizon
+
 from fcgen.campaign.commonroad import load_for
-from fcgen.commonroad import (ScenarioRefused, drivability_verdict, fcgen_collisions, load_scenario,
-                              opponent_horizon, select_opponents, write_solution)
+from fcgen.commonroad import (
+    ScenarioRefused,
+    drivability_verdict,
+    fcgen_collisions,
+    load_scenario,
+    opponent_horizon,
+    select_opponents,
+    write_solution,
+)
+from fcgen.dsl import Horizon
 from fcgen.presets import preset
 
-pytestmark = [pytest.mark.filterwarnings("ignore::UserWarning"), pytest.mark.filterwarnings("ignore::DeprecationWarning")]
+pytestmark = [
+    pytest.mark.filterwarnings("ignore::UserWarning"),
+    pytest.mark.filterwarnings("ignore::DeprecationWarning"),
+]
 PB = preset("car_lifted_ellipse_ipm")
 CAR = PB.ego
 # obstacles: (id, lane, s0, speed, recorded steps, length, width[, first step])
@@ -55,7 +66,7 @@ def test_a_bend_of_constant_radius(tmp_path):
     """A left bend of radius 200 m: the curvature 1/200 on the lanelets (within 1.5 %: the smoothing spline through
     the 2 m polyline), the band still +-5.25 m along the normals, the centre line reproduced within 5 cm."""
     sc = load_for(PB, write_scenario(tmp_path / "bend.xml", radius=200.0, length=500.0, goal_steps=(20, 30)))
-    on = slice(30, 200)   # samples on the lanelets, away from their ends
+    on = slice(30, 200)  # samples on the lanelets, away from their ends
     np.testing.assert_allclose(sc.road.kappa[on], 1 / 200.0, rtol=0.015)
     np.testing.assert_allclose(sc.road.n_min[on], -1.5 * LANE, atol=0.03)
     np.testing.assert_allclose(sc.road.n_max[on], 1.5 * LANE, atol=0.03)
@@ -65,7 +76,7 @@ def test_a_bend_of_constant_radius(tmp_path):
 def test_a_lane_that_ends_narrows_the_band(tmp_path):
     """The left lane ends 150 m along the road: left of the centre line 5.25 m before, 1.75 m after it."""
     sc = load_for(PB, write_scenario(tmp_path / "merge.xml", end_lane=(2, 150.0), goal_steps=(20, 30)))
-    s_xy = sc.road.gx   # the road runs along x from x = 0
+    s_xy = sc.road.gx  # the road runs along x from x = 0
     before, after = (s_xy > 10.0) & (s_xy < 140.0), (s_xy > 160.0) & (s_xy < 390.0)
     np.testing.assert_allclose(sc.road.n_max[before], 1.5 * LANE, atol=0.021)
     np.testing.assert_allclose(sc.road.n_max[after], 0.5 * LANE, atol=0.021)
@@ -77,10 +88,10 @@ def test_past_the_lanelets_the_road_keeps_its_last_curvature_then_runs_straight(
     (4 s at 20 m/s: 80 m), then straight; the band past the end is the last one on the lanelets."""
     sc = load_for(PB, write_scenario(tmp_path / "end.xml", radius=200.0, length=200.0, goal_steps=(20, 30)))
     end = int(np.argmin(np.hypot(sc.road.gx - 200.0 * math.sin(1.0), sc.road.gy - 200.0 * (1 - math.cos(1.0)))))
-    held = sc.road.kappa[end:end + 30]   # the spline's last 8 m are extended over too
-    assert np.all(held == held[0]) and held[0] == pytest.approx(1 / 200.0, rel=0.03)   # the spline end effect
-    assert np.all(sc.road.kappa[end + 40:] == 0.0) and sc.road.size > end + 60
-    np.testing.assert_array_equal(sc.road.n_max[end + 5:], sc.road.n_max[end + 5])
+    held = sc.road.kappa[end : end + 30]  # the spline's last 8 m are extended over too
+    assert np.all(held == held[0]) and held[0] == pytest.approx(1 / 200.0, rel=0.03)  # the spline end effect
+    assert np.all(sc.road.kappa[end + 40 :] == 0.0) and sc.road.size > end + 60
+    np.testing.assert_array_equal(sc.road.n_max[end + 5 :], sc.road.n_max[end + 5])
 
 
 def test_a_parked_car_and_a_speed_limit(tmp_path):
@@ -113,19 +124,22 @@ def test_the_relevance_rule_and_empty_slots(straight):
     car. An empty slot holds a small box far beyond the road."""
     sc = straight
     ids = [o.id for o in sc.obstacles]
-    assert [ids[i] if i is not None else None for i in select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)] == \
-        [2, 1, None]
+    assert [ids[i] if i is not None else None for i in select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)] == [
+        2,
+        1,
+        None,
+    ]
     assert [ids[i] for i in select_opponents(sc.obstacles, 12, (50.0, 0.0), 3)] == [2, 3, 1]
     poses, shapes, slot_ids = opponent_horizon(sc, 0, (50.0, 0.0), 3, PB.horizon.N)
     assert slot_ids == (2, 1, None)
     np.testing.assert_array_equal(shapes[0], [12.0, 2.5, 0.0])
-    np.testing.assert_allclose(poses[10, 0], [40.0 + 15.0, -LANE, 0.0], atol=1e-9)   # 1 s later
+    np.testing.assert_allclose(poses[10, 0], [40.0 + 15.0, -LANE, 0.0], atol=1e-9)  # 1 s later
     assert poses[0, 2, 0] < float(np.min(sc.road.gx)) - 999.0
     # a grid of coarse intervals: stage k at the node's step (10 one-step intervals, then steps of three)
     offsets = Horizon(N=20, stride=3, fine=10).offsets
     grid, _, _ = opponent_horizon(sc, 0, (50.0, 0.0), 3, 20, offsets)
     np.testing.assert_array_equal(grid[:11], poses[:11])
-    np.testing.assert_allclose(grid[12, 0], [40.0 + 1.5 * 16, -LANE, 0.0], atol=1e-9)   # offsets[12] = 16 steps
+    np.testing.assert_allclose(grid[12, 0], [40.0 + 1.5 * 16, -LANE, 0.0], atol=1e-9)  # offsets[12] = 16 steps
 
 
 def test_unusable_scenarios_are_refused_with_one_line(tmp_path):
@@ -156,7 +170,7 @@ def test_the_drivability_checker_and_fcgen_agree_with_the_hand_derived_contact(s
     for verdict in (drivability_verdict(sc, hit, CAR.l_ch, CAR.w_ch), fcgen_collisions(sc, hit, CAR.l_ch, CAR.w_ch)):
         assert verdict["collision"] and verdict["collision_step"] == 46
     assert fcgen_collisions(sc, hit, CAR.l_ch, CAR.w_ch)["obstacle_id"] == 1
-    past = _line(-LANE)   # the right lane: the truck (behind, recorded to step 29) does not reach it
+    past = _line(-LANE)  # the right lane: the truck (behind, recorded to step 29) does not reach it
     ck = drivability_verdict(sc, past, CAR.l_ch, CAR.w_ch)
     assert not ck["collision"] and not fcgen_collisions(sc, past, CAR.l_ch, CAR.w_ch)["collision"]
     assert not ck["road_departure"]
@@ -166,6 +180,7 @@ def test_the_drivability_checker_and_fcgen_agree_with_the_hand_derived_contact(s
 
 def test_the_solution_file_reads_back(straight, tmp_path):
     from commonroad.common.solution import CommonRoadSolutionReader, VehicleModel
+
     states = np.column_stack([_line(0.0, steps=5), np.full(5, 20.0), np.zeros(5)])
     write_solution(straight, states, tmp_path / "sol.xml")
     sol = CommonRoadSolutionReader.open(str(tmp_path / "sol.xml"))
@@ -180,6 +195,7 @@ def test_the_solution_file_reads_back(straight, tmp_path):
 @pytest.fixture(scope="module")
 def solver_dir(tmp_path_factory):
     from fcgen.codegen.generate import generate
+
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
     return generate(PB, tmp_path_factory.mktemp("crs") / "s").out_dir
@@ -192,6 +208,7 @@ def test_a_closed_loop_on_the_scenario_c_equals_python(straight, solver_dir, tmp
     from fcgen.csolver import CSolver
     from fcgen.sim.commonroad_run import run_commonroad
     from fcgen.sim.runlog import RunLog
+
     sc = straight
     py = run_commonroad(PB, sc)
     cs = CSolver(build(solver_dir))
@@ -213,26 +230,60 @@ def test_simulate_and_campaign_commands(straight, tmp_path):
     scenario it cannot drive is one line, exit 1; ``campaign --commonroad`` runs a folder (one refused) into rows and a
     summary."""
     from fcgen.cli import main
+
     folder = tmp_path / "scenarios"
     folder.mkdir()
     good = write_scenario(folder / "a_straight.xml", obstacles=[STANDING, TRUCK], goal_steps=(8, 10))
     bad = write_scenario(folder / "b_short.xml", length=80.0, ego_x=40.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = CliRunner().invoke(main, ["simulate", "--commonroad", str(good), "--problem", "car_lifted_ellipse_ipm",
-                                      "--out", str(tmp_path / "log.json"), "--solution", str(tmp_path / "sol.xml"),
-                                      "--plot", str(tmp_path / "run.png")])
+        r = CliRunner().invoke(
+            main,
+            [
+                "simulate",
+                "--commonroad",
+                str(good),
+                "--problem",
+                "car_lifted_ellipse_ipm",
+                "--out",
+                str(tmp_path / "log.json"),
+                "--solution",
+                str(tmp_path / "sol.xml"),
+                "--plot",
+                str(tmp_path / "run.png"),
+            ],
+        )
         assert r.exit_code == 0, r.output
         assert "collision: fcgen none, drivability checker none" in r.output
         assert all((tmp_path / f).is_file() for f in ("log.json", "sol.xml", "run.png"))
         r = CliRunner().invoke(main, ["simulate", "--commonroad", str(bad), "--problem", "car_lifted_ellipse_ipm"])
         assert r.exit_code == 1 and r.output.count("\n") == 1 and "refused:" in r.output and "horizon" in r.output
         out = tmp_path / "res"
-        r = CliRunner().invoke(main, ["campaign", "--commonroad", str(folder), "--scenarios", "car",
-                                      "--formulations", "lifted", "--obstacles", "ellipse", "--controller", "python",
-                                      "--jobs", "1", "--out", str(out), "--cache", str(tmp_path / "cache")])
+        r = CliRunner().invoke(
+            main,
+            [
+                "campaign",
+                "--commonroad",
+                str(folder),
+                "--scenarios",
+                "car",
+                "--formulations",
+                "lifted",
+                "--obstacles",
+                "ellipse",
+                "--controller",
+                "python",
+                "--jobs",
+                "1",
+                "--out",
+                str(out),
+                "--cache",
+                str(tmp_path / "cache"),
+            ],
+        )
     assert r.exit_code == 0, r.output
     import pandas as pd
+
     df = pd.read_parquet(out / "commonroad.parquet")
     assert sorted(df.status) == ["ran", "refused"]
     assert "horizon" in df[df.status == "refused"].reason.iloc[0]
@@ -245,10 +296,12 @@ def test_record_and_regress_a_commonroad_suite(solver_dir, tmp_path):
     """``fcgen record --commonroad`` keeps the run log and a copy of the scenario; ``fcgen regress`` replays it (and
     runs it again in closed loop) within the same-build tolerances; a changed scenario file is unusable input (2)."""
     from fcgen.cli import main
+
     xml = write_scenario(tmp_path / "rec.xml", obstacles=[STANDING, TRUCK], goal_steps=(15, 20))
     suite = tmp_path / "suite"
-    r = CliRunner().invoke(main, ["record", str(solver_dir), "-o", str(suite), "--commonroad", str(xml), "--verify",
-                                  "--plan", "controls"])
+    r = CliRunner().invoke(
+        main, ["record", str(solver_dir), "-o", str(suite), "--commonroad", str(xml), "--verify", "--plan", "controls"]
+    )
     assert r.exit_code == 0, r.output
     assert (suite / "rec.xml").read_bytes() == xml.read_bytes()
     for extra in ([], ["--mode", "closed-loop"]):

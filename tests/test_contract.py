@@ -6,6 +6,7 @@
 - reset()/init() after many solves give bitwise what a freshly loaded (zero-initialized) library gives.
 The C library is the verification build, bit-exact with the Python reference, so C and Python are compared exactly.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -17,13 +18,13 @@ import pytest
 
 from fcgen.backends import QP_PRIMAL_INFEASIBLE, QP_USABLE
 from fcgen.build import build
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.contract import EXIT_CODES
+from fcgen.csolver import CSolver
 from fcgen.ocp import build_ocp
+from fcgen.plant import plant_function
 from fcgen.presets import preset
 from fcgen.reference import QP_EXIT, RtiSolver, SolverError, input_box
-from fcgen.plant import plant_function
 from fcgen.sim.closedloop import WINDOW_BEHIND
 from fcgen.sim.scenario import OpponentParams, make_scenario
 
@@ -44,11 +45,13 @@ def lib(tmp_path_factory) -> tuple[Path, Path]:
 @pytest.fixture
 def fresh(lib, tmp_path):
     """fresh(tag): a newly loaded copy of the library (its own static workspace), zero-initialized: no init()."""
+
     def load(tag: str, init: bool = False) -> CSolver:
         d = tmp_path / tag
         d.mkdir()
         shutil.copy(lib[0], d / lib[0].name)
         return CSolver(d / lib[0].name, header=lib[1], init=init)
+
     return load
 
 
@@ -79,10 +82,21 @@ def snapshot(cs: CSolver) -> dict:
     """Everything the API shows, as bytes (bitwise comparison); the status without its times."""
     st = cs.status()
     snap = {k: v.tobytes() for k, v in cs.get_qp().items()}
-    snap.update(u0=cs.u0().tobytes(), states=cs.states().tobytes(), controls=cs.controls().tobytes(),
-                slack=np.float64(cs.max_slack()).tobytes(), has_guess=cs.has_guess(),
-                status=(st.exit_code, st.qp_status, st.qp_raw_status, st.qp_iter, st.u_projected,
-                        np.float64(st.u_violation).tobytes()))
+    snap.update(
+        u0=cs.u0().tobytes(),
+        states=cs.states().tobytes(),
+        controls=cs.controls().tobytes(),
+        slack=np.float64(cs.max_slack()).tobytes(),
+        has_guess=cs.has_guess(),
+        status=(
+            st.exit_code,
+            st.qp_status,
+            st.qp_raw_status,
+            st.qp_iter,
+            st.u_projected,
+            np.float64(st.u_violation).tobytes(),
+        ),
+    )
     return snap
 
 
@@ -113,12 +127,15 @@ def dirty_sample(cs: CSolver, inp) -> int:
     """The good sample with rejected calls before, between and after its phases."""
     x0, road, opp = inp
     nan = np.full(5, np.nan)
-    rejected(cs, cs.feedback, "ERR_NOT_PREPARED")                           # wrong order
+    rejected(cs, cs.feedback, "ERR_NOT_PREPARED")  # wrong order
     rejected(cs, lambda: cs.set_state(nan), "ERR_NONFINITE_STATE")
     rejected(cs, lambda: cs.set_state(np.array([0.0, 1e308 * 10, 0.0, 0.0, 0.0])), "ERR_NONFINITE_STATE")
     rejected(cs, lambda: cs.set_opponents(np.full_like(opp, np.nan)), "ERR_NONFINITE_OPPONENTS")
-    rejected(cs, lambda: cs.set_road_raw(road.s0, road.ds, *(a[:1] for a in (road.kappa, road.phi, road.gx, road.gy))),
-             "ERR_ROAD_SIZE")
+    rejected(
+        cs,
+        lambda: cs.set_road_raw(road.s0, road.ds, *(a[:1] for a in (road.kappa, road.phi, road.gx, road.gy))),
+        "ERR_ROAD_SIZE",
+    )
     # a 12-sample road: set_road accepts it, prepare rejects it (it does not cover the horizon) and changes nothing
     assert cs.set_road_raw(road.s0, road.ds, *(a[:12] for a in (road.kappa, road.phi, road.gx, road.gy))) == 0
     if not cs.has_guess():
@@ -129,14 +146,14 @@ def dirty_sample(cs: CSolver, inp) -> int:
         assert cs.set_state(x0) == 0
     assert cs.prepare() == 0
     before = snapshot(cs)
-    assert cs.prepare() == 0 and snapshot(cs) == before                     # prepare twice: a no-op, bitwise
+    assert cs.prepare() == 0 and snapshot(cs) == before  # prepare twice: a no-op, bitwise
     far = x0.copy()
-    far[0] += 1e4                                                            # outside the road window
+    far[0] += 1e4  # outside the road window
     assert cs.set_state(far) == 0
-    rejected(cs, cs.feedback, "ERR_ROAD_WINDOW")                             # the preparation is kept
+    rejected(cs, cs.feedback, "ERR_ROAD_WINDOW")  # the preparation is kept
     assert cs.set_state(x0) == 0
     rc = cs.feedback()
-    rejected(cs, cs.feedback, "ERR_NOT_PREPARED")                           # feedback twice
+    rejected(cs, cs.feedback, "ERR_NOT_PREPARED")  # feedback twice
     return rc
 
 
@@ -146,7 +163,7 @@ def test_finiteness_check_is_exact_where_a_sum_overflows(fresh, inputs):
     (whose sum is NaN) rejected."""
     cs = fresh("finite", init=True)
     opp = inputs[0][2]
-    big = np.full_like(opp, 1e308)                 # finite; the sum of two already overflows to inf
+    big = np.full_like(opp, 1e308)  # finite; the sum of two already overflows to inf
     with np.errstate(over="ignore"):
         assert not np.isfinite(big.sum()) and cs.set_opponents(big) == 0
     for bad in (np.inf, -np.inf, np.nan):
@@ -233,8 +250,11 @@ def test_unusable_qp_c_and_python(fresh, inputs):
     with pytest.raises(SolverError) as exc:
         sv.feedback()
     assert exc.value.code == "ERR_QP_INFEASIBLE" and sv.status.exit_code == rc
-    assert (sv.status.qp_status, sv.status.qp_raw_status, sv.status.qp_iter) == (st.qp_status, st.qp_raw_status,
-                                                                                 st.qp_iter)
+    assert (sv.status.qp_status, sv.status.qp_raw_status, sv.status.qp_iter) == (
+        st.qp_status,
+        st.qp_raw_status,
+        st.qp_iter,
+    )
     assert sv.u0().tobytes() == cs.u0().tobytes() and sv.states().tobytes() == cs.states().tobytes()
     # the next sample recovers from the kept plan, in C and Python alike
     assert good_sample(cs, inputs[1]) == 0
@@ -281,9 +301,11 @@ def test_unusable_qp_keeps_the_shifted_plan(inputs):
 def test_python_reference_rejects_with_the_same_codes(inputs):
     sv = _python(inputs[:2])
     x0, road, opp = inputs[2]
-    cases = [(sv.feedback, "ERR_NOT_PREPARED"),
-             (lambda: sv.set_state(np.full(5, np.nan)), "ERR_NONFINITE_STATE"),
-             (lambda: sv.set_opponents(np.full_like(opp, np.nan)), "ERR_NONFINITE_OPPONENTS")]
+    cases = [
+        (sv.feedback, "ERR_NOT_PREPARED"),
+        (lambda: sv.set_state(np.full(5, np.nan)), "ERR_NONFINITE_STATE"),
+        (lambda: sv.set_opponents(np.full_like(opp, np.nan)), "ERR_NONFINITE_OPPONENTS"),
+    ]
     sv.set_road(road.window(road.s0, 12))
     cases.append((sv.prepare, "ERR_ROAD_WINDOW"))
     for call, code in cases:
@@ -315,6 +337,7 @@ def test_projection_is_reported(inputs):
     the projection, flag and size in the status. (Capped at 2 to 4 iterations the steps leave the box by more than
     the margin and are refused, ERR_QP_INPUT_BOUNDS.)"""
     from fcgen.reference import MAX_INPUT_VIOLATION
+
     pb = preset(PRESET)
     lo, hi, lim = input_box(pb)
     sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, max_iter=12, max_iter_cold=12))
@@ -355,6 +378,7 @@ def test_qp_scaling_depends_only_on_this_samples_data(inputs):
     history then solves a sample like a fresh one, up to one scale/unscale rounding of q (the loading order of the
     seam cannot remove it); loading the matrices alone (the old order) leaves the previous sample's q in the scaling."""
     from fcgen.backends import make_backend
+
     pb = preset(PRESET)
     sv = RtiSolver(build_ocp(pb))
     lay, data = sv.lay, []
@@ -383,7 +407,9 @@ def test_qp_scaling_depends_only_on_this_samples_data(inputs):
             fresh_b, used_b = make_backend(lay, pb.qp), make_backend(lay, pb.qp)
             for d in data[:j]:
                 solve(used_b, d, q_first)
-            worst = max(worst, float(np.max(np.abs(solve(fresh_b, data[j], q_first) - solve(used_b, data[j], q_first)))))
+            worst = max(
+                worst, float(np.max(np.abs(solve(fresh_b, data[j], q_first) - solve(used_b, data[j], q_first))))
+            )
         if bound:
             assert worst < bound
         else:
@@ -397,6 +423,7 @@ def test_absurd_state_on_a_warm_start_c_and_python(fresh, inputs, monkeypatch, n
     unusable (ERR_QP_INPUT_BOUNDS), the step is not taken, get_u0 is the fallback, and the next good sample recovers
     without reset(). Within the margin (n = 10: 1.2 %): OK, projected and flagged, as before. C == Python, bitwise."""
     import fcgen.reference as reference
+
     pb = preset(PRESET)
     lo, hi, lim = input_box(pb)
     cs = fresh(f"absurd{n_bad:g}")
@@ -439,8 +466,13 @@ def test_absurd_state_on_a_warm_start_c_and_python(fresh, inputs, monkeypatch, n
             sv.feedback()
         assert exc.value.code == "ERR_QP_INPUT_BOUNDS" and sv.status.exit_code == rc
     assert sv.z.tobytes() == qp["z"].tobytes()
-    assert (sv.status.qp_status, sv.status.qp_raw_status, sv.status.qp_iter, sv.status.u_projected,
-            np.float64(sv.status.u_violation).tobytes()) == snapshot(cs)["status"][1:]
+    assert (
+        sv.status.qp_status,
+        sv.status.qp_raw_status,
+        sv.status.qp_iter,
+        sv.status.u_projected,
+        np.float64(sv.status.u_violation).tobytes(),
+    ) == snapshot(cs)["status"][1:]
     assert sv.u0().tobytes() == cs.u0().tobytes() and sv.states().tobytes() == cs.states().tobytes()
     # the next sample, a good state again, recovers from the kept plan without reset(), in C and Python alike
     for inp in inputs[5:7]:
@@ -473,12 +505,14 @@ def test_ipm_backend_goes_through_the_same_rule(tmp_path, monkeypatch):
     import fcgen.reference as reference
     from fcgen.dsl import Horizon, QpOptions
     from fcgen.presets import paper_problem
+
     pb = paper_problem("truck", "lifted", "ellipse", horizon=Horizon(N=10), qp=QpOptions(backend="ipm"))
     ocp = build_ocp(pb)
     sc = make_scenario("truck", 1, samples=2)
     opp = OpponentParams(pb, sc)
-    samples = [(sc.x0.copy(), sc.road.window(sc.x0[0] - WINDOW_BEHIND, pb.road.samples), opp.horizon(j))
-               for j in range(2)]
+    samples = [
+        (sc.x0.copy(), sc.road.window(sc.x0[0] - WINDOW_BEHIND, pb.road.samples), opp.horizon(j)) for j in range(2)
+    ]
     normal = RtiSolver(ocp)  # the real margin: the IPM's QP is usable and inside the box, OK
     normal.set_road(samples[0][1])
     normal.set_opponents(samples[0][2])

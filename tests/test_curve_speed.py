@@ -10,6 +10,7 @@ traffic (``curve_a_lat_traffic`` where the last plan check's clearance is below 
 in Python and C, and on a closed loop of the safe grid where trucks near the plan block the line across a bend (a
 grid without the rule, measured for commit d6dac44: 5.2 m/s^2 above the bound).
 """
+
 from __future__ import annotations
 
 import math
@@ -18,19 +19,18 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_guess import solver_at
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.campaign.grid import Config
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.road import Road, curve_reference, curve_speed, straight_road
 from fcgen.sim.closedloop import run_closed_loop
 from fcgen.sim.scenario import make_scenario
 from fcgen.verify import TOL_QP_DATA, rel_diff
-from test_guess import solver_at
 
 needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -74,7 +74,7 @@ def test_curve_reference_brakes_along_the_horizon_by_hand():
     hs, hv = _by_hand(40.0, 8.0, times)
     assert np.allclose(s_ref, hs, rtol=1e-13, atol=0) and np.allclose(v_ref, hv, rtol=1e-13, atol=0)
     assert v_ref[0] == pytest.approx(math.sqrt(200.0 + 14.0 * 60.0), rel=1e-15)
-    assert v_ref[-1] == pytest.approx(math.sqrt(200.0), rel=1e-15) and s_ref[-1] > 100.0   # in the bend by t = 4 s
+    assert v_ref[-1] == pytest.approx(math.sqrt(200.0), rel=1e-15) and s_ref[-1] > 100.0  # in the bend by t = 4 s
     assert np.all(np.diff(v_ref) <= 0.0) and np.all(np.diff(s_ref) > 0.0)
     _, v_low = curve_reference(BEND, 40.0, times, 12.0, 8.0, 7.0, 40.0)
     assert np.all(np.asarray(v_low) == 12.0)
@@ -132,16 +132,16 @@ def test_the_reference_speed_is_capped_in_python_and_c_alike(tmp_path):
     pb = preset("car_direct_elimination_ellipse_safe")
     x0 = [40.0, 0.5, 0.0, 30.0, 0.0]
     ocp, sv, road, opp = _prepared(pb, x0)
-    assert sv.status.plan_clearance == 0.0                              # no plan checked yet: traffic assumed
+    assert sv.status.plan_clearance == 0.0  # no plan checked yet: traffic assumed
     v_cap = curve_speed(road, 40.0, pb.reference.curve_a_lat_traffic, pb.reference.curve_decel, pb.bounds.v_max)
     assert v_cap == pytest.approx(math.sqrt(6.5 / 0.04 + 14.0 * 60.0), rel=1e-12) and v_cap < pb.reference.v_ref
     _assert_reference(ocp, sv, pb, 6.5)
     assert _ref(ocp, sv)[1][0] == v_cap and _ref(ocp, sv)[1][-1] == pytest.approx(math.sqrt(162.5), rel=1e-12)
     _, off, *_ = _prepared(pb.with_(reference=replace(pb.reference, curve_a_lat=0.0)), x0)
-    assert np.all(_ref(ocp, off)[1] == pb.reference.v_ref)               # off: the paper's reference
+    assert np.all(_ref(ocp, off)[1] == pb.reference.v_ref)  # off: the paper's reference
     cs = _c_prepared(pb, tmp_path / "c", road, opp, x0)
     assert rel_diff(cs.get_qp()["q"], sv.q) <= TOL_QP_DATA
-    assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2            # and the cap is what made q what it is
+    assert np.max(np.abs(cs.get_qp()["q"] - off.q)) > 1e-2  # and the cap is what made q what it is
     # one sample on: the plan check found no traffic, the reference is curve_a_lat's from the shifted plan's start
     sv.feedback()
     assert cs.feedback() == 0
@@ -186,7 +186,7 @@ def test_traffic_near_the_plan_caps_at_curve_a_lat_traffic(tmp_path):
         assert cs.feedback() == 0
         sv.feedback()
         clr = sv.status.plan_clearance
-        assert 0.0 < clr < 6.0, clr                                    # near the plan, not touching it
+        assert 0.0 < clr < 6.0, clr  # near the plan, not touching it
         assert cs.status().plan_clearance == pytest.approx(clr, rel=1e-9)
         x1 = np.array(sv.states()[1][:5])
         sv.set_state(x1)
@@ -235,7 +235,7 @@ def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_th
     cannot take the line across a bend that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its
     |a_lat| reaches 10.2 m/s^2 (a safe grid without the rule, measured for commit d6dac44); with it (a truck within
     6 m of the plan: 6.5 m/s^2 on the centre line) at most 5.05."""
-    pb = Config("truck", "direct_elimination", "circles", 7, backend="ipm", profile="safe").problem()   # the grid's
+    pb = Config("truck", "direct_elimination", "circles", 7, backend="ipm", profile="safe").problem()  # the grid's
     out = _max_abs_a_lat(tmp_path, "truck", 20, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
     assert out["on"] <= 5.05, out
     assert out["never"] > 6.5, out

@@ -1,4 +1,5 @@
 """`fcgen demo` (the README's main job) end to end on a short run: generate, build, C harness vs Python."""
+
 import json
 
 from click.testing import CliRunner

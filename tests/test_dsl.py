@@ -2,6 +2,7 @@
 
 Expected values are the paper's (SPEC sections 2, 3, 5, 7), written out here by hand, not read from the code.
 """
+
 from __future__ import annotations
 
 import math
@@ -10,15 +11,35 @@ import warnings
 
 import pytest
 
-from fcgen.dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Horizon, Lifted, Opponents,
-                       PlanCheck, Problem, ProblemError, QpOptions, Reference, RoadWindow, SeparatingHyperplane,
-                       SoftPenalties, Vehicle, Weights, Wind, circles_cover)
+from fcgen.dsl import (
+    Bounds,
+    Conventional,
+    CoveringCircles,
+    DirectElimination,
+    Ellipse,
+    Horizon,
+    Lifted,
+    Opponents,
+    PlanCheck,
+    Problem,
+    ProblemError,
+    QpOptions,
+    Reference,
+    RoadWindow,
+    SeparatingHyperplane,
+    SoftPenalties,
+    Vehicle,
+    Weights,
+    Wind,
+    circles_cover,
+)
 from fcgen.presets import TRUCK, load_problem, paper_problem, preset, preset_names
 
 NAN = float("nan")
 
 
 # --- defaults: the paper's values ----------------------------------------------------------------
+
 
 def test_vehicle_defaults_are_the_papers():
     v = Vehicle()
@@ -79,7 +100,8 @@ def test_bound_defaults_are_table_i():
 
 def test_soft_penalty_defaults():
     from fcgen.presets import PAPER_SOFT, preset
-    s = PAPER_SOFT   # the paper presets' values (10x SPEC's obstacle weights: see SoftPenalties)
+
+    s = PAPER_SOFT  # the paper presets' values (10x SPEC's obstacle weights: see SoftPenalties)
     assert (s.obstacle_l1, s.obstacle_l2) == (1e7, 1e6)
     assert (s.a_lat_l1, s.a_lat_l2) == (1e5, 1e4)
     assert s.soft_road is False and SoftPenalties().soft_road is False
@@ -135,14 +157,30 @@ INVALID = [
     ("curve a_lat < 0", lambda: Reference(curve_a_lat=-1.0), "reference.curve_a_lat", "[0, 50]"),
     ("curve a_lat nan", lambda: Reference(curve_a_lat=NAN), "reference.curve_a_lat", "finite"),
     ("curve decel 0", lambda: Reference(curve_decel=0.0), "reference.curve_decel", "(0, 50]"),
-    ("curve a_lat in traffic 0", lambda: Reference(curve_a_lat_traffic=0.0), "reference.curve_a_lat_traffic",
-     "(0, 50]"),
-    ("traffic clearance < 0", lambda: Reference(curve_traffic_clearance=-1.0), "reference.curve_traffic_clearance",
-     "[0, 100]"),
-    ("traffic clearance inf", lambda: Reference(curve_traffic_clearance=math.inf), "reference.curve_traffic_clearance",
-     "finite"),
-    ("curve along not a bool", lambda: Reference(curve_along_horizon=1), "reference.curve_along_horizon",
-     "True or False"),
+    (
+        "curve a_lat in traffic 0",
+        lambda: Reference(curve_a_lat_traffic=0.0),
+        "reference.curve_a_lat_traffic",
+        "(0, 50]",
+    ),
+    (
+        "traffic clearance < 0",
+        lambda: Reference(curve_traffic_clearance=-1.0),
+        "reference.curve_traffic_clearance",
+        "[0, 100]",
+    ),
+    (
+        "traffic clearance inf",
+        lambda: Reference(curve_traffic_clearance=math.inf),
+        "reference.curve_traffic_clearance",
+        "finite",
+    ),
+    (
+        "curve along not a bool",
+        lambda: Reference(curve_along_horizon=1),
+        "reference.curve_along_horizon",
+        "True or False",
+    ),
     ("opponents count", lambda: Opponents(count=11), "opponents.count", "[0, 10]"),
     ("qp eps", lambda: QpOptions(eps_abs=1.5), "qp.eps_abs", "[0, 1)"),
     ("qp alpha", lambda: QpOptions(alpha=2.0), "qp.alpha", "(0, 2)"),
@@ -161,8 +199,12 @@ INVALID = [
     ("a_lat margin >= bound", lambda: Bounds(a_lat_margin=5.0), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
     ("formulation type", lambda: Problem(name="p", formulation="lifted"), "formulation", "Lifted()"),
     ("a_lat guard not a bool", lambda: PlanCheck(a_lat_guard=1), "plan_check.a_lat_guard", "True or False"),
-    ("a_lat guard without margin", lambda: Problem(name="p", bounds=Bounds(a_lat_margin=0.0)), "bounds.a_lat_margin",
-     "(0, a_lat_max = 5.0) m/s^2 with plan_check.a_lat_guard"),
+    (
+        "a_lat guard without margin",
+        lambda: Problem(name="p", bounds=Bounds(a_lat_margin=0.0)),
+        "bounds.a_lat_margin",
+        "(0, a_lat_max = 5.0) m/s^2 with plan_check.a_lat_guard",
+    ),
 ]
 
 
@@ -194,6 +236,7 @@ def test_with_revalidates():
 
 # --- covering circles: warn when they cannot cover the chassis -----------------------------------
 
+
 def _truck_problem(n: int, radius: str = "paper") -> Problem:
     return Problem(name="t", obstacles=CoveringCircles(n, radius=radius), opponents=Opponents(3, TRUCK))
 
@@ -204,7 +247,7 @@ def test_too_few_circles_warn_for_the_truck(n):
     # (26 - 4) / spacing + 1 circles with spacing <= 4: (26 - 4) / 4 + 1 = 6.5 -> at least 7.
     with pytest.warns(UserWarning, match=r"opponents chassis \(26 x 4 m\); at least 7 are needed"):
         _truck_problem(n)
-    with warnings.catch_warnings():   # the safe profile's covering radius: no gap, no warning
+    with warnings.catch_warnings():  # the safe profile's covering radius: no gap, no warning
         warnings.simplefilter("error")
         _truck_problem(n, "cover")
 
@@ -219,11 +262,11 @@ def test_enough_circles_do_not_warn(n):
 
 def test_circles_cover_threshold_by_hand():
     # spacing (l - w) / (n - 1) must not exceed w
-    assert not circles_cover(26.0, 4.0, 6)      # spacing 4.4
-    assert circles_cover(26.0, 4.0, 7)          # spacing 3.67
-    assert not circles_cover(4.0, 1.9, 2)       # spacing 2.1 > 1.9
-    assert circles_cover(4.0, 1.9, 3)           # spacing 1.05
-    assert circles_cover(26.0, 4.0, 1)          # one circle of radius sqrt(L^2 + W^2) always covers
+    assert not circles_cover(26.0, 4.0, 6)  # spacing 4.4
+    assert circles_cover(26.0, 4.0, 7)  # spacing 3.67
+    assert not circles_cover(4.0, 1.9, 2)  # spacing 2.1 > 1.9
+    assert circles_cover(4.0, 1.9, 3)  # spacing 1.05
+    assert circles_cover(26.0, 4.0, 1)  # one circle of radius sqrt(L^2 + W^2) always covers
 
 
 def test_ego_circles_warning_names_the_ego():
@@ -235,6 +278,7 @@ def test_ego_circles_warning_names_the_ego():
 
 # --- loading a problem from a Python file ----------------------------------------------------------
 
+
 def _write(tmp_path, name, body):
     path = tmp_path / name
     path.write_text(textwrap.dedent(body))
@@ -242,12 +286,16 @@ def _write(tmp_path, name, body):
 
 
 def test_load_problem_file_defining_problem(tmp_path):
-    path = _write(tmp_path, "my_truck.py", """
+    path = _write(
+        tmp_path,
+        "my_truck.py",
+        """
         from fcgen.dsl import Problem, Horizon, CoveringCircles, Opponents, Conventional
         from fcgen.presets import TRUCK
         problem = Problem(name="my_truck", formulation=Conventional(margin=0.25), obstacles=CoveringCircles(7),
                           opponents=Opponents(2, TRUCK), horizon=Horizon(N=20, dt=0.05))
-    """)
+    """,
+    )
     p = load_problem(path)
     assert isinstance(p, Problem)
     assert p.name == "my_truck"
@@ -258,22 +306,29 @@ def test_load_problem_file_defining_problem(tmp_path):
 
 
 def test_load_problem_file_with_make_problem(tmp_path):
-    path = _write(tmp_path, "factory.py", """
+    path = _write(
+        tmp_path,
+        "factory.py",
+        """
         from fcgen.dsl import Problem, DirectElimination
         def make_problem():
             return Problem(name="factory", formulation=DirectElimination())
-    """)
+    """,
+    )
     p = load_problem(path)
     assert p.name == "factory" and isinstance(p.formulation, DirectElimination)
 
 
-@pytest.mark.parametrize("body, words", [
-    ("raise RuntimeError('boom')\n", ["failed to load", "RuntimeError", "boom"]),
-    ("problem = (\n", ["failed to load", "SyntaxError"]),
-    ("import fcgen_no_such_module\n", ["failed to load", "ModuleNotFoundError"]),
-    ("x = 1\n", ["must define", "problem"]),
-    ("problem = 42\n", ["must define", "Problem("]),
-])
+@pytest.mark.parametrize(
+    "body, words",
+    [
+        ("raise RuntimeError('boom')\n", ["failed to load", "RuntimeError", "boom"]),
+        ("problem = (\n", ["failed to load", "SyntaxError"]),
+        ("import fcgen_no_such_module\n", ["failed to load", "ModuleNotFoundError"]),
+        ("x = 1\n", ["must define", "problem"]),
+        ("problem = 42\n", ["must define", "Problem("]),
+    ],
+)
 def test_load_problem_file_errors_are_problem_errors(tmp_path, body, words):
     path = _write(tmp_path, "bad.py", body)
     with pytest.raises(ProblemError) as ei:
@@ -284,10 +339,14 @@ def test_load_problem_file_errors_are_problem_errors(tmp_path, body, words):
 
 
 def test_load_problem_file_with_invalid_value_names_the_field(tmp_path):
-    path = _write(tmp_path, "invalid.py", """
+    path = _write(
+        tmp_path,
+        "invalid.py",
+        """
         from fcgen.dsl import Problem, Horizon
         problem = Problem(name="invalid", horizon=Horizon(N=0))
-    """)
+    """,
+    )
     with pytest.raises(ProblemError, match=r"horizon\.N = 0 is invalid: allowed an integer in \[1, 500\]"):
         load_problem(path)
 
@@ -295,10 +354,14 @@ def test_load_problem_file_with_invalid_value_names_the_field(tmp_path):
 def test_load_problem_make_problem_that_raises_is_a_problem_error(tmp_path):
     # A file whose make_problem() raises is a user's file that fails to load, exactly like a file that
     # raises at import: it must be reported as a ProblemError, not escape as a raw exception (traceback).
-    path = _write(tmp_path, "bad_factory.py", """
+    path = _write(
+        tmp_path,
+        "bad_factory.py",
+        """
         def make_problem():
             raise KeyError("no such setting")
-    """)
+    """,
+    )
     with pytest.raises(ProblemError, match="bad_factory.py"):
         load_problem(path)
 
@@ -310,12 +373,16 @@ def test_load_problem_missing_file(tmp_path):
 
 # --- presets ---------------------------------------------------------------------------------------
 
+
 def test_eighteen_presets_all_load():
     names = preset_names()
     assert len(names) == 18 == len(set(names))
-    expected = {f"{sc}_{f}_{o}" for sc in ("car", "truck")
-                for f in ("conventional", "direct_elimination", "lifted")
-                for o in ("ellipse", "circles", "hyperplane")}
+    expected = {
+        f"{sc}_{f}_{o}"
+        for sc in ("car", "truck")
+        for f in ("conventional", "direct_elimination", "lifted")
+        for o in ("ellipse", "circles", "hyperplane")
+    }
     assert set(names) == expected
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the paper's circle counts cover the chassis: no warning
@@ -337,7 +404,7 @@ def test_preset_name_maps_to_classes_and_dimensions(name):
     assert type(p.formulation) is FORM_CLASS[form]
     assert type(p.obstacles) is OBS_CLASS[ob]
     if ob == "circles":
-        assert p.obstacles.n == (7 if sc == "truck" else 3)   # C7 for trucks, C3 for cars
+        assert p.obstacles.n == (7 if sc == "truck" else 3)  # C7 for trucks, C3 for cars
     if sc == "truck":
         assert (p.bounds.n_min, p.bounds.n_max) == (-10.0, 10.0)
         opp = p.opponents.vehicle
@@ -370,6 +437,7 @@ def test_paper_problem_rejects_unknown_scenario_and_formulation():
 
 def test_preset_with_a_backend_suffix():
     from fcgen.presets import is_preset, preset
+
     pb = preset("truck_lifted_ellipse_ipm")
     base = preset("truck_lifted_ellipse")
     assert pb.qp.backend == "ipm" and base.qp.backend == "osqp"

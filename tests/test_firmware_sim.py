@@ -1,4 +1,5 @@
 """The C closed-loop harness firmware_sim/: same run as the Python reference, same run-log format, clean CLI."""
+
 from __future__ import annotations
 
 import json
@@ -96,8 +97,16 @@ def test_collision_flags_port(gen: GenerateInfo, exe: Path, tmp_path: Path) -> N
     pb = load_problem(str(gen.out_dir / "problem.py"))
     sc = make_scenario("truck", SEED, n_opp=pb.opponents.count, samples=12, dt=pb.horizon.dt)
     # opponent 0 starts overlapping the ego in its lane: the run must contain overlapping samples
-    sc = type(sc)(sc.name, sc.seed, sc.road, sc.x0, np.array([2.0, 100.0, 150.0]),
-                  np.array([sc.x0[1], *sc.opp_n[1:]]), sc.samples, sc.dt)
+    sc = type(sc)(
+        sc.name,
+        sc.seed,
+        sc.road,
+        sc.x0,
+        np.array([2.0, 100.0, 150.0]),
+        np.array([sc.x0[1], *sc.opp_n[1:]]),
+        sc.samples,
+        sc.dt,
+    )
     log_c = run_harness(exe, export_scenario(pb, sc, tmp_path / "sc.txt"), tmp_path / "c.json")
     log_py = run_closed_loop(pb, sc)
     np.testing.assert_allclose(log_c.ego_frenet, log_py.ego_frenet, rtol=0, atol=1e-6)
@@ -135,8 +144,9 @@ def test_harness_compiles_warning_free(gen: GenerateInfo, tmp_path: Path) -> Non
 
 def test_cli(gen: GenerateInfo, tmp_path: Path) -> None:
     out = tmp_path / "run.json"
-    res = CliRunner().invoke(main, ["firmware-sim", str(gen.out_dir), "--seed", str(SEED), "--samples", "5",
-                                    "--out", str(out), "--verify"])
+    res = CliRunner().invoke(
+        main, ["firmware-sim", str(gen.out_dir), "--seed", str(SEED), "--samples", "5", "--out", str(out), "--verify"]
+    )
     assert res.exit_code == 0, res.output
     assert "progress" in res.output and "collisions" in res.output and "C firmware_sim" in res.output
     assert RunLog.from_json(out).n_controls == 5
@@ -148,6 +158,7 @@ def test_harness_with_unequal_intervals_matches_python_reference(tmp_path: Path)
     """The ECU harness on a grid of fine then coarse intervals (its data file carries each stage's opponents at the
     node's sample): the same closed loop as the Python reference's."""
     from fcgen.dsl import Horizon, RoadWindow
+
     pb = preset(PRESET).with_(name="fw_grid", horizon=Horizon(N=40, stride=3, fine=20), road=RoadWindow(length=340.0))
     gen = generate(pb, tmp_path / "solver")
     exe = build_harness(gen.out_dir, verify=True)
@@ -157,4 +168,4 @@ def test_harness_with_unequal_intervals_matches_python_reference(tmp_path: Path)
     np.testing.assert_allclose(log_c.ego_frenet, log_py.ego_frenet, rtol=0, atol=1e-6)
     np.testing.assert_allclose(log_c.control, log_py.control, rtol=1e-6, atol=1e-6)
     assert np.array_equal(log_c.qp_iter, log_py.qp_iter) and np.array_equal(log_c.qp_status, log_py.qp_status)
-    assert log_py.ego_frenet[-1, 0] - log_py.ego_frenet[0, 0] > 40 * 0.1 * 10.0   # it drives (progress > 40 m)
+    assert log_py.ego_frenet[-1, 0] - log_py.ego_frenet[0, 0] > 40 * 0.1 * 10.0  # it drives (progress > 40 m)

@@ -6,6 +6,7 @@ rounding. On the 24 warm-started QPs of truck seed 0, samples 1-24 (max |z_float
 with the double build's sigma = 1e-6 in float, median 3.5e-3 and max 4.6e-2; with FLOAT_SIGMA_MIN = 1e-3, median
 7e-5 and max 4e-4 (docs/performance.md, "Single precision in closed loop").
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -16,8 +17,8 @@ import pytest
 
 from fcgen.backends import osqp as osqp_backend
 from fcgen.build import build
-from fcgen.csolver import QpRecorder
 from fcgen.codegen.generate import generate
+from fcgen.csolver import QpRecorder
 from fcgen.dsl import QpOptions
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
@@ -35,8 +36,7 @@ def _float_vs_double(tmp: Path) -> np.ndarray:
     ocp = build_ocp(pb)
     lay = build_layout(ocp)
     rec = QpRecorder(build(generate(pb, tmp / "f", use_float=True, force=True).out_dir), lay)
-    run_closed_loop(pb, make_scenario("truck", 0, n_opp=3, samples=SAMPLES, dt=pb.horizon.dt), controller=rec,
-                    ocp=ocp)
+    run_closed_loop(pb, make_scenario("truck", 0, n_opp=3, samples=SAMPLES, dt=pb.horizon.dt), controller=rec, ocp=ocp)
     ref = osqp_backend.Backend(lay, dataclasses.replace(pb.qp, sigma=osqp_backend.osqp_sigma(pb.qp, True)))
     diffs = []
     for qp in rec.qps:

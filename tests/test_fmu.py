@@ -1,6 +1,7 @@
 """`fcgen fmu`: the generated controller as a co-simulation FMU (FMI 3.0 and 2.0). FMPy validates it, a closed loop
 through it equals the C library's bit for bit (OSQP and IPM, double and float), and its FMI semantics hold: one
 instance at a time, doStep of exactly dt, the solver's rejections as FMI errors naming the solver's error."""
+
 from __future__ import annotations
 
 import shutil
@@ -15,9 +16,8 @@ from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.fmu import FmuController, build_fmu, variables
 from fcgen.presets import preset
 from fcgen.sim.closedloop import run_closed_loop
@@ -65,20 +65,25 @@ def test_fmu_validates_and_equals_the_c_library(folders, key, fmi, tmp_path):
         assert {"state[1]", "state[5]", "u0[2]", "opponents[41,3,3]", "states[41,8]"} <= names
     with zipfile.ZipFile(fmu) as z:
         files = set(z.namelist())
-    assert "documentation/README.md" in files and any(f.startswith("sources/") and f.endswith("_solver.c")
-                                                      for f in files)
+    assert "documentation/README.md" in files and any(
+        f.startswith("sources/") and f.endswith("_solver.c") for f in files
+    )
     assert any(f.startswith("binaries/") and f.endswith(".so") for f in files)
     lib, via_fmu = closed_loops(folders[key], fmu)
     assert via_fmu.meta["controller"] == "c-fmu"
     diff = {k: v for k, v in compare(lib, via_fmu).items() if not k.startswith("time")}
-    assert diff and all(v == 0 for v in diff.values()), diff        # bit for bit
+    assert diff and all(v == 0 for v in diff.values()), diff  # bit for bit
     assert np.array_equal(lib.control, via_fmu.control) and np.array_equal(lib.qp_iter, via_fmu.qp_iter)
 
 
 def _slave(fmu: Path, log: list):
     md = read_model_description(str(fmu))
-    s = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName="t")
+    s = FMU3Slave(
+        guid=md.guid,
+        unzipDirectory=extract(str(fmu)),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="t",
+    )
     s.instantiate(logMessage=lambda env, status, cat, msg: log.append(msg.decode()))
     return s, md
 
@@ -89,8 +94,12 @@ def test_fmi_semantics(folders, tmp_path):
     a, md = _slave(fmu, log)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     # a second instance of the same FMU (the same binary) is refused, with the reason in the log
-    b = FMU3Slave(guid=md.guid, unzipDirectory=a.unzipDirectory, modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName="second")
+    b = FMU3Slave(
+        guid=md.guid,
+        unzipDirectory=a.unzipDirectory,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="second",
+    )
     with pytest.raises(Exception):
         b.instantiate(logMessage=lambda env, status, cat, msg: log.append(msg.decode()))
     assert any("one instance at a time" in m for m in log)
@@ -119,13 +128,23 @@ def test_fmi_semantics(folders, tmp_path):
 def test_variables_are_the_headers_sizes():
     vs = {v.name: v for v in variables({"N": 40, "NX": 8, "NU": 2, "ROAD_MAX": 141, "NOPP": 3, "NOPP_PAR": 3})}
     assert vs["opponents"].dims == (41, 3, 3) and vs["road_kappa"].count == 141 and vs["states"].count == 41 * 8
-    assert [v.name for v in vs.values() if v.input] == ["state", "road_s0", "road_ds", "road_n", "road_kappa",
-                                                         "road_phi", "road_x", "road_y", "opponents"]
+    assert [v.name for v in vs.values() if v.input] == [
+        "state",
+        "road_s0",
+        "road_ds",
+        "road_n",
+        "road_kappa",
+        "road_phi",
+        "road_x",
+        "road_y",
+        "opponents",
+    ]
 
 
 def test_fmi2_semantics(folders, tmp_path, capfd):
     """FMI 2.0's layer: the same refusals (a second instance, another step size), the same log lines."""
     from fmpy.fmi2 import FMU2Slave
+
     fmu = build_fmu(folders["ipm"], tmp_path / "ipm2.fmu", 2)
     md = read_model_description(str(fmu))
     d = extract(str(fmu))

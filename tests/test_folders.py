@@ -1,5 +1,6 @@
 """``fcgen generate``'s output folder: another solver is refused (or replaced with --force, not mixed), a failed or
 interrupted generation leaves nothing half-written, regeneration in place keeps build/ and unchanged files."""
+
 from __future__ import annotations
 
 import shutil
@@ -24,8 +25,11 @@ def small(name: str, N: int = 4) -> Problem:
 
 def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
     """Every file under ``folder`` (contents and mtime in ns), and the sibling entries of ``folder``."""
-    out = {p.relative_to(folder).as_posix(): (p.read_bytes(), p.stat().st_mtime_ns)
-           for p in folder.rglob("*") if p.is_file()}
+    out = {
+        p.relative_to(folder).as_posix(): (p.read_bytes(), p.stat().st_mtime_ns)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
     out["<siblings>"] = (" ".join(sorted(p.name for p in folder.parent.iterdir())).encode(), 0)
     return out
 
@@ -33,8 +37,10 @@ def snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
 def write_problem(tmp_path: Path, name: str, N: int = 4) -> str:
     (tmp_path / "problems").mkdir(exist_ok=True)
     f = tmp_path / "problems" / f"{name}.py"
-    f.write_text(f"from fcgen.dsl import *\nproblem = Problem(name={name!r}, horizon=Horizon(N={N}), "
-                 f"opponents=Opponents(count=1))\n")
+    f.write_text(
+        f"from fcgen.dsl import *\nproblem = Problem(name={name!r}, horizon=Horizon(N={N}), "
+        f"opponents=Opponents(count=1))\n"
+    )
     return str(f)
 
 
@@ -63,8 +69,11 @@ def test_force_replaces_the_old_solver_without_mixing(tmp_path):
     (out / "notes.txt").write_text("mine")
     res = CliRunner().invoke(main, ["generate", write_problem(tmp_path, "beta"), "-o", str(out), "--force"])
     assert res.exit_code == 0, res.output
-    names = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()
-                   and not p.relative_to(out).as_posix().startswith("osqp/lib/"))
+    names = sorted(
+        p.relative_to(out).as_posix()
+        for p in out.rglob("*")
+        if p.is_file() and not p.relative_to(out).as_posix().startswith("osqp/lib/")
+    )
     assert not [n for n in names if "alpha" in n], names  # no file of the old solver, not even its build products
     assert not (out / "build").exists()
     assert "notes.txt" in names and "beta_solver.c" in names and "osqp/beta_workspace.c" in names

@@ -3,6 +3,7 @@
 (Byte-identical regeneration is checked by `fcgen regenerate --check generated` in scripts/test.sh, the CI command,
 and by `test_regenerate_detects_a_changed_byte` below for the mechanism itself.)
 """
+
 from pathlib import Path
 
 import pytest
@@ -40,4 +41,6 @@ def test_regenerate_detects_a_changed_byte(tmp_path):
     (tmp_path / "truck_lifted_ellipse" / "stray.txt").write_text("x")
     assert compare(tmp_path / "truck_lifted_ellipse", tmp_path / "truck_lifted_ellipse") == []
     assert regenerate(tmp_path, check=True)["truck_lifted_ellipse"] == [
-        "unexpected stray.txt", "differs truck_lift_el_solver.c"]
+        "unexpected stray.txt",
+        "differs truck_lift_el_solver.c",
+    ]

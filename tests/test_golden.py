@@ -3,6 +3,7 @@
 A generator change that moves any output of a solver fails here with the sample and field named. After an intended
 change, re-record all goldens with one command: ``fcgen record --golden-for generated --force`` (and commit them).
 """
+
 import shutil
 from pathlib import Path
 
@@ -28,8 +29,14 @@ def test_generated_solver_reproduces_its_golden(folder, tmp_path):
     # build a copy: other tests build generated/<folder> in place, possibly on another worker at the same time
     solver = tmp_path / folder
     shutil.copytree(ROOT / folder, solver, ignore=shutil.ignore_patterns("build", GOLDEN_DIR))
-    rep = regress(solver, ROOT / folder / GOLDEN_DIR, mode="replay", preset="same-build",
-                  build_kw={"verify": GOLDEN_SETTINGS.verify})
-    assert rep.passed, ("outputs moved; if intended, re-record with `fcgen record --golden-for generated --force`\n"
-                        + rep.format())
+    rep = regress(
+        solver,
+        ROOT / folder / GOLDEN_DIR,
+        mode="replay",
+        preset="same-build",
+        build_kw={"verify": GOLDEN_SETTINGS.verify},
+    )
+    assert rep.passed, (
+        "outputs moved; if intended, re-record with `fcgen record --golden-for generated --force`\n" + rep.format()
+    )
     assert rep.logs and all(lg.fields for lg in rep.logs)

@@ -1,6 +1,7 @@
 """Each guard shown to fail when what it guards breaks: ``verify`` on a C constant changed by one part in a million,
 ``regenerate --check``'s exit code on a changed, missing or extra file, the solver cache's file lock between two real
 processes (one SIGKILLed while it holds the lock)."""
+
 from __future__ import annotations
 
 import os
@@ -34,14 +35,14 @@ def _copy_solver(dst: Path) -> Path:
 def test_verify_fails_on_a_model_constant_changed_by_one_part_in_a_million(tmp_path):
     ok = _copy_solver(tmp_path / "ok")
     res = fcgen("verify", ok, "--samples", "20")
-    assert res.returncode == 0 and "PASS" in res.stdout, res.stdout + res.stderr     # the unchanged copy passes
+    assert res.returncode == 0 and "PASS" in res.stdout, res.stdout + res.stderr  # the unchanged copy passes
     bad = _copy_solver(tmp_path / "bad")
     model = bad / "truck_lift_el_model.c"
     text = model.read_text()
-    m = re.search(r"=(3\.3999999999999999e\+00);", text)        # a parameter of the stage's dynamics
+    m = re.search(r"=(3\.3999999999999999e\+00);", text)  # a parameter of the stage's dynamics
     assert m, "the constant moved; pick another literal of the model"
     changed = float(m.group(1)) * (1 + 1e-6)
-    model.write_text(text[:m.start(1)] + repr(changed) + text[m.end(1):])
+    model.write_text(text[: m.start(1)] + repr(changed) + text[m.end(1) :])
     res = fcgen("verify", bad, "--samples", "20")
     assert res.returncode == 1 and "verification failed" in res.stderr, res.stdout + res.stderr
     assert "FAIL" in res.stdout and "feedback/first control u0" in res.stdout
@@ -56,7 +57,7 @@ def test_regenerate_check_exits_non_zero_on_any_difference(tmp_path, damage):
     d = root / "truck_lifted_ellipse"
     if damage == "changed":
         f = d / "truck_lift_el_solver.c"
-        f.write_bytes(f.read_bytes().replace(b"\n", b" \n", 1))    # one byte more, nothing else
+        f.write_bytes(f.read_bytes().replace(b"\n", b" \n", 1))  # one byte more, nothing else
         want = "differs truck_lift_el_solver.c"
     elif damage == "missing":
         (d / "truck_lift_el_host.h").unlink()
@@ -65,19 +66,22 @@ def test_regenerate_check_exits_non_zero_on_any_difference(tmp_path, damage):
         (d / "notes.txt").write_text("x")
         want = "unexpected notes.txt"
     res = fcgen("regenerate", "--check", root)
-    assert res.returncode == 1 and want in res.stdout and "differ from what fcgen generates" in res.stderr, \
+    assert res.returncode == 1 and want in res.stdout and "differ from what fcgen generates" in res.stderr, (
         res.stdout + res.stderr
+    )
 
 
-_ENSURE = ("import sys; from fcgen.campaign.solvers import ensure_solver; from fcgen.presets import preset; "
-           "print(ensure_solver(preset('truck_lifted_ellipse'), sys.argv[1]))")
+_ENSURE = (
+    "import sys; from fcgen.campaign.solvers import ensure_solver; from fcgen.presets import preset; "
+    "print(ensure_solver(preset('truck_lifted_ellipse'), sys.argv[1]))"
+)
 
 
 def _blocked_on_flock(pid: int) -> bool:
     """True if ``pid`` waits for a flock (a ``->`` line of /proc/locks names the blocked requests)."""
     for line in Path("/proc/locks").read_text().splitlines():
         f = line.split()
-        if "->" in f and "FLOCK" in f and str(pid) in f[f.index("->") + 4:f.index("->") + 5]:
+        if "->" in f and "FLOCK" in f and str(pid) in f[f.index("->") + 4 : f.index("->") + 5]:
             return True
     return False
 
@@ -90,8 +94,14 @@ def test_the_solver_cache_lock_holds_a_second_process_and_survives_a_killed_buil
     cache = tmp_path / "cache"
     flag = tmp_path / "paused"
     env_a = {**os.environ, "FCGEN_PAUSE_AT": "solvers:generated", "FCGEN_PAUSE_FLAG": str(flag)}
-    a = subprocess.Popen([sys.executable, "-c", _ENSURE, str(cache)], env=env_a, start_new_session=True,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    a = subprocess.Popen(
+        [sys.executable, "-c", _ENSURE, str(cache)],
+        env=env_a,
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     b = None
     try:
         deadline = time.monotonic() + 120
@@ -101,15 +111,20 @@ def test_the_solver_cache_lock_holds_a_second_process_and_survives_a_killed_buil
             time.sleep(0.05)
         (folder,) = [p for p in cache.iterdir() if p.is_dir()]
         assert not (folder / ".fcgen-ready").exists() and not (folder / "build").exists()
-        b = subprocess.Popen([sys.executable, "-c", _ENSURE, str(cache)], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, start_new_session=True)
+        b = subprocess.Popen(
+            [sys.executable, "-c", _ENSURE, str(cache)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
         deadline = time.monotonic() + 60
         while not _blocked_on_flock(b.pid):
             assert b.poll() is None, ("B did not wait for A's lock", b.communicate())
             assert time.monotonic() < deadline, "B never blocked on the lock"
             time.sleep(0.05)
         time.sleep(1.0)
-        assert b.poll() is None and not (folder / "build").exists()   # still waiting; nothing built beside A
+        assert b.poll() is None and not (folder / "build").exists()  # still waiting; nothing built beside A
         os.killpg(a.pid, signal.SIGKILL)
         a.wait()
         out, err = b.communicate(timeout=240)
@@ -131,14 +146,14 @@ FLOAT_SEEDS = range(20)
 def _progress(tmp: Path, tag: str, use_float: bool, seeds) -> list[float]:
     """Closed-loop progress (m) of truck_lifted_ellipse's C build on truck seeds x 200 samples."""
     from fcgen.build import build
-    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
     from fcgen.presets import preset
     from fcgen.sim.closedloop import run_closed_loop
     from fcgen.sim.runlog import summary
     from fcgen.sim.scenario import make_scenario
 
-    pb = preset("truck_lifted_ellipse").with_(name=f"fvd_{tag}")     # a new library name per build
+    pb = preset("truck_lifted_ellipse").with_(name=f"fvd_{tag}")  # a new library name per build
     cs = CSolver(build(generate(pb, tmp / tag, use_float=use_float).out_dir))
     out = []
     for seed in seeds:

@@ -2,6 +2,7 @@
 back, and none imports a module of a higher layer (the layers declared once, in pyproject.toml's
 ``[tool.importlinter]``, checked by ``lint-imports``). Function-level imports included: a lazy import hides a circle
 or an arrow up, it does not remove it."""
+
 from __future__ import annotations
 
 import ast
@@ -34,7 +35,7 @@ def module_imports(root: Path = ROOT) -> dict[str, set[str]]:
             if isinstance(node, ast.ImportFrom):
                 base = node.module or ""
                 if node.level:
-                    up = pkg.split(".")[:len(pkg.split(".")) - node.level + 1]
+                    up = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
                     base = ".".join(up + ([node.module] if node.module else []))
                 names = [f"{base}.{a.name}" for a in node.names] + [base]
             elif isinstance(node, ast.Import):
@@ -99,7 +100,7 @@ def test_fcgen_has_no_import_circles():
 
 def test_lower_layers_import_no_higher_ones():
     edges = module_imports()
-    dsl = {m for m in edges if m == "fcgen.dsl" or m.startswith("fcgen.dsl.")}   # the DSL package and its modules
+    dsl = {m for m in edges if m == "fcgen.dsl" or m.startswith("fcgen.dsl.")}  # the DSL package and its modules
     assert not set().union(*(edges[m] for m in dsl)) - dsl - {"fcgen.cnames"}
     assert "fcgen.codegen.generate" not in edges["fcgen.targets"]
     assert "fcgen.build" not in edges["fcgen.codegen.consistency"]
@@ -112,8 +113,9 @@ def lint_imports(python_path: Path | None = None) -> subprocess.CompletedProcess
     env = dict(os.environ)
     if python_path is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(python_path), *filter(None, [env.get("PYTHONPATH")])])
-    return subprocess.run([exe, "--config", str(PYPROJECT), "--no-cache"], capture_output=True, text=True, env=env,
-                          timeout=300)
+    return subprocess.run(
+        [exe, "--config", str(PYPROJECT), "--no-cache"], capture_output=True, text=True, env=env, timeout=300
+    )
 
 
 def test_fcgen_keeps_its_layers():
@@ -122,16 +124,19 @@ def test_fcgen_keeps_its_layers():
     assert "1 kept, 0 broken" in res.stdout, res.stdout
 
 
-@pytest.mark.parametrize("module, planted, arrow", [
-    # a lazy import from the bottom layer to the top one
-    ("dsl/problem.py", "def _planted():\n    from ..cli import main\n", "fcgen.dsl.problem -> fcgen.cli"),
-    # the targets (data) rendering with the code generator: the arrow up this layering took out
-    ("targets.py", "from .codegen.render import render_template\n", "fcgen.targets -> fcgen.codegen.render"),
-    # the C binding reaching up into the closed loop for its result type (now fcgen.contract's)
-    ("csolver.py", "from .sim.closedloop import run_closed_loop\n", "fcgen.csolver -> fcgen.sim.closedloop"),
-    # a backend's exemption covers codegen only
-    ("backends/osqp.py", "from ..reference import QP_EXIT\n", "fcgen.backends.osqp -> fcgen.reference"),
-])
+@pytest.mark.parametrize(
+    "module, planted, arrow",
+    [
+        # a lazy import from the bottom layer to the top one
+        ("dsl/problem.py", "def _planted():\n    from ..cli import main\n", "fcgen.dsl.problem -> fcgen.cli"),
+        # the targets (data) rendering with the code generator: the arrow up this layering took out
+        ("targets.py", "from .codegen.render import render_template\n", "fcgen.targets -> fcgen.codegen.render"),
+        # the C binding reaching up into the closed loop for its result type (now fcgen.contract's)
+        ("csolver.py", "from .sim.closedloop import run_closed_loop\n", "fcgen.csolver -> fcgen.sim.closedloop"),
+        # a backend's exemption covers codegen only
+        ("backends/osqp.py", "from ..reference import QP_EXIT\n", "fcgen.backends.osqp -> fcgen.reference"),
+    ],
+)
 def test_the_layer_check_fails_on_an_import_up(tmp_path, module, planted, arrow):
     """A copy of fcgen with one import up planted: ``lint-imports`` fails and names that arrow."""
     copy = tmp_path / "fcgen"
@@ -140,4 +145,4 @@ def test_the_layer_check_fails_on_an_import_up(tmp_path, module, planted, arrow)
     f.write_text(f.read_text() + "\n\n" + planted)
     res = lint_imports(tmp_path)
     assert res.returncode != 0 and "0 kept, 1 broken" in res.stdout, res.stdout + res.stderr
-    assert arrow in res.stdout, res.stdout   # only the copy has it: the copy was checked
+    assert arrow in res.stdout, res.stdout  # only the copy has it: the copy was checked

@@ -1,5 +1,6 @@
 """The interior-point QP backend (``qp.backend = "ipm"``): the stage view, the Python IPM against OSQP on the QPs of
 closed-loop runs, its statuses, and the generated C against the Python reference (``fcgen verify``)."""
+
 from __future__ import annotations
 
 import shutil
@@ -27,8 +28,11 @@ OSQP_TIGHT = QpOptions(max_iter=100_000, eps_abs=1e-7, eps_rel=1e-7, rho=1.0, ch
 CASES = [(sc, f, o) for sc in SCENARIOS for f in FORMULATIONS for o in OBSTACLES]
 # C builds are the slow part: the default run builds a Latin square (each formulation, each obstacle model once,
 # both scenarios); the remaining presets are marked slow
-FAST_C = {("car", "conventional", "hyperplane"), ("truck", "direct_elimination", "circles"),
-          ("truck", "lifted", "ellipse")}
+FAST_C = {
+    ("car", "conventional", "hyperplane"),
+    ("truck", "direct_elimination", "circles"),
+    ("truck", "lifted", "ellipse"),
+}
 C_CASES = [c if c in FAST_C else pytest.param(*c, marks=pytest.mark.slow) for c in CASES]
 
 
@@ -59,8 +63,7 @@ def closed_loop_qps(pb, samples: int = 3, seed: int = 1) -> tuple[RtiSolver, lis
             return res
 
     ref.qp = Recorder()
-    run_closed_loop(pb, make_scenario(infer_scenario(pb), seed, samples=samples),
-                    ReferenceController(ocp, ref), ocp)
+    run_closed_loop(pb, make_scenario(infer_scenario(pb), seed, samples=samples), ReferenceController(ocp, ref), ocp)
     return ref, qps
 
 
@@ -76,9 +79,12 @@ def kkt(lay, P_x, A_x, q, l, u, z, y) -> tuple[float, float, float]:
 
 # -- the stage view ---------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("split", [False, True], ids=["stage_view", "split_soft_rows"])
-@pytest.mark.parametrize("sc,form,ob", [("car", "conventional", "hyperplane"), ("truck", "lifted", "circles"),
-                                        ("car", "direct_elimination", "ellipse")])
+@pytest.mark.parametrize(
+    "sc,form,ob",
+    [("car", "conventional", "hyperplane"), ("truck", "lifted", "circles"), ("car", "direct_elimination", "ellipse")],
+)
 def test_stage_view_reassembles_A(sc, form, ob, split):
     """Every non-zero of A sits in exactly one block of the stage view (and, split, of its soft rows); the blocks
     rebuild A entry for entry."""
@@ -106,11 +112,11 @@ def test_stage_view_reassembles_A(sc, form, ob, split):
     for k in range(sv.N + 1):
         for g in range(sv.NG):
             s = k * sv.NG + g
-            for v, a in zip(sv.gen_v[sv.gen_ptr[s]:sv.gen_ptr[s + 1]], sv.gen_a[sv.gen_ptr[s]:sv.gen_ptr[s + 1]]):
+            for v, a in zip(sv.gen_v[sv.gen_ptr[s] : sv.gen_ptr[s + 1]], sv.gen_a[sv.gen_ptr[s] : sv.gen_ptr[s + 1]]):
                 put(sv.gen_rows[k, g], sv.vmap[k, v], a)
         for e in range(sv.NE):
             s = k * sv.NE + e
-            for j, a in zip(sv.eq_j[sv.eq_ptr[s]:sv.eq_ptr[s + 1]], sv.eq_a[sv.eq_ptr[s]:sv.eq_ptr[s + 1]]):
+            for j, a in zip(sv.eq_j[sv.eq_ptr[s] : sv.eq_ptr[s + 1]], sv.eq_a[sv.eq_ptr[s] : sv.eq_ptr[s + 1]]):
                 put(sv.eq_rows[k, e], sv.vmap[k, sv.nx + j], a)
     for r, c, a in zip(sv.box_rows, sv.box_var, sv.box_a):
         put(r, c, a)
@@ -121,7 +127,7 @@ def test_stage_view_reassembles_A(sc, form, ob, split):
             assert sr.rptr[k] <= sr.rptr[k + 1] and sr.run_ptr[sr.rptr[k]] == sr.ptr[k]
             for r in range(sr.rptr[k], sr.rptr[k + 1]):
                 js = range(sr.run_ptr[r], sr.run_ptr[r + 1])
-                assert all(np.array_equal(sr.v[j], sr.run_v[r]) for j in js)   # a run: rows on the same slots
+                assert all(np.array_equal(sr.v[j], sr.run_v[r]) for j in js)  # a run: rows on the same slots
                 assert list(sr.row[list(js)]) == sorted(sr.row[list(js)])
                 for j in js:
                     for v, a in zip(sr.v[j], sr.a[j]):
@@ -151,7 +157,7 @@ def test_soft_rows_are_the_obstacle_rows():
     assert sr.count == 10 * 7 * 7 * 3 and all(nm.startswith("opp") for nm in names), set(names)
     assert np.all(sr.sign == 1) and np.all(sr.bsign == 1) and sr.NA == 3
     assert len(set(sr.svar.tolist())) == sr.count
-    assert sv.NG == 2 and sv.NS == 1                                     # a_lat: two rows, one slack
+    assert sv.NG == 2 and sv.NS == 1  # a_lat: two rows, one slack
     assert all(lay.row_names[r].startswith("a_lat") for r in sv.gen_rows[sv.gen_rows >= 0])
 
 
@@ -160,6 +166,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     with one row of no data at its end; the ellipse's runs of 3 rows would gain 33 % padding, so they keep one lane
     and no padding."""
     from fcgen.codegen.ipm_layout import padded_runs, sr_lanes
+
     lay = build_layout(build_ocp(short("truck", "lifted", "circles")))
     sv, sr = split_soft_rows(lay, stage_view(lay))
     assert sr_lanes(sr) == 4
@@ -167,7 +174,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     np.testing.assert_array_equal(ptr, 148 * np.arange(11))
     rows = pad(sr.row)
     assert rows.shape == (1480,) and np.all(rows[147::148] == -1) and np.count_nonzero(rows == -1) == 10
-    np.testing.assert_array_equal(rows[rows >= 0], sr.row)          # the rows in their order, runs contiguous
+    np.testing.assert_array_equal(rows[rows >= 0], sr.row)  # the rows in their order, runs contiguous
     np.testing.assert_array_equal(pad(sr.a)[147], -np.ones(sr.NA))  # a padding row has no data
     assert np.all(pad(sr.sign, 0)[147::148] == 0)
     lay = build_layout(build_ocp(short("truck", "lifted", "ellipse")))
@@ -179,6 +186,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
 
 
 # -- the Python IPM against OSQP -----------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("sc,form,ob", CASES)
 def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
@@ -227,12 +235,12 @@ def test_ipm_scaled_start_same_solution_fewer_iterations():
             res[s] = tight[s].solve(q, l, u, y_warm, 200)
             assert res[s].status == QP_SOLVED
             iters[s] += rt[s].solve(q, l, u, y_warm, 60).iter
-        for r in res.values():   # both KKT points of the QP, of the same objective (its primal need not be unique)
+        for r in res.values():  # both KKT points of the QP, of the same objective (its primal need not be unique)
             r_d, viol, comp = kkt(lay, P_x, A_x, q, l, u, r.z, r.y)
             assert r_d < 1e-7 and viol < 1e-7 and comp < 1e-6, (r_d, viol, comp)
         obj = [0.5 * r.z @ (P_x * r.z) + q @ r.z for r in res.values()]
-        assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))   # the gap: ~400 pairs of t lam <= 1e-8
-        cold = (np.zeros_like(y_warm),) * 2   # no warm multipliers: every lam0 = lam_min < 1, the same start
+        assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))  # the gap: ~400 pairs of t lam <= 1e-8
+        cold = (np.zeros_like(y_warm),) * 2  # no warm multipliers: every lam0 = lam_min < 1, the same start
         a, b = (rt[s].solve(q, l, u, cold[0], 60) for s in (False, True))
         assert a.iter == b.iter and np.array_equal(a.z, b.z)
     assert iters[True] < iters[False], iters
@@ -287,6 +295,7 @@ def test_ipm_generates_and_verifies(tmp_path, sc, form, ob):
     IPM sample by sample (fcgen verify's tolerances: QP solution 1e-9 relative), and the folder has no OSQP file."""
     from fcgen.codegen.generate import generate
     from fcgen.verify import verify
+
     info = generate(short(sc, form, ob), tmp_path / "g")
     assert not (tmp_path / "g" / "osqp").exists() and info.library_files == ()
     rep = verify(tmp_path / "g", samples=3)
@@ -300,9 +309,10 @@ def test_ipm_single_precision_closed_loop(tmp_path):
     """A float build (ipm_tol 1e-3: float's ~1e-7 resolution times the QP's scaling) runs a closed loop: every QP
     solved to its tolerance, no error exit, the same progress as the double Python reference to 0.1 %."""
     from fcgen.build import build
-    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
     from fcgen.sim.runlog import summary
+
     pb = short("truck", "lifted", "ellipse", N=20, qp=QpOptions(backend="ipm", ipm_tol=1e-3))
     generate(pb, tmp_path / "f", use_float=True)
     cs = CSolver(build(tmp_path / "f"))
@@ -325,17 +335,35 @@ def test_cli_bench_backends(tmp_path):
 
     from fcgen.cli import main
     from fcgen.codegen.generate import generate
+
     generate(short("car", "lifted", "ellipse", qp=QpOptions()), tmp_path / "g")
     out = tmp_path / "b.json"
-    res = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,ipm", "--seeds", "1",
-                                    "--samples", "4", "--clock", "cpu", "--out", str(out)])
+    res = CliRunner().invoke(
+        main,
+        [
+            "bench",
+            str(tmp_path / "g"),
+            "--backends",
+            "osqp,ipm",
+            "--seeds",
+            "1",
+            "--samples",
+            "4",
+            "--clock",
+            "cpu",
+            "--out",
+            str(out),
+        ],
+    )
     assert res.exit_code == 0, res.output
     r = json.loads(out.read_text())
     assert r["variants"] == ["osqp", "ipm"] and r["clock"] == "cpu"
     ipm, osq = r["results"]["ipm"], r["results"]["osqp"]
     assert ipm["qp"]["backend"] == "ipm" and osq["qp"]["backend"] == "osqp"
     assert ipm["samples"] == osq["samples"] == 4
-    assert ipm["speedup_vs_osqp"] == pytest.approx(osq["time_ms"]["total"]["median"] / ipm["time_ms"]["total"]["median"])
+    assert ipm["speedup_vs_osqp"] == pytest.approx(
+        osq["time_ms"]["total"]["median"] / ipm["time_ms"]["total"]["median"]
+    )
     assert ipm["static_ram_bytes"] < osq["static_ram_bytes"]
     assert "x vs osqp" in res.output and "ipm" in res.output
     bad = CliRunner().invoke(main, ["bench", str(tmp_path / "g"), "--backends", "osqp,hpipm"])

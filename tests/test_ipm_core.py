@@ -1,6 +1,7 @@
 """The IPM's algorithm as plain C (csrc/ipm/ipm_core.c and its parts), compiled on its own with a problem header rendered
 by fcgen, on the QPs a Python closed loop solved: the same statuses, iterations and solutions as the Python IPM, and
 (an independent check) its solutions satisfy the QP's optimality conditions."""
+
 from __future__ import annotations
 
 import subprocess
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_ipm import kkt
 
 from fcgen.backends import QP_SOLVED
 from fcgen.codegen.ipm_header import codegen_context, core_files
@@ -18,7 +20,6 @@ from fcgen.presets import paper_problem
 from fcgen.reference import RtiSolver
 from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.scenario import make_scenario
-from test_ipm import kkt
 
 HARNESS = Path(__file__).parent / "c" / "ipm_core_test.c"
 
@@ -46,8 +47,7 @@ def record_events(pb, samples: int, seed: int = 1):
             return res
 
     ref.qp = Recorder()
-    run_closed_loop(pb, make_scenario(pb.name.split("_")[0], seed, samples=samples),
-                    ReferenceController(ocp, ref), ocp)
+    run_closed_loop(pb, make_scenario(pb.name.split("_")[0], seed, samples=samples), ReferenceController(ocp, ref), ocp)
     return ocp, ref.lay, events
 
 
@@ -55,12 +55,40 @@ def build_harness(ocp, lay, opts, tmp: Path, generic_rows: bool = False) -> Path
     ctx = codegen_context(ocp, lay, opts)
     if generic_rows:  # every stage's general rows by the generic loops (no IPM_GEN_PAT table, no written-out kernels)
         ctx = {**ctx, "GEN_WRITTEN": 0, "tables": [t for t in ctx["tables"] if t["name"] != "IPM_GEN_PAT"]}
-    (tmp / "ipm_problem.h").write_text(render_template("backends/ipm_problem.h.j2", name="tipm", NAME="TIPM",
-                                                       backend=ctx, c_sqrt="sqrt", c_fabs="fabs", c_fmin="fmin"))
+    (tmp / "ipm_problem.h").write_text(
+        render_template(
+            "backends/ipm_problem.h.j2",
+            name="tipm",
+            NAME="TIPM",
+            backend=ctx,
+            c_sqrt="sqrt",
+            c_fabs="fabs",
+            c_fmin="fmin",
+        )
+    )
     exe = tmp / ("ipm_core_test_generic" if generic_rows else "ipm_core_test")
-    subprocess.run(["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
-                    "-ffp-contract=off", "-fno-tree-slp-vectorize", f"-I{tmp}", f"-I{csrc_dir() / 'ipm'}",
-                    str(HARNESS), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            "cc",
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-Wno-unused-function",
+            "-ffp-contract=off",
+            "-fno-tree-slp-vectorize",
+            f"-I{tmp}",
+            f"-I{csrc_dir() / 'ipm'}",
+            str(HARNESS),
+            "-o",
+            str(exe),
+            "-lm",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     return exe
 
 
@@ -78,14 +106,17 @@ def run_harness(exe: Path, lay, events, tmp: Path) -> np.ndarray:
     return np.fromfile(out).reshape(-1, 7 + lay.n + lay.m)
 
 
-@pytest.mark.parametrize("sc,form,ob", [("truck", "lifted", "ellipse"), ("car", "conventional", "hyperplane")],
-                         ids=["no_equalities", "stage_equalities"])
+@pytest.mark.parametrize(
+    "sc,form,ob",
+    [("truck", "lifted", "ellipse"), ("car", "conventional", "hyperplane")],
+    ids=["no_equalities", "stage_equalities"],
+)
 def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     pb = paper_problem(sc, form, ob, horizon=Horizon(N=10), qp=QpOptions(backend="ipm"))
     ocp, lay, events = record_events(pb.with_(name=f"{sc}_x"), samples=6)
     ctx = codegen_context(ocp, lay, pb.qp)
-    assert (ctx["NE"] > 0) == (form == "conventional")   # both branches of the core's #if IPM_NE > 0
-    assert (ctx["NE"] == 0 and ctx["U_DENSE"] == 1) == (form == "lifted")   # and of #if IPM_U_FUSED
+    assert (ctx["NE"] > 0) == (form == "conventional")  # both branches of the core's #if IPM_NE > 0
+    assert (ctx["NE"] == 0 and ctx["U_DENSE"] == 1) == (form == "lifted")  # and of #if IPM_U_FUSED
     exe = build_harness(ocp, lay, pb.qp, tmp_path)
     n, m = lay.n, lay.m
     out = run_harness(exe, lay, events, tmp_path)
@@ -94,7 +125,7 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     P = next(e for e in events if e[0] == "M")
     for row, (_, q, l, u, y_warm, it, res) in zip(out, solves):
         status, raw, iters, start, checks, steps, end = (int(v) for v in row[:7])
-        z, y = row[7:7 + n], row[7 + n:]
+        z, y = row[7 : 7 + n], row[7 + n :]
         assert (status, raw, iters) == (res.status, res.raw_status, res.iter)
         # the timing probe (fcgen wcet): each phase once per iteration, a solved QP's last check stops it
         assert (start, checks, steps, end) == (1, iters + 1, iters, 1)
@@ -116,8 +147,8 @@ def test_written_out_general_rows_equal_the_generic_loops(tmp_path):
     ocp, lay, events = record_events(pb.with_(name="truck_x"), samples=6)
     ctx = codegen_context(ocp, lay, pb.qp)
     flags = [f.strip() for f in next(t for t in ctx["tables"] if t["name"] == "IPM_GEN_PAT")["body"].split(",")]
-    assert ctx["GEN_WRITTEN"] == 1 and flags == ["0"] + ["1"] * 10   # stage 0 has no a_lat rows
-    assert "IPM_W.H[3][4] +=" in ctx["kernels"]["gen_h"]               # rows on slots 3, 4 (v, delta), written out
+    assert ctx["GEN_WRITTEN"] == 1 and flags == ["0"] + ["1"] * 10  # stage 0 has no a_lat rows
+    assert "IPM_W.H[3][4] +=" in ctx["kernels"]["gen_h"]  # rows on slots 3, 4 (v, delta), written out
     written = run_harness(build_harness(ocp, lay, pb.qp, tmp_path), lay, events, tmp_path)
     generic = run_harness(build_harness(ocp, lay, pb.qp, tmp_path, generic_rows=True), lay, events, tmp_path)
     assert len(written) >= 6 and np.array_equal(written, generic)

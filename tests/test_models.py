@@ -3,6 +3,7 @@
 Independent references: the SPEC's equations re-written here in numpy, central finite differences for the
 Jacobians, scipy's solve_ivp (rtol 1e-12) for the RK4 step, and the road's own numpy F^-1 for the lifted model.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,6 +26,7 @@ WIND = Wind()
 
 # --- closed-form roads: s -> (kappa, phi_gamma) with phi_gamma' = kappa ----------------------------
 
+
 def road_const(k0=0.03):
     return (lambda s: (k0 + 0 * s, k0 * s)), (lambda s: (k0, k0 * s))
 
@@ -38,6 +40,7 @@ def road_sine(a=0.04, b=0.02):
 
 # --- the SPEC's equations in numpy -----------------------------------------------------------------
 
+
 def vdot_ref(v, phi, F_d, veh=VEH, wind=WIND):
     v_rel = v + wind.v * math.cos(phi - wind.phi)
     return (F_d - veh.c_air * v_rel * abs(v_rel) - veh.c_roll) / veh.m
@@ -45,16 +48,24 @@ def vdot_ref(v, phi, F_d, veh=VEH, wind=WIND):
 
 def cart_ref(x, u, veh=VEH, wind=WIND):
     _, _, phi, v, delta = x
-    return np.array([v * math.cos(phi), v * math.sin(phi), v * math.tan(delta) / veh.l,
-                     vdot_ref(v, phi, u[0], veh, wind), u[1]])
+    return np.array(
+        [v * math.cos(phi), v * math.sin(phi), v * math.tan(delta) / veh.l, vdot_ref(v, phi, u[0], veh, wind), u[1]]
+    )
 
 
 def frenet_ref(x, u, road, veh=VEH, wind=WIND):
     s, n, alpha, v, delta = x
     kappa, phi_g = road(s)
     sdot = v * math.cos(alpha) / (1 - n * kappa)
-    return np.array([sdot, v * math.sin(alpha), v * math.tan(delta) / veh.l - kappa * sdot,
-                     vdot_ref(v, phi_g + alpha, u[0], veh, wind), u[1]])
+    return np.array(
+        [
+            sdot,
+            v * math.sin(alpha),
+            v * math.tan(delta) / veh.l - kappa * sdot,
+            vdot_ref(v, phi_g + alpha, u[0], veh, wind),
+            u[1],
+        ]
+    )
 
 
 def lifted_ref(x, u, road, veh=VEH, wind=WIND):
@@ -62,8 +73,18 @@ def lifted_ref(x, u, road, veh=VEH, wind=WIND):
     kappa, _ = road(s)
     sdot = v * math.cos(alpha) / (1 - n * kappa)
     w = v * math.tan(delta) / veh.l
-    return np.array([sdot, v * math.sin(alpha), w - kappa * sdot, vdot_ref(v, phi, u[0], veh, wind), u[1],
-                     v * math.cos(phi), v * math.sin(phi), w])
+    return np.array(
+        [
+            sdot,
+            v * math.sin(alpha),
+            w - kappa * sdot,
+            vdot_ref(v, phi, u[0], veh, wind),
+            u[1],
+            v * math.cos(phi),
+            v * math.sin(phi),
+            w,
+        ]
+    )
 
 
 def casadi_fun(kind, road, veh=VEH, wind=WIND):
@@ -130,6 +151,7 @@ def test_ode_jacobian_matches_central_differences(kind, road_maker):
 
 # --- wind ------------------------------------------------------------------------------------------
 
+
 def vdot(phi, v, F_d, wind, veh=VEH):
     f = casadi_fun("cartesian", None, veh, wind)
     return float(f([0, 0, phi, v, 0.1], [F_d, 0.0])[0][3])
@@ -180,6 +202,7 @@ def test_frenet_wind_uses_road_heading_plus_alpha_and_lifted_uses_cartesian_phi(
 
 # --- lateral acceleration --------------------------------------------------------------------------
 
+
 def test_lateral_acceleration_by_hand():
     v, delta = 20.0, 0.1
     # tan(0.1) = 0.10033467208545055; 400 * 0.10033467 / 3.4 = 11.80408...
@@ -199,6 +222,7 @@ def test_lateral_acceleration_by_hand():
 
 # --- RK4 -------------------------------------------------------------------------------------------
 
+
 def rk4_fun(kind, road, dt):
     nx = models.NX[kind]
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u", 2)
@@ -206,8 +230,11 @@ def rk4_fun(kind, road, dt):
 
 
 def exact_step(kind, num_road, x0, u, dt):
-    rhs = {"cartesian": lambda t, x: cart_ref(x, u), "frenet": lambda t, x: frenet_ref(x, u, num_road),
-           "lifted": lambda t, x: lifted_ref(x, u, num_road)}[kind]
+    rhs = {
+        "cartesian": lambda t, x: cart_ref(x, u),
+        "frenet": lambda t, x: frenet_ref(x, u, num_road),
+        "lifted": lambda t, x: lifted_ref(x, u, num_road),
+    }[kind]
     sol = solve_ivp(rhs, (0.0, dt), x0, method="DOP853", rtol=1e-12, atol=1e-13)
     return sol.y[:, -1]
 
@@ -229,12 +256,13 @@ def test_rk4_one_step_error_is_fifth_order(kind):
         step = np.array(rk4_fun(kind, cas, dt)(x0, u)).ravel()
         errs.append(np.max(np.abs(step - exact_step(kind, num, x0, u, dt))))
     assert errs[0] < 1e-6
-    assert errs[1] > 1e-12            # well above the reference's own accuracy
+    assert errs[1] > 1e-12  # well above the reference's own accuracy
     ratio = errs[0] / errs[1]
     assert 20 < ratio < 45, (errs, ratio)  # local error O(dt^5): halving dt divides it by ~2^5 = 32
 
 
 # --- lifted model: the Cartesian states stay F^-1 of the Frenet states --------------------------------
+
 
 @pytest.fixture(scope="module")
 def road_and_solver():
@@ -265,7 +293,7 @@ def _lifted_drift(road, substeps):
     xF = np.array([30.0, 2.0, 0.05, 15.0, 0.0])
     x = np.r_[xF, road.to_cartesian(xF[0], xF[1], xF[2])]
     init = np.array(ocp.init_state(xF, _params(sv, ocp, road, xF[0]))).ravel()
-    np.testing.assert_allclose(init, x, atol=1e-12)   # init_state appends F^-1 of the Frenet part
+    np.testing.assert_allclose(init, x, atol=1e-12)  # init_state appends F^-1 of the Frenet part
     worst_p = worst_phi = 0.0
     for k in range(100):
         u = _control(road, x, 0.1 * k)
@@ -280,12 +308,12 @@ def _lifted_drift(road, substeps):
 def test_lifted_cartesian_states_equal_inverse_transform_along_a_trajectory():
     road = random_road(5)
     drift, drift_phi, x = _lifted_drift(road, 1)
-    assert x[0] > 190.0 and abs(x[1]) < 8.0 and abs(x[2]) < 0.3   # it really drove 170 m along the road
+    assert x[0] > 190.0 and abs(x[1]) < 8.0 and abs(x[2]) < 0.3  # it really drove 170 m along the road
     # Measured 4.4e-4 m after 10 s. Not below 1e-4: kappa is piecewise linear (only C0), so RK4 loses its
     # order at every knot the step crosses; the error is RK4's, as the next two checks show.
     assert drift < 1e-3, drift
     assert drift_phi < 1e-3, drift_phi
-    drift_fine, drift_phi_fine, x_fine = _lifted_drift(road, 10)   # the same controls, dt = 0.01
+    drift_fine, drift_phi_fine, x_fine = _lifted_drift(road, 10)  # the same controls, dt = 0.01
     assert drift_fine < 0.1 * drift and drift_fine < 5e-5, (drift, drift_fine)
     assert drift_phi_fine < 0.1 * drift_phi, (drift_phi, drift_phi_fine)
     np.testing.assert_allclose(x_fine[:5], x[:5], atol=2e-3)
@@ -301,8 +329,9 @@ def test_lifted_consistency_with_exact_integration_is_interpolation_error():
     worst = 0.0
     for k in range(100):
         u = _control(road, x, 0.1 * k)
-        x = solve_ivp(lambda t, z: lifted_ref(z, u, rd), (0.0, 0.1), x, method="DOP853", rtol=1e-12, atol=1e-12,
-                      max_step=0.02).y[:, -1]
+        x = solve_ivp(
+            lambda t, z: lifted_ref(z, u, rd), (0.0, 0.1), x, method="DOP853", rtol=1e-12, atol=1e-12, max_step=0.02
+        ).y[:, -1]
         px, py, phi = road.to_cartesian(x[0], x[1], x[2])
         worst = max(worst, abs(px - x[5]), abs(py - x[6]), abs(phi - x[7]))
     assert worst < 1e-5, worst
@@ -318,7 +347,7 @@ def test_frenet_part_of_lifted_model_matches_frenet_model(road_and_solver):
     # the continuous right-hand sides agree exactly when phi = phi_gamma(s) + alpha (same road window)
     xs, us, p = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("p", ocp_l.np_stage)
     rp = ocp_l.road_params
-    road_fn = lambda s: casadi_road(s, p[:rp.size], rp.samples)[:2]
+    road_fn = lambda s: casadi_road(s, p[: rp.size], rp.samples)[:2]
     f_l = ca.Function("fl", [xs, us, p], [models.lifted_ode(xs, us, road_fn, VEH, WIND)])
     f_f = ca.Function("ff", [xs[:5], us, p], [models.frenet_ode(xs[:5], us, road_fn, VEH, WIND)])
     for _ in range(20):
@@ -327,8 +356,9 @@ def test_frenet_part_of_lifted_model_matches_frenet_model(road_and_solver):
         u = np.array([rng.uniform(-1e4, 1e4), rng.uniform(-0.39, 0.39)])
         par = _params(sv, ocp_l, road, s)
         x = np.r_[xF, road.to_cartesian(xF[0], xF[1], xF[2])]
-        np.testing.assert_allclose(np.array(f_l(x, u, par)).ravel()[:5], np.array(f_f(xF, u, par)).ravel(),
-                                   rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(
+            np.array(f_l(x, u, par)).ravel()[:5], np.array(f_f(xF, u, par)).ravel(), rtol=1e-13, atol=1e-13
+        )
         # one RK4 step: inside the step the wind sees phi + h*yaw vs phi_gamma(s + h s') + alpha + h alpha',
         # equal to first order in h = dt/2, so the steps agree to O(dt^3) (without wind: exactly, next test)
         step_l = np.array(ocp_l.dynamics(x, u, par)).ravel()[:5]
@@ -350,5 +380,9 @@ def test_lifted_and_frenet_rk4_steps_identical_without_wind():
         u = np.array([rng.uniform(-1e4, 1e4), rng.uniform(-0.39, 0.39)])
         par = _params(sv, ol, road, s)
         x = np.r_[xF, road.to_cartesian(xF[0], xF[1], xF[2])]
-        np.testing.assert_allclose(np.array(ol.dynamics(x, u, par)).ravel()[:5],
-                                   np.array(of.dynamics(xF, u, par)).ravel(), rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(
+            np.array(ol.dynamics(x, u, par)).ravel()[:5],
+            np.array(of.dynamics(xF, u, par)).ravel(),
+            rtol=1e-14,
+            atol=1e-12,
+        )

@@ -3,6 +3,7 @@
 Rows are h >= 0 outside, h < 0 inside. Expected values and signs are derived by hand from the geometry;
 coverage is checked by dense sampling of the true rectangles.
 """
+
 from __future__ import annotations
 
 import math
@@ -47,6 +48,7 @@ def box_excess(px, py, box: obs.Shape) -> np.ndarray:
 
 # --- shapes by hand ----------------------------------------------------------------------------------
 
+
 def test_chassis_shape_and_vertices_by_hand():
     # truck: rear axle at (1, 2) heading +y; wheelbase 20, chassis 13 + 13 by 4
     sh = obs.chassis_shape(1.0, 2.0, math.pi / 2, TRUCK)
@@ -67,21 +69,21 @@ def test_circle_centres_and_radius_by_hand():
     # from -(L - W) = -11 to +11 in 6 equal gaps
     np.testing.assert_allclose(c[:, 0], np.linspace(-11, 11, 7), atol=1e-12)
     np.testing.assert_allclose(c[:, 1], 0.0, atol=1e-12)
-    assert obs.circle_radius(13.0, 2.0, 7, cover=False) == pytest.approx(2.0 * SQ2)   # w / sqrt(2)
+    assert obs.circle_radius(13.0, 2.0, 7, cover=False) == pytest.approx(2.0 * SQ2)  # w / sqrt(2)
     assert obs.circle_radius(13.0, 2.0, 1, cover=False) == pytest.approx(math.hypot(13.0, 2.0))
     assert obs.circle_centres(sh, 1) == [(0.0, 0.0)]
 
 
 # --- ellipse -----------------------------------------------------------------------------------------
 
-OPP = obs.chassis_shape(3.0, -2.0, 0.6, TRUCK)   # a truck chassis at an arbitrary pose
+OPP = obs.chassis_shape(3.0, -2.0, 0.6, TRUCK)  # a truck chassis at an arbitrary pose
 
 
 def test_ellipse_corners_on_the_ellipse_and_rectangle_inside():
     # semi-axes sqrt(2) L, sqrt(2) W: a corner (L, W) gives (1/2 + 1/2) = 1 -> on the boundary
     for px, py in obs.vertices(OPP):
         assert abs(obs.paper_ellipse_h(px, py, OPP, 0.0)) < 1e-9
-        assert obs.paper_ellipse_h(px, py, OPP, 0.5) < 0            # strictly inside once enlarged
+        assert obs.paper_ellipse_h(px, py, OPP, 0.5) < 0  # strictly inside once enlarged
     P = rect_points(OPP)
     assert np.max(obs.paper_ellipse_h(P[:, 0], P[:, 1], OPP, 0.0)) <= 1e-9
 
@@ -91,10 +93,10 @@ def test_ellipse_sign_along_the_axes(r):
     a, b = SQ2 * OPP.L + r, SQ2 * OPP.W + r
     c, s = math.cos(OPP.angle), math.sin(OPP.angle)
     for sign in (1, -1):
-        for dist, expected in ((a + 0.01, 0.01 / a), (a - 0.01, -0.01 / a)):     # along the major axis
+        for dist, expected in ((a + 0.01, 0.01 / a), (a - 0.01, -0.01 / a)):  # along the major axis
             h = obs.paper_ellipse_h(OPP.cx + sign * dist * c, OPP.cy + sign * dist * s, OPP, r)
             assert h == pytest.approx(expected, abs=1e-9)
-        for dist, expected in ((b + 0.01, 0.01 / b), (b - 0.01, -0.01 / b)):     # along the minor axis
+        for dist, expected in ((b + 0.01, 0.01 / b), (b - 0.01, -0.01 / b)):  # along the minor axis
             h = obs.paper_ellipse_h(OPP.cx - sign * dist * s, OPP.cy + sign * dist * c, OPP, r)
             assert h == pytest.approx(expected, abs=1e-9)
     assert obs.paper_ellipse_h(OPP.cx, OPP.cy, OPP, r) == pytest.approx(-1.0, abs=1e-5)
@@ -109,10 +111,11 @@ def test_ellipse_constraint_row_uses_the_ego_covering_circle():
 
 # --- covering circles ---------------------------------------------------------------------------------
 
+
 def uncovered(P, sh, n, radius):
     centres = np.array(obs.circle_centres(sh, n))
     d = np.min(np.hypot(P[:, None, 0] - centres[None, :, 0], P[:, None, 1] - centres[None, :, 1]), axis=1)
-    return d - radius   # > 0: outside every circle
+    return d - radius  # > 0: outside every circle
 
 
 @pytest.mark.parametrize("n", [7, 8, 10])
@@ -156,9 +159,10 @@ def test_circle_rows_by_hand():
 
 # --- separating hyperplane ---------------------------------------------------------------------------
 
+
 def test_separating_hyperplane_rows_by_hand():
-    ego = obs.Shape(30.0, 0.0, 0.0, 2.0, 0.95)      # ego x in [28, 32]
-    opp = obs.Shape(0.0, 0.0, 0.0, 13.0, 2.0)       # opponent x in [-13, 13]
+    ego = obs.Shape(30.0, 0.0, 0.0, 2.0, 0.95)  # ego x in [28, 32]
+    opp = obs.Shape(0.0, 0.0, 0.0, 13.0, 2.0)  # opponent x in [-13, 13]
     # plane x = 16 with the normal pointing to the opponent: theta . [p - c_opp, 1] = -x + 16
     rows, eq = obs.hyperplane_h(ego, opp, [-1.0, 0.0, 16.0], length=4.0)
     assert len(rows) == 8 and eq == pytest.approx(0.0)
@@ -179,7 +183,7 @@ def test_separating_hyperplane_rows_by_hand():
     np.testing.assert_allclose(rows_m[:4], [(32 - 16.2) / 4, (32 - 16.2) / 4, (28 - 16.2) / 4, (28 - 16.2) / 4])
     np.testing.assert_allclose(rows_m[4:], [3 / 4, 3 / 4, 29 / 4, 29 / 4])
     # an ego vertex 0.1 m from the plane satisfies the exact form but violates a 0.2 m margin
-    near = obs.Shape(18.1, 0.0, 0.0, 2.0, 0.95)      # ego x in [16.1, 20.1]
+    near = obs.Shape(18.1, 0.0, 0.0, 2.0, 0.95)  # ego x in [16.1, 20.1]
     assert min(obs.hyperplane_h(near, opp, [-1.0, 0.0, 16.0], length=4.0)[0]) >= 0
     assert min(obs.hyperplane_h(near, opp, [-1.0, 0.0, 16.0], length=4.0, margin=0.2)[0]) < 0
 
@@ -187,6 +191,7 @@ def test_separating_hyperplane_rows_by_hand():
 @pytest.mark.parametrize("margin", [-0.1, 2.5, float("nan")])
 def test_separating_hyperplane_margin_validated(margin):
     from fcgen.dsl import ProblemError
+
     with pytest.raises(ProblemError, match=r"obstacles\.margin"):
         SeparatingHyperplane(margin=margin)
 
@@ -207,11 +212,12 @@ def test_separating_hyperplane_rotated_random():
         t3 = 0.5 * (ego_min + opp_max)
         rows, eq = obs.hyperplane_h(ego, opp, [-u[0], -u[1], t3], length=4.0)
         assert min(rows) > 0 and abs(eq) < 1e-12
-        rows, _ = obs.hyperplane_h(ego, opp, [u[0], u[1], -t3], length=4.0)   # flipped: wrong side
+        rows, _ = obs.hyperplane_h(ego, opp, [u[0], u[1], -t3], length=4.0)  # flipped: wrong side
         assert max(rows) < 0
 
 
 # --- rows per opponent ---------------------------------------------------------------------------------
+
 
 def test_rows_per_opponent_and_ocp_slack_count():
     assert obs.rows_per_opponent(Ellipse()) == 1
@@ -222,7 +228,7 @@ def test_rows_per_opponent_and_ocp_slack_count():
     assert obs.thetas_per_opponent(Ellipse()) == 0 and obs.thetas_per_opponent(CoveringCircles(3)) == 0
     for ob, rows in (("ellipse", 1), ("circles", 49), ("hyperplane", 8)):
         ocp = build_ocp(paper_problem("truck", "lifted", ob))
-        assert ocp.n_sigma == 1 + 3 * rows                     # a_lat slack + one per obstacle row
+        assert ocp.n_sigma == 1 + 3 * rows  # a_lat slack + one per obstacle row
         names = ocp.middle.row_names
         assert sum(re.fullmatch(r"opp\d+_h\d+", nm) is not None for nm in names) == 3 * rows
         assert sum(nm.endswith("hp_norm") for nm in names) == (3 if ob == "hyperplane" else 0)
@@ -232,7 +238,7 @@ def test_rows_per_opponent_and_ocp_slack_count():
 # --- conventional formulation: the Frenet over-approximation -------------------------------------------
 
 KAPPA = 0.05
-ROAD = Road.from_curvature(np.full(81, KAPPA), 2.0, s0=-60.0)   # a circle of radius 20 m (left turn)
+ROAD = Road.from_curvature(np.full(81, KAPPA), 2.0, s0=-60.0)  # a circle of radius 20 m (left turn)
 
 
 def true_rectangle_in_frenet(s, n):
@@ -268,14 +274,14 @@ def test_truck_is_far_from_straight_in_frenet():
 @pytest.mark.parametrize("n", [5.0, -5.0])
 def test_conventional_ellipse_covers_true_rectangle(n):
     box, ps, pn, _ = fitted(20.0, n)
-    h = obs.paper_ellipse_h(ps, pn, box, 0.0)              # zero-size ego
+    h = obs.paper_ellipse_h(ps, pn, box, 0.0)  # zero-size ego
     assert np.max(h) < 0, np.max(h)
 
 
 @pytest.mark.parametrize("n", [5.0, -5.0])
 def test_conventional_circles_cover_true_rectangle(n):
     box, ps, pn, _ = fitted(20.0, n)
-    ego = obs.Shape(ps, pn, 0.0, 0.0, 0.0)          # zero-size ego: one circle of radius 0
+    ego = obs.Shape(ps, pn, 0.0, 0.0, 0.0)  # zero-size ego: one circle of radius 0
     rows = np.array(obs.constraint_rows(CoveringCircles(7, n_ego=1), ego, box, None, cover=True, length=4.0)[0])
     assert np.max(np.min(rows, axis=0)) < 0
 
@@ -294,7 +300,7 @@ def test_naive_shape_does_not_cover_true_rectangle(n):
     naive = obs.Shape(*obs.naive_frenet_shape((20.0, n, 0.0), TRUCK)[:5])
     assert naive.angle == 0.0 and naive.cx == pytest.approx(30.0) and naive.cy == pytest.approx(n)
     h = obs.paper_ellipse_h(ps, pn, naive, 0.0)
-    assert np.mean(h > 0) > 0.1 and np.max(h) > 1.0       # metres of the truck stick out of the naive ellipse
+    assert np.mean(h > 0) > 0.1 and np.max(h) > 1.0  # metres of the truck stick out of the naive ellipse
     assert np.max(box_excess(ps, pn, naive)) > 2.0
 
 
@@ -303,7 +309,7 @@ def test_conventional_fit_on_straight_road_is_the_rectangle():
     x, y, phi = road.to_cartesian(20.0, 3.0, 0.0)
     c_s, c_n, angle, L, W, f = obs.fit_frenet_shape(road, (x, y, phi), TRUCK, CAR, 0.25, s_guess=20.0)
     assert (c_s, c_n, angle) == pytest.approx((30.0, 3.0, 0.0), abs=1e-9)
-    assert (L, W, f) == pytest.approx((13.25, 2.25, 1.0), abs=1e-9)   # plus the margin; no stretch
+    assert (L, W, f) == pytest.approx((13.25, 2.25, 1.0), abs=1e-9)  # plus the margin; no stretch
 
 
 def _edge_pieces_in_frenet(road: Road, s: float, n: float, alpha: float, ppm: float = 1.0, dense: int = 60):
@@ -326,8 +332,10 @@ def _edge_pieces_in_frenet(road: Road, s: float, n: float, alpha: float, ppm: fl
     return ends, inner
 
 
-@pytest.mark.parametrize("road_name, s, n, alpha", [("circle", 20.0, 5.0, 0.0), ("circle", 20.0, -5.0, 0.3),
-                                                     ("wavy", 60.0, 4.0, -0.2), ("wavy", 150.0, -4.5, 0.25)])
+@pytest.mark.parametrize(
+    "road_name, s, n, alpha",
+    [("circle", 20.0, 5.0, 0.0), ("circle", 20.0, -5.0, 0.3), ("wavy", 60.0, 4.0, -0.2), ("wavy", 150.0, -4.5, 0.25)],
+)
 def test_chord_sag_bound_covers_the_mapped_edges(road_name, s, n, alpha):
     """obstacles.chord_sag_bound against the true distance of every mapped edge piece from its chord (dense points,
     independent projection), on the |kappa| = 0.05 circle and a road whose curvature changes (kappa' != 0)."""
@@ -343,10 +351,11 @@ def test_chord_sag_bound_covers_the_mapped_edges(road_name, s, n, alpha):
     e = np.array([p for ab in ends for p in ab])
     reach = CAR.l + CAR.l_ch + CAR.w_ch
     sel = (road.s >= e[:, 0].min() - reach - road.ds) & (road.s <= e[:, 0].max() + reach + road.ds)
-    bound = obs.chord_sag_bound(obs.edge_spacing(TRUCK, 1.0), float(e[:, 1].min()), float(e[:, 1].max()),
-                                road.kappa[sel], road.ds, reach)
+    bound = obs.chord_sag_bound(
+        obs.edge_spacing(TRUCK, 1.0), float(e[:, 1].min()), float(e[:, 1].max()), road.kappa[sel], road.ds, reach
+    )
     assert 0.0 < dev <= bound, (dev, bound)
-    assert bound < 8.0 * dev            # a bound, not a blanket: within a small factor of the true sag
+    assert bound < 8.0 * dev  # a bound, not a blanket: within a small factor of the true sag
 
 
 def test_chord_sag_bound_by_hand_and_its_limit():
@@ -355,11 +364,13 @@ def test_chord_sag_bound_by_hand_and_its_limit():
     assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.zeros(5), 2.0, 9.3) == 0.0
     q = 1.0 - 1.5 * 0.05
     assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.full(5, 0.05), 2.0, 9.3) == pytest.approx(
-        (0.05 / q ** 2 + 0.05 / q) / 8.0, rel=1e-12)
+        (0.05 / q**2 + 0.05 / q) / 8.0, rel=1e-12
+    )
     # curvature slope: kappa 0 -> 0.02 over one 2 m sample, |n| <= 1.5: + 1.5 * 0.01 / q'^3
     qs = 1.0 - 1.5 * 0.02
     assert obs.chord_sag_bound(1.0, -1.0, 1.0, np.array([0.0, 0.02]), 2.0, 9.3) == pytest.approx(
-        ((0.02 + 1.5 * 0.01 / qs) / qs ** 2 + 0.02 / qs) / 8.0, rel=1e-12)
+        ((0.02 + 1.5 * 0.01 / qs) / qs**2 + 0.02 / qs) / 8.0, rel=1e-12
+    )
     # the piece can leave the curvature samples (h / (2 q) > reach + ds): no bound
     assert obs.chord_sag_bound(4.0, 15.0, 17.0, np.full(5, 0.05), 2.0, 1.0) is None
     # edge spacing: the longest of the edges' spacings (truck: 4 m width in 4, 26 m length in 26 points)
@@ -392,16 +403,16 @@ def test_conventional_fit_along_a_truck_scenario():
     op = OpponentParams(pb, sc)
     fitted = 0
     for j in range(0, 200, 25):
-        s_ego = 15.0 * j * sc.dt                       # where the ego roughly is
+        s_ego = 15.0 * j * sc.dt  # where the ego roughly is
         sv.set_road(sc.road.window(s_ego - WINDOW_BEHIND, pb.road.samples))
         sv.set_opponents(op.horizon(j))
-        sv._fit_opponents()                            # prepare's first step
+        sv._fit_opponents()  # prepare's first step
         par = sv.opp_stage.reshape(pb.horizon.N + 1, 3, 6)
         assert np.all(par[..., 5] >= 1.0)
         for k in range(0, pb.horizon.N + 1, 8):
             fr, cart = sc.opp_frenet((j + k) * sc.dt), sc.opp_cartesian((j + k) * sc.dt)
             for i in range(3):
-                if par[k, i, 0] < sv.road.s0:          # left out: the road window does not cover it
+                if par[k, i, 0] < sv.road.s0:  # left out: the road window does not cover it
                     assert fr[i, 0] + 23.0 + 9.3 > sv.road.s_end - 2.0 or fr[i, 0] - 3.0 - 9.3 < sv.road.s0 + 2.0
                     continue
                 fitted += 1

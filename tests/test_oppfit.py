@@ -1,6 +1,7 @@
 """The conventional solver's own opponent fit (fcgen.oppfit): Python reference and generated C against the
 independent fit of fcgen.obstacles (Newton from a heading guess to 1e-12 on the whole road, numpy), and its
 behaviour off the road."""
+
 from __future__ import annotations
 
 import math
@@ -11,20 +12,21 @@ import pytest
 
 from fcgen import obstacles as obs
 from fcgen.dsl import Conventional, Horizon, Opponents, ProblemError
+from fcgen.ocp import build_ocp
 from fcgen.oppfit import OppFitter, build_oppfit, neutral
 from fcgen.presets import CAR, TRUCK, paper_problem
 from fcgen.reference import RtiSolver, SolverError
 from fcgen.road import Road, random_road
-from fcgen.ocp import build_ocp
 
-CIRCLE = Road.from_curvature(np.full(56, 0.05), 2.0, s0=-30.0)      # radius 20 m, left turn; 110 m: not a lap
-WAVY = random_road(5, length=400.0, s0=-50.0)                      # |kappa| <= 0.05, changing sign
+CIRCLE = Road.from_curvature(np.full(56, 0.05), 2.0, s0=-30.0)  # radius 20 m, left turn; 110 m: not a lap
+WAVY = random_road(5, length=400.0, s0=-50.0)  # |kappa| <= 0.05, changing sign
 STRAIGHT = Road.from_curvature(np.zeros(141), 2.0, s0=-60.0)
 
 
 def problem(n_opp=2, N=10, **conv):
     return paper_problem("truck", "conventional", "ellipse", horizon=Horizon(N=N)).with_(
-        opponents=Opponents(n_opp, TRUCK), formulation=Conventional(**conv))
+        opponents=Opponents(n_opp, TRUCK), formulation=Conventional(**conv)
+    )
 
 
 def poses_on(road: Road, frenet) -> np.ndarray:
@@ -37,13 +39,26 @@ def poses_on(road: Road, frenet) -> np.ndarray:
 def independent_fit(road: Road, frenet, pb) -> np.ndarray:
     """obstacles.fit_frenet_shape with the scenario's exact s as its guess."""
     pose = poses_on(road, frenet)
-    return obs.fit_frenet_shape(road, pose, pb.opponents.vehicle, pb.ego, pb.formulation.margin,
-                                s_guess=float(frenet[0]), points_per_metre=pb.formulation.points_per_metre)
+    return obs.fit_frenet_shape(
+        road,
+        pose,
+        pb.opponents.vehicle,
+        pb.ego,
+        pb.formulation.margin,
+        s_guess=float(frenet[0]),
+        points_per_metre=pb.formulation.points_per_metre,
+    )
 
 
-CASES = [(CIRCLE, (20.0, 5.0, 0.0)), (CIRCLE, (20.0, -5.0, 0.0)), (CIRCLE, (40.0, 0.0, 0.3)),
-         (WAVY, (30.0, 4.0, 0.0)), (WAVY, (95.0, -3.0, -0.2)), (WAVY, (160.0, 0.5, 0.1)),
-         (STRAIGHT, (10.0, 3.0, 0.0))]
+CASES = [
+    (CIRCLE, (20.0, 5.0, 0.0)),
+    (CIRCLE, (20.0, -5.0, 0.0)),
+    (CIRCLE, (40.0, 0.0, 0.3)),
+    (WAVY, (30.0, 4.0, 0.0)),
+    (WAVY, (95.0, -3.0, -0.2)),
+    (WAVY, (160.0, 0.5, 0.1)),
+    (STRAIGHT, (10.0, 3.0, 0.0)),
+]
 
 
 @pytest.mark.parametrize("ppm, margin", [(4.0, 0.0), (1.0, 0.25)])
@@ -70,11 +85,15 @@ def test_points_per_metre_is_validated():
 def test_left_out_when_the_road_does_not_cover_it():
     pb = problem(n_opp=1)
     fitter = OppFitter(build_oppfit(pb), 4, 1)
-    road = STRAIGHT.window(-60.0, 100)              # s in [-60, 138]
-    fr = np.array([[20.0, 3.0, 0.0],                # covered
-                   [125.0, 0.0, 0.0],               # its front (s = 148) is beyond the road's end
-                   [20.0, 35.0, 0.0],               # beside the band [-10, 10] plus the ego's reach (9.3 m)
-                   [-55.0, 0.0, 0.0]])              # the ego's reach behind it is before the road's start
+    road = STRAIGHT.window(-60.0, 100)  # s in [-60, 138]
+    fr = np.array(
+        [
+            [20.0, 3.0, 0.0],  # covered
+            [125.0, 0.0, 0.0],  # its front (s = 148) is beyond the road's end
+            [20.0, 35.0, 0.0],  # beside the band [-10, 10] plus the ego's reach (9.3 m)
+            [-55.0, 0.0, 0.0],
+        ]
+    )  # the ego's reach behind it is before the road's start
     out, outside, singular = fitter(road, poses_on(road, fr)[:, None, :])
     assert outside == 3 and singular == []
     assert out[0][:5] == pytest.approx([30.0, 3.0, 0.0, 13.0, 2.0], abs=1e-9)
@@ -83,13 +102,13 @@ def test_left_out_when_the_road_does_not_cover_it():
     assert neutral(road.s0)[0] == road.s0 - 1000.0
 
 
-BEND60 = Road.from_curvature(np.full(56, 1.0 / 60.0), 2.0, s0=-30.0)   # 110 m of a 60 m radius left bend
+BEND60 = Road.from_curvature(np.full(56, 1.0 / 60.0), 2.0, s0=-30.0)  # 110 m of a 60 m radius left bend
 
 
 def _inside_bend60(off: float) -> np.ndarray:
     """A truck's rear-axle pose `off` m from BEND60's centre of curvature towards its middle sample, heading at it."""
     mid = BEND60.size // 2
-    nx, ny = -math.sin(BEND60.phi[mid]), math.cos(BEND60.phi[mid])          # the left normal: to the centre
+    nx, ny = -math.sin(BEND60.phi[mid]), math.cos(BEND60.phi[mid])  # the left normal: to the centre
     cx, cy = BEND60.gx[mid] + 60.0 * nx, BEND60.gy[mid] + 60.0 * ny
     return np.array([cx - off * nx, cy - off * ny, math.atan2(-ny, -nx)])
 
@@ -103,10 +122,10 @@ def test_left_out_when_far_from_the_road_beside_a_bend():
     fit = build_oppfit(pb)
     assert fit.far == pytest.approx(10.0 + pb.ego.l + pb.ego.l_ch + pb.ego.w_ch + math.hypot(13.0, 2.0))
     fitter = OppFitter(fit, 1, 1)
-    P = np.array(fitter._points(_inside_bend60(10.0), fit.shape0)[0])     # (2, npt): the mapped points
+    P = np.array(fitter._points(_inside_bend60(10.0), fit.shape0)[0])  # (2, npt): the mapped points
     gap = np.min(np.hypot(BEND60.gx[None, :] - P[0][:, None], BEND60.gy[None, :] - P[1][:, None]))
-    assert gap > 10.0 + fit.reach                                         # independent: out of the ego's reach
-    for off in (5.0, 10.0, 15.0):                                         # centre 40-55 m from the road
+    assert gap > 10.0 + fit.reach  # independent: out of the ego's reach
+    for off in (5.0, 10.0, 15.0):  # centre 40-55 m from the road
         out, outside, singular = fitter(BEND60, _inside_bend60(off)[None, None, :])
         assert (outside, singular) == (1, [])
         np.testing.assert_array_equal(out[0], neutral(BEND60.s0))
@@ -119,14 +138,14 @@ def test_singular_frenet_frame_fails_the_prepare_phase():
     # a car next to the inside of a 12.5 m bend: the ego beside it would be stretched by 1 / (1 - n kappa) with
     # n kappa = (4 + 0.95 + 9.3) * 0.08 > 0.9
     pb = paper_problem("car", "conventional", "ellipse", horizon=Horizon(N=10)).with_(opponents=Opponents(1, CAR))
-    road = Road.from_curvature(np.full(34, 0.08), 2.0, s0=-10.0)       # 66 m of a 78.5 m circle
+    road = Road.from_curvature(np.full(34, 0.08), 2.0, s0=-10.0)  # 66 m of a 78.5 m circle
     sv = RtiSolver(build_ocp(pb))
     sv.set_road(road)
     sv.set_opponents(np.tile(poses_on(road, (25.0, 4.0, 0.0)), (11, 1, 1)))
     sv.set_state(np.array([0.0, 0.0, 0.0, 15.0, 0.0]))
     with pytest.raises(SolverError, match="ERR_OPP_FRENET: opponent 0 at stage 0 cannot be mapped"):
         sv.prepare()
-    sv.set_opponents(np.tile(poses_on(road, (25.0, -4.0, 0.0)), (11, 1, 1)))   # outside of the bend: fine
+    sv.set_opponents(np.tile(poses_on(road, (25.0, -4.0, 0.0)), (11, 1, 1)))  # outside of the bend: fine
     sv.prepare()
     assert sv.status.opp_outside == 0
 
@@ -137,8 +156,9 @@ needs_cc = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make
 @pytest.fixture(scope="module")
 def c_solver(tmp_path_factory):
     from fcgen.build import build
-    from fcgen.csolver import CSolver
     from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
+
     pb = problem(n_opp=2, N=10).with_(name="conv_fit")
     out = tmp_path_factory.mktemp("oppfit") / "conv_fit"
     generate(pb, out)
@@ -169,7 +189,7 @@ def test_c_fit_equals_python_and_the_independent_fit(c_solver, road):
     assert cs.set_road(win) == 0 and cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
     assert cs.prepare() == 0
     c_par, py_par = cs.get_opp_params(), sv.P[:, ocp.p_opp]
-    np.testing.assert_array_equal(c_par, py_par)                        # bit for bit, every fitted parameter
+    np.testing.assert_array_equal(c_par, py_par)  # bit for bit, every fitted parameter
     assert cs.status().opp_outside == sv.status.opp_outside == 1
     opp = c_par.reshape(N + 1, 2, 6)
     for k in range(N + 1):
@@ -217,7 +237,7 @@ def test_c_fit_breaks_distance_ties_as_numpy(c_solver):
     fit = build_oppfit(pb)
     P, _ = OppFitter(fit, 1, 2)._points(poses_on(win, fr[0]).T, np.tile(np.reshape(fit.shape0, (3, 1)), (1, 2)))
     px = np.array(P)[0]
-    assert np.count_nonzero((px - win.s0) % (2 * win.ds) == win.ds) > 20    # exactly halfway: ties
+    assert np.count_nonzero((px - win.s0) % (2 * win.ds) == win.ds) > 20  # exactly halfway: ties
     c_par, py_par, c_out, py_out = _c_and_python(c_solver, win, fr)
     np.testing.assert_array_equal(c_par, py_par)
     assert c_out == py_out == 0
@@ -229,6 +249,7 @@ def test_c_fit_on_a_tight_bend_equals_python(c_solver, monkeypatch):
     (libm's cos and sin instead of the rotation) and points too far out for fit_window's unimodality test (the full
     scan of the window); the C equals the Python reference bit for bit."""
     from fcgen import oppfit
+
     pb, _ = c_solver
     N = pb.horizon.N
     road = Road.from_curvature(np.concatenate([np.zeros(20), np.full(12, 0.07), np.zeros(40)]), 2.0, s0=-30.0)
@@ -242,7 +263,7 @@ def test_c_fit_on_a_tight_bend_equals_python(c_solver, monkeypatch):
     monkeypatch.setattr(oppfit, "rot_cos_sin", counting)
     fr = np.zeros((N + 1, 2, 3))
     for k in range(N + 1):
-        fr[k, 0] = (5.0 + 1.5 * k, -4.0, 0.0)            # the outside of the (left) bend
+        fr[k, 0] = (5.0 + 1.5 * k, -4.0, 0.0)  # the outside of the (left) bend
         fr[k, 1] = (20.0 + 1.0 * k, -7.0, 0.1)
     c_par, py_par, c_out, py_out = _c_and_python(c_solver, road, fr)
     np.testing.assert_array_equal(c_par, py_par)
@@ -268,24 +289,25 @@ def test_c_leaves_out_an_opponent_far_beside_a_bend_as_python(c_solver):
 @needs_cc
 def test_c_singular_and_unset_road_codes(c_solver):
     from fcgen.contract import EXIT_CODES
+
     pb, cs = c_solver
     N = pb.horizon.N
     assert cs.init() == 0
     x0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
     poses = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
     assert cs.set_opponents(poses) == 0 and cs.set_state(x0) == 0
-    assert cs.prepare() == EXIT_CODES.index("ERR_ROAD_WINDOW")           # no road yet
+    assert cs.prepare() == EXIT_CODES.index("ERR_ROAD_WINDOW")  # no road yet
     # one good sample first: one opponent fitted, the other beyond the road's end
     good = np.tile(poses_on(STRAIGHT, (20.0, 3.0, 0.0)), (N + 1, 2, 1))
     good[:, 1] = poses_on(STRAIGHT, (200.0, 0.0, 0.0))
     assert cs.set_road(STRAIGHT) == 0 and cs.set_opponents(good) == 0 and cs.prepare() == 0 and cs.feedback() == 0
-    tight = Road.from_curvature(np.full(40, 0.07), 2.0, s0=-30.0)      # (4 + 2 + 9.3) * 0.07 > 0.9 inside
+    tight = Road.from_curvature(np.full(40, 0.07), 2.0, s0=-30.0)  # (4 + 2 + 9.3) * 0.07 > 0.9 inside
     assert cs.set_road(tight) == 0
     assert cs.status().opp_outside == N + 1
     u = cs.u0()
     assert cs.set_opponents(np.tile(poses_on(tight, (10.0, 4.0, 0.0)), (N + 1, 2, 1))) == 0
     assert cs.prepare() == EXIT_CODES.index("ERR_OPP_FRENET")
-    st = cs.status()                                                   # a failed prepare changes nothing else
+    st = cs.status()  # a failed prepare changes nothing else
     assert st.exit_code == EXIT_CODES.index("ERR_OPP_FRENET") and st.opp_outside == N + 1
     assert cs.has_guess() and np.array_equal(cs.u0(), u)
     assert cs.feedback() == EXIT_CODES.index("ERR_NOT_PREPARED")
@@ -348,6 +370,7 @@ def test_foot_points_reach_the_converged_projection(road):
     """oppfit.map_points (a Halley step from the nearest sample, one road evaluation, Taylor for n) against the
     independent projection (Newton to 1e-12) of the same points: s and n within 2e-11 m."""
     from fcgen.oppfit import SEARCH, map_points
+
     fit = build_oppfit(problem(n_opp=1))
     lo, hi = road.s0 + 40.0, road.s_end - 40.0
     rng = np.random.default_rng(3)
@@ -356,10 +379,15 @@ def test_foot_points_reach_the_converged_projection(road):
     P, d = fitter._points(poses_on(road, fr).T, fit.shape0)
     P = np.array(P).reshape(2, len(fr), fit.npt)
     d = np.array(d).T
-    ref = np.argmin((road.gx[None, :] - P[0, :, fit.ref_point, None]) ** 2
-                    + (road.gy[None, :] - P[1, :, fit.ref_point, None]) ** 2, axis=1)
-    cand = np.clip(ref[:, None, None] + np.floor(d / road.ds + 0.5).astype(int)[:, :, None]
-                   + np.arange(-SEARCH, SEARCH + 1), 0, road.size - 1)
+    ref = np.argmin(
+        (road.gx[None, :] - P[0, :, fit.ref_point, None]) ** 2 + (road.gy[None, :] - P[1, :, fit.ref_point, None]) ** 2,
+        axis=1,
+    )
+    cand = np.clip(
+        ref[:, None, None] + np.floor(d / road.ds + 0.5).astype(int)[:, :, None] + np.arange(-SEARCH, SEARCH + 1),
+        0,
+        road.size - 1,
+    )
     dd = (road.gx[cand] - P[0][:, :, None]) ** 2 + (road.gy[cand] - P[1][:, :, None]) ** 2
     ist = np.take_along_axis(cand, np.argmin(dd, axis=2)[:, :, None], axis=2)[:, :, 0]
     fs, fn, _, w0 = map_points(fit, road, P, ist)

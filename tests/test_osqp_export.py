@@ -22,9 +22,20 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm"
 
 CFLAGS = ["-std=c99", "-pedantic", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror"]
 PREFIX = "qp_"
-SETTINGS = dict(rho=0.1, sigma=1e-6, alpha=1.6, max_iter=4000, eps_abs=1e-6, eps_rel=1e-6,
-                check_termination=5, check_dualgap=False, adaptive_rho=1, adaptive_rho_interval=25,
-                scaling=10, warm_starting=True)
+SETTINGS = dict(
+    rho=0.1,
+    sigma=1e-6,
+    alpha=1.6,
+    max_iter=4000,
+    eps_abs=1e-6,
+    eps_rel=1e-6,
+    check_termination=5,
+    check_dualgap=False,
+    adaptive_rho=1,
+    adaptive_rho_interval=25,
+    scaling=10,
+    warm_starting=True,
+)
 
 MAIN_C = r"""
 #include <stdio.h>
@@ -116,8 +127,21 @@ def qp() -> dict[str, np.ndarray | sp.csc_matrix]:
     l2[4:8] = -np.inf
     u2[8:10] = np.inf
     assert P.nnz > np.count_nonzero(P.data) and A.nnz > np.count_nonzero(A.data)
-    return dict(P=P, A=A, q=q, l=l, u=u, P2=P2, A2=A2, q2=rng.standard_normal(n), q3=rng.standard_normal(n), l2=l2, u2=u2,
-                xw=rng.standard_normal(n), yw=rng.standard_normal(m))
+    return dict(
+        P=P,
+        A=A,
+        q=q,
+        l=l,
+        u=u,
+        P2=P2,
+        A2=A2,
+        q2=rng.standard_normal(n),
+        q3=rng.standard_normal(n),
+        l2=l2,
+        u2=u2,
+        xw=rng.standard_normal(n),
+        yw=rng.standard_normal(m),
+    )
 
 
 def _export(qp: dict, out_dir: Path, use_float: bool = False) -> OsqpExport:
@@ -125,13 +149,17 @@ def _export(qp: dict, out_dir: Path, use_float: bool = False) -> OsqpExport:
 
 
 def _hashes(root: Path) -> dict[str, str]:
-    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
+    return {
+        p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
 
 
 def _c_array(ctype: str, name: str, v: np.ndarray) -> str:
     def lit(x: float) -> str:
         return "OSQP_INFTY" if x == np.inf else "-OSQP_INFTY" if x == -np.inf else float(x).hex()
+
     return f"static const {ctype} {name}[{len(v)}] = {{{', '.join(lit(x) for x in v)}}};"
 
 
@@ -143,20 +171,47 @@ def _build(exp: OsqpExport, out_dir: Path, build: Path, qp: dict) -> tuple[Path,
     objs = []
     for src in exp.workspace_sources + exp.library_sources:
         obj = build / (Path(src).stem + ".o")
-        subprocess.run(["gcc", *CFLAGS, *exp.cflags, *inc, *private, "-c", str(out_dir / src), "-o", str(obj)],
-                       check=True, capture_output=True, text=True)
+        subprocess.run(
+            ["gcc", *CFLAGS, *exp.cflags, *inc, *private, "-c", str(out_dir / src), "-o", str(obj)],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         objs.append(obj)
-    data = "\n".join([_c_array("OSQPFloat", k, qp[k]) for k in ("q2", "q3", "l2", "u2", "xw", "yw")]
-                     + [_c_array("OSQPFloat", "Px2", qp["P2"].data), _c_array("OSQPFloat", "Ax2", qp["A2"].data)])
+    data = "\n".join(
+        [_c_array("OSQPFloat", k, qp[k]) for k in ("q2", "q3", "l2", "u2", "xw", "yw")]
+        + [_c_array("OSQPFloat", "Px2", qp["P2"].data), _c_array("OSQPFloat", "Ax2", qp["A2"].data)]
+    )
     main = MAIN_C
-    for key, val in dict(HEADER=exp.workspace_header, DATA=data, N=exp.n, M=exp.m, SOLVER=exp.solver_name, PREFIX=exp.prefix,
-                         PNNZ=exp.P_nnz, ANNZ=exp.A_nnz).items():
+    for key, val in dict(
+        HEADER=exp.workspace_header,
+        DATA=data,
+        N=exp.n,
+        M=exp.m,
+        SOLVER=exp.solver_name,
+        PREFIX=exp.prefix,
+        PNNZ=exp.P_nnz,
+        ANNZ=exp.A_nnz,
+    ).items():
         main = main.replace(f"@{key}@", str(val))
     (build / "main.c").write_text(main)
     exe = build / "main"
     # our own code: strict flags without OSQP's relaxations, public include dirs only
-    subprocess.run(["gcc", *CFLAGS, *inc, str(build / "main.c"), *map(str, objs), "-o", str(exe),
-                    *[f"-l{lib}" for lib in exp.link_libs]], check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            "gcc",
+            *CFLAGS,
+            *inc,
+            str(build / "main.c"),
+            *map(str, objs),
+            "-o",
+            str(exe),
+            *[f"-l{lib}" for lib in exp.link_libs],
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     return exe, objs
 
 
@@ -260,17 +315,27 @@ def test_c_matches_python_and_no_malloc(qp: dict, tmp_path: Path) -> None:
     np.testing.assert_array_equal(c["solve4"]["y"], c["solve1"]["y"])
     forbidden = {"malloc", "calloc", "realloc", "free", "printf", "puts", "putchar", "fprintf", "fwrite", "fputs"}
     for obj in objs:
-        undefined = set(subprocess.run(["nm", "-u", str(obj)], check=True, capture_output=True,
-                                       text=True).stdout.split()) - {"U"}
+        undefined = set(
+            subprocess.run(["nm", "-u", str(obj)], check=True, capture_output=True, text=True).stdout.split()
+        ) - {"U"}
         assert not (undefined & forbidden), (obj.name, undefined & forbidden)
-        defined = subprocess.run(["nm", "-g", "--defined-only", str(obj)], check=True, capture_output=True,
-                                 text=True).stdout.split("\n")
+        defined = subprocess.run(
+            ["nm", "-g", "--defined-only", str(obj)], check=True, capture_output=True, text=True
+        ).stdout.split("\n")
         names = [f[2] for f in (line.split() for line in defined) if len(f) == 3]
         assert [n for n in names if not n.startswith(PREFIX)] == [], obj.name  # OSQP's symbols carry the prefix
     # the arrays OSQP never writes are read-only data (a write would have crashed the solves above)
     ws_obj = next(o for o in objs if o.name == f"{PREFIX}workspace.o")
-    kinds = {f[2]: f[1] for f in (line.split() for line in subprocess.run(
-        ["nm", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines()) if len(f) == 3}
+    kinds = {
+        f[2]: f[1]
+        for f in (
+            line.split()
+            for line in subprocess.run(
+                ["nm", str(ws_obj)], check=True, capture_output=True, text=True
+            ).stdout.splitlines()
+        )
+        if len(f) == 3
+    }
     assert {kinds[PREFIX + a] for a in CONST_ARRAYS} == {"R"}
     assert kinds[f"{PREFIX}linsys_L_x"] in "DB" and kinds[f"{PREFIX}data_A_csc_x"] in "DB"
 
@@ -294,7 +359,9 @@ def test_workspace_initial_values_are_const(qp: dict, tmp_path: Path) -> None:
     _, objs = _build(exp, out, tmp_path / "build", qp)
     ws_obj = next(o for o in objs if o.stem == f"{PREFIX}workspace")
     sections = {}
-    for line in subprocess.run(["size", "-A", str(ws_obj)], check=True, capture_output=True, text=True).stdout.splitlines():
+    for line in subprocess.run(
+        ["size", "-A", str(ws_obj)], check=True, capture_output=True, text=True
+    ).stdout.splitlines():
         parts = line.split()
         if len(parts) >= 2 and parts[0].startswith("."):
             sections[parts[0]] = int(parts[1])
@@ -313,6 +380,7 @@ def test_stale_library_copy_is_resynced(qp: dict, tmp_path: Path) -> None:
     """A library copy left by an older fcgen (here: QDLDL without the const-pattern patch, an unprefixed header) is
     brought up to date by the backend's restore, not trusted because it exists (it built and then crashed)."""
     from fcgen.backends.osqp import restore_library
+
     a = tmp_path / "a"
     _export(qp, a)
     good = _hashes(a)

@@ -1,5 +1,6 @@
 """The plan check: the plan's SAT clearance to the opponents' true rectangles after each feedback, and the braking
 reaction; the Python reference and the generated C agree."""
+
 from __future__ import annotations
 
 import shutil
@@ -8,9 +9,8 @@ import numpy as np
 import pytest
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.dsl import PlanCheck
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
@@ -26,8 +26,8 @@ def _inputs(pb, opp_xy):
     road = straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
     x0 = np.array([0.0, 0.0, 0.0, 20.0, 0.0])
     opp = np.zeros((pb.horizon.N + 1, pb.opponents.count, 3))
-    opp[..., 0], opp[..., 1] = -1000.0, 500.0            # the others far away
-    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + opp_xy[0], opp_xy[1]   # opponent 0 standing there (the ego's s = 0 is x = 20)
+    opp[..., 0], opp[..., 1] = -1000.0, 500.0  # the others far away
+    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + opp_xy[0], opp_xy[1]  # opponent 0 standing there (the ego's s = 0 is x = 20)
     return road, x0, opp
 
 
@@ -38,7 +38,7 @@ def _python(pb, road, x0, opp):
     try:
         sv.step(x0)
     except SolverError:
-        pass   # an unusable QP falls back: the plan check runs on the fallback plan too
+        pass  # an unusable QP falls back: the plan check runs on the fallback plan too
     return sv.status, sv.u0()
 
 

@@ -45,13 +45,33 @@ def make_log(kappa: float = 0.0, k: int = 100, dt: float = 0.1, opp_dims: dict |
     collision = collisions_over_run(ego_cart, CAR, opp_cart, opp).any(axis=1)
     rng = np.random.default_rng(1)
     return RunLog(
-        meta=make_meta(problem="test", formulation="lifted", obstacle_model="EL", scenario="car", seed=1, N=40,
-                       dt=dt, controller="python-reference", n_bound=8.5),
-        road=road, opponents=opp, ego=dict(CAR),
-        t=t, ego_frenet=ego_frenet, ego_cartesian=ego_cart, opp_cartesian=opp_cart, opp_frenet=opp_frenet,
-        collision=collision, a_lat=v**2 * np.tan(delta) / 3.4,
-        control=np.zeros((k, 2)), time_prepare=np.full(k, 2e-4), time_feedback=rng.random(k) * 1e-3,
-        time_total=np.full(k, 1e-3), qp_iter=np.full(k, 25), qp_status=np.ones(k, dtype=int),
+        meta=make_meta(
+            problem="test",
+            formulation="lifted",
+            obstacle_model="EL",
+            scenario="car",
+            seed=1,
+            N=40,
+            dt=dt,
+            controller="python-reference",
+            n_bound=8.5,
+        ),
+        road=road,
+        opponents=opp,
+        ego=dict(CAR),
+        t=t,
+        ego_frenet=ego_frenet,
+        ego_cartesian=ego_cart,
+        opp_cartesian=opp_cart,
+        opp_frenet=opp_frenet,
+        collision=collision,
+        a_lat=v**2 * np.tan(delta) / 3.4,
+        control=np.zeros((k, 2)),
+        time_prepare=np.full(k, 2e-4),
+        time_feedback=rng.random(k) * 1e-3,
+        time_total=np.full(k, 1e-3),
+        qp_iter=np.full(k, 25),
+        qp_status=np.ones(k, dtype=int),
         max_slack=np.zeros(k),
     )
 
@@ -67,8 +87,7 @@ def test_plot_run_writes_png(tmp_path, kappa):
 
 
 def test_plot_run_truck_and_no_bounds(tmp_path):
-    log = make_log(kappa=0.02, k=60, opp_dims={"l_f": 10.0, "l_r": 10.0, "l_r_ch": 13.0, "l_f_ch": 13.0,
-                                               "w_ch": 4.0})
+    log = make_log(kappa=0.02, k=60, opp_dims={"l_f": 10.0, "l_r": 10.0, "l_r_ch": 13.0, "l_f_ch": 13.0, "w_ch": 4.0})
     meta = dict(log.meta)
     del meta["n_bound"]
     f = {name: getattr(log, name) for name in log.__dataclass_fields__}

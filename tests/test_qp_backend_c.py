@@ -1,5 +1,6 @@
 """Each QP backend has its C side in codegen (the context of its template, its files), and backends/ never imports
 codegen/ (the layers: backends below codegen)."""
+
 from __future__ import annotations
 
 import ast

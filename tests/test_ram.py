@@ -1,5 +1,6 @@
 """Static RAM of truck_lifted_ellipse cross-compiled for a Cortex-M7: .data + .bss of solver, model and OSQP
 (lib<name>.a + lib<name>_osqp.a) within an ECU's SRAM: <= 512 KiB in double, <= 256 KiB in float."""
+
 from __future__ import annotations
 
 import re
@@ -12,9 +13,10 @@ import pytest
 from fcgen.codegen.generate import generate
 from fcgen.presets import preset
 
-pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("arm-none-eabi-gcc", "arm-none-eabi-size",
-                                                                      "arm-none-eabi-nm", "make")),
-                                reason="needs arm-none-eabi-gcc (Debian: gcc-arm-none-eabi libnewlib-arm-none-eabi)")
+pytestmark = pytest.mark.skipif(
+    any(shutil.which(t) is None for t in ("arm-none-eabi-gcc", "arm-none-eabi-size", "arm-none-eabi-nm", "make")),
+    reason="needs arm-none-eabi-gcc (Debian: gcc-arm-none-eabi libnewlib-arm-none-eabi)",
+)
 
 M7_CFLAGS = "-O2 -mcpu=cortex-m7 -mthumb -mfloat-abi=hard -mfpu=fpv5-d16"
 LIMIT = {False: 512 * 1024, True: 256 * 1024}
@@ -22,8 +24,23 @@ LIMIT = {False: 512 * 1024, True: 256 * 1024}
 
 def static_ram(folder: Path, name: str) -> dict[str, int]:
     """.data + .bss per object of the solver's two static libraries built for the M7."""
-    subprocess.run(["make", "-C", str(folder), "-j2", "BUILD=build/m7", "CC=arm-none-eabi-gcc", "AR=arm-none-eabi-ar",
-                    f"CFLAGS={M7_CFLAGS}", "PICFLAGS=", "lib"], check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            "make",
+            "-C",
+            str(folder),
+            "-j2",
+            "BUILD=build/m7",
+            "CC=arm-none-eabi-gcc",
+            "AR=arm-none-eabi-ar",
+            f"CFLAGS={M7_CFLAGS}",
+            "PICFLAGS=",
+            "lib",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     libs = [str(folder / "build/m7" / f"lib{name}{s}.a") for s in ("", "_osqp")]
     out = subprocess.run(["arm-none-eabi-size", *libs], check=True, capture_output=True, text=True).stdout
     rows = [line.split() for line in out.splitlines()[1:]]
@@ -50,10 +67,22 @@ def test_indices_are_32_bit(tmp_path: Path) -> None:
     counts = {m[1]: int(m[2]) for m in re.finditer(r"^(?:const )?(?:OSQPInt|QDLDL_int) (\w+)\[(\d+)\]", ws_c, re.M)}
     assert len(counts) >= 12
     obj = tmp_path / "ws.o"
-    subprocess.run(["arm-none-eabi-gcc", *M7_CFLAGS.split(), "-std=c99", "-I" + str(info.out_dir / "osqp"),
-                    *(f"-I{info.out_dir / d}" for d in info.qp_files.include_dirs + info.qp_files.private_include_dirs),
-                    "-c", str(info.out_dir / info.qp_files.sources[0]), "-o", str(obj)], check=True,
-                   capture_output=True, text=True)
+    subprocess.run(
+        [
+            "arm-none-eabi-gcc",
+            *M7_CFLAGS.split(),
+            "-std=c99",
+            "-I" + str(info.out_dir / "osqp"),
+            *(f"-I{info.out_dir / d}" for d in info.qp_files.include_dirs + info.qp_files.private_include_dirs),
+            "-c",
+            str(info.out_dir / info.qp_files.sources[0]),
+            "-o",
+            str(obj),
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     out = subprocess.run(["arm-none-eabi-nm", "-S", str(obj)], check=True, capture_output=True, text=True).stdout
     sizes = {f[3]: int(f[1], 16) for f in (line.split() for line in out.splitlines()) if len(f) == 4}
     assert {name: sizes[name] for name in counts} == {name: 4 * n for name, n in counts.items()}

@@ -2,6 +2,7 @@
 plan check and the a_lat guard, the guard's steering rate, the lateral acceleration. Each gives hand-derived values in
 Python, and the C function of the same name, cut out of a rendered solver and compiled around a small main, gives the
 same bits on the same inputs (signed zeros included)."""
+
 from __future__ import annotations
 
 import math
@@ -23,37 +24,46 @@ TAN_005 = 0.05 + 0.05**3 / 3 + 2 * 0.05**5 / 15 + 17 * 0.05**7 / 315 + 62 * 0.05
 
 # (v0, dt, expected F_d): F_d = -min(F_d_max, m max(v0, 0) / dt), worked out by hand
 BRAKE = [
-    (-3.0, 0.1, -0.0),           # rolling backwards: no braking force (a negative zero, as the C gives it)
+    (-3.0, 0.1, -0.0),  # rolling backwards: no braking force (a negative zero, as the C gives it)
     (-0.0, 0.1, -0.0),
     (0.0, 0.1, -0.0),
-    (0.5, 0.1, -5800.0),         # m / dt = 11600: stops within the sample with 5800 N
-    (0.25, 0.05, -5800.0),       # m / dt = 23200
-    (1.5, 0.2, -8700.0),         # m / dt = 5800
+    (0.5, 0.1, -5800.0),  # m / dt = 11600: stops within the sample with 5800 N
+    (0.25, 0.05, -5800.0),  # m / dt = 23200
+    (1.5, 0.2, -8700.0),  # m / dt = 5800
     (1.0, 0.3, -3866.666666666667),  # m / dt = 3866.67 (rounded)
-    (0.862, 0.1, -9999.2),       # just below F_d_max
-    (20.0, 0.1, -1e4),           # saturates at F_d_max
+    (0.862, 0.1, -9999.2),  # just below F_d_max
+    (20.0, 0.1, -1e4),  # saturates at F_d_max
     (3.0, 0.3, -1e4),
-    (2.0, 0.232, -1e4),          # m / dt = 5000: exactly F_d_max
-    (float("nan"), 0.1, -0.0),   # a NaN speed brakes with nothing (the state check refuses NaN before)
+    (2.0, 0.232, -1e4),  # m / dt = 5000: exactly F_d_max
+    (float("nan"), 0.1, -0.0),  # a NaN speed brakes with nothing (the state check refuses NaN before)
 ]
 
 # (v, delta, delta0, a_to, l, dt, lo, hi, expected rate)
 RATE = [
     (4.0, 0.2, 0.5, 4.0, 4.0, 0.1, -5.0, 5.0, (QUARTER_PI - 0.5) / 0.1),  # a_to l / v^2 = 1: atan 1 = pi/4
-    (4.0, -0.2, 0.5, 4.0, 4.0, 0.1, -5.0, 5.0, -5.0),                     # -12.85 rad/s: clipped at the bound
-    (4.0, -0.2, 0.0, 4.0, 4.0, 0.5, -5.0, 5.0, -QUARTER_PI / 0.5),        # the left side: -pi/4 in 0.5 s
-    (2.0, -0.0, 0.0, 1.0, 4.0, 0.05, -20.0, 20.0, -QUARTER_PI / 0.05),    # delta = -0.0 is the left side
-    (-2.0, 0.3, 0.0, 1.0, 4.0, 0.1, -20.0, 20.0, QUARTER_PI / 0.1),       # backwards: v^2 is the same
-    (0.0, 0.3, 0.1, 4.0, 4.0, 0.1, -5.0, 5.0, 0.0),                       # standing: no rate
-    (1e-3, 0.3, 0.0, 4.0, 4.0, 0.1, -5.0, 5.0, 5.0),                      # slow: ~pi/2 in 0.1 s, clipped
-    (4.9, 0.1, 0.02, 4.75, 3.4, 0.1, -20.0, 20.0,                         # every operation rounds
-     (math.atan(16.15 / 24.01) - 0.02) / 0.1),
+    (4.0, -0.2, 0.5, 4.0, 4.0, 0.1, -5.0, 5.0, -5.0),  # -12.85 rad/s: clipped at the bound
+    (4.0, -0.2, 0.0, 4.0, 4.0, 0.5, -5.0, 5.0, -QUARTER_PI / 0.5),  # the left side: -pi/4 in 0.5 s
+    (2.0, -0.0, 0.0, 1.0, 4.0, 0.05, -20.0, 20.0, -QUARTER_PI / 0.05),  # delta = -0.0 is the left side
+    (-2.0, 0.3, 0.0, 1.0, 4.0, 0.1, -20.0, 20.0, QUARTER_PI / 0.1),  # backwards: v^2 is the same
+    (0.0, 0.3, 0.1, 4.0, 4.0, 0.1, -5.0, 5.0, 0.0),  # standing: no rate
+    (1e-3, 0.3, 0.0, 4.0, 4.0, 0.1, -5.0, 5.0, 5.0),  # slow: ~pi/2 in 0.1 s, clipped
+    (
+        4.9,
+        0.1,
+        0.02,
+        4.75,
+        3.4,
+        0.1,
+        -20.0,
+        20.0,  # every operation rounds
+        (math.atan(16.15 / 24.01) - 0.02) / 0.1,
+    ),
 ]
 
 # (v, delta, l, expected a_lat)
 A_LAT = [
     (10.0, 0.0, 3.4, 0.0),
-    (2.0, QUARTER_PI, 2.0, 2.0),           # tan(pi/4) = 1 (up to its rounding)
+    (2.0, QUARTER_PI, 2.0, 2.0),  # tan(pi/4) = 1 (up to its rounding)
     (-3.0, -0.1, 3.4, 9.0 * math.tan(-0.1) / 3.4),
     (20.0, 0.05, 3.4, 400.0 * TAN_005 / 3.4),
 ]
@@ -121,8 +131,25 @@ int main(void) {{
 }}
 """)
     exe = tmp_path / "reactions_test"
-    subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off", f"-I{SOLVER.parent}",
-                    str(test_c), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
+    subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-ffp-contract=off",
+            f"-I{SOLVER.parent}",
+            str(test_c),
+            "-o",
+            str(exe),
+            "-lm",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     got = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
     want = [braking_force(v0, M / dt, 1e4) for v0, dt, _ in BRAKE]
     want += [guard_steering_rate(*case[:-1]) for case in RATE]

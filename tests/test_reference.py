@@ -4,6 +4,7 @@ Independent references: finite differences of the stage functions and costs, a d
 Jacobians, hand-written cost formulas, and IPOPT solving the same NLP (SPEC section 6: the full NLP solve is the
 ground truth for the formulation).
 """
+
 from __future__ import annotations
 
 import re
@@ -28,7 +29,8 @@ TIGHT = QpOptions(eps_abs=1e-9, eps_rel=1e-9, max_iter=100000)
 def short_problem(form="lifted", ob="ellipse", N=10, qp=TIGHT, n_opp=1):
     """A short-horizon truck problem with one opponent (validation allows N = 10: window 280 m >= 48 m)."""
     return paper_problem("truck", form, ob, horizon=Horizon(stride=1, N=N), qp=qp).with_(
-        opponents=Opponents(n_opp, TRUCK))
+        opponents=Opponents(n_opp, TRUCK)
+    )
 
 
 def static_opponent(ocp, s_opp, n_opp, road=ROAD):
@@ -48,8 +50,13 @@ def make_solver(ocp, s_opp=24.0, n_opp=-4.0, x0=X0):
 
 # --- QP layout invariants ------------------------------------------------------------------------------
 
-LAYOUT_CASES = [("lifted", "ellipse", 40), ("conventional", "circles", 10), ("direct_elimination", "hyperplane", 12),
-                ("lifted", "hyperplane", 3), ("lifted", "ellipse", 1)]
+LAYOUT_CASES = [
+    ("lifted", "ellipse", 40),
+    ("conventional", "circles", 10),
+    ("direct_elimination", "hyperplane", 12),
+    ("lifted", "hyperplane", 3),
+    ("lifted", "ellipse", 1),
+]
 
 
 @pytest.fixture(scope="module", params=LAYOUT_CASES, ids=[f"{a}-{b}-N{c}" for a, b, c in LAYOUT_CASES])
@@ -87,8 +94,9 @@ def test_layout_sizes(ocp_layout):
     assert ocp.middle.nw == ocp.nx + ocp.nu + ocp.n_theta + ocp.n_sigma
     assert ocp.last.nw == ocp.nx + ocp.n_theta + ocp.n_sigma
     assert [lay.var_names[i] for i in lay.s_vars] == [f"s[{k}]" for k in range(ocp.N + 1)]
-    assert [lay.row_names[i] for i in lay.init_rows] == [f"init_{nm}[0]" for nm in
-                                                        ("s", "n", "alpha", "v", "delta", "x", "y", "phi")[:ocp.nx]]
+    assert [lay.row_names[i] for i in lay.init_rows] == [
+        f"init_{nm}[0]" for nm in ("s", "n", "alpha", "v", "delta", "x", "y", "phi")[: ocp.nx]
+    ]
 
 
 def test_A_pattern_has_no_duplicates_and_every_jacobian_entry_lands_once(ocp_layout):
@@ -97,7 +105,7 @@ def test_A_pattern_has_no_duplicates_and_every_jacobian_entry_lands_once(ocp_lay
     assert A.shape == (lay.m, lay.n)
     cols = np.repeat(np.arange(lay.n), np.diff(lay.A_indptr))
     for c in range(lay.n):
-        idx = lay.A_indices[lay.A_indptr[c]:lay.A_indptr[c + 1]]
+        idx = lay.A_indices[lay.A_indptr[c] : lay.A_indptr[c + 1]]
         assert np.all(np.diff(idx) > 0), f"column {c}: unsorted or duplicate rows"
     assert lay.nnz_A == lay.jac_off[-1]
     # a_src is a permutation of the stacked Jacobian non-zeros
@@ -111,7 +119,7 @@ def test_A_pattern_has_no_duplicates_and_every_jacobian_entry_lands_once(ocp_lay
 
 def test_P_diagonal_and_bounds(ocp_layout):
     ocp, lay = ocp_layout
-    assert np.all(lay.P_diag >= 0) and np.max(lay.P_diag) == pytest.approx(1.0)   # cost scaled to max 1
+    assert np.all(lay.P_diag >= 0) and np.max(lay.P_diag) == pytest.approx(1.0)  # cost scaled to max 1
     P = lay.P_matrix()
     assert P.nnz == lay.n and np.array_equal(P.diagonal(), lay.P_diag)
     assert np.all(lay.L <= lay.U)
@@ -129,17 +137,18 @@ def test_shift_maps_keep_the_stage_structure(ocp_layout):
     N, nx, nu = ocp.N, ocp.nx, ocp.nu
     old = np.arange(lay.n) + 1000.0
     new = old[lay.var_shift]
-    blk = lambda w, k: w[lay.var_off[k]:lay.var_off[k + 1]]
+    blk = lambda w, k: w[lay.var_off[k] : lay.var_off[k + 1]]
     for k in range(N):
-        np.testing.assert_array_equal(blk(new, k)[:nx], blk(old, k + 1)[:nx])           # x_k <- x_{k+1}
-    np.testing.assert_array_equal(blk(new, N), blk(old, N))                            # last stage kept
+        np.testing.assert_array_equal(blk(new, k)[:nx], blk(old, k + 1)[:nx])  # x_k <- x_{k+1}
+    np.testing.assert_array_equal(blk(new, N), blk(old, N))  # last stage kept
     for k in range(N - 1):
-        np.testing.assert_array_equal(blk(new, k)[nx:nx + nu], blk(old, k + 1)[nx:nx + nu])   # u_k <- u_{k+1}
+        np.testing.assert_array_equal(blk(new, k)[nx : nx + nu], blk(old, k + 1)[nx : nx + nu])  # u_k <- u_{k+1}
     if N >= 2:
-        np.testing.assert_array_equal(blk(new, N - 1)[nx:nx + nu], blk(old, N - 1)[nx:nx + nu])  # u_{N-1} kept
-    for k in range(1, N):                                                              # theta, sigma
-        np.testing.assert_array_equal(blk(new, k)[nx + nu:], blk(old, k + 1)[nx:] if k + 1 == N
-                                      else blk(old, k + 1)[nx + nu:])
+        np.testing.assert_array_equal(blk(new, N - 1)[nx : nx + nu], blk(old, N - 1)[nx : nx + nu])  # u_{N-1} kept
+    for k in range(1, N):  # theta, sigma
+        np.testing.assert_array_equal(
+            blk(new, k)[nx + nu :], blk(old, k + 1)[nx:] if k + 1 == N else blk(old, k + 1)[nx + nu :]
+        )
     base = lambda nm: re.sub(r"\[\d+\]$", "", nm)
     assert all(base(lay.var_names[i]) == base(lay.var_names[j]) for i, j in enumerate(lay.var_shift))
     assert all(base(lay.row_names[i]) == base(lay.row_names[j]) for i, j in enumerate(lay.row_shift))
@@ -152,6 +161,7 @@ def test_shift_maps_keep_the_stage_structure(ocp_layout):
 
 # --- the QP matrices are the linearization of the NLP ----------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def prepared():
     ocp = build_ocp(short_problem("lifted", "ellipse", N=10))
@@ -163,10 +173,10 @@ def prepared():
 def stage_point(sv, k, rng):
     """Stage k's guess variables and parameters, perturbed randomly (a generic point, not only the guess)."""
     lay, ocp = sv.lay, sv.ocp
-    w = sv.w_prep[lay.var_off[k]:lay.var_off[k + 1]].copy()  # the prepared guess (the linearization point)
-    w += 0.05 * lay.D[lay.var_off[k]:lay.var_off[k + 1]] * rng.standard_normal(w.size)
-    xn = sv.w_prep[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx].copy() if k < ocp.N else np.zeros(ocp.nx)
-    xn += 0.05 * lay.D[:ocp.nx] * rng.standard_normal(ocp.nx)
+    w = sv.w_prep[lay.var_off[k] : lay.var_off[k + 1]].copy()  # the prepared guess (the linearization point)
+    w += 0.05 * lay.D[lay.var_off[k] : lay.var_off[k + 1]] * rng.standard_normal(w.size)
+    xn = sv.w_prep[lay.var_off[k + 1] : lay.var_off[k + 1] + ocp.nx].copy() if k < ocp.N else np.zeros(ocp.nx)
+    xn += 0.05 * lay.D[: ocp.nx] * rng.standard_normal(ocp.nx)
     p = sv.stage_params(k, sv.w_prep[lay.s_vars[k]])
     return w, xn, p
 
@@ -179,7 +189,7 @@ def test_stage_jacobian_equals_finite_differences_in_scaled_variables(prepared, 
     w, xn, p = stage_point(sv, k, rng)
     g0, J, _ = st.fun(w, xn, p)
     J = np.array(ca.DM(J).full())
-    Dfull = np.r_[st.D, ocp.first.D[:ocp.nx]]     # scaled variables z = w / D (and x_next / D_x)
+    Dfull = np.r_[st.D, ocp.first.D[: ocp.nx]]  # scaled variables z = w / D (and x_next / D_x)
     z = np.r_[w, xn]
     Jfd = np.zeros_like(J)
     h = 1e-6
@@ -187,8 +197,8 @@ def test_stage_jacobian_equals_finite_differences_in_scaled_variables(prepared, 
         zp, zm = z.copy(), z.copy()
         zp[j] += h * Dfull[j]
         zm[j] -= h * Dfull[j]
-        gp = np.array(st.fun(zp[:st.nw], zp[st.nw:], p)[0]).ravel()
-        gm = np.array(st.fun(zm[:st.nw], zm[st.nw:], p)[0]).ravel()
+        gp = np.array(st.fun(zp[: st.nw], zp[st.nw :], p)[0]).ravel()
+        gm = np.array(st.fun(zm[: st.nw], zm[st.nw :], p)[0]).ravel()
         Jfd[:, j] = (gp - gm) / (2 * h)
     np.testing.assert_allclose(J, Jfd, rtol=1e-5, atol=1e-6)
 
@@ -206,8 +216,8 @@ def test_qp_cost_gradient_and_hessian_are_the_scaled_cost_derivatives(prepared, 
     for j in range(st.nw):
         e = np.zeros(st.nw)
         e[j] = h * st.D[j]
-        grad = (c(w + e) - c(w - e)) / (2 * h)            # d cost / d z_j
-        hess = (c(w + e) - 2 * c(w) + c(w - e)) / h**2    # exact for a quadratic
+        grad = (c(w + e) - c(w - e)) / (2 * h)  # d cost / d z_j
+        hess = (c(w + e) - 2 * c(w) + c(w - e)) / h**2  # exact for a quadratic
         assert q[j] == pytest.approx(ocp.cost_scale * grad, rel=1e-6, abs=1e-9)
         assert st.P_diag[j] == pytest.approx(ocp.cost_scale * hess, rel=1e-5, abs=1e-9)
 
@@ -229,9 +239,11 @@ def test_cost_weights_apply_dt_exactly_once():
     l2 = np.r_[1e4, [1e6] * 3] * dt
     assert float(ocp.cost[0](np.r_[x, u], p)) == pytest.approx(np.sum(q * dt * e**2) + np.sum(r * dt * u**2), rel=1e-12)
     assert float(ocp.cost[1](np.r_[x, u, sig], p)) == pytest.approx(
-        np.sum(q * dt * e**2) + np.sum(r * dt * u**2) + np.sum(l1 * sig + l2 * sig**2), rel=1e-12)
-    assert float(ocp.cost[2](np.r_[x, sig], p)) == pytest.approx(np.sum(qN * e**2) + np.sum(l1 * sig + l2 * sig**2),
-                                                                 rel=1e-12)
+        np.sum(q * dt * e**2) + np.sum(r * dt * u**2) + np.sum(l1 * sig + l2 * sig**2), rel=1e-12
+    )
+    assert float(ocp.cost[2](np.r_[x, sig], p)) == pytest.approx(
+        np.sum(qN * e**2) + np.sum(l1 * sig + l2 * sig**2), rel=1e-12
+    )
 
 
 def test_unequal_intervals_integrate_each_stages_length_and_weigh_the_first():
@@ -240,8 +252,9 @@ def test_unequal_intervals_integrate_each_stages_length_and_weigh_the_first():
     as over 0.1 s); the costs weigh every stage like the first interval; the a_lat rows keep the margin inside the
     bound. An all-coarse uniform grid (stride 2) steps and weighs 0.2 s."""
     pb = paper_problem("truck", "direct_elimination", "ellipse", profile="safe")
-    pb = pb.with_(horizon=Horizon(stride=3, fine=20), road=RoadWindow(length=340.0),
-                  bounds=replace(pb.bounds, a_lat_margin=0.15))
+    pb = pb.with_(
+        horizon=Horizon(stride=3, fine=20), road=RoadWindow(length=340.0), bounds=replace(pb.bounds, a_lat_margin=0.15)
+    )
     assert (pb.horizon.interval, pb.horizon.max_interval) == (0.1, 0.1 * 3)
     ocp = build_ocp(pb)
     x = np.array([10.0, 1.0, 0.0, 20.0, 0.0])
@@ -251,7 +264,7 @@ def test_unequal_intervals_integrate_each_stages_length_and_weigh_the_first():
     for h in (0.1, 0.3):
         p[ocp.p_dt] = h
         step[h] = np.array(ocp.dynamics(x, np.zeros(2), p)).ravel() - x
-        assert step[h][0] == pytest.approx(h * (20.0 + 0.5 * step[h][3]), abs=1e-4)   # nearly constant deceleration
+        assert step[h][0] == pytest.approx(h * (20.0 + 0.5 * step[h][3]), abs=1e-4)  # nearly constant deceleration
         np.testing.assert_allclose(step[h][[1, 2, 4]], 0.0, atol=1e-12)
     assert step[0.1][3] < 0 and step[0.3][3] == pytest.approx(3 * step[0.1][3], rel=0.01)
     xref = np.array([12.0, 1.0, 0.0, 40.0, 0.0])
@@ -259,19 +272,21 @@ def test_unequal_intervals_integrate_each_stages_length_and_weigh_the_first():
     u = np.array([2000.0, 0.1])
     e = x - xref
     q, r = np.array(pb.weights.q), np.array(pb.weights.r)
-    for p_dt in (0.1, 0.3):   # the weight does not follow the stage's interval
+    for p_dt in (0.1, 0.3):  # the weight does not follow the stage's interval
         p[ocp.p_dt] = p_dt
-        assert float(ocp.cost[0](np.r_[x, u], p)) == pytest.approx(np.sum(q * 0.1 * e**2) + np.sum(r * 0.1 * u**2),
-                                                                   rel=1e-12)
+        assert float(ocp.cost[0](np.r_[x, u], p)) == pytest.approx(
+            np.sum(q * 0.1 * e**2) + np.sum(r * 0.1 * u**2), rel=1e-12
+        )
     mid = ocp.middle
     lo, hi = mid.row_names.index("a_lat_lo"), mid.row_names.index("a_lat_hi")
     assert (mid.L[lo], mid.U[hi]) == (-(5.0 - 0.15) / 5.0, (5.0 - 0.15) / 5.0)
     coarse = build_ocp(pb.with_(horizon=Horizon(N=40, dt=0.1, stride=2, fine=0)))
-    assert coarse.p_dt is None   # a uniform grid: the interval is a constant of the stage functions
+    assert coarse.p_dt is None  # a uniform grid: the interval is a constant of the stage functions
     pc = np.zeros(coarse.np_stage)
     pc[coarse.p_ref] = xref
-    assert float(coarse.cost[0](np.r_[x, u], pc)) == pytest.approx(np.sum(q * 0.2 * e**2) + np.sum(r * 0.2 * u**2),
-                                                                   rel=1e-12)
+    assert float(coarse.cost[0](np.r_[x, u], pc)) == pytest.approx(
+        np.sum(q * 0.2 * e**2) + np.sum(r * 0.2 * u**2), rel=1e-12
+    )
     pc[coarse.p_road] = coarse.road_params.pack(straight_road(400.0, s0=0.0), 0)
     dx = np.array(coarse.dynamics(x, np.zeros(2), pc)).ravel() - x
     assert dx[0] == pytest.approx(0.2 * (20.0 + 0.5 * dx[3]), abs=1e-4)
@@ -287,17 +302,17 @@ def test_a_stride_shifts_the_plan_by_one_sample_interpolated(ocp_layout):
     grids.append(Horizon(N=pb.horizon.N, stride=3, fine=pb.horizon.N // 2))
     for hz in grids:
         lay = build_layout(build_ocp(pb.with_(horizon=hz, road=RoadWindow(length=40.0 * hz.length + 8.0))))
-        assert np.array_equal(lay.var_shift, lay0.var_shift)       # the stages' layout does not depend on the grid
+        assert np.array_equal(lay.var_shift, lay0.var_shift)  # the stages' layout does not depend on the grid
         stage_of = np.searchsorted(lay.var_off, np.arange(lay.n), side="right") - 1
         t = np.array(hz.times)[stage_of]
         names = [re.sub(r"\[\d+\]$", "", nm) for nm in lay.var_names]
         rate = {nm: 1.0 + i for i, nm in enumerate(dict.fromkeys(names))}
-        slope = np.array([rate[nm] for nm in names])   # per variable its own rate
+        slope = np.array([rate[nm] for nm in names])  # per variable its own rate
         w = 5.0 + slope * t
         new = lay.shift_vars(w)
         if hz.stride == 1:
             np.testing.assert_array_equal(new, w[lay.var_shift])
-        moved = lay.var_shift != np.arange(lay.n)   # entries that have a next stage (not the last one's)
+        moved = lay.var_shift != np.arange(lay.n)  # entries that have a next stage (not the last one's)
         np.testing.assert_allclose(new[moved], (5.0 + slope * (t + hz.dt))[moved], rtol=0, atol=1e-12)
         np.testing.assert_array_equal(new[~moved], w[~moved])
 
@@ -310,14 +325,14 @@ def test_assembled_A_equals_block_assembly_of_stage_jacobians(prepared):
     g_all = []
     for k in range(ocp.N + 1):
         st = ocp.stage(k)
-        w = sv.w_prep[lay.var_off[k]:lay.var_off[k + 1]]
-        xn = sv.w_prep[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] if k < ocp.N else np.zeros(ocp.nx)
+        w = sv.w_prep[lay.var_off[k] : lay.var_off[k + 1]]
+        xn = sv.w_prep[lay.var_off[k + 1] : lay.var_off[k + 1] + ocp.nx] if k < ocp.N else np.zeros(ocp.nx)
         g, J, _ = st.fun(w, xn, sv.stage_params(k, sv.w_prep[lay.s_vars[k]]))
         J = np.array(ca.DM(J).full())
         r0, r1 = lay.row_off[k], lay.row_off[k + 1]
-        dense[r0:r1, lay.var_off[k]:lay.var_off[k + 1]] += J[:, :st.nw]
+        dense[r0:r1, lay.var_off[k] : lay.var_off[k + 1]] += J[:, : st.nw]
         if k < ocp.N:
-            dense[r0:r1, lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] += J[:, st.nw:]
+            dense[r0:r1, lay.var_off[k + 1] : lay.var_off[k + 1] + ocp.nx] += J[:, st.nw :]
         g_all.append(np.array(g).ravel())
     np.testing.assert_allclose(A, dense, rtol=0, atol=1e-14)
     np.testing.assert_allclose(sv.g, np.concatenate(g_all), rtol=0, atol=1e-14)
@@ -327,6 +342,7 @@ def test_assembled_A_equals_block_assembly_of_stage_jacobians(prepared):
 
 # --- converged SQP = IPOPT on the same NLP ------------------------------------------------------------------
 
+
 def nlp(sv, s0=None):
     """The NLP of the solver's current parameters, written independently of the QP layout's index maps:
     variables W (all stage variables), objective = sum of ocp.cost, constraints = the stage rows g_k with bounds
@@ -335,7 +351,7 @@ def nlp(sv, s0=None):
     N = ocp.N
     s0 = sv.x0[0] if s0 is None else s0
     W = ca.MX.sym("w", lay.n)
-    wk = lambda k: W[int(lay.var_off[k]):int(lay.var_off[k + 1])]
+    wk = lambda k: W[int(lay.var_off[k]) : int(lay.var_off[k + 1])]
     P = []
     for k in range(N + 1):
         p = sv.stage_params(k, sv.w[lay.s_vars[k]]).copy()
@@ -343,19 +359,24 @@ def nlp(sv, s0=None):
         P.append(p)
     g, f = [], 0
     for k in range(N + 1):
-        xn = wk(k + 1)[:ocp.nx] if k < N else ca.DM.zeros(ocp.nx)
+        xn = wk(k + 1)[: ocp.nx] if k < N else ca.DM.zeros(ocp.nx)
         g.append(ocp.stage(k).fun(wk(k), xn, P[k])[0])
         f += ocp.cost[0 if k == 0 else 2 if k == N else 1](wk(k), P[k])
     lbg, ubg = lay.L.copy(), lay.U.copy()
     x0_full = np.array(ocp.init_state(sv.x0, P[0])).ravel()
-    lbg[lay.init_rows] = ubg[lay.init_rows] = x0_full / lay.D[:ocp.nx]
+    lbg[lay.init_rows] = ubg[lay.init_rows] = x0_full / lay.D[: ocp.nx]
     lbg[lbg <= -INF] = -np.inf
     ubg[ubg >= INF] = np.inf
     return W, f, ca.vertcat(*g), lbg, ubg
 
 
-IPOPT_OPTS = {"ipopt.tol": 1e-12, "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
-              "ipopt.max_iter": 1000}
+IPOPT_OPTS = {
+    "ipopt.tol": 1e-12,
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    "ipopt.max_iter": 1000,
+}
 
 
 def ipopt_solution(sv):
@@ -377,14 +398,18 @@ def not_theta(sv):
 
 def obstacle_rows(sv):
     ocp, lay = sv.ocp, sv.lay
-    idx = [lay.row_off[k] + i for k in range(1, ocp.N + 1) for i, nm in enumerate(ocp.stage(k).row_names)
-           if re.fullmatch(r"opp\d+_h\d+", nm)]
+    idx = [
+        lay.row_off[k] + i
+        for k in range(1, ocp.N + 1)
+        for i, nm in enumerate(ocp.stage(k).row_names)
+        if re.fullmatch(r"opp\d+_h\d+", nm)
+    ]
     return np.array(idx)
 
 
 IPOPT_CASES = [  # formulation, obstacle model, ego speed, parked opponent (s, n)
-    ("lifted", "ellipse", 10.0, 20.0, -5.0),            # obstacle row active, slack zero
-    ("lifted", "ellipse", 15.0, 24.0, -4.0),            # obstacle rows active with positive slack (L1 saturated)
+    ("lifted", "ellipse", 10.0, 20.0, -5.0),  # obstacle row active, slack zero
+    ("lifted", "ellipse", 15.0, 24.0, -4.0),  # obstacle rows active with positive slack (L1 saturated)
     ("direct_elimination", "ellipse", 10.0, 20.0, -5.0),
     ("lifted", "circles", 10.0, 20.0, -3.0),
     ("conventional", "ellipse", 10.0, 24.0, -5.0),
@@ -406,7 +431,7 @@ def test_converged_sqp_matches_ipopt(form, ob, v0, s_opp, n_opp):
     assert np.max(np.abs(sv.z)) < 1e-7
     # the opponent matters: some obstacle row is active and the solution differs from the one without it
     rows = obstacle_rows(sv)
-    active = np.abs(sv.g[rows]) < 1e-6          # g = h + sigma at the converged point; lower bound 0
+    active = np.abs(sv.g[rows]) < 1e-6  # g = h + sigma at the converged point; lower bound 0
     assert np.any(active) and np.max(np.abs(sv.y[rows])) > 1e-3
     far = make_solver(ocp, s_opp=400.0, n_opp=n_opp, x0=x0)
     far.solve_converged(x0, max_sqp=60, tol=1e-8)
@@ -417,12 +442,12 @@ def test_converged_sqp_matches_ipopt(form, ob, v0, s_opp, n_opp):
     diff = (w_ip - sv.w) / lay.D
     xu = np.zeros(lay.n, dtype=bool)
     for k in range(ocp.N + 1):
-        xu[lay.var_off[k]:lay.var_off[k] + ocp.nx + (ocp.nu if k < ocp.N else 0)] = True
-    assert np.max(np.abs(diff[xu])) <= 1e-5, np.max(np.abs(diff[xu]))      # states and controls, scaled units
+        xu[lay.var_off[k] : lay.var_off[k] + ocp.nx + (ocp.nu if k < ocp.N else 0)] = True
+    assert np.max(np.abs(diff[xu])) <= 1e-5, np.max(np.abs(diff[xu]))  # states and controls, scaled units
     # slacks too; hyperplane thetas are not unique (any separating plane of an inactive pair is optimal): not compared
     assert np.max(np.abs(diff[not_theta(sv)])) <= 1e-5
     # in SI units: positions to 1e-4 m, drive force to 0.1 N
-    st_ip = np.stack([w_ip[lay.var_off[k]:lay.var_off[k] + ocp.nx] for k in range(ocp.N + 1)])
+    st_ip = np.stack([w_ip[lay.var_off[k] : lay.var_off[k] + ocp.nx] for k in range(ocp.N + 1)])
     np.testing.assert_allclose(st_ip, sv.states(), atol=1e-4)
 
 
@@ -438,10 +463,10 @@ def test_rti_step_is_the_gauss_newton_sqp_step(form, ob):
     # the next sample: the plant moved a bit differently than predicted (s too, so the reference moves)
     x1 = sv.states()[1][:5] + np.array([0.3, 0.05, 0.01, -0.2, 0.003])
     sv.set_road(ROAD.window(x1[0] - 10.0, ocp.problem.road.samples))
-    sv.prepare()                     # shift + linearize at the shifted guess
+    sv.prepare()  # shift + linearize at the shifted guess
     sv.set_state(x1)
     assert sv.s0_guess != x1[0]
-    w_guess = sv.w_prep.copy()       # the shifted guess the QP is built at
+    w_guess = sv.w_prep.copy()  # the shifted guess the QP is built at
     sv.feedback()
     step = sv.w - w_guess
     # the reference QP at w_guess
@@ -455,13 +480,14 @@ def test_rti_step_is_the_gauss_newton_sqp_step(form, ob):
     res = solver(x0=np.zeros(sv.lay.n), lbg=lbg - g0.ravel(), ubg=ubg - g0.ravel())
     assert solver.stats()["success"]
     step_ref = np.array(res["x"]).ravel()
-    assert np.max(np.abs(step_ref / sv.lay.D)) > 1e-2            # a real step, not a zero one
+    assert np.max(np.abs(step_ref / sv.lay.D)) > 1e-2  # a real step, not a zero one
     # (thetas excluded: the QP has no curvature in them, so their step is not unique)
     m = not_theta(sv)
     np.testing.assert_allclose((step / sv.lay.D)[m], (step_ref / sv.lay.D)[m], atol=1e-6, rtol=0)
 
 
 # --- errors ----------------------------------------------------------------------------------------------
+
 
 def test_feedback_before_prepare_raises_and_solver_recovers():
     ocp = build_ocp(short_problem(N=10, qp=QpOptions()))
@@ -470,7 +496,7 @@ def test_feedback_before_prepare_raises_and_solver_recovers():
         sv.feedback()
     u_a = sv.step(X0)
     with pytest.raises(SolverError, match="before prepare"):
-        sv.feedback()                          # prepare is needed again after every feedback
+        sv.feedback()  # prepare is needed again after every feedback
     with pytest.raises(SolverError, match="finite"):
         sv.set_state(np.array([0.0, np.nan, 0.0, 15.0, 0.0]))
     with pytest.raises(SolverError):
@@ -482,8 +508,7 @@ def test_feedback_before_prepare_raises_and_solver_recovers():
     with pytest.raises(SolverError, match="NaN or infinite"):
         sv.set_opponents(bad)
     # the solver still works, and exactly as one that never saw the errors
-    x1 = np.array(ocp.dynamics(np.r_[X0, ROAD.to_cartesian(0.0, 0.0, 0.0)], u_a,
-                               sv.stage_params(0, 0.0))).ravel()[:5]
+    x1 = np.array(ocp.dynamics(np.r_[X0, ROAD.to_cartesian(0.0, 0.0, 0.0)], u_a, sv.stage_params(0, 0.0))).ravel()[:5]
     u_b = sv.step(x1)
     clean = make_solver(ocp)
     assert np.array_equal(clean.step(X0), u_a)
@@ -503,9 +528,9 @@ def test_state_outside_the_road_window_raises():
     ocp = build_ocp(short_problem(N=10, qp=QpOptions()))
     sv = make_solver(ocp)
     sv.step(X0)
-    sv.set_state(np.array([900.0, 0.0, 0.0, 15.0, 0.0]))   # far beyond the 280 m window
+    sv.set_state(np.array([900.0, 0.0, 0.0, 15.0, 0.0]))  # far beyond the 280 m window
     sv.prepare()
     with pytest.raises(SolverError, match="does not cover"):
         sv.feedback()
     with pytest.raises(SolverError, match="at most"):
-        sv.set_road(ROAD)                                  # the whole road: more samples than the window holds
+        sv.set_road(ROAD)  # the whole road: more samples than the window holds

@@ -1,4 +1,5 @@
 """fcgen record / regress: tolerance arithmetic, replay pinning, caught changes, other flags, unusable input."""
+
 from __future__ import annotations
 
 import json
@@ -100,19 +101,36 @@ def test_python_reference_replays_the_c_golden_bit_for_bit() -> None:
     rep = regress(SOLVER, GOLDEN / "truck_seed0.json.xz", controller="python", preset="same-build")
     assert rep.passed, rep.format()
     assert {f.field: f.max_abs for f in rep.logs[0].fields} == {
-        "control": 0.0, "qp_iter": 0.0, "qp_status": 0.0, "max_slack": 0.0, "exit_code": 0.0, "plan_controls": 0.0}
+        "control": 0.0,
+        "qp_iter": 0.0,
+        "qp_status": 0.0,
+        "max_slack": 0.0,
+        "exit_code": 0.0,
+        "plan_controls": 0.0,
+    }
 
 
 def test_replay_pins_the_first_changed_sample(tmp_path) -> None:
     """A golden whose output is altered at sample 57 only: replay names sample 57, the field and both values."""
+
     def change(log: RunLog) -> RunLog:
         u = np.array(log.control)
         u[57, 1] += 1e-6
         return replace(log, control=u)
 
     suite = _copy_suite(tmp_path / "golden", change)
-    res = _cli("regress", SOLVER, suite, "--preset", "same-build", "--verify", "--controller", "python",
-               "--json", tmp_path / "r.json")
+    res = _cli(
+        "regress",
+        SOLVER,
+        suite,
+        "--preset",
+        "same-build",
+        "--verify",
+        "--controller",
+        "python",
+        "--json",
+        tmp_path / "r.json",
+    )
     assert res.exit_code == 1, res.output + res.stderr
     gold = float(RunLog.from_json(suite / "truck_seed0.json.xz").control[57, 1])
     orig = float(RunLog.from_json(GOLDEN / "truck_seed0.json.xz").control[57, 1])
@@ -166,8 +184,9 @@ def test_regress_passes_a_rebuild_with_other_flags(tmp_path, cflags, verify) -> 
     """
     new = tmp_path / "truck_lifted_ellipse"
     shutil.copytree(SOLVER, new, ignore=shutil.ignore_patterns("build", "golden"))
-    res = _cli("regress", new, GOLDEN, verify, f"--cflags={cflags}", "--preset", "other-flags",
-               "--json", tmp_path / "r.json")
+    res = _cli(
+        "regress", new, GOLDEN, verify, f"--cflags={cflags}", "--preset", "other-flags", "--json", tmp_path / "r.json"
+    )
     assert res.exit_code == 0, res.output + res.stderr
     assert "PASS: 2 log(s) within tolerance" in res.output and "NEW built with: cc" in res.output
     build = "verify" if verify == "--verify" else ""
@@ -177,7 +196,7 @@ def test_regress_passes_a_rebuild_with_other_flags(tmp_path, cflags, verify) -> 
     if cflags == "-O1":
         assert ctrl == 0.0
     else:
-        assert 0 < ctrl < 1e-8 * 1e4                  # F_d is up to 1e4 N
+        assert 0 < ctrl < 1e-8 * 1e4  # F_d is up to 1e4 N
         res = _cli("regress", new, GOLDEN, verify, f"--cflags={cflags}", "--preset", "same-build")
         assert res.exit_code == 1 and "first divergence" in res.output
 
@@ -186,7 +205,7 @@ def test_regress_passes_a_rebuild_with_other_flags(tmp_path, cflags, verify) -> 
 
 
 def test_record_suite_and_closed_loop_regress(tmp_path) -> None:
-    solver = tmp_path / "truck_lifted_ellipse"   # a copy: other tests build generated/ in place, maybe concurrently
+    solver = tmp_path / "truck_lifted_ellipse"  # a copy: other tests build generated/ in place, maybe concurrently
     shutil.copytree(SOLVER, solver, ignore=shutil.ignore_patterns("build", "golden"))
     st = SuiteSettings(seeds=(4,), samples=30, plan="full", verify=True)
     man = record_suite(solver, tmp_path / "s", st)
@@ -194,7 +213,7 @@ def test_record_suite_and_closed_loop_regress(tmp_path) -> None:
     assert "-ffp-contract=off" in man["build"]["compile_line"] and man["qp_backend"] == "osqp"
     _, (log,) = load_suite(tmp_path / "s")
     assert log.plan_states.shape == (30, 41, 8) and log.plan_controls.shape == (30, 40, 2)
-    box = np.array([1e4, 0.39])                                        # Bounds(): F_d_max, r_max
+    box = np.array([1e4, 0.39])  # Bounds(): F_d_max, r_max
     # the applied control is the plan's first control projected on the input box (the safety contract)
     assert np.array_equal(np.clip(log.plan_controls[:, 0, :], -box, box), log.control)
     assert np.all(log.time_total > 0) and np.array_equal(log.exit_code, np.zeros(30))
@@ -228,18 +247,34 @@ def test_unusable_inputs(tmp_path, golden_logs) -> None:
     other = replace(g, meta={**g.meta, "problem": "car_lift_el"}).to_json(tmp_path / "other.json")
     _one_line_exit2(_cli("regress", other, ok), "another problem", "car_lift_el")
     K = 150
-    short = replace(g, **{n: getattr(g, n)[:K + 1] for n in ("t", "ego_frenet", "ego_cartesian", "opp_cartesian",
-                                                               "opp_frenet", "collision", "a_lat")},
-                    **{n: getattr(g, n)[:K] for n in ("control", "time_prepare", "time_feedback", "time_total",
-                                                      "qp_iter", "qp_status", "max_slack", "exit_code",
-                                                      "plan_controls")})
+    short = replace(
+        g,
+        **{
+            n: getattr(g, n)[: K + 1]
+            for n in ("t", "ego_frenet", "ego_cartesian", "opp_cartesian", "opp_frenet", "collision", "a_lat")
+        },
+        **{
+            n: getattr(g, n)[:K]
+            for n in (
+                "control",
+                "time_prepare",
+                "time_feedback",
+                "time_total",
+                "qp_iter",
+                "qp_status",
+                "max_slack",
+                "exit_code",
+                "plan_controls",
+            )
+        },
+    )
     short.to_json(tmp_path / "short.json")
     _one_line_exit2(_cli("regress", tmp_path / "short.json", ok), "another length", "150", "200")
     _one_line_exit2(_cli("regress", ok, tmp_path / "missing.json"), "missing.json")
     seed9 = replace(g, meta={**g.meta, "seed": 9}).to_json(tmp_path / "seed9.json")
     _one_line_exit2(_cli("regress", seed9, GOLDEN), "no log of truck seed 9")
     _one_line_exit2(_cli("regress", seed9, ok), "another scenario", "seed")
-    assert _cli("regress", ok, GOLDEN, "--preset", "same-build").exit_code == 0   # vs the suite's seed-0 log
+    assert _cli("regress", ok, GOLDEN, "--preset", "same-build").exit_code == 0  # vs the suite's seed-0 log
     _one_line_exit2(_cli("regress", ok, ok, "--tol", "bogus=1,2"), "--tol")
     # a suite whose log was edited without re-hashing, and a suite of another solver
     bad = tmp_path / "bad"

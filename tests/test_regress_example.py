@@ -1,4 +1,5 @@
 """docs/regression.md's CI example, run exactly as written: the `fcgen record` command, then the pytest file."""
+
 import re
 import shlex
 import shutil
@@ -22,8 +23,11 @@ def _block(lang: str, needle: str) -> str:
 def test_the_documented_ci_example(tmp_path, monkeypatch):
     # the user's repository: generated/my_solver (a copy of a checked-in solver), working directory = repo root
     monkeypatch.chdir(tmp_path)
-    shutil.copytree(ROOT / "generated" / "truck_lifted_ellipse", tmp_path / "generated" / "my_solver",
-                    ignore=shutil.ignore_patterns("build", "golden"))
+    shutil.copytree(
+        ROOT / "generated" / "truck_lifted_ellipse",
+        tmp_path / "generated" / "my_solver",
+        ignore=shutil.ignore_patterns("build", "golden"),
+    )
     cmd = shlex.split(_block("bash", "fcgen record generated/my_solver").strip())
     assert cmd[0] == "fcgen"
     res = CliRunner().invoke(main, cmd[1:])

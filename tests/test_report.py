@@ -1,4 +1,5 @@
 """fcgen report: Table III, progress, a_lat outcome and the findings from hand-made campaign rows."""
+
 from __future__ import annotations
 
 import math
@@ -14,9 +15,11 @@ from fcgen.report import backends, findings, tables
 from fcgen.report.page import busy_seconds, grid_estimate, write_report
 
 # per formulation: (time per RTI of seed 0, of seed 1) in ms, progress of seeds 0 and 1, collision of seed 1
-HAND = {"conventional": (([1.0, 3.0], [2.0, 2.0]), (100.0, 110.0), False),
-        "direct_elimination": (([2.0, 4.0], [2.0, 4.0]), (104.0, 108.0), False),
-        "lifted": (([2.0, 2.0], [2.0, 2.0]), (106.0, 116.0), True)}
+HAND = {
+    "conventional": (([1.0, 3.0], [2.0, 2.0]), (100.0, 110.0), False),
+    "direct_elimination": (([2.0, 4.0], [2.0, 4.0]), (104.0, 108.0), False),
+    "lifted": (([2.0, 2.0], [2.0, 2.0]), (106.0, 116.0), True),
+}
 
 
 def hand_rows() -> pd.DataFrame:
@@ -24,19 +27,46 @@ def hand_rows() -> pd.DataFrame:
     for form, (times, prog, hit) in HAND.items():
         for seed in (0, 1):
             t = np.array(times[seed])
-            rows.append({"config": f"truck/{form}/EL/c/osqp", "scenario": "truck", "formulation": form,
-                         "obstacles": "ellipse", "circles": 0, "model": "EL", "seed": seed, "samples": 2,
-                         "progress": prog[seed], "collision": bool(hit and seed == 1),
-                         "n_collision_samples": 3 if hit and seed == 1 else 0, "time_rti_ms": t.tolist(),
-                         "time_total_ms_mean": t.mean(), "time_prepare_ms_mean": 0.25 * t.mean(),
-                         "time_feedback_ms_mean": 0.75 * t.mean(),
-                         "qp_iter_mean": 60.0, "qp_n": 568 if form == "lifted" else 445, "qp_m": 900,
-                         "qp_nnz_a": 3000, "n_opp_par": 3, "n_controls": 2, "n_states": 3, "max_slack": 0.0,
-                         "a_lat_bound": 5.0, "a_lat_over_samples": seed, "a_lat_excess_max": 0.5 * seed,
-                         "a_lat_excess_mean": 0.5 * seed, "wall_s": 0.5 if seed else 1.5,
-                         "cpu_s": 0.25 if seed else 0.75, "t_start": 10.0 * seed,
-                         "t_end": 10.0 * seed + 1.0, "worker": f"w{seed}", "solver_hash": "h", "clock": "cpu",
-                         "controller": "c", "backend": "osqp"})
+            rows.append(
+                {
+                    "config": f"truck/{form}/EL/c/osqp",
+                    "scenario": "truck",
+                    "formulation": form,
+                    "obstacles": "ellipse",
+                    "circles": 0,
+                    "model": "EL",
+                    "seed": seed,
+                    "samples": 2,
+                    "progress": prog[seed],
+                    "collision": bool(hit and seed == 1),
+                    "n_collision_samples": 3 if hit and seed == 1 else 0,
+                    "time_rti_ms": t.tolist(),
+                    "time_total_ms_mean": t.mean(),
+                    "time_prepare_ms_mean": 0.25 * t.mean(),
+                    "time_feedback_ms_mean": 0.75 * t.mean(),
+                    "qp_iter_mean": 60.0,
+                    "qp_n": 568 if form == "lifted" else 445,
+                    "qp_m": 900,
+                    "qp_nnz_a": 3000,
+                    "n_opp_par": 3,
+                    "n_controls": 2,
+                    "n_states": 3,
+                    "max_slack": 0.0,
+                    "a_lat_bound": 5.0,
+                    "a_lat_over_samples": seed,
+                    "a_lat_excess_max": 0.5 * seed,
+                    "a_lat_excess_mean": 0.5 * seed,
+                    "wall_s": 0.5 if seed else 1.5,
+                    "cpu_s": 0.25 if seed else 0.75,
+                    "t_start": 10.0 * seed,
+                    "t_end": 10.0 * seed + 1.0,
+                    "worker": f"w{seed}",
+                    "solver_hash": "h",
+                    "clock": "cpu",
+                    "controller": "c",
+                    "backend": "osqp",
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -48,7 +78,7 @@ def test_table3_pools_every_rti_and_compares_with_conventional():
     assert rows["lifted"]["vs_conv_pct"] == pytest.approx(0.0) and rows["lifted"]["rtis"] == 4
     md = tables.md_time_table(list(rows.values()))
     assert "| truck | EL | 2.00 ± 0.71 | 3.00 ± 1.00 | +50.0 % | 2.00 ± 0.00 | +0.0 % |" in md
-    assert "1.5 ± 0.4 | 1.9 ± 0.2 | +28.9 % | 1.4 ± 0.3 | -6.6 %" in md        # the paper's, beside
+    assert "1.5 ± 0.4 | 1.9 ± 0.2 | +28.9 % | 1.4 ± 0.3 | -6.6 %" in md  # the paper's, beside
 
 
 def test_progress_is_paired_by_seed_and_collisions_counted():
@@ -63,8 +93,8 @@ def test_progress_is_paired_by_seed_and_collisions_counted():
 def test_findings_are_judged_on_the_rows():
     fs = findings.judge(tables.time_table(hand_rows()), tables.progress_table(hand_rows()))
     v = {f.claim.split(" (")[0]: f.verdict for f in fs}
-    assert v["lifted ODE no slower than conventional"] == "holds"            # +0.0 %
-    assert v["direct elimination about +30 % with EL"] == "fails"            # +50 %
+    assert v["lifted ODE no slower than conventional"] == "holds"  # +0.0 %
+    assert v["direct elimination about +30 % with EL"] == "fails"  # +50 %
     assert v["trucks: lifted and direct elimination progress further than conventional"] == "holds"
     assert v["zero collisions"] == "fails"
     de = next(f for f in fs if f.claim.startswith("direct"))
@@ -74,10 +104,10 @@ def test_findings_are_judged_on_the_rows():
 def test_findings_name_the_conventional_fit_where_its_prepare_phase_dominates():
     df = hand_rows()
     conv = df["formulation"] == "conventional"
-    df.loc[conv, "time_prepare_ms_mean"] = 1.8      # of 2.0 ms: the fit; DE's prepare is 0.75 ms, lifted's 0.5 ms
+    df.loc[conv, "time_prepare_ms_mean"] = 1.8  # of 2.0 ms: the fit; DE's prepare is 0.75 ms, lifted's 0.5 ms
     fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
-    assert "opponent fit" not in fs["direct elimination about +30 % with EL"].why     # DE (3 ms) is the slower one
-    assert "opponent fit" not in fs["lifted ODE no slower than conventional"].why      # 2.0 ms both: not slower
+    assert "opponent fit" not in fs["direct elimination about +30 % with EL"].why  # DE (3 ms) is the slower one
+    assert "opponent fit" not in fs["lifted ODE no slower than conventional"].why  # 2.0 ms both: not slower
     for i in df.index[conv]:
         df.at[i, "time_rti_ms"] = [4.0, 4.0]
     fs = {f.claim.split(" (")[0]: f for f in findings.judge(tables.time_table(df), tables.progress_table(df))}
@@ -97,7 +127,7 @@ def test_grid_estimate_scales_the_measured_wall_times():
 
 
 def test_busy_seconds_is_the_union_of_the_run_intervals():
-    assert busy_seconds([0, 1, 5, 5.5], [2, 3, 6, 7]) == 5.0     # [0, 3] and [5, 7]
+    assert busy_seconds([0, 1, 5, 5.5], [2, 3, 6, 7]) == 5.0  # [0, 3] and [5, 7]
     assert busy_seconds([], []) == 0.0
 
 
@@ -142,7 +172,7 @@ def two_backend_rows() -> pd.DataFrame:
     ipm["progress"] = ipm["progress"] + np.where(ipm["seed"] == 0, 2.0, -1.0)
     ipm["qp_iter_mean"], ipm["collision"], ipm["n_collision_samples"] = 10.0, False, 0
     ipm = ipm[~((ipm["formulation"] == "conventional") & (ipm["seed"] == 1))]
-    return pd.concat([ipm, osqp], ignore_index=True)      # IPM rows first: the report still puts OSQP first
+    return pd.concat([ipm, osqp], ignore_index=True)  # IPM rows first: the report still puts OSQP first
 
 
 def test_two_backends_are_compared_per_configuration_and_paired_by_seed():
@@ -153,21 +183,26 @@ def test_two_backends_are_compared_per_configuration_and_paired_by_seed():
     assert de["time_base"] == 3.0 and de["time_other"] == 1.5 and de["ratio"] == pytest.approx(0.5)
     assert de["dprog_mean"] == pytest.approx(0.5) and de["dprog_absmax"] == 2.0 and de["paired"] == 2
     assert (de["other_better"], de["other_worse"]) == (1, 1) and (de["iter_base"], de["iter_other"]) == (60, 10)
-    conv = rows["conventional"]               # only seed 0 under both: paired once; times pooled per backend
+    conv = rows["conventional"]  # only seed 0 under both: paired once; times pooled per backend
     assert conv["paired"] == 1 and conv["dprog_mean"] == 2.0 and conv["time_other"] == pytest.approx(1.0)
-    assert conv["ratio"] == pytest.approx(0.5)     # IPM seed 0: 0.5, 1.5 (mean 1.0) against OSQP 2.0
+    assert conv["ratio"] == pytest.approx(0.5)  # IPM seed 0: 0.5, 1.5 (mean 1.0) against OSQP 2.0
     assert rows["lifted"]["coll_base"] == 1 and rows["lifted"]["coll_other"] == 0
     s = backends.summary(list(rows.values()))
     assert s["ratio_geo"] == pytest.approx(0.5) and s["paired"] == 5 and s["coll_base"] == 1
-    assert s["dprog_mean"] == pytest.approx((2 + (2 - 1) + (2 - 1)) / 5)     # per paired run, not per config
+    assert s["dprog_mean"] == pytest.approx((2 + (2 - 1) + (2 - 1)) / 5)  # per paired run, not per config
 
 
 def test_report_of_two_backends_has_every_table_per_backend(tmp_path):
     ResultStore(tmp_path / "res").write(two_backend_rows().to_dict("records"))
     text = write_report(tmp_path / "res", tmp_path / "rep", example=False).read_text()
     for b in ("osqp", "ipm"):
-        for head in ("Table III: time per RTI", "Progress and collisions", "The paper's findings",
-                     "Soft constraint", "Rate and the full grid"):
+        for head in (
+            "Table III: time per RTI",
+            "Progress and collisions",
+            "The paper's findings",
+            "Soft constraint",
+            "Rate and the full grid",
+        ):
             assert text.count(f"## {head}") == 2 and f"{head}" in text
             assert f"— QP backend {b}" in text
         for ext in ("png", "svg"):
@@ -176,7 +211,7 @@ def test_report_of_two_backends_has_every_table_per_backend(tmp_path):
     assert text.index("osqp truck: 3 configurations x 2 seeds") < text.index("ipm truck: 3 configurations x 2 seeds")
     # OSQP's Table III is the single-backend one (+50 % for DE); the IPM's halves every time, same percentages
     assert "| truck | EL | 2.00 ± 0.71 | 3.00 ± 1.00 | +50.0 % |" in text
-    assert "| truck | EL | 1.00 ± 0.50 | 1.50 ± 0.50 | +50.0 % |" in text      # conventional: IPM seed 0 only
+    assert "| truck | EL | 1.00 ± 0.50 | 1.50 ± 0.50 | +50.0 % |" in text  # conventional: IPM seed 0 only
     assert "ipm takes 0.50 x osqp's time per RTI" in text and "2.0 x faster" in text
     assert "Runs with a collision: 1 of 6 (osqp), 0 of 5 (ipm)" in text
     # the IPM's zero-collision finding holds, OSQP's fails
@@ -198,9 +233,13 @@ def hp_rows(kinds: bool) -> pd.DataFrame:
 
 def test_the_collision_finding_explains_by_kind_of_contact():
     df = pd.concat([hp_rows(True), hp_rows(True).assign(seed=lambda d: d["seed"] + 2)], ignore_index=True)
-    i = df.index[(df["formulation"] == "conventional") & (df["seed"] == 3)][0]     # a second collision: swept front
-    df.loc[i, ["collision", "collision_kind", "collision_depth_m", "collision_sweep_m"]] = [True, "swept_front",
-                                                                                           1.1, 7.0]
+    i = df.index[(df["formulation"] == "conventional") & (df["seed"] == 3)][0]  # a second collision: swept front
+    df.loc[i, ["collision", "collision_kind", "collision_depth_m", "collision_sweep_m"]] = [
+        True,
+        "swept_front",
+        1.1,
+        7.0,
+    ]
     p = tables.progress_table(df)
     lifted = next(r for r in p if r["formulation"] == "lifted")
     assert lifted["collision_kinds"] == {"rear_corner": 2} and lifted["collision_depths_m"] == [0.3, 0.3]
@@ -210,18 +249,23 @@ def test_the_collision_finding_explains_by_kind_of_contact():
     assert "of the 3 colliding runs without EL (penetration median 0.30 m, deepest 1.10 m)" in f.why
     assert "1 (33 %) touch the front corner of a truck that the road's bend swept 7.0 m (median)" in f.why
     assert "2 (67 %) clip an opponent's rear corner" in f.why
-    assert "EL" not in f.why.split("without EL")[1]                 # no EL row collides: no ellipse sentence
+    assert "EL" not in f.why.split("without EL")[1]  # no EL row collides: no ellipse sentence
 
 
 def test_the_collision_finding_without_kinds_names_the_mechanisms():
     f = findings.judge(tables.time_table(hp_rows(False)), tables.progress_table(hp_rows(False)))[-1]
     assert f.why == findings.GENERIC
-    assert findings.judge(tables.time_table(hp_rows(True).assign(collision=False)),
-                          tables.progress_table(hp_rows(True).assign(collision=False)))[-1].why == ""
+    assert (
+        findings.judge(
+            tables.time_table(hp_rows(True).assign(collision=False)),
+            tables.progress_table(hp_rows(True).assign(collision=False)),
+        )[-1].why
+        == ""
+    )
 
 
 def test_the_ellipse_collisions_are_compared_with_its_shortfall():
-    df = hand_rows()                                   # truck EL: lifted seed 1 collides
+    df = hand_rows()  # truck EL: lifted seed 1 collides
     df["collision_kind"] = np.where(df["collision"], "rear_corner", "")
     df["collision_depth_m"] = np.where(df["collision"], 0.11, 0.0)
     df["collision_sweep_m"] = 0.0

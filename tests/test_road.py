@@ -4,6 +4,7 @@ random roads, and the CasADi window evaluation.
 Independent references: closed forms (a circle for constant curvature), solve_ivp for a clothoid, finite
 differences, the Birkhoff-Priver error bound of cubic Hermite interpolation, and geometric identities.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,6 +26,7 @@ def interior_points(road: Road, rng, count: int, lo: float = 0.1, hi: float = 0.
 
 
 # --- Frenet transforms --------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("seed", SEEDS)
 def test_frenet_round_trip_F_of_Finv(seed):
@@ -99,6 +101,7 @@ def test_inverse_transform_by_hand_on_a_left_turn():
 
 # --- interpolant consistency ----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("seed", SEEDS)
 def test_dphi_ds_equals_kappa(seed):
     road = random_road(seed)
@@ -160,15 +163,16 @@ def test_interpolants_pass_through_samples_and_are_C1_at_knots(seed):
     eps, d = 1e-9, 1e-5
     left = [np.asarray(a) for a in road.eval(knots - eps)]
     right = [np.asarray(a) for a in road.eval(knots + eps)]
-    for j in range(6):                       # values continuous (kappa, phi, gamma and the tangent)
+    for j in range(6):  # values continuous (kappa, phi, gamma and the tangent)
         np.testing.assert_allclose(left[j], right[j], atol=1e-8)
-    for j in (1, 2, 3):                      # one-sided first derivatives of phi, gamma_x, gamma_y agree
+    for j in (1, 2, 3):  # one-sided first derivatives of phi, gamma_x, gamma_y agree
         fl = (road.eval(knots - eps)[j] - road.eval(knots - eps - d)[j]) / d
         fr = (road.eval(knots + eps + d)[j] - road.eval(knots + eps)[j]) / d
-        np.testing.assert_allclose(fl, fr, atol=2e-6)   # O(d * f'') = 1e-5 * 0.05 on each side
+        np.testing.assert_allclose(fl, fr, atol=2e-6)  # O(d * f'') = 1e-5 * 0.05 on each side
 
 
 # --- centre-line integration ---------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("kappa", [0.05, -0.03, 0.01])
 def test_constant_curvature_road_is_a_circle(kappa):
@@ -189,7 +193,7 @@ def test_constant_curvature_with_start_pose_and_offset_s0():
     kappa, (x0, y0, p0) = 0.04, (5.0, -3.0, 0.7)
     road = Road.from_curvature(np.full(301, kappa), 2.0, s0=-50.0, x0=(x0, y0, p0))
     t = road.s - road.s0
-    cx, cy = x0 - math.sin(p0) / kappa, y0 + math.cos(p0) / kappa   # circle centre to the left
+    cx, cy = x0 - math.sin(p0) / kappa, y0 + math.cos(p0) / kappa  # circle centre to the left
     np.testing.assert_allclose(road.phi, p0 + kappa * t, atol=1e-12)
     np.testing.assert_allclose(road.gx, cx + np.sin(p0 + kappa * t) / kappa, atol=1e-9, rtol=0)
     np.testing.assert_allclose(road.gy, cy - np.cos(p0 + kappa * t) / kappa, atol=1e-9, rtol=0)
@@ -199,7 +203,7 @@ def test_constant_curvature_with_start_pose_and_offset_s0():
 def test_clothoid_against_solve_ivp():
     ds = 2.0
     s = np.arange(0, 600.0 + ds / 2, ds)
-    kappa = -0.05 + 0.1 * s / 600.0                 # linear: the interpolant is exact
+    kappa = -0.05 + 0.1 * s / 600.0  # linear: the interpolant is exact
     road = Road.from_curvature(kappa, ds)
 
     def rhs(t, z):
@@ -213,6 +217,7 @@ def test_clothoid_against_solve_ivp():
 
 
 # --- random roads ------------------------------------------------------------------------------------
+
 
 def test_random_roads_are_reproducible_and_seed_dependent():
     a, b, c = random_road(11), random_road(11), random_road(12)
@@ -244,6 +249,7 @@ def test_random_road_s0():
 
 # --- numpy vs CasADi window ---------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("samples", [7, 20])
 @pytest.mark.parametrize("seed", [0, 5])
 def test_numpy_equals_casadi_window(seed, samples):
@@ -252,7 +258,9 @@ def test_numpy_equals_casadi_window(seed, samples):
     s_sym, p_sym = ca.SX.sym("s"), ca.SX.sym("p", rp.size)
     f = ca.Function("road", [s_sym, p_sym], list(casadi_road(s_sym, p_sym, samples)))
     n_sym, a_sym = ca.SX.sym("n"), ca.SX.sym("a")
-    g = ca.Function("finv", [s_sym, n_sym, a_sym, p_sym], list(casadi_to_cartesian(s_sym, n_sym, a_sym, p_sym, samples)))
+    g = ca.Function(
+        "finv", [s_sym, n_sym, a_sym, p_sym], list(casadi_to_cartesian(s_sym, n_sym, a_sym, p_sym, samples))
+    )
     rng = np.random.default_rng(seed)
     for _ in range(20):
         i0 = int(rng.integers(0, road.size - samples))
@@ -264,11 +272,16 @@ def test_numpy_equals_casadi_window(seed, samples):
             cas = np.array([float(v) for v in f(s, p)])
             np.testing.assert_allclose(cas, num, rtol=0, atol=1e-12)
             n, a = rng.uniform(-8, 8), rng.uniform(-1, 1)
-            np.testing.assert_allclose(np.array([float(v) for v in g(s, n, a, p)]),
-                                       np.array(road.to_cartesian(s, n, a), dtype=float), rtol=0, atol=1e-12)
+            np.testing.assert_allclose(
+                np.array([float(v) for v in g(s, n, a, p)]),
+                np.array(road.to_cartesian(s, n, a), dtype=float),
+                rtol=0,
+                atol=1e-12,
+            )
 
 
 # --- window ------------------------------------------------------------------------------------------
+
 
 def test_window_contents_and_errors():
     road = random_road(4, s0=-50.0)
@@ -278,10 +291,10 @@ def test_window_contents_and_errors():
     for a, b in zip(w.eval(s), road.eval(s)):
         np.testing.assert_allclose(a, b, atol=1e-12)
     with pytest.raises(ValueError, match="outside the road"):
-        road.window(-60.0, 10)                  # starts before the road
+        road.window(-60.0, 10)  # starts before the road
     with pytest.raises(ValueError, match="outside the road"):
-        road.window(road.s_end - 20.0, 141)     # runs past its end
-    road.window(road.s_end - 2 * road.ds, 3)    # just fits
+        road.window(road.s_end - 20.0, 141)  # runs past its end
+    road.window(road.s_end - 2 * road.ds, 3)  # just fits
 
 
 def test_road_validation():

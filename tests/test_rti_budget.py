@@ -1,6 +1,7 @@
 """The RTI budget (``QpOptions.rti_budget``): validated, the caps it gives (Python reference and generated C alike),
 the header's ``<NAME>_RTI_BUDGET``; a tiny budget runs a closed loop without a crash, C = Python: QP_MAX_ITER
 statuses, finite controls within the input box."""
+
 from __future__ import annotations
 
 import re
@@ -12,8 +13,8 @@ import pytest
 
 from fcgen.backends import QP_MAX_ITER
 from fcgen.build import build
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.dsl import RTI_BUDGET_DEFAULT, Horizon, ProblemError, QpOptions
 from fcgen.presets import paper_problem, preset
 from fcgen.reference import cold_max_iter, input_box, warm_max_iter
@@ -52,6 +53,7 @@ def test_measured_presets_and_campaign_runs_share_the_budget():
     problem, the one fcgen wcet bounds); the safe profile, OSQP and the other configurations keep the default."""
     from fcgen.campaign.grid import Config
     from fcgen.presets import IPM_RTI_BUDGET
+
     assert IPM_RTI_BUDGET[("paper", "lifted", "ellipse")] == 10
     for sc in ("car", "truck"):
         for f in ("conventional", "direct_elimination", "lifted"):
@@ -71,8 +73,14 @@ def test_tiny_budget_closed_loop(backend, tmp_path):
     """Budget 2: every QP stops at QP_MAX_ITER; its step is taken where finite and its u0 within the input box's
     margin, else the fallback: either way the applied control is finite and inside the box, and C (verification
     build) = Python sample by sample."""
-    pb = paper_problem("truck", "lifted", "ellipse", horizon=Horizon(N=10), name=f"tiny_{backend}",
-                       qp=QpOptions(backend=backend, rti_budget=2))
+    pb = paper_problem(
+        "truck",
+        "lifted",
+        "ellipse",
+        horizon=Horizon(N=10),
+        name=f"tiny_{backend}",
+        qp=QpOptions(backend=backend, rti_budget=2),
+    )
     info = generate(pb, tmp_path / "gen")
     header = (info.out_dir / f"{info.name}_solver.h").read_text()
     solver = (info.out_dir / f"{info.name}_solver.c").read_text()

@@ -29,11 +29,26 @@ def make_fields(k: int = 20, n_opp: int = 2, seed: int = 0) -> dict:
     rng = np.random.default_rng(seed)
     s_road = np.arange(0.0, 200.0 + 1e-9, 2.0)
     fields = dict(
-        meta=make_meta(problem="truck_lifted_el", formulation="lifted", obstacle_model="EL", scenario="truck",
-                       seed=seed, N=40, dt=0.1, controller="python-reference", n_bound=10.0,
-                       extra={"note": "unit test", "rho": 1.0}),
-        road={"s": s_road, "kappa": 0.01 * np.sin(s_road / 30), "gamma_x": s_road, "gamma_y": 0 * s_road,
-              "phi_gamma": rng.normal(size=s_road.size), "ds": 2.0},
+        meta=make_meta(
+            problem="truck_lifted_el",
+            formulation="lifted",
+            obstacle_model="EL",
+            scenario="truck",
+            seed=seed,
+            N=40,
+            dt=0.1,
+            controller="python-reference",
+            n_bound=10.0,
+            extra={"note": "unit test", "rho": 1.0},
+        ),
+        road={
+            "s": s_road,
+            "kappa": 0.01 * np.sin(s_road / 30),
+            "gamma_x": s_road,
+            "gamma_y": 0 * s_road,
+            "phi_gamma": rng.normal(size=s_road.size),
+            "ds": 2.0,
+        },
         opponents=[dict(TRUCK) for _ in range(n_opp)],
         ego=dict(CAR),
         t=0.1 * np.arange(k + 1),
@@ -187,6 +202,7 @@ def test_empty_edge_cases_round_trip():
 
 def test_qp_status_codes_are_the_generic_ones():
     from fcgen.backends import QP_MAX_ITER, QP_SOLVED, QP_STATUSES
+
     assert QP_STATUS_NAMES == {i + 1: n[3:].lower() for i, n in enumerate(QP_STATUSES)}
     assert qp_status_name(QP_SOLVED) == "solved" and qp_status_name(QP_MAX_ITER) == "max_iter"
     assert qp_status_name(7) == "nonfinite" and qp_status_name(0) == "unknown_0"
@@ -265,7 +281,7 @@ def _with_plan(k: int = 6, nx: int = 8, seed: int = 1) -> dict:
     f["exit_code"] = np.array([0, 0, 8, 0, 0, 0][:k])
     f["plan_states"] = rng.normal(size=(k, 41, nx))
     f["plan_controls"] = rng.normal(size=(k, 40, 2))
-    f["plan_controls"][2] = np.nan       # a failed call: no plan
+    f["plan_controls"][2] = np.nan  # a failed call: no plan
     return f
 
 
@@ -280,7 +296,7 @@ def test_optional_fields_round_trip_bit_exact(tmp_path, suffix):
     for name in ("exit_code", "plan_states", "plan_controls", "control"):
         assert bits_equal(getattr(back, name), getattr(log, name)), name
     assert back.to_json_string() == log.to_json_string()
-    if suffix != ".json":   # compressed bytes are deterministic too (no time stamp in the gzip header)
+    if suffix != ".json":  # compressed bytes are deterministic too (no time stamp in the gzip header)
         assert log.to_json(tmp_path / f"again{suffix}").read_bytes() == path.read_bytes()
 
 
@@ -296,11 +312,14 @@ def test_optional_fields_absent_and_compared_only_when_both_have_them():
     assert d2["plan_states"] > 0 and d2["exit_code"] == 0 and math.isfinite(d2["plan_controls"])
 
 
-@pytest.mark.parametrize("name, shape, msg", [
-    ("plan_states", (6, 40, 8), "plan_states"),      # N + 1 = 41 rows expected
-    ("plan_controls", (5, 40, 2), "plan_controls"),  # K = 6 rows expected
-    ("exit_code", (6, 1), "exit_code"),
-])
+@pytest.mark.parametrize(
+    "name, shape, msg",
+    [
+        ("plan_states", (6, 40, 8), "plan_states"),  # N + 1 = 41 rows expected
+        ("plan_controls", (5, 40, 2), "plan_controls"),  # K = 6 rows expected
+        ("exit_code", (6, 1), "exit_code"),
+    ],
+)
 def test_optional_field_shapes_are_validated(name, shape, msg):
     f = _with_plan()
     f[name] = np.zeros(shape)

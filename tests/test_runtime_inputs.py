@@ -1,5 +1,6 @@
 """The run-time data of real roads and traffic (CommonRoad scenarios): per-sample road bounds (the road's drivable
 band), a shape per opponent and the reference speed; the same in the Python reference and the generated C."""
+
 from __future__ import annotations
 
 import shutil
@@ -10,9 +11,9 @@ import pytest
 
 from fcgen import obstacles as obs
 from fcgen.build import build
-from fcgen.csolver import CSolver
 from fcgen.codegen.generate import generate
 from fcgen.contract import EXIT_CODES
+from fcgen.csolver import CSolver
 from fcgen.dsl import Opponents, Vehicle
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
@@ -22,9 +23,9 @@ from fcgen.sim.closedloop import Plant, ReferenceController
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
-SAFE_EL = preset("car_lifted_ellipse_ipm_safe")       # Ellipse(shape="minkowski"): shapes carry the semi-axes
-PAPER_CC = preset("car_direct_elimination_circles")   # the paper's covering circles, OSQP
-CONV = preset("car_conventional_circles")               # the conventional fit around each opponent's shape
+SAFE_EL = preset("car_lifted_ellipse_ipm_safe")  # Ellipse(shape="minkowski"): shapes carry the semi-axes
+PAPER_CC = preset("car_direct_elimination_circles")  # the paper's covering circles, OSQP
+CONV = preset("car_conventional_circles")  # the conventional fit around each opponent's shape
 BEHIND = 20.0
 
 
@@ -58,6 +59,7 @@ def _code(name: str) -> int:
 
 # --- the road's band -------------------------------------------------------------------------------------------
 
+
 def _ramp(s):
     """n_min rises 1 cm per metre from -3 m at s = -20; n_max 3 m."""
     return -3.0 + 0.01 * (s + BEHIND), np.full_like(s, 3.0)
@@ -75,7 +77,7 @@ def test_band_rows_take_the_band_at_each_stage_s(pb, c_solvers):
     sv.set_state(x0)
     sv.prepare()
     lay = sv.lay
-    assert len(lay.band_rows) >= pb.horizon.N      # every stage 1..N bounds n
+    assert len(lay.band_rows) >= pb.horizon.N  # every stage 1..N bounds n
     for row, k, side in lay.band_rows:
         s_k = sv.w_prep[lay.s_vars[k]]
         edge = -3.0 + 0.01 * (s_k + BEHIND) if side == 0 else 3.0
@@ -88,12 +90,12 @@ def test_band_rows_take_the_band_at_each_stage_s(pb, c_solvers):
     np.testing.assert_allclose(qp["l"], sv.l, rtol=0, atol=1e-12)
     np.testing.assert_allclose(qp["u"], sv.u, rtol=0, atol=1e-12)
     # set_road without a band: the problem's constant bounds again
-    assert cs.set_road(_road(pb)) == 0 and cs.prepare() == 0   # prepared: a no-op; reset to prepare again
+    assert cs.set_road(_road(pb)) == 0 and cs.prepare() == 0  # prepared: a no-op; reset to prepare again
     cs.reset()
     assert cs.prepare() == 0
     qp = cs.get_qp()
     b = pb.bounds
-    for row, _, side in lay.band_rows:   # the same cold guess, so the same g
+    for row, _, side in lay.band_rows:  # the same cold guess, so the same g
         edge = b.n_min if side == 0 else b.n_max
         assert (qp["l"] if side == 0 else qp["u"])[row] == pytest.approx(edge / 5.0 - sv.g[row], abs=1e-12)
 
@@ -124,7 +126,7 @@ def test_the_closed_loop_keeps_a_narrowing_band(c_solvers):
     road = _road(pb, _narrowing, length=800.0)
     x0 = np.array([0.0, 2.0, 0.0, 15.0, 0.0])
     xs = _loop(pb, ReferenceController(build_ocp(pb)), road, x0, 40)
-    past = xs[:, 0] > 50.0 + 2.0   # the chassis' reference point past the narrowing
+    past = xs[:, 0] > 50.0 + 2.0  # the chassis' reference point past the narrowing
     assert past.sum() >= 10
     assert np.all(xs[past, 1] <= 0.5 + 1e-6)
     assert xs[0, 1] == 2.0 and np.all(xs[:, 1] >= -3.0 - 1e-6)
@@ -135,6 +137,7 @@ def test_the_closed_loop_keeps_a_narrowing_band(c_solvers):
 
 
 # --- a shape per opponent ----------------------------------------------------------------------------------------
+
 
 def _python_check(pb, road, x0, opp, shapes):
     sv = RtiSolver(build_ocp(pb))
@@ -156,7 +159,7 @@ def test_a_shape_set_at_run_time_gives_the_hand_derived_clearance(c_solvers):
     road = _road(pb)
     x0 = np.array([0.0, 0.0, 0.0, 20.0, 0.0])
     opp = _far(pb)
-    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + 14.0, 5.0      # the ego's chassis centre (s = 1.3) is x = 21.3
+    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + 14.0, 5.0  # the ego's chassis centre (s = 1.3) is x = 21.3
     shapes = obs.opponent_shape(pb.obstacles, pb.ego, 10.0, 3.0, 0.0)
     all_shapes = np.tile(shapes, (pb.opponents.count, 1))
     st = _python_check(pb, road, x0, opp, all_shapes)
@@ -173,8 +176,16 @@ def test_a_shape_set_at_run_time_gives_the_hand_derived_clearance(c_solvers):
     assert cs.status().plan_clearance == pytest.approx(3.1, abs=0.02)
 
 
-@pytest.mark.parametrize("name", ["car_direct_elimination_circles", "car_lifted_ellipse", "car_lifted_hyperplane",
-                                  "truck_direct_elimination_ellipse_safe", "car_lifted_circles_safe"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "car_direct_elimination_circles",
+        "car_lifted_ellipse",
+        "car_lifted_hyperplane",
+        "truck_direct_elimination_ellipse_safe",
+        "car_lifted_circles_safe",
+    ],
+)
 def test_shape_values_give_the_rows_of_a_problem_built_for_that_vehicle(name):
     """Second method: the stage rows with an opponent's shape given at run time equal the rows of the same problem
     generated for an opponent vehicle of that size (at the same guess and poses)."""
@@ -186,8 +197,10 @@ def test_shape_values_give_the_rows_of_a_problem_built_for_that_vehicle(name):
     opp = _far(pb)
     opp[:, 1, 0], opp[:, 1, 1] = 45.0, -2.0
     outs = []
-    for p, shapes in ((pb, np.tile(obs.vehicle_shape(pb.obstacles, pb.ego, van), (pb.opponents.count, 1))),
-                      (pb_van, None)):
+    for p, shapes in (
+        (pb, np.tile(obs.vehicle_shape(pb.obstacles, pb.ego, van), (pb.opponents.count, 1))),
+        (pb_van, None),
+    ):
         sv = RtiSolver(build_ocp(p))
         sv.set_road(road)
         sv.set_opponents(opp)
@@ -197,7 +210,7 @@ def test_shape_values_give_the_rows_of_a_problem_built_for_that_vehicle(name):
         sv.prepare()
         outs.append(sv.g)
     np.testing.assert_allclose(outs[0], outs[1], rtol=0, atol=1e-12)
-    assert not np.allclose(outs[0], _default_rows(pb, road, opp, x0))   # the shape does enter the rows
+    assert not np.allclose(outs[0], _default_rows(pb, road, opp, x0))  # the shape does enter the rows
 
 
 def _default_rows(pb, road, opp, x0):
@@ -214,8 +227,12 @@ def test_c_and_python_run_in_lockstep_with_a_band_and_shapes(c_solvers):
     the C's states and controls equal the reference's (the conventional fit too)."""
     for pb in (SAFE_EL, PAPER_CC, CONV):
         road = _road(pb, _narrowing, length=800.0)
-        shapes = np.array([obs.opponent_shape(pb.obstacles, pb.ego, ln, wd, off)
-                           for ln, wd, off in ((4.5, 1.8, 0.0), (12.0, 2.5, 3.0), (6.0, 2.1, 1.0))])
+        shapes = np.array(
+            [
+                obs.opponent_shape(pb.obstacles, pb.ego, ln, wd, off)
+                for ln, wd, off in ((4.5, 1.8, 0.0), (12.0, 2.5, 3.0), (6.0, 2.1, 1.0))
+            ]
+        )
         x0 = np.array([0.0, 2.0, 0.0, 15.0, 0.0])
         ref = ReferenceController(build_ocp(pb))
         cs = c_solvers[pb.name]
@@ -226,7 +243,7 @@ def test_c_and_python_run_in_lockstep_with_a_band_and_shapes(c_solvers):
         assert ref.set_opponent_shapes(shapes) == 0 and cs.set_opponent_shapes(shapes) == 0
         for j in range(30):
             opp = _far(pb)
-            opp[:, 0, 0], opp[:, 0, 1] = 80.0, -1.0         # standing in the way (its centre)
+            opp[:, 0, 0], opp[:, 0, 1] = 80.0, -1.0  # standing in the way (its centre)
             opp[:, 1, 0] = 20.0 + 12.0 * (j * pb.horizon.dt + np.arange(pb.horizon.N + 1) * pb.horizon.interval)
             opp[:, 1, 1] = -1.5
             for xl, ctl in ((xs, ref), (xc, cs)):
@@ -239,6 +256,7 @@ def test_c_and_python_run_in_lockstep_with_a_band_and_shapes(c_solvers):
 
 # --- refused inputs ----------------------------------------------------------------------------------------------
 
+
 def test_bad_bands_and_shapes_are_refused_and_change_nothing(c_solvers):
     pb = SAFE_EL
     cs = c_solvers[pb.name]
@@ -247,11 +265,15 @@ def test_bad_bands_and_shapes_are_refused_and_change_nothing(c_solvers):
     n = pb.road.samples
     b = pb.bounds
     assert cs.init() == 0
-    assert cs.set_road_bounds(np.full(n, -1.0), np.full(n, 1.0)) == _code("ERR_ROAD_BOUNDS")   # no road yet
+    assert cs.set_road_bounds(np.full(n, -1.0), np.full(n, 1.0)) == _code("ERR_ROAD_BOUNDS")  # no road yet
     road = _road(pb)
     assert cs.set_road(road) == 0
-    for lo, hi, code in ((b.n_min - 0.1, 1.0, "ERR_ROAD_BOUNDS"), (-1.0, b.n_max + 0.1, "ERR_ROAD_BOUNDS"),
-                         (1.0, 1.0, "ERR_ROAD_BOUNDS"), (np.nan, 1.0, "ERR_NONFINITE_ROAD")):
+    for lo, hi, code in (
+        (b.n_min - 0.1, 1.0, "ERR_ROAD_BOUNDS"),
+        (-1.0, b.n_max + 0.1, "ERR_ROAD_BOUNDS"),
+        (1.0, 1.0, "ERR_ROAD_BOUNDS"),
+        (np.nan, 1.0, "ERR_NONFINITE_ROAD"),
+    ):
         assert cs.set_road_bounds(np.full(road.size, lo), np.full(road.size, hi)) == _code(code)
     with pytest.raises(SolverError) as e:
         sv.set_road(replace(road, n_min=np.full(road.size, b.n_min - 0.1), n_max=np.full(road.size, 1.0)))
@@ -262,13 +284,13 @@ def test_bad_bands_and_shapes_are_refused_and_change_nothing(c_solvers):
     bad_width = good.copy()
     bad_width[1, 1] = 0.0
     small_axis = good.copy()
-    small_axis[2, 3] = small_axis[2, 0] / 2   # a < L/2 + r: cannot contain the grown rectangle
+    small_axis[2, 3] = small_axis[2, 0] / 2  # a < L/2 + r: cannot contain the grown rectangle
     for shapes in (bad_width, small_axis, np.where(good > 0, np.inf, good)):
         assert cs.set_opponent_shapes(shapes) == _code("ERR_OPP_SHAPE")
         with pytest.raises(SolverError) as e:
             sv.set_opponent_shapes(shapes)
         assert e.value.code == "ERR_OPP_SHAPE"
-    np.testing.assert_array_equal(sv.opp_shape, ocp.default_shapes())   # nothing changed
+    np.testing.assert_array_equal(sv.opp_shape, ocp.default_shapes())  # nothing changed
     with pytest.raises(ValueError, match="opponent shape width = 0.0 is invalid: allowed > 0"):
         obs.opponent_shape(pb.obstacles, pb.ego, 5.0, 0.0, 0.0)
 
@@ -285,8 +307,11 @@ def test_the_conventional_fit_takes_the_shape():
     opp[:, 1, 0], opp[:, 1, 1], opp[:, 1, 2] = 45.0, -2.0, 0.1
     opp[:, 2, 0], opp[:, 2, 1] = 70.0, 3.0
     boxes = []
-    for p, shapes in ((pb, np.tile(obs.vehicle_shape(pb.obstacles, pb.ego, van), (pb.opponents.count, 1))),
-                      (pb_van, None), (pb, None)):
+    for p, shapes in (
+        (pb, np.tile(obs.vehicle_shape(pb.obstacles, pb.ego, van), (pb.opponents.count, 1))),
+        (pb_van, None),
+        (pb, None),
+    ):
         sv = RtiSolver(build_ocp(p))
         sv.set_road(road)
         sv.set_opponents(opp)
@@ -300,6 +325,7 @@ def test_the_conventional_fit_takes_the_shape():
 
 
 # --- the reference speed -----------------------------------------------------------------------------------------
+
 
 def test_set_reference_moves_the_tracking_reference(c_solvers):
     """set_reference(10, 1.5): every stage's x_ref is [s0 + k dt 10, 1.5, 0, 10, 0] (hand formula), the C's stage

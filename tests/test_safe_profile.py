@@ -1,4 +1,5 @@
 """The safe profile: obstacle shapes that contain what they stand for, the presets' profiles, exact penalties."""
+
 from __future__ import annotations
 
 import math
@@ -6,16 +7,15 @@ from dataclasses import replace
 
 import casadi as ca
 import numpy as np
-
 import pytest
 
 from fcgen import obstacles as obs
+from fcgen.collision import chassis_corners, sat_overlap
 from fcgen.dsl import CoveringCircles, Ellipse, Horizon, PlanCheck, Problem, ProblemError, SeparatingHyperplane
 from fcgen.ocp import build_ocp
 from fcgen.presets import CAR, PAPER_SOFT, SAFE_SOFT_CONVENTIONAL, TRUCK, preset, preset_names
 from fcgen.reference import RtiSolver
 from fcgen.road import straight_road
-from fcgen.collision import chassis_corners, sat_overlap
 
 
 def polygon_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -38,8 +38,12 @@ def grown_rectangle_boundary(L: float, W: float, r: float, n: int = 4000) -> np.
     for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
         pts.append(np.stack([sx * (L + r * np.cos(t)), sy * (W + r * np.sin(t))], axis=1))
     u = np.linspace(-1.0, 1.0, n)
-    pts += [np.stack([L * u, np.full(n, W + r)], 1), np.stack([L * u, np.full(n, -W - r)], 1),
-            np.stack([np.full(n, L + r), W * u], 1), np.stack([np.full(n, -L - r), W * u], 1)]
+    pts += [
+        np.stack([L * u, np.full(n, W + r)], 1),
+        np.stack([L * u, np.full(n, -W - r)], 1),
+        np.stack([np.full(n, L + r), W * u], 1),
+        np.stack([np.full(n, -L - r), W * u], 1),
+    ]
     return np.concatenate(pts)
 
 
@@ -50,8 +54,8 @@ def test_the_safe_ellipse_contains_the_rectangle_grown_by_the_ego_circle(opp, eg
     P = grown_rectangle_boundary(L, W, r)
     a, b = obs.containing_ellipse_axes(L, W, r)
     h = obs.ellipse_h(P[:, 0], P[:, 1], sh, a, b)
-    assert h.max() <= 0.0                                   # every boundary point inside (or on) the ellipse
-    assert h.max() > -1e-3                                  # and it touches: no larger than it needs to be
+    assert h.max() <= 0.0  # every boundary point inside (or on) the ellipse
+    assert h.max() > -1e-3  # and it touches: no larger than it needs to be
     # the paper's ellipse does not contain it (a second method: collision_kind.ellipse_shortfall's 0.3 m for a truck)
     assert obs.paper_ellipse_h(P[:, 0], P[:, 1], sh, r).max() > 0.0
     # the smallest area: a 1 % smaller ellipse in either axis leaves a point out
@@ -62,7 +66,7 @@ def test_the_safe_ellipse_contains_the_rectangle_grown_by_the_ego_circle(opp, eg
     f = ca.Function("ab", [Ls, Ws, rs], list(obs.containing_ellipse_axes(Ls, Ws, rs)))
     ac, bc = (float(v) for v in f(L, W, r))
     assert obs.ellipse_h(P[:, 0], P[:, 1], sh, ac, bc).max() <= 0.0
-    assert ac * bc >= a * b                                 # and is no smaller than the optimum
+    assert ac * bc >= a * b  # and is no smaller than the optimum
 
 
 def test_the_safe_circles_cover_the_chassis_where_the_papers_do_not():
@@ -80,7 +84,7 @@ def test_the_safe_circles_cover_the_chassis_where_the_papers_do_not():
     assert covered(True) and not covered(False)
     rows_safe, _ = obs.constraint_rows(CoveringCircles(5), sh, sh, None, cover=False, length=4.0)
     rows_paper, _ = obs.constraint_rows(CoveringCircles(5, radius="paper"), sh, sh, None, cover=False, length=4.0)
-    assert min(rows_safe) < min(rows_paper)               # larger circles: deeper inside for the same pose
+    assert min(rows_safe) < min(rows_paper)  # larger circles: deeper inside for the same pose
 
 
 def test_hyperplane_rows_that_hold_separate_the_true_rectangles_by_the_margin():
@@ -100,7 +104,7 @@ def test_hyperplane_rows_that_hold_separate_the_true_rectangles_by_the_margin():
             held += 1
             ce = chassis_corners(ex, ey, ephi, CAR.l, CAR.l_r_ch, CAR.l_f_ch, CAR.w_ch)
             co = chassis_corners(ox, oy, ophi, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch)
-            assert sat_overlap(ce, co) < 0.0                 # the judge: apart
+            assert sat_overlap(ce, co) < 0.0  # the judge: apart
             assert min(polygon_distance(ce, co), polygon_distance(co, ce)) >= 0.2 - 1e-9
     assert held > 50
 
@@ -123,7 +127,7 @@ def test_profiles_of_the_presets():
     # the safe weights' order: where the hard problem is infeasible, a_lat gives way before an obstacle row
     assert safe.soft.obstacle_l1 > safe.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1
     assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
-    assert not paper.plan_check.a_lat_guard and safe.plan_check.a_lat_guard   # the paper applies its plan's u0
+    assert not paper.plan_check.a_lat_guard and safe.plan_check.a_lat_guard  # the paper applies its plan's u0
     assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
     d = Problem("x")
@@ -140,16 +144,19 @@ def test_profiles_of_the_presets():
         # the DSL's reference, but the conventional formulation's curve speed has no traffic rule and is taken at the
         # plan's start only (verify's 1e-7)
         assert preset(name + "_safe").reference == (
-            replace(d.reference, curve_traffic_clearance=0.0, curve_along_horizon=False) if conventional
-            else d.reference)
+            replace(d.reference, curve_traffic_clearance=0.0, curve_along_horizon=False)
+            if conventional
+            else d.reference
+        )
         assert preset(name).reference.curve_a_lat == 0.0
         # the DSL's plan check, but the conventional formulation's has no a_lat guard (its a_lat rows hold the bound)
-        assert preset(name + "_safe").plan_check == (replace(d.plan_check, a_lat_guard=False) if conventional
-                                                     else d.plan_check)
+        assert preset(name + "_safe").plan_check == (
+            replace(d.plan_check, a_lat_guard=False) if conventional else d.plan_check
+        )
         assert not preset(name).plan_check.a_lat_guard
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):
-        preset("truck_lifted_ellipse_safe_ipm")        # the profile comes last
+        preset("truck_lifted_ellipse_safe_ipm")  # the profile comes last
     with pytest.raises(ProblemError, match="unknown"):
         preset("truck_lifted_ellipse_safe_safe")
 
@@ -169,38 +176,48 @@ def test_bad_profile_fields_are_named(bad, field):
 def test_sat_clearance_is_minus_the_judges_overlap():
     """The plan check's CasADi geometry against the campaign's judge (numpy, edges from corners), random poses."""
     import casadi as ca
+
     a_s, b_s = ca.SX.sym("a", 3), ca.SX.sym("b", 3)
-    f = ca.Function("c", [a_s, b_s], [obs.sat_clearance(obs.chassis_shape(a_s[0], a_s[1], a_s[2], CAR),
-                                                        obs.chassis_shape(b_s[0], b_s[1], b_s[2], TRUCK))])
+    f = ca.Function(
+        "c",
+        [a_s, b_s],
+        [
+            obs.sat_clearance(
+                obs.chassis_shape(a_s[0], a_s[1], a_s[2], CAR), obs.chassis_shape(b_s[0], b_s[1], b_s[2], TRUCK)
+            )
+        ],
+    )
     rng = np.random.default_rng(7)
     n_overlap = 0
     for _ in range(2000):
         a = rng.uniform([-20, -6, -math.pi], [20, 6, math.pi])
         b = rng.uniform([-10, -3, -math.pi], [10, 3, math.pi])
-        judge = sat_overlap(chassis_corners(*a, CAR.l, CAR.l_r_ch, CAR.l_f_ch, CAR.w_ch),
-                            chassis_corners(*b, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch))
+        judge = sat_overlap(
+            chassis_corners(*a, CAR.l, CAR.l_r_ch, CAR.l_f_ch, CAR.w_ch),
+            chassis_corners(*b, TRUCK.l, TRUCK.l_r_ch, TRUCK.l_f_ch, TRUCK.w_ch),
+        )
         assert float(f(a, b)) == pytest.approx(-judge, abs=1e-9)
         n_overlap += judge > 0
-    assert 100 < n_overlap < 1900     # both signs exercised
+    assert 100 < n_overlap < 1900  # both signs exercised
 
 
 def test_responsibility_rule_on_hand_made_contacts():
     from fcgen.sim.collision_kind import responsible
-    kept = np.full(11, 2.0)                       # the ego's n over the last second: its lane kept
-    moved = np.linspace(0.0, 2.0, 11)             # changed its lane by 2 m
+
+    kept = np.full(11, 2.0)  # the ego's n over the last second: its lane kept
+    moved = np.linspace(0.0, 2.0, 11)  # changed its lane by 2 m
     ego_c, east = np.array([0.0, 0.0]), 0.0
     v_ego = np.array([20.0, 0.0])
     # a faster opponent behind the ego: it ran into the ego's rear, whatever the ego's lane
-    assert responsible(ego_c, east, v_ego, np.array([-4.0, 0.5]), np.array([25.0, 0.0]), moved) \
-        == "opponent_from_behind"
+    assert (
+        responsible(ego_c, east, v_ego, np.array([-4.0, 0.5]), np.array([25.0, 0.0]), moved) == "opponent_from_behind"
+    )
     # a slower opponent ahead: the ego ran into it (lane kept or not)
     assert responsible(ego_c, east, v_ego, np.array([4.0, 0.0]), np.array([15.0, 0.0]), moved) == "ego_into_opponent"
     # beside the ego, the ego kept its lane: the opponent came into it (a swept truck front)
-    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), kept) \
-        == "opponent_from_side"
+    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), kept) == "opponent_from_side"
     # the same contact after the ego changed lanes: the ego's
-    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) \
-        == "ego_into_opponent"
+    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) == "ego_into_opponent"
 
 
 def _converged_slacks(pb, gap: float, offset: float):
@@ -208,8 +225,8 @@ def _converged_slacks(pb, gap: float, offset: float):
     ahead, ``offset`` m to the left: the largest obstacle slack, the largest a_lat slack (m/s^2)."""
     road = straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
     opp = np.zeros((pb.horizon.N + 1, pb.opponents.count, 3))
-    opp[..., 0], opp[..., 1] = -1000.0, 500.0            # the others far away
-    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + gap, offset      # the ego's s = 0 is x = 20
+    opp[..., 0], opp[..., 1] = -1000.0, 500.0  # the others far away
+    opp[:, 0, 0], opp[:, 0, 1] = 20.0 + gap, offset  # the ego's s = 0 is x = 20
     sv = RtiSolver(build_ocp(pb))
     sv.set_road(road)
     sv.set_opponents(opp)
@@ -226,10 +243,10 @@ def test_where_the_hard_problem_has_no_solution_the_a_lat_row_gives_way_not_the_
     row's slack is cheaper than the swerve that removes it (as in truck lifted HP seed 417's contact): it is kept,
     0.04 here."""
     base = preset("car_lifted_ellipse_ipm_safe").with_(horizon=Horizon(N=20))
-    assert 20.0 ** 2 / (2 * base.bounds.F_d_max / base.ego.m) > 15.0 + base.ego.l_ch
+    assert 20.0**2 / (2 * base.bounds.F_d_max / base.ego.m) > 15.0 + base.ego.l_ch
     obstacle, a_lat = _converged_slacks(base.with_(soft=replace(base.soft, a_lat_l1=1e11)), 15.0, 1.0)
-    assert obstacle > 0.1 and a_lat < 1e-6                 # a_lat held: the obstacle row must give
+    assert obstacle > 0.1 and a_lat < 1e-6  # a_lat held: the obstacle row must give
     obstacle, a_lat = _converged_slacks(base, 15.0, 1.0)
-    assert obstacle < 1e-6 and a_lat > 1.0                 # the safe weights: the obstacle row holds
+    assert obstacle < 1e-6 and a_lat > 1.0  # the safe weights: the obstacle row holds
     obstacle, a_lat = _converged_slacks(base.with_(soft=replace(base.soft, obstacle_l1=1e8)), 15.0, 1.0)
-    assert obstacle > 0.01 and a_lat > 1.0                 # ratio 100: the obstacle row gives a little
+    assert obstacle > 0.01 and a_lat > 1.0  # ratio 100: the obstacle row gives a little

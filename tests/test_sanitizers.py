@@ -1,5 +1,6 @@
 """ASan + UBSan: a generated solver and the firmware_sim harness run a closed loop without a report, and the C fuzz
 harness (tests/c/fuzz_api.c) drives the API with seeded random valid and invalid call sequences."""
+
 from __future__ import annotations
 
 import os
@@ -22,8 +23,10 @@ from fcgen.sim.scenario import make_scenario
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
 SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -g -O1"
-SAN_ENV = {"ASAN_OPTIONS": "detect_leaks=1:halt_on_error=1:abort_on_error=0",
-           "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1"}
+SAN_ENV = {
+    "ASAN_OPTIONS": "detect_leaks=1:halt_on_error=1:abort_on_error=0",
+    "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1",
+}
 REPORT = re.compile(r"AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:")
 FUZZ_DIR = Path(__file__).parent / "c"
 SAMPLES = 50
@@ -46,7 +49,7 @@ def solver(tmp_path_factory) -> Path:
 
 
 def test_sanitized_solver_example_and_firmware_closed_loop(solver, tmp_path):
-    name = next(solver.glob("*_solver.h")).name[:-len("_solver.h")]
+    name = next(solver.glob("*_solver.h")).name[: -len("_solver.h")]
     ex = run_sanitized([str(solver / "build" / f"{name}_example")])
     assert ex.returncode == 0 and "exit 0" in ex.stdout, ex.stdout + ex.stderr
     exe = build_harness(solver, cflags=SANITIZE)
@@ -65,10 +68,15 @@ def test_sanitized_solver_example_and_firmware_closed_loop(solver, tmp_path):
 
 def fuzz_exe(solver: Path, out: Path, f_d_max: float | None = None) -> Path:
     pb = load_problem(str(solver / "problem.py"))
-    defs = (f"-DFUZZ_F_D_MAX={f_d_max if f_d_max is not None else pb.bounds.F_d_max!r} "
-            f"-DFUZZ_R_MAX={pb.bounds.r_max!r} -DFUZZ_DS={pb.road.ds!r}")
-    run_make(FUZZ_DIR, [f"SOLVER_DIR={solver}", f"SOLVER_BUILD={solver / 'build'}", f"BUILD={out}",
-                        f"FUZZDEFS={defs}"], cflags=SANITIZE)
+    defs = (
+        f"-DFUZZ_F_D_MAX={f_d_max if f_d_max is not None else pb.bounds.F_d_max!r} "
+        f"-DFUZZ_R_MAX={pb.bounds.r_max!r} -DFUZZ_DS={pb.road.ds!r}"
+    )
+    run_make(
+        FUZZ_DIR,
+        [f"SOLVER_DIR={solver}", f"SOLVER_BUILD={solver / 'build'}", f"BUILD={out}", f"FUZZDEFS={defs}"],
+        cflags=SANITIZE,
+    )
     return out / "fuzz_api"
 
 
@@ -97,8 +105,15 @@ def test_fuzz_random_call_sequences(fuzz):
     assert c["violations"] == 0 and c["calls"] >= 3000 and c["invalid_calls"] >= 500, c
     assert c["rejected_with_expected_code"] == c["invalid_calls"]
     assert all(v == 0 for k, v in c.items() if k.startswith("violation_")), c
-    for code in ("ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-                 "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE"):
+    for code in (
+        "ERR_NOT_PREPARED",
+        "ERR_NO_STATE",
+        "ERR_NONFINITE_STATE",
+        "ERR_NONFINITE_OPPONENTS",
+        "ERR_NONFINITE_ROAD",
+        "ERR_ROAD_WINDOW",
+        "ERR_ROAD_SIZE",
+    ):
         assert c.get(f"rc_{code}", 0) > 10, code  # every rejection path is exercised
     # the contract paths are exercised too: unusable QPs (with their fallback checked), projected controls
     assert c["feedback_ok"] > 100 and c["feedback_unusable_qp"] > 0 and c["fallbacks_checked"] > 0, c

@@ -4,6 +4,7 @@ BLAS/LAPACK kernel and no SIMD reduction (their results depend on the CPU: SVML 
 kernels), only elementwise IEEE arithmetic, fixed-order sums and libm's sin/cos. And ``scenario_of`` accepts a logged
 road a few ulps away (another libm) but not another road.
 """
+
 from __future__ import annotations
 
 import json
@@ -42,8 +43,25 @@ def _scenario_and_poses(seed: int):
 
 # --- no CPU-dispatched numpy on the path ------------------------------------------------------------------------
 
-_FORBIDDEN = ("sin", "cos", "tan", "arctan2", "arctan", "hypot", "exp", "log", "power", "convolve", "correlate",
-              "dot", "vdot", "inner", "matmul", "einsum", "tensordot")
+_FORBIDDEN = (
+    "sin",
+    "cos",
+    "tan",
+    "arctan2",
+    "arctan",
+    "hypot",
+    "exp",
+    "log",
+    "power",
+    "convolve",
+    "correlate",
+    "dot",
+    "vdot",
+    "inner",
+    "matmul",
+    "einsum",
+    "tensordot",
+)
 
 
 def test_road_and_opponent_poses_use_no_numpy_trig_blas_or_lapack(monkeypatch):
@@ -52,6 +70,7 @@ def test_road_and_opponent_poses_use_no_numpy_trig_blas_or_lapack(monkeypatch):
     def forbidden(name):
         def f(*args, **kwargs):
             raise AssertionError(f"np.{name} called by the scenario generator (its results depend on the CPU)")
+
         return f
 
     for name in _FORBIDDEN:
@@ -62,7 +81,7 @@ def test_road_and_opponent_poses_use_no_numpy_trig_blas_or_lapack(monkeypatch):
     try:
         got = {sd: _scenario_and_poses(sd) for sd in (0, 3)}
     finally:
-        scn.realistic_road.cache_clear()   # no road built under the patch outlives it
+        scn.realistic_road.cache_clear()  # no road built under the patch outlives it
     for sd, (sc, table) in want.items():
         sc2, table2 = got[sd]
         for name in ("kappa", "phi", "gx", "gy"):
@@ -104,6 +123,7 @@ def test_scenario_bits_do_not_depend_on_numpy_simd_or_blas_kernels():
 
 
 # --- bit for bit the libm formulas --------------------------------------------------------------------------
+
 
 def _reference_kappa(seed, length=1600.0, ds=2.0, kappa_max=0.05, knot_spacing=25.0) -> list[float]:
     """random_road's smoothed curvature by a plain Python loop: the moving sum in window order, then / width."""
@@ -158,7 +178,7 @@ def test_random_road_is_the_libm_formula_bit_for_bit(seed):
 
 def test_centre_line_from_a_start_pose_is_the_libm_formula_bit_for_bit():
     kappa = np.random.default_rng(5).uniform(-0.05, 0.05, 300)
-    road = Road.from_curvature(kappa, 1.5, s0=3.0, x0=(5.0, -3.0, 40.7))   # a large heading: reduced by libm
+    road = Road.from_curvature(kappa, 1.5, s0=3.0, x0=(5.0, -3.0, 40.7))  # a large heading: reduced by libm
     phi, gx, gy = _reference_centre_line(kappa.tolist(), 1.5, (5.0, -3.0, 40.7))
     for name, ref in (("phi", phi), ("gx", gx), ("gy", gy)):
         assert _bits(getattr(road, name)) == _bits(ref), name
@@ -175,9 +195,22 @@ def test_opponent_poses_are_the_libm_formula_bit_for_bit():
             i = min(max(math.floor((s - r.s0) / r.ds), 0), r.size - 2)
             tau = (s - r.s0) / r.ds - i
             p0, p1 = float(r.phi[i]), float(r.phi[i + 1])
-            _, phg, gx, gy, _, _ = _segment(tau, r.ds, float(r.kappa[i]), float(r.kappa[i + 1]), p0, p1,
-                                             float(r.gx[i]), float(r.gx[i + 1]), float(r.gy[i]), float(r.gy[i + 1]),
-                                             math.cos(p0), math.cos(p1), math.sin(p0), math.sin(p1))
+            _, phg, gx, gy, _, _ = _segment(
+                tau,
+                r.ds,
+                float(r.kappa[i]),
+                float(r.kappa[i + 1]),
+                p0,
+                p1,
+                float(r.gx[i]),
+                float(r.gx[i + 1]),
+                float(r.gy[i]),
+                float(r.gy[i + 1]),
+                math.cos(p0),
+                math.cos(p1),
+                math.sin(p0),
+                math.sin(p1),
+            )
             want = (gx - n * math.sin(phg), gy + n * math.cos(phg), phg + alpha)
             assert _bits(table[j, o]) == _bits(want), (j, o)
 
@@ -206,6 +239,7 @@ def test_gauss_legendre_constants_are_the_10_point_rule():
 
 # --- the replay's road check ----------------------------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def log_and_problem():
     """The checked-in golden log of seed 0 with its road replaced by the one this generator gives (so the test does
@@ -226,7 +260,7 @@ def _with_road(log: RunLog, key: str, change) -> RunLog:
 def test_scenario_of_the_generated_road_is_the_cached_scenario(log_and_problem):
     log, pb = log_and_problem
     sc = scenario_of(log, pb)
-    assert sc.road is scn.make_scenario(log.meta["scenario"], log.meta["seed"]).road   # not a copy
+    assert sc.road is scn.make_scenario(log.meta["scenario"], log.meta["seed"]).road  # not a copy
 
 
 def test_scenario_of_accepts_a_road_a_few_ulps_away_and_replays_the_logged_one(log_and_problem):
@@ -235,6 +269,7 @@ def test_scenario_of_accepts_a_road_a_few_ulps_away_and_replays_the_logged_one(l
 
     def ulps(a):
         a[100:400] = np.nextafter(np.nextafter(a[100:400], np.inf), np.inf)
+
     near = _with_road(_with_road(log, "gamma_x", ulps), "kappa", ulps)
     sc = scenario_of(near, pb)
     assert not np.array_equal(sc.road.gx, gx)
@@ -243,19 +278,26 @@ def test_scenario_of_accepts_a_road_a_few_ulps_away_and_replays_the_logged_one(l
     assert sc.road.s0 == log.road["s"][0] and sc.road.ds == log.road["ds"]
 
 
-@pytest.mark.parametrize("key, index, delta, shown", [
-    ("gamma_x", 300, 1e-8, "allowed"),          # 1e-8 m: 15x the tolerance on this road (|gamma_x| <= 661 m)
-    ("gamma_y", 0, np.nan, "nan"),
-    ("kappa", 250, 2 * ROAD_RTOL, "allowed"),   # kappa's scale is 1: twice its tolerance
-    ("phi_gamma", 10, 1e-6, "allowed"),
-])
+@pytest.mark.parametrize(
+    "key, index, delta, shown",
+    [
+        ("gamma_x", 300, 1e-8, "allowed"),  # 1e-8 m: 15x the tolerance on this road (|gamma_x| <= 661 m)
+        ("gamma_y", 0, np.nan, "nan"),
+        ("kappa", 250, 2 * ROAD_RTOL, "allowed"),  # kappa's scale is 1: twice its tolerance
+        ("phi_gamma", 10, 1e-6, "allowed"),
+    ],
+)
 def test_scenario_of_rejects_another_road(log_and_problem, key, index, delta, shown):
     log, pb = log_and_problem
 
     def bump(a):
         a[index] += delta
-    with pytest.raises(ValueError, match=rf"log's road is not the one of scenario 'truck' seed 0 \(another scenario "
-                                         rf"generator\?\): {key} differs by .*{shown}"):
+
+    with pytest.raises(
+        ValueError,
+        match=rf"log's road is not the one of scenario 'truck' seed 0 \(another scenario "
+        rf"generator\?\): {key} differs by .*{shown}",
+    ):
         scenario_of(_with_road(log, key, bump), pb)
 
 

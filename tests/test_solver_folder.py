@@ -1,6 +1,7 @@
 """A generated solver folder is read once (``fcgen.solver_folder.read_folder``) into a ``SolverFolder`` that the build,
 the C binding and the firmware harness are handed: what it holds, what it refuses, and that nothing on the main job's
 path reads the folder again."""
+
 from __future__ import annotations
 
 import pickle
@@ -36,12 +37,12 @@ def test_the_folder_holds_what_generate_wrote(generated):
     f = read_folder(info.out_dir)
     assert f.path == info.out_dir and f.name == "sfold" and f.checked
     assert f.header == info.out_dir / "sfold_solver.h" and f.problem_file == info.out_dir / "problem.py"
-    assert {k: f.sizes[k] for k in info.sizes} == info.sizes        # the header's macros are the generator's sizes
+    assert {k: f.sizes[k] for k in info.sizes} == info.sizes  # the header's macros are the generator's sizes
     assert f.sizes["N"] == 6 and f.sizes["NOPP"] == 1
-    assert f.problem == PROBLEM                                      # problem.py gives back the problem generated
+    assert f.problem == PROBLEM  # problem.py gives back the problem generated
     assert (f.precision, f.use_float, f.backend) == ("double", False, "osqp")
     assert read_folder(generated["float"].out_dir).precision == "float"
-    assert pickle.loads(pickle.dumps(f)) == f                        # it can be handed to a worker process
+    assert pickle.loads(pickle.dumps(f)) == f  # it can be handed to a worker process
 
 
 def test_the_build_paths_per_target_and_variant(generated):
@@ -50,8 +51,10 @@ def test_the_build_paths_per_target_and_variant(generated):
     assert f.lib() == d / "build" / "libsfold.so"
     assert f.lib(verify=True) == d / "build" / "verify" / "libsfold.so"
     assert f.lib(target="cortex-m7") == d / "build" / "cortex-m7" / "libsfold.a"
-    assert f.lib(target="cortex-m4f", variant="footprint", verify=True) == \
-        d / "build" / "cortex-m4f" / "footprint" / "verify" / "libsfold.a"
+    assert (
+        f.lib(target="cortex-m4f", variant="footprint", verify=True)
+        == d / "build" / "cortex-m4f" / "footprint" / "verify" / "libsfold.a"
+    )
     assert f.build_dir(target="cortex-m7", variant="wcet_probe") == d / "build" / "cortex-m7" / "wcet_probe"
 
 
@@ -78,9 +81,16 @@ def test_nothing_on_the_main_jobs_path_reads_the_folder_again(generated, tmp_pat
     def reads_again(*args, **kw):
         raise AssertionError(f"the folder was read again: {args}")
 
-    for mod, name in ((folder_mod, "read_folder"), (folder_mod, "check_folder"), (folder_mod, "read_macros"),
-                      (folder_mod, "load_problem"), (folder_mod, "the_solver"), (build_mod, "check_folder"),
-                      (csolver_mod, "read_macros"), (csolver_mod, "solver_name")):
+    for mod, name in (
+        (folder_mod, "read_folder"),
+        (folder_mod, "check_folder"),
+        (folder_mod, "read_macros"),
+        (folder_mod, "load_problem"),
+        (folder_mod, "the_solver"),
+        (build_mod, "check_folder"),
+        (csolver_mod, "read_macros"),
+        (csolver_mod, "solver_name"),
+    ):
         monkeypatch.setattr(mod, name, reads_again)
     cs = CSolver(build(folder), folder=folder)
     assert cs.name == "sfold" and cs.N == 6 and cs.dtype == np.float64

@@ -1,6 +1,7 @@
 """Static analysis of the emitted solver: cppcheck (warning, style, portability) finds nothing in <name>_solver.c/.h;
 cppcheck's MISRA C:2012 addon finds exactly the rules of the deviation table (fcgen.codegen.misra), which the
 generated README lists."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -22,8 +23,16 @@ ROOT = Path(__file__).resolve().parents[1]
 FINDING = re.compile(r"^(?P<file>[^\s:]+):(?P<line>\d+):\d+: (?P<sev>\w+): (?P<msg>.*?) \[(?P<id>[\w.-]+)\]$", re.M)
 
 
-def _small(formulation: str, obstacles: str, name: str, use_float: bool, out: Path,
-           backend: str = "osqp", fine: int | None = None, profile: str = "paper") -> GenerateInfo:
+def _small(
+    formulation: str,
+    obstacles: str,
+    name: str,
+    use_float: bool,
+    out: Path,
+    backend: str = "osqp",
+    fine: int | None = None,
+    profile: str = "paper",
+) -> GenerateInfo:
     """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same.
     ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid); ``profile``:
     the safe one adds code of its own (the curve reference, the a_lat guard)."""
@@ -40,12 +49,14 @@ def folders(tmp_path_factory) -> list[GenerateInfo]:
     """Both backends, double and float; the IPM with (hyperplane) and without stage equalities (its code differs); the
     paper profile and the safe one."""
     tmp = tmp_path_factory.mktemp("sa")
-    return [_small("lifted", "ellipse", "sa_d", False, tmp / "d"),
-            _small("conventional", "hyperplane", "sa_f", True, tmp / "f"),
-            _small("lifted", "ellipse", "sa_id", False, tmp / "id", "ipm"),
-            _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm"),
-            _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2),
-            _small("direct_elimination", "hyperplane", "sa_s", False, tmp / "s", "ipm", profile="safe")]
+    return [
+        _small("lifted", "ellipse", "sa_d", False, tmp / "d"),
+        _small("conventional", "hyperplane", "sa_f", True, tmp / "f"),
+        _small("lifted", "ellipse", "sa_id", False, tmp / "id", "ipm"),
+        _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm"),
+        _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2),
+        _small("direct_elimination", "hyperplane", "sa_s", False, tmp / "s", "ipm", profile="safe"),
+    ]
 
 
 def _expected_misra(info: GenerateInfo) -> set[str]:
@@ -57,8 +68,13 @@ def _cppcheck(folder: Path, name: str, *args: str) -> list[dict[str, str]]:
     """cppcheck's findings in <name>_solver.c / <name>_solver.h (the solver's own files)."""
     inc = ["-I.", "-Iosqp", "-Iosqp/lib", "-Iosqp/lib/inc/public"]
     template = "--template={file}:{line}:{column}: {severity}: {message} [{id}]"
-    res = subprocess.run(["cppcheck", "-q", "--std=c99", template, *args, *inc, f"{name}_solver.c", f"{name}_solver.h"],
-                         cwd=folder, capture_output=True, text=True, timeout=600)
+    res = subprocess.run(
+        ["cppcheck", "-q", "--std=c99", template, *args, *inc, f"{name}_solver.c", f"{name}_solver.h"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     found = [m.groupdict() for m in FINDING.finditer(res.stderr)]
     assert len(found) == len([ln for ln in res.stderr.splitlines() if FINDING.match(ln)])

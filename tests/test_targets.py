@@ -1,4 +1,5 @@
 """Cortex-M targets: cross builds, the closed loop on QEMU against the host's, instruction counts, footprint."""
+
 from __future__ import annotations
 
 import re
@@ -22,14 +23,17 @@ from fcgen.solver_folder import build_dir
 from fcgen.targets import TARGETS, TargetError, get_target
 
 TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-size", "qemu-system-arm", "make", "gcc")
-needs_toolchain = pytest.mark.skipif(any(shutil.which(t) is None for t in TOOLS),
-                                     reason="needs the arm-none-eabi toolchain, QEMU, gcc and make (setup.sh)")
+needs_toolchain = pytest.mark.skipif(
+    any(shutil.which(t) is None for t in TOOLS),
+    reason="needs the arm-none-eabi toolchain, QEMU, gcc and make (setup.sh)",
+)
 PRESET = "truck_lifted_ellipse"
 SAMPLES = 25
 SEED = 3
 
 
 # ----------------------------------------------------------------------------- targets as data
+
 
 def test_target_table() -> None:
     m7, m4f = get_target("cortex-m7"), get_target("cortex-m4f")
@@ -58,6 +62,7 @@ def test_linker_script_memory_map() -> None:
 
 # ----------------------------------------------------------------------------- builds
 
+
 @pytest.fixture(scope="module")
 def gen_double(tmp_path_factory) -> GenerateInfo:
     return generate(preset(PRESET), tmp_path_factory.mktemp("tgt") / "double")
@@ -77,7 +82,9 @@ def test_double_solver_refused_for_m4f(gen_double) -> None:
 def test_toolchain_files_shipped(gen_double, gen_float) -> None:
     assert sorted(p.name for p in (gen_double.out_dir / "cmake").iterdir()) == ["arm-none-eabi-cortex-m7.cmake"]
     assert sorted(p.name for p in (gen_float.out_dir / "cmake").iterdir()) == [
-        "arm-none-eabi-cortex-m4f.cmake", "arm-none-eabi-cortex-m7.cmake"]
+        "arm-none-eabi-cortex-m4f.cmake",
+        "arm-none-eabi-cortex-m7.cmake",
+    ]
 
 
 @needs_toolchain
@@ -90,10 +97,14 @@ def test_cross_build_static_libraries_only(gen_double) -> None:
     objs = sorted((out / "obj").rglob("*.o"))
     assert objs and not any("host" in o.name or o.name == "main.o" for o in objs)
     assert "-fPIC" not in (out / "flags.txt").read_text()
-    hdr = subprocess.run(["arm-none-eabi-readelf", "-hA", str(out / "obj" / "truck_lift_el_solver.o")],
-                         capture_output=True, text=True, check=True).stdout
+    hdr = subprocess.run(
+        ["arm-none-eabi-readelf", "-hA", str(out / "obj" / "truck_lift_el_solver.o")],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert "Machine:                           ARM" in hdr
-    assert "Tag_CPU_name: \"7E-M\"" in hdr or "Cortex-M7" in hdr
+    assert 'Tag_CPU_name: "7E-M"' in hdr or "Cortex-M7" in hdr
     assert "Tag_FP_arch: FPv5/FP-D16 for ARMv8" in hdr and "Tag_ABI_VFP_args: VFP registers" in hdr
 
 
@@ -117,18 +128,28 @@ def test_plain_make_without_osqp_sources_says_how_to_restore(gen_double, tmp_pat
 def test_cmake_toolchain_file_cross_build(gen_double, tmp_path) -> None:
     src = gen_double.out_dir
     bdir = tmp_path / "cmake-m7"
-    subprocess.run(["cmake", "-S", str(src), "-B", str(bdir),
-                    f"-DCMAKE_TOOLCHAIN_FILE={src / 'cmake' / 'arm-none-eabi-cortex-m7.cmake'}"],
-                   capture_output=True, text=True, check=True)
+    subprocess.run(
+        [
+            "cmake",
+            "-S",
+            str(src),
+            "-B",
+            str(bdir),
+            f"-DCMAKE_TOOLCHAIN_FILE={src / 'cmake' / 'arm-none-eabi-cortex-m7.cmake'}",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     cache = (bdir / "CMakeCache.txt").read_text()
-    assert re.search(r"^CMAKE_C_FLAGS:STRING=-O2 -mcpu=cortex-m7 -mthumb -mfloat-abi=hard -mfpu=fpv5-d16$", cache,
-                     re.M)
+    assert re.search(r"^CMAKE_C_FLAGS:STRING=-O2 -mcpu=cortex-m7 -mthumb -mfloat-abi=hard -mfpu=fpv5-d16$", cache, re.M)
     assert "TRUCK_LIFT_EL_HOST:BOOL=OFF" in cache
     subprocess.run(["cmake", "--build", str(bdir), "-j2"], capture_output=True, text=True, check=True)
     built = sorted(p.name for p in bdir.iterdir() if p.suffix in (".a", ".so"))
     assert built == ["libtruck_lift_el.a", "libtruck_lift_el_osqp.a"]
-    sizes = subprocess.run(["arm-none-eabi-size", str(bdir / "libtruck_lift_el.a")], capture_output=True,
-                           text=True, check=True).stdout
+    sizes = subprocess.run(
+        ["arm-none-eabi-size", str(bdir / "libtruck_lift_el.a")], capture_output=True, text=True, check=True
+    ).stdout
     assert "truck_lift_el_solver.c.obj" in sizes
 
 
@@ -139,8 +160,9 @@ libgcc's generic names (``__adddf3``, ``__extendsfdf2``)."""
 
 def _undefined_symbols(libs: list[Path]) -> dict[str, set[str]]:
     """Per ``archive:object``, the symbols it references but does not define (``arm-none-eabi-nm -A -u``)."""
-    out = subprocess.run(["arm-none-eabi-nm", "-A", "-u", *map(str, libs)], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        ["arm-none-eabi-nm", "-A", "-u", *map(str, libs)], capture_output=True, text=True, check=True
+    ).stdout
     refs: dict[str, set[str]] = {}
     for where, _, sym in (ln.split() for ln in out.splitlines() if " U " in ln):
         refs.setdefault(where.rstrip(":").rsplit("/", 1)[-1], set()).add(sym)
@@ -148,8 +170,9 @@ def _undefined_symbols(libs: list[Path]) -> dict[str, set[str]]:
 
 
 @needs_toolchain
-@pytest.mark.parametrize("formulation, obstacles, backend", [("lifted", "ellipse", "osqp"),
-                                                              ("conventional", "hyperplane", "ipm")])
+@pytest.mark.parametrize(
+    "formulation, obstacles, backend", [("lifted", "ellipse", "osqp"), ("conventional", "hyperplane", "ipm")]
+)
 def test_float_libraries_do_no_double_arithmetic_on_m4f(tmp_path, formulation, obstacles, backend) -> None:
     """--float on the Cortex-M4F (single-precision FPU): neither the solver and model library nor OSQP's references a
     software double routine, and every math call is the float variant (sinf, sqrtf, ...). The conventional IPM
@@ -160,6 +183,7 @@ def test_float_libraries_do_no_double_arithmetic_on_m4f(tmp_path, formulation, o
     from fcgen.codegen.model_code import C_MATH
     from fcgen.dsl import QpOptions
     from fcgen.presets import paper_problem
+
     p = paper_problem("car", formulation, obstacles, name=f"car_sp_{backend}")
     p = dc_replace(p, horizon=dc_replace(p.horizon, N=4), qp=QpOptions(backend=backend))
     info = generate(p, tmp_path / "f", use_float=True)
@@ -174,14 +198,27 @@ def test_float_libraries_do_no_double_arithmetic_on_m4f(tmp_path, formulation, o
     assert {"sinf", "cosf", "sqrtf"} <= math_calls and not math_calls & set(C_MATH), sorted(math_calls)
     if backend == "osqp":  # the flag is what it takes: OSQP's library without it does double arithmetic
         tgt = get_target("cortex-m4f")
-        subprocess.run(["make", "-C", str(info.out_dir), "BUILD=build/no-sp", f"CC={tgt.cc}",
-                        f"CFLAGS={tgt.cflags('-O2')}", "QPLIBFLAGS=", *tgt.make_variables()],
-                       capture_output=True, text=True, check=True)
+        subprocess.run(
+            [
+                "make",
+                "-C",
+                str(info.out_dir),
+                "BUILD=build/no-sp",
+                f"CC={tgt.cc}",
+                f"CFLAGS={tgt.cflags('-O2')}",
+                "QPLIBFLAGS=",
+                *tgt.make_variables(),
+            ],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         plain = _undefined_symbols([info.out_dir / "build/no-sp" / f"lib{info.name}_osqp.a"])
         assert any(DOUBLE_ROUTINE.fullmatch(s) for s in plain[f"lib{info.name}_osqp.a:auxil.o"])
 
 
 # ----------------------------------------------------------------------------- closed loop under QEMU
+
 
 def _close(log_t, log_h, atol_state: float, same_qp: bool = True) -> None:
     d = compare(log_t, log_h)
@@ -201,14 +238,19 @@ def test_closed_loop_double_on_m7_matches_host(gen_double, tmp_path) -> None:
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
     _close(log_t, log_h, 1e-6)
     assert log_t.meta["precision"] == "double" and log_t.meta["extra"]["target"] == "cortex-m7"
-    reg = CliRunner().invoke(main, ["regress", str(tmp_path / "m7.json"), str(tmp_path / "host.json"), "--preset",
-                                    "host-vs-target"])
+    reg = CliRunner().invoke(
+        main, ["regress", str(tmp_path / "m7.json"), str(tmp_path / "host.json"), "--preset", "host-vs-target"]
+    )
     assert reg.exit_code == 0 and "PASS" in reg.output, reg.output
     # the image ran with the solver, the C library and the stack in 512 KiB of RAM (the harness's buffers elsewhere)
     image = build_dir(d, target="cortex-m7") / "firmware_sim" / "closed_loop.elf"
-    sec = {ln.split()[0]: (int(ln.split()[1]), int(ln.split()[2])) for ln in subprocess.run(
-        ["arm-none-eabi-size", "-A", str(image)], capture_output=True, text=True, check=True).stdout.splitlines()
-        if ln.startswith(".")}
+    sec = {
+        ln.split()[0]: (int(ln.split()[1]), int(ln.split()[2]))
+        for ln in subprocess.run(
+            ["arm-none-eabi-size", "-A", str(image)], capture_output=True, text=True, check=True
+        ).stdout.splitlines()
+        if ln.startswith(".")
+    }
     ram = [v for k, v in sec.items() if 0x20000000 <= v[1] < 0x20000000 + 512 * 1024]
     assert {".data", ".bss"} <= {k for k, v in sec.items() if v in ram}
     assert sum(size for size, _ in ram) + 16 * 1024 <= 512 * 1024
@@ -242,8 +284,22 @@ def test_closed_loop_float_on_m4f_matches_host(gen_float, tmp_path) -> None:
 @needs_toolchain
 def test_firmware_sim_cli_target(gen_double, tmp_path) -> None:
     out = tmp_path / "run.json"
-    res = CliRunner().invoke(main, ["firmware-sim", str(gen_double.out_dir), "--target", "cortex-m7", "--samples",
-                                    "3", "--seed", "1", "--out", str(out), "--compare-host"])
+    res = CliRunner().invoke(
+        main,
+        [
+            "firmware-sim",
+            str(gen_double.out_dir),
+            "--target",
+            "cortex-m7",
+            "--samples",
+            "3",
+            "--seed",
+            "1",
+            "--out",
+            str(out),
+            "--compare-host",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "C firmware_sim on cortex-m7" in res.output and "cortex-m7 vs host" in res.output
     assert out.is_file() and (tmp_path / "run.host.json").is_file()
@@ -259,21 +315,25 @@ def test_bench_target_instruction_counts(gen_double, tmp_path) -> None:
         assert ins[phase]["max"] % 40 == 0 and ins[phase]["min"] % 40 == 0  # whole SysTick periods
     assert ins["feedback"]["median"] > ins["prepare"]["median"]
     out = tmp_path / "b.json"
-    cli = CliRunner().invoke(main, ["bench", str(gen_double.out_dir), "--target", "cortex-m7", "--samples", "4",
-                                    "--out", str(out)])
+    cli = CliRunner().invoke(
+        main, ["bench", str(gen_double.out_dir), "--target", "cortex-m7", "--samples", "4", "--out", str(out)]
+    )
     assert cli.exit_code == 0, cli.output
     assert re.search(r"^prepare +[\d.]+ +[\d.]+", cli.output, re.M) and out.is_file()
     import json
+
     assert json.loads(out.read_text())["instructions"] == ins  # the same counts again: independent of load
 
 
 # ----------------------------------------------------------------------------- the IPM backend: no extra library
+
 
 @pytest.fixture(scope="module")
 def gen_ipm(tmp_path_factory) -> GenerateInfo:
     from dataclasses import replace
 
     from fcgen.dsl import QpOptions
+
     return generate(replace(preset(PRESET), qp=QpOptions(backend="ipm")), tmp_path_factory.mktemp("tgt") / "ipm")
 
 
@@ -286,15 +346,19 @@ def test_ipm_folder_builds_one_library_and_runs_on_m7(gen_ipm, tmp_path) -> None
         assert "osqp" not in (d / f).read_text().lower(), f
     host = build(d).parent
     assert sorted(p.name for p in host.iterdir() if p.is_file() and p.name != "flags.txt") == [
-        f"lib{name}.a", f"lib{name}.so", f"{name}_example"]
+        f"lib{name}.a",
+        f"lib{name}.so",
+        f"{name}_example",
+    ]
     lib = build(d, target="cortex-m7")
     assert sorted(p.name for p in lib.parent.iterdir() if p.is_file() and p.name != "flags.txt") == [f"lib{name}.a"]
     log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300)
     log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json")
     _close(log_t, log_h, 1e-6)
     assert set(log_t.qp_status) == {1}  # every QP solved
-    res = CliRunner().invoke(main, ["firmware-sim", str(d), "--target", "cortex-m7", "--samples", "2", "--out",
-                                    str(tmp_path / "cli.json")])
+    res = CliRunner().invoke(
+        main, ["firmware-sim", str(d), "--target", "cortex-m7", "--samples", "2", "--out", str(tmp_path / "cli.json")]
+    )
     assert res.exit_code == 0 and "C firmware_sim on cortex-m7" in res.output, res.output
     fp = footprint(d, "cortex-m7")
     assert [r["object"] for r in fp["objects"]] == [f"{name}_model.o", f"{name}_solver.o"]
@@ -305,13 +369,15 @@ def test_ipm_folder_builds_one_library_and_runs_on_m7(gen_ipm, tmp_path) -> None
 
 # ----------------------------------------------------------------------------- footprint
 
+
 @needs_toolchain
 def test_footprint_matches_size_tool(gen_double) -> None:
     res = footprint(gen_double.out_dir, "cortex-m7")
     obj_dir = build_dir(gen_double.out_dir, target="cortex-m7", variant="footprint") / "obj"
     objs = [obj_dir / r["object"] for r in res["objects"]]
-    out = subprocess.run(["arm-none-eabi-size", "-B", *map(str, objs)], capture_output=True, text=True,
-                         check=True).stdout.splitlines()[1:]
+    out = subprocess.run(
+        ["arm-none-eabi-size", "-B", *map(str, objs)], capture_output=True, text=True, check=True
+    ).stdout.splitlines()[1:]
     for line, r in zip(out, res["objects"]):
         text, data, bss = (int(x) for x in line.split()[:3])
         assert (text, data, bss) == (r["text"] + r["rodata"], r["data"], r["bss"]), r["object"]
@@ -339,13 +405,19 @@ def test_section_sizes_host_object(tmp_path) -> None:
     if shutil.which("gcc") is None or shutil.which("size") is None:
         pytest.skip("needs gcc and size")
     c = tmp_path / "x.c"
-    c.write_text("static int a[100]; int b[3] = {1, 2, 3}; const double k[5] = {1, 2, 3, 4, 5};\n"
-                 "int f(int i) { a[i] = i; return a[i / 2] + b[i % 3] + (int)k[i % 5]; }\n")
+    c.write_text(
+        "static int a[100]; int b[3] = {1, 2, 3}; const double k[5] = {1, 2, 3, 4, 5};\n"
+        "int f(int i) { a[i] = i; return a[i / 2] + b[i % 3] + (int)k[i % 5]; }\n"
+    )
     subprocess.run(["gcc", "-O2", "-c", str(c), "-o", str(tmp_path / "x.o")], check=True)
     s = section_sizes(tmp_path / "x.o")
     assert s["bss"] == 400 and s["data"] == 12 and s["rodata"] >= 40
-    text, data, bss = (int(x) for x in subprocess.run(["size", "-B", str(tmp_path / "x.o")], capture_output=True,
-                                                      text=True, check=True).stdout.splitlines()[1].split()[:3])
+    text, data, bss = (
+        int(x)
+        for x in subprocess.run(["size", "-B", str(tmp_path / "x.o")], capture_output=True, text=True, check=True)
+        .stdout.splitlines()[1]
+        .split()[:3]
+    )
     assert (data, bss) == (s["data"], s["bss"]) and text >= s["text"] + s["rodata"]
 
 
@@ -367,28 +439,55 @@ def test_two_solvers_one_image_on_m7(gen_double, tmp_path) -> None:
     for g in (gen_double, other):
         lib = build(g.out_dir, target=tgt.name)
         libs[g.name] = [str(lib), str(lib.parent / f"lib{g.name}_osqp.a")]
-        nm = subprocess.run(["arm-none-eabi-nm", "-g", "--defined-only", *libs[g.name]], capture_output=True,
-                            text=True, check=True).stdout
+        nm = subprocess.run(
+            ["arm-none-eabi-nm", "-g", "--defined-only", *libs[g.name]], capture_output=True, text=True, check=True
+        ).stdout
         syms = [f[2] for f in (ln.split() for ln in nm.splitlines()) if len(f) == 3]
         assert syms and all(s.startswith(f"{g.name}_") for s in syms)
     # two solvers need the RAM of both (~0.7 MB): link with the board's whole 4 MiB data SSRAM
     from dataclasses import replace
 
     from fcgen.targets import Region
+
     ld = tmp_path / "m7.ld"
     ld.write_text(linker_script(replace(tgt, ram=Region(0x20000000, 4 * 1024 * 1024))))
     fw = harness_source_dir()
     runs = {}
     for tag, solvers in (("both", {"A": gen_double, "B": other}), ("a", {"A": gen_double}), ("b", {"B": other})):
-        defs = [d for ab, g in solvers.items() for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")]
+        defs = [
+            d for ab, g in solvers.items() for d in (f"-DSOLVER_{ab}={g.name}", f"-DSOLVER_{ab}_UP={g.name.upper()}")
+        ]
         image = tmp_path / f"two_{tag}.elf"
-        subprocess.run([tgt.cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", *tgt.cpu_flags, *defs,
-                        f"-DFS_SYSTICK_HZ={tgt.systick_hz}", f"-I{fw}", *(f"-I{g.out_dir}" for g in solvers.values()),
-                        str(TWO_SOLVERS_C), str(fw / "fs_baremetal.c"),
-                        *(x for g in solvers.values() for x in libs[g.name]), "-lm", "-T", str(ld), *tgt.link_flags,
-                        "-o", str(image)], check=True, capture_output=True, text=True)
-        res = subprocess.run(tgt.qemu_command(image, [], icount=False), capture_output=True, text=True, timeout=120,
-                             cwd=tmp_path)
+        subprocess.run(
+            [
+                tgt.cc,
+                "-O2",
+                "-std=c99",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                *tgt.cpu_flags,
+                *defs,
+                f"-DFS_SYSTICK_HZ={tgt.systick_hz}",
+                f"-I{fw}",
+                *(f"-I{g.out_dir}" for g in solvers.values()),
+                str(TWO_SOLVERS_C),
+                str(fw / "fs_baremetal.c"),
+                *(x for g in solvers.values() for x in libs[g.name]),
+                "-lm",
+                "-T",
+                str(ld),
+                *tgt.link_flags,
+                "-o",
+                str(image),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
+        res = subprocess.run(
+            tgt.qemu_command(image, [], icount=False), capture_output=True, text=True, timeout=120, cwd=tmp_path
+        )
         assert res.returncode == 0, res.stdout + res.stderr
         runs[tag] = res.stdout.splitlines()
     assert runs["both"] == runs["a"] + runs["b"] and len(runs["both"]) == 6
@@ -408,8 +507,9 @@ def test_footprint_cli_json_and_readme(gen_double, tmp_path) -> None:
     assert res.exit_code == 0, res.output
     data = json.loads(out.read_text())
     t = data["total"]
-    assert re.search(rf"^total +{t['text']} +{t['rodata']} +{t['data']} +{t['bss']} +{t['flash']} +{t['ram']}$",
-                     res.output, re.M)
+    assert re.search(
+        rf"^total +{t['text']} +{t['rodata']} +{t['data']} +{t['bss']} +{t['flash']} +{t['ram']}$", res.output, re.M
+    )
     readme = (folder / "README.md").read_text()
     assert f"flash {t['flash']} bytes" in readme and f"RAM {t['ram']} bytes" in readme
     assert f"worst stack {data['stack']['worst_bytes']:.0f} bytes" in readme and "Not measured yet" not in readme
@@ -428,11 +528,30 @@ def test_clock_hook_counts_instructions(tmp_path) -> None:
         ld.write_text(linker_script(tgt))
         fw = harness_source_dir()
         image = tmp_path / f"probe_{name}.elf"
-        subprocess.run([tgt.cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", *tgt.cpu_flags, "-DFS_BAREMETAL",
-                        f"-DFS_SYSTICK_HZ={tgt.systick_hz}", f"-I{fw}", str(Path(__file__).parent / "c" /
-                                                                               "icount_probe.c"),
-                        str(fw / "fs_baremetal.c"), "-T", str(ld), *tgt.link_flags, "-o", str(image)],
-                       check=True, capture_output=True, text=True)
+        subprocess.run(
+            [
+                tgt.cc,
+                "-O2",
+                "-std=c99",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                *tgt.cpu_flags,
+                "-DFS_BAREMETAL",
+                f"-DFS_SYSTICK_HZ={tgt.systick_hz}",
+                f"-I{fw}",
+                str(Path(__file__).parent / "c" / "icount_probe.c"),
+                str(fw / "fs_baremetal.c"),
+                "-T",
+                str(ld),
+                *tgt.link_flags,
+                "-o",
+                str(image),
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         res = subprocess.run(tgt.qemu_command(image, []), capture_output=True, text=True, timeout=60, cwd=tmp_path)
         assert res.returncode == 0, res.stdout + res.stderr
         n, measured = (float(x) for x in res.stdout.split())

@@ -1,4 +1,5 @@
 """Generated C (verification build) == Python reference, sample by sample (``fcgen verify``); ``fcgen bench``."""
+
 from __future__ import annotations
 
 import json
@@ -8,17 +9,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from test_guess import BEND
 
 from fcgen.build import build
-
-from fcgen.csolver import CSolver
 from fcgen.cli import main
 from fcgen.codegen.generate import generate
+from fcgen.csolver import CSolver
 from fcgen.ocp import INF, build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver
-from fcgen.verify import ENVELOPE_FACTOR, QUANTITIES, TOL_QP_DATA, _clearance_diff, _same_minimiser, TOL_SOLUTION, infer_scenario, rel_diff, verify
-from test_guess import BEND
+from fcgen.verify import (
+    ENVELOPE_FACTOR,
+    QUANTITIES,
+    TOL_QP_DATA,
+    TOL_SOLUTION,
+    _clearance_diff,
+    _same_minimiser,
+    infer_scenario,
+    rel_diff,
+    verify,
+)
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -98,11 +108,11 @@ def test_verify_catches_a_c_that_differs_and_the_envelope_does_not_hide_it(gen_r
     (d / "problem.py").write_text(text.replace("2000000.0)", "3000000.0)"))
     rep = verify(d, samples=30)
     assert not rep.passed
-    assert rep.check("P_x").sample == 0                  # P is the same every sample: first seen at sample 0
+    assert rep.check("P_x").sample == 0  # P is the same every sample: first seen at sample 0
     for key in ("P_x", "q", "z", "u0"):
         c = rep.check(key)
         assert not c.passed and c.allowed == c.tol, (key, c)
-    tr = rep.check("trajectory")   # the envelope is measured (the closed loops part) but far below the difference
+    tr = rep.check("trajectory")  # the envelope is measured (the closed loops part) but far below the difference
     assert tr.envelope > 0 and tr.max_diff > 10 * ENVELOPE_FACTOR * tr.envelope and not tr.passed, tr
 
 
@@ -119,8 +129,8 @@ def test_verify_free_hyperplanes_lockstep_exact_closed_loops_within_the_envelope
         if c.group != "closed-loop":
             assert c.envelope == 0 and c.passed and c.compared == 60, c
     tr = rep.check("trajectory")
-    assert tr.max_diff > 100 * tr.tol, tr          # the closed loops do part (7e-3 here) ...
-    assert tr.envelope > 100 * tr.tol, tr          # ... and so does the reference from itself (1e-2)
+    assert tr.max_diff > 100 * tr.tol, tr  # the closed loops do part (7e-3 here) ...
+    assert tr.envelope > 100 * tr.tol, tr  # ... and so does the reference from itself (1e-2)
     assert rep.passed, rep.format()
     assert any("envelope" in n for n in rep.notes)
 
@@ -133,6 +143,7 @@ def test_verify_unequal_intervals_full_length(tmp_path: Path, name: str) -> None
     1.0e-6 with the safe obstacle weight 1e9, below 1e-6 with 1e8; the reference parts from itself by up to 0.17 under a
     1e-15 change of its measured state, verify's envelope)."""
     from fcgen.dsl import Horizon, RoadWindow
+
     pb = preset(name)
     d = tmp_path / "g"
     generate(pb.with_(horizon=Horizon(stride=3, fine=20), road=RoadWindow(length=340.0)), d)
@@ -181,6 +192,7 @@ def test_cli_bench_no_python(gen_root: Path, tmp_path: Path, monkeypatch) -> Non
 
 # --- the cold start (issue 10: the guess follows the road) ------------------------------------------------------
 
+
 def test_verify_seed_69_from_the_cold_start(gen_root: Path) -> None:
     """Seed 69's first bend made the old guess (a zero-input rollout) leave the road window in C and Python alike;
     now the lockstep runs from the cold start through every sample with identical QP data."""
@@ -190,19 +202,24 @@ def test_verify_seed_69_from_the_cold_start(gen_root: Path) -> None:
     assert not any("non-zero exit code" in n for n in rep.notes), rep.notes
 
 
-@pytest.mark.parametrize("name", ["truck_lifted_ellipse", "truck_direct_elimination_hyperplane",
-                                  "truck_conventional_ellipse"])
-@pytest.mark.parametrize("road_samples, x0", [
-    (141, [0.0, -4.0, 0.0, 15.0, 0.0]),         # on the bend where the old guess left the window
-    (60, [-40.0, 1.0, 0.05, 40.0, -0.02]),      # the guess stops at the road's end
-], ids=["bend", "road-end"])
+@pytest.mark.parametrize(
+    "name", ["truck_lifted_ellipse", "truck_direct_elimination_hyperplane", "truck_conventional_ellipse"]
+)
+@pytest.mark.parametrize(
+    "road_samples, x0",
+    [
+        (141, [0.0, -4.0, 0.0, 15.0, 0.0]),  # on the bend where the old guess left the window
+        (60, [-40.0, 1.0, 0.05, 40.0, -0.02]),  # the guess stops at the road's end
+    ],
+    ids=["bend", "road-end"],
+)
 def test_cold_start_c_equals_python(gen_root: Path, name: str, road_samples: int, x0) -> None:
     """C and Python cold prepares on the hand-made bend of test_guess: stage parameters and QP data (which hold the
     guess through the dynamics, constraint and cost rows) to the verify tolerance, then the first iterate."""
     pb = preset(name)
     ocp = build_ocp(pb)
     road = BEND.window(-50.0, road_samples)
-    pose = np.array([road.to_cartesian(s, 3.0, 0.0) for s in (20.0, 35.0, 50.0)][:pb.opponents.count])
+    pose = np.array([road.to_cartesian(s, 3.0, 0.0) for s in (20.0, 35.0, 50.0)][: pb.opponents.count])
     opp = np.tile(pose, (ocp.N + 1, 1, 1))
     sv = RtiSolver(ocp)
     sv.set_road(road)
@@ -215,8 +232,7 @@ def test_cold_start_c_equals_python(gen_root: Path, name: str, road_samples: int
     assert cs.prepare() == 0
     qp = cs.get_qp()
     assert rel_diff(cs.get_opp_params(), sv.P[:, ocp.p_opp]) <= TOL_QP_DATA
-    for key, ref in (("q", sv.q), ("A_x", sv.A_data), ("l", np.clip(sv.l, -INF, INF)),
-                     ("u", np.clip(sv.u, -INF, INF))):
+    for key, ref in (("q", sv.q), ("A_x", sv.A_data), ("l", np.clip(sv.l, -INF, INF)), ("u", np.clip(sv.u, -INF, INF))):
         assert rel_diff(qp[key], ref) <= TOL_QP_DATA, key
     sv.feedback()
     assert cs.feedback() == 0
@@ -225,6 +241,7 @@ def test_cold_start_c_equals_python(gen_root: Path, name: str, road_samples: int
 
 def test_rel_diff_is_not_hidden_by_infinite_bounds():
     from fcgen.ocp import INF
+
     r = np.array([-INF, 0.5, 2.0, INF])
     c = r.copy()
     c[1] += 1e-6
@@ -232,7 +249,7 @@ def test_rel_diff_is_not_hidden_by_infinite_bounds():
     assert rel_diff(c, r) == pytest.approx(0.5e-6, rel=1e-9)
     assert rel_diff(r, r) == 0.0
     c = r.copy()
-    c[0] = -1e3                      # a finite bound where the reference has none
+    c[0] = -1e3  # a finite bound where the reference has none
     assert rel_diff(c, r) == np.inf
 
 

@@ -1,5 +1,6 @@
 """``fcgen wcet``: the probe's events on a real build, the bound's arithmetic, the example's bound computed and
 validated under QEMU, and a bound too low that the validation refuses."""
+
 from __future__ import annotations
 
 import json
@@ -11,23 +12,35 @@ import pytest
 from click.testing import CliRunner
 
 from fcgen.cli import main
-from fcgen.wcet import (BoundError, Caps, ProbeError, compute_bound, exceedances, ipm_feedback, osqp_feedback,
-                        phase_stats, read_probe)
+from fcgen.wcet import (
+    BoundError,
+    Caps,
+    ProbeError,
+    compute_bound,
+    exceedances,
+    ipm_feedback,
+    osqp_feedback,
+    phase_stats,
+    read_probe,
+)
 from fcgen.wcet.probe import SampleProbe
 from fcgen.wcet.run import RESET_EVERY, validate
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "generated" / "truck_lifted_ellipse_ipm"
 TOOLS = ("arm-none-eabi-gcc", "qemu-system-arm", "make")
-needs_toolchain = pytest.mark.skipif(any(shutil.which(t) is None for t in TOOLS),
-                                     reason="needs the arm-none-eabi toolchain and QEMU (setup.sh)")
+needs_toolchain = pytest.mark.skipif(
+    any(shutil.which(t) is None for t in TOOLS), reason="needs the arm-none-eabi toolchain and QEMU (setup.sh)"
+)
 SAMPLES = 12  # a reset before sample 10 (RESET_EVERY): two cold starts a run
 
 
 # ----------------------------------------------------------------------------- arithmetic (made-up numbers)
 
-def _sample(j: int, prepare: int, head: int, checks: list[int], steps: list[int], qp_tail: int, tail: int,
-            scan: list[int] = ()) -> SampleProbe:
+
+def _sample(
+    j: int, prepare: int, head: int, checks: list[int], steps: list[int], qp_tail: int, tail: int, scan: list[int] = ()
+) -> SampleProbe:
     feedback = head + sum(checks) + sum(steps) + qp_tail + tail
     ph = {"head": [head], "check": checks, "step": steps, "qp_tail": [qp_tail], "feedback_tail": [tail]}
     if scan:
@@ -52,8 +65,10 @@ def test_ipm_bound_is_the_caps_times_the_phase_maxima():
 
 def test_osqp_bound_spreads_fixed_cost_and_checks_over_the_iterations():
     """Per iteration: the largest (QP + tick) / iterations; charged for the budget rounded up to check_termination."""
-    samples = [SampleProbe(0, False, 50, 1000, 50, {"head": [20], "qp": [900], "feedback_tail": [30]}),
-               SampleProbe(1, False, 60, 560, 60, {"head": [25], "qp": [500], "feedback_tail": [35]})]
+    samples = [
+        SampleProbe(0, False, 50, 1000, 50, {"head": [20], "qp": [900], "feedback_tail": [30]}),
+        SampleProbe(1, False, 60, 560, 60, {"head": [25], "qp": [500], "feedback_tail": [35]}),
+    ]
     caps = Caps(rti_budget=50, warm=40, cold=50, qp_iterations=80, check_termination=40)
     b = compute_bound(samples, [60, 40], caps, "osqp", tick=0)
     assert b["per_iteration"] == 15  # max(900 / 60, 500 / 40 = 12.5)
@@ -86,8 +101,7 @@ def test_caps_are_consistent():
 def test_probe_reader(tmp_path):
     p = tmp_path / "run.json.probe"
     # prepare 10..11, feedback 12: START, CHECK, STEP, CHECK, END, 13 (ticks of 40 instructions at 25 MHz)
-    p.write_text("fcgen-probe/1 25000000 10\n"
-                 "s 0 0 9 10 100 11 110 12 111 0 113 1 120 2 140 1 147 3 148 13 150\n")
+    p.write_text("fcgen-probe/1 25000000 10\ns 0 0 9 10 100 11 110 12 111 0 113 1 120 2 140 1 147 3 148 13 150\n")
     (sp,) = read_probe(p)
     assert sp.prepare == 400 and sp.feedback == 1560
     assert sp.phases == {"head": [80], "check": [280, 280], "step": [800], "qp_tail": [40], "feedback_tail": [80]}
@@ -101,6 +115,7 @@ def test_probe_reader(tmp_path):
 
 # ----------------------------------------------------------------------------- the example under QEMU
 
+
 @pytest.fixture(scope="module")
 def example(tmp_path_factory) -> Path:
     """A copy of the example folder (its own build/: no race with other tests building the committed folder)."""
@@ -113,8 +128,23 @@ def example(tmp_path_factory) -> Path:
 def computed(example, tmp_path_factory) -> dict:
     """``fcgen wcet`` of the example on the Cortex-M7: 1 probe seed, validated on 2 seeds, SAMPLES samples each."""
     out = tmp_path_factory.mktemp("wcet_out") / "wcet.json"
-    res = CliRunner().invoke(main, ["wcet", str(example), "--target", "cortex-m7", "--seeds", "1", "--samples",
-                                    str(SAMPLES), "--validate-seeds", "2", "--out", str(out)])
+    res = CliRunner().invoke(
+        main,
+        [
+            "wcet",
+            str(example),
+            "--target",
+            "cortex-m7",
+            "--seeds",
+            "1",
+            "--samples",
+            str(SAMPLES),
+            "--validate-seeds",
+            "2",
+            "--out",
+            str(out),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "bound Minstr" in res.output and "every sample within the bound" in res.output
     return json.loads(out.read_text())
@@ -159,9 +189,25 @@ def test_example_bound_is_computed_and_validated(computed):
 
 @needs_toolchain
 def test_a_bound_too_low_fails_the_validation(example, computed, tmp_path):
-    res = CliRunner().invoke(main, ["wcet", str(example), "--target", "cortex-m7", "--seeds", "1", "--samples",
-                                    str(SAMPLES), "--validate-seeds", "1", "--bound-scale", "0.01", "--out",
-                                    str(tmp_path / "low.json")])
+    res = CliRunner().invoke(
+        main,
+        [
+            "wcet",
+            str(example),
+            "--target",
+            "cortex-m7",
+            "--seeds",
+            "1",
+            "--samples",
+            str(SAMPLES),
+            "--validate-seeds",
+            "1",
+            "--bound-scale",
+            "0.01",
+            "--out",
+            str(tmp_path / "low.json"),
+        ],
+    )
     assert res.exit_code == 1, res.output
     assert "validation failed: samples above the bound" in res.output
     low = json.loads((tmp_path / "low.json").read_text())

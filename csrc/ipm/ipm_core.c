@@ -14,11 +14,11 @@
  * One translation unit of the parts below, in this order (each uses only what comes before it). The generated
  * <name>_solver.c contains the problem header and the parts in this order (fcgen reads this list);
  * tests/c/ipm_core_test.c compiles this file on its own with a rendered header. */
-#include "ipm_dense.c"     /* small dense kernels: finiteness test, max/min, Cholesky factor and solves */
-#include "ipm_gen_rows.c"  /* a stage's general rows: the generic loops and the one switch to the written-out ones */
-#include "ipm_products.c"  /* products with A, by stage */
+#include "ipm_dense.c" /* small dense kernels: finiteness test, max/min, Cholesky factor and solves */
+#include "ipm_gen_rows.c" /* a stage's general rows: the generic loops and the one switch to the written-out ones */
+#include "ipm_products.c" /* products with A, by stage */
 #include "ipm_soft_rows.c" /* the soft rows' fused passes */
-#include "ipm_res.c"       /* residuals and stopping tests */
-#include "ipm_kkt.c"       /* the Newton system: factorization, backward and forward sweeps */
-#include "ipm_step.c"      /* the sides' steps, one Newton direction, the predictor-corrector step */
-#include "ipm_solve.c"     /* the backend interface: reset, prepare, solve */
+#include "ipm_res.c" /* residuals and stopping tests */
+#include "ipm_kkt.c" /* the Newton system: factorization, backward and forward sweeps */
+#include "ipm_step.c" /* the sides' steps, one Newton direction, the predictor-corrector step */
+#include "ipm_solve.c" /* the backend interface: reset, prepare, solve */

@@ -219,7 +219,8 @@ static void ipm_sr_forward_rows(int j, int corr, ipm_real_t sm, ipm_real_t am, c
     const ipm_real_t dl1 = (-(rc1 + (l1 * dt1))) * it1;
     const ipm_real_t dt2 = (bb * ds) + rp2;
     const ipm_real_t dl2 = (-(rc2 + (l2 * dt2))) * it2;
-    const ipm_real_t least = ipm_min(ipm_min(t1 + (am * dt1), l1 + (am * dl1)), ipm_min(t2 + (am * dt2), l2 + (am * dl2)));
+    const ipm_real_t least =
+        ipm_min(ipm_min(t1 + (am * dt1), l1 + (am * dl1)), ipm_min(t2 + (am * dt2), l2 + (am * dl2)));
     IPM_SR.dzs[i] = ds;
     IPM_SR.dt1[i] = dt1;
     IPM_SR.dl1[i] = dl1;

@@ -171,8 +171,8 @@ static void ipm_centre(void) {
 }
 
 /* the QP of this sample (q, bounds l <= A z <= u) from z = 0 and the warm duals y_warm, at most max_iter steps */
-static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
-                     const ipm_real_t *y_warm, int max_iter, qpb_result_t *res) {
+static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u, const ipm_real_t *y_warm,
+                     int max_iter, qpb_result_t *res) {
   int j;
   int it = 0;
   int raw = IPM_GOING;

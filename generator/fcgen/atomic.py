@@ -11,6 +11,7 @@
 Leftovers of a killed call are hidden folders/files named ``.<name>.fcgen-new-*`` / ``.<name>.fcgen-old-*`` /
 ``.<name>.*.tmp`` beside the target: never read by fcgen, safe to delete.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -110,8 +111,10 @@ def check_file_target(path: Path | str, what: str, force: bool = False, option: 
     if path.is_dir():
         raise ValueError(f"{option} {path}: is a folder; allowed a file path ({what}); nothing computed")
     if path.exists() and not force:
-        raise ValueError(f"{option} {path}: exists ({what} of an earlier call, {path.stat().st_size} bytes) and "
-                         f"would be replaced; nothing computed: choose another path or add --force")
+        raise ValueError(
+            f"{option} {path}: exists ({what} of an earlier call, {path.stat().st_size} bytes) and "
+            f"would be replaced; nothing computed: choose another path or add --force"
+        )
     return path
 
 
@@ -127,8 +130,10 @@ def check_folder_target(path: Path | str, what: str, option: str = "--out") -> P
     if path.is_dir():
         here, target = Path.cwd().resolve(), path.resolve()
         if here == target or target in here.parents:
-            raise ValueError(f"{option} {path}: holds the current directory; the folder is replaced as a whole: "
-                             f"run fcgen from outside it")
+            raise ValueError(
+                f"{option} {path}: holds the current directory; the folder is replaced as a whole: "
+                f"run fcgen from outside it"
+            )
     return path
 
 
@@ -163,7 +168,7 @@ def replace_folder(new: Path, out: Path) -> None:
         os.replace(new, out)
         _fsync_dir(out.parent)
         return
-    if exchange(new, out):      # ``new`` now names the old folder
+    if exchange(new, out):  # ``new`` now names the old folder
         _fsync_dir(out.parent)
         shutil.rmtree(new, ignore_errors=True)
         return
@@ -182,7 +187,7 @@ def replace_folder(new: Path, out: Path) -> None:
 def staged_folder(out: Path | str) -> Iterator[Path]:
     """A temporary folder beside ``out`` to write into; it replaces ``out`` when the block ends without an
     exception. On an exception or interrupt it is removed and ``out`` is untouched."""
-    out = Path(os.path.realpath(out))   # a symlinked folder: its target is replaced, the link stays
+    out = Path(os.path.realpath(out))  # a symlinked folder: its target is replaced, the link stays
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.fcgen-new-", dir=out.parent))
     try:

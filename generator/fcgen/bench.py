@@ -6,6 +6,7 @@ reference controller (timed with ``time.perf_counter`` inside ``RtiSolver``). Pe
 feedback and total time (median, p99, max, mean; ms) over all samples of all seeds, QP iterations (mean, max),
 QP status counts, and closed-loop quality per seed (progress, collision samples, max slack, max |a_lat|).
 """
+
 from __future__ import annotations
 
 import json
@@ -36,14 +37,19 @@ def _stats_ms(x: np.ndarray) -> dict[str, float]:
     if x.size == 0:
         return {k: math.nan for k in STAT_KEYS}
     ms = 1e3 * np.asarray(x, dtype=float)
-    return {"median": float(np.median(ms)), "p99": float(np.percentile(ms, 99)), "max": float(np.max(ms)),
-            "mean": float(np.mean(ms))}
+    return {
+        "median": float(np.median(ms)),
+        "p99": float(np.percentile(ms, 99)),
+        "max": float(np.max(ms)),
+        "mean": float(np.mean(ms)),
+    }
 
 
 def _makefile_cflags(gen_dir: Path) -> str | None:
     """The default ``CFLAGS ?= ...`` of a generated Makefile (what a plain ``make`` uses unless $CFLAGS is set)."""
     import os
     import re
+
     if os.environ.get("CFLAGS"):
         return os.environ["CFLAGS"]
     mk = gen_dir / "Makefile"
@@ -65,10 +71,17 @@ def aggregate(logs: list) -> dict:
     runs = []
     for lg in logs:
         s = summary(lg)
-        runs.append({"seed": int(lg.meta["seed"]), "samples": s["n_controls"], "progress": s["progress"],
-                     "collision_samples": s["n_collision_samples"], "max_slack": s["max_slack"],
-                     "max_abs_a_lat": s["max_abs_a_lat"],
-                     "nonzero_exit_codes": int(lg.meta["extra"].get("exit_codes_nonzero", 0))})
+        runs.append(
+            {
+                "seed": int(lg.meta["seed"]),
+                "samples": s["n_controls"],
+                "progress": s["progress"],
+                "collision_samples": s["n_collision_samples"],
+                "max_slack": s["max_slack"],
+                "max_abs_a_lat": s["max_abs_a_lat"],
+                "nonzero_exit_codes": int(lg.meta["extra"].get("exit_codes_nonzero", 0)),
+            }
+        )
 
     def mean(key):
         return float(np.mean([r[key] for r in runs]))
@@ -79,19 +92,30 @@ def aggregate(logs: list) -> dict:
         "time_ms": {"prepare": _stats_ms(tp), "feedback": _stats_ms(tf), "total": _stats_ms(tp + tf)},
         "qp_iter": {"mean": float(np.mean(qi)), "max": int(np.max(qi))},
         "qp_status_counts": dict(sorted(counts.items())),
-        "quality": {"progress_mean": mean("progress"), "collision_samples": int(sum(r["collision_samples"]
-                                                                                    for r in runs)),
-                    "runs_with_collision": int(sum(r["collision_samples"] > 0 for r in runs)),
-                    "max_slack": float(np.max([r["max_slack"] for r in runs])),
-                    "max_abs_a_lat": float(np.max([r["max_abs_a_lat"] for r in runs])),
-                    "nonzero_exit_codes": int(sum(r["nonzero_exit_codes"] for r in runs))},
+        "quality": {
+            "progress_mean": mean("progress"),
+            "collision_samples": int(sum(r["collision_samples"] for r in runs)),
+            "runs_with_collision": int(sum(r["collision_samples"] > 0 for r in runs)),
+            "max_slack": float(np.max([r["max_slack"] for r in runs])),
+            "max_abs_a_lat": float(np.max([r["max_abs_a_lat"] for r in runs])),
+            "nonzero_exit_codes": int(sum(r["nonzero_exit_codes"] for r in runs)),
+        },
         "per_run": runs,
     }
 
 
-def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, samples: int = 200,
-          python: bool = True, python_seeds: int | None = None, python_samples: int | None = None,
-          cc: str | None = None, cflags: str | None = None, progress: bool = False) -> dict:
+def bench(
+    folder: FolderLike,
+    scenario: str | None = None,
+    seeds: int = 3,
+    samples: int = 200,
+    python: bool = True,
+    python_seeds: int | None = None,
+    python_samples: int | None = None,
+    cc: str | None = None,
+    cflags: str | None = None,
+    progress: bool = False,
+) -> dict:
     """Benchmark a generated folder (a :class:`~.solver_folder.SolverFolder` or its path); returns the JSON-able
     results (see ``format_bench``).
 
@@ -120,8 +144,11 @@ def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, sampl
         logs_c.append(run_closed_loop(pb, sc, controller=cs, ocp=ocp, progress=progress))
         wall["c"] += time.perf_counter() - t0
         if python and seed < py_seeds:
-            sc_py = sc if py_samples == samples else make_scenario(scenario, seed, n_opp=pb.opponents.count,
-                                                                   samples=py_samples, dt=pb.horizon.dt)
+            sc_py = (
+                sc
+                if py_samples == samples
+                else make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=py_samples, dt=pb.horizon.dt)
+            )
             t0 = time.perf_counter()
             logs_py.append(run_closed_loop(pb, sc_py, ocp=ocp, progress=progress))
             wall["python"] += time.perf_counter() - t0
@@ -135,10 +162,19 @@ def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, sampl
         "scenario": scenario,
         "seeds": list(range(seeds)),
         "samples": samples,
-        "build": {"library": str(lib), "variant": "optimized (default)", "cc": cc,
-                  "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir), "build_seconds": t_build},
-        "host": {"machine": platform.machine(), "processor": platform.processor(), "python": platform.python_version(),
-                 "system": platform.system()},
+        "build": {
+            "library": str(lib),
+            "variant": "optimized (default)",
+            "cc": cc,
+            "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir),
+            "build_seconds": t_build,
+        },
+        "host": {
+            "machine": platform.machine(),
+            "processor": platform.processor(),
+            "python": platform.python_version(),
+            "system": platform.system(),
+        },
         "sizes": {k: cs.sizes[k] for k in ("N", "NX", "QP_N", "QP_M", "QP_NNZ_A") if k in cs.sizes},
         "c": aggregate(logs_c),
         "python": None,
@@ -149,8 +185,9 @@ def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, sampl
         res["python"]["seeds"] = list(range(py_seeds))
         res["python"]["samples_per_run"] = py_samples
         tc, tpy = res["c"]["time_ms"], res["python"]["time_ms"]
-        res["speedup_python_over_c"] = {k: tpy[k]["median"] / tc[k]["median"] if tc[k]["median"] > 0 else math.nan
-                                        for k in TIME_KEYS}
+        res["speedup_python_over_c"] = {
+            k: tpy[k]["median"] / tc[k]["median"] if tc[k]["median"] > 0 else math.nan for k in TIME_KEYS
+        }
         same = py_samples == samples
         res["python_same_runs"] = same and py_seeds == seeds
         if same:
@@ -163,18 +200,20 @@ def bench(folder: FolderLike, scenario: str | None = None, seeds: int = 3, sampl
 def write_results(res: dict, out: Path | str) -> Path:
     """The results as JSON, written atomically (``fcgen.atomic``)."""
     from .atomic import write_text
+
     return write_text(out, json.dumps(res, indent=1, sort_keys=True, default=float) + "\n")
 
 
 def format_bench(res: dict) -> str:
     """A text table of ``bench`` results."""
     ctrl = [("C", res["c"])] + ([("Python", res["python"])] if res.get("python") else [])
-    lines = [f"bench {res['solver']} ({res['formulation']}, {res['obstacle_model']}): {res['scenario']} scenario, "
-             f"seeds {res['seeds'][0]}..{res['seeds'][-1]}, {res['samples']} samples each; C = optimized build"]
+    lines = [
+        f"bench {res['solver']} ({res['formulation']}, {res['obstacle_model']}): {res['scenario']} scenario, "
+        f"seeds {res['seeds'][0]}..{res['seeds'][-1]}, {res['samples']} samples each; C = optimized build"
+    ]
     if res.get("python"):
         py = res["python"]
-        lines[0] += (f"; Python reference on seeds {py['seeds'][0]}..{py['seeds'][-1]} x "
-                     f"{py['samples_per_run']} samples")
+        lines[0] += f"; Python reference on seeds {py['seeds'][0]}..{py['seeds'][-1]} x {py['samples_per_run']} samples"
     hdr = ("controller", "phase", "median ms", "p99 ms", "max ms", "mean ms")
     rows = [hdr]
     for label, r in ctrl:
@@ -187,16 +226,31 @@ def format_bench(res: dict) -> str:
         if i == 0:
             lines.append("  ".join("-" * v for v in w))
     lines.append("")
-    hdr = ("controller", "QP iter mean", "QP iter max", "QP status [samples]", "progress m",
-           "collision samples (runs)", "max slack", "max |a_lat| m/s^2")
+    hdr = (
+        "controller",
+        "QP iter mean",
+        "QP iter max",
+        "QP status [samples]",
+        "progress m",
+        "collision samples (runs)",
+        "max slack",
+        "max |a_lat| m/s^2",
+    )
     rows = [hdr]
     for label, r in ctrl:
         q = r["quality"]
-        rows.append((label, f"{r['qp_iter']['mean']:.1f}", str(r["qp_iter"]["max"]),
-                     ", ".join(f"{k} {v}" for k, v in r["qp_status_counts"].items()),
-                     f"{q['progress_mean']:.2f}",
-                     f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
-                     f"{q['max_slack']:.3g}", f"{q['max_abs_a_lat']:.2f}"))
+        rows.append(
+            (
+                label,
+                f"{r['qp_iter']['mean']:.1f}",
+                str(r["qp_iter"]["max"]),
+                ", ".join(f"{k} {v}" for k, v in r["qp_status_counts"].items()),
+                f"{q['progress_mean']:.2f}",
+                f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
+                f"{q['max_slack']:.3g}",
+                f"{q['max_abs_a_lat']:.2f}",
+            )
+        )
     w = [max(len(x[i]) for x in rows) for i in range(len(hdr))]
     for i, x in enumerate(rows):
         lines.append("  ".join(s.ljust(w[j]) if j in (0, 3) else s.rjust(w[j]) for j, s in enumerate(x)))
@@ -207,20 +261,28 @@ def format_bench(res: dict) -> str:
         lines.append("")
         lines.append("Python / C median time: " + ", ".join(f"{k} {sp[k]:.1f}x" for k in TIME_KEYS))
     if "max_abs_state_diff_c_vs_python" in res:
-        lines.append(f"max |state difference| C (optimized) vs Python closed loops: "
-                     f"{res['max_abs_state_diff_c_vs_python']:.3g}")
+        lines.append(
+            f"max |state difference| C (optimized) vs Python closed loops: {res['max_abs_state_diff_c_vs_python']:.3g}"
+        )
     return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------------- deterministic cost on a target
 
+
 def _instr_stats(x: np.ndarray) -> dict[str, float]:
-    return {"median": float(np.median(x)), "max": float(np.max(x)), "min": float(np.min(x)),
-            "mean": float(np.mean(x))}
+    return {"median": float(np.median(x)), "max": float(np.max(x)), "min": float(np.min(x)), "mean": float(np.mean(x))}
 
 
-def bench_target(folder: FolderLike, target: str, scenario: str | None = None, seeds: int = 1,
-                 samples: int = 50, timeout: float | None = None, cflags: str | None = None) -> dict:
+def bench_target(
+    folder: FolderLike,
+    target: str,
+    scenario: str | None = None,
+    seeds: int = 1,
+    samples: int = 50,
+    timeout: float | None = None,
+    cflags: str | None = None,
+) -> dict:
     """Instructions per prepare and per feedback on an emulated target (``fcgen bench --target``).
 
     Runs the bare-metal closed loop (``firmware_sim`` image) under QEMU with ``-icount shift=0``: every
@@ -230,8 +292,10 @@ def bench_target(folder: FolderLike, target: str, scenario: str | None = None, s
     """
     tgt = get_target(target)
     if not tgt.bare_metal:
-        raise ValueError(f"--target {target}: instruction counts need an emulated target "
-                         f"({', '.join(t for t, v in TARGETS.items() if v.bare_metal)})")
+        raise ValueError(
+            f"--target {target}: instruction counts need an emulated target "
+            f"({', '.join(t for t, v in TARGETS.items() if v.bare_metal)})"
+        )
     folder = as_folder(folder)
     name, pb, gen_dir = folder.name, folder.problem, folder.path
     scenario = scenario or infer_scenario(pb)
@@ -239,8 +303,7 @@ def bench_target(folder: FolderLike, target: str, scenario: str | None = None, s
     t0 = time.perf_counter()
     for seed in range(seeds):
         out = gen_dir / tgt.build_subdir / "bench" / f"run_{scenario}_seed{seed}_{samples}.json"
-        logs.append(firmware_sim(folder, scenario, seed, samples, out, target=target, timeout=timeout,
-                                cflags=cflags))
+        logs.append(firmware_sim(folder, scenario, seed, samples, out, target=target, timeout=timeout, cflags=cflags))
     wall = time.perf_counter() - t0
     scale = tgt.instructions_per_second
     tp = np.round(np.concatenate([lg.time_prepare for lg in logs]) * scale)
@@ -248,23 +311,34 @@ def bench_target(folder: FolderLike, target: str, scenario: str | None = None, s
     qi = np.concatenate([lg.qp_iter for lg in logs])
     agg = aggregate(logs)
     return {
-        "format": "fcgen-bench-target/1", "solver": name, "gen_dir": str(gen_dir), "target": tgt.name,
-        "target_description": tgt.description, "qemu_machine": tgt.qemu_machine,
+        "format": "fcgen-bench-target/1",
+        "solver": name,
+        "gen_dir": str(gen_dir),
+        "target": tgt.name,
+        "target_description": tgt.description,
+        "qemu_machine": tgt.qemu_machine,
         "cflags": tgt.cflags(cflags if cflags is not None else "-O2"),
-        "problem": pb.name, "scenario": scenario, "seeds": list(range(seeds)), "samples": samples,
+        "problem": pb.name,
+        "scenario": scenario,
+        "seeds": list(range(seeds)),
+        "samples": samples,
         "granularity_instructions": scale / tgt.systick_hz,
         "instructions": {"prepare": _instr_stats(tp), "feedback": _instr_stats(tf), "total": _instr_stats(tp + tf)},
         "feedback_per_qp_iteration": float(np.median(tf / np.maximum(qi, 1))),
-        "qp_iter": agg["qp_iter"], "qp_status_counts": agg["qp_status_counts"], "quality": agg["quality"],
+        "qp_iter": agg["qp_iter"],
+        "qp_status_counts": agg["qp_status_counts"],
+        "quality": agg["quality"],
         "wall_seconds": wall,
     }
 
 
 def format_bench_target(res: dict) -> str:
     """A text table of ``bench_target`` results (millions of instructions)."""
-    lines = [f"bench {res['solver']} on {res['target']} ({res['target_description']}), QEMU -icount shift=0: "
-             f"{res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, {res['samples']} samples "
-             f"each; granularity {res['granularity_instructions']:.0f} instructions"]
+    lines = [
+        f"bench {res['solver']} on {res['target']} ({res['target_description']}), QEMU -icount shift=0: "
+        f"{res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, {res['samples']} samples "
+        f"each; granularity {res['granularity_instructions']:.0f} instructions"
+    ]
     rows = [("phase", "median Minstr", "max Minstr", "mean Minstr")]
     for k in ("prepare", "feedback", "total"):
         s = res["instructions"][k]
@@ -275,10 +349,12 @@ def format_bench_target(res: dict) -> str:
         if i == 0:
             lines.append("  ".join("-" * v for v in w))
     q = res["quality"]
-    lines.append(f"feedback per QP iteration (median): {res['feedback_per_qp_iteration'] / 1e6:.3f} Minstr | "
-                 f"QP iterations mean {res['qp_iter']['mean']:.1f}, max {res['qp_iter']['max']} | QP status "
-                 + ", ".join(f"{k} {v}" for k, v in res["qp_status_counts"].items())
-                 + f" | progress {q['progress_mean']:.2f} m, collision samples {q['collision_samples']}")
+    lines.append(
+        f"feedback per QP iteration (median): {res['feedback_per_qp_iteration'] / 1e6:.3f} Minstr | "
+        f"QP iterations mean {res['qp_iter']['mean']:.1f}, max {res['qp_iter']['max']} | QP status "
+        + ", ".join(f"{k} {v}" for k, v in res["qp_status_counts"].items())
+        + f" | progress {q['progress_mean']:.2f} m, collision samples {q['collision_samples']}"
+    )
     return "\n".join(lines)
 
 
@@ -293,8 +369,9 @@ def parse_backends(text: str) -> list[str]:
     variants = [v.strip() for v in text.split(",") if v.strip()]
     bad = [v for v in variants if v not in BACKEND_VARIANTS]
     if bad or not variants:
-        raise ValueError(f"--backends: {', '.join(bad) or 'empty'} invalid; allowed a comma list of "
-                         f"{', '.join(BACKEND_VARIANTS)}")
+        raise ValueError(
+            f"--backends: {', '.join(bad) or 'empty'} invalid; allowed a comma list of {', '.join(BACKEND_VARIANTS)}"
+        )
     return variants
 
 
@@ -303,6 +380,7 @@ def variant_qp(variant: str, own):
     import dataclasses
 
     from .dsl import QpOptions
+
     if variant == "osqp":
         return own if own.backend == "osqp" and own.max_iter < 1000 else QpOptions()
     if variant == "osqp-converged":
@@ -312,9 +390,17 @@ def variant_qp(variant: str, own):
     raise ValueError(f"backends: {variant!r} is not a variant; allowed: {', '.join(BACKEND_VARIANTS)}")
 
 
-def bench_backends(folder: FolderLike, variants: list[str], scenario: str | None = None, seeds: int = 3,
-                   samples: int = 200, cc: str | None = None, cflags: str | None = None,
-                   progress: bool = False, clock: str = "wall") -> dict:
+def bench_backends(
+    folder: FolderLike,
+    variants: list[str],
+    scenario: str | None = None,
+    seeds: int = 3,
+    samples: int = 200,
+    cc: str | None = None,
+    cflags: str | None = None,
+    progress: bool = False,
+    clock: str = "wall",
+) -> dict:
     """One run, several QP backends: the folder's problem generated once per variant (``<dir>/build/variants``),
     built with the same flags, then per seed one closed loop of each variant in turn (alternating, so machine load
     is shared alike). Ratios against the first variant's median time per RTI."""
@@ -345,10 +431,19 @@ def bench_backends(folder: FolderLike, variants: list[str], scenario: str | None
             if solvers[v].init() != 0:
                 raise RuntimeError(f"{v}: init() failed")
             logs[v].append(run_closed_loop(pb, sc, controller=solvers[v], ocp=ocp, progress=progress))
-    res = {"format": "fcgen-bench-backends/1", "problem": pb.name, "gen_dir": str(gen_dir), "scenario": scenario,
-           "seeds": list(range(seeds)), "samples": samples, "variants": list(variants),
-           "build": {"cc": cc, "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir)}, "clock": clock,
-           "host": {"machine": platform.machine(), "processor": platform.processor()}, "results": {}}
+    res = {
+        "format": "fcgen-bench-backends/1",
+        "problem": pb.name,
+        "gen_dir": str(gen_dir),
+        "scenario": scenario,
+        "seeds": list(range(seeds)),
+        "samples": samples,
+        "variants": list(variants),
+        "build": {"cc": cc, "cflags": cflags if cflags is not None else _makefile_cflags(gen_dir)},
+        "clock": clock,
+        "host": {"machine": platform.machine(), "processor": platform.processor()},
+        "results": {},
+    }
     base = variants[0]
     for v in variants:
         agg = aggregate(logs[v])
@@ -370,22 +465,48 @@ def bench_backends(folder: FolderLike, variants: list[str], scenario: str | None
 def format_backends(res: dict) -> str:
     """A text table of ``bench_backends`` results."""
     base = res["variants"][0]
-    lines = [f"bench {res['problem']}: {res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, "
-             f"{res['samples']} samples each, backends alternated per seed; CFLAGS {res['build']['cflags']}; "
-             f"{res['clock']} clock"]
-    hdr = ("backend", "median ms", "p99 ms", "max ms", "prep med", "fb med", f"x vs {base}", "QP iter mean/max",
-           "QP solved", "progress m", "vs converged", "collisions", "static RAM")
+    lines = [
+        f"bench {res['problem']}: {res['scenario']} scenario, seeds {res['seeds'][0]}..{res['seeds'][-1]}, "
+        f"{res['samples']} samples each, backends alternated per seed; CFLAGS {res['build']['cflags']}; "
+        f"{res['clock']} clock"
+    ]
+    hdr = (
+        "backend",
+        "median ms",
+        "p99 ms",
+        "max ms",
+        "prep med",
+        "fb med",
+        f"x vs {base}",
+        "QP iter mean/max",
+        "QP solved",
+        "progress m",
+        "vs converged",
+        "collisions",
+        "static RAM",
+    )
     rows = [hdr]
     for v in res["variants"]:
         r = res["results"][v]
         t = r["time_ms"]
         pc = r.get("progress_vs_converged_pct")
-        rows.append((v, f"{t['total']['median']:.3f}", f"{t['total']['p99']:.3f}", f"{t['total']['max']:.3f}",
-                     f"{t['prepare']['median']:.3f}", f"{t['feedback']['median']:.3f}",
-                     f"{r['speedup_vs_' + base]:.2f}", f"{r['qp_iter']['mean']:.1f}/{r['qp_iter']['max']}",
-                     f"{100 * r['qp_solved_fraction']:.1f} %", f"{r['quality']['progress_mean']:.2f}",
-                     "-" if pc is None else f"{pc:+.3f} %", str(r["quality"]["collision_samples"]),
-                     f"{r['static_ram_bytes'] / 1024:.1f} KiB"))
+        rows.append(
+            (
+                v,
+                f"{t['total']['median']:.3f}",
+                f"{t['total']['p99']:.3f}",
+                f"{t['total']['max']:.3f}",
+                f"{t['prepare']['median']:.3f}",
+                f"{t['feedback']['median']:.3f}",
+                f"{r['speedup_vs_' + base]:.2f}",
+                f"{r['qp_iter']['mean']:.1f}/{r['qp_iter']['max']}",
+                f"{100 * r['qp_solved_fraction']:.1f} %",
+                f"{r['quality']['progress_mean']:.2f}",
+                "-" if pc is None else f"{pc:+.3f} %",
+                str(r["quality"]["collision_samples"]),
+                f"{r['static_ram_bytes'] / 1024:.1f} KiB",
+            )
+        )
     w = [max(len(x[i]) for x in rows) for i in range(len(hdr))]
     for i, x in enumerate(rows):
         lines.append("  ".join(s.ljust(w[j]) if j == 0 else s.rjust(w[j]) for j, s in enumerate(x)))

@@ -3,6 +3,7 @@
 The folder is a :class:`~.solver_folder.SolverFolder` (or its path, then read and checked once); the library is
 loaded by ``fcgen.csolver.CSolver``.
 """
+
 from __future__ import annotations
 
 import os
@@ -22,8 +23,13 @@ class BuildError(RuntimeError):
     """``make`` failed; the message holds its output."""
 
 
-def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cflags: str | None = None,
-             error: type[Exception] | None = None) -> None:
+def run_make(
+    folder: Path | str,
+    variables: list[str],
+    cc: str | None = None,
+    cflags: str | None = None,
+    error: type[Exception] | None = None,
+) -> None:
     """``make -C folder VAR=value ...`` (plus CC/CFLAGS when given); raises ``error`` with make's output."""
     cmd = ["make", "-C", str(folder), *variables]
     if cc:
@@ -35,8 +41,16 @@ def run_make(folder: Path | str, variables: list[str], cc: str | None = None, cf
         raise (error or BuildError)(f"{' '.join(cmd)} failed:\n{res.stdout[-4000:]}\n{res.stderr[-4000:]}")
 
 
-def build(folder: FolderLike, verify: bool = False, cc: str | None = None, cflags: str | None = None,
-          jobs: int | None = None, target: str = "host", extra_cflags: str = "", variant: str | None = None) -> Path:
+def build(
+    folder: FolderLike,
+    verify: bool = False,
+    cc: str | None = None,
+    cflags: str | None = None,
+    jobs: int | None = None,
+    target: str = "host",
+    extra_cflags: str = "",
+    variant: str | None = None,
+) -> Path:
     """Run ``make`` in a generated folder (syncing the QP backend's library copy); returns the main product.
 
     A path is read and checked first (:func:`~.solver_folder.read_folder`: a missing file or a header whose sizes
@@ -61,6 +75,10 @@ def build(folder: FolderLike, verify: bool = False, cc: str | None = None, cflag
         cflags = tgt.cflags(cflags if cflags is not None else "-O2")
     if extra_cflags:
         cflags = f"{cflags if cflags is not None else '-O2'} {extra_cflags}"
-    run_make(folder.path, [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}",
-                           *tgt.make_variables()], cc, cflags)
+    run_make(
+        folder.path,
+        [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}", *tgt.make_variables()],
+        cc,
+        cflags,
+    )
     return folder.lib(verify, target, variant)

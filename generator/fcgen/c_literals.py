@@ -2,6 +2,7 @@
 
 A low module (it imports nothing of fcgen): the generator and the QP backends' C emission write their tables with it.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,12 +25,12 @@ def c_real_literal(x: float, use_float: bool) -> str:
 def c_macro_list(values: Sequence, per_line: int = 20) -> str:
     """A brace initializer as a macro's body, continued over lines of ``per_line`` values."""
     items = [str(v) for v in values]
-    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+    lines = [", ".join(items[i : i + per_line]) for i in range(0, len(items), per_line)]
     return "{" + ", \\\n  ".join(lines) + "}"
 
 
 def c_list(values: Sequence, fmt: Callable[..., str] = str, per_line: int = 12) -> str:
     """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
     items = [fmt(v) for v in values] or ["0"]
-    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+    lines = [", ".join(items[i : i + per_line]) for i in range(0, len(items), per_line)]
     return ",\n  ".join(lines)

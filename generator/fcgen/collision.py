@@ -97,8 +97,12 @@ def sat_overlap(c1: ArrayLike, c2: ArrayLike) -> NDArray[np.float64]:
     c1, c2 = np.broadcast_arrays(c1, c2)
     # For a rectangle the two edge directions are also the two edge normals.
     edges = np.stack(
-        [c1[..., 1, :] - c1[..., 0, :], c1[..., 2, :] - c1[..., 1, :],
-         c2[..., 1, :] - c2[..., 0, :], c2[..., 2, :] - c2[..., 1, :]],
+        [
+            c1[..., 1, :] - c1[..., 0, :],
+            c1[..., 2, :] - c1[..., 1, :],
+            c2[..., 1, :] - c2[..., 0, :],
+            c2[..., 2, :] - c2[..., 1, :],
+        ],
         axis=-2,
     )  # (..., 4 axes, 2)
     norms = np.linalg.norm(edges, axis=-1, keepdims=True)
@@ -145,7 +149,7 @@ def _run_overlaps(
     _check_edges(ego_c, ego_dims)
     ego_mid, ego_r = _circle(ego_c, ego_dims)
     out = np.full((k, n_opp), -np.inf)
-    pairs = []   # (opponent, its near samples, its corners there)
+    pairs = []  # (opponent, its near samples, its corners there)
     for i, dims in enumerate(opp_dims):
         opp_c = corners_from_dims(opp_pose[:, i, :], dims)
         _check_edges(opp_c, dims)
@@ -159,18 +163,21 @@ def _run_overlaps(
         along /= np.hypot(along[:, 0], along[:, 1])[:, None]
         d_along, d_across = d[:, 0] * along[:, 0] + d[:, 1] * along[:, 1], d[:, 1] * along[:, 0] - d[:, 0] * along[:, 1]
         half_l, half_w = 0.5 * (float(dims["l_r_ch"]) + float(dims["l_f_ch"])), 0.5 * float(dims["w_ch"])
-        apart = ((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] > reach * reach)
-                 | (np.abs(d_along) > half_l + ego_r + PREFILTER_MARGIN)
-                 | (np.abs(d_across) > half_w + ego_r + PREFILTER_MARGIN))
+        apart = (
+            (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] > reach * reach)
+            | (np.abs(d_along) > half_l + ego_r + PREFILTER_MARGIN)
+            | (np.abs(d_across) > half_w + ego_r + PREFILTER_MARGIN)
+        )
         near = np.flatnonzero(~apart)
         if near.size:
             pairs.append((i, near, opp_c[near]))
-    if pairs:   # every opponent's near pairs in one SAT call (elementwise: the values of one call per pair)
-        overlap = sat_overlap(np.concatenate([ego_c[near] for _, near, _ in pairs]),
-                              np.concatenate([c for _, _, c in pairs]))
+    if pairs:  # every opponent's near pairs in one SAT call (elementwise: the values of one call per pair)
+        overlap = sat_overlap(
+            np.concatenate([ego_c[near] for _, near, _ in pairs]), np.concatenate([c for _, _, c in pairs])
+        )
         start = 0
         for i, near, _ in pairs:
-            out[near, i] = overlap[start: start + near.size]
+            out[near, i] = overlap[start : start + near.size]
             start += near.size
     return out
 

@@ -4,16 +4,34 @@ one sample's result and the tick rate of the host clocks.
 A low module (numpy only) so that the reference, the code generator, the C binding and the closed loop share one
 definition without importing each other.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-EXIT_CODES = ("OK", "ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_NONFINITE_STATE", "ERR_NONFINITE_OPPONENTS",
-              "ERR_NONFINITE_ROAD", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_QP", "ERR_QP_INFEASIBLE",
-              "ERR_QP_DUAL_INFEASIBLE", "ERR_QP_NONCONVEX", "ERR_QP_NONFINITE", "ERR_QP_NUMERICAL", "ERR_OPP_FRENET",
-              "ERR_QP_INPUT_BOUNDS", "ERR_ROAD_BOUNDS", "ERR_OPP_SHAPE", "ERR_REFERENCE")
+EXIT_CODES = (
+    "OK",
+    "ERR_NOT_PREPARED",
+    "ERR_NO_STATE",
+    "ERR_NONFINITE_STATE",
+    "ERR_NONFINITE_OPPONENTS",
+    "ERR_NONFINITE_ROAD",
+    "ERR_ROAD_WINDOW",
+    "ERR_ROAD_SIZE",
+    "ERR_QP",
+    "ERR_QP_INFEASIBLE",
+    "ERR_QP_DUAL_INFEASIBLE",
+    "ERR_QP_NONCONVEX",
+    "ERR_QP_NONFINITE",
+    "ERR_QP_NUMERICAL",
+    "ERR_OPP_FRENET",
+    "ERR_QP_INPUT_BOUNDS",
+    "ERR_ROAD_BOUNDS",
+    "ERR_OPP_SHAPE",
+    "ERR_REFERENCE",
+)
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
 appended, so a code keeps its number)."""
 
@@ -27,18 +45,18 @@ class Status:
     """What one sample's solve reports (mirrors the C status struct)."""
 
     exit_code: int = 0
-    qp_status: int = 0      # generic QP_* status (fcgen.backends.QP_STATUSES; 0: no QP solved)
+    qp_status: int = 0  # generic QP_* status (fcgen.backends.QP_STATUSES; 0: no QP solved)
     qp_raw_status: int = 0  # the backend's own status value
     qp_iter: int = 0
-    u_projected: int = 0       # 1: get_u0 is the plan's u0 projected on the input box
-    u_violation: float = 0.0   # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
-    opp_outside: int = 0       # conventional: (stage, opponent) pairs the last prepare left out (off the road)
-    qp_unusable_run: int = 0   # feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart)
-    cold_restarts: int = 0     # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
+    u_projected: int = 0  # 1: get_u0 is the plan's u0 projected on the input box
+    u_violation: float = 0.0  # how far the plan's u0 left the box: max_i excess_i / limit_i (0: inside)
+    opp_outside: int = 0  # conventional: (stage, opponent) pairs the last prepare left out (off the road)
+    qp_unusable_run: int = 0  # feedbacks in a row whose QP was unusable (0 after an OK one and after a cold restart)
+    cold_restarts: int = 0  # prepares that cold-started after qp.cold_restart_after unusable QPs in a row
     plan_clearance_stage: int = 0  # the stage of plan_clearance (-1: no opponent)
-    plan_reaction: int = 0     # 1: the plan check braked (get_u0 is the braking control, not the plan's u0)
-    a_lat_guard: int = 0       # 1: the a_lat guard set get_u0's steering rate, 2: it braked too (PlanCheck.a_lat_guard)
-    plan_clearance: float = 0.0    # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
+    plan_reaction: int = 0  # 1: the plan check braked (get_u0 is the braking control, not the plan's u0)
+    a_lat_guard: int = 0  # 1: the a_lat guard set get_u0's steering rate, 2: it braked too (PlanCheck.a_lat_guard)
+    plan_clearance: float = 0.0  # the plan's smallest SAT clearance to an opponent over stages 0..N, m (inf: none)
     time_prepare: float = 0.0
     time_feedback: float = 0.0
 
@@ -54,5 +72,5 @@ class StepResult:
     time_prepare: float
     time_feedback: float
     max_slack: float
-    plan_reaction: int = 0     # 1: the plan check braked this sample (status.plan_reaction)
-    a_lat_guard: int = 0       # 1: the a_lat guard set the steering rate, 2: it braked too (status.a_lat_guard)
+    plan_reaction: int = 0  # 1: the plan check braked this sample (status.plan_reaction)
+    a_lat_guard: int = 0  # 1: the a_lat guard set the steering rate, 2: it braked too (status.a_lat_guard)

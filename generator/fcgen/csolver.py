@@ -3,6 +3,7 @@
 for tests and verification. One process shares one static workspace per loaded library: loading the same ``.so``
 twice gives the same solver state. Building the library is ``fcgen.build``'s job.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -18,8 +19,19 @@ from .contract import EXIT_CODES, HOST_TICKS_PER_SECOND, Status, StepResult
 from .road import Road
 from .solver_folder import FolderLike, SolverFolder, as_folder, solver_name
 
-_STATUS_INTS = ("exit_code", "qp_status", "qp_raw_status", "qp_iter", "u_projected", "opp_outside", "qp_unusable_run",
-                "cold_restarts", "plan_clearance_stage", "plan_reaction", "a_lat_guard")
+_STATUS_INTS = (
+    "exit_code",
+    "qp_status",
+    "qp_raw_status",
+    "qp_iter",
+    "u_projected",
+    "opp_outside",
+    "qp_unusable_run",
+    "cold_restarts",
+    "plan_clearance_stage",
+    "plan_reaction",
+    "a_lat_guard",
+)
 _STATUS_REALS = ("u_violation", "plan_clearance")
 _STATUS_TICKS = ("ticks_prepare", "ticks_feedback")
 
@@ -28,8 +40,11 @@ def _status_struct(use_float: bool) -> tuple[type[ctypes.Structure], struct.Stru
     """The C status struct (``<name>_get_status``) of a precision as a ctypes class, and its layout for ``struct``
     (all fields in one call; native alignment, as ctypes lays it out)."""
     real, code = (ctypes.c_float, "f") if use_float else (ctypes.c_double, "d")
-    fields = [(f, ctypes.c_int) for f in _STATUS_INTS] + [(f, real) for f in _STATUS_REALS] + \
-        [(f, ctypes.c_uint32) for f in _STATUS_TICKS]
+    fields = (
+        [(f, ctypes.c_int) for f in _STATUS_INTS]
+        + [(f, real) for f in _STATUS_REALS]
+        + [(f, ctypes.c_uint32) for f in _STATUS_TICKS]
+    )
     cls = type(f"_CStatus{'Float' if use_float else 'Double'}", (ctypes.Structure,), {"_fields_": fields})
     layout = struct.Struct("@" + "i" * len(_STATUS_INTS) + code * len(_STATUS_REALS) + "I" * len(_STATUS_TICKS))
     assert layout.size == ctypes.sizeof(cls)
@@ -46,8 +61,14 @@ class CSolver:
 
     kind = "c"
 
-    def __init__(self, lib_path: Path | str, header: Path | str | None = None, init: bool = True,
-                 clock: str = "wall", folder: SolverFolder | None = None):
+    def __init__(
+        self,
+        lib_path: Path | str,
+        header: Path | str | None = None,
+        init: bool = True,
+        clock: str = "wall",
+        folder: SolverFolder | None = None,
+    ):
         """Load a solver library; ``init=False`` leaves a freshly loaded library zero-initialized (no init call).
         ``clock``: ``"wall"`` (monotonic) or ``"cpu"`` (the thread's CPU time: no preemption by other loads).
         ``folder``: the library's solver folder as read already (its name and sizes), else the ``header`` given or
@@ -58,7 +79,7 @@ class CSolver:
         if folder is not None:
             self.name, self.sizes = folder.name, dict(folder.sizes)
         else:
-            self.name = lib_path.name[len("lib"):-len(".so")]
+            self.name = lib_path.name[len("lib") : -len(".so")]
             self.sizes = read_macros(Path(header) if header else self._find_header(lib_path), self.name)
         s = self.sizes
         self.N, self.nx, self.nu = s["N"], s["NX"], s["NU"]
@@ -72,8 +93,9 @@ class CSolver:
         self._declare()
         if init:
             self.init()
-        self._f("set_clock")(ctypes.cast(self._f("host_clock" if clock == "wall" else "host_cpu_clock"),
-                                         ctypes.c_void_p))
+        self._f("set_clock")(
+            ctypes.cast(self._f("host_clock" if clock == "wall" else "host_cpu_clock"), ctypes.c_void_p)
+        )
 
     @staticmethod
     def _find_header(lib_path: Path) -> Path:
@@ -100,13 +122,29 @@ class CSolver:
         R, PR, I = self._real, ctypes.c_void_p, ctypes.c_int
         PPR = ctypes.POINTER(ctypes.POINTER(self._real))
         self._fns: dict = {}
-        sig = {"init": ([], I), "set_clock": ([ctypes.c_void_p], None), "set_state": ([PR], I),
-               "set_road": ([R, R, I, PR, PR, PR, PR], I), "set_opponents": ([PR], I), "prepare": ([], I),
-               "set_road_bounds": ([PR, PR], I), "set_opponent_shapes": ([PR], I), "set_reference": ([R, R], I),
-               "feedback": ([], I), "get_u0": ([PR], None), "get_states": ([PR], None),
-               "get_controls": ([PR], None), "max_slack": ([], R), "get_status": ([ctypes.c_void_p], None),
-               "reset": ([], None), "has_guess": ([], I), "get_qp": ([PPR] * 7, None), "get_opp_params": ([PR], None),
-               "host_clock": ([], ctypes.c_uint32), "host_cpu_clock": ([], ctypes.c_uint32)}
+        sig = {
+            "init": ([], I),
+            "set_clock": ([ctypes.c_void_p], None),
+            "set_state": ([PR], I),
+            "set_road": ([R, R, I, PR, PR, PR, PR], I),
+            "set_opponents": ([PR], I),
+            "prepare": ([], I),
+            "set_road_bounds": ([PR, PR], I),
+            "set_opponent_shapes": ([PR], I),
+            "set_reference": ([R, R], I),
+            "feedback": ([], I),
+            "get_u0": ([PR], None),
+            "get_states": ([PR], None),
+            "get_controls": ([PR], None),
+            "max_slack": ([], R),
+            "get_status": ([ctypes.c_void_p], None),
+            "reset": ([], None),
+            "has_guess": ([], I),
+            "get_qp": ([PPR] * 7, None),
+            "get_opp_params": ([PR], None),
+            "host_clock": ([], ctypes.c_uint32),
+            "host_cpu_clock": ([], ctypes.c_uint32),
+        }
         for fn, (args, res) in sig.items():
             f = self._f(fn)
             f.argtypes, f.restype = args, res
@@ -151,8 +189,15 @@ class CSolver:
     def set_road(self, road: Road) -> int:
         """set_road, then (a road with a drivable band) set_road_bounds."""
         n, inp = road.size, self._input
-        rc = self._fns["set_road"](road.s0, road.ds, n, inp("kappa", road.kappa, n), inp("phi", road.phi, n),
-                                   inp("gx", road.gx, n), inp("gy", road.gy, n))
+        rc = self._fns["set_road"](
+            road.s0,
+            road.ds,
+            n,
+            inp("kappa", road.kappa, n),
+            inp("phi", road.phi, n),
+            inp("gx", road.gx, n),
+            inp("gy", road.gy, n),
+        )
         if rc or road.n_min is None:
             return rc
         return self.set_road_bounds(road.n_min, road.n_max)
@@ -169,8 +214,7 @@ class CSolver:
 
     def set_road_raw(self, s0: float, ds: float, kappa, phi, gx, gy) -> int:
         k, p, x, y = (self._arr(a) for a in (kappa, phi, gx, gy))
-        return self._fns["set_road"](s0, ds, int(k.size), k.ctypes.data, p.ctypes.data, x.ctypes.data,
-                                     y.ctypes.data)
+        return self._fns["set_road"](s0, ds, int(k.size), k.ctypes.data, p.ctypes.data, x.ctypes.data, y.ctypes.data)
 
     def set_opponents(self, params) -> int:
         return self._fns["set_opponents"](self._input("opp", params, (self.N + 1) * self.n_opp * self.n_opp_par))
@@ -209,8 +253,11 @@ class CSolver:
         st = self._status
         self._fns["get_status"](self._status_addr)
         tps = self.ticks_per_second
-        return Status(**{f: getattr(st, f) for f in _STATUS_INTS + _STATUS_REALS},
-                      time_prepare=st.ticks_prepare / tps, time_feedback=st.ticks_feedback / tps)
+        return Status(
+            **{f: getattr(st, f) for f in _STATUS_INTS + _STATUS_REALS},
+            time_prepare=st.ticks_prepare / tps,
+            time_feedback=st.ticks_feedback / tps,
+        )
 
     def get_qp(self) -> dict[str, np.ndarray]:
         """Copies of the QP data: q, l, u, A_x, P_x, z (the backend's primal solution), y (dual guess)."""
@@ -225,7 +272,7 @@ class CSolver:
         n = self.n_opp * self.sizes["NOPP_STAGE"]
         p = np.zeros(max(1, (self.N + 1) * n), dtype=self.dtype)
         self._f("get_opp_params")(self._ptr(p))
-        return p[:(self.N + 1) * n].astype(float).reshape(self.N + 1, n)
+        return p[: (self.N + 1) * n].astype(float).reshape(self.N + 1, n)
 
     @staticmethod
     def code_name(code: int) -> str:
@@ -246,10 +293,28 @@ class CSolver:
         rc = rc or self.feedback()
         st = self.status()
         if rc:  # the control get_u0 gives after an error: the fallback (unusable QP) or the last one (rejected)
-            return StepResult(self.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                              math.nan, st.plan_reaction, st.a_lat_guard)
-        return StepResult(self.u0(), 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                          self.max_slack(), st.plan_reaction, st.a_lat_guard)
+            return StepResult(
+                self.u0(),
+                rc,
+                st.qp_status,
+                st.qp_iter,
+                st.time_prepare,
+                st.time_feedback,
+                math.nan,
+                st.plan_reaction,
+                st.a_lat_guard,
+            )
+        return StepResult(
+            self.u0(),
+            0,
+            st.qp_status,
+            st.qp_iter,
+            st.time_prepare,
+            st.time_feedback,
+            self.max_slack(),
+            st.plan_reaction,
+            st.a_lat_guard,
+        )
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         """One RTI sample, the same calls in the same order as ``ReferenceController.step``."""
@@ -276,15 +341,23 @@ class CSolver:
         size, r_s0, r_ds, item = road.size, road.s0, road.ds, np.dtype(self.dtype).itemsize
         state, opponents, xptr, optr = self._window_inputs()
         q = self._quick_fns()
-        set_road, set_opponents, set_state, has_guess = q["set_road"], q["set_opponents"], q["set_state"], \
-            q["has_guess"]
-        prepare, feedback, result, floor = self._fns["prepare"], self._fns["feedback"], self._result_reader(), \
-            math.floor
+        set_road, set_opponents, set_state, has_guess = (
+            q["set_road"],
+            q["set_opponents"],
+            q["set_state"],
+            q["has_guess"],
+        )
+        prepare, feedback, result, floor = (
+            self._fns["prepare"],
+            self._fns["feedback"],
+            self._result_reader(),
+            math.floor,
+        )
 
         def step(x0: np.ndarray, s_start: float, opp: np.ndarray) -> StepResult:
             i0 = int(floor((s_start - r_s0) / r_ds))
             if i0 < 0 or i0 + samples > size or samples < 2:
-                road.window(s_start, samples)   # raises its ValueError
+                road.window(s_start, samples)  # raises its ValueError
             off = i0 * item
             # prepare_phase
             rc = set_road(r_s0 + i0 * r_ds, r_ds, samples, ak + off, ap + off, ax + off, ay + off)
@@ -303,7 +376,7 @@ class CSolver:
             rc = rc or feedback()
             return result(rc)
 
-        step.road_arrays = arrays   # the arrays whose addresses set_road gets live as long as the function
+        step.road_arrays = arrays  # the arrays whose addresses set_road gets live as long as the function
         return step
 
     def _step_replaced(self) -> bool:
@@ -320,7 +393,7 @@ class CSolver:
         (xbuf, xaddr), (obuf, oaddr) = self._inputs["x0"], self._inputs["opp"]
         obuf3, ndarray = obuf.reshape(o_shape), np.ndarray
 
-        def state(x0) -> bool:   # _input("x0", x0, 5)
+        def state(x0) -> bool:  # _input("x0", x0, 5)
             if type(x0) is ndarray and x0.shape == (5,):
                 xbuf[...] = x0
                 return True
@@ -330,7 +403,7 @@ class CSolver:
             xbuf[...] = xa
             return True
 
-        def opponents(opp) -> None:   # _input("opp", opp, n_opp)
+        def opponents(opp) -> None:  # _input("opp", opp, n_opp)
             if type(opp) is ndarray and opp.shape == o_shape:
                 obuf3[...] = opp
                 return
@@ -349,15 +422,26 @@ class CSolver:
         st_ptr, u0_ptr = ctypes.c_void_p(self._status_addr), ctypes.c_void_p(self._u0_addr)
         st, u0, nan = self._status, self._u0, math.nan
         unpack, tps = self._status_layout.unpack_from, self.ticks_per_second
-        i_status, i_iter, i_prep, i_fb, i_react, i_guard = (_STATUS_FIELDS.index(k) for k in (
-            "qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction", "a_lat_guard"))
+        i_status, i_iter, i_prep, i_fb, i_react, i_guard = (
+            _STATUS_FIELDS.index(k)
+            for k in ("qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction", "a_lat_guard")
+        )
 
         def result(rc: int) -> StepResult:
             get_status(st_ptr)
             get_u0(u0_ptr)
             v = unpack(st)
-            return StepResult(u0.astype(float), rc, v[i_status], v[i_iter], v[i_prep] / tps, v[i_fb] / tps,
-                              nan if rc else max_slack(), v[i_react], v[i_guard])
+            return StepResult(
+                u0.astype(float),
+                rc,
+                v[i_status],
+                v[i_iter],
+                v[i_prep] / tps,
+                v[i_fb] / tps,
+                nan if rc else max_slack(),
+                v[i_react],
+                v[i_guard],
+            )
 
         return result
 
@@ -377,8 +461,20 @@ class CSolver:
 
 
 #: the methods ``CSolver.step`` calls (``window_stepper`` calls their C functions directly unless one is replaced)
-_STEP_PARTS = ("step", "prepare_phase", "feedback_phase", "set_road", "set_opponents", "set_state", "has_guess",
-               "prepare", "feedback", "status", "u0", "max_slack")
+_STEP_PARTS = (
+    "step",
+    "prepare_phase",
+    "feedback_phase",
+    "set_road",
+    "set_opponents",
+    "set_state",
+    "has_guess",
+    "prepare",
+    "feedback",
+    "status",
+    "u0",
+    "max_slack",
+)
 
 
 class QpRecorder(CSolver):

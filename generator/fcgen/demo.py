@@ -1,4 +1,5 @@
 """The main job: generate the default solver, build it, run it in the C firmware harness and compare with Python."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,9 +23,9 @@ _COMPARED = ("ego_frenet", "ego_cartesian", "control", "collision", "qp_iter", "
 STATUS_NOTES = {
     "solved": "solved to the backend's tolerance",
     "solved_inaccurate": "OSQP stopped at its real-time iteration cap with residuals within its looser tolerance: "
-                         "the real-time mode's normal outcome, the step is used",
+    "the real-time mode's normal outcome, the step is used",
     "max_iter": "the iteration cap reached outside even that tolerance: the step is used when finite and within the "
-                "input box (the safety contract), else the braking fallback",
+    "input box (the safety contract), else the braking fallback",
 }
 """One line per QP status the summary shows, printed under the table the first time a status appears."""
 
@@ -58,8 +59,11 @@ class DemoResult:
         return all(self.differences[k] <= TRAJECTORY_TOL for k in _COMPARED)
 
     def format(self) -> str:
-        cols = [("C, OSQP (asked for)", self.c_summary), ("Python reference, OSQP", self.py_summary),
-                *((x.label, x.summary) for x in self.extra)]
+        cols = [
+            ("C, OSQP (asked for)", self.c_summary),
+            ("Python reference, OSQP", self.py_summary),
+            *((x.label, x.summary) for x in self.extra),
+        ]
         rows = [("", *(c[0] for c in cols))]
 
         def row(label, f):
@@ -68,8 +72,10 @@ class DemoResult:
         row("progress [m]", lambda s: f"{s['progress']:.2f}")
         row("samples in collision (true shapes)", lambda s: f"{s['n_collision_samples']}")
         for ph in ("prepare", "feedback", "total"):
-            row(f"{ph} time median / p99 / max [ms]", lambda s, ph=ph: "{median:.3f} / {p99:.3f} / {max:.3f}"
-                .format(**s[f"time_{ph}_ms"]))
+            row(
+                f"{ph} time median / p99 / max [ms]",
+                lambda s, ph=ph: "{median:.3f} / {p99:.3f} / {max:.3f}".format(**s[f"time_{ph}_ms"]),
+            )
         row("QP iterations per sample, mean / max", lambda s: f"{s['qp_iter_mean']:.1f} / {s['qp_iter_max']}")
         statuses = sorted({k for _, c in cols for k in c["qp_status_counts"]})
         for st in statuses:
@@ -84,25 +90,31 @@ class DemoResult:
         c, p = self.c_summary, self.py_summary
         speed = p["time_total_ms"]["median"] / c["time_total_ms"]["median"]
         worst = max(_COMPARED, key=lambda k: self.differences[k])
-        lines += ["",
-                  f"C vs Python (OSQP): largest difference {self.differences[worst]:.3g} ({worst}; tolerance "
-                  f"{TRAJECTORY_TOL:g}) -> {'MATCH' if self.matches else 'MISMATCH'}",
-                  f"C median total time is {speed:.1f}x faster than the Python reference",
-                  f"solver workspace (static RAM on a 64-bit host, whole solver): OSQP {_kib(self.workspace_bytes)}"
-                  + "".join(f", {x.label.removeprefix('C, ')} {_kib(x.workspace_bytes)}" for x in self.extra)]
+        lines += [
+            "",
+            f"C vs Python (OSQP): largest difference {self.differences[worst]:.3g} ({worst}; tolerance "
+            f"{TRAJECTORY_TOL:g}) -> {'MATCH' if self.matches else 'MISMATCH'}",
+            f"C median total time is {speed:.1f}x faster than the Python reference",
+            f"solver workspace (static RAM on a 64-bit host, whole solver): OSQP {_kib(self.workspace_bytes)}"
+            + "".join(f", {x.label.removeprefix('C, ')} {_kib(x.workspace_bytes)}" for x in self.extra),
+        ]
         for x in self.extra:
             ratio = x.summary["time_total_ms"]["median"] / c["time_total_ms"]["median"]
             if x.label == IPM_LABEL:
-                lines.append(f"which to pick: the IPM takes {ratio:.2f}x OSQP's median time here and solves its QPs "
-                             f"to its tolerance (QpOptions(backend='ipm'), presets '_ipm'); OSQP is what was asked "
-                             f"for, with a fixed iteration budget per sample")
+                lines.append(
+                    f"which to pick: the IPM takes {ratio:.2f}x OSQP's median time here and solves its QPs "
+                    f"to its tolerance (QpOptions(backend='ipm'), presets '_ipm'); OSQP is what was asked "
+                    f"for, with a fixed iteration budget per sample"
+                )
             else:
                 xs = x.summary
-                lines.append(f"for an actuator: the safe profile (Problem()'s defaults, presets '_ipm_safe'; "
-                             f"docs/safe_profile.md): largest |a_lat| {xs['max_abs_a_lat']:.2f} m/s^2 (bound 5), "
-                             f"{xs['n_collision_samples']} samples in collision, {xs['progress'] / c['progress']:.2f}x "
-                             f"the progress and {ratio:.2f}x the median time of the paper's settings (kept for the "
-                             f"paper's experiment)")
+                lines.append(
+                    f"for an actuator: the safe profile (Problem()'s defaults, presets '_ipm_safe'; "
+                    f"docs/safe_profile.md): largest |a_lat| {xs['max_abs_a_lat']:.2f} m/s^2 (bound 5), "
+                    f"{xs['n_collision_samples']} samples in collision, {xs['progress'] / c['progress']:.2f}x "
+                    f"the progress and {ratio:.2f}x the median time of the paper's settings (kept for the "
+                    f"paper's experiment)"
+                )
         lines.append(f"logs and plot in {self.out_dir}/")
         return "\n".join(lines)
 
@@ -115,8 +127,16 @@ IPM_LABEL = "C, IPM"
 SAFE_LABEL = "C, IPM, safe profile"
 
 
-def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRESET, seed: int = 3,
-             samples: int = 200, plot: bool = True, echo=print, ipm: bool = True, safe: bool = True) -> DemoResult:
+def run_demo(
+    out_dir: Path | str = "runs/demo",
+    problem_name: str = DEFAULT_PRESET,
+    seed: int = 3,
+    samples: int = 200,
+    plot: bool = True,
+    echo=print,
+    ipm: bool = True,
+    safe: bool = True,
+) -> DemoResult:
     """Generate ``problem_name`` into ``out_dir``, run C and Python closed loops on one truck/car scenario, and in C on
     the same scenario (``ipm``) the same problem with the IPM backend and (``safe``) its safe profile with the IPM,
     our recommended settings."""
@@ -130,8 +150,10 @@ def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRES
     gen_dir = out_dir / problem_name
     echo(f"[1/{steps}] generate {problem_name} -> {gen_dir}")
     info = generate(pb, gen_dir)
-    echo(f"[2/{steps}] build the solver and the firmware harness; closed loop in C ({scenario}, seed {seed}, "
-         f"{samples} samples)")
+    echo(
+        f"[2/{steps}] build the solver and the firmware harness; closed loop in C ({scenario}, seed {seed}, "
+        f"{samples} samples)"
+    )
     c_log = firmware_sim(read_folder(info.out_dir), scenario, seed, samples, out=out_dir / "run_c.json", problem=pb)
     echo(f"[3/{steps}] closed loop with the Python reference")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
@@ -148,6 +170,15 @@ def run_demo(out_dir: Path | str = "runs/demo", problem_name: str = DEFAULT_PRES
     echo(f"[{steps}/{steps}] compare")
     if plot:
         from .sim.plots import plot_run
+
         plot_run(c_log, out_dir / "run_c.png")
-    return DemoResult(c_log, py_log, summary(c_log), summary(py_log), compare(c_log, py_log),
-                      info.workspace_bytes, out_dir, tuple(extra))
+    return DemoResult(
+        c_log,
+        py_log,
+        summary(c_log),
+        summary(py_log),
+        compare(c_log, py_log),
+        info.workspace_bytes,
+        out_dir,
+        tuple(extra),
+    )

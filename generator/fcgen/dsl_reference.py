@@ -4,6 +4,7 @@ Defaults are read from the dataclasses themselves, so the page cannot drift from
 meanings are written here once. ``tests/test_docs.py`` checks that every field has an entry and that the committed
 page is what ``render()`` writes (``python -m fcgen.dsl_reference > docs/problem_reference.md`` rewrites it).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -13,11 +14,17 @@ from . import dsl
 
 #: (class, field) -> (unit, allowed range as validated, meaning)
 FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
-    ("Problem", "name"): ("-", "C identifier prefix: [a-z][a-z0-9_]*, <= 31 characters, no clash with C/OSQP/CasADi "
-                          "names", "prefix of every C symbol (`<name>_*`, `<NAME>_*`)"),
+    ("Problem", "name"): (
+        "-",
+        "C identifier prefix: [a-z][a-z0-9_]*, <= 31 characters, no clash with C/OSQP/CasADi names",
+        "prefix of every C symbol (`<name>_*`, `<NAME>_*`)",
+    ),
     ("Problem", "formulation"): ("-", "`Conventional()`, `DirectElimination()`, `Lifted()`", "the NMPC formulation"),
-    ("Problem", "obstacles"): ("-", "`Ellipse()`, `CoveringCircles(n)`, `SeparatingHyperplane()`",
-                               "the obstacle model"),
+    ("Problem", "obstacles"): (
+        "-",
+        "`Ellipse()`, `CoveringCircles(n)`, `SeparatingHyperplane()`",
+        "the obstacle model",
+    ),
     ("Problem", "ego"): ("-", "a `Vehicle`", "the controlled vehicle"),
     ("Problem", "opponents"): ("-", "an `Opponents`", "number and size of the other vehicles"),
     ("Problem", "wind"): ("-", "a `Wind`", "wind in the ego's drag model"),
@@ -29,21 +36,41 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "qp"): ("-", "a `QpOptions`", "QP backend and its settings"),
     ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max horizon.length + 4 ds", "the road the solver sees"),
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
-    ("PlanCheck", "react_stages"): ("-", "integer in [0, 500]; 0: report only; 500: the whole horizon",
-                                    "brake where an opponent's first overlap with the plan among stages "
-                                    "1..min(this, N) is ahead of the ego there or now"),
-    ("PlanCheck", "a_lat_guard"): ("-", "True or False", "the applied control keeps the next sample's lateral "
-                                   "acceleration within +-bounds.a_lat_max (steering rate, else braking; needs "
-                                   "bounds.a_lat_margin > 0)"),
-    ("Ellipse", "shape"): ("-", "`minkowski` or `paper`", "the ellipse containing the opponent grown by the ego's "
-                           "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r"),
-    ("CoveringCircles", "radius"): ("-", "`cover` or `paper`", "circles just large enough to cover the rectangle, or "
-                                    "the paper's w / sqrt(2)"),
-    ("SeparatingHyperplane", "anchor"): ("-", "[0, 1]", "weight pulling the planes toward the midpoint plane (makes "
-                                         "them unique: C = Python over whole runs)"),
+    ("PlanCheck", "react_stages"): (
+        "-",
+        "integer in [0, 500]; 0: report only; 500: the whole horizon",
+        "brake where an opponent's first overlap with the plan among stages "
+        "1..min(this, N) is ahead of the ego there or now",
+    ),
+    ("PlanCheck", "a_lat_guard"): (
+        "-",
+        "True or False",
+        "the applied control keeps the next sample's lateral "
+        "acceleration within +-bounds.a_lat_max (steering rate, else braking; needs "
+        "bounds.a_lat_margin > 0)",
+    ),
+    ("Ellipse", "shape"): (
+        "-",
+        "`minkowski` or `paper`",
+        "the ellipse containing the opponent grown by the ego's "
+        "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r",
+    ),
+    ("CoveringCircles", "radius"): (
+        "-",
+        "`cover` or `paper`",
+        "circles just large enough to cover the rectangle, or the paper's w / sqrt(2)",
+    ),
+    ("SeparatingHyperplane", "anchor"): (
+        "-",
+        "[0, 1]",
+        "weight pulling the planes toward the midpoint plane (makes them unique: C = Python over whole runs)",
+    ),
     ("Vehicle", "l_f"): ("m", "> 0", "front part of the wheelbase l = l_f + l_r (reference point: rear axle)"),
-    ("Vehicle", "l_r"): ("m", "> 0", "rear part of the wheelbase; the chassis is centred at l/2 ahead of the "
-                                   "rear axle"),
+    ("Vehicle", "l_r"): (
+        "m",
+        "> 0",
+        "rear part of the wheelbase; the chassis is centred at l/2 ahead of the rear axle",
+    ),
     ("Vehicle", "l_f_ch"): ("m", "> 0", "chassis length ahead of its centre"),
     ("Vehicle", "l_r_ch"): ("m", "> 0", "chassis length behind its centre"),
     ("Vehicle", "w_ch"): ("m", "> 0", "chassis width"),
@@ -54,28 +81,52 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Wind", "phi"): ("rad", "finite", "direction the wind comes from"),
     ("Horizon", "N"): ("-", "integer in [1, 500]", "shooting intervals"),
     ("Horizon", "dt"): ("s", "(0, 10]", "the sample time of the closed loop, and the length of a fine interval"),
-    ("Horizon", "stride"): ("-", "integer in [1, 10], dt * stride <= 10 s",
-                            "samples per coarse interval (1: every interval one sample, the paper's grid)"),
-    ("Horizon", "fine"): ("-", "integer >= 0", "intervals of one sample before the coarse ones (stride 3, fine 20: "
-                          "2 s of 0.1 s, then 6 s of 0.3 s, 8 s ahead with the paper's QP size; the plan is shifted "
-                          "one sample, a coarse stage interpolated; opponents predicted at the nodes' samples, "
-                          "`<NAME>_STAGE_OFFSETS`; neither profile uses it: docs/collisions.md)"),
+    ("Horizon", "stride"): (
+        "-",
+        "integer in [1, 10], dt * stride <= 10 s",
+        "samples per coarse interval (1: every interval one sample, the paper's grid)",
+    ),
+    ("Horizon", "fine"): (
+        "-",
+        "integer >= 0",
+        "intervals of one sample before the coarse ones (stride 3, fine 20: "
+        "2 s of 0.1 s, then 6 s of 0.3 s, 8 s ahead with the paper's QP size; the plan is shifted "
+        "one sample, a coarse stage interpolated; opponents predicted at the nodes' samples, "
+        "`<NAME>_STAGE_OFFSETS`; neither profile uses it: docs/collisions.md)",
+    ),
     ("Weights", "q"): ("-", "5 numbers >= 0", "stage weights of (s, n, alpha, v, delta), times dt"),
     ("Weights", "q_N"): ("-", "5 numbers >= 0", "terminal weights of (s, n, alpha, v, delta)"),
     ("Weights", "r"): ("-", "2 numbers >= 0", "input weights of (F_d, r), times dt"),
-    ("Reference", "v_ref"): ("m/s", ">= 0", "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on "
-                             "the paper's grid); with the curve speed capped per node"),
+    ("Reference", "v_ref"): (
+        "m/s",
+        ">= 0",
+        "reference speed: s_ref,k = s0 + t_k v_ref (t_k: node k's time, k dt on "
+        "the paper's grid); with the curve speed capped per node",
+    ),
     ("Reference", "n_ref"): ("m", "finite", "reference lateral offset"),
-    ("Reference", "curve_a_lat"): ("m/s^2", "[0, 50]", "the curve speed: v_ref,k capped at s_ref,k so that braking "
-                                   "at curve_decel reaches every road sample ahead no faster than "
-                                   "sqrt(curve_a_lat / abs(kappa)) (0: off, the paper's presets)"),
+    ("Reference", "curve_a_lat"): (
+        "m/s^2",
+        "[0, 50]",
+        "the curve speed: v_ref,k capped at s_ref,k so that braking "
+        "at curve_decel reaches every road sample ahead no faster than "
+        "sqrt(curve_a_lat / abs(kappa)) (0: off, the paper's presets)",
+    ),
     ("Reference", "curve_decel"): ("m/s^2", "(0, 50]", "the curve speed's deceleration"),
-    ("Reference", "curve_a_lat_traffic"): ("m/s^2", "(0, 50]", "the curve speed's lateral acceleration with traffic "
-                                           "near the plan (instead of curve_a_lat)"),
-    ("Reference", "curve_traffic_clearance"): ("m", "[0, 100]", "traffic near the plan: the last plan check's "
-                                               "clearance to an opponent below this (0: never)"),
-    ("Reference", "curve_along_horizon"): ("-", "True or False", "the curve speed at every node's reference position "
-                                           "(False: at the plan's start, for the whole horizon)"),
+    ("Reference", "curve_a_lat_traffic"): (
+        "m/s^2",
+        "(0, 50]",
+        "the curve speed's lateral acceleration with traffic near the plan (instead of curve_a_lat)",
+    ),
+    ("Reference", "curve_traffic_clearance"): (
+        "m",
+        "[0, 100]",
+        "traffic near the plan: the last plan check's clearance to an opponent below this (0: never)",
+    ),
+    ("Reference", "curve_along_horizon"): (
+        "-",
+        "True or False",
+        "the curve speed at every node's reference position (False: at the plan's start, for the whole horizon)",
+    ),
     ("Bounds", "F_d_max"): ("N", "> 0", "|F_d| bound (drive/brake force)"),
     ("Bounds", "r_max"): ("rad/s", "> 0", "|r| bound (steering rate)"),
     ("Bounds", "delta_max"): ("rad", "> 0", "|delta| bound (steering angle)"),
@@ -86,9 +137,13 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
     ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
     ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
-    ("Bounds", "a_lat_margin"): ("m/s^2", "[0, a_lat_max)", "the plan keeps abs(a_lat) this far inside a_lat_max "
-                                 "(a real-time iteration's linearization and coarse intervals overshoot it; the "
-                                 "paper's presets: 0)"),
+    ("Bounds", "a_lat_margin"): (
+        "m/s^2",
+        "[0, a_lat_max)",
+        "the plan keeps abs(a_lat) this far inside a_lat_max "
+        "(a real-time iteration's linearization and coarse intervals overshoot it; the "
+        "paper's presets: 0)",
+    ),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),
@@ -106,33 +161,64 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("QpOptions", "scaling"): ("-", "integer in [0, 100]", "OSQP Ruiz scaling passes"),
     ("QpOptions", "check_termination"): ("-", "integer in [1, 1000]", "OSQP: iterations between termination checks"),
     ("QpOptions", "warm_start"): ("-", "True or False", "warm-start the QP from the shifted plan"),
-    ("QpOptions", "max_iter_cold"): ("-", "integer in [1, 1e6]", "iteration cap of a cold-started QP (at least "
-                                     "max_iter is used)"),
-    ("QpOptions", "cold_restart_after"): ("-", "integer in [0, 1e6]; 0: never",
-                                          "unusable QPs in a row after which prepare cold-starts"),
-    ("QpOptions", "rti_budget"): ("-", "integer in [1, 1e6], or None (the backend's default)",
-                                  "QP iterations any feedback may run, cold starts included: caps max_iter and "
-                                  "max_iter_cold (docs/wcet.md)"),
+    ("QpOptions", "max_iter_cold"): (
+        "-",
+        "integer in [1, 1e6]",
+        "iteration cap of a cold-started QP (at least max_iter is used)",
+    ),
+    ("QpOptions", "cold_restart_after"): (
+        "-",
+        "integer in [0, 1e6]; 0: never",
+        "unusable QPs in a row after which prepare cold-starts",
+    ),
+    ("QpOptions", "rti_budget"): (
+        "-",
+        "integer in [1, 1e6], or None (the backend's default)",
+        "QP iterations any feedback may run, cold starts included: caps max_iter and max_iter_cold (docs/wcet.md)",
+    ),
     ("QpOptions", "backend"): ("-", "one of " + ", ".join(f"`{b}`" for b in dsl.BACKENDS), "the QP backend"),
     ("QpOptions", "ipm_tol"): ("-", "(0, 1)", "IPM tolerance: stationarity, primal residuals, each t lam (scaled)"),
-    ("QpOptions", "ipm_scaled_start"): ("-", "True / False", "IPM: soft rows' slack bounds start at "
-                                        "t = max(-b, t_min / max(1, lam)) (paper presets: False)"),
+    ("QpOptions", "ipm_scaled_start"): (
+        "-",
+        "True / False",
+        "IPM: soft rows' slack bounds start at t = max(-b, t_min / max(1, lam)) (paper presets: False)",
+    ),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
     ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),
     ("Opponents", "count"): ("-", "integer in [0, 10]", "number of opponents"),
     ("Opponents", "vehicle"): ("-", "a `Vehicle`", "their common size"),
     ("Conventional", "overapprox"): ("-", "`fit` or `none`", "over-approximation of the opponents in (s, n)"),
     ("Conventional", "margin"): ("m", ">= 0", "extra margin of the fitted box"),
-    ("Conventional", "points_per_metre"): ("1/m", "[0.25, 20]", "points per metre of the opponent's edges mapped "
-                                           "into (s, n)"),
+    ("Conventional", "points_per_metre"): (
+        "1/m",
+        "[0.25, 20]",
+        "points per metre of the opponent's edges mapped into (s, n)",
+    ),
     ("CoveringCircles", "n"): ("-", "integer in [1, 20]", "circles covering each opponent"),
     ("CoveringCircles", "n_ego"): ("-", "integer in [1, 20], or None (= n)", "circles covering the ego"),
     ("SeparatingHyperplane", "margin"): ("m", "[0, 2]", "distance the ego's vertices keep from the plane"),
 }
 
-CLASSES = ("Problem", "Vehicle", "Opponents", "Wind", "Horizon", "Weights", "Reference", "Bounds", "SoftPenalties",
-           "QpOptions", "RoadWindow", "PlanCheck", "Conventional", "DirectElimination", "Lifted", "Ellipse",
-           "CoveringCircles", "SeparatingHyperplane")
+CLASSES = (
+    "Problem",
+    "Vehicle",
+    "Opponents",
+    "Wind",
+    "Horizon",
+    "Weights",
+    "Reference",
+    "Bounds",
+    "SoftPenalties",
+    "QpOptions",
+    "RoadWindow",
+    "PlanCheck",
+    "Conventional",
+    "DirectElimination",
+    "Lifted",
+    "Ellipse",
+    "CoveringCircles",
+    "SeparatingHyperplane",
+)
 
 
 def documented_fields(cls: type) -> list[dataclasses.Field]:
@@ -158,11 +244,15 @@ def _default(f: dataclasses.Field) -> str:
 
 def render() -> str:
     """The page, Markdown."""
-    out = ["# Describing a problem: every field", "",
-           "Every DSL object is a frozen dataclass validated when it is built: a value outside its range raises",
-           "`fcgen.dsl.ProblemError` naming the field and the allowed range (`fcgen generate` prints it in one line).",
-           "Defaults below are read from the code (`fcgen.dsl_reference` writes this page; a test keeps it current).",
-           "Units: SI; `-` for none. Stage weights and penalties are multiplied by `dt` per stage.", ""]
+    out = [
+        "# Describing a problem: every field",
+        "",
+        "Every DSL object is a frozen dataclass validated when it is built: a value outside its range raises",
+        "`fcgen.dsl.ProblemError` naming the field and the allowed range (`fcgen generate` prints it in one line).",
+        "Defaults below are read from the code (`fcgen.dsl_reference` writes this page; a test keeps it current).",
+        "Units: SI; `-` for none. Stage weights and penalties are multiplied by `dt` per stage.",
+        "",
+    ]
     for name in CLASSES:
         cls = getattr(dsl, name)
         doc = (cls.__doc__ or "").strip().splitlines()[0]

@@ -5,6 +5,7 @@ The FMU holds ``modelDescription.xml``, the sources (the solver folder's C and t
 ``templates/fmu/``: one core, two thin FMI layers), a binary for this platform built from them, and the folder's
 README under ``documentation/``. The FMI headers come from the installed ``fmpy`` package.
 """
+
 from __future__ import annotations
 
 import re
@@ -40,7 +41,7 @@ class Var:
     """One FMU variable: an array (``dims``) or a scalar of Float64 or Int32."""
 
     name: str
-    type: str           # "Float64" or "Int32"
+    type: str  # "Float64" or "Int32"
     input: bool
     dims: tuple[int, ...]
     doc: str
@@ -72,8 +73,13 @@ def variables(sizes: dict[str, int]) -> list[Var]:
         Var("road_phi", "Float64", True, (RM,), "heading of the reference path at each sample (rad)"),
         Var("road_x", "Float64", True, (RM,), "x of the reference path at each sample (m)"),
         Var("road_y", "Float64", True, (RM,), "y of the reference path at each sample (m)"),
-        Var("opponents", "Float64", True, opp, "opponents' predicted rear-axle poses [x, y, phi] per stage 0..N, "
-            "row-major as set_opponents (m, m, rad)"),
+        Var(
+            "opponents",
+            "Float64",
+            True,
+            opp,
+            "opponents' predicted rear-axle poses [x, y, phi] per stage 0..N, row-major as set_opponents (m, m, rad)",
+        ),
         Var("u0", "Float64", False, (2,), "control to apply [F_d, r] (N, rad/s), inside the input box"),
         Var("exit_code", "Int32", False, (), "the solver's exit code of the step (0: OK)"),
         Var("qp_status", "Int32", False, (), "generic QP status (1 solved, 2 solved inaccurate, 3 max iter, ...)"),
@@ -84,8 +90,14 @@ def variables(sizes: dict[str, int]) -> list[Var]:
         Var("controls", "Float64", False, (N, NU), "planned controls, stages 0..N-1"),
         Var("time_prepare", "Float64", False, (), "time of the preparation phase (s, host clock)"),
         Var("time_feedback", "Float64", False, (), "time of the feedback phase (s, host clock)"),
-        Var("plan_clearance", "Float64", False, (), "the plan's smallest clearance to an opponent's true rectangle "
-            "over stages 0..N (m; < 0: overlapping; +inf without opponents)"),
+        Var(
+            "plan_clearance",
+            "Float64",
+            False,
+            (),
+            "the plan's smallest clearance to an opponent's true rectangle "
+            "over stages 0..N (m; < 0: overlapping; +inf without opponents)",
+        ),
         Var("plan_clearance_stage", "Int32", False, (), "the stage of plan_clearance (-1: no opponent)"),
         Var("plan_reaction", "Int32", False, (), "1: the plan check braked (u0 is the braking control)"),
         Var("a_lat_guard", "Int32", False, (), "1: the a_lat guard set u0's steering rate, 2: it braked too"),
@@ -115,7 +127,7 @@ def _c_stubs(header: Path, prefix: str, implemented: set[str]) -> str:
         for i, p in enumerate(plist):
             m = re.search(r"(\w+)\s*(\[\s*\])?$", p)
             last = m.group(1) if m else ""
-            if not last or re.match(r"^(fmi[23][A-Z]\w*|size_t|int|char|double|const)$", last):   # an unnamed parameter
+            if not last or re.match(r"^(fmi[23][A-Z]\w*|size_t|int|char|double|const)$", last):  # an unnamed parameter
                 last = f"p{i}"
                 plist[i] = re.sub(r"(\[\s*\])?$", lambda mm: f" {last}" + (mm.group(1) or ""), p, count=1)
             pnames.append(last)
@@ -130,12 +142,39 @@ def _c_stubs(header: Path, prefix: str, implemented: set[str]) -> str:
     return "\n".join(out) + "\n"
 
 
-_FMI3_DONE = {"fmi3GetVersion", "fmi3SetDebugLogging", "fmi3InstantiateCoSimulation", "fmi3FreeInstance",
-              "fmi3EnterInitializationMode", "fmi3ExitInitializationMode", "fmi3EnterStepMode", "fmi3Terminate",
-              "fmi3Reset", "fmi3GetFloat64", "fmi3SetFloat64", "fmi3GetInt32", "fmi3SetInt32", "fmi3DoStep"}
-_FMI2_DONE = {"fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate", "fmi2FreeInstance",
-              "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate",
-              "fmi2Reset", "fmi2GetReal", "fmi2SetReal", "fmi2GetInteger", "fmi2SetInteger", "fmi2DoStep"}
+_FMI3_DONE = {
+    "fmi3GetVersion",
+    "fmi3SetDebugLogging",
+    "fmi3InstantiateCoSimulation",
+    "fmi3FreeInstance",
+    "fmi3EnterInitializationMode",
+    "fmi3ExitInitializationMode",
+    "fmi3EnterStepMode",
+    "fmi3Terminate",
+    "fmi3Reset",
+    "fmi3GetFloat64",
+    "fmi3SetFloat64",
+    "fmi3GetInt32",
+    "fmi3SetInt32",
+    "fmi3DoStep",
+}
+_FMI2_DONE = {
+    "fmi2GetTypesPlatform",
+    "fmi2GetVersion",
+    "fmi2SetDebugLogging",
+    "fmi2Instantiate",
+    "fmi2FreeInstance",
+    "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode",
+    "fmi2ExitInitializationMode",
+    "fmi2Terminate",
+    "fmi2Reset",
+    "fmi2GetReal",
+    "fmi2SetReal",
+    "fmi2GetInteger",
+    "fmi2SetInteger",
+    "fmi2DoStep",
+}
 
 
 def _start(v: Var, fmi: int) -> str:
@@ -148,50 +187,63 @@ def _start(v: Var, fmi: int) -> str:
 
 def build_description(name: str, sources: list[str], includes: list[str]) -> str:
     """FMI 3.0's ``sources/buildDescription.xml``: the C files and include folders of the source-code FMU."""
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<fmiBuildDescription fmiVersion="3.0">',
-             f'  <BuildConfiguration modelIdentifier="{name}">', '    <SourceFileSet language="C99">']
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        '<fmiBuildDescription fmiVersion="3.0">',
+        f'  <BuildConfiguration modelIdentifier="{name}">',
+        '    <SourceFileSet language="C99">',
+    ]
     lines += [f'      <SourceFile name="{s}"/>' for s in sources]
     lines += [f'      <IncludeDirectory name="{i}"/>' for i in includes]
-    lines += ['    </SourceFileSet>', '  </BuildConfiguration>', '</fmiBuildDescription>', '']
+    lines += ["    </SourceFileSet>", "  </BuildConfiguration>", "</fmiBuildDescription>", ""]
     return "\n".join(lines)
 
 
-def model_description(name: str, dt: float, vs: list[Var], token: str, fmi: int, description: str,
-                      sources: list[str] = ()) -> str:
+def model_description(
+    name: str, dt: float, vs: list[Var], token: str, fmi: int, description: str, sources: list[str] = ()
+) -> str:
     """``modelDescription.xml`` of the FMU (no timestamps: the same solver gives the same bytes)."""
     gen = f'generationTool="fcgen {__version__}"'
     if fmi == 3:
-        lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-                 f'<fmiModelDescription fmiVersion="3.0" modelName="{name}" instantiationToken="{token}" {gen} '
-                 f'description="{escape(description)}" variableNamingConvention="structured">',
-                 f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
-                 f'fixedInternalStepSize="{dt!r}" canGetAndSetFMUState="false" canSerializeFMUState="false"/>',
-                 f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
-                 '  <ModelVariables>',
-                 '    <Float64 name="time" valueReference="0" causality="independent" variability="continuous" '
-                 'description="communication time (s)"/>']
+        lines = [
+            '<?xml version="1.0" encoding="UTF-8"?>',
+            f'<fmiModelDescription fmiVersion="3.0" modelName="{name}" instantiationToken="{token}" {gen} '
+            f'description="{escape(description)}" variableNamingConvention="structured">',
+            f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
+            f'fixedInternalStepSize="{dt!r}" canGetAndSetFMUState="false" canSerializeFMUState="false"/>',
+            f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
+            "  <ModelVariables>",
+            '    <Float64 name="time" valueReference="0" causality="independent" variability="continuous" '
+            'description="communication time (s)"/>',
+        ]
         for i, v in enumerate(vs):
             caus = "input" if v.input else "output"
             start = f' start="{" ".join([_start(v, 3)] * v.count)}"' if v.input else ""
             dims = "".join(f'<Dimension start="{d}"/>' for d in v.dims)
-            lines.append(f'    <{v.type} name="{v.name}" valueReference="{i + 1}" causality="{caus}" '
-                         f'variability="discrete" description="{escape(v.doc)}"{start}'
-                         + (f'>{dims}</{v.type}>' if dims else '/>'))
-        lines += ['  </ModelVariables>', '  <ModelStructure>']
+            lines.append(
+                f'    <{v.type} name="{v.name}" valueReference="{i + 1}" causality="{caus}" '
+                f'variability="discrete" description="{escape(v.doc)}"{start}'
+                + (f">{dims}</{v.type}>" if dims else "/>")
+            )
+        lines += ["  </ModelVariables>", "  <ModelStructure>"]
         lines += [f'    <Output valueReference="{i + 1}"/>' for i, v in enumerate(vs) if not v.input]
         lines += [f'    <InitialUnknown valueReference="{i + 1}"/>' for i, v in enumerate(vs) if not v.input]
-        lines += ['  </ModelStructure>', '</fmiModelDescription>', '']
+        lines += ["  </ModelStructure>", "</fmiModelDescription>", ""]
         return "\n".join(lines)
     bases = fmi2_bases(vs)
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{token}" {gen} '
-             f'description="{escape(description)}" variableNamingConvention="structured" numberOfEventIndicators="0">',
-             f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
-             f'canGetAndSetFMUstate="false" canSerializeFMUstate="false">',
-             '    <SourceFiles>', *[f'      <File name="{s}"/>' for s in sources], '    </SourceFiles>',
-             '  </CoSimulation>',
-             f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
-             '  <ModelVariables>']
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{token}" {gen} '
+        f'description="{escape(description)}" variableNamingConvention="structured" numberOfEventIndicators="0">',
+        f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="false" '
+        f'canGetAndSetFMUstate="false" canSerializeFMUstate="false">',
+        "    <SourceFiles>",
+        *[f'      <File name="{s}"/>' for s in sources],
+        "    </SourceFiles>",
+        "  </CoSimulation>",
+        f'  <DefaultExperiment startTime="0" stepSize="{dt!r}"/>',
+        "  <ModelVariables>",
+    ]
     outputs = []
     index = 0
     for v, base in zip(vs, bases):
@@ -201,15 +253,17 @@ def model_description(name: str, dt: float, vs: list[Var], token: str, fmi: int,
             caus = "input" if v.input else "output"
             typ = "Real" if v.type == "Float64" else "Integer"
             start = f' start="{_start(v, 2)}"' if v.input else ""
-            lines.append(f'    <ScalarVariable name="{nm}" valueReference="{base + e}" causality="{caus}" '
-                         f'variability="discrete" description="{escape(v.doc)}"><{typ}{start}/></ScalarVariable>')
+            lines.append(
+                f'    <ScalarVariable name="{nm}" valueReference="{base + e}" causality="{caus}" '
+                f'variability="discrete" description="{escape(v.doc)}"><{typ}{start}/></ScalarVariable>'
+            )
             if not v.input:
                 outputs.append(index)
-    lines += ['  </ModelVariables>', '  <ModelStructure>', '    <Outputs>']
+    lines += ["  </ModelVariables>", "  <ModelStructure>", "    <Outputs>"]
     lines += [f'      <Unknown index="{i}"/>' for i in outputs]
-    lines += ['    </Outputs>', '    <InitialUnknowns>']
+    lines += ["    </Outputs>", "    <InitialUnknowns>"]
     lines += [f'      <Unknown index="{i}"/>' for i in outputs]
-    lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
+    lines += ["    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(lines)
 
 
@@ -233,19 +287,22 @@ def build_fmu(folder: FolderLike, out: Path | str, fmi: int = 3, cc: str = "cc")
     if out.suffix != ".fmu":
         raise FmuError(f"-o {out}: allowed a file name ending in .fmu")
     folder = as_folder(folder)
-    build(folder)                                 # restores OSQP's library sources
+    build(folder)  # restores OSQP's library sources
     vs = variables(folder.sizes)
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "fcgen:" + folder.problem_file.read_text())) + "}"
     wrapper = wrapper_sources(folder, vs, token, fmi)
     pb = folder.problem
-    desc = f"fcgen NMPC controller {folder.name} ({pb.formulation.kind}, {pb.obstacles.kind}, N = {pb.horizon.N}, " \
-           f"dt = {pb.horizon.dt} s): one SQP real-time iteration per doStep"
+    desc = (
+        f"fcgen NMPC controller {folder.name} ({pb.formulation.kind}, {pb.obstacles.kind}, N = {pb.horizon.N}, "
+        f"dt = {pb.horizon.dt} s): one SQP real-time iteration per doStep"
+    )
     with tempfile.TemporaryDirectory(prefix=".fcgen-fmu-", dir=out.parent if out.parent.is_dir() else None) as tmp:
         root = Path(tmp) / "fmu"
         all_srcs = _write_sources(folder, root / "sources", wrapper, fmi)
         _compile_binary(folder, root, wrapper, fmi, cc)
-        (root / "modelDescription.xml").write_text(model_description(folder.name, pb.horizon.dt, vs, token, fmi,
-                                                                     desc, sources=all_srcs))
+        (root / "modelDescription.xml").write_text(
+            model_description(folder.name, pb.horizon.dt, vs, token, fmi, desc, sources=all_srcs)
+        )
         _write_documents(folder, root)
         tmp_fmu = Path(tmp) / "out.fmu"
         _zip_folder(root, tmp_fmu)
@@ -258,21 +315,39 @@ def wrapper_sources(folder: SolverFolder, vs: list[Var], token: str, fmi: int) -
     """The FMU's own C (file name -> text): the core over the solver's API and the FMI layer of version ``fmi``."""
     name, hdr = folder.name, fmi_headers()
     fallback = sorted({c for c in QP_EXIT.values() if c != "OK"} | {"ERR_QP_INPUT_BOUNDS"})
-    ctx = dict(name=name, NAME=name.upper(), dt=repr(folder.problem.horizon.dt), token=token,
-               exit_codes=EXIT_CODES, fallback_codes=fallback,
-               variables=[dict(name=v.name, ctype="double" if v.type == "Float64" else "int",
-                               type="FMU_F64" if v.type == "Float64" else "FMU_I32", input=int(v.input),
-                               count=v.count) for v in vs])
+    ctx = dict(
+        name=name,
+        NAME=name.upper(),
+        dt=repr(folder.problem.horizon.dt),
+        token=token,
+        exit_codes=EXIT_CODES,
+        fallback_codes=fallback,
+        variables=[
+            dict(
+                name=v.name,
+                ctype="double" if v.type == "Float64" else "int",
+                type="FMU_F64" if v.type == "Float64" else "FMU_I32",
+                input=int(v.input),
+                count=v.count,
+            )
+            for v in vs
+        ],
+    )
     wrapper = {
         "fmu_core.h": render_template("fmu/fmu_core.h.j2", **ctx),
         "fmu_core.c": render_template("fmu/fmu_core.c.j2", **ctx),
     }
     if fmi == 3:
-        wrapper["fmi3.c"] = render_template("fmu/fmi3.c.j2", **ctx, stubs=_c_stubs(
-            hdr / "fmi3FunctionTypes.h", "fmi3", _FMI3_DONE))
+        wrapper["fmi3.c"] = render_template(
+            "fmu/fmi3.c.j2", **ctx, stubs=_c_stubs(hdr / "fmi3FunctionTypes.h", "fmi3", _FMI3_DONE)
+        )
     else:
-        wrapper["fmi2.c"] = render_template("fmu/fmi2.c.j2", **ctx, bases=", ".join(map(str, fmi2_bases(vs))),
-                                            stubs=_c_stubs(hdr / "fmi2FunctionTypes.h", "fmi2", _FMI2_DONE))
+        wrapper["fmi2.c"] = render_template(
+            "fmu/fmi2.c.j2",
+            **ctx,
+            bases=", ".join(map(str, fmi2_bases(vs))),
+            stubs=_c_stubs(hdr / "fmi2FunctionTypes.h", "fmi2", _FMI2_DONE),
+        )
     return wrapper
 
 
@@ -290,8 +365,9 @@ def _write_sources(folder: SolverFolder, src: Path, wrapper: dict[str, str], fmi
     for fname, text in wrapper.items():
         (src / fname).write_text(text)
     all_srcs = [str(f.relative_to(gen_dir)) for f in solver_srcs] + sorted(f for f in wrapper if f.endswith(".c"))
-    incs = ["."] + (["osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private"]
-                    if (gen_dir / "osqp").is_dir() else [])
+    incs = ["."] + (
+        ["osqp", "osqp/lib", "osqp/lib/inc/public", "osqp/lib/inc/private"] if (gen_dir / "osqp").is_dir() else []
+    )
     if fmi == 3:
         (src / "buildDescription.xml").write_text(build_description(folder.name, all_srcs, incs))
     return all_srcs
@@ -301,14 +377,30 @@ def _compile_binary(folder: SolverFolder, root: Path, wrapper: dict[str, str], f
     """The binary for this platform: the wrapper and the host clock compiled here, the solver from the folder's own
     static libraries (the objects of lib<name>.so: the same code as the C library fcgen's closed loops load)."""
     name, src, lib_dir = folder.name, root / "sources", folder.build_dir()
-    libs = [lib_dir / f"lib{name}.a"] + ([lib_dir / f"lib{name}_osqp.a"] if (lib_dir / f"lib{name}_osqp.a").is_file()
-                                          else [])
+    libs = [lib_dir / f"lib{name}.a"] + (
+        [lib_dir / f"lib{name}_osqp.a"] if (lib_dir / f"lib{name}_osqp.a").is_file() else []
+    )
     bindir = root / "binaries" / PLATFORM[fmi]
     bindir.mkdir(parents=True)
     so = bindir / f"{name}.so"
-    cmd = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{src}", f"-I{fmi_headers()}",
-           *[str(src / f) for f in wrapper if f.endswith(".c")], str(folder.path / f"{name}_host.c"),
-           *map(str, libs), "-o", str(so), "-lm"]
+    cmd = [
+        cc,
+        "-std=c99",
+        "-shared",
+        "-fPIC",
+        "-O2",
+        "-Wall",
+        "-Wextra",
+        "-Werror",
+        f"-I{src}",
+        f"-I{fmi_headers()}",
+        *[str(src / f) for f in wrapper if f.endswith(".c")],
+        str(folder.path / f"{name}_host.c"),
+        *map(str, libs),
+        "-o",
+        str(so),
+        "-lm",
+    ]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise FmuError(f"compiling the FMU's binary failed:\n{res.stderr[-3000:]}")
@@ -323,8 +415,10 @@ def _write_documents(folder: SolverFolder, root: Path) -> None:
     doc.mkdir()
     readme = (folder.path / "README.md").read_text()
     (doc / "README.md").write_text(readme)
-    (doc / "index.html").write_text(f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{folder.name}</title>"
-                                    f"</head><body><pre>{escape(readme)}</pre></body></html>\n")
+    (doc / "index.html").write_text(
+        f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{folder.name}</title>'
+        f"</head><body><pre>{escape(readme)}</pre></body></html>\n"
+    )
 
 
 def _zip_folder(root: Path, path: Path) -> None:
@@ -341,6 +435,7 @@ def _zip_folder(root: Path, path: Path) -> None:
 def fmu_problem(path: Path | str):
     """The Problem an fcgen FMU was generated from (its ``resources/problem.py``)."""
     from .presets import load_problem
+
     with zipfile.ZipFile(path) as z:
         if "resources/problem.py" not in z.namelist():
             raise FmuError(f"{path}: no resources/problem.py: not an FMU written by fcgen fmu (give --problem)")
@@ -358,11 +453,14 @@ class FmuController:
 
     def __init__(self, path: Path | str, problem=None):
         from fmpy import extract, read_model_description
+
         self.path = Path(path)
         md = read_model_description(str(self.path))
         if problem is not None and md.coSimulation.modelIdentifier != problem.name:
-            raise FmuError(f"--fmu {path}: the FMU's solver is {md.coSimulation.modelIdentifier!r}, the problem is "
-                           f"{problem.name!r}")
+            raise FmuError(
+                f"--fmu {path}: the FMU's solver is {md.coSimulation.modelIdentifier!r}, the problem is "
+                f"{problem.name!r}"
+            )
         self.fmi = 3 if md.fmiVersion.startswith("3") else 2
         self._dir = extract(str(self.path))
         self.dt = float(md.defaultExperiment.stepSize)
@@ -370,12 +468,14 @@ class FmuController:
         self.vr = {}
         if self.fmi == 3:
             from fmpy.fmi3 import FMU3Slave
+
             self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
             for v in md.modelVariables:
                 self.vr[v.name] = v.valueReference
             self.fmu.instantiate()
         else:
             from fmpy.fmi2 import FMU2Slave
+
             self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
             groups: dict[str, list[int]] = {}
             for v in md.modelVariables:
@@ -385,14 +485,20 @@ class FmuController:
             self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
-        self.count = {v.name: int(np.prod([int(d.start) for d in v.dimensions])) if v.dimensions else 1
-                      for v in md.modelVariables} if self.fmi == 3 else {k: len(v) for k, v in self.vr.items()}
+        self.count = (
+            {
+                v.name: int(np.prod([int(d.start) for d in v.dimensions])) if v.dimensions else 1
+                for v in md.modelVariables
+            }
+            if self.fmi == 3
+            else {k: len(v) for k, v in self.vr.items()}
+        )
         self.t = 0.0
         self._last = None
 
     def _set(self, name: str, values, integer: bool = False) -> None:
         vals = np.asarray(values, dtype=float).ravel()
-        if len(vals) < self.count[name]:   # a road window shorter than ROAD_MAX: the rest is not read
+        if len(vals) < self.count[name]:  # a road window shorter than ROAD_MAX: the rest is not read
             vals = np.concatenate([vals, np.zeros(self.count[name] - len(vals))])
         if self.fmi == 3:
             if integer:
@@ -416,8 +522,7 @@ class FmuController:
         self._set("road_s0", [road.s0])
         self._set("road_ds", [road.ds])
         self._set("road_n", [road.size], integer=True)
-        for nm, arr in (("road_kappa", road.kappa), ("road_phi", road.phi), ("road_x", road.gx),
-                        ("road_y", road.gy)):
+        for nm, arr in (("road_kappa", road.kappa), ("road_phi", road.phi), ("road_x", road.gx), ("road_y", road.gy)):
             self._set(nm, arr)
         self._set("opponents", opp)
         self.fmu.doStep(currentCommunicationPoint=self.t, communicationStepSize=self.dt)
@@ -425,11 +530,17 @@ class FmuController:
         rc = int(self._get("exit_code", integer=True)[0])
         u0 = self._get("u0", 2)
         slack = float(self._get("max_slack")[0])
-        return StepResult(u0, rc, int(self._get("qp_status", integer=True)[0]),
-                          int(self._get("qp_iter", integer=True)[0]), float(self._get("time_prepare")[0]),
-                          float(self._get("time_feedback")[0]), float("nan") if rc else slack,
-                          int(self._get("plan_reaction", integer=True)[0]),
-                          int(self._get("a_lat_guard", integer=True)[0]))
+        return StepResult(
+            u0,
+            rc,
+            int(self._get("qp_status", integer=True)[0]),
+            int(self._get("qp_iter", integer=True)[0]),
+            float(self._get("time_prepare")[0]),
+            float(self._get("time_feedback")[0]),
+            float("nan") if rc else slack,
+            int(self._get("plan_reaction", integer=True)[0]),
+            int(self._get("a_lat_guard", integer=True)[0]),
+        )
 
     def close(self) -> None:
         self.fmu.terminate()

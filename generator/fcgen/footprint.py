@@ -14,6 +14,7 @@ The solver's libraries are compiled for the target with ``-fstack-usage -fcallgr
   indirect calls left out. C-library callees (``memcpy``, ``sqrt``, ``sin``, ...) have no ``.su`` and are
   listed, not counted. A recursive cycle makes the bound infinite (reported).
 """
+
 from __future__ import annotations
 
 import json
@@ -32,8 +33,16 @@ KEYS = ("text", "rodata", "data", "bss")
 INDIRECT = "__indirect_call"
 FOOTPRINT_VARIANT = "footprint"
 """The build variant measured (``build/<target>/footprint``; its objects carry the stack-usage output)."""
-_BRANCH_RELOCS = ("R_ARM_THM_CALL", "R_ARM_THM_JUMP24", "R_ARM_THM_JUMP19", "R_ARM_CALL", "R_ARM_JUMP24",
-                  "R_ARM_PLT32", "R_X86_64_PLT32", "R_X86_64_PC32")
+_BRANCH_RELOCS = (
+    "R_ARM_THM_CALL",
+    "R_ARM_THM_JUMP24",
+    "R_ARM_THM_JUMP19",
+    "R_ARM_CALL",
+    "R_ARM_JUMP24",
+    "R_ARM_PLT32",
+    "R_X86_64_PLT32",
+    "R_X86_64_PC32",
+)
 
 
 def section_sizes(obj: Path) -> dict[str, int]:
@@ -43,20 +52,20 @@ def section_sizes(obj: Path) -> dict[str, int]:
         raise ValueError(f"{obj}: not a little-endian ELF file")
     is64 = raw[4] == 2
     if is64:
-        shoff, = struct.unpack_from("<Q", raw, 0x28)
+        (shoff,) = struct.unpack_from("<Q", raw, 0x28)
         shentsize, shnum = struct.unpack_from("<HH", raw, 0x3A)
     else:
-        shoff, = struct.unpack_from("<I", raw, 0x20)
+        (shoff,) = struct.unpack_from("<I", raw, 0x20)
         shentsize, shnum = struct.unpack_from("<HH", raw, 0x2E)
     out = dict.fromkeys(KEYS, 0)
     for i in range(shnum):
         base = shoff + i * shentsize
         if is64:
             _, sh_type, sh_flags = struct.unpack_from("<IIQ", raw, base)
-            size, = struct.unpack_from("<Q", raw, base + 0x20)
+            (size,) = struct.unpack_from("<Q", raw, base + 0x20)
         else:
             _, sh_type, sh_flags = struct.unpack_from("<III", raw, base)
-            size, = struct.unpack_from("<I", raw, base + 0x14)
+            (size,) = struct.unpack_from("<I", raw, base + 0x14)
         if not sh_flags & SHF_ALLOC:
             continue
         if sh_flags & SHF_EXECINSTR:
@@ -81,11 +90,11 @@ _BYTES = re.compile(r"\\n(\d+) bytes \(([^)]*)\)")
 class CallGraph:
     """Frame sizes and call edges of the objects (GCC ``-fcallgraph-info=su``)."""
 
-    frame: dict[str, int] = field(default_factory=dict)       # defined function -> stack bytes
-    qualifier: dict[str, str] = field(default_factory=dict)   # static / dynamic / dynamic,bounded
+    frame: dict[str, int] = field(default_factory=dict)  # defined function -> stack bytes
+    qualifier: dict[str, str] = field(default_factory=dict)  # static / dynamic / dynamic,bounded
     calls: dict[str, set[str]] = field(default_factory=dict)  # caller -> callees (names as GCC writes them)
     address_taken: dict[str, set[str]] = field(default_factory=dict)  # component -> functions
-    component: dict[str, str] = field(default_factory=dict)           # defined function -> component
+    component: dict[str, str] = field(default_factory=dict)  # defined function -> component
 
     def add_ci(self, text: str, component: str) -> None:
         for title, label in _NODE.findall(text):
@@ -154,6 +163,7 @@ def address_taken(readelf: str, obj: Path) -> set[str]:
 
 # ----------------------------------------------------------------------------- the command
 
+
 def api_functions(header: Path, name: str) -> list[str]:
     """The functions ``<name>_solver.h`` declares (without the prefix), in their order."""
     found = re.findall(rf"^[A-Za-z_][\w ]*?\*?\b{name}_(\w+)\(", Path(header).read_text(), re.M)
@@ -181,9 +191,14 @@ def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
         if ci.is_file():
             graph.add_ci(ci.read_text(), component)
         graph.address_taken.setdefault(component, set()).update(address_taken(readelf, o))
-        per_object.append({"object": o.relative_to(obj_dir).as_posix(), **sizes,
-                           "flash": sizes["text"] + sizes["rodata"] + sizes["data"],
-                           "ram": sizes["data"] + sizes["bss"]})
+        per_object.append(
+            {
+                "object": o.relative_to(obj_dir).as_posix(),
+                **sizes,
+                "flash": sizes["text"] + sizes["rodata"] + sizes["data"],
+                "ram": sizes["data"] + sizes["bss"],
+            }
+        )
     total = {k: sum(r[k] for r in per_object) for k in (*KEYS, "flash", "ram")}
     stack = {}
     unknown: set[str] = set()
@@ -194,16 +209,26 @@ def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
     worst_fn = max(stack, key=lambda k: stack[k]["bytes"])
     dynamic = sorted(f for f, q in graph.qualifier.items() if q != "static")
     return {
-        "format": "fcgen-footprint/1", "solver": name, "target": tgt.name, "cflags": tgt.cflags(),
-        "objects": per_object, "total": total,
-        "stack": {"worst_bytes": stack[worst_fn]["bytes"], "worst_entry": f"{name}_{worst_fn}",
-                  "worst_chain": stack[worst_fn]["chain"], "per_entry": stack,
-                  "indirect_targets": {c: sorted({graph.resolve(f) for f in fs if graph.resolve(f) in graph.frame})
-                                       for c, fs in sorted(graph.address_taken.items())},
-                  "not_counted": sorted(u for u in unknown if u != INDIRECT),
-                  "dynamic_frames": dynamic,
-                  "note": "indirect calls (the clock hook's too) resolved to the address-taken functions of the "
-                          "caller's component; C-library callees (not_counted) are not included"},
+        "format": "fcgen-footprint/1",
+        "solver": name,
+        "target": tgt.name,
+        "cflags": tgt.cflags(),
+        "objects": per_object,
+        "total": total,
+        "stack": {
+            "worst_bytes": stack[worst_fn]["bytes"],
+            "worst_entry": f"{name}_{worst_fn}",
+            "worst_chain": stack[worst_fn]["chain"],
+            "per_entry": stack,
+            "indirect_targets": {
+                c: sorted({graph.resolve(f) for f in fs if graph.resolve(f) in graph.frame})
+                for c, fs in sorted(graph.address_taken.items())
+            },
+            "not_counted": sorted(u for u in unknown if u != INDIRECT),
+            "dynamic_frames": dynamic,
+            "note": "indirect calls (the clock hook's too) resolved to the address-taken functions of the "
+            "caller's component; C-library callees (not_counted) are not included",
+        },
     }
 
 
@@ -215,8 +240,10 @@ def format_footprint(res: dict) -> str:
     t = res["total"]
     rows.append(("total", *(str(t[k]) for k in (*KEYS, "flash", "ram"))))
     w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = [f"footprint of {res['solver']} on {res['target']} ({res['cflags']}), bytes; flash = text + rodata + "
-             f"data (initial values), RAM = data + bss"]
+    lines = [
+        f"footprint of {res['solver']} on {res['target']} ({res['cflags']}), bytes; flash = text + rodata + "
+        f"data (initial values), RAM = data + bss"
+    ]
     for i, r in enumerate(rows):
         if i == len(rows) - 1:
             lines.append("  ".join("-" * v for v in w))
@@ -224,14 +251,20 @@ def format_footprint(res: dict) -> str:
         if i == 0:
             lines.append("  ".join("-" * v for v in w))
     s = res["stack"]
-    lines.append(f"flash {t['flash']} bytes ({t['flash'] / 1024:.1f} KiB), RAM {t['ram']} bytes "
-                 f"({t['ram'] / 1024:.1f} KiB), worst stack {s['worst_bytes']:.0f} bytes ({s['worst_entry']}: "
-                 + " -> ".join(c.split(":")[-1] for c in s["worst_chain"]) + ")")
-    lines.append("stack per API function (indirect calls resolved / direct calls only): "
-                 + ", ".join(f"{k} {v['bytes']:.0f}/{v['bytes_direct']:.0f}" for k, v in s["per_entry"].items()
-                             if v["bytes"]))
-    lines.append("indirect calls (the clock hook's too) charged as the deepest address-taken function of the "
-                 f"caller's component; not counted: C library ({', '.join(s['not_counted']) or 'none'})")
+    lines.append(
+        f"flash {t['flash']} bytes ({t['flash'] / 1024:.1f} KiB), RAM {t['ram']} bytes "
+        f"({t['ram'] / 1024:.1f} KiB), worst stack {s['worst_bytes']:.0f} bytes ({s['worst_entry']}: "
+        + " -> ".join(c.split(":")[-1] for c in s["worst_chain"])
+        + ")"
+    )
+    lines.append(
+        "stack per API function (indirect calls resolved / direct calls only): "
+        + ", ".join(f"{k} {v['bytes']:.0f}/{v['bytes_direct']:.0f}" for k, v in s["per_entry"].items() if v["bytes"])
+    )
+    lines.append(
+        "indirect calls (the clock hook's too) charged as the deepest address-taken function of the "
+        f"caller's component; not counted: C library ({', '.join(s['not_counted']) or 'none'})"
+    )
     if s["dynamic_frames"]:
         lines.append(f"dynamic stack frames: {', '.join(s['dynamic_frames'])}")
     return "\n".join(lines)
@@ -247,11 +280,13 @@ def write_footprint(res: dict, out: Path | str) -> Path:
 def readme_section(res: dict) -> str:
     """The README's footprint figures (between the markers the template writes)."""
     t, s = res["total"], res["stack"]
-    return (f"{README_BEGIN}\nMeasured by `fcgen footprint . --target {res['target']}` ({res['cflags']}): "
-            f"flash {t['flash']} bytes (text {t['text']}, rodata {t['rodata']}, data image {t['data']}), "
-            f"RAM {t['ram']} bytes (data {t['data']} + bss {t['bss']}), worst stack {s['worst_bytes']:.0f} bytes "
-            f"({s['worst_entry']}; C library not included, the clock hook charged as the deepest indirect "
-            f"callee).\n{README_END}")
+    return (
+        f"{README_BEGIN}\nMeasured by `fcgen footprint . --target {res['target']}` ({res['cflags']}): "
+        f"flash {t['flash']} bytes (text {t['text']}, rodata {t['rodata']}, data image {t['data']}), "
+        f"RAM {t['ram']} bytes (data {t['data']} + bss {t['bss']}), worst stack {s['worst_bytes']:.0f} bytes "
+        f"({s['worst_entry']}; C library not included, the clock hook charged as the deepest indirect "
+        f"callee).\n{README_END}"
+    )
 
 
 def fill_readme(gen_dir: Path, res: dict) -> Path:
@@ -261,5 +296,5 @@ def fill_readme(gen_dir: Path, res: dict) -> Path:
     i, j = text.find(README_BEGIN), text.find(README_END)
     if i < 0 or j < i:
         raise ValueError(f"{path}: no footprint section (markers {README_BEGIN} ... {README_END})")
-    path.write_text(text[:i] + readme_section(res) + text[j + len(README_END):])
+    path.write_text(text[:i] + readme_section(res) + text[j + len(README_END) :])
     return path

@@ -14,6 +14,7 @@ The formulation's full stage state is the lifting ``init_state`` of the guessed 
 pose F^-1(s_k, n0, alpha_k) on the stage's road window), so the guess satisfies the lifting's consistency. The
 generated C performs the same arithmetic (``initial_guess`` in solver.c.j2, ``STAGES[k].t = k dt``).
 """
+
 from __future__ import annotations
 
 import numpy as np

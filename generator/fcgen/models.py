@@ -3,6 +3,7 @@
 Each ODE is a pure function of CasADi expressions; ``road`` is a callable s -> (kappa, phi_gamma) so the same
 equations serve the NLP (road from a parameter window) and tests (road from a closed form).
 """
+
 from __future__ import annotations
 
 from typing import Callable
@@ -38,8 +39,9 @@ def cartesian_ode(x, u, veh: Vehicle, wind: Wind):
     """x^C = [x, y, phi, v, delta]."""
     _, _, phi, v, delta = ca.vertsplit(x)
     F_d, r = ca.vertsplit(u)
-    return ca.vertcat(v * ca.cos(phi), v * ca.sin(phi), v * ca.tan(delta) / veh.l,
-                      longitudinal(v, phi, F_d, veh, wind), r)
+    return ca.vertcat(
+        v * ca.cos(phi), v * ca.sin(phi), v * ca.tan(delta) / veh.l, longitudinal(v, phi, F_d, veh, wind), r
+    )
 
 
 def frenet_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
@@ -48,8 +50,13 @@ def frenet_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
     F_d, r = ca.vertsplit(u)
     kappa, phi_g = road(s)
     sdot = v * ca.cos(alpha) / (1 - n * kappa)
-    return ca.vertcat(sdot, v * ca.sin(alpha), v * ca.tan(delta) / veh.l - kappa * sdot,
-                      longitudinal(v, phi_g + alpha, F_d, veh, wind), r)
+    return ca.vertcat(
+        sdot,
+        v * ca.sin(alpha),
+        v * ca.tan(delta) / veh.l - kappa * sdot,
+        longitudinal(v, phi_g + alpha, F_d, veh, wind),
+        r,
+    )
 
 
 def lifted_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
@@ -59,9 +66,16 @@ def lifted_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
     kappa, _ = road(s)
     sdot = v * ca.cos(alpha) / (1 - n * kappa)
     yaw_rate = v * ca.tan(delta) / veh.l
-    return ca.vertcat(sdot, v * ca.sin(alpha), yaw_rate - kappa * sdot,
-                      longitudinal(v, phi, F_d, veh, wind), r,
-                      v * ca.cos(phi), v * ca.sin(phi), yaw_rate)
+    return ca.vertcat(
+        sdot,
+        v * ca.sin(alpha),
+        yaw_rate - kappa * sdot,
+        longitudinal(v, phi, F_d, veh, wind),
+        r,
+        v * ca.cos(phi),
+        v * ca.sin(phi),
+        yaw_rate,
+    )
 
 
 def rk4(f: Callable, x, u, dt: float):

@@ -4,6 +4,7 @@ Every vehicle shape is described the same way: a centre ``c``, an axis angle, ha
 The constraint expressions are written once on that description and work on floats, numpy and CasADi SX;
 rows are ``h >= 0`` (outside), ``h < 0`` inside.
 """
+
 from __future__ import annotations
 
 import math
@@ -91,7 +92,7 @@ def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
     ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width > 0; the ellipse's semi-axes at least
     half the length (width) plus the ego's radius (necessary for containment; ``opponent_shape`` computes them)."""
     v = np.asarray(values, dtype=float)
-    names = shape_names(model)[:len(v)]
+    names = shape_names(model)[: len(v)]
     for nm, x in zip(names, v):
         if not math.isfinite(x):
             raise ValueError(f"opponent shape {nm} = {x!r} is invalid: allowed a finite value")
@@ -103,8 +104,10 @@ def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
         for i, nm in ((3, "a"), (4, "b")):
             need = float(v[i - 3] / 2 + r)
             if not v[i] >= need:
-                raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed >= {need!r} "
-                                 "(half the size plus the ego's radius)")
+                raise ValueError(
+                    f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed >= {need!r} "
+                    "(half the size plus the ego's radius)"
+                )
 
 
 def vertices(sh: Shape) -> list[tuple]:
@@ -166,7 +169,7 @@ def paper_ellipse_h(px, py, opp: Shape, r):
     return ellipse_h(px, py, opp, *paper_ellipse_axes(opp.L, opp.W, r))
 
 
-ELLIPSE_GRID = 20001   # directions of the support-function condition (a quarter turn)
+ELLIPSE_GRID = 20001  # directions of the support-function condition (a quarter turn)
 ELLIPSE_SAFETY = 1e-6  # relative growth of b over the grid's maximum: covers the directions between grid points
 
 
@@ -188,6 +191,7 @@ def containing_ellipse_axes(L, W, r):
 
 def _containing_axes(L: float, W: float, r: float) -> tuple[float, float]:
     from scipy.optimize import minimize_scalar
+
     t = np.linspace(0.0, 0.5 * math.pi, ELLIPSE_GRID)[1:]
     c, s = np.cos(t), np.sin(t)
     need = (L * c + W * s + r) ** 2
@@ -196,8 +200,12 @@ def _containing_axes(L: float, W: float, r: float) -> tuple[float, float]:
         return math.sqrt(max(0.0, float(np.max((need - a * a * c * c) / (s * s)))))
 
     lo = L + r
-    res = minimize_scalar(lambda a: a * b_of(a), bounds=(lo * (1 + 1e-6), 4.0 * (lo + W + r)), method="bounded",
-                          options={"xatol": 1e-9 * lo})
+    res = minimize_scalar(
+        lambda a: a * b_of(a),
+        bounds=(lo * (1 + 1e-6), 4.0 * (lo + W + r)),
+        method="bounded",
+        options={"xatol": 1e-9 * lo},
+    )
     a = float(res.x)
     return a, b_of(a) * (1.0 + ELLIPSE_SAFETY)
 
@@ -248,7 +256,7 @@ def sat_clearance(a: Shape, b: Shape):
             pb = [ux * x + uy * y for x, y in cb]
             lo_a, hi_a = _fold(ca.fmin, pa), _fold(ca.fmax, pa)
             lo_b, hi_b = _fold(ca.fmin, pb), _fold(ca.fmax, pb)
-            gaps.append(ca.fmax(lo_a, lo_b) - ca.fmin(hi_a, hi_b))   # minus the projections' overlap
+            gaps.append(ca.fmax(lo_a, lo_b) - ca.fmin(hi_a, hi_b))  # minus the projections' overlap
     return _fold(ca.fmax, gaps)
 
 
@@ -272,8 +280,7 @@ def thetas_per_opponent(model: ObstacleModel) -> int:
     return 3 if isinstance(model, SeparatingHyperplane) else 0
 
 
-def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float,
-                    axes=None):
+def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: bool, length: float, axes=None):
     """(soft rows h >= 0, equality rows == 0) of one opponent at one stage; ``cover``: covering circles whatever the
     model's radius rule (the conventional formulation's fitted boxes); ``axes``: the containing ellipse's semi-axes
     given with the opponent's shape (else computed from its size)."""
@@ -290,14 +297,20 @@ def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: 
 
 # --- conventional formulation: shapes in (s, n) -------------------------------------------------
 
+
 def frenet_ego_shape(s, n, alpha, f, veh: Vehicle) -> Shape:
     """The ego chassis in (s, n), inflated by the Frenet stretch factor f >= 1 (``1 / (1 - |n| kappa)``)."""
     half_l = veh.l / 2
-    return Shape(s + half_l * _cos(alpha), n + half_l * _sin(alpha), alpha,
-                 f * (veh.l_ch / 2 + half_l) - half_l, f * veh.w_ch / 2)
+    return Shape(
+        s + half_l * _cos(alpha),
+        n + half_l * _sin(alpha),
+        alpha,
+        f * (veh.l_ch / 2 + half_l) - half_l,
+        f * veh.w_ch / 2,
+    )
 
 
-SAG_SAFETY = 2.0   # the box's padding: this times chord_sag_bound (the road interpolant is no exact Frenet frame)
+SAG_SAFETY = 2.0  # the box's padding: this times chord_sag_bound (the road interpolant is no exact Frenet frame)
 
 
 def edge_spacing(opp: Vehicle, points_per_metre: float) -> float:
@@ -333,8 +346,15 @@ def chord_sag_bound(h: float, n_lo: float, n_hi: float, kap: np.ndarray, ds: flo
     return ((h * h) / 8.0) * (b_s + b_n)
 
 
-def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin: float,
-                     s_guess: float | None = None, points_per_metre: float = 4.0) -> np.ndarray:
+def fit_frenet_shape(
+    road: Road,
+    pose_xyphi,
+    opp: Vehicle,
+    ego: Vehicle,
+    margin: float,
+    s_guess: float | None = None,
+    points_per_metre: float = 4.0,
+) -> np.ndarray:
     """Map the opponent's true rectangle into (s, n) and fit an oriented box around all mapped points.
 
     Returns ``FRENET_SHAPE`` values. The box axis joins the mapped rear and front centres; it is padded by the margin
@@ -363,7 +383,7 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     _, phg, gx, gy, _, _ = road.eval(sp)
     fr = np.stack([sp, -(P[:, 0] - gx) * np.sin(phg) + (P[:, 1] - gy) * np.cos(phg)], axis=1)
     rear, front = fr[-2], fr[-1]
-    body = fr[:n_edge + 1]
+    body = fr[: n_edge + 1]
     angle = math.atan2(front[1] - rear[1], front[0] - rear[0])
     ax = np.array([math.cos(angle), math.sin(angle)])
     nm = np.array([-ax[1], ax[0]])
@@ -377,14 +397,19 @@ def fit_frenet_shape(road: Road, pose_xyphi, opp: Vehicle, ego: Vehicle, margin:
     stretch = max(0.0, n_hi * kap.max(), n_hi * kap.min(), n_lo * kap.max(), n_lo * kap.min())
     centre_s = 0.5 * (a.max() + a.min()) * ax[0] + 0.5 * (b.max() + b.min()) * nm[0]
     if stretch >= 0.9:
-        raise ValueError(f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre_s:.1f} m; "
-                         "allowed < 0.9 (the Frenet frame is singular there)")
+        raise ValueError(
+            f"conventional over-approximation: |n| kappa = {stretch:.2f} near s = {centre_s:.1f} m; "
+            "allowed < 0.9 (the Frenet frame is singular there)"
+        )
     # the mapped edges are curves between the mapped points: pad by their bound off the chords
-    sag = chord_sag_bound(edge_spacing(opp, points_per_metre), float(body[:, 1].min()), float(body[:, 1].max()),
-                          kap, road.ds, reach)
+    sag = chord_sag_bound(
+        edge_spacing(opp, points_per_metre), float(body[:, 1].min()), float(body[:, 1].max()), kap, road.ds, reach
+    )
     if sag is None:
-        raise ValueError(f"conventional over-approximation: the edges near s = {centre_s:.1f} m cannot be bounded "
-                         "(the Frenet frame is nearly singular there)")
+        raise ValueError(
+            f"conventional over-approximation: the edges near s = {centre_s:.1f} m cannot be bounded "
+            "(the Frenet frame is nearly singular there)"
+        )
     margin = margin + SAG_SAFETY * sag
     L = 0.5 * (a.max() - a.min()) + margin
     W = 0.5 * (b.max() - b.min()) + margin

@@ -5,6 +5,7 @@ maps ``(w_k, x_{k+1}, p_k)`` to its rows ``g`` (scaled, so the QP row is ``J z i
 ``J`` of ``g`` with respect to the *scaled* variables ``z = (w - w_guess) / D`` of stage k and ``x_{k+1}``, and the
 scaled cost gradient ``q``. The QP Hessian is constant (Gauss-Newton of a linear least-squares cost).
 """
+
 from __future__ import annotations
 
 import math
@@ -14,9 +15,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from . import models, obstacles as obs
-from .oppfit import OppFit, build_oppfit
+from . import models
+from . import obstacles as obs
 from .dsl import Conventional, Lifted, Problem
+from .oppfit import OppFit, build_oppfit
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
 
 INF = 1e30  # OSQP_INFTY: OSQP treats bounds at or beyond it as infinite
@@ -35,10 +37,10 @@ class StageType:
     row_names: tuple[str, ...]
     L: np.ndarray
     U: np.ndarray
-    D: np.ndarray              # variable scale of w_k
-    P_diag: np.ndarray         # constant scaled Hessian diagonal of w_k
-    q_ds0: np.ndarray          # d q / d s0 (the s-reference moves with the measured s0)
-    fun: ca.Function           # (w, x_next, p) -> (g, J, q)
+    D: np.ndarray  # variable scale of w_k
+    P_diag: np.ndarray  # constant scaled Hessian diagonal of w_k
+    q_ds0: np.ndarray  # d q / d s0 (the s-reference moves with the measured s0)
+    fun: ca.Function  # (w, x_next, p) -> (g, J, q)
     jac_sparsity: ca.Sparsity
 
     @property
@@ -61,18 +63,18 @@ class Ocp:
     n_theta: int
     n_sigma: int
     road_params: RoadWindowParams
-    n_opp_par: int             # per opponent and stage given to set_opponents: its pose [x, y, phi]
-    n_opp_stage: int           # per opponent in a stage's parameters (pose + shape; conventional: the fitted
+    n_opp_par: int  # per opponent and stage given to set_opponents: its pose [x, y, phi]
+    n_opp_stage: int  # per opponent in a stage's parameters (pose + shape; conventional: the fitted
     #                            FRENET_SHAPE)
-    n_opp_shape: int           # per opponent given to set_opponent_shapes (obstacles.shape_names)
+    n_opp_shape: int  # per opponent given to set_opponent_shapes (obstacles.shape_names)
     np_stage: int
     cost_scale: float
     first: StageType
     middle: StageType
     last: StageType
-    dynamics: ca.Function      # (x, u, p) -> x_next: one RK4 step (shift, plant, tests)
-    init_state: ca.Function    # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
-    a_lat: ca.Function         # (x) -> lateral acceleration
+    dynamics: ca.Function  # (x, u, p) -> x_next: one RK4 step (shift, plant, tests)
+    init_state: ca.Function  # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
+    a_lat: ca.Function  # (x) -> lateral acceleration
     plan_clearance: ca.Function | None = None  # (x, p, opp poses) -> per opponent the SAT clearance (plan check)
     cost: tuple = field(default=())  # (first, middle, last) unscaled cost functions (w, p) -> J, for IPOPT
     fit: OppFit | None = None  # conventional: the prepare phase's opponent fit (pose -> FRENET_SHAPE)
@@ -136,7 +138,7 @@ def road_window_samples(problem: Problem) -> int:
 class _Stage:
     """The symbols of a stage and the sizes and scales they follow from: what the parts of ``build_ocp`` share."""
 
-    kind: str                  # the state representation: "lifted" or "frenet"
+    kind: str  # the state representation: "lifted" or "frenet"
     lifted: bool
     conventional: bool
     nx: int
@@ -149,7 +151,7 @@ class _Stage:
     n_opp_stage: int
     np_stage: int
     uniform: bool
-    dt: float                  # the (first) shooting interval: the costs' weight, the uniform grid's step
+    dt: float  # the (first) shooting interval: the costs' weight, the uniform grid's step
     rp: RoadWindowParams
     xs: ca.SX
     us: ca.SX
@@ -168,15 +170,15 @@ class _Stage:
 
     @property
     def p_road(self) -> ca.SX:
-        return self.p[0:self.rp.size]
+        return self.p[0 : self.rp.size]
 
     @property
     def xref(self) -> ca.SX:
-        return self.p[self.rp.size:self.rp.size + 5]
+        return self.p[self.rp.size : self.rp.size + 5]
 
     @property
     def p_opp(self) -> ca.SX:
-        return self.p[self.rp.size + 5:self.rp.size + 5 + self.n_opp * self.n_opp_stage]
+        return self.p[self.rp.size + 5 : self.rp.size + 5 + self.n_opp * self.n_opp_stage]
 
 
 def _stage_symbols(pb: Problem) -> _Stage:
@@ -194,13 +196,34 @@ def _stage_symbols(pb: Problem) -> _Stage:
     n_shape = len(obs.shape_names(model))
     n_opp_stage = len(obs.FRENET_SHAPE) if conventional else len(obs.CARTESIAN_POSE) + n_shape
     uniform = pb.horizon.uniform
-    np_stage = rp.size + 5 + n_opp * n_opp_stage + (0 if uniform else 1)   # [road | x_ref | opponents | (interval)]
-    return _Stage(kind, lifted, conventional, nx, nu, n_opp, n_theta, n_sigma, n_obs_rows, n_shape, n_opp_stage,
-                  np_stage, uniform, pb.horizon.interval, rp,
-                  ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("theta", n_theta), ca.SX.sym("sigma", n_sigma),
-                  ca.SX.sym("x_next", nx), ca.SX.sym("p", np_stage),
-                  np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]]),
-                  np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES]), np.ones(n_theta), np.ones(n_sigma))
+    np_stage = rp.size + 5 + n_opp * n_opp_stage + (0 if uniform else 1)  # [road | x_ref | opponents | (interval)]
+    return _Stage(
+        kind,
+        lifted,
+        conventional,
+        nx,
+        nu,
+        n_opp,
+        n_theta,
+        n_sigma,
+        n_obs_rows,
+        n_shape,
+        n_opp_stage,
+        np_stage,
+        uniform,
+        pb.horizon.interval,
+        rp,
+        ca.SX.sym("x", nx),
+        ca.SX.sym("u", nu),
+        ca.SX.sym("theta", n_theta),
+        ca.SX.sym("sigma", n_sigma),
+        ca.SX.sym("x_next", nx),
+        ca.SX.sym("p", np_stage),
+        np.array([STATE_SCALE[n] for n in models.STATE_NAMES[kind]]),
+        np.array([CONTROL_SCALE[n] for n in models.CONTROL_NAMES]),
+        np.ones(n_theta),
+        np.ones(n_sigma),
+    )
 
 
 def _dynamics(pb: Problem, st: _Stage) -> ca.SX:
@@ -220,13 +243,17 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
     """The soft rows of the lateral acceleration (inside ``a_lat_max - a_lat_margin``) and, with ``soft_road``, of
     the road bounds: (name, g, lower, upper), slacks 0 and 1."""
     bnd, xs, sgs = pb.bounds, st.xs, st.sgs
-    lim = (bnd.a_lat_max - bnd.a_lat_margin) / bnd.a_lat_max   # the planned bound (1.0 without a margin)
-    rows = [("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
-            ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim)]
+    lim = (bnd.a_lat_max - bnd.a_lat_margin) / bnd.a_lat_max  # the planned bound (1.0 without a margin)
+    rows = [
+        ("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
+        ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim),
+    ]
     if pb.soft.soft_road:
         sn = STATE_SCALE["n"]
-        rows += [("road_lo", (xs[1] + sgs[1]) / sn, bnd.n_min / sn, INF),
-                 ("road_hi", (xs[1] - sgs[1]) / sn, -INF, bnd.n_max / sn)]
+        rows += [
+            ("road_lo", (xs[1] + sgs[1]) / sn, bnd.n_min / sn, INF),
+            ("road_hi", (xs[1] - sgs[1]) / sn, -INF, bnd.n_max / sn),
+        ]
     return rows
 
 
@@ -248,10 +275,10 @@ def _obstacle_rows(pb: Problem, st: _Stage, first_slack: int) -> tuple[list[tupl
     ego_pose = _ego_pose(st)
     p_opp, ths, sgs = st.p_opp, st.ths, st.sgs
     soft_rows, eq_rows = [], []
-    theta_mid: list = []   # per opponent the plane halfway between the centres (the anchor of the safe profile)
+    theta_mid: list = []  # per opponent the plane halfway between the centres (the anchor of the safe profile)
     isg = first_slack
     for j in range(st.n_opp):
-        pj = p_opp[j * st.n_opp_stage:(j + 1) * st.n_opp_stage]
+        pj = p_opp[j * st.n_opp_stage : (j + 1) * st.n_opp_stage]
         axes = None
         if conventional:
             opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
@@ -261,7 +288,7 @@ def _obstacle_rows(pb: Problem, st: _Stage, first_slack: int) -> tuple[list[tupl
             ego_sh = obs.chassis_shape(*ego_pose, ego)
             if st.n_shape > len(obs.OPP_SHAPE):
                 axes = (pj[6], pj[7])
-        th = ths[3 * j:3 * j + 3] if st.n_theta else None
+        th = ths[3 * j : 3 * j + 3] if st.n_theta else None
         if st.n_theta:
             mid_sh = obs.frenet_ego_shape(*ego_pose, 1.0, ego) if conventional else ego_sh
             theta_mid += obs.midpoint_plane(mid_sh, opp)
@@ -285,10 +312,12 @@ def _box_rows(pb: Problem, st: _Stage, x_next: ca.SX) -> dict[str, list[tuple]]:
     def state_bounds(terminal: bool):
         out = []
         for i, nm in enumerate(st.names_x):
-            lo, hi = {"n": (bnd.n_min, bnd.n_max) if not soft_road else None,
-                      "alpha": (-bnd.alpha_max, bnd.alpha_max),
-                      "v": (bnd.v_min, bnd.v_N_max if terminal else bnd.v_max),
-                      "delta": (-bnd.delta_max, bnd.delta_max)}.get(nm) or (None, None)
+            lo, hi = {
+                "n": (bnd.n_min, bnd.n_max) if not soft_road else None,
+                "alpha": (-bnd.alpha_max, bnd.alpha_max),
+                "v": (bnd.v_min, bnd.v_N_max if terminal else bnd.v_max),
+                "delta": (-bnd.delta_max, bnd.delta_max),
+            }.get(nm) or (None, None)
             if lo is not None:
                 out.append((f"bound_{nm}", xs[i] / Dx[i], lo / Dx[i], hi / Dx[i]))
         return out
@@ -296,8 +325,10 @@ def _box_rows(pb: Problem, st: _Stage, x_next: ca.SX) -> dict[str, list[tuple]]:
     return {
         "state": state_bounds(False),
         "state_N": state_bounds(True),
-        "u": [(f"bound_{nm}", us[i] / Du[i], -lim / Du[i], lim / Du[i])
-              for i, (nm, lim) in enumerate(zip(models.CONTROL_NAMES, (bnd.F_d_max, bnd.r_max)))],
+        "u": [
+            (f"bound_{nm}", us[i] / Du[i], -lim / Du[i], lim / Du[i])
+            for i, (nm, lim) in enumerate(zip(models.CONTROL_NAMES, (bnd.F_d_max, bnd.r_max)))
+        ],
         "sigma": [(f"bound_sigma{i}", sgs[i] / Dsg[i], 0.0, INF) for i in range(st.n_sigma)],
         "dyn": [(f"dyn_{nm}", (x_next[i] - st.xn[i]) / Dx[i], 0.0, 0.0) for i, nm in enumerate(st.names_x)],
         "init": [(f"init_{nm}", xs[i] / Dx[i], 0.0, 0.0) for i, nm in enumerate(st.names_x)],
@@ -314,8 +345,12 @@ def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
     l1 = np.array([soft.a_lat_l1] + road_l1 + [soft.obstacle_l1] * st.n_obs_rows) * dt
     l2 = np.array([soft.a_lat_l2] + road_l2 + [soft.obstacle_l2] * st.n_obs_rows) * dt
     ex = st.xs[0:5] - st.xref
-    return {"track": ca.sum1(q_stage * ex * ex), "track_N": ca.sum1(np.array(w.q_N) * ex * ex),
-            "u": ca.sum1(r_stage * st.us * st.us), "sigma": ca.sum1(l1 * st.sgs + l2 * st.sgs * st.sgs)}
+    return {
+        "track": ca.sum1(q_stage * ex * ex),
+        "track_N": ca.sum1(np.array(w.q_N) * ex * ex),
+        "u": ca.sum1(r_stage * st.us * st.us),
+        "sigma": ca.sum1(l1 * st.sgs + l2 * st.sgs * st.sgs),
+    }
 
 
 def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict) -> dict[str, tuple]:
@@ -326,13 +361,27 @@ def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: di
     names_th = [f"theta{i}" for i in range(st.n_theta)]
     names_sg = [f"sigma{i}" for i in range(st.n_sigma)]
     return {
-        "first": (ca.vertcat(xs, us), [box["init"], box["dyn"], box["u"]], cost["track"] + cost["u"],
-                  np.r_[st.Dx, st.Du], list(st.names_x) + names_u),
-        "middle": (ca.vertcat(xs, us, ths, sgs), [box["dyn"], soft_rows, eq_rows, box["state"], box["u"],
-                                                  box["sigma"]], cost["track"] + cost["u"] + cost["sigma"],
-                   np.r_[st.Dx, st.Du, st.Dth, st.Dsg], list(st.names_x) + names_u + names_th + names_sg),
-        "last": (ca.vertcat(xs, ths, sgs), [soft_rows, eq_rows, box["state_N"], box["sigma"]],
-                 cost["track_N"] + cost["sigma"], np.r_[st.Dx, st.Dth, st.Dsg], list(st.names_x) + names_th + names_sg),
+        "first": (
+            ca.vertcat(xs, us),
+            [box["init"], box["dyn"], box["u"]],
+            cost["track"] + cost["u"],
+            np.r_[st.Dx, st.Du],
+            list(st.names_x) + names_u,
+        ),
+        "middle": (
+            ca.vertcat(xs, us, ths, sgs),
+            [box["dyn"], soft_rows, eq_rows, box["state"], box["u"], box["sigma"]],
+            cost["track"] + cost["u"] + cost["sigma"],
+            np.r_[st.Dx, st.Du, st.Dth, st.Dsg],
+            list(st.names_x) + names_u + names_th + names_sg,
+        ),
+        "last": (
+            ca.vertcat(xs, ths, sgs),
+            [soft_rows, eq_rows, box["state_N"], box["sigma"]],
+            cost["track_N"] + cost["sigma"],
+            np.r_[st.Dx, st.Dth, st.Dsg],
+            list(st.names_x) + names_th + names_sg,
+        ),
     }
 
 
@@ -341,16 +390,18 @@ def _scaled_hessians(st: _Stage, specs: dict[str, tuple]) -> tuple[dict[str, np.
     that makes the largest entry over all stages 1."""
     hess_diag = {}
     for key, (wk, _, cost, D, _) in specs.items():
-        H = np.array(ca.Function("H", [wk, st.p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()),
-                                                                         np.zeros(st.np_stage)))
+        H = np.array(
+            ca.Function("H", [wk, st.p], [ca.hessian(cost, wk)[0]])(np.zeros(wk.numel()), np.zeros(st.np_stage))
+        )
         if np.count_nonzero(H - np.diag(np.diag(H))):
             raise AssertionError("cost Hessian must be diagonal")
         hess_diag[key] = np.diag(H) * D * D
     return hess_diag, 1.0 / max(float(h.max()) for h in hess_diag.values())
 
 
-def _stage_type(pb: Problem, st: _Stage, key: str, spec: tuple, hess_diag: np.ndarray, cost_scale: float,
-                theta_mid: list) -> tuple[StageType, ca.Function]:
+def _stage_type(
+    pb: Problem, st: _Stage, key: str, spec: tuple, hess_diag: np.ndarray, cost_scale: float, theta_mid: list
+) -> tuple[StageType, ca.Function]:
     """One stage shape's function (w, x_next, p) -> (g, J, q) in the scaled variables, its bounds and constant
     Hessian; and its unscaled cost function (for IPOPT)."""
     wk, groups, cost, D, var_names = spec
@@ -362,19 +413,29 @@ def _stage_type(pb: Problem, st: _Stage, key: str, spec: tuple, hess_diag: np.nd
     P_diag = cost_scale * hess_diag
     anchor = getattr(pb.obstacles, "anchor", 0.0)
     n_theta = st.n_theta
-    i_theta = st.nx + (st.nu if key == "middle" else 0)   # the stage's first hyperplane variable (none at k = 0)
-    if n_theta and anchor > 0 and key != "first":   # the hyperplanes' anchor (theta's scale is 1): Hessian +
+    i_theta = st.nx + (st.nu if key == "middle" else 0)  # the stage's first hyperplane variable (none at k = 0)
+    if n_theta and anchor > 0 and key != "first":  # the hyperplanes' anchor (theta's scale is 1): Hessian +
         # anchor, gradient anchor * (theta - theta_mid(x, p)) with theta_mid held at the linearization point
-        q[i_theta:i_theta + n_theta] += anchor * (st.ths - ca.vertcat(*theta_mid))
-        P_diag[i_theta:i_theta + n_theta] += anchor
+        q[i_theta : i_theta + n_theta] += anchor * (st.ths - ca.vertcat(*theta_mid))
+        P_diag[i_theta : i_theta + n_theta] += anchor
     fun = ca.Function(f"stage_{key}", [wk, st.xn, st.p], [g, J, q], ["w", "x_next", "p"], ["g", "J", "q"])
     q_ds0 = np.zeros(len(D))
     # d q_s / d s0: q_s = c * D_s * 2 * Q_s * (s - s_ref), s_ref = s0 + t_k v_ref
     s_idx = 0  # s is the first state in both representations
     qs = (np.array(pb.weights.q_N) if key == "last" else np.array(pb.weights.q) * st.dt)[0]
     q_ds0[s_idx] = -cost_scale * D[s_idx] * 2 * qs
-    stage = StageType(key, tuple(var_names), tuple(r[0] for r in rows), np.array([r[2] for r in rows], dtype=float),
-                      np.array([r[3] for r in rows], dtype=float), D, P_diag, q_ds0, fun, fun.sparsity_out(1))
+    stage = StageType(
+        key,
+        tuple(var_names),
+        tuple(r[0] for r in rows),
+        np.array([r[2] for r in rows], dtype=float),
+        np.array([r[3] for r in rows], dtype=float),
+        D,
+        P_diag,
+        q_ds0,
+        fun,
+        fun.sparsity_out(1),
+    )
     return stage, ca.Function(f"cost_{key}", [wk, st.p], [cost])
 
 
@@ -406,11 +467,29 @@ def build_ocp(problem: Problem) -> Ocp:
         stages[key], costs[key] = _stage_type(pb, st, key, spec, hess_diag[key], cost_scale, theta_mid)
     dyn = ca.Function("dynamics", [st.xs, st.us, st.p], [x_next], ["x", "u", "p"], ["x_next"])
     alat = ca.Function("a_lat", [st.xs], [a])
-    return Ocp(pb, st.kind, st.nx, st.nu, st.n_theta, st.n_sigma, st.rp, len(obs.CARTESIAN_POSE), st.n_opp_stage,
-               st.n_shape, st.np_stage, cost_scale, stages["first"], stages["middle"], stages["last"], dyn,
-               _init_state_function(st), alat,
-               plan_clearance_function(pb, st.xs, st.p, st.p_road, st.rp.samples, st.lifted),
-               (costs["first"], costs["middle"], costs["last"]), build_oppfit(pb))
+    return Ocp(
+        pb,
+        st.kind,
+        st.nx,
+        st.nu,
+        st.n_theta,
+        st.n_sigma,
+        st.rp,
+        len(obs.CARTESIAN_POSE),
+        st.n_opp_stage,
+        st.n_shape,
+        st.np_stage,
+        cost_scale,
+        stages["first"],
+        stages["middle"],
+        stages["last"],
+        dyn,
+        _init_state_function(st),
+        alat,
+        plan_clearance_function(pb, st.xs, st.p, st.p_road, st.rp.samples, st.lifted),
+        (costs["first"], costs["middle"], costs["last"]),
+        build_oppfit(pb),
+    )
 
 
 def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bool) -> ca.Function:
@@ -422,16 +501,21 @@ def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bo
     ns = len(obs.shape_names(pb.obstacles))
     opp = ca.SX.sym("opp", n_opp * len(obs.CARTESIAN_POSE))
     shape = ca.SX.sym("shape", n_opp * ns)
-    pose: tuple[Any, Any, Any] = ((xs[5], xs[6], xs[7]) if lifted
-                                  else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples))
+    pose: tuple[Any, Any, Any] = (
+        (xs[5], xs[6], xs[7]) if lifted else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples)
+    )
     ego_sh = obs.chassis_shape(*pose, pb.ego)
     clearance, ahead = [], []
     for j in range(n_opp):
-        opp_sh = obs.shape_of(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], shape[ns * j:ns * j + 3])
+        opp_sh = obs.shape_of(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], shape[ns * j : ns * j + 3])
         clearance.append(obs.sat_clearance(ego_sh, opp_sh))
         # the opponent's centre along the ego's heading from the ego's centre: > 0 ahead (braking opens the gap)
         ahead.append((opp_sh.cx - ego_sh.cx) * ca.cos(pose[2]) + (opp_sh.cy - ego_sh.cy) * ca.sin(pose[2]))
     empty = ca.SX(0, 1)
-    return ca.Function("plan_clearance", [xs, p, opp, shape], [ca.vertcat(*clearance) if n_opp else empty,
-                                                               ca.vertcat(*ahead) if n_opp else empty],
-                       ["x", "p", "opp", "shape"], ["clearance", "ahead"])
+    return ca.Function(
+        "plan_clearance",
+        [xs, p, opp, shape],
+        [ca.vertcat(*clearance) if n_opp else empty, ca.vertcat(*ahead) if n_opp else empty],
+        ["x", "p", "opp", "shape"],
+        ["clearance", "ahead"],
+    )

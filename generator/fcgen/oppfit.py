@@ -45,6 +45,7 @@ metres of the opponent, the nearest sample can lie on the wrong branch (truck se
 generator: the wrong branch left a foot point outside its window, ERR_OPP_FRENET on 18 samples; a branch parallel to
 the opponent would go unnoticed). The scenario generator's realistic roads keep far parts of the road apart.
 """
+
 from __future__ import annotations
 
 import math
@@ -56,11 +57,11 @@ import numpy as np
 from . import obstacles as obs
 from .dsl import Conventional, Problem
 
-SEARCH = 4            # samples searched on either side of a point's guessed nearest sample
-FOOT_WINDOW = 3       # road samples of a point's window: its nearest sample and one on either side (fixed: 3)
-FULL_EVALS = 1        # road evaluations (a Halley step each) after the first step from the nearest sample
+SEARCH = 4  # samples searched on either side of a point's guessed nearest sample
+FOOT_WINDOW = 3  # road samples of a point's window: its nearest sample and one on either side (fixed: 3)
+FULL_EVALS = 1  # road evaluations (a Halley step each) after the first step from the nearest sample
 NEWTON_DG_MIN = 0.05  # a step divides by g' only where g' > this (else a plain gradient step)
-STRETCH_MAX = 0.9     # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
+STRETCH_MAX = 0.9  # |n| kappa allowed next to an opponent (obstacles.fit_frenet_shape's bound)
 SAG_SAFETY = obs.SAG_SAFETY
 # cos and sin of an evaluated phi_gamma: the rotation of its segment's first sample by the difference dl, cos(dl) and
 # sin(dl) by their Taylor polynomials (Horner in dl^2) where |dl| <= ROT_MAX (the next terms are below 3e-18), else libm
@@ -85,20 +86,20 @@ class OppFit:
     problem's opponent vehicle (``counts``), so the spacing of its points and how far it reaches depend on it
     (``spacing_of``, ``far_of``); ``spacing`` and ``far`` are the problem's vehicle's."""
 
-    points: ca.Function     # (pose[3], shape[3]) -> (P[2 x npt], d[npt])
-    box: ca.Function        # (FR[3 x npt], pose[3], shape[3]) -> (box: BOX; L, W without padding)
+    points: ca.Function  # (pose[3], shape[3]) -> (P[2 x npt], d[npt])
+    box: ca.Function  # (FR[3 x npt], pose[3], shape[3]) -> (box: BOX; L, W without padding)
     npt: int
-    ref_point: int          # index of the reference point of the global search
-    n_min: float            # the ego's lateral band (state bounds on n)
+    ref_point: int  # index of the reference point of the global search
+    n_min: float  # the ego's lateral band (state bounds on n)
     n_max: float
-    spacing: float          # the largest distance of two neighbouring edge points (0: no edges)
-    n_edge: int             # edge points (points 0 .. n_edge - 1; 0 for overapprox="none")
-    margin: float           # the box's margin (0 for overapprox="none")
-    reach: float            # how far the ego's chassis reaches from its rear axle (the box's n/s range)
-    far: float              # a reference point farther than this (+ a road spacing) from every road sample: left out
-    counts: tuple[int, int] = (0, 0)   # points on a width edge, on a length edge (0, 0: no edges)
-    far_base: float = 0.0   # far less the opponent's own reach (``far_of``)
-    shape0: tuple[float, ...] = ()   # the problem's opponent vehicle as OPP_SHAPE values
+    spacing: float  # the largest distance of two neighbouring edge points (0: no edges)
+    n_edge: int  # edge points (points 0 .. n_edge - 1; 0 for overapprox="none")
+    margin: float  # the box's margin (0 for overapprox="none")
+    reach: float  # how far the ego's chassis reaches from its rear axle (the box's n/s range)
+    far: float  # a reference point farther than this (+ a road spacing) from every road sample: left out
+    counts: tuple[int, int] = (0, 0)  # points on a width edge, on a length edge (0, 0: no edges)
+    far_base: float = 0.0  # far less the opponent's own reach (``far_of``)
+    shape0: tuple[float, ...] = ()  # the problem's opponent vehicle as OPP_SHAPE values
 
     def spacing_of(self, shape) -> float:
         """The largest distance of neighbouring edge points of an opponent of ``shape`` (0: no edges)."""
@@ -159,22 +160,45 @@ def build_oppfit(problem: Problem) -> OppFit | None:
         rs, rn, qs, qn = fs[npt - 2], fn[npt - 2], fs[npt - 1], fn[npt - 1]
         angle = ca.atan2(qn - rn, qs - rs)
         axs, axn = ca.cos(angle), ca.sin(angle)
-        bs, bn = fs[:n_edge + 1], fn[:n_edge + 1]
+        bs, bn = fs[: n_edge + 1], fn[: n_edge + 1]
         a = bs * axs + bn * axn
         b = -bs * axn + bn * axs
         a_hi, a_lo, b_hi, b_lo = ca.mmax(a), ca.mmin(a), ca.mmax(b), ca.mmin(b)
         ca_, cb = 0.5 * (a_hi + a_lo), 0.5 * (b_hi + b_lo)
-        out = [ca_ * axs - cb * axn, ca_ * axn + cb * axs, angle, 0.5 * (a_hi - a_lo), 0.5 * (b_hi - b_lo),
-               ca.mmax(bn) + reach, ca.mmin(bn) - reach, ca.mmin(bs) - reach, ca.mmax(bs) + reach,
-               ca.mmax(bn), ca.mmin(bn)]
+        out = [
+            ca_ * axs - cb * axn,
+            ca_ * axn + cb * axs,
+            angle,
+            0.5 * (a_hi - a_lo),
+            0.5 * (b_hi - b_lo),
+            ca.mmax(bn) + reach,
+            ca.mmin(bn) - reach,
+            ca.mmin(bs) - reach,
+            ca.mmax(bs) + reach,
+            ca.mmax(bn),
+            ca.mmin(bn),
+        ]
     box = ca.Function("opp_box", [FR, pose, shape], [ca.vertcat(*out)], ["FR", "pose", "shape"], ["box"])
     margin = 0.0 if form.overapprox == "none" else form.margin
     n_edge = 0 if form.overapprox == "none" else ref
     # beyond `far` from the road no point of the opponent is within the band plus the ego's reach (its chassis
     # reaches hypot(l_ch, w_ch) / 2 from its centre; the rear-axle reference point is l / 2 behind the centre)
     far_base = max(abs(problem.bounds.n_min), abs(problem.bounds.n_max)) + reach
-    fit = OppFit(points, box, npt, ref, problem.bounds.n_min, problem.bounds.n_max, spacing, n_edge, margin, reach,
-                 0.0, (counts[0], counts[1]), far_base)
+    fit = OppFit(
+        points,
+        box,
+        npt,
+        ref,
+        problem.bounds.n_min,
+        problem.bounds.n_max,
+        spacing,
+        n_edge,
+        margin,
+        reach,
+        0.0,
+        (counts[0], counts[1]),
+        far_base,
+    )
     shape0 = default_shape(problem)
     return replace(fit, far=fit.far_of(shape0), shape0=tuple(float(v) for v in shape0))
 
@@ -199,6 +223,7 @@ def stretch_factor(box: np.ndarray, kap: np.ndarray) -> tuple[float, float]:
 
 
 # --- the foot point (numpy over all pairs at once; the C does the same operations point by point) ----------------
+
 
 def libm(fun, v: np.ndarray) -> np.ndarray:
     """libm's cos or sin elementwise (math.cos: what the C calls; numpy's own may differ in the last bit)."""
@@ -233,8 +258,10 @@ def road_data(road) -> RoadData:
 
     def dd(y, m):
         h = y[1:] - y[:-1]
-        return (np.append((((6.0 * h) - (a * m[:-1])) - (b * m[1:])) * ids2, 0.0),
-                np.append(((c * (m[:-1] + m[1:])) - (12.0 * h)) * ids3, 0.0))
+        return (
+            np.append((((6.0 * h) - (a * m[:-1])) - (b * m[1:])) * ids2, 0.0),
+            np.append(((c * (m[:-1] + m[1:])) - (12.0 * h)) * ids3, 0.0),
+        )
 
     (ddp, d3p), (ddx, d3x), (ddy, d3y) = dd(road.phi, road.kappa), dd(road.gx, cphi), dd(road.gy, sphi)
     return RoadData(cphi, sphi, ddp, ddx, ddy, d3p, d3x, d3y)
@@ -338,7 +365,7 @@ def map_points(fit: OppFit, road, P: np.ndarray, ist: np.ndarray, rd: RoadData |
     s = np.minimum(np.maximum(s, w0), w0 + (FOOT_WINDOW - 1) * ds)
     for _ in range(FULL_EVALS):
         h = s - w0
-        right = h >= ds                                   # the segment holding s, clamped into the window (NaN: 0)
+        right = h >= ds  # the segment holding s, clamped into the window (NaN: 0)
         j = i0 + right.astype(np.int64)
         s_ev = s
         ev = segment_eval(road, rd, j, np.where(right, h - ds, h), px, py)
@@ -367,8 +394,9 @@ class OppFitter:
         self._points = fit.points.map(cnt)
         self._box = fit.box.map(cnt)
 
-    def __call__(self, road, poses: np.ndarray, shapes: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
+    def __call__(
+        self, road, poses: np.ndarray, shapes: np.ndarray | None = None
+    ) -> tuple[np.ndarray, int, list[tuple[int, int]]]:
         """Fitted parameters (stages, n_opp * 6), the count left out, the (stage, opponent) pairs that cannot be
         mapped (a foot point outside its window, a stretch >= STRETCH_MAX, an edge beyond the chord bound), in
         stage-major order.
@@ -381,8 +409,8 @@ class OppFitter:
         one = f.shape0 if shapes is None else np.asarray(shapes, dtype=float)[:, :3]
         shp = np.tile(np.asarray(one, dtype=float).reshape(-1, 3), (cnt // len(np.atleast_2d(one)), 1))
         P, d = self._points(pz.T, shp.T)
-        P = np.array(P).reshape(2, cnt, npt)                  # [coord, pair, point]: the map's columns are pair-major
-        d = np.array(d).T                                     # [pair, point]
+        P = np.array(P).reshape(2, cnt, npt)  # [coord, pair, point]: the map's columns are pair-major
+        d = np.array(d).T  # [pair, point]
         M = road.size
         # the reference point's nearest sample over the whole road (first minimum)
         rx, ry = P[0, :, f.ref_point], P[1, :, f.ref_point]
@@ -405,7 +433,7 @@ class OppFitter:
         boxes = np.array(self._box(_fr_columns(fs, fn, fp), pz.T, shp.T))
         # a foot outside its window: the nearest sample was not next to it (the point cannot be mapped)
         lost = ~((fs >= w0) & (fs <= w0 + (FOOT_WINDOW - 1) * road.ds))
-        first = np.argmax(bad_pt | lost, axis=1)   # the C stops at the first such point
+        first = np.argmax(bad_pt | lost, axis=1)  # the C stops at the first such point
         out = np.empty((cnt, 6))
         outside, singular = 0, []
         s_first, s_last = road.s0, road.s0 + (M - 1) * road.ds
@@ -413,14 +441,14 @@ class OppFitter:
         for p in range(cnt):
             bx = boxes[:, p]
             lo, hi = bx[7] - road.ds, bx[8] + road.ds
-            if i_ref[p] == 0 or i_ref[p] == M - 1 or is_far[p]:   # the reference point is not next to the road
+            if i_ref[p] == 0 or i_ref[p] == M - 1 or is_far[p]:  # the reference point is not next to the road
                 out[p] = neutral(road.s0)
                 outside += 1
                 continue
             if not bad_pt[p, first[p]] and lost[p, first[p]]:
                 singular.append(divmod(p, self.n_opp))
                 continue
-            if (bad_pt[p].any() or not (lo >= s_first and hi <= s_last) or bx[6] > f.n_max or bx[5] < f.n_min):
+            if bad_pt[p].any() or not (lo >= s_first and hi <= s_last) or bx[6] > f.n_max or bx[5] < f.n_min:
                 out[p] = neutral(road.s0)
                 outside += 1
                 continue

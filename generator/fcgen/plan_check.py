@@ -3,6 +3,7 @@ on its clearance to the opponents; the generated C does the same (``a_lat_guard`
 
 The formulas they act with (braking, the guard's steering rate, a_lat) are ``fcgen.reactions``'s, shared with the C.
 """
+
 from __future__ import annotations
 
 import math
@@ -14,8 +15,9 @@ from .dsl import Problem
 from .reactions import braking_force, guard_steering_rate, lateral_acceleration
 
 
-def a_lat_guard(problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: float,
-                plant_step: Callable[[], Sequence[float]]) -> int:
+def a_lat_guard(
+    problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: float, plant_step: Callable[[], Sequence[float]]
+) -> int:
     """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in |a_lat|, the steering rate that
     ends at ``a_lat_max - a_lat_margin`` (status 1; with wind the speed, and so the end, moves a little with the rate:
     the margin covers it), and where the step with that rate still ends above the bound (the rate bound ``[lo, hi]``
@@ -37,8 +39,9 @@ def a_lat_guard(problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: 
     return 2
 
 
-def plan_verdict(clearance: np.ndarray, ahead: np.ndarray, ok: Sequence[bool],
-                 react_stages: int) -> tuple[float, int, bool]:
+def plan_verdict(
+    clearance: np.ndarray, ahead: np.ndarray, ok: Sequence[bool], react_stages: int
+) -> tuple[float, int, bool]:
     """From each opponent's SAT clearance to the plan and its ``ahead`` value (> 0: its centre ahead of the ego's) at
     stages 0..N (arrays n_opp x (N + 1); ``ok``: the stages whose window the road covers, the others skipped): the
     smallest clearance, its stage (-1: none), and whether to brake: where an opponent's first overlap among stages
@@ -49,7 +52,7 @@ def plan_verdict(clearance: np.ndarray, ahead: np.ndarray, ok: Sequence[bool],
         for j, (v, d) in enumerate(zip(clearance[:, k], ahead[:, k])):
             if v < best:
                 best, best_k = float(v), int(k)
-            if 1 <= k <= react_stages and v < 0.0 and j not in met:   # its first overlapping stage decides
+            if 1 <= k <= react_stages and v < 0.0 and j not in met:  # its first overlapping stage decides
                 met.add(j)
                 react = react or d > 0.0 or (bool(ok[0]) and ahead[j, 0] > 0.0)
     return best, best_k, react

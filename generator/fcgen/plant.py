@@ -1,5 +1,6 @@
 """The plant: one RK4 step of the 5-state Frenet model on a road window, the same formula as the NLP's (the closed
 loop's plant, the generated C's ``<name>_plant`` and the solver's a_lat guard)."""
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -16,7 +17,7 @@ def plant_function(problem: Problem, samples: int) -> ca.Function:
     problem and window size in a process (a CasADi Function is immutable)."""
     try:
         return _cached_plant(problem, samples)
-    except TypeError:   # a problem that cannot be hashed (a hand-made field): built every time
+    except TypeError:  # a problem that cannot be hashed (a hand-made field): built every time
         return _build_plant(problem, samples)
 
 

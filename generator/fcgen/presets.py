@@ -1,12 +1,28 @@
 """The paper's configurations as named presets, and loading a problem from a Python file."""
+
 from __future__ import annotations
 
 import importlib.util
 from dataclasses import replace
 from pathlib import Path
 
-from .dsl import (Bounds, Conventional, CoveringCircles, DirectElimination, Ellipse, Lifted, Opponents, PlanCheck,
-                  Problem, ProblemError, QpOptions, Reference, SeparatingHyperplane, SoftPenalties, Vehicle)
+from .dsl import (
+    Bounds,
+    Conventional,
+    CoveringCircles,
+    DirectElimination,
+    Ellipse,
+    Lifted,
+    Opponents,
+    PlanCheck,
+    Problem,
+    ProblemError,
+    QpOptions,
+    Reference,
+    SeparatingHyperplane,
+    SoftPenalties,
+    Vehicle,
+)
 
 CAR = Vehicle()
 TRUCK = Vehicle(l_f=10.0, l_r=10.0, l_f_ch=13.0, l_r_ch=13.0, w_ch=4.0, m=3000.0)
@@ -16,8 +32,14 @@ FORMULATIONS = {"conventional": Conventional, "direct_elimination": DirectElimin
 OBSTACLES = ("ellipse", "circles", "hyperplane")
 # the paper's circle counts: C1/C3 for cars, C5/C7 for trucks
 DEFAULT_CIRCLES = {"car": 3, "truck": 7}
-SHORT = {"conventional": "conv", "direct_elimination": "de", "lifted": "lift",
-         "ellipse": "el", "circles": "c", "hyperplane": "hp"}
+SHORT = {
+    "conventional": "conv",
+    "direct_elimination": "de",
+    "lifted": "lift",
+    "ellipse": "el",
+    "circles": "c",
+    "hyperplane": "hp",
+}
 
 
 PROFILES = ("paper", "safe")
@@ -108,20 +130,34 @@ def with_profile(pb: Problem, profile: str, scenario: str, obstacles: str, circl
     if profile not in PROFILES:
         raise ProblemError(f"profile = {profile!r} is invalid: allowed one of {PROFILES}")
     if profile == "paper":
-        return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "paper"), soft=PAPER_SOFT,
-                        plan_check=PAPER_PLAN_CHECK, qp=replace(pb.qp, ipm_scaled_start=False),
-                        bounds=replace(pb.bounds, a_lat_margin=PAPER_A_LAT_MARGIN),
-                        reference=replace(pb.reference, curve_a_lat=PAPER_CURVE_A_LAT))
-    ref = safe_reference(pb.formulation)   # its curve speed; the speed and lateral offset stay pb's
-    return pb.with_(obstacles=obstacle_model(obstacles, scenario, circles, "safe"), soft=safe_soft(pb.formulation),
-                    plan_check=safe_plan_check(pb.formulation), qp=replace(pb.qp, ipm_scaled_start=True),
-                    bounds=replace(pb.bounds, a_lat_margin=Bounds().a_lat_margin),
-                    reference=replace(ref, v_ref=pb.reference.v_ref, n_ref=pb.reference.n_ref))
+        return pb.with_(
+            obstacles=obstacle_model(obstacles, scenario, circles, "paper"),
+            soft=PAPER_SOFT,
+            plan_check=PAPER_PLAN_CHECK,
+            qp=replace(pb.qp, ipm_scaled_start=False),
+            bounds=replace(pb.bounds, a_lat_margin=PAPER_A_LAT_MARGIN),
+            reference=replace(pb.reference, curve_a_lat=PAPER_CURVE_A_LAT),
+        )
+    ref = safe_reference(pb.formulation)  # its curve speed; the speed and lateral offset stay pb's
+    return pb.with_(
+        obstacles=obstacle_model(obstacles, scenario, circles, "safe"),
+        soft=safe_soft(pb.formulation),
+        plan_check=safe_plan_check(pb.formulation),
+        qp=replace(pb.qp, ipm_scaled_start=True),
+        bounds=replace(pb.bounds, a_lat_margin=Bounds().a_lat_margin),
+        reference=replace(ref, v_ref=pb.reference.v_ref, n_ref=pb.reference.n_ref),
+    )
 
 
-def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacles: str = "ellipse",
-                  circles: int | None = None, name: str | None = None, profile: str = "paper",
-                  **overrides) -> Problem:
+def paper_problem(
+    scenario: str = "truck",
+    formulation: str = "lifted",
+    obstacles: str = "ellipse",
+    circles: int | None = None,
+    name: str | None = None,
+    profile: str = "paper",
+    **overrides,
+) -> Problem:
     """A problem of the paper's experiment (SPEC section 7), with the paper's settings or the safe profile's."""
     if scenario not in SCENARIOS:
         raise ProblemError(f"scenario = {scenario!r} is invalid: allowed one of {SCENARIOS}")
@@ -136,15 +172,29 @@ def paper_problem(scenario: str = "truck", formulation: str = "lifted", obstacle
         tag = SHORT[obstacles] + (str(model.n) if obstacles == "circles" else "")
         name = f"{scenario}_{SHORT[formulation]}_{tag}"
     form = FORMULATIONS[formulation]()
-    profiled = ({"soft": PAPER_SOFT, "plan_check": PAPER_PLAN_CHECK, "qp": PAPER_QP,
-                 "reference": Reference(curve_a_lat=PAPER_CURVE_A_LAT)} if profile == "paper"
-                else {"soft": safe_soft(form), "reference": safe_reference(form),
-                      "plan_check": safe_plan_check(form)})
-    return Problem(name=name, formulation=form, obstacles=model, ego=CAR,
-                   opponents=Opponents(3, opp),
-                   bounds=Bounds(n_min=-n_bound, n_max=n_bound,
-                                 a_lat_margin=PAPER_A_LAT_MARGIN if profile == "paper" else Bounds().a_lat_margin),
-                   **{**profiled, **overrides})
+    profiled = (
+        {
+            "soft": PAPER_SOFT,
+            "plan_check": PAPER_PLAN_CHECK,
+            "qp": PAPER_QP,
+            "reference": Reference(curve_a_lat=PAPER_CURVE_A_LAT),
+        }
+        if profile == "paper"
+        else {"soft": safe_soft(form), "reference": safe_reference(form), "plan_check": safe_plan_check(form)}
+    )
+    return Problem(
+        name=name,
+        formulation=form,
+        obstacles=model,
+        ego=CAR,
+        opponents=Opponents(3, opp),
+        bounds=Bounds(
+            n_min=-n_bound,
+            n_max=n_bound,
+            a_lat_margin=PAPER_A_LAT_MARGIN if profile == "paper" else Bounds().a_lat_margin,
+        ),
+        **{**profiled, **overrides},
+    )
 
 
 def preset_names() -> list[str]:
@@ -166,7 +216,8 @@ def preset(name: str) -> Problem:
         pb = preset(base)
         sc, f, o = _parts(base)
         return with_profile(pb, "safe", sc, o, getattr(pb.obstacles, "n", None)).with_(
-            name=f"{pb.name}_{SAFE_SUFFIX}", qp=preset_qp(pb.qp.backend, f, o, "safe"))
+            name=f"{pb.name}_{SAFE_SUFFIX}", qp=preset_qp(pb.qp.backend, f, o, "safe")
+        )
     if suffix in BACKEND_SUFFIXES and base in preset_names():
         pb = preset(base)
         _, f, o = _parts(base)
@@ -176,9 +227,11 @@ def preset(name: str) -> Problem:
             for o in OBSTACLES:
                 if name == f"{sc}_{f}_{o}":
                     return paper_problem(sc, f, o)
-    raise ProblemError(f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())} "
-                       f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)}, "
-                       f"then optionally _{SAFE_SUFFIX} for the safe profile)")
+    raise ProblemError(
+        f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())} "
+        f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)}, "
+        f"then optionally _{SAFE_SUFFIX} for the safe profile)"
+    )
 
 
 def _parts(name: str) -> tuple[str, str, str]:
@@ -220,8 +273,9 @@ def load_problem(spec: str) -> Problem:
             except ProblemError:
                 raise
             except Exception as exc:  # a user's factory: report, don't crash
-                raise ProblemError(f"problem file {spec!r}: make_problem() failed: {type(exc).__name__}: {exc}") \
-                    from None
+                raise ProblemError(
+                    f"problem file {spec!r}: make_problem() failed: {type(exc).__name__}: {exc}"
+                ) from None
         if not isinstance(prob, Problem):
             raise ProblemError(f"problem file {spec!r} must define `problem = Problem(...)` or `make_problem()`")
         return prob

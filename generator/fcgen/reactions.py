@@ -5,6 +5,7 @@ The Python reference (``fcgen.reference``) calls these; the generated C has one 
 and the same operations in the same order for each (``templates/solver.c.j2``), so the two agree bit for bit in
 double (``tests/test_reactions.py``). Pure functions of floats, no fcgen import.
 """
+
 from __future__ import annotations
 
 import math
@@ -23,8 +24,9 @@ def lateral_acceleration(v: float, delta: float, l: float) -> float:
     return v * v * math.tan(delta) / l
 
 
-def guard_steering_rate(v: float, delta: float, delta0: float, a_to: float, l: float, dt: float, lo: float,
-                        hi: float) -> float:
+def guard_steering_rate(
+    v: float, delta: float, delta0: float, a_to: float, l: float, dt: float, lo: float, hi: float
+) -> float:
     """The a_lat guard's steering rate: from ``delta0`` in one sample time ``dt`` to the steering angle at which speed
     ``v`` on wheelbase ``l`` gives ``|a_lat| = a_to``, on ``delta``'s side, clipped to ``[lo, hi]``; 0 (clipped) for
     ``v = 0``, where ``|a_lat|`` is 0 whatever the angle."""

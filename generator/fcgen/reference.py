@@ -6,6 +6,7 @@ The jobs it calls live apart: the QP outcome contract and the iteration caps (``
 and the a_lat guard after the QP (``fcgen.plan_check``, with the formulas of ``fcgen.reactions``), the hyperplanes'
 cold-start guess (``fcgen.hyperplane_guess``).
 """
+
 from __future__ import annotations
 
 import math
@@ -13,8 +14,8 @@ import time
 
 import numpy as np
 
-from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
 from . import obstacles as obs
+from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
 from .contract import EXIT_CODES, Status
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
@@ -24,16 +25,37 @@ from .oppfit import STRETCH_MAX, OppFitter
 from .plan_check import a_lat_guard, braking_control, plan_verdict
 from .plant import plant_function
 from .qp import QpLayout, build_layout
-from .qp_outcome import (COLD_RESTART_NOTE, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter, input_box,
-                         project_control, warm_max_iter)
+from .qp_outcome import (
+    COLD_RESTART_NOTE,
+    MAX_INPUT_VIOLATION,
+    QP_CONTRACT,
+    QP_EXIT,
+    cold_max_iter,
+    input_box,
+    project_control,
+    warm_max_iter,
+)
 from .road import Road, curve_reference
 
-__all__ = ["COLD_RESTART_NOTE", "EXIT_CODES", "INT_MAX", "MAX_INPUT_VIOLATION", "QP_CONTRACT", "QP_EXIT", "RtiSolver",
-           "SolverError", "Status", "cold_max_iter", "input_box", "make_reference", "project_control", "theta_init",
-           "warm_max_iter"]
+__all__ = [
+    "COLD_RESTART_NOTE",
+    "EXIT_CODES",
+    "INT_MAX",
+    "MAX_INPUT_VIOLATION",
+    "QP_CONTRACT",
+    "QP_EXIT",
+    "RtiSolver",
+    "SolverError",
+    "Status",
+    "cold_max_iter",
+    "input_box",
+    "make_reference",
+    "project_control",
+    "theta_init",
+    "warm_max_iter",
+]
 """The outcome contract (``fcgen.qp_outcome``) and ``theta_init`` are re-exported: importers read them here, and
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
-
 
 
 INT_MAX = 2**31 - 1
@@ -47,8 +69,6 @@ class SolverError(RuntimeError):
         super().__init__(f"{code}: {message}")
         self.code = code
         self.exit_code = EXIT_CODES.index(code)
-
-
 
 
 class RtiSolver:
@@ -68,15 +88,15 @@ class RtiSolver:
         self.qp_opts = qp or ocp.problem.qp
         N = ocp.N
         hz = ocp.problem.horizon
-        self._times = hz.times                 # node k's time: s_ref,k = s0 + t_k v_ref (no curve speed)
-        self._stage_dt = ocp.stage_dt()        # a stage's interval (unequal grids)
+        self._times = hz.times  # node k's time: s_ref,k = s0 + t_k v_ref (no curve speed)
+        self._stage_dt = ocp.stage_dt()  # a stage's interval (unequal grids)
         self._fun_first = ocp.first.fun
         self._fun_mid = ocp.middle.fun.map(N - 1) if N > 1 else None
         self._fun_last = ocp.last.fun
         self._theta_init = theta_init(ocp)
-        self._plan_clearance = ocp.plan_clearance.map(N + 1)   # the plan check: every stage in one call
+        self._plan_clearance = ocp.plan_clearance.map(N + 1)  # the plan check: every stage in one call
         self._box = input_box(ocp.problem)
-        self._plant = plant_function(ocp.problem, ocp.road_params.samples)   # the a_lat guard's step
+        self._plant = plant_function(ocp.problem, ocp.road_params.samples)  # the a_lat guard's step
         self.qp = make_backend(self.lay, self.qp_opts)
         self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
         self.init()
@@ -85,7 +105,7 @@ class RtiSolver:
         """Everything back to a freshly constructed solver: inputs, plan, preparation, status, QP backend."""
         self.road: Road | None = None
         self.opp = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_par))
-        self.opp_shape = self.ocp.default_shapes()   # (n_opp, n_opp_shape): set_opponent_shapes
+        self.opp_shape = self.ocp.default_shapes()  # (n_opp, n_opp_shape): set_opponent_shapes
         self.ref: tuple[float, float] | None = None  # (v_ref, n_ref) of set_reference; None: the problem's
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
@@ -95,9 +115,9 @@ class RtiSolver:
     def reset(self) -> None:
         """Forget plan, duals, preparation, status, QP data and backend state; keep the inputs (state, road, opp)."""
         lay = self.lay
-        self.w: np.ndarray | None = None       # the plan (None: no guess; the next prepare builds one)
+        self.w: np.ndarray | None = None  # the plan (None: no guess; the next prepare builds one)
         self.y = np.zeros(lay.m)
-        self.w_prep = np.zeros(lay.n)          # the prepared guess (shifted plan or initial guess)
+        self.w_prep = np.zeros(lay.n)  # the prepared guess (shifted plan or initial guess)
         self.y_prep = np.zeros(lay.m)
         self.prepared = False
         self.cold = False
@@ -110,7 +130,7 @@ class RtiSolver:
         self.A_data = np.zeros(lay.nnz_A)
         self.z: np.ndarray | None = None
         self.s0_guess = 0.0
-        self.curve_ref: tuple[list[float], list[float]] | None = None   # (s_ref, v_ref) per node, with s0_guess
+        self.curve_ref: tuple[list[float], list[float]] | None = None  # (s_ref, v_ref) per node, with s0_guess
         self.u_applied = np.zeros(self.ocp.nu)
         self.stage_clearance = np.full(self.ocp.N + 1, math.inf)  # the plan check's, per stage (verify)
         self.qp.reset()
@@ -124,22 +144,31 @@ class RtiSolver:
         """The road (window); its drivable band ``road.n_min``/``n_max`` (if given) must lie within the problem's
         ``Bounds`` (the C: set_road, then set_road_bounds)."""
         if road.size > self.ocp.problem.road.samples:
-            raise self._fail("ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}")
+            raise self._fail(
+                "ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}"
+            )
         if road.n_min is not None:
             b = self.ocp.problem.bounds
-            for name, a, ok in (("n_min", road.n_min, road.n_min >= b.n_min), ("n_max", road.n_max, road.n_max <= b.n_max)):
+            for name, a, ok in (
+                ("n_min", road.n_min, road.n_min >= b.n_min),
+                ("n_max", road.n_max, road.n_max <= b.n_max),
+            ):
                 if not np.all(ok):
                     i = int(np.flatnonzero(~ok)[0])
-                    raise self._fail("ERR_ROAD_BOUNDS", f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
-                                     f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)")
+                    raise self._fail(
+                        "ERR_ROAD_BOUNDS",
+                        f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
+                        f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)",
+                    )
         self.road = road
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
         """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
         a road's speed limit, a lane's centre."""
         if not (math.isfinite(v_ref) and math.isfinite(n_ref) and v_ref >= 0.0):
-            raise self._fail("ERR_REFERENCE", f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed finite, "
-                             "v_ref >= 0")
+            raise self._fail(
+                "ERR_REFERENCE", f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed finite, v_ref >= 0"
+            )
         self.ref = (float(v_ref), float(n_ref))
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> None:
@@ -162,7 +191,10 @@ class RtiSolver:
         params = np.asarray(params, dtype=float)
         n_opp = self.ocp.problem.opponents.count
         if params.shape != (self.ocp.N + 1, n_opp, self.ocp.n_opp_par):
-            raise self._fail("ERR_NONFINITE_OPPONENTS", f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}")
+            raise self._fail(
+                "ERR_NONFINITE_OPPONENTS",
+                f"opponents: shape {params.shape}, expected {(self.ocp.N + 1, n_opp, self.ocp.n_opp_par)}",
+            )
         if not np.all(np.isfinite(params)):
             raise self._fail("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
@@ -189,7 +221,9 @@ class RtiSolver:
             raise self._fail("ERR_ROAD_WINDOW", "non-finite s in the guess")
         i0 = self._window_start(s)
         if i0 is None:
-            raise self._fail("ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}")
+            raise self._fail(
+                "ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}"
+            )
         return self.ocp.road_params.pack(road, i0)
 
     def _set_curve_speed(self) -> None:
@@ -203,8 +237,16 @@ class RtiSolver:
             traffic = ref.curve_traffic_clearance > 0.0 and self.status.plan_clearance < ref.curve_traffic_clearance
             a_lat = ref.curve_a_lat_traffic if traffic else ref.curve_a_lat
             v_set = self.ref[0] if self.ref is not None else ref.v_ref
-            self.curve_ref = curve_reference(self.road, float(self.s0_guess), self._times, v_set, a_lat,
-                                             ref.curve_decel, bnd.v_max, ref.curve_along_horizon)
+            self.curve_ref = curve_reference(
+                self.road,
+                float(self.s0_guess),
+                self._times,
+                v_set,
+                a_lat,
+                ref.curve_decel,
+                bnd.v_max,
+                ref.curve_along_horizon,
+            )
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         pb = self.ocp.problem
@@ -213,7 +255,7 @@ class RtiSolver:
             xref = [self.curve_ref[0][k], n_ref, 0.0, self.curve_ref[1][k], 0.0]
         else:
             xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
-        if self._fitter is None:   # per opponent its pose at stage k, then its shape
+        if self._fitter is None:  # per opponent its pose at stage k, then its shape
             n = self.ocp.problem.opponents.count
             opp = np.concatenate([self.opp[k].reshape(n, -1), self.opp_shape], axis=1).ravel()
         else:
@@ -231,14 +273,17 @@ class RtiSolver:
         out, outside, singular = self._fitter(self.road, self.opp.reshape(self.ocp.N + 1, -1, 3), self.opp_shape)
         if singular:
             k, j = singular[0]
-            raise self._fail("ERR_OPP_FRENET", f"opponent {j} at stage {k} cannot be mapped into the Frenet frame "
-                             f"(|n| kappa >= {STRETCH_MAX} next to it, or a point too far from the road)")
+            raise self._fail(
+                "ERR_OPP_FRENET",
+                f"opponent {j} at stage {k} cannot be mapped into the Frenet frame "
+                f"(|n| kappa >= {STRETCH_MAX} next to it, or a point too far from the road)",
+            )
         self.opp_stage = out
         return outside
 
     @staticmethod
     def _stage(w: np.ndarray, lay: QpLayout, k: int) -> np.ndarray:
-        return w[lay.var_off[k]:lay.var_off[k + 1]]
+        return w[lay.var_off[k] : lay.var_off[k + 1]]
 
     def _stage_w(self, k: int) -> np.ndarray:
         return self._stage(self.w, self.lay, k)
@@ -260,9 +305,9 @@ class RtiSolver:
             o = lay.var_off[k]
             p = self.stage_params(k, xf[k, 0])
             x = np.array(ocp.init_state(xf[k], p)).ravel()
-            w[o:o + ocp.nx] = x
+            w[o : o + ocp.nx] = x
             if k >= 1 and ocp.n_theta:
-                w[o + ocp.nx + ocp.nu * (k < ocp.N):][:ocp.n_theta] = np.array(self._theta_init(x, p)).ravel()
+                w[o + ocp.nx + ocp.nu * (k < ocp.N) :][: ocp.n_theta] = np.array(self._theta_init(x, p)).ravel()
         return w, np.zeros(lay.m)
 
     # -- the two phases -----------------------------------------------------------------------------
@@ -288,16 +333,22 @@ class RtiSolver:
         self.s0_guess = w[lay.s_vars[0]]
         self._set_curve_speed()
         P = np.stack([self.stage_params(k, w[lay.s_vars[k]]) for k in range(N + 1)], axis=1)
-        Xn = np.stack([w[lay.var_off[k + 1]:lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
+        Xn = np.stack([w[lay.var_off[k + 1] : lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
         g, J, q = [], [], []
         out = self._fun_first(self._stage(w, lay, 0), Xn[:, 0], P[:, 0])
-        g.append(out[0]); J.append(out[1]); q.append(out[2])
+        g.append(out[0])
+        J.append(out[1])
+        q.append(out[2])
         if N > 1:
             Wm = np.stack([self._stage(w, lay, k) for k in range(1, N)], axis=1)
             out = self._fun_mid(Wm, Xn[:, 1:], P[:, 1:N])
-            g.append(out[0]); J.append(out[1]); q.append(out[2])
+            g.append(out[0])
+            J.append(out[1])
+            q.append(out[2])
         out = self._fun_last(self._stage(w, lay, N), np.zeros(ocp.nx), P[:, N])
-        g.append(out[0]); J.append(out[1]); q.append(out[2])
+        g.append(out[0])
+        J.append(out[1])
+        q.append(out[2])
         g = np.concatenate([np.array(a).ravel(order="F") for a in g])
         jac = np.concatenate([np.array(a.nonzeros()) for a in J])
         q = np.concatenate([np.array(a).ravel(order="F") for a in q])
@@ -305,11 +356,11 @@ class RtiSolver:
             raise self._fail("ERR_QP_NONFINITE", "non-finite linearization (constraints, Jacobian or cost)")
         # commit
         self.w_prep, self.y_prep, self.g, self.q, self.cold = w, y, g, q, cold
-        self.P = P.T                           # the stage parameters (verification: the C get_opp_params)
+        self.P = P.T  # the stage parameters (verification: the C get_opp_params)
         self.A_data = jac[lay.a_src]
         self.l = lay.L - g
         self.u = lay.U - g
-        if self.road.n_min is not None:   # the road's band at each stage's s (held for the QP: no d/ds)
+        if self.road.n_min is not None:  # the road's band at each stage's s (held for the QP: no d/ds)
             for row, k, side in lay.band_rows:
                 band = self.road.band_at(float(w[lay.s_vars[k]]))
                 (self.l if side == 0 else self.u)[row] = band[side] / lay.band_scale - g[row]
@@ -318,12 +369,17 @@ class RtiSolver:
         self.qp.set_matrices(lay.P_diag, self.A_data, self.q)
         self.prepared = True
         st = self.status
-        self.status = Status(time_prepare=time.perf_counter() - t0, u_projected=st.u_projected,
-                             u_violation=st.u_violation, opp_outside=opp_outside,
-                             plan_clearance=st.plan_clearance, plan_clearance_stage=st.plan_clearance_stage,
-                             plan_reaction=st.plan_reaction,
-                             qp_unusable_run=0 if restart else st.qp_unusable_run,
-                             cold_restarts=min(st.cold_restarts + int(restart), INT_MAX))
+        self.status = Status(
+            time_prepare=time.perf_counter() - t0,
+            u_projected=st.u_projected,
+            u_violation=st.u_violation,
+            opp_outside=opp_outside,
+            plan_clearance=st.plan_clearance,
+            plan_clearance_stage=st.plan_clearance_stage,
+            plan_reaction=st.plan_reaction,
+            qp_unusable_run=0 if restart else st.qp_unusable_run,
+            cold_restarts=min(st.cold_restarts + int(restart), INT_MAX),
+        )
 
     def feedback(self) -> np.ndarray:
         """Embed the measured x0, solve the QP, take the full step (usable QP) or fall back; returns the control."""
@@ -340,30 +396,32 @@ class RtiSolver:
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
         ir = lay.init_rows
-        self.l[ir] = x0_full / lay.D[:ocp.nx] - self.g[ir]
+        self.l[ir] = x0_full / lay.D[: ocp.nx] - self.g[ir]
         self.u[ir] = self.l[ir]
         self.q_fb = q
         self.prepared = False
-        res = self.qp.solve(q, self.l, self.u, self.y_prep,
-                            cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts))
+        res = self.qp.solve(
+            q, self.l, self.u, self.y_prep, cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts)
+        )
         qs = res.status
         if res.z is not None:
             self.z = res.z
-        if qs in QP_USABLE and (res.z is None or res.y is None or not np.all(np.isfinite(res.z))
-                                or not np.all(np.isfinite(res.y))):
+        if qs in QP_USABLE and (
+            res.z is None or res.y is None or not np.all(np.isfinite(res.z)) or not np.all(np.isfinite(res.y))
+        ):
             qs = QP_NONFINITE
         st = self.status
         st.qp_status, st.qp_raw_status, st.qp_iter = qs, res.raw_status, res.iter
         code = QP_EXIT.get(qs, "ERR_QP")
         if code == "OK":
             self.w = self.w_prep + lay.D * res.z
-            if project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)[1] > MAX_INPUT_VIOLATION:
+            if project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)[1] > MAX_INPUT_VIOLATION:
                 code = "ERR_QP_INPUT_BOUNDS"  # a usable status, but the step is far outside the input box
         if code == "OK":
             self.y = res.y
         else:  # the step is not taken: the plan becomes the prepared (shifted) guess
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
-        self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx:][:ocp.nu], *self._box)
+        self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
@@ -372,15 +430,19 @@ class RtiSolver:
         st.time_feedback = time.perf_counter() - t0
         if code != "OK":
             why = ", u0 far outside the input box" if code == "ERR_QP_INPUT_BOUNDS" else ""
-            raise SolverError(code, f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
-                                    f"{res.raw_status}{why}): step not taken, fallback control")
+            raise SolverError(
+                code,
+                f"QP unusable ({QP_STATUSES[qs - 1] if qs else 'none'}, raw status "
+                f"{res.raw_status}{why}): step not taken, fallback control",
+            )
         return self.u0()
 
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
         """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        st.a_lat_guard = a_lat_guard(self.ocp.problem, self.x0, self.u_applied, lo, hi,
-                                     lambda: self._plant_step(p_road))
+        st.a_lat_guard = a_lat_guard(
+            self.ocp.problem, self.x0, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
+        )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
         """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
@@ -396,8 +458,13 @@ class RtiSolver:
         if pb.opponents.count:
             s_k = self.w_prep[lay.s_vars]
             ok = [self.road is not None and math.isfinite(s) and self._window_start(s) is not None for s in s_k]
-            P = np.stack([self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
-                          for k, (s, good) in enumerate(zip(s_k, ok))], axis=1)
+            P = np.stack(
+                [
+                    self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
+                    for k, (s, good) in enumerate(zip(s_k, ok))
+                ],
+                axis=1,
+            )
             shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
             C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
             self.stage_clearance = np.where(ok, np.min(C, axis=0), math.inf)
@@ -412,17 +479,17 @@ class RtiSolver:
         return self.u_applied.copy()
 
     def states(self) -> np.ndarray:
-        return np.stack([self._stage_w(k)[:self.ocp.nx] for k in range(self.ocp.N + 1)])
+        return np.stack([self._stage_w(k)[: self.ocp.nx] for k in range(self.ocp.N + 1)])
 
     def controls(self) -> np.ndarray:
-        return np.stack([self._stage_w(k)[self.ocp.nx:self.ocp.nx + self.ocp.nu] for k in range(self.ocp.N)])
+        return np.stack([self._stage_w(k)[self.ocp.nx : self.ocp.nx + self.ocp.nu] for k in range(self.ocp.N)])
 
     def slacks(self) -> np.ndarray:
         ocp = self.ocp
         out = []
         for k in range(1, ocp.N + 1):
             wk = self._stage_w(k)
-            out.append(wk[-ocp.n_sigma:])
+            out.append(wk[-ocp.n_sigma :])
         return np.stack(out)
 
     def step(self, x0) -> np.ndarray:

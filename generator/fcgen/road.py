@@ -13,6 +13,7 @@ libm's ``sin``/``cos`` through the ``math`` module (``libm_cos``/``libm_sin``). 
 pose that moves in its last bit from one machine to another moves every solver output after it, and golden suites
 recorded on one machine would fail on another.
 """
+
 from __future__ import annotations
 
 import math
@@ -23,8 +24,8 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-
 # --- CPU-independent elementwise trigonometry ---------------------------------------------------
+
 
 def _libm(fn, x):
     a = np.asarray(x, dtype=float)
@@ -47,24 +48,31 @@ def libm_sin(x):
 # 10-point Gauss-Legendre rule on [-1, 1]: the positive nodes and their weights, correctly rounded (from a 60-digit
 # Newton iteration on P_10; their leading 15 digits are Abramowitz-Stegun's table 25.4). Constants, not
 # ``np.polynomial.legendre.leggauss`` (LAPACK eigenvalues: last bits per BLAS kernel).
-_GL10_HALF = ((0.1488743389816312108848260, 0.2955242247147528701738930),
-              (0.4333953941292471907992659, 0.2692667193099963550912269),
-              (0.6794095682990244062343274, 0.2190863625159820439955349),
-              (0.8650633666889845107320967, 0.1494513491505805931457763),
-              (0.9739065285171717200779640, 0.0666713443086881375935688))
+_GL10_HALF = (
+    (0.1488743389816312108848260, 0.2955242247147528701738930),
+    (0.4333953941292471907992659, 0.2692667193099963550912269),
+    (0.6794095682990244062343274, 0.2190863625159820439955349),
+    (0.8650633666889845107320967, 0.1494513491505805931457763),
+    (0.9739065285171717200779640, 0.0666713443086881375935688),
+)
 GL10_NODES = np.array([-x for x, _ in reversed(_GL10_HALF)] + [x for x, _ in _GL10_HALF])
 GL10_WEIGHTS = np.array([w for _, w in reversed(_GL10_HALF)] + [w for _, w in _GL10_HALF])
 
 
 # --- the one interpolation formula (works on floats, numpy arrays and CasADi SX) ----------------
 
+
 def _hermite(tau, h, y0, y1, m0, m1):
     """Cubic Hermite value and d/ds on a segment of length h at local coordinate tau in [0, 1]."""
     t2 = tau * tau
     t3 = t2 * tau
     val = (2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + tau) * h * m0 + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * m1
-    der = ((6 * t2 - 6 * tau) * y0 + (3 * t2 - 4 * tau + 1) * h * m0 + (-6 * t2 + 6 * tau) * y1
-           + (3 * t2 - 2 * tau) * h * m1) / h
+    der = (
+        (6 * t2 - 6 * tau) * y0
+        + (3 * t2 - 4 * tau + 1) * h * m0
+        + (-6 * t2 + 6 * tau) * y1
+        + (3 * t2 - 2 * tau) * h * m1
+    ) / h
     return val, der
 
 
@@ -79,6 +87,7 @@ def _segment(tau, h, k0, k1, p0, p1, x0, x1, y0, y1, c0, c1, s0, s1):
 
 
 # --- road data ----------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True, eq=False)
 class Road:
@@ -115,7 +124,9 @@ class Road:
             bad = np.flatnonzero(~(lo < hi))
             if bad.size:
                 i = int(bad[0])
-                raise ValueError(f"road.n_min[{i}] = {float(lo[i])!r} is invalid: allowed < n_max[{i}] = {float(hi[i])!r}")
+                raise ValueError(
+                    f"road.n_min[{i}] = {float(lo[i])!r} is invalid: allowed < n_max[{i}] = {float(hi[i])!r}"
+                )
             object.__setattr__(self, "n_min", lo)
             object.__setattr__(self, "n_max", hi)
 
@@ -161,18 +172,25 @@ class Road:
         """The sub-road of ``samples`` samples starting at the last grid point at or before ``s_start``."""
         i0 = int(math.floor((s_start - self.s0) / self.ds))
         if i0 < 0 or i0 + samples > self.size:
-            raise ValueError(f"road window [{s_start:.1f}, +{samples} samples] is outside the road "
-                             f"[{self.s0:.1f}, {self.s_end:.1f}]")
+            raise ValueError(
+                f"road window [{s_start:.1f}, +{samples} samples] is outside the road [{self.s0:.1f}, {self.s_end:.1f}]"
+            )
         if samples < 2:
             raise ValueError("road: kappa, phi_gamma, gamma_x, gamma_y must have the same length >= 2")
         sl = slice(i0, i0 + samples)
         # a window of a checked road is a checked road: built without __post_init__'s per-sample checks (the closed
         # loop takes one window per sample)
         win = object.__new__(Road)
-        for name, value in (("s0", self.s0 + i0 * self.ds), ("ds", self.ds), ("kappa", self.kappa[sl].copy()),
-                            ("phi", self.phi[sl].copy()), ("gx", self.gx[sl].copy()), ("gy", self.gy[sl].copy()),
-                            ("n_min", None if self.n_min is None else self.n_min[sl].copy()),
-                            ("n_max", None if self.n_max is None else self.n_max[sl].copy())):
+        for name, value in (
+            ("s0", self.s0 + i0 * self.ds),
+            ("ds", self.ds),
+            ("kappa", self.kappa[sl].copy()),
+            ("phi", self.phi[sl].copy()),
+            ("gx", self.gx[sl].copy()),
+            ("gy", self.gy[sl].copy()),
+            ("n_min", None if self.n_min is None else self.n_min[sl].copy()),
+            ("n_max", None if self.n_max is None else self.n_max[sl].copy()),
+        ):
             object.__setattr__(win, name, value)
         return win
 
@@ -204,8 +222,22 @@ class Road:
         """kappa, phi_gamma, gamma_x, gamma_y, gamma_x', gamma_y' at s (numpy, vectorized)."""
         i, tau = self._locate(s)
         c, sn = self._tangents
-        return _segment(tau, self.ds, self.kappa[i], self.kappa[i + 1], self.phi[i], self.phi[i + 1],
-                        self.gx[i], self.gx[i + 1], self.gy[i], self.gy[i + 1], c[i], c[i + 1], sn[i], sn[i + 1])
+        return _segment(
+            tau,
+            self.ds,
+            self.kappa[i],
+            self.kappa[i + 1],
+            self.phi[i],
+            self.phi[i + 1],
+            self.gx[i],
+            self.gx[i + 1],
+            self.gy[i],
+            self.gy[i + 1],
+            c[i],
+            c[i + 1],
+            sn[i],
+            sn[i + 1],
+        )
 
     def to_cartesian(self, s, n, alpha):
         """Inverse Frenet transform F^-1: (s, n, alpha) -> (x, y, phi)."""
@@ -216,7 +248,9 @@ class Road:
         """s* = argmin ||p - gamma(s)||^2 by Newton from a guess (nearest sample if none); vectorized."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         if s_guess is None:
-            d2 = (self.gx[None, :] - np.atleast_1d(x)[:, None]) ** 2 + (self.gy[None, :] - np.atleast_1d(y)[:, None]) ** 2
+            d2 = (self.gx[None, :] - np.atleast_1d(x)[:, None]) ** 2 + (
+                self.gy[None, :] - np.atleast_1d(y)[:, None]
+            ) ** 2
             s_guess = self.s[np.argmin(d2, axis=1)].reshape(x.shape)
         s = np.array(s_guess, dtype=float) + np.zeros_like(x)
         for _ in range(max_iter):
@@ -254,8 +288,16 @@ def curve_speed(road: Road, s: float, a_lat: float, decel: float, v_max: float) 
     return math.sqrt(min(v_max * v_max, float(np.min(v2, initial=math.inf))))
 
 
-def curve_reference(road: Road, s0: float, times: Sequence[float], v_set: float, a_lat: float, decel: float,
-                    v_max: float, along: bool = True) -> tuple[list[float], list[float]]:
+def curve_reference(
+    road: Road,
+    s0: float,
+    times: Sequence[float],
+    v_set: float,
+    a_lat: float,
+    decel: float,
+    v_max: float,
+    along: bool = True,
+) -> tuple[list[float], list[float]]:
     """The reference along the horizon that brakes for the bends ahead: per node k, ``v_k = min(v_set,
     curve_speed(s_k))`` at ``s_k``, with ``s_0 = s0`` and ``s_k = s_(k-1) + (t_k - t_(k-1)) v_(k-1)``; ``along =
     False``: ``v_k = v_0`` and ``s_k = s0 + t_k v_0`` (the curve speed at the plan's start only).
@@ -277,8 +319,14 @@ def curve_reference(road: Road, s0: float, times: Sequence[float], v_set: float,
     return s_ref, v_ref
 
 
-def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2.0, kappa_max: float = 0.05,
-                knot_spacing: float = 25.0, s0: float = 0.0) -> Road:
+def random_road(
+    seed: int | Sequence[int],
+    length: float = 1600.0,
+    ds: float = 2.0,
+    kappa_max: float = 0.05,
+    knot_spacing: float = 25.0,
+    s0: float = 0.0,
+) -> Road:
     """Seeded random road: uniform curvature knots, linearly interpolated and smoothed (|kappa| <= kappa_max).
 
     ``seed`` is anything ``numpy.random.default_rng`` takes (an int, or a list of ints for derived seeds).
@@ -292,9 +340,9 @@ def random_road(seed: int | Sequence[int], length: float = 1600.0, ds: float = 2
     padded = np.pad(raw, width // 2, mode="edge")
     # the moving average as a sum of shifted slices in a fixed order (not np.convolve: a BLAS dot product per
     # output, summed in the order of the CPU's kernel)
-    acc = padded[:len(s)].copy()
+    acc = padded[: len(s)].copy()
     for k in range(1, width):
-        acc += padded[k:k + len(s)]
+        acc += padded[k : k + len(s)]
     return Road.from_curvature(acc / width, ds, s0)
 
 
@@ -318,6 +366,7 @@ def straight_road(length: float = 1600.0, ds: float = 2.0, s0: float = 0.0) -> R
 
 # --- CasADi: the same formula on a short local window of samples ---------------------------------
 
+
 @dataclass(frozen=True)
 class RoadWindowParams:
     """Layout of a local road window inside a stage's parameter vector: [s_w0, ds, kappa, phi, gx, gy]."""
@@ -338,7 +387,7 @@ class RoadWindowParams:
             raise ValueError(f"road window [{i0}, +{K} samples] is outside the road's {road.size} samples")
         out[0], out[1] = road.s0 + i0 * road.ds, road.ds
         for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
-            out[2 + j * K: 2 + (j + 1) * K] = a[i0: i0 + K]
+            out[2 + j * K : 2 + (j + 1) * K] = a[i0 : i0 + K]
         return out
 
 
@@ -354,7 +403,7 @@ def window_segment(s, p, samples: int, arrays: int):
     tau in [0, 1] and, per array, the values at the segment's two ends (selected without branches)."""
     K = samples
     s_w0, ds = p[0], p[1]
-    arr = [p[2 + j * K: 2 + (j + 1) * K] for j in range(arrays)]
+    arr = [p[2 + j * K : 2 + (j + 1) * K] for j in range(arrays)]
     t = (s - s_w0) / ds
     i = ca.fmin(ca.fmax(ca.floor(t), 0), K - 2)
     tau = t - i

@@ -4,6 +4,7 @@ footprint, wcet, fmu, the golden suites and the demo are handed instead of each 
 
 A folder that is not a good one is refused in one line that says which command writes a good one.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ def solver_name(gen_dir: Path | str) -> str:
     heads = sorted(Path(gen_dir).glob(f"*{HEADER_SUFFIX}"))
     if len(heads) != 1:
         raise FileNotFoundError(f"{gen_dir}: expected exactly one *{HEADER_SUFFIX}, found {len(heads)}")
-    return heads[0].name[:-len(HEADER_SUFFIX)]
+    return heads[0].name[: -len(HEADER_SUFFIX)]
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ class SolverFolder:
 
     path: Path
     name: str
-    sizes: dict[str, int] = field(repr=False, hash=False)   # every integer macro of <name>_solver.h, by key
+    sizes: dict[str, int] = field(repr=False, hash=False)  # every integer macro of <name>_solver.h, by key
     problem: Problem = field(repr=False, hash=False, compare=False)
     checked: bool = True
 
@@ -96,8 +97,10 @@ def read_folder(path: Path | str, check: bool = True) -> SolverFolder:
     else:
         name = the_solver(path)
         if not (path / "problem.py").is_file():
-            raise FileNotFoundError(f"{path} is not a generated solver folder (no problem.py; regenerate it: "
-                                    f"fcgen generate PRESET -o {path} --force)")
+            raise FileNotFoundError(
+                f"{path} is not a generated solver folder (no problem.py; regenerate it: "
+                f"fcgen generate PRESET -o {path} --force)"
+            )
     sizes = read_macros(path / f"{name}{HEADER_SUFFIX}", name)
     return SolverFolder(path, name, sizes, load_problem(str(path / "problem.py")), check)
 

@@ -11,6 +11,7 @@ log is refused instead of compared. Written deterministically: with ``timing=Fal
 the checked-in goldens) recording an unchanged solver again reproduces the files byte for byte (except
 ``meta.versions`` when packages change).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -52,7 +53,7 @@ class SuiteSettings:
     cc: str | None = None
     cflags: str | None = None
     timing: bool = True
-    commonroad: str | None = None          # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
+    commonroad: str | None = None  # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
     planning_problem: int | None = None
 
 
@@ -68,8 +69,10 @@ def parse_seeds(text: str) -> tuple[int, ...]:
         part = part.strip()
         m = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
         if not m or (m.group(2) is not None and int(m.group(2)) < int(m.group(1))):
-            raise ValueError(f"--seeds {text!r} is invalid: allowed a range A-B (A <= B), a list A,B,C of "
-                             f"integers >= 0, or both (0-3,9)")
+            raise ValueError(
+                f"--seeds {text!r} is invalid: allowed a range A-B (A <= B), a list A,B,C of "
+                f"integers >= 0, or both (0-3,9)"
+            )
         lo = int(m.group(1))
         seeds.update(range(lo, int(m.group(2) or lo) + 1))
     if len(seeds) > 10000:
@@ -88,15 +91,22 @@ def text_sha256(log: RunLog) -> str:
 
 # ----------------------------------------------------------------------------- what built the solver
 
+
 def solver_info(folder: SolverFolder) -> dict[str, Any]:
     """Name, problem record (sizes, problem.py hash), precision and QP backend of a generated folder."""
     pb, macros = folder.problem, folder.sizes
     sizes = {k: macros[k] for k in ("N", "NX", "NU", "NOPP", "NOPP_PAR", "QP_N", "QP_M", "QP_NNZ_A") if k in macros}
     return {
         "name": folder.name,
-        "problem": {"name": pb.name, "formulation": pb.formulation.kind, "obstacle_model": pb.obstacles.kind,
-                    "N": pb.horizon.N, "dt": pb.horizon.dt, "sizes": sizes,
-                    "problem_py_sha256": hashlib.sha256(folder.problem_file.read_bytes()).hexdigest()},
+        "problem": {
+            "name": pb.name,
+            "formulation": pb.formulation.kind,
+            "obstacle_model": pb.obstacles.kind,
+            "N": pb.horizon.N,
+            "dt": pb.horizon.dt,
+            "sizes": sizes,
+            "problem_py_sha256": hashlib.sha256(folder.problem_file.read_bytes()).hexdigest(),
+        },
         "precision": folder.precision,
         "qp_backend": "osqp" if (folder.path / "osqp").is_dir() else "unknown",
     }
@@ -123,12 +133,17 @@ def compiler_info(gen_dir: Path, build_dir: str, cc: str | None, cflags: str | N
         m = re.search(r"^CFLAGS \?= ?(.*)$", (gen_dir / "Makefile").read_text(), re.M)
         cflags = m.group(1).strip() if m else ""
     stamp = gen_dir / build_dir / "flags.txt"
-    return {"cc": cc, "cc_version": version, "cflags": cflags,
-            "compile_line": stamp.read_text().strip() if stamp.is_file() else "unknown",
-            "target": f"host-{platform.machine() or 'unknown'}"}
+    return {
+        "cc": cc,
+        "cc_version": version,
+        "cflags": cflags,
+        "compile_line": stamp.read_text().strip() if stamp.is_file() else "unknown",
+        "target": f"host-{platform.machine() or 'unknown'}",
+    }
 
 
 # ----------------------------------------------------------------------------- record
+
 
 def check_suite_target(out: Path | str, force: bool = False) -> None:
     """Fail (ValueError, one line) unless ``out`` can take a new suite: a new or empty folder, or (with ``force``)
@@ -138,27 +153,36 @@ def check_suite_target(out: Path | str, force: bool = False) -> None:
     if not out.is_dir() or not any(out.iterdir()):
         return
     if not is_suite(out):
-        raise ValueError(f"-o {out}: not empty and not a golden suite (holds {describe(out)}): nothing recorded; "
-                         f"choose a new or empty folder")
+        raise ValueError(
+            f"-o {out}: not empty and not a golden suite (holds {describe(out)}): nothing recorded; "
+            f"choose a new or empty folder"
+        )
     if force:
         return
     try:
         man = json.loads(read_text(out / MANIFEST))
         logs = [e["file"] for e in man["logs"]]
-        what = (f"the golden suite of {man.get('solver')!r}: {len(logs)} run log(s) "
-                f"({', '.join(logs[:4])}{', ...' if len(logs) > 4 else ''})")
+        what = (
+            f"the golden suite of {man.get('solver')!r}: {len(logs)} run log(s) "
+            f"({', '.join(logs[:4])}{', ...' if len(logs) > 4 else ''})"
+        )
     except (ValueError, KeyError, TypeError):
         what = f"a golden suite ({describe(out)})"
-    raise ValueError(f"-o {out}: holds {what}; nothing recorded: add --force to replace it, or choose another "
-                     f"folder")
+    raise ValueError(f"-o {out}: holds {what}; nothing recorded: add --force to replace it, or choose another folder")
 
 
 def _is_suite_file(p: Path) -> bool:
     return p.name == MANIFEST or p.name.endswith(".json.xz") or p.suffix.lower() == ".xml"
 
 
-def record_suite(folder: FolderLike, out: Path | str, settings: SuiteSettings = SuiteSettings(),
-                 progress: bool = False, echo=None, force: bool = False) -> dict[str, Any]:
+def record_suite(
+    folder: FolderLike,
+    out: Path | str,
+    settings: SuiteSettings = SuiteSettings(),
+    progress: bool = False,
+    echo=None,
+    force: bool = False,
+) -> dict[str, Any]:
     """Build ``folder`` (a :class:`~.solver_folder.SolverFolder` or its path; ``settings``' build), run the C closed
     loop on every seed, write logs + manifest.
 
@@ -173,14 +197,13 @@ def record_suite(folder: FolderLike, out: Path | str, settings: SuiteSettings = 
         raise ValueError(f"--samples {settings.samples} is invalid: allowed >= 1")
     if not settings.seeds and settings.commonroad is None:
         raise ValueError("--seeds: allowed at least one seed")
-    folder = as_folder(folder, check=False)   # build() checks it before compiling
+    folder = as_folder(folder, check=False)  # build() checks it before compiling
     info = solver_info(folder)
     scenario = settings.scenario or infer_scenario(folder.problem)
     lib = build(folder, verify=settings.verify, cc=settings.cc, cflags=settings.cflags)
-    comp = compiler_info(folder.path, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc,
-                         settings.cflags)
+    comp = compiler_info(folder.path, VERIFY_BUILD if settings.verify else DEFAULT_BUILD, settings.cc, settings.cflags)
     with staged_folder(out) as tmp:
-        if out.is_dir():    # --force: the folder's files that are no suite's stay
+        if out.is_dir():  # --force: the folder's files that are no suite's stay
             for p in out.iterdir():
                 if not _is_suite_file(p):
                     carry(p, tmp / p.name)
@@ -190,34 +213,45 @@ def record_suite(folder: FolderLike, out: Path | str, settings: SuiteSettings = 
     return manifest
 
 
-def _record_into(out: Path, folder: SolverFolder, lib: Path, info, comp, scenario, settings, progress,
-                 echo) -> dict[str, Any]:
+def _record_into(
+    out: Path, folder: SolverFolder, lib: Path, info, comp, scenario, settings, progress, echo
+) -> dict[str, Any]:
     pb, entries = folder.problem, []
-    if settings.commonroad is not None:   # one CommonRoad scenario: its run log and a copy of its file
+    if settings.commonroad is not None:  # one CommonRoad scenario: its run log and a copy of its file
         from .campaign.commonroad import load_for
         from .sim.commonroad_run import run_commonroad
+
         sc = load_for(pb, settings.commonroad, settings.planning_problem)
-        log = run_commonroad(pb, sc, controller=CSolver(lib, folder=folder), plan=settings.plan,
-                             progress=progress).log
+        log = run_commonroad(pb, sc, controller=CSolver(lib, folder=folder), plan=settings.plan, progress=progress).log
         log = _finish(log, info["precision"], settings.timing)
         fname = f"cr_{sc.name}.json.xz"
         log.to_json(out / fname)
         import shutil
+
         shutil.copyfile(settings.commonroad, out / sc.file)
-        entries.append({"file": fname, "scenario": sc.name, "seed": 0, "samples": log.n_controls,
-                        "sha256": text_sha256(log), "commonroad": {"file": sc.file, "sha256": sc.sha256,
-                                                                   "planning_problem": sc.planning_problem_id}})
+        entries.append(
+            {
+                "file": fname,
+                "scenario": sc.name,
+                "seed": 0,
+                "samples": log.n_controls,
+                "sha256": text_sha256(log),
+                "commonroad": {"file": sc.file, "sha256": sc.sha256, "planning_problem": sc.planning_problem_id},
+            }
+        )
         scenario = sc.name
         settings = SuiteSettings(**{**settings.__dict__, "seeds": (0,), "samples": log.n_controls})
-    for seed in (settings.seeds if settings.commonroad is None else ()):
+    for seed in settings.seeds if settings.commonroad is None else ():
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
-        log = run_closed_loop(pb, sc, controller=CSolver(lib, folder=folder), exit_codes=True, plan=settings.plan,
-                              progress=progress)
+        log = run_closed_loop(
+            pb, sc, controller=CSolver(lib, folder=folder), exit_codes=True, plan=settings.plan, progress=progress
+        )
         log = _finish(log, info["precision"], settings.timing)
         fname = log_name(scenario, seed)
         log.to_json(out / fname)
-        entries.append({"file": fname, "scenario": scenario, "seed": seed, "samples": log.n_controls,
-                        "sha256": text_sha256(log)})
+        entries.append(
+            {"file": fname, "scenario": scenario, "seed": seed, "samples": log.n_controls, "sha256": text_sha256(log)}
+        )
         if echo:
             echo(f"  {fname}: {(out / fname).stat().st_size / 1024:.1f} KiB")
         pause_point("record:log")
@@ -230,9 +264,15 @@ def _record_into(out: Path, folder: SolverFolder, lib: Path, info, comp, scenari
         "precision": info["precision"],
         "qp_backend": info["qp_backend"],
         "runlog_format": FORMAT_VERSION,
-        "settings": {"scenario": scenario, "seeds": list(settings.seeds), "samples": settings.samples,
-                     "plan": settings.plan, "timing": settings.timing, "controller": "c",
-                     **({"commonroad": entries[0]["commonroad"]} if settings.commonroad is not None else {})},
+        "settings": {
+            "scenario": scenario,
+            "seeds": list(settings.seeds),
+            "samples": settings.samples,
+            "plan": settings.plan,
+            "timing": settings.timing,
+            "controller": "c",
+            **({"commonroad": entries[0]["commonroad"]} if settings.commonroad is not None else {}),
+        },
         "logs": entries,
     }
     write_text(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
@@ -242,6 +282,7 @@ def _record_into(out: Path, folder: SolverFolder, lib: Path, info, comp, scenari
 def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
     """The log with ``meta.precision`` set and, unless ``timing``, the timing fields zeroed."""
     from dataclasses import replace
+
     meta = {**log.meta, "precision": precision}
     kw: dict[str, Any] = {"meta": meta}
     if not timing:
@@ -250,8 +291,9 @@ def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
     return replace(log, **kw)
 
 
-def record_goldens(root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None,
-                   force: bool = False) -> list[Path]:
+def record_goldens(
+    root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None, force: bool = False
+) -> list[Path]:
     """Re-record ``<root>/<solver>/golden`` for every generated solver folder under ``root`` (existing suites only
     with ``force``; every target is checked before the first is recorded)."""
     root = Path(root)
@@ -270,6 +312,7 @@ def record_goldens(root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, 
 
 
 # ----------------------------------------------------------------------------- read
+
 
 def is_suite(path: Path | str) -> bool:
     return Path(path).is_dir() and (Path(path) / MANIFEST).is_file()
@@ -318,8 +361,9 @@ def load_suite(path: Path | str) -> tuple[dict[str, Any], list[RunLog]]:
     path = Path(path)
     man = load_manifest(path)
     if man["runlog_format"] != FORMAT_VERSION:
-        raise ValueError(f"{path}: suite of run-log format {man['runlog_format']!r}, this fcgen reads "
-                         f"{FORMAT_VERSION!r}")
+        raise ValueError(
+            f"{path}: suite of run-log format {man['runlog_format']!r}, this fcgen reads {FORMAT_VERSION!r}"
+        )
     logs = []
     for e in man["logs"]:
         log = load_log(path / e["file"])
@@ -353,8 +397,11 @@ def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
         "settings.controller": lambda lg: lg.meta.get("controller"),
         "problem.sizes.N": lambda lg: lg.meta.get("N"),
         "problem.sizes.NU": lambda lg: int(np.shape(lg.control)[-1]),
-        "problem.sizes.NOPP": lambda lg: (len(lg.meta["extra"]["commonroad"]["slots"][0])   # the solver's slots
-                                          if "commonroad" in lg.meta.get("extra", {}) else len(lg.opponents)),
+        "problem.sizes.NOPP": lambda lg: (
+            len(lg.meta["extra"]["commonroad"]["slots"][0])  # the solver's slots
+            if "commonroad" in lg.meta.get("extra", {})
+            else len(lg.opponents)
+        ),
     }
     facts: dict[str, Any] = {}
     for key, fn in per_log.items():
@@ -384,11 +431,13 @@ def check_manifest(path: Path | str, man: dict[str, Any], logs: list[RunLog]) ->
             got = sorted(got)
         if got is _MISSING:
             if key.startswith("problem.sizes.") or key == "settings.controller":
-                continue        # older manifests may lack a size; nothing to disagree with
+                continue  # older manifests may lack a size; nothing to disagree with
             raise ValueError(f"{where}: field {key} is missing (the run logs say {want!r})")
         if got != want:
-            raise ValueError(f"{where}: field {key} is {got!r} but the run logs say {want!r} (hand-edited?); "
-                             f"refused: record the suite again")
+            raise ValueError(
+                f"{where}: field {key} is {got!r} but the run logs say {want!r} (hand-edited?); "
+                f"refused: record the suite again"
+            )
 
 
 _MISSING = object()

@@ -7,6 +7,7 @@ semihosting) and the tick rate of its SysTick under QEMU.
 ``build``, ``firmware-sim``, ``bench`` and ``footprint`` take a target name, look it up here and use its fields;
 none of them branches on a target name.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -32,31 +33,33 @@ class Target:
 
     name: str
     description: str
-    cc: str | None                      # None: $CC or cc (the host)
+    cc: str | None  # None: $CC or cc (the host)
     ar: str | None
-    cpu_flags: tuple[str, ...]          # -mcpu/-mthumb/-mfloat-abi/-mfpu
-    fpu: str                            # a human-readable description
-    double_fpu: bool                    # double arithmetic in hardware: double solvers allowed
-    bare_metal: bool                    # no OS: static libraries only, harness with our startup + semihosting
+    cpu_flags: tuple[str, ...]  # -mcpu/-mthumb/-mfloat-abi/-mfpu
+    fpu: str  # a human-readable description
+    double_fpu: bool  # double arithmetic in hardware: double solvers allowed
+    bare_metal: bool  # no OS: static libraries only, harness with our startup + semihosting
     qemu_machine: str | None = None
     qemu_cpu: str | None = None
     flash: Region | None = None
-    ram: Region | None = None           # on-chip RAM as an ECU has it: solver, C library, heap, stack
-    xram: Region | None = None          # the board's external RAM: the harness's own buffers
-    systick_hz: int = 0                 # SysTick clock under QEMU (with -icount shift=0: 1 instruction per ns)
-    binutils_prefix: str = ""           # arm-none-eabi- for size/nm/objdump
-    link_flags: tuple[str, ...] = ()    # the bare-metal harness image: semihosting libc, our startup
+    ram: Region | None = None  # on-chip RAM as an ECU has it: solver, C library, heap, stack
+    xram: Region | None = None  # the board's external RAM: the harness's own buffers
+    systick_hz: int = 0  # SysTick clock under QEMU (with -icount shift=0: 1 instruction per ns)
+    binutils_prefix: str = ""  # arm-none-eabi- for size/nm/objdump
+    link_flags: tuple[str, ...] = ()  # the bare-metal harness image: semihosting libc, our startup
     harness_defines: tuple[str, ...] = ()  # extra -D flags of the harness image
-    platform: str = "host"              # the harness's platform file firmware_sim/fs_<platform>.c (startup, clock)
-    linker_template: str = ""           # templates/ file of the image's linker script
+    platform: str = "host"  # the harness's platform file firmware_sim/fs_<platform>.c (startup, clock)
+    linker_template: str = ""  # templates/ file of the image's linker script
 
     # -- precision ----------------------------------------------------------------------------------------------
     def check_precision(self, use_float: bool) -> None:
         """Refuse a double-precision solver on a single-precision FPU (one line: what to do instead)."""
         if not use_float and not self.double_fpu:
             ok = ", ".join(t.name for t in TARGETS.values() if t.double_fpu)
-            raise TargetError(f"--target {self.name}: its FPU ({self.fpu}) has no double precision; generate the "
-                              f"solver with --float, or use a target with a double FPU: {ok}")
+            raise TargetError(
+                f"--target {self.name}: its FPU ({self.fpu}) has no double precision; generate the "
+                f"solver with --float, or use a target with a double FPU: {ok}"
+            )
 
     # -- build ---------------------------------------------------------------------------------------------------
     @property
@@ -78,8 +81,9 @@ class Target:
         """A binutils program of the target (``size``, ``nm``, ``objdump``); raises if not installed."""
         exe = f"{self.binutils_prefix}{name}"
         if shutil.which(exe) is None:
-            raise TargetError(f"--target {self.name}: {exe} not found; install the toolchain "
-                              f"(apt-get install {APT_PACKAGES})")
+            raise TargetError(
+                f"--target {self.name}: {exe} not found; install the toolchain (apt-get install {APT_PACKAGES})"
+            )
         return exe
 
     def check_tools(self, qemu: bool = False) -> None:
@@ -89,8 +93,9 @@ class Target:
             need.append(QEMU)
         for exe in need:
             if shutil.which(exe) is None:
-                raise TargetError(f"--target {self.name}: {exe} not found; install the toolchain "
-                                  f"(apt-get install {APT_PACKAGES})")
+                raise TargetError(
+                    f"--target {self.name}: {exe} not found; install the toolchain (apt-get install {APT_PACKAGES})"
+                )
 
     # -- emulation -----------------------------------------------------------------------------------------------
     def qemu_command(self, image: Path | str, args: list[str], icount: bool = True) -> list[str]:
@@ -98,8 +103,22 @@ class Target:
         if not self.qemu_machine:
             raise TargetError(f"--target {self.name}: not an emulated target")
         sh = ",".join(["enable=on", "target=native", *(f"arg={a}" for a in [Path(image).name, *args])])
-        cmd = [QEMU, "-M", self.qemu_machine, "-cpu", self.qemu_cpu, "-nographic", "-monitor", "none",
-               "-serial", "none", "-semihosting-config", sh, "-kernel", str(image)]
+        cmd = [
+            QEMU,
+            "-M",
+            self.qemu_machine,
+            "-cpu",
+            self.qemu_cpu,
+            "-nographic",
+            "-monitor",
+            "none",
+            "-serial",
+            "none",
+            "-semihosting-config",
+            sh,
+            "-kernel",
+            str(image),
+        ]
         return cmd + (["-icount", "shift=0"] if icount else [])
 
     @property
@@ -115,8 +134,13 @@ class Target:
     def harness_make_variables(self, linker_script: Path) -> list[str]:
         """Make variables of firmware_sim/ for the bare-metal image."""
         defs = ["-DFS_BAREMETAL", *self.harness_defines, f"-DFS_SYSTICK_HZ={self.systick_hz}"]
-        return [f"PLATFORM={self.platform}", f"TARGET_FLAGS={' '.join(self.cpu_flags)}", f"LDSCRIPT={linker_script}",
-                f"PLATFORM_LDFLAGS={' '.join(self.link_flags)}", f"PLATFORM_DEFS={' '.join(defs)}"]
+        return [
+            f"PLATFORM={self.platform}",
+            f"TARGET_FLAGS={' '.join(self.cpu_flags)}",
+            f"LDSCRIPT={linker_script}",
+            f"PLATFORM_LDFLAGS={' '.join(self.link_flags)}",
+            f"PLATFORM_DEFS={' '.join(defs)}",
+        ]
 
 
 QEMU = "qemu-system-arm"
@@ -135,20 +159,63 @@ HARNESS_STACK = 16 * 1024
 _SEMIHOSTING = ("--specs=rdimon.specs", "-nostartfiles")
 _CORTEXM_LD = "targets/cortexm.ld.j2"
 
-TARGETS: dict[str, Target] = {t.name: t for t in (
-    Target("host", "the build machine (shared library + static libraries + example)", None, None, (),
-           "host", True, False),
-    Target("cortex-m7", "Arm Cortex-M7 with double-precision FPU (QEMU mps2-an500)", "arm-none-eabi-gcc",
-           "arm-none-eabi-ar", ("-mcpu=cortex-m7", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv5-d16"),
-           "fpv5-d16, single + double", True, True, "mps2-an500", "cortex-m7", _MPS2_FLASH, _MPS2_RAM,
-           Region(0x60000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING, (), "baremetal",
-           _CORTEXM_LD),
-    Target("cortex-m4f", "Arm Cortex-M4F with single-precision FPU (QEMU mps2-an386)", "arm-none-eabi-gcc",
-           "arm-none-eabi-ar", ("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"),
-           "fpv4-sp-d16, single only", False, True, "mps2-an386", "cortex-m4", _MPS2_FLASH, _MPS2_RAM,
-           Region(0x21000000, 16 * 1024 * 1024), 25_000_000, "arm-none-eabi-", _SEMIHOSTING, (), "baremetal",
-           _CORTEXM_LD),
-)}
+TARGETS: dict[str, Target] = {
+    t.name: t
+    for t in (
+        Target(
+            "host",
+            "the build machine (shared library + static libraries + example)",
+            None,
+            None,
+            (),
+            "host",
+            True,
+            False,
+        ),
+        Target(
+            "cortex-m7",
+            "Arm Cortex-M7 with double-precision FPU (QEMU mps2-an500)",
+            "arm-none-eabi-gcc",
+            "arm-none-eabi-ar",
+            ("-mcpu=cortex-m7", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv5-d16"),
+            "fpv5-d16, single + double",
+            True,
+            True,
+            "mps2-an500",
+            "cortex-m7",
+            _MPS2_FLASH,
+            _MPS2_RAM,
+            Region(0x60000000, 16 * 1024 * 1024),
+            25_000_000,
+            "arm-none-eabi-",
+            _SEMIHOSTING,
+            (),
+            "baremetal",
+            _CORTEXM_LD,
+        ),
+        Target(
+            "cortex-m4f",
+            "Arm Cortex-M4F with single-precision FPU (QEMU mps2-an386)",
+            "arm-none-eabi-gcc",
+            "arm-none-eabi-ar",
+            ("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"),
+            "fpv4-sp-d16, single only",
+            False,
+            True,
+            "mps2-an386",
+            "cortex-m4",
+            _MPS2_FLASH,
+            _MPS2_RAM,
+            Region(0x21000000, 16 * 1024 * 1024),
+            25_000_000,
+            "arm-none-eabi-",
+            _SEMIHOSTING,
+            (),
+            "baremetal",
+            _CORTEXM_LD,
+        ),
+    )
+}
 
 
 def get_target(name: str) -> Target:

@@ -4,6 +4,7 @@
 Without the variable (every normal run) ``pause_point`` returns at once. The points are listed in
 docs/data_integrity.md.
 """
+
 from __future__ import annotations
 
 import os

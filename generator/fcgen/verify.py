@@ -21,6 +21,7 @@ Two comparisons on one seeded scenario:
 Differences of arrays are relative: ``max |c - r| / max(1, max |r|)`` with ``r`` the reference; bounds are clipped
 to OSQP's infinity (1e30) on both sides first, as the osqp Python interface does.
 """
+
 from __future__ import annotations
 
 import json
@@ -126,10 +127,10 @@ class Check:
     description: str
     tol: float
     max_diff: float = 0.0
-    sample: int = -1          # sample of the largest difference (-1: none / all zero)
-    count: int = 0            # for mismatch counts: samples that differ
-    compared: int = 0         # samples compared
-    envelope: float = 0.0     # closed loops: the reference's own difference under ENVELOPE_EPS (0: not measured)
+    sample: int = -1  # sample of the largest difference (-1: none / all zero)
+    count: int = 0  # for mismatch counts: samples that differ
+    compared: int = 0  # samples compared
+    envelope: float = 0.0  # closed loops: the reference's own difference under ENVELOPE_EPS (0: not measured)
 
     @property
     def allowed(self) -> float:
@@ -195,8 +196,10 @@ class VerifyReport:
         path.write_text(json.dumps(self.to_dict(), indent=1, sort_keys=True, default=float) + "\n")
 
     def format(self) -> str:
-        head = (f"verify {self.solver} ({self.gen_dir}): {self.scenario} scenario, seed {self.seed}, "
-                f"{self.samples} samples, C verification build vs Python reference")
+        head = (
+            f"verify {self.solver} ({self.gen_dir}): {self.scenario} scenario, seed {self.seed}, "
+            f"{self.samples} samples, C verification build vs Python reference"
+        )
         rows = [("group", "quantity", "max rel. diff", "sample", "tolerance", "result")]
         for c in self.checks:
             if c.key == "cl_exit_code":
@@ -209,24 +212,38 @@ class VerifyReport:
             if c.allowed > c.tol:
                 env = f"({ENVELOPE_FACTOR:g}x envelope)"
                 tol = f"{c.allowed:.0f} {env}" if c.key in _COUNTS else f"{c.allowed:.1e} {env}"
-            rows.append((c.group, c.description, diff, str(c.sample) if c.sample >= 0 else "-", tol,
-                         "ok" if c.passed else "FAIL"))
+            rows.append(
+                (
+                    c.group,
+                    c.description,
+                    diff,
+                    str(c.sample) if c.sample >= 0 else "-",
+                    tol,
+                    "ok" if c.passed else "FAIL",
+                )
+            )
         w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
         lines = [head]
         for i, r in enumerate(rows):
             lines.append("  ".join(s.ljust(w[j]) if j < 2 else s.rjust(w[j]) for j, s in enumerate(r)).rstrip())
             if i == 0:
                 lines.append("  ".join("-" * x for x in w))
-        lines.append("max rel. diff: max |C - Python| / max(1, max |Python|) over the run (infinite bounds matched "
-                     "exactly); n/m: samples that differ of those compared")
+        lines.append(
+            "max rel. diff: max |C - Python| / max(1, max |Python|) over the run (infinite bounds matched "
+            "exactly); n/m: samples that differ of those compared"
+        )
         lines += [f"note: {n}" for n in self.notes]
         bad = self.failures
-        lines.append("PASS: all tolerances met" if not bad else
-                     f"FAIL: {len(bad)} tolerance(s) broken: " + ", ".join(f"{c.group}/{c.description}" for c in bad))
+        lines.append(
+            "PASS: all tolerances met"
+            if not bad
+            else f"FAIL: {len(bad)} tolerance(s) broken: " + ", ".join(f"{c.group}/{c.description}" for c in bad)
+        )
         return "\n".join(lines)
 
 
 # --- the problem and scenario of a folder ------------------------------------------------------------------------
+
 
 def infer_scenario(problem: Problem) -> str:
     """``'truck'`` or ``'car'``: the preset opponent vehicle, else the name prefix, else the opponent length."""
@@ -253,11 +270,14 @@ def check_sizes(folder: SolverFolder, ref: RtiSolver) -> None:
     s, name, lay = folder.sizes, folder.name, ref.lay
     c = tuple(s.get(k) for k in ("N", "QP_N", "QP_M", "QP_NNZ_A"))
     if c != (ref.ocp.N, lay.n, lay.m, lay.nnz_A):
-        raise ProblemError(f"solver {name}: C sizes N={c[0]}, n={c[1]}, m={c[2]}, nnz(A)={c[3]} do not match "
-                           f"its problem.py (N={ref.ocp.N}, n={lay.n}, m={lay.m}, nnz(A)={lay.nnz_A}); regenerate")
+        raise ProblemError(
+            f"solver {name}: C sizes N={c[0]}, n={c[1]}, m={c[2]}, nnz(A)={c[3]} do not match "
+            f"its problem.py (N={ref.ocp.N}, n={lay.n}, m={lay.m}, nnz(A)={lay.nnz_A}); regenerate"
+        )
 
 
 # --- lockstep -----------------------------------------------------------------------------------------------------
+
 
 def _same_minimiser(k_c: int, k_py: int, per_stage: np.ndarray, tol: float) -> bool:
     """The C's stage of the smallest clearance is the reference's, or (two stages whose clearances tie to rounding)
@@ -292,8 +312,13 @@ class _Lockstep:
             qp = cs.get_qp()
             # conventional: with the fitted opponent boxes
             self._upd("params", rel_diff(cs.get_opp_params(), sv.P[:, sv.ocp.p_opp]))
-            for key, r in (("P_x", sv.lay.P_diag), ("q", sv.q), ("A_x", sv.A_data), ("l", _clip(sv.l)),
-                           ("u", _clip(sv.u))):
+            for key, r in (
+                ("P_x", sv.lay.P_diag),
+                ("q", sv.q),
+                ("A_x", sv.A_data),
+                ("l", _clip(sv.l)),
+                ("u", _clip(sv.u)),
+            ):
                 self._upd(key, rel_diff(qp[key], r))
         res = self.ref_ctrl.feedback_phase(x0, rc_py)
         c_res = cs.feedback_phase(x0, rc)
@@ -301,15 +326,23 @@ class _Lockstep:
         self._upd("qp_status", float(c_res.qp_status != res.qp_status))
         self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
         st_c, st_py = cs.status(), sv.status
-        if c_res.exit_code == res.exit_code:   # the same outcome: the same plan check (or none, kept as it was)
+        if c_res.exit_code == res.exit_code:  # the same outcome: the same plan check (or none, kept as it was)
             both_inf = math.isinf(st_c.plan_clearance) and math.isinf(st_py.plan_clearance)
             clr_tol = self.checks["plan_clearance"].tol
-            self._upd("plan_check", float(st_c.plan_reaction != st_py.plan_reaction
-                                          or st_c.a_lat_guard != st_py.a_lat_guard
-                                          or not _same_minimiser(st_c.plan_clearance_stage, st_py.plan_clearance_stage,
-                                                                 sv.stage_clearance, clr_tol)))
-            self._upd("plan_clearance", 0.0 if both_inf else
-                      _clearance_diff(st_c.plan_clearance, st_py.plan_clearance, sv.states()))
+            self._upd(
+                "plan_check",
+                float(
+                    st_c.plan_reaction != st_py.plan_reaction
+                    or st_c.a_lat_guard != st_py.a_lat_guard
+                    or not _same_minimiser(
+                        st_c.plan_clearance_stage, st_py.plan_clearance_stage, sv.stage_clearance, clr_tol
+                    )
+                ),
+            )
+            self._upd(
+                "plan_clearance",
+                0.0 if both_inf else _clearance_diff(st_c.plan_clearance, st_py.plan_clearance, sv.states()),
+            )
         if not c_res.exit_code and not res.exit_code:
             qp = cs.get_qp()
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
@@ -378,15 +411,21 @@ def _closed_loop_diffs(log_c, log_py) -> dict[str, tuple[float, int, int, int]]:
     return out
 
 
-def verify(folder: FolderLike, scenario: str | None = None, seed: int = 0, samples: int = 200,
-           closed_loop: bool = True, build_kw: dict | None = None) -> VerifyReport:
+def verify(
+    folder: FolderLike,
+    scenario: str | None = None,
+    seed: int = 0,
+    samples: int = 200,
+    closed_loop: bool = True,
+    build_kw: dict | None = None,
+) -> VerifyReport:
     """Compare the generated C (verification build) with the Python reference on one seeded scenario.
 
     ``folder``: a :class:`~.solver_folder.SolverFolder` or its path. ``scenario``: ``'car'`` or ``'truck'``; default
     from the problem (``infer_scenario``). ``closed_loop=False`` skips the second comparison (two independent closed
     loops).
     """
-    folder = as_folder(folder, check=False)   # the sizes checked in the lockstep's terms below, the rest by build
+    folder = as_folder(folder, check=False)  # the sizes checked in the lockstep's terms below, the rest by build
     name, pb = folder.name, folder.problem
     if scenario is None:
         scenario = infer_scenario(pb)
@@ -397,14 +436,17 @@ def verify(folder: FolderLike, scenario: str | None = None, seed: int = 0, sampl
     ref = RtiSolver(ocp)
     check_sizes(folder, ref)
     cs = CSolver.from_dir(folder, verify=True, **(build_kw or {}))
-    rep = VerifyReport(solver=name, gen_dir=str(folder.path), problem=pb.name, scenario=scenario, seed=seed,
-                       samples=samples)
+    rep = VerifyReport(
+        solver=name, gen_dir=str(folder.path), problem=pb.name, scenario=scenario, seed=seed, samples=samples
+    )
     # a backend that is not bit-exact C vs Python (the IPM: numpy vs C loops) has its own solution tolerances; the
     # variables without cost curvature (P_ii = 0: the paper's free hyperplanes) are fixed by the rows and the
     # backend's regularization only, so their rounding may part more (VERIFY_FREE_TOL)
     bmod = backend_module(pb.qp.backend)
-    tols = {TOL_QP_DATA: getattr(bmod, "VERIFY_QP_DATA_TOL", TOL_QP_DATA),
-            TOL_SOLUTION: getattr(bmod, "VERIFY_SOLUTION_TOL", TOL_SOLUTION)}
+    tols = {
+        TOL_QP_DATA: getattr(bmod, "VERIFY_QP_DATA_TOL", TOL_QP_DATA),
+        TOL_SOLUTION: getattr(bmod, "VERIFY_SOLUTION_TOL", TOL_SOLUTION),
+    }
     checks = {k: Check(k, g, d, tols.get(t, t)) for k, g, t, d in QUANTITIES}
     checks["z_free"].tol = getattr(bmod, "VERIFY_FREE_TOL", checks["z"].tol)
     if cs.init() != 0:
@@ -428,12 +470,19 @@ def verify(folder: FolderLike, scenario: str | None = None, seed: int = 0, sampl
             rep.notes.append(
                 "the closed loops part beyond the tolerance; the reference itself, its measured state changed by a "
                 f"relative {', '.join(f'{e:+.0e}' for e in ENVELOPE_EPS)}, parts from its own run by up to the "
-                f"'envelope' (this problem amplifies rounding): allowed {ENVELOPE_FACTOR:g}x that")
+                f"'envelope' (this problem amplifies rounding): allowed {ENVELOPE_FACTOR:g}x that"
+            )
         from .sim.runlog import summary
+
         s_c, s_py = summary(log_c), summary(log_py)
-        rep.extra = {"progress_c": s_c["progress"], "progress_python": s_py["progress"],
-                     "collisions_c": s_c["n_collision_samples"], "collisions_python": s_py["n_collision_samples"],
-                     "qp_iter_mean_c": s_c["qp_iter_mean"], "qp_iter_mean_python": s_py["qp_iter_mean"]}
+        rep.extra = {
+            "progress_c": s_c["progress"],
+            "progress_python": s_py["progress"],
+            "collisions_c": s_c["n_collision_samples"],
+            "collisions_python": s_py["n_collision_samples"],
+            "qp_iter_mean_c": s_c["qp_iter_mean"],
+            "qp_iter_mean_python": s_py["qp_iter_mean"],
+        }
     else:
         for k in CLOSED_LOOP:
             del checks[k]
@@ -443,6 +492,8 @@ def verify(folder: FolderLike, scenario: str | None = None, seed: int = 0, sampl
         rep.notes.append(f"the Python reference reported a non-zero exit code on {nz} samples")
     for k in ("q", "z"):
         if checks[k].compared < samples:
-            rep.notes.append(f"{checks[k].description}: compared on {checks[k].compared} of {samples} samples "
-                             f"(a solver call failed on the others)")
+            rep.notes.append(
+                f"{checks[k].description}: compared on {checks[k].compared} of {samples} samples "
+                f"(a solver call failed on the others)"
+            )
     return rep

@@ -62,8 +62,8 @@ typedef S_(_status_t) status_t;
 #error "fuzz_api.c places opponents as Cartesian poses (x, y, phi): use a lifted or direct-elimination solver"
 #endif
 
-#define K_GOOD 8    /* samples of the good sequence */
-#define GARBAGE 40  /* random calls per episode before the restart */
+#define K_GOOD 8 /* samples of the good sequence */
+#define GARBAGE 40 /* random calls per episode before the restart */
 #define G_S0 (-20.0)
 
 /* ------------------------------------------------------------------------------------------------ random */
@@ -74,8 +74,12 @@ static uint64_t rnd(void) { /* splitmix64 */
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   return z ^ (z >> 31);
 }
-static int pick(int n) { return (int)(rnd() % (uint64_t)n); }
-static double unif(double a, double b) { return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0); }
+static int pick(int n) {
+  return (int)(rnd() % (uint64_t)n);
+}
+static double unif(double a, double b) {
+  return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0);
+}
 static double nonfinite(void) {
   static const double v[3] = {NAN, INFINITY, -INFINITY};
   return v[pick(3)];
@@ -101,39 +105,67 @@ static void violation(long *counter, const char *what, double a, double b) {
 
 static const char *code_name(int rc) {
   switch (rc) {
-    case U_(_OK): return "OK";
-    case U_(_ERR_NOT_PREPARED): return "ERR_NOT_PREPARED";
-    case U_(_ERR_NO_STATE): return "ERR_NO_STATE";
-    case U_(_ERR_NONFINITE_STATE): return "ERR_NONFINITE_STATE";
-    case U_(_ERR_NONFINITE_OPPONENTS): return "ERR_NONFINITE_OPPONENTS";
-    case U_(_ERR_NONFINITE_ROAD): return "ERR_NONFINITE_ROAD";
-    case U_(_ERR_ROAD_WINDOW): return "ERR_ROAD_WINDOW";
-    case U_(_ERR_ROAD_SIZE): return "ERR_ROAD_SIZE";
-    case U_(_ERR_QP): return "ERR_QP";
-    case U_(_ERR_QP_INFEASIBLE): return "ERR_QP_INFEASIBLE";
-    case U_(_ERR_QP_DUAL_INFEASIBLE): return "ERR_QP_DUAL_INFEASIBLE";
-    case U_(_ERR_QP_NONCONVEX): return "ERR_QP_NONCONVEX";
-    case U_(_ERR_QP_NONFINITE): return "ERR_QP_NONFINITE";
-    case U_(_ERR_QP_NUMERICAL): return "ERR_QP_NUMERICAL";
-    case U_(_ERR_OPP_FRENET): return "ERR_OPP_FRENET";
-    case U_(_ERR_QP_INPUT_BOUNDS): return "ERR_QP_INPUT_BOUNDS";
-    default: return NULL;
+  case U_(_OK):
+    return "OK";
+  case U_(_ERR_NOT_PREPARED):
+    return "ERR_NOT_PREPARED";
+  case U_(_ERR_NO_STATE):
+    return "ERR_NO_STATE";
+  case U_(_ERR_NONFINITE_STATE):
+    return "ERR_NONFINITE_STATE";
+  case U_(_ERR_NONFINITE_OPPONENTS):
+    return "ERR_NONFINITE_OPPONENTS";
+  case U_(_ERR_NONFINITE_ROAD):
+    return "ERR_NONFINITE_ROAD";
+  case U_(_ERR_ROAD_WINDOW):
+    return "ERR_ROAD_WINDOW";
+  case U_(_ERR_ROAD_SIZE):
+    return "ERR_ROAD_SIZE";
+  case U_(_ERR_QP):
+    return "ERR_QP";
+  case U_(_ERR_QP_INFEASIBLE):
+    return "ERR_QP_INFEASIBLE";
+  case U_(_ERR_QP_DUAL_INFEASIBLE):
+    return "ERR_QP_DUAL_INFEASIBLE";
+  case U_(_ERR_QP_NONCONVEX):
+    return "ERR_QP_NONCONVEX";
+  case U_(_ERR_QP_NONFINITE):
+    return "ERR_QP_NONFINITE";
+  case U_(_ERR_QP_NUMERICAL):
+    return "ERR_QP_NUMERICAL";
+  case U_(_ERR_OPP_FRENET):
+    return "ERR_OPP_FRENET";
+  case U_(_ERR_QP_INPUT_BOUNDS):
+    return "ERR_QP_INPUT_BOUNDS";
+  default:
+    return NULL;
   }
 }
 
 static const char *qp_status_name(int qs) {
   switch (qs) {
-    case 0: return "QP_NONE";
-    case U_(_QP_SOLVED): return "QP_SOLVED";
-    case U_(_QP_SOLVED_INACCURATE): return "QP_SOLVED_INACCURATE";
-    case U_(_QP_MAX_ITER): return "QP_MAX_ITER";
-    case U_(_QP_PRIMAL_INFEASIBLE): return "QP_PRIMAL_INFEASIBLE";
-    case U_(_QP_DUAL_INFEASIBLE): return "QP_DUAL_INFEASIBLE";
-    case U_(_QP_NONCONVEX): return "QP_NONCONVEX";
-    case U_(_QP_NONFINITE): return "QP_NONFINITE";
-    case U_(_QP_NUMERICAL): return "QP_NUMERICAL";
-    case U_(_QP_OTHER): return "QP_OTHER";
-    default: return NULL;
+  case 0:
+    return "QP_NONE";
+  case U_(_QP_SOLVED):
+    return "QP_SOLVED";
+  case U_(_QP_SOLVED_INACCURATE):
+    return "QP_SOLVED_INACCURATE";
+  case U_(_QP_MAX_ITER):
+    return "QP_MAX_ITER";
+  case U_(_QP_PRIMAL_INFEASIBLE):
+    return "QP_PRIMAL_INFEASIBLE";
+  case U_(_QP_DUAL_INFEASIBLE):
+    return "QP_DUAL_INFEASIBLE";
+  case U_(_QP_NONCONVEX):
+    return "QP_NONCONVEX";
+  case U_(_QP_NONFINITE):
+    return "QP_NONFINITE";
+  case U_(_QP_NUMERICAL):
+    return "QP_NUMERICAL";
+  case U_(_QP_OTHER):
+    return "QP_OTHER";
+  default:
+    return NULL;
   }
 }
 
@@ -141,13 +173,22 @@ static const char *qp_status_name(int qs) {
  * give ERR_QP_INPUT_BOUNDS: its step's u0 was beyond the input box by more than MAX_INPUT_VIOLATION) */
 static int qp_exit(int qs) {
   switch (qs) {
-    case U_(_QP_SOLVED): case U_(_QP_SOLVED_INACCURATE): case U_(_QP_MAX_ITER): return U_(_OK);
-    case U_(_QP_PRIMAL_INFEASIBLE): return U_(_ERR_QP_INFEASIBLE);
-    case U_(_QP_DUAL_INFEASIBLE): return U_(_ERR_QP_DUAL_INFEASIBLE);
-    case U_(_QP_NONCONVEX): return U_(_ERR_QP_NONCONVEX);
-    case U_(_QP_NONFINITE): return U_(_ERR_QP_NONFINITE);
-    case U_(_QP_NUMERICAL): return U_(_ERR_QP_NUMERICAL);
-    default: return U_(_ERR_QP);
+  case U_(_QP_SOLVED):
+  case U_(_QP_SOLVED_INACCURATE):
+  case U_(_QP_MAX_ITER):
+    return U_(_OK);
+  case U_(_QP_PRIMAL_INFEASIBLE):
+    return U_(_ERR_QP_INFEASIBLE);
+  case U_(_QP_DUAL_INFEASIBLE):
+    return U_(_ERR_QP_DUAL_INFEASIBLE);
+  case U_(_QP_NONCONVEX):
+    return U_(_ERR_QP_NONCONVEX);
+  case U_(_QP_NONFINITE):
+    return U_(_ERR_QP_NONFINITE);
+  case U_(_QP_NUMERICAL):
+    return U_(_ERR_QP_NUMERICAL);
+  default:
+    return U_(_ERR_QP);
   }
 }
 
@@ -243,8 +284,7 @@ static void check_qp_outcome(int rc) {
   if (prev_cold) {
     for (i = 0; i < N * NU; ++i)
       if (u[i] != 0.0) violation(&v_fallback, "cold-start fallback plan has a non-zero control", i, u[i]);
-  } else if (memcmp(u, prev_u + NU, sizeof(real_t) * (N - 1) * NU) ||
-             memcmp(x, prev_x + NX, sizeof(real_t) * N * NX)) {
+  } else if (memcmp(u, prev_u + NU, sizeof(real_t) * (N - 1) * NU) || memcmp(x, prev_x + NX, sizeof(real_t) * N * NX)) {
     violation(&v_fallback, "plan after an unusable QP is not the shifted previous plan", rc, st.qp_status);
   }
 }
@@ -316,8 +356,9 @@ static int all_finite(const real_t *v, int n) {
 /* ------------------------------------------------------------------------------------------------ calls */
 /* what the harness knows about the solver (the contract makes it exact) */
 static int state_since_init; /* a set_state was accepted since init (or since the start) */
-static int road_since_init;  /* 0: none accepted since init, 1: the last accepted one is shorter than a window, 2: other */
-static int prep;             /* 1: a preparation is pending (prepared, no feedback since) */
+static int
+    road_since_init; /* 0: none accepted since init, 1: the last accepted one is shorter than a window, 2: other */
+static int prep; /* 1: a preparation is pending (prepared, no feedback since) */
 static snap_t before;
 
 static void restarted(void) {
@@ -433,15 +474,41 @@ static void r_set_road(void) {
     r_gy[i] = 0.0;
   }
   switch (kind) {
-    case 0: s0 += unif(-300.0, 300.0); break;                             /* shifted: may not cover the ego */
-    case 1: n = 2 + pick(ROAD_WINDOW - 2 > 0 ? ROAD_WINDOW - 2 : 1); break; /* shorter than one window */
-    case 2: for (i = 0; i < n; ++i) r_kappa[i] = (real_t)unif(-1.0, 1.0); break;
-    case 3: { static const int bad[5] = {0, 1, -3, ROAD_MAX + 1, 2147483647}; n = bad[pick(5)]; } break;
-    case 4: if (pick(2)) k = NULL; else y = NULL; break;
-    case 5: r_gy[pick(n)] = (real_t)nonfinite(); break;
-    case 6: if (pick(2)) s0 = nonfinite(); else ds = nonfinite(); break;
-    case 7: { static const double bad[5] = {0.0, -0.0, -2.0, 4.9e-324, 1e300}; ds = bad[pick(5)]; } break;
-    default: r_kappa[pick(n)] = (real_t)extreme(); break;
+  case 0:
+    s0 += unif(-300.0, 300.0);
+    break; /* shifted: may not cover the ego */
+  case 1:
+    n = 2 + pick(ROAD_WINDOW - 2 > 0 ? ROAD_WINDOW - 2 : 1);
+    break; /* shorter than one window */
+  case 2:
+    for (i = 0; i < n; ++i) r_kappa[i] = (real_t)unif(-1.0, 1.0);
+    break;
+  case 3: {
+    static const int bad[5] = {0, 1, -3, ROAD_MAX + 1, 2147483647};
+    n = bad[pick(5)];
+  } break;
+  case 4:
+    if (pick(2))
+      k = NULL;
+    else
+      y = NULL;
+    break;
+  case 5:
+    r_gy[pick(n)] = (real_t)nonfinite();
+    break;
+  case 6:
+    if (pick(2))
+      s0 = nonfinite();
+    else
+      ds = nonfinite();
+    break;
+  case 7: {
+    static const double bad[5] = {0.0, -0.0, -2.0, 4.9e-324, 1e300};
+    ds = bad[pick(5)];
+  } break;
+  default:
+    r_kappa[pick(n)] = (real_t)extreme();
+    break;
   }
   if (n < 2 || n > ROAD_MAX || !k || !y) {
     want = U_(_ERR_ROAD_SIZE);
@@ -474,14 +541,18 @@ static void r_set_opponents(void) {
   if (kind == 3 && pick(2))
     SET(S_(_set_opponents)(NULL), NOPP ? U_(_ERR_NONFINITE_OPPONENTS) : U_(_OK));
   else
-    SET(S_(_set_opponents)(r_opp), (NOPP == 0 || all_finite(r_opp, OPP_BLOCK)) ? U_(_OK) : U_(_ERR_NONFINITE_OPPONENTS));
+    SET(S_(_set_opponents)(r_opp),
+        (NOPP == 0 || all_finite(r_opp, OPP_BLOCK)) ? U_(_OK) : U_(_ERR_NONFINITE_OPPONENTS));
 }
 
 static void r_prepare(void) {
   int want = -1;
-  if (prep) want = U_(_OK); /* a no-op */
-  else if (!S_(_has_guess)() && !state_since_init) want = U_(_ERR_NO_STATE);
-  else if (road_since_init < 2) want = U_(_ERR_ROAD_WINDOW);
+  if (prep)
+    want = U_(_OK); /* a no-op */
+  else if (!S_(_has_guess)() && !state_since_init)
+    want = U_(_ERR_NO_STATE);
+  else if (road_since_init < 2)
+    want = U_(_ERR_ROAD_WINDOW);
   do_prepare(want);
 }
 
@@ -506,14 +577,38 @@ static void r_getters(void) {
 
 static void garbage_call(void) {
   switch (pick(12)) {
-    case 0: case 1: r_set_state(); break;
-    case 2: case 3: r_set_road(); break;
-    case 4: r_set_opponents(); break;
-    case 5: case 6: r_prepare(); break;
-    case 7: case 8: do_feedback(prep ? -1 : U_(_ERR_NOT_PREPARED)); break;
-    case 9: do_reset(0); break;
-    case 10: if (pick(4) == 0) do_reset(1); else r_getters(); break;
-    default: SET(set_good_road(), U_(_OK)); road_since_init = 2; break;
+  case 0:
+  case 1:
+    r_set_state();
+    break;
+  case 2:
+  case 3:
+    r_set_road();
+    break;
+  case 4:
+    r_set_opponents();
+    break;
+  case 5:
+  case 6:
+    r_prepare();
+    break;
+  case 7:
+  case 8:
+    do_feedback(prep ? -1 : U_(_ERR_NOT_PREPARED));
+    break;
+  case 9:
+    do_reset(0);
+    break;
+  case 10:
+    if (pick(4) == 0)
+      do_reset(1);
+    else
+      r_getters();
+    break;
+  default:
+    SET(set_good_road(), U_(_OK));
+    road_since_init = 2;
+    break;
   }
 }
 
@@ -526,29 +621,35 @@ static void reject_one(int unprepared) {
   real_t x[5];
   int i;
   switch (pick(unprepared ? 7 : 6)) {
-    case 0:
-      memcpy(x, last_x0, sizeof x);
-      x[pick(5)] = (real_t)nonfinite();
-      SET(S_(_set_state)(x), U_(_ERR_NONFINITE_STATE));
-      break;
-    case 1: SET(S_(_set_state)(NULL), U_(_ERR_NO_STATE)); break;
-    case 2:
-      SET(S_(_set_road)((real_t)G_S0, (real_t)FUZZ_DS, pick(2) ? 1 : ROAD_MAX + 1, g_kappa, g_phi, g_gx, g_gy),
-          U_(_ERR_ROAD_SIZE));
-      break;
-    case 3:
-      for (i = 0; i < ROAD_MAX; ++i) r_gy[i] = g_gy[i];
-      r_gy[pick(ROAD_MAX)] = (real_t)nonfinite();
-      SET(S_(_set_road)((real_t)G_S0, (real_t)FUZZ_DS, ROAD_MAX, g_kappa, g_phi, g_gx, r_gy), U_(_ERR_NONFINITE_ROAD));
-      break;
-    case 4:
-      if (NOPP == 0) break;
-      memcpy(r_opp, g_opp[0], sizeof r_opp);
-      r_opp[pick(OPP_BLOCK > 0 ? OPP_BLOCK : 1)] = (real_t)nonfinite();
-      SET(S_(_set_opponents)(pick(2) ? r_opp : NULL), U_(_ERR_NONFINITE_OPPONENTS));
-      break;
-    case 5: r_getters(); break;
-    default: do_feedback(U_(_ERR_NOT_PREPARED)); break; /* wrong order: feedback before prepare */
+  case 0:
+    memcpy(x, last_x0, sizeof x);
+    x[pick(5)] = (real_t)nonfinite();
+    SET(S_(_set_state)(x), U_(_ERR_NONFINITE_STATE));
+    break;
+  case 1:
+    SET(S_(_set_state)(NULL), U_(_ERR_NO_STATE));
+    break;
+  case 2:
+    SET(S_(_set_road)((real_t)G_S0, (real_t)FUZZ_DS, pick(2) ? 1 : ROAD_MAX + 1, g_kappa, g_phi, g_gx, g_gy),
+        U_(_ERR_ROAD_SIZE));
+    break;
+  case 3:
+    for (i = 0; i < ROAD_MAX; ++i) r_gy[i] = g_gy[i];
+    r_gy[pick(ROAD_MAX)] = (real_t)nonfinite();
+    SET(S_(_set_road)((real_t)G_S0, (real_t)FUZZ_DS, ROAD_MAX, g_kappa, g_phi, g_gx, r_gy), U_(_ERR_NONFINITE_ROAD));
+    break;
+  case 4:
+    if (NOPP == 0) break;
+    memcpy(r_opp, g_opp[0], sizeof r_opp);
+    r_opp[pick(OPP_BLOCK > 0 ? OPP_BLOCK : 1)] = (real_t)nonfinite();
+    SET(S_(_set_opponents)(pick(2) ? r_opp : NULL), U_(_ERR_NONFINITE_OPPONENTS));
+    break;
+  case 5:
+    r_getters();
+    break;
+  default:
+    do_feedback(U_(_ERR_NOT_PREPARED));
+    break; /* wrong order: feedback before prepare */
   }
 }
 
@@ -630,7 +731,10 @@ int main(int argc, char **argv) {
     ++n_episodes;
     for (c = 0; c < GARBAGE; ++c) garbage_call();
     do_reset(restart_init);
-    if (restart_init) ++n_init; else ++n_reset;
+    if (restart_init)
+      ++n_init;
+    else
+      ++n_reset;
     run_good(pick(2), 0);
     after_good();
   }
@@ -640,13 +744,14 @@ int main(int argc, char **argv) {
     if (n_rc[c]) printf("rc %s %ld\n", code_name(c) ? code_name(c) : "unknown", n_rc[c]);
   for (c = 0; c < MAX_CODE; ++c)
     if (n_qs[c]) printf("qp %s %ld\n", qp_status_name(c) ? qp_status_name(c) : "unknown", n_qs[c]);
-  printf("feedback_ok %ld\nfeedback_unusable_qp %ld\nfeedback_input_bounds %ld\nfallbacks_checked %ld\nfeedback_u_projected %ld\nmax_u_violation %.6g\n",
+  printf("feedback_ok %ld\nfeedback_unusable_qp %ld\nfeedback_input_bounds %ld\nfallbacks_checked "
+         "%ld\nfeedback_u_projected %ld\nmax_u_violation %.6g\n",
          n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_fallback_checked, n_projected, max_u_violation);
   printf("bitwise_checked %ld\nbitwise_equal %ld\ncold_restarts %ld\n", n_checked, n_equal, n_cold_restarts);
   printf("violation_wrong_code %ld\nviolation_status %ld\nviolation_rejected_call_changed %ld\n"
          "violation_u_outside_box %ld\nviolation_qp_code %ld\nviolation_fallback %ld\nviolation_mismatch %ld\n"
-         "violation_good_rejected %ld\n", v_wrong_code, v_status, v_changed, v_box, v_qp_code, v_fallback,
-         v_mismatch, v_good_rejected);
+         "violation_good_rejected %ld\n",
+         v_wrong_code, v_status, v_changed, v_box, v_qp_code, v_fallback, v_mismatch, v_good_rejected);
   printf("max_abs_du0_of_differing_samples %.6g\nviolations %ld\n", max_du_mismatch, violations);
   return violations ? 1 : 0;
 }

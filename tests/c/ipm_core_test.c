@@ -15,8 +15,17 @@
 #include <string.h>
 
 typedef double tipm_real_t;
-enum { TIPM_QP_SOLVED = 1, TIPM_QP_SOLVED_INACCURATE, TIPM_QP_MAX_ITER, TIPM_QP_PRIMAL_INFEASIBLE,
-       TIPM_QP_DUAL_INFEASIBLE, TIPM_QP_NONCONVEX, TIPM_QP_NONFINITE, TIPM_QP_NUMERICAL, TIPM_QP_OTHER };
+enum {
+  TIPM_QP_SOLVED = 1,
+  TIPM_QP_SOLVED_INACCURATE,
+  TIPM_QP_MAX_ITER,
+  TIPM_QP_PRIMAL_INFEASIBLE,
+  TIPM_QP_DUAL_INFEASIBLE,
+  TIPM_QP_NONCONVEX,
+  TIPM_QP_NONFINITE,
+  TIPM_QP_NUMERICAL,
+  TIPM_QP_OTHER
+};
 #define REAL_0 ((tipm_real_t)0.0)
 typedef struct {
   int status;
@@ -36,7 +45,9 @@ static long g_probe[4];
 #include "ipm_problem.h"
 #include "ipm_core.c"
 
-static int read_all(FILE *f, double *x, long n) { return fread(x, sizeof(double), (size_t)n, f) == (size_t)n; }
+static int read_all(FILE *f, double *x, long n) {
+  return fread(x, sizeof(double), (size_t)n, f) == (size_t)n;
+}
 
 int main(int argc, char **argv) {
   if (argc != 6) {
@@ -62,7 +73,8 @@ int main(int argc, char **argv) {
       double it;
       qpb_result_t res;
       if (!read_all(ev, q, n) || !read_all(ev, l, m) || !read_all(ev, u, m) || !read_all(ev, yw, m) ||
-          !read_all(ev, &it, 1)) return 3;
+          !read_all(ev, &it, 1))
+        return 3;
       (void)memset(g_probe, 0, sizeof g_probe);
       (void)qpb_solve(q, l, u, yw, (int)it, &res);
       double head[7] = {res.status, res.raw_status, res.iter, g_probe[0], g_probe[1], g_probe[2], g_probe[3]};

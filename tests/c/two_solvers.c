@@ -17,38 +17,38 @@
 #define SAMPLES 3
 
 /* the run of the solver with prefix P (upper case: PU) */
-#define DEFINE_RUN(P, PU)                                                                                     \
-  static int XCAT(run_, P)(void) {                                                                            \
-    static XCAT(P, _real_t) kappa[XCAT(PU, _ROAD_MAX)], phi[XCAT(PU, _ROAD_MAX)];                            \
-    static XCAT(P, _real_t) gx[XCAT(PU, _ROAD_MAX)], gy[XCAT(PU, _ROAD_MAX)];                                \
-    static XCAT(P, _real_t) opp[(XCAT(PU, _N) + 1) * XCAT(PU, _NOPP) * 3 + 1];                                \
-    XCAT(P, _real_t) x0[5] = {0.0, 1.0, 0.0, 15.0, 0.0}, u[2];                                                \
-    int i, k, rc;                                                                                             \
-    (void)sizeof(char[(XCAT(PU, _NOPP_PAR) == 3) ? 1 : -1]); /* Cartesian opponent pose */                     \
-    for (i = 0; i < XCAT(PU, _ROAD_MAX); ++i) {                                                               \
-      kappa[i] = 0;                                                                                           \
-      phi[i] = 0;                                                                                             \
-      gx[i] = (XCAT(P, _real_t))(S0 + DS * i);                                                                \
-      gy[i] = 0;                                                                                              \
-    }                                                                                                         \
-    for (i = 0; i < (XCAT(PU, _N) + 1) * XCAT(PU, _NOPP); ++i) {                                              \
-      opp[3 * i] = -1000;                                                                                     \
-      opp[3 * i + 1] = 500;                                                                                   \
-      opp[3 * i + 2] = 0;                                                                                     \
-    }                                                                                                         \
-    rc = XCAT(P, _init)();                                                                                    \
-    if (!rc) rc = XCAT(P, _set_road)((XCAT(P, _real_t))S0, (XCAT(P, _real_t))DS, XCAT(PU, _ROAD_MAX), kappa,  \
-                                     phi, gx, gy);                                                            \
-    if (!rc) rc = XCAT(P, _set_opponents)(opp);                                                               \
-    for (k = 0; k < SAMPLES && !rc; ++k) {                                                                    \
-      rc = XCAT(P, _set_state)(x0);                                                                           \
-      if (!rc) rc = XCAT(P, _prepare)();                                                                      \
-      if (!rc) rc = XCAT(P, _feedback)();                                                                     \
-      XCAT(P, _get_u0)(u);                                                                                    \
-      printf("%s %d %d %.17g %.17g\n", XSTR(P), k, rc, (double)u[0], (double)u[1]);                           \
-      x0[0] += (XCAT(P, _real_t))1.5; /* the ego moved on */                                                  \
-    }                                                                                                         \
-    return rc;                                                                                                \
+#define DEFINE_RUN(P, PU)                                                                                              \
+  static int XCAT(run_, P)(void) {                                                                                     \
+    static XCAT(P, _real_t) kappa[XCAT(PU, _ROAD_MAX)], phi[XCAT(PU, _ROAD_MAX)];                                      \
+    static XCAT(P, _real_t) gx[XCAT(PU, _ROAD_MAX)], gy[XCAT(PU, _ROAD_MAX)];                                          \
+    static XCAT(P, _real_t) opp[(XCAT(PU, _N) + 1) * XCAT(PU, _NOPP) * 3 + 1];                                         \
+    XCAT(P, _real_t) x0[5] = {0.0, 1.0, 0.0, 15.0, 0.0}, u[2];                                                         \
+    int i, k, rc;                                                                                                      \
+    (void)sizeof(char[(XCAT(PU, _NOPP_PAR) == 3) ? 1 : -1]); /* Cartesian opponent pose */                             \
+    for (i = 0; i < XCAT(PU, _ROAD_MAX); ++i) {                                                                        \
+      kappa[i] = 0;                                                                                                    \
+      phi[i] = 0;                                                                                                      \
+      gx[i] = (XCAT(P, _real_t))(S0 + DS * i);                                                                         \
+      gy[i] = 0;                                                                                                       \
+    }                                                                                                                  \
+    for (i = 0; i < (XCAT(PU, _N) + 1) * XCAT(PU, _NOPP); ++i) {                                                       \
+      opp[3 * i] = -1000;                                                                                              \
+      opp[3 * i + 1] = 500;                                                                                            \
+      opp[3 * i + 2] = 0;                                                                                              \
+    }                                                                                                                  \
+    rc = XCAT(P, _init)();                                                                                             \
+    if (!rc)                                                                                                           \
+      rc = XCAT(P, _set_road)((XCAT(P, _real_t))S0, (XCAT(P, _real_t))DS, XCAT(PU, _ROAD_MAX), kappa, phi, gx, gy);    \
+    if (!rc) rc = XCAT(P, _set_opponents)(opp);                                                                        \
+    for (k = 0; k < SAMPLES && !rc; ++k) {                                                                             \
+      rc = XCAT(P, _set_state)(x0);                                                                                    \
+      if (!rc) rc = XCAT(P, _prepare)();                                                                               \
+      if (!rc) rc = XCAT(P, _feedback)();                                                                              \
+      XCAT(P, _get_u0)(u);                                                                                             \
+      printf("%s %d %d %.17g %.17g\n", XSTR(P), k, rc, (double)u[0], (double)u[1]);                                    \
+      x0[0] += (XCAT(P, _real_t))1.5; /* the ego moved on */                                                           \
+    }                                                                                                                  \
+    return rc;                                                                                                         \
   }
 
 #ifdef SOLVER_A

@@ -16,6 +16,7 @@ regularization ``reg`` in the Newton matrix only: residuals are exact, so the fi
 Result in the interface's terms: ``z`` the step, ``y`` the row multipliers in OSQP's sign convention
 (``y_r = nu_r`` on equality rows, ``lam_upper - lam_lower`` on inequality rows; y > 0 at an active upper bound).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -57,17 +58,19 @@ RAW_TO_QP = (QP_SOLVED, QP_MAX_ITER, QP_PRIMAL_INFEASIBLE, QP_NONFINITE, QP_NUME
 class IpmSettings:
     """Tolerances of the interior-point method (scaled QP units)."""
 
-    tol: float = 1e-4        # stationarity, primal residuals and every complementarity product t lam
-    tau: float = 0.995       # fraction to the boundary
-    reg: float = 1e-9        # regularization of the input block of the Newton matrix
-    prox: float = 1e-6       # proximal weight on inputs without cost (hyperplanes: not unique, else they drift)
-    t_min: float = 0.1       # floor of an initial side slack
-    lam_min: float = 0.1     # floor of an initial side multiplier
+    tol: float = 1e-4  # stationarity, primal residuals and every complementarity product t lam
+    tau: float = 0.995  # fraction to the boundary
+    reg: float = 1e-9  # regularization of the input block of the Newton matrix
+    prox: float = 1e-6  # proximal weight on inputs without cost (hyperplanes: not unique, else they drift)
+    t_min: float = 0.1  # floor of an initial side slack
+    lam_min: float = 0.1  # floor of an initial side multiplier
     lam_center: float = 0.5  # then each initial lam at least lam_center mean(t lam) / t: no product far below the mean
-    lam_max: float = 1e10    # a multiplier beyond it: primal infeasible
-    alpha_min: float = 1e-12 # a step below it: numerical trouble
-    warm: bool = True        # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
-    scaled_start: bool = False  # a soft row's slack bound starts at t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
+    lam_max: float = 1e10  # a multiplier beyond it: primal infeasible
+    alpha_min: float = 1e-12  # a step below it: numerical trouble
+    warm: bool = True  # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
+    scaled_start: bool = (
+        False  # a soft row's slack bound starts at t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
+    )
 
 
 def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -82,9 +85,8 @@ def _bwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
     """Solve L' X = B, L lower triangular."""
     X = np.array(B, dtype=float, copy=True)
     for i in range(L.shape[0] - 1, -1, -1):
-        X[i] = (X[i] - L[i + 1:, i] @ X[i + 1:]) / L[i, i]
+        X[i] = (X[i] - L[i + 1 :, i] @ X[i + 1 :]) / L[i, i]
     return X
-
 
 
 def ipm_settings(opts: "QpOptions") -> IpmSettings:
@@ -126,15 +128,15 @@ class Backend:
         self.A = self.lay.A_pattern(self.Ax[:-1].copy())
         self.AT = self.A.T.tocsr()
         ax = self.Ax
-        self.Cxu = ax[tab.gen_xu]                       # (N+1, NG, nx+NU)
-        self.Ce = ax[tab.gen_e]                         # (N+1, NG) slack coefficient
-        E = ax[sv.dyn_next]                             # (N, nx)
+        self.Cxu = ax[tab.gen_xu]  # (N+1, NG, nx+NU)
+        self.Ce = ax[tab.gen_e]  # (N+1, NG) slack coefficient
+        E = ax[sv.dyn_next]  # (N, nx)
         self.Einv = 1.0 / E
-        AB = -ax[tab.dyn_ab] * self.Einv[:, :, None]    # x_{k+1} = F x + G u + c
-        self.F = AB[:, :, :sv.nx]
-        self.G = AB[:, :, sv.nx:]
+        AB = -ax[tab.dyn_ab] * self.Einv[:, :, None]  # x_{k+1} = F x + G u + c
+        self.F = AB[:, :, : sv.nx]
+        self.G = AB[:, :, sv.nx :]
         self.einit = ax[sv.init_a]
-        self.D = ax[tab.eq_d]                           # (N+1, NE, NU)
+        self.D = ax[tab.eq_d]  # (N+1, NE, NU)
         self.box_a2 = ax[sv.box_a] ** 2
 
     # -- the Newton matrix: side weights, slack elimination, Riccati factorization ---------------------
@@ -152,8 +154,8 @@ class Backend:
         # group weighs W_i (hd_s + sum_{j != i} W_j e_j^2) / d_s, two rows couple by -W_i e_i W_j e_j / d_s,
         # d_s = hd_s + sum_i W_i e_i^2 (hd_s: the slack's own curvature, cost and its bound row)
         pad = np.zeros((N + 1, 1))
-        Wg = np.concatenate([W[tab.gen_row], pad], axis=1)       # (N+1, NG+1); dummy slot: W = 0
-        w = Wg * np.concatenate([self.Ce, pad], axis=1)          # W e
+        Wg = np.concatenate([W[tab.gen_row], pad], axis=1)  # (N+1, NG+1); dummy slot: W = 0
+        w = Wg * np.concatenate([self.Ce, pad], axis=1)  # W e
         we2 = w * np.concatenate([self.Ce, pad], axis=1)
         flat = tab.slack_rows.reshape(N + 1, -1)
         RS = tab.slack_rows.shape[2]
@@ -232,8 +234,8 @@ class Backend:
         hs = he[tab.vmap_s]
         ht = he[tab.vmap_xu] - np.einsum("ksi,ks->ki", self.c, hs / self.d)
         rr = np.r_[r_eq_rows, 0.0]
-        cdyn = -rr[sv.dyn_rows] * self.Einv                 # (N, nx)
-        deq = -rr[tab.eq_row]                               # (N+1, NE)
+        cdyn = -rr[sv.dyn_rows] * self.Einv  # (N, nx)
+        deq = -rr[tab.eq_row]  # (N+1, NE)
         lr, kk, p = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
         pn = None
         for k in range(N, -1, -1):
@@ -249,13 +251,13 @@ class Backend:
                 nh = _bwd(self.LM[k], _fwd(self.LM[k], nh))
                 t = lr[k] - self.UD[k] @ nh
             kk[k] = -_bwd(self.Lr[k], t)
-            p[k] = qb - self.W1[k].T @ t            # = qb + S_bar' kk
+            p[k] = qb - self.W1[k].T @ t  # = qb + S_bar' kk
             pn = p[k]
         dz = np.zeros(lay.n + 1)
         dnu = np.zeros(lay.m + 1)
         dx = -rr[lay.init_rows] / self.einit
         for k in range(N + 1):
-            w = self.W1[k] @ dx                       # du = K dx + kk, K = -L^-T (W1 - UD M^-1 UD' W1)
+            w = self.W1[k] @ dx  # du = K dx + kk, K = -L^-T (W1 - UD M^-1 UD' W1)
             if sv.NE:
                 w = w - self.UD[k] @ _bwd(self.LM[k], _fwd(self.LM[k], self.UD[k].T @ w))
             du = kk[k] - _bwd(self.Lr[k], w)
@@ -274,7 +276,7 @@ class Backend:
             dz[tab.vmap_s[k]] = ds
             if k < N:
                 dx = self.F[k] @ dx + self.G[k] @ du + cdyn[k]
-        return dz[:lay.n], dnu[:lay.m]
+        return dz[: lay.n], dnu[: lay.m]
 
     # -- feedback phase ------------------------------------------------------------------------------
     def solve(self, q, l, u, y_warm, max_iter: int) -> QpResult:
@@ -313,9 +315,11 @@ class Backend:
         rows, sign = sv.side_row, sv.side_sign.astype(float)
         yw = np.zeros(self.lay.m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
         lam = np.maximum(-sign * yw[rows], st.lam_min)
-        t = np.maximum(-b, np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min)
-                       if st.scaled_start else st.t_min)
-        lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / len(rows))) / t)   # a centred start (IpmSettings)
+        t = np.maximum(
+            -b,
+            np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min) if st.scaled_start else st.t_min,
+        )
+        lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / len(rows))) / t)  # a centred start (IpmSettings)
         return np.zeros(self.lay.n), t, lam, yw[sv.eq_all].copy()
 
     def _compose_y(self, lam: np.ndarray, nu: np.ndarray) -> np.ndarray:
@@ -345,8 +349,15 @@ class Backend:
         if not (np.all(np.isfinite(r_d)) and np.isfinite(mu)):
             return 4
         if self.trace is not None:
-            self.trace.append((float(np.max(np.abs(r_d))), float(np.max(np.abs(r_eq))), float(np.max(np.abs(r_p))),
-                               float(np.max(t * lam)), mu))
+            self.trace.append(
+                (
+                    float(np.max(np.abs(r_d))),
+                    float(np.max(np.abs(r_eq))),
+                    float(np.max(np.abs(r_p))),
+                    float(np.max(t * lam)),
+                    mu,
+                )
+            )
         if max(np.max(np.abs(r_d)), np.max(np.abs(r_eq)), np.max(np.abs(r_p)), np.max(t * lam)) <= st.tol:
             return 1
         if np.max(lam) > st.lam_max:
@@ -381,7 +392,7 @@ class Backend:
         rows, sign = sv.side_row, sv.side_sign.astype(float)
         g = np.zeros(self.lay.m)
         np.add.at(g, rows, sign * (rc + lam * r_p) * inv_t)
-        h = r_d.copy()                          # r_d + A_in' g, entry by entry as the C
+        h = r_d.copy()  # r_d + A_in' g, entry by entry as the C
         np.add.at(h, tab.ent_var, self.Ax[tab.ent_a] * g[tab.ent_row])
         dz, dnu = self._newton(h, r_eq)
         adz = np.zeros(self.lay.m)

@@ -1,5 +1,6 @@
 """The IPM's gather maps of the stage view (``qp.stage_view``), padded to fixed sizes: what the Python IPM
 (``backends/ipm.py``) indexes with and what the C's tables (``codegen/ipm_header.py``) are made of."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,7 +24,7 @@ class IpmTables:
         # inputs without cost (hyperplane variables): 1 where the proximal weight applies
         self.free_inputs = np.zeros(lay.n)
         for k in range(sv.N + 1):
-            v = sv.vmap[k, sv.nx:sv.nx + sv.nu[k]]
+            v = sv.vmap[k, sv.nx : sv.nx + sv.nu[k]]
             self.free_inputs[v[lay.P_diag[v] == 0]] = 1.0
 
     def _general_slots(self, lay: QpLayout, sv: StageView) -> None:
@@ -35,8 +36,9 @@ class IpmTables:
         for k in range(N + 1):
             for g in range(NG):
                 slot = k * NG + g
-                for v, a in zip(sv.gen_v[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]],
-                                sv.gen_a[sv.gen_ptr[slot]:sv.gen_ptr[slot + 1]]):
+                for v, a in zip(
+                    sv.gen_v[sv.gen_ptr[slot] : sv.gen_ptr[slot + 1]], sv.gen_a[sv.gen_ptr[slot] : sv.gen_ptr[slot + 1]]
+                ):
                     if v < nxu:
                         self.gen_xu[k, g, v] = a
                     else:
@@ -55,15 +57,23 @@ class IpmTables:
                 row, s_var = sv.gen_rows[k, g], -1
                 for v, a in zip(sv.gen_v[sl], sv.gen_a[sl]):
                     if v < nxu:
-                        gv.append(int(v)); ga.append(int(a)); gvar.append(int(sv.vmap[k, v]))
-                        ent_row.append(row); ent_var.append(int(sv.vmap[k, v])); ent_a.append(int(a))
+                        gv.append(int(v))
+                        ga.append(int(a))
+                        gvar.append(int(sv.vmap[k, v]))
+                        ent_row.append(row)
+                        ent_var.append(int(sv.vmap[k, v]))
+                        ent_a.append(int(a))
                     else:
                         s_var, s_a = int(sv.vmap[k, v]), int(a)
                 if s_var >= 0:
-                    ent_row.append(row); ent_var.append(s_var); ent_a.append(s_a)
+                    ent_row.append(row)
+                    ent_var.append(s_var)
+                    ent_a.append(s_a)
                 gptr.append(len(gv))
                 svar.append(s_var)
-        ent_row += sv.box_rows.tolist(); ent_var += sv.box_var.tolist(); ent_a += sv.box_a.tolist()
+        ent_row += sv.box_rows.tolist()
+        ent_var += sv.box_var.tolist()
+        ent_a += sv.box_a.tolist()
         self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
         if any(gv[i] >= gv[i + 1] for p0, p1 in zip(gptr[:-1], gptr[1:]) for i in range(p0, p1 - 1)):
             raise AssertionError("stage view: a general row's stage slots must ascend")
@@ -78,7 +88,7 @@ class IpmTables:
         self.slack_rows = np.full((N + 1, NS, RS), NG, dtype=np.int64)  # general slots of slack j; NG: none
         for k in range(N + 1):
             for j in range(NS):
-                self.slack_rows[k, j, :len(groups[k][j])] = groups[k][j]
+                self.slack_rows[k, j, : len(groups[k][j])] = groups[k][j]
         # the same compactly (the C's loops): slack j of stage k holds the general slots sg_g[sg_ptr[k NS + j]:...]
         self.sg_g = np.array([g for gk in groups for gr in gk for g in gr], dtype=np.int64)
         self.sg_ptr = np.r_[0, np.cumsum([len(gr) for gk in groups for gr in gk])].astype(np.int64)

@@ -4,6 +4,7 @@ Python side: :class:`Backend` (setup, update, warm start, solve, status map) and
 exported C (OSQP's workspace and library) is :mod:`.osqp_export`'s; the solver's part of it, ``codegen/osqp_files.py``
 (the context of ``templates/backends/osqp.c.j2`` and the folder's files).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,8 +13,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 import osqp
 
-from . import (QP_DUAL_INFEASIBLE, QP_MAX_ITER, QP_NONCONVEX, QP_OTHER, QP_PRIMAL_INFEASIBLE, QP_SOLVED,
-               QP_SOLVED_INACCURATE, QpResult)
+from . import (
+    QP_DUAL_INFEASIBLE,
+    QP_MAX_ITER,
+    QP_NONCONVEX,
+    QP_OTHER,
+    QP_PRIMAL_INFEASIBLE,
+    QP_SOLVED,
+    QP_SOLVED_INACCURATE,
+    QpResult,
+)
 from .osqp_export import restore_osqp_library
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -23,12 +32,21 @@ if TYPE_CHECKING:  # pragma: no cover
 LABEL = "OSQP 1.1.3 (embedded mode 2)"
 """How the generated header and README name this backend."""
 
-RAW_STATUS = {1: QP_SOLVED, 2: QP_SOLVED_INACCURATE, 3: QP_PRIMAL_INFEASIBLE, 4: QP_PRIMAL_INFEASIBLE,
-              5: QP_DUAL_INFEASIBLE, 6: QP_DUAL_INFEASIBLE, 7: QP_MAX_ITER, 8: QP_OTHER, 9: QP_NONCONVEX,
-              10: QP_OTHER, 11: QP_OTHER}
+RAW_STATUS = {
+    1: QP_SOLVED,
+    2: QP_SOLVED_INACCURATE,
+    3: QP_PRIMAL_INFEASIBLE,
+    4: QP_PRIMAL_INFEASIBLE,
+    5: QP_DUAL_INFEASIBLE,
+    6: QP_DUAL_INFEASIBLE,
+    7: QP_MAX_ITER,
+    8: QP_OTHER,
+    9: QP_NONCONVEX,
+    10: QP_OTHER,
+    11: QP_OTHER,
+}
 """OSQP 1.x ``status_val`` (1 solved, 2 solved inaccurate, 3/4 primal infeasible (inaccurate), 5/6 dual
 infeasible (inaccurate), 7 max iter, 8 time limit, 9 non-convex, 10 sigint, 11 unsolved) -> generic QP_* status."""
-
 
 
 def generic_status(raw: int) -> int:
@@ -61,17 +79,34 @@ def osqp_sigma(opts: "QpOptions", use_float: bool = False) -> float:
 def osqp_settings(opts: "QpOptions", use_float: bool = False) -> dict:
     """OSQP settings, identical for the Python package and the generated code of that precision (only ``sigma``
     depends on it, :func:`osqp_sigma`; the Python reference computes in double with the double build's settings)."""
-    return dict(max_iter=opts.max_iter, eps_abs=opts.eps_abs, eps_rel=opts.eps_rel, eps_prim_inf=1e-5,
-                eps_dual_inf=1e-5, rho=opts.rho, sigma=osqp_sigma(opts, use_float), alpha=opts.alpha,
-                adaptive_rho=opts.adaptive_rho, scaling=opts.scaling,
-                check_termination=opts.check_termination, check_dualgap=False, warm_starting=opts.warm_start,
-                polishing=False, verbose=False)
+    return dict(
+        max_iter=opts.max_iter,
+        eps_abs=opts.eps_abs,
+        eps_rel=opts.eps_rel,
+        eps_prim_inf=1e-5,
+        eps_dual_inf=1e-5,
+        rho=opts.rho,
+        sigma=osqp_sigma(opts, use_float),
+        alpha=opts.alpha,
+        adaptive_rho=opts.adaptive_rho,
+        scaling=opts.scaling,
+        check_termination=opts.check_termination,
+        check_dualgap=False,
+        warm_starting=opts.warm_start,
+        polishing=False,
+        verbose=False,
+    )
 
 
 def setup_data(lay: "QpLayout") -> tuple:
     """The QP OSQP is set up (and the C workspace exported) with: q = 0, l = min(L, 0), u = max(U, 0)."""
-    return (lay.P_matrix(), np.zeros(lay.n), lay.A_pattern(np.ones(lay.nnz_A)), np.minimum(lay.L, 0.0),
-            np.maximum(lay.U, 0.0))
+    return (
+        lay.P_matrix(),
+        np.zeros(lay.n),
+        lay.A_pattern(np.ones(lay.nnz_A)),
+        np.minimum(lay.L, 0.0),
+        np.maximum(lay.U, 0.0),
+    )
 
 
 class Backend:
@@ -105,10 +140,13 @@ class Backend:
         if budget:
             s.update_settings(max_iter=self.opts.max_iter)
         raw = int(res.info.status_val)
-        return QpResult(status=generic_status(raw), raw_status=raw, iter=int(res.info.iter),
-                        z=None if res.x is None else np.array(res.x, dtype=float),
-                        y=None if res.y is None else np.array(res.y, dtype=float))
-
+        return QpResult(
+            status=generic_status(raw),
+            raw_status=raw,
+            iter=int(res.info.iter),
+            z=None if res.x is None else np.array(res.x, dtype=float),
+            y=None if res.y is None else np.array(res.y, dtype=float),
+        )
 
 
 def restore_library(out_dir: Path, use_float: bool) -> list[str]:

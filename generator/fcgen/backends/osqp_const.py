@@ -10,26 +10,44 @@ those three assignments of OSQP's ``qdldl.c`` to write only a value that differs
 are ``const`` too). The structs that point to the arrays get a cast (OSQP's types have no ``const`` members). A
 write to one of them would fault on a host (read-only pages), so the host tests prove it.
 """
+
 from __future__ import annotations
 
 import re
 
 CONST_ARRAYS = (
-    "data_P_csc_p", "data_P_csc_i", "data_A_csc_p", "data_A_csc_i",
-    "linsys_KKT_p", "linsys_KKT_i", "linsys_PtoKKT", "linsys_AtoKKT", "linsys_rhotoKKT",
-    "linsys_P", "linsys_etree", "linsys_Lnz", "linsys_L_p", "linsys_L_i",
+    "data_P_csc_p",
+    "data_P_csc_i",
+    "data_A_csc_p",
+    "data_A_csc_i",
+    "linsys_KKT_p",
+    "linsys_KKT_i",
+    "linsys_PtoKKT",
+    "linsys_AtoKKT",
+    "linsys_rhotoKKT",
+    "linsys_P",
+    "linsys_etree",
+    "linsys_Lnz",
+    "linsys_L_p",
+    "linsys_L_i",
 )
 """Arrays (without the prefix) that OSQP 1.1.3's embedded mode 2 only reads (``L_p``, ``L_i``: with
 :func:`qdldl_keep_pattern`); all of type ``OSQPInt``."""
 
 QDLDL_SOURCE = "src/qdldl.c"
 _QDLDL_PATTERN_WRITES = (
-    (b"    Lp[0] = 0; // First column starts at index zero\n",
-     b"    if (Lp[0] != 0) Lp[0] = 0; // First column starts at index zero (fcgen: L's pattern is const)\n"),
-    (b"        Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum, total at the end\n",
-     b"        if (Lp[i + 1] != Lp[i] + Lnz[i]) Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum (fcgen: written only if new)\n"),
-    (b"            Li[tmpIdx] = k;\n",
-     b"            if (Li[tmpIdx] != k) Li[tmpIdx] = k; /* fcgen: written only if new */\n"),
+    (
+        b"    Lp[0] = 0; // First column starts at index zero\n",
+        b"    if (Lp[0] != 0) Lp[0] = 0; // First column starts at index zero (fcgen: L's pattern is const)\n",
+    ),
+    (
+        b"        Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum, total at the end\n",
+        b"        if (Lp[i + 1] != Lp[i] + Lnz[i]) Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum (fcgen: written only if new)\n",
+    ),
+    (
+        b"            Li[tmpIdx] = k;\n",
+        b"            if (Li[tmpIdx] != k) Li[tmpIdx] = k; /* fcgen: written only if new */\n",
+    ),
 )
 
 

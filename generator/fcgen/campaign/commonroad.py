@@ -5,6 +5,7 @@ reason), fcgen's and the drivability checker's collision verdicts, who moved int
 Rows go to ``OUT/commonroad.parquet`` (and ``.csv``) and a summary to ``OUT/commonroad.md``: the scenarios run and
 refused, the agreement table of the two collision checks, the collisions by responsibility.
 """
+
 from __future__ import annotations
 
 import time
@@ -16,10 +17,33 @@ import numpy as np
 
 from .grid import Config
 
-ROW_KEYS = ("scenario", "file", "problem", "formulation", "obstacle_model", "controller", "status", "reason",
-            "samples", "progress_m", "v_ref", "band_cut_m", "collision_fcgen", "collision_step_fcgen",
-            "collision_checker", "collision_step_checker", "road_departure", "departure_step", "agree",
-            "responsibility", "max_abs_a_lat", "rti_ms_median", "qp_iter_mean", "exit_codes_nonzero", "wall_s")
+ROW_KEYS = (
+    "scenario",
+    "file",
+    "problem",
+    "formulation",
+    "obstacle_model",
+    "controller",
+    "status",
+    "reason",
+    "samples",
+    "progress_m",
+    "v_ref",
+    "band_cut_m",
+    "collision_fcgen",
+    "collision_step_fcgen",
+    "collision_checker",
+    "collision_step_checker",
+    "road_departure",
+    "departure_step",
+    "agree",
+    "responsibility",
+    "max_abs_a_lat",
+    "rti_ms_median",
+    "qp_iter_mean",
+    "exit_codes_nonzero",
+    "wall_s",
+)
 
 
 @dataclass(frozen=True)
@@ -43,10 +67,18 @@ def load_for(problem, path: str | Path, planning_problem_id: int | None = None):
     """The scenario as ``problem`` drives it (its ego, road grid, horizon); raises ``ScenarioRefused``."""
     from ..commonroad import load_scenario
     from ..sim.closedloop import WINDOW_BEHIND
+
     pb = problem
-    return load_scenario(path, planning_problem_id, ego=pb.ego, ds=pb.road.ds, horizon_s=pb.horizon.N * pb.horizon.dt,
-                         v_max=pb.bounds.v_max, window_m=(pb.road.samples - 1) * pb.road.ds,
-                         behind_m=WINDOW_BEHIND + pb.ego.l + 2 * pb.road.ds)
+    return load_scenario(
+        path,
+        planning_problem_id,
+        ego=pb.ego,
+        ds=pb.road.ds,
+        horizon_s=pb.horizon.N * pb.horizon.dt,
+        v_max=pb.bounds.v_max,
+        window_m=(pb.road.samples - 1) * pb.road.ds,
+        behind_m=WINDOW_BEHIND + pb.ego.l + 2 * pb.road.ds,
+    )
 
 
 def run_cr_task(task: CrTask) -> dict:
@@ -54,12 +86,20 @@ def run_cr_task(task: CrTask) -> dict:
     from ..commonroad import ScenarioRefused
     from ..sim.commonroad_run import run_commonroad
     from .task import _ocp, _prepared, _solver
+
     cfg = task.config
     pb, _, lib = _prepared(cfg, task.cache_dir)
     row = dict.fromkeys(ROW_KEYS)
-    row.update(scenario=Path(task.path).stem, file=Path(task.path).name, problem=pb.name,
-               formulation=pb.formulation.kind, obstacle_model=pb.obstacles.kind, controller=cfg.controller,
-               status="refused", reason="")
+    row.update(
+        scenario=Path(task.path).stem,
+        file=Path(task.path).name,
+        problem=pb.name,
+        formulation=pb.formulation.kind,
+        obstacle_model=pb.obstacles.kind,
+        controller=cfg.controller,
+        status="refused",
+        reason="",
+    )
     t0 = time.perf_counter()
     try:
         sc = load_for(pb, task.path)
@@ -78,16 +118,26 @@ def run_cr_task(task: CrTask) -> dict:
     log = run.log
     cr = log.meta["extra"]["commonroad"]
     t_ms = 1e3 * np.asarray(log.time_total)
-    row.update(status="ran", samples=int(log.n_controls), progress_m=float(log.ego_frenet[-1, 0] - log.ego_frenet[0, 0]),
-               v_ref=float(cr["v_ref"]), band_cut_m=float(cr["band_cut"]),
-               collision_fcgen=bool(run.fcgen["collision"]), collision_step_fcgen=_step(run.fcgen.get("collision_step")),
-               collision_checker=bool(run.checker["collision"]),
-               collision_step_checker=_step(run.checker.get("collision_step")),
-               road_departure=bool(run.checker.get("road_departure", False)),
-               departure_step=_step(run.checker.get("departure_step")), agree=run.agree,
-               responsibility=run.responsibility, max_abs_a_lat=float(np.max(np.abs(log.a_lat))),
-               rti_ms_median=float(np.median(t_ms)), qp_iter_mean=float(np.mean(log.qp_iter)),
-               exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]), wall_s=time.perf_counter() - t0)
+    row.update(
+        status="ran",
+        samples=int(log.n_controls),
+        progress_m=float(log.ego_frenet[-1, 0] - log.ego_frenet[0, 0]),
+        v_ref=float(cr["v_ref"]),
+        band_cut_m=float(cr["band_cut"]),
+        collision_fcgen=bool(run.fcgen["collision"]),
+        collision_step_fcgen=_step(run.fcgen.get("collision_step")),
+        collision_checker=bool(run.checker["collision"]),
+        collision_step_checker=_step(run.checker.get("collision_step")),
+        road_departure=bool(run.checker.get("road_departure", False)),
+        departure_step=_step(run.checker.get("departure_step")),
+        agree=run.agree,
+        responsibility=run.responsibility,
+        max_abs_a_lat=float(np.max(np.abs(log.a_lat))),
+        rti_ms_median=float(np.median(t_ms)),
+        qp_iter_mean=float(np.mean(log.qp_iter)),
+        exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]),
+        wall_s=time.perf_counter() - t0,
+    )
     return row
 
 
@@ -95,12 +145,14 @@ def _step(v) -> int:
     return -1 if v is None else int(v)
 
 
-def run_cr_campaign(configs: list[Config], folder: str | Path, out: str | Path, cache_dir: str, jobs: int = 2,
-                    echo=print) -> list[dict]:
+def run_cr_campaign(
+    configs: list[Config], folder: str | Path, out: str | Path, cache_dir: str, jobs: int = 2, echo=print
+) -> list[dict]:
     """Every scenario of ``folder`` in every configuration; writes the rows and the summary into ``out``."""
     from .task import build_solver
+
     files = scenario_files(folder)
-    for cfg in configs:   # compiled once, before the workers share the cache
+    for cfg in configs:  # compiled once, before the workers share the cache
         if cfg.controller == "c":
             build_solver(cfg, cache_dir)
     tasks = [CrTask(cfg, str(f), cache_dir) for cfg in configs for f in files]
@@ -117,6 +169,7 @@ def run_cr_campaign(configs: list[Config], folder: str | Path, out: str | Path, 
 def write_results(rows: list[dict], out: str | Path) -> Path:
     """``commonroad.parquet``, ``commonroad.csv`` and the summary ``commonroad.md`` into ``out``."""
     import pandas as pd
+
     o = Path(out)
     o.mkdir(parents=True, exist_ok=True)
     df = pd.DataFrame(rows, columns=list(ROW_KEYS))
@@ -129,9 +182,13 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
 def summary_markdown(df) -> str:
     """Scenarios run / refused (reasons), the agreement of the two collision checks, collisions by responsibility."""
     ran, refused = df[df.status == "ran"], df[df.status == "refused"]
-    lines = ["# CommonRoad scenarios", "",
-             f"{df.scenario.nunique()} scenarios x {df.problem.nunique()} configurations: {len(ran)} runs, "
-             f"{len(refused)} refused.", ""]
+    lines = [
+        "# CommonRoad scenarios",
+        "",
+        f"{df.scenario.nunique()} scenarios x {df.problem.nunique()} configurations: {len(ran)} runs, "
+        f"{len(refused)} refused.",
+        "",
+    ]
     if len(refused):
         lines += ["## Refused", "", "| scenario | configuration | reason |", "|---|---|---|"]
         lines += [f"| {r.scenario} | {r.problem} | {r.reason} |" for r in refused.itertuples()]
@@ -139,24 +196,42 @@ def summary_markdown(df) -> str:
     if len(ran):
         a = ran.collision_fcgen.astype(bool)
         b = ran.collision_checker.astype(bool)
-        lines += ["## The two collision checks", "",
-                  "| | checker: collision | checker: none |", "|---|---|---|",
-                  f"| fcgen: collision | {int((a & b).sum())} | {int((a & ~b).sum())} |",
-                  f"| fcgen: none | {int((~a & b).sum())} | {int((~a & ~b).sum())} |", "",
-                  f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
-                  f"{int(ran.road_departure.astype(bool).sum())}.", ""]
+        lines += [
+            "## The two collision checks",
+            "",
+            "| | checker: collision | checker: none |",
+            "|---|---|---|",
+            f"| fcgen: collision | {int((a & b).sum())} | {int((a & ~b).sum())} |",
+            f"| fcgen: none | {int((~a & b).sum())} | {int((~a & ~b).sum())} |",
+            "",
+            f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
+            f"{int(ran.road_departure.astype(bool).sum())}.",
+            "",
+        ]
         col = ran[a | b]
         lines += ["## Collisions", ""]
         if len(col):
-            lines += ["| scenario | configuration | fcgen step | checker step | responsibility |", "|---|---|---|---|---|"]
-            lines += [f"| {r.scenario} | {r.problem} | {r.collision_step_fcgen} | {r.collision_step_checker} | "
-                      f"{r.responsibility or '-'} |" for r in col.itertuples()]
+            lines += [
+                "| scenario | configuration | fcgen step | checker step | responsibility |",
+                "|---|---|---|---|---|",
+            ]
+            lines += [
+                f"| {r.scenario} | {r.problem} | {r.collision_step_fcgen} | {r.collision_step_checker} | "
+                f"{r.responsibility or '-'} |"
+                for r in col.itertuples()
+            ]
         else:
             lines.append("None.")
-        lines += ["", "## Per configuration", "",
-                  "| configuration | runs | collisions (fcgen) | progress mean, m | RTI median, ms | max abs a_lat |",
-                  "|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            "## Per configuration",
+            "",
+            "| configuration | runs | collisions (fcgen) | progress mean, m | RTI median, ms | max abs a_lat |",
+            "|---|---|---|---|---|---|",
+        ]
         for name, g in ran.groupby("problem"):
-            lines.append(f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | "
-                         f"{g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | {g.max_abs_a_lat.max():.2f} |")
+            lines.append(
+                f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | "
+                f"{g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | {g.max_abs_a_lat.max():.2f} |"
+            )
     return "\n".join(lines) + "\n"

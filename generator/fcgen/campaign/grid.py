@@ -1,4 +1,5 @@
 """The paper's grid (Table III): scenario x formulation x obstacle model, each a ``Config``; a task = (config, seed)."""
+
 from __future__ import annotations
 
 import warnings
@@ -20,11 +21,11 @@ class Config:
 
     scenario: str
     formulation: str
-    obstacles: str                  # ellipse | circles | hyperplane
-    circles: int = 0                # the number of covering circles (circles only)
+    obstacles: str  # ellipse | circles | hyperplane
+    circles: int = 0  # the number of covering circles (circles only)
     controller: str = "c"
     backend: str = "osqp"
-    profile: str = "paper"          # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
+    profile: str = "paper"  # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
 
     def __post_init__(self) -> None:
         _one_of("profile", self.profile, PROFILES)
@@ -34,8 +35,9 @@ class Config:
         _one_of("controller", self.controller, CONTROLLERS)
         _one_of("backend", self.backend, BACKENDS)
         if (self.obstacles == "circles") != (self.circles > 0):
-            raise ProblemError(f"circles = {self.circles} is invalid: allowed >= 1 with obstacles = 'circles', "
-                               f"0 otherwise")
+            raise ProblemError(
+                f"circles = {self.circles} is invalid: allowed >= 1 with obstacles = 'circles', 0 otherwise"
+            )
 
     @property
     def model(self) -> str:
@@ -46,7 +48,7 @@ class Config:
     def key(self) -> str:
         """Identifies the configuration in the results (with the seed and the sample count: one run)."""
         key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
-        return key if self.profile == "paper" else f"{key}/{self.profile}"   # paper keys as before the profiles
+        return key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -55,12 +57,15 @@ class Config:
         if has_backend:
             over["qp"] = preset_qp(self.backend, self.formulation, self.obstacles, self.profile)
         elif self.backend != "osqp":
-            raise ProblemError(f"backend = {self.backend!r} is not available in this fcgen: QpOptions has no "
-                               f"'backend' field yet (allowed: 'osqp')")
+            raise ProblemError(
+                f"backend = {self.backend!r} is not available in this fcgen: QpOptions has no "
+                f"'backend' field yet (allowed: 'osqp')"
+            )
         with warnings.catch_warnings():  # C5 does not cover a truck: the paper's choice, warned about once in presets
             warnings.simplefilter("ignore", UserWarning)
-            pb = paper_problem(self.scenario, self.formulation, self.obstacles, self.circles or None,
-                               profile=self.profile, **over)
+            pb = paper_problem(
+                self.scenario, self.formulation, self.obstacles, self.circles or None, profile=self.profile, **over
+            )
         return pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
 
     def as_dict(self) -> dict:
@@ -83,12 +88,20 @@ def obstacle_variants(scenario: str, name: str) -> list[tuple[str, int]]:
         return [("circles", n) for n in PAPER_CIRCLES[scenario]]
     if name.startswith("c") and name[1:].isdigit() and 1 <= int(name[1:]) <= 20:
         return [("circles", int(name[1:]))]
-    raise ProblemError(f"obstacles: {name!r} is invalid: allowed ellipse, circles (the paper's counts), hyperplane "
-                       f"or c<n> with 1 <= n <= 20")
+    raise ProblemError(
+        f"obstacles: {name!r} is invalid: allowed ellipse, circles (the paper's counts), hyperplane "
+        f"or c<n> with 1 <= n <= 20"
+    )
 
 
-def paper_grid(scenarios=SCENARIOS, formulations=tuple(FORMULATIONS), obstacles=OBSTACLE_NAMES,
-               controller: str = "c", backend: str = "osqp", profile: str = "paper") -> list[Config]:
+def paper_grid(
+    scenarios=SCENARIOS,
+    formulations=tuple(FORMULATIONS),
+    obstacles=OBSTACLE_NAMES,
+    controller: str = "c",
+    backend: str = "osqp",
+    profile: str = "paper",
+) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
     for sc in scenarios:
@@ -109,8 +122,8 @@ class Task:
     seed: int
     samples: int
     cache_dir: str
-    clock: str = "cpu"          # the C solver's clock: "cpu" (its thread's CPU time) or "wall" (monotonic)
-    cflags: str | None = None   # the C solvers' compiler flags (None: the build's default, $CFLAGS or -O2)
+    clock: str = "cpu"  # the C solver's clock: "cpu" (its thread's CPU time) or "wall" (monotonic)
+    cflags: str | None = None  # the C solvers' compiler flags (None: the build's default, $CFLAGS or -O2)
 
     @property
     def timed_by(self) -> str:
@@ -126,8 +139,15 @@ class Task:
 SEED_BLOCK = 8
 
 
-def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str, clock: str = "cpu",
-               block: int = SEED_BLOCK, cflags: str | None = None) -> list[Task]:
+def make_tasks(
+    configs: list[Config],
+    seeds: range,
+    samples: int,
+    cache_dir: str,
+    clock: str = "cpu",
+    block: int = SEED_BLOCK,
+    cflags: str | None = None,
+) -> list[Task]:
     """Blocks of ``block`` seeds, configuration-major inside a block: partial results cover the whole grid evenly
     (every configuration has the block's seeds before any has the next block's), and a worker runs one solver for
     several runs in a row instead of switching between all of them at every run (its workspace stays in cache)."""
@@ -135,5 +155,9 @@ def make_tasks(configs: list[Config], seeds: range, samples: int, cache_dir: str
     if block < 1:
         raise ProblemError(f"block = {block} is invalid: allowed >= 1")
     seeds = list(seeds)
-    return [Task(c, s, samples, cache_dir, clock, cflags)
-            for b in range(0, len(seeds), block) for c in configs for s in seeds[b:b + block]]
+    return [
+        Task(c, s, samples, cache_dir, clock, cflags)
+        for b in range(0, len(seeds), block)
+        for c in configs
+        for s in seeds[b : b + block]
+    ]

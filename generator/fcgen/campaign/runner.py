@@ -7,6 +7,7 @@ part-way is finished first: ``ResultStore.repair``). Local pool workers die with
 dies (``die_with_parent``: the kernel's parent-death signal); Dask's LocalCluster workers exit when their nanny's
 process does.
 """
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -55,12 +56,14 @@ def die_with_parent(parent: int) -> None:
         if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) != 0:
             raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
     else:
+
         def watch() -> None:
             while os.getppid() == parent:
                 time.sleep(1.0)
             os._exit(1)
+
         threading.Thread(target=watch, daemon=True, name="fcgen-parent-watch").start()
-    if os.getppid() != parent:      # the parent died before the signal was armed
+    if os.getppid() != parent:  # the parent died before the signal was armed
         os._exit(1)
 
 
@@ -76,25 +79,36 @@ def executor(jobs: int = 2, scheduler: str | None = None):
     (``tcp://host:8786``) or ``local`` (a LocalCluster of ``jobs`` single-threaded worker processes)."""
     if scheduler is None:
         single_threaded_workers()
-        with cf.ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
-                                    initializer=die_with_parent, initargs=(os.getpid(),)) as ex:
+        with cf.ProcessPoolExecutor(
+            jobs, mp_context=multiprocessing.get_context("spawn"), initializer=die_with_parent, initargs=(os.getpid(),)
+        ) as ex:
             yield ex, jobs
         return
     from distributed import Client, LocalCluster
+
     if scheduler == "local":
-        with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
-                Client(cl) as client:
+        with (
+            LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None) as cl,
+            Client(cl) as client,
+        ):
             yield client.get_executor(pure=False), jobs
         return
     with Client(scheduler, timeout="20s") as client:
         yield client.get_executor(pure=False), sum(client.nthreads().values())
 
 
-def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, scheduler: str | None = None,
-                 progress: bool = False, flush_every: int = 20, flush_seconds: float = 30.0) -> Outcome:
+def run_campaign(
+    tasks: list[Task],
+    results: str | Path,
+    jobs: int = 2,
+    scheduler: str | None = None,
+    progress: bool = False,
+    flush_every: int = 20,
+    flush_seconds: float = 30.0,
+) -> Outcome:
     """Run the tasks not yet in ``results``; rows are written as they finish. Failed runs are reported, not written."""
     store = ResultStore(results)
-    store.repair()      # a merge killed part-way: its merged parts go (their rows are in the merged file)
+    store.repair()  # a merge killed part-way: its merged parts go (their rows are in the merged file)
     done = store.done()
     todo = [t for t in tasks if t.run_id not in done]
     out = Outcome(total=len(tasks), skipped=len(tasks) - len(todo))
@@ -103,6 +117,7 @@ def run_campaign(tasks: list[Task], results: str | Path, jobs: int = 2, schedule
     bar = None
     if progress:
         from tqdm import tqdm
+
         bar = tqdm(total=len(todo), unit="run", desc=f"campaign ({out.skipped} done before)", smoothing=0.05)
     t0 = time.perf_counter()
     buf: list[dict] = []
@@ -129,8 +144,9 @@ def _build_solvers(ex, todo: list[Task]) -> None:
     """Generate and compile the C solvers of the runs' configurations first, all workers at once (built lazily by
     the first run of each, a worker would wait on another's build of the same solver). A failed build is not
     raised here: the configuration's runs report it."""
-    keys = sorted({(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"},
-                  key=lambda k: k[0].key)
+    keys = sorted(
+        {(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"}, key=lambda k: k[0].key
+    )
     for fut in cf.as_completed([ex.submit(build_solver, *k) for k in keys]):
         try:
             fut.result()
@@ -138,8 +154,9 @@ def _build_solvers(ex, todo: list[Task]) -> None:
             pass
 
 
-def _collect(futs: dict, out: Outcome, buf: list, bar, store: ResultStore, flush_every: int,
-             flush_seconds: float) -> None:
+def _collect(
+    futs: dict, out: Outcome, buf: list, bar, store: ResultStore, flush_every: int, flush_seconds: float
+) -> None:
     """Gather finished runs into ``buf`` (in place), writing a part whenever enough have piled up. A collected future
     leaves ``futs`` (which then holds the unfinished ones only), so a long campaign does not keep every row twice."""
     last = time.monotonic()

@@ -5,6 +5,7 @@ The cache folder of a problem is ``<cache>/<name>-<hash>``, where the hash cover
 generator's own files (Python modules and templates), so a changed generator never reuses a stale solver. Building
 is guarded by a file lock, so parallel workers (processes, Dask workers) build each solver once.
 """
+
 from __future__ import annotations
 
 import fcntl
@@ -28,8 +29,12 @@ def generator_fingerprint() -> str:
     h = hashlib.sha256()
     for p in sorted(root.rglob("*")):
         rel = p.relative_to(root)
-        if p.is_file() and (p.suffix in (".py", ".j2", ".c", ".h") or p.name == "Makefile") \
-                and "__pycache__" not in rel.parts and rel.parts[0] not in NOT_GENERATOR:
+        if (
+            p.is_file()
+            and (p.suffix in (".py", ".j2", ".c", ".h") or p.name == "Makefile")
+            and "__pycache__" not in rel.parts
+            and rel.parts[0] not in NOT_GENERATOR
+        ):
             h.update(str(p.relative_to(root)).encode())
             h.update(p.read_bytes())
     return h.hexdigest()
@@ -38,6 +43,7 @@ def generator_fingerprint() -> str:
 def solver_hash(problem: Problem, use_float: bool = False, cflags: str | None = None) -> str:
     """16 hex digits identifying the generated solver of ``problem`` with this generator (and these C flags)."""
     from ..codegen.generate import problem_source
+
     h = hashlib.sha256()
     parts = [problem_source(problem), f"float={use_float}", __version__, generator_fingerprint()]
     if cflags is not None:  # the default build keeps the hash it always had
@@ -48,8 +54,7 @@ def solver_hash(problem: Problem, use_float: bool = False, cflags: str | None = 
     return h.hexdigest()[:16]
 
 
-def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = False,
-                  cflags: str | None = None) -> Path:
+def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = False, cflags: str | None = None) -> Path:
     """The shared library of ``problem``'s solver: generated and built (with ``cflags``, default the build's) into
     the cache unless already there."""
     from ..build import build
@@ -67,8 +72,8 @@ def ensure_solver(problem: Problem, cache_dir: str | Path, use_float: bool = Fal
             if not _ready(folder, lib):
                 if not (folder / READY).is_file():
                     generate(problem, folder, use_float=use_float)
-                pause_point("solvers:generated")     # the kill test's moment: holding the lock, not built yet
-                built = build(folder, jobs=1, cflags=cflags)   # make rebuilds what other flags compiled
+                pause_point("solvers:generated")  # the kill test's moment: holding the lock, not built yet
+                built = build(folder, jobs=1, cflags=cflags)  # make rebuilds what other flags compiled
                 assert built == lib, (built, lib)
                 (folder / READY).write_text(_flags_line(folder))
         finally:

@@ -10,6 +10,7 @@ every read and removed by ``repair`` (run when a campaign starts or resumes, and
 holds one row per run. ``read_results`` refuses a dataset with duplicate runs (e.g. parts copied in by hand),
 naming them.
 """
+
 from __future__ import annotations
 
 import json
@@ -34,11 +35,43 @@ MERGED_KEY = b"fcgen.merged_parts"
 RUN_ID = ("config", "samples", "seed", "clock")
 #: the columns ``fcgen report`` needs (``campaign.task.make_row`` writes them and more)
 REQUIRED_COLUMNS = (
-    "config", "scenario", "formulation", "obstacles", "circles", "model", "seed", "samples", "progress", "collision",
-    "n_collision_samples", "time_rti_ms", "time_total_ms_mean", "time_prepare_ms_mean", "time_feedback_ms_mean",
-    "qp_iter_mean", "qp_n", "qp_m", "qp_nnz_a", "n_opp_par", "n_controls", "n_states", "max_slack", "a_lat_bound",
-    "a_lat_over_samples", "a_lat_excess_max", "a_lat_excess_mean", "wall_s", "cpu_s", "t_start", "t_end", "worker",
-    "solver_hash", "clock", "controller", "backend")
+    "config",
+    "scenario",
+    "formulation",
+    "obstacles",
+    "circles",
+    "model",
+    "seed",
+    "samples",
+    "progress",
+    "collision",
+    "n_collision_samples",
+    "time_rti_ms",
+    "time_total_ms_mean",
+    "time_prepare_ms_mean",
+    "time_feedback_ms_mean",
+    "qp_iter_mean",
+    "qp_n",
+    "qp_m",
+    "qp_nnz_a",
+    "n_opp_par",
+    "n_controls",
+    "n_states",
+    "max_slack",
+    "a_lat_bound",
+    "a_lat_over_samples",
+    "a_lat_excess_max",
+    "a_lat_excess_mean",
+    "wall_s",
+    "cpu_s",
+    "t_start",
+    "t_end",
+    "worker",
+    "solver_hash",
+    "clock",
+    "controller",
+    "backend",
+)
 
 
 class ResultStore:
@@ -131,7 +164,8 @@ class ResultStore:
         df = df.sort_values(list(RUN_ID), kind="stable").reset_index(drop=True)
         pause_point("merge:before")
         merged = pa.Table.from_pandas(df, schema=tab.schema, preserve_index=False).replace_schema_metadata(
-            {MERGED_KEY: json.dumps([p.name for p in parts]).encode()})   # the parts' schema (types as written)
+            {MERGED_KEY: json.dumps([p.name for p in parts]).encode()}
+        )  # the parts' schema (types as written)
         merged = self._write_table(merged, compression=COMPACT_COMPRESSION)
         pause_point("merge:written")
         for i, p in enumerate(parts):
@@ -143,8 +177,10 @@ class ResultStore:
 
 
 def _unreadable(path: Path, exc: BaseException) -> OSError:
-    return OSError(f"{path}: not a readable Parquet file ({str(exc).splitlines()[0]}); move it out of the results "
-                   f"folder (its runs are then computed again)")
+    return OSError(
+        f"{path}: not a readable Parquet file ({str(exc).splitlines()[0]}); move it out of the results "
+        f"folder (its runs are then computed again)"
+    )
 
 
 def _open(path: Path) -> pq.ParquetFile:
@@ -179,18 +215,23 @@ def read_results(path: str | Path) -> pd.DataFrame:
     elif path.is_file() and path.suffix == ".parquet":
         df = _read(path, None).to_pandas()
     else:
-        raise FileNotFoundError(f"results = {str(path)!r} is invalid: allowed a campaign results folder or a "
-                                f".parquet file")
+        raise FileNotFoundError(
+            f"results = {str(path)!r} is invalid: allowed a campaign results folder or a .parquet file"
+        )
     if df.empty:
         raise ValueError(f"results = {str(path)!r} holds no runs")
     missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
     if missing:
-        raise ValueError(f"results = {str(path)!r} lacks the column(s) {', '.join(missing)}: not written by this "
-                         f"fcgen's campaign (run it again into a new folder)")
+        raise ValueError(
+            f"results = {str(path)!r} lacks the column(s) {', '.join(missing)}: not written by this "
+            f"fcgen's campaign (run it again into a new folder)"
+        )
     dup = duplicate_runs(df)
     if dup:
         shown = "; ".join(f"{c} seed {s} ({n} samples, {k})" for c, n, s, k in dup[:3])
-        raise ValueError(f"results = {str(path)!r} holds {len(dup)} run(s) more than once ({shown}"
-                         f"{'; ...' if len(dup) > 3 else ''}): parts copied in twice? `fcgen campaign` with the same "
-                         f"--out merges them (one row per run)")
+        raise ValueError(
+            f"results = {str(path)!r} holds {len(dup)} run(s) more than once ({shown}"
+            f"{'; ...' if len(dup) > 3 else ''}): parts copied in twice? `fcgen campaign` with the same "
+            f"--out merges them (one row per run)"
+        )
     return df

@@ -6,6 +6,7 @@ configuration's problem, solver hash and plant function, and the Python OCPs (th
 needs none). Collisions are the true-rectangle check of ``fcgen.collision`` (the run log's ``collision`` field), never
 the slacks.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -32,6 +33,7 @@ STAT_KEYS = ("mean", "median", "p99", "max")
 
 def _solver(lib: str):
     from ..csolver import CSolver
+
     with _LOCK:
         if lib not in _SOLVERS:
             _SOLVERS[lib] = (CSolver(lib), threading.Lock())
@@ -47,6 +49,7 @@ def _set_clock(solver, clock: str) -> None:
 
 def _ocp(problem):
     from ..ocp import build_ocp
+
     with _LOCK:
         if problem.name not in _OCPS:
             _OCPS[problem.name] = build_ocp(problem)
@@ -60,9 +63,10 @@ def _prepared(config: Config, cache_dir: str, cflags: str | None = None) -> tupl
     from ..ocp import road_window_samples
     from ..plant import plant_function
     from .solvers import ensure_solver, solver_hash
+
     pb = config.problem()
     lib = str(ensure_solver(pb, cache_dir, cflags=cflags)) if config.controller == "c" else None
-    plant_function(pb, road_window_samples(pb))   # built once per process, outside the runs' timed CPU (~20 ms)
+    plant_function(pb, road_window_samples(pb))  # built once per process, outside the runs' timed CPU (~20 ms)
     return pb, solver_hash(pb, cflags=cflags), lib
 
 
@@ -75,9 +79,12 @@ def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
     """The soft lateral-acceleration bound: samples above it, and by how far (m/s^2)."""
     excess = np.abs(a_lat) - bound
     over = excess > 0
-    return {"a_lat_bound": float(bound), "a_lat_over_samples": int(np.count_nonzero(over)),
-            "a_lat_excess_max": float(np.max(excess[over])) if over.any() else 0.0,
-            "a_lat_excess_mean": float(np.mean(excess[over])) if over.any() else 0.0}
+    return {
+        "a_lat_bound": float(bound),
+        "a_lat_over_samples": int(np.count_nonzero(over)),
+        "a_lat_excess_max": float(np.max(excess[over])) if over.any() else 0.0,
+        "a_lat_excess_mean": float(np.mean(excess[over])) if over.any() else 0.0,
+    }
 
 
 def run_task(task: Task) -> dict:
@@ -114,27 +121,55 @@ def collision_columns(road, log) -> dict:
     """How the run's collision looked (``sim.collision_kind``): its depth, the kind of its first contact and how far
     the bend had swept the touched corner out of the opponent's lane; 0 / "" without a collision."""
     from ..sim.collision_kind import first_collision
+
     none = {"collision_depth_m": 0.0, "collision_kind": "", "collision_sweep_m": 0.0, "collision_responsibility": ""}
-    if not np.any(log.collision):   # the log's collision column is the same overlap test of the same poses
+    if not np.any(log.collision):  # the log's collision column is the same overlap test of the same poses
         return none
-    info = first_collision(road, np.asarray(log.ego_cartesian), log.ego, np.asarray(log.opp_cartesian),
-                           np.asarray(log.opp_frenet), log.opponents, np.asarray(log.ego_frenet)[:, 1],
-                           float(log.meta["dt"]))
+    info = first_collision(
+        road,
+        np.asarray(log.ego_cartesian),
+        log.ego,
+        np.asarray(log.opp_cartesian),
+        np.asarray(log.opp_frenet),
+        log.opponents,
+        np.asarray(log.ego_frenet)[:, 1],
+        float(log.meta["dt"]),
+    )
     if info is None:
         return none
-    return {"collision_depth_m": info.depth, "collision_kind": info.kind, "collision_sweep_m": info.sweep,
-            "collision_responsibility": info.responsibility}
+    return {
+        "collision_depth_m": info.depth,
+        "collision_kind": info.kind,
+        "collision_sweep_m": info.sweep,
+        "collision_responsibility": info.responsibility,
+    }
 
 
-def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, sizes: dict, hash_: str,
-             collision: dict | None = None) -> dict:
+def make_row(
+    task: Task,
+    problem,
+    log,
+    wall: float,
+    cpu: float,
+    t_start: float,
+    sizes: dict,
+    hash_: str,
+    collision: dict | None = None,
+) -> dict:
     """The flat row of one run: configuration, seed, every ``summary`` figure, wall and CPU time (of the whole closed
     loop, plant and scenario included), collision, a_lat outcome."""
     s = summary(log)
-    row = {"config": task.config.key, **task.config.as_dict(), "model": task.config.model, "problem": problem.name,
-           "seed": task.seed, "samples": task.samples, "solver_hash": hash_,
-           "clock": task.timed_by,
-           "cflags": (task.cflags or "default") if task.config.controller == "c" else ""}
+    row = {
+        "config": task.config.key,
+        **task.config.as_dict(),
+        "model": task.config.model,
+        "problem": problem.name,
+        "seed": task.seed,
+        "samples": task.samples,
+        "solver_hash": hash_,
+        "clock": task.timed_by,
+        "cflags": (task.cflags or "default") if task.config.controller == "c" else "",
+    }
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
@@ -146,8 +181,8 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["time_total_ms_std"] = float(np.std(t_ms)) if t_ms.size else math.nan
     row["collision"] = bool(s["n_collision_samples"] > 0)
     row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
-    row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))   # samples the plan check braked
-    row["a_lat_guards"] = int(log.meta["extra"].get("a_lat_guards", 0))   # samples the a_lat guard acted
+    row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))  # samples the plan check braked
+    row["a_lat_guards"] = int(log.meta["extra"].get("a_lat_guards", 0))  # samples the a_lat guard acted
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
     row.update(collision or {})
     row.update(sizes)
@@ -156,6 +191,6 @@ def make_row(task: Task, problem, log, wall: float, cpu: float, t_start: float, 
     row["t_start"] = float(t_start)
     row["t_end"] = float(t_start + wall)
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
-    row["load_1min"] = float(os.getloadavg()[0])   # the machine's load when the run ended (how shared it was)
+    row["load_1min"] = float(os.getloadavg()[0])  # the machine's load when the run ended (how shared it was)
     row["time_rti_ms"] = t_ms.astype(np.float32).tolist()
     return row

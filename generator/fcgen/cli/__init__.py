@@ -2,6 +2,7 @@
 
 One file per group of commands (each command a ``click.command`` added to ``main`` here); the options several
 commands share are defined once in ``options``."""
+
 from __future__ import annotations
 
 import warnings
@@ -33,6 +34,23 @@ def main() -> None:
     warnings.simplefilter("default")
 
 
-for _command in (simulate, campaign, profiles, report, generate, regenerate, build_cmd, verify_cmd, bench_cmd,
-                 wcet_cmd, firmware_sim_cmd, footprint_cmd, demo, fmu_cmd, record, regress, list_presets):
+for _command in (
+    simulate,
+    campaign,
+    profiles,
+    report,
+    generate,
+    regenerate,
+    build_cmd,
+    verify_cmd,
+    bench_cmd,
+    wcet_cmd,
+    firmware_sim_cmd,
+    footprint_cmd,
+    demo,
+    fmu_cmd,
+    record,
+    regress,
+    list_presets,
+):
     main.add_command(_command)

@@ -1,4 +1,5 @@
 """``python -m fcgen.cli``: the ``fcgen`` command."""
+
 from . import main
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,5 +1,6 @@
 """What several ``fcgen`` commands share: their common options (defined once), the one-line failure, the summary
 line of a closed loop."""
+
 from __future__ import annotations
 
 from typing import Any, Callable
@@ -75,8 +76,9 @@ def force_option(help: str) -> Decorator:
 
 def out_file_option(help: str, default: str | None = None) -> Decorator:
     """``--out FILE`` (a result written by the command)."""
-    return _option("--out", type=click.Path(dir_okay=False), default=default, show_default=True if default else None,
-                   help=help)
+    return _option(
+        "--out", type=click.Path(dir_okay=False), default=default, show_default=True if default else None, help=help
+    )
 
 
 def out_dir_option(help: str, required: bool = False) -> Decorator:
@@ -87,11 +89,13 @@ def out_dir_option(help: str, required: bool = False) -> Decorator:
 def fmt_summary(s: dict) -> str:
     """One line of a run log's summary (``fcgen.sim.runlog.summary``)."""
     t = s["time_total_ms"]
-    return (f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
-            f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
-            f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
-            f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g} | "
-            f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2")
+    return (
+        f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
+        f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
+        f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
+        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g} | "
+        f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2"
+    )
 
 
 def names(text: str) -> list[str]:

@@ -1,5 +1,6 @@
 """``fcgen simulate``, ``campaign``, ``profiles``, ``report``: closed-loop runs (one, or the paper's grid) and the
 artefacts made from their results."""
+
 from __future__ import annotations
 
 import sys
@@ -9,8 +10,19 @@ import click
 
 from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
-from .options import (cflags_option, fail, fmt_summary, force_option, names, out_dir_option, out_file_option,
-                      samples_option, scenario_option, seed_option, seeds_option)
+from .options import (
+    cflags_option,
+    fail,
+    fmt_summary,
+    force_option,
+    names,
+    out_dir_option,
+    out_file_option,
+    samples_option,
+    scenario_option,
+    seed_option,
+    seeds_option,
+)
 
 
 @click.command()
@@ -18,27 +30,69 @@ from .options import (cflags_option, fail, fmt_summary, force_option, names, out
 @click.option("--formulation", type=click.Choice(tuple(FORMULATIONS)), default="lifted", show_default=True)
 @click.option("--obstacles", type=click.Choice(OBSTACLES), default="ellipse", show_default=True)
 @click.option("--circles", type=click.IntRange(1, 20), default=None, help="number of covering circles")
-@click.option("--problem", "problem_spec", default=None,
-              help="a preset name or a Python file (overrides the three above)")
+@click.option(
+    "--problem", "problem_spec", default=None, help="a preset name or a Python file (overrides the three above)"
+)
 @seed_option()
 @samples_option()
-@click.option("--controller", type=click.Choice(["python", "c", "fmu"]), default="python", show_default=True,
-              help="the Python reference, the compiled C library (--solver-dir) or an FMU through FMPy (--fmu)")
-@click.option("--solver-dir", type=click.Path(file_okay=False), default=None,
-              help="generated solver folder (with --controller c)")
-@click.option("--fmu", "fmu_path", type=click.Path(dir_okay=False, exists=True), default=None,
-              help="an FMU written by `fcgen fmu` (with --controller fmu; its problem unless --problem)")
+@click.option(
+    "--controller",
+    type=click.Choice(["python", "c", "fmu"]),
+    default="python",
+    show_default=True,
+    help="the Python reference, the compiled C library (--solver-dir) or an FMU through FMPy (--fmu)",
+)
+@click.option(
+    "--solver-dir", type=click.Path(file_okay=False), default=None, help="generated solver folder (with --controller c)"
+)
+@click.option(
+    "--fmu",
+    "fmu_path",
+    type=click.Path(dir_okay=False, exists=True),
+    default=None,
+    help="an FMU written by `fcgen fmu` (with --controller fmu; its problem unless --problem)",
+)
 @out_file_option("write the run log (JSON)")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="write a picture of the run (PNG)")
-@click.option("--commonroad", "cr_file", type=click.Path(dir_okay=False, exists=True), default=None,
-              help="a CommonRoad scenario (XML): its road, recorded traffic and ego start instead of the paper's "
-              "random scenario (docs/commonroad.md); --samples then caps the scenario's own length")
-@click.option("--planning-problem", "cr_pp", type=int, default=None,
-              help="with --commonroad: the planning problem's id (default: the file's first)")
-@click.option("--solution", "cr_solution", type=click.Path(dir_okay=False), default=None,
-              help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)")
-def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samples, controller, solver_dir, fmu_path,
-             out, plot, cr_file, cr_pp, cr_solution):
+@click.option(
+    "--commonroad",
+    "cr_file",
+    type=click.Path(dir_okay=False, exists=True),
+    default=None,
+    help="a CommonRoad scenario (XML): its road, recorded traffic and ego start instead of the paper's "
+    "random scenario (docs/commonroad.md); --samples then caps the scenario's own length",
+)
+@click.option(
+    "--planning-problem",
+    "cr_pp",
+    type=int,
+    default=None,
+    help="with --commonroad: the planning problem's id (default: the file's first)",
+)
+@click.option(
+    "--solution",
+    "cr_solution",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
+)
+def simulate(
+    scenario,
+    formulation,
+    obstacles,
+    circles,
+    problem_spec,
+    seed,
+    samples,
+    controller,
+    solver_dir,
+    fmu_path,
+    out,
+    plot,
+    cr_file,
+    cr_pp,
+    cr_solution,
+):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from ..sim.closedloop import run_closed_loop
     from ..sim.runlog import summary
@@ -50,6 +104,7 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         fail("--controller fmu needs --fmu (a file written by `fcgen fmu`)")
     if controller == "fmu" and not problem_spec:
         from ..fmu import fmu_problem
+
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
@@ -68,6 +123,7 @@ def simulate(scenario, formulation, obstacles, circles, problem_spec, seed, samp
         click.echo(f"run log written to {out}")
     if plot:
         from ..sim.plots import plot_run
+
         plot_run(log, plot)
         click.echo(f"plot written to {plot}")
 
@@ -76,12 +132,14 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     """The C library of ``--solver-dir`` (built), an FMU through FMPy, or None: the Python reference."""
     if controller == "fmu":
         from ..fmu import FmuController, FmuError
+
         try:
             return FmuController(fmu_path, pb)
         except FmuError as exc:
             fail(str(exc))
     if controller == "c":
         from ..csolver import CSolver
+
         if solver_dir is None:
             fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
         return CSolver.from_dir(solver_dir)
@@ -97,6 +155,7 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
     from ..commonroad import ScenarioRefused, plot_run, write_solution
     from ..sim.commonroad_run import run_commonroad
     from ..sim.runlog import summary
+
     try:
         sc = load_for(pb, cr_file, cr_pp)
         if samples < sc.samples:
@@ -105,13 +164,17 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
     except ScenarioRefused as exc:
         fail(f"refused: {exc}")
     log = run.log
-    click.echo(f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "
-               f"{fmt_summary(summary(log))}")
+    click.echo(
+        f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "
+        f"{fmt_summary(summary(log))}"
+    )
     ck, own = run.checker, run.fcgen
-    click.echo(f"collision: fcgen {_verdict(own)}, drivability checker {_verdict(ck)}"
-               f"{'' if run.agree else ' (DISAGREE)'}; road departure (checker): "
-               f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
-               + (f"; responsibility: {run.responsibility}" if run.responsibility else ""))
+    click.echo(
+        f"collision: fcgen {_verdict(own)}, drivability checker {_verdict(ck)}"
+        f"{'' if run.agree else ' (DISAGREE)'}; road departure (checker): "
+        f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
+        + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
+    )
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -130,39 +193,114 @@ def _verdict(v: dict) -> str:
 @click.command()
 @click.option("--scenarios", default="truck,car", show_default=True, help="comma-separated: truck, car")
 @click.option("--formulations", default="conventional,direct_elimination,lifted", show_default=True)
-@click.option("--obstacles", "obstacle_list", default="ellipse,circles,hyperplane", show_default=True,
-              help="comma-separated: ellipse, circles (the paper's C5/C7 trucks, C1/C3 cars), hyperplane, c<n>")
+@click.option(
+    "--obstacles",
+    "obstacle_list",
+    default="ellipse,circles,hyperplane",
+    show_default=True,
+    help="comma-separated: ellipse, circles (the paper's C5/C7 trucks, C1/C3 cars), hyperplane, c<n>",
+)
 @seeds_option(100000, 20, "seeds FIRST .. FIRST+SEEDS-1")
 @click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True)
 @samples_option()
-@click.option("--controller", type=click.Choice(["c", "python"]), default="c", show_default=True,
-              help="compiled C solvers, or the Python reference SQP-RTI")
-@click.option("--backend", type=click.Choice(["osqp", "ipm"]), default="osqp", show_default=True,
-              help="QP backend (QpOptions.backend)")
-@click.option("--clock", type=click.Choice(["cpu", "wall"]), default="cpu", show_default=True,
-              help="what times the C solver: its thread's CPU time (unaffected by other processes on a shared "
-              "machine) or the monotonic wall clock of its host hook")
-@click.option("--jobs", type=click.IntRange(1, 1024), default=2, show_default=True,
-              help="local worker processes (or the workers of --scheduler local)")
-@click.option("--scheduler", default=None, help="a Dask scheduler address (tcp://host:8786), or 'local' for a "
-              "LocalCluster of --jobs workers; default: a local process pool")
-@click.option("--cache", "cache_dir", type=click.Path(file_okay=False), default=".fcgen-cache/solvers",
-              show_default=True, help="compiled solvers, one folder per problem hash")
-@click.option("--out", type=click.Path(), default="results/campaign", show_default=True,
-              help="results: a Parquet dataset folder (runs already in it are not recomputed)")
-@click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
-              help="also write `fcgen report` into this folder")
-@cflags_option("C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
-              "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)")
+@click.option(
+    "--controller",
+    type=click.Choice(["c", "python"]),
+    default="c",
+    show_default=True,
+    help="compiled C solvers, or the Python reference SQP-RTI",
+)
+@click.option(
+    "--backend",
+    type=click.Choice(["osqp", "ipm"]),
+    default="osqp",
+    show_default=True,
+    help="QP backend (QpOptions.backend)",
+)
+@click.option(
+    "--clock",
+    type=click.Choice(["cpu", "wall"]),
+    default="cpu",
+    show_default=True,
+    help="what times the C solver: its thread's CPU time (unaffected by other processes on a shared "
+    "machine) or the monotonic wall clock of its host hook",
+)
+@click.option(
+    "--jobs",
+    type=click.IntRange(1, 1024),
+    default=2,
+    show_default=True,
+    help="local worker processes (or the workers of --scheduler local)",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    help="a Dask scheduler address (tcp://host:8786), or 'local' for a "
+    "LocalCluster of --jobs workers; default: a local process pool",
+)
+@click.option(
+    "--cache",
+    "cache_dir",
+    type=click.Path(file_okay=False),
+    default=".fcgen-cache/solvers",
+    show_default=True,
+    help="compiled solvers, one folder per problem hash",
+)
+@click.option(
+    "--out",
+    type=click.Path(),
+    default="results/campaign",
+    show_default=True,
+    help="results: a Parquet dataset folder (runs already in it are not recomputed)",
+)
+@click.option(
+    "--report",
+    "report_dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="also write `fcgen report` into this folder",
+)
+@cflags_option(
+    "C flags of the compiled solvers (default: $CFLAGS or -O2), e.g. "
+    "'-O3 -march=native' (then every worker must be the build machine's CPU: use one cache per machine)"
+)
 @click.option("--force-report", is_flag=True, help="replace an existing report in the --report folder")
-@click.option("--profile", type=click.Choice(["paper", "safe"]), default="paper", show_default=True,
-              help="the paper's settings (Table III) or the safe profile (docs/safe_profile.md); a seed's scenario "
-              "is the same in both, so the two compare seed by seed (the same --out may hold both)")
-@click.option("--commonroad", "cr_dir", type=click.Path(file_okay=False, exists=True), default=None,
-              help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
-              "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)")
-def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples, controller, backend, clock, jobs,
-             scheduler, cache_dir, out, report_dir, cflags, force_report, profile, cr_dir):
+@click.option(
+    "--profile",
+    type=click.Choice(["paper", "safe"]),
+    default="paper",
+    show_default=True,
+    help="the paper's settings (Table III) or the safe profile (docs/safe_profile.md); a seed's scenario "
+    "is the same in both, so the two compare seed by seed (the same --out may hold both)",
+)
+@click.option(
+    "--commonroad",
+    "cr_dir",
+    type=click.Path(file_okay=False, exists=True),
+    default=None,
+    help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
+    "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
+)
+def campaign(
+    scenarios,
+    formulations,
+    obstacle_list,
+    seeds,
+    first_seed,
+    samples,
+    controller,
+    backend,
+    clock,
+    jobs,
+    scheduler,
+    cache_dir,
+    out,
+    report_dir,
+    cflags,
+    force_report,
+    profile,
+    cr_dir,
+):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
@@ -174,11 +312,14 @@ def campaign(scenarios, formulations, obstacle_list, seeds, first_seed, samples,
         return
     if report_dir:
         from ..report.page import check_report_target
+
         check_report_target(report_dir, force_report)
-    _seeded_campaign(configs, range(first_seed, first_seed + seeds), samples, cache_dir, clock, cflags, out, jobs,
-                     scheduler)
+    _seeded_campaign(
+        configs, range(first_seed, first_seed + seeds), samples, cache_dir, clock, cflags, out, jobs, scheduler
+    )
     if report_dir:
         from ..report.page import write_report
+
         click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
@@ -193,8 +334,7 @@ def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str
         if s not in SCENARIOS:
             fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
-        configs = paper_grid(names(scenarios), names(formulations), names(obstacle_list), controller, backend,
-                             profile)
+        configs = paper_grid(names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile)
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:
@@ -205,19 +345,31 @@ def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str
 def _commonroad_campaign(configs: list, cr_dir: str, out: str, cache_dir: str, jobs: int) -> None:
     """``campaign --commonroad``: every scenario of the folder in every configuration; the agreement printed."""
     from ..campaign.commonroad import run_cr_campaign
+
     try:
         rows = run_cr_campaign(configs, cr_dir, out, str(Path(cache_dir).resolve()), jobs=jobs, echo=click.echo)
     except ValueError as exc:
         fail(str(exc))
     ran = [r for r in rows if r["status"] == "ran"]
-    click.echo(f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen "
-               f"{sum(r['collision_fcgen'] for r in ran)}, "
-               f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
-               f"{len(ran)}; summary {Path(out) / 'commonroad.md'}")
+    click.echo(
+        f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen "
+        f"{sum(r['collision_fcgen'] for r in ran)}, "
+        f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
+        f"{len(ran)}; summary {Path(out) / 'commonroad.md'}"
+    )
 
 
-def _seeded_campaign(configs: list, seeds: range, samples: int, cache_dir: str, clock: str, cflags: str | None,
-                     out: str, jobs: int, scheduler: str | None) -> None:
+def _seeded_campaign(
+    configs: list,
+    seeds: range,
+    samples: int,
+    cache_dir: str,
+    clock: str,
+    cflags: str | None,
+    out: str,
+    jobs: int,
+    scheduler: str | None,
+) -> None:
     """The seeded runs into the Parquet store (resumable: SIGTERM stops like Ctrl-C, keeping the finished runs)."""
     import signal
 
@@ -227,19 +379,24 @@ def _seeded_campaign(configs: list, seeds: range, samples: int, cache_dir: str, 
 
     store = ResultStore(out)
     tasks = make_tasks(configs, seeds, samples, str(Path(cache_dir).resolve()), clock, cflags=cflags)
-    click.echo(f"{len(configs)} configurations x {len(seeds)} seeds x {samples} samples = {len(tasks)} runs "
-               f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}")
+    click.echo(
+        f"{len(configs)} configurations x {len(seeds)} seeds x {samples} samples = {len(tasks)} runs "
+        f"({'Dask ' + scheduler if scheduler else f'{jobs} local processes'}) -> {out}"
+    )
 
     def _stop(signum, frame):  # SIGTERM (a batch system, kill): stop like Ctrl-C, keeping the finished runs
         raise KeyboardInterrupt
+
     signal.signal(signal.SIGTERM, _stop)
     try:
         res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)
     except KeyboardInterrupt:
         fail(f"interrupted: the finished runs are in {out}; run the same command again to resume")
     rate = res.computed / res.wall_s if res.wall_s > 0 else 0.0
-    click.echo(f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
-               f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers")
+    click.echo(
+        f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
+        f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers"
+    )
     for run_id, msg in res.failed[:5]:
         click.echo(f"failed {run_id}: {msg}", err=True)
     if res.failed:
@@ -264,6 +421,7 @@ def profiles(paper, safe, out):
     click.echo(text, nl=False)
     if out:
         from ..atomic import write_text
+
         write_text(out, text)
         click.echo(f"written to {out}")
 

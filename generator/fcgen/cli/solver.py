@@ -1,5 +1,6 @@
 """The commands on a generated solver folder: ``build``, ``verify``, ``bench``, ``wcet``, ``firmware-sim``,
 ``footprint``, ``fmu``. Each reads SOLVER_DIR once (``fcgen.solver_folder.read_folder``) and hands the folder on."""
+
 from __future__ import annotations
 
 import sys
@@ -8,8 +9,21 @@ from pathlib import Path
 import click
 
 from ..targets import get_target
-from .options import (TARGET, cc_option, cflags_option, fail, fmt_summary, force_option, out_file_option,
-                      samples_option, scenario_option, seed_option, seeds_option, solver_dir_argument, target_option)
+from .options import (
+    TARGET,
+    cc_option,
+    cflags_option,
+    fail,
+    fmt_summary,
+    force_option,
+    out_file_option,
+    samples_option,
+    scenario_option,
+    seed_option,
+    seeds_option,
+    solver_dir_argument,
+    target_option,
+)
 
 
 @click.command(name="build")
@@ -29,8 +43,11 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
         lib = build(read_folder(solver_dir), verify=verify, cc=cc, cflags=cflags, target=target)
     except BuildError as exc:
         fail(str(exc))
-    products = sorted(p.name for p in lib.parent.iterdir()
-                      if p.is_file() and (p.suffix in (".a", ".so") or p.name.endswith("_example")))
+    products = sorted(
+        p.name
+        for p in lib.parent.iterdir()
+        if p.is_file() and (p.suffix in (".a", ".so") or p.name.endswith("_example"))
+    )
     click.echo(f"built {lib.parent}: {', '.join(products)}")
 
 
@@ -46,7 +63,7 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
     from ..solver_folder import read_folder
     from ..verify import verify
 
-    try:   # its sizes are compared in the lockstep's terms first, the rest of the folder checked by the build
+    try:  # its sizes are compared in the lockstep's terms first, the rest of the folder checked by the build
         rep = verify(read_folder(solver_dir, check=False), scenario=scenario, seed=seed, samples=samples)
     except BuildError as exc:
         fail(str(exc))
@@ -63,22 +80,40 @@ def verify_cmd(solver_dir, scenario, seed, samples, out):
 @scenario_option()
 @seeds_option(10000, 3, "seeds 0 .. SEEDS-1")
 @samples_option()
-@click.option("--python/--no-python", "python", default=True, show_default=True,
-              help="also run the Python reference for the same figures")
-@click.option("--python-seeds", type=click.IntRange(1, 10000), default=None,
-              help="run the Python reference on fewer seeds (default: all)")
+@click.option(
+    "--python/--no-python",
+    "python",
+    default=True,
+    show_default=True,
+    help="also run the Python reference for the same figures",
+)
+@click.option(
+    "--python-seeds",
+    type=click.IntRange(1, 10000),
+    default=None,
+    help="run the Python reference on fewer seeds (default: all)",
+)
 @cc_option()
 @cflags_option("C flags (default: the Makefile's)")
 @out_file_option("results file [default: results/bench_<name>[_<target>].json]")
 @TARGET
-@click.option("--backends", default=None,
-              help="compare QP backends in one run instead, e.g. osqp,osqp-converged,ipm (OSQP real-time, OSQP "
-                   "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants")
-@click.option("--clock", type=click.Choice(["wall", "cpu"]), default="wall", show_default=True,
-              help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)")
+@click.option(
+    "--backends",
+    default=None,
+    help="compare QP backends in one run instead, e.g. osqp,osqp-converged,ipm (OSQP real-time, OSQP "
+    "converged, IPM): the folder's problem regenerated per backend under <dir>/build/variants",
+)
+@click.option(
+    "--clock",
+    type=click.Choice(["wall", "cpu"]),
+    default="wall",
+    show_default=True,
+    help="with --backends: time with the monotonic clock or the solver thread's CPU time (no preemption)",
+)
 @force_option("replace an existing results file")
-def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock,
-              force):
+def bench_cmd(
+    solver_dir, scenario, seeds, samples, python, python_seeds, cc, cflags, out, target, backends, clock, force
+):
     """Closed-loop timing and quality of a generated solver (optimized build) and of the Python reference.
 
     With an emulated --target: instructions per prepare and feedback (median / max) from QEMU -icount; the default
@@ -92,9 +127,13 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
     folder = read_folder(solver_dir)
     bare_metal = get_target(target).bare_metal
     if out is None:
-        out = (f"results/bench_{folder.name}_{target}.json" if bare_metal else
-               f"results/bench_backends_{folder.name}.json" if backends is not None else
-               f"results/bench_{folder.name}.json")
+        out = (
+            f"results/bench_{folder.name}_{target}.json"
+            if bare_metal
+            else f"results/bench_backends_{folder.name}.json"
+            if backends is not None
+            else f"results/bench_{folder.name}.json"
+        )
     check_file_target(out, "a bench results file", force)
     click.echo(f"bench: results will be written to {out} (--out to choose)", err=True)
     try:
@@ -102,16 +141,35 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
             if backends is not None:
                 fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")
             seeds_given = click.get_current_context().get_parameter_source("seeds").name != "DEFAULT"
-            res = b.bench_target(folder, target, scenario=scenario, seeds=seeds if seeds_given else 1,
-                                 samples=samples, cflags=cflags)
+            res = b.bench_target(
+                folder, target, scenario=scenario, seeds=seeds if seeds_given else 1, samples=samples, cflags=cflags
+            )
             text = b.format_bench_target(res)
         elif backends is not None:
-            res = b.bench_backends(folder, b.parse_backends(backends), scenario=scenario, seeds=seeds,
-                                   samples=samples, cc=cc, cflags=cflags, progress=sys.stderr.isatty(), clock=clock)
+            res = b.bench_backends(
+                folder,
+                b.parse_backends(backends),
+                scenario=scenario,
+                seeds=seeds,
+                samples=samples,
+                cc=cc,
+                cflags=cflags,
+                progress=sys.stderr.isatty(),
+                clock=clock,
+            )
             text = b.format_backends(res)
         else:
-            res = b.bench(folder, scenario=scenario, seeds=seeds, samples=samples, python=python,
-                          python_seeds=python_seeds, cc=cc, cflags=cflags, progress=sys.stderr.isatty())
+            res = b.bench(
+                folder,
+                scenario=scenario,
+                seeds=seeds,
+                samples=samples,
+                python=python,
+                python_seeds=python_seeds,
+                cc=cc,
+                cflags=cflags,
+                progress=sys.stderr.isatty(),
+            )
             text = b.format_bench(res)
     except (HarnessError, BuildError) as exc:
         fail(str(exc))
@@ -124,15 +182,25 @@ def bench_cmd(solver_dir, scenario, seeds, samples, python, python_seeds, cc, cf
 @target_option(None, bare_metal_only=True, help="the emulated Cortex-M (QEMU -icount shift=0: one instruction per ns)")
 @seeds_option(1000, 3, "probe runs: seeds 0 .. SEEDS-1 of the problem's scenario")
 @samples_option(20000, help="samples of every probe and validation run")
-@click.option("--validate-seeds", type=click.IntRange(0, 1000), default=0, show_default=True,
-              help="check the bound on the normal build's closed loops, seeds 0 .. K-1 (exit 1 if a sample exceeds it)")
+@click.option(
+    "--validate-seeds",
+    type=click.IntRange(0, 1000),
+    default=0,
+    show_default=True,
+    help="check the bound on the normal build's closed loops, seeds 0 .. K-1 (exit 1 if a sample exceeds it)",
+)
 @cflags_option("C optimization flags (default -O2; the target's CPU flags are added)")
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True, help="QEMU runs at a time")
 @click.option("--timeout", type=click.FloatRange(min=1), default=None, help="seconds per QEMU run")
 @out_file_option("results file [default: results/wcet_<name>_<target>.json]")
 @force_option("replace an existing results file")
-@click.option("--bound-scale", type=float, default=1.0, hidden=True,
-              help="multiply the bound before the validation (tests: a bound too low must fail)")
+@click.option(
+    "--bound-scale",
+    type=float,
+    default=1.0,
+    hidden=True,
+    help="multiply the bound before the validation (tests: a bound too low must fail)",
+)
 def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, timeout, out, force, bound_scale):
     """Worst-case instructions of prepare, feedback and one RTI of SOLVER_DIR's build on an emulated --target.
 
@@ -150,8 +218,17 @@ def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, t
     check_file_target(out, "a wcet results file", force)
     click.echo(f"wcet: results will be written to {out} (--out to choose)", err=True)
     try:
-        res = wcet(folder, target, seeds=seeds, samples=samples, validate_seeds=validate_seeds, cflags=cflags,
-                   timeout=timeout, jobs=jobs, bound_scale=bound_scale)
+        res = wcet(
+            folder,
+            target,
+            seeds=seeds,
+            samples=samples,
+            validate_seeds=validate_seeds,
+            cflags=cflags,
+            timeout=timeout,
+            jobs=jobs,
+            bound_scale=bound_scale,
+        )
     except (HarnessError, BuildError, WcetError, BoundError, ProbeError) as exc:
         fail(str(exc))
     click.echo(format_wcet(res))
@@ -159,8 +236,11 @@ def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, t
     click.echo(f"results written to {path}")
     if res["validated"]["passed"] is False:
         over = res["validated"]["exceeding_samples"]
-        fail("validation failed: samples above the bound (" + ", ".join(f"{k} {v}" for k, v in over.items() if v)
-             + f"); the bound is not an upper bound for this build: see {path}")
+        fail(
+            "validation failed: samples above the bound ("
+            + ", ".join(f"{k} {v}" for k, v in over.items() if v)
+            + f"); the bound is not an upper bound for this build: see {path}"
+        )
 
 
 @click.command(name="firmware-sim")
@@ -173,8 +253,11 @@ def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, t
 @cc_option()
 @cflags_option("C flags (default: $CFLAGS or -O2)")
 @TARGET
-@click.option("--compare-host", is_flag=True,
-              help="also run the host harness on the same scenario and print the largest differences")
+@click.option(
+    "--compare-host",
+    is_flag=True,
+    help="also run the host harness on the same scenario and print the largest differences",
+)
 def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflags, target, compare_host):
     """Closed loop in C (firmware_sim/): build SOLVER_DIR and the harness, export the scenario, run, summarize.
 
@@ -192,15 +275,18 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
             host = firmware_sim(folder, scenario, seed, samples, host_out, verify=verify)
     except HarnessError as exc:
         fail(str(exc))
-    click.echo(f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | "
-               f"{fmt_summary(summary(log))}")
+    click.echo(
+        f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | {fmt_summary(summary(log))}"
+    )
     if get_target(target).qemu_machine:
         click.echo(f"(solver times on {target}: QEMU's virtual clock under -icount shift=0, 1 ns per instruction)")
     click.echo(f"run log written to {out}")
     if host is not None:
         d = {k: v for k, v in compare(log, host).items() if not k.startswith("time")}
-        click.echo(f"{target} vs host (run log {host_out}), max abs differences: "
-                   + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
+        click.echo(
+            f"{target} vs host (run log {host_out}), max abs differences: "
+            + ", ".join(f"{k} {v:.3g}" for k, v in d.items())
+        )
 
 
 @click.command(name="footprint")

@@ -4,13 +4,14 @@ Every source and header the Makefile compiles must be there (OSQP's library copy
 named in one line), and the sizes of ``<name>_solver.h`` must be those of the problem recorded in ``problem.py``:
 a header edited by hand (``_N 40`` -> ``41``) would otherwise build and run with other results.
 """
+
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from .folder import solvers_in
 from ..backends.osqp_export import LIB_DIR
+from .folder import solvers_in
 
 
 def read_macros(header: Path, name: str) -> dict[str, int]:
@@ -67,8 +68,10 @@ def check_files(gen_dir: Path, name: str) -> None:
     missing = [f for f in need if not (gen_dir / f).is_file()]
     if missing:
         more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
-        raise FolderMismatch(f"{gen_dir}: missing {missing[0]}{more}, a file of solver {name!r}; regenerate the "
-                             f"folder: fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}")
+        raise FolderMismatch(
+            f"{gen_dir}: missing {missing[0]}{more}, a file of solver {name!r}; regenerate the "
+            f"folder: fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}"
+        )
 
 
 def check_sizes(gen_dir: Path, name: str) -> None:
@@ -78,15 +81,18 @@ def check_sizes(gen_dir: Path, name: str) -> None:
 
     pb = load_problem(str(gen_dir / "problem.py"))
     if pb.name != name:
-        raise FolderMismatch(f"{gen_dir}: problem.py is the problem {pb.name!r}, the header is solver {name!r}; "
-                             f"regenerate the folder")
+        raise FolderMismatch(
+            f"{gen_dir}: problem.py is the problem {pb.name!r}, the header is solver {name!r}; regenerate the folder"
+        )
     have = read_macros(gen_dir / f"{name}_solver.h", name)
     for key, want in problem_sizes(pb).items():
         got = have.get(key)
         if got != want:
             shown = "missing" if got is None else str(got)
-            raise FolderMismatch(f"{gen_dir}: {name}_solver.h has {name.upper()}_{key} {shown} but problem.py "
-                                 f"gives {want}: the files do not belong together; regenerate the folder")
+            raise FolderMismatch(
+                f"{gen_dir}: {name}_solver.h has {name.upper()}_{key} {shown} but problem.py "
+                f"gives {want}: the files do not belong together; regenerate the folder"
+            )
 
 
 def check_folder(gen_dir: Path | str) -> str:

@@ -10,6 +10,7 @@ left out by ``regenerate --check``: it is not generator output). Regenerating th
 ``force``, when a recorded file was changed since (a hand edit of ``main.c``, say): it would be lost. A folder
 without the record (a fresh checkout) is regenerated as before.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -49,7 +50,7 @@ class FolderError(ValueError):
 
 def solvers_in(folder: Path) -> list[str]:
     """Names of the solvers whose ``<name>_solver.h`` is in ``folder`` (sorted)."""
-    return sorted(p.name[:-len("_solver.h")] for p in folder.glob("*_solver.h") if p.is_file())
+    return sorted(p.name[: -len("_solver.h")] for p in folder.glob("*_solver.h") if p.is_file())
 
 
 def _owned(entry: Path, names: list[str]) -> bool:
@@ -71,20 +72,26 @@ def check_target(out_dir: Path, name: str, force: bool) -> None:
         return
     here, target = Path.cwd().resolve(), out_dir.resolve()
     if here == target or target in here.parents:
-        raise FolderError(f"{out_dir} holds the current directory; the folder is replaced as a whole: run fcgen from "
-                          f"outside it (e.g. cd ..)")
+        raise FolderError(
+            f"{out_dir} holds the current directory; the folder is replaced as a whole: run fcgen from "
+            f"outside it (e.g. cd ..)"
+        )
     if force:
         return
     names = solvers_in(out_dir)
     if names and names != [name]:
-        raise FolderError(f"{out_dir} holds the solver {', '.join(repr(n) for n in names)}, not {name!r}: nothing "
-                          f"written; use another folder or --force to replace it (its files are removed)")
+        raise FolderError(
+            f"{out_dir} holds the solver {', '.join(repr(n) for n in names)}, not {name!r}: nothing "
+            f"written; use another folder or --force to replace it (its files are removed)"
+        )
     if not names:
         other = sorted(p.name for p in out_dir.iterdir())
         if other:
-            raise FolderError(f"{out_dir} is not empty and holds no fcgen solver ({', '.join(other[:3])}"
-                              f"{', ...' if len(other) > 3 else ''}): nothing written; use an empty or new folder "
-                              f"or --force to write the solver beside these files")
+            raise FolderError(
+                f"{out_dir} is not empty and holds no fcgen solver ({', '.join(other[:3])}"
+                f"{', ...' if len(other) > 3 else ''}): nothing written; use an empty or new folder "
+                f"or --force to write the solver beside these files"
+            )
 
 
 def _sha256(p: Path) -> str:
@@ -93,9 +100,14 @@ def _sha256(p: Path) -> str:
 
 def file_record(folder: Path) -> dict[str, str]:
     """``{relative path: sha256}`` of the files of ``folder`` outside build/ (the record itself left out)."""
-    return {p.relative_to(folder).as_posix(): _sha256(p) for p in sorted(folder.rglob("*"))
-            if p.is_file() and not p.is_symlink() and p.relative_to(folder).parts[0] != "build"
-            and p.relative_to(folder) != RECORD}
+    return {
+        p.relative_to(folder).as_posix(): _sha256(p)
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+        and not p.is_symlink()
+        and p.relative_to(folder).parts[0] != "build"
+        and p.relative_to(folder) != RECORD
+    }
 
 
 def hand_edited(folder: Path) -> list[str]:
@@ -115,7 +127,7 @@ def _write_record(folder: Path, record: dict[str, str]) -> None:
     if path.is_file() and path.read_text() == text:
         return
     if path.exists():
-        path.unlink()           # a hard link into the old folder (``_carry``): never written through
+        path.unlink()  # a hard link into the old folder (``_carry``): never written through
     write_text(path, text)
 
 
@@ -171,19 +183,21 @@ def staged(out_dir: Path | str, name: str, force: bool = False, check_edits: boo
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.fcgen-new-", dir=out_dir.parent))
     try:
         yield tmp
-        record = file_record(tmp)       # what this generation wrote (before the old folder's files are carried)
+        record = file_record(tmp)  # what this generation wrote (before the old folder's files are carried)
         if out_dir.is_dir():
             if check_edits and not force and solvers_in(out_dir) == [name]:
                 edited = hand_edited(out_dir)
                 if edited:
-                    raise FolderError(f"{out_dir}: {', '.join(edited[:3])}{', ...' if len(edited) > 3 else ''} "
-                                      f"changed since fcgen generated {'it' if len(edited) == 1 else 'them'} (hand "
-                                      f"edit?) and would be replaced: nothing written; copy your changes elsewhere "
-                                      f"or use --force")
+                    raise FolderError(
+                        f"{out_dir}: {', '.join(edited[:3])}{', ...' if len(edited) > 3 else ''} "
+                        f"changed since fcgen generated {'it' if len(edited) == 1 else 'them'} (hand "
+                        f"edit?) and would be replaced: nothing written; copy your changes elsewhere "
+                        f"or use --force"
+                    )
             _adopt(out_dir, tmp, name)
         _write_record(tmp, record)
         pause_point("generate:before-swap")
-        replace_folder(tmp, out_dir)   # one renameat2(RENAME_EXCHANGE) on Linux: DIR is old or new, never absent
+        replace_folder(tmp, out_dir)  # one renameat2(RENAME_EXCHANGE) on Linux: DIR is old or new, never absent
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)

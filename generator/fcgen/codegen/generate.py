@@ -5,6 +5,7 @@ with the problem name, :mod:`.model_code`); write the QP backend's files (OSQP: 
 ``<name>_``; :mod:`.qp_backend`); render ``templates/`` with every index table computed here and in :mod:`.tables`.
 Same problem -> byte-identical files (no time stamps, no absolute paths).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -17,34 +18,51 @@ import numpy as np
 
 from .. import __version__
 from .. import obstacles as obs
+from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
+from ..contract import HOST_TICKS_PER_SECOND
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..contract import HOST_TICKS_PER_SECOND
-from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
-from ..reference import (COLD_RESTART_NOTE, EXIT_CODES, MAX_INPUT_VIOLATION, QP_CONTRACT, QP_EXIT, cold_max_iter,  # noqa: F401 (re-exported)
-                         input_box, warm_max_iter)
+from ..reference import (  # noqa: F401 (re-exported)
+    COLD_RESTART_NOTE,
+    EXIT_CODES,
+    MAX_INPUT_VIOLATION,
+    QP_CONTRACT,
+    QP_EXIT,
+    cold_max_iter,
+    input_box,
+    warm_max_iter,
+)
 from ..targets import README_BEGIN, README_END, cross_targets
-from .misra import MISRA_DEVIATIONS
 from .folder import staged, write_if_changed
+from .misra import MISRA_DEVIATIONS
 from .model_code import MODEL_CFLAGS, write_model
 from .qp_backend import backend_c
 from .render import environment, render_template
 from .tables import curve_speed_constants, far_opponent_row, fit_context, permutation_cycles, slack_vars, stage_table
 
 MACRO_DOC = {
-    "NX": "states per stage", "NU": "controls per stage [F_d, r]", "N": "shooting intervals",
-    "NOPP": "opponents", "NOPP_PAR": "parameters per opponent and stage (set_opponents: the pose x, y, phi)",
+    "NX": "states per stage",
+    "NU": "controls per stage [F_d, r]",
+    "N": "shooting intervals",
+    "NOPP": "opponents",
+    "NOPP_PAR": "parameters per opponent and stage (set_opponents: the pose x, y, phi)",
     "NOPP_STAGE": "parameters per opponent in a stage's parameters (its pose and shape; conventional: the fitted Frenet box)",
     "NOPP_SHAPE": "shape values per opponent (set_opponent_shapes: length, width, centre offset; containing ellipse: + semi-axes a, b)",
-    "ROAD_MAX": "road samples set_road accepts at most", "ROAD_WINDOW": "road samples in a stage's local window",
-    "NP": "parameters per stage", "NTHETA": "hyperplane variables per stage", "NSIGMA": "slacks per stage",
-    "QP_N": "QP variables", "QP_M": "QP rows", "QP_NNZ_A": "nonzeros of the QP constraint matrix",
+    "ROAD_MAX": "road samples set_road accepts at most",
+    "ROAD_WINDOW": "road samples in a stage's local window",
+    "NP": "parameters per stage",
+    "NTHETA": "hyperplane variables per stage",
+    "NSIGMA": "slacks per stage",
+    "QP_N": "QP variables",
+    "QP_M": "QP rows",
+    "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
     "COLD_RESTART_AFTER": "unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never)",
     "RTI_BUDGET": "the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default)",
-    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)", "USE_FLOAT": "1: generated for float",
+    "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)",
+    "USE_FLOAT": "1: generated for float",
 }
 
 
@@ -55,28 +73,43 @@ class GenerateInfo:
     name: str
     out_dir: Path
     use_float: bool
-    sizes: dict[str, int]           # the size macros of <name>_solver.h (without the NAME_ prefix)
-    workspace_bytes: int            # static RAM (LP64): solver workspace + backend arrays + backend structs
-    solver_workspace_bytes: int     # sizeof(<name>_workspace_t) on an LP64 target
-    qp_array_bytes: int             # the QP backend's arrays (OSQP: its workspace arrays)
-    qp_struct_bytes: int            # the QP backend's structs (OSQP: OSQP_STRUCT_BYTES)
-    const_bytes: int                # our static const index tables
-    files: tuple[str, ...]          # our files and the backend's problem-specific files (committed)
+    sizes: dict[str, int]  # the size macros of <name>_solver.h (without the NAME_ prefix)
+    workspace_bytes: int  # static RAM (LP64): solver workspace + backend arrays + backend structs
+    solver_workspace_bytes: int  # sizeof(<name>_workspace_t) on an LP64 target
+    qp_array_bytes: int  # the QP backend's arrays (OSQP: its workspace arrays)
+    qp_struct_bytes: int  # the QP backend's structs (OSQP: OSQP_STRUCT_BYTES)
+    const_bytes: int  # our static const index tables
+    files: tuple[str, ...]  # our files and the backend's problem-specific files (committed)
     library_files: tuple[str, ...]  # the backend's library copy (git-ignored, restorable)
     qp_files: BackendFiles
 
 
-
 # --- sizes -------------------------------------------------------------------------------------------------------
+
 
 def size_macros(ocp: Ocp, lay: QpLayout) -> dict[str, int]:
     """The size macros of ``<name>_solver.h`` (keys without the ``NAME_`` prefix), in header order."""
     pb = ocp.problem
-    return {"NX": ocp.nx, "NU": ocp.nu, "N": ocp.N, "NOPP": pb.opponents.count, "NOPP_PAR": ocp.n_opp_par,
-            "NOPP_STAGE": ocp.n_opp_stage, "NOPP_SHAPE": ocp.n_opp_shape, "ROAD_MAX": pb.road.samples, "ROAD_WINDOW": ocp.road_params.samples, "NP": ocp.np_stage,
-            "NTHETA": ocp.n_theta, "NSIGMA": ocp.n_sigma, "QP_N": lay.n, "QP_M": lay.m, "QP_NNZ_A": lay.nnz_A,
-            "NNZ_J": int(lay.jac_off[-1]), "COLD_RESTART_AFTER": pb.qp.cold_restart_after,
-            "RTI_BUDGET": cold_max_iter(pb.qp)}
+    return {
+        "NX": ocp.nx,
+        "NU": ocp.nu,
+        "N": ocp.N,
+        "NOPP": pb.opponents.count,
+        "NOPP_PAR": ocp.n_opp_par,
+        "NOPP_STAGE": ocp.n_opp_stage,
+        "NOPP_SHAPE": ocp.n_opp_shape,
+        "ROAD_MAX": pb.road.samples,
+        "ROAD_WINDOW": ocp.road_params.samples,
+        "NP": ocp.np_stage,
+        "NTHETA": ocp.n_theta,
+        "NSIGMA": ocp.n_sigma,
+        "QP_N": lay.n,
+        "QP_M": lay.m,
+        "QP_NNZ_A": lay.nnz_A,
+        "NNZ_J": int(lay.jac_off[-1]),
+        "COLD_RESTART_AFTER": pb.qp.cold_restart_after,
+        "RTI_BUDGET": cold_max_iter(pb.qp),
+    }
 
 
 def problem_sizes(problem: Problem) -> dict[str, int]:
@@ -99,13 +132,21 @@ def status_layout(real_size: int) -> tuple[int, int]:
     members = [(4, 4, 11), (real_size, real_size, 2), (4, 4, 2)]
     return _struct_size(members), max(a for _, a, _ in members)
 
+
 FIRST_STATE_MEMBER = "w"
 """The first workspace member reset() zeroes (the inputs and the clock come before it)."""
 
 
-def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: int,
-                      opp_dim: int, fit: dict | None = None, n_band: int = 0,
-                      curve: bool = False) -> tuple[list[dict[str, Any]], int]:
+def workspace_members(
+    name: str,
+    sizes: dict[str, int],
+    work: dict,
+    real_size: int,
+    opp_dim: int,
+    fit: dict | None = None,
+    n_band: int = 0,
+    curve: bool = False,
+) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
     R, I, P = (real_size, real_size), (4, 4), (8, 8)
@@ -116,23 +157,39 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
     road, n, m, nnz = M("ROAD_MAX"), M("QP_N"), M("QP_M"), M("QP_NNZ_A")
     members = [  # (C type, name, dims, (size, align)); a dim is an int or (C expression, int)
         # inputs (kept by reset) and the clock ...
-        ("NAME_real_t", "x0", [5], R), ("NAME_real_t", "road_s0", [], R), ("NAME_real_t", "road_ds", [], R),
-        ("NAME_real_t", "road_kappa", [road], R), ("NAME_real_t", "road_phi", [road], R),
-        ("NAME_real_t", "road_gx", [road], R), ("NAME_real_t", "road_gy", [road], R),
-        ("NAME_real_t", "road_nmin", [road], R), ("NAME_real_t", "road_nmax", [road], R),
+        ("NAME_real_t", "x0", [5], R),
+        ("NAME_real_t", "road_s0", [], R),
+        ("NAME_real_t", "road_ds", [], R),
+        ("NAME_real_t", "road_kappa", [road], R),
+        ("NAME_real_t", "road_phi", [road], R),
+        ("NAME_real_t", "road_gx", [road], R),
+        ("NAME_real_t", "road_gy", [road], R),
+        ("NAME_real_t", "road_nmin", [road], R),
+        ("NAME_real_t", "road_nmax", [road], R),
         ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
         ("NAME_real_t", "opp_shape", [("SHAPE_DIM", max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"]))], R),
-        ("clock_fn_t", "clock", [], P), ("int", "road_n", [], I), ("int", "road_set", [], I),
-        ("NAME_real_t", "ref_v", [], R), ("NAME_real_t", "ref_n", [], R),
-        ("int", "road_band", [], I), ("int", "opp_shape_set", [], I), ("int", "ref_set", [], I),
+        ("clock_fn_t", "clock", [], P),
+        ("int", "road_n", [], I),
+        ("int", "road_set", [], I),
+        ("NAME_real_t", "ref_v", [], R),
+        ("NAME_real_t", "ref_n", [], R),
+        ("int", "road_band", [], I),
+        ("int", "opp_shape_set", [], I),
+        ("int", "ref_set", [], I),
         ("int", "have_x0", [], I),
         # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
-        ("NAME_real_t", "w", [n], R), ("NAME_real_t", "y", [m], R), ("NAME_real_t", "s0_guess", [], R),
+        ("NAME_real_t", "w", [n], R),
+        ("NAME_real_t", "y", [m], R),
+        ("NAME_real_t", "s0_guess", [], R),
         ("NAME_real_t", "w_tmp", [n], R),
-        ("NAME_real_t", "p", [M("NP")], R), ("NAME_real_t", "p_fb", [M("NP")], R),
-        ("NAME_real_t", "g_init", [M("NX")], R), ("NAME_real_t", "jac", [nnz], R),
-        ("NAME_real_t", "q", [n], R), ("NAME_real_t", "q_fb", [n], R),
-        ("NAME_real_t", "l", [m], R), ("NAME_real_t", "u", [m], R),
+        ("NAME_real_t", "p", [M("NP")], R),
+        ("NAME_real_t", "p_fb", [M("NP")], R),
+        ("NAME_real_t", "g_init", [M("NX")], R),
+        ("NAME_real_t", "jac", [nnz], R),
+        ("NAME_real_t", "q", [n], R),
+        ("NAME_real_t", "q_fb", [n], R),
+        ("NAME_real_t", "l", [m], R),
+        ("NAME_real_t", "u", [m], R),
         ("NAME_real_t", "u_applied", [M("NU")], R),
         ("NAME_real_t", "band_val", [("N_BAND", max(1, n_band))], R),
         ("NAME_real_t", "xa", [M("NX")], R),
@@ -140,41 +197,59 @@ def workspace_members(name: str, sizes: dict[str, int], work: dict, real_size: i
         ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
         ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
         ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
-        ("const NAME_real_t *", "q_cur", [], P), ("const NAME_real_t *", "qp_z", [], P),
+        ("const NAME_real_t *", "q_cur", [], P),
+        ("const NAME_real_t *", "qp_z", [], P),
         ("NAME_status_t", "status", [], status_layout(real_size)),
-        ("int", "have_guess", [], I), ("int", "prepared", [], I), ("int", "cold", [], I), ("int", "qp_ready", [], I),
+        ("int", "have_guess", [], I),
+        ("int", "prepared", [], I),
+        ("int", "cold", [], I),
+        ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
     ]
     if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
-        members += [("NAME_real_t", "curve_c", [road], R),
-                    ("NAME_real_t", "curve_s", [M("N", 1)], R), ("NAME_real_t", "curve_v", [M("N", 1)], R)]
+        members += [
+            ("NAME_real_t", "curve_c", [road], R),
+            ("NAME_real_t", "curve_s", [M("N", 1)], R),
+            ("NAME_real_t", "curve_v", [M("N", 1)], R),
+        ]
     if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
-        members += [("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
-                    ("NAME_real_t", "fit_P", [2 * fit["npt"]], R), ("NAME_real_t", "fit_d", [fit["npt"]], R),
-                    ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
-                    ("NAME_real_t", "fit_box", [fit["nbox"]], R),
-                    ("NAME_real_t", "fit_hmax", [], R), ("NAME_real_t", "fit_ihmax", [], R),
-                    ("NAME_real_t", "fit_skip", [], R), ("NAME_real_t", "fit_uni", [], R),
-                    ("NAME_real_t", "fit_cos", [road], R), ("NAME_real_t", "fit_sin", [road], R)]
+        members += [
+            ("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
+            ("NAME_real_t", "fit_P", [2 * fit["npt"]], R),
+            ("NAME_real_t", "fit_d", [fit["npt"]], R),
+            ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
+            ("NAME_real_t", "fit_box", [fit["nbox"]], R),
+            ("NAME_real_t", "fit_hmax", [], R),
+            ("NAME_real_t", "fit_ihmax", [], R),
+            ("NAME_real_t", "fit_skip", [], R),
+            ("NAME_real_t", "fit_uni", [], R),
+            ("NAME_real_t", "fit_cos", [road], R),
+            ("NAME_real_t", "fit_sin", [road], R),
+        ]
         members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
         wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
         members += [("NAME_real_t", "fit_rsq", [wide], R), ("NAME_real_t", "fit_beta", [wide], R)]
-    size = _struct_size([(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d])))
-                         for _, _, d, sa in members])
-    rendered = [{"ctype": t.replace("NAME_", f"{name}_"), "name": nm,
-                 "dims": [x[0] if isinstance(x, tuple) else x for x in d]} for t, nm, d, _ in members]
+    size = _struct_size(
+        [(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d]))) for _, _, d, sa in members]
+    )
+    rendered = [
+        {"ctype": t.replace("NAME_", f"{name}_"), "name": nm, "dims": [x[0] if isinstance(x, tuple) else x for x in d]}
+        for t, nm, d, _ in members
+    ]
     return rendered, size
 
 
 # --- the generator -------------------------------------------------------------------------------------------
+
 
 def problem_source(obj: Any, indent: int = 0) -> str:
     """Python source that rebuilds a DSL object: one init field per line, so the folder records its problem."""
     if not dataclasses.is_dataclass(obj):
         return repr(obj)
     pad = " " * (indent + 4)
-    args = [f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}"
-            for f in dataclasses.fields(obj) if f.init]
+    args = [
+        f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}" for f in dataclasses.fields(obj) if f.init
+    ]
     if not args:
         return f"{type(obj).__name__}()"
     return f"{type(obj).__name__}(\n" + ",\n".join(args) + ")"
@@ -198,12 +273,15 @@ def _wrap_comment(text: str, width: int) -> list[str]:
 
 def toolchain_files(use_float: bool) -> dict[str, str]:
     """The CMake toolchain files a folder ships: one per bare-metal target that can run its precision."""
-    return {f"cmake/arm-none-eabi-{t.name}.cmake": render_template("targets/toolchain.cmake.j2", target=t)
-            for t in cross_targets(use_float)}
+    return {
+        f"cmake/arm-none-eabi-{t.name}.cmake": render_template("targets/toolchain.cmake.j2", target=t)
+        for t in cross_targets(use_float)
+    }
 
 
-def generate(problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False,
-             check_edits: bool = True) -> GenerateInfo:
+def generate(
+    problem: Problem, out_dir: Path | str, use_float: bool = False, force: bool = False, check_edits: bool = True
+) -> GenerateInfo:
     """Write the C solver of ``problem`` into ``out_dir``; returns what was written.
 
     The folder is written beside ``out_dir`` and moved into place when complete (:mod:`.folder`): a failed or
@@ -227,17 +305,30 @@ def _generate_into(problem: Problem, out_dir: Path, use_float: bool) -> Generate
     qp_files = qp_c.write_files(ocp, lay, problem.qp, out_dir, use_float)
     tab = _tables(problem, ocp, lay)
     mem = _memory(problem, ocp, lay, tab, work, qp_files, use_float)
-    ctx = {**_solver_context(problem, ocp, tab, mem, qp_files, use_float), **_problem_context(problem, ocp, lay),
-           "backend": qp_c.codegen_context(ocp, lay, problem.qp),
-           "backend_template": f"backends/{problem.qp.backend}.c.j2",
-           "backend_label": backend_module(problem.qp.backend).LABEL}
+    ctx = {
+        **_solver_context(problem, ocp, tab, mem, qp_files, use_float),
+        **_problem_context(problem, ocp, lay),
+        "backend": qp_c.codegen_context(ocp, lay, problem.qp),
+        "backend_template": f"backends/{problem.qp.backend}.c.j2",
+        "backend_label": backend_module(problem.qp.backend).LABEL,
+    }
     written = _write_folder(out_dir, problem, ctx, use_float)
     lib_files = (*qp_files.library_sources, *qp_files.library_headers)
     files = tuple(sorted([*written, f"{name}_model.c", f"{name}_model.h", *qp_files.sources, *qp_files.headers]))
-    return GenerateInfo(name=name, out_dir=out_dir, use_float=use_float, sizes=tab["sizes"],
-                        workspace_bytes=mem["workspace_bytes"], solver_workspace_bytes=mem["solver_workspace_bytes"],
-                        qp_array_bytes=qp_files.array_bytes, qp_struct_bytes=qp_files.struct_bytes,
-                        const_bytes=mem["const_bytes"], files=files, library_files=lib_files, qp_files=qp_files)
+    return GenerateInfo(
+        name=name,
+        out_dir=out_dir,
+        use_float=use_float,
+        sizes=tab["sizes"],
+        workspace_bytes=mem["workspace_bytes"],
+        solver_workspace_bytes=mem["solver_workspace_bytes"],
+        qp_array_bytes=qp_files.array_bytes,
+        qp_struct_bytes=qp_files.struct_bytes,
+        const_bytes=mem["const_bytes"],
+        files=files,
+        library_files=lib_files,
+        qp_files=qp_files,
+    )
 
 
 def _tables(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
@@ -250,91 +341,154 @@ def _tables(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
     if np.any(lay.row_shift < np.arange(lay.m)):
         raise AssertionError("a row's shifted dual comes from an earlier row: feedback cannot shift y in place")
     a_cycles = permutation_cycles(lay.a_src)
-    index_tables = {"A_SRC": lay.a_src, "A_CYCLES": a_cycles,
-                    "VAR_SHIFT": lay.var_shift, "ROW_SHIFT": lay.row_shift,
-                    "INIT_ROWS": lay.init_rows, "SLACK_VARS": slacks,
-                    "BAND_ROW": lay.band_rows[:, 0], "BAND_STAGE": lay.band_rows[:, 1],
-                    "BAND_SIDE": lay.band_rows[:, 2]}
+    index_tables = {
+        "A_SRC": lay.a_src,
+        "A_CYCLES": a_cycles,
+        "VAR_SHIFT": lay.var_shift,
+        "ROW_SHIFT": lay.row_shift,
+        "INIT_ROWS": lay.init_rows,
+        "SLACK_VARS": slacks,
+        "BAND_ROW": lay.band_rows[:, 0],
+        "BAND_STAGE": lay.band_rows[:, 1],
+        "BAND_SIDE": lay.band_rows[:, 2],
+    }
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
     u_lo, u_hi, u_lim = input_box(problem)
-    real_tables = {"P_DIAG": lay.P_diag, "L": lay.L, "U": lay.U, "D": lay.D, "Q_DS0": lay.q_ds0,
-                   "INIT_D": lay.D[:ocp.nx], "U_LO": u_lo, "U_HI": u_hi, "U_LIM": u_lim,
-                   "SHAPE_DEFAULT": ocp.default_shapes().ravel()}
-    if ocp.p_dt is not None:   # unequal intervals: each stage's length is a parameter (Ocp.stage_dt)
+    real_tables = {
+        "P_DIAG": lay.P_diag,
+        "L": lay.L,
+        "U": lay.U,
+        "D": lay.D,
+        "Q_DS0": lay.q_ds0,
+        "INIT_D": lay.D[: ocp.nx],
+        "U_LO": u_lo,
+        "U_HI": u_hi,
+        "U_LIM": u_lim,
+        "SHAPE_DEFAULT": ocp.default_shapes().ravel(),
+    }
+    if ocp.p_dt is not None:  # unequal intervals: each stage's length is a parameter (Ocp.stage_dt)
         real_tables["STAGE_DT"] = ocp.stage_dt()
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
-    return {"sizes": sizes, "slacks": slacks, "a_cycles": a_cycles, "index_tables": index_tables,
-            "index_ctype": index_ctype, "index_size": index_size, "real_tables": real_tables,
-            "stages": stage_table(ocp, lay)}
+    return {
+        "sizes": sizes,
+        "slacks": slacks,
+        "a_cycles": a_cycles,
+        "index_tables": index_tables,
+        "index_ctype": index_ctype,
+        "index_size": index_size,
+        "real_tables": real_tables,
+        "stages": stage_table(ocp, lay),
+    }
 
 
-def _memory(problem: Problem, ocp: Ocp, lay: QpLayout, tab: dict[str, Any], work: dict, qp_files: BackendFiles,
-            use_float: bool) -> dict[str, Any]:
+def _memory(
+    problem: Problem, ocp: Ocp, lay: QpLayout, tab: dict[str, Any], work: dict, qp_files: BackendFiles, use_float: bool
+) -> dict[str, Any]:
     """The solver's workspace struct and its static memory (RAM: the workspaces; flash: our const tables), the
     opponent fit's and the curve speed's constants it depends on, and the header's size macros."""
     real_size = 4 if use_float else 8
     n_opp_all = max(1, problem.opponents.count * ocp.n_opp_par)
     fit = fit_context(ocp)
     curve = curve_speed_constants(problem)
-    ws_members, ws_bytes = workspace_members(problem.name, tab["sizes"], work, real_size, n_opp_all, fit,
-                                             len(lay.band_rows), curve=curve is not None)
-    const_bytes = (sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
-                   + sum(len(t) for t in tab["real_tables"].values()) * real_size
-                   + len(tab["stages"]) * (8 * 4 + real_size * (1 if curve is not None else 2)))  # stage_t
+    ws_members, ws_bytes = workspace_members(
+        problem.name, tab["sizes"], work, real_size, n_opp_all, fit, len(lay.band_rows), curve=curve is not None
+    )
+    const_bytes = (
+        sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
+        + sum(len(t) for t in tab["real_tables"].values()) * real_size
+        + len(tab["stages"]) * (8 * 4 + real_size * (1 if curve is not None else 2))
+    )  # stage_t
     workspace_bytes = ws_bytes + qp_files.array_bytes + qp_files.struct_bytes
     values = {**tab["sizes"], "WORKSPACE_BYTES": workspace_bytes, "USE_FLOAT": int(use_float)}
-    macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[:ocp.nx])})"}
-    return {"fit": fit, "curve": curve, "work": work, "ws_members": ws_members, "solver_workspace_bytes": ws_bytes,
-            "const_bytes": const_bytes, "workspace_bytes": workspace_bytes, "opp_dim": n_opp_all,
-            "macros": [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()]}
+    macro_doc = {**MACRO_DOC, "NX": f"states per stage ({', '.join(ocp.first.var_names[: ocp.nx])})"}
+    return {
+        "fit": fit,
+        "curve": curve,
+        "work": work,
+        "ws_members": ws_members,
+        "solver_workspace_bytes": ws_bytes,
+        "const_bytes": const_bytes,
+        "workspace_bytes": workspace_bytes,
+        "opp_dim": n_opp_all,
+        "macros": [{"key": k, "value": v, "doc": macro_doc[k]} for k, v in values.items()],
+    }
 
 
 def _math_names(use_float: bool) -> dict[str, str]:
     """The <math.h> functions of the real type (``c_sqrt``: ``sqrtf`` in float, ...)."""
-    return {f"c_{f}": f + ("f" if use_float else "") for f in
-            ("floor", "cos", "sin", "sqrt", "fabs", "fmin", "atan2", "tan", "atan", "copysign")}
+    return {
+        f"c_{f}": f + ("f" if use_float else "")
+        for f in ("floor", "cos", "sin", "sqrt", "fabs", "fmin", "atan2", "tan", "atan", "copysign")
+    }
 
 
-def _solver_context(problem: Problem, ocp: Ocp, tab: dict[str, Any], mem: dict[str, Any], qp_files: BackendFiles,
-                    use_float: bool) -> dict[str, Any]:
+def _solver_context(
+    problem: Problem, ocp: Ocp, tab: dict[str, Any], mem: dict[str, Any], qp_files: BackendFiles, use_float: bool
+) -> dict[str, Any]:
     """The templates' context of the solver's API, contract, memory, tables and build."""
     name, NAME = problem.name, problem.name.upper()
     lib = qp_files.library
     cold_note = COLD_RESTART_NOTE.replace("COLD_RESTART_AFTER", f"{NAME}_COLD_RESTART_AFTER")
     return {
-        "name": name, "NAME": NAME, "version": __version__, "real": "float" if use_float else "double",
-        "use_float": use_float, "sizes": tab["sizes"], "macros": mem["macros"],
+        "name": name,
+        "NAME": NAME,
+        "version": __version__,
+        "real": "float" if use_float else "double",
+        "use_float": use_float,
+        "sizes": tab["sizes"],
+        "macros": mem["macros"],
         "exit_codes": list(enumerate(EXIT_CODES)),
-        "qp_statuses": list(enumerate(QP_STATUSES, start=1)), "n_qp_statuses": len(QP_STATUSES),
+        "qp_statuses": list(enumerate(QP_STATUSES, start=1)),
+        "n_qp_statuses": len(QP_STATUSES),
         "qp_usable": [QP_STATUSES[s - 1] for s in QP_USABLE],
-        "qp_exit": [(0, QP_EXIT[0])] + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s])
-                                        for s in range(1, len(QP_STATUSES) + 1)],
-        "qp_contract": QP_CONTRACT, "max_input_violation": c_real(MAX_INPUT_VIOLATION),
+        "qp_exit": [(0, QP_EXIT[0])]
+        + [(f"{NAME}_{QP_STATUSES[s - 1]}", QP_EXIT[s]) for s in range(1, len(QP_STATUSES) + 1)],
+        "qp_contract": QP_CONTRACT,
+        "max_input_violation": c_real(MAX_INPUT_VIOLATION),
         "max_input_violation_c": c_real_literal(MAX_INPUT_VIOLATION, use_float),
-        "cold_restart_note": cold_note, "cold_restart_lines": _wrap_comment(f"Cold restart: {cold_note}.", 114),
-        "first_state_member": FIRST_STATE_MEMBER, "host_ticks_per_second": HOST_TICKS_PER_SECOND,
-        "problem": problem, "formulation": problem.formulation.kind, "obstacles": problem.obstacles.kind,
+        "cold_restart_note": cold_note,
+        "cold_restart_lines": _wrap_comment(f"Cold restart: {cold_note}.", 114),
+        "first_state_member": FIRST_STATE_MEMBER,
+        "host_ticks_per_second": HOST_TICKS_PER_SECOND,
+        "problem": problem,
+        "formulation": problem.formulation.kind,
+        "obstacles": problem.obstacles.kind,
         "opp_params": ", ".join(obs.CARTESIAN_POSE),
-        "workspace_bytes": mem["workspace_bytes"], "solver_workspace_bytes": mem["solver_workspace_bytes"],
-        "qp_array_bytes": qp_files.array_bytes, "qp_struct_bytes": qp_files.struct_bytes,
-        "const_bytes": mem["const_bytes"], "ws_members": mem["ws_members"], "work": mem["work"],
-        "misra_deviations": MISRA_DEVIATIONS, **_math_names(use_float),
-        "index_ctype": tab["index_ctype"], "opp_dim": mem["opp_dim"], "n_a_cycles": len(tab["a_cycles"]),
-        "fit": mem["fit"], "curve": mem["curve"],
-        "index_tables": {k: {"len": max(1, len(v)), "body": c_list([int(x) for x in v])}
-                         for k, v in tab["index_tables"].items()},
-        "real_tables": {k: {"len": max(1, len(v)), "body": c_list(v, c_real, 6)}
-                        for k, v in tab["real_tables"].items()},
-        "n_slack": len(tab["slacks"]), "stages": tab["stages"],
-        "qp_files": qp_files, "qp_lib": lib,
+        "workspace_bytes": mem["workspace_bytes"],
+        "solver_workspace_bytes": mem["solver_workspace_bytes"],
+        "qp_array_bytes": qp_files.array_bytes,
+        "qp_struct_bytes": qp_files.struct_bytes,
+        "const_bytes": mem["const_bytes"],
+        "ws_members": mem["ws_members"],
+        "work": mem["work"],
+        "misra_deviations": MISRA_DEVIATIONS,
+        **_math_names(use_float),
+        "index_ctype": tab["index_ctype"],
+        "opp_dim": mem["opp_dim"],
+        "n_a_cycles": len(tab["a_cycles"]),
+        "fit": mem["fit"],
+        "curve": mem["curve"],
+        "index_tables": {
+            k: {"len": max(1, len(v)), "body": c_list([int(x) for x in v])} for k, v in tab["index_tables"].items()
+        },
+        "real_tables": {
+            k: {"len": max(1, len(v)), "body": c_list(v, c_real, 6)} for k, v in tab["real_tables"].items()
+        },
+        "n_slack": len(tab["slacks"]),
+        "stages": tab["stages"],
+        "qp_files": qp_files,
+        "qp_lib": lib,
         "static_libs": [f"lib{name}.a", *([f"lib{name}_{lib.suffix}.a"] if lib else [])],
-        "make_products": ", ".join(["static library", *([f"{lib.label} library"] if lib else []), "shared library",
-                                    "example"]),
-        "model_cflags": MODEL_CFLAGS, "cross_targets": cross_targets(use_float),
-        "footprint_marker_begin": README_BEGIN, "footprint_marker_end": README_END,
+        "make_products": ", ".join(
+            ["static library", *([f"{lib.label} library"] if lib else []), "shared library", "example"]
+        ),
+        "model_cflags": MODEL_CFLAGS,
+        "cross_targets": cross_targets(use_float),
+        "footprint_marker_begin": README_BEGIN,
+        "footprint_marker_end": README_END,
     }
 
 
@@ -343,14 +497,27 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
     name, rp = problem.name, ocp.road_params
     n_opp = problem.opponents.count
     return {
-        "n_opp_stage": n_opp * ocp.n_opp_stage, "stage_opp": "ws.opp_stage" if ocp.fit is not None else None,
-        "shape_dim": max(1, n_opp * ocp.n_opp_shape), "n_band": len(lay.band_rows), "band_scale": c_real(lay.band_scale),
-        "n_min": c_real(problem.bounds.n_min), "n_max": c_real(problem.bounds.n_max),
-        "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE), "ego_radius": c_real(obs.ego_radius(problem.ego)),
-        "p_road": {"S0": 0, "DS": 1, "KAPPA": 2, "PHI": 2 + rp.samples, "GX": 2 + 2 * rp.samples,
-                   "GY": 2 + 3 * rp.samples},
-        "p_ref": ocp.p_ref.start, "p_opp": ocp.p_opp.start,
-        "n_ref": c_real(problem.reference.n_ref), "v_ref": c_real(problem.reference.v_ref),
+        "n_opp_stage": n_opp * ocp.n_opp_stage,
+        "stage_opp": "ws.opp_stage" if ocp.fit is not None else None,
+        "shape_dim": max(1, n_opp * ocp.n_opp_shape),
+        "n_band": len(lay.band_rows),
+        "band_scale": c_real(lay.band_scale),
+        "n_min": c_real(problem.bounds.n_min),
+        "n_max": c_real(problem.bounds.n_max),
+        "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE),
+        "ego_radius": c_real(obs.ego_radius(problem.ego)),
+        "p_road": {
+            "S0": 0,
+            "DS": 1,
+            "KAPPA": 2,
+            "PHI": 2 + rp.samples,
+            "GX": 2 + 2 * rp.samples,
+            "GY": 2 + 3 * rp.samples,
+        },
+        "p_ref": ocp.p_ref.start,
+        "p_opp": ocp.p_opp.start,
+        "n_ref": c_real(problem.reference.n_ref),
+        "v_ref": c_real(problem.reference.v_ref),
         "dt": c_real(problem.horizon.interval),
         "p_dt": ocp.p_dt,
         "stage_offsets": c_macro_list(problem.horizon.offsets),
@@ -358,13 +525,18 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "ref_time": f"(({name}_real_t)k * DT)" if ocp.p_dt is None else "STAGES[k].t",
         "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
         "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
-        "max_iter": warm_max_iter(problem.qp), "max_iter_cold": cold_max_iter(problem.qp), "qp_infty": c_real(INF),
+        "max_iter": warm_max_iter(problem.qp),
+        "max_iter_cold": cold_max_iter(problem.qp),
+        "qp_infty": c_real(INF),
         "react_stages": min(problem.plan_check.react_stages, problem.horizon.N),
         "brake_m_per_dt": c_real(problem.ego.m / problem.horizon.dt),
-        "a_lat_guard": int(problem.plan_check.a_lat_guard), "sample_dt": c_real(problem.horizon.dt),
-        "wheelbase": c_real(problem.ego.l), "a_lat_max": c_real(problem.bounds.a_lat_max),
+        "a_lat_guard": int(problem.plan_check.a_lat_guard),
+        "sample_dt": c_real(problem.horizon.dt),
+        "wheelbase": c_real(problem.ego.l),
+        "a_lat_max": c_real(problem.bounds.a_lat_max),
         "a_lat_guard_to": c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
-        "far_opp": c_list(far_opponent_row(ocp), c_real), "road_ds": c_real(problem.road.ds),
+        "far_opp": c_list(far_opponent_row(ocp), c_real),
+        "road_ds": c_real(problem.road.ds),
     }
 
 
@@ -372,17 +544,24 @@ def _write_folder(out_dir: Path, problem: Problem, ctx: dict[str, Any], use_floa
     """Render the templates, the toolchain files and ``problem.py`` into ``out_dir``; returns the files written."""
     env = environment()
     outputs = {
-        f"{problem.name}_solver.h": "solver.h.j2", f"{problem.name}_solver.c": "solver.c.j2",
-        f"{problem.name}_host.h": "host.h.j2", f"{problem.name}_host.c": "host.c.j2", "main.c": "main.c.j2",
-        "CMakeLists.txt": "CMakeLists.txt.j2", "Makefile": "Makefile.j2", "README.md": "README.md.j2",
+        f"{problem.name}_solver.h": "solver.h.j2",
+        f"{problem.name}_solver.c": "solver.c.j2",
+        f"{problem.name}_host.h": "host.h.j2",
+        f"{problem.name}_host.c": "host.c.j2",
+        "main.c": "main.c.j2",
+        "CMakeLists.txt": "CMakeLists.txt.j2",
+        "Makefile": "Makefile.j2",
+        "README.md": "README.md.j2",
     }
     for fname, tpl in outputs.items():
         write_if_changed(out_dir / fname, env.get_template(tpl).render(**ctx))
     toolchains = toolchain_files(use_float)
     for fname, text in toolchains.items():
         write_if_changed(out_dir / fname, text)
-    write_if_changed(out_dir / "problem.py",
-                     f'"""The problem of solver {problem.name!r}, written by fcgen {__version__}: `fcgen verify` and '
-                     f'`fcgen bench` load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\n'
-                     f'problem = {problem_source(problem)}\n')
+    write_if_changed(
+        out_dir / "problem.py",
+        f'"""The problem of solver {problem.name!r}, written by fcgen {__version__}: `fcgen verify` and '
+        f'`fcgen bench` load it."""\nfrom fcgen.dsl import *  # noqa: F401,F403\n\n'
+        f"problem = {problem_source(problem)}\n",
+    )
     return [*outputs, *toolchains, "problem.py"]

@@ -7,6 +7,7 @@ so the results are unchanged: ``fg_kernels`` ([F G]'s pattern), ``dense_kernels`
 ``u_kernels`` (R's factor and solves, NU <= ``ipm_layout.U_KERNEL_MAX``), ``gen_kernels`` (the general rows of the
 stages of the commonest pattern), ``sr_kernels`` (a soft row's entries).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -85,10 +86,16 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     mv = [f"y[{i}] = {pxs[i]};" for i in range(nx)]
     wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
     q_wtx = [f"y[{i}] = q[{i}] - {_c_sum([f'(W[{a}][{i}] * x[{a}])' for a in range(nu)])};" for i in range(nx)]
-    pk = [f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
-          for i in range(nx) for j in range(i + 1)]
-    mv_add = [ln for i in range(nx)
-              for ln in (f"const ipm_real_t y{i} = {pxs[i]};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];")]
+    pk = [
+        f"Pk[{i}][{j}] = H[{j}][{i}] - {_c_sum([f'(W[{a}][{i}] * W[{a}][{j}])' for a in range(nu)])};"
+        for i in range(nx)
+        for j in range(i + 1)
+    ]
+    mv_add = [
+        ln
+        for i in range(nx)
+        for ln in (f"const ipm_real_t y{i} = {pxs[i]};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];")
+    ]
     return {k: "\n  ".join(v) for k, v in (("mv", mv), ("mv_add", mv_add), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
 
 
@@ -100,8 +107,10 @@ def u_kernels(nu: int, nx: int) -> dict[str, str]:
     the generic loops' (ipm_chol, ipm_fwd, ipm_bwd), but for the sums' leading 0; where a stage's R is block diagonal
     (IPM_UB) the dense factor's entries between blocks come out exactly 0 (each product has a factor 0), so the
     factor and the solves equal the blockwise ones for finite data."""
+
     def el(m: str, i: int, j: int) -> str:  # entry (i, j) of an NU x NU row-major array
         return f"{m}[{i * nu + j}]"
+
     chol = ["ipm_real_t s;"]
     for j in range(nu):
         terms = " - ".join([el("A", j, j)] + [f"({el('Lo', j, k)} * {el('Lo', j, k)})" for k in range(j)])
@@ -112,10 +121,14 @@ def u_kernels(nu: int, nx: int) -> dict[str, str]:
             chol.append(f"{el('Lo', i, j)} = ({_left(t)}) / s;")
         chol += [f"{el('Lo', i, j)} = REAL_0;" for i in range(j)]
     chol.append("return 0;")
+
     def xr(i: int) -> str:  # X's row i, column c (no multiplication by 0 or 1: MISRA 2.2)
         return "X[c]" if i == 0 else ("X[ldx + c]" if i == 1 else f"X[({i} * ldx) + c]")
-    fwd = [f"const ipm_real_t d{i} = IPM_ONE / {el('Lo', i, i)};" for i in range(nu)] + ["int c;",
-           "for (c = 0; c < m; ++c) {"]
+
+    fwd = [f"const ipm_real_t d{i} = IPM_ONE / {el('Lo', i, i)};" for i in range(nu)] + [
+        "int c;",
+        "for (c = 0; c < m; ++c) {",
+    ]
     for i in range(nu):
         for j in range(i):
             fwd.append(f"  {xr(i)} -= {el('Lo', i, j)} * {xr(j)};")
@@ -124,8 +137,12 @@ def u_kernels(nu: int, nx: int) -> dict[str, str]:
     bwd = _u_back(nu, lambda i: f"x[{i}]", "r")
     bwd += ["if (base != NULL) {"] + [f"  out[{i}] = base[{i}] - r{i};" for i in range(nu)] + ["} else {"]
     bwd += [f"  out[{i}] = -r{i};" for i in range(nu)] + ["}"]
-    return {"u_chol": "\n  ".join(chol), "u_fwd": "\n  ".join(fwd), "u_bwd_sub": "\n  ".join(bwd),
-            **u_fused_kernels(nu, nx)}
+    return {
+        "u_chol": "\n  ".join(chol),
+        "u_fwd": "\n  ".join(fwd),
+        "u_bwd_sub": "\n  ".join(bwd),
+        **u_fused_kernels(nu, nx),
+    }
 
 
 def _u_back(nu: int, x, r: str) -> list[str]:
@@ -133,8 +150,11 @@ def _u_back(nu: int, x, r: str) -> list[str]:
     out = []
     for i in reversed(range(nu)):
         terms = [f"(Lo[{j * nu + i}] * {r}{j})" for j in range(i + 1, nu)]
-        out.append(f"const ipm_real_t {r}{i} = ({x(i)} - {_c_sum(terms)}) / Lo[{i * nu + i}];" if terms
-                   else f"const ipm_real_t {r}{i} = {x(i)} / Lo[{i * nu + i}];")
+        out.append(
+            f"const ipm_real_t {r}{i} = ({x(i)} - {_c_sum(terms)}) / Lo[{i * nu + i}];"
+            if terms
+            else f"const ipm_real_t {r}{i} = {x(i)} / Lo[{i * nu + i}];"
+        )
     return out
 
 
@@ -167,8 +187,8 @@ def _left(expr: str) -> str:
 #: the bodies ``gen_kernels`` writes out (the problem header renders them under ``#if IPM_GEN_WRITTEN``)
 GEN_KERNELS = ("gen_w", "gen_h", "gen_c", "gen_ax", "gen_atx", "gen_rhs", "gen_dz")
 
-_GS = "const int gs = k * IPM_NG;"       # the stage's first general slot
-_AT = "const int a = IPM_GEN_PTR[gs];"   # its first (x, u) entry
+_GS = "const int gs = k * IPM_NG;"  # the stage's first general slot
+_AT = "const int a = IPM_GEN_PTR[gs];"  # its first (x, u) entry
 
 
 def _plus(b: str, o: int) -> str:
@@ -212,23 +232,36 @@ def gen_kernels(sv: StageView, tab: IpmTables, se_ptr: np.ndarray, gen_e: np.nda
     if found is None:  # no general row with an (x, u) entry: nothing written out (IPM_GEN_WRITTEN 0)
         return np.zeros(sv.N + 1, dtype=np.int64), {k: "" for k in GEN_KERNELS}
     flags, p = found
-    bodies = {"gen_w": _gen_weights(p), "gen_h": _gen_hessian(p), "gen_c": _gen_couple(p), **_gen_products(p),
-              **_gen_slacks(p)}
+    bodies = {
+        "gen_w": _gen_weights(p),
+        "gen_h": _gen_hessian(p),
+        "gen_c": _gen_couple(p),
+        **_gen_products(p),
+        **_gen_slacks(p),
+    }
     return flags, {k: "\n  ".join(bodies[k]) for k in GEN_KERNELS}
 
 
-def _gen_pattern(sv: StageView, tab: IpmTables, se_ptr: np.ndarray,
-                 gen_e: np.ndarray) -> tuple[np.ndarray, _GenPattern] | None:
+def _gen_pattern(
+    sv: StageView, tab: IpmTables, se_ptr: np.ndarray, gen_e: np.ndarray
+) -> tuple[np.ndarray, _GenPattern] | None:
     """The commonest pattern of the stages' general rows and the flags of the stages written out with it (its offsets
     of entries and slack entries hold there); None if no stage has a general row with an (x, u) entry."""
     N, NG, NS, nxu = sv.N, sv.NG, sv.NS, sv.nx + sv.NU
     gptr, gv = tab.gen_xu_ptr, tab.gen_xu_v
 
     def signature(k: int) -> tuple:
-        rows = tuple((bool(sv.gen_rows[k, g] >= 0), tuple(gv[gptr[k * NG + g]:gptr[k * NG + g + 1]]),
-                      bool(gen_e[k, g] >= 0)) for g in range(NG))
-        groups = tuple((tuple(int(g) for g in tab.sg_g[tab.sg_ptr[k * NS + j]:tab.sg_ptr[k * NS + j + 1]]),
-                        bool(sv.vmap[k, nxu + j] >= 0)) for j in range(NS))
+        rows = tuple(
+            (bool(sv.gen_rows[k, g] >= 0), tuple(gv[gptr[k * NG + g] : gptr[k * NG + g + 1]]), bool(gen_e[k, g] >= 0))
+            for g in range(NG)
+        )
+        groups = tuple(
+            (
+                tuple(int(g) for g in tab.sg_g[tab.sg_ptr[k * NS + j] : tab.sg_ptr[k * NS + j + 1]]),
+                bool(sv.vmap[k, nxu + j] >= 0),
+            )
+            for j in range(NS)
+        )
         return rows, groups
 
     sigs = [signature(k) for k in range(N + 1)]
@@ -246,9 +279,10 @@ def _gen_pattern(sv: StageView, tab: IpmTables, se_ptr: np.ndarray,
         off.append(n)
         n += len(slots)
     for k in np.flatnonzero(flags):  # the pattern's offsets (entries, slack entries) hold, else the generic loops
-        if (any(gptr[k * NG + g] - gptr[k * NG] != off[g] for g in range(NG))
-                or any(se_ptr[k * NS + j] - se_ptr[k * NS] != sum(len(rows[g][1]) for gr, _ in groups[:j] for g in gr)
-                       for j in range(NS))):
+        if any(gptr[k * NG + g] - gptr[k * NG] != off[g] for g in range(NG)) or any(
+            se_ptr[k * NS + j] - se_ptr[k * NS] != sum(len(rows[g][1]) for gr, _ in groups[:j] for g in gr)
+            for j in range(NS)
+        ):
             flags[k] = 0
     return flags, _GenPattern(rows, groups, tuple(off))
 
@@ -264,19 +298,27 @@ def _gen_weights(p: _GenPattern) -> list[str]:
             w.append(f"const ipm_real_t w{g} = IPM_W.wr[IPM_GEN_ROW[{_plus('gs', g)}]];")
         if slack:
             w += [f"const ipm_real_t gx{g} = IPM_W.gex[{_plus('gs', g)}];", f"const ipm_real_t wg{g} = w{g} * gx{g};"]
-        stores += [f"IPM_W.Weff[{g}] = {f'w{g}' if present else 'REAL_0'};",
-                   f"IPM_W.wg[{_plus('gs', g)}] = {f'wg{g}' if slack else 'REAL_0'};"]
+        stores += [
+            f"IPM_W.Weff[{g}] = {f'w{g}' if present else 'REAL_0'};",
+            f"IPM_W.wg[{_plus('gs', g)}] = {f'wg{g}' if slack else 'REAL_0'};",
+        ]
     w += stores
     for j, (gr, has_var) in enumerate(groups):
         dd = f"hs{j}"
         for g in gr:
             dd = f"({dd} + (wg{g} * gx{g}))"
-        w += ["{", f"  const ipm_real_t hs{j} = {f'IPM_W.hd[IPM_VMAP_S[k][{j}]]' if has_var else 'IPM_ONE'};",
-              f"  const ipm_real_t dd{j} = {dd};", f"  IPM_W.d[k][{j}] = dd{j};"]
+        w += [
+            "{",
+            f"  const ipm_real_t hs{j} = {f'IPM_W.hd[IPM_VMAP_S[k][{j}]]' if has_var else 'IPM_ONE'};",
+            f"  const ipm_real_t dd{j} = {dd};",
+            f"  IPM_W.d[k][{j}] = dd{j};",
+        ]
         c = 0
         for g in gr:
             for e in range(len(rows[g][1])):
-                w.append(f"  IPM_W.wc[{_plus(f'IPM_SE_BEG[k][{j}]', c)}] = wg{g} * IPM_W.gax[{_plus('a', off[g] + e)}];")
+                w.append(
+                    f"  IPM_W.wc[{_plus(f'IPM_SE_BEG[k][{j}]', c)}] = wg{g} * IPM_W.gax[{_plus('a', off[g] + e)}];"
+                )
                 c += 1
         for g in gr:
             others = f"hs{j}"
@@ -307,14 +349,20 @@ def _gen_couple(p: _GenPattern) -> list[str]:
         for pi in range(len(gr)):
             for qi in range(pi + 1, len(gr)):
                 gi, gj = gr[pi], gr[qi]
-                cp += ["{", f"  const ipm_real_t m = ((-IPM_W.wg[{_plus('gs', gi)}]) * IPM_W.wg[{_plus('gs', gj)}]) / "
-                            f"IPM_W.d[k][{j}];"]
+                cp += [
+                    "{",
+                    f"  const ipm_real_t m = ((-IPM_W.wg[{_plus('gs', gi)}]) * IPM_W.wg[{_plus('gs', gj)}]) / "
+                    f"IPM_W.d[k][{j}];",
+                ]
                 for xi, vx in enumerate(rows[gi][1]):
                     cp += ["  {", f"    const ipm_real_t cx = m * {p.x(off[gi] + xi)};"]
                     for yi, vy in enumerate(rows[gj][1]):
                         lo, hi = min(vx, vy), max(vx, vy)
-                        cp += ["    {", f"      const ipm_real_t v = cx * {p.x(off[gj] + yi)};",
-                               f"      IPM_W.H[{lo}][{hi}] += v;"]
+                        cp += [
+                            "    {",
+                            f"      const ipm_real_t v = cx * {p.x(off[gj] + yi)};",
+                            f"      IPM_W.H[{lo}][{hi}] += v;",
+                        ]
                         cp += [f"      IPM_W.H[{lo}][{hi}] += v;"] if lo == hi else []
                         cp.append("    }")
                     cp.append("  }")
@@ -330,16 +378,19 @@ def _gen_products(p: _GenPattern) -> dict[str, list[str]]:
         if not present:
             continue
         first = p.off[g]
-        terms = [f"(IPM_W.gax[{_plus('a', first + e)}] * x[IPM_GEN_VAR[{_plus('a', first + e)}]])"
-                 for e in range(len(slots))]
+        terms = [
+            f"(IPM_W.gax[{_plus('a', first + e)}] * x[IPM_GEN_VAR[{_plus('a', first + e)}]])" for e in range(len(slots))
+        ]
         terms += [f"(IPM_W.gex[{_plus('gs', g)}] * x[IPM_GEN_SVAR[{_plus('gs', g)}]])"] if slack else []
         sm = "REAL_0"
         for t in terms:
             sm = f"({sm} + {t})"
         ax.append(f"out[IPM_GEN_ROW[{_plus('gs', g)}]] = {sm[1:-1] if terms else sm};")
         atx += ["{", f"  const ipm_real_t gv = IPM_W.ar[IPM_GEN_ROW[{_plus('gs', g)}]];"]
-        atx += [f"  IPM_W.h[IPM_GEN_VAR[{_plus('a', first + e)}]] += IPM_W.gax[{_plus('a', first + e)}] * gv;"
-                for e in range(len(slots))]
+        atx += [
+            f"  IPM_W.h[IPM_GEN_VAR[{_plus('a', first + e)}]] += IPM_W.gax[{_plus('a', first + e)}] * gv;"
+            for e in range(len(slots))
+        ]
         atx += [f"  IPM_W.h[IPM_GEN_SVAR[{_plus('gs', g)}]] += IPM_W.gex[{_plus('gs', g)}] * gv;"] if slack else []
         atx.append("}")
     if not any(sl for _, sl, _ in p.rows):  # no (x, u) entry: a is not read
@@ -389,4 +440,3 @@ def sr_kernels(na: int) -> dict[str, str]:
     check += [f"acc[{4 + 2 * na + nt + p}][l] += {a[p]} * fb[l];" for p in range(na)]
     fwd = load + [f"acc[{3 + p}][l] += {a[p]} * f[l];" for p in range(na)]
     return {"sr_av": "\n    ".join(av), "sr_check": "\n    ".join(check), "sr_fwd": "\n    ".join(fwd)}
-

@@ -4,6 +4,7 @@ The soft rows' runs padded to whole SIMD lanes, [F G]'s column bands, each stage
 generic A without the rows that have loops of their own, the slacks' entries, and the workspace struct's real
 arrays (with its size on an LP64 target). ``codegen/ipm_header.py`` writes them as the problem header's tables.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,8 +25,10 @@ def workspace_members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("Einv", (N, NX), "1 / coefficient of x_{k+1}[i] in dynamics row i"),
         ("fgb", (N, NFGB), "[F G] of stage k (x_{k+1} = F x + G u + c), column j's band at IPM_FG_OFF[j] (fg_bands)"),
         ("einit", (NX,), "coefficient of x_0[i] in init row i"),
-        ("z", (n,), "iterate"), ("r_d", (n,), "stationarity residual"),
-        ("h", (n,), "Newton right-hand side"), ("hd", (n,), "the Newton matrix's diagonal: P + box weights"),
+        ("z", (n,), "iterate"),
+        ("r_d", (n,), "stationarity residual"),
+        ("h", (n,), "Newton right-hand side"),
+        ("hd", (n,), "the Newton matrix's diagonal: P + box weights"),
         ("dz", (n,), "Newton step"),
         ("aff", (4,), "the soft rows' sums of t lam, t dlam + lam dt, dt dlam (predictor); their pending step"),
         ("y", (m,), "row multipliers (result; the equality rows' multipliers all along)"),
@@ -34,18 +37,26 @@ def workspace_members(sv: StageView, lay: QpLayout) -> list[dict]:
         ("gex", ((N + 1) * NG,), "e (slack coefficient) per general slot (prepare; 0: no slack)"),
         ("bax", (len(sv.box_rows),), "coefficient per box row (prepare)"),
         ("ar", (m,), "per inequality row: its right-hand side g, then a'dz"),
-        ("it", (ns,), "1 / t per inequality side"), ("bs", (ns,), "b per inequality side"),
+        ("it", (ns,), "1 / t per inequality side"),
+        ("bs", (ns,), "b per inequality side"),
         ("wg", ((N + 1) * NG,), "W e per general slot (0: no slack)"),
         ("wr", (m,), "A z, then residuals on equality rows and weights lam / t on the others"),
         ("gd", (m,), "the multiplier step on the equality rows"),
         *[(f, (ns,), "per inequality side") for f in ("t", "lam", "r_p", "dt", "dlam")],
-        ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"), ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
+        ("L", (N + 1, NU, NU), "Cholesky factor of R_bar"),
+        ("W1", (N + 1, NU, NX), "L^-1 S_bar"),
         ("P", (N + 1, NX, NX), "cost-to-go Hessian (on and below the diagonal)"),
-        ("UD", (N + 1, NU, NE1), "L^-1 D'"), ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
+        ("UD", (N + 1, NU, NE1), "L^-1 D'"),
+        ("LM", (N + 1, NE1, NE1), "Cholesky factor of UD' UD"),
         ("d", (N + 1, NS), "slack pivots"),
-        ("lr", (N + 1, NU), "L^-1 r_bar"), ("kk", (N + 1, NU), "feedforward"), ("p", (N + 1, NX), "cost-to-go gradient"),
-        ("H", (NXU, NXU), "stage Newton block (scratch)"), ("R", (NU, NU), "scratch"),
-        ("Weff", (NG,), "scratch"), ("D", (NE1, NU), "scratch"), ("M", (NE1, NE1), "scratch"),
+        ("lr", (N + 1, NU), "L^-1 r_bar"),
+        ("kk", (N + 1, NU), "feedforward"),
+        ("p", (N + 1, NX), "cost-to-go gradient"),
+        ("H", (NXU, NXU), "stage Newton block (scratch)"),
+        ("R", (NU, NU), "scratch"),
+        ("Weff", (NG,), "scratch"),
+        ("D", (NE1, NU), "scratch"),
+        ("M", (NE1, NE1), "scratch"),
         ("W2", (NE1, NX), "scratch"),
     ]
     if sv.NE == 0:  # the stage-equality arrays exist only with stage equalities (the C's code too)
@@ -56,8 +67,33 @@ def workspace_members(sv: StageView, lay: QpLayout) -> list[dict]:
 
 
 #: the real arrays of the C's soft-row struct besides its NA coefficients (``ipm_sr_t`` in the problem header)
-SR_FIELDS = ("e", "bb", "b1", "b2", "t1", "l1", "t2", "l2", "it1", "it2", "rp1", "rp2", "id", "c",
-             "dt1", "dl1", "dt2", "dl2", "zs", "dzs", "rds", "hs", "ps", "qs", "w")
+SR_FIELDS = (
+    "e",
+    "bb",
+    "b1",
+    "b2",
+    "t1",
+    "l1",
+    "t2",
+    "l2",
+    "it1",
+    "it2",
+    "rp1",
+    "rp2",
+    "id",
+    "c",
+    "dt1",
+    "dl1",
+    "dt2",
+    "dl2",
+    "zs",
+    "dzs",
+    "rds",
+    "hs",
+    "ps",
+    "qs",
+    "w",
+)
 
 
 #: rows the C reads at a time in a run of soft rows (its SIMD lanes: 4 doubles in 256 bits) ...
@@ -89,6 +125,7 @@ def padded_runs(sr: SoftRows):
         out = np.full((int(ptr[-1]),) + v.shape[1:], fill, dtype=np.int64)
         out[pos] = v
         return out
+
     return ptr, pad
 
 
@@ -152,7 +189,7 @@ def generic_A(layout: QpLayout, sr: SoftRows, sv: StageView) -> tuple[np.ndarray
     keep[sr.brow] = False
     keep[sv.dyn_rows.ravel()] = False
     keep[layout.init_rows] = False
-    ent = np.flatnonzero(keep[layout.A_indices])            # CSC positions = data indices of the kept entries
+    ent = np.flatnonzero(keep[layout.A_indices])  # CSC positions = data indices of the kept entries
     rows = layout.A_indices[ent]
     cols = np.repeat(np.arange(layout.n), np.diff(layout.A_indptr))[ent]
     a_p = np.r_[0, np.cumsum(np.bincount(cols, minlength=layout.n))]
@@ -178,16 +215,22 @@ def split_A(tab: IpmTables, sv: StageView, ar: tuple[np.ndarray, ...], gen_e: np
         if r < 0:
             continue
         i = pos[int(r)]
-        gen = list(tab.gen_var[tab.gen_xu_ptr[gs]:tab.gen_xu_ptr[gs + 1]])
+        gen = list(tab.gen_var[tab.gen_xu_ptr[gs] : tab.gen_xu_ptr[gs + 1]])
         gen += [int(tab.gen_svar[gs])] if gen_e[gs] >= 0 else []
-        if gen != [int(v) for v in ar_j[ar_p[i]:ar_p[i + 1]]]:
+        if gen != [int(v) for v in ar_j[ar_p[i] : ar_p[i + 1]]]:
             raise AssertionError("a general row's entries are not in the generic A's order")
     own = set(sv.box_rows.tolist()) | set(gen_rows)  # rows with tables of their own
     other = [i for i, r in enumerate(ar_row) if int(r) not in own]
     counts = np.diff(a_p)[gvars]
     one = gvars[counts == 1]
-    return {"ar_other": np.array(other, dtype=np.int64), "col0": gvars[counts == 0], "col1": one,
-            "col1_row": a_i[a_p[one]], "col1_k": a_k[a_p[one]], "colm": gvars[counts > 1]}
+    return {
+        "ar_other": np.array(other, dtype=np.int64),
+        "col0": gvars[counts == 0],
+        "col1": one,
+        "col1_row": a_i[a_p[one]],
+        "col1_k": a_k[a_p[one]],
+        "colm": gvars[counts > 1],
+    }
 
 
 def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
@@ -210,20 +253,19 @@ def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
                 parent[find(a)] = find(us[0])
 
         if k < sv.N:
-            couple(sv.dyn_j[sv.dyn_ptr[k]:sv.dyn_ptr[k + 1]])   # G' P G couples every input with dynamics
+            couple(sv.dyn_j[sv.dyn_ptr[k] : sv.dyn_ptr[k + 1]])  # G' P G couples every input with dynamics
         for g in range(k * sv.NG, (k + 1) * sv.NG):
-            couple(sv.gen_v[sv.gen_ptr[g]:sv.gen_ptr[g + 1]])
+            couple(sv.gen_v[sv.gen_ptr[g] : sv.gen_ptr[g + 1]])
         for j in range(sr.ptr[k], sr.ptr[k + 1]):
             couple(sr.v[j][sr.a[j] >= 0])
         hi = {}
         for i in range(NU):
             hi[find(i)] = max(hi.get(find(i), i), i)
         ends, end = [0], 0
-        for i in range(NU):                   # blocks: the components' hulls, merged where they overlap
+        for i in range(NU):  # blocks: the components' hulls, merged where they overlap
             end = max(end, hi[find(i)] + 1)
             if i + 1 == end:
                 ends.append(end)
         rows.append(ends)
     width = max(len(r) for r in rows)
     return np.array([r + [NU] * (width - len(r)) for r in rows], dtype=np.int64)
-

@@ -1,5 +1,6 @@
 """The CasADi C code of a problem's model functions (``<name>_model.c/.h``): every symbol prefixed with the solver's
 name, CasADi's runtime helpers file-local, single precision where the solver is generated for float."""
+
 from __future__ import annotations
 
 import re
@@ -35,9 +36,15 @@ def _renamed(f: ca.Function, name: str) -> ca.Function:
 
 def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
     """The CasADi functions the C solver (and its harness) calls, by unprefixed name."""
-    funs = {"stage_first": ocp.first.fun, "stage_middle": ocp.middle.fun, "stage_last": ocp.last.fun,
-            "init_state": ocp.init_state, "theta_init": theta_init(ocp), "plan_clearance": ocp.plan_clearance,
-            "plant": plant_function(ocp.problem, ocp.road_params.samples)}
+    funs = {
+        "stage_first": ocp.first.fun,
+        "stage_middle": ocp.middle.fun,
+        "stage_last": ocp.last.fun,
+        "init_state": ocp.init_state,
+        "theta_init": theta_init(ocp),
+        "plan_clearance": ocp.plan_clearance,
+        "plant": plant_function(ocp.problem, ocp.road_params.samples),
+    }
     if ocp.fit is not None:
         funs.update(opp_points=ocp.fit.points)
         if not ocp.fit.n_edge:  # the fitted box is plain C (opp_fit.c: fit_box); the naive one's CasADi
@@ -45,9 +52,46 @@ def model_functions(ocp: Ocp) -> dict[str, ca.Function]:
     return funs
 
 
-C_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh",
-          "exp", "expm1", "log", "log1p", "log10", "log2", "pow", "sqrt", "cbrt", "hypot", "fabs", "fmin", "fmax",
-          "floor", "ceil", "round", "trunc", "fmod", "remainder", "copysign", "erf", "erfc", "fma", "lgamma", "tgamma")
+C_MATH = (
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "atan2",
+    "sinh",
+    "cosh",
+    "tanh",
+    "asinh",
+    "acosh",
+    "atanh",
+    "exp",
+    "expm1",
+    "log",
+    "log1p",
+    "log10",
+    "log2",
+    "pow",
+    "sqrt",
+    "cbrt",
+    "hypot",
+    "fabs",
+    "fmin",
+    "fmax",
+    "floor",
+    "ceil",
+    "round",
+    "trunc",
+    "fmod",
+    "remainder",
+    "copysign",
+    "erf",
+    "erfc",
+    "fma",
+    "lgamma",
+    "tgamma",
+)
 """The double functions of <math.h> (C99) that have a float counterpart ``<name>f``."""
 _C_MATH_CALL = re.compile(r"\b(" + "|".join(C_MATH) + r")(\s*\()")
 _C_DOUBLE_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)(?![\w.])")
@@ -72,8 +116,15 @@ def float_math(src: str) -> str:
 def write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
     """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
     funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
-    opts = {"with_header": True, "casadi_real": real, "casadi_int": "int", "prefix": f"{name}_",
-            "with_export": False, "verbose": False, "include_math": True}
+    opts = {
+        "with_header": True,
+        "casadi_real": real,
+        "casadi_int": "int",
+        "prefix": f"{name}_",
+        "with_export": False,
+        "verbose": False,
+        "include_math": True,
+    }
     with tempfile.TemporaryDirectory() as tmp:
         cg = ca.CodeGenerator(f"{name}_model.c", opts)
         for f in funs.values():
@@ -99,6 +150,10 @@ def write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]
     def most(key: str, least: int) -> int:
         return max(least, *(v for (_, k), v in sz.items() if k == key))
 
-    return {"sz_arg": most("ARG", 3), "sz_res": most("RES", 3), "sz_iw": most("IW", 1), "sz_w": most("W", 1),
-            "functions": [f"{name}_{k}" for k in funs]}
-
+    return {
+        "sz_arg": most("ARG", 3),
+        "sz_res": most("RES", 3),
+        "sz_iw": most("IW", 1),
+        "sz_w": most("W", 1),
+        "functions": [f"{name}_{k}" for k in funs],
+    }

@@ -1,6 +1,7 @@
 """The QP backend's share of a generated solver, by backend: its template ``templates/backends/<b>.c.j2``'s context
 (``codegen_context``) and its files in the folder (``write_files``). The backend's Python side (the reference's
 solver, its label, its library's restore for ``fcgen build``) is ``fcgen.backends.<b>``."""
+
 from __future__ import annotations
 
 from types import ModuleType

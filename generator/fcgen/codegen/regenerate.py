@@ -1,4 +1,5 @@
 """Keep checked-in solver folders (``generated/<preset>/``) equal to what the generator writes today."""
+
 from __future__ import annotations
 
 import filecmp
@@ -27,8 +28,7 @@ def compare(expected: Path, actual: Path) -> list[str]:
     """Differences between two solver folders: missing, extra and differing files."""
     exp, act = tracked_files(expected), tracked_files(actual)
     diffs = [f"missing {f}" for f in sorted(exp - act)] + [f"unexpected {f}" for f in sorted(act - exp)]
-    diffs += [f"differs {f}" for f in sorted(exp & act)
-              if not filecmp.cmp(expected / f, actual / f, shallow=False)]
+    diffs += [f"differs {f}" for f in sorted(exp & act) if not filecmp.cmp(expected / f, actual / f, shallow=False)]
     return diffs
 
 
@@ -50,6 +50,6 @@ def regenerate(root: Path | str, names: list[str] | None = None, check: bool = F
                 generate(preset(name), tmp)
                 result[name] = compare(Path(tmp), target)
         else:
-            generate(preset(name), target, check_edits=False)   # checked-in folders: git holds any edit
+            generate(preset(name), target, check_edits=False)  # checked-in folders: git holds any edit
             result[name] = []
     return result

@@ -2,6 +2,7 @@
 
 A module of its own so that ``fcgen.targets`` (linker scripts) renders without importing the generator.
 """
+
 from __future__ import annotations
 
 import importlib.resources
@@ -25,8 +26,14 @@ def csrc_dir() -> Path:
 
 def environment() -> jinja2.Environment:
     """The one Jinja2 environment of the templates (strict undefined, no autoescape, trimmed blocks)."""
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(templates_dir())), undefined=jinja2.StrictUndefined,
-                             keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, autoescape=False)
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(templates_dir())),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
     env.filters["dirname"] = lambda p: str(p).rsplit("/", 1)[0] if "/" in str(p) else "."
     return env
 

@@ -1,6 +1,7 @@
 """CommonRoad scenarios in, CommonRoad solutions out (docs/commonroad.md): a scenario's lanelet network becomes fcgen's
 road with its drivable band, its recorded traffic the opponents' predictions, its planning problem the ego's start;
 a run is judged by the drivability checker beside fcgen's own check and written as a solution file."""
+
 import warnings
 
 # commonroad-io's generated protobuf modules warn on import (deprecated descriptor calls)
@@ -13,5 +14,15 @@ from .plot import plot_run
 from .scenario import CrScenario, load_scenario
 from .traffic import CrObstacle, ScenarioRefused, opponent_horizon, select_opponents
 
-__all__ = ["CrObstacle", "CrScenario", "ScenarioRefused", "drivability_verdict", "fcgen_collisions",
-           "load_scenario", "opponent_horizon", "plot_run", "select_opponents", "write_solution"]
+__all__ = [
+    "CrObstacle",
+    "CrScenario",
+    "ScenarioRefused",
+    "drivability_verdict",
+    "fcgen_collisions",
+    "load_scenario",
+    "opponent_horizon",
+    "plot_run",
+    "select_opponents",
+    "write_solution",
+]

@@ -5,6 +5,7 @@ CommonRoad solution file.
 
 ``ego_centres`` (K + 1, 3): the ego chassis' centre pose [x, y, phi] at steps ``sc.first_step + j``.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -30,6 +31,7 @@ def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float
     import commonroad_dc.pycrcc as pycrcc
     from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
     from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_checker
+
     cc = create_collision_checker(sc.scenario)
     _, boundary = create_road_boundary_obstacle(sc.scenario, method="obb_rectangles")
     hit = dep = None
@@ -41,8 +43,12 @@ def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float
             dep = j
         if hit is not None and dep is not None:
             break
-    return {"collision": hit is not None, "collision_step": hit, "road_departure": dep is not None,
-            "departure_step": dep}
+    return {
+        "collision": hit is not None,
+        "collision_step": hit,
+        "road_departure": dep is not None,
+        "departure_step": dep,
+    }
 
 
 def penetrations(sc, ego_centres: np.ndarray, length: float, width: float) -> np.ndarray:
@@ -66,8 +72,12 @@ def fcgen_verdict(sc, pen: np.ndarray) -> dict:
     hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
     first = int(hit[0]) if hit.size else None
     who = sc.obstacles[int(np.flatnonzero(pen[first] > 0.0)[0])].id if first is not None else None
-    return {"collision": first is not None, "collision_step": first, "obstacle_id": who,
-            "depth": float(pen.max(initial=0.0))}
+    return {
+        "collision": first is not None,
+        "collision_step": first,
+        "obstacle_id": who,
+        "depth": float(pen.max(initial=0.0)),
+    }
 
 
 def fcgen_collisions(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
@@ -79,16 +89,34 @@ def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:
     """A CommonRoad solution file of the run: planning problem ``sc.planning_problem_id``, kinematic single-track
     model (KS: its position is the rear axle, as fcgen's state), vehicle type BMW 320i, cost function SM1;
     ``ego_states`` (K + 1, 5): rear axle [x, y, phi], speed, steering angle per sample."""
-    from commonroad.common.solution import (CommonRoadSolutionWriter, CostFunction, PlanningProblemSolution,
-                                            Solution, VehicleModel, VehicleType)
+    from commonroad.common.solution import (
+        CommonRoadSolutionWriter,
+        CostFunction,
+        PlanningProblemSolution,
+        Solution,
+        VehicleModel,
+        VehicleType,
+    )
     from commonroad.scenario.state import KSState
     from commonroad.scenario.trajectory import Trajectory
-    states = [KSState(time_step=sc.first_step + j, position=np.array([x[0], x[1]]), orientation=float(x[2]),
-                      velocity=float(x[3]), steering_angle=float(x[4]))
-              for j, x in enumerate(np.asarray(ego_states, dtype=float))]
-    pps = PlanningProblemSolution(planning_problem_id=sc.planning_problem_id, vehicle_model=VehicleModel.KS,
-                                  vehicle_type=VehicleType.BMW_320i, cost_function=CostFunction.SM1,
-                                  trajectory=Trajectory(sc.first_step, states))
+
+    states = [
+        KSState(
+            time_step=sc.first_step + j,
+            position=np.array([x[0], x[1]]),
+            orientation=float(x[2]),
+            velocity=float(x[3]),
+            steering_angle=float(x[4]),
+        )
+        for j, x in enumerate(np.asarray(ego_states, dtype=float))
+    ]
+    pps = PlanningProblemSolution(
+        planning_problem_id=sc.planning_problem_id,
+        vehicle_model=VehicleModel.KS,
+        vehicle_type=VehicleType.BMW_320i,
+        cost_function=CostFunction.SM1,
+        trajectory=Trajectory(sc.first_step, states),
+    )
     sol = Solution(sc.scenario.scenario_id, [pps])
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -1,5 +1,6 @@
 """A picture of a run on the scenario's lanelet network: CommonRoad's own renderer draws the lanes; ours the obstacles
 and the ego at a few moments (colour), the ego's path, fcgen's reference path and its drivable band."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,14 +11,19 @@ import numpy as np
 def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) -> Path:
     """Write the PNG ``path``: the network, the obstacles and the ego at ``moments`` evenly spaced samples."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from commonroad.visualization.mp_renderer import MPRenderer
 
     c = np.asarray(ego_centres, dtype=float)
     pad = 40.0
-    lim = [float(c[:, 0].min() - pad), float(c[:, 0].max() + pad), float(c[:, 1].min() - pad),
-           float(c[:, 1].max() + pad)]
+    lim = [
+        float(c[:, 0].min() - pad),
+        float(c[:, 0].max() + pad),
+        float(c[:, 1].min() - pad),
+        float(c[:, 1].max() + pad),
+    ]
     fig, ax = plt.subplots(figsize=(12, 4.5))
     rnd = MPRenderer(ax=ax, plot_limits=lim)
     sc.scenario.lanelet_network.draw(rnd)
@@ -30,8 +36,15 @@ def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) ->
             if p is not None:
                 ax.add_patch(_rect(p, ob.length, ob.width, colours[k], 0.35, zorder=30))
         ax.add_patch(_rect(c[j], sc.ego_length, sc.ego_width, "red", 0.8, zorder=40))
-        ax.annotate(f"{j * sc.dt:.1f} s", (c[j, 0], c[j, 1]), xytext=(0, 8), textcoords="offset points",
-                    fontsize=7, color="red", zorder=41)
+        ax.annotate(
+            f"{j * sc.dt:.1f} s",
+            (c[j, 0], c[j, 1]),
+            xytext=(0, 8),
+            textcoords="offset points",
+            fontsize=7,
+            color="red",
+            zorder=41,
+        )
     ax.plot(sc.road.gx, sc.road.gy, "k--", lw=0.6, zorder=35, label="fcgen's reference path")
     for edge, lab in ((sc.road.n_min, "drivable band"), (sc.road.n_max, None)):
         ex, ey, _ = sc.road.to_cartesian(sc.road.s, edge, np.zeros_like(edge))
@@ -51,9 +64,11 @@ def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) ->
 
 def _rect(pose, length, width, colour, alpha, zorder):
     import matplotlib.patches as mp
+
     x, y, phi = pose
     cs, sn = np.cos(phi), np.sin(phi)
-    corners = np.array([[-length / 2, -width / 2], [length / 2, -width / 2], [length / 2, width / 2],
-                        [-length / 2, width / 2]])
+    corners = np.array(
+        [[-length / 2, -width / 2], [length / 2, -width / 2], [length / 2, width / 2], [-length / 2, width / 2]]
+    )
     rot = corners @ np.array([[cs, sn], [-sn, cs]]) + np.array([x, y])
     return mp.Polygon(rot, closed=True, facecolor=colour, edgecolor="k", lw=0.5, alpha=alpha, zorder=zorder)

@@ -20,6 +20,7 @@ Rules (tested in tests/test_commonroad.py):
   ``BAND_STEP`` and bisecting to ``BAND_TOL``; where the centre itself is on no lanelet (the extensions) the nearest
   sample's band is held. A lane that ends narrows the band where it ends.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,13 +30,13 @@ import numpy as np
 from ..road import Road
 from .traffic import ScenarioRefused
 
-MAX_DEVIATION = 1.0   # m: the integrated centre line against the lanelets' (else refused)
-BAND_STEP = 0.5       # m: the band's outward steps ...
-BAND_TOL = 0.02       # m: ... then bisection to this
-BAND_MAX = 30.0       # m: the farthest a band edge is looked for
-HOLD_SAMPLES = 10     # the extension's curvature: the median over the path's last samples
-END_TRIM = 4          # samples left out at either end of the spline (its end effects), extended over instead
-SMOOTHING = 0.01      # m: the smoothing spline may leave a vertex by about this much (root mean square)
+MAX_DEVIATION = 1.0  # m: the integrated centre line against the lanelets' (else refused)
+BAND_STEP = 0.5  # m: the band's outward steps ...
+BAND_TOL = 0.02  # m: ... then bisection to this
+BAND_MAX = 30.0  # m: the farthest a band edge is looked for
+HOLD_SAMPLES = 10  # the extension's curvature: the median over the path's last samples
+END_TRIM = 4  # samples left out at either end of the spline (its end effects), extended over instead
+SMOOTHING = 0.01  # m: the smoothing spline may leave a vertex by about this much (root mean square)
 
 
 def initial_lanelet(net, xy, heading: float) -> int:
@@ -115,10 +116,11 @@ def smooth_heading(p: np.ndarray, ds: float) -> tuple[np.ndarray, np.ndarray, np
     """Samples every ``ds`` of arc length of the polyline ``p``: points (M, 2), heading and curvature of a smoothing
     spline through it (scipy ``splprep``, about ``SMOOTHING`` off the vertices)."""
     from scipy.interpolate import splev, splprep
+
     seg = np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1]))
     u = np.r_[0.0, np.cumsum(seg)]
     k = min(3, len(p) - 1)
-    tck, _ = splprep([p[:, 0], p[:, 1]], u=u, k=k, s=len(p) * SMOOTHING ** 2)
+    tck, _ = splprep([p[:, 0], p[:, 1]], u=u, k=k, s=len(p) * SMOOTHING**2)
     # arc length of the spline on a fine grid, then samples every ds
     fine = np.linspace(0.0, u[-1], max(2, int(u[-1] / 0.1) + 1))
     dx, dy = splev(fine, tck, der=1)
@@ -128,26 +130,27 @@ def smooth_heading(p: np.ndarray, ds: float) -> tuple[np.ndarray, np.ndarray, np
     x, y = splev(ui, tck)
     dx, dy = splev(ui, tck, der=1)
     heading = np.unwrap(np.arctan2(dy, dx))
-    kappa = np.gradient(heading, ds) if len(heading) > 1 else np.zeros(1)   # integrates back to these headings
+    kappa = np.gradient(heading, ds) if len(heading) > 1 else np.zeros(1)  # integrates back to these headings
     return np.stack([x, y], axis=1), heading, kappa
 
 
-def build_road(net, chain: list[int], start_xy, ds: float, behind: float, horizon: float, ahead: float
-               ) -> tuple[Road, dict]:
+def build_road(
+    net, chain: list[int], start_xy, ds: float, behind: float, horizon: float, ahead: float
+) -> tuple[Road, dict]:
     """fcgen's road along the chain with its band, reaching ``behind`` m behind and ``ahead`` m ahead of the ego's
     start (extended as the module docstring says: the last curvature for up to ``horizon`` m, then straight); and
     facts about it."""
     poly = centre_polyline(net, chain)
     pts, heading, kappa = smooth_heading(poly, ds)
-    if len(pts) > 4 * END_TRIM:   # a spline's ends bend away (end effects): the extensions replace them
+    if len(pts) > 4 * END_TRIM:  # a spline's ends bend away (end effects): the extensions replace them
         pts, heading, kappa = pts[END_TRIM:-END_TRIM], heading[END_TRIM:-END_TRIM], kappa[END_TRIM:-END_TRIM]
     # where the ego starts along the path
     i0 = int(np.argmin(np.hypot(pts[:, 0] - start_xy[0], pts[:, 1] - start_xy[1])))
     s_start = i0 * ds
-    n_back = max(0, int(math.ceil((behind - s_start) / ds)))   # straight extension behind
+    n_back = max(0, int(math.ceil((behind - s_start) / ds)))  # straight extension behind
     n_more = max(1, int(math.ceil((ahead - (len(pts) - 1 - i0) * ds) / ds)))
     n_bend = min(n_more, int(math.ceil(horizon / ds)))
-    last = float(np.median(kappa[-min(len(kappa), HOLD_SAMPLES):]))   # a spline's end is its least certain part
+    last = float(np.median(kappa[-min(len(kappa), HOLD_SAMPLES) :]))  # a spline's end is its least certain part
     kap = np.r_[np.zeros(n_back), kappa, np.full(n_bend, last), np.zeros(n_more - n_bend)]
     lo, hi = n_back, n_back + len(pts)
     # the start pose that lays the integrated centre line best onto the path (least squares, rotation and shift:
@@ -157,13 +160,20 @@ def build_road(net, chain: list[int], start_xy, ds: float, behind: float, horizo
     road = Road.from_curvature(kap, ds, s0=-(s_start + n_back * ds), x0=(shift[0], shift[1], rot))
     dev = float(np.max(np.hypot(road.gx[lo:hi] - pts[:, 0], road.gy[lo:hi] - pts[:, 1])))
     if dev > MAX_DEVIATION:
-        raise ScenarioRefused(f"the reference path's integrated centre line leaves the lanelets' by {dev:.2f} m "
-                              f"(allowed {MAX_DEVIATION} m)")
+        raise ScenarioRefused(
+            f"the reference path's integrated centre line leaves the lanelets' by {dev:.2f} m "
+            f"(allowed {MAX_DEVIATION} m)"
+        )
     n_min, n_max = drivable_band(net, road)
     road = Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, n_min, n_max)
-    info = {"lanelets": [int(i) for i in chain], "extended_behind_m": n_back * ds,
-            "extended_ahead_m": n_more * ds, "path_length_m": (len(pts) - 1) * ds,
-            "path_ahead_m": (len(pts) - 1 - i0) * ds, "max_deviation_m": dev}
+    info = {
+        "lanelets": [int(i) for i in chain],
+        "extended_behind_m": n_back * ds,
+        "extended_ahead_m": n_more * ds,
+        "path_length_m": (len(pts) - 1) * ds,
+        "path_ahead_m": (len(pts) - 1 - i0) * ds,
+        "max_deviation_m": dev,
+    }
     return road, info
 
 
@@ -185,9 +195,10 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
     """Per road sample: the right and left edges (n) of the same-direction lanelets along the normal."""
     m = road.size
     nx, ny = -np.sin(road.phi), np.cos(road.phi)
-    inside_centre = [bool(ids) and _same_direction(net, ids, road.phi[i], (road.gx[i], road.gy[i]))
-                     for i, ids in enumerate(net.find_lanelet_by_position(
-                         [np.array([road.gx[i], road.gy[i]]) for i in range(m)]))]
+    inside_centre = [
+        bool(ids) and _same_direction(net, ids, road.phi[i], (road.gx[i], road.gy[i]))
+        for i, ids in enumerate(net.find_lanelet_by_position([np.array([road.gx[i], road.gy[i]]) for i in range(m)]))
+    ]
 
     def inside(i: int, n: float) -> bool:
         p = np.array([road.gx[i] + n * nx[i], road.gy[i] + n * ny[i]])
@@ -198,7 +209,7 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
         n = 0.0
         while abs(n) < BAND_MAX and inside(i, n + sign * BAND_STEP):
             n += sign * BAND_STEP
-        a, b = n, n + sign * BAND_STEP   # a inside, b outside
+        a, b = n, n + sign * BAND_STEP  # a inside, b outside
         while abs(b - a) > BAND_TOL:
             c = 0.5 * (a + b)
             if inside(i, c):
@@ -214,7 +225,7 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
     ok = np.flatnonzero(np.isfinite(lo))
     if not ok.size:
         raise ScenarioRefused("the reference path lies on no lanelet")
-    for i in np.flatnonzero(~np.isfinite(lo)):   # held from the nearest sample on the lanelets
+    for i in np.flatnonzero(~np.isfinite(lo)):  # held from the nearest sample on the lanelets
         j = ok[np.argmin(np.abs(ok - i))]
         lo[i], hi[i] = lo[j], hi[j]
     return lo, hi

@@ -9,6 +9,7 @@ obstacles; or refuse it with one line naming the reason.
 - **Samples** (``samples_source``): to the end of the goal's time interval, else to the last recorded obstacle step,
   at least 1.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,37 +30,48 @@ class CrScenario:
 
     name: str
     dt: float
-    first_step: int            # the planning problem's initial time step: closed-loop sample j is step first_step + j
+    first_step: int  # the planning problem's initial time step: closed-loop sample j is step first_step + j
     samples: int
-    road: Road                 # with the drivable band n_min / n_max
-    x0: np.ndarray             # ego Frenet state of the rear axle [s, n, alpha, v, delta]
+    road: Road  # with the drivable band n_min / n_max
+    x0: np.ndarray  # ego Frenet state of the rear axle [s, n, alpha, v, delta]
     v_ref: float
-    v_ref_source: str          # "speed limit", "goal velocity" or "initial speed"
-    samples_source: str        # "goal time" or "recording"
+    v_ref_source: str  # "speed limit", "goal velocity" or "initial speed"
+    samples_source: str  # "goal time" or "recording"
     obstacles: tuple[CrObstacle, ...]
     ego_length: float
     ego_width: float
     planning_problem_id: int
     road_info: dict = field(default_factory=dict)
-    scenario: object = None    # the commonroad-io Scenario (checker, writer, renderer)
+    scenario: object = None  # the commonroad-io Scenario (checker, writer, renderer)
     planning_problem: object = None
-    file: str = ""             # the XML's file name and sha256 (a suite keeps a copy; regress finds it by them)
+    file: str = ""  # the XML's file name and sha256 (a suite keeps a copy; regress finds it by them)
     sha256: str = ""
 
 
-def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, ego: Vehicle, ds: float = 2.0,
-                  horizon_s: float = 4.0, v_max: float = 40.0, window_m: float = 280.0,
-                  behind_m: float = 50.0) -> CrScenario:
+def load_scenario(
+    path: str | Path,
+    planning_problem_id: int | None = None,
+    *,
+    ego: Vehicle,
+    ds: float = 2.0,
+    horizon_s: float = 4.0,
+    v_max: float = 40.0,
+    window_m: float = 280.0,
+    behind_m: float = 50.0,
+) -> CrScenario:
     """Read ``path`` (CommonRoad XML) for an ego ``ego`` on fcgen's road grid ``ds``. The reference path must reach
     the horizon (``horizon_s`` at the larger of the initial and the reference speed) ahead of the ego's start; the road
     reaches as far as the run can take the ego at ``v_max`` plus the solver's road ``window_m``. Raises
     ``ScenarioRefused``."""
     from commonroad.common.file_reader import CommonRoadFileReader
+
     try:
         scenario, pps = CommonRoadFileReader(str(path)).open()
-    except Exception as exc:   # a file commonroad-io cannot read
-        raise ScenarioRefused(f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
-                              f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    except Exception as exc:  # a file commonroad-io cannot read
+        raise ScenarioRefused(
+            f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        ) from None
     name = str(scenario.scenario_id)
     problems = pps.planning_problem_dict
     if not problems:
@@ -70,9 +82,12 @@ def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, e
         raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
     pp = problems[planning_problem_id]
     dt = float(scenario.dt)
-    obstacles = tuple(obstacle_from(ob, dt) for ob in
-                      sorted(list(scenario.dynamic_obstacles) + list(scenario.static_obstacles),
-                             key=lambda o: o.obstacle_id))
+    obstacles = tuple(
+        obstacle_from(ob, dt)
+        for ob in sorted(
+            list(scenario.dynamic_obstacles) + list(scenario.static_obstacles), key=lambda o: o.obstacle_id
+        )
+    )
     st = pp.initial_state
     heading = float(st.orientation)
     centre = np.asarray(st.position, dtype=float)
@@ -90,14 +105,35 @@ def load_scenario(path: str | Path, planning_problem_id: int | None = None, *, e
     chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
     road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
     if info["path_ahead_m"] < horizon_m:
-        raise ScenarioRefused(f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
-                              f"shorter than the horizon's {horizon_m:.0f} m")
+        raise ScenarioRefused(
+            f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
+            f"shorter than the horizon's {horizon_m:.0f} m"
+        )
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
     import hashlib
+
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    return CrScenario(name, dt, step0, samples, road, x0, v_ref, v_src, s_src, obstacles, ego.l_ch, ego.w_ch,
-                      int(planning_problem_id), info, scenario, pp, Path(path).name, digest)
+    return CrScenario(
+        name,
+        dt,
+        step0,
+        samples,
+        road,
+        x0,
+        v_ref,
+        v_src,
+        s_src,
+        obstacles,
+        ego.l_ch,
+        ego.w_ch,
+        int(planning_problem_id),
+        info,
+        scenario,
+        pp,
+        Path(path).name,
+        digest,
+    )
 
 
 def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:

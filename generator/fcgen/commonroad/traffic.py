@@ -16,6 +16,7 @@ Rules (tested in tests/test_commonroad.py):
 - **Empty slots**: a neutral opponent, a 4 m x 2 m box 1 km beyond the road's bounding box (south-west of it),
   heading 0, standing: it never constrains the plan (the conventional fit leaves it out).
 """
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,8 @@ class CrObstacle:
     width: float
     first_step: int
     last_step: int
-    centres: np.ndarray        # (steps, 3): x, y, orientation of the rectangle's centre
-    last_velocity: float       # m/s along the last heading (the extrapolation's)
+    centres: np.ndarray  # (steps, 3): x, y, orientation of the rectangle's centre
+    last_velocity: float  # m/s along the last heading (the extrapolation's)
     dt: float
 
     def present(self, step: int) -> bool:
@@ -66,6 +67,7 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
     """A commonroad-io static or dynamic obstacle as a ``CrObstacle`` (refused unless a rectangle)."""
     from commonroad.geometry.shape import Rectangle
     from commonroad.scenario.obstacle import StaticObstacle
+
     shape = ob.obstacle_shape
     if not isinstance(shape, Rectangle):
         raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle")
@@ -77,13 +79,15 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
     steps = [int(s.time_step) for s in states]
     if steps != list(range(steps[0], steps[0] + len(steps))):
         raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its recorded time steps are not consecutive")
-    centres = np.array([[float(s.position[0]), float(s.position[1]), float(getattr(s, "orientation", 0.0) or 0.0)]
-                        for s in states])
+    centres = np.array(
+        [[float(s.position[0]), float(s.position[1]), float(getattr(s, "orientation", 0.0) or 0.0)] for s in states]
+    )
     v = getattr(states[-1], "velocity", None)
     if v is None:
         v = (float(np.hypot(*(centres[-1, :2] - centres[-2, :2]))) / dt) if len(states) > 1 else 0.0
-    return CrObstacle(int(ob.obstacle_id), static, float(shape.length), float(shape.width), steps[0], steps[-1],
-                      centres, float(v), dt)
+    return CrObstacle(
+        int(ob.obstacle_id), static, float(shape.length), float(shape.width), steps[0], steps[-1], centres, float(v), dt
+    )
 
 
 def select_opponents(obstacles, step: int, ego_xy, n_slots: int) -> tuple[int | None, ...]:

@@ -5,14 +5,22 @@ Every value is checked in ``__post_init__`` so a bad problem fails at the earlie
 package (vehicles, horizon and road window, costs, bounds, tracking reference, formulations, obstacle models, QP
 options, plan check, the problem); ``from fcgen.dsl import X`` is the way to use them.
 """
+
 from __future__ import annotations
 
 from .bounds import Bounds
 from .costs import SoftPenalties, Weights
 from .formulations import OVERAPPROX, Conventional, DirectElimination, Formulation, Lifted
 from .horizon import Horizon, RoadWindow
-from .obstacle_models import (CIRCLE_RADII, ELLIPSE_SHAPES, CoveringCircles, Ellipse, ObstacleModel,
-                              SeparatingHyperplane, circles_cover)
+from .obstacle_models import (
+    CIRCLE_RADII,
+    ELLIPSE_SHAPES,
+    CoveringCircles,
+    Ellipse,
+    ObstacleModel,
+    SeparatingHyperplane,
+    circles_cover,
+)
 from .plan_check import PlanCheck
 from .problem import Problem, describe
 from .qp_options import BACKENDS, RTI_BUDGET_DEFAULT, QpOptions
@@ -21,8 +29,32 @@ from .validation import ProblemError
 from .vehicle import Opponents, Vehicle, Wind
 
 __all__ = [
-    "BACKENDS", "CIRCLE_RADII", "ELLIPSE_SHAPES", "OVERAPPROX", "RTI_BUDGET_DEFAULT",
-    "Bounds", "Conventional", "CoveringCircles", "DirectElimination", "Ellipse", "Formulation", "Horizon", "Lifted",
-    "ObstacleModel", "Opponents", "PlanCheck", "Problem", "ProblemError", "QpOptions", "Reference", "RoadWindow",
-    "SeparatingHyperplane", "SoftPenalties", "Vehicle", "Weights", "Wind", "circles_cover", "describe",
+    "BACKENDS",
+    "CIRCLE_RADII",
+    "ELLIPSE_SHAPES",
+    "OVERAPPROX",
+    "RTI_BUDGET_DEFAULT",
+    "Bounds",
+    "Conventional",
+    "CoveringCircles",
+    "DirectElimination",
+    "Ellipse",
+    "Formulation",
+    "Horizon",
+    "Lifted",
+    "ObstacleModel",
+    "Opponents",
+    "PlanCheck",
+    "Problem",
+    "ProblemError",
+    "QpOptions",
+    "Reference",
+    "RoadWindow",
+    "SeparatingHyperplane",
+    "SoftPenalties",
+    "Vehicle",
+    "Weights",
+    "Wind",
+    "circles_cover",
+    "describe",
 ]

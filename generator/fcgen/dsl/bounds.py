@@ -1,4 +1,5 @@
 """Box bounds of the states and inputs, the road band and the lateral acceleration (paper Table I)."""
+
 from __future__ import annotations
 
 import math
@@ -33,13 +34,33 @@ class Bounds:
     def __post_init__(self) -> None:
         for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
             positive(f"bounds.{f}", getattr(self, f))
-        check(0 <= finite("bounds.a_lat_margin", self.a_lat_margin) < self.a_lat_max, "bounds.a_lat_margin",
-              self.a_lat_margin, f"[0, a_lat_max = {self.a_lat_max}) m/s^2")
-        check(0 < finite("bounds.alpha_max", self.alpha_max) < math.pi / 2,
-              "bounds.alpha_max", self.alpha_max, "(0, pi/2)")
-        check(0 <= finite("bounds.v_min", self.v_min) < finite("bounds.v_max", self.v_max),
-              "bounds.v_min", self.v_min, f"0 <= v_min < v_max = {self.v_max}")
-        check(self.v_min <= finite("bounds.v_N_max", self.v_N_max) <= self.v_max,
-              "bounds.v_N_max", self.v_N_max, f"[v_min, v_max] = [{self.v_min}, {self.v_max}]")
-        check(finite("bounds.n_min", self.n_min) < finite("bounds.n_max", self.n_max),
-              "bounds.n_min", self.n_min, f"< n_max = {self.n_max}")
+        check(
+            0 <= finite("bounds.a_lat_margin", self.a_lat_margin) < self.a_lat_max,
+            "bounds.a_lat_margin",
+            self.a_lat_margin,
+            f"[0, a_lat_max = {self.a_lat_max}) m/s^2",
+        )
+        check(
+            0 < finite("bounds.alpha_max", self.alpha_max) < math.pi / 2,
+            "bounds.alpha_max",
+            self.alpha_max,
+            "(0, pi/2)",
+        )
+        check(
+            0 <= finite("bounds.v_min", self.v_min) < finite("bounds.v_max", self.v_max),
+            "bounds.v_min",
+            self.v_min,
+            f"0 <= v_min < v_max = {self.v_max}",
+        )
+        check(
+            self.v_min <= finite("bounds.v_N_max", self.v_N_max) <= self.v_max,
+            "bounds.v_N_max",
+            self.v_N_max,
+            f"[v_min, v_max] = [{self.v_min}, {self.v_max}]",
+        )
+        check(
+            finite("bounds.n_min", self.n_min) < finite("bounds.n_max", self.n_max),
+            "bounds.n_min",
+            self.n_min,
+            f"< n_max = {self.n_max}",
+        )

@@ -1,4 +1,5 @@
 """The cost's weights: least-squares tracking weights and the soft rows' slack penalties."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -18,7 +19,6 @@ class Weights:
         vector("weights.q", self.q, 5)
         vector("weights.q_N", self.q_N, 5)
         vector("weights.r", self.r, 2)
-
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
 """The three NMPC formulations of the paper (Table III): conventional, direct elimination, lifted."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -23,8 +24,12 @@ class Conventional:
     def __post_init__(self) -> None:
         check(self.overapprox in OVERAPPROX, "formulation.overapprox", self.overapprox, f"one of {OVERAPPROX}")
         nonneg("formulation.margin", self.margin)
-        check(0.25 <= finite("formulation.points_per_metre", self.points_per_metre) <= 20,
-              "formulation.points_per_metre", self.points_per_metre, "[0.25, 20] per m")
+        check(
+            0.25 <= finite("formulation.points_per_metre", self.points_per_metre) <= 20,
+            "formulation.points_per_metre",
+            self.points_per_metre,
+            "[0.25, 20] per m",
+        )
 
     @property
     def frenet_obstacles(self) -> bool:

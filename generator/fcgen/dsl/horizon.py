@@ -1,4 +1,5 @@
 """What the solver looks ahead over: the shooting grid in time (``Horizon``) and the road window in space."""
+
 from __future__ import annotations
 
 import math
@@ -24,15 +25,31 @@ class Horizon:
     fine: int = 0
 
     def __post_init__(self) -> None:
-        check(isinstance(self.N, int) and not isinstance(self.N, bool) and 1 <= self.N <= 500,
-              "horizon.N", self.N, "an integer in [1, 500]")
+        check(
+            isinstance(self.N, int) and not isinstance(self.N, bool) and 1 <= self.N <= 500,
+            "horizon.N",
+            self.N,
+            "an integer in [1, 500]",
+        )
         check(finite("horizon.dt", self.dt) > 0 and self.dt <= 10, "horizon.dt", self.dt, "(0, 10] s")
-        check(isinstance(self.stride, int) and not isinstance(self.stride, bool) and 1 <= self.stride <= 10,
-              "horizon.stride", self.stride, "an integer in [1, 10] (samples per coarse shooting interval)")
-        check(self.dt * self.stride <= 10, "horizon.stride", self.stride,
-              f"at most {int(10 // self.dt)} (dt * stride <= 10 s)")
-        check(isinstance(self.fine, int) and not isinstance(self.fine, bool) and 0 <= self.fine,
-              "horizon.fine", self.fine, "an integer >= 0 (intervals of one sample before the coarse ones)")
+        check(
+            isinstance(self.stride, int) and not isinstance(self.stride, bool) and 1 <= self.stride <= 10,
+            "horizon.stride",
+            self.stride,
+            "an integer in [1, 10] (samples per coarse shooting interval)",
+        )
+        check(
+            self.dt * self.stride <= 10,
+            "horizon.stride",
+            self.stride,
+            f"at most {int(10 // self.dt)} (dt * stride <= 10 s)",
+        )
+        check(
+            isinstance(self.fine, int) and not isinstance(self.fine, bool) and 0 <= self.fine,
+            "horizon.fine",
+            self.fine,
+            "an integer >= 0 (intervals of one sample before the coarse ones)",
+        )
 
     @property
     def n_fine(self) -> int:
@@ -81,7 +98,6 @@ class Horizon:
         return self.dt * self.offsets[-1]
 
 
-
 @dataclass(frozen=True)
 class RoadWindow:
     """The road the solver sees at run time: samples with spacing ds, at most ``samples`` of them."""
@@ -91,7 +107,9 @@ class RoadWindow:
 
     def __post_init__(self) -> None:
         check(0.1 <= finite("road.ds", self.ds) <= 20, "road.ds", self.ds, "[0.1, 20] m")
-        check(finite("road.length", self.length) >= 4 * self.ds, "road.length", self.length, f">= 4 ds = {4*self.ds} m")
+        check(
+            finite("road.length", self.length) >= 4 * self.ds, "road.length", self.length, f">= 4 ds = {4 * self.ds} m"
+        )
 
     @property
     def samples(self) -> int:

@@ -1,4 +1,5 @@
 """The obstacle models: an ellipse, covering circles, a separating hyperplane per opponent and stage."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -44,8 +45,12 @@ class CoveringCircles:
         check(self.radius in CIRCLE_RADII, "obstacles.radius", self.radius, f"one of {CIRCLE_RADII}")
         check(isinstance(self.n, int) and 1 <= self.n <= 20, "obstacles.n", self.n, "an integer in [1, 20]")
         if self.n_ego is not None:
-            check(isinstance(self.n_ego, int) and 1 <= self.n_ego <= 20, "obstacles.n_ego", self.n_ego,
-                  "an integer in [1, 20]")
+            check(
+                isinstance(self.n_ego, int) and 1 <= self.n_ego <= 20,
+                "obstacles.n_ego",
+                self.n_ego,
+                "an integer in [1, 20]",
+            )
 
     @property
     def ego_circles(self) -> int:
@@ -71,8 +76,7 @@ class SeparatingHyperplane:
     kind: str = field(default="separating_hyperplane", init=False, repr=False)
 
     def __post_init__(self) -> None:
-        check(0.0 <= finite("obstacles.margin", self.margin) <= 2.0, "obstacles.margin", self.margin,
-              "[0, 2] m")
+        check(0.0 <= finite("obstacles.margin", self.margin) <= 2.0, "obstacles.margin", self.margin, "[0, 2] m")
         check(0.0 <= finite("obstacles.anchor", self.anchor) <= 1.0, "obstacles.anchor", self.anchor, "[0, 1]")
 
 

@@ -1,4 +1,5 @@
 """The check of each feedback's plan against the opponents' true rectangles, its reaction and the a_lat guard."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -28,6 +29,10 @@ class PlanCheck:
     a_lat_guard: bool = True
 
     def __post_init__(self) -> None:
-        check(type(self.react_stages) is int and 0 <= self.react_stages <= 500, "plan_check.react_stages",
-              self.react_stages, "an integer in [0, 500] (0: report only)")
+        check(
+            type(self.react_stages) is int and 0 <= self.react_stages <= 500,
+            "plan_check.react_stages",
+            self.react_stages,
+            "an integer in [0, 500] (0: report only)",
+        )
         check(type(self.a_lat_guard) is bool, "plan_check.a_lat_guard", self.a_lat_guard, "True or False")

@@ -1,4 +1,5 @@
 """The complete problem that composes the parts; what ``fcgen generate`` turns into a C solver."""
+
 from __future__ import annotations
 
 import math
@@ -42,34 +43,70 @@ class Problem:
     plan_check: PlanCheck = PlanCheck()
 
     def __post_init__(self) -> None:
-        check(isinstance(self.name, str) and bool(_NAME.match(self.name)), "name", self.name,
-              "a C identifier prefix: lower case letter, then [a-z0-9_], at most 31 characters")
+        check(
+            isinstance(self.name, str) and bool(_NAME.match(self.name)),
+            "name",
+            self.name,
+            "a C identifier prefix: lower case letter, then [a-z0-9_], at most 31 characters",
+        )
         clash = name_clash(self.name)
         if clash:
-            raise ProblemError(f"name = {self.name!r} is invalid: it is {clash}; allowed a prefix of C symbols that "
-                               f"is no C keyword or reserved name and clashes with no OSQP, CasADi or C library symbol")
-        check(isinstance(self.formulation, (Conventional, DirectElimination, Lifted)), "formulation",
-              self.formulation, "Conventional(), DirectElimination() or Lifted()")
-        check(isinstance(self.obstacles, (Ellipse, CoveringCircles, SeparatingHyperplane)), "obstacles",
-              self.obstacles, "Ellipse(), CoveringCircles(n) or SeparatingHyperplane()")
-        for f, t in (("ego", Vehicle), ("opponents", Opponents), ("wind", Wind), ("horizon", Horizon),
-                     ("weights", Weights), ("reference", Reference), ("bounds", Bounds),
-                     ("soft", SoftPenalties), ("qp", QpOptions), ("road", RoadWindow),
-                     ("plan_check", PlanCheck)):
+            raise ProblemError(
+                f"name = {self.name!r} is invalid: it is {clash}; allowed a prefix of C symbols that "
+                f"is no C keyword or reserved name and clashes with no OSQP, CasADi or C library symbol"
+            )
+        check(
+            isinstance(self.formulation, (Conventional, DirectElimination, Lifted)),
+            "formulation",
+            self.formulation,
+            "Conventional(), DirectElimination() or Lifted()",
+        )
+        check(
+            isinstance(self.obstacles, (Ellipse, CoveringCircles, SeparatingHyperplane)),
+            "obstacles",
+            self.obstacles,
+            "Ellipse(), CoveringCircles(n) or SeparatingHyperplane()",
+        )
+        for f, t in (
+            ("ego", Vehicle),
+            ("opponents", Opponents),
+            ("wind", Wind),
+            ("horizon", Horizon),
+            ("weights", Weights),
+            ("reference", Reference),
+            ("bounds", Bounds),
+            ("soft", SoftPenalties),
+            ("qp", QpOptions),
+            ("road", RoadWindow),
+            ("plan_check", PlanCheck),
+        ):
             check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
-        check(not self.plan_check.a_lat_guard or self.bounds.a_lat_margin > 0, "bounds.a_lat_margin",
-              self.bounds.a_lat_margin, f"(0, a_lat_max = {self.bounds.a_lat_max}) m/s^2 with plan_check.a_lat_guard "
-              "(the guard steers to a_lat_max - a_lat_margin; False allows 0)")
+        check(
+            not self.plan_check.a_lat_guard or self.bounds.a_lat_margin > 0,
+            "bounds.a_lat_margin",
+            self.bounds.a_lat_margin,
+            f"(0, a_lat_max = {self.bounds.a_lat_max}) m/s^2 with plan_check.a_lat_guard "
+            "(the guard steers to a_lat_max - a_lat_margin; False allows 0)",
+        )
         reach = self.bounds.v_max * self.horizon.length
-        check(self.road.length >= reach + 4 * self.road.ds, "road.length", self.road.length,
-              f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)")
+        check(
+            self.road.length >= reach + 4 * self.road.ds,
+            "road.length",
+            self.road.length,
+            f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)",
+        )
         if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
-            for who, veh, n in (("opponents", self.opponents.vehicle, self.obstacles.n),
-                                ("ego", self.ego, self.obstacles.ego_circles)):
+            for who, veh, n in (
+                ("opponents", self.opponents.vehicle, self.obstacles.n),
+                ("ego", self.ego, self.obstacles.ego_circles),
+            ):
                 if not circles_cover(veh.l_ch, veh.w_ch, n):
                     need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
-                    warnings.warn(f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
-                                  f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed", stacklevel=3)
+                    warnings.warn(
+                        f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
+                        f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
+                        stacklevel=3,
+                    )
 
     def with_(self, **changes) -> "Problem":
         """A copy with some fields replaced (validated again)."""

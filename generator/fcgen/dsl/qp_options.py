@@ -1,4 +1,5 @@
 """The QP backend and its settings, the same for the Python reference and the generated C."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -83,24 +84,48 @@ class QpOptions:
         return cls(max_iter=4000, eps_abs=1e-5, eps_rel=1e-5, rho=1.0, check_termination=5)
 
     def __post_init__(self) -> None:
-        check(isinstance(self.max_iter, int) and 1 <= self.max_iter <= 1_000_000, "qp.max_iter", self.max_iter,
-              "an integer in [1, 1e6]")
-        check(isinstance(self.max_iter_cold, int) and 1 <= self.max_iter_cold <= 1_000_000, "qp.max_iter_cold",
-              self.max_iter_cold, "an integer in [1, 1e6]")
-        check(type(self.cold_restart_after) is int and 0 <= self.cold_restart_after <= 1_000_000,
-              "qp.cold_restart_after", self.cold_restart_after, "an integer in [0, 1e6] (0: never)")
-        check(self.rti_budget is None or (type(self.rti_budget) is int and 1 <= self.rti_budget <= 1_000_000),
-              "qp.rti_budget", self.rti_budget, "an integer in [1, 1e6], or None (the backend's default)")
+        check(
+            isinstance(self.max_iter, int) and 1 <= self.max_iter <= 1_000_000,
+            "qp.max_iter",
+            self.max_iter,
+            "an integer in [1, 1e6]",
+        )
+        check(
+            isinstance(self.max_iter_cold, int) and 1 <= self.max_iter_cold <= 1_000_000,
+            "qp.max_iter_cold",
+            self.max_iter_cold,
+            "an integer in [1, 1e6]",
+        )
+        check(
+            type(self.cold_restart_after) is int and 0 <= self.cold_restart_after <= 1_000_000,
+            "qp.cold_restart_after",
+            self.cold_restart_after,
+            "an integer in [0, 1e6] (0: never)",
+        )
+        check(
+            self.rti_budget is None or (type(self.rti_budget) is int and 1 <= self.rti_budget <= 1_000_000),
+            "qp.rti_budget",
+            self.rti_budget,
+            "an integer in [1, 1e6], or None (the backend's default)",
+        )
         for f in ("eps_abs", "eps_rel"):
             check(0 <= finite(f"qp.{f}", getattr(self, f)) < 1, f"qp.{f}", getattr(self, f), "[0, 1)")
         check(self.eps_abs > 0 or self.eps_rel > 0, "qp.eps_abs", self.eps_abs, "> 0 when eps_rel = 0")
         positive("qp.rho", self.rho)
         positive("qp.sigma", self.sigma)
         check(0 < finite("qp.alpha", self.alpha) < 2, "qp.alpha", self.alpha, "(0, 2)")
-        check(isinstance(self.scaling, int) and 0 <= self.scaling <= 100, "qp.scaling", self.scaling,
-              "an integer in [0, 100]")
-        check(isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
-              "qp.check_termination", self.check_termination, "an integer in [1, 1000]")
+        check(
+            isinstance(self.scaling, int) and 0 <= self.scaling <= 100,
+            "qp.scaling",
+            self.scaling,
+            "an integer in [0, 100]",
+        )
+        check(
+            isinstance(self.check_termination, int) and 1 <= self.check_termination <= 1000,
+            "qp.check_termination",
+            self.check_termination,
+            "an integer in [1, 1000]",
+        )
         check(0 < finite("qp.ipm_tol", self.ipm_tol) < 1, "qp.ipm_tol", self.ipm_tol, "(0, 1)")
         check(self.backend in BACKENDS, "qp.backend", self.backend, "one of " + ", ".join(BACKENDS))
         check(isinstance(self.ipm_scaled_start, bool), "qp.ipm_scaled_start", self.ipm_scaled_start, "True or False")

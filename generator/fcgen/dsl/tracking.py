@@ -1,4 +1,5 @@
 """The tracking reference per node, and the curve speed that caps it ahead of bends."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,13 +41,33 @@ class Reference:
     def __post_init__(self) -> None:
         nonneg("reference.v_ref", self.v_ref)
         finite("reference.n_ref", self.n_ref)
-        check(0 <= finite("reference.curve_a_lat", self.curve_a_lat) <= 50, "reference.curve_a_lat",
-              self.curve_a_lat, "[0, 50] m/s^2 (0: no curve speed)")
-        check(0 < finite("reference.curve_decel", self.curve_decel) <= 50, "reference.curve_decel",
-              self.curve_decel, "(0, 50] m/s^2")
-        check(0 < finite("reference.curve_a_lat_traffic", self.curve_a_lat_traffic) <= 50,
-              "reference.curve_a_lat_traffic", self.curve_a_lat_traffic, "(0, 50] m/s^2")
-        check(0 <= finite("reference.curve_traffic_clearance", self.curve_traffic_clearance) <= 100,
-              "reference.curve_traffic_clearance", self.curve_traffic_clearance, "[0, 100] m (0: never)")
-        check(isinstance(self.curve_along_horizon, bool), "reference.curve_along_horizon", self.curve_along_horizon,
-              "True or False")
+        check(
+            0 <= finite("reference.curve_a_lat", self.curve_a_lat) <= 50,
+            "reference.curve_a_lat",
+            self.curve_a_lat,
+            "[0, 50] m/s^2 (0: no curve speed)",
+        )
+        check(
+            0 < finite("reference.curve_decel", self.curve_decel) <= 50,
+            "reference.curve_decel",
+            self.curve_decel,
+            "(0, 50] m/s^2",
+        )
+        check(
+            0 < finite("reference.curve_a_lat_traffic", self.curve_a_lat_traffic) <= 50,
+            "reference.curve_a_lat_traffic",
+            self.curve_a_lat_traffic,
+            "(0, 50] m/s^2",
+        )
+        check(
+            0 <= finite("reference.curve_traffic_clearance", self.curve_traffic_clearance) <= 100,
+            "reference.curve_traffic_clearance",
+            self.curve_traffic_clearance,
+            "[0, 100] m (0: never)",
+        )
+        check(
+            isinstance(self.curve_along_horizon, bool),
+            "reference.curve_along_horizon",
+            self.curve_along_horizon,
+            "True or False",
+        )

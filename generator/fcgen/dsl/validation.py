@@ -1,4 +1,5 @@
 """The DSL's one error and its checks: a bad value fails at construction, naming the field and the allowed range."""
+
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
 """The vehicles and the air around them: the ego's and the opponents' dimensions and drag, the wind."""
+
 from __future__ import annotations
 
 import math
@@ -54,7 +55,6 @@ class Wind:
         finite("wind.phi", self.phi)
 
 
-
 @dataclass(frozen=True)
 class Opponents:
     """Number of opponents and their (common) dimensions."""
@@ -63,6 +63,10 @@ class Opponents:
     vehicle: Vehicle = Vehicle()
 
     def __post_init__(self) -> None:
-        check(isinstance(self.count, int) and 0 <= self.count <= 10, "opponents.count", self.count,
-              "an integer in [0, 10]")
+        check(
+            isinstance(self.count, int) and 0 <= self.count <= 10,
+            "opponents.count",
+            self.count,
+            "an integer in [0, 10]",
+        )
         check(isinstance(self.vehicle, Vehicle), "opponents.vehicle", self.vehicle, "a Vehicle")

@@ -5,11 +5,23 @@ solver is emitted with) and the shift of a plan by one sample. ``stage_view``: t
 class (for the Riccati interior-point backend). ``soft_rows``: the soft rows of a stage view as units of their own.
 ``from fcgen.qp import X`` is the way to use them.
 """
+
 from __future__ import annotations
 
 from .layout import BAND_ROW_SIDES, BAND_SCALE, QpLayout, assert_finite_bounds, build_layout, shift_fields, shifted
 from .soft_rows import SoftRows, split_soft_rows
 from .stage_view import StageView, stage_view
 
-__all__ = ["BAND_ROW_SIDES", "BAND_SCALE", "QpLayout", "SoftRows", "StageView", "assert_finite_bounds", "build_layout",
-           "shift_fields", "shifted", "split_soft_rows", "stage_view"]
+__all__ = [
+    "BAND_ROW_SIDES",
+    "BAND_SCALE",
+    "QpLayout",
+    "SoftRows",
+    "StageView",
+    "assert_finite_bounds",
+    "build_layout",
+    "shift_fields",
+    "shifted",
+    "split_soft_rows",
+    "stage_view",
+]

@@ -4,6 +4,7 @@ Variables and rows are stored stage after stage. Every non-zero of the constrain
 stage function's Jacobian output, so filling ``A`` is one gather: ``A.data = concat_k(J_k.nonzeros())[a_src]``.
 The index tables below are emitted verbatim as ``static const`` arrays into the C solver.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -25,28 +26,28 @@ class QpLayout:
 
     n: int
     m: int
-    var_off: np.ndarray        # (N+2,) first variable of stage k; var_off[N+1] = n
-    row_off: np.ndarray        # (N+2,) first row of stage k
-    jac_off: np.ndarray        # (N+2,) first Jacobian non-zero of stage k in the stacked vector
+    var_off: np.ndarray  # (N+2,) first variable of stage k; var_off[N+1] = n
+    row_off: np.ndarray  # (N+2,) first row of stage k
+    jac_off: np.ndarray  # (N+2,) first Jacobian non-zero of stage k in the stacked vector
     A_indptr: np.ndarray
     A_indices: np.ndarray
-    a_src: np.ndarray          # A.data[i] = stacked_J[a_src[i]]
-    P_diag: np.ndarray         # constant diagonal Hessian
-    L: np.ndarray              # constant row bounds (init rows are overwritten at feedback)
+    a_src: np.ndarray  # A.data[i] = stacked_J[a_src[i]]
+    P_diag: np.ndarray  # constant diagonal Hessian
+    L: np.ndarray  # constant row bounds (init rows are overwritten at feedback)
     U: np.ndarray
-    D: np.ndarray              # variable scale: w = w_guess + D z
-    q_ds0: np.ndarray          # d q / d s0 at the measured s0
-    init_rows: np.ndarray      # rows holding x_0 = measured state
-    s_vars: np.ndarray         # index of s_k for k = 0..N
-    var_shift: np.ndarray      # shifted guess: w_new[i] = w_old[var_shift[i]] (stride 1; ``shifted``)
-    row_shift: np.ndarray      # shifted duals: y_new[i] = y_old[row_shift[i]] (stride 1; ``shifted``)
+    D: np.ndarray  # variable scale: w = w_guess + D z
+    q_ds0: np.ndarray  # d q / d s0 at the measured s0
+    init_rows: np.ndarray  # rows holding x_0 = measured state
+    s_vars: np.ndarray  # index of s_k for k = 0..N
+    var_shift: np.ndarray  # shifted guess: w_new[i] = w_old[var_shift[i]] (stride 1; ``shifted``)
+    row_shift: np.ndarray  # shifted duals: y_new[i] = y_old[row_shift[i]] (stride 1; ``shifted``)
     var_names: tuple[str, ...]
     row_names: tuple[str, ...]
-    band_rows: np.ndarray      # (rows, 3): [row, stage k, side] taking the road band at s_k (BAND_ROW_SIDES)
+    band_rows: np.ndarray  # (rows, 3): [row, stage k, side] taking the road band at s_k (BAND_ROW_SIDES)
     band_scale: float = BAND_SCALE
     shift_fraction: float = 1.0  # a sample is this fraction of a coarse interval: 1 / stride (1: none)
-    shift_split_var: int = 0     # the variables before it (fine stages) take the next stage's entry exactly
-    shift_split_row: int = 0     # ... and the rows
+    shift_split_var: int = 0  # the variables before it (fine stages) take the next stage's entry exactly
+    shift_split_row: int = 0  # ... and the rows
 
     def shift_vars(self, w: np.ndarray) -> np.ndarray:
         """The plan one sample later (``shifted``)."""
@@ -113,7 +114,7 @@ def build_layout(ocp: Ocp) -> QpLayout:
     D = cat([st.D for st in stages])
     q_ds0 = cat([st.q_ds0 for st in stages])
     init_rows = np.arange(ocp.nx, dtype=np.int64) + row_off[0]
-    s_vars = var_off[:N + 1].copy()
+    s_vars = var_off[: N + 1].copy()
 
     # shift by one stage; stages of the same type shift one to one, the boundaries map by name
     def shift(offsets, names_of):
@@ -130,12 +131,36 @@ def build_layout(ocp: Ocp) -> QpLayout:
     row_shift = shift(row_off, lambda st: st.row_names)
     var_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.var_names)
     row_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.row_names)
-    band = [(row_off[k] + i, k, side) for k, st in enumerate(stages) for i, nm in enumerate(st.row_names)
-            for side in BAND_ROW_SIDES.get(nm, ())]
+    band = [
+        (row_off[k] + i, k, side)
+        for k, st in enumerate(stages)
+        for i, nm in enumerate(st.row_names)
+        for side in BAND_ROW_SIDES.get(nm, ())
+    ]
     band_rows = np.array(band, dtype=np.int64).reshape(-1, 3)
-    return QpLayout(n, m, var_off, row_off, jac_off, indptr, rows.astype(np.int64), src.astype(np.int64),
-                    P_diag, L, U, D, q_ds0, init_rows, s_vars, var_shift, row_shift, var_names, row_names, band_rows,
-                    **shift_fields(ocp.problem.horizon, var_off, row_off))
+    return QpLayout(
+        n,
+        m,
+        var_off,
+        row_off,
+        jac_off,
+        indptr,
+        rows.astype(np.int64),
+        src.astype(np.int64),
+        P_diag,
+        L,
+        U,
+        D,
+        q_ds0,
+        init_rows,
+        s_vars,
+        var_shift,
+        row_shift,
+        var_names,
+        row_names,
+        band_rows,
+        **shift_fields(ocp.problem.horizon, var_off, row_off),
+    )
 
 
 def shift_fields(hz, var_off: np.ndarray, row_off: np.ndarray) -> dict:
@@ -143,8 +168,11 @@ def shift_fields(hz, var_off: np.ndarray, row_off: np.ndarray) -> dict:
     the way to them."""
     if hz.n_fine == hz.N:
         return {"shift_fraction": 1.0}
-    return {"shift_fraction": 1.0 / hz.stride, "shift_split_var": int(var_off[hz.n_fine]),
-            "shift_split_row": int(row_off[hz.n_fine])}
+    return {
+        "shift_fraction": 1.0 / hz.stride,
+        "shift_split_var": int(var_off[hz.n_fine]),
+        "shift_split_row": int(row_off[hz.n_fine]),
+    }
 
 
 def shifted(v: np.ndarray, index: np.ndarray, fraction: float, split: int = 0) -> np.ndarray:

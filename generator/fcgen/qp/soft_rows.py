@@ -1,5 +1,6 @@
 """The soft rows of a stage view taken apart: each obstacle row with its own slack and the slack's bound, a unit an
 interior-point method treats on its own; the rest stays a stage view."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,20 +18,20 @@ class SoftRows:
     such a row, its slack and the bound as one unit: two complementarity pairs and a scalar slack pivot per row,
     nothing shared with other rows. Padded entries have slot 0 and data index -1 (coefficient 0)."""
 
-    NA: int                 # (x, u) entries of a soft row (at most)
-    ptr: np.ndarray         # (N+2,) soft rows of stage k: ptr[k] .. ptr[k+1] - 1
-    rptr: np.ndarray        # (N+2,) runs of stage k: rptr[k] .. rptr[k+1] - 1 (a run: rows on the same slots)
-    run_ptr: np.ndarray     # (nrun+1,) soft rows of run r: run_ptr[r] .. run_ptr[r+1] - 1 (ascending rows)
-    run_v: np.ndarray       # (nrun, NA) the run's slots (= v of each of its rows)
-    row: np.ndarray         # (nsr,) global row
-    sign: np.ndarray        # its finite side: +1 lower, -1 upper
-    v: np.ndarray           # (nsr, NA) local slot in [x, inputs] of each (x, u) entry
-    a: np.ndarray           # (nsr, NA) data index of each (x, u) entry, -1: padding
-    svar: np.ndarray        # (nsr,) the slack's variable
-    e: np.ndarray           # data index of the slack's coefficient in the row
-    brow: np.ndarray        # the slack's bound row
-    bsign: np.ndarray       # the bound row's finite side
-    ba: np.ndarray          # data index of the bound row's coefficient
+    NA: int  # (x, u) entries of a soft row (at most)
+    ptr: np.ndarray  # (N+2,) soft rows of stage k: ptr[k] .. ptr[k+1] - 1
+    rptr: np.ndarray  # (N+2,) runs of stage k: rptr[k] .. rptr[k+1] - 1 (a run: rows on the same slots)
+    run_ptr: np.ndarray  # (nrun+1,) soft rows of run r: run_ptr[r] .. run_ptr[r+1] - 1 (ascending rows)
+    run_v: np.ndarray  # (nrun, NA) the run's slots (= v of each of its rows)
+    row: np.ndarray  # (nsr,) global row
+    sign: np.ndarray  # its finite side: +1 lower, -1 upper
+    v: np.ndarray  # (nsr, NA) local slot in [x, inputs] of each (x, u) entry
+    a: np.ndarray  # (nsr, NA) data index of each (x, u) entry, -1: padding
+    svar: np.ndarray  # (nsr,) the slack's variable
+    e: np.ndarray  # data index of the slack's coefficient in the row
+    brow: np.ndarray  # the slack's bound row
+    bsign: np.ndarray  # the bound row's finite side
+    ba: np.ndarray  # data index of the bound row's coefficient
 
     @property
     def count(self) -> int:
@@ -42,7 +43,7 @@ def _slack_row_counts(sv: StageView, nxu: int) -> dict[int, int]:
     slack_rows: dict[int, int] = {}
     for k in range(sv.N + 1):
         for g in range(sv.NG):
-            vs = sv.gen_v[sv.gen_ptr[k * sv.NG + g]:sv.gen_ptr[k * sv.NG + g + 1]]
+            vs = sv.gen_v[sv.gen_ptr[k * sv.NG + g] : sv.gen_ptr[k * sv.NG + g + 1]]
             for v in vs[vs >= nxu]:
                 var = int(sv.vmap[k, v])
                 slack_rows[var] = slack_rows.get(var, 0) + 1
@@ -53,7 +54,7 @@ def _soft_units(lay: QpLayout, sv: StageView, nxu: int) -> tuple[list[list], lis
     """Per stage its soft units (row, (x, u) entries, slack, slack's data index, bound row, bound's data index) and its
     other general rows (row, entries), and the rows the units take out of the view (each row and its bound row)."""
     sides = np.bincount(sv.side_row, minlength=lay.m)
-    col_rows = [lay.A_indices[lay.A_indptr[j]:lay.A_indptr[j + 1]] for j in range(lay.n)]
+    col_rows = [lay.A_indices[lay.A_indptr[j] : lay.A_indptr[j + 1]] for j in range(lay.n)]
     box_of = {int(r): i for i, r in enumerate(sv.box_rows)}
     slack_rows = _slack_row_counts(sv, nxu)
     soft: list[list] = [[] for _ in range(sv.N + 1)]
@@ -112,11 +113,38 @@ def _without_soft_rows(sv: StageView, gen: list[list], drop_rows: set[int], nxu:
             gptr.append(len(gv))
     keep_box = np.array([int(r) not in drop_rows for r in sv.box_rows], dtype=bool)
     keep_side = np.array([int(r) not in drop_rows for r in sv.side_row], dtype=bool)
-    return StageView(sv.N, sv.nx, sv.NU, NS, NG, sv.NE, sv.nu, ns, vmap, sv.dyn_rows, sv.dyn_next, sv.dyn_ptr,
-                     sv.dyn_i, sv.dyn_j, sv.dyn_a, sv.init_a, gen_rows, np.array(gptr, dtype=np.int64),
-                     np.array(gv, dtype=np.int64), np.array(ga, dtype=np.int64), sv.eq_rows, sv.eq_ptr, sv.eq_j,
-                     sv.eq_a, sv.box_rows[keep_box], sv.box_var[keep_box], sv.box_a[keep_box],
-                     sv.side_row[keep_side], sv.side_sign[keep_side], sv.eq_all)
+    return StageView(
+        sv.N,
+        sv.nx,
+        sv.NU,
+        NS,
+        NG,
+        sv.NE,
+        sv.nu,
+        ns,
+        vmap,
+        sv.dyn_rows,
+        sv.dyn_next,
+        sv.dyn_ptr,
+        sv.dyn_i,
+        sv.dyn_j,
+        sv.dyn_a,
+        sv.init_a,
+        gen_rows,
+        np.array(gptr, dtype=np.int64),
+        np.array(gv, dtype=np.int64),
+        np.array(ga, dtype=np.int64),
+        sv.eq_rows,
+        sv.eq_ptr,
+        sv.eq_j,
+        sv.eq_a,
+        sv.box_rows[keep_box],
+        sv.box_var[keep_box],
+        sv.box_a[keep_box],
+        sv.side_row[keep_side],
+        sv.side_sign[keep_side],
+        sv.eq_all,
+    )
 
 
 def _soft_rows_table(sv: StageView, soft: list[list]) -> SoftRows:
@@ -141,11 +169,22 @@ def _soft_rows_table(sv: StageView, soft: list[list]) -> SoftRows:
     side_sign = {int(r): int(s) for r, s in zip(sv.side_row, sv.side_sign)}
     col = lambda j: np.array([u[j] for u in flat], dtype=np.int64)  # noqa: E731
     rows, brows = col(0), col(4)
-    return SoftRows(NA, np.r_[0, np.cumsum([len(sk) for sk in soft])].astype(np.int64),
-                    np.array(rptr, dtype=np.int64), np.array(run_ptr, dtype=np.int64),
-                    np.array(run_v, dtype=np.int64).reshape(-1, NA), rows,
-                    np.array([side_sign[int(r)] for r in rows], dtype=np.int64), v, a, col(2), col(3), brows,
-                    np.array([side_sign[int(r)] for r in brows], dtype=np.int64), col(5))
+    return SoftRows(
+        NA,
+        np.r_[0, np.cumsum([len(sk) for sk in soft])].astype(np.int64),
+        np.array(rptr, dtype=np.int64),
+        np.array(run_ptr, dtype=np.int64),
+        np.array(run_v, dtype=np.int64).reshape(-1, NA),
+        rows,
+        np.array([side_sign[int(r)] for r in rows], dtype=np.int64),
+        v,
+        a,
+        col(2),
+        col(3),
+        brows,
+        np.array([side_sign[int(r)] for r in brows], dtype=np.int64),
+        col(5),
+    )
 
 
 def split_soft_rows(lay: QpLayout, sv: StageView) -> tuple[StageView, SoftRows]:

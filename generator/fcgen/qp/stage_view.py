@@ -1,5 +1,6 @@
 """The stage-structured view of a ``QpLayout``: per stage its states, inputs and slacks, and its rows by class
 (dynamics, init, stage equalities, box rows, general rows), padded to common sizes for a Riccati-type solver."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -28,30 +29,30 @@ class StageView:
     NS: int
     NG: int
     NE: int
-    nu: np.ndarray          # (N+1,) inputs of stage k
-    ns: np.ndarray          # (N+1,) slacks of stage k
-    vmap: np.ndarray        # (N+1, nx+NU+NS) global variable of local slot v, or -1
-    dyn_rows: np.ndarray    # (N, nx) global row of the dynamics row i of stage k
-    dyn_next: np.ndarray    # (N, nx) data index of the x_{k+1}[i] coefficient of that row
-    dyn_ptr: np.ndarray     # (N+1,) stage k's [A B] non-zeros: dyn_i/dyn_j/dyn_a[dyn_ptr[k]:dyn_ptr[k+1]]
-    dyn_i: np.ndarray       # row i (0..nx-1)
-    dyn_j: np.ndarray       # local slot v in [x, u]
-    dyn_a: np.ndarray       # data index
-    init_a: np.ndarray      # (nx,) data index of the x_0[i] coefficient of init row i
-    gen_rows: np.ndarray    # (N+1, NG) global general inequality row, or -1
-    gen_ptr: np.ndarray     # ((N+1) NG + 1,) non-zeros of slot (k, r): gen_v/gen_a[gen_ptr[k NG + r]:...]
-    gen_v: np.ndarray       # local slot v (x, inputs or the one slack)
-    gen_a: np.ndarray       # data index
-    eq_rows: np.ndarray     # (N+1, NE) global stage-equality row, or -1
-    eq_ptr: np.ndarray      # ((N+1) NE + 1,)
-    eq_j: np.ndarray        # input index 0..NU-1
-    eq_a: np.ndarray        # data index
-    box_rows: np.ndarray    # global row of each box row
-    box_var: np.ndarray     # its variable
-    box_a: np.ndarray       # its data index
-    side_row: np.ndarray    # inequality sides: global row
-    side_sign: np.ndarray   # +1: lower side (a'z >= l), -1: upper side (a'z <= u)
-    eq_all: np.ndarray      # every equality row (init, dynamics, stage equalities), ascending
+    nu: np.ndarray  # (N+1,) inputs of stage k
+    ns: np.ndarray  # (N+1,) slacks of stage k
+    vmap: np.ndarray  # (N+1, nx+NU+NS) global variable of local slot v, or -1
+    dyn_rows: np.ndarray  # (N, nx) global row of the dynamics row i of stage k
+    dyn_next: np.ndarray  # (N, nx) data index of the x_{k+1}[i] coefficient of that row
+    dyn_ptr: np.ndarray  # (N+1,) stage k's [A B] non-zeros: dyn_i/dyn_j/dyn_a[dyn_ptr[k]:dyn_ptr[k+1]]
+    dyn_i: np.ndarray  # row i (0..nx-1)
+    dyn_j: np.ndarray  # local slot v in [x, u]
+    dyn_a: np.ndarray  # data index
+    init_a: np.ndarray  # (nx,) data index of the x_0[i] coefficient of init row i
+    gen_rows: np.ndarray  # (N+1, NG) global general inequality row, or -1
+    gen_ptr: np.ndarray  # ((N+1) NG + 1,) non-zeros of slot (k, r): gen_v/gen_a[gen_ptr[k NG + r]:...]
+    gen_v: np.ndarray  # local slot v (x, inputs or the one slack)
+    gen_a: np.ndarray  # data index
+    eq_rows: np.ndarray  # (N+1, NE) global stage-equality row, or -1
+    eq_ptr: np.ndarray  # ((N+1) NE + 1,)
+    eq_j: np.ndarray  # input index 0..NU-1
+    eq_a: np.ndarray  # data index
+    box_rows: np.ndarray  # global row of each box row
+    box_var: np.ndarray  # its variable
+    box_a: np.ndarray  # its data index
+    side_row: np.ndarray  # inequality sides: global row
+    side_sign: np.ndarray  # +1: lower side (a'z >= l), -1: upper side (a'z <= u)
+    eq_all: np.ndarray  # every equality row (init, dynamics, stage equalities), ascending
 
     @property
     def NV(self) -> int:
@@ -68,13 +69,14 @@ def _stage_sizes(lay: QpLayout, nx: int, is_slack: np.ndarray) -> tuple[np.ndarr
         sl = is_slack[o0:o1]
         ns[k] = int(sl.sum())
         nu[k] = o1 - o0 - nx - ns[k]
-        if np.any(sl[:nx]) or (ns[k] and not np.all(sl[o1 - o0 - ns[k]:])):
+        if np.any(sl[:nx]) or (ns[k] and not np.all(sl[o1 - o0 - ns[k] :])):
             raise AssertionError(f"stage {k}: variables must be ordered [x, inputs, slacks]")
     return nu, ns
 
 
-def _local_slots(lay: QpLayout, nx: int, nu: np.ndarray, ns: np.ndarray, NU: int, NS: int
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def _local_slots(
+    lay: QpLayout, nx: int, nu: np.ndarray, ns: np.ndarray, NU: int, NS: int
+) -> tuple[np.ndarray, np.ndarray]:
     """The global variable of each stage's padded local slot (-1: padding), and each variable's local slot."""
     N = len(lay.var_off) - 2
     vmap = -np.ones((N + 1, nx + NU + NS), dtype=np.int64)
@@ -83,7 +85,7 @@ def _local_slots(lay: QpLayout, nx: int, nu: np.ndarray, ns: np.ndarray, NU: int
         o = lay.var_off[k]
         slots = np.r_[np.arange(nx + nu[k]), nx + NU + np.arange(ns[k])]
         vmap[k, slots] = o + np.arange(nx + nu[k] + ns[k])
-        local[o:o + nx + nu[k] + ns[k]] = slots
+        local[o : o + nx + nu[k] + ns[k]] = slots
     return vmap, local
 
 
@@ -105,8 +107,16 @@ class _RowClasses:
         self.sides_sign: list[int] = []
 
 
-def _classify_stage_rows(lay: QpLayout, A, k: int, nx: int, stage_of_var: np.ndarray, is_slack: np.ndarray,
-                         local: np.ndarray, rc: _RowClasses) -> None:
+def _classify_stage_rows(
+    lay: QpLayout,
+    A,
+    k: int,
+    nx: int,
+    stage_of_var: np.ndarray,
+    is_slack: np.ndarray,
+    local: np.ndarray,
+    rc: _RowClasses,
+) -> None:
     """Sort stage k's rows into init, dynamics, stage-equality, box and general rows (and their inequality sides);
     raises AssertionError where a row fits none."""
     N = len(lay.var_off) - 2
@@ -114,8 +124,8 @@ def _classify_stage_rows(lay: QpLayout, A, k: int, nx: int, stage_of_var: np.nda
     fixed = lay.L == lay.U
     n_dyn = 0
     for r in range(lay.row_off[k], lay.row_off[k + 1]):
-        cols = A.indices[A.indptr[r]:A.indptr[r + 1]]
-        dat = A.data[A.indptr[r]:A.indptr[r + 1]].astype(np.int64)
+        cols = A.indices[A.indptr[r] : A.indptr[r + 1]]
+        dat = A.data[A.indptr[r] : A.indptr[r + 1]].astype(np.int64)
         st = stage_of_var[cols]
         if r in init_set:
             i = r - lay.row_off[0]
@@ -124,9 +134,15 @@ def _classify_stage_rows(lay: QpLayout, A, k: int, nx: int, stage_of_var: np.nda
             rc.init_a[i] = dat[0]
         elif np.any(st != k):
             nxt = cols[st != k]
-            if k == N or n_dyn >= nx or np.any(st[st != k] != k + 1) or len(nxt) != 1 \
-                    or nxt[0] != lay.var_off[k + 1] + n_dyn or not fixed[r] \
-                    or np.any(is_slack[cols[st == k]]):
+            if (
+                k == N
+                or n_dyn >= nx
+                or np.any(st[st != k] != k + 1)
+                or len(nxt) != 1
+                or nxt[0] != lay.var_off[k + 1] + n_dyn
+                or not fixed[r]
+                or np.any(is_slack[cols[st == k]])
+            ):
                 raise AssertionError(f"row {lay.row_names[r]}: not a dynamics row x_{{k+1}}[i] = f(x_k, u_k)")
             rc.dyn_rows[k, n_dyn] = r
             rc.dyn_next[k, n_dyn] = dat[st != k][0]
@@ -175,7 +191,7 @@ def stage_view(lay: QpLayout) -> StageView:
     """Classify variables and rows stage by stage; raises AssertionError if the layout breaks the structure."""
     N = len(lay.var_off) - 2
     nx = len(lay.init_rows)
-    A = lay.A_pattern(np.arange(lay.nnz_A, dtype=float)).tocsr()   # data = CSC data index
+    A = lay.A_pattern(np.arange(lay.nnz_A, dtype=float)).tocsr()  # data = CSC data index
     A.sort_indices()
     stage_of_var = np.repeat(np.arange(N + 1), np.diff(lay.var_off))
     is_slack = np.array([nm.startswith("sigma") for nm in lay.var_names])
@@ -195,7 +211,35 @@ def stage_view(lay: QpLayout) -> StageView:
     if len(eq_all) + len(box_arr) + int((gen_rows >= 0).sum()) != lay.m:
         raise AssertionError("stage view: rows left unclassified")
     as_int = lambda v: np.array(v, dtype=np.int64)  # noqa: E731
-    return StageView(N, nx, NU, NS, NG, NE, nu, ns, vmap, rc.dyn_rows, rc.dyn_next, as_int(rc.dyn_ptr),
-                     as_int(rc.dyn_i), as_int(rc.dyn_j), as_int(rc.dyn_a), rc.init_a, gen_rows, gen_ptr, gen_v, gen_a,
-                     eq_rows, eq_ptr, eq_j, eq_a, box_arr[:, 0].copy(), box_arr[:, 1].copy(), box_arr[:, 2].copy(),
-                     as_int(rc.sides_row)[order], as_int(rc.sides_sign)[order], eq_all)
+    return StageView(
+        N,
+        nx,
+        NU,
+        NS,
+        NG,
+        NE,
+        nu,
+        ns,
+        vmap,
+        rc.dyn_rows,
+        rc.dyn_next,
+        as_int(rc.dyn_ptr),
+        as_int(rc.dyn_i),
+        as_int(rc.dyn_j),
+        as_int(rc.dyn_a),
+        rc.init_a,
+        gen_rows,
+        gen_ptr,
+        gen_v,
+        gen_a,
+        eq_rows,
+        eq_ptr,
+        eq_j,
+        eq_a,
+        box_arr[:, 0].copy(),
+        box_arr[:, 1].copy(),
+        box_arr[:, 2].copy(),
+        as_int(rc.sides_row)[order],
+        as_int(rc.sides_sign)[order],
+        eq_all,
+    )

@@ -16,12 +16,41 @@ only on request. Unusable input raises ``UnusableInput`` (one-line message; the 
 One job per module: ``tolerances`` (fields, presets, ``--tol``), ``compare`` (two logs), ``report`` (text, JSON,
 plot), ``run`` (what NEW and GOLDEN are, the solver folder built and replayed or run again).
 """
+
 from .compare import FieldResult, LogResult, check_comparable, compare_field, compare_logs, component_scale
 from .report import RegressReport
 from .run import MODES, regress
-from .tolerances import (ALL_FIELDS, DEFAULT_PRESET, PRESETS, REPLAY_FIELDS, TIMING_FIELDS, Tol, UnusableInput,
-                         default_preset, parse_tol, tolerances)
+from .tolerances import (
+    ALL_FIELDS,
+    DEFAULT_PRESET,
+    PRESETS,
+    REPLAY_FIELDS,
+    TIMING_FIELDS,
+    Tol,
+    UnusableInput,
+    default_preset,
+    parse_tol,
+    tolerances,
+)
 
-__all__ = ["ALL_FIELDS", "DEFAULT_PRESET", "MODES", "PRESETS", "REPLAY_FIELDS", "TIMING_FIELDS", "FieldResult",
-           "LogResult", "RegressReport", "Tol", "UnusableInput", "check_comparable", "compare_field", "compare_logs",
-           "component_scale", "default_preset", "parse_tol", "regress", "tolerances"]
+__all__ = [
+    "ALL_FIELDS",
+    "DEFAULT_PRESET",
+    "MODES",
+    "PRESETS",
+    "REPLAY_FIELDS",
+    "TIMING_FIELDS",
+    "FieldResult",
+    "LogResult",
+    "RegressReport",
+    "Tol",
+    "UnusableInput",
+    "check_comparable",
+    "compare_field",
+    "compare_logs",
+    "component_scale",
+    "default_preset",
+    "parse_tol",
+    "regress",
+    "tolerances",
+]

@@ -1,4 +1,5 @@
 """``fcgen regress``'s comparison of two run logs, field by field and sample by sample, under the tolerances."""
+
 from __future__ import annotations
 
 import math
@@ -17,25 +18,32 @@ class FieldResult:
 
     field: str
     tol: Tol
-    rows: int                           # samples compared
-    bad_rows: int = 0                   # samples with any element out of tolerance
+    rows: int  # samples compared
+    bad_rows: int = 0  # samples with any element out of tolerance
     max_abs: float = 0.0
-    max_at: tuple[int, tuple[int, ...]] | None = None   # (sample, index in the row) of max_abs
+    max_at: tuple[int, tuple[int, ...]] | None = None  # (sample, index in the row) of max_abs
     first: dict[str, Any] | None = None  # first sample out of tolerance: sample, index, new, golden, diff, allowed
-    ratio: np.ndarray | None = None     # per sample: max |diff| / allowed
-    rel: np.ndarray | None = None       # per sample: max |diff| / scale (scale = component_scale, 1 where 0)
-    bad: np.ndarray | None = None       # per sample: any element out of tolerance
-    tol_rel: float = 0.0                # the tightest allowed |diff| / scale of the field (the plot's line)
+    ratio: np.ndarray | None = None  # per sample: max |diff| / allowed
+    rel: np.ndarray | None = None  # per sample: max |diff| / scale (scale = component_scale, 1 where 0)
+    bad: np.ndarray | None = None  # per sample: any element out of tolerance
+    tol_rel: float = 0.0  # the tightest allowed |diff| / scale of the field (the plot's line)
 
     @property
     def passed(self) -> bool:
         return self.bad_rows == 0
 
     def to_dict(self) -> dict[str, Any]:
-        return {"field": self.field, "abs": _num(self.tol.abs), "rel": _num(self.tol.rel), "samples": self.rows,
-                "samples_out_of_tolerance": self.bad_rows, "max_abs_diff": _num(self.max_abs),
-                "max_at": None if self.max_at is None else {"sample": self.max_at[0], "index": list(self.max_at[1])},
-                "first_divergence": self.first, "passed": self.passed}
+        return {
+            "field": self.field,
+            "abs": _num(self.tol.abs),
+            "rel": _num(self.tol.rel),
+            "samples": self.rows,
+            "samples_out_of_tolerance": self.bad_rows,
+            "max_abs_diff": _num(self.max_abs),
+            "max_at": None if self.max_at is None else {"sample": self.max_at[0], "index": list(self.max_at[1])},
+            "first_divergence": self.first,
+            "passed": self.passed,
+        }
 
 
 def _num(v: float) -> float | str:
@@ -86,9 +94,14 @@ def compare_field(name: str, new: np.ndarray, gold: np.ndarray, tol: Tol) -> Fie
         j = int(bad_rows[0])
         e = int(np.flatnonzero(flat_bad[j])[0])
         idx = tuple(int(i) for i in np.unravel_index(e, a.shape[1:])) if a.ndim > 1 else ()
-        res.first = {"sample": j, "index": list(idx), "new": _num(float(a[j][idx])),
-                     "golden": _num(float(b[j][idx])), "diff": _num(float(flat_d[j, e])),
-                     "allowed": _num(float(allowed[j][idx]))}
+        res.first = {
+            "sample": j,
+            "index": list(idx),
+            "new": _num(float(a[j][idx])),
+            "golden": _num(float(b[j][idx])),
+            "diff": _num(float(flat_d[j, e])),
+            "allowed": _num(float(allowed[j][idx])),
+        }
     return res
 
 
@@ -101,7 +114,7 @@ class LogResult:
     seed: int
     samples: int
     fields: list[FieldResult] = field(default_factory=list)
-    skipped: list[str] = field(default_factory=list)     # fields only one of the two logs has
+    skipped: list[str] = field(default_factory=list)  # fields only one of the two logs has
 
     @property
     def passed(self) -> bool:
@@ -116,10 +129,16 @@ class LogResult:
 
     def to_dict(self) -> dict[str, Any]:
         fd = self.first_divergence()
-        return {"label": self.label, "scenario": self.scenario, "seed": self.seed, "samples": self.samples,
-                "passed": self.passed, "skipped_fields": self.skipped,
-                "first_divergence": None if fd is None else {"field": fd.field, **fd.first},
-                "fields": [f.to_dict() for f in self.fields]}
+        return {
+            "label": self.label,
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "samples": self.samples,
+            "passed": self.passed,
+            "skipped_fields": self.skipped,
+            "first_divergence": None if fd is None else {"field": fd.field, **fd.first},
+            "fields": [f.to_dict() for f in self.fields],
+        }
 
 
 def check_comparable(new: RunLog, gold: RunLog, where: str = "") -> None:
@@ -133,19 +152,25 @@ def check_comparable(new: RunLog, gold: RunLog, where: str = "") -> None:
         if mn[key] != mg[key]:
             raise UnusableInput(f"{pre}another scenario: meta.{key} is {mn[key]!r} in NEW, {mg[key]!r} in GOLDEN")
     if new.n_controls != gold.n_controls:
-        raise UnusableInput(f"{pre}another length: NEW has {new.n_controls} control samples, GOLDEN "
-                            f"{gold.n_controls}")
+        raise UnusableInput(f"{pre}another length: NEW has {new.n_controls} control samples, GOLDEN {gold.n_controls}")
     if len(new.opponents) != len(gold.opponents):
-        raise UnusableInput(f"{pre}another problem: {len(new.opponents)} opponents in NEW, {len(gold.opponents)} "
-                            f"in GOLDEN")
+        raise UnusableInput(
+            f"{pre}another problem: {len(new.opponents)} opponents in NEW, {len(gold.opponents)} in GOLDEN"
+        )
     for name in ("plan_states", "plan_controls"):
         a, b = getattr(new, name), getattr(gold, name)
         if a is not None and b is not None and a.shape != b.shape:
             raise UnusableInput(f"{pre}another problem: {name} has shape {a.shape} in NEW, {b.shape} in GOLDEN")
 
 
-def compare_logs(new: RunLog, gold: RunLog, tols: dict[str, Tol], fields: tuple[str, ...] = ALL_FIELDS,
-                 timing: bool = False, label: str | None = None) -> LogResult:
+def compare_logs(
+    new: RunLog,
+    gold: RunLog,
+    tols: dict[str, Tol],
+    fields: tuple[str, ...] = ALL_FIELDS,
+    timing: bool = False,
+    label: str | None = None,
+) -> LogResult:
     """Compare the fields both logs carry (of ``fields``; timing fields only if ``timing``)."""
     check_comparable(new, gold, label or "")
     m = gold.meta

@@ -1,5 +1,6 @@
 """``fcgen regress``'s report: the verdict, the first divergence and the largest differences as text, JSON and a
 plot of the divergence over time."""
+
 from __future__ import annotations
 
 import json
@@ -48,11 +49,21 @@ class RegressReport:
 
     def to_dict(self) -> dict[str, Any]:
         fd = self.first_divergence()
-        return {"format": "fcgen-regress/1", "mode": self.mode, "new": self.new, "golden": self.golden,
-                "preset": self.preset, "timing": self.timing, "passed": self.passed, "exit_code": self.exit_code,
-                "logs_compared": len(self.logs), "logs_out_of_tolerance": sum(not lg.passed for lg in self.logs),
-                "first_divergence": None if fd is None else {"log": fd[0].label, "field": fd[1].field, **fd[1].first},
-                "notes": self.notes, "logs": [lg.to_dict() for lg in self.logs]}
+        return {
+            "format": "fcgen-regress/1",
+            "mode": self.mode,
+            "new": self.new,
+            "golden": self.golden,
+            "preset": self.preset,
+            "timing": self.timing,
+            "passed": self.passed,
+            "exit_code": self.exit_code,
+            "logs_compared": len(self.logs),
+            "logs_out_of_tolerance": sum(not lg.passed for lg in self.logs),
+            "first_divergence": None if fd is None else {"log": fd[0].label, "field": fd[1].field, **fd[1].first},
+            "notes": self.notes,
+            "logs": [lg.to_dict() for lg in self.logs],
+        }
 
     def to_json(self, path: Path | str) -> Path:
         path = Path(path)
@@ -63,17 +74,21 @@ class RegressReport:
     def format(self) -> str:
         """The terminal report: verdict, first divergence, largest difference and counts per field, per log."""
         n_bad = sum(not lg.passed for lg in self.logs)
-        lines = [f"regress {self.new} vs {self.golden}: {self.mode}, {len(self.logs)} log(s) x "
-                 f"{self.logs[0].samples if self.logs else 0} samples, tolerances {self.preset!r}"
-                 + (" (+ timing)" if self.timing else " (timing ignored)")]
+        lines = [
+            f"regress {self.new} vs {self.golden}: {self.mode}, {len(self.logs)} log(s) x "
+            f"{self.logs[0].samples if self.logs else 0} samples, tolerances {self.preset!r}"
+            + (" (+ timing)" if self.timing else " (timing ignored)")
+        ]
         fd = self.first_divergence()
         if fd is not None:
             lg, f = fd
             x = f.first
             idx = "[" + ", ".join(map(str, x["index"])) + "]" if x["index"] else ""
-            lines.append(f"first divergence: {lg.label}, sample {x['sample']}, field {f.field}{idx}: "
-                         f"new {x['new']!r}, golden {x['golden']!r} (|diff| {_g(x['diff'])} > allowed "
-                         f"{_g(x['allowed'])})")
+            lines.append(
+                f"first divergence: {lg.label}, sample {x['sample']}, field {f.field}{idx}: "
+                f"new {x['new']!r}, golden {x['golden']!r} (|diff| {_g(x['diff'])} > allowed "
+                f"{_g(x['allowed'])})"
+            )
         rows = [("field", "tol abs, rel", "max |diff|", "at (log, sample, index)", "samples out", "result")]
         for name in self.field_names():
             fr = [(lg, f) for lg in self.logs for f in lg.fields if f.field == name]
@@ -84,8 +99,9 @@ class RegressReport:
                 at = f"{worst[0].label}, {s}" + (f", {list(i)}" if i else "")
             out = sum(f.bad_rows for _, f in fr)
             tot = sum(f.rows for _, f in fr)
-            rows.append((name, str(fr[0][1].tol), _g(worst[1].max_abs), at, f"{out}/{tot}",
-                         "ok" if out == 0 else "FAIL"))
+            rows.append(
+                (name, str(fr[0][1].tol), _g(worst[1].max_abs), at, f"{out}/{tot}", "ok" if out == 0 else "FAIL")
+            )
         w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
         for i, r in enumerate(rows):
             lines.append("  " + "  ".join(s.ljust(w[j]) for j, s in enumerate(r)).rstrip())
@@ -97,20 +113,23 @@ class RegressReport:
                 f = lg.first_divergence()
                 if f is not None:
                     idx = f.first["index"]
-                    lines.append(f"  {lg.label}: sample {f.first['sample']}, {f.field}"
-                                 + (f"{idx}" if idx else ""))
+                    lines.append(f"  {lg.label}: sample {f.first['sample']}, {f.field}" + (f"{idx}" if idx else ""))
         skipped = sorted({s for lg in self.logs for s in lg.skipped})
         if skipped:
             lines.append(f"note: only one side carries {', '.join(skipped)} (not compared)")
         lines += [f"note: {n}" for n in self.notes]
-        lines.append(f"PASS: {len(self.logs)} log(s) within tolerance" if not n_bad else
-                     f"FAIL: {n_bad} of {len(self.logs)} log(s) out of tolerance")
+        lines.append(
+            f"PASS: {len(self.logs)} log(s) within tolerance"
+            if not n_bad
+            else f"FAIL: {n_bad} of {len(self.logs)} log(s) out of tolerance"
+        )
         return "\n".join(lines)
 
     def plot(self, path: Path | str) -> Path:
         """Divergence over time: per field and sample ``max |diff| / scale`` (log scale), one line per log; the
         dashed line is the field's tolerance, red dots mark samples out of tolerance."""
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
@@ -132,8 +151,11 @@ class RegressReport:
                 ax.axhline(tol_line, color="k", ls="--", lw=0.8)
             ax.set_ylim(5e-18, 2e3)
             ax.set_ylabel(name, rotation=0, ha="right", fontsize=8)
-        axes[0, 0].set_title(f"{self.mode}: |new - golden| / max |golden| per sample ({self.preset}; dashed: "
-                             f"tolerance, red: out of tolerance)", fontsize=9)
+        axes[0, 0].set_title(
+            f"{self.mode}: |new - golden| / max |golden| per sample ({self.preset}; dashed: "
+            f"tolerance, red: out of tolerance)",
+            fontsize=9,
+        )
         if len(self.logs) <= 10 and names:
             axes[0, 0].legend(fontsize=6, ncol=5, loc="upper left")
         axes[-1, 0].set_xlabel("sample")

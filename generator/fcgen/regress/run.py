@@ -1,5 +1,6 @@
 """``fcgen regress``: what NEW and GOLDEN are (run log, golden suite, solver folder) and the comparison of the two;
 a solver folder is built once and replays the golden inputs or runs the closed loops again."""
+
 from __future__ import annotations
 
 import hashlib
@@ -29,8 +30,9 @@ def _kind(path: Path) -> str:
             return "solver"
         if is_suite(path):
             return "suite"
-        raise UnusableInput(f"{path}: neither a solver folder (no <name>_solver.h) nor a golden suite "
-                            f"(no manifest.json)")
+        raise UnusableInput(
+            f"{path}: neither a solver folder (no <name>_solver.h) nor a golden suite (no manifest.json)"
+        )
     if path.is_file():
         return "log"
     raise UnusableInput(f"{path}: no such file or folder")
@@ -56,10 +58,17 @@ def _golden(path: Path) -> tuple[str, list[RunLog], dict[str, Any] | None]:
     raise UnusableInput(f"{path}: GOLDEN must be a run log or a golden suite, not a solver folder")
 
 
-
-def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset: str | None = None,
-            tol: dict[str, Tol] | None = None, timing: bool = False, controller: str = "c",
-            build_kw: dict | None = None, progress: bool = False) -> RegressReport:
+def regress(
+    new: Path | str,
+    golden: Path | str,
+    mode: str | None = None,
+    preset: str | None = None,
+    tol: dict[str, Tol] | None = None,
+    timing: bool = False,
+    controller: str = "c",
+    build_kw: dict | None = None,
+    progress: bool = False,
+) -> RegressReport:
     """Compare NEW (log, suite or solver folder) with GOLDEN (log or suite); see the module docstring.
 
     ``mode``: for a solver folder ``"replay"`` (default) or ``"closed-loop"``; ``controller``: ``"c"`` (the folder's
@@ -77,12 +86,14 @@ def regress(new: Path | str, golden: Path | str, mode: str | None = None, preset
         return _log_vs(new, golden, gold, preset, tol, timing)
     if kind_new == "suite":
         return _suite_vs(new, golden, gold, preset, tol, timing)
-    return _folder_vs(new, golden, gold, mode or "replay", preset, tol, timing, controller, dict(build_kw or {}),
-                      progress)
+    return _folder_vs(
+        new, golden, gold, mode or "replay", preset, tol, timing, controller, dict(build_kw or {}), progress
+    )
 
 
-def _log_vs(new: Path, golden: Path, gold: tuple, preset: str | None, tol: dict[str, Tol] | None,
-            timing: bool) -> RegressReport:
+def _log_vs(
+    new: Path, golden: Path, gold: tuple, preset: str | None, tol: dict[str, Tol] | None, timing: bool
+) -> RegressReport:
     """A run log vs a log, or vs the suite's log of the same scenario and seed."""
     prec_gold, gold_logs, man = gold
     new_log = _unusable(load_log, new)
@@ -96,16 +107,24 @@ def _log_vs(new: Path, golden: Path, gold: tuple, preset: str | None, tol: dict[
     return rep
 
 
-def _suite_vs(new: Path, golden: Path, gold: tuple, preset: str | None, tol: dict[str, Tol] | None,
-              timing: bool) -> RegressReport:
+def _suite_vs(
+    new: Path, golden: Path, gold: tuple, preset: str | None, tol: dict[str, Tol] | None, timing: bool
+) -> RegressReport:
     """A golden suite vs another, log by log (every golden scenario and seed must be in NEW)."""
     prec_gold, gold_logs, man = gold
     if man is None:
         raise UnusableInput(f"{new} is a suite but {golden} is a run log")
     man_new, new_logs = _unusable(load_suite, new)
     name, tols = tolerances(preset, (man_new["precision"], prec_gold), tol)
-    rep = RegressReport("suite vs suite", str(new), str(golden), name, tols, timing,
-                        notes=_record_notes(man_new["problem"], man["problem"], "NEW's suite"))
+    rep = RegressReport(
+        "suite vs suite",
+        str(new),
+        str(golden),
+        name,
+        tols,
+        timing,
+        notes=_record_notes(man_new["problem"], man["problem"], "NEW's suite"),
+    )
     by_key = {(lg.meta["scenario"], lg.meta["seed"]): lg for lg in new_logs}
     for g in gold_logs:
         key = (g.meta["scenario"], g.meta["seed"])
@@ -115,11 +134,21 @@ def _suite_vs(new: Path, golden: Path, gold: tuple, preset: str | None, tol: dic
     return rep
 
 
-def _folder_vs(new: Path, golden: Path, gold: tuple, mode: str, preset: str | None, tol: dict[str, Tol] | None,
-               timing: bool, controller: str, build_kw: dict, progress: bool) -> RegressReport:
+def _folder_vs(
+    new: Path,
+    golden: Path,
+    gold: tuple,
+    mode: str,
+    preset: str | None,
+    tol: dict[str, Tol] | None,
+    timing: bool,
+    controller: str,
+    build_kw: dict,
+    progress: bool,
+) -> RegressReport:
     """A solver folder (read once, built once) replayed on the golden inputs or run in closed loop again."""
     prec_gold, gold_logs, man = gold
-    folder = _unusable(read_folder, new, False)   # build() checks it before compiling
+    folder = _unusable(read_folder, new, False)  # build() checks it before compiling
     info = solver_info(folder)
     name, tols = tolerances(preset, (info["precision"] if controller == "c" else "double", prec_gold), tol)
     notes: list[str] = []
@@ -127,24 +156,29 @@ def _folder_vs(new: Path, golden: Path, gold: tuple, mode: str, preset: str | No
         _check_problem(info, man, new, golden)
         notes += _record_notes(info["problem"], man["problem"], "the solver")
     rep = RegressReport(mode, str(new), str(golden), name, tols, timing, notes=notes)
-    if build_kw.get("verify") is None:   # by default the kind of build the golden suite was recorded with
+    if build_kw.get("verify") is None:  # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(folder, controller, build_kw, progress)
-    runner.golden_dir = golden if golden.is_dir() else golden.parent   # where a CommonRoad log's scenario file is
+    runner.golden_dir = golden if golden.is_dir() else golden.parent  # where a CommonRoad log's scenario file is
     if runner.lib is not None:
         stamp = runner.lib.parent / "flags.txt"
-        notes.append(f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'} "
-                     f"({cc_version(build_kw.get('cc'))})")
+        notes.append(
+            f"NEW built with: {stamp.read_text().strip() if stamp.is_file() else 'unknown flags'} "
+            f"({cc_version(build_kw.get('cc'))})"
+        )
     else:
         notes.append("NEW: the Python reference of the folder's problem.py")
     if man is not None:
-        notes.append(f"GOLDEN built with: {man.get('build', {}).get('compile_line', 'unknown')} "
-                     f"({man.get('build', {}).get('cc_version', 'unknown compiler')}, {man['precision']})")
+        notes.append(
+            f"GOLDEN built with: {man.get('build', {}).get('compile_line', 'unknown')} "
+            f"({man.get('build', {}).get('cc_version', 'unknown compiler')}, {man['precision']})"
+        )
     for g in gold_logs:
         label = f"{g.meta['scenario']} seed {g.meta['seed']}"
         if g.meta["problem"] != info["name"]:
-            raise UnusableInput(f"{label}: another problem: GOLDEN was recorded by {g.meta['problem']!r}, NEW is "
-                                f"{info['name']!r}")
+            raise UnusableInput(
+                f"{label}: another problem: GOLDEN was recorded by {g.meta['problem']!r}, NEW is {info['name']!r}"
+            )
         out = runner.run(g, mode)
         fields = REPLAY_FIELDS if mode == "replay" else ALL_FIELDS
         rep.logs.append(compare_logs(out, g, tols, fields=fields, timing=timing, label=label))
@@ -156,20 +190,25 @@ def _record_notes(a: dict[str, Any], b: dict[str, Any], who: str) -> list[str]:
     two versions (the problem.py source, the QP's sizes)."""
     notes = []
     if a.get("problem_py_sha256") != b.get("problem_py_sha256"):
-        notes.append(f"{who}'s problem.py differs from the one the golden suite was recorded with (sha256 "
-                     f"{str(a.get('problem_py_sha256'))[:12]} vs {str(b.get('problem_py_sha256'))[:12]})")
+        notes.append(
+            f"{who}'s problem.py differs from the one the golden suite was recorded with (sha256 "
+            f"{str(a.get('problem_py_sha256'))[:12]} vs {str(b.get('problem_py_sha256'))[:12]})"
+        )
     sa, sb = a.get("sizes", {}), b.get("sizes", {})
     diff = [k for k in sorted(set(sa) | set(sb)) if sa.get(k) != sb.get(k)]
     if diff:
-        notes.append(f"{who}'s sizes differ from the golden suite's: "
-                     + ", ".join(f"{k} {sa.get(k)} vs {sb.get(k)}" for k in diff))
+        notes.append(
+            f"{who}'s sizes differ from the golden suite's: "
+            + ", ".join(f"{k} {sa.get(k)} vs {sb.get(k)}" for k in diff)
+        )
     return notes
 
 
 def _check_problem(info: dict[str, Any], man: dict[str, Any], new: Path, golden: Path) -> None:
     if info["name"] != man["solver"]:
-        raise UnusableInput(f"another problem: {new} is solver {info['name']!r}, {golden} was recorded by "
-                            f"{man['solver']!r}")
+        raise UnusableInput(
+            f"another problem: {new} is solver {info['name']!r}, {golden} was recorded by {man['solver']!r}"
+        )
     a, b = info["problem"], man["problem"]
     for key in ("formulation", "obstacle_model", "N", "dt"):
         if a[key] != b.get(key):
@@ -177,8 +216,9 @@ def _check_problem(info: dict[str, Any], man: dict[str, Any], new: Path, golden:
     sa, sb = a["sizes"], b.get("sizes", {})
     diff = [k for k in ("N", "NX", "NU", "NOPP", "NOPP_PAR") if k in sa and k in sb and sa[k] != sb[k]]
     if diff:
-        raise UnusableInput(f"another problem: sizes {', '.join(f'{k} {sa[k]} vs {sb[k]}' for k in diff)} "
-                            f"({new} vs {golden})")
+        raise UnusableInput(
+            f"another problem: sizes {', '.join(f'{k} {sa[k]} vs {sb[k]}' for k in diff)} ({new} vs {golden})"
+        )
 
 
 class _Runner:
@@ -196,7 +236,7 @@ class _Runner:
 
     def make(self):
         if self.lib is not None:
-            return CSolver(self.lib, folder=self.folder)   # init(): a fresh workspace per log
+            return CSolver(self.lib, folder=self.folder)  # init(): a fresh workspace per log
         return ReferenceController(self.ocp)
 
     def run(self, gold: RunLog, mode: str) -> RunLog:
@@ -205,21 +245,39 @@ class _Runner:
         if mode == "replay":
             return _unusable(replay, self.problem, gold, self.make(), None, self.progress)
         sc = _unusable(scenario_of, gold, self.problem)
-        return _unusable(lambda: run_closed_loop(self.problem, sc, controller=self.make(), ocp=self.ocp,
-                                                 progress=self.progress, exit_codes=gold.exit_code is not None,
-                                                 plan=plan_level(gold)))
+        return _unusable(
+            lambda: run_closed_loop(
+                self.problem,
+                sc,
+                controller=self.make(),
+                ocp=self.ocp,
+                progress=self.progress,
+                exit_codes=gold.exit_code is not None,
+                plan=plan_level(gold),
+            )
+        )
 
     def _commonroad(self, gold: RunLog, mode: str) -> RunLog:
         """A CommonRoad log: its scenario file (beside the golden log, by name and sha256) run again, in replay on
         the logged states."""
         from ..campaign.commonroad import load_for
         from ..sim.commonroad_run import run_commonroad
+
         cr = gold.meta["extra"]["commonroad"]
         path = self.golden_dir / cr.get("file", "")
         if not path.is_file() or hashlib.sha256(path.read_bytes()).hexdigest() != cr.get("sha256"):
-            raise ValueError(f"{path}: the CommonRoad scenario of the golden log ({cr.get('scenario')}, sha256 "
-                             f"{str(cr.get('sha256'))[:12]}) is not there or differs")
+            raise ValueError(
+                f"{path}: the CommonRoad scenario of the golden log ({cr.get('scenario')}, sha256 "
+                f"{str(cr.get('sha256'))[:12]}) is not there or differs"
+            )
         sc = load_for(self.problem, path, cr.get("planning_problem"))
         states = np.asarray(gold.ego_frenet) if mode == "replay" else None
-        return run_commonroad(self.problem, sc, controller=self.make(), ocp=self.ocp, plan=plan_level(gold),
-                              progress=self.progress, states=states).log
+        return run_commonroad(
+            self.problem,
+            sc,
+            controller=self.make(),
+            ocp=self.ocp,
+            plan=plan_level(gold),
+            progress=self.progress,
+            states=states,
+        ).log

@@ -3,6 +3,7 @@
 A value passes if ``|new - golden| <= abs + rel * scale`` with ``scale`` the largest ``|golden|`` of that component
 over the run. Timing fields are compared only on request.
 """
+
 from __future__ import annotations
 
 import math
@@ -14,8 +15,9 @@ TIMING_FIELDS = ("time_prepare", "time_feedback", "time_total")
 ALL_FIELDS = tuple(STATE_FIELDS) + tuple(CONTROL_FIELDS) + tuple(OPTIONAL_FIELDS)
 #: fields a replay produces (its state fields are copies of the golden's)
 REPLAY_FIELDS = tuple(CONTROL_FIELDS) + tuple(OPTIONAL_FIELDS)
-_INT_FIELDS = tuple(n for n, (k, _) in {**STATE_FIELDS, **CONTROL_FIELDS, **OPTIONAL_FIELDS}.items()
-                    if k in ("int", "bool"))
+_INT_FIELDS = tuple(
+    n for n, (k, _) in {**STATE_FIELDS, **CONTROL_FIELDS, **OPTIONAL_FIELDS}.items() if k in ("int", "bool")
+)
 
 
 class UnusableInput(ValueError):
@@ -52,8 +54,9 @@ PRESETS: dict[str, dict[str, Tol]] = {
     "other-flags": _preset(Tol(1e-9, 1e-8), Tol(0, 0)),
     "other-compiler": _preset(Tol(1e-9, 1e-8), Tol(0, 0)),
     "host-vs-target": _preset(Tol(1e-6, 1e-5), Tol(2, 0.05), qp_status=Tol(0, 0)),
-    "float-vs-double": _preset(Tol(5e-2, 5e-2), Tol(math.inf, 0), qp_status=Tol(math.inf, 0),
-                               max_slack=Tol(5e-2, 5e-2), collision=Tol(1, 0)),
+    "float-vs-double": _preset(
+        Tol(5e-2, 5e-2), Tol(math.inf, 0), qp_status=Tol(math.inf, 0), max_slack=Tol(5e-2, 5e-2), collision=Tol(1, 0)
+    ),
 }
 #: default preset per precision pair (either side float -> float-vs-double)
 DEFAULT_PRESET = {("double", "double"): "other-compiler", ("float", "float"): "other-compiler"}
@@ -68,8 +71,9 @@ def parse_tol(spec: str) -> tuple[str, Tol]:
     name, sep, vals = spec.partition("=")
     name = name.strip()
     if not sep or name not in ALL_FIELDS:
-        raise UnusableInput(f"--tol {spec!r} is invalid: allowed FIELD=ABS,REL with FIELD one of "
-                            f"{', '.join(ALL_FIELDS)}")
+        raise UnusableInput(
+            f"--tol {spec!r} is invalid: allowed FIELD=ABS,REL with FIELD one of {', '.join(ALL_FIELDS)}"
+        )
     try:
         a, r = (float(v) for v in vals.split(","))
     except ValueError:

@@ -2,6 +2,7 @@
 
 matplotlib's object API on the Agg canvas (no pyplot), each figure written as PNG and SVG.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -48,10 +49,18 @@ def box_plots(df: pd.DataFrame, out_dir: Path, suffix: str = "") -> list[Path]:
                 progs.append(sub["progress"].to_numpy())
             if not pos:
                 continue
-            style = dict(positions=pos, widths=width * 0.9, patch_artist=True, manage_ticks=False,
-                         boxprops={"facecolor": COLORS[form], "alpha": 0.8}, medianprops={"color": "k"})
-            parts = [ax_t.boxplot(times, showfliers=True, flierprops={"markersize": 2, "alpha": 0.3}, **style),
-                     ax_p.boxplot(progs, **style)]
+            style = dict(
+                positions=pos,
+                widths=width * 0.9,
+                patch_artist=True,
+                manage_ticks=False,
+                boxprops={"facecolor": COLORS[form], "alpha": 0.8},
+                medianprops={"color": "k"},
+            )
+            parts = [
+                ax_t.boxplot(times, showfliers=True, flierprops={"markersize": 2, "alpha": 0.3}, **style),
+                ax_p.boxplot(progs, **style),
+            ]
             for line in (f for b in parts for f in b["fliers"]):  # thousands of outliers: pixels, not SVG paths
                 line.set_rasterized(True)
         for ax, label in ((ax_t, "time per RTI [ms]"), (ax_p, "progress after the run [m]")):
@@ -80,7 +89,11 @@ def example_run(df: pd.DataFrame, out_dir: Path) -> list[Path]:
     r = (pick if len(pick) else df).sort_values(["scenario", "seed"], ascending=[False, True]).iloc[0]
     cfg = Config(r["scenario"], r["formulation"], r["obstacles"], int(r["circles"]), "python", "osqp")
     pb = cfg.problem()
-    log = run_closed_loop(pb, make_scenario(cfg.scenario, int(r["seed"]), n_opp=pb.opponents.count,
-                                            samples=int(r["samples"]), dt=pb.horizon.dt))
+    log = run_closed_loop(
+        pb,
+        make_scenario(
+            cfg.scenario, int(r["seed"]), n_opp=pb.opponents.count, samples=int(r["samples"]), dt=pb.horizon.dt
+        ),
+    )
     stem = out_dir / f"run_{cfg.scenario}_{cfg.formulation}_{cfg.model}_seed{int(r['seed'])}"
     return [plot_run(log, stem.with_suffix(".png")), plot_run(log, stem.with_suffix(".svg"))]

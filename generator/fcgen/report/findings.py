@@ -3,6 +3,7 @@
 A verdict is computed from the tables, never written by hand; the "why" lines state the measured quantities that
 explain a difference (QP size, QP iterations, where the time goes), not a guess.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,7 +16,7 @@ from .tables import MODEL_ORDER
 @dataclass(frozen=True)
 class Finding:
     claim: str
-    verdict: str        # holds | fails | partly | no data
+    verdict: str  # holds | fails | partly | no data
     evidence: str
     why: str = ""
 
@@ -34,29 +35,41 @@ def _size_why(t, sc, model, form) -> str:
     a, c = t.get((sc, model, form)), t.get((sc, model, "conventional"))
     if not (a and c):
         return ""
-    return (f"{sc} {model}: {a['qp_n']} vs {c['qp_n']} QP variables, {a['qp_iter_mean']:.0f} vs "
-            f"{c['qp_iter_mean']:.0f} iterations, feedback {a['feedback_mean']:.2f} vs {c['feedback_mean']:.2f} ms, "
-            f"prepare {a['prepare_mean']:.2f} vs {c['prepare_mean']:.2f} ms")
+    return (
+        f"{sc} {model}: {a['qp_n']} vs {c['qp_n']} QP variables, {a['qp_iter_mean']:.0f} vs "
+        f"{c['qp_iter_mean']:.0f} iterations, feedback {a['feedback_mean']:.2f} vs {c['feedback_mean']:.2f} ms, "
+        f"prepare {a['prepare_mean']:.2f} vs {c['prepare_mean']:.2f} ms"
+    )
 
 
-CAPPED = ("the QP runs a fixed ADMM budget (about 60 iterations, the real-time cap, in every formulation), so the "
-          "time per RTI is that budget times the cost of one iteration, which grows with the QP's size: the lifted "
-          "formulation adds the Cartesian states (5 per stage) to the QP")
-IPM_SIZE = ("the interior-point QP runs until converged (its iterations are in the figures), each iteration a Riccati "
-            "recursion over the stages whose cost grows with the stage's size: the lifted formulation adds the "
-            "Cartesian states (5 per stage) to every stage")
+CAPPED = (
+    "the QP runs a fixed ADMM budget (about 60 iterations, the real-time cap, in every formulation), so the "
+    "time per RTI is that budget times the cost of one iteration, which grows with the QP's size: the lifted "
+    "formulation adds the Cartesian states (5 per stage) to the QP"
+)
+IPM_SIZE = (
+    "the interior-point QP runs until converged (its iterations are in the figures), each iteration a Riccati "
+    "recursion over the stages whose cost grows with the stage's size: the lifted formulation adds the "
+    "Cartesian states (5 per stage) to every stage"
+)
 #: why the time per RTI grows with the QP's size, per QP backend
 SIZE_WHY = {"osqp": CAPPED, "ipm": IPM_SIZE}
-SAME_QP = ("direct elimination keeps the conventional QP (same variables and rows); its only extra work, the obstacle "
-           "rows through the Frenet-to-Cartesian map, is a small part of the prepare phase")
-ELLIPSE = ("the covering ellipse (the paper's semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a "
-           "13 x 2 m half truck; the safe profile's, containing the rectangle grown by the ego's circle: 19.3 x 5.8 m) "
-           "keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or few circles "
-           "do, so it overtakes later")
+SAME_QP = (
+    "direct elimination keeps the conventional QP (same variables and rows); its only extra work, the obstacle "
+    "rows through the Frenet-to-Cartesian map, is a small part of the prepare phase"
+)
+ELLIPSE = (
+    "the covering ellipse (the paper's semi-axes l/sqrt(2) + r_ego, w/sqrt(2) + r_ego: 20.6 x 5.0 m around a "
+    "13 x 2 m half truck; the safe profile's, containing the rectangle grown by the ego's circle: 19.3 x 5.8 m) "
+    "keeps the ego much further from an opponent than the hyperplane (rectangles, 0.2 m margin) or few circles "
+    "do, so it overtakes later"
+)
 
 
-FIT = ("the conventional solver's prepare phase holds its opponent fit (each opponent's corners projected onto the "
-       "road, its Frenet box fitted), which makes it over twice as long as the other formulation's")
+FIT = (
+    "the conventional solver's prepare phase holds its opponent fit (each opponent's corners projected onto the "
+    "road, its Frenet box fitted), which makes it over twice as long as the other formulation's"
+)
 
 
 def _fit_why(t, cells, form) -> str:
@@ -70,23 +83,29 @@ def _fit_why(t, cells, form) -> str:
     return (FIT + ": " + "; ".join(hit)) if hit else ""
 
 
-SWEPT = ("{n} touch the front corner of a truck that the road's bend swept {sweep:.1f} m (median) beyond its half "
-         "width out of its lane: a straight 26 m chassis whose rear axle follows its lane sweeps its front across the "
-         "road up to its edge, which bounds the ego hard, and leaves no room beside it; the plan sees it coming (it "
-         "holds the obstacle slack from when the conflict enters the horizon) but takes the soft rows' penalty rather "
-         "than brake early")
-REAR = ("{n} clip an opponent's rear corner while swerving past it to overtake: the plan holds the obstacle rows' "
-        "slack for many samples before (the hyperplane's 0.2 m margin eaten, then more): the soft rows' L1 penalty is not "
-        "exact there (the row's multiplier exceeds the weight)")
+SWEPT = (
+    "{n} touch the front corner of a truck that the road's bend swept {sweep:.1f} m (median) beyond its half "
+    "width out of its lane: a straight 26 m chassis whose rear axle follows its lane sweeps its front across the "
+    "road up to its edge, which bounds the ego hard, and leaves no room beside it; the plan sees it coming (it "
+    "holds the obstacle slack from when the conflict enters the horizon) but takes the soft rows' penalty rather "
+    "than brake early"
+)
+REAR = (
+    "{n} clip an opponent's rear corner while swerving past it to overtake: the plan holds the obstacle rows' "
+    "slack for many samples before (the hyperplane's 0.2 m margin eaten, then more): the soft rows' L1 penalty is not "
+    "exact there (the row's multiplier exceeds the weight)"
+)
 OTHER = "{n} touch an opponent's front corner the bend has not swept"
-GENERIC = ("the hyperplane's collisions are planned: the plan keeps the obstacle rows' slack for many samples before "
-           "(the soft rows' L1 penalty is not exact where the ego squeezes past an opponent's rear corner, or beside a "
-           "truck whose front the road's bend sweeps across the road up to its edge)")
+GENERIC = (
+    "the hyperplane's collisions are planned: the plan keeps the obstacle rows' slack for many samples before "
+    "(the soft rows' L1 penalty is not exact where the ego squeezes past an opponent's rear corner, or beside a "
+    "truck whose front the road's bend sweeps across the road up to its edge)"
+)
 
 
 def _ellipse_why(prog_rows) -> str:
     """EL's collisions: the paper's enlarged ellipse does not cover the opponent's corners grown by the ego's circle."""
-    r_ego = (0.25 * CAR.l_ch ** 2 + 0.25 * CAR.w_ch ** 2) ** 0.5
+    r_ego = (0.25 * CAR.l_ch**2 + 0.25 * CAR.w_ch**2) ** 0.5
     parts = []
     for sc in ("truck", "car"):
         rows = [r for r in prog_rows if r["scenario"] == sc and r["model"] == "EL" and r["runs_with_collision"]]
@@ -96,11 +115,18 @@ def _ellipse_why(prog_rows) -> str:
         gap = ellipse_shortfall(0.5 * opp.l_ch, 0.5 * opp.w_ch, r_ego)
         n = sum(r["runs_with_collision"] for r in rows)
         depths = [d for r in rows for d in r.get("collision_depths_m", [])]
-        deep = (f", all within it (deepest {max(depths):.2f} m)" if depths and max(depths) <= gap else
-                f" (deepest {max(depths):.2f} m)" if depths else "")
-        parts.append(f"{sc} EL ({n} runs): the paper's ellipse (semi-axes sqrt(2) l/2 + r_ego, sqrt(2) w/2 + r_ego) "
-                     f"does not contain the {sc} rectangle grown by the ego's circle: near its corners the ego can "
-                     f"overlap it by up to {gap:.2f} m while the ellipse constraint holds{deep}")
+        deep = (
+            f", all within it (deepest {max(depths):.2f} m)"
+            if depths and max(depths) <= gap
+            else f" (deepest {max(depths):.2f} m)"
+            if depths
+            else ""
+        )
+        parts.append(
+            f"{sc} EL ({n} runs): the paper's ellipse (semi-axes sqrt(2) l/2 + r_ego, sqrt(2) w/2 + r_ego) "
+            f"does not contain the {sc} rectangle grown by the ego's circle: near its corners the ego can "
+            f"overlap it by up to {gap:.2f} m while the ellipse constraint holds{deep}"
+        )
     return "; ".join(parts)
 
 
@@ -119,8 +145,10 @@ def collision_why(prog_rows) -> str:
                 kinds[k] = kinds.get(k, 0) + v
         depths = sorted(d for r in cart for d in r["collision_depths_m"])
         sweeps = sorted(d for r in cart for d in r["collision_sweeps_m"])
-        head = (f"of the {n_all} colliding runs without EL (penetration median {depths[len(depths) // 2]:.2f} m, "
-                f"deepest {depths[-1]:.2f} m)")
+        head = (
+            f"of the {n_all} colliding runs without EL (penetration median {depths[len(depths) // 2]:.2f} m, "
+            f"deepest {depths[-1]:.2f} m)"
+        )
         msg = []
         if kinds.get("swept_front"):
             n = kinds["swept_front"]
@@ -147,8 +175,9 @@ def _responsibility(hit) -> str:
             who[k] = who.get(k, 0) + v
     if not who:
         return ""
-    return ("by responsibility (first contact): " + ", ".join(f"{k.replace('_', ' ')} {n}"
-                                                             for k, n in sorted(who.items())))
+    return "by responsibility (first contact): " + ", ".join(
+        f"{k.replace('_', ' ')} {n}" for k, n in sorted(who.items())
+    )
 
 
 def _join(*parts: str) -> str:
@@ -171,10 +200,14 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             ev.append(f"{sc} {m} {r['vs_conv_pct']:+.1f} %")
             if not ok[-1]:
                 why.append(_size_why(t, sc, m, "lifted"))
-    out.append(Finding(f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
-                       _verdict(ok), ", ".join(ev),
-                       _join((SIZE_WHY.get(backend, "") + ": " + "; ".join(why)) if why else "",
-                             _fit_why(t, cells, "lifted"))))
+    out.append(
+        Finding(
+            f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
+            _verdict(ok),
+            ", ".join(ev),
+            _join((SIZE_WHY.get(backend, "") + ": " + "; ".join(why)) if why else "", _fit_why(t, cells, "lifted")),
+        )
+    )
 
     # 2. direct elimination ~ +30 % with EL (paper +28.9 % truck, +29.6 % car)
     ok, ev, why = [], [], []
@@ -185,10 +218,17 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             ev.append(f"{sc} EL {r['vs_conv_pct']:+.1f} %")
             if not ok[-1]:
                 why.append(_size_why(t, sc, "EL", "direct_elimination"))
-    out.append(Finding("direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
-                       _verdict(ok), ", ".join(ev),
-                       _join((SAME_QP + ": " + "; ".join(why)) if why else "",
-                             _fit_why(t, [(sc, "EL") for sc in ("truck", "car")], "direct_elimination"))))
+    out.append(
+        Finding(
+            "direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
+            _verdict(ok),
+            ", ".join(ev),
+            _join(
+                (SAME_QP + ": " + "; ".join(why)) if why else "",
+                _fit_why(t, [(sc, "EL") for sc in ("truck", "car")], "direct_elimination"),
+            ),
+        )
+    )
 
     # 3. trucks: lifted and DE progress further than conventional
     ok, ev = [], []
@@ -198,11 +238,16 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             if r and "vs_conv_m" in r:
                 ok.append(r["vs_conv_m"] > 0)
                 ev.append(f"{m} {form} {r['vs_conv_m']:+.1f} m ({r['better_seeds']}/{r['paired']} seeds)")
-    out.append(Finding("trucks: lifted and direct elimination progress further than conventional",
-                       _verdict(ok), ", ".join(ev),
-                       "the conventional formulation over-approximates a truck in the Frenet frame by a box fitted "
-                       "around its projected corners, which grows with the road's curvature; where a Cartesian model "
-                       "is itself coarse (many circles, linearised hyperplanes) the advantage can vanish"))
+    out.append(
+        Finding(
+            "trucks: lifted and direct elimination progress further than conventional",
+            _verdict(ok),
+            ", ".join(ev),
+            "the conventional formulation over-approximates a truck in the Frenet frame by a box fitted "
+            "around its projected corners, which grows with the road's curvature; where a Cartesian model "
+            "is itself coarse (many circles, linearised hyperplanes) the advantage can vanish",
+        )
+    )
 
     # 4. EL gives the best progress (per scenario and formulation)
     ok, ev = [], []
@@ -213,18 +258,24 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
                 best = max(cand, key=cand.get)
                 ok.append(best == "EL")
                 ev.append(f"{sc} {form}: best {best} ({cand[best]:.1f} m; EL {cand['EL']:.1f} m)")
-    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev),
-                       ELLIPSE if not all(ok) else ""))
+    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev), ELLIPSE if not all(ok) else ""))
 
     # 5. zero collisions (true rectangles)
     runs = sum(r["runs"] for r in prog_rows)
     hit = sum(r["runs_with_collision"] for r in prog_rows)
-    bad = [f"{r['scenario']} {r['model']} {r['formulation']}: {r['runs_with_collision']}" for r in prog_rows
-           if r["runs_with_collision"]]
-    out.append(Finding("zero collisions (judged on the true chassis rectangles)",
-                       "holds" if runs and not hit else ("no data" if not runs else "fails"),
-                       f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else ""),
-                       collision_why(prog_rows)))
+    bad = [
+        f"{r['scenario']} {r['model']} {r['formulation']}: {r['runs_with_collision']}"
+        for r in prog_rows
+        if r["runs_with_collision"]
+    ]
+    out.append(
+        Finding(
+            "zero collisions (judged on the true chassis rectangles)",
+            "holds" if runs and not hit else ("no data" if not runs else "fails"),
+            f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else ""),
+            collision_why(prog_rows),
+        )
+    )
     return out
 
 

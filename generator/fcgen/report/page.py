@@ -1,4 +1,5 @@
 """``fcgen report RESULTS -o DIR``: tables, box plots, a Fig. 1-like run and a markdown page beside the paper's."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,8 +12,10 @@ from ..testhook import pause_point
 from . import backends, figures, findings, tables
 
 PAPER_RUNS_PER_CONFIG = 500
-CLOCK_TEXT = {"cpu": "thread's CPU time (`--clock cpu`: other processes on the machine do not count)",
-              "wall": "monotonic wall clock (`--clock wall`)"}
+CLOCK_TEXT = {
+    "cpu": "thread's CPU time (`--clock cpu`: other processes on the machine do not count)",
+    "wall": "monotonic wall clock (`--clock wall`)",
+}
 
 
 def scale_rows(df: pd.DataFrame) -> list[dict]:
@@ -20,9 +23,17 @@ def scale_rows(df: pd.DataFrame) -> list[dict]:
     and 1 / mean wall time (which a loaded machine inflates)."""
     rows = []
     for (sc, model), sub in df.groupby(["scenario", "model"], sort=False):
-        rows.append({"scenario": sc, "model": model, "runs": len(sub), "cpu_mean_s": float(sub["cpu_s"].mean()),
-                     "wall_mean_s": float(sub["wall_s"].mean()), "runs_per_s_core": 1.0 / float(sub["cpu_s"].mean()),
-                     "runs_per_s_core_wall": 1.0 / float(sub["wall_s"].mean())})
+        rows.append(
+            {
+                "scenario": sc,
+                "model": model,
+                "runs": len(sub),
+                "cpu_mean_s": float(sub["cpu_s"].mean()),
+                "wall_mean_s": float(sub["wall_s"].mean()),
+                "runs_per_s_core": 1.0 / float(sub["cpu_s"].mean()),
+                "runs_per_s_core_wall": 1.0 / float(sub["wall_s"].mean()),
+            }
+        )
     return rows
 
 
@@ -46,14 +57,26 @@ def grid_estimate(df: pd.DataFrame, cores: int = 2) -> dict:
     runs = PAPER_RUNS_PER_CONFIG * g.ngroups
     cpu = PAPER_RUNS_PER_CONFIG * float(g["cpu_s"].mean().sum())
     wall = PAPER_RUNS_PER_CONFIG * float(g["wall_s"].mean().sum())
-    solver = PAPER_RUNS_PER_CONFIG * float((df["time_total_ms_mean"] * df["n_controls"] / 1e3).groupby(
-        df["config"]).mean().sum())
+    solver = PAPER_RUNS_PER_CONFIG * float(
+        (df["time_total_ms_mean"] * df["n_controls"] / 1e3).groupby(df["config"]).mean().sum()
+    )
     span = busy_seconds(df["t_start"].to_numpy(), df["t_end"].to_numpy())
-    return {"configs": g.ngroups, "runs": runs, "core_s": cpu, "core_s_wall": wall, "solver_core_s": solver,
-            "wall_min": cpu / cores / 60.0, "wall_min_loaded": wall / cores / 60.0,
-            "solver_min": solver / cores / 60.0, "cores": cores, "measured_runs": len(df), "measured_span_s": span,
-            "measured_rate": len(df) / span if span > 0 else float("nan"), "workers": int(df["worker"].nunique()),
-            "load": float(df["load_1min"].mean()) if "load_1min" in df else float("nan")}
+    return {
+        "configs": g.ngroups,
+        "runs": runs,
+        "core_s": cpu,
+        "core_s_wall": wall,
+        "solver_core_s": solver,
+        "wall_min": cpu / cores / 60.0,
+        "wall_min_loaded": wall / cores / 60.0,
+        "solver_min": solver / cores / 60.0,
+        "cores": cores,
+        "measured_runs": len(df),
+        "measured_span_s": span,
+        "measured_rate": len(df) / span if span > 0 else float("nan"),
+        "workers": int(df["worker"].nunique()),
+        "load": float(df["load_1min"].mean()) if "load_1min" in df else float("nan"),
+    }
 
 
 def _conv_note(df: pd.DataFrame) -> str:
@@ -61,10 +84,14 @@ def _conv_note(df: pd.DataFrame) -> str:
     if conv_fit.empty:
         return ""
     if int(conv_fit.iloc[0]) == 3:
-        return ("The conventional solver takes the opponents' Cartesian poses and fits their Frenet boxes itself: its "
-                "time per RTI includes the fitting.")
-    return ("Note: the conventional solver here still takes the opponents' Frenet boxes fitted in Python, outside "
-            "the timed solver, so its time per RTI is understated.")
+        return (
+            "The conventional solver takes the opponents' Cartesian poses and fits their Frenet boxes itself: its "
+            "time per RTI includes the fitting."
+        )
+    return (
+        "Note: the conventional solver here still takes the opponents' Frenet boxes fitted in Python, outside "
+        "the timed solver, so its time per RTI is understated."
+    )
 
 
 def _tables(df: pd.DataFrame, tag: str = "", backend: str = "osqp") -> list[str]:
@@ -73,23 +100,45 @@ def _tables(df: pd.DataFrame, tag: str = "", backend: str = "osqp") -> list[str]
     t_rows, p_rows, a_rows = tables.time_table(df), tables.progress_table(df), tables.alat_table(df)
     fs = findings.judge(t_rows, p_rows, backend=backend)
     return [
-        f"## Table III: time per RTI (ms, mean ± std over every RTI), beside the paper's{tag}", "",
-        tables.md_time_table(t_rows), "", _conv_note(df), "",
-        "Where the time goes:", "", tables.md_time_detail(t_rows), "",
-        f"## Progress and collisions{tag}", "", tables.md_progress_table(p_rows), "",
-        f"## The paper's findings{tag}", "", findings.md_findings(fs), "",
-        f"## Soft constraint: |a_lat| above its bound{tag}", "", tables.md_alat_table(a_rows), ""]
+        f"## Table III: time per RTI (ms, mean ± std over every RTI), beside the paper's{tag}",
+        "",
+        tables.md_time_table(t_rows),
+        "",
+        _conv_note(df),
+        "",
+        "Where the time goes:",
+        "",
+        tables.md_time_detail(t_rows),
+        "",
+        f"## Progress and collisions{tag}",
+        "",
+        tables.md_progress_table(p_rows),
+        "",
+        f"## The paper's findings{tag}",
+        "",
+        findings.md_findings(fs),
+        "",
+        f"## Soft constraint: |a_lat| above its bound{tag}",
+        "",
+        tables.md_alat_table(a_rows),
+        "",
+    ]
 
 
 def _rates(df: pd.DataFrame, tag: str = "") -> list[str]:
     """Runs per second per core per obstacle model and the full grid's estimate, of rows of one QP backend."""
     est = grid_estimate(df)
     return [
-        f"## Rate and the full grid{tag}", "",
+        f"## Rate and the full grid{tag}",
+        "",
         "| scenario | model | runs | CPU per run s | runs/s per core (CPU) | wall per run s | runs/s per core (wall) |",
         "|---|---|---|---|---|---|---|",
-        *[f"| {r['scenario']} | {r['model']} | {r['runs']} | {r['cpu_mean_s']:.3f} | {r['runs_per_s_core']:.2f} "
-          f"| {r['wall_mean_s']:.3f} | {r['runs_per_s_core_wall']:.2f} |" for r in scale_rows(df)], "",
+        *[
+            f"| {r['scenario']} | {r['model']} | {r['runs']} | {r['cpu_mean_s']:.3f} | {r['runs_per_s_core']:.2f} "
+            f"| {r['wall_mean_s']:.3f} | {r['runs_per_s_core_wall']:.2f} |"
+            for r in scale_rows(df)
+        ],
+        "",
         f"Measured: {est['measured_runs']} runs in {est['measured_span_s']:.0f} s of running time "
         f"({est['measured_rate']:.2f} runs/s; {est['workers']} worker processes over all campaign calls; the "
         f"machine's load average {est['load']:.1f}). "
@@ -97,7 +146,9 @@ def _rates(df: pd.DataFrame, tag: str = "") -> list[str]:
         f"needs {est['core_s'] / 3600:.2f} CPU core-hours: **{est['wall_min']:.0f} min on {est['cores']} free "
         f"cores** ({est['wall_min_loaded']:.0f} min at the wall times measured here). Of that, the solver itself "
         f"(time per RTI x RTIs, by its {'/'.join(sorted(df['clock'].unique()))} clock) takes "
-        f"{est['solver_min']:.0f} min.", ""]
+        f"{est['solver_min']:.0f} min.",
+        "",
+    ]
 
 
 def _backend_comparison(df: pd.DataFrame, names: list[str]) -> list[str]:
@@ -105,8 +156,12 @@ def _backend_comparison(df: pd.DataFrame, names: list[str]) -> list[str]:
     lines = ["## QP backend against QP backend", ""]
     for other in names[1:]:
         rows = backends.compare(df, base, other)
-        lines += [backends.md_summary(backends.summary(rows), base, other), "", backends.md_compare(rows, base, other),
-                  ""]
+        lines += [
+            backends.md_summary(backends.summary(rows), base, other),
+            "",
+            backends.md_compare(rows, base, other),
+            "",
+        ]
     return lines
 
 
@@ -115,8 +170,10 @@ def check_report_target(out_dir: str | Path, force: bool = False) -> None:
     replaces the files it writes; the folder's other files are kept)."""
     out = check_folder_target(out_dir, "a report folder", option="-o")
     if out.is_dir() and any(out.iterdir()) and not force:
-        raise ValueError(f"-o {out}: holds {describe(out)}; a report would replace its README.md and figures; nothing "
-                         f"written: add --force (files the report does not write are kept) or choose a new folder")
+        raise ValueError(
+            f"-o {out}: holds {describe(out)}; a report would replace its README.md and figures; nothing "
+            f"written: add --force (files the report does not write are kept) or choose a new folder"
+        )
 
 
 def write_report(results: str | Path, out_dir: str | Path, example: bool = True, force: bool = False) -> Path:
@@ -128,9 +185,11 @@ def write_report(results: str | Path, out_dir: str | Path, example: bool = True,
     check_report_target(out_dir, force)
     df = read_results(results)
     if "profile" in df.columns and df["profile"].fillna("paper").nunique() > 1:
-        raise ValueError(f"results {str(results)!r} hold runs of several profiles "
-                         f"({', '.join(sorted(df['profile'].fillna('paper').unique()))}): a report is of one profile; "
-                         f"give each profile its own campaign --out, and compare them with `fcgen profiles`")
+        raise ValueError(
+            f"results {str(results)!r} hold runs of several profiles "
+            f"({', '.join(sorted(df['profile'].fillna('paper').unique()))}): a report is of one profile; "
+            f"give each profile its own campaign --out, and compare them with `fcgen profiles`"
+        )
     with staged_folder(out_dir) as tmp:
         _write_report(df, tmp, example)
         if Path(out_dir).is_dir():
@@ -150,17 +209,27 @@ def _write_report(df: pd.DataFrame, out: Path, example: bool) -> Path:
         figs += figures.box_plots(sub, out, suffix=f"_{b}" if many else "")
     if example:
         figs += figures.example_run(df, out)
-    grid = df.groupby(["backend", "scenario", "samples"]).agg(configs=("config", "nunique"), runs=("seed", "size"),
-                                                              seeds=("seed", "nunique")).reset_index()
+    grid = (
+        df.groupby(["backend", "scenario", "samples"])
+        .agg(configs=("config", "nunique"), runs=("seed", "size"), seeds=("seed", "nunique"))
+        .reset_index()
+    )
     grid = grid.sort_values("backend", key=lambda col: col.map(names.index), kind="stable")
     lines = [
-        "# Campaign report", "",
-        "Results: " + ", ".join((f"{r.backend} " if many else "") + f"{r.scenario}: {r.configs} configurations x "
-                                f"{r.seeds} seeds x {r.samples} samples ({r.runs} runs)" for r in grid.itertuples())
+        "# Campaign report",
+        "",
+        "Results: "
+        + ", ".join(
+            (f"{r.backend} " if many else "") + f"{r.scenario}: {r.configs} configurations x "
+            f"{r.seeds} seeds x {r.samples} samples ({r.runs} runs)"
+            for r in grid.itertuples()
+        )
         + ".",
         f"Controllers: {', '.join(sorted(df['controller'].unique()))}; QP backend: "
         f"{', '.join(names)}; fcgen solver hashes: {df['solver_hash'].nunique()}; the "
-        f"solver timed by its {' and '.join(CLOCK_TEXT[c] for c in sorted(df['clock'].unique()))}.", ""]
+        f"solver timed by its {' and '.join(CLOCK_TEXT[c] for c in sorted(df['clock'].unique()))}.",
+        "",
+    ]
     if many:
         lines += _backend_comparison(df, names)
     for b, sub in split:

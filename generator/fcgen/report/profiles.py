@@ -1,5 +1,6 @@
 """The paper profile against the safe profile, seed by seed: collisions (by kind and responsibility), |a_lat| above
 its bound, progress, time per RTI, plan-check reactions (``fcgen profiles``)."""
+
 from __future__ import annotations
 
 import math
@@ -25,7 +26,7 @@ def _counts(rows: pd.DataFrame, column: str) -> str:
 def compare(paper: pd.DataFrame, safe: pd.DataFrame) -> list[dict]:
     """Per configuration (scenario, formulation, obstacle model) on the seeds both hold: one row."""
     out = []
-    if "backend" in paper.columns and "backend" in safe.columns:   # the same QP backends on both sides
+    if "backend" in paper.columns and "backend" in safe.columns:  # the same QP backends on both sides
         paper = paper[paper["backend"].isin(set(safe["backend"]))]
     paper, safe = paper.assign(cell=_cell_key(paper)), safe.assign(cell=_cell_key(safe))
     for cell in sorted(set(paper["cell"]) & set(safe["cell"])):
@@ -54,9 +55,11 @@ def compare(paper: pd.DataFrame, safe: pd.DataFrame) -> list[dict]:
 
 def markdown(rows: list[dict]) -> str:
     """The comparison as a Markdown table, with totals."""
-    head = ("| configuration | seeds | collisions paper / safe | safe: kind; responsibility | |a_lat| > bound "
-            "paper / safe (% of samples) | max excess paper / safe (m/s^2) | progress safe/paper | time per RTI "
-            "paper / safe (ms) | QP iter paper / safe | plan-check reactions (samples) |")
+    head = (
+        "| configuration | seeds | collisions paper / safe | safe: kind; responsibility | |a_lat| > bound "
+        "paper / safe (% of samples) | max excess paper / safe (m/s^2) | progress safe/paper | time per RTI "
+        "paper / safe (ms) | QP iter paper / safe | plan-check reactions (samples) |"
+    )
     lines = [head, "|" + "---|" * 10]
     for r in rows:
         lines.append(
@@ -64,13 +67,16 @@ def markdown(rows: list[dict]) -> str:
             f"{r['safe_kinds'] or '-'}; {r['safe_responsibility'] or '-'} | {r['paper_alat_over_pct']:.1f} / "
             f"{r['safe_alat_over_pct']:.2f} | {r['paper_alat_excess_max']:.2f} / {r['safe_alat_excess_max']:.2f} | "
             f"{r['progress_ratio']:.3f} | {r['paper_time_ms']:.3f} / {r['safe_time_ms']:.3f} | "
-            f"{r['paper_qp_iter']:.2f} / {r['safe_qp_iter']:.2f} | {r['safe_reactions']} |")
+            f"{r['paper_qp_iter']:.2f} / {r['safe_qp_iter']:.2f} | {r['safe_reactions']} |"
+        )
     if rows:
         n = sum(r["seeds"] for r in rows)
         tr = np.exp(np.mean(np.log([r["time_ratio"] for r in rows])))
-        lines.append(f"| **all** | {n} runs | {sum(r['paper_collisions'] for r in rows)} / "
-                     f"{sum(r['safe_collisions'] for r in rows)} | | | max {max(r['paper_alat_excess_max'] for r in rows):.2f}"
-                     f" / {max(r['safe_alat_excess_max'] for r in rows):.2f} | "
-                     f"{min(r['progress_ratio'] for r in rows):.3f}-{max(r['progress_ratio'] for r in rows):.3f} | "
-                     f"ratio {tr:.3f} (geometric mean) | | {sum(r['safe_reactions'] for r in rows)} |")
+        lines.append(
+            f"| **all** | {n} runs | {sum(r['paper_collisions'] for r in rows)} / "
+            f"{sum(r['safe_collisions'] for r in rows)} | | | max {max(r['paper_alat_excess_max'] for r in rows):.2f}"
+            f" / {max(r['safe_alat_excess_max'] for r in rows):.2f} | "
+            f"{min(r['progress_ratio'] for r in rows):.3f}-{max(r['progress_ratio'] for r in rows):.3f} | "
+            f"ratio {tr:.3f} (geometric mean) | | {sum(r['safe_reactions'] for r in rows)} |"
+        )
     return "\n".join(lines) + "\n"

@@ -3,6 +3,7 @@
 Every table is a list of plain dicts (one per configuration) plus a markdown formatter. Times are pooled over every
 RTI of every run of a configuration (``time_rti_ms``), like the paper's mean +- std over all real-time iterations.
 """
+
 from __future__ import annotations
 
 import math
@@ -53,14 +54,23 @@ def time_table(df: pd.DataFrame) -> list[dict]:
             if not len(sub):
                 continue
             t = _rti_times(sub)
-            r = {"scenario": sc, "model": model, "formulation": form, "runs": len(sub), "rtis": int(t.size),
-                 "mean": float(np.mean(t)), "std": float(np.std(t)), "median": float(np.median(t)),
-                 "p99": float(np.percentile(t, 99)), "prepare_mean": float(np.average(
-                     sub["time_prepare_ms_mean"], weights=sub["n_controls"])),
-                 "feedback_mean": float(np.average(sub["time_feedback_ms_mean"], weights=sub["n_controls"])),
-                 "qp_iter_mean": float(np.average(sub["qp_iter_mean"], weights=sub["n_controls"])),
-                 "qp_n": int(sub["qp_n"].iloc[0]), "qp_m": int(sub["qp_m"].iloc[0]),
-                 "qp_nnz_a": int(sub["qp_nnz_a"].iloc[0])}
+            r = {
+                "scenario": sc,
+                "model": model,
+                "formulation": form,
+                "runs": len(sub),
+                "rtis": int(t.size),
+                "mean": float(np.mean(t)),
+                "std": float(np.std(t)),
+                "median": float(np.median(t)),
+                "p99": float(np.percentile(t, 99)),
+                "prepare_mean": float(np.average(sub["time_prepare_ms_mean"], weights=sub["n_controls"])),
+                "feedback_mean": float(np.average(sub["time_feedback_ms_mean"], weights=sub["n_controls"])),
+                "qp_iter_mean": float(np.average(sub["qp_iter_mean"], weights=sub["n_controls"])),
+                "qp_n": int(sub["qp_n"].iloc[0]),
+                "qp_m": int(sub["qp_m"].iloc[0]),
+                "qp_nnz_a": int(sub["qp_nnz_a"].iloc[0]),
+            }
             if form == "conventional":
                 base = r["mean"]
             r["vs_conv_pct"] = 100.0 * (r["mean"] / base - 1.0) if base else math.nan
@@ -78,11 +88,18 @@ def progress_table(df: pd.DataFrame) -> list[dict]:
             if not len(sub):
                 continue
             p = sub.set_index("seed")["progress"]
-            r = {"scenario": sc, "model": model, "formulation": form, "runs": len(sub),
-                 "mean": float(p.mean()), "std": float(p.std(ddof=0)), "min": float(p.min()),
-                 "runs_with_collision": int(sub["collision"].sum()),
-                 "collision_samples": int(sub["n_collision_samples"].sum()),
-                 "max_slack": float(sub["max_slack"].max())}
+            r = {
+                "scenario": sc,
+                "model": model,
+                "formulation": form,
+                "runs": len(sub),
+                "mean": float(p.mean()),
+                "std": float(p.std(ddof=0)),
+                "min": float(p.min()),
+                "runs_with_collision": int(sub["collision"].sum()),
+                "collision_samples": int(sub["n_collision_samples"].sum()),
+                "max_slack": float(sub["max_slack"].max()),
+            }
             r.update(_collision_kinds(sub))
             common = p.index.intersection(conv.index)
             if form != "conventional" and len(common):
@@ -101,10 +118,12 @@ def _collision_kinds(sub: pd.DataFrame) -> dict:
     kinds = hit["collision_kind"].fillna("").astype(str)
     if not len(hit) or (kinds == "").any():
         return {}
-    out = {"collision_kinds": {k: int(n) for k, n in kinds.value_counts().sort_index().items()},
-           "collision_depths_m": [float(v) for v in hit["collision_depth_m"]]}
+    out = {
+        "collision_kinds": {k: int(n) for k, n in kinds.value_counts().sort_index().items()},
+        "collision_depths_m": [float(v) for v in hit["collision_depth_m"]],
+    }
     out["collision_sweeps_m"] = [float(v) for v, k in zip(hit["collision_sweep_m"], kinds) if k == "swept_front"]
-    if "collision_responsibility" in hit.columns:   # rows since the responsibility classes (sim.collision_kind)
+    if "collision_responsibility" in hit.columns:  # rows since the responsibility classes (sim.collision_kind)
         who = hit["collision_responsibility"].fillna("").astype(str)
         out["collision_responsibility"] = {k: int(n) for k, n in who.value_counts().sort_index().items() if k}
     return out
@@ -120,16 +139,24 @@ def alat_table(df: pd.DataFrame) -> list[dict]:
                 continue
             over = sub["a_lat_over_samples"].to_numpy()
             ex_sum = float(np.sum(sub["a_lat_excess_mean"].to_numpy() * over))
-            rows.append({"scenario": sc, "model": model, "formulation": form,
-                         "bound": float(sub["a_lat_bound"].iloc[0]),
-                         "share_pct": 100.0 * over.sum() / float(sub["n_states"].sum()),
-                         "runs_over": int((over > 0).sum()), "runs": len(sub),
-                         "excess_max": float(sub["a_lat_excess_max"].max()),
-                         "excess_mean": ex_sum / over.sum() if over.sum() else 0.0})
+            rows.append(
+                {
+                    "scenario": sc,
+                    "model": model,
+                    "formulation": form,
+                    "bound": float(sub["a_lat_bound"].iloc[0]),
+                    "share_pct": 100.0 * over.sum() / float(sub["n_states"].sum()),
+                    "runs_over": int((over > 0).sum()),
+                    "runs": len(sub),
+                    "excess_max": float(sub["a_lat_excess_max"].max()),
+                    "excess_mean": ex_sum / over.sum() if over.sum() else 0.0,
+                }
+            )
     return rows
 
 
 # --- markdown ----------------------------------------------------------------------------------------------------
+
 
 def _pm(m, s, digits=2):
     return f"{m:.{digits}f} ± {s:.{digits}f}"
@@ -142,8 +169,9 @@ def _pct(x):
 def md_time_table(rows: list[dict], with_paper: bool = True) -> str:
     """Table III: ours (ms) beside the paper's, per scenario and obstacle model."""
     by = {(r["scenario"], r["model"], r["formulation"]): r for r in rows}
-    head = ("| scenario | model | conventional | direct elim. | vs conv. | lifted | vs conv. |"
-            + (" paper: conv. | DE | vs conv. | lifted | vs conv. |" if with_paper else ""))
+    head = "| scenario | model | conventional | direct elim. | vs conv. | lifted | vs conv. |" + (
+        " paper: conv. | DE | vs conv. | lifted | vs conv. |" if with_paper else ""
+    )
     out = [head, "|" + "---|" * (7 + (5 if with_paper else 0))]
     for sc, model in dict.fromkeys((r["scenario"], r["model"]) for r in rows):
         cells = []
@@ -155,38 +183,60 @@ def md_time_table(rows: list[dict], with_paper: bool = True) -> str:
         line = f"| {sc} | {model} | " + " | ".join(cells) + " |"
         if with_paper:
             p = PAPER_TABLE3.get((sc, model))
-            line += (" " + " | ".join([_pm(*p[0], 1), _pm(*p[1][:2], 1), _pct(p[1][2]), _pm(*p[2][:2], 1),
-                                       _pct(p[2][2])]) + " |") if p else " – | – | – | – | – |"
+            line += (
+                (
+                    " "
+                    + " | ".join([_pm(*p[0], 1), _pm(*p[1][:2], 1), _pct(p[1][2]), _pm(*p[2][:2], 1), _pct(p[2][2])])
+                    + " |"
+                )
+                if p
+                else " – | – | – | – | – |"
+            )
         out.append(line)
     return "\n".join(out)
 
 
 def md_time_detail(rows: list[dict]) -> str:
-    out = ["| scenario | model | formulation | runs | RTIs | median ms | p99 ms | prepare ms | feedback ms "
-           "| QP iter | QP variables x rows (nnz A) |", "|" + "---|" * 11]
+    out = [
+        "| scenario | model | formulation | runs | RTIs | median ms | p99 ms | prepare ms | feedback ms "
+        "| QP iter | QP variables x rows (nnz A) |",
+        "|" + "---|" * 11,
+    ]
     for r in rows:
-        out.append(f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} | {r['rtis']} "
-                   f"| {r['median']:.2f} | {r['p99']:.2f} | {r['prepare_mean']:.3f} | {r['feedback_mean']:.3f} "
-                   f"| {r['qp_iter_mean']:.0f} | {r['qp_n']} x {r['qp_m']} ({r['qp_nnz_a']}) |")
+        out.append(
+            f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} | {r['rtis']} "
+            f"| {r['median']:.2f} | {r['p99']:.2f} | {r['prepare_mean']:.3f} | {r['feedback_mean']:.3f} "
+            f"| {r['qp_iter_mean']:.0f} | {r['qp_n']} x {r['qp_m']} ({r['qp_nnz_a']}) |"
+        )
     return "\n".join(out)
 
 
 def md_progress_table(rows: list[dict]) -> str:
-    out = ["| scenario | model | formulation | runs | progress m | min m | vs conv. (same seeds) "
-           "| better than conv. | runs with collision | max slack |", "|" + "---|" * 10]
+    out = [
+        "| scenario | model | formulation | runs | progress m | min m | vs conv. (same seeds) "
+        "| better than conv. | runs with collision | max slack |",
+        "|" + "---|" * 10,
+    ]
     for r in rows:
         vs = f"{r['vs_conv_m']:+.1f} m" if "vs_conv_m" in r else "–"
         better = f"{r['better_seeds']}/{r['paired']}" if "better_seeds" in r else "–"
-        out.append(f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} "
-                   f"| {_pm(r['mean'], r['std'], 1)} "
-                   f"| {r['min']:.1f} | {vs} | {better} | {r['runs_with_collision']} | {r['max_slack']:.3g} |")
+        out.append(
+            f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['runs']} "
+            f"| {_pm(r['mean'], r['std'], 1)} "
+            f"| {r['min']:.1f} | {vs} | {better} | {r['runs_with_collision']} | {r['max_slack']:.3g} |"
+        )
     return "\n".join(out)
 
 
 def md_alat_table(rows: list[dict]) -> str:
-    out = ["| scenario | model | formulation | samples above the bound | runs with any | max excess m/s² "
-           "| mean excess m/s² |", "|" + "---|" * 7]
+    out = [
+        "| scenario | model | formulation | samples above the bound | runs with any | max excess m/s² "
+        "| mean excess m/s² |",
+        "|" + "---|" * 7,
+    ]
     for r in rows:
-        out.append(f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['share_pct']:.2f} % "
-                   f"| {r['runs_over']}/{r['runs']} | {r['excess_max']:.3f} | {r['excess_mean']:.3f} |")
+        out.append(
+            f"| {r['scenario']} | {r['model']} | {r['formulation']} | {r['share_pct']:.2f} % "
+            f"| {r['runs_over']}/{r['runs']} | {r['excess_max']:.3f} | {r['excess_mean']:.3f} |"
+        )
     return "\n".join(out)

@@ -1,4 +1,5 @@
 """Closed loop: plant (the same RK4 Frenet model), opponents, a controller (Python reference or compiled C), log."""
+
 from __future__ import annotations
 
 import math
@@ -8,13 +9,13 @@ from typing import Protocol
 
 import numpy as np
 
+from ..collision import collisions_over_run
 from ..contract import StepResult
 from ..dsl import Problem, Vehicle
 from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
-from ..collision import collisions_over_run
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
@@ -103,13 +104,31 @@ class ReferenceController:
                 sv.set_state(x0)
                 u = sv.feedback()
                 st = sv.status
-                return StepResult(u, 0, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback,
-                                  float(np.max(sv.slacks(), initial=0.0)), st.plan_reaction, st.a_lat_guard)
+                return StepResult(
+                    u,
+                    0,
+                    st.qp_status,
+                    st.qp_iter,
+                    st.time_prepare,
+                    st.time_feedback,
+                    float(np.max(sv.slacks(), initial=0.0)),
+                    st.plan_reaction,
+                    st.a_lat_guard,
+                )
             except SolverError as exc:
                 rc = exc.exit_code
         st = sv.status  # the control after an error: the fallback (unusable QP) or the last one (rejected call)
-        return StepResult(sv.u0(), rc, st.qp_status, st.qp_iter, st.time_prepare, st.time_feedback, math.nan,
-                          st.plan_reaction, st.a_lat_guard)
+        return StepResult(
+            sv.u0(),
+            rc,
+            st.qp_status,
+            st.qp_iter,
+            st.time_prepare,
+            st.time_feedback,
+            math.nan,
+            st.plan_reaction,
+            st.a_lat_guard,
+        )
 
     def step(self, x0: np.ndarray, road: Road, opp: np.ndarray) -> StepResult:
         return self.feedback_phase(x0, self.prepare_phase(x0, road, opp))
@@ -169,13 +188,13 @@ class Plant:
         s0, ds, floor = road.s0, road.ds, math.floor
 
         def step(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-            i0 = int(floor((x.item(0) - s0) / ds)) - 1   # a float's arithmetic: the same as on x[0]
+            i0 = int(floor((x.item(0) - s0) / ds)) - 1  # a float's arithmetic: the same as on x[0]
             xb[:] = x
             ub[:] = u
             if 0 <= i0 < n:
                 pb[:] = table[i0]
             else:
-                rp.pack_into(pb, road, i0)   # raises its ValueError
+                rp.pack_into(pb, road, i0)  # raises its ValueError
             ev()
             return out
 
@@ -192,13 +211,13 @@ def _build_window_table(road: Road, samples: int) -> np.ndarray:
     """Row i0: ``RoadWindowParams(samples).pack(road, i0)``, for every window inside the road (read-only)."""
     rp, K = RoadWindowParams(samples), samples
     n = road.size - K + 1
-    cols = np.empty((rp.size, max(n, 0)))   # built column-wise (whole-road slices), used row-wise
+    cols = np.empty((rp.size, max(n, 0)))  # built column-wise (whole-road slices), used row-wise
     if n > 0:
-        cols[0] = road.s0 + np.arange(n) * road.ds   # pack_into's road.s0 + i0 * road.ds, for every i0
+        cols[0] = road.s0 + np.arange(n) * road.ds  # pack_into's road.s0 + i0 * road.ds, for every i0
         cols[1] = road.ds
         for j, a in enumerate((road.kappa, road.phi, road.gx, road.gy)):
             for k in range(K):
-                cols[2 + j * K + k] = a[k: k + n]
+                cols[2 + j * K + k] = a[k : k + n]
     table = np.ascontiguousarray(cols.T)
     table.flags.writeable = False
     return table
@@ -222,8 +241,18 @@ def opponent_params(problem: Problem, sc: Scenario) -> OpponentParams:
     if not _frozen(sc.road):
         return OpponentParams(problem, sc)
     a, b = np.asarray(sc.opp_s0), np.asarray(sc.opp_n)
-    key = (sc.road, a.dtype.str, a.shape, a.tobytes(), b.dtype.str, b.shape, b.tobytes(), sc.samples, sc.dt,
-           problem.horizon.offsets)
+    key = (
+        sc.road,
+        a.dtype.str,
+        a.shape,
+        a.tobytes(),
+        b.dtype.str,
+        b.shape,
+        b.tobytes(),
+        sc.samples,
+        sc.dt,
+        problem.horizon.offsets,
+    )
     with _OPP_LOCK:
         op = _OPP_TABLES.pop(key, None)
     if op is None:
@@ -239,9 +268,15 @@ def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
 
 
-def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | None = None,
-                    ocp: Ocp | None = None, progress: bool = False, exit_codes: bool = False,
-                    plan: str = "none") -> RunLog:
+def run_closed_loop(
+    problem: Problem,
+    sc: Scenario,
+    controller: Controller | None = None,
+    ocp: Ocp | None = None,
+    progress: bool = False,
+    exit_codes: bool = False,
+    plan: str = "none",
+) -> RunLog:
     """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
 
     ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
@@ -265,14 +300,15 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     it = range(K)
     if progress:
         from tqdm import tqdm
+
         it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
-    add = planlog.add if plan != "none" else None   # without a plan: the exit codes are stored after the loop
+    add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
     for j in it:
         x = xs[j]
-        if step is not None:   # = controller.step(x, solver_window(problem, road, x), ...) without the window
+        if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
             r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
         else:
             r = controller.step(x, solver_window(problem, road, x), horizon(j))
@@ -283,8 +319,13 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
         results.append(r)
         xs[j + 1] = plant_step(x, u)
     # the per-sample statistics, a list per array (assigned element by element, as one store per sample would)
-    for a, key in ((tp, "time_prepare"), (tf, "time_feedback"), (qi, "qp_iter"), (qs, "qp_status"),
-                   (slack, "max_slack")) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
+    for a, key in (
+        (tp, "time_prepare"),
+        (tf, "time_feedback"),
+        (qi, "qp_iter"),
+        (qs, "qp_status"),
+        (slack, "max_slack"),
+    ) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
         a[:] = [getattr(r, key) for r in results]
     t = np.arange(K + 1) * sc.dt
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
@@ -295,17 +336,48 @@ def run_closed_loop(problem: Problem, sc: Scenario, controller: Controller | Non
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
     a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l
-    meta = make_meta(problem=problem.name, formulation=problem.formulation.kind,
-                     obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=sc.seed,
-                     N=problem.horizon.N, dt=problem.horizon.dt, controller=controller.kind,
-                     n_bound=problem.bounds.n_max,
-                     extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
-                            "plan_reactions": int(sum(r.plan_reaction for r in results)),
-                            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results))})
-    road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
-                 "phi_gamma": road.phi, "ds": road.ds}
-    return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=t, ego_frenet=xs, ego_cartesian=ego_cart,
-                  opp_cartesian=opp_cart, opp_frenet=opp_fr, collision=coll, a_lat=a_lat, control=us,
-                  time_prepare=tp, time_feedback=tf, time_total=tp + tf, qp_iter=qi, qp_status=qs,
-                  max_slack=slack, ego=dims(problem.ego),
-                  **(planlog.fields() if exit_codes or plan != "none" else {}))
+    meta = make_meta(
+        problem=problem.name,
+        formulation=problem.formulation.kind,
+        obstacle_model=problem.obstacles.kind,
+        scenario=sc.name,
+        seed=sc.seed,
+        N=problem.horizon.N,
+        dt=problem.horizon.dt,
+        controller=controller.kind,
+        n_bound=problem.bounds.n_max,
+        extra={
+            "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
+            "plan_reactions": int(sum(r.plan_reaction for r in results)),
+            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
+        },
+    )
+    road_dict = {
+        "s": road.s,
+        "kappa": road.kappa,
+        "gamma_x": road.gx,
+        "gamma_y": road.gy,
+        "phi_gamma": road.phi,
+        "ds": road.ds,
+    }
+    return RunLog(
+        meta=meta,
+        road=road_dict,
+        opponents=opp_dims,
+        t=t,
+        ego_frenet=xs,
+        ego_cartesian=ego_cart,
+        opp_cartesian=opp_cart,
+        opp_frenet=opp_fr,
+        collision=coll,
+        a_lat=a_lat,
+        control=us,
+        time_prepare=tp,
+        time_feedback=tf,
+        time_total=tp + tf,
+        qp_iter=qi,
+        qp_status=qs,
+        max_slack=slack,
+        ego=dims(problem.ego),
+        **(planlog.fields() if exit_codes or plan != "none" else {}),
+    )

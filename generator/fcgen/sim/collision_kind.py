@@ -19,6 +19,7 @@ Who moved into whom (``responsibility``), at the first colliding sample, from th
   by a bend is the usual case).
 - ``ego_into_opponent``: everything else: the ego changed its lane into the opponent, or ran into a slower one ahead.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,14 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..road import Road
 from ..collision import corners_from_dims, penetration_over_run
+from ..road import Road
 
-SWEEP_MIN = 1.0   # m beyond the half width off its lane: the opponent's front corner has been swept by the bend
+SWEEP_MIN = 1.0  # m beyond the half width off its lane: the opponent's front corner has been swept by the bend
 KINDS = ("swept_front", "rear_corner", "front_corner")
 RESPONSIBILITIES = ("ego_into_opponent", "opponent_from_behind", "opponent_from_side")
-LANE_KEPT = 0.25    # m: the ego's n stayed this close to its value at contact ...
-LANE_WINDOW = 1.0   # s: ... over this long before contact: it kept its lane
+LANE_KEPT = 0.25  # m: the ego's n stayed this close to its value at contact ...
+LANE_WINDOW = 1.0  # s: ... over this long before contact: it kept its lane
 #: chassis corner order of ``collision.chassis_corners``: rear-right, front-right, front-left, rear-left
 FRONT_CORNERS = (1, 2)
 
@@ -43,12 +44,12 @@ FRONT_CORNERS = (1, 2)
 class CollisionInfo:
     """A run's collisions: deepest penetration (m) and the first colliding sample's situation."""
 
-    depth: float        # largest SAT penetration depth over the run, m
-    sample: int         # first colliding sample
-    opponent: int       # the opponent touched there (the deepest at that sample)
-    corner: int         # the opponent's corner nearest the ego's chassis centre (0..3, chassis_corners order)
-    sweep: float        # that corner's lateral distance from the opponent's lane beyond its half width, m
-    kind: str           # one of KINDS
+    depth: float  # largest SAT penetration depth over the run, m
+    sample: int  # first colliding sample
+    opponent: int  # the opponent touched there (the deepest at that sample)
+    corner: int  # the opponent's corner nearest the ego's chassis centre (0..3, chassis_corners order)
+    sweep: float  # that corner's lateral distance from the opponent's lane beyond its half width, m
+    kind: str  # one of KINDS
     responsibility: str = ""  # one of RESPONSIBILITIES
 
 
@@ -66,8 +67,9 @@ def classify(kind_corner: int, sweep: float) -> str:
     return "swept_front" if sweep > SWEEP_MIN else "front_corner"
 
 
-def responsible(ego_c: np.ndarray, ego_phi: float, ego_v: np.ndarray, opp_c: np.ndarray, opp_v: np.ndarray,
-                n_before: np.ndarray) -> str:
+def responsible(
+    ego_c: np.ndarray, ego_phi: float, ego_v: np.ndarray, opp_c: np.ndarray, opp_v: np.ndarray, n_before: np.ndarray
+) -> str:
     """The responsibility class (module docstring) of a contact: chassis centres ``ego_c``/``opp_c``, the ego's
     heading, both velocities (m/s, Cartesian), the ego's Frenet n over ``LANE_WINDOW`` up to the contact."""
     h = np.array([math.cos(ego_phi), math.sin(ego_phi)])
@@ -78,9 +80,16 @@ def responsible(ego_c: np.ndarray, ego_phi: float, ego_v: np.ndarray, opp_c: np.
     return "ego_into_opponent"
 
 
-def first_collision(road: Road, ego_pose: np.ndarray, ego_dims: Mapping[str, float], opp_pose: np.ndarray,
-                    opp_frenet: np.ndarray, opp_dims: Sequence[Mapping[str, float]],
-                    ego_n: np.ndarray | None = None, dt: float = 0.1) -> CollisionInfo | None:
+def first_collision(
+    road: Road,
+    ego_pose: np.ndarray,
+    ego_dims: Mapping[str, float],
+    opp_pose: np.ndarray,
+    opp_frenet: np.ndarray,
+    opp_dims: Sequence[Mapping[str, float]],
+    ego_n: np.ndarray | None = None,
+    dt: float = 0.1,
+) -> CollisionInfo | None:
     """The run's collisions (``None`` if there is none): poses ``(K, 3)`` / ``(K, n_opp, 3)`` of the rear axles,
     ``opp_frenet`` ``(K, n_opp, 3)`` their Frenet poses ``[s, n, alpha]`` (lane ``n``), dimension mappings as
     ``collision.DIM_KEYS``; ``ego_n`` the ego's Frenet n per sample and ``dt`` the sample time (responsibility;
@@ -96,18 +105,24 @@ def first_collision(road: Road, ego_pose: np.ndarray, ego_dims: Mapping[str, flo
     ci = int(np.argmin(np.linalg.norm(oc - centre, axis=1)))
     d = opp_dims[k]
     half_l, half_ch = 0.5 * (float(d["l_f"]) + float(d["l_r"])), 0.5 * (float(d["l_r_ch"]) + float(d["l_f_ch"]))
-    along = half_l + half_ch if ci in FRONT_CORNERS else half_l - half_ch   # the corner ahead of the rear axle
+    along = half_l + half_ch if ci in FRONT_CORNERS else half_l - half_ch  # the corner ahead of the rear axle
     n = corner_frenet_n(road, oc[ci], float(opp_frenet[j, k, 0]) + along)
     sweep = abs(n - float(opp_frenet[j, k, 1])) - 0.5 * float(opp_dims[k]["w_ch"])
     who = ""
     if ego_n is not None:
-        j0 = max(j - 1, 0)   # velocities from the sample before contact (forward difference into it)
+        j0 = max(j - 1, 0)  # velocities from the sample before contact (forward difference into it)
         span = max(j - j0, 1) * dt
         ego_v = (ego_pose[j, :2] - ego_pose[j0, :2]) / span
         opp_v = (opp_pose[j, k, :2] - opp_pose[j0, k, :2]) / span
         w = int(round(LANE_WINDOW / dt))
-        who = responsible(centre, float(ego_pose[j, 2]), ego_v, oc.mean(axis=0), opp_v,
-                          np.asarray(ego_n[max(0, j - w):j + 1], dtype=float))
+        who = responsible(
+            centre,
+            float(ego_pose[j, 2]),
+            ego_v,
+            oc.mean(axis=0),
+            opp_v,
+            np.asarray(ego_n[max(0, j - w) : j + 1], dtype=float),
+        )
     return CollisionInfo(float(pen.max()), j, k, ci, sweep, classify(ci, sweep), who)
 
 

@@ -14,6 +14,7 @@ the chassis stays on the road while the bound holds. The problem's road band ``B
 is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
 ``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
 """
+
 from __future__ import annotations
 
 import math
@@ -35,10 +36,10 @@ class CommonRoadRun:
     """One run on a scenario: the run log (its ``extra.commonroad`` holds the verdicts) and the verdicts."""
 
     log: RunLog
-    checker: dict          # the drivability checker's verdict (``commonroad.drivability_verdict``)
-    fcgen: dict            # fcgen's rectangle check against every obstacle (``commonroad.fcgen_collisions``)
-    responsibility: str    # of the first collision by fcgen's check ("" without one; rule: sim/collision_kind.py)
-    ego_centres: np.ndarray   # (K + 1, 3) the ego's chassis centre poses (the solution file's and the checker's)
+    checker: dict  # the drivability checker's verdict (``commonroad.drivability_verdict``)
+    fcgen: dict  # fcgen's rectangle check against every obstacle (``commonroad.fcgen_collisions``)
+    responsibility: str  # of the first collision by fcgen's check ("" without one; rule: sim/collision_kind.py)
+    ego_centres: np.ndarray  # (K + 1, 3) the ego's chassis centre poses (the solution file's and the checker's)
 
     @property
     def ego_states(self) -> np.ndarray:
@@ -52,7 +53,7 @@ class CommonRoadRun:
         return bool(self.checker["collision"]) == bool(self.fcgen["collision"])
 
 
-HEADING_MARGIN = 0.25   # m: the band's extra shrink for the chassis' corners at a small heading
+HEADING_MARGIN = 0.25  # m: the band's extra shrink for the chassis' corners at a small heading
 
 
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
@@ -66,13 +67,22 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
         i = int(np.flatnonzero(lo >= hi)[0])
-        raise ValueError(f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
-                         f"[{b.n_min}, {b.n_max}] m")
+        raise ValueError(
+            f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
+            f"[{b.n_min}, {b.n_max}] m"
+        )
     return Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, lo, hi), cut
 
 
-def run_commonroad(problem: Problem, sc, controller: Controller | None = None, ocp: Ocp | None = None,
-                   plan: str = "none", progress: bool = False, states: np.ndarray | None = None) -> CommonRoadRun:
+def run_commonroad(
+    problem: Problem,
+    sc,
+    controller: Controller | None = None,
+    ocp: Ocp | None = None,
+    plan: str = "none",
+    progress: bool = False,
+    states: np.ndarray | None = None,
+) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
     ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
@@ -81,8 +91,9 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
     from ..commonroad.judge import fcgen_verdict, penetrations
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
-        raise cr.ScenarioRefused(f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt "
-                                 f"{problem.horizon.dt} s")
+        raise cr.ScenarioRefused(
+            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s"
+        )
     if controller is None:
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
@@ -96,14 +107,25 @@ def run_commonroad(problem: Problem, sc, controller: Controller | None = None, o
     who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
-    extra = {"exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
-             "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
-             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
-             "commonroad": {"scenario": sc.name, "file": sc.file, "sha256": sc.sha256,
-                            "planning_problem": sc.planning_problem_id, "v_ref": float(sc.v_ref), "band_cut": cut,
-                            "obstacle_ids": [int(ob.id) for ob in sc.obstacles], "slots": loop.slot_ids,
-                            "checker": _plain(checker), "fcgen": _plain(own), "responsibility": who,
-                            "agree": bool(checker["collision"]) == bool(own["collision"])}}
+    extra = {
+        "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
+        "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
+        "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+        "commonroad": {
+            "scenario": sc.name,
+            "file": sc.file,
+            "sha256": sc.sha256,
+            "planning_problem": sc.planning_problem_id,
+            "v_ref": float(sc.v_ref),
+            "band_cut": cut,
+            "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
+            "slots": loop.slot_ids,
+            "checker": _plain(checker),
+            "fcgen": _plain(own),
+            "responsibility": who,
+            "agree": bool(checker["collision"]) == bool(own["collision"]),
+        },
+    }
     log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, (pen > 0.0).any(axis=1), extra)
     return CommonRoadRun(log, checker, own, who, centres)
 
@@ -113,15 +135,23 @@ class _Loop:
     """What the closed loop on a scenario leaves: the ego's states and controls, each sample's step result, the
     scenario obstacles in the solver's slots and the plan log."""
 
-    xs: np.ndarray           # (K + 1, 5) Frenet states
-    us: np.ndarray           # (K, 2) controls
-    results: list            # each sample's StepResult
-    slot_ids: list           # per sample the obstacle id in each opponent slot (-1: empty)
+    xs: np.ndarray  # (K + 1, 5) Frenet states
+    us: np.ndarray  # (K, 2) controls
+    results: list  # each sample's StepResult
+    slot_ids: list  # per sample the obstacle id in each opponent slot (-1: empty)
     planlog: PlanLog
 
 
-def _drive(problem: Problem, sc, controller: Controller, road: Road, plant: Plant, plan: str, progress: bool,
-           states: np.ndarray | None) -> _Loop:
+def _drive(
+    problem: Problem,
+    sc,
+    controller: Controller,
+    road: Road,
+    plant: Plant,
+    plan: str,
+    progress: bool,
+    states: np.ndarray | None,
+) -> _Loop:
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
@@ -139,6 +169,7 @@ def _drive(problem: Problem, sc, controller: Controller, road: Road, plant: Plan
     it = range(K)
     if progress:
         from tqdm import tqdm
+
         it = tqdm(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
     for j in it:
@@ -178,8 +209,9 @@ class _SlotShapes:
         for length, width, offset in key:
             v = self.cache.get((length, width, offset))
             if v is None:
-                v = self.cache[(length, width, offset)] = obs.opponent_shape(pb.obstacles, pb.ego, length, width,
-                                                                              offset)
+                v = self.cache[(length, width, offset)] = obs.opponent_shape(
+                    pb.obstacles, pb.ego, length, width, offset
+                )
             vals.append(v)
         rc = self.controller.set_opponent_shapes(np.array(vals).reshape(pb.opponents.count, -1))
         if rc:
@@ -210,8 +242,17 @@ def _obstacle_poses(sc, n_states: int) -> np.ndarray:
     return opp_cart
 
 
-def _run_log(problem: Problem, sc, controller_kind: str, road: Road, loop: _Loop, ego_cart: np.ndarray,
-             opp_cart: np.ndarray, collision: np.ndarray, extra: dict) -> RunLog:
+def _run_log(
+    problem: Problem,
+    sc,
+    controller_kind: str,
+    road: Road,
+    loop: _Loop,
+    ego_cart: np.ndarray,
+    opp_cart: np.ndarray,
+    collision: np.ndarray,
+    extra: dict,
+) -> RunLog:
     """The run's log: the ego's states and poses, every scenario obstacle (Cartesian and on the road's Frenet frame,
     NaN where not recorded), the solver's statistics and the verdicts in ``extra``."""
     from ..commonroad.judge import centre_dims
@@ -223,23 +264,57 @@ def _run_log(problem: Problem, sc, controller_kind: str, road: Road, loop: _Loop
     if ok.any():
         s, n, a = road.to_frenet(opp_cart[..., 0][ok], opp_cart[..., 1][ok], opp_cart[..., 2][ok])
         opp_fr[ok] = np.stack([s, n, a], axis=-1)
-    meta = make_meta(problem=problem.name, formulation=problem.formulation.kind,
-                     obstacle_model=problem.obstacles.kind, scenario=sc.name, seed=0, N=problem.horizon.N,
-                     dt=problem.horizon.dt, controller=controller_kind, n_bound=problem.bounds.n_max, extra=extra)
-    road_dict = {"s": road.s, "kappa": road.kappa, "gamma_x": road.gx, "gamma_y": road.gy,
-                 "phi_gamma": road.phi, "ds": road.ds}
+    meta = make_meta(
+        problem=problem.name,
+        formulation=problem.formulation.kind,
+        obstacle_model=problem.obstacles.kind,
+        scenario=sc.name,
+        seed=0,
+        N=problem.horizon.N,
+        dt=problem.horizon.dt,
+        controller=controller_kind,
+        n_bound=problem.bounds.n_max,
+        extra=extra,
+    )
+    road_dict = {
+        "s": road.s,
+        "kappa": road.kappa,
+        "gamma_x": road.gx,
+        "gamma_y": road.gy,
+        "phi_gamma": road.phi,
+        "ds": road.ds,
+    }
     a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / ego.l
-    stats = {key: np.array([getattr(r, key) for r in loop.results]) for key in
-             ("time_prepare", "time_feedback", "qp_iter", "qp_status", "max_slack")}
-    return RunLog(meta=meta, road=road_dict, opponents=opp_dims, t=np.arange(len(xs)) * sc.dt, ego_frenet=xs,
-                  ego_cartesian=ego_cart, opp_cartesian=opp_cart, opp_frenet=opp_fr, collision=collision, a_lat=a_lat,
-                  control=loop.us, time_prepare=stats["time_prepare"], time_feedback=stats["time_feedback"],
-                  time_total=stats["time_prepare"] + stats["time_feedback"], qp_iter=stats["qp_iter"],
-                  qp_status=stats["qp_status"], max_slack=stats["max_slack"], ego=dims(ego), **loop.planlog.fields())
+    stats = {
+        key: np.array([getattr(r, key) for r in loop.results])
+        for key in ("time_prepare", "time_feedback", "qp_iter", "qp_status", "max_slack")
+    }
+    return RunLog(
+        meta=meta,
+        road=road_dict,
+        opponents=opp_dims,
+        t=np.arange(len(xs)) * sc.dt,
+        ego_frenet=xs,
+        ego_cartesian=ego_cart,
+        opp_cartesian=opp_cart,
+        opp_frenet=opp_fr,
+        collision=collision,
+        a_lat=a_lat,
+        control=loop.us,
+        time_prepare=stats["time_prepare"],
+        time_feedback=stats["time_feedback"],
+        time_total=stats["time_prepare"] + stats["time_feedback"],
+        qp_iter=stats["qp_iter"],
+        qp_status=stats["qp_status"],
+        max_slack=stats["max_slack"],
+        ego=dims(ego),
+        **loop.planlog.fields(),
+    )
 
 
-def _responsibility(pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray,
-                    opp_cart: np.ndarray, dt: float) -> str:
+def _responsibility(
+    pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray, opp_cart: np.ndarray, dt: float
+) -> str:
     """The responsibility class of the first contact (``collision_kind.responsible``; "" without one)."""
     hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
     if not hit.size:
@@ -252,8 +327,9 @@ def _responsibility(pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, 
     prev = opp_cart[j0, k, :2] if np.all(np.isfinite(opp_cart[j0, k, :2])) else opp_cart[j, k, :2]
     opp_v = (opp_cart[j, k, :2] - prev) / span
     w = int(round(LANE_WINDOW / dt))
-    return responsible(centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v,
-                       xs[max(0, j - w):j + 1, 1])
+    return responsible(
+        centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
+    )
 
 
 def _plain(d: dict) -> dict:

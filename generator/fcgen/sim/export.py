@@ -6,6 +6,7 @@ road (the harness cuts the per-sample solver window and the plant's local window
 stages (``OpponentParams.horizon(j)``) plus the opponents' Cartesian and Frenet poses for the run log. The format is
 plain text, documented in docs/scenario_file.md; doubles are written with ``%.17g`` so they read back bit for bit.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,8 +55,13 @@ def _word(text: str) -> str:
     return text
 
 
-def export_scenario(problem: Problem, scenario: Scenario, path: str | PathLike[str], samples: int | None = None,
-                    solver_name: str | None = None) -> Path:
+def export_scenario(
+    problem: Problem,
+    scenario: Scenario,
+    path: str | PathLike[str],
+    samples: int | None = None,
+    solver_name: str | None = None,
+) -> Path:
     """Write the data file of ``samples`` closed-loop samples (default ``scenario.samples``); returns the path.
 
     ``solver_name`` (default ``problem.name``) is the run log's ``meta.problem``.
@@ -117,8 +123,10 @@ def export_scenario(problem: Problem, scenario: Scenario, path: str | PathLike[s
             if j < K:
                 blk = opp_params.horizon(j)
                 if blk.shape != (N + 1, n_opp, n_opp_par):
-                    raise ValueError(f"opponent parameters of sample {j} have shape {blk.shape}, "
-                                     f"expected {(N + 1, n_opp, n_opp_par)}")
+                    raise ValueError(
+                        f"opponent parameters of sample {j} have shape {blk.shape}, "
+                        f"expected {(N + 1, n_opp, n_opp_par)}"
+                    )
                 _line(f, "opp_params", blk)
         f.write("end\n")
     return path

@@ -4,6 +4,7 @@
 Every function is handed the :class:`~..solver_folder.SolverFolder` (or its path, read once); none of them reads
 the folder again.
 """
+
 from __future__ import annotations
 
 import os
@@ -39,13 +40,21 @@ def linker_script(target: Target) -> str:
     data/bss/heap/stack in RAM, the harness's buffers in the board's external RAM."""
     if target.flash is None or target.ram is None or target.xram is None:
         raise TargetError(f"--target {target.name}: no memory map")
-    return render_template(target.linker_template, target=target, flash=target.flash, ram=target.ram,
-                           xram=target.xram, stack=HARNESS_STACK)
+    return render_template(
+        target.linker_template, target=target, flash=target.flash, ram=target.ram, xram=target.xram, stack=HARNESS_STACK
+    )
 
 
-def build_harness(folder: FolderLike, verify: bool = False, cc: str | None = None, cflags: str | None = None,
-                  target: str = "host", variant: str | None = None, extra_cflags: str = "",
-                  harness_defines: tuple[str, ...] = ()) -> Path:
+def build_harness(
+    folder: FolderLike,
+    verify: bool = False,
+    cc: str | None = None,
+    cflags: str | None = None,
+    target: str = "host",
+    variant: str | None = None,
+    extra_cflags: str = "",
+    harness_defines: tuple[str, ...] = (),
+) -> Path:
     """Build the solver folder (``fcgen.build.build``) and the harness against it; returns the executable.
 
     The harness goes into ``<solver build>/firmware_sim`` (``build[/<target>][/<variant>][/verify]/firmware_sim``).
@@ -63,8 +72,14 @@ def build_harness(folder: FolderLike, verify: bool = False, cc: str | None = Non
     solver_dir = folder.path.resolve()
     lib_dir = folder.build_dir(verify, target, variant).resolve()
     out = lib_dir / "firmware_sim"
-    variables = [f"SOLVER_DIR={solver_dir}", f"SOLVER={folder.name}", f"SOLVER_BUILD={lib_dir}", f"BUILD={out}",
-                 f"VERIFY={int(verify)}", *([f"CPPFLAGS={' '.join(harness_defines)}"] if harness_defines else [])]
+    variables = [
+        f"SOLVER_DIR={solver_dir}",
+        f"SOLVER={folder.name}",
+        f"SOLVER_BUILD={lib_dir}",
+        f"BUILD={out}",
+        f"VERIFY={int(verify)}",
+        *([f"CPPFLAGS={' '.join(harness_defines)}"] if harness_defines else []),
+    ]
     if tgt.bare_metal:
         ld = out / f"{tgt.name}.ld"
         out.mkdir(parents=True, exist_ok=True)
@@ -77,8 +92,13 @@ def build_harness(folder: FolderLike, verify: bool = False, cc: str | None = Non
     return out / tgt.harness_executable
 
 
-def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], out: str | PathLike[str],
-                timeout: float | None = None, target: str = "host") -> RunLog:
+def run_harness(
+    exe: str | PathLike[str],
+    scenario_file: str | PathLike[str],
+    out: str | PathLike[str],
+    timeout: float | None = None,
+    target: str = "host",
+) -> RunLog:
     """Run the harness on a scenario file (a bare-metal image under QEMU, with ``-icount shift=0``); returns the run
     log it wrote (validated by ``RunLog.from_json``)."""
     tgt = get_target(target)
@@ -100,15 +120,23 @@ def run_harness(exe: str | PathLike[str], scenario_file: str | PathLike[str], ou
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise HarnessError(f"{' '.join(cmd)}: {exc}") from None
     if res.returncode != 0:
-        raise HarnessError(f"{' '.join(cmd)} failed (exit {res.returncode}):\n{res.stdout[-2000:]}"
-                           f"{res.stderr[-4000:]}")
+        raise HarnessError(f"{' '.join(cmd)} failed (exit {res.returncode}):\n{res.stdout[-2000:]}{res.stderr[-4000:]}")
     return RunLog.from_json(out)
 
 
-def firmware_sim(folder: FolderLike, scenario: str = "truck", seed: int = 0, samples: int = 200,
-                 out: str | PathLike[str] = "run.json", verify: bool = False, cc: str | None = None,
-                 cflags: str | None = None, problem: Problem | None = None, target: str = "host",
-                 timeout: float | None = None) -> RunLog:
+def firmware_sim(
+    folder: FolderLike,
+    scenario: str = "truck",
+    seed: int = 0,
+    samples: int = 200,
+    out: str | PathLike[str] = "run.json",
+    verify: bool = False,
+    cc: str | None = None,
+    cflags: str | None = None,
+    problem: Problem | None = None,
+    target: str = "host",
+    timeout: float | None = None,
+) -> RunLog:
     """Build solver and harness, export the scenario, run the C closed loop; returns the run log written to ``out``.
 
     The problem defaults to the one the folder records (``problem.py``), so data file and compiled solver agree.
@@ -124,8 +152,11 @@ def firmware_sim(folder: FolderLike, scenario: str = "truck", seed: int = 0, sam
     log = run_harness(exe, data, out, timeout=timeout, target=target)
     # record where it ran and in which precision (meta.precision as `fcgen record` writes it: `fcgen regress` picks
     # its tolerance preset from it)
-    meta = {**log.meta, "precision": folder.precision,
-            "extra": {**log.meta.get("extra", {}), "target": get_target(target).name}}
+    meta = {
+        **log.meta,
+        "precision": folder.precision,
+        "extra": {**log.meta.get("extra", {}), "target": get_target(target).name},
+    }
     log = replace(log, meta=meta)
     log.to_json(out)
     return log

@@ -119,23 +119,44 @@ def plot_run(log: RunLog, path: str | PathLike[str], every: int = 10, dpi: int =
     if n_bound is not None:
         nb = float(n_bound)
         for sign in (1.0, -1.0):
-            ax_c.plot(gx - sign * nb * np.sin(ph), gy + sign * nb * np.cos(ph), color="k", lw=1.2,
-                      label="road bounds" if sign > 0 else None)
-    ax_c.plot(log.ego_cartesian[:, 0], log.ego_cartesian[:, 1], color=_EGO_COLOR, lw=1.5,
-              label="ego path (rear axle)")
+            ax_c.plot(
+                gx - sign * nb * np.sin(ph),
+                gy + sign * nb * np.cos(ph),
+                color="k",
+                lw=1.2,
+                label="road bounds" if sign > 0 else None,
+            )
+    ax_c.plot(log.ego_cartesian[:, 0], log.ego_cartesian[:, 1], color=_EGO_COLOR, lw=1.5, label="ego path (rear axle)")
 
     ego_corners = corners_from_dims(log.ego_cartesian, ego_dims)  # (K+1, 4, 2)
     opp_corners = [corners_from_dims(log.opp_cartesian[:, i, :], log.opponents[i]) for i in range(n_opp)]
     for rank, k in enumerate(sel):
         alpha = 0.25 + 0.75 * rank / max(len(sel) - 1, 1)
         hit = bool(log.collision[k])
-        ax_c.add_patch(Polygon(ego_corners[k], closed=True, fc=_EGO_COLOR, ec="k" if hit else _EGO_COLOR,
-                               lw=2.0 if hit else 0.8, alpha=alpha,
-                               label="ego" if rank == 0 else None))
+        ax_c.add_patch(
+            Polygon(
+                ego_corners[k],
+                closed=True,
+                fc=_EGO_COLOR,
+                ec="k" if hit else _EGO_COLOR,
+                lw=2.0 if hit else 0.8,
+                alpha=alpha,
+                label="ego" if rank == 0 else None,
+            )
+        )
         for i in range(n_opp):
             col = _OPP_COLORS[i % len(_OPP_COLORS)]
-            ax_c.add_patch(Polygon(opp_corners[i][k], closed=True, fc=col, ec=col, lw=0.8, alpha=alpha,
-                                   label=f"opponent {i}" if rank == 0 else None))
+            ax_c.add_patch(
+                Polygon(
+                    opp_corners[i][k],
+                    closed=True,
+                    fc=col,
+                    ec=col,
+                    lw=0.8,
+                    alpha=alpha,
+                    label=f"opponent {i}" if rank == 0 else None,
+                )
+            )
     ax_c.set_aspect("equal", adjustable="datalim")
     ax_c.autoscale_view()
     ax_c.set_xlabel("x [m]")
@@ -154,14 +175,16 @@ def plot_run(log: RunLog, path: str | PathLike[str], every: int = 10, dpi: int =
             ax_f.axhline(sign * float(n_bound), color="k", lw=1.2)
     ax_f.plot(log.ego_frenet[:, 0], log.ego_frenet[:, 1], color=_EGO_COLOR, lw=1.5)
     for i in range(n_opp):
-        ax_f.plot(log.opp_frenet[:, i, 0], log.opp_frenet[:, i, 1], color=_OPP_COLORS[i % len(_OPP_COLORS)],
-                  lw=0.8, ls=":")
+        ax_f.plot(
+            log.opp_frenet[:, i, 0], log.opp_frenet[:, i, 1], color=_OPP_COLORS[i % len(_OPP_COLORS)], lw=0.8, ls=":"
+        )
     for rank, k in enumerate(sel):
         alpha = 0.25 + 0.75 * rank / max(len(sel) - 1, 1)
         hit = bool(log.collision[k])
         sn = project_to_road(road, _outline(ego_corners[k]), s_guess=float(log.ego_frenet[k, 0]))
-        ax_f.add_patch(Polygon(sn, closed=True, fc=_EGO_COLOR, ec="k" if hit else _EGO_COLOR,
-                               lw=2.0 if hit else 0.8, alpha=alpha))
+        ax_f.add_patch(
+            Polygon(sn, closed=True, fc=_EGO_COLOR, ec="k" if hit else _EGO_COLOR, lw=2.0 if hit else 0.8, alpha=alpha)
+        )
         for i in range(n_opp):
             col = _OPP_COLORS[i % len(_OPP_COLORS)]
             sn = project_to_road(road, _outline(opp_corners[i][k]), s_guess=float(log.opp_frenet[k, i, 0]))

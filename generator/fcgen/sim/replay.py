@@ -8,6 +8,7 @@ plant's. The controller keeps its own warm start. So the outputs of another solv
 ones sample by sample, and a difference is pinned to the first sample where the solvers disagree, even when a closed
 loop would have taken another manoeuvre afterwards.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -19,7 +20,6 @@ from ..road import Road
 from .closedloop import PLAN_LEVELS, Controller, PlanLog, solver_window
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario, make_scenario
-
 
 #: ``scenario_of``: how far a log's road arrays (kappa, phi_gamma, gamma_x, gamma_y) may be from the regenerated
 #: ones, relative to each array's largest magnitude (at least 1). The scenario generator gives the same bits on every
@@ -45,8 +45,9 @@ def scenario_of(log: RunLog, problem: Problem) -> Scenario:
     """
     m = log.meta
     if len(log.opponents) != problem.opponents.count:
-        raise ValueError(f"log has {len(log.opponents)} opponents, problem {problem.name!r} expects "
-                         f"{problem.opponents.count}")
+        raise ValueError(
+            f"log has {len(log.opponents)} opponents, problem {problem.name!r} expects {problem.opponents.count}"
+        )
     try:
         sc = make_scenario(m["scenario"], m["seed"], n_opp=len(log.opponents), samples=log.n_controls, dt=m["dt"])
     except ValueError as exc:
@@ -73,8 +74,9 @@ def plan_level(log: RunLog) -> str:
     return "controls" if log.plan_controls is not None else "none"
 
 
-def replay(problem: Problem, log: RunLog, controller: Controller, plan: str | None = None,
-           progress: bool = False) -> RunLog:
+def replay(
+    problem: Problem, log: RunLog, controller: Controller, plan: str | None = None, progress: bool = False
+) -> RunLog:
     """The controller's outputs on the logged inputs, as a run log (state fields copied from ``log``).
 
     ``plan`` (``PLAN_LEVELS``, default: what ``log`` carries) selects the logged plan fields; the exit code of
@@ -95,6 +97,7 @@ def replay(problem: Problem, log: RunLog, controller: Controller, plan: str | No
     it = range(K)
     if progress:
         from tqdm import tqdm
+
         it = tqdm(it, desc=f"replay {problem.name} seed {sc.seed}", unit="sample", leave=False)
     for j in it:
         x = np.array(log.ego_frenet[j])
@@ -103,13 +106,34 @@ def replay(problem: Problem, log: RunLog, controller: Controller, plan: str | No
         tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
         planlog.add(j, controller, r)
     m = log.meta
-    meta = make_meta(problem=problem.name, formulation=problem.formulation.kind,
-                     obstacle_model=problem.obstacles.kind, scenario=m["scenario"], seed=m["seed"],
-                     N=problem.horizon.N, dt=problem.horizon.dt, controller=controller.kind,
-                     n_bound=m.get("n_bound"),
-                     extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)), "replay": True})
-    states = {k: getattr(log, k) for k in ("t", "ego_frenet", "ego_cartesian", "opp_cartesian", "opp_frenet",
-                                           "collision", "a_lat")}
-    return RunLog(meta=meta, road=log.road, opponents=log.opponents, ego=log.ego, control=us, time_prepare=tp,
-                  time_feedback=tf, time_total=tp + tf, qp_iter=qi, qp_status=qs, max_slack=slack, **states,
-                  **planlog.fields())
+    meta = make_meta(
+        problem=problem.name,
+        formulation=problem.formulation.kind,
+        obstacle_model=problem.obstacles.kind,
+        scenario=m["scenario"],
+        seed=m["seed"],
+        N=problem.horizon.N,
+        dt=problem.horizon.dt,
+        controller=controller.kind,
+        n_bound=m.get("n_bound"),
+        extra={"exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)), "replay": True},
+    )
+    states = {
+        k: getattr(log, k)
+        for k in ("t", "ego_frenet", "ego_cartesian", "opp_cartesian", "opp_frenet", "collision", "a_lat")
+    }
+    return RunLog(
+        meta=meta,
+        road=log.road,
+        opponents=log.opponents,
+        ego=log.ego,
+        control=us,
+        time_prepare=tp,
+        time_feedback=tf,
+        time_total=tp + tf,
+        qp_iter=qi,
+        qp_status=qs,
+        max_slack=slack,
+        **states,
+        **planlog.fields(),
+    )

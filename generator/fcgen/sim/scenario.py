@@ -1,4 +1,5 @@
 """The paper's randomized scenarios (SPEC section 7): road, ego start, opponents' trajectories, solver parameters."""
+
 from __future__ import annotations
 
 import math
@@ -10,9 +11,9 @@ import numpy as np
 from ..dsl import Problem
 from ..road import Road, min_self_distance, random_road
 
-OPP_SPEED = 15.0      # opponents' Frenet progress rate ds/dt, m/s (constant n, alpha = 0)
+OPP_SPEED = 15.0  # opponents' Frenet progress rate ds/dt, m/s (constant n, alpha = 0)
 EGO_SPEED0 = 15.0
-ROAD_BEHIND = 50.0    # the road starts this far behind the ego's start s = 0
+ROAD_BEHIND = 50.0  # the road starts this far behind the ego's start s = 0
 
 # Realistic roads (SPEC section 3 only bounds the curvature; a random walk of the heading can loop back): a road is
 # redrawn when two of its points more than ROAD_MIN_ARC apart along it are less than ROAD_MIN_GAP apart in the plane.
@@ -33,9 +34,9 @@ class Scenario:
     name: str
     seed: int
     road: Road
-    x0: np.ndarray              # ego [s, n, alpha, v, delta]
-    opp_s0: np.ndarray          # (n_opp,)
-    opp_n: np.ndarray           # (n_opp,)
+    x0: np.ndarray  # ego [s, n, alpha, v, delta]
+    opp_s0: np.ndarray  # (n_opp,)
+    opp_n: np.ndarray  # (n_opp,)
     samples: int = 200
     dt: float = 0.1
 
@@ -53,8 +54,9 @@ class Scenario:
         return np.stack([x, y, phi], axis=-1)
 
 
-def make_scenario(scenario: str, seed: int, n_opp: int = 3, samples: int = 200, dt: float = 0.1,
-                  road_length: float = 1600.0) -> Scenario:
+def make_scenario(
+    scenario: str, seed: int, n_opp: int = 3, samples: int = 200, dt: float = 0.1, road_length: float = 1600.0
+) -> Scenario:
     """Seeded, reproducible: a realistic road from ``seed`` (``realistic_road``), then ego n0 and opponents' n
     from U[-5, 5]."""
     if scenario not in ("car", "truck"):
@@ -97,7 +99,7 @@ class OpponentParams:
         self.problem = problem
         self.sc = scenario
         self.n_stages = problem.horizon.N + 1
-        self.offsets = np.array(problem.horizon.offsets)   # stage k is sample j + offsets[k]
+        self.offsets = np.array(problem.horizon.offsets)  # stage k is sample j + offsets[k]
         self.span = int(self.offsets[-1]) + 1
         table = scenario.opp_cartesian(np.arange(scenario.samples + self.span) * scenario.dt)
         table.flags.writeable = False
@@ -112,8 +114,8 @@ class OpponentParams:
     def horizon(self, j: int) -> np.ndarray:
         """Poses for stages 0..N at sample j (stage k: sample j + offsets[k]): shape (N+1, n_opp, 3) (read-only)."""
         if 0 <= j and j + self.span <= len(self._table):
-            if self.span == self.n_stages:       # one sample per stage: a view
-                return self._table[j: j + self.span]
+            if self.span == self.n_stages:  # one sample per stage: a view
+                return self._table[j : j + self.span]
             out = self._table[j + self.offsets]
             out.flags.writeable = False
             return out
@@ -122,5 +124,5 @@ class OpponentParams:
     def samples(self, K: int) -> np.ndarray:
         """Poses at samples 0..K: shape (K+1, n_opp, 3) (the rows the solver was given)."""
         if K + 1 <= len(self._table):
-            return self._table[:K + 1]
+            return self._table[: K + 1]
         return np.stack([self.at_index(j) for j in range(K + 1)])

@@ -4,6 +4,7 @@ Pure arithmetic on the probe's phase instances (``fcgen.wcet.probe``). Every mea
 SysTick ticks and can read up to one tick short of the instructions it took, so each phase maximum enters the bound
 plus one tick (``tick`` instructions).
 """
+
 from __future__ import annotations
 
 import math
@@ -22,13 +23,13 @@ class BoundError(ValueError):
 class Caps:
     """The solver's structural caps the bound multiplies."""
 
-    rti_budget: int              # the most QP iterations of one feedback (<NAME>_RTI_BUDGET; cold starts included)
-    warm: int                    # a warm-started QP's cap
-    cold: int                    # a cold-started QP's cap
-    qp_iterations: int           # the iterations the bound charges (OSQP: rti_budget rounded up to check_termination)
+    rti_budget: int  # the most QP iterations of one feedback (<NAME>_RTI_BUDGET; cold starts included)
+    warm: int  # a warm-started QP's cap
+    cold: int  # a cold-started QP's cap
+    qp_iterations: int  # the iterations the bound charges (OSQP: rti_budget rounded up to check_termination)
     check_termination: int | None = None  # OSQP: iterations between termination checks
-    fit_scans: int = 0           # the conventional fit's nearest-sample scans per prepare ((N + 1) NOPP; 0: no fit)
-    fit_scan_cap: int = 0        # samples one scan visits at most (the road window's samples, ROAD_MAX)
+    fit_scans: int = 0  # the conventional fit's nearest-sample scans per prepare ((N + 1) NOPP; 0: no fit)
+    fit_scan_cap: int = 0  # samples one scan visits at most (the road window's samples, ROAD_MAX)
 
     def __post_init__(self) -> None:
         if not 1 <= self.warm <= self.cold <= self.rti_budget <= self.qp_iterations:
@@ -68,15 +69,19 @@ def _need(stats: dict[str, PhaseStats], *names: str) -> None:
 def ipm_feedback(maxima: dict[str, int], iterations: int, tick: int) -> int:
     """Feedback with ``iterations`` QP iterations, each phase at its max: head, iterations + 1 checks, iterations
     steps, the QP's tail, feedback's tail (each plus one tick)."""
-    return ((maxima["head"] + tick) + (iterations + 1) * (maxima["check"] + tick) + iterations * (maxima["step"] + tick)
-            + (maxima["qp_tail"] + tick) + (maxima["feedback_tail"] + tick))
+    return (
+        (maxima["head"] + tick)
+        + (iterations + 1) * (maxima["check"] + tick)
+        + iterations * (maxima["step"] + tick)
+        + (maxima["qp_tail"] + tick)
+        + (maxima["feedback_tail"] + tick)
+    )
 
 
 def osqp_per_iteration(samples: list[SampleProbe], qp_iter: list[int], tick: int) -> int:
     """OSQP's instructions per iteration, its checks and fixed cost spread over them: the largest (QP + tick) /
     iterations over the samples that iterated (``qp_iter``: each sample's iterations, the run log's)."""
-    ratios = [math.ceil((qp + tick) / n) for sp, n in zip(samples, qp_iter) if n > 0
-              for qp in sp.phases.get("qp", [])]
+    ratios = [math.ceil((qp + tick) / n) for sp, n in zip(samples, qp_iter) if n > 0 for qp in sp.phases.get("qp", [])]
     if not ratios:
         raise BoundError("the probe runs never showed an OSQP solve with an iteration")
     return max(ratios)
@@ -120,11 +125,16 @@ def compute_bound(samples: list[SampleProbe], qp_iter: list[int], caps: Caps, ba
     if "feedback_no_qp" in maxima:
         feedback = max(feedback, maxima["feedback_no_qp"] + tick)
     prepare = prepare_bound(samples, caps, tick)
-    return {"prepare": int(prepare), "feedback": int(feedback), "rti": int(prepare + feedback),
-            "per_iteration": int(per_iteration)}
+    return {
+        "prepare": int(prepare),
+        "feedback": int(feedback),
+        "rti": int(prepare + feedback),
+        "per_iteration": int(per_iteration),
+    }
 
 
 def exceedances(observed: dict[str, np.ndarray], bound: dict[str, int]) -> dict[str, list[int]]:
     """Per phase (prepare, feedback, rti) the indices of the observed samples above the bound."""
-    return {k: [int(i) for i in np.flatnonzero(np.asarray(observed[k]) > bound[k])] for k in ("prepare", "feedback",
-                                                                                          "rti")}
+    return {
+        k: [int(i) for i in np.flatnonzero(np.asarray(observed[k]) > bound[k])] for k in ("prepare", "feedback", "rti")
+    }

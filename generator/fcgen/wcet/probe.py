@@ -6,6 +6,7 @@ Events (the harness's and the solver's ``QPB_PROBE``): 10/11 prepare called/retu
 intervals between consecutive events are the phases (``PHASES``); a pair of events outside that table is an error
 (the solver or the harness changed without this reader).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -16,14 +17,14 @@ PREPARE, PREPARED, FEEDBACK, FED = 10, 11, 12, 13
 START, CHECK, STEP, END, SCAN, SCAN_STEP = 0, 1, 2, 3, 4, 5
 
 PHASES: dict[tuple[int, int], str] = {
-    (FEEDBACK, START): "head",          # feedback called -> the QP's iterates initialized (embedding, warm start)
-    (START, CHECK): "check",            # an iterate's residuals and stopping test
+    (FEEDBACK, START): "head",  # feedback called -> the QP's iterates initialized (embedding, warm start)
+    (START, CHECK): "check",  # an iterate's residuals and stopping test
     (STEP, CHECK): "check",
-    (CHECK, STEP): "step",              # one predictor-corrector step
-    (CHECK, END): "qp_tail",            # the result composed (after the last check, or a failed step)
+    (CHECK, STEP): "step",  # one predictor-corrector step
+    (CHECK, END): "qp_tail",  # the result composed (after the last check, or a failed step)
     (STEP, END): "qp_tail",
-    (START, END): "qp",                 # a backend probed at start and end only (OSQP): the whole solve
-    (END, FED): "feedback_tail",        # the step taken or the fallback, the control, the plan check
+    (START, END): "qp",  # a backend probed at start and end only (OSQP): the whole solve
+    (END, FED): "feedback_tail",  # the step taken or the fallback, the control, the plan check
     (FEEDBACK, FED): "feedback_no_qp",  # a feedback rejected before its QP
     (SCAN, SCAN_STEP): "fit_scan_step",  # one sample of the conventional fit's nearest-sample scan
     (SCAN_STEP, SCAN_STEP): "fit_scan_step",
@@ -42,10 +43,10 @@ class SampleProbe:
     """One sample's instructions: prepare and feedback as called, and each phase instance in order."""
 
     sample: int
-    reset: bool                                   # the harness reset the solver before it (a cold start)
-    prepare: int | None                           # None: not called (an earlier call was rejected)
+    reset: bool  # the harness reset the solver before it (a cold start)
+    prepare: int | None  # None: not called (an earlier call was rejected)
     feedback: int | None
-    prepare_rest: int | None                      # prepare without the fit's scan steps
+    prepare_rest: int | None  # prepare without the fit's scan steps
     phases: dict[str, list[int]] = field(default_factory=dict)
 
     @property
@@ -56,6 +57,7 @@ class SampleProbe:
 
 def _phases(j: int, events: list[tuple[int, int]], per_tick: int) -> SampleProbe:
     """The phases of one sample from its (event, tick) list."""
+
     def dt(a: int, b: int) -> int:
         return ((events[b][1] - events[a][1]) % 2**32) * per_tick
 

@@ -6,6 +6,7 @@ QPs), one closed loop per seed; the side files give each phase's instructions (`
 runs: the normal build (no probe) on seeds 0..K-1, each sample's prepare, feedback and RTI (the solver's own clock,
 ``time_prepare`` / ``time_feedback`` x 1e9) against the bound.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,8 +41,10 @@ def solver_caps(folder: SolverFolder) -> Caps:
     checks, the conventional fit's scans."""
     gen_dir, name, pb, macros = folder.path, folder.name, folder.problem, folder.sizes
     if "RTI_BUDGET" not in macros:
-        raise WcetError(f"{gen_dir}: its header has no {name.upper()}_RTI_BUDGET (generated before the RTI budget): "
-                        f"regenerate it with fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}")
+        raise WcetError(
+            f"{gen_dir}: its header has no {name.upper()}_RTI_BUDGET (generated before the RTI budget): "
+            f"regenerate it with fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}"
+        )
     warm, cold = pb.qp.caps
     budget = int(macros["RTI_BUDGET"])
     if budget != cold:
@@ -53,9 +56,15 @@ def solver_caps(folder: SolverFolder) -> Caps:
         ct = pb.qp.check_termination
         iterations = math.ceil(budget / ct) * ct
     fit = isinstance(pb.formulation, Conventional) and pb.opponents.count > 0
-    return Caps(rti_budget=budget, warm=warm, cold=cold, qp_iterations=iterations, check_termination=ct,
-                fit_scans=(macros["N"] + 1) * macros["NOPP"] if fit else 0,
-                fit_scan_cap=macros["ROAD_MAX"] if fit else 0)
+    return Caps(
+        rti_budget=budget,
+        warm=warm,
+        cold=cold,
+        qp_iterations=iterations,
+        check_termination=ct,
+        fit_scans=(macros["N"] + 1) * macros["NOPP"] if fit else 0,
+        fit_scan_cap=macros["ROAD_MAX"] if fit else 0,
+    )
 
 
 def _run_all(jobs: int, fn, seeds: list[int]) -> list:
@@ -65,32 +74,55 @@ def _run_all(jobs: int, fn, seeds: list[int]) -> list:
         return list(ex.map(fn, seeds))
 
 
-def probe_runs(folder: SolverFolder, target: str, seeds: int, samples: int, cflags: str | None,
-               timeout: float | None, jobs: int = 1) -> tuple[list[SampleProbe], list[int], int]:
+def probe_runs(
+    folder: SolverFolder,
+    target: str,
+    seeds: int,
+    samples: int,
+    cflags: str | None,
+    timeout: float | None,
+    jobs: int = 1,
+) -> tuple[list[SampleProbe], list[int], int]:
     """The probe build's closed loops on seeds 0..seeds-1: every sample's phases, its QP iterations, the tick."""
     name, pb = folder.name, folder.problem
-    exe = build_harness(folder, cflags=cflags, target=target, variant=PROBE_VARIANT,
-                        extra_cflags=f"-D{name.upper()}_PROBE",
-                        harness_defines=("-DFS_PROBE", f"-DFS_PROBE_RESET={RESET_EVERY}"))
+    exe = build_harness(
+        folder,
+        cflags=cflags,
+        target=target,
+        variant=PROBE_VARIANT,
+        extra_cflags=f"-D{name.upper()}_PROBE",
+        harness_defines=("-DFS_PROBE", f"-DFS_PROBE_RESET={RESET_EVERY}"),
+    )
     scenario = infer_scenario(pb)
     tgt = get_target(target)
 
     def one(seed: int):
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-        data = export_scenario(pb, sc, exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt", samples,
-                               solver_name=name)
+        data = export_scenario(
+            pb, sc, exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt", samples, solver_name=name
+        )
         out = exe.parent / f"probe_{scenario}_seed{seed}_{samples}.json"
         log = run_harness(exe, data, out, timeout=timeout, target=target)
         side = Path(f"{out}.probe")
-        return read_probe(side, tgt.instructions_per_second), [int(i) for i in log.qp_iter], \
-            tick_instructions(side, tgt.instructions_per_second)
+        return (
+            read_probe(side, tgt.instructions_per_second),
+            [int(i) for i in log.qp_iter],
+            tick_instructions(side, tgt.instructions_per_second),
+        )
 
     res = _run_all(jobs, one, list(range(seeds)))
     return [s for r in res for s in r[0]], [i for r in res for i in r[1]], res[0][2]
 
 
-def validation_runs(folder: SolverFolder, target: str, seeds: int, samples: int, cflags: str | None,
-                    timeout: float | None, jobs: int = 1) -> dict[str, np.ndarray]:
+def validation_runs(
+    folder: SolverFolder,
+    target: str,
+    seeds: int,
+    samples: int,
+    cflags: str | None,
+    timeout: float | None,
+    jobs: int = 1,
+) -> dict[str, np.ndarray]:
     """The normal build's closed loops on seeds 0..seeds-1: every sample's prepare, feedback and RTI instructions."""
     name, pb = folder.name, folder.problem
     exe = build_harness(folder, cflags=cflags, target=target)
@@ -99,10 +131,16 @@ def validation_runs(folder: SolverFolder, target: str, seeds: int, samples: int,
 
     def one(seed: int):
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-        data = export_scenario(pb, sc, exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt", samples,
-                               solver_name=name)
-        log = run_harness(exe, data, exe.parent / f"wcet_validate_{scenario}_seed{seed}_{samples}.json",
-                          timeout=timeout, target=target)
+        data = export_scenario(
+            pb, sc, exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt", samples, solver_name=name
+        )
+        log = run_harness(
+            exe,
+            data,
+            exe.parent / f"wcet_validate_{scenario}_seed{seed}_{samples}.json",
+            timeout=timeout,
+            target=target,
+        )
         return np.round(np.asarray(log.time_prepare) * scale), np.round(np.asarray(log.time_feedback) * scale)
 
     res = _run_all(jobs, one, list(range(seeds)))
@@ -114,15 +152,27 @@ def validation_runs(folder: SolverFolder, target: str, seeds: int, samples: int,
 def validate(observed: dict[str, np.ndarray], bound: dict[str, int], seeds: int, samples: int) -> dict:
     """The ``validated`` entry: observed max per phase, its fraction of the bound, the samples above it."""
     over = exceedances(observed, bound)
-    return {"seeds": list(range(seeds)), "samples": samples,
-            "observed_max": {k: int(np.max(observed[k])) for k in ("prepare", "feedback", "rti")},
-            "fraction_of_bound": {k: float(np.max(observed[k]) / bound[k]) for k in ("prepare", "feedback", "rti")},
-            "exceeding_samples": {k: len(v) for k, v in over.items()},
-            "passed": not any(over.values())}
+    return {
+        "seeds": list(range(seeds)),
+        "samples": samples,
+        "observed_max": {k: int(np.max(observed[k])) for k in ("prepare", "feedback", "rti")},
+        "fraction_of_bound": {k: float(np.max(observed[k]) / bound[k]) for k in ("prepare", "feedback", "rti")},
+        "exceeding_samples": {k: len(v) for k, v in over.items()},
+        "passed": not any(over.values()),
+    }
 
 
-def wcet(folder: FolderLike, target: str, seeds: int = 3, samples: int = 200, validate_seeds: int = 0,
-         cflags: str | None = None, timeout: float | None = None, jobs: int = 1, bound_scale: float = 1.0) -> dict:
+def wcet(
+    folder: FolderLike,
+    target: str,
+    seeds: int = 3,
+    samples: int = 200,
+    validate_seeds: int = 0,
+    cflags: str | None = None,
+    timeout: float | None = None,
+    jobs: int = 1,
+    bound_scale: float = 1.0,
+) -> dict:
     """The bound of a folder's build on an emulated target, validated on ``validate_seeds`` closed loops; the
     results (``FORMAT``). ``folder``: a :class:`~..solver_folder.SolverFolder` or its path. ``bound_scale`` (a test's
     hook) multiplies the bound before the validation."""
@@ -139,20 +189,46 @@ def wcet(folder: FolderLike, target: str, seeds: int = 3, samples: int = 200, va
         bound = {k: int(v * bound_scale) for k, v in bound.items()}
     stats = phase_stats(samples_p)
     res = {
-        "format": FORMAT, "solver": name, "gen_dir": str(folder.path), "problem": pb.name, "backend": pb.qp.backend,
-        "precision": folder.precision, "target": tgt.name,
-        "target_description": tgt.description, "cflags": tgt.cflags(cflags if cflags is not None else "-O2"),
-        "unit": "instructions", "tick_instructions": tick,
-        "bound": {k: bound[k] for k in ("prepare", "feedback", "rti")}, "per_iteration": bound["per_iteration"],
-        "caps": {"rti_budget": caps.rti_budget, "warm": caps.warm, "cold": caps.cold,
-                 "qp_iterations": caps.qp_iterations, "check_termination": caps.check_termination,
-                 "fit_scans": caps.fit_scans, "fit_scan_cap": caps.fit_scan_cap},
+        "format": FORMAT,
+        "solver": name,
+        "gen_dir": str(folder.path),
+        "problem": pb.name,
+        "backend": pb.qp.backend,
+        "precision": folder.precision,
+        "target": tgt.name,
+        "target_description": tgt.description,
+        "cflags": tgt.cflags(cflags if cflags is not None else "-O2"),
+        "unit": "instructions",
+        "tick_instructions": tick,
+        "bound": {k: bound[k] for k in ("prepare", "feedback", "rti")},
+        "per_iteration": bound["per_iteration"],
+        "caps": {
+            "rti_budget": caps.rti_budget,
+            "warm": caps.warm,
+            "cold": caps.cold,
+            "qp_iterations": caps.qp_iterations,
+            "check_termination": caps.check_termination,
+            "fit_scans": caps.fit_scans,
+            "fit_scan_cap": caps.fit_scan_cap,
+        },
         "phases": {k: {"min": v.min, "max": v.max, "count": v.count} for k, v in stats.items()},
-        "probe": {"scenario": infer_scenario(pb), "seeds": list(range(seeds)), "samples": samples,
-                  "reset_every": RESET_EVERY, "cold_starts": sum(1 for s in samples_p if s.reset or s.sample == 0),
-                  "qp_iter_max": max(qp_iter), "qp_steps_max": max(s.steps for s in samples_p)},
-        "validated": {"seeds": [], "samples": 0, "observed_max": None, "fraction_of_bound": None,
-                      "exceeding_samples": None, "passed": None},
+        "probe": {
+            "scenario": infer_scenario(pb),
+            "seeds": list(range(seeds)),
+            "samples": samples,
+            "reset_every": RESET_EVERY,
+            "cold_starts": sum(1 for s in samples_p if s.reset or s.sample == 0),
+            "qp_iter_max": max(qp_iter),
+            "qp_steps_max": max(s.steps for s in samples_p),
+        },
+        "validated": {
+            "seeds": [],
+            "samples": 0,
+            "observed_max": None,
+            "fraction_of_bound": None,
+            "exceeding_samples": None,
+            "passed": None,
+        },
     }
     if bound_scale != 1.0:
         res["bound_scale"] = bound_scale

@@ -1,5 +1,6 @@
 """The run log's JSON text: plain data in, deterministic text out (sorted keys, one sample row per line, ``repr``
 floats, non-finite floats as strings), and compressed files read back."""
+
 from __future__ import annotations
 
 import gzip

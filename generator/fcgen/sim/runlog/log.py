@@ -1,4 +1,5 @@
 """``RunLog``: one closed-loop run, validated and normalized on construction, written to and read from its JSON file."""
+
 from __future__ import annotations
 
 import gzip
@@ -15,8 +16,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .jsontext import decode_nonfinite, emit, encode_nonfinite, plain, read_text, reject_constant
-from .schema import (CONTROLLER_KINDS, DIM_KEYS, FORMAT_VERSION, META_KEYS, OPTIONAL_FIELDS, ROAD_ARRAY_KEYS,
-                     SAMPLE_FIELDS, STATE_FIELDS)
+from .schema import (
+    CONTROLLER_KINDS,
+    DIM_KEYS,
+    FORMAT_VERSION,
+    META_KEYS,
+    OPTIONAL_FIELDS,
+    ROAD_ARRAY_KEYS,
+    SAMPLE_FIELDS,
+    STATE_FIELDS,
+)
 
 
 def _coerce_array(name: str, value: Any, kind: str, shape: tuple[int, ...]) -> NDArray[Any]:
@@ -195,6 +204,7 @@ class RunLog:
     # -- JSON
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form of the file contents (arrays as nested lists, non-finite floats as strings)."""
+
         def arr(a: NDArray[Any]) -> Any:
             lst = a.tolist()
             if a.dtype.kind == "f" and not np.all(np.isfinite(a)):

@@ -1,5 +1,6 @@
 """The run log's schema (format ``fcgen-runlog/1``, docs/runlog.md): its version, the keys of ``meta`` and ``road``,
 the per-sample fields with their kinds and shapes, the QP status names, and a valid ``meta``."""
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -17,7 +18,16 @@ CONTROLLER_KINDS: tuple[str, ...] = ("python-reference", "c", "c-firmware_sim", 
 
 #: Keys ``meta`` must contain (more keys are allowed and preserved).
 META_KEYS: tuple[str, ...] = (
-    "problem", "formulation", "obstacle_model", "scenario", "seed", "N", "dt", "versions", "controller", "extra",
+    "problem",
+    "formulation",
+    "obstacle_model",
+    "scenario",
+    "seed",
+    "N",
+    "dt",
+    "versions",
+    "controller",
+    "extra",
 )
 
 #: Array keys of ``road`` (all of one length M, on a uniform grid of spacing ``road["ds"]``).
@@ -59,8 +69,9 @@ OPTIONAL_FIELDS: dict[str, tuple[str, tuple[Any, ...]]] = {
 
 #: Generic QP status codes (``fcgen.backends.QP_STATUSES``: the same for every QP backend, C and Python alike), without
 #: the ``QP_`` prefix, lower case. The backend's own status is not logged.
-QP_STATUS_NAMES: dict[int, str] = {code: name.removeprefix("QP_").lower()
-                                   for code, name in enumerate(QP_STATUSES, start=1)}
+QP_STATUS_NAMES: dict[int, str] = {
+    code: name.removeprefix("QP_").lower() for code, name in enumerate(QP_STATUSES, start=1)
+}
 
 
 def qp_status_name(code: int) -> str:

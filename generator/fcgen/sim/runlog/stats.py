@@ -1,4 +1,5 @@
 """What a run log says in numbers: the run's metrics (SPEC section 7) and the largest differences between two runs."""
+
 from __future__ import annotations
 
 import math
@@ -18,8 +19,12 @@ def _stats_ms(*xs: NDArray[np.float64]) -> list[dict[str, float]]:
     if xs[0].size == 0:
         return [{"mean": math.nan, "median": math.nan, "p99": math.nan, "max": math.nan} for _ in xs]
     ms = 1e3 * np.stack(xs)
-    stats = zip(np.mean(ms, axis=1).tolist(), np.median(ms, axis=1).tolist(), np.percentile(ms, 99, axis=1).tolist(),
-                np.max(ms, axis=1).tolist())
+    stats = zip(
+        np.mean(ms, axis=1).tolist(),
+        np.median(ms, axis=1).tolist(),
+        np.percentile(ms, 99, axis=1).tolist(),
+        np.max(ms, axis=1).tolist(),
+    )
     return [{"mean": a, "median": b, "p99": c, "max": d} for a, b, c, d in stats]
 
 
