@@ -16,7 +16,7 @@ import numpy as np
 
 from . import obstacles as obs
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
-from .contract import EXIT_CODES, Status
+from .contract import EXIT_CODES, INT_MAX, SolverError, Status
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
@@ -35,7 +35,7 @@ from .qp_outcome import (
     project_control,
     warm_max_iter,
 )
-from .road import Road, curve_reference
+from .road import Road, band_outside, curve_reference
 
 __all__ = [
     "COLD_RESTART_NOTE",
@@ -56,19 +56,6 @@ __all__ = [
 ]
 """The outcome contract (``fcgen.qp_outcome``) and ``theta_init`` are re-exported: importers read them here, and
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
-
-
-INT_MAX = 2**31 - 1
-"""The status counters saturate here (the C's int)."""
-
-
-class SolverError(RuntimeError):
-    """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(f"{code}: {message}")
-        self.code = code
-        self.exit_code = EXIT_CODES.index(code)
 
 
 class RtiSolver:
@@ -147,19 +134,9 @@ class RtiSolver:
             raise self._fail(
                 "ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}"
             )
-        if road.n_min is not None and road.n_max is not None:
-            b = self.ocp.problem.bounds
-            for name, a, ok in (
-                ("n_min", road.n_min, road.n_min >= b.n_min),
-                ("n_max", road.n_max, road.n_max <= b.n_max),
-            ):
-                if not np.all(ok):
-                    i = int(np.flatnonzero(~ok)[0])
-                    raise self._fail(
-                        "ERR_ROAD_BOUNDS",
-                        f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
-                        f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)",
-                    )
+        outside = band_outside(road, self.ocp.problem.bounds)
+        if outside:
+            raise self._fail("ERR_ROAD_BOUNDS", outside)
         self.road = road
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
