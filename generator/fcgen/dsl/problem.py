@@ -17,12 +17,13 @@ from .obstacle_models import CoveringCircles, Ellipse, ObstacleModel, Separating
 from .plan_check import PlanCheck
 from .qp_options import QpOptions
 from .tracking import Reference
-from .validation import ProblemError, check
+from .validation import ProblemError, check, known_fields
 from .vehicle import Opponents, Vehicle, Wind
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 
 
+@known_fields
 @dataclass(frozen=True)
 class Problem:
     """A complete NMPC problem: what ``fcgen generate`` turns into a C solver."""
