@@ -124,7 +124,7 @@ def simulate(
     if plot:
         from ..sim.plots import plot_run
 
-        plot_run(log, plot)
+        plot_run(log, plot, a_lat_max=pb.bounds.a_lat_max)
         click.echo(f"plot written to {plot}")
 
 
