@@ -11,6 +11,7 @@ process does.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import ctypes
 import multiprocessing
 import os
@@ -18,6 +19,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +39,23 @@ class Outcome:
     failed: list[tuple[tuple, str]] = field(default_factory=list)
     wall_s: float = 0.0
     workers: int = 0
+    warnings: list[str] = field(default_factory=list)  # what the workers warned, each message once
+
+
+def capturing(fn, *args):
+    """``fn(*args)`` with its warnings caught instead of printed: ``(result, messages)``. Run in the workers, so that
+    their warnings reach the campaign's process (printed once, after the progress bar) instead of each worker's
+    stderr in the middle of the bar."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = fn(*args)
+    return res, [f"{w.category.__name__}: {w.message}" for w in caught]
+
+
+def _note(out: Outcome, messages: list[str]) -> None:
+    for m in messages:
+        if m not in out.warnings:
+            out.warnings.append(m)
 
 
 #: one thread per worker for numpy's BLAS and OpenMP: a run's arrays are tiny, and idle BLAS threads spin on the cores
@@ -124,8 +143,8 @@ def run_campaign(
     try:
         with executor(jobs, scheduler) as (ex, workers):
             out.workers = workers
-            _build_solvers(ex, todo)
-            futs = {ex.submit(run_task, t): t for t in todo}
+            _build_solvers(ex, todo, out)
+            futs = {ex.submit(capturing, run_task, t): t for t in todo}
             try:
                 _collect(futs, out, buf, bar, store, flush_every, flush_seconds)
             except BaseException:  # interrupted: drop the runs not started, keep (flush) the finished ones
@@ -140,18 +159,16 @@ def run_campaign(
     return out
 
 
-def _build_solvers(ex, todo: list[Task]) -> None:
+def _build_solvers(ex, todo: list[Task], out: Outcome) -> None:
     """Generate and compile the C solvers of the runs' configurations first, all workers at once (built lazily by
     the first run of each, a worker would wait on another's build of the same solver). A failed build is not
     raised here: the configuration's runs report it."""
     keys = sorted(
         {(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"}, key=lambda k: k[0].key
     )
-    for fut in cf.as_completed([ex.submit(build_solver, *k) for k in keys]):
-        try:
-            fut.result()
-        except Exception:  # noqa: BLE001 - reported by the runs of that configuration
-            pass
+    for fut in cf.as_completed([ex.submit(capturing, build_solver, *k) for k in keys]):
+        with contextlib.suppress(Exception):  # a failed build is reported by the runs of that configuration
+            _note(out, fut.result()[1])
 
 
 def _collect(
@@ -163,7 +180,9 @@ def _collect(
     for fut in cf.as_completed(list(futs)):
         task = futs.pop(fut)
         try:
-            buf.append(fut.result())
+            row, messages = fut.result()
+            buf.append(row)
+            _note(out, messages)
             out.computed += 1
         except cf.CancelledError:
             continue

@@ -106,7 +106,7 @@ class Problem:
                     warnings.warn(
                         f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
                         f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
-                        stacklevel=3,
+                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
                     )
 
     def with_(self, **changes) -> "Problem":
