@@ -142,3 +142,15 @@ def test_the_preset_grammar_the_message_states_is_the_one_the_parser_accepts():
     ):
         with pytest.raises(ProblemError, match="is unknown"):
             preset(bad)
+
+
+def test_every_message_of_the_troubleshooting_page_has_what_to_do_beside_it():
+    page = (Path(__file__).resolve().parents[1] / "docs" / "troubleshooting.md").read_text()
+    rows = [
+        ln for ln in page.splitlines() if ln.startswith("| ") and not ln.startswith("| message") and "---" not in ln
+    ]
+    rows = [r for r in rows if not r.startswith(("| outcome", "| message starts with"))]
+    assert len(rows) >= 30
+    for r in rows:
+        cells = [c.strip() for c in r.strip("|").split(" | ")]
+        assert len(cells) == 3 and all(cells), f"a row without its cause or fix: {r}"
