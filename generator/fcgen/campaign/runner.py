@@ -11,7 +11,6 @@ process does.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import contextlib
 import ctypes
 import multiprocessing
 import os
@@ -24,6 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..extras import require
 from .grid import Task
 from .store import ResultStore
 from .task import build_solver, run_task
@@ -103,7 +103,8 @@ def executor(jobs: int = 2, scheduler: str | None = None):
         ) as ex:
             yield ex, jobs
         return
-    from distributed import Client, LocalCluster
+    with require("campaign", "a dask scheduler"):
+        from distributed import Client, LocalCluster
 
     if scheduler == "local":
         with (
@@ -135,7 +136,8 @@ def run_campaign(
         return out
     bar = None
     if progress:
-        from tqdm import tqdm
+        with require("campaign", "the campaign's progress bar"):
+            from tqdm import tqdm
 
         bar = tqdm(total=len(todo), unit="run", desc=f"campaign ({out.skipped} done before)", smoothing=0.05)
     t0 = time.perf_counter()
@@ -166,8 +168,10 @@ def _build_solvers(ex, todo: list[Task], out: Outcome) -> None:
     keys = sorted(
         {(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"}, key=lambda k: k[0].key
     )
-    for fut in cf.as_completed([ex.submit(capturing, build_solver, *k) for k in keys]):
-        with contextlib.suppress(Exception):  # a failed build is reported by the runs of that configuration
+    futs = [ex.submit(capturing, build_solver, *k) for k in keys]
+    cf.wait(futs)  # a build's exception stays in its future, unraised: the runs of that configuration report it
+    for fut in futs:
+        if fut.exception() is None:
             _note(out, fut.result()[1])
 
 
@@ -186,7 +190,7 @@ def _collect(
             out.computed += 1
         except cf.CancelledError:
             continue
-        except Exception as exc:  # a run that fails is reported, not written: the next call retries it
+        except Exception as exc:  # noqa: BLE001 - a run that fails (any error) is reported, not written; retried next call
             out.failed.append((task.run_id, f"{type(exc).__name__}: {exc}"))
         if bar is not None:
             bar.update(1)

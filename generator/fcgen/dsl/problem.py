@@ -109,7 +109,7 @@ class Problem:
                         stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
                     )
 
-    def with_(self, **changes) -> "Problem":
+    def with_(self, **changes) -> Problem:
         """A copy with some fields replaced (validated again)."""
         return replace(self, **changes)
 

@@ -16,18 +16,21 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
-import matplotlib
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.cm import ScalarMappable
-from matplotlib.colors import Normalize
-from matplotlib.figure import Figure
-from matplotlib.patches import Polygon
 from numpy.typing import NDArray
 
 from ..collision import corners_from_dims
 from ..dsl import Bounds
+from ..extras import require
 from .runlog import RunLog, summary
+
+with require("plot", "a run's plot"):
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon
 
 __all__ = ["DEFAULT_EGO_DIMS", "plot_run", "project_to_road", "run_figure"]
 
