@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, fields
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
 from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
+from ..sim.plants import PlantSpec
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
 PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
@@ -26,8 +27,11 @@ class Config:
     controller: str = "c"
     backend: str = "osqp"
     profile: str = "paper"  # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
+    plant: PlantSpec = PlantSpec()  # the plant and its perturbations (docs/plants.md); default: fcgen's model
 
     def __post_init__(self) -> None:
+        if not isinstance(self.plant, PlantSpec):
+            raise ProblemError(f"plant = {self.plant!r} is invalid: allowed a PlantSpec")
         _one_of("profile", self.profile, PROFILES)
         _one_of("scenario", self.scenario, SCENARIOS)
         _one_of("formulation", self.formulation, tuple(FORMULATIONS))
@@ -48,7 +52,8 @@ class Config:
     def key(self) -> str:
         """Identifies the configuration in the results (with the seed and the sample count: one run)."""
         key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
-        return key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
+        key = key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
+        return key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -66,10 +71,27 @@ class Config:
             pb = paper_problem(
                 self.scenario, self.formulation, self.obstacles, self.circles or None, profile=self.profile, **over
             )
-        return pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
+        pb = pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
+        if self.plant.params == "matched":
+            from ..sim.plants.commonroad_vm import matched_problem
+
+            pb = matched_problem(pb, "matched")
+        return pb
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
+        ``latency``, ``steer_lag``, ``noise`` (a default run's row has none of them, as before the plants)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "plant"}
+        if not self.plant.is_default:
+            p = asdict(self.plant)
+            d.update(
+                plant=p["kind"],
+                plant_params=p["params"],
+                latency=p["latency"],
+                steer_lag=float(p["steer_lag"]),
+                noise=",".join(f"{v:g}" for v in self.plant.noise),
+            )
+        return d
 
 
 def _one_of(field: str, value, allowed: tuple) -> None:
@@ -101,6 +123,7 @@ def paper_grid(
     controller: str = "c",
     backend: str = "osqp",
     profile: str = "paper",
+    plant: PlantSpec | None = None,
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -109,7 +132,7 @@ def paper_grid(
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(Config(sc, form, kind, n, controller, backend, profile))
+                    out.append(Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec()))
     return out
 
 

@@ -3,7 +3,8 @@ line of a closed loop."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -101,3 +102,88 @@ def fmt_summary(s: dict) -> str:
 def names(text: str) -> list[str]:
     """The names of a comma-separated option value."""
     return [x.strip() for x in text.split(",") if x.strip()]
+
+
+PLANT_OPTION_NAMES = ("plant", "plant_params", "latency", "steer_lag", "noise")
+
+
+def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise`` (docs/plants.md)."""
+    from ..sim.plants import PLANT_KINDS, PLANT_PARAMS
+    from ..sim.plants.spec import MAX_LATENCY, MAX_STEER_LAG
+
+    opts = [
+        click.option(
+            "--plant",
+            type=click.Choice(PLANT_KINDS),
+            default="model",
+            show_default=True,
+            help="the plant: fcgen's own model, or CommonRoad's kinematic single track (ks), single track (st), "
+            "single track drift (std) or multi-body (mb) model (docs/plants.md)",
+        ),
+        click.option(
+            "--plant-params",
+            type=click.Choice(PLANT_PARAMS),
+            default="paper",
+            show_default=True,
+            help="the BMW 320i with the paper's ego geometry and mass (paper), or as shipped with the controller's "
+            "wheelbase and mass set to it (matched)",
+        ),
+        click.option(
+            "--latency",
+            type=click.IntRange(0, MAX_LATENCY),
+            default=0,
+            show_default=True,
+            help="samples between measurement and actuation",
+        ),
+        click.option(
+            "--steer-lag",
+            type=click.FloatRange(0.0, MAX_STEER_LAG),
+            default=0.0,
+            show_default=True,
+            help="time constant (s) of a first-order steering actuator",
+        ),
+        click.option(
+            "--noise",
+            default=None,
+            help="Gaussian noise on the measured (s, n, alpha, v, delta): five stds, or 'default' "
+            "(0.05 m, 0.05 m, 0.005 rad, 0.05 m/s, 0.002 rad); seeded from the run's seed",
+        ),
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+def plant_spec(plant: str, plant_params: str, latency: int, steer_lag: float, noise: str | None):
+    """The ``PlantSpec`` of the plant options; a bad value or a missing ``[plants]`` extra: one line, exit 1."""
+    from ..dsl import ProblemError
+    from ..sim.plants import PlantSpec, parse_noise
+
+    try:
+        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise))
+    except ProblemError as exc:
+        fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
+    if spec.kind != "model" or spec.params == "matched":
+        from ..sim.plants.commonroad_vm import vehicle_models
+
+        try:
+            vehicle_models()
+        except RuntimeError as exc:
+            fail(str(exc))
+    return spec
+
+
+def plant_line(spec, log, a_lat_max: float) -> str:
+    """One line on a perturbed run: the plant, its a_lat beside the model formula's, the cut controls."""
+    import numpy as np
+
+    ex = log.meta["extra"]
+    bound = a_lat_max + 0.5
+    over = float(np.mean(np.abs(np.asarray(log.a_lat)) > bound)) * 100
+    return (
+        f"plant {spec.label()} | max |a_lat| plant {float(np.max(np.abs(log.a_lat))):.2f}, model formula "
+        f"{ex['max_abs_a_lat_model']:.2f} m/s^2 | plant |a_lat| > {bound:g}: {over:.1f} % of samples | "
+        f"controls cut by the plant's limits: {ex['plant_cut_samples']} samples (steering rate "
+        f"{ex['plant_cut_steer_rate']}, angle {ex['plant_cut_steer_angle']}, acceleration {ex['plant_cut_accel']})"
+    )

@@ -18,6 +18,9 @@ from .options import (
     names,
     out_dir_option,
     out_file_option,
+    plant_line,
+    plant_options,
+    plant_spec,
     samples_option,
     scenario_option,
     seed_option,
@@ -76,6 +79,7 @@ from .options import (
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
+@plant_options
 def simulate(
     scenario,
     formulation,
@@ -92,6 +96,11 @@ def simulate(
     cr_file,
     cr_pp,
     cr_solution,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from ..sim.closedloop import run_closed_loop
@@ -108,6 +117,18 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    if spec.params == "matched":
+        if controller != "python":
+            fail(
+                "--plant-params matched sets the controller's wheelbase and mass: use --controller python, or "
+                "`fcgen campaign` (it generates its solvers)"
+            )
+        from ..sim.plants.commonroad_vm import matched_problem
+
+        pb = matched_problem(pb, spec.params)
+    if cr_file and not spec.is_default:
+        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution)
@@ -115,9 +136,11 @@ def simulate(
     if cr_pp is not None or cr_solution:
         fail("--planning-problem and --solution go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
+    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
+    if not spec.is_default:
+        click.echo(plant_line(spec, log, pb.bounds.a_lat_max))
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -281,6 +304,7 @@ def _verdict(v: dict) -> str:
     help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
+@plant_options
 def campaign(
     scenarios,
     formulations,
@@ -300,11 +324,19 @@ def campaign(
     force_report,
     profile,
     cr_dir,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
-    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    if cr_dir and not spec.is_default:
+        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
+    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, spec)
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
@@ -323,7 +355,9 @@ def campaign(
         click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
-def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str) -> list:
+def _grid(
+    scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str, plant=None
+) -> list:
     """The campaign's configurations; an unknown name or a backend this fcgen lacks fails before any worker starts."""
     from ..campaign.grid import paper_grid
 
@@ -334,7 +368,9 @@ def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str
         if s not in SCENARIOS:
             fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
-        configs = paper_grid(names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile)
+        configs = paper_grid(
+            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, plant
+        )
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:

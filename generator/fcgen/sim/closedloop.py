@@ -16,6 +16,8 @@ from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
+from .perturbed import perturbed_fields, perturbed_meta, run_perturbed
+from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
@@ -276,13 +278,16 @@ def run_closed_loop(
     progress: bool = False,
     exit_codes: bool = False,
     plan: str = "none",
+    plant: PlantSpec | None = None,
 ) -> RunLog:
     """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
 
     ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
     the planned controls (``"controls"``) or controls and states (``"full"``) of every sample; either needs a
-    controller with ``plan()``.
+    controller with ``plan()``. ``plant``: another plant or perturbations (``sim.plants``, docs/plants.md); the
+    default is fcgen's own model, measured exactly, without latency.
     """
+    spec = plant or PlantSpec()
     if controller is None:
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
@@ -306,6 +311,25 @@ def run_closed_loop(
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
+    pert = None
+    if not spec.is_default:
+
+        def solve(j: int, x: np.ndarray) -> StepResult:
+            s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)  # a noisy s at the road's start: its first window
+            if step is not None:
+                return step(x, s_start, horizon(j))
+            return controller.step(x, road.window(s_start, problem.road.samples), horizon(j))
+
+        pert = run_perturbed(
+            problem,
+            sc,
+            spec,
+            solve,
+            lambda x, u: plant_step(x, u).copy(),
+            (lambda j, r: add(j, controller, r)) if add else None,
+        )
+        xs, us, results = pert.xs, pert.us, pert.results
+        it = range(0)
     for j in it:
         x = xs[j]
         if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
@@ -335,7 +359,7 @@ def run_closed_loop(
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
-    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l
+    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else pert.a_lat
     meta = make_meta(
         problem=problem.name,
         formulation=problem.formulation.kind,
@@ -350,6 +374,7 @@ def run_closed_loop(
             "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
             "plan_reactions": int(sum(r.plan_reaction for r in results)),
             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
+            **(perturbed_meta(spec, pert) if pert is not None else {}),
         },
     )
     road_dict = {
@@ -380,4 +405,5 @@ def run_closed_loop(
         max_slack=slack,
         ego=dims(problem.ego),
         **(planlog.fields() if exit_codes or plan != "none" else {}),
+        **(perturbed_fields(pert) if pert is not None else {}),
     )
