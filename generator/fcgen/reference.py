@@ -110,6 +110,9 @@ class RtiSolver:
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
+        self.x_plan: np.ndarray | None = None  # where the plan starts: x0, or x0 predicted over Problem.delay samples
+        # the controls handed out last, oldest first (Problem.delay of them; a reset keeps them: the plant has them)
+        self.u_hist = np.zeros((self.ocp.problem.delay, self.ocp.nu))
         self.reset()
 
     def reset(self) -> None:
@@ -389,9 +392,10 @@ class RtiSolver:
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
-        p0 = self.stage_params(0, self.x0[0])
-        x0_full = np.array(ocp.init_state(self.x0, p0)).ravel()
-        q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
+        self.x_plan = self._predicted()
+        p0 = self.stage_params(0, self.x_plan[0])
+        x0_full = np.array(ocp.init_state(self.x_plan, p0)).ravel()
+        q = self.q + lay.q_ds0 * (self.x_plan[0] - self.s0_guess)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
@@ -425,6 +429,8 @@ class RtiSolver:
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
+        if len(self.u_hist):  # the control just handed out joins the ones the plant has yet to apply
+            self.u_hist = np.vstack([self.u_hist[1:], self.u_applied])
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
@@ -437,16 +443,28 @@ class RtiSolver:
             )
         return self.u0()
 
+    def _predicted(self) -> np.ndarray:
+        """The delay compensation (``Problem.delay`` = D): x0 stepped by the plant's model over the D controls handed
+        out last, each step on its start's road window (the C's ``delay_predict``); x0 itself without a delay."""
+        x = self.x0
+        for u in self.u_hist:
+            x = np.array(self._plant(x, u, self._road_params(float(x[0])))).ravel()
+        if not np.all(np.isfinite(x)):
+            raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
+        return x
+
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
-        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
+        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start (x0, or
+        its prediction over the delay: where get_u0 will act) on stage 0's road."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
         st.a_lat_guard = a_lat_guard(
-            self.ocp.problem, self.x0, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
+            self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
-        """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
-        return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
+        """The plant's state one sample after the plan's start under get_u0 (``fcgen.plant``; the C's
+        ``<name>_plant``)."""
+        return np.array(self._plant(self.x_plan, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
@@ -471,7 +489,7 @@ class RtiSolver:
             best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            self.u_applied[0] = braking_control(pb, self.x0)
+            self.u_applied[0] = braking_control(pb, self.x_plan)
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:

@@ -248,7 +248,9 @@ def problem_source(obj: Any, indent: int = 0) -> str:
         return repr(obj)
     pad = " " * (indent + 4)
     args = [
-        f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}" for f in dataclasses.fields(obj) if f.init
+        f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}"
+        for f in dataclasses.fields(obj)
+        if f.init and not (f.metadata.get("omit_default") and getattr(obj, f.name) == f.default)
     ]
     if not args:
         return f"{type(obj).__name__}()"

@@ -317,8 +317,8 @@ def run_closed_loop(
         def solve(j: int, x: np.ndarray) -> StepResult:
             s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)  # a noisy s at the road's start: its first window
             if step is not None:
-                return step(x, s_start, horizon(j))
-            return controller.step(x, road.window(s_start, problem.road.samples), horizon(j))
+                return step(x, s_start, horizon(j + problem.delay))
+            return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
 
         pert = run_perturbed(
             problem,
@@ -333,9 +333,9 @@ def run_closed_loop(
     for j in it:
         x = xs[j]
         if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
-            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
+            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j + problem.delay))
         else:
-            r = controller.step(x, solver_window(problem, road, x), horizon(j))
+            r = controller.step(x, solver_window(problem, road, x), horizon(j + problem.delay))
         u = us[j]
         u[:] = r.u
         if add is not None:

@@ -121,7 +121,7 @@ def export_scenario(
             _line(f, "opp_cartesian", opp_cart[j])
             _line(f, "opp_frenet", opp_fr[j])
             if j < K:
-                blk = opp_params.horizon(j)
+                blk = opp_params.horizon(j + pb.delay)  # the plan starts Problem.delay samples later
                 if blk.shape != (N + 1, n_opp, n_opp_par):
                     raise ValueError(
                         f"opponent parameters of sample {j} have shape {blk.shape}, "
