@@ -56,3 +56,31 @@ def test_problem_source_names_delay_only_when_set():
 
     assert "delay" not in problem_source(PB)
     assert "delay=2" in problem_source(PB.with_(delay=2))
+
+
+@pytest.mark.parametrize("name, D", [("truck_lifted_ellipse_ipm_safe", 2), ("car_direct_elimination_ellipse_safe", 1)])
+def test_c_equals_python_with_latency_noise_lag_and_the_st_plant(tmp_path, name, D):
+    """The generated C's delay compensation does what the reference's does (fcgen verify: lockstep and two closed
+    loops under the same seeded perturbations)."""
+    from fcgen.codegen.generate import generate
+    from fcgen.presets import preset
+    from fcgen.sim.plants import DEFAULT_NOISE
+    from fcgen.verify import verify
+
+    generate(preset(name).with_(delay=D), tmp_path / name)
+    spec = PlantSpec(kind="st", latency=D, steer_lag=0.1, noise=DEFAULT_NOISE)
+    rep = verify(tmp_path / name, seed=4, samples=60, plant=spec)
+    assert rep.passed, rep.format()
+    text = (tmp_path / name / f"{preset(name).name}_solver.c").read_text()
+    assert f"#define DELAY_SAMPLES {D}" in text and "delay_push();" in text
+
+
+def test_cli_generate_refuses_a_bad_delay(tmp_path):
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    res = CliRunner().invoke(main, ["generate", "truck_lifted_ellipse", "--delay", "9", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 1
+    assert "--delay: delay = 9 is invalid: allowed an integer in [0, 8] samples" in res.output
+    assert not (tmp_path / "x").exists()

@@ -39,6 +39,7 @@ from .ocp import INF, build_ocp
 from .presets import CAR, SCENARIOS, TRUCK
 from .reference import RtiSolver
 from .sim.closedloop import ReferenceController, run_closed_loop
+from .sim.plants import PlantSpec
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
 
@@ -418,12 +419,13 @@ def verify(
     samples: int = 200,
     closed_loop: bool = True,
     build_kw: dict | None = None,
+    plant: PlantSpec | None = None,
 ) -> VerifyReport:
     """Compare the generated C (verification build) with the Python reference on one seeded scenario.
 
     ``folder``: a :class:`~.solver_folder.SolverFolder` or its path. ``scenario``: ``'car'`` or ``'truck'``; default
     from the problem (``infer_scenario``). ``closed_loop=False`` skips the second comparison (two independent closed
-    loops).
+    loops). ``plant``: the closed loops' plant and perturbations (docs/plants.md; the same seeded noise for both).
     """
     folder = as_folder(folder, check=False)  # the sizes checked in the lockstep's terms below, the rest by build
     name, pb = folder.name, folder.problem
@@ -451,20 +453,20 @@ def verify(
     checks["z_free"].tol = getattr(bmod, "VERIFY_FREE_TOL", checks["z"].tol)
     if cs.init() != 0:
         raise RuntimeError(f"{name}_init() failed")
-    log_py = run_closed_loop(pb, sc, controller=_Lockstep(ref, cs, checks), ocp=ocp)
+    log_py = run_closed_loop(pb, sc, controller=_Lockstep(ref, cs, checks), ocp=ocp, plant=plant)
     nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
     if closed_loop:
         if cs.init() != 0:
             raise RuntimeError(f"{name}_init() failed")
-        log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
+        log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp, plant=plant)
         # the lockstep's reference followed the C's iterates: the Python closed loop runs again on its own
-        log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp)
+        log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp, plant=plant)
         for key, (max_diff, sample, count, compared) in _closed_loop_diffs(log_c, log_py).items():
             ch = checks[key]
             ch.max_diff, ch.sample, ch.count, ch.compared = max_diff, sample, count, compared
         if not all(checks[k].passed for k in CLOSED_LOOP):
             for eps in ENVELOPE_EPS:
-                log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp)
+                log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp, plant=plant)
                 for key, d in _closed_loop_diffs(log_e, log_py).items():
                     checks[key].envelope = max(checks[key].envelope, d[0])
             rep.notes.append(

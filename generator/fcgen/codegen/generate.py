@@ -146,6 +146,7 @@ def workspace_members(
     fit: dict | None = None,
     n_band: int = 0,
     curve: bool = False,
+    delay: int = 0,
 ) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
@@ -206,6 +207,10 @@ def workspace_members(
         ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
     ]
+    if delay:  # the delay compensation: the controls handed out last (kept by reset, an input) and the plan's start
+        at = next(i for i, m in enumerate(members) if m[1] == FIRST_STATE_MEMBER)
+        members.insert(at, ("NAME_real_t", "u_hist", [delay, M("NU")], R))
+        members.append(("NAME_real_t", "x_plan", [5], R))
     if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
         members += [
             ("NAME_real_t", "curve_c", [road], R),
@@ -396,7 +401,15 @@ def _memory(
     fit = fit_context(ocp)
     curve = curve_speed_constants(problem)
     ws_members, ws_bytes = workspace_members(
-        problem.name, tab["sizes"], work, real_size, n_opp_all, fit, len(lay.band_rows), curve=curve is not None
+        problem.name,
+        tab["sizes"],
+        work,
+        real_size,
+        n_opp_all,
+        fit,
+        len(lay.band_rows),
+        curve=curve is not None,
+        delay=problem.delay,
     )
     const_bytes = (
         sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
@@ -454,6 +467,9 @@ def _solver_context(
         "cold_restart_note": cold_note,
         "cold_restart_lines": _wrap_comment(f"Cold restart: {cold_note}.", 114),
         "first_state_member": FIRST_STATE_MEMBER,
+        "delay": problem.delay,
+        "x_plan": "ws.x_plan" if problem.delay else "ws.x0",  # where the plan starts (delay compensation)
+        "x_plan_doc": "the plan's start (x0 predicted over the delay)" if problem.delay else "x0",
         "host_ticks_per_second": HOST_TICKS_PER_SECOND,
         "problem": problem,
         "formulation": problem.formulation.kind,
