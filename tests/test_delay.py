@@ -84,3 +84,40 @@ def test_cli_generate_refuses_a_bad_delay(tmp_path):
     assert res.exit_code == 1
     assert "--delay: delay = 9 is invalid: allowed an integer in [0, 8] samples" in res.output
     assert not (tmp_path / "x").exists()
+
+
+def test_firmware_harness_runs_the_delay_with_its_latency(tmp_path):
+    """The C harness applies each control Problem.delay samples late (the scenario file's "latency" line) and gives
+    the solver the opponents from the plan's start: the Python closed loop with the compiled solver and the same
+    latency, to the harness's tolerance."""
+    from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
+    from fcgen.sim.harness import firmware_sim
+
+    pb = paper_problem("truck", "lifted", "ellipse").with_(delay=1)
+    generate(pb, tmp_path / "s")
+    log_c = firmware_sim(tmp_path / "s", scenario="truck", seed=0, samples=40, out=tmp_path / "run.json")
+    sc = make_scenario("truck", 0, n_opp=pb.opponents.count, samples=40, dt=pb.horizon.dt)
+    cs = CSolver.from_dir(tmp_path / "s")
+    log_py = run_closed_loop(pb, sc, controller=cs, plant=PlantSpec(latency=1))
+    np.testing.assert_allclose(log_c.ego_frenet, log_py.ego_frenet, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(log_c.control, log_py.control, rtol=1e-6, atol=1e-6)
+    assert "latency 1" in next((tmp_path / "s").rglob("scenario_truck_seed0_40.txt")).read_text()
+
+
+def test_fmu_carries_the_delay_compensation(tmp_path):
+    """An FMU of a delay-compensated solver records its delay and runs as the C library does, bit for bit, on the st
+    plant with the latency it compensates."""
+    from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
+    from fcgen.fmu import FmuController, build_fmu, fmu_problem
+
+    pb = paper_problem("truck", "lifted", "ellipse").with_(delay=1)
+    generate(pb, tmp_path / "s")
+    fmu = build_fmu(tmp_path / "s", tmp_path / "s.fmu")
+    assert fmu_problem(fmu).delay == 1
+    sc = make_scenario("truck", 2, n_opp=pb.opponents.count, samples=30, dt=pb.horizon.dt)
+    spec = PlantSpec(kind="st", latency=1)
+    log_f = run_closed_loop(pb, sc, controller=FmuController(fmu, pb), plant=spec)
+    log_c = run_closed_loop(pb, sc, controller=CSolver.from_dir(tmp_path / "s"), plant=spec)
+    assert np.array_equal(log_f.ego_frenet, log_c.ego_frenet) and np.array_equal(log_f.control, log_c.control)
