@@ -210,6 +210,8 @@ def test_campaign_row_of_a_perturbed_configuration():
     cfg = Config("car", "lifted", "ellipse", controller="python", profile="safe", plant=spec)
     assert cfg.key == "car/lifted/EL/python/osqp/safe/st+lat1+noise"
     assert "plant" not in Config("car", "lifted", "ellipse").as_dict()  # a default row: the columns as before
+    comp = Config("car", "lifted", "ellipse", profile="safe", plant=spec, delay=1)
+    assert comp.key.endswith("/st+lat1+noise/comp1") and comp.problem().delay == 1 and comp.as_dict()["delay"] == 1
     row = run_task(Task(cfg, 2, 12, "unused"))
     assert (row["plant"], row["latency"], row["noise"]) == ("st", 1, "0.05,0.05,0.005,0.05,0.002")
     assert row["a_lat_model_over05_samples"] >= 0 and row["max_abs_a_lat_model"] > 0

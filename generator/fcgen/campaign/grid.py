@@ -28,6 +28,7 @@ class Config:
     backend: str = "osqp"
     profile: str = "paper"  # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
     plant: PlantSpec = PlantSpec()  # the plant and its perturbations (docs/plants.md); default: fcgen's model
+    delay: int = 0  # the solvers' delay compensation (Problem.delay), samples
 
     def __post_init__(self) -> None:
         if not isinstance(self.plant, PlantSpec):
@@ -53,7 +54,8 @@ class Config:
         """Identifies the configuration in the results (with the seed and the sample count: one run)."""
         key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
         key = key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
-        return key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
+        key = key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
+        return key if not self.delay else f"{key}/comp{self.delay}"
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -76,12 +78,14 @@ class Config:
             from ..sim.plants.commonroad_vm import matched_problem
 
             pb = matched_problem(pb, "matched")
-        return pb
+        return pb.with_(delay=self.delay, name=f"{pb.name}_d{self.delay}"[:31]) if self.delay else pb
 
     def as_dict(self) -> dict:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
         ``latency``, ``steer_lag``, ``noise`` (a default run's row has none of them, as before the plants)."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "plant"}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay")}
+        if self.delay:
+            d["delay"] = self.delay
         if not self.plant.is_default:
             p = asdict(self.plant)
             d.update(
@@ -124,6 +128,7 @@ def paper_grid(
     backend: str = "osqp",
     profile: str = "paper",
     plant: PlantSpec | None = None,
+    delay: int = 0,
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -132,7 +137,7 @@ def paper_grid(
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec()))
+                    out.append(Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec(), delay))
     return out
 
 

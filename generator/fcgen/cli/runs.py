@@ -305,6 +305,13 @@ def _verdict(v: dict) -> str:
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
 @plant_options
+@click.option(
+    "--delay",
+    type=click.IntRange(0, 8),
+    default=0,
+    show_default=True,
+    help="generate the solvers with delay compensation of this many samples (Problem.delay; docs/plants.md)",
+)
 def campaign(
     scenarios,
     formulations,
@@ -329,6 +336,7 @@ def campaign(
     latency,
     steer_lag,
     noise,
+    delay,
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
@@ -336,7 +344,7 @@ def campaign(
     spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
     if cr_dir and not spec.is_default:
         fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
-    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, spec)
+    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, spec, delay)
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
@@ -356,7 +364,14 @@ def campaign(
 
 
 def _grid(
-    scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str, plant=None
+    scenarios: str,
+    formulations: str,
+    obstacle_list: str,
+    controller: str,
+    backend: str,
+    profile: str,
+    plant=None,
+    delay: int = 0,
 ) -> list:
     """The campaign's configurations; an unknown name or a backend this fcgen lacks fails before any worker starts."""
     from ..campaign.grid import paper_grid
@@ -369,7 +384,7 @@ def _grid(
             fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
         configs = paper_grid(
-            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, plant
+            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, plant, delay
         )
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
