@@ -291,7 +291,7 @@ def run_closed_loop(
     if controller is None:
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
-    plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
+    model_plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
     opp_params = opponent_params(problem, sc)
     K = sc.samples
     road = sc.road
@@ -309,7 +309,7 @@ def run_closed_loop(
         it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
-    plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
+    plant_step, horizon, results = model_plant.road_stepper(road), opp_params.horizon, []
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
     pert = None
     if not spec.is_default:
@@ -359,7 +359,7 @@ def run_closed_loop(
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
-    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else pert.a_lat
+    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else np.asarray(pert.a_lat)
     meta = make_meta(
         problem=problem.name,
         formulation=problem.formulation.kind,

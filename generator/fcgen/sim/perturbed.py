@@ -69,13 +69,14 @@ def run_perturbed(problem: Problem, sc, spec: PlantSpec, solve, model_step, add=
 def perturbed_meta(spec: PlantSpec, run: PerturbedRun) -> dict:
     """The run log's ``meta.extra`` entries of a perturbed run: the plant and perturbations, the cut samples."""
     cut = np.asarray(run.cut)
+    a_model = np.asarray(run.a_lat_model)
     return {
         "plant": spec.as_meta(),
         "plant_cut_samples": int(np.count_nonzero(cut)),
         "plant_cut_steer_rate": int(np.count_nonzero(cut & 1)),
         "plant_cut_steer_angle": int(np.count_nonzero(cut & 2)),
         "plant_cut_accel": int(np.count_nonzero(cut & 4)),
-        "max_abs_a_lat_model": float(np.max(np.abs(run.a_lat_model))),
+        "max_abs_a_lat_model": float(np.max(np.abs(a_model))),
     }
 
 

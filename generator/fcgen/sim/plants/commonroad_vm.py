@@ -25,20 +25,20 @@ CUT_STEER_RATE, CUT_STEER_ANGLE, CUT_ACCEL = 1, 2, 4
 def vehicle_models():
     """The ``vehiclemodels`` package, or a one-line error naming the pip command."""
     try:
-        import vehiclemodels  # noqa: F401
+        import vehiclemodels  # type: ignore[import-untyped]  # noqa: F401
     except ImportError:
         raise RuntimeError(
             "--plant ks|st|std|mb needs CommonRoad's vehicle models: pip install 'fcgen[plants]'"
         ) from None
-    from vehiclemodels.init_mb import init_mb
-    from vehiclemodels.init_std import init_std
-    from vehiclemodels.parameters_vehicle2 import parameters_vehicle2
-    from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
-    from vehiclemodels.utils.steering_constraints import steering_constraints
-    from vehiclemodels.vehicle_dynamics_ks import vehicle_dynamics_ks
-    from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
-    from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
-    from vehiclemodels.vehicle_dynamics_std import vehicle_dynamics_std
+    from vehiclemodels.init_mb import init_mb  # type: ignore[import-untyped]
+    from vehiclemodels.init_std import init_std  # type: ignore[import-untyped]
+    from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # type: ignore[import-untyped]
+    from vehiclemodels.utils.acceleration_constraints import acceleration_constraints  # type: ignore[import-untyped]
+    from vehiclemodels.utils.steering_constraints import steering_constraints  # type: ignore[import-untyped]
+    from vehiclemodels.vehicle_dynamics_ks import vehicle_dynamics_ks  # type: ignore[import-untyped]
+    from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb  # type: ignore[import-untyped]
+    from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st  # type: ignore[import-untyped]
+    from vehiclemodels.vehicle_dynamics_std import vehicle_dynamics_std  # type: ignore[import-untyped]
 
     return {
         "ode": {
@@ -133,6 +133,8 @@ class CommonRoadPlant:
     def frenet(self) -> list[float]:
         """The current state as fcgen measures it: the rear axle's (s, n, alpha, v, delta) on the road."""
         xr, yr, phi, v, delta = self.rear_state()
+        if self.road is None:
+            raise RuntimeError("CommonRoadPlant.frenet before reset")
         s, n, alpha = self.road.to_frenet(xr, yr, phi, s_guess=self.s)
         self.s = float(s)
         return [float(s), float(n), float(alpha), v, delta]
