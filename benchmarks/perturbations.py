@@ -3,7 +3,7 @@ the colliding runs by responsibility, the plant's |a_lat| above its bound + 0.5 
 QP statuses, beside the unperturbed safe profile on the same seeds.
 
     python benchmarks/perturbations.py --seeds 20 [--first-seed 0] [--jobs 2] [--samples 200] \\
-        [--only st,st+lat1+comp1] [--out results/perturbations.json]
+        [--only st,st+lat1+comp1] [--out results/perturbations.json] [--add EARLIER.json ...]
 
 The compiled C of the safe presets (IPM backend; generated and built into ``.fcgen-cache/solvers``), the car and truck
 scenarios, direct elimination and lifted with the ellipse. Prints a Markdown table and writes the per-run rows and
@@ -162,6 +162,7 @@ def main() -> None:
     ap.add_argument("--only", default="", help="comma-separated perturbation labels (default: all)")
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
     ap.add_argument("--out", default="results/perturbations.json")
+    ap.add_argument("--add", nargs="*", default=[], help="results files of other seeds to merge into the table")
     args = ap.parse_args()
     labels = [x for x in args.only.split(",") if x] or list(PERTURBATIONS)
     if "model" not in labels:
@@ -184,6 +185,8 @@ def main() -> None:
             for label in labels
         ]
         rows = [f.result() for f in cf.as_completed(futs)]
+    for extra in args.add:  # earlier runs of other seeds
+        rows += json.loads(Path(extra).read_text())["rows"]
     tab = table(rows)
     text = markdown(tab)
     print(text)
@@ -195,7 +198,7 @@ def main() -> None:
     meta = {
         "fcgen": __version__,
         "commit": commit,
-        "seeds": [seeds.start, seeds.stop - 1],
+        "seeds": sorted({r["seed"] for r in rows}),
         "samples": args.samples,
         "configs": [f"{sc}/{form}/EL/c/ipm/safe" for sc, form in CONFIGS],
         "wall_s": time.time() - t0,

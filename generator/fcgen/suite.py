@@ -20,7 +20,7 @@ import os
 import platform
 import re
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -56,7 +56,7 @@ class SuiteSettings:
     timing: bool = True
     commonroad: str | None = None  # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
     planning_problem: int | None = None
-    plant: PlantSpec = PlantSpec()  # the plant and perturbations of the runs (docs/plants.md)
+    plant: PlantSpec = field(default_factory=PlantSpec)  # the plant and perturbations of the runs (docs/plants.md)
 
 
 #: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated --force``):
@@ -419,8 +419,9 @@ def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
             raise ValueError(f"the suite's run logs disagree on {key}: {', '.join(sorted(vals))}")
         facts[key] = json.loads(vals.pop())
     facts["settings.seeds"] = sorted(lg.meta.get("seed") for lg in logs)
-    if all(lg.plan_states is not None for lg in logs):
-        facts["problem.sizes.NX"] = int(logs[0].plan_states.shape[-1])
+    plans = [lg.plan_states for lg in logs if lg.plan_states is not None]
+    if len(plans) == len(logs):
+        facts["problem.sizes.NX"] = int(plans[0].shape[-1])
     return facts
 
 

@@ -4,7 +4,7 @@ line of a closed loop."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 
@@ -17,7 +17,7 @@ CC_HELP = "C compiler (default: $CC or cc)"
 Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
 
 
-def fail(msg: str) -> None:
+def fail(msg: str) -> NoReturn:
     """End the command with ``Error: msg`` (exit 1), never a traceback."""
     raise click.ClickException(msg)
 
@@ -165,11 +165,12 @@ def plant_spec(plant: str, plant_params: str, latency: int, steer_lag: float, no
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
     if spec.kind != "model" or spec.params == "matched":
+        from ..extras import MissingExtra
         from ..sim.plants.commonroad_vm import vehicle_models
 
         try:
             vehicle_models()
-        except RuntimeError as exc:
+        except MissingExtra as exc:
             fail(str(exc))
     return spec
 

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, replace
 
 from ...dsl import Problem, Vehicle
+from ...extras import require
 from ...road import Road
 from . import mapping
 
@@ -23,22 +24,19 @@ CUT_STEER_RATE, CUT_STEER_ANGLE, CUT_ACCEL = 1, 2, 4
 
 
 def vehicle_models():
-    """The ``vehiclemodels`` package, or a one-line error naming the pip command."""
-    try:
-        import vehiclemodels  # type: ignore[import-untyped]  # noqa: F401
-    except ImportError:
-        raise RuntimeError(
-            "--plant ks|st|std|mb needs CommonRoad's vehicle models: pip install 'fcgen[plants]'"
-        ) from None
-    from vehiclemodels.init_mb import init_mb  # type: ignore[import-untyped]
-    from vehiclemodels.init_std import init_std  # type: ignore[import-untyped]
-    from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # type: ignore[import-untyped]
-    from vehiclemodels.utils.acceleration_constraints import acceleration_constraints  # type: ignore[import-untyped]
-    from vehiclemodels.utils.steering_constraints import steering_constraints  # type: ignore[import-untyped]
-    from vehiclemodels.vehicle_dynamics_ks import vehicle_dynamics_ks  # type: ignore[import-untyped]
-    from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb  # type: ignore[import-untyped]
-    from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st  # type: ignore[import-untyped]
-    from vehiclemodels.vehicle_dynamics_std import vehicle_dynamics_std  # type: ignore[import-untyped]
+    """The ``vehiclemodels`` package's functions, or a one-line error naming the pip command (``MissingExtra``)."""
+    with require("plants", "--plant ks|st|std|mb"):
+        from vehiclemodels.init_mb import init_mb  # type: ignore[import-untyped]
+        from vehiclemodels.init_std import init_std  # type: ignore[import-untyped]
+        from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # type: ignore[import-untyped]
+        from vehiclemodels.utils.acceleration_constraints import (  # type: ignore[import-untyped]
+            acceleration_constraints,
+        )
+        from vehiclemodels.utils.steering_constraints import steering_constraints  # type: ignore[import-untyped]
+        from vehiclemodels.vehicle_dynamics_ks import vehicle_dynamics_ks  # type: ignore[import-untyped]
+        from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb  # type: ignore[import-untyped]
+        from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st  # type: ignore[import-untyped]
+        from vehiclemodels.vehicle_dynamics_std import vehicle_dynamics_std  # type: ignore[import-untyped]
 
     return {
         "ode": {
