@@ -35,7 +35,13 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     "st+lat2+comp2": (PlantSpec(kind="st", latency=2), 2),
     "st+noise": (PlantSpec(kind="st", noise=DEFAULT_NOISE), 0),
     "st+lat1+comp1+noise+lag0.1": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
+    # the latency alone, on fcgen's own plant
+    "model+lat1": (PlantSpec(latency=1), 0),
+    "model+lat2": (PlantSpec(latency=2), 0),
+    "model+lat2+comp2": (PlantSpec(latency=2), 2),
 }
+#: run by default (the others with --only)
+DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith("model+")]
 CONFIGS = [(sc, form) for sc in ("car", "truck") for form in ("direct_elimination", "lifted")]
 
 
@@ -164,8 +170,8 @@ def main() -> None:
     ap.add_argument("--out", default="results/perturbations.json")
     ap.add_argument("--add", nargs="*", default=[], help="results files of other seeds to merge into the table")
     args = ap.parse_args()
-    labels = [x for x in args.only.split(",") if x] or list(PERTURBATIONS)
-    if "model" not in labels:
+    labels = [x for x in args.only.split(",") if x] or DEFAULT_LABELS
+    if "model" not in labels and not args.add:  # the unperturbed runs of the same seeds (or from an --add file)
         labels.insert(0, "model")
     unknown = [x for x in labels if x not in PERTURBATIONS]
     if unknown:
