@@ -38,8 +38,7 @@ from .dsl import Problem, ProblemError
 from .ocp import INF, build_ocp
 from .presets import CAR, SCENARIOS, TRUCK
 from .reference import RtiSolver
-from .sim.closedloop import ReferenceController, run_closed_loop
-from .sim.plants import PlantSpec
+from .sim.closedloop import PlantSpec, ReferenceController, run_closed_loop
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
 

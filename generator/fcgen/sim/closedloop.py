@@ -273,6 +273,21 @@ def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
 
 
+def _perturbed(problem: Problem, sc: Scenario, spec: PlantSpec, controller, step, horizon, plant_step, add):
+    """``run_closed_loop``'s samples with ``spec``'s plant and perturbations (``sim.perturbed``): the same controller
+    calls on the measured state, the window from the road's start at the latest (a noisy s there)."""
+    road = sc.road
+
+    def solve(j: int, x: np.ndarray) -> StepResult:
+        s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)
+        if step is not None:
+            return step(x, s_start, horizon(j + problem.delay))
+        return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
+
+    hook = (lambda j, r: add(j, controller, r)) if add else None
+    return run_perturbed(problem, sc, spec, solve, lambda x, u: plant_step(x, u).copy(), hook)
+
+
 def run_closed_loop(
     problem: Problem,
     sc: Scenario,
@@ -312,25 +327,9 @@ def run_closed_loop(
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, horizon, results = model_plant.road_stepper(road), opp_params.horizon, []
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
-    pert = None
-    if not spec.is_default:
-
-        def solve(j: int, x: np.ndarray) -> StepResult:
-            s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)  # a noisy s at the road's start: its first window
-            if step is not None:
-                return step(x, s_start, horizon(j + problem.delay))
-            return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
-
-        pert = run_perturbed(
-            problem,
-            sc,
-            spec,
-            solve,
-            lambda x, u: plant_step(x, u).copy(),
-            (lambda j, r: add(j, controller, r)) if add else None,
-        )
-        xs, us, results = pert.xs, pert.us, pert.results
-        it = range(0)
+    pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
+    if pert is not None:  # another plant or perturbations: that loop instead of this one
+        xs, us, results, it = pert.xs, pert.us, pert.results, range(0)
     for j in it:
         x = xs[j]
         if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
