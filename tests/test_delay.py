@@ -48,7 +48,7 @@ def test_no_delay_plans_from_the_measurement():
     ctrl = ReferenceController(build_ocp(PB))
     sc = make_scenario("truck", 0, n_opp=PB.opponents.count, samples=3, dt=PB.horizon.dt)
     run_closed_loop(PB, sc, controller=ctrl)
-    assert ctrl.solver.x_plan is ctrl.solver.x0 and ctrl.solver.u_hist.shape == (0, 2)
+    assert ctrl.solver.x_plan is ctrl.solver.x0 and ctrl.solver.delay_line.u_hist.shape == (0, 2)
 
 
 def test_problem_source_names_delay_only_when_set():

@@ -40,6 +40,19 @@ HOST_TICKS_PER_SECOND = 1_000_000_000
 ``<NAME>_HOST_TICKS_PER_SECOND``)."""
 
 
+INT_MAX = 2**31 - 1
+"""The status counters saturate here (the C's int)."""
+
+
+class SolverError(RuntimeError):
+    """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(f"{code}: {message}")
+        self.code = code
+        self.exit_code = EXIT_CODES.index(code)
+
+
 @dataclass
 class Status:
     """What one sample's solve reports (mirrors the C status struct)."""

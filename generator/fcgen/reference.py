@@ -16,14 +16,14 @@ import numpy as np
 
 from . import obstacles as obs
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
-from .contract import EXIT_CODES, Status
+from .contract import EXIT_CODES, INT_MAX, SolverError, Status
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .plan_check import a_lat_guard, braking_control, plan_verdict
-from .plant import plant_function
+from .plant import DelayLine, plant_function
 from .qp import QpLayout, build_layout
 from .qp_outcome import (
     COLD_RESTART_NOTE,
@@ -35,7 +35,7 @@ from .qp_outcome import (
     project_control,
     warm_max_iter,
 )
-from .road import Road, curve_reference
+from .road import Road, band_outside, curve_reference
 
 __all__ = [
     "COLD_RESTART_NOTE",
@@ -56,19 +56,6 @@ __all__ = [
 ]
 """The outcome contract (``fcgen.qp_outcome``) and ``theta_init`` are re-exported: importers read them here, and
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
-
-
-INT_MAX = 2**31 - 1
-"""The status counters saturate here (the C's int)."""
-
-
-class SolverError(RuntimeError):
-    """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(f"{code}: {message}")
-        self.code = code
-        self.exit_code = EXIT_CODES.index(code)
 
 
 class RtiSolver:
@@ -110,9 +97,8 @@ class RtiSolver:
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
-        self.x_plan: np.ndarray | None = None  # where the plan starts: x0, or x0 predicted over Problem.delay samples
-        # the controls handed out last, oldest first (Problem.delay of them; a reset keeps them: the plant has them)
-        self.u_hist = np.zeros((self.ocp.problem.delay, self.ocp.nu))
+        self.x_plan: np.ndarray = np.zeros(5)  # where the plan starts: x0, or x0 predicted over Problem.delay samples
+        self.delay_line = DelayLine(self._plant, self.ocp.problem.delay, self.ocp.nu)  # reset keeps it: the plant has
         self.reset()
 
     def reset(self) -> None:
@@ -150,19 +136,9 @@ class RtiSolver:
             raise self._fail(
                 "ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}"
             )
-        if road.n_min is not None and road.n_max is not None:
-            b = self.ocp.problem.bounds
-            for name, a, ok in (
-                ("n_min", road.n_min, road.n_min >= b.n_min),
-                ("n_max", road.n_max, road.n_max <= b.n_max),
-            ):
-                if not np.all(ok):
-                    i = int(np.flatnonzero(~ok)[0])
-                    raise self._fail(
-                        "ERR_ROAD_BOUNDS",
-                        f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
-                        f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)",
-                    )
+        outside = band_outside(road, self.ocp.problem.bounds)
+        if outside:
+            raise self._fail("ERR_ROAD_BOUNDS", outside)
         self.road = road
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
@@ -388,7 +364,9 @@ class RtiSolver:
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
-        self.x_plan = self._predicted()
+        self.x_plan = self.delay_line.predict(self.x0, self._road_params)  # x0 itself without a delay
+        if not np.all(np.isfinite(self.x_plan)):
+            raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
         p0 = self.stage_params(0, self.x_plan[0])
         x0_full = np.array(ocp.init_state(self.x_plan, p0)).ravel()
         q = self.q + lay.q_ds0 * (self.x_plan[0] - self.s0_guess)
@@ -427,8 +405,7 @@ class RtiSolver:
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
-        if len(self.u_hist):  # the control just handed out joins the ones the plant has yet to apply
-            self.u_hist = np.vstack([self.u_hist[1:], self.u_applied])
+        self.delay_line.push(self.u_applied)
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
@@ -441,30 +418,15 @@ class RtiSolver:
             )
         return self.u0()
 
-    def _predicted(self) -> np.ndarray:
-        """The delay compensation (``Problem.delay`` = D): x0 stepped by the plant's model over the D controls handed
-        out last, each step on its start's road window (the C's ``delay_predict``); x0 itself without a delay."""
-        x = self.x0
-        assert x is not None  # feedback checked it
-        for u in self.u_hist:
-            x = np.array(self._plant(x, u, self._road_params(float(x[0])))).ravel()
-        if not np.all(np.isfinite(x)):
-            raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
-        return x
-
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
-        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start (x0, or
-        its prediction over the delay: where get_u0 will act) on stage 0's road."""
+        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        assert self.x_plan is not None  # feedback set it
         st.a_lat_guard = a_lat_guard(
             self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
-        """The plant's state one sample after the plan's start under get_u0 (``fcgen.plant``; the C's
-        ``<name>_plant``)."""
-        assert self.x_plan is not None  # feedback set it
+        """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``)."""
         return np.array(self._plant(self.x_plan, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
@@ -491,7 +453,6 @@ class RtiSolver:
             best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            assert self.x_plan is not None  # feedback set it
             self.u_applied[0] = braking_control(pb, self.x_plan)
 
     # -- outputs ------------------------------------------------------------------------------------

@@ -27,8 +27,9 @@ def _option(*decls: str, **attrs: Any) -> Decorator:
     return click.option(*decls, **{k: v for k, v in attrs.items() if v is not None})
 
 
-def solver_dir_argument(exists: bool = True, required: bool = True) -> Decorator:
-    """SOLVER_DIR: a folder written by ``fcgen generate``."""
+def solver_dir_argument(exists: bool = False, required: bool = True) -> Decorator:
+    """SOLVER_DIR: a folder written by ``fcgen generate`` (a missing one is refused by ``read_folder``, which says
+    the command that writes one)."""
     return click.argument("solver_dir", type=click.Path(file_okay=False, exists=exists), required=required)
 
 
@@ -155,8 +156,11 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def plant_spec(plant: str, plant_params: str, latency: int, steer_lag: float, noise: str | None):
-    """The ``PlantSpec`` of the plant options; a bad value or a missing ``[plants]`` extra: one line, exit 1."""
+def plant_spec(
+    plant: str, plant_params: str, latency: int, steer_lag: float, noise: str | None, commonroad: bool = False
+):
+    """The ``PlantSpec`` of the plant options; a bad value, a missing ``[plants]`` extra or perturbations with
+    ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
     from ..dsl import ProblemError
     from ..sim.plants import PlantSpec, parse_noise
 
@@ -164,6 +168,8 @@ def plant_spec(plant: str, plant_params: str, latency: int, steer_lag: float, no
         spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise))
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
+    if commonroad and not spec.is_default:
+        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
     if spec.kind != "model" or spec.params == "matched":
         from ..extras import MissingExtra
         from ..sim.plants.commonroad_vm import vehicle_models
@@ -188,3 +194,29 @@ def plant_line(spec, log, a_lat_max: float) -> str:
         f"controls cut by the plant's limits: {ex['plant_cut_samples']} samples (steering rate "
         f"{ex['plant_cut_steer_rate']}, angle {ex['plant_cut_steer_angle']}, acceleration {ex['plant_cut_accel']})"
     )
+
+
+def matched_for(pb, spec, controller: str):
+    """``pb`` with the controller's wheelbase and mass matched to the plant (``--plant-params matched``: the Python
+    controller only; a C solver or FMU is generated from the problem it has)."""
+    if spec.params != "matched":
+        return pb
+    if controller != "python":
+        fail(
+            "--plant-params matched sets the controller's wheelbase and mass: use --controller python, or "
+            "`fcgen campaign` (it generates its solvers)"
+        )
+    from ..sim.plants.commonroad_vm import matched_problem
+
+    return matched_problem(pb, spec.params)
+
+
+def delay_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--delay``: the generated solvers' delay compensation (``Problem.delay``)."""
+    return click.option(
+        "--delay",
+        type=click.IntRange(0, 8),
+        default=0,
+        show_default=True,
+        help="generate the solvers with delay compensation of this many samples (Problem.delay; docs/plants.md)",
+    )(f)

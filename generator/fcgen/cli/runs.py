@@ -4,6 +4,7 @@ artefacts made from their results."""
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import click
@@ -12,9 +13,11 @@ from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
 from .options import (
     cflags_option,
+    delay_option,
     fail,
     fmt_summary,
     force_option,
+    matched_for,
     names,
     out_dir_option,
     out_file_option,
@@ -117,18 +120,8 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
-    if spec.params == "matched":
-        if controller != "python":
-            fail(
-                "--plant-params matched sets the controller's wheelbase and mass: use --controller python, or "
-                "`fcgen campaign` (it generates its solvers)"
-            )
-        from ..sim.plants.commonroad_vm import matched_problem
-
-        pb = matched_problem(pb, spec.params)
-    if cr_file and not spec.is_default:
-        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_file))
+    pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution)
@@ -147,7 +140,7 @@ def simulate(
     if plot:
         from ..sim.plots import plot_run
 
-        plot_run(log, plot)
+        plot_run(log, plot, a_lat_max=pb.bounds.a_lat_max)
         click.echo(f"plot written to {plot}")
 
 
@@ -307,13 +300,7 @@ def _verdict(v: dict) -> str:
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
 @plant_options
-@click.option(
-    "--delay",
-    type=click.IntRange(0, 8),
-    default=0,
-    show_default=True,
-    help="generate the solvers with delay compensation of this many samples (Problem.delay; docs/plants.md)",
-)
+@delay_option
 def campaign(
     scenarios,
     formulations,
@@ -343,10 +330,11 @@ def campaign(
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
-    if cr_dir and not spec.is_default:
-        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
-    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, spec, delay)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_dir))
+    with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
+        warnings.simplefilter("always")
+        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
+    grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
@@ -357,7 +345,16 @@ def campaign(
 
         check_report_target(report_dir, force_report)
     _seeded_campaign(
-        configs, range(first_seed, first_seed + seeds), samples, cache_dir, clock, cflags, out, jobs, scheduler
+        configs,
+        range(first_seed, first_seed + seeds),
+        samples,
+        cache_dir,
+        clock,
+        cflags,
+        out,
+        jobs,
+        scheduler,
+        grid_warnings,
     )
     if report_dir:
         from ..report.page import write_report
@@ -365,16 +362,7 @@ def campaign(
         click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
-def _grid(
-    scenarios: str,
-    formulations: str,
-    obstacle_list: str,
-    controller: str,
-    backend: str,
-    profile: str,
-    plant=None,
-    delay: int = 0,
-) -> list:
+def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str, pd=()):
     """The campaign's configurations; an unknown name or a backend this fcgen lacks fails before any worker starts."""
     from ..campaign.grid import paper_grid
 
@@ -386,7 +374,7 @@ def _grid(
             fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
         configs = paper_grid(
-            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, plant, delay
+            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, *pd
         )
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
@@ -422,8 +410,10 @@ def _seeded_campaign(
     out: str,
     jobs: int,
     scheduler: str | None,
+    grid_warnings: list[str] = (),  # type: ignore[assignment]
 ) -> None:
-    """The seeded runs into the Parquet store (resumable: SIGTERM stops like Ctrl-C, keeping the finished runs)."""
+    """The seeded runs into the Parquet store (resumable: SIGTERM stops like Ctrl-C, keeping the finished runs); then
+    the warnings (each once) and a results table per configuration."""
     import signal
 
     from ..campaign.grid import make_tasks
@@ -450,12 +440,23 @@ def _seeded_campaign(
         f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
         f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers"
     )
+    for msg in dict.fromkeys([*grid_warnings, *res.warnings]):
+        click.echo(f"warning: {msg}", err=True)
     for run_id, msg in res.failed[:5]:
         click.echo(f"failed {run_id}: {msg}", err=True)
+    _print_table(store, tasks)
     if res.failed:
         fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
     if {t.run_id for t in tasks} <= store.done() and store.needs_compact():
         store.compact()
+
+
+def _print_table(store, tasks: list) -> None:
+    """The short results table of the grid's runs in the store (``fcgen report`` makes the full report)."""
+    from ..campaign.summary import results_table
+
+    if store.done():
+        click.echo(results_table(store.read(), tasks))
 
 
 @click.command()

@@ -18,7 +18,7 @@ from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
-from .perturbed import perturbed_fields, perturbed_meta, run_perturbed
+from .perturbed import PerturbedRun, perturbed_fields, perturbed_meta, run_perturbed
 from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
@@ -273,6 +273,101 @@ def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
 
 
+def _meta(problem: Problem, sc: Scenario, kind: str, planlog: PlanLog, results: list[StepResult], more: dict) -> dict:
+    """The run log's ``meta`` of a closed loop: the problem, the scenario, the controller and the counts of exit
+    codes, plan reactions and a_lat guard actions (and ``more`` of them: a perturbed run's)."""
+    return make_meta(
+        problem=problem.name,
+        formulation=problem.formulation.kind,
+        obstacle_model=problem.obstacles.kind,
+        scenario=sc.name,
+        seed=sc.seed,
+        N=problem.horizon.N,
+        dt=problem.horizon.dt,
+        controller=kind,
+        n_bound=problem.bounds.n_max,
+        extra={
+            "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
+            "plan_reactions": int(sum(r.plan_reaction for r in results)),
+            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
+            **more,
+        },
+    )
+
+
+def _run_log(
+    problem: Problem,
+    sc: Scenario,
+    kind: str,
+    xs: np.ndarray,
+    us: np.ndarray,
+    results: list[StepResult],
+    planlog: PlanLog,
+    opp_params: OpponentParams,
+    store_exit_codes: bool,
+    with_plan_fields: bool,
+    pert: tuple[PlantSpec, PerturbedRun] | None = None,
+) -> RunLog:
+    """The run log of a finished closed loop: the per-sample statistics of ``results`` (and their exit codes into
+    ``planlog`` when ``store_exit_codes``: no plan was logged), the Cartesian poses, the collisions on the true
+    rectangles, a_lat, the meta data; ``planlog``'s fields when ``with_plan_fields``; ``pert``: a perturbed run's
+    plant a_lat, meta entries and optional fields (``sim.perturbed``)."""
+    K = len(results)
+    road = sc.road
+    tp, tf = np.zeros(K), np.zeros(K)
+    qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
+    slack = np.zeros(K)
+    # the per-sample statistics, a list per array (assigned element by element, as one store per sample would)
+    for a, key in (
+        (tp, "time_prepare"),
+        (tf, "time_feedback"),
+        (qi, "qp_iter"),
+        (qs, "qp_status"),
+        (slack, "max_slack"),
+    ) + (((planlog.exit_code, "exit_code"),) if store_exit_codes else ()):
+        a[:] = [getattr(r, key) for r in results]
+    t = np.arange(K + 1, dtype=np.float64) * np.float64(sc.dt)
+    ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
+    ego_cart = np.stack([ex, ey, ephi], axis=1)
+    # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
+    opp_cart = np.array(opp_params.samples(K))
+    opp_fr = sc.opp_frenet(t)
+    opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
+    coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
+    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else np.asarray(pert[1].a_lat)
+    meta = _meta(problem, sc, kind, planlog, results, perturbed_meta(*pert) if pert is not None else {})
+    road_dict = {
+        "s": road.s,
+        "kappa": road.kappa,
+        "gamma_x": road.gx,
+        "gamma_y": road.gy,
+        "phi_gamma": road.phi,
+        "ds": road.ds,
+    }
+    return RunLog(
+        meta=meta,
+        road=road_dict,
+        opponents=opp_dims,
+        t=t,
+        ego_frenet=xs,
+        ego_cartesian=ego_cart,
+        opp_cartesian=opp_cart,
+        opp_frenet=opp_fr,
+        collision=np.asarray(coll, dtype=bool),
+        a_lat=a_lat,
+        control=us,
+        time_prepare=tp,
+        time_feedback=tf,
+        time_total=tp + tf,
+        qp_iter=qi,
+        qp_status=qs,
+        max_slack=slack,
+        ego=dims(problem.ego),
+        **(planlog.fields() if with_plan_fields else {}),
+        **(perturbed_fields(pert[1]) if pert is not None else {}),
+    )
+
+
 def _perturbed(problem: Problem, sc: Scenario, spec: PlantSpec, controller, step, horizon, plant_step, add):
     """``run_closed_loop``'s samples with ``spec``'s plant and perturbations (``sim.perturbed``): the same controller
     calls on the measured state, the window from the road's start at the latest (a noisy s there)."""
@@ -316,9 +411,6 @@ def run_closed_loop(
     xs = np.zeros((K + 1, 5))
     xs[0] = sc.x0
     us = np.zeros((K, 2))
-    tp, tf = np.zeros(K), np.zeros(K)
-    qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
-    slack = np.zeros(K)
     planlog = PlanLog(K, problem.horizon.N, plan)
     it: Iterable[int] = range(K)
     if progress:
@@ -342,68 +434,17 @@ def run_closed_loop(
             add(j, controller, r)
         results.append(r)
         xs[j + 1] = plant_step(x, u)
-    # the per-sample statistics, a list per array (assigned element by element, as one store per sample would)
-    for a, key in (
-        (tp, "time_prepare"),
-        (tf, "time_feedback"),
-        (qi, "qp_iter"),
-        (qs, "qp_status"),
-        (slack, "max_slack"),
-    ) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
-        a[:] = [getattr(r, key) for r in results]
-    t = np.arange(K + 1, dtype=np.float64) * np.float64(sc.dt)
-    ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
-    ego_cart = np.stack([ex, ey, ephi], axis=1)
-    # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
-    opp_cart = np.array(opp_params.samples(K))
-    opp_fr = sc.opp_frenet(t)
-    opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
-    coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
-    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else np.asarray(pert.a_lat)
-    meta = make_meta(
-        problem=problem.name,
-        formulation=problem.formulation.kind,
-        obstacle_model=problem.obstacles.kind,
-        scenario=sc.name,
-        seed=sc.seed,
-        N=problem.horizon.N,
-        dt=problem.horizon.dt,
-        controller=controller.kind,
-        n_bound=problem.bounds.n_max,
-        extra={
-            "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
-            "plan_reactions": int(sum(r.plan_reaction for r in results)),
-            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
-            **(perturbed_meta(spec, pert) if pert is not None else {}),
-        },
-    )
-    road_dict = {
-        "s": road.s,
-        "kappa": road.kappa,
-        "gamma_x": road.gx,
-        "gamma_y": road.gy,
-        "phi_gamma": road.phi,
-        "ds": road.ds,
-    }
-    return RunLog(
-        meta=meta,
-        road=road_dict,
-        opponents=opp_dims,
-        t=t,
-        ego_frenet=xs,
-        ego_cartesian=ego_cart,
-        opp_cartesian=opp_cart,
-        opp_frenet=opp_fr,
-        collision=np.asarray(coll, dtype=bool),
-        a_lat=a_lat,
-        control=us,
-        time_prepare=tp,
-        time_feedback=tf,
-        time_total=tp + tf,
-        qp_iter=qi,
-        qp_status=qs,
-        max_slack=slack,
-        ego=dims(problem.ego),
-        **(planlog.fields() if exit_codes or plan != "none" else {}),
-        **(perturbed_fields(pert) if pert is not None else {}),
+    with_plan_fields = exit_codes or plan != "none"
+    return _run_log(
+        problem,
+        sc,
+        controller.kind,
+        xs,
+        us,
+        results,
+        planlog,
+        opp_params,
+        add is None,
+        with_plan_fields,
+        None if pert is None else (spec, pert),
     )
