@@ -83,7 +83,8 @@ class Config:
 
     def as_dict(self) -> dict:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
-        ``latency``, ``steer_lag``, ``noise`` (a default run's row has none of them, as before the plants)."""
+        ``latency``, ``steer_lag``, ``noise`` and ``prediction`` when predicted (a default run's row has none
+        of them, as before the plants)."""
         d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay")}
         if self.delay:
             d["delay"] = self.delay
@@ -96,6 +97,8 @@ class Config:
                 steer_lag=float(p["steer_lag"]),
                 noise=",".join(f"{v:g}" for v in self.plant.noise),
             )
+            if self.plant.prediction != "oracle":  # the rows of perturbations without prediction: as before it
+                d["prediction"] = self.plant.prediction
         return d
 
 

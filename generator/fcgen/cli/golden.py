@@ -79,12 +79,13 @@ def record(
     latency,
     steer_lag,
     noise,
+    prediction,
 ):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from ..build import BuildError
     from ..suite import SuiteSettings, parse_seeds, record_goldens, record_suite
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction)
     if spec.params == "matched":
         fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
     if not spec.is_default and (golden_root is not None or cr_file):
@@ -178,6 +179,7 @@ def regress(
     latency,
     steer_lag,
     noise,
+    prediction,
 ):
     """Compare NEW (run log, suite or solver folder) with GOLDEN (run log or suite).
 
@@ -188,7 +190,7 @@ def regress(
     from ..regress import UnusableInput, parse_tol
     from ..regress import regress as run
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction)
     if not spec.is_default and mode != "closed-loop":
         fail("--plant, --latency, --steer-lag and --noise go with --mode closed-loop")
     if spec.params == "matched":

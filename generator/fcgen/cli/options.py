@@ -105,12 +105,13 @@ def names(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-PLANT_OPTION_NAMES = ("plant", "plant_params", "latency", "steer_lag", "noise")
+PLANT_OPTION_NAMES = ("plant", "plant_params", "latency", "steer_lag", "noise", "prediction")
 
 
 def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
-    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise`` (docs/plants.md)."""
-    from ..sim.plants import PLANT_KINDS, PLANT_PARAMS
+    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise``, ``--prediction``
+    (docs/plants.md)."""
+    from ..sim.plants import PLANT_KINDS, PLANT_PARAMS, PREDICTIONS
     from ..sim.plants.spec import MAX_LATENCY, MAX_STEER_LAG
 
     opts = [
@@ -150,6 +151,15 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
             help="Gaussian noise on the measured (s, n, alpha, v, delta): five stds, or 'default' "
             "(0.05 m, 0.05 m, 0.005 rad, 0.05 m/s, 0.002 rad); seeded from the run's seed",
         ),
+        click.option(
+            "--prediction",
+            type=click.Choice(PREDICTIONS),
+            default="oracle",
+            show_default=True,
+            help="the opponents' futures the solver is given: the true ones (oracle) or predicted at each sample "
+            "from their observed poses (with --noise's s, n, alpha stds on x, y, phi); the collision check uses "
+            "the true motion",
+        ),
     ]
     for o in reversed(opts):
         f = o(f)
@@ -157,7 +167,13 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def plant_spec(
-    plant: str, plant_params: str, latency: int, steer_lag: float, noise: str | None, commonroad: bool = False
+    plant: str,
+    plant_params: str,
+    latency: int,
+    steer_lag: float,
+    noise: str | None,
+    prediction: str = "oracle",
+    commonroad: bool = False,
 ):
     """The ``PlantSpec`` of the plant options; a bad value, a missing ``[plants]`` extra or perturbations with
     ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
@@ -165,11 +181,14 @@ def plant_spec(
     from ..sim.plants import PlantSpec, parse_noise
 
     try:
-        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise))
+        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise), prediction)
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
     if commonroad and not spec.is_default:
-        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
+        fail(
+            "--commonroad runs fcgen's own plant without perturbations "
+            "(no --plant, --latency, --steer-lag, --noise, --prediction)"
+        )
     if spec.kind != "model" or spec.params == "matched":
         from ..extras import MissingExtra
         from ..sim.plants.commonroad_vm import vehicle_models

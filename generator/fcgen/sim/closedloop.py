@@ -20,6 +20,7 @@ from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
 from .perturbed import PerturbedRun, perturbed_fields, perturbed_meta, run_perturbed
 from .plants import PlantSpec
+from .prediction import opponent_horizon
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
@@ -417,7 +418,8 @@ def run_closed_loop(
         it = extras.progress(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
-    plant_step, horizon, results = model_plant.road_stepper(road), opp_params.horizon, []
+    plant_step, results = model_plant.road_stepper(road), []
+    horizon = opponent_horizon(problem, sc, spec, opp_params)  # the truth, or its prediction (sim.prediction)
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
     pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
     if pert is not None:  # another plant or perturbations: that loop instead of this one

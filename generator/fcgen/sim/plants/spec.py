@@ -16,6 +16,9 @@ PLANT_KINDS: tuple[str, ...] = ("model", "ks", "st", "std", "mb")
 PLANT_PARAMS: tuple[str, ...] = ("paper", "matched")
 #: the default measurement noise's std on (s, n, alpha, v, delta): m, m, rad, m/s, rad
 DEFAULT_NOISE: tuple[float, ...] = (0.05, 0.05, 0.005, 0.05, 0.002)
+#: the opponents' futures the solver is given: the truth (``oracle``) or a prediction (``fcgen.sim.prediction``)
+PREDICTIONS: tuple[str, ...] = ("oracle", "constant-velocity", "constant-acceleration", "lane-following")
+PREDICTION_LABELS = {"constant-velocity": "cv", "constant-acceleration": "ca", "lane-following": "lane"}
 #: the largest latency in samples the closed loop takes (``Problem.delay``'s range is the same)
 MAX_LATENCY = 8
 #: the largest steering lag time constant (s)
@@ -31,6 +34,7 @@ class PlantSpec:
     latency: int = 0  # samples between measurement and actuation
     steer_lag: float = 0.0  # s, time constant of a first-order steering actuator (0: none)
     noise: tuple[float, ...] = (0.0,) * 5  # std of the Gaussian noise on the measured (s, n, alpha, v, delta)
+    prediction: str = "oracle"  # the opponents' futures the solver is given (sim.prediction.PREDICTIONS)
 
     def __post_init__(self) -> None:
         check(self.kind in PLANT_KINDS, "plant", self.kind, f"one of {', '.join(PLANT_KINDS)}")
@@ -47,13 +51,14 @@ class PlantSpec:
             self.steer_lag,
             f"[0, {MAX_STEER_LAG}] s",
         )
+        check(self.prediction in PREDICTIONS, "prediction", self.prediction, f"one of {', '.join(PREDICTIONS)}")
         check(isinstance(self.noise, tuple) and len(self.noise) == 5, "noise", self.noise, "a tuple of 5 stds")
         for i, v in enumerate(self.noise):
             check(0 <= finite(f"noise[{i}]", v) <= 10, f"noise[{i}]", v, "[0, 10]")
 
     @property
     def is_default(self) -> bool:
-        """Whether this is fcgen's own world: its model, no latency, no lag, no noise."""
+        """Whether this is fcgen's own world: its model, no latency, no lag, no noise, the true traffic."""
         return self == PlantSpec()
 
     @property
@@ -69,6 +74,8 @@ class PlantSpec:
             parts.append(f"lag{self.steer_lag:g}")
         if self.noisy:
             parts.append("noise" if self.noise == DEFAULT_NOISE else "noise" + ":".join(f"{v:g}" for v in self.noise))
+        if self.prediction != "oracle":
+            parts.append(PREDICTION_LABELS[self.prediction])
         return "+".join(parts)
 
     def as_meta(self) -> dict:

@@ -1,0 +1,130 @@
+"""Predicted traffic (docs/plants.md, "Predicted traffic"): each predictor against the motion it assumes (hand-derived:
+it must be exact there), the seeded observation noise, and the closed loop (the solver sees the prediction, the
+collision check the truth; oracle is today's loop)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fcgen.dsl import ProblemError
+from fcgen.road import Road
+from fcgen.sim.plants import PREDICTIONS, PlantSpec
+from fcgen.sim.prediction import SPAN, PredictedOpponents
+
+DT = 0.1
+OFFSETS = np.arange(21)
+
+
+def _line(s_of_t, heading=0.3, start=(4.0, -2.0)):
+    """Two opponents on straight lines with progress s(t): poses [x, y, phi] at sample j."""
+
+    def truth(j: int) -> np.ndarray:
+        s = s_of_t(j * DT)
+        return np.array(
+            [
+                [start[0] + s * math.cos(heading), start[1] + s * math.sin(heading), heading],
+                [start[0] + 3 + 0.5 * s * math.cos(-heading), start[1] + 0.5 * s * math.sin(-heading), -heading],
+            ]
+        )
+
+    return truth
+
+
+def _true_horizon(truth, i):
+    return np.stack([truth(i + int(k)) for k in OFFSETS])
+
+
+@pytest.mark.parametrize("delay", [0, 2])
+def test_constant_velocity_is_exact_for_a_constant_velocity_opponent(delay):
+    truth = _line(lambda t: 12.0 * t)
+    pred = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, delay=delay)
+    for i in (0, 7, 30):
+        assert np.allclose(pred.horizon(i), _true_horizon(truth, i), atol=1e-9)
+
+
+def test_constant_acceleration_is_exact_for_constant_acceleration_and_cv_is_not():
+    truth = _line(lambda t: 10.0 * t + 0.5 * 1.5 * t**2)
+    ca = PredictedOpponents("constant-acceleration", truth, OFFSETS, DT, delay=1)
+    cv = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, delay=1)
+    for i in (3, 40):
+        assert np.allclose(ca.horizon(i), _true_horizon(truth, i), atol=1e-9)
+    # CV: speed of the last span's middle, held: behind by a (SPAN dt / 2 * tau + tau^2 / 2) at the horizon's end
+    tau = (OFFSETS[-1] + 1) * DT
+    lag = 1.5 * (SPAN * DT / 2 * tau + tau**2 / 2)
+    err = np.hypot(*(cv.horizon(40)[-1, 0, :2] - _true_horizon(truth, 40)[-1, 0, :2]))
+    assert err == pytest.approx(lag, rel=1e-9)
+
+
+def test_constant_acceleration_stops_a_braking_opponent():
+    v0, a = 8.0, -4.0  # stops after 2 s, 8 m
+
+    def s(t):
+        t = min(t, -v0 / a)
+        return v0 * t + 0.5 * a * t**2
+
+    truth = _line(s)
+    pred = PredictedOpponents("constant-acceleration", truth, OFFSETS, DT)
+    assert np.allclose(pred.horizon(12), _true_horizon(truth, 12), atol=1e-9)  # observed until 1.2 s, stops at 2 s
+
+
+def test_lane_following_on_a_circle_arc_keeps_the_offset():
+    R, n_off, sdot = 50.0, 1.5, 12.0
+    road = Road.from_curvature(np.full(200, 1.0 / R), 1.0, s0=-50.0)  # less than one turn
+
+    def truth(j: int) -> np.ndarray:
+        s = np.array([20.0, 60.0]) + sdot * j * DT
+        x, y, phi = road.to_cartesian(s, np.array([n_off, -n_off]), np.zeros(2))
+        return np.stack([x, y, phi], axis=-1)
+
+    lane = PredictedOpponents("lane-following", truth, OFFSETS, DT, road=road, delay=1)
+    cv = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, road=road, delay=1)
+    got = lane.horizon(10)
+    assert np.allclose(got, _true_horizon(truth, 10), atol=1e-7)
+    _, n, _ = road.to_frenet(got[..., 0].ravel(), got[..., 1].ravel(), got[..., 2].ravel())
+    assert np.allclose(n.reshape(got.shape[:2]), [n_off, -n_off], atol=1e-7)
+    # a straight line leaves the circle: at 2.1 s (25.2 m of arc) the tangent is ~ arc^2 / (2 R) outside it
+    assert np.hypot(*(cv.horizon(10)[-1, 0, :2] - got[-1, 0, :2])) > 3.0
+
+
+def test_observation_noise_is_seeded_and_the_same_each_time_asked():
+    truth = _line(lambda t: 12.0 * t)
+    a = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, noise=(0.05, 0.05, 0.005), seed=4)
+    b = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, noise=(0.05, 0.05, 0.005), seed=4)
+    c = PredictedOpponents("constant-velocity", truth, OFFSETS, DT, noise=(0.05, 0.05, 0.005), seed=5)
+    first = a.horizon(9).copy()
+    assert np.array_equal(first, a.horizon(9)) and np.array_equal(first, b.horizon(9))
+    assert not np.array_equal(first, c.horizon(9))
+    d = a.observed(9) - truth(9)
+    assert 0 < np.max(np.abs(d[:, :2])) < 0.5 and np.max(np.abs(d[:, 2])) < 0.05
+
+
+def test_bad_prediction_names_the_field():
+    with pytest.raises(ProblemError, match="prediction"):
+        PlantSpec(prediction="kalman")
+    with pytest.raises(ValueError, match="lane-following"):
+        PredictedOpponents("lane-following", _line(lambda t: t), OFFSETS, DT)
+    assert PlantSpec().is_default and PlantSpec().prediction == "oracle" == PREDICTIONS[0]
+    assert PlantSpec(prediction="constant-velocity", latency=1).label() == "model+lat1+cv"
+
+
+def test_closed_loop_solver_sees_the_prediction_collision_check_the_truth():
+    from fcgen.presets import paper_problem
+    from fcgen.sim.closedloop import run_closed_loop
+    from fcgen.sim.plants import plant_of
+    from fcgen.sim.runlog import RunLog
+    from fcgen.sim.scenario import make_scenario
+
+    pb = paper_problem("car", "lifted", "ellipse", profile="safe")
+    sc = make_scenario("car", 1, n_opp=pb.opponents.count, samples=15, dt=pb.horizon.dt)
+    oracle = run_closed_loop(pb, sc)
+    # the paper's opponents follow their lane at constant ds/dt: lane-following predicts them (to rounding)
+    lane = run_closed_loop(pb, sc, plant=PlantSpec(prediction="lane-following"))
+    assert np.allclose(lane.ego_frenet, oracle.ego_frenet, atol=1e-6)
+    cv = run_closed_loop(pb, sc, plant=PlantSpec(prediction="constant-velocity"))
+    assert not np.allclose(cv.control, oracle.control, atol=1e-6)  # the solver sees another future
+    assert np.array_equal(cv.opp_cartesian, oracle.opp_cartesian)  # logged and checked: the true motion
+    back = RunLog.from_json_string(cv.to_json_string())
+    assert plant_of(back) == PlantSpec(prediction="constant-velocity")
