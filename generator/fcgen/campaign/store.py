@@ -113,10 +113,12 @@ class ResultStore:
         return removed
 
     def write(self, rows: list[dict]) -> Path | None:
-        """Append ``rows`` as one new part file (atomic); returns its path."""
+        """Append ``rows`` as one new part file (atomic); returns its path. Every row's columns are kept (a row
+        without one of them: null there; ``from_pylist`` alone keeps the first row's columns only)."""
         if not rows:
             return None
-        return self._write_table(pa.Table.from_pylist(rows))
+        keys = dict.fromkeys(k for r in rows for k in r)
+        return self._write_table(pa.Table.from_pydict({k: [r.get(k) for r in rows] for k in keys}))
 
     def _write_table(self, table: pa.Table, compression: str = "snappy") -> Path:
         self.folder.mkdir(parents=True, exist_ok=True)

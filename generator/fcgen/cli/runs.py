@@ -29,6 +29,7 @@ from .options import (
     seed_option,
     seeds_option,
 )
+from .robust import robust_configs, robustness_options
 
 
 @click.command()
@@ -104,6 +105,7 @@ def simulate(
     latency,
     steer_lag,
     noise,
+    prediction,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from ..sim.closedloop import run_closed_loop
@@ -120,7 +122,7 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_file))
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction, commonroad=bool(cr_file))
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
@@ -301,6 +303,7 @@ def _verdict(v: dict) -> str:
 )
 @plant_options
 @delay_option
+@robustness_options
 def campaign(
     scenarios,
     formulations,
@@ -325,15 +328,18 @@ def campaign(
     latency,
     steer_lag,
     noise,
+    prediction,
     delay,
+    **robust,
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_dir))
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction, commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
         configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
+    configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")

@@ -1,0 +1,69 @@
+"""The robustness grid (``fcgen campaign --robustness``, docs/plants.md): each configuration under one perturbation
+at a time at growing magnitudes, and the combined worst cases, beside the unperturbed run; its estimated time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..dsl import ProblemError
+from ..sim.plants import DEFAULT_NOISE, PlantSpec
+from .grid import Config
+
+#: the axes and, per axis, its cells: (label, plant spec, the solvers' delay compensation)
+AXES: tuple[str, ...] = ("plant", "latency", "noise", "steer-lag", "prediction", "combined")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One perturbation of the grid: its axis, its magnitude (as a label), the plant spec and the compensation."""
+
+    axis: str
+    magnitude: str
+    spec: PlantSpec
+    delay: int = 0
+
+
+def _noise(k: float) -> PlantSpec:
+    return PlantSpec(noise=tuple(k * v for v in DEFAULT_NOISE))
+
+
+def _worst(prediction: str) -> PlantSpec:
+    """The plant issue's worst case with a prediction: st, one sample of latency (compensated), default noise."""
+    return PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction=prediction)
+
+
+def cells(axes=AXES) -> list[Cell]:
+    """The unperturbed cell, then each axis' cells in growing magnitude (latency: without, then with compensation)."""
+    for a in axes:
+        if a not in AXES:
+            raise ProblemError(f"axes: {a!r} is invalid: allowed {', '.join(AXES)}")
+    by_axis = {
+        "plant": [Cell("plant", k, PlantSpec(kind=k)) for k in ("st", "std")],
+        "latency": [Cell("latency", f"{n}", PlantSpec(latency=n)) for n in (1, 2, 3)]
+        + [Cell("latency", f"{n}+comp", PlantSpec(latency=n), n) for n in (1, 2, 3)],
+        "noise": [Cell("noise", f"{k:g}x", _noise(k)) for k in (1.0, 2.0, 4.0)],
+        "steer-lag": [Cell("steer-lag", f"{t:g}", PlantSpec(steer_lag=t)) for t in (0.1, 0.2)],
+        "prediction": [
+            Cell("prediction", p, PlantSpec(prediction=p))
+            for p in ("constant-velocity", "constant-acceleration", "lane-following")
+        ],
+        "combined": [Cell("combined", f"st+lat1comp+noise+{p}", _worst(p), 1) for p in ("oracle", "constant-velocity")]
+        + [Cell("combined", "st+lat1comp+noise+lane-following", _worst("lane-following"), 1)],
+    }
+    return [Cell("none", "0", PlantSpec())] + [c for a in AXES if a in axes for c in by_axis[a]]
+
+
+def robustness_grid(configs: list[Config], axes=AXES) -> list[Config]:
+    """Every configuration in every cell (cell-major: the unperturbed runs first)."""
+    return [replace(c, plant=cell.spec, delay=cell.delay) for cell in cells(axes) for c in configs]
+
+
+#: estimated seconds of one 200-sample run on one core by plant (C solvers, safe profile; docs/plants.md says where
+#: they were measured); other sample counts scale linearly
+RUN_SECONDS = {"model": 0.6, "ks": 1.5, "st": 1.5, "std": 2.0, "mb": 4.0}
+
+
+def estimated_minutes(configs: list[Config], seeds: int, samples: int, jobs: int) -> float:
+    """The grid's estimated wall time on ``jobs`` workers (solvers compiled once per problem not included)."""
+    per_seed = sum(RUN_SECONDS[c.plant.kind] for c in configs) * samples / 200.0
+    return per_seed * seeds / max(1, jobs) / 60.0
