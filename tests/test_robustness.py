@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from fcgen.campaign.grid import Config
-from fcgen.campaign.robustness import AXES, RUN_SECONDS, cells, estimated_minutes, robustness_grid
+from fcgen.campaign.robustness import AXES, LANE_SECONDS, RUN_SECONDS, cells, estimated_minutes, robustness_grid
 from fcgen.campaign.store import ResultStore
 from fcgen.cli import main
 from fcgen.dsl import ProblemError
@@ -37,7 +37,9 @@ def test_cells_grow_per_axis_and_start_unperturbed():
     with pytest.raises(ProblemError, match="axes"):
         cells(("gravity",))
     # the estimate: the sum of the runs' estimated seconds over the jobs
-    assert estimated_minutes(grid, 100, 200, 2) == pytest.approx(8 * RUN_SECONDS["model"] * 100 / 2 / 60)
+    per_seed = 8 * RUN_SECONDS["model"] + 2 * LANE_SECONDS  # two configurations' lane-following cells
+    assert estimated_minutes(grid, 100, 200, 2) == pytest.approx(per_seed * 100 / 2 / 60)
+    assert estimated_minutes(grid, 100, 100, 1) == pytest.approx(per_seed * 100 / 2 / 60)
 
 
 def _args(out, *more):

@@ -58,12 +58,19 @@ def robustness_grid(configs: list[Config], axes=AXES) -> list[Config]:
     return [replace(c, plant=cell.spec, delay=cell.delay) for cell in cells(axes) for c in configs]
 
 
-#: estimated seconds of one 200-sample run on one core by plant (C solvers, safe profile; docs/plants.md says where
-#: they were measured); other sample counts scale linearly
-RUN_SECONDS = {"model": 0.6, "ks": 1.5, "st": 1.5, "std": 2.0, "mb": 4.0}
+#: CPU seconds of one 200-sample run by plant (C solvers, safe profile, car lifted ellipse, OSQP; measured at
+#: 97bc8c6 with 3 seeds: model 0.25, st 0.45, std 1.39; ks taken as st, mb a guess); lane-following predictions add
+#: LANE_SECONDS (the road projection at every sample: 0.53 s in all with fcgen's model)
+RUN_SECONDS = {"model": 0.3, "ks": 0.5, "st": 0.5, "std": 1.4, "mb": 4.0}
+LANE_SECONDS = 0.3
+
+
+def run_seconds(c: Config) -> float:
+    """The estimated CPU seconds of one 200-sample run of ``c``."""
+    return RUN_SECONDS[c.plant.kind] + (LANE_SECONDS if c.plant.prediction == "lane-following" else 0.0)
 
 
 def estimated_minutes(configs: list[Config], seeds: int, samples: int, jobs: int) -> float:
-    """The grid's estimated wall time on ``jobs`` workers (solvers compiled once per problem not included)."""
-    per_seed = sum(RUN_SECONDS[c.plant.kind] for c in configs) * samples / 200.0
+    """The grid's estimated time on ``jobs`` otherwise idle cores (solvers compiled once per problem not included)."""
+    per_seed = sum(run_seconds(c) for c in configs) * samples / 200.0
     return per_seed * seeds / max(1, jobs) / 60.0
