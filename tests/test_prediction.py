@@ -128,3 +128,18 @@ def test_closed_loop_solver_sees_the_prediction_collision_check_the_truth():
     assert np.array_equal(cv.opp_cartesian, oracle.opp_cartesian)  # logged and checked: the true motion
     back = RunLog.from_json_string(cv.to_json_string())
     assert plant_of(back) == PlantSpec(prediction="constant-velocity")
+
+
+def test_verify_passes_with_predicted_traffic(tmp_path):
+    """The C solver (its API unchanged: the predicted poses are set per stage as the true ones) equals the reference
+    on the same predictions, with delay compensation, the st plant and noisy observations."""
+    from fcgen.codegen.generate import generate
+    from fcgen.presets import preset
+    from fcgen.sim.plants import DEFAULT_NOISE
+    from fcgen.verify import verify
+
+    name = "truck_lifted_ellipse_ipm_safe"
+    generate(preset(name).with_(delay=1), tmp_path / name)
+    spec = PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity")
+    rep = verify(tmp_path / name, seed=2, samples=40, plant=spec)
+    assert rep.passed, rep.format()
