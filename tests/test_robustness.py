@@ -97,3 +97,36 @@ def test_store_keeps_the_columns_of_every_row(tmp_path):
     store.write([{"config": "a", "seed": 0}, {"config": "b", "seed": 0, "prediction": "constant-velocity"}])
     df = store.read()
     assert df["prediction"].isna().tolist() == [True, False] and df["prediction"].iloc[1] == "constant-velocity"
+
+
+def test_report_section_counts_by_cell_and_names_where_each_axis_first_breaks():
+    import json
+
+    import pandas as pd
+
+    from fcgen.report.robustness import section, split_keys
+
+    base = "car/lifted/EL/c/osqp/safe"
+    qp = json.dumps({"solved": 9, "max_iter": 1})
+
+    def row(sfx, seed, coll=False, resp="", over=None, progress=100.0):
+        r = {"config": base + sfx, "seed": seed, "samples": 200, "collision": coll, "progress": progress}
+        r.update(collision_responsibility=resp, qp_status_counts=qp, plan_reactions=1, a_lat_guards=0)
+        if sfx:
+            r.update(plant="model", a_lat_over05_samples=over or 0)
+        return r
+
+    rows = [row("", s) for s in range(2)]
+    rows += [row("/model+lat1", s) for s in range(2)]
+    rows += [row("/model+lat2", 0, over=1), row("/model+lat2", 1, over=0)]  # 1 of 400 samples: 0.25 % > 0.1 %
+    rows += [row("/model+lat1/comp1", s, progress=90.0) for s in range(2)]
+    rows += [row("/model+cv", 0, True, "ego_into_opponent"), row("/model+cv", 1, True, "opponent_from_behind")]
+    df = pd.DataFrame(rows)
+    sp = split_keys(df)
+    assert set(sp["base"]) == {base}
+    assert list(sp["magnitude"][sp["axis"] == "latency"]) == ["1", "1", "2", "2", "1+comp", "1+comp"]
+    text = "\n".join(section(df))
+    assert f"| {base} | prediction | constant-velocity | 2 | 1 | 1 | 0.00 % |" in text
+    assert f"| {base} | latency | 1+comp | 2 | 0 | 0 | 0.00 % | 90.0 | -10.0 % | 90.0 % | 2 | 0 |" in text
+    assert f"- {base}: latency at 2, prediction at constant-velocity" in text
+    assert section(df[df["config"] == base]) == []  # no perturbed rows: no section

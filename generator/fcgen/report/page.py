@@ -8,7 +8,7 @@ from ..atomic import carry, check_folder_target, describe, staged_folder
 from ..campaign.store import read_results
 from ..extras import require
 from ..testhook import pause_point
-from . import backends, figures, findings, tables
+from . import backends, figures, findings, robustness, tables
 
 with require("campaign", "the campaign's report"):
     import pandas as pd
@@ -236,6 +236,7 @@ def _write_report(df: pd.DataFrame, out: Path, example: bool) -> Path:
         lines += _backend_comparison(df, names)
     for b, sub in split:
         lines += _tables(sub, f" — QP backend {b}" if many else "", backend=b)
+    lines += robustness.section(df)  # results of `fcgen campaign --robustness`: its section
     lines += ["## Figures", "", *[f"![{p.stem}]({p.name})" for p in figs if p.suffix == ".png"], ""]
     for b, sub in split:
         lines += _rates(sub, f" — QP backend {b}" if many else "")
