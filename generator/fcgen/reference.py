@@ -16,7 +16,7 @@ import numpy as np
 
 from . import obstacles as obs
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
-from .contract import EXIT_CODES, Status
+from .contract import EXIT_CODES, INPUT_RANGES, Status
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
@@ -139,6 +139,10 @@ class RtiSolver:
         self.status.exit_code = EXIT_CODES.index(code)
         return SolverError(code, message)
 
+    def _ok(self) -> None:
+        """An accepted call: ``status.exit_code`` always describes the last call (the C's ``ok()``)."""
+        self.status.exit_code = 0
+
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
         """The road (window); its drivable band ``road.n_min``/``n_max`` (if given) must lie within the problem's
@@ -161,15 +165,20 @@ class RtiSolver:
                         f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)",
                     )
         self.road = road
+        self._ok()
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
         """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
         a road's speed limit, a lane's centre."""
-        if not (math.isfinite(v_ref) and math.isfinite(n_ref) and v_ref >= 0.0):
+        b, v_max = self.ocp.problem.bounds, INPUT_RANGES.v_ref_max
+        if not (0.0 <= v_ref <= v_max and b.n_min <= n_ref <= b.n_max):
             raise self._fail(
-                "ERR_REFERENCE", f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed finite, v_ref >= 0"
+                "ERR_REFERENCE",
+                f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed v_ref in [0, {v_max}] m/s, "
+                f"n_ref in [{b.n_min}, {b.n_max}] m (Bounds.n_min, n_max)",
             )
         self.ref = (float(v_ref), float(n_ref))
+        self._ok()
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> None:
         """Every opponent's shape values, shape (n_opp, n_opp_shape) (``obstacles.shape_names``); kept until set
@@ -185,6 +194,7 @@ class RtiSolver:
             except ValueError as e:
                 raise self._fail("ERR_OPP_SHAPE", f"opponent {j}: {e}") from None
         self.opp_shape = shapes.copy()
+        self._ok()
 
     def set_opponents(self, params: np.ndarray) -> None:
         """Per-stage opponent parameters, shape (N+1, n_opp, n_opp_par)."""
@@ -198,12 +208,14 @@ class RtiSolver:
         if not np.all(np.isfinite(params)):
             raise self._fail("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
+        self._ok()
 
     def set_state(self, x0) -> None:
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (5,) or not np.all(np.isfinite(x0)):
             raise self._fail("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
         self.x0 = x0
+        self._ok()
 
     # -- parameters --------------------------------------------------------------------------------
     def _window_start(self, s: float) -> int | None:
@@ -249,6 +261,10 @@ class RtiSolver:
             )
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
+        return np.concatenate([self._road_params(s), self._stage_rest(k)])
+
+    def _stage_rest(self, k: int) -> np.ndarray:
+        """Stage k's parameters after the road window: x_ref, the opponents (and the stage's interval)."""
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
         if self.curve_ref is not None:
@@ -261,7 +277,7 @@ class RtiSolver:
         else:
             opp = self.opp_stage[k]
         dt = [] if self.ocp.p_dt is None else [self._stage_dt[k]]
-        return np.concatenate([self._road_params(s), xref, opp, dt])
+        return np.concatenate([xref, opp, dt])
 
     def _fit_opponents(self) -> int:
         """Conventional: the opponents' poses -> their fitted Frenet boxes in ``opp_stage`` (``fcgen.oppfit``), as the
@@ -314,10 +330,19 @@ class RtiSolver:
     def prepare(self, shift: bool = True) -> None:
         """Shift the plan (or build the initial guess), linearize, build the QP (all but x0), load the backend.
 
-        Transactional: every check runs before anything visible changes. A no-op while already prepared."""
-        t0 = time.perf_counter()
+        Transactional: every check runs before anything visible changes (a refused call keeps the opponent fit too,
+        as the C restores it). A no-op while already prepared."""
         if self.prepared:
-            return
+            return self._ok()
+        kept = self.opp_stage
+        try:
+            self._prepare(shift, time.perf_counter())
+        except SolverError as e:
+            if e.code != "ERR_QP_NUMERICAL":
+                self.opp_stage = kept
+            raise
+
+    def _prepare(self, shift: bool, t0: float) -> None:
         ocp, lay = self.ocp, self.lay
         opp_outside = self._fit_opponents()
         K = self.qp_opts.cold_restart_after
@@ -449,26 +474,18 @@ class RtiSolver:
         return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
-        """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
-        parameters on the prepared guess's s, as prepare built them; a stage whose window the road no longer covers is
-        skipped), its verdict (``plan_check.plan_verdict``) and, where it says so, braking:
+        """The plan's clearance to every opponent's true rectangle at every stage 0..N (``Ocp.plan_clearance``, on the
+        road windows the preparation planned with, ``self.P``: a road set since changes nothing; x_ref and opponents
+        as stage_params builds them now), its verdict (``plan_check.plan_verdict``) and, where it says so, braking:
         F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
-        ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
+        ocp, pb = self.ocp, self.ocp.problem
         best, best_k, react = math.inf, -1, False
         if pb.opponents.count:
-            s_k = self.w_prep[lay.s_vars]
-            ok = [self.road is not None and math.isfinite(s) and self._window_start(s) is not None for s in s_k]
-            P = np.stack(
-                [
-                    self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
-                    for k, (s, good) in enumerate(zip(s_k, ok))
-                ],
-                axis=1,
-            )
+            P = np.stack([np.concatenate([self.P[k][ocp.p_road], self._stage_rest(k)]) for k in range(ocp.N + 1)], 1)
             shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
             C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
-            self.stage_clearance = np.where(ok, np.min(C, axis=0), math.inf)
-            best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
+            self.stage_clearance = np.min(C, axis=0)
+            best, best_k, react = plan_verdict(C, A, [True] * (ocp.N + 1), min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
             self.u_applied[0] = braking_control(pb, self.x0)

@@ -20,7 +20,7 @@ from .. import __version__
 from .. import obstacles as obs
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
-from ..contract import HOST_TICKS_PER_SECOND
+from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
@@ -205,6 +205,8 @@ def workspace_members(
         ("int", "cold", [], I),
         ("int", "qp_ready", [], I),
         ("int", "fit_outside", [], I),
+        # the road window of each stage of the last preparation (the plan check's road: set_road may change in between)
+        ("NAME_real_t", "plan_road", [M("N", 1), ("P_REF", 2 + 4 * sizes["ROAD_WINDOW"])], R),
     ]
     if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
         members += [
@@ -215,6 +217,7 @@ def workspace_members(
     if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
         members += [
             ("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
+            ("NAME_real_t", "opp_stage_kept", [M("N", 1), fit["n_opp_stage"]], R),  # restored by a refused prepare
             ("NAME_real_t", "fit_P", [2 * fit["npt"]], R),
             ("NAME_real_t", "fit_d", [fit["npt"]], R),
             ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
@@ -506,6 +509,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "n_max": c_real(problem.bounds.n_max),
         "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE),
         "ego_radius": c_real(obs.ego_radius(problem.ego)),
+        "ranges": {k: c_real(v) for k, v in dataclasses.asdict(INPUT_RANGES).items()},
         "p_road": {
             "S0": 0,
             "DS": 1,
