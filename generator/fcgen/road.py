@@ -110,9 +110,9 @@ class Road:
         m = len(self.kappa)
         if m < 2 or any(len(a) != m for a in (self.phi, self.gx, self.gy)):
             raise ValueError("road: kappa, phi_gamma, gamma_x, gamma_y must have the same length >= 2")
-        lo, hi = INPUT_RANGES.ds_min, INPUT_RANGES.ds_max
-        if not lo <= self.ds <= hi:
-            raise ValueError(f"road.ds = {self.ds!r} is invalid: allowed in [{lo}, {hi}] m (the C's set_road)")
+        ds_lo, ds_hi = INPUT_RANGES.ds_min, INPUT_RANGES.ds_max
+        if not ds_lo <= self.ds <= ds_hi:
+            raise ValueError(f"road.ds = {self.ds!r} is invalid: allowed in [{ds_lo}, {ds_hi}] m (the C's set_road)")
         for name in ("kappa", "phi", "gx", "gy"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"road.{name} contains NaN or infinite values")
