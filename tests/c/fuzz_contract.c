@@ -31,9 +31,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if !defined(SOLVER) || !defined(SOLVER_UPPER) || !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) ||                   \
+#if !defined(SOLVER) || !defined(SOLVER_UPPER) || !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) ||                    \
     !defined(FUZZ_DS) || !defined(FUZZ_N_MIN) || !defined(FUZZ_N_MAX)
-#error "compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX= -DFUZZ_R_MAX= -DFUZZ_DS= -DFUZZ_N_MIN= -DFUZZ_N_MAX="
+#error                                                                                                                 \
+    "compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX= -DFUZZ_R_MAX= -DFUZZ_DS= -DFUZZ_N_MIN= -DFUZZ_N_MAX="
 #endif
 
 #define FZ_CAT_(a, b) a##b
@@ -89,8 +90,12 @@ static uint64_t rnd(void) {
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   return z ^ (z >> 31);
 }
-static int pick(int n) { return (int)(rnd() % (uint64_t)n); }
-static double unif(double a, double b) { return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0); }
+static int pick(int n) {
+  return (int)(rnd() % (uint64_t)n);
+}
+static double unif(double a, double b) {
+  return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0);
+}
 
 /* an extreme value of the real type (no conversion out of its range) */
 static real_t extreme(void) {
@@ -119,25 +124,46 @@ static void corrupt(real_t *a, int n) {
 
 /* ---------------------------------------------------------------------------------------------- clocks */
 static uint32_t clock_t0;
-static uint32_t clock_a(void) { return clock_t0 += 0x9E3779B9u; } /* wraps modulo 2^32 */
-static uint32_t clock_b(void) { return clock_t0 += 7u; }
+static uint32_t clock_a(void) {
+  return clock_t0 += 0x9E3779B9u;
+} /* wraps modulo 2^32 */
+static uint32_t clock_b(void) {
+  return clock_t0 += 7u;
+}
 
 /* ---------------------------------------------------------------------------------------------- calls */
 enum {
-  C_STATE, C_ROAD, C_BOUNDS, C_OPP, C_SHAPES, C_REF, C_CLOCK, C_PREPARE, C_FEEDBACK, C_RESET, C_INIT, C_GET, C_KINDS
+  C_STATE,
+  C_ROAD,
+  C_BOUNDS,
+  C_OPP,
+  C_SHAPES,
+  C_REF,
+  C_CLOCK,
+  C_PREPARE,
+  C_FEEDBACK,
+  C_RESET,
+  C_INIT,
+  C_GET,
+  C_KINDS
 };
 static const int WEIGHT[C_KINDS] = {14, 5, 5, 10, 5, 5, 2, 16, 16, 2, 1, 12};
-static const char *const KIND_NAME[C_KINDS] = {"set_state", "set_road", "set_road_bounds", "set_opponents",
-                                               "set_opponent_shapes", "set_reference", "set_clock", "prepare",
-                                               "feedback", "reset", "init", "getter"};
-static int is_input(int kind) { return kind <= C_REF; }
+static const char *const KIND_NAME[C_KINDS] = {
+    "set_state",     "set_road",  "set_road_bounds", "set_opponents", "set_opponent_shapes",
+    "set_reference", "set_clock", "prepare",         "feedback",      "reset",
+    "init",          "getter"};
+static int is_input(int kind) {
+  return kind <= C_REF;
+}
 
 static real_t a_kappa[ROAD_MAX], a_phi[ROAD_MAX], a_gx[ROAD_MAX], a_gy[ROAD_MAX], a_lo[ROAD_MAX], a_hi[ROAD_MAX];
 static real_t a_opp[OPP_BLOCK + 1], a_shape[SHAPE_BLOCK + 1], a_x[5];
 static status_t fz_st;
 static real_t o_x[(N + 1) * NX], o_u[N * NU], o_p[(N + 1) * NOPP * NOPP_STAGE + 1], o_u0[NU];
 
-static double base_s(int idx) { return 0.05 * idx; } /* the ego drifts along the road during a trial */
+static double base_s(int idx) {
+  return 0.05 * idx;
+} /* the ego drifts along the road during a trial */
 
 static int call_road(int idx) {
   const int full = pick(100) < 75;
@@ -349,8 +375,8 @@ static void observe(uint64_t *main_h, uint64_t *qp_h, int *exit_code) {
 }
 
 /* ---------------------------------------------------------------------------------------------- checks */
-static long n_calls, n_trials, n_refused, n_replayed, n_rc[MAX_CODE], n_kind[C_KINDS], n_fb_consumed, n_fb_ok,
-    n_react, n_null_get, n_compared;
+static long n_calls, n_trials, n_refused, n_replayed, n_rc[MAX_CODE], n_kind[C_KINDS], n_fb_consumed, n_fb_ok, n_react,
+    n_null_get, n_compared;
 static long violations, v_code, v_status, v_twin, v_twin_rc, v_output, v_plan_check, v_null;
 
 static void violation(long *counter, const char *what, int idx, double a, double b) {
@@ -425,7 +451,8 @@ static void run_trial(int calls) {
       last_rc = r->rc;
     }
     observe(&r->h_main, &r->h_qp, &r->exit_code);
-    if (r->exit_code != last_rc) violation(&v_status, "status.exit_code is not the last call's code", i, r->exit_code, last_rc);
+    if (r->exit_code != last_rc)
+      violation(&v_status, "status.exit_code is not the last call's code", i, r->exit_code, last_rc);
     if (kind == C_FEEDBACK && consumed(r->rc)) check_outputs(i, r->rc);
   }
   clock_t0 = 0u; /* the twin: the accepted calls only, from init() */
@@ -467,8 +494,8 @@ static void report(void) {
     if (n_rc[i]) printf("rc %d %ld\n", i, n_rc[i]);
   printf("violation_code %ld\nviolation_status %ld\nviolation_twin %ld\nviolation_twin_rc %ld\n", v_code, v_status,
          v_twin, v_twin_rc);
-  printf("violation_output %ld\nviolation_plan_check %ld\nviolation_null %ld\nviolations %ld\n", v_output,
-         v_plan_check, v_null, violations);
+  printf("violation_output %ld\nviolation_plan_check %ld\nviolation_null %ld\nviolations %ld\n", v_output, v_plan_check,
+         v_null, violations);
 }
 
 #ifdef FUZZ_LIBFUZZER
