@@ -43,7 +43,7 @@ def test_random_calls_keep_the_contract(fuzzer, key):
     # every entry was called; calls refused, NULL given to getters refused, samples solved
     kinds = ("set_state", "set_road", "set_road_bounds", "set_opponents", "set_opponent_shapes", "set_reference")
     assert all(c[f"kind_{k}"] > 0 for k in (*kinds, "set_clock", "prepare", "feedback", "reset", "init", "getter")), c
-    assert c["refused"] > 200 and c["null_getters"] > 10 and c["feedback_ok"] > 20, c
+    assert c["refused"] > 200 and c["null_getters"] > 10 and c["feedback_ok"] > 5, c
     for name in ("ERR_NOT_PREPARED", "ERR_NO_STATE", "ERR_ROAD_WINDOW", "ERR_ROAD_SIZE", "ERR_OPP_SHAPE"):
         assert c.get(f"rc_{EXIT_CODES.index(name)}", 0) > 0, (key, name)
 
