@@ -61,10 +61,10 @@ for backend in args.backends.split(","):
         seed_max_pct=float(rel.max()),
         seeds_beyond_half_pct=int(np.sum(np.abs(rel) > 0.5)),
     )
+    mean, lo, hi, beyond = out[f"{backend}-compare"].values()
     print(
         backend,
-        "float - double: mean %+.3f %%, per seed %+.2f .. %+.2f %%, %d seeds beyond 0.5 %%"
-        % tuple(out[f"{backend}-compare"].values()),
+        f"float - double: mean {mean:+.3f} %, per seed {lo:+.2f} .. {hi:+.2f} %, {beyond} seeds beyond 0.5 %",
         flush=True,
     )
 (root / "float_vs_double.json").write_text(json.dumps(out, indent=1))

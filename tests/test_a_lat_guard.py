@@ -66,9 +66,9 @@ def _closed_loop(pb, controller):
 
 
 def test_plans_above_the_bound_are_applied_within_it_in_c_as_in_python(c_guarded):
-    """The paper's car DE EL (with the margin), campaign seed 3: without the guard the applied |a_lat| exceeds 5 m/s^2 by
-    far; with it every sample stays within a_lat_max, the guard acts, and where it did not need the rate bound the next
-    sample's |a_lat| is a_lat_max - a_lat_margin. The C's controls, states and guard flags equal the Python
+    """The paper's car DE EL (with the margin), campaign seed 3: without the guard the applied |a_lat| exceeds 5 m/s^2
+    by far; with it every sample stays within a_lat_max, the guard acts, and where it did not need the rate bound the
+    next sample's |a_lat| is a_lat_max - a_lat_margin. The C's controls, states and guard flags equal the Python
     reference's."""
     unguarded = GUARDED.with_(plan_check=replace(GUARDED.plan_check, a_lat_guard=False))
     free = _closed_loop(unguarded, ReferenceController(build_ocp(unguarded)))

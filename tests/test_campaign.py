@@ -200,7 +200,7 @@ def test_cli_campaign_then_report(cache, tmp_path):
         "--out",
         str(out),
     ]
-    res = CliRunner().invoke(main, args + ["--report", str(rep)])
+    res = CliRunner().invoke(main, [*args, "--report", str(rep)])
     assert res.exit_code == 0, res.output
     assert "1 configurations x 2 seeds x 4 samples = 2 runs" in res.output
     assert "2 runs computed, 0 already done" in res.output

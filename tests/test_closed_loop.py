@@ -26,7 +26,7 @@ def quick_run():
 
 
 def test_quick_run_is_safe_and_sane(quick_run):
-    pb, sc, log = quick_run
+    _pb, sc, log = quick_run
     s = summary(log)
     assert s["n_states"] == 31 and s["n_controls"] == 30
     assert s["n_collision_samples"] == 0 and not log.collision.any()

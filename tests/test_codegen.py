@@ -192,7 +192,7 @@ def test_matches_reference(cs: CSolver) -> None:
         np.testing.assert_allclose(cs.states(), ref.states(), rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(cs.controls(), ref.controls(), rtol=1e-9, atol=1e-9)
         assert cs.max_slack() == pytest.approx(float(np.max(ref.slacks(), initial=0.0)), rel=1e-9, abs=1e-12)
-        i0 = int(math.floor((x[0] - road.s0) / road.ds)) - 1
+        i0 = math.floor((x[0] - road.s0) / road.ds) - 1
         x = np.array(plant(x, u_ref, ocp.road_params.pack(road, i0))).ravel()
     print("max relative differences C vs Python:", worst)
     assert all(worst[k] <= 1e-12 for k in ("q", "l", "u", "A_x", "P_x", "q_fb")), worst

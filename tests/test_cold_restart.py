@@ -153,7 +153,7 @@ def test_never_keeps_shifting_the_stale_plan(inputs):
     for j, inp in enumerate(inputs[4:8]):
         assert _py_sample(sv, inp, np.r_[inp[0][0], BAD_N, inp[0][2:]]) != "OK"
         assert (sv.status.qp_unusable_run, sv.status.cold_restarts) == (j + 1, 0)
-    x0, road, opp = inputs[8]
+    _x0, road, opp = inputs[8]
     stale = sv.w[sv.lay.var_shift]
     sv.set_road(road)
     sv.set_opponents(opp)
@@ -166,7 +166,7 @@ def test_k_one_restarts_after_every_refusal(inputs):
     sv = RtiSolver(build_ocp(pb), qp=replace(pb.qp, cold_restart_after=1))
     for inp in inputs[:4]:
         assert _py_sample(sv, inp) == "OK"
-    x0, road, opp = inputs[4]
+    x0, _road, _opp = inputs[4]
     assert _py_sample(sv, inputs[4], np.r_[x0[0], BAD_N, x0[2:]]) != "OK"
     assert sv.status.qp_unusable_run == 1
     assert _py_sample(sv, inputs[5]) == "OK"  # cold-started from the good state set before prepare

@@ -18,7 +18,6 @@ from fcgen.commonroad import (
     ScenarioRefused,
     drivability_verdict,
     fcgen_collisions,
-    load_scenario,
     opponent_horizon,
     select_opponents,
     write_solution,

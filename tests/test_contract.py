@@ -169,7 +169,7 @@ def test_finiteness_check_is_exact_where_a_sum_overflows(fresh, inputs):
     for bad in (np.inf, -np.inf, np.nan):
         b = big.copy()
         b.flat[b.size // 2] = bad
-        rejected(cs, lambda: cs.set_opponents(b), "ERR_NONFINITE_OPPONENTS")
+        rejected(cs, lambda b=b: cs.set_opponents(b), "ERR_NONFINITE_OPPONENTS")
     pm = np.ones_like(opp)
     pm.flat[0], pm.flat[-1] = np.inf, -np.inf
     rejected(cs, lambda: cs.set_opponents(pm), "ERR_NONFINITE_OPPONENTS")
@@ -203,7 +203,7 @@ def test_reset_and_init_equal_a_fresh_library(fresh, inputs):
                 assert used.status().cold_restarts == int(j >= 3)
             else:
                 assert rc == 0
-        x0, road, opp = other[len(history) - 1]
+        x0, road, _opp = other[len(history) - 1]
         assert used.set_road(road) == 0 and used.prepare() == 0
         if how == "init":  # a garbage QP (n = 1e15) before init: capped at 60 iterations, a huge step
             assert used.set_state(np.array([x0[0], 1e15, 0.0, x0[3], 0.0])) == 0

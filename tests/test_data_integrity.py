@@ -96,7 +96,7 @@ def test_record_refuses_to_replace_a_suite_without_force_and_names_what_would_be
     (g / "README.txt").write_text("kept")
     res = fcgen("record", SOLVER, "-o", g, "--seeds", "1", "--samples", "30", "--force")
     assert res.returncode == 0, res.stderr
-    man, logs = load_suite(g)
+    man, _logs = load_suite(g)
     assert [e["seed"] for e in man["logs"]] == [1] and (g / "README.txt").read_text() == "kept"
     assert not (g / "truck_seed0.json.xz").exists()
     assert not list(tmp_path.glob(".g.fcgen-*"))  # no leftovers
@@ -119,7 +119,7 @@ def test_a_record_killed_at_any_moment_leaves_one_whole_suite(old_suite, tmp_pat
     suite), never a mix."""
     g = shutil.copytree(old_suite, tmp_path / "g")
     kill_at(point, ["record", SOLVER, "-o", g, "--seeds", "1-2", "--samples", "30", "--force"], tmp_path)
-    man, logs = load_suite(g)  # checksums, seeds, lengths as in the manifest
+    man, _logs = load_suite(g)  # checksums, seeds, lengths as in the manifest
     assert [e["seed"] for e in man["logs"]] == ([0] if survivor == "old" else [1, 2])
     if survivor == "old":
         assert _files(g) == _files(old_suite)

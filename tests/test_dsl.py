@@ -362,7 +362,7 @@ def test_load_problem_make_problem_that_raises_is_a_problem_error(tmp_path):
             raise KeyError("no such setting")
     """,
     )
-    with pytest.raises(ProblemError, match="bad_factory.py"):
+    with pytest.raises(ProblemError, match=r"bad_factory.py"):
         load_problem(path)
 
 

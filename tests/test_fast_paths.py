@@ -5,6 +5,7 @@ results store at hundreds of parts vs pandas reading each part."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -36,7 +37,7 @@ def test_plant_buffer_equals_the_casadi_call_bit_for_bit(scenario):
         s = rng.uniform(-40.0, 300.0) if k % 10 else road.s0 + road.ds * rng.integers(5, 150)  # on a grid point too
         x = np.array([s, rng.uniform(-6, 6), rng.uniform(-0.5, 0.5), rng.uniform(0.0, 40.0), rng.uniform(-0.4, 0.4)])
         u = np.array([rng.uniform(-1e4, 1e4), rng.uniform(-0.4, 0.4)])
-        i0 = int(math.floor((x[0] - road.s0) / road.ds)) - 1
+        i0 = math.floor((x[0] - road.s0) / road.ds) - 1
         want = np.array(f(x, u, rp.pack(road, i0))).ravel()
         got = plant.step(x, u, road)
         assert _bits(got) == _bits(want), (k, got - want)
@@ -67,7 +68,7 @@ def test_road_window_equals_the_checked_constructor():
     road = random_road(11, length=300.0, s0=-50.0)
     for s in (-50.0, -49.0, 13.7, 200.0):
         win = road.window(s, 12)
-        i0 = int(math.floor((s - road.s0) / road.ds))
+        i0 = math.floor((s - road.s0) / road.ds)
         want = Road(
             road.s0 + i0 * road.ds,
             road.ds,
@@ -114,7 +115,7 @@ def test_tasks_cover_the_grid_block_by_block_and_keep_a_solver_for_a_block():
     assert sorted((t.config.key, t.seed) for t in tasks) == sorted((c.key, s) for c in configs for s in range(3, 23))
     first = tasks[: 8 * len(configs)]  # the first block: every configuration, seeds 3..10
     assert {(t.config.key, t.seed) for t in first} == {(c.key, s) for c in configs for s in range(3, 11)}
-    switches = sum(a.config != b.config for a, b in zip(tasks, tasks[1:]))
+    switches = sum(a.config != b.config for a, b in itertools.pairwise(tasks))
     assert switches == 3 * len(configs) - 1  # one switch per (block, configuration)
     assert [t.seed for t in tasks[-4:]] == [19, 20, 21, 22]  # the last block holds the 4 seeds left
     seed_major = make_tasks(configs, range(3), 200, "/tmp/cache", block=1)

@@ -120,7 +120,7 @@ def test_scenario_file_round_trips(gen: GenerateInfo, tmp_path: Path) -> None:
     path = export_scenario(pb, sc, tmp_path / "sc.txt")
     lines = path.read_text().splitlines()
     assert lines[0] == FORMAT and lines[-1] == "end"
-    kappa = [ln for ln in lines if ln.startswith("kappa ")][0].split()[1:]
+    kappa = next(ln for ln in lines if ln.startswith("kappa ")).split()[1:]
     assert np.array_equal(np.array(kappa, dtype=float), sc.road.kappa)  # %.17g round-trips
     assert sum(ln.startswith("opp_params ") for ln in lines) == 3
     assert sum(ln.startswith("sample ") for ln in lines) == 4

@@ -100,7 +100,7 @@ def test_fmi_semantics(folders, tmp_path):
         modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName="second",
     )
-    with pytest.raises(Exception):
+    with pytest.raises(Exception, match="Failed to instantiate"):
         b.instantiate(logMessage=lambda env, status, cat, msg: log.append(msg.decode()))
     assert any("one instance at a time" in m for m in log)
     a.enterInitializationMode()
@@ -151,7 +151,7 @@ def test_fmi2_semantics(folders, tmp_path, capfd):
     a = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="a")
     a.instantiate()
     b = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="b")
-    with pytest.raises(Exception):
+    with pytest.raises(Exception, match="Failed to instantiate"):
         b.instantiate()
     a.setupExperiment(startTime=0.0)
     a.enterInitializationMode()

@@ -168,7 +168,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     from fcgen.codegen.ipm_layout import padded_runs, sr_lanes
 
     lay = build_layout(build_ocp(short("truck", "lifted", "circles")))
-    sv, sr = split_soft_rows(lay, stage_view(lay))
+    _sv, sr = split_soft_rows(lay, stage_view(lay))
     assert sr_lanes(sr) == 4
     ptr, pad = padded_runs(sr)
     np.testing.assert_array_equal(ptr, 148 * np.arange(11))
@@ -178,7 +178,7 @@ def test_soft_row_storage_pads_long_runs_to_whole_lanes():
     np.testing.assert_array_equal(pad(sr.a)[147], -np.ones(sr.NA))  # a padding row has no data
     assert np.all(pad(sr.sign, 0)[147::148] == 0)
     lay = build_layout(build_ocp(short("truck", "lifted", "ellipse")))
-    sv, sr = split_soft_rows(lay, stage_view(lay))
+    _sv, sr = split_soft_rows(lay, stage_view(lay))
     assert set(np.diff(sr.run_ptr).tolist()) == {3} and sr_lanes(sr) == 1
     ptr, pad = padded_runs(sr)
     np.testing.assert_array_equal(ptr, sr.run_ptr)
@@ -218,9 +218,10 @@ def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
 
 def test_ipm_scaled_start_same_solution_fewer_iterations():
     """The scaled start (a soft row's slack bound at t0 = max(-b, t_min / max(1, lam0)): no such initial t lam above
-    t_min) and the floor start (every side at max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of one objective value); on the safe profile's QPs, whose
-    soft rows' slack bounds carry multipliers near their L1 weights (1e8, 1e6), the scaled start needs fewer
-    iterations in all, and with the rows' multipliers below 1 both starts are the same iterate (bit for bit)."""
+    t_min) and the floor start (every side at max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of
+    one objective value); on the safe profile's QPs, whose soft rows' slack bounds carry multipliers near their L1
+    weights (1e8, 1e6), the scaled start needs fewer iterations in all, and with the rows' multipliers below 1 both
+    starts are the same iterate (bit for bit)."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
     ref, qps = closed_loop_qps(pb, samples=12)
     lay = ref.lay

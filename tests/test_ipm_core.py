@@ -1,6 +1,6 @@
-"""The IPM's algorithm as plain C (csrc/ipm/ipm_core.c and its parts), compiled on its own with a problem header rendered
-by fcgen, on the QPs a Python closed loop solved: the same statuses, iterations and solutions as the Python IPM, and
-(an independent check) its solutions satisfy the QP's optimality conditions."""
+"""The IPM's algorithm as plain C (csrc/ipm/ipm_core.c and its parts), compiled on its own with a problem header
+rendered by fcgen, on the QPs a Python closed loop solved: the same statuses, iterations and solutions as the Python
+IPM, and (an independent check) its solutions satisfy the QP's optimality conditions."""
 
 from __future__ import annotations
 
@@ -118,12 +118,12 @@ def test_ipm_core_alone_equals_the_python_ipm(sc, form, ob, tmp_path):
     assert (ctx["NE"] > 0) == (form == "conventional")  # both branches of the core's #if IPM_NE > 0
     assert (ctx["NE"] == 0 and ctx["U_DENSE"] == 1) == (form == "lifted")  # and of #if IPM_U_FUSED
     exe = build_harness(ocp, lay, pb.qp, tmp_path)
-    n, m = lay.n, lay.m
+    n = lay.n
     out = run_harness(exe, lay, events, tmp_path)
     solves = [e for e in events if e[0] == "S"]
     assert len(out) == len(solves) >= 6
     P = next(e for e in events if e[0] == "M")
-    for row, (_, q, l, u, y_warm, it, res) in zip(out, solves):
+    for row, (_, _q, _l, _u, _y_warm, _it, res) in zip(out, solves):
         status, raw, iters, start, checks, steps, end = (int(v) for v in row[:7])
         z, y = row[7 : 7 + n], row[7 + n :]
         assert (status, raw, iters) == (res.status, res.raw_status, res.iter)

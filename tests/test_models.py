@@ -69,7 +69,7 @@ def frenet_ref(x, u, road, veh=VEH, wind=WIND):
 
 
 def lifted_ref(x, u, road, veh=VEH, wind=WIND):
-    s, n, alpha, v, delta, px, py, phi = x
+    s, n, alpha, v, delta, _px, _py, phi = x
     kappa, _ = road(s)
     sdot = v * math.cos(alpha) / (1 - n * kappa)
     w = v * math.tan(delta) / veh.l
@@ -177,7 +177,8 @@ def test_head_and_tail_wind_by_hand():
     # phi_wind is where the wind comes from: driving towards it (phi = phi_wind) the relative air speed is
     # v + v_wind: 10 + 20 = 30 m/s -> F_air = 900 c_air.
     assert vdot(0.7, 10.0, 0.0, Wind(20.0, 0.7)) == pytest.approx((-900 * c_air - c_roll) / m, rel=1e-13)
-    # driving away from it (tail wind faster than the car): v_rel = 10 - 20 = -10 -> the wind pushes, F_air = -100 c_air.
+    # driving away from it (tail wind faster than the car): v_rel = 10 - 20 = -10 -> the wind pushes,
+    # F_air = -100 c_air.
     assert vdot(0.7 + math.pi, 10.0, 0.0, Wind(20.0, 0.7)) == pytest.approx((100 * c_air - c_roll) / m, rel=1e-12)
     # tail wind as fast as the car: no drag at all
     assert vdot(math.pi, 20.0, 500.0, Wind(20.0, 0.0)) == pytest.approx((500 - c_roll) / m, abs=1e-12)
@@ -330,7 +331,13 @@ def test_lifted_consistency_with_exact_integration_is_interpolation_error():
     for k in range(100):
         u = _control(road, x, 0.1 * k)
         x = solve_ivp(
-            lambda t, z: lifted_ref(z, u, rd), (0.0, 0.1), x, method="DOP853", rtol=1e-12, atol=1e-12, max_step=0.02
+            lambda t, z, u=u: lifted_ref(z, u, rd),
+            (0.0, 0.1),
+            x,
+            method="DOP853",
+            rtol=1e-12,
+            atol=1e-12,
+            max_step=0.02,
         ).y[:, -1]
         px, py, phi = road.to_cartesian(x[0], x[1], x[2])
         worst = max(worst, abs(px - x[5]), abs(py - x[6]), abs(phi - x[7]))

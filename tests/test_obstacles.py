@@ -262,7 +262,7 @@ def fitted(s, n):
 
 def test_truck_is_far_from_straight_in_frenet():
     # SPEC: on |kappa| = 0.05 a 26 m truck following the lane deviates by metres in (s, n)
-    _, ps, pn = true_rectangle_in_frenet(20.0, 5.0)
+    _, _ps, pn = true_rectangle_in_frenet(20.0, 5.0)
     # by hand: the rear axle is on the circle of radius 15; the front corners 23 m ahead along the tangent are at
     # radius sqrt((15 -+ 2)^2 + 23^2) -> n = 20 - 26.4 = -6.4 (inner) and 20 - 28.6 = -8.6 (outer);
     # the road is the Hermite interpolant of the circle: position error <= h^4/384 kappa^3 = 5e-6 m
@@ -296,7 +296,7 @@ def test_conventional_box_covers_true_rectangle(n):
 
 @pytest.mark.parametrize("n", [5.0, -5.0])
 def test_naive_shape_does_not_cover_true_rectangle(n):
-    pose, ps, pn = true_rectangle_in_frenet(20.0, n)
+    _pose, ps, pn = true_rectangle_in_frenet(20.0, n)
     naive = obs.Shape(*obs.naive_frenet_shape((20.0, n, 0.0), TRUCK)[:5])
     assert naive.angle == 0.0 and naive.cx == pytest.approx(30.0) and naive.cy == pytest.approx(n)
     h = obs.paper_ellipse_h(ps, pn, naive, 0.0)
@@ -320,7 +320,7 @@ def _edge_pieces_in_frenet(road: Road, s: float, n: float, alpha: float, ppm: fl
     ends, inner = [], []
     for i in range(4):
         p0, p1 = corners[i], corners[(i + 1) % 4]
-        m = max(2, int(math.ceil((TRUCK.w_ch if i % 2 == 0 else TRUCK.l_ch) * ppm)))
+        m = max(2, math.ceil((TRUCK.w_ch if i % 2 == 0 else TRUCK.l_ch) * ppm))
         for k in range(m):
             a, b = p0 + (k / m) * (p1 - p0), p0 + ((k + 1) / m) * (p1 - p0)
             t = np.linspace(0.0, 1.0, dense + 2)[:, None]
@@ -385,7 +385,7 @@ def test_frenet_ego_shape_inflation_about_the_rear_axle():
     sh = obs.frenet_ego_shape(10.0, 1.0, 0.0, f, CAR)
     # front edge at f * (l/2 + l_ch/2) = 1.5 * 3.7 ahead of the rear axle, width scaled by f
     assert sh.cx + sh.L == pytest.approx(10.0 + f * 3.7)
-    assert sh.W == pytest.approx(f * 0.95)
+    assert pytest.approx(f * 0.95) == sh.W
 
 
 def test_conventional_fit_along_a_truck_scenario():

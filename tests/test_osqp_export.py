@@ -15,8 +15,8 @@ import pytest
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "generator"))
-from fcgen.backends.osqp_const import CONST_ARRAYS  # noqa: E402
-from fcgen.backends.osqp_export import OsqpExport, export_osqp, restore_osqp_library  # noqa: E402
+from fcgen.backends.osqp_const import CONST_ARRAYS
+from fcgen.backends.osqp_export import OsqpExport, export_osqp, restore_osqp_library
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
 

@@ -3,6 +3,7 @@ reaction; the Python reference and the generated C agree."""
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 
 import numpy as np
@@ -35,10 +36,8 @@ def _python(pb, road, x0, opp):
     sv = RtiSolver(build_ocp(pb))
     sv.set_road(road)
     sv.set_opponents(opp)
-    try:
+    with contextlib.suppress(SolverError):  # an unusable QP falls back: the plan check runs on the fallback plan too
         sv.step(x0)
-    except SolverError:
-        pass  # an unusable QP falls back: the plan check runs on the fallback plan too
     return sv.status, sv.u0()
 
 
@@ -62,7 +61,7 @@ def _c(cs: CSolver, road, x0, opp):
 def test_a_parallel_opponent_gives_the_hand_derived_clearance(c_solvers):
     """A car standing 5 m to the left, 12 m ahead: the plan (straight on n = 0) passes it 5 - 2 x 0.95 = 3.1 m apart
     (the separating axis across the road; along it, the gap shrinks from 8 m to overlapping)."""
-    for tag, (pb, cs) in c_solvers.items():
+    for _tag, (pb, cs) in c_solvers.items():
         road, x0, opp = _inputs(pb, (12.0, 5.0))
         st_py, u_py = _python(pb, road, x0, opp)
         st_c, u_c = _c(cs, road, x0, opp)
@@ -108,9 +107,9 @@ def test_an_opponent_running_into_the_ego_from_behind_does_not_make_it_brake(c_s
 
 def test_an_opponent_ahead_now_that_the_plan_would_pass_into_makes_the_ego_brake(c_solvers):
     """An opponent 30 m ahead in the next lane now, predicted from the next stage on 1 m behind the ego in its lane
-    (where the ego would be at 20 m/s: no plan gets clear of it within 0.1 s): its first overlap has it behind the ego, but it is ahead now, so
-    the plan would have to pass it to get there; braking keeps the ego behind it (truck lifted HP seed 104: the ego
-    passed a truck into a bend and cut in ahead of its front)."""
+    (where the ego would be at 20 m/s: no plan gets clear of it within 0.1 s): its first overlap has it behind the ego,
+    but it is ahead now, so the plan would have to pass it to get there; braking keeps the ego behind it (truck lifted
+    HP seed 104: the ego passed a truck into a bend and cut in ahead of its front)."""
     pb, cs = c_solvers["safe"]
     road, x0, opp = _inputs(pb, (30.0, 5.0))
     k = np.arange(1, pb.horizon.N + 1)

@@ -106,7 +106,7 @@ def test_a_report_is_of_one_profile(tmp_path):
         return [r]
 
     ResultStore(tmp_path / "both").write(rows("paper", 0) + rows("safe", 0))
-    with pytest.raises(ValueError, match="several profiles.*fcgen profiles"):
+    with pytest.raises(ValueError, match=r"several profiles.*fcgen profiles"):
         write_report(tmp_path / "both", tmp_path / "report")
     ResultStore(tmp_path / "paper").write(rows("paper", 0) + rows("paper", 1))
     ResultStore(tmp_path / "safe").write(rows("safe", 1))

@@ -21,7 +21,7 @@ def test_every_backend_has_its_c_side():
 
 
 def test_an_unknown_backend_is_refused_with_the_list():
-    with pytest.raises(ValueError, match="qp.backend: 'hpipm' is not a QP backend; allowed: osqp, ipm"):
+    with pytest.raises(ValueError, match=r"qp.backend: 'hpipm' is not a QP backend; allowed: osqp, ipm"):
         backend_c("hpipm")
 
 

@@ -118,7 +118,7 @@ def test_A_pattern_has_no_duplicates_and_every_jacobian_entry_lands_once(ocp_lay
 
 
 def test_P_diagonal_and_bounds(ocp_layout):
-    ocp, lay = ocp_layout
+    _ocp, lay = ocp_layout
     assert np.all(lay.P_diag >= 0) and np.max(lay.P_diag) == pytest.approx(1.0)  # cost scaled to max 1
     P = lay.P_matrix()
     assert P.nnz == lay.n and np.array_equal(P.diagonal(), lay.P_diag)
@@ -187,7 +187,7 @@ def test_stage_jacobian_equals_finite_differences_in_scaled_variables(prepared, 
     st = ocp.stage(k)
     rng = np.random.default_rng(k)
     w, xn, p = stage_point(sv, k, rng)
-    g0, J, _ = st.fun(w, xn, p)
+    _g0, J, _ = st.fun(w, xn, p)
     J = np.array(ca.DM(J).full())
     Dfull = np.r_[st.D, ocp.first.D[: ocp.nx]]  # scaled variables z = w / D (and x_next / D_x)
     z = np.r_[w, xn]

@@ -140,7 +140,7 @@ def test_replay_pins_the_first_changed_sample(tmp_path) -> None:
     assert rep["first_divergence"]["field"] == "control" and rep["first_divergence"]["index"] == [1]
     assert rep["first_divergence"]["golden"] == gold
     assert rep["logs_out_of_tolerance"] == 1 and rep["logs_compared"] == 2
-    ctrl = [f for f in rep["logs"][0]["fields"] if f["field"] == "control"][0]
+    ctrl = next(f for f in rep["logs"][0]["fields"] if f["field"] == "control")
     assert ctrl["samples_out_of_tolerance"] == 1
 
 
@@ -152,7 +152,7 @@ def weight_copy(tmp_path_factory) -> Path:
 
     pb = load_problem(str(SOLVER / "problem.py"))
     w = pb.weights
-    pb2 = replace(pb, weights=replace(w, q=(w.q[0], 1.1 * w.q[1]) + tuple(w.q[2:])))
+    pb2 = replace(pb, weights=replace(w, q=(w.q[0], 1.1 * w.q[1], *tuple(w.q[2:]))))
     out = tmp_path_factory.mktemp("weight") / "truck_lifted_ellipse"
     generate(pb2, out)
     return out

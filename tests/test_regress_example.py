@@ -32,7 +32,7 @@ def test_the_documented_ci_example(tmp_path, monkeypatch):
     assert cmd[0] == "fcgen"
     res = CliRunner().invoke(main, cmd[1:])
     assert res.exit_code == 0, res.output
-    man, logs = load_suite(tmp_path / "generated" / "my_solver" / "golden")
+    _man, logs = load_suite(tmp_path / "generated" / "my_solver" / "golden")
     assert len(logs) == 3 and all(lg.plan_controls is not None for lg in logs)
     # the pytest file, as documented (its defaults point at generated/my_solver)
     ns: dict = {}

@@ -155,7 +155,7 @@ def test_dgamma_ds_is_unit_tangent_up_to_interpolation_error(seed):
 def test_interpolants_pass_through_samples_and_are_C1_at_knots(seed):
     road = random_road(seed)
     knots = road.s[1:-1]
-    k, phi, gx, gy, dgx, dgy = road.eval(road.s)
+    k, phi, gx, gy, _dgx, _dgy = road.eval(road.s)
     np.testing.assert_allclose(phi, road.phi, atol=1e-12)
     np.testing.assert_allclose(gx, road.gx, atol=1e-10)
     np.testing.assert_allclose(gy, road.gy, atol=1e-10)

@@ -167,7 +167,7 @@ def test_missing_and_unknown_fields():
         RunLog.from_dict(data)
     data = json.loads(json.dumps(base))
     data["road"]["gamma_y"] = data["road"]["gamma_y"][:-1]
-    with pytest.raises(ValueError, match="road.gamma_y"):
+    with pytest.raises(ValueError, match=r"road.gamma_y"):
         RunLog.from_dict(data)
     data = json.loads(json.dumps(base))
     data["samples"]["qp_iter"][0] = 1.5
@@ -203,7 +203,7 @@ def test_empty_edge_cases_round_trip():
 def test_qp_status_codes_are_the_generic_ones():
     from fcgen.backends import QP_MAX_ITER, QP_SOLVED, QP_STATUSES
 
-    assert QP_STATUS_NAMES == {i + 1: n[3:].lower() for i, n in enumerate(QP_STATUSES)}
+    assert {i + 1: n[3:].lower() for i, n in enumerate(QP_STATUSES)} == QP_STATUS_NAMES
     assert qp_status_name(QP_SOLVED) == "solved" and qp_status_name(QP_MAX_ITER) == "max_iter"
     assert qp_status_name(7) == "nonfinite" and qp_status_name(0) == "unknown_0"
     assert qp_status_name(-2) == "unknown_-2"

@@ -138,7 +138,7 @@ def test_profiles_of_the_presets():
         # give way before a_lat, 3e8)
         conventional = "_conventional_" in name
         assert preset(name + "_safe").soft == (SAFE_SOFT_CONVENTIONAL if conventional else d.soft)
-        assert SAFE_SOFT_CONVENTIONAL == replace(d.soft, obstacle_l1=1e8, a_lat_l1=3e8)
+        assert replace(d.soft, obstacle_l1=1e8, a_lat_l1=3e8) == SAFE_SOFT_CONVENTIONAL
         assert preset(name + "_safe").bounds.a_lat_margin == d.bounds.a_lat_margin
         assert preset(name).bounds.a_lat_margin == 0.0
         # the DSL's reference, but the conventional formulation's curve speed has no traffic rule and is taken at the
@@ -165,7 +165,7 @@ def test_profiles_of_the_presets():
 def test_bad_profile_fields_are_named(bad, field):
     with pytest.raises(ProblemError, match=field):
         Ellipse(**bad)
-    with pytest.raises(ProblemError, match="obstacles.radius"):
+    with pytest.raises(ProblemError, match=r"obstacles.radius"):
         CoveringCircles(3, radius="tight")
     with pytest.raises(ProblemError, match=r"obstacles.anchor.*\[0, 1\]"):
         SeparatingHyperplane(anchor=-1e-3)

@@ -7,6 +7,7 @@ road a few ulps away (another libm) but not another road.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -128,10 +129,10 @@ def test_scenario_bits_do_not_depend_on_numpy_simd_or_blas_kernels():
 def _reference_kappa(seed, length=1600.0, ds=2.0, kappa_max=0.05, knot_spacing=25.0) -> list[float]:
     """random_road's smoothed curvature by a plain Python loop: the moving sum in window order, then / width."""
     rng = np.random.default_rng(seed)
-    knots = rng.uniform(-kappa_max, kappa_max, int(math.ceil(length / knot_spacing)) + 3)
-    s = np.arange(int(math.ceil(length / ds)) + 1) * ds
+    knots = rng.uniform(-kappa_max, kappa_max, math.ceil(length / knot_spacing) + 3)
+    s = np.arange(math.ceil(length / ds) + 1) * ds
     raw = np.interp(s, np.arange(len(knots)) * knot_spacing, knots).tolist()
-    width = max(1, int(round(knot_spacing / ds)) | 1)
+    width = max(1, round(knot_spacing / ds) | 1)
     padded = [raw[0]] * (width // 2) + raw + [raw[-1]] * (width // 2)
     out = []
     for i in range(len(raw)):
@@ -148,7 +149,7 @@ def _reference_centre_line(kappa: list[float], ds: float, x0=(0.0, 0.0, 0.0)):
     tau = [0.5 * (x + 1.0) for x in GL10_NODES.tolist()]
     w = [0.5 * x for x in GL10_WEIGHTS.tolist()]
     phi, run = [x0[2]], 0.0
-    for a, b in zip(kappa[:-1], kappa[1:]):
+    for a, b in itertools.pairwise(kappa):
         run += ds * 0.5 * (a + b)
         phi.append(x0[2] + run)
     gx, gy, rx, ry = [x0[0]], [x0[1]], 0.0, 0.0

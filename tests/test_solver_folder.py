@@ -59,10 +59,10 @@ def test_the_build_paths_per_target_and_variant(generated):
 
 
 def test_what_is_not_a_folder_names_the_command_that_writes_one(tmp_path, generated):
-    with pytest.raises(FileNotFoundError, match="missing: no such solver folder.*fcgen generate"):
+    with pytest.raises(FileNotFoundError, match=r"missing: no such solver folder.*fcgen generate"):
         read_folder(tmp_path / "missing")
     (tmp_path / "junk.txt").write_text("x")
-    with pytest.raises(FileNotFoundError, match="not a generated solver folder.*fcgen generate"):
+    with pytest.raises(FileNotFoundError, match=r"not a generated solver folder.*fcgen generate"):
         read_folder(tmp_path)
     d = tmp_path / "two"
     shutil.copytree(generated["double"].out_dir, d)

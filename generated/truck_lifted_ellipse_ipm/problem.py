@@ -1,4 +1,4 @@
-"""The problem of solver 'truck_lift_el_ipm', written by fcgen 0.1.0: `fcgen verify` and `fcgen bench` load it."""
+"""The problem of solver 'truck_lift_el_ipm', written by fcgen 0.20.0: `fcgen verify` and `fcgen bench` load it."""
 from fcgen.dsl import *  # noqa: F401,F403
 
 problem = Problem(

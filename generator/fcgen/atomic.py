@@ -22,8 +22,8 @@ import shutil
 import signal
 import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
@@ -144,7 +144,7 @@ def describe(folder: Path, limit: int = 4) -> str:
     return f"{shown} ({len(names)} entr{'y' if len(names) == 1 else 'ies'})"
 
 
-def _link(src: Path, dst: Path) -> None:
+def _link(src: str | Path, dst: str | Path) -> None:
     try:
         os.link(src, dst)
     except OSError:

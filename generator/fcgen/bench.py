@@ -14,6 +14,7 @@ import math
 import platform
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -152,7 +153,7 @@ def bench(
             t0 = time.perf_counter()
             logs_py.append(run_closed_loop(pb, sc_py, ocp=ocp, progress=progress))
             wall["python"] += time.perf_counter() - t0
-    res = {
+    res: dict[str, Any] = {
         "format": "fcgen-bench/1",
         "solver": name,
         "gen_dir": str(gen_dir),
@@ -214,8 +215,8 @@ def format_bench(res: dict) -> str:
     if res.get("python"):
         py = res["python"]
         lines[0] += f"; Python reference on seeds {py['seeds'][0]}..{py['seeds'][-1]} x {py['samples_per_run']} samples"
-    hdr = ("controller", "phase", "median ms", "p99 ms", "max ms", "mean ms")
-    rows = [hdr]
+    hdr: tuple[str, ...] = ("controller", "phase", "median ms", "p99 ms", "max ms", "mean ms")
+    rows: list[tuple[str, ...]] = [hdr]
     for label, r in ctrl:
         for k in TIME_KEYS:
             t = r["time_ms"][k]
@@ -431,7 +432,7 @@ def bench_backends(
             if solvers[v].init() != 0:
                 raise RuntimeError(f"{v}: init() failed")
             logs[v].append(run_closed_loop(pb, sc, controller=solvers[v], ocp=ocp, progress=progress))
-    res = {
+    res: dict[str, Any] = {
         "format": "fcgen-bench-backends/1",
         "problem": pb.name,
         "gen_dir": str(gen_dir),

@@ -6,7 +6,7 @@ A low module (it imports nothing of fcgen): the generator and the QP backends' C
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 
 def c_real(x: float) -> str:
@@ -29,7 +29,7 @@ def c_macro_list(values: Sequence, per_line: int = 20) -> str:
     return "{" + ", \\\n  ".join(lines) + "}"
 
 
-def c_list(values: Sequence, fmt: Callable[..., str] = str, per_line: int = 12) -> str:
+def c_list(values: Iterable, fmt: Callable[..., str] = str, per_line: int = 12) -> str:
     """Comma-separated initializer body, ``per_line`` values a line; ``0`` for an empty table (length 1)."""
     items = [fmt(v) for v in values] or ["0"]
     lines = [", ".join(items[i : i + per_line]) for i in range(0, len(items), per_line)]

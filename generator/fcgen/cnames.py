@@ -22,7 +22,8 @@ C99_KEYWORDS = frozenset(
     "register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while "
     "bool true false complex imaginary".split()
 )
-"""C99 keywords, plus the lower-case spellings of ``_Bool``/``_Complex``/``_Imaginary`` that stdbool/complex.h define."""
+"""C99 keywords, plus the lower-case spellings of ``_Bool``/``_Complex``/``_Imaginary`` that stdbool/complex.h
+define."""
 
 _MATH = (
     "acos acosh asin asinh atan atan2 atanh cbrt ceil copysign cos cosh erf erfc exp exp2 expm1 fabs fdim floor "
@@ -191,7 +192,8 @@ NAMESPACES = (("OSQP", OSQP_NAMESPACES), ("CasADi", CASADI_NAMESPACES), ("the C 
 
 
 def name_clash(name: str) -> str | None:
-    """Why ``name`` cannot prefix the solver's C symbols, or None if it can (``name`` already matches [a-z][a-z0-9_]*)."""
+    """Why ``name`` cannot prefix the solver's C symbols, or None if it can (``name`` already matches
+    [a-z][a-z0-9_]*)."""
     if name in C99_KEYWORDS:
         return "a C keyword"
     if name in C_LIBRARY:

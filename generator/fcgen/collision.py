@@ -25,12 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "DIM_KEYS",
     "chassis_corners",
-    "corners_from_dims",
-    "rectangles_overlap",
-    "penetration_depth",
-    "sat_overlap",
     "collisions_over_run",
+    "corners_from_dims",
+    "penetration_depth",
     "penetration_over_run",
+    "rectangles_overlap",
+    "sat_overlap",
 ]
 
 #: Keys of a vehicle-dimension mapping (as stored in the run log): wheelbase is ``l_f + l_r``.

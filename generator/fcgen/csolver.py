@@ -107,7 +107,7 @@ class CSolver:
         raise FileNotFoundError(f"no *_solver.h above {lib_path}")
 
     @classmethod
-    def from_dir(cls, folder: FolderLike, verify: bool = False, clock: str = "wall", **build_kw) -> "CSolver":
+    def from_dir(cls, folder: FolderLike, verify: bool = False, clock: str = "wall", **build_kw) -> CSolver:
         """Build a generated folder (a :class:`~.solver_folder.SolverFolder`, or its path: read once) and load it."""
         folder = as_folder(folder)
         return cls(build(folder, verify=verify, **build_kw), clock=clock, folder=folder)
@@ -376,7 +376,7 @@ class CSolver:
             rc = rc or feedback()
             return result(rc)
 
-        step.road_arrays = arrays  # the arrays whose addresses set_road gets live as long as the function
+        step.road_arrays = arrays  # type: ignore[attr-defined]  # the arrays whose addresses set_road gets live as long as the function
         return step
 
     def _step_replaced(self) -> bool:

@@ -14,6 +14,7 @@ import subprocess
 import tempfile
 import uuid
 import zipfile
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape
@@ -24,6 +25,7 @@ from . import __version__
 from .build import build
 from .codegen.render import render_template
 from .contract import EXIT_CODES, StepResult
+from .extras import require
 from .reference import QP_EXIT
 from .solver_folder import FolderLike, SolverFolder, as_folder
 
@@ -53,10 +55,8 @@ class Var:
 
 def fmi_headers() -> Path:
     """The folder of FMI's C headers shipped inside the installed fmpy package."""
-    try:
+    with require("fmu", "fcgen fmu"):
         import fmpy
-    except ImportError as exc:  # pragma: no cover - fmpy is a dependency
-        raise FmuError("fcgen fmu needs the fmpy package (pip install fmpy)") from exc
     return Path(fmpy.__file__).parent / "c-code"
 
 
@@ -110,7 +110,12 @@ def fmi2_bases(vs: list[Var]) -> list[int]:
     for v in vs:
         out.append(vr)
         vr += v.count
-    return out + [vr]
+    return [*out, vr]
+
+
+def _named(name: str) -> Callable[[re.Match], str]:
+    """re.sub's replacement that puts ``name`` before a parameter's array brackets (if any)."""
+    return lambda m: f" {name}" + (m.group(1) or "")
 
 
 def _c_stubs(header: Path, prefix: str, implemented: set[str]) -> str:
@@ -129,7 +134,7 @@ def _c_stubs(header: Path, prefix: str, implemented: set[str]) -> str:
             last = m.group(1) if m else ""
             if not last or re.match(r"^(fmi[23][A-Z]\w*|size_t|int|char|double|const)$", last):  # an unnamed parameter
                 last = f"p{i}"
-                plist[i] = re.sub(r"(\[\s*\])?$", lambda mm: f" {last}" + (mm.group(1) or ""), p, count=1)
+                plist[i] = re.sub(r"(\[\s*\])?$", _named(last), p, count=1)
             pnames.append(last)
         body = " ".join(f"(void){n};" for n in pnames if n and n != "...")
         if ret.endswith("Status"):
@@ -200,7 +205,7 @@ def build_description(name: str, sources: list[str], includes: list[str]) -> str
 
 
 def model_description(
-    name: str, dt: float, vs: list[Var], token: str, fmi: int, description: str, sources: list[str] = ()
+    name: str, dt: float, vs: list[Var], token: str, fmi: int, description: str, sources: Sequence[str] = ()
 ) -> str:
     """``modelDescription.xml`` of the FMU (no timestamps: the same solver gives the same bytes)."""
     gen = f'generationTool="fcgen {__version__}"'
@@ -452,7 +457,8 @@ class FmuController:
     kind = "c-fmu"
 
     def __init__(self, path: Path | str, problem=None):
-        from fmpy import extract, read_model_description
+        with require("fmu", "an FMU controller"):
+            from fmpy import extract, read_model_description
 
         self.path = Path(path)
         md = read_model_description(str(self.path))
@@ -467,14 +473,16 @@ class FmuController:
         ident = md.coSimulation.modelIdentifier
         self.vr = {}
         if self.fmi == 3:
-            from fmpy.fmi3 import FMU3Slave
+            with require("fmu", "an FMU controller"):
+                from fmpy.fmi3 import FMU3Slave
 
             self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
             for v in md.modelVariables:
                 self.vr[v.name] = v.valueReference
             self.fmu.instantiate()
         else:
-            from fmpy.fmi2 import FMU2Slave
+            with require("fmu", "an FMU controller"):
+                from fmpy.fmi2 import FMU2Slave
 
             self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._dir, modelIdentifier=ident, instanceName="fcgen")
             groups: dict[str, list[int]] = {}

@@ -23,6 +23,7 @@ import struct
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .build import build
 from .solver_folder import FolderLike, as_folder
@@ -183,7 +184,7 @@ def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
         raise FileNotFoundError(f"{obj_dir}: no object files")
     readelf = tgt.tool("readelf") if tgt.bare_metal else "readelf"
     graph = CallGraph()
-    per_object = []
+    per_object: list[dict[str, Any]] = []
     for o in objs:
         sizes = section_sizes(o)
         component = o.relative_to(obj_dir).parts[0] if len(o.relative_to(obj_dir).parts) > 1 else "solver"
@@ -200,7 +201,7 @@ def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
             }
         )
     total = {k: sum(r[k] for r in per_object) for k in (*KEYS, "flash", "ram")}
-    stack = {}
+    stack: dict[str, dict[str, Any]] = {}
     unknown: set[str] = set()
     for fn in api_functions(folder.header, name):
         d, chain, unk = graph.worst(f"{name}_{fn}")
@@ -234,7 +235,7 @@ def footprint(folder: FolderLike, target: str = "cortex-m7") -> dict:
 
 def format_footprint(res: dict) -> str:
     """Per-object table, totals and the worst stack."""
-    rows = [("object", "text", "rodata", "data", "bss", "flash", "RAM")]
+    rows: list[tuple[str, ...]] = [("object", "text", "rodata", "data", "bss", "flash", "RAM")]
     for r in res["objects"]:
         rows.append((r["object"], *(str(r[k]) for k in (*KEYS, "flash", "ram"))))
     t = res["total"]

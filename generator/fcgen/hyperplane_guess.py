@@ -28,12 +28,12 @@ def theta_init(ocp: Ocp) -> ca.Function:
             ego = obs.frenet_ego_shape(x[0], x[1], x[2], 1.0, pb.ego)
             opp = obs.Shape(pj[0], pj[1], pj[2], pj[3], pj[4])
         else:
-            pose = (
+            px, py, phi = (
                 (x[5], x[6], x[7])
                 if ocp.state_kind == "lifted"
                 else casadi_to_cartesian(x[0], x[1], x[2], p[ocp.p_road], rp.samples)
             )
-            ego = obs.chassis_shape(*pose, pb.ego)
+            ego = obs.chassis_shape(px, py, phi, pb.ego)
             opp = obs.shape_of(pj[0], pj[1], pj[2], pj[3:])
         out += obs.midpoint_plane(ego, opp)
     return ca.Function("theta_init", [x, p], [ca.vertcat(*out)])

@@ -6,7 +6,7 @@ equations serve the NLP (road from a parameter window) and tests (road from a cl
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import casadi as ca
 
@@ -61,7 +61,7 @@ def frenet_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
 
 def lifted_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
     """x^d = [s, n, alpha, v, delta, x, y, phi]: Frenet kinematics plus Cartesian pose; wind uses Cartesian phi."""
-    s, n, alpha, v, delta, px, py, phi = ca.vertsplit(x)
+    s, n, alpha, v, delta, _px, _py, phi = ca.vertsplit(x)
     F_d, r = ca.vertsplit(u)
     kappa, _ = road(s)
     sdot = v * ca.cos(alpha) / (1 - n * kappa)
@@ -78,7 +78,7 @@ def lifted_ode(x, u, road: RoadFn, veh: Vehicle, wind: Wind):
     )
 
 
-def rk4(f: Callable, x, u, dt: float):
+def rk4(f: Callable, x, u, dt: float | ca.SX):
     """One explicit RK4 step of x' = f(x, u)."""
     k1 = f(x, u)
     k2 = f(x + dt / 2 * k1, u)
@@ -91,8 +91,10 @@ def ode(kind: str, road: RoadFn | None, veh: Vehicle, wind: Wind) -> Callable:
     """The ODE right-hand side f(x, u) of a state representation by name."""
     if kind == "cartesian":
         return lambda x, u: cartesian_ode(x, u, veh, wind)
-    if kind == "frenet":
-        return lambda x, u: frenet_ode(x, u, road, veh, wind)
-    if kind == "lifted":
-        return lambda x, u: lifted_ode(x, u, road, veh, wind)
+    if kind in ("frenet", "lifted"):
+        if road is None:
+            raise ValueError(f"ode({kind!r}): the {kind} model needs the road's functions")
+        rf: RoadFn = road
+        road_ode = frenet_ode if kind == "frenet" else lifted_ode
+        return lambda x, u: road_ode(x, u, rf, veh, wind)
     raise ValueError(f"model kind = {kind!r} is invalid: allowed 'cartesian', 'frenet', 'lifted'")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -30,15 +31,19 @@ OPP_SHAPE = ("length", "width", "offset")
 ELLIPSE_AXES = ("a", "b")
 
 
+Num = Any
+"""A float or a CasADi expression (SX, MX): the rows' functions serve the reference's numbers and the NLP alike."""
+
+
 @dataclass(frozen=True)
 class Shape:
     """Oriented rectangle: centre, axis angle, half-length, half-width (floats or CasADi expressions)."""
 
-    cx: object
-    cy: object
-    angle: object
-    L: object
-    W: object
+    cx: Num
+    cy: Num
+    angle: Num
+    L: Num
+    W: Num
 
 
 def _cos(a):
@@ -131,7 +136,7 @@ def circle_radius(L, W, n: int, cover: bool):
     if not cover:
         return SQRT2 * W
     half_gap = (L - W) / (n - 1)
-    big = ca.fmax(W, half_gap) if isinstance(half_gap, (ca.SX, ca.MX)) else max(W, half_gap)
+    big: Num = ca.fmax(W, half_gap) if isinstance(half_gap, (ca.SX, ca.MX)) else max(W, half_gap)
     return (W * W + big * big) ** 0.5
 
 
@@ -226,7 +231,7 @@ def circles_h(ego: Shape, n_ego: int, opp: Shape, n_opp: int, cover: bool) -> li
     return rows
 
 
-def hyperplane_h(ego: Shape, opp: Shape, theta, length: float, margin: float = 0.0) -> tuple[list, object]:
+def hyperplane_h(ego: Shape, opp: Shape, theta, length: float, margin: float = 0.0) -> tuple[list, Num]:
     """Separating hyperplane rows: -theta.[p - c_opp, 1] >= 0 (ego corners), theta.[p - c_opp, 1] >= 0 (opponent
     corners), each divided by ``length``, the ego's kept ``margin`` away; and the normalization t1^2 + t2^2 - 1 = 0.
 
@@ -320,7 +325,7 @@ SAG_SAFETY = 2.0  # the box's padding: this times chord_sag_bound (the road inte
 
 def edge_spacing(opp: Vehicle, points_per_metre: float) -> float:
     """The largest distance between two neighbouring points of the fitted rectangle's edges."""
-    return max(e / max(2, int(math.ceil(e * points_per_metre))) for e in (opp.w_ch, opp.l_ch))
+    return max(e / max(2, math.ceil(e * points_per_metre)) for e in (opp.w_ch, opp.l_ch))
 
 
 def chord_sag_bound(h: float, n_lo: float, n_hi: float, kap: np.ndarray, ds: float, reach: float) -> float | None:
@@ -373,7 +378,7 @@ def fit_frenet_shape(
     for i in range(4):
         p0, p1 = np.array(corners[i]), np.array(corners[(i + 1) % 4])
         # points per edge from its nominal length (width, length, width, length): no rounding decides the count
-        m = max(2, int(math.ceil((opp.w_ch if i % 2 == 0 else opp.l_ch) * points_per_metre)))
+        m = max(2, math.ceil((opp.w_ch if i % 2 == 0 else opp.l_ch) * points_per_metre))
         ts = np.linspace(0.0, 1.0, m + 1)
         pts += [p0 + t * (p1 - p0) for t in ts[:-1]]
     n_edge = len(pts)

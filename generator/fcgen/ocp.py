@@ -75,7 +75,7 @@ class Ocp:
     dynamics: ca.Function  # (x, u, p) -> x_next: one RK4 step (shift, plant, tests)
     init_state: ca.Function  # (x0 Frenet, p) -> x_0 of the formulation (lifted: append F^-1)
     a_lat: ca.Function  # (x) -> lateral acceleration
-    plan_clearance: ca.Function | None = None  # (x, p, opp poses) -> per opponent the SAT clearance (plan check)
+    plan_clearance: ca.Function  # (x, p, opp poses) -> per opponent the SAT clearance (plan check)
     cost: tuple = field(default=())  # (first, middle, last) unscaled cost functions (w, p) -> J, for IPOPT
     fit: OppFit | None = None  # conventional: the prepare phase's opponent fit (pose -> FRENET_SHAPE)
 
@@ -131,7 +131,7 @@ class Ocp:
 def road_window_samples(problem: Problem) -> int:
     """Samples of the per-stage local road window: from one ds behind s_k to twice the farthest RK4 reach."""
     reach = 2.0 * problem.bounds.v_max * problem.horizon.max_interval
-    return int(math.ceil((reach + 2 * problem.road.ds) / problem.road.ds)) + 1
+    return math.ceil((reach + 2 * problem.road.ds) / problem.road.ds) + 1
 
 
 @dataclass(frozen=True, eq=False)

@@ -76,7 +76,7 @@ EVAL = ("dphi", "cos", "sin", "ex", "ey", "dgx", "dgy", "ddgx", "ddgy", "ddphi",
 
 def edge_counts(opp_l: float, opp_w: float, points_per_metre: float) -> list[int]:
     """Points per rectangle edge (corner order of ``obstacles.vertices``: width, length, width, length)."""
-    return [max(2, int(math.ceil(e * points_per_metre))) for e in (opp_w, opp_l, opp_w, opp_l)]
+    return [max(2, math.ceil(e * points_per_metre)) for e in (opp_w, opp_l, opp_w, opp_l)]
 
 
 @dataclass(frozen=True)
@@ -125,7 +125,7 @@ def build_oppfit(problem: Problem) -> OppFit | None:
     shape = ca.SX.sym("shape", len(obs.OPP_SHAPE))
     x, y, phi = pose[0], pose[1], pose[2]
     c, s = ca.cos(phi), ca.sin(phi)
-    counts = (0, 0, 0, 0)
+    counts = [0, 0, 0, 0]
     if form.overapprox == "none":
         P = ca.vertcat(x, y)
         d = ca.SX(1, 1)
@@ -141,7 +141,7 @@ def build_oppfit(problem: Problem) -> OppFit | None:
             pts += [(ax + t * (bx - ax), ay + t * (by - ay)) for t in ts[:-1]]
         ref = len(pts)
         ends = [(sh.cx - sh.L * c, sh.cy - sh.L * s), (sh.cx + sh.L * c, sh.cy + sh.L * s)]
-        allp = pts + [(sh.cx, sh.cy)] + ends
+        allp = [*pts, (sh.cx, sh.cy), *ends]
         P = ca.horzcat(*[ca.vertcat(px, py) for px, py in allp])
         d = ca.vertcat(*[(px - sh.cx) * c + (py - sh.cy) * s for px, py in allp])
         spacing = obs.edge_spacing(opp, form.points_per_metre)

@@ -7,7 +7,7 @@ The formulas they act with (braking, the guard's steering rate, a_lat) are ``fcg
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

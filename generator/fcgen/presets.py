@@ -43,7 +43,8 @@ SHORT = {
 
 
 PROFILES = ("paper", "safe")
-"""``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults (docs/safe_profile.md)."""
+"""``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults
+(docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
 PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False)
 PAPER_QP = QpOptions(ipm_scaled_start=False)
@@ -203,7 +204,8 @@ def preset_names() -> list[str]:
 
 
 BACKEND_SUFFIXES = ("ipm",)
-"""A preset name may end in ``_<backend>`` for a QP backend other than the default OSQP (``truck_lifted_ellipse_ipm``)."""
+"""A preset name may end in ``_<backend>`` for a QP backend other than the default OSQP
+(``truck_lifted_ellipse_ipm``)."""
 SAFE_SUFFIX = "safe"
 """... and then in ``_safe`` for the safe profile (``truck_lifted_hyperplane_ipm_safe``)."""
 
@@ -259,12 +261,14 @@ def load_problem(spec: str) -> Problem:
         if not path.is_file():
             raise ProblemError(f"problem file {spec!r} does not exist")
         mod_spec = importlib.util.spec_from_file_location(f"fcgen_problem_{path.stem}", path)
+        if mod_spec is None or mod_spec.loader is None:
+            raise ProblemError(f"problem file {spec!r} cannot be loaded as a Python module")
         module = importlib.util.module_from_spec(mod_spec)
         try:
             mod_spec.loader.exec_module(module)
         except ProblemError:
             raise
-        except Exception as exc:  # a user's file: report, don't crash
+        except Exception as exc:  # noqa: BLE001 - any error of a user's file: reported in one line
             raise ProblemError(f"problem file {spec!r} failed to load: {type(exc).__name__}: {exc}") from None
         prob = getattr(module, "problem", None)
         if prob is None and hasattr(module, "make_problem"):
@@ -272,7 +276,7 @@ def load_problem(spec: str) -> Problem:
                 prob = module.make_problem()
             except ProblemError:
                 raise
-            except Exception as exc:  # a user's factory: report, don't crash
+            except Exception as exc:  # noqa: BLE001 - any error of a user's factory: reported in one line
                 raise ProblemError(
                     f"problem file {spec!r}: make_problem() failed: {type(exc).__name__}: {exc}"
                 ) from None

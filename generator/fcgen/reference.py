@@ -151,7 +151,7 @@ class RtiSolver:
             raise self._fail(
                 "ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}"
             )
-        if road.n_min is not None:
+        if road.n_min is not None and road.n_max is not None:
             b = self.ocp.problem.bounds
             for name, a, ok in (
                 ("n_min", road.n_min, road.n_min >= b.n_min),
@@ -218,11 +218,10 @@ class RtiSolver:
         self._ok()
 
     # -- parameters --------------------------------------------------------------------------------
-    def _window_start(self, s: float) -> int | None:
+    def _window_start(self, road: Road, s: float) -> int | None:
         """First road sample of the stage window around s (the C window_start), or None if the road does not cover
-        it (``s`` finite, a road set)."""
-        road = self.road
-        i0 = int(math.floor((s - road.s0) / road.ds)) - 1
+        it (``s`` finite)."""
+        i0 = math.floor((s - road.s0) / road.ds) - 1
         return i0 if i0 >= 0 and i0 + self.ocp.road_params.samples <= road.size else None
 
     def _road_params(self, s: float) -> np.ndarray:
@@ -231,7 +230,7 @@ class RtiSolver:
             raise self._fail("ERR_ROAD_WINDOW", "road window not set")
         if not math.isfinite(s):
             raise self._fail("ERR_ROAD_WINDOW", "non-finite s in the guess")
-        i0 = self._window_start(s)
+        i0 = self._window_start(road, s)
         if i0 is None:
             raise self._fail(
                 "ERR_ROAD_WINDOW", f"road window [{road.s0:.1f}, {road.s_end:.1f}] does not cover s = {s:.1f}"
@@ -302,6 +301,7 @@ class RtiSolver:
         return w[lay.var_off[k] : lay.var_off[k + 1]]
 
     def _stage_w(self, k: int) -> np.ndarray:
+        assert self.w is not None, "no plan yet"
         return self._stage(self.w, self.lay, k)
 
     # -- initial guess -----------------------------------------------------------------------------
@@ -315,6 +315,7 @@ class RtiSolver:
         self.s0_guess = self.x0[0]
         self._set_curve_speed()
         self.stage_params(0, self.x0[0])  # no road or x0 off it: ERR_ROAD_WINDOW before anything else
+        assert self.road is not None  # stage_params checked it
         s_last = last_window_s(self.road, ocp.road_params.samples)
         xf = cold_start_frenet(self.x0, list(ocp.problem.horizon.times), s_last)
         for k in range(ocp.N + 1):
@@ -350,6 +351,8 @@ class RtiSolver:
         cold = self.w is None or restart
         if cold:
             w, y = self.initial_guess()
+        elif self.w is None or self.y is None:
+            raise AssertionError("a warm prepare without a plan")
         elif shift:
             w, y = lay.shift_vars(self.w), lay.shift_duals(self.y)
         else:
@@ -359,24 +362,14 @@ class RtiSolver:
         self._set_curve_speed()
         P = np.stack([self.stage_params(k, w[lay.s_vars[k]]) for k in range(N + 1)], axis=1)
         Xn = np.stack([w[lay.var_off[k + 1] : lay.var_off[k + 1] + ocp.nx] for k in range(N)], axis=1)
-        g, J, q = [], [], []
-        out = self._fun_first(self._stage(w, lay, 0), Xn[:, 0], P[:, 0])
-        g.append(out[0])
-        J.append(out[1])
-        q.append(out[2])
-        if N > 1:
+        outs = [self._fun_first(self._stage(w, lay, 0), Xn[:, 0], P[:, 0])]
+        if self._fun_mid is not None:  # N > 1
             Wm = np.stack([self._stage(w, lay, k) for k in range(1, N)], axis=1)
-            out = self._fun_mid(Wm, Xn[:, 1:], P[:, 1:N])
-            g.append(out[0])
-            J.append(out[1])
-            q.append(out[2])
-        out = self._fun_last(self._stage(w, lay, N), np.zeros(ocp.nx), P[:, N])
-        g.append(out[0])
-        J.append(out[1])
-        q.append(out[2])
-        g = np.concatenate([np.array(a).ravel(order="F") for a in g])
-        jac = np.concatenate([np.array(a.nonzeros()) for a in J])
-        q = np.concatenate([np.array(a).ravel(order="F") for a in q])
+            outs.append(self._fun_mid(Wm, Xn[:, 1:], P[:, 1:N]))
+        outs.append(self._fun_last(self._stage(w, lay, N), np.zeros(ocp.nx), P[:, N]))
+        g = np.concatenate([np.array(out[0]).ravel(order="F") for out in outs])
+        jac = np.concatenate([np.array(out[1].nonzeros()) for out in outs])
+        q = np.concatenate([np.array(out[2]).ravel(order="F") for out in outs])
         if not (np.all(np.isfinite(g)) and np.all(np.isfinite(jac)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_QP_NONFINITE", "non-finite linearization (constraints, Jacobian or cost)")
         # commit
@@ -385,9 +378,12 @@ class RtiSolver:
         self.A_data = jac[lay.a_src]
         self.l = lay.L - g
         self.u = lay.U - g
-        if self.road.n_min is not None:  # the road's band at each stage's s (held for the QP: no d/ds)
+        road = self.road
+        assert road is not None  # stage_params checked it
+        if road.n_min is not None:  # the road's band at each stage's s (held for the QP: no d/ds)
             for row, k, side in lay.band_rows:
-                band = self.road.band_at(float(w[lay.s_vars[k]]))
+                band = road.band_at(float(w[lay.s_vars[k]]))
+                assert band is not None
                 (self.l if side == 0 else self.u)[row] = band[side] / lay.band_scale - g[row]
         if restart:  # as reset() would: the backend restored before its use
             self.qp.reset()
@@ -442,11 +438,13 @@ class RtiSolver:
             self.w = self.w_prep + lay.D * res.z
             if project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)[1] > MAX_INPUT_VIOLATION:
                 code = "ERR_QP_INPUT_BOUNDS"  # a usable status, but the step is far outside the input box
-        if code == "OK":
+        if code == "OK" and res.y is not None:  # (a usable status has y: else QP_NONFINITE above)
             self.y = res.y
         else:  # the step is not taken: the plan becomes the prepared (shifted) guess
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
-        self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
+        w = self.w
+        assert w is not None
+        self.u_applied, st.u_violation = project_control(w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
@@ -465,12 +463,14 @@ class RtiSolver:
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
         """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
+        assert self.x0 is not None  # feedback checked it
         st.a_lat_guard = a_lat_guard(
             self.ocp.problem, self.x0, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
         """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
+        assert self.x0 is not None  # feedback checked it
         return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
@@ -488,6 +488,7 @@ class RtiSolver:
             best, best_k, react = plan_verdict(C, A, [True] * (ocp.N + 1), min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
+            assert self.x0 is not None  # feedback checked it
             self.u_applied[0] = braking_control(pb, self.x0)
 
     # -- outputs ------------------------------------------------------------------------------------
@@ -523,7 +524,7 @@ class RtiSolver:
         for it in range(1, max_sqp + 1):
             self.prepare(shift=False)
             self.feedback()
-            if np.max(np.abs(self.z)) < tol:
+            if self.z is not None and np.max(np.abs(self.z)) < tol:
                 return it
         return max_sqp
 

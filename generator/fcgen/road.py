@@ -134,7 +134,7 @@ class Road:
             object.__setattr__(self, "n_max", hi)
 
     @classmethod
-    def from_curvature(cls, kappa, ds: float, s0: float = 0.0, x0=(0.0, 0.0, 0.0)) -> "Road":
+    def from_curvature(cls, kappa, ds: float, s0: float = 0.0, x0=(0.0, 0.0, 0.0)) -> Road:
         """Integrate the centre line from (x, y, phi) = x0 for piecewise-linear curvature samples.
 
         ``phi`` is exact (trapezoid of a linear function); ``gamma`` uses 10-point Gauss-Legendre per segment: libm
@@ -171,9 +171,9 @@ class Road:
     def s_end(self) -> float:
         return self.s0 + self.ds * (self.size - 1)
 
-    def window(self, s_start: float, samples: int) -> "Road":
+    def window(self, s_start: float, samples: int) -> Road:
         """The sub-road of ``samples`` samples starting at the last grid point at or before ``s_start``."""
-        i0 = int(math.floor((s_start - self.s0) / self.ds))
+        i0 = math.floor((s_start - self.s0) / self.ds)
         if i0 < 0 or i0 + samples > self.size:
             raise ValueError(
                 f"road window [{s_start:.1f}, +{samples} samples] is outside the road [{self.s0:.1f}, {self.s_end:.1f}]"
@@ -200,10 +200,10 @@ class Road:
     def band_at(self, s: float) -> tuple[float, float] | None:
         """The drivable band ``(n_min, n_max)`` at ``s``: linear between samples (held beyond the ends); None without
         per-sample bounds. The solver's formula (Python and C alike): a + tau (b - a) on the segment of s."""
-        if self.n_min is None:
+        if self.n_min is None or self.n_max is None:
             return None
         t = (s - self.s0) / self.ds
-        i = min(max(int(math.floor(t)), 0), self.size - 2)
+        i = min(max(math.floor(t), 0), self.size - 2)
         tau = min(max(t - i, 0.0), 1.0)
         lo, hi = self.n_min, self.n_max
         return (float(lo[i] + tau * (lo[i + 1] - lo[i])), float(hi[i] + tau * (hi[i + 1] - hi[i])))
@@ -335,11 +335,11 @@ def random_road(
     ``seed`` is anything ``numpy.random.default_rng`` takes (an int, or a list of ints for derived seeds).
     """
     rng = np.random.default_rng(seed)
-    knots = rng.uniform(-kappa_max, kappa_max, int(math.ceil(length / knot_spacing)) + 3)
-    s = np.arange(int(math.ceil(length / ds)) + 1) * ds
+    knots = rng.uniform(-kappa_max, kappa_max, math.ceil(length / knot_spacing) + 3)
+    s = np.arange(math.ceil(length / ds) + 1) * ds
     s_knots = np.arange(len(knots)) * knot_spacing
     raw = np.interp(s, s_knots, knots)
-    width = max(1, int(round(knot_spacing / ds)) | 1)  # odd moving-average width: a convex combination
+    width = max(1, round(knot_spacing / ds) | 1)  # odd moving-average width: a convex combination
     padded = np.pad(raw, width // 2, mode="edge")
     # the moving average as a sum of shifted slices in a fixed order (not np.convolve: a BLAS dot product per
     # output, summed in the order of the CPU's kernel)
@@ -364,7 +364,7 @@ def min_self_distance(road: Road, min_arc: float, s_max: float | None = None) ->
 
 
 def straight_road(length: float = 1600.0, ds: float = 2.0, s0: float = 0.0) -> Road:
-    return Road.from_curvature(np.zeros(int(math.ceil(length / ds)) + 1), ds, s0)
+    return Road.from_curvature(np.zeros(math.ceil(length / ds) + 1), ds, s0)
 
 
 # --- CasADi: the same formula on a short local window of samples ---------------------------------

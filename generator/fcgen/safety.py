@@ -75,7 +75,7 @@ def multipliers(problem: Problem, scenario: str, seeds, samples: int = 200) -> d
 
     pb = hard(problem)
     groups = row_groups(pb)
-    out = {"obstacle": [], "a_lat": []}
+    out: dict[str, list] = {"obstacle": [], "a_lat": []}
     with tempfile.TemporaryDirectory() as tmp:
         cs = CSolver(build(generate(pb, Path(tmp) / "s").out_dir))
 

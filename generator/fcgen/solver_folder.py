@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Union
 
 from .codegen.consistency import check_folder, read_macros, the_solver
 from .dsl import Problem
@@ -77,7 +76,7 @@ class SolverFolder:
         return self.build_dir(verify, target, variant) / f"lib{self.name}.{ext}"
 
 
-FolderLike = Union[SolverFolder, Path, str]
+FolderLike = SolverFolder | Path | str
 
 
 def read_folder(path: Path | str, check: bool = True) -> SolverFolder:

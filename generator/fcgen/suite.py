@@ -410,8 +410,9 @@ def manifest_facts(logs: list[RunLog]) -> dict[str, Any]:
             raise ValueError(f"the suite's run logs disagree on {key}: {', '.join(sorted(vals))}")
         facts[key] = json.loads(vals.pop())
     facts["settings.seeds"] = sorted(lg.meta.get("seed") for lg in logs)
-    if all(lg.plan_states is not None for lg in logs):
-        facts["problem.sizes.NX"] = int(logs[0].plan_states.shape[-1])
+    plans = [lg.plan_states for lg in logs if lg.plan_states is not None]
+    if len(plans) == len(logs):
+        facts["problem.sizes.NX"] = int(plans[0].shape[-1])
     return facts
 
 

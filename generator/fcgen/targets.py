@@ -107,8 +107,7 @@ class Target:
             QEMU,
             "-M",
             self.qemu_machine,
-            "-cpu",
-            self.qemu_cpu,
+            *(["-cpu", self.qemu_cpu] if self.qemu_cpu else []),
             "-nographic",
             "-monitor",
             "none",
@@ -143,7 +142,7 @@ class Target:
         ]
 
 
-QEMU = "qemu-system-arm"
+QEMU: str = "qemu-system-arm"
 README_BEGIN = "<!-- fcgen footprint: begin -->"
 README_END = "<!-- fcgen footprint: end -->"
 """Markers of the generated README's footprint line (``fcgen footprint --readme`` fills it)."""

@@ -348,9 +348,9 @@ class _Lockstep:
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
             self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
             self._upd("u_fb", rel_diff(qp["u"], _clip(sv.u)))
-            free = sv.lay.P_diag == 0.0
-            self._upd("z", rel_diff(qp["z"][~free], sv.z[~free]))
-            self._upd("z_free", rel_diff(qp["z"][free], sv.z[free]))
+            free, z = sv.lay.P_diag == 0.0, np.asarray(sv.z)
+            self._upd("z", rel_diff(qp["z"][~free], z[~free]))
+            self._upd("z_free", rel_diff(qp["z"][free], z[free]))
             self._upd("y", rel_diff(qp["y"], sv.y))
             w_c = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
             w_r = np.concatenate([sv.states().ravel(), sv.controls().ravel()])

@@ -111,7 +111,7 @@ class QpBackend(Protocol):
 
     name: str
 
-    def __init__(self, layout: "QpLayout", opts: "QpOptions") -> None: ...
+    def __init__(self, layout: QpLayout, opts: QpOptions) -> None: ...
 
     def reset(self) -> None:
         """Bitwise the state of a freshly constructed backend."""
@@ -130,6 +130,6 @@ def backend_module(name: str):
     return importlib.import_module(f"{__name__}.{name}")
 
 
-def make_backend(layout: "QpLayout", opts: "QpOptions") -> QpBackend:
+def make_backend(layout: QpLayout, opts: QpOptions) -> QpBackend:
     """The backend ``opts.backend`` names, set up for ``layout``."""
     return backend_module(opts.backend).Backend(layout, opts)

@@ -89,7 +89,7 @@ def _bwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
     return X
 
 
-def ipm_settings(opts: "QpOptions") -> IpmSettings:
+def ipm_settings(opts: QpOptions) -> IpmSettings:
     """The IPM's settings of a problem's QpOptions."""
     return IpmSettings(tol=opts.ipm_tol, scaled_start=opts.ipm_scaled_start)
 
@@ -99,7 +99,7 @@ class Backend:
 
     name = "ipm"
 
-    def __init__(self, layout: QpLayout, opts: "QpOptions", settings: IpmSettings | None = None):
+    def __init__(self, layout: QpLayout, opts: QpOptions, settings: IpmSettings | None = None):
         self.lay = layout
         self.sv = stage_view(layout)
         self.tab = IpmTables(layout, self.sv)
@@ -192,8 +192,12 @@ class Backend:
         """The Riccati recursion over the stage blocks H (k = N..0); False if a pivot is not positive."""
         sv, tab, st = self.sv, self.tab, self.set
         N, nx = sv.N, sv.nx
-        self.Lr, self.W1, self.Pk = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
-        self.UD, self.LM = [None] * (N + 1), [None] * (N + 1)
+        none = np.empty(0)  # a stage's entry before the sweep sets it
+        self.Lr: list[np.ndarray] = [none] * (N + 1)
+        self.W1: list[np.ndarray] = [none] * (N + 1)
+        self.Pk: list[np.ndarray] = [none] * (N + 1)
+        self.UD: list[np.ndarray] = [none] * (N + 1)
+        self.LM: list[np.ndarray] = [none] * (N + 1)
         P = None
         for k in range(N, -1, -1):
             Q, S, R = H[k, :nx, :nx], H[k, nx:, :nx], H[k, nx:, nx:]
@@ -236,8 +240,9 @@ class Backend:
         rr = np.r_[r_eq_rows, 0.0]
         cdyn = -rr[sv.dyn_rows] * self.Einv  # (N, nx)
         deq = -rr[tab.eq_row]  # (N+1, NE)
-        lr, kk, p = [None] * (N + 1), [None] * (N + 1), [None] * (N + 1)
-        pn = None
+        none = np.empty(0)  # a stage's entry before the backward sweep sets it
+        lr, kk, p = [none] * (N + 1), [none] * (N + 1), [none] * (N + 1)
+        pn = np.zeros(nx)  # p_{k+1}, read from k = N - 1 on
         for k in range(N, -1, -1):
             qb, rb = ht[k, :nx], ht[k, nx:]
             if k < N:

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..qp import QpLayout, StageView
@@ -75,7 +77,7 @@ class IpmTables:
         ent_var += sv.box_var.tolist()
         ent_a += sv.box_a.tolist()
         self.gen_xu_ptr, self.gen_xu_v, self.gen_xu_a, self.gen_var = gptr, gv, ga, gvar
-        if any(gv[i] >= gv[i + 1] for p0, p1 in zip(gptr[:-1], gptr[1:]) for i in range(p0, p1 - 1)):
+        if any(gv[i] >= gv[i + 1] for p0, p1 in itertools.pairwise(gptr) for i in range(p0, p1 - 1)):
             raise AssertionError("stage view: a general row's stage slots must ascend")
         self.gen_svar = svar
         self.ent_row, self.ent_var, self.ent_a = (np.array(x, dtype=np.int64) for x in (ent_row, ent_var, ent_a))

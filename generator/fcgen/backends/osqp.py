@@ -71,12 +71,12 @@ within 0.01 % of double, at no cost per iteration. The error does not depend on 
 (1e2 rho) slows both precisions."""
 
 
-def osqp_sigma(opts: "QpOptions", use_float: bool = False) -> float:
+def osqp_sigma(opts: QpOptions, use_float: bool = False) -> float:
     """The ``sigma`` a build uses: ``qp.sigma``, in a float build at least :data:`FLOAT_SIGMA_MIN`."""
     return max(opts.sigma, FLOAT_SIGMA_MIN) if use_float else opts.sigma
 
 
-def osqp_settings(opts: "QpOptions", use_float: bool = False) -> dict:
+def osqp_settings(opts: QpOptions, use_float: bool = False) -> dict:
     """OSQP settings, identical for the Python package and the generated code of that precision (only ``sigma``
     depends on it, :func:`osqp_sigma`; the Python reference computes in double with the double build's settings)."""
     return dict(
@@ -98,7 +98,7 @@ def osqp_settings(opts: "QpOptions", use_float: bool = False) -> dict:
     )
 
 
-def setup_data(lay: "QpLayout") -> tuple:
+def setup_data(lay: QpLayout) -> tuple:
     """The QP OSQP is set up (and the C workspace exported) with: q = 0, l = min(L, 0), u = max(U, 0)."""
     return (
         lay.P_matrix(),
@@ -114,7 +114,7 @@ class Backend:
 
     name = "osqp"
 
-    def __init__(self, layout: "QpLayout", opts: "QpOptions"):
+    def __init__(self, layout: QpLayout, opts: QpOptions):
         self.lay = layout
         self.opts = opts
         self.settings = osqp_settings(opts)

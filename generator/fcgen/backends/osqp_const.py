@@ -42,7 +42,8 @@ _QDLDL_PATTERN_WRITES = (
     ),
     (
         b"        Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum, total at the end\n",
-        b"        if (Lp[i + 1] != Lp[i] + Lnz[i]) Lp[i + 1] = Lp[i] + Lnz[i]; // cumsum (fcgen: written only if new)\n",
+        b"        if (Lp[i + 1] != Lp[i] + Lnz[i]) Lp[i + 1] = Lp[i] + Lnz[i];"
+        b" // cumsum (fcgen: written only if new)\n",
     ),
     (
         b"            Li[tmpIdx] = k;\n",

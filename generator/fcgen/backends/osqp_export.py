@@ -223,7 +223,7 @@ def _write_if_changed(path: Path, data: bytes) -> None:
 def _library_files(gen: Path) -> list[Path]:
     """Library part of an OSQP codegen folder, relative to it (sorted)."""
     files = [p.relative_to(gen) for sub in ("inc", "src") for p in (gen / sub).rglob("*") if p.is_file()]
-    return sorted(files + [Path("osqp_configure.h")])
+    return sorted([*files, Path("osqp_configure.h")])
 
 
 def _library_bytes(gen: Path, rel: Path, prefix: str) -> bytes:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..extras import require
 from .grid import Config
 
 ROW_KEYS = (
@@ -168,7 +169,8 @@ def run_cr_campaign(
 
 def write_results(rows: list[dict], out: str | Path) -> Path:
     """``commonroad.parquet``, ``commonroad.csv`` and the summary ``commonroad.md`` into ``out``."""
-    import pandas as pd
+    with require("campaign", "the CommonRoad campaign's tables"):
+        import pandas as pd
 
     o = Path(out)
     o.mkdir(parents=True, exist_ok=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
 from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
@@ -52,7 +53,7 @@ class Config:
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
-        over = {}
+        over: dict[str, Any] = {}
         has_backend = "backend" in {f.name for f in fields(QpOptions)}
         if has_backend:
             over["qp"] = preset_qp(self.backend, self.formulation, self.obstacles, self.profile)
@@ -154,10 +155,10 @@ def make_tasks(
     _one_of("clock", clock, CLOCKS)
     if block < 1:
         raise ProblemError(f"block = {block} is invalid: allowed >= 1")
-    seeds = list(seeds)
+    seed_list = list(seeds)
     return [
         Task(c, s, samples, cache_dir, clock, cflags)
-        for b in range(0, len(seeds), block)
+        for b in range(0, len(seed_list), block)
         for c in configs
-        for s in seeds[b : b + block]
+        for s in seed_list[b : b + block]
     ]

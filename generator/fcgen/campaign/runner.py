@@ -22,6 +22,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..extras import require
 from .grid import Task
 from .store import ResultStore
 from .task import build_solver, run_task
@@ -84,7 +85,8 @@ def executor(jobs: int = 2, scheduler: str | None = None):
         ) as ex:
             yield ex, jobs
         return
-    from distributed import Client, LocalCluster
+    with require("campaign", "a dask scheduler"):
+        from distributed import Client, LocalCluster
 
     if scheduler == "local":
         with (
@@ -116,7 +118,8 @@ def run_campaign(
         return out
     bar = None
     if progress:
-        from tqdm import tqdm
+        with require("campaign", "the campaign's progress bar"):
+            from tqdm import tqdm
 
         bar = tqdm(total=len(todo), unit="run", desc=f"campaign ({out.skipped} done before)", smoothing=0.05)
     t0 = time.perf_counter()
@@ -147,11 +150,7 @@ def _build_solvers(ex, todo: list[Task]) -> None:
     keys = sorted(
         {(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"}, key=lambda k: k[0].key
     )
-    for fut in cf.as_completed([ex.submit(build_solver, *k) for k in keys]):
-        try:
-            fut.result()
-        except Exception:  # noqa: BLE001 - reported by the runs of that configuration
-            pass
+    cf.wait([ex.submit(build_solver, *k) for k in keys])  # a build's exception stays in its future, unraised
 
 
 def _collect(
@@ -167,7 +166,7 @@ def _collect(
             out.computed += 1
         except cf.CancelledError:
             continue
-        except Exception as exc:  # a run that fails is reported, not written: the next call retries it
+        except Exception as exc:  # noqa: BLE001 - a run that fails (any error) is reported, not written; retried next call
             out.failed.append((task.run_id, f"{type(exc).__name__}: {exc}"))
         if bar is not None:
             bar.update(1)

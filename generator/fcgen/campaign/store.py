@@ -19,11 +19,13 @@ import time
 import uuid
 from pathlib import Path
 
-import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
-
+from ..extras import require
 from ..testhook import pause_point
+
+with require("campaign", "the campaign's result store"):
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
 
 PART_GLOB = "part-*.parquet"
 #: the merged file of a finished campaign: zstd is 25 % smaller than the parts' snappy (per-RTI times of 12,000 runs
@@ -160,6 +162,7 @@ class ResultStore:
         if not parts or not self.needs_compact():
             return parts[0] if parts else None
         tab = self.table()
+        assert tab is not None  # parts exist
         df = tab.to_pandas().drop_duplicates(list(RUN_ID), keep="first")
         df = df.sort_values(list(RUN_ID), kind="stable").reset_index(drop=True)
         pause_point("merge:before")

@@ -16,7 +16,7 @@ import os
 import socket
 import threading
 import time
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -56,7 +56,7 @@ def _ocp(problem):
         return _OCPS[problem.name]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _prepared(config: Config, cache_dir: str, cflags: str | None = None) -> tuple:
     """Per process and configuration: its problem, its solver hash and (C controller) its compiled library, generated
     and built into the cache on first use."""

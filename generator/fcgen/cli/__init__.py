@@ -10,6 +10,7 @@ import warnings
 import click
 
 from ..dsl import ProblemError
+from ..extras import MissingExtra
 from .generate import generate, regenerate
 from .golden import record, regress
 from .runs import campaign, profiles, report, simulate
@@ -23,7 +24,7 @@ class _Group(click.Group):
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
-        except (ProblemError, ValueError, OSError) as exc:
+        except (ProblemError, ValueError, OSError, MissingExtra) as exc:
             raise click.ClickException(str(exc)) from None
 
 

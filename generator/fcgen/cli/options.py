@@ -3,7 +3,8 @@ line of a closed loop."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any, NoReturn
 
 import click
 
@@ -16,7 +17,7 @@ CC_HELP = "C compiler (default: $CC or cc)"
 Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
 
 
-def fail(msg: str) -> None:
+def fail(msg: str) -> NoReturn:
     """End the command with ``Error: msg`` (exit 1), never a traceback."""
     raise click.ClickException(msg)
 

@@ -133,6 +133,8 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     if controller == "fmu":
         from ..fmu import FmuController, FmuError
 
+        if fmu_path is None:
+            fail("--controller fmu needs --fmu (an FMU written by `fcgen fmu`)")
         try:
             return FmuController(fmu_path, pb)
         except FmuError as exc:

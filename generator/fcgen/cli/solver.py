@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from ..targets import get_target
 from .options import (
@@ -140,7 +141,7 @@ def bench_cmd(
         if bare_metal:
             if backends is not None:
                 fail("--backends: not with an emulated --target (generate a folder per backend and bench each)")
-            seeds_given = click.get_current_context().get_parameter_source("seeds").name != "DEFAULT"
+            seeds_given = click.get_current_context().get_parameter_source("seeds") != ParameterSource.DEFAULT
             res = b.bench_target(
                 folder, target, scenario=scenario, seeds=seeds if seeds_given else 1, samples=samples, cflags=cflags
             )

@@ -19,8 +19,8 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from ..atomic import replace_folder, write_text
 from ..testhook import pause_point
@@ -135,7 +135,7 @@ def _same(a: Path, b: Path) -> bool:
     return a.is_file() and b.is_file() and a.stat().st_size == b.stat().st_size and a.read_bytes() == b.read_bytes()
 
 
-def _link(src: Path, dst: Path) -> None:
+def _link(src: str | Path, dst: str | Path) -> None:
     """``dst`` as a hard link of ``src`` (a copy where links are not possible); the original stays."""
     try:
         os.link(src, dst)

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import textwrap
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
-from ..reference import (  # noqa: F401 (re-exported)
+from ..reference import (
     COLD_RESTART_NOTE,
     EXIT_CODES,
     MAX_INPUT_VIOLATION,
@@ -48,8 +49,10 @@ MACRO_DOC = {
     "N": "shooting intervals",
     "NOPP": "opponents",
     "NOPP_PAR": "parameters per opponent and stage (set_opponents: the pose x, y, phi)",
-    "NOPP_STAGE": "parameters per opponent in a stage's parameters (its pose and shape; conventional: the fitted Frenet box)",
-    "NOPP_SHAPE": "shape values per opponent (set_opponent_shapes: length, width, centre offset; containing ellipse: + semi-axes a, b)",
+    "NOPP_STAGE": "parameters per opponent in a stage's parameters (its pose and shape; "
+    "conventional: the fitted Frenet box)",
+    "NOPP_SHAPE": "shape values per opponent (set_opponent_shapes: length, width, centre offset; "
+    "containing ellipse: + semi-axes a, b)",
     "ROAD_MAX": "road samples set_road accepts at most",
     "ROAD_WINDOW": "road samples in a stage's local window",
     "NP": "parameters per stage",
@@ -60,7 +63,8 @@ MACRO_DOC = {
     "QP_NNZ_A": "nonzeros of the QP constraint matrix",
     "NNZ_J": "stacked stage-Jacobian nonzeros",
     "COLD_RESTART_AFTER": "unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never)",
-    "RTI_BUDGET": "the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default)",
+    "RTI_BUDGET": "the most QP iterations one feedback runs, cold starts included "
+    "(qp.rti_budget or the backend's default)",
     "WORKSPACE_BYTES": "static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding)",
     "USE_FLOAT": "1: generated for float",
 }
@@ -358,7 +362,7 @@ def _tables(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
     top = max(int(np.max(t, initial=0)) for t in index_tables.values())
     index_ctype, index_size = ("uint16_t", 2) if top < 2**16 else ("uint32_t", 4)
     u_lo, u_hi, u_lim = input_box(problem)
-    real_tables = {
+    real_tables: dict[str, Sequence[float] | np.ndarray] = {
         "P_DIAG": lay.P_diag,
         "L": lay.L,
         "U": lay.U,

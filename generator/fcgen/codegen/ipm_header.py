@@ -9,9 +9,10 @@ the settings, the workspace struct, the kernels of ``ipm_kernels`` written out) 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -292,7 +293,7 @@ def _sizes(layout: QpLayout, p: _Plan) -> dict[str, Any]:
     }
 
 
-def _settings(opts: "QpOptions") -> dict[str, Any]:
+def _settings(opts: QpOptions) -> dict[str, Any]:
     """The IPM's settings as C literals (``IPM_TOL``, ...)."""
     st = ipm_settings(opts)
     return {
@@ -310,7 +311,7 @@ def _settings(opts: "QpOptions") -> dict[str, Any]:
     }
 
 
-def codegen_context(ocp, layout: QpLayout, opts: "QpOptions") -> dict:
+def codegen_context(ocp, layout: QpLayout, opts: QpOptions) -> dict:
     """What ``templates/backends/ipm.c.j2`` needs (rendered under the key ``backend``): the problem header's sizes,
     settings, tables, workspace and written-out kernels, and the hand-written algorithm's parts."""
     p = _plan(layout)
@@ -354,7 +355,7 @@ def core_files() -> list[Path]:
     return [core] + [core.parent / name for name in _PART.findall(core.read_text())]
 
 
-def write_files(ocp, layout: QpLayout, opts: "QpOptions", out_dir, use_float: bool) -> BackendFiles:
+def write_files(ocp, layout: QpLayout, opts: QpOptions, out_dir, use_float: bool) -> BackendFiles:
     """The IPM is all in the solver's C file: no extra files; its RAM is the workspace struct."""
     sv, sr = split_soft_rows(layout, stage_view(layout))
     ws = workspace_bytes(workspace_members(sv, layout), sr, 4 if use_float else 8)

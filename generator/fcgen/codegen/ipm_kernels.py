@@ -37,7 +37,7 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
     its diagonal); ``tdot``: out[j] += ([F G]' x)[j]; ``axpy``: y += [F G] v. Each sum runs over the band's rows in
     ascending order (the order the Python reference's dense products need not share: verify compares within
     tolerances)."""
-    a0, a1, off, _ = fg_bands(sv)
+    a0, _a1, off, _ = fg_bands(sv)
     nx, nfgc = sv.nx, len(a0)
     nz = np.zeros((nx, nfgc), dtype=bool)  # the pattern over all stages (a band may hold a zero: skip it)
     nz[sv.dyn_i, sv.dyn_j] = True
@@ -48,7 +48,7 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
     # H[i][j] = FG_s' (P FG_d) with d the denser of columns i, j (a tie: j) and s the other: m_a_d = (P FG_d)[a] for
     # the rows a of the sparser columns s paired with d (the fewest products for [F G]'s pattern)
     cnt = nz.sum(axis=0)
-    pairs = {d: [] for d in range(nfgc)}
+    pairs: dict[int, list[tuple[int, int]]] = {d: [] for d in range(nfgc)}
     for i in range(nfgc):
         for j in range(i, nfgc):
             pairs[j if cnt[j] >= cnt[i] else i].append((i, j))
@@ -57,7 +57,7 @@ def fg_kernels(sv: StageView) -> dict[str, str]:
         other = {(i, j): (i if j == d else j) for i, j in pairs[d]}
         need = sorted({a for s in other.values() for a in np.flatnonzero(nz[:, s])})
         for a in need:
-            terms = [f"({_lower('P', a, b)} * {el(b, d)})" for b in range(nx) if nz[b, d]]
+            terms = [f"({_lower('P', int(a), b)} * {el(b, d)})" for b in range(nx) if nz[b, d]]
             ctg.append(f"const ipm_real_t m{a}_{d} = {_c_sum(terms) if terms else 'REAL_0'};")
         for (i, j), s_ in other.items():
             terms = [f"({el(b, s_)} * m{b}_{d})" for b in range(nx) if nz[b, s_]]
@@ -101,9 +101,9 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
 
 def u_kernels(nu: int, nx: int) -> dict[str, str]:
     """Bodies of the Cholesky factor of R (NU x NU, stride NU) and of the solves with it, written out for all NU
-    inputs at once (``IPM_U_DENSE``, NU <= ``ipm_layout.U_KERNEL_MAX``): ``u_chol`` (0, or 1 if a pivot is not positive), ``u_fwd``:
-    X := L^-1 X over m columns of stride ldx, ``u_bwd_sub``: out := base - L^-T x (-L^-T x without base, the
-    solve in registers, x unchanged). The operations and their order per entry are
+    inputs at once (``IPM_U_DENSE``, NU <= ``ipm_layout.U_KERNEL_MAX``): ``u_chol`` (0, or 1 if a pivot is not
+    positive), ``u_fwd``: X := L^-1 X over m columns of stride ldx, ``u_bwd_sub``: out := base - L^-T x (-L^-T x
+    without base, the solve in registers, x unchanged). The operations and their order per entry are
     the generic loops' (ipm_chol, ipm_fwd, ipm_bwd), but for the sums' leading 0; where a stage's R is block diagonal
     (IPM_UB) the dense factor's entries between blocks come out exactly 0 (each product has a factor 0), so the
     factor and the solves equal the blockwise ones for finite data."""
@@ -332,7 +332,7 @@ def _gen_weights(p: _GenPattern) -> list[str]:
 
 def _gen_hessian(p: _GenPattern) -> list[str]:
     """``gen_h``: the rows' W c c' into IPM_W.H (ipm_stage_hessian)."""
-    h = [_GS, _AT] + p.load()
+    h = [_GS, _AT, *p.load()]
     for g, (_, slots, _) in enumerate(p.rows):
         for i in range(len(slots)):
             h += ["{", f"  const ipm_real_t ca = IPM_W.Weff[{g}] * {p.x(p.off[g] + i)};"]
@@ -428,7 +428,7 @@ def sr_kernels(na: int) -> dict[str, str]:
     nt = na * (na + 1) // 2
     a = [f"a{p}" for p in range(na)]
     load = [f"const ipm_real_t a{p} = IPM_W.sr.a[{p}][j + l];" for p in range(na)]
-    av = load + [f"out[l] = {_c_sum([f'(a{p} * v[{p}])' for p in range(na)])};"]
+    av = [*load, f"out[l] = {_c_sum([f'(a{p} * v[{p}])' for p in range(na)])};"]
     check = load + [f"const ipm_real_t w{p} = weff[l] * a{p};" for p in range(na)]
     check += [f"acc[{4 + p}][l] -= {a[p]} * l1v[l];" for p in range(na)]
     q = 0

@@ -122,7 +122,7 @@ def padded_runs(sr: SoftRows):
 
     def pad(values, fill: int = -1) -> np.ndarray:
         v = np.asarray(values)
-        out = np.full((int(ptr[-1]),) + v.shape[1:], fill, dtype=np.int64)
+        out = np.full((int(ptr[-1]), *v.shape[1:]), fill, dtype=np.int64)
         out[pos] = v
         return out
 
@@ -141,7 +141,8 @@ def workspace_bytes(members: list[dict], sr: SoftRows, real_size: int) -> int:
 def slack_entries(tab: IpmTables, N: int, NS: int, NG: int) -> tuple[np.ndarray, np.ndarray]:
     """The (x, u) entries of every slack's rows, slack by slack (stage k's slack s: ``ptr[k NS + s]`` on), each as its
     general-entry index: the slack elimination's loops in the order of the slots' loops, one level flatter."""
-    ptr, ent = [0], []
+    ptr: list[int] = [0]
+    ent: list[int] = []
     for ks in range((N + 1) * NS):
         for p in range(tab.sg_ptr[ks], tab.sg_ptr[ks + 1]):
             gi = (ks // NS) * NG + int(tab.sg_g[p])
@@ -242,12 +243,12 @@ def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
     for k in range(sv.N + 1):
         parent = list(range(NU))
 
-        def find(i):
+        def find(i, parent=parent):
             while parent[i] != i:
                 i = parent[i]
             return i
 
-        def couple(slots):
+        def couple(slots, parent=parent):
             us = [int(v) - nx for v in slots if nx <= v < nx + NU]
             for a in us[1:]:
                 parent[find(a)] = find(us[0])
@@ -258,7 +259,7 @@ def input_blocks(sv: StageView, sr: SoftRows) -> np.ndarray:
             couple(sv.gen_v[sv.gen_ptr[g] : sv.gen_ptr[g + 1]])
         for j in range(sr.ptr[k], sr.ptr[k + 1]):
             couple(sr.v[j][sr.a[j] >= 0])
-        hi = {}
+        hi: dict[int, int] = {}
         for i in range(NU):
             hi[find(i)] = max(hi.get(find(i), i), i)
         ends, end = [0], 0

@@ -116,7 +116,7 @@ def float_math(src: str) -> str:
 def write_model(ocp: Ocp, out_dir: Path, name: str, real: str) -> dict[str, Any]:
     """Emit ``<name>_model.c/.h``; returns the generated code's work sizes (max over functions) for static buffers."""
     funs = {k: _renamed(f, f"{name}_{k}") for k, f in model_functions(ocp).items()}
-    opts = {
+    opts: dict[str, Any] = {
         "with_header": True,
         "casadi_real": real,
         "casadi_int": "int",

@@ -24,7 +24,7 @@ with gcc 12 on x86-64 (LP64), double / float, truck_lifted_ellipse."""
 _OSQP_ARRAY = re.compile(r"^(OSQPFloat|OSQPInt|QDLDL_int|QDLDL_bool|QDLDL_float)\s+\w+\[(\d+)\]", re.M)
 
 
-def codegen_context(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions") -> dict[str, Any]:
+def codegen_context(ocp: Ocp, layout: QpLayout, opts: QpOptions) -> dict[str, Any]:
     """What ``templates/backends/osqp.c.j2`` needs (rendered under the key ``backend``)."""
     prefix = f"{ocp.problem.name}_"
     settings = osqp_settings(opts)
@@ -51,7 +51,7 @@ routines on a single-precision FPU)."""
 FLOAT_LIBRARY_REASON = "float build: OSQP's unsuffixed literals as float, no double arithmetic"
 
 
-def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path, use_float: bool) -> BackendFiles:
+def write_files(ocp: Ocp, layout: QpLayout, opts: QpOptions, out_dir: Path, use_float: bool) -> BackendFiles:
     """Export OSQP's workspace (problem-specific) and library into ``out_dir/osqp``; returns the folder's files."""
     out_dir = Path(out_dir)
     P, q, A, l, u = setup_data(layout)
@@ -97,7 +97,8 @@ def write_files(ocp: "Ocp", layout: "QpLayout", opts: "QpOptions", out_dir: Path
         link_libs=exp.link_libs,
         array_bytes=_array_bytes((out_dir / exp.workspace_sources[0]).read_text(), 4 if use_float else 8),
         struct_bytes=OSQP_STRUCT_BYTES[use_float],
-        memory_note="the arrays OSQP only\n  reads (matrix patterns, KKT maps, permutation, elimination tree, the factor's "
+        memory_note="the arrays OSQP only\n  reads (matrix patterns, KKT maps, permutation, elimination tree, "
+        "the factor's "
         "pattern) are `const` (flash) and\n  have no RAM copy",
         library=library,
         memory_init_note="; its initial values are `static const` copies in flash",

@@ -8,11 +8,13 @@ CommonRoad solution file.
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
 import numpy as np
 
 from ..collision import corners_from_dims, sat_overlap
+from ..extras import require
 
 
 def centre_dims(length: float, width: float) -> dict:
@@ -28,10 +30,11 @@ def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float
     """The checker's verdict: ``collision`` / ``collision_step`` (first closed-loop sample touching an obstacle,
     None without), ``obstacle_id``, ``road_departure`` / ``departure_step`` (the ego's rectangle touching the road
     boundary of the lanelet network, obb_rectangles)."""
-    import commonroad_dc.pycrcc as pycrcc
-    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
-    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_checker
+    with require("commonroad", "the drivability checker"):
+        from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+        from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_checker
 
+        pycrcc = importlib.import_module("commonroad_dc.pycrcc")  # by name: its stub file does not parse (mypy)
     cc = create_collision_checker(sc.scenario)
     _, boundary = create_road_boundary_obstacle(sc.scenario, method="obb_rectangles")
     hit = dep = None
@@ -89,16 +92,17 @@ def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:
     """A CommonRoad solution file of the run: planning problem ``sc.planning_problem_id``, kinematic single-track
     model (KS: its position is the rear axle, as fcgen's state), vehicle type BMW 320i, cost function SM1;
     ``ego_states`` (K + 1, 5): rear axle [x, y, phi], speed, steering angle per sample."""
-    from commonroad.common.solution import (
-        CommonRoadSolutionWriter,
-        CostFunction,
-        PlanningProblemSolution,
-        Solution,
-        VehicleModel,
-        VehicleType,
-    )
-    from commonroad.scenario.state import KSState
-    from commonroad.scenario.trajectory import Trajectory
+    with require("commonroad", "a CommonRoad solution file"):
+        from commonroad.common.solution import (
+            CommonRoadSolutionWriter,
+            CostFunction,
+            PlanningProblemSolution,
+            Solution,
+            VehicleModel,
+            VehicleType,
+        )
+        from commonroad.scenario.state import KSState
+        from commonroad.scenario.trajectory import Trajectory
 
     states = [
         KSState(

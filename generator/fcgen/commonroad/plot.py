@@ -7,14 +7,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ..extras import require
+
 
 def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) -> Path:
     """Write the PNG ``path``: the network, the obstacles and the ego at ``moments`` evenly spaced samples."""
-    import matplotlib
+    with require("commonroad", "a CommonRoad run's figure"):
+        import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from commonroad.visualization.mp_renderer import MPRenderer
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from commonroad.visualization.mp_renderer import MPRenderer
 
     c = np.asarray(ego_centres, dtype=float)
     pad = 40.0
@@ -63,7 +66,8 @@ def plot_run(sc, ego_centres: np.ndarray, path: str | Path, moments: int = 4) ->
 
 
 def _rect(pose, length, width, colour, alpha, zorder):
-    import matplotlib.patches as mp
+    with require("plot", "a CommonRoad run's figure"):
+        import matplotlib.patches as mp
 
     x, y, phi = pose
     cs, sn = np.cos(phi), np.sin(phi)

@@ -58,7 +58,8 @@ def lanelet_heading(net, lid: int, xy) -> float:
 
 
 def _reaches(net, start: int, goals: set[int], depth: int = 50) -> bool:
-    seen, todo = set(), [start]
+    seen: set[int] = set()
+    todo = [start]
     while todo and len(seen) < depth:
         lid = todo.pop()
         if lid in goals:
@@ -101,7 +102,7 @@ def _polyline_length(p: np.ndarray) -> float:
 
 def centre_polyline(net, chain: list[int]) -> np.ndarray:
     """The chain's centre vertices, joined (a repeated joint vertex dropped)."""
-    pts = []
+    pts: list[np.ndarray] = []
     for lid in chain:
         cv = np.asarray(net.find_lanelet_by_id(lid).center_vertices, dtype=float)
         if pts and np.hypot(*(cv[0] - pts[-1][-1])) < 1e-6:
@@ -147,9 +148,9 @@ def build_road(
     # where the ego starts along the path
     i0 = int(np.argmin(np.hypot(pts[:, 0] - start_xy[0], pts[:, 1] - start_xy[1])))
     s_start = i0 * ds
-    n_back = max(0, int(math.ceil((behind - s_start) / ds)))  # straight extension behind
-    n_more = max(1, int(math.ceil((ahead - (len(pts) - 1 - i0) * ds) / ds)))
-    n_bend = min(n_more, int(math.ceil(horizon / ds)))
+    n_back = max(0, math.ceil((behind - s_start) / ds))  # straight extension behind
+    n_more = max(1, math.ceil((ahead - (len(pts) - 1 - i0) * ds) / ds))
+    n_bend = min(n_more, math.ceil(horizon / ds))
     last = float(np.median(kappa[-min(len(kappa), HOLD_SAMPLES) :]))  # a spline's end is its least certain part
     kap = np.r_[np.zeros(n_back), kappa, np.full(n_bend, last), np.zeros(n_more - n_bend)]
     lo, hi = n_back, n_back + len(pts)
@@ -225,7 +226,7 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
     ok = np.flatnonzero(np.isfinite(lo))
     if not ok.size:
         raise ScenarioRefused("the reference path lies on no lanelet")
-    for i in np.flatnonzero(~np.isfinite(lo)):  # held from the nearest sample on the lanelets
-        j = ok[np.argmin(np.abs(ok - i))]
-        lo[i], hi[i] = lo[j], hi[j]
+    for gap in np.flatnonzero(~np.isfinite(lo)):  # held from the nearest sample on the lanelets
+        j = ok[np.argmin(np.abs(ok - gap))]
+        lo[gap], hi[gap] = lo[j], hi[j]
     return lo, hi

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dsl import Vehicle
+from ..extras import require
 from ..road import Road
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
@@ -63,11 +64,12 @@ def load_scenario(
     the horizon (``horizon_s`` at the larger of the initial and the reference speed) ahead of the ego's start; the road
     reaches as far as the run can take the ego at ``v_max`` plus the solver's road ``window_m``. Raises
     ``ScenarioRefused``."""
-    from commonroad.common.file_reader import CommonRoadFileReader
+    with require("commonroad", "reading a CommonRoad scenario"):
+        from commonroad.common.file_reader import CommonRoadFileReader
 
     try:
         scenario, pps = CommonRoadFileReader(str(path)).open()
-    except Exception as exc:  # a file commonroad-io cannot read
+    except Exception as exc:  # noqa: BLE001 - whatever commonroad-io raises on a file it cannot read
         raise ScenarioRefused(
             f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
             f"{str(exc).splitlines()[0] if str(exc) else ''})"

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..extras import require
+
 NEUTRAL_SHAPE = (4.0, 2.0, 0.0)
 NEUTRAL_DISTANCE = 1000.0
 
@@ -65,8 +67,9 @@ class CrObstacle:
 
 def obstacle_from(ob, dt: float) -> CrObstacle:
     """A commonroad-io static or dynamic obstacle as a ``CrObstacle`` (refused unless a rectangle)."""
-    from commonroad.geometry.shape import Rectangle
-    from commonroad.scenario.obstacle import StaticObstacle
+    with require("commonroad", "a CommonRoad scenario's traffic"):
+        from commonroad.geometry.shape import Rectangle
+        from commonroad.scenario.obstacle import StaticObstacle
 
     shape = ob.obstacle_shape
     if not isinstance(shape, Rectangle):
@@ -117,7 +120,7 @@ def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None):
     idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots)
     poses = np.zeros((N + 1, n_slots, 3))
     shapes = np.zeros((n_slots, 3))
-    ids = []
+    ids: list[int | None] = []
     far = neutral_pose(sc.road)
     for j, i in enumerate(idx):
         if i is None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Union
 
 from .validation import check, finite, nonneg
 
@@ -58,4 +57,4 @@ class Lifted:
         return False
 
 
-Formulation = Union[Conventional, DirectElimination, Lifted]
+Formulation = Conventional | DirectElimination | Lifted

@@ -45,7 +45,7 @@ class Horizon:
             f"at most {int(10 // self.dt)} (dt * stride <= 10 s)",
         )
         check(
-            isinstance(self.fine, int) and not isinstance(self.fine, bool) and 0 <= self.fine,
+            isinstance(self.fine, int) and not isinstance(self.fine, bool) and self.fine >= 0,
             "horizon.fine",
             self.fine,
             "an integer >= 0 (intervals of one sample before the coarse ones)",
@@ -113,4 +113,4 @@ class RoadWindow:
 
     @property
     def samples(self) -> int:
-        return int(math.ceil(self.length / self.ds)) + 1
+        return math.ceil(self.length / self.ds) + 1

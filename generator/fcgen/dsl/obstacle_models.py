@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Union
 
 from .validation import check, finite
 
@@ -80,7 +79,7 @@ class SeparatingHyperplane:
         check(0.0 <= finite("obstacles.anchor", self.anchor) <= 1.0, "obstacles.anchor", self.anchor, "[0, 1]")
 
 
-ObstacleModel = Union[Ellipse, CoveringCircles, SeparatingHyperplane]
+ObstacleModel = Ellipse | CoveringCircles | SeparatingHyperplane
 
 
 def circles_cover(l_ch: float, w_ch: float, n: int) -> bool:

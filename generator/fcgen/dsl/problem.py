@@ -108,7 +108,7 @@ class Problem:
                         stacklevel=3,
                     )
 
-    def with_(self, **changes) -> "Problem":
+    def with_(self, **changes) -> Problem:
         """A copy with some fields replaced (validated again)."""
         return replace(self, **changes)
 

@@ -79,7 +79,7 @@ class QpOptions:
         return min(self.max_iter, b), min(max(self.max_iter, self.max_iter_cold), b)
 
     @classmethod
-    def converged(cls) -> "QpOptions":
+    def converged(cls) -> QpOptions:
         """Solve every QP to eps = 1e-5 (up to 4000 iterations): the quality reference for the real-time mode."""
         return cls(max_iter=4000, eps_abs=1e-5, eps_rel=1e-5, rho=1.0, check_termination=5)
 

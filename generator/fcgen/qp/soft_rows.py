@@ -167,7 +167,10 @@ def _soft_rows_table(sv: StageView, soft: list[list]) -> SoftRows:
         for p, (vv, aa) in enumerate(u[1]):
             v[i, p], a[i, p] = vv, aa
     side_sign = {int(r): int(s) for r, s in zip(sv.side_row, sv.side_sign)}
-    col = lambda j: np.array([u[j] for u in flat], dtype=np.int64)  # noqa: E731
+
+    def col(j: int) -> np.ndarray:
+        return np.array([u[j] for u in flat], dtype=np.int64)
+
     rows, brows = col(0), col(4)
     return SoftRows(
         NA,

@@ -210,7 +210,10 @@ def stage_view(lay: QpLayout) -> StageView:
     eq_all = np.sort(np.r_[lay.init_rows, rc.dyn_rows.ravel(), eq_rows[eq_rows >= 0]]).astype(np.int64)
     if len(eq_all) + len(box_arr) + int((gen_rows >= 0).sum()) != lay.m:
         raise AssertionError("stage view: rows left unclassified")
-    as_int = lambda v: np.array(v, dtype=np.int64)  # noqa: E731
+
+    def as_int(v) -> np.ndarray:
+        return np.array(v, dtype=np.int64)
+
     return StageView(
         N,
         nx,

@@ -32,6 +32,12 @@ class FieldResult:
     def passed(self) -> bool:
         return self.bad_rows == 0
 
+    def first_out(self) -> dict[str, Any]:
+        """``first`` of a field that has a sample out of tolerance."""
+        if self.first is None:
+            raise ValueError(f"{self.field}: no sample out of tolerance")
+        return self.first
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "field": self.field,
@@ -81,7 +87,7 @@ def compare_field(name: str, new: np.ndarray, gold: np.ndarray, tol: Tol) -> Fie
     flat_d, flat_bad = d.reshape(rows, -1), bad.reshape(rows, -1)
     res.ratio = ratio.reshape(rows, -1).max(axis=1)
     res.rel = rel.reshape(rows, -1).max(axis=1)
-    res.bad = flat_bad.any(axis=1)
+    res.bad = np.asarray(flat_bad.any(axis=1), dtype=bool)
     res.tol_rel = float(np.min(allowed / safe))
     bad_rows = np.flatnonzero(flat_bad.any(axis=1))
     res.bad_rows = int(bad_rows.size)
@@ -89,18 +95,18 @@ def compare_field(name: str, new: np.ndarray, gold: np.ndarray, tol: Tol) -> Fie
     res.max_abs = float(d.flat[k])
     if res.max_abs > 0:
         idx = np.unravel_index(k, d.shape)
-        res.max_at = (int(idx[0]), tuple(int(i) for i in idx[1:]))
+        res.max_at = (int(idx[0]), tuple(int(ix) for ix in idx[1:]))
     if bad_rows.size:
         j = int(bad_rows[0])
         e = int(np.flatnonzero(flat_bad[j])[0])
-        idx = tuple(int(i) for i in np.unravel_index(e, a.shape[1:])) if a.ndim > 1 else ()
+        at = tuple(int(i) for i in np.unravel_index(e, a.shape[1:])) if a.ndim > 1 else ()
         res.first = {
             "sample": j,
-            "index": list(idx),
-            "new": _num(float(a[j][idx])),
-            "golden": _num(float(b[j][idx])),
+            "index": list(at),
+            "new": _num(float(a[j][at])),
+            "golden": _num(float(b[j][at])),
             "diff": _num(float(flat_d[j, e])),
-            "allowed": _num(float(allowed[j][idx])),
+            "allowed": _num(float(allowed[j][at])),
         }
     return res
 
@@ -125,7 +131,7 @@ class LogResult:
         bad = [f for f in self.fields if f.first is not None]
         if not bad:
             return None
-        return min(bad, key=lambda f: (f.first["sample"], 0 if f.field in STATE_FIELDS else 1))
+        return min(bad, key=lambda f: (f.first_out()["sample"], 0 if f.field in STATE_FIELDS else 1))
 
     def to_dict(self) -> dict[str, Any]:
         fd = self.first_divergence()
@@ -136,7 +142,7 @@ class LogResult:
             "samples": self.samples,
             "passed": self.passed,
             "skipped_fields": self.skipped,
-            "first_divergence": None if fd is None else {"field": fd.field, **fd.first},
+            "first_divergence": None if fd is None else {"field": fd.field, **fd.first_out()},
             "fields": [f.to_dict() for f in self.fields],
         }
 

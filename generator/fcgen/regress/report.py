@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..extras import require
 from .compare import FieldResult, LogResult
 from .tolerances import Tol
 
@@ -36,9 +37,8 @@ class RegressReport:
         return 0 if self.passed else 1
 
     def first_divergence(self) -> tuple[LogResult, FieldResult] | None:
-        cands = [(lg, lg.first_divergence()) for lg in self.logs]
-        cands = [(lg, f) for lg, f in cands if f is not None]
-        return min(cands, key=lambda c: c[1].first["sample"]) if cands else None
+        cands = [(lg, f) for lg in self.logs if (f := lg.first_divergence()) is not None]
+        return min(cands, key=lambda c: c[1].first_out()["sample"]) if cands else None
 
     def field_names(self) -> list[str]:
         seen: dict[str, None] = {}
@@ -60,7 +60,7 @@ class RegressReport:
             "exit_code": self.exit_code,
             "logs_compared": len(self.logs),
             "logs_out_of_tolerance": sum(not lg.passed for lg in self.logs),
-            "first_divergence": None if fd is None else {"log": fd[0].label, "field": fd[1].field, **fd[1].first},
+            "first_divergence": None if fd is None else {"log": fd[0].label, "field": fd[1].field, **fd[1].first_out()},
             "notes": self.notes,
             "logs": [lg.to_dict() for lg in self.logs],
         }
@@ -82,7 +82,7 @@ class RegressReport:
         fd = self.first_divergence()
         if fd is not None:
             lg, f = fd
-            x = f.first
+            x = f.first_out()
             idx = "[" + ", ".join(map(str, x["index"])) + "]" if x["index"] else ""
             lines.append(
                 f"first divergence: {lg.label}, sample {x['sample']}, field {f.field}{idx}: "
@@ -95,8 +95,8 @@ class RegressReport:
             worst = max(fr, key=lambda c: c[1].max_abs)
             at = "-"
             if worst[1].max_at is not None:
-                s, i = worst[1].max_at
-                at = f"{worst[0].label}, {s}" + (f", {list(i)}" if i else "")
+                s, at_index = worst[1].max_at
+                at = f"{worst[0].label}, {s}" + (f", {list(at_index)}" if at_index else "")
             out = sum(f.bad_rows for _, f in fr)
             tot = sum(f.rows for _, f in fr)
             rows.append(
@@ -110,10 +110,11 @@ class RegressReport:
         if n_bad:
             lines.append("per log, first divergence:")
             for lg in self.logs:
-                f = lg.first_divergence()
-                if f is not None:
-                    idx = f.first["index"]
-                    lines.append(f"  {lg.label}: sample {f.first['sample']}, {f.field}" + (f"{idx}" if idx else ""))
+                lf = lg.first_divergence()
+                if lf is not None:
+                    x = lf.first_out()
+                    idx = x["index"]
+                    lines.append(f"  {lg.label}: sample {x['sample']}, {lf.field}" + (f"{idx}" if idx else ""))
         skipped = sorted({s for lg in self.logs for s in lg.skipped})
         if skipped:
             lines.append(f"note: only one side carries {', '.join(skipped)} (not compared)")
@@ -128,10 +129,11 @@ class RegressReport:
     def plot(self, path: Path | str) -> Path:
         """Divergence over time: per field and sample ``max |diff| / scale`` (log scale), one line per log; the
         dashed line is the field's tolerance, red dots mark samples out of tolerance."""
-        import matplotlib
+        with require("plot", "fcgen regress --plot"):
+            import matplotlib
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
 
         names = self.field_names()
         n = max(1, len(names))

@@ -9,9 +9,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pandas as pd
 
+from ..extras import require
 from .tables import FORMS, _cell, _rti_times, groups
+
+with require("campaign", "the campaign's report"):
+    import pandas as pd
 
 
 def backends_of(df: pd.DataFrame) -> list[str]:
@@ -44,7 +47,7 @@ def compare(df: pd.DataFrame, base: str, other: str) -> list[dict]:
                     "median_ratio": float(np.median(tb) / np.median(ta)),
                     "iter_base": float(np.average(ca["qp_iter_mean"], weights=ca["n_controls"])),
                     "iter_other": float(np.average(cb["qp_iter_mean"], weights=cb["n_controls"])),
-                    "paired": int(len(common)),
+                    "paired": len(common),
                     "dprog_mean": float(d.mean()) if d.size else math.nan,
                     "dprog_absmax": float(np.abs(d).max()) if d.size else math.nan,
                     "other_better": int((d > 0).sum()),

@@ -7,13 +7,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pandas as pd
-from matplotlib import rc_context
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.patches import Patch
-
+from ..extras import require
 from .tables import FORM_LABEL, FORMS, _rti_times, groups
+
+with require("plot", "the campaign's figures"):
+    from matplotlib import rc_context
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+with require("campaign", "the campaign's report"):
+    import pandas as pd
 
 COLORS = {"conventional": "tab:gray", "direct_elimination": "tab:orange", "lifted": "tab:blue"}
 

@@ -255,7 +255,7 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
         for form in ("conventional", "direct_elimination", "lifted"):
             cand = {m: p[(sc, m, form)]["mean"] for m in MODEL_ORDER[sc] if (sc, m, form) in p}
             if len(cand) >= 2 and "EL" in cand:
-                best = max(cand, key=cand.get)
+                best = max(cand, key=lambda m: cand[m])
                 ok.append(best == "EL")
                 ev.append(f"{sc} {form}: best {best} ({cand[best]:.1f} m; EL {cand['EL']:.1f} m)")
     out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev), ELLIPSE if not all(ok) else ""))

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pandas as pd
-
 from ..atomic import carry, check_folder_target, describe, staged_folder
 from ..campaign.store import read_results
+from ..extras import require
 from ..testhook import pause_point
 from . import backends, figures, findings, tables
+
+with require("campaign", "the campaign's report"):
+    import pandas as pd
 
 PAPER_RUNS_PER_CONFIG = 500
 CLOCK_TEXT = {

@@ -6,7 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pandas as pd
+
+from ..extras import require
+
+with require("campaign", "the campaign's report"):
+    import pandas as pd
 
 #: |a_lat| above the bound by more than this counts as kept-violated (the issue's 5.05 m/s^2 for a 5 m/s^2 bound)
 A_LAT_SLACK = 0.05

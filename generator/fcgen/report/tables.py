@@ -9,7 +9,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pandas as pd
+
+from ..extras import require
+
+with require("campaign", "the campaign's report"):
+    import pandas as pd
 
 FORMS = ("conventional", "direct_elimination", "lifted")
 FORM_LABEL = {"conventional": "Conventional", "direct_elimination": "Direct Elimination", "lifted": "Lifted ODE"}

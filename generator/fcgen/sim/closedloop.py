@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Iterable
 from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
 
+from .. import extras
 from ..collision import collisions_over_run
 from ..contract import StepResult
 from ..dsl import Problem, Vehicle
@@ -163,14 +165,15 @@ class Plant:
         self.road_params = RoadWindowParams(samples)
         self._x, self._u, self._p, self._out = np.zeros(5), np.zeros(2), np.zeros(self.road_params.size), np.zeros(5)
         self._buf, self._eval = self.function.buffer()
+        # casadi's stub asks for a size that its binding takes from the buffer
         for i, a in enumerate((self._x, self._u, self._p)):
-            self._buf.set_arg(i, memoryview(a))
-        self._buf.set_res(0, memoryview(self._out))
+            self._buf.set_arg(i, memoryview(a))  # type: ignore[call-arg, arg-type]
+        self._buf.set_res(0, memoryview(self._out))  # type: ignore[call-arg, arg-type]
 
     def step(self, x: np.ndarray, u: np.ndarray, road: Road) -> np.ndarray:
         """The state one sample after ``x`` under control ``u`` on the whole ``road`` (window from one sample behind
         ``x``'s segment, as the NLP's stage parameters)."""
-        i0 = int(math.floor((x[0] - road.s0) / road.ds)) - 1
+        i0 = math.floor((x[0] - road.s0) / road.ds) - 1
         self._x[:] = x
         self._u[:] = u
         self.road_params.pack_into(self._p, road, i0)
@@ -297,11 +300,9 @@ def run_closed_loop(
     qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
     slack = np.zeros(K)
     planlog = PlanLog(K, problem.horizon.N, plan)
-    it = range(K)
+    it: Iterable[int] = range(K)
     if progress:
-        from tqdm import tqdm
-
-        it = tqdm(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
+        it = extras.progress(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
@@ -327,7 +328,7 @@ def run_closed_loop(
         (slack, "max_slack"),
     ) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
         a[:] = [getattr(r, key) for r in results]
-    t = np.arange(K + 1) * sc.dt
+    t = np.arange(K + 1, dtype=np.float64) * np.float64(sc.dt)
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
     ego_cart = np.stack([ex, ey, ephi], axis=1)
     # sc.opp_cartesian(t): the rows of the opponents' table the solver was given (the same values, not computed again)
@@ -369,7 +370,7 @@ def run_closed_loop(
         ego_cartesian=ego_cart,
         opp_cartesian=opp_cart,
         opp_frenet=opp_fr,
-        collision=coll,
+        collision=np.asarray(coll, dtype=bool),
         a_lat=a_lat,
         control=us,
         time_prepare=tp,

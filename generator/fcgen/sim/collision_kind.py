@@ -114,7 +114,7 @@ def first_collision(
         span = max(j - j0, 1) * dt
         ego_v = (ego_pose[j, :2] - ego_pose[j0, :2]) / span
         opp_v = (opp_pose[j, k, :2] - opp_pose[j0, k, :2]) / span
-        w = int(round(LANE_WINDOW / dt))
+        w = round(LANE_WINDOW / dt)
         who = responsible(
             centre,
             float(ego_pose[j, 2]),

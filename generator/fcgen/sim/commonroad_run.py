@@ -18,10 +18,13 @@ is: where the scenario's band is wider, the solver gets it cut to that (stated i
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
+from .. import extras
 from .. import obstacles as obs
 from ..dsl import Problem
 from ..ocp import Ocp, build_ocp
@@ -29,6 +32,14 @@ from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
 from .collision_kind import LANE_WINDOW, responsible
 from .runlog import RunLog, make_meta
+
+
+class ScenarioController(Controller, Protocol):
+    """A controller a CommonRoad run drives: it also takes the scenario's reference speed and its occupants' shapes."""
+
+    def set_reference(self, v_ref: float, n_ref: float) -> int: ...
+
+    def set_opponent_shapes(self, shapes: np.ndarray) -> int: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,7 +88,7 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
 def run_commonroad(
     problem: Problem,
     sc,
-    controller: Controller | None = None,
+    controller: ScenarioController | None = None,
     ocp: Ocp | None = None,
     plan: str = "none",
     progress: bool = False,
@@ -126,7 +137,8 @@ def run_commonroad(
             "agree": bool(checker["collision"]) == bool(own["collision"]),
         },
     }
-    log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, (pen > 0.0).any(axis=1), extra)
+    hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
+    log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, hits, extra)
     return CommonRoadRun(log, checker, own, who, centres)
 
 
@@ -145,7 +157,7 @@ class _Loop:
 def _drive(
     problem: Problem,
     sc,
-    controller: Controller,
+    controller: ScenarioController,
     road: Road,
     plant: Plant,
     plan: str,
@@ -166,11 +178,9 @@ def _drive(
     if rc:
         raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, 0) refused (exit code {rc})")
     shapes_in = _SlotShapes(problem, sc, controller)
-    it = range(K)
+    it: Iterable[int] = range(K)
     if progress:
-        from tqdm import tqdm
-
-        it = tqdm(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
+        it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
     for j in it:
         x = loop.xs[j]
@@ -195,7 +205,7 @@ class _SlotShapes:
     """The opponent slots' shapes as the controller has them: ``set_opponent_shapes`` only when an occupant's
     (length, width, offset) changes, each shape's values computed once."""
 
-    def __init__(self, problem: Problem, sc, controller: Controller):
+    def __init__(self, problem: Problem, sc, controller: ScenarioController):
         self.problem, self.sc, self.controller = problem, sc, controller
         self.cache: dict[tuple, np.ndarray] = {}
         self.now: tuple | None = None
@@ -326,7 +336,7 @@ def _responsibility(
     ego_v = (centres[j, :2] - centres[j0, :2]) / span
     prev = opp_cart[j0, k, :2] if np.all(np.isfinite(opp_cart[j0, k, :2])) else opp_cart[j, k, :2]
     opp_v = (opp_cart[j, k, :2] - prev) / span
-    w = int(round(LANE_WINDOW / dt))
+    w = round(LANE_WINDOW / dt)
     return responsible(
         centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )

@@ -38,7 +38,7 @@ def _g(v: float) -> str:
         return "nan"
     if math.isinf(v):
         return "inf" if v > 0 else "-inf"
-    return "%.17g" % v
+    return f"{v:.17g}"
 
 
 def _line(f: TextIO, key: str, values) -> None:

@@ -12,15 +12,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.patches import Polygon
 from numpy.typing import NDArray
 
 from ..collision import corners_from_dims
+from ..extras import require
 from .runlog import RunLog, summary
 
-__all__ = ["DEFAULT_EGO_DIMS", "project_to_road", "plot_run"]
+with require("plot", "a run's plot"):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon
+
+__all__ = ["DEFAULT_EGO_DIMS", "plot_run", "project_to_road"]
 
 #: Ego dimensions used when a log carries none (SPEC section 7, paper Table II).
 DEFAULT_EGO_DIMS: dict[str, float] = {"l_f": 1.7, "l_r": 1.7, "l_r_ch": 2.0, "l_f_ch": 2.0, "w_ch": 1.9}

@@ -11,10 +11,12 @@ loop would have taken another manoeuvre afterwards.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import replace
 
 import numpy as np
 
+from .. import extras
 from ..dsl import Problem
 from ..road import Road
 from .closedloop import PLAN_LEVELS, Controller, PlanLog, solver_window
@@ -94,11 +96,9 @@ def replay(
     tp, tf, slack = np.zeros(K), np.zeros(K), np.zeros(K)
     qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
     planlog = PlanLog(K, problem.horizon.N, plan)
-    it = range(K)
+    it: Iterable[int] = range(K)
     if progress:
-        from tqdm import tqdm
-
-        it = tqdm(it, desc=f"replay {problem.name} seed {sc.seed}", unit="sample", leave=False)
+        it = extras.progress(it, desc=f"replay {problem.name} seed {sc.seed}", unit="sample", leave=False)
     for j in it:
         x = np.array(log.ego_frenet[j])
         r = controller.step(x, solver_window(problem, sc.road, x), opp_params.horizon(j))

@@ -113,7 +113,7 @@ class OpponentParams:
 
     def horizon(self, j: int) -> np.ndarray:
         """Poses for stages 0..N at sample j (stage k: sample j + offsets[k]): shape (N+1, n_opp, 3) (read-only)."""
-        if 0 <= j and j + self.span <= len(self._table):
+        if j >= 0 and j + self.span <= len(self._table):
             if self.span == self.n_stages:  # one sample per stage: a view
                 return self._table[j : j + self.span]
             out = self._table[j + self.offsets]
@@ -123,6 +123,6 @@ class OpponentParams:
 
     def samples(self, K: int) -> np.ndarray:
         """Poses at samples 0..K: shape (K+1, n_opp, 3) (the rows the solver was given)."""
-        if K + 1 <= len(self._table):
+        if len(self._table) >= K + 1:
             return self._table[: K + 1]
         return np.stack([self.at_index(j) for j in range(K + 1)])

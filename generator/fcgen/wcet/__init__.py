@@ -10,9 +10,9 @@ from .run import FORMAT, WcetError, wcet
 from .table import format_wcet
 
 __all__ = [
+    "FORMAT",
     "BoundError",
     "Caps",
-    "FORMAT",
     "ProbeError",
     "WcetError",
     "compute_bound",

@@ -100,11 +100,15 @@ def prepare_bound(samples: list[SampleProbe], caps: Caps, tick: int) -> int:
     if not done:
         raise BoundError("the probe runs never called prepare")
     if caps.fit_scans == 0:
-        return max(sp.prepare for sp in done) + tick
+        return max(sp.prepare for sp in samples if sp.prepare is not None) + tick
     steps = [v for sp in done for v in sp.phases.get("fit_scan_step", [])]
     if not steps:
         raise BoundError("the probe runs never showed a step of the fit's scan")
-    rest = max(sp.prepare_rest + tick * (1 + len(sp.phases.get("fit_scan_step", []))) for sp in done)
+    rest = max(
+        sp.prepare_rest + tick * (1 + len(sp.phases.get("fit_scan_step", [])))
+        for sp in done
+        if sp.prepare_rest is not None
+    )
     return rest + caps.fit_scans * caps.fit_scan_cap * (max(steps) + tick)
 
 

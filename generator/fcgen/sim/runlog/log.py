@@ -163,7 +163,7 @@ class RunLog:
         k1 = t.shape[0]
         for name, (kind, trailing) in SAMPLE_FIELDS.items():
             rows = k1 if name in STATE_FIELDS else k1 - 1
-            shape = (rows,) + tuple(n_opp if d == "O" else d for d in trailing)
+            shape = (rows, *tuple(n_opp if d == "O" else d for d in trailing))
             set_(self, name, _coerce_array(name, getattr(self, name), kind, shape))
         for name, (kind, trailing) in OPTIONAL_FIELDS.items():
             value = getattr(self, name)
@@ -237,7 +237,7 @@ class RunLog:
         return path
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> "RunLog":
+    def from_dict(cls, data: Mapping[str, Any]) -> RunLog:
         """Inverse of ``to_dict``; validates the format version, the fields and all shapes (ValueError)."""
         if not isinstance(data, Mapping):
             raise ValueError("run log: top level must be a JSON object")
@@ -273,7 +273,7 @@ class RunLog:
         )
 
     @classmethod
-    def from_json_string(cls, text: str) -> "RunLog":
+    def from_json_string(cls, text: str) -> RunLog:
         """Parse and validate the contents of a run-log file."""
         try:
             data = json.loads(text, parse_constant=reject_constant)
@@ -282,6 +282,6 @@ class RunLog:
         return cls.from_dict(data)
 
     @classmethod
-    def from_json(cls, path: str | PathLike[str]) -> "RunLog":
+    def from_json(cls, path: str | PathLike[str]) -> RunLog:
         """Read and validate a run-log file written by ``to_json`` (plain, xz or gzip: told by its first bytes)."""
         return cls.from_json_string(read_text(path))
