@@ -10,7 +10,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from fuzzbuild import CC, FUZZ_DIR, REPORT, SANITIZE, SOLVERS, build_fuzzer, counts, defines, run
+from fuzzbuild import CC, CLANG, FUZZ_DIR, REPORT, SANITIZE, SOLVERS, build_fuzzer, counts, defines, run
 
 from fcgen.build import run_make
 from fcgen.contract import EXIT_CODES
@@ -63,3 +63,13 @@ def test_the_fuzzer_reports_a_broken_expectation(fuzzer, tmp_path):
     res = run([str(tmp_path / "fuzz_contract"), "1", "3"])
     c = counts(res.stdout)
     assert res.returncode == 1 and c["violation_output"] > 0, res.stdout
+
+
+@pytest.mark.skipif(not CLANG, reason="libFuzzer is clang's")
+def test_the_libfuzzer_entry_runs(tmp_path):
+    """The libFuzzer build of the driver (the input's bytes drive one trial) runs clean for a few hundred inputs."""
+    exe = build_fuzzer("ipm_double", tmp_path, libfuzzer=True)
+    (tmp_path / "corpus").mkdir()
+    res = run([str(exe), str(tmp_path / "corpus"), "-runs=300", "-seed=1", "-max_len=2048"], timeout=900)
+    assert res.returncode == 0 and not REPORT.search(res.stderr), res.stderr[-4000:]
+    assert "Done 300 runs" in res.stderr, res.stderr[-2000:]
