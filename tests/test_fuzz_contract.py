@@ -17,7 +17,7 @@ from fcgen.contract import EXIT_CODES
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in (CC, "make")), reason="needs a C compiler, make")
 
-TRIALS = 10  # x 200 calls
+TRIALS = {"osqp_conventional": 4}  # x 200 calls; 10 for the others (OSQP's capped QPs are slow under ASan)
 SEED = os.environ.get("FCGEN_FUZZ_SEED", "1")
 _BUILT: dict[str, Path] = {}
 
@@ -34,11 +34,12 @@ def fuzzer(tmp_path_factory):
 
 @pytest.mark.parametrize("key", sorted(SOLVERS))
 def test_random_calls_keep_the_contract(fuzzer, key):
-    res = run([str(fuzzer(key)), SEED, str(TRIALS)], timeout=900)
+    trials = TRIALS.get(key, 10)
+    res = run([str(fuzzer(key)), SEED, str(trials)], timeout=900)
     assert not REPORT.search(res.stderr), res.stderr[-4000:]
     c = counts(res.stdout)
     assert res.returncode == 0 and c["violations"] == 0, res.stdout + res.stderr[-3000:]
-    assert c["calls"] == TRIALS * 200 and c["compared"] == c["calls"], c
+    assert c["calls"] == trials * 200 and c["compared"] == c["calls"], c
     assert all(v == 0 for k, v in c.items() if k.startswith("violation_")), c
     # every entry was called; calls refused, NULL given to getters refused, samples solved
     kinds = ("set_state", "set_road", "set_road_bounds", "set_opponents", "set_opponent_shapes", "set_reference")
