@@ -554,7 +554,7 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     wraps past 2^32 within the phase; the binding reports them in seconds (ticks / ticks_per_second)."""
     import ctypes
 
-    from fcgen.codegen.generate import status_layout
+    from fcgen.codegen.workspace import status_layout
     from fcgen.csolver import _STATUS, _STATUS_FIELDS
 
     p = paper_problem("car", "lifted", "ellipse", name="car_tick")

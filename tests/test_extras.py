@@ -3,6 +3,7 @@ made unimportable by a None in sys.modules, the module that needs it imported af
 
 from __future__ import annotations
 
+import ast
 import importlib
 import sys
 import tomllib
@@ -99,3 +100,54 @@ def test_every_extra_is_declared_in_pyproject_and_the_core_is_lean():
     assert set(EXTRAS) <= set(declared)
     core = {d.split("=")[0].split(">")[0].split("[")[0] for d in project["dependencies"]}
     assert core == {"casadi", "osqp", "numpy", "scipy", "jinja2", "click"}
+
+
+EXTRA_PACKAGES = (
+    "pandas",
+    "pyarrow",
+    "dask",
+    "distributed",
+    "tqdm",
+    "matplotlib",
+    "fmpy",
+    "commonroad",
+    "commonroad_dc",
+)
+
+
+def _imports_outside_require(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, package) of each import of an extra's package that is not inside ``with require(...)``."""
+    out: list[tuple[int, str]] = []
+
+    def visit(node: ast.AST, guarded: bool) -> None:
+        if isinstance(node, ast.With):
+            guarded = guarded or any(
+                isinstance(i.context_expr, ast.Call) and getattr(i.context_expr.func, "id", "") == "require"
+                for i in node.items
+            )
+        names = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        out.extend((node.lineno, n) for n in names if n.split(".")[0] in EXTRA_PACKAGES and not guarded)
+        for child in ast.iter_child_nodes(node):
+            visit(child, guarded)
+
+    visit(tree, False)
+    return out
+
+
+def test_every_import_of_an_extras_package_goes_through_require():
+    package = ROOT / "generator" / "fcgen"
+    found = [
+        f"{p.relative_to(ROOT)}:{line} imports {name}"
+        for p in sorted(package.rglob("*.py"))
+        if "templates" not in p.parts and p.name != "extras.py"
+        for line, name in _imports_outside_require(ast.parse(p.read_text()))
+    ]
+    assert not found, "import outside `with require(...)`:\n" + "\n".join(found)
+    # the check finds what it looks for
+    assert _imports_outside_require(ast.parse("import pandas\nwith require('plot'):\n    import matplotlib\n")) == [
+        (1, "pandas")
+    ]

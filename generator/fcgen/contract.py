@@ -56,9 +56,34 @@ class InputRanges:
 INPUT_RANGES = InputRanges()
 """The ranges of the generated C's setters and of the reference (``docs/c_api.md``)."""
 
+
+def reference_outside(v_ref: float, n_ref: float, n_min: float, n_max: float) -> str:
+    """Why set_reference refuses (v_ref, n_ref) given the band ``Bounds.n_min .. n_max`` ('' if it does not)."""
+    v_max = INPUT_RANGES.v_ref_max
+    if 0.0 <= v_ref <= v_max and n_min <= n_ref <= n_max:
+        return ""
+    return (
+        f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed v_ref in [0, {v_max}] m/s, "
+        f"n_ref in [{n_min}, {n_max}] m (Bounds.n_min, n_max)"
+    )
+
+
 HOST_TICKS_PER_SECOND = 1_000_000_000
 """Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32;
 ``<NAME>_HOST_TICKS_PER_SECOND``)."""
+
+
+INT_MAX = 2**31 - 1
+"""The status counters saturate here (the C's int)."""
+
+
+class SolverError(RuntimeError):
+    """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(f"{code}: {message}")
+        self.code = code
+        self.exit_code = EXIT_CODES.index(code)
 
 
 @dataclass

@@ -486,36 +486,7 @@ def build_ocp(problem: Problem) -> Ocp:
         dyn,
         _init_state_function(st),
         alat,
-        plan_clearance_function(pb, st.xs, st.p, st.p_road, st.rp.samples, st.lifted),
+        obs.plan_clearance_function(pb, st.xs, st.p, st.p_road, st.rp.samples, st.lifted),
         (costs["first"], costs["middle"], costs["last"]),
         build_oppfit(pb),
-    )
-
-
-def plan_clearance_function(pb: Problem, xs, p, p_road, samples: int, lifted: bool) -> ca.Function:
-    """The plan check of one stage: the ego's true chassis at the plan's state (Frenet states: F^-1 on the stage's
-    road window) against every opponent's true chassis at its pose [x, y, phi] (as given to set_opponents) with its
-    shape (set_opponent_shapes): the SAT clearance, and how far ahead of the ego (along its heading) the opponent's
-    centre is."""
-    n_opp = pb.opponents.count
-    ns = len(obs.shape_names(pb.obstacles))
-    opp = ca.SX.sym("opp", n_opp * len(obs.CARTESIAN_POSE))
-    shape = ca.SX.sym("shape", n_opp * ns)
-    pose: tuple[Any, Any, Any] = (
-        (xs[5], xs[6], xs[7]) if lifted else casadi_to_cartesian(xs[0], xs[1], xs[2], p_road, samples)
-    )
-    ego_sh = obs.chassis_shape(*pose, pb.ego)
-    clearance, ahead = [], []
-    for j in range(n_opp):
-        opp_sh = obs.shape_of(opp[3 * j], opp[3 * j + 1], opp[3 * j + 2], shape[ns * j : ns * j + 3])
-        clearance.append(obs.sat_clearance(ego_sh, opp_sh))
-        # the opponent's centre along the ego's heading from the ego's centre: > 0 ahead (braking opens the gap)
-        ahead.append((opp_sh.cx - ego_sh.cx) * ca.cos(pose[2]) + (opp_sh.cy - ego_sh.cy) * ca.sin(pose[2]))
-    empty = ca.SX(0, 1)
-    return ca.Function(
-        "plan_clearance",
-        [xs, p, opp, shape],
-        [ca.vertcat(*clearance) if n_opp else empty, ca.vertcat(*ahead) if n_opp else empty],
-        ["x", "p", "opp", "shape"],
-        ["clearance", "ahead"],
     )

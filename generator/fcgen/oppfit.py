@@ -115,6 +115,41 @@ class OppFit:
         return (self.far_base + to_centre) + math.sqrt((half_l * half_l) + (half_w * half_w))
 
 
+def _box_function(form: Conventional, pose: ca.SX, shape: ca.SX, npt: int, ref: int, reach: float) -> ca.Function:
+    """``opp_box``: (FR, pose, shape) -> the box around an opponent's ``npt`` points mapped into the Frenet frame
+    (``FR``: s, n, angle per point; the first ``ref`` on the chassis' edges, then its centre and its axis' two ends),
+    the band padded by the ego's ``reach``; without over-approximation the opponent's own rectangle."""
+    FR = ca.SX.sym("FR", 3, npt)
+    if form.overapprox == "none":
+        sh = obs.shape_of(FR[0, 0], FR[1, 0], pose[2] - FR[2, 0], shape)
+        out = [sh.cx, sh.cy, sh.angle, sh.L, sh.W, 0.0, 0.0, FR[0, 0], FR[0, 0], 0.0, 0.0]
+    else:
+        n_edge = ref
+        fs, fn = FR[0, :].T, FR[1, :].T
+        rs, rn, qs, qn = fs[npt - 2], fn[npt - 2], fs[npt - 1], fn[npt - 1]
+        angle = ca.atan2(qn - rn, qs - rs)
+        axs, axn = ca.cos(angle), ca.sin(angle)
+        bs, bn = fs[: n_edge + 1], fn[: n_edge + 1]
+        a = bs * axs + bn * axn
+        b = -bs * axn + bn * axs
+        a_hi, a_lo, b_hi, b_lo = ca.mmax(a), ca.mmin(a), ca.mmax(b), ca.mmin(b)
+        ca_, cb = 0.5 * (a_hi + a_lo), 0.5 * (b_hi + b_lo)
+        out = [
+            ca_ * axs - cb * axn,
+            ca_ * axn + cb * axs,
+            angle,
+            0.5 * (a_hi - a_lo),
+            0.5 * (b_hi - b_lo),
+            ca.mmax(bn) + reach,
+            ca.mmin(bn) - reach,
+            ca.mmin(bs) - reach,
+            ca.mmax(bs) + reach,
+            ca.mmax(bn),
+            ca.mmin(bn),
+        ]
+    return ca.Function("opp_box", [FR, pose, shape], [ca.vertcat(*out)], ["FR", "pose", "shape"], ["box"])
+
+
 def build_oppfit(problem: Problem) -> OppFit | None:
     """The opponent-fit functions of a conventional problem; ``None`` for the other formulations."""
     form = problem.formulation
@@ -149,36 +184,8 @@ def build_oppfit(problem: Problem) -> OppFit | None:
     points = ca.Function("opp_points", [pose, shape], [P, d], ["pose", "shape"], ["P", "d"])
 
     # -- the box around the mapped points (its padding, which needs the road's curvature, comes after)
-    FR = ca.SX.sym("FR", 3, npt)
     reach = ego.l + ego.l_ch + ego.w_ch
-    if form.overapprox == "none":
-        sh = obs.shape_of(FR[0, 0], FR[1, 0], pose[2] - FR[2, 0], shape)
-        out = [sh.cx, sh.cy, sh.angle, sh.L, sh.W, 0.0, 0.0, FR[0, 0], FR[0, 0], 0.0, 0.0]
-    else:
-        n_edge = ref
-        fs, fn = FR[0, :].T, FR[1, :].T
-        rs, rn, qs, qn = fs[npt - 2], fn[npt - 2], fs[npt - 1], fn[npt - 1]
-        angle = ca.atan2(qn - rn, qs - rs)
-        axs, axn = ca.cos(angle), ca.sin(angle)
-        bs, bn = fs[: n_edge + 1], fn[: n_edge + 1]
-        a = bs * axs + bn * axn
-        b = -bs * axn + bn * axs
-        a_hi, a_lo, b_hi, b_lo = ca.mmax(a), ca.mmin(a), ca.mmax(b), ca.mmin(b)
-        ca_, cb = 0.5 * (a_hi + a_lo), 0.5 * (b_hi + b_lo)
-        out = [
-            ca_ * axs - cb * axn,
-            ca_ * axn + cb * axs,
-            angle,
-            0.5 * (a_hi - a_lo),
-            0.5 * (b_hi - b_lo),
-            ca.mmax(bn) + reach,
-            ca.mmin(bn) - reach,
-            ca.mmin(bs) - reach,
-            ca.mmax(bs) + reach,
-            ca.mmax(bn),
-            ca.mmin(bn),
-        ]
-    box = ca.Function("opp_box", [FR, pose, shape], [ca.vertcat(*out)], ["FR", "pose", "shape"], ["box"])
+    box = _box_function(form, pose, shape, npt, ref, reach)
     margin = 0.0 if form.overapprox == "none" else form.margin
     n_edge = 0 if form.overapprox == "none" else ref
     # beyond `far` from the road no point of the opponent is within the band plus the ego's reach (its chassis

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import obstacles as obs
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
-from .contract import EXIT_CODES, INPUT_RANGES, Status
+from .contract import EXIT_CODES, INT_MAX, SolverError, Status, reference_outside
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
@@ -35,7 +35,7 @@ from .qp_outcome import (
     project_control,
     warm_max_iter,
 )
-from .road import Road, curve_reference
+from .road import Road, band_outside, curve_reference
 
 __all__ = [
     "COLD_RESTART_NOTE",
@@ -56,19 +56,6 @@ __all__ = [
 ]
 """The outcome contract (``fcgen.qp_outcome``) and ``theta_init`` are re-exported: importers read them here, and
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
-
-
-INT_MAX = 2**31 - 1
-"""The status counters saturate here (the C's int)."""
-
-
-class SolverError(RuntimeError):
-    """A solver call that cannot proceed (bad input or wrong call order); the solver stays usable."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(f"{code}: {message}")
-        self.code = code
-        self.exit_code = EXIT_CODES.index(code)
 
 
 class RtiSolver:
@@ -139,10 +126,6 @@ class RtiSolver:
         self.status.exit_code = EXIT_CODES.index(code)
         return SolverError(code, message)
 
-    def _ok(self) -> None:
-        """An accepted call: ``status.exit_code`` always describes the last call (the C's ``ok()``)."""
-        self.status.exit_code = 0
-
     # -- inputs -----------------------------------------------------------------------------------
     def set_road(self, road: Road) -> None:
         """The road (window); its drivable band ``road.n_min``/``n_max`` (if given) must lie within the problem's
@@ -151,34 +134,20 @@ class RtiSolver:
             raise self._fail(
                 "ERR_ROAD_SIZE", f"road window has {road.size} samples; allowed at most {self.ocp.problem.road.samples}"
             )
-        if road.n_min is not None and road.n_max is not None:
-            b = self.ocp.problem.bounds
-            for name, a, ok in (
-                ("n_min", road.n_min, road.n_min >= b.n_min),
-                ("n_max", road.n_max, road.n_max <= b.n_max),
-            ):
-                if not np.all(ok):
-                    i = int(np.flatnonzero(~ok)[0])
-                    raise self._fail(
-                        "ERR_ROAD_BOUNDS",
-                        f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
-                        f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)",
-                    )
+        outside = band_outside(road, self.ocp.problem.bounds)
+        if outside:
+            raise self._fail("ERR_ROAD_BOUNDS", outside)
         self.road = road
-        self._ok()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
         """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
         a road's speed limit, a lane's centre."""
-        b, v_max = self.ocp.problem.bounds, INPUT_RANGES.v_ref_max
-        if not (0.0 <= v_ref <= v_max and b.n_min <= n_ref <= b.n_max):
-            raise self._fail(
-                "ERR_REFERENCE",
-                f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed v_ref in [0, {v_max}] m/s, "
-                f"n_ref in [{b.n_min}, {b.n_max}] m (Bounds.n_min, n_max)",
-            )
+        b = self.ocp.problem.bounds
+        if why := reference_outside(v_ref, n_ref, b.n_min, b.n_max):
+            raise self._fail("ERR_REFERENCE", why)
         self.ref = (float(v_ref), float(n_ref))
-        self._ok()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> None:
         """Every opponent's shape values, shape (n_opp, n_opp_shape) (``obstacles.shape_names``); kept until set
@@ -194,7 +163,7 @@ class RtiSolver:
             except ValueError as e:
                 raise self._fail("ERR_OPP_SHAPE", f"opponent {j}: {e}") from None
         self.opp_shape = shapes.copy()
-        self._ok()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_opponents(self, params: np.ndarray) -> None:
         """Per-stage opponent parameters, shape (N+1, n_opp, n_opp_par)."""
@@ -208,14 +177,14 @@ class RtiSolver:
         if not np.all(np.isfinite(params)):
             raise self._fail("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
-        self._ok()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_state(self, x0) -> None:
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (5,) or not np.all(np.isfinite(x0)):
             raise self._fail("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
         self.x0 = x0
-        self._ok()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     # -- parameters --------------------------------------------------------------------------------
     def _window_start(self, road: Road, s: float) -> int | None:
@@ -331,16 +300,15 @@ class RtiSolver:
     def prepare(self, shift: bool = True) -> None:
         """Shift the plan (or build the initial guess), linearize, build the QP (all but x0), load the backend.
 
-        Transactional: every check runs before anything visible changes (a refused call keeps the opponent fit too,
-        as the C restores it). A no-op while already prepared."""
+        Transactional: nothing visible changes before every check passed (the C restores the opponent fit)."""
         if self.prepared:
-            return self._ok()
+            self.status.exit_code = 0  # an accepted call (the C's ok())
+            return
         kept = self.opp_stage
         try:
             self._prepare(shift, time.perf_counter())
         except SolverError as e:
-            if e.code != "ERR_QP_NUMERICAL":
-                self.opp_stage = kept
+            self.opp_stage = self.opp_stage if e.code == "ERR_QP_NUMERICAL" else kept
             raise
 
     def _prepare(self, shift: bool, t0: float) -> None:
@@ -474,10 +442,8 @@ class RtiSolver:
         return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
-        """The plan's clearance to every opponent's true rectangle at every stage 0..N (``Ocp.plan_clearance``, on the
-        road windows the preparation planned with, ``self.P``: a road set since changes nothing; x_ref and opponents
-        as stage_params builds them now), its verdict (``plan_check.plan_verdict``) and, where it says so, braking:
-        F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
+        """The plan's clearance to each opponent's rectangle at every stage (``Ocp.plan_clearance`` on the road the
+        preparation planned with, ``self.P``), its verdict (``plan_verdict``), braking where it says so."""
         ocp, pb = self.ocp, self.ocp.problem
         best, best_k, react = math.inf, -1, False
         if pb.opponents.count:

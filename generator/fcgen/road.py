@@ -25,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from .contract import INPUT_RANGES
+from .dsl import Bounds
 
 # --- CPU-independent elementwise trigonometry ---------------------------------------------------
 
@@ -421,3 +422,18 @@ def casadi_to_cartesian(s, n, alpha, p, samples: int):
     """F^-1 on symbolic (s, n, alpha) with a window parameter vector."""
     _, phi_g, gx, gy, _, _ = casadi_road(s, p, samples)
     return gx - n * ca.sin(phi_g), gy + n * ca.cos(phi_g), phi_g + alpha
+
+
+def band_outside(road: Road, b: Bounds) -> str | None:
+    """Where ``road``'s drivable band (if it has one) leaves the problem's ``Bounds``: the first such sample as a
+    one-line message, or None."""
+    if road.n_min is None or road.n_max is None:
+        return None
+    for name, a, ok in (("n_min", road.n_min, road.n_min >= b.n_min), ("n_max", road.n_max, road.n_max <= b.n_max)):
+        if not np.all(ok):
+            i = int(np.flatnonzero(~ok)[0])
+            return (
+                f"road.{name}[{i}] = {float(a[i])!r} is outside the problem's "
+                f"band: allowed in [{b.n_min}, {b.n_max}] (Bounds.n_min, n_max)"
+            )
+    return None

@@ -42,6 +42,7 @@ from .model_code import MODEL_CFLAGS, write_model
 from .qp_backend import backend_c
 from .render import environment, render_template
 from .tables import curve_speed_constants, far_opponent_row, fit_context, permutation_cycles, slack_vars, stage_table
+from .workspace import FIRST_STATE_MEMBER, workspace_members
 
 MACRO_DOC = {
     "NX": "states per stage",
@@ -120,133 +121,6 @@ def problem_sizes(problem: Problem) -> dict[str, int]:
     """The size macros a solver generated from ``problem`` has (builds the OCP and its layout)."""
     ocp = build_ocp(problem)
     return size_macros(ocp, build_layout(ocp))
-
-
-def _struct_size(members: Sequence[tuple[int, int, int]]) -> int:
-    """sizeof a C struct of (size, align, count) members, with natural padding."""
-    off, align_max = 0, 1
-    for size, align, count in members:
-        off = -(-off // align) * align + size * count
-        align_max = max(align_max, align)
-    return -(-off // align_max) * align_max
-
-
-def status_layout(real_size: int) -> tuple[int, int]:
-    """sizeof and alignment of ``<name>_status_t``: 11 ints, 2 reals (u_violation, plan_clearance), 2 uint32 ticks."""
-    members = [(4, 4, 11), (real_size, real_size, 2), (4, 4, 2)]
-    return _struct_size(members), max(a for _, a, _ in members)
-
-
-FIRST_STATE_MEMBER = "w"
-"""The first workspace member reset() zeroes (the inputs and the clock come before it)."""
-
-
-def workspace_members(
-    name: str,
-    sizes: dict[str, int],
-    work: dict,
-    real_size: int,
-    opp_dim: int,
-    fit: dict | None = None,
-    n_band: int = 0,
-    curve: bool = False,
-) -> tuple[list[dict[str, Any]], int]:
-    """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
-    NAME = name.upper()
-    R, I, P = (real_size, real_size), (4, 4), (8, 8)
-
-    def M(key: str, extra: int = 0):  # a dimension written as the public size macro
-        return (f"{NAME}_{key}" + (f" + {extra}" if extra else ""), sizes[key] + extra)
-
-    road, n, m, nnz = M("ROAD_MAX"), M("QP_N"), M("QP_M"), M("QP_NNZ_A")
-    members = [  # (C type, name, dims, (size, align)); a dim is an int or (C expression, int)
-        # inputs (kept by reset) and the clock ...
-        ("NAME_real_t", "x0", [5], R),
-        ("NAME_real_t", "road_s0", [], R),
-        ("NAME_real_t", "road_ds", [], R),
-        ("NAME_real_t", "road_kappa", [road], R),
-        ("NAME_real_t", "road_phi", [road], R),
-        ("NAME_real_t", "road_gx", [road], R),
-        ("NAME_real_t", "road_gy", [road], R),
-        ("NAME_real_t", "road_nmin", [road], R),
-        ("NAME_real_t", "road_nmax", [road], R),
-        ("NAME_real_t", "opp", [M("N", 1), ("OPP_DIM", opp_dim)], R),
-        ("NAME_real_t", "opp_shape", [("SHAPE_DIM", max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"]))], R),
-        ("clock_fn_t", "clock", [], P),
-        ("int", "road_n", [], I),
-        ("int", "road_set", [], I),
-        ("NAME_real_t", "ref_v", [], R),
-        ("NAME_real_t", "ref_n", [], R),
-        ("int", "road_band", [], I),
-        ("int", "opp_shape_set", [], I),
-        ("int", "ref_set", [], I),
-        ("int", "have_x0", [], I),
-        # ... then everything reset() zeroes, from FIRST_STATE_MEMBER on
-        ("NAME_real_t", "w", [n], R),
-        ("NAME_real_t", "y", [m], R),
-        ("NAME_real_t", "s0_guess", [], R),
-        ("NAME_real_t", "w_tmp", [n], R),
-        ("NAME_real_t", "p", [M("NP")], R),
-        ("NAME_real_t", "p_fb", [M("NP")], R),
-        ("NAME_real_t", "g_init", [M("NX")], R),
-        ("NAME_real_t", "jac", [nnz], R),
-        ("NAME_real_t", "q", [n], R),
-        ("NAME_real_t", "q_fb", [n], R),
-        ("NAME_real_t", "l", [m], R),
-        ("NAME_real_t", "u", [m], R),
-        ("NAME_real_t", "u_applied", [M("NU")], R),
-        ("NAME_real_t", "band_val", [("N_BAND", max(1, n_band))], R),
-        ("NAME_real_t", "xa", [M("NX")], R),
-        ("const casadi_real *", "arg", [("CASADI_SZ_ARG", work["sz_arg"])], P),
-        ("casadi_real *", "res", [("CASADI_SZ_RES", work["sz_res"])], P),
-        ("casadi_int", "iw", [("CASADI_SZ_IW", work["sz_iw"])], I),
-        ("casadi_real", "cw", [("CASADI_SZ_W", work["sz_w"])], R),
-        ("const NAME_real_t *", "q_cur", [], P),
-        ("const NAME_real_t *", "qp_z", [], P),
-        ("NAME_status_t", "status", [], status_layout(real_size)),
-        ("int", "have_guess", [], I),
-        ("int", "prepared", [], I),
-        ("int", "cold", [], I),
-        ("int", "qp_ready", [], I),
-        ("int", "fit_outside", [], I),
-        # the road window of each stage of the last preparation (the plan check's road: set_road may change in between)
-        ("NAME_real_t", "plan_road", [M("N", 1), ("P_REF", 2 + 4 * sizes["ROAD_WINDOW"])], R),
-    ]
-    if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
-        members += [
-            ("NAME_real_t", "curve_c", [road], R),
-            ("NAME_real_t", "curve_s", [M("N", 1)], R),
-            ("NAME_real_t", "curve_v", [M("N", 1)], R),
-        ]
-    if fit:  # the conventional opponent fit: fitted stage parameters and one opponent's scratch
-        members += [
-            ("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
-            ("NAME_real_t", "opp_stage_kept", [M("N", 1), fit["n_opp_stage"]], R),  # restored by a refused prepare
-            ("NAME_real_t", "fit_P", [2 * fit["npt"]], R),
-            ("NAME_real_t", "fit_d", [fit["npt"]], R),
-            ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
-            ("NAME_real_t", "fit_box", [fit["nbox"]], R),
-            ("NAME_real_t", "fit_hmax", [], R),
-            ("NAME_real_t", "fit_ihmax", [], R),
-            ("NAME_real_t", "fit_skip", [], R),
-            ("NAME_real_t", "fit_uni", [], R),
-            ("NAME_real_t", "fit_cos", [road], R),
-            ("NAME_real_t", "fit_sin", [road], R),
-        ]
-        members += [("NAME_real_t", f"fit_{d}_{q}", [road], R) for d in ("dd", "d3") for q in ("phi", "x", "y")]
-        wide = (f"{NAME}_ROAD_MAX + {2 * fit['search']}", sizes["ROAD_MAX"] + 2 * fit["search"])
-        members += [("NAME_real_t", "fit_rsq", [wide], R), ("NAME_real_t", "fit_beta", [wide], R)]
-    size = _struct_size(
-        [(sa[0], sa[1], int(np.prod([x[1] if isinstance(x, tuple) else x for x in d]))) for _, _, d, sa in members]
-    )
-    rendered = [
-        {"ctype": t.replace("NAME_", f"{name}_"), "name": nm, "dims": [x[0] if isinstance(x, tuple) else x for x in d]}
-        for t, nm, d, _ in members
-    ]
-    return rendered, size
-
-
-# --- the generator -------------------------------------------------------------------------------------------
 
 
 def problem_source(obj: Any, indent: int = 0) -> str:

@@ -12,6 +12,7 @@ obstacles; or refuse it with one line naming the reason.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,25 +65,8 @@ def load_scenario(
     the horizon (``horizon_s`` at the larger of the initial and the reference speed) ahead of the ego's start; the road
     reaches as far as the run can take the ego at ``v_max`` plus the solver's road ``window_m``. Raises
     ``ScenarioRefused``."""
-    with require("commonroad", "reading a CommonRoad scenario"):
-        from commonroad.common.file_reader import CommonRoadFileReader
-
-    try:
-        scenario, pps = CommonRoadFileReader(str(path)).open()
-    except Exception as exc:  # noqa: BLE001 - whatever commonroad-io raises on a file it cannot read
-        raise ScenarioRefused(
-            f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0] if str(exc) else ''})"
-        ) from None
+    scenario, pp, planning_problem_id = _read(path, planning_problem_id)
     name = str(scenario.scenario_id)
-    problems = pps.planning_problem_dict
-    if not problems:
-        raise ScenarioRefused(f"{name}: no planning problem")
-    if planning_problem_id is None:
-        planning_problem_id = sorted(problems)[0]
-    if planning_problem_id not in problems:
-        raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
-    pp = problems[planning_problem_id]
     dt = float(scenario.dt)
     obstacles = tuple(
         obstacle_from(ob, dt)
@@ -113,8 +97,6 @@ def load_scenario(
         )
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
-    import hashlib
-
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,
@@ -136,6 +118,30 @@ def load_scenario(
         Path(path).name,
         digest,
     )
+
+
+def _read(path: str | Path, planning_problem_id: int | None):
+    """The commonroad-io scenario of ``path``, its planning problem ``planning_problem_id`` (default: the lowest id)
+    and that id. Raises ``ScenarioRefused``."""
+    with require("commonroad", "reading a CommonRoad scenario"):
+        from commonroad.common.file_reader import CommonRoadFileReader
+
+    try:
+        scenario, pps = CommonRoadFileReader(str(path)).open()
+    except Exception as exc:  # noqa: BLE001 - whatever commonroad-io raises on a file it cannot read
+        raise ScenarioRefused(
+            f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        ) from None
+    name = str(scenario.scenario_id)
+    problems = pps.planning_problem_dict
+    if not problems:
+        raise ScenarioRefused(f"{name}: no planning problem")
+    if planning_problem_id is None:
+        planning_problem_id = sorted(problems)[0]
+    if planning_problem_id not in problems:
+        raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
+    return scenario, problems[planning_problem_id], planning_problem_id
 
 
 def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:

@@ -72,19 +72,12 @@ class QpLayout:
         return sp.csc_matrix((self.P_diag.copy(), idx, np.arange(self.n + 1)), shape=(self.n, self.n))
 
 
-def build_layout(ocp: Ocp) -> QpLayout:
-    """Compute the stage-wise ordering, the fixed CSC pattern of A and all index maps."""
-    N = ocp.N
-    stages = [ocp.stage(k) for k in range(N + 1)]
-    var_off = np.zeros(N + 2, dtype=np.int64)
-    row_off = np.zeros(N + 2, dtype=np.int64)
-    jac_off = np.zeros(N + 2, dtype=np.int64)
-    for k, st in enumerate(stages):
-        var_off[k + 1] = var_off[k] + st.nw
-        row_off[k + 1] = row_off[k] + st.nrows
-        jac_off[k + 1] = jac_off[k] + st.jac_sparsity.nnz()
-    n, m = int(var_off[-1]), int(row_off[-1])
-
+def _a_pattern(
+    stages: list, var_off: np.ndarray, row_off: np.ndarray, jac_off: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A's CSC pattern from the stages' Jacobian sparsities: column pointers, row indices and, per entry, its index in
+    the stacked stage Jacobians' nonzeros."""
+    N = len(stages) - 1
     row_parts, col_parts, src_parts = [], [], []
     for k, st in enumerate(stages):
         sparsity = st.jac_sparsity
@@ -103,9 +96,38 @@ def build_layout(ocp: Ocp) -> QpLayout:
     rows, cols, src = rows[order], cols[order], src[order]
     if np.any((np.diff(cols) == 0) & (np.diff(rows) == 0)):
         raise AssertionError("two stage functions write the same entry of A")
-    indptr = np.zeros(n + 1, dtype=np.int64)
+    indptr = np.zeros(int(var_off[-1]) + 1, dtype=np.int64)
     np.add.at(indptr, cols + 1, 1)
-    indptr = np.cumsum(indptr)
+    return np.cumsum(indptr), rows, src
+
+
+def _shift_map(stages: list, offsets: np.ndarray, names_of) -> np.ndarray:
+    """Shift by one stage: entry i of the shifted vector takes entry ``out[i]``; stages of the same type shift one to
+    one, the boundaries map by name (an entry without a source keeps its own)."""
+    N = len(stages) - 1
+    out = np.arange(offsets[-1], dtype=np.int64)
+    for k in range(N + 1):
+        src_k = min(k + 1, N)
+        src_names = {nm: i for i, nm in enumerate(names_of(stages[src_k]))}
+        for i, nm in enumerate(names_of(stages[k])):
+            if nm in src_names:
+                out[offsets[k] + i] = offsets[src_k] + src_names[nm]
+    return out
+
+
+def build_layout(ocp: Ocp) -> QpLayout:
+    """Compute the stage-wise ordering, the fixed CSC pattern of A and all index maps."""
+    N = ocp.N
+    stages = [ocp.stage(k) for k in range(N + 1)]
+    var_off = np.zeros(N + 2, dtype=np.int64)
+    row_off = np.zeros(N + 2, dtype=np.int64)
+    jac_off = np.zeros(N + 2, dtype=np.int64)
+    for k, st in enumerate(stages):
+        var_off[k + 1] = var_off[k] + st.nw
+        row_off[k + 1] = row_off[k] + st.nrows
+        jac_off[k + 1] = jac_off[k] + st.jac_sparsity.nnz()
+    n, m = int(var_off[-1]), int(row_off[-1])
+    indptr, rows, src = _a_pattern(stages, var_off, row_off, jac_off)
 
     cat = np.concatenate
     P_diag = cat([st.P_diag for st in stages])
@@ -116,19 +138,8 @@ def build_layout(ocp: Ocp) -> QpLayout:
     init_rows = np.arange(ocp.nx, dtype=np.int64) + row_off[0]
     s_vars = var_off[: N + 1].copy()
 
-    # shift by one stage; stages of the same type shift one to one, the boundaries map by name
-    def shift(offsets, names_of):
-        out = np.arange(offsets[-1], dtype=np.int64)
-        for k in range(N + 1):
-            src_k = min(k + 1, N)
-            src_names = {nm: i for i, nm in enumerate(names_of(stages[src_k]))}
-            for i, nm in enumerate(names_of(stages[k])):
-                if nm in src_names:
-                    out[offsets[k] + i] = offsets[src_k] + src_names[nm]
-        return out
-
-    var_shift = shift(var_off, lambda st: st.var_names)
-    row_shift = shift(row_off, lambda st: st.row_names)
+    var_shift = _shift_map(stages, var_off, lambda st: st.var_names)
+    row_shift = _shift_map(stages, row_off, lambda st: st.row_names)
     var_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.var_names)
     row_names = tuple(f"{nm}[{k}]" for k, st in enumerate(stages) for nm in st.row_names)
     band = [

@@ -1,4 +1,4 @@
-"""The paper's findings (issue 10's table), each judged on campaign rows: holds / fails / partly, with the evidence.
+"""The paper's findings (Section V), each judged on campaign rows: holds / fails / partly, with the evidence.
 
 A verdict is computed from the tables, never written by hand; the "why" lines state the measured quantities that
 explain a difference (QP size, QP iterations, where the time goes), not a guess.
@@ -189,9 +189,17 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
     t = _by(time_rows, "scenario", "model", "formulation")
     p = _by(prog_rows, "scenario", "model", "formulation")
     cells = sorted({(r["scenario"], r["model"]) for r in time_rows})
-    out = []
+    return [
+        _lifted_no_slower(t, cells, tol_pct, backend),
+        _direct_elimination_cost(t),
+        _trucks_progress(p),
+        _ellipse_best(p),
+        _no_collisions(prog_rows),
+    ]
 
-    # 1. lifted no slower than conventional (paper: -6.6 .. +0.6 %)
+
+def _lifted_no_slower(t: dict, cells: list, tol_pct: float, backend: str) -> Finding:
+    """1. lifted no slower than conventional (paper: -6.6 .. +0.6 %)."""
     ok, ev, why = [], [], []
     for sc, m in cells:
         r = t.get((sc, m, "lifted"))
@@ -200,16 +208,16 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             ev.append(f"{sc} {m} {r['vs_conv_pct']:+.1f} %")
             if not ok[-1]:
                 why.append(_size_why(t, sc, m, "lifted"))
-    out.append(
-        Finding(
-            f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
-            _verdict(ok),
-            ", ".join(ev),
-            _join((SIZE_WHY.get(backend, "") + ": " + "; ".join(why)) if why else "", _fit_why(t, cells, "lifted")),
-        )
+    return Finding(
+        f"lifted ODE no slower than conventional (paper -6.6 .. +0.6 %; here within +{tol_pct:g} %)",
+        _verdict(ok),
+        ", ".join(ev),
+        _join((SIZE_WHY.get(backend, "") + ": " + "; ".join(why)) if why else "", _fit_why(t, cells, "lifted")),
     )
 
-    # 2. direct elimination ~ +30 % with EL (paper +28.9 % truck, +29.6 % car)
+
+def _direct_elimination_cost(t: dict) -> Finding:
+    """2. direct elimination ~ +30 % with EL (paper +28.9 % truck, +29.6 % car)."""
     ok, ev, why = [], [], []
     for sc in ("truck", "car"):
         r = t.get((sc, "EL", "direct_elimination"))
@@ -218,19 +226,19 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             ev.append(f"{sc} EL {r['vs_conv_pct']:+.1f} %")
             if not ok[-1]:
                 why.append(_size_why(t, sc, "EL", "direct_elimination"))
-    out.append(
-        Finding(
-            "direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
-            _verdict(ok),
-            ", ".join(ev),
-            _join(
-                (SAME_QP + ": " + "; ".join(why)) if why else "",
-                _fit_why(t, [(sc, "EL") for sc in ("truck", "car")], "direct_elimination"),
-            ),
-        )
+    return Finding(
+        "direct elimination about +30 % with EL (paper +28.9 % / +29.6 %; here +15 .. +45 %)",
+        _verdict(ok),
+        ", ".join(ev),
+        _join(
+            (SAME_QP + ": " + "; ".join(why)) if why else "",
+            _fit_why(t, [(sc, "EL") for sc in ("truck", "car")], "direct_elimination"),
+        ),
     )
 
-    # 3. trucks: lifted and DE progress further than conventional
+
+def _trucks_progress(p: dict) -> Finding:
+    """3. trucks: lifted and DE progress further than conventional."""
     ok, ev = [], []
     for m in MODEL_ORDER["truck"]:
         for form in ("lifted", "direct_elimination"):
@@ -238,18 +246,18 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
             if r and "vs_conv_m" in r:
                 ok.append(r["vs_conv_m"] > 0)
                 ev.append(f"{m} {form} {r['vs_conv_m']:+.1f} m ({r['better_seeds']}/{r['paired']} seeds)")
-    out.append(
-        Finding(
-            "trucks: lifted and direct elimination progress further than conventional",
-            _verdict(ok),
-            ", ".join(ev),
-            "the conventional formulation over-approximates a truck in the Frenet frame by a box fitted "
-            "around its projected corners, which grows with the road's curvature; where a Cartesian model "
-            "is itself coarse (many circles, linearised hyperplanes) the advantage can vanish",
-        )
+    return Finding(
+        "trucks: lifted and direct elimination progress further than conventional",
+        _verdict(ok),
+        ", ".join(ev),
+        "the conventional formulation over-approximates a truck in the Frenet frame by a box fitted "
+        "around its projected corners, which grows with the road's curvature; where a Cartesian model "
+        "is itself coarse (many circles, linearised hyperplanes) the advantage can vanish",
     )
 
-    # 4. EL gives the best progress (per scenario and formulation)
+
+def _ellipse_best(p: dict) -> Finding:
+    """4. EL gives the best progress (per scenario and formulation)."""
     ok, ev = [], []
     for sc in ("truck", "car"):
         for form in ("conventional", "direct_elimination", "lifted"):
@@ -258,9 +266,11 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
                 best = max(cand, key=lambda m: cand[m])
                 ok.append(best == "EL")
                 ev.append(f"{sc} {form}: best {best} ({cand[best]:.1f} m; EL {cand['EL']:.1f} m)")
-    out.append(Finding("EL gives the best progress", _verdict(ok), "; ".join(ev), ELLIPSE if not all(ok) else ""))
+    return Finding("EL gives the best progress", _verdict(ok), "; ".join(ev), ELLIPSE if not all(ok) else "")
 
-    # 5. zero collisions (true rectangles)
+
+def _no_collisions(prog_rows: list[dict]) -> Finding:
+    """5. zero collisions (true rectangles)."""
     runs = sum(r["runs"] for r in prog_rows)
     hit = sum(r["runs_with_collision"] for r in prog_rows)
     bad = [
@@ -268,15 +278,12 @@ def judge(time_rows: list[dict], prog_rows: list[dict], tol_pct: float = 5.0, ba
         for r in prog_rows
         if r["runs_with_collision"]
     ]
-    out.append(
-        Finding(
-            "zero collisions (judged on the true chassis rectangles)",
-            "holds" if runs and not hit else ("no data" if not runs else "fails"),
-            f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else ""),
-            collision_why(prog_rows),
-        )
+    return Finding(
+        "zero collisions (judged on the true chassis rectangles)",
+        "holds" if runs and not hit else ("no data" if not runs else "fails"),
+        f"{hit} of {runs} runs collide" + (": " + ", ".join(bad) if bad else ""),
+        collision_why(prog_rows),
     )
-    return out
 
 
 def md_findings(fs: list[Finding]) -> str:

@@ -271,54 +271,47 @@ def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
 
 
-def run_closed_loop(
+def _meta(problem: Problem, sc: Scenario, kind: str, planlog: PlanLog, results: list[StepResult]) -> dict:
+    """The run log's ``meta`` of a closed loop: the problem, the scenario, the controller and the counts of exit
+    codes, plan reactions and a_lat guard actions."""
+    return make_meta(
+        problem=problem.name,
+        formulation=problem.formulation.kind,
+        obstacle_model=problem.obstacles.kind,
+        scenario=sc.name,
+        seed=sc.seed,
+        N=problem.horizon.N,
+        dt=problem.horizon.dt,
+        controller=kind,
+        n_bound=problem.bounds.n_max,
+        extra={
+            "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
+            "plan_reactions": int(sum(r.plan_reaction for r in results)),
+            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
+        },
+    )
+
+
+def _run_log(
     problem: Problem,
     sc: Scenario,
-    controller: Controller | None = None,
-    ocp: Ocp | None = None,
-    progress: bool = False,
-    exit_codes: bool = False,
-    plan: str = "none",
+    kind: str,
+    xs: np.ndarray,
+    us: np.ndarray,
+    results: list[StepResult],
+    planlog: PlanLog,
+    opp_params: OpponentParams,
+    store_exit_codes: bool,
+    with_plan_fields: bool,
 ) -> RunLog:
-    """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
-
-    ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
-    the planned controls (``"controls"``) or controls and states (``"full"``) of every sample; either needs a
-    controller with ``plan()``.
-    """
-    if controller is None:
-        ocp = ocp or build_ocp(problem)
-        controller = ReferenceController(ocp)
-    plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
-    opp_params = opponent_params(problem, sc)
-    K = sc.samples
+    """The run log of a finished closed loop: the per-sample statistics of ``results`` (and their exit codes into
+    ``planlog`` when ``store_exit_codes``: no plan was logged), the Cartesian poses, the collisions on the true
+    rectangles, a_lat, the meta data; ``planlog``'s fields when ``with_plan_fields``."""
+    K = len(results)
     road = sc.road
-    xs = np.zeros((K + 1, 5))
-    xs[0] = sc.x0
-    us = np.zeros((K, 2))
     tp, tf = np.zeros(K), np.zeros(K)
     qi, qs = np.zeros(K, dtype=np.int64), np.zeros(K, dtype=np.int64)
     slack = np.zeros(K)
-    planlog = PlanLog(K, problem.horizon.N, plan)
-    it: Iterable[int] = range(K)
-    if progress:
-        it = extras.progress(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
-    stepper = getattr(controller, "window_stepper", None)
-    step = stepper(road, problem.road.samples) if stepper is not None else None
-    plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
-    add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
-    for j in it:
-        x = xs[j]
-        if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
-            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
-        else:
-            r = controller.step(x, solver_window(problem, road, x), horizon(j))
-        u = us[j]
-        u[:] = r.u
-        if add is not None:
-            add(j, controller, r)
-        results.append(r)
-        xs[j + 1] = plant_step(x, u)
     # the per-sample statistics, a list per array (assigned element by element, as one store per sample would)
     for a, key in (
         (tp, "time_prepare"),
@@ -326,7 +319,7 @@ def run_closed_loop(
         (qi, "qp_iter"),
         (qs, "qp_status"),
         (slack, "max_slack"),
-    ) + (((planlog.exit_code, "exit_code"),) if add is None else ()):
+    ) + (((planlog.exit_code, "exit_code"),) if store_exit_codes else ()):
         a[:] = [getattr(r, key) for r in results]
     t = np.arange(K + 1, dtype=np.float64) * np.float64(sc.dt)
     ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
@@ -337,22 +330,7 @@ def run_closed_loop(
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
     a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l
-    meta = make_meta(
-        problem=problem.name,
-        formulation=problem.formulation.kind,
-        obstacle_model=problem.obstacles.kind,
-        scenario=sc.name,
-        seed=sc.seed,
-        N=problem.horizon.N,
-        dt=problem.horizon.dt,
-        controller=controller.kind,
-        n_bound=problem.bounds.n_max,
-        extra={
-            "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
-            "plan_reactions": int(sum(r.plan_reaction for r in results)),
-            "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
-        },
-    )
+    meta = _meta(problem, sc, kind, planlog, results)
     road_dict = {
         "s": road.s,
         "kappa": road.kappa,
@@ -380,5 +358,54 @@ def run_closed_loop(
         qp_status=qs,
         max_slack=slack,
         ego=dims(problem.ego),
-        **(planlog.fields() if exit_codes or plan != "none" else {}),
+        **(planlog.fields() if with_plan_fields else {}),
     )
+
+
+def run_closed_loop(
+    problem: Problem,
+    sc: Scenario,
+    controller: Controller | None = None,
+    ocp: Ocp | None = None,
+    progress: bool = False,
+    exit_codes: bool = False,
+    plan: str = "none",
+) -> RunLog:
+    """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
+
+    ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
+    the planned controls (``"controls"``) or controls and states (``"full"``) of every sample; either needs a
+    controller with ``plan()``.
+    """
+    if controller is None:
+        ocp = ocp or build_ocp(problem)
+        controller = ReferenceController(ocp)
+    plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
+    opp_params = opponent_params(problem, sc)
+    K = sc.samples
+    road = sc.road
+    xs = np.zeros((K + 1, 5))
+    xs[0] = sc.x0
+    us = np.zeros((K, 2))
+    planlog = PlanLog(K, problem.horizon.N, plan)
+    it: Iterable[int] = range(K)
+    if progress:
+        it = extras.progress(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
+    stepper = getattr(controller, "window_stepper", None)
+    step = stepper(road, problem.road.samples) if stepper is not None else None
+    plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
+    add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
+    for j in it:
+        x = xs[j]
+        if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
+            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
+        else:
+            r = controller.step(x, solver_window(problem, road, x), horizon(j))
+        u = us[j]
+        u[:] = r.u
+        if add is not None:
+            add(j, controller, r)
+        results.append(r)
+        xs[j + 1] = plant_step(x, u)
+    with_plan_fields = exit_codes or plan != "none"
+    return _run_log(problem, sc, controller.kind, xs, us, results, planlog, opp_params, add is None, with_plan_fields)
