@@ -234,7 +234,6 @@ class RtiSolver:
         return np.concatenate([self._road_params(s), self._stage_rest(k)])
 
     def _stage_rest(self, k: int) -> np.ndarray:
-        """Stage k's parameters after the road window: x_ref, the opponents (and the stage's interval)."""
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
         if self.curve_ref is not None:
@@ -300,9 +299,7 @@ class RtiSolver:
 
     # -- the two phases -----------------------------------------------------------------------------
     def prepare(self, shift: bool = True) -> None:
-        """Shift the plan (or build the initial guess), linearize, build the QP (all but x0), load the backend.
-
-        Transactional: nothing visible changes before every check passed (the C restores the opponent fit)."""
+        """Shift the plan (or build the guess), linearize, build the QP, load the backend; transactional (fit too)."""
         if self.prepared:
             self.status.exit_code = 0  # an accepted call (the C's ok())
             return
