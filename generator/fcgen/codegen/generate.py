@@ -21,7 +21,7 @@ from .. import __version__
 from .. import obstacles as obs
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
-from ..contract import HOST_TICKS_PER_SECOND
+from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
@@ -400,6 +400,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "n_max": c_real(problem.bounds.n_max),
         "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE),
         "ego_radius": c_real(obs.ego_radius(problem.ego)),
+        "ranges": {k: c_real(v) for k, v in dataclasses.asdict(INPUT_RANGES).items()},
         "p_road": {
             "S0": 0,
             "DS": 1,
