@@ -99,12 +99,12 @@ def test_store_keeps_the_columns_of_every_row(tmp_path):
     assert df["prediction"].isna().tolist() == [True, False] and df["prediction"].iloc[1] == "constant-velocity"
 
 
-def test_report_section_counts_by_cell_and_names_where_each_axis_first_breaks():
+def test_report_section_counts_by_cell_and_names_where_each_axis_first_breaks(tmp_path):
     import json
 
     import pandas as pd
 
-    from fcgen.report.robustness import section, split_keys
+    from fcgen.report.robustness import plot, section, split_keys
 
     base = "car/lifted/EL/c/osqp/safe"
     qp = json.dumps({"solved": 9, "max_iter": 1})
@@ -130,3 +130,5 @@ def test_report_section_counts_by_cell_and_names_where_each_axis_first_breaks():
     assert f"| {base} | latency | 1+comp | 2 | 0 | 0 | 0.00 % | 90.0 | -10.0 % | 90.0 % | 2 | 0 |" in text
     assert f"- {base}: latency at 2, prediction at constant-velocity" in text
     assert section(df[df["config"] == base]) == []  # no perturbed rows: no section
+    assert [p.name for p in plot(df, tmp_path)] == ["robustness.png", "robustness.svg"]
+    assert plot(df[df["config"] == base], tmp_path / "none") == []

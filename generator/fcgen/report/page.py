@@ -236,7 +236,8 @@ def _write_report(df: pd.DataFrame, out: Path, example: bool) -> Path:
         lines += _backend_comparison(df, names)
     for b, sub in split:
         lines += _tables(sub, f" — QP backend {b}" if many else "", backend=b)
-    lines += robustness.section(df)  # results of `fcgen campaign --robustness`: its section
+    lines += robustness.section(df)  # results of `fcgen campaign --robustness`: its section and plot
+    figs += robustness.plot(df, out)
     lines += ["## Figures", "", *[f"![{p.stem}]({p.name})" for p in figs if p.suffix == ".png"], ""]
     for b, sub in split:
         lines += _rates(sub, f" — QP backend {b}" if many else "")

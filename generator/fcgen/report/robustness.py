@@ -100,3 +100,47 @@ def section(df: pd.DataFrame) -> list[str]:
         "",
     ]
     return lines
+
+
+def _shares(g: pd.DataFrame) -> tuple[float, float]:
+    """The share of runs with a collision the ego caused, and of samples with the plant's |a_lat| above bound+0.5."""
+    f = _cell_figures(g)
+    return f["ego"] / max(1, f["runs"]), (0.0 if f["over05"] != f["over05"] else f["over05"])
+
+
+def plot(df: pd.DataFrame, out_dir) -> list:
+    """``robustness.png``/``.svg``: per axis, the ego's collisions and the a_lat excess against the magnitude (the
+    unperturbed cell first), one line per configuration, the magnitude where it first breaks circled."""
+    if "plant" not in df.columns or df["plant"].isna().all():
+        return []
+    from pathlib import Path
+
+    from .figures import Figure, FigureCanvasAgg, _save
+
+    df = split_keys(df)
+    axes = [a for a in dict.fromkeys(c.axis for c in cells()) if a != "none" and (df["axis"] == a).any()]
+    fig = Figure(figsize=(3.2 * len(axes), 5.6))
+    FigureCanvasAgg(fig)
+    grid = fig.subplots(2, len(axes), squeeze=False)
+    for i, axis in enumerate(axes):
+        mags = ["0"] + [c.magnitude for c in cells((axis,)) if c.axis == axis]
+        for base, gb in df.groupby("base", sort=True):
+            pts = [
+                (k, m, _shares(gb[(gb["axis"] == ("none" if k == 0 else axis)) & (gb["magnitude"] == m)]))
+                for k, m in enumerate(mags)
+                if ((gb["axis"] == ("none" if k == 0 else axis)) & (gb["magnitude"] == m)).any()
+            ]
+            for row in (0, 1):
+                xs, ys = [k for k, _, _ in pts], [100 * s[row] for _, _, s in pts]
+                line = grid[row][i].plot(xs, ys, marker=".", label=base)[0]
+                br = next((k for k, _, s in pts if s[0] > 0 or s[1] > A_LAT_SHARE), None)
+                if br is not None:
+                    grid[row][i].plot([br], [ys[xs.index(br)]], "o", mfc="none", ms=10, color=line.get_color())
+        for row, label in ((0, "ego-caused collisions [% of runs]"), (1, "|a_lat| > bound + 0.5 [% of samples]")):
+            ax = grid[row][i]
+            ax.set_xticks(range(len(mags)), mags, rotation=60, fontsize=6)
+            ax.set_ylabel(label if i == 0 else "", fontsize=7)
+        grid[0][i].set_title(axis, fontsize=9)
+    grid[0][0].legend(fontsize=5)
+    fig.tight_layout()
+    return _save(fig, Path(out_dir) / "robustness")
