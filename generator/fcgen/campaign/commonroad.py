@@ -43,6 +43,10 @@ ROW_KEYS = (
     "rti_ms_median",
     "qp_iter_mean",
     "exit_codes_nonzero",
+    "max_slack",
+    "unsolved_samples",
+    "unsolved_codes",
+    "nonfinite",
     "wall_s",
 )
 
@@ -137,9 +141,32 @@ def run_cr_task(task: CrTask) -> dict:
         rti_ms_median=float(np.median(t_ms)),
         qp_iter_mean=float(np.mean(log.qp_iter)),
         exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]),
+        **slack_fields(np.asarray(log.max_slack, dtype=float), cr["unsolved"]),
         wall_s=time.perf_counter() - t0,
     )
+    row["nonfinite"] = nonfinite_fields(row)
     return row
+
+
+def slack_fields(slack: np.ndarray, unsolved: dict) -> dict:
+    """The row's ``max_slack`` (over the samples with a solution, 0 when none has one: ``unsolved_samples`` then says
+    so), ``unsolved_samples`` and ``unsolved_codes`` (``"CODE xN, ..."``, "" without)."""
+    ok = np.isfinite(slack)
+    return {
+        "max_slack": float(slack[ok].max()) if ok.any() else 0.0,
+        "unsolved_samples": int(unsolved["samples"]),
+        "unsolved_codes": ", ".join(f"{k} x{v}" for k, v in unsolved["exit_codes"].items()),
+    }
+
+
+def nonfinite_fields(row: dict) -> str:
+    """The names of a row's numeric fields whose value is not finite (comma-separated, "" when every one is): a row
+    states such a value instead of hiding it in a NaN."""
+    return ", ".join(
+        k
+        for k, v in row.items()
+        if isinstance(v, (float, np.floating)) and not isinstance(v, bool) and not np.isfinite(v)
+    )
 
 
 def _step(v) -> int:
@@ -181,6 +208,25 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
     return o / "commonroad.md"
 
 
+def unsolved_lines(ran) -> list[str]:
+    """The report's section on samples without a solution and on non-finite values in rows ("None." when none)."""
+    lines = ["## Samples without a solution, non-finite values", ""]
+    bad = ran[(ran.unsolved_samples.fillna(0).astype(int) > 0) | (ran.nonfinite.fillna("") != "")]
+    if not len(bad):
+        return [*lines, "None.", ""]
+    lines += [
+        f"{len(bad)} of {len(ran)} runs, {int(bad.unsolved_samples.fillna(0).sum())} samples without a solution.",
+        "",
+        "| scenario | configuration | samples without a solution | exit codes | non-finite fields |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {r.scenario} | {r.problem} | {r.unsolved_samples} | {r.unsolved_codes or '-'} | {r.nonfinite or '-'} |"
+        for r in bad.itertuples()
+    ]
+    return [*lines, ""]
+
+
 def summary_markdown(df) -> str:
     """Scenarios run / refused (reasons), the agreement of the two collision checks, collisions by responsibility."""
     ran, refused = df[df.status == "ran"], df[df.status == "refused"]
@@ -210,6 +256,7 @@ def summary_markdown(df) -> str:
             f"{int(ran.road_departure.astype(bool).sum())}.",
             "",
         ]
+        lines += unsolved_lines(ran)
         col = ran[a | b]
         lines += ["## Collisions", ""]
         if len(col):

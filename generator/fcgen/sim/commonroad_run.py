@@ -135,6 +135,7 @@ def run_commonroad(
             "fcgen": _plain(own),
             "responsibility": who,
             "agree": bool(checker["collision"]) == bool(own["collision"]),
+            "unsolved": unsolved_status(loop.results),
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
@@ -340,6 +341,20 @@ def _responsibility(
     return responsible(
         centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )
+
+
+def unsolved_status(results: list) -> dict:
+    """The samples without a solution (their slack is not finite: the exit code says why): ``samples`` (count),
+    ``first_sample`` (None without one), ``exit_codes`` (name -> count)."""
+    from ..contract import EXIT_CODES
+
+    bad = [j for j, r in enumerate(results) if r.exit_code or not math.isfinite(r.max_slack)]
+    codes: dict[str, int] = {}
+    for j in bad:
+        c = int(results[j].exit_code)
+        name = EXIT_CODES[c] if 0 < c < len(EXIT_CODES) else ("OK but non-finite slack" if c == 0 else f"unknown({c})")
+        codes[name] = codes.get(name, 0) + 1
+    return {"samples": len(bad), "first_sample": bad[0] if bad else None, "exit_codes": dict(sorted(codes.items()))}
 
 
 def _plain(d: dict) -> dict:
