@@ -43,6 +43,14 @@ ROW_KEYS = (
     "rti_ms_median",
     "qp_iter_mean",
     "exit_codes_nonzero",
+    "goal_reached",
+    "goal_step",
+    "v_ref_source",
+    "n_ref",
+    "solution_valid",
+    "solution_valid_but_goal",
+    "solution_starts",
+    "solution_feasible",
     "max_slack",
     "unsolved_samples",
     "unsolved_codes",
@@ -142,10 +150,26 @@ def run_cr_task(task: CrTask) -> dict:
         qp_iter_mean=float(np.mean(log.qp_iter)),
         exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]),
         **slack_fields(np.asarray(log.max_slack, dtype=float), cr["unsolved"]),
+        **goal_fields(cr),
         wall_s=time.perf_counter() - t0,
     )
     row["nonfinite"] = nonfinite_fields(row)
     return row
+
+
+def goal_fields(cr: dict) -> dict:
+    """The row's goal and solution fields from the run log's ``extra.commonroad``."""
+    g, sol = cr["goal"], cr["solution"]
+    return {
+        "goal_reached": bool(g["reached"]),
+        "goal_step": _step(g["step"]),
+        "v_ref_source": g["v_ref_source"],
+        "n_ref": float(cr["n_ref"]),
+        "solution_valid": bool(sol["valid"]),
+        "solution_valid_but_goal": bool(sol["valid_but_goal"]),
+        "solution_starts": bool(sol["starts_at_initial_state"]),
+        "solution_feasible": bool(sol["feasible"]),
+    }
 
 
 def slack_fields(slack: np.ndarray, unsolved: dict) -> dict:
@@ -167,6 +191,10 @@ def nonfinite_fields(row: dict) -> str:
         for k, v in row.items()
         if isinstance(v, (float, np.floating)) and not isinstance(v, bool) and not np.isfinite(v)
     )
+
+
+def _count(col) -> int:
+    return int(col.fillna(False).astype(bool).sum())
 
 
 def _step(v) -> int:
@@ -255,6 +283,11 @@ def summary_markdown(df) -> str:
             f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
             f"{int(ran.road_departure.astype(bool).sum())}.",
             "",
+            f"Goal reached: {_count(ran.goal_reached)} of {len(ran)} runs. Solutions valid by the drivability "
+            f"checker: {_count(ran.solution_valid)} (all but the goal: {_count(ran.solution_valid_but_goal)}; "
+            f"starting at the initial state: {_count(ran.solution_starts)}; feasible: "
+            f"{_count(ran.solution_feasible)}).",
+            "",
         ]
         lines += unsolved_lines(ran)
         col = ran[a | b]
@@ -275,12 +308,14 @@ def summary_markdown(df) -> str:
             "",
             "## Per configuration",
             "",
-            "| configuration | runs | collisions (fcgen) | progress mean, m | RTI median, ms | max abs a_lat |",
-            "|---|---|---|---|---|---|",
+            "| configuration | runs | collisions (fcgen) | goal reached | valid solutions | progress mean, m | "
+            "RTI median, ms | max abs a_lat |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for name, g in ran.groupby("problem"):
             lines.append(
-                f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | "
-                f"{g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | {g.max_abs_a_lat.max():.2f} |"
+                f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | {_count(g.goal_reached)} | "
+                f"{_count(g.solution_valid)} | {g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | "
+                f"{g.max_abs_a_lat.max():.2f} |"
             )
     return "\n".join(lines) + "\n"

@@ -54,9 +54,10 @@ class CommonRoadRun:
 
     @property
     def ego_states(self) -> np.ndarray:
-        """(K + 1, 5): the ego's rear axle [x, y, phi], speed and steering angle per sample (the solution file's)."""
+        """(K + 1, 5): the ego's chassis centre [x, y, phi] (CommonRoad's position), speed and steering angle per
+        sample (the solution file's)."""
         f = np.asarray(self.log.ego_frenet)
-        return np.column_stack([np.asarray(self.log.ego_cartesian), f[:, 3], f[:, 4]])
+        return np.column_stack([self.ego_centres, f[:, 3], f[:, 4]])
 
     @property
     def agree(self) -> bool:
@@ -128,6 +129,7 @@ def run_commonroad(
             "sha256": sc.sha256,
             "planning_problem": sc.planning_problem_id,
             "v_ref": float(sc.v_ref),
+            "n_ref": cr.goal.lateral_reference(sc.goal_sn, road)[0],
             "band_cut": cut,
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
@@ -136,6 +138,8 @@ def run_commonroad(
             "responsibility": who,
             "agree": bool(checker["collision"]) == bool(own["collision"]),
             "unsolved": unsolved_status(loop.results),
+            "goal": goal_status(sc, road, centres, loop.xs),
+            "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
@@ -154,6 +158,13 @@ class _Loop:
     slot_ids: list  # per sample the obstacle id in each opponent slot (-1: empty)
     planlog: PlanLog
 
+    def end_at(self, j: int) -> None:
+        """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
+        self.xs, self.us = self.xs[: j + 1], self.us[:j]
+        pl = self.planlog
+        pl.K, pl.exit_code = j, pl.exit_code[:j]
+        pl.states, pl.controls = pl.states[:j], pl.controls[:j]
+
 
 def _drive(
     problem: Problem,
@@ -168,6 +179,7 @@ def _drive(
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
+    from ..commonroad.goal import lateral_reference, reached
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -175,18 +187,23 @@ def _drive(
     loop.xs[0] = sc.x0
     if states is not None:
         loop.xs[:] = states
-    rc = controller.set_reference(sc.v_ref, 0.0)
+    n_ref, _ = lateral_reference(sc.goal_sn, road)
+    rc = controller.set_reference(sc.v_ref, n_ref)
     if rc:
-        raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, 0) refused (exit code {rc})")
+        raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, {n_ref}) refused (exit code {rc})")
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
     if progress:
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
+    goal = sc.planning_problem if states is None else None
     for j in it:
         x = loop.xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
         centre = (rx + half_l * math.cos(rphi), ry + half_l * math.sin(rphi))
+        if j and goal is not None and reached(goal, sc.first_step + j, centre, rphi, float(x[3])):
+            loop.end_at(j)  # the goal is reached: the run ends there
+            break
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
@@ -340,6 +357,36 @@ def _responsibility(
     w = round(LANE_WINDOW / dt)
     return responsible(
         centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
+    )
+
+
+def goal_status(sc, road: Road, centres: np.ndarray, xs: np.ndarray) -> dict:
+    """Whether and when the ego reached the planning problem's goal region (``commonroad.goal.first_reached``):
+    ``reached``, ``sample`` / ``step`` / ``time_s`` (None without), ``v_ref_source``, ``n_ref_source`` (``road``:
+    the band the solver gets)."""
+    from ..commonroad.goal import first_reached, lateral_reference
+
+    j = None if sc.planning_problem is None else first_reached(sc.planning_problem, sc.first_step, centres, xs[:, 3])
+    return {
+        "reached": j is not None,
+        "sample": j,
+        "step": None if j is None else sc.first_step + j,
+        "time_s": None if j is None else j * sc.dt,
+        "v_ref_source": sc.v_ref_source,
+        "n_ref_source": lateral_reference(sc.goal_sn, road)[1],
+    }
+
+
+def goal_line(cr: dict) -> str:
+    """One line of a run's goal, references and solution verdict (the log's ``extra.commonroad``)."""
+    g, sol = cr["goal"], cr["solution"]
+    reached = f"reached at step {g['step']} ({g['time_s']:.1f} s)" if g["reached"] else "not reached"
+    parts = [k for k in ("starts_at_initial_state", "feasible", "goal_reached") if not sol[k]]
+    parts += [k for k in ("obstacle_collision", "road_departure") if sol[k]]
+    verdict = "valid" if sol["valid"] else "not valid (" + ", ".join(f"{k}" for k in parts) + ")"
+    return (
+        f"goal: {reached}; v_ref {cr['v_ref']:.1f} m/s ({g['v_ref_source']}), n_ref {cr['n_ref']:.2f} m "
+        f"({g['n_ref_source']}); solution (drivability checker): {verdict}"
     )
 
 
