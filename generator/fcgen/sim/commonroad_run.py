@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -66,6 +66,7 @@ class CommonRoadRun:
 
 
 HEADING_MARGIN = 0.25  # m: the band's extra shrink for the chassis' corners at a small heading
+LANE_DRIFT = 0.05  # m: the lateral reference follows its lane's centre when it moves more than this
 
 
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
@@ -129,7 +130,8 @@ def run_commonroad(
             "sha256": sc.sha256,
             "planning_problem": sc.planning_problem_id,
             "v_ref": float(sc.v_ref),
-            "n_ref": cr.goal.lateral_reference(sc.goal_sn, road)[0],
+            "n_ref": float(loop.lane_changes[0][1]) if loop.lane_changes else 0.0,
+            "lane_changes": loop.lane_changes,
             "band_cut": cut,
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
@@ -157,6 +159,7 @@ class _Loop:
     results: list  # each sample's StepResult
     slot_ids: list  # per sample the obstacle id in each opponent slot (-1: empty)
     planlog: PlanLog
+    lane_changes: list = field(default_factory=list)  # [sample, n_ref, reason] where the lateral reference changed
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -180,6 +183,7 @@ def _drive(
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
     from ..commonroad.goal import lateral_reference, reached
+    from ..commonroad.lanes import SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -187,10 +191,9 @@ def _drive(
     loop.xs[0] = sc.x0
     if states is not None:
         loop.xs[:] = states
-    n_ref, _ = lateral_reference(sc.goal_sn, road)
-    rc = controller.set_reference(sc.v_ref, n_ref)
-    if rc:
-        raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, {n_ref}) refused (exit code {rc})")
+    goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
+    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
+    n_ref = None
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
     if progress:
@@ -204,6 +207,15 @@ def _drive(
         if j and goal is not None and reached(goal, sc.first_step + j, centre, rphi, float(x[3])):
             loop.end_at(j)  # the goal is reached: the run ends there
             break
+        traffic = traffic_at(sc.obstacles, sc.road, sc.first_step + j, sc.dt)
+        n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
+        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT:  # the lane's centre moves with s, the target lane
+            if n_ref is None or abs(n_new - n_ref) > SETTLED:
+                loop.lane_changes.append([j, n_new, why])
+            n_ref = n_new
+            rc = controller.set_reference(sc.v_ref, n_ref)
+            if rc:
+                raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, {n_ref}) refused (exit code {rc})")
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
@@ -385,8 +397,9 @@ def goal_line(cr: dict) -> str:
     parts += [k for k in ("obstacle_collision", "road_departure") if sol[k]]
     verdict = "valid" if sol["valid"] else "not valid (" + ", ".join(f"{k}" for k in parts) + ")"
     return (
-        f"goal: {reached}; v_ref {cr['v_ref']:.1f} m/s ({g['v_ref_source']}), n_ref {cr['n_ref']:.2f} m "
-        f"({g['n_ref_source']}); solution (drivability checker): {verdict}"
+        f"goal: {reached}; v_ref {cr['v_ref']:.1f} m/s ({g['v_ref_source']}); lateral reference "
+        + ", ".join(f"{n:.2f} m at sample {j} ({why})" for j, n, why in cr["lane_changes"])
+        + f"; solution (drivability checker): {verdict}"
     )
 
 
