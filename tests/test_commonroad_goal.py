@@ -33,7 +33,7 @@ def _window(d: float, steps: tuple[int, int], dt: float = 0.1) -> tuple[float, f
 def test_the_reference_speed_drives_for_the_goal(tmp_path):
     """Ego at 20 m/s, goal centre 200 m ahead (centre to centre, along the straight path). A window of steps 80-120
     (8-12 s: 18.2-22.2 m/s in its middle half) keeps the traffic's 20 m/s; 40-60 (4-6 s) asks 36.4 m/s; the goal's
-    speed interval, the lane's speed limit and v_max cap it, in that order."""
+    speed interval (near the goal), the lane's speed limit and v_max cap it, in that order."""
     goal = {"lane": 2, "s": 250.0}
     sc = load_for(PB, write_scenario(tmp_path / "a.xml", goal=goal, goal_steps=(80, 120), length=600.0))
     assert (sc.v_ref, sc.v_ref_source) == (20.0, "initial speed")
@@ -47,7 +47,9 @@ def test_the_reference_speed_drives_for_the_goal(tmp_path):
         PB,
         write_scenario(tmp_path / "c.xml", goal={**goal, "velocity": (0.0, 30.0)}, goal_steps=(40, 60), length=600.0),
     )
-    assert (sc.v_ref, sc.v_ref_source) == (30.0, "goal velocity")
+    # the speed interval is the speed at the goal: it applies once the goal is within the horizon's reach
+    assert (sc.v_ref, sc.v_ref_source) == (pytest.approx(lo, rel=1e-3), "goal time window")
+    assert (sc.v_goal, sc.v_goal_source) == (30.0, "goal velocity")
     sc = load_for(
         PB,
         write_scenario(tmp_path / "d.xml", goal=goal, goal_steps=(40, 60), length=600.0, speed_limit=25.0),

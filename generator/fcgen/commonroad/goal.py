@@ -11,8 +11,10 @@ Rules (tested in tests/test_commonroad_goal.py):
 - **Reference speed** (``goal_speed``), in this order: the initial speed (the traffic's); brought into the speeds
   that arrive at the goal position's centre (its distance ``d`` ahead along the reference path) within the middle
   half of the goal's time window ``[t_a, t_b]`` (``d / t_b <= v <= d / t_a``, a quarter of the window left free at
-  either end for the ego's acceleration and the tracking's lag); into the goal's speed interval; at most the
-  initial lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
+  either end for the ego's acceleration and the tracking's lag); into the goal's speed interval (where the goal
+  gives a position: only once it is within the horizon's reach, ``v_goal``: the interval is the speed at the goal,
+  not on the way, and recorded traffic behind does not brake for an ego that slows early); at most the initial
+  lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
 - **Lateral reference** (``goal_frenet``): the goal position's centre's lateral offset on the reference path (the
   lane the goal lies in), held within the band the ego may use at the goal's ``s``; 0 (the reference path's lane)
   where the goal gives no position.
@@ -65,10 +67,11 @@ def speed_limit(net, lanelet_id: int) -> float | None:
 
 
 def goal_speed(
-    pp, v0: float, dt: float, distance: float | None, limit: float | None, v_max: float
+    pp, v0: float, dt: float, distance: float | None, limit: float | None, v_max: float, near: bool = True
 ) -> tuple[float, str]:
     """The reference speed and what set it last (module docstring): ``distance`` (m) to the goal position's centre
-    along the reference path (None: no position), ``limit`` the lane's speed limit (None: none)."""
+    along the reference path (None: no position), ``limit`` the lane's speed limit (None: none); ``near=False``: the
+    speed on the way, before the goal is within the horizon (the goal's speed interval left out)."""
     v, src = float(v0), "initial speed"
     step0 = int(pp.initial_state.time_step)
     gs = pp.goal.state_list[0]
@@ -80,7 +83,7 @@ def goal_speed(
         lo = distance / t_b if t_b > 0 else math.inf
         if not lo <= v <= hi:
             v, src = min(max(v, lo), hi), "goal time window"
-    vi = _interval(gs, "velocity")
+    vi = _interval(gs, "velocity") if near or distance is None else None
     if vi is not None and not vi[0] <= v <= vi[1]:
         v, src = min(max(v, vi[0]), vi[1]), "goal velocity"
     if limit is not None and v > limit:

@@ -51,6 +51,8 @@ class CrScenario:
     file: str = ""  # the XML's file name and sha256 (a suite keeps a copy; regress finds it by them)
     sha256: str = ""
     goal_sn: tuple[float, float] | None = None  # the goal position's centre (s, n) on the road (None: no position)
+    v_goal: float = 0.0  # the reference speed once the goal is within the horizon's reach (goal.goal_speed)
+    v_goal_source: str = ""
 
 
 def load_scenario(
@@ -96,9 +98,12 @@ def load_scenario(
     chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
     road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
     goal_sn = goal_frenet(pp, road)
+    v_goal, g_src = v_ref, v_src
     if goal_sn is not None:  # the distance along the reference path (the straight line's above only sized the horizon)
         s_c = road.to_frenet(np.array([centre[0]]), np.array([centre[1]]), np.array([0.0]))[0]
-        v_ref, v_src = goal_speed(pp, v0, dt, goal_sn[0] - float(s_c[0]), limit, v_max)
+        d_goal = goal_sn[0] - float(s_c[0])
+        v_goal, g_src = goal_speed(pp, v0, dt, d_goal, limit, v_max)
+        v_ref, v_src = goal_speed(pp, v0, dt, d_goal, limit, v_max, near=False)
     if info["path_ahead_m"] < horizon_m:
         raise ScenarioRefused(
             f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
@@ -127,6 +132,8 @@ def load_scenario(
         Path(path).name,
         digest,
         goal_sn,
+        v_goal,
+        g_src,
     )
 
 

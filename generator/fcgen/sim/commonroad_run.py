@@ -193,7 +193,7 @@ def _drive(
         loop.xs[:] = states
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
     lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
-    n_ref = None
+    n_ref, v_ref = None, sc.v_ref
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
     if progress:
@@ -209,13 +209,14 @@ def _drive(
             break
         traffic = traffic_at(sc.obstacles, sc.road, sc.first_step + j, sc.dt)
         n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
-        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT:  # the lane's centre moves with s, the target lane
-            if n_ref is None or abs(n_new - n_ref) > SETTLED:
-                loop.lane_changes.append([j, n_new, why])
-            n_ref = n_new
-            rc = controller.set_reference(sc.v_ref, n_ref)
+        if n_ref is None or abs(n_new - n_ref) > SETTLED:
+            loop.lane_changes.append([j, n_new, why])
+        v_new = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
+        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref:  # the lane's centre moves with s
+            n_ref, v_ref = n_new, v_new
+            rc = controller.set_reference(v_ref, n_ref)
             if rc:
-                raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, {n_ref}) refused (exit code {rc})")
+                raise ValueError(f"scenario {sc.name}: set_reference({v_ref}, {n_ref}) refused (exit code {rc})")
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
@@ -229,6 +230,14 @@ def _drive(
         if states is None:
             loop.xs[j + 1] = plant.step(x, loop.us[j], road)
     return loop
+
+
+def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
+    """Whether the goal position is within the horizon's reach of the ego's centre (its speed interval applies)."""
+    if sc.goal_sn is None or not sc.v_goal:
+        return False
+    reach = problem.horizon.N * problem.horizon.dt * max(float(x[3]), sc.v_goal) + 2 * half_l
+    return sc.goal_sn[0] - (float(x[0]) + half_l) <= reach
 
 
 class _SlotShapes:
