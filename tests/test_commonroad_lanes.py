@@ -109,3 +109,24 @@ def test_the_ego_leaves_a_lane_that_ends(tmp_path):
     assert [why for _, _, why in cr["lane_changes"]] == ["start", "the lane ends"]
     assert not run.checker["road_departure"] and not run.checker["collision"]
     assert abs(np.asarray(run.log.ego_frenet)[-1, 1] - LANE) < 0.3
+
+
+def test_the_relevance_rule_in_a_closed_loop_sees_a_slower_vehicle_ahead(tmp_path):
+    """Ego at x = 50 (centre), 20 m/s along x. A car 20 m ahead at 10 m/s closes to 0 within 2 s; cars beside (3.5 m
+    left and right, level with the ego) and one 6 m behind, all at 20 m/s, stay nearer now. By the distance now the
+    car ahead is not among three slots; by the closest approach over the 4 s horizon it is the first (0 m), before the
+    cars beside (3.5 m, ties by id) and the one behind (6 m)."""
+    from fcgen.commonroad import select_opponents
+
+    cars = [
+        (11, 1, 70.0, 10.0, 60, 4.5, 1.8),
+        (12, 2, 50.0, 20.0, 60, 4.5, 1.8),
+        (13, 0, 50.0, 20.0, 60, 4.5, 1.8),
+        (14, 1, 44.0, 20.0, 60, 4.5, 1.8),
+    ]
+    sc = load_for(PB, write_scenario(tmp_path / "v.xml", obstacles=cars))
+    ids = [o.id for o in sc.obstacles]
+    now = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)
+    assert [ids[i] for i in now] == [12, 13, 14]
+    ahead = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (20.0, 0.0), None, PB.horizon.N)
+    assert [ids[i] for i in ahead] == [11, 12, 13]

@@ -217,7 +217,8 @@ def _drive(
             rc = controller.set_reference(v_ref, n_ref)
             if rc:
                 raise ValueError(f"scenario {sc.name}: set_reference({v_ref}, {n_ref}) refused (exit code {rc})")
-        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
+        ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
+        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         r = controller.step(x, solver_window(problem, road, x), poses)
