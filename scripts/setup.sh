@@ -1,14 +1,13 @@
 #!/usr/bin/env bash
 # Set up fcgen from a fresh clone: system tools (apt-get, only if missing), a venv in .venv, the package + test extras.
-# Idempotent: a second run only re-installs the package (fast). Usage: bash scripts/setup.sh
+# Idempotent: a second run only re-installs the package (fast); two at once run one after the other.
+# Usage: bash scripts/setup.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-apt_install() {  # apt-get install "$@", with sudo when not root
-  local sudo=""; [ "$(id -u)" -ne 0 ] && sudo="sudo"
-  echo "setup: installing $* with apt-get" >&2
-  $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "$@"
-}
+# apt_install waits for another install's lock (FCGEN_APT_WAIT s); setup_lock: a second set-up of this clone waits
+source scripts/setup_lib.sh
+setup_lock
 
 need=()
 command -v cc >/dev/null 2>&1 || need+=(gcc libc6-dev)

@@ -10,6 +10,7 @@ import sys
 import textwrap
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -233,14 +234,40 @@ def test_solvers_are_built_before_the_runs_one_per_configuration(cache):
     whatever the number of its runs."""
     import concurrent.futures as cf
 
-    from fcgen.campaign.runner import _build_solvers
+    from fcgen.campaign.runner import Outcome, _build_solvers
 
     tasks = make_tasks(CONFIGS, range(3), SAMPLES, cache)
     calls = []
     with cf.ThreadPoolExecutor(2) as ex:
         real_submit = ex.submit
-        ex.submit = lambda fn, *a: (calls.append(a[0].key), real_submit(fn, *a))[1]
-        _build_solvers(ex, tasks)
+        ex.submit = lambda fn, *a: (calls.append(a[1].key), real_submit(fn, *a))[1]  # capturing(build_solver, ...)
+        _build_solvers(ex, tasks, Outcome(len(tasks), 0))
     assert sorted(calls) == sorted(c.key for c in CONFIGS)
     for c in CONFIGS:
         assert ensure_solver(c.problem(), cache).is_file()
+
+
+def test_cli_campaign_prints_its_warnings_once_after_the_runs_then_a_results_table(cache, tmp_path):
+    """The truck's paper covering circles C5 do not cover its chassis by the paper's radius: the workers warn while
+    they generate the solver; the warning is printed once, after the progress bar (before: once per process, into
+    it); then a results table whose figures are the results store's."""
+    fcgen = str(Path(sys.executable).with_name("fcgen"))
+    args = ["campaign", "--scenarios", "truck", "--formulations", "lifted", "--obstacles", "c5", "--cache", cache]
+    args += ["--seeds", "2", "--samples", "3", "--jobs", "2", "--out", str(tmp_path / "r")]
+    res = subprocess.run([fcgen, *args], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    warn = [ln for ln in res.stderr.splitlines() if "do not cover" in ln]
+    assert len(warn) == 1, res.stderr
+    assert warn[0].startswith("warning: UserWarning: obstacles: 5 circles of radius w/sqrt(2) do not cover"), warn
+    assert res.stderr.index("do not cover") > res.stderr.rindex("campaign (0 done before)")  # after the bar
+    lines = res.stdout.splitlines()
+    table = lines[next(i for i, ln in enumerate(lines) if ln.startswith("configuration ")) :]
+    assert table[0].split() == ["configuration", "runs", "collisions", "progress", "[m]", "time", "per", "RTI", "[ms]"]
+    rows = {ln.split()[0]: ln.split()[1:] for ln in table[2:]}
+    assert set(rows) == {"truck/lifted/C5/c/osqp"}
+    df = ResultStore(tmp_path / "r").read()
+    for key, (runs, coll, prog, t_rti) in rows.items():
+        r = df[df["config"] == key]
+        assert int(runs) == len(r) == 2 and int(coll) == int(r["collision"].sum())
+        assert float(prog) == pytest.approx(r["progress"].mean(), abs=0.05)
+        assert float(t_rti) == pytest.approx(r["time_total_ms_median"].median(), abs=5e-4)

@@ -176,11 +176,12 @@ def test_collect_writes_batches_and_keeps_no_finished_future(tmp_path):
         if t.seed == 3:
             f.set_exception(RuntimeError("solver exploded"))
         else:
-            f.set_result(_row(t.seed))
+            f.set_result((_row(t.seed), ["UserWarning: w"] if t.seed % 2 else []))  # capturing(run_task, t)
         futs[f] = t
     out, buf, store = Outcome(total=7, skipped=0), [], ResultStore(tmp_path / "res")
     _collect(futs, out, buf, None, store, flush_every=2, flush_seconds=1e9)
     assert futs == {} and out.computed == 6  # collected futures are let go
     assert out.failed == [(tasks[3].run_id, "RuntimeError: solver exploded")]
+    assert out.warnings == ["UserWarning: w"]  # the workers' warnings, each once
     assert len(store.parts()) == 3 and buf == []  # 6 rows in batches of 2, nothing left over
     assert sorted(store.read()["seed"]) == [0, 1, 2, 4, 5, 6]

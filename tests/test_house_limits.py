@@ -14,11 +14,7 @@ PACKAGE = ROOT / "generator" / "fcgen"
 MODULE_MAX, C_FILE_MAX, FUNCTION_MAX = 500, 1000, 80
 
 # name -> why it stays longer (each entry must still exceed the limit: a stale exception fails the test)
-EXCEPTIONS: dict[str, str] = {
-    "generator/fcgen/sim/plots.py:plot_run": "one figure drawn panel by panel in order; the module's rework splits it",
-    "generator/fcgen/verify.py:verify": "the verification's one sequence (build, loop, compare, report); its rework "
-    "moves the comparison out",
-}
+EXCEPTIONS: dict[str, str] = {}
 
 
 def python_modules() -> list[Path]:

@@ -109,3 +109,55 @@ def test_project_to_road_inverts_inverse_transform(kappa):
     tol = 1e-9 if kappa == 0.0 else 0.05  # nearest sample + linear projection on a curve: O(ds^2 kappa)
     np.testing.assert_allclose(sn[:, 0], s, atol=tol)
     np.testing.assert_allclose(sn[:, 1], n, atol=tol)
+
+
+def _axes(fig, ylabel: str):
+    (ax,) = [a for a in fig.axes if a.get_ylabel() == ylabel]
+    return ax
+
+
+def test_the_run_figure_draws_every_vehicle_at_the_same_few_instants_in_the_colour_of_its_time():
+    from matplotlib.patches import Polygon as Poly
+
+    from fcgen.sim.plots import INSTANTS, run_figure
+
+    log = make_log(kappa=0.01, k=100)
+    fig = run_figure(log)
+    for ylabel in ("y [m]", "n [m]"):  # the Cartesian and the Frenet frame
+        patches = [p for p in _axes(fig, ylabel).patches if isinstance(p, Poly)]
+        assert len(patches) == INSTANTS * (1 + len(log.opponents))  # not one per sample: no bands
+        fills = [tuple(p.get_facecolor()) for p in patches]
+        per_instant = [fills[i : i + 2] for i in range(0, len(fills), 2)]  # the opponent, then the ego, per instant
+        assert all(a == b for a, b in per_instant)  # the same instant, the same colour
+        assert len({a for a, _ in per_instant}) == INSTANTS  # another instant, another colour
+
+
+def test_the_run_figure_plots_a_lat_against_its_bound_and_the_largest_slack():
+    from fcgen.sim.plots import run_figure
+
+    log = make_log(kappa=0.01, k=100)
+    slack = np.linspace(0.0, 2.0, 100)
+    f = {name: getattr(log, name) for name in log.__dataclass_fields__}
+    f["max_slack"] = slack
+    fig = run_figure(RunLog(**f), a_lat_max=3.0)
+    ax = _axes(fig, "|a_lat| [m/s^2]")
+    lines = {ln.get_label(): ln for ln in ax.get_lines()}
+    np.testing.assert_array_equal(lines["|a_lat|"].get_ydata(), np.abs(log.a_lat))
+    assert set(lines["bound 3"].get_ydata()) == {3.0}
+    assert np.abs(log.a_lat).max() > 3.0 and any("above" in c.get_label() for c in ax.collections)
+    (ln,) = _axes(fig, "largest slack").get_lines()
+    np.testing.assert_array_equal(ln.get_ydata(), slack)
+
+
+def test_the_cartesian_view_is_fitted_to_the_road_the_run_covers():
+    from fcgen.sim.plots import run_figure
+
+    log = make_log(kappa=0.01, k=100)
+    ax = _axes(run_figure(log), "y [m]")
+    s = np.concatenate([log.ego_frenet[:, 0], log.opp_frenet[:, :, 0].ravel()])
+    on = (log.road["s"] >= s.min() - 30) & (log.road["s"] <= s.max() + 30)
+    pad = log.meta["n_bound"]
+    gx, gy = log.road["gamma_x"][on], log.road["gamma_y"][on]
+    np.testing.assert_allclose(ax.get_xlim(), (gx.min() - pad, gx.max() + pad))
+    np.testing.assert_allclose(ax.get_ylim(), (gy.min() - pad, gy.max() + pad))
+    assert ax.get_aspect() == 1.0  # equal axes: the box, not the data range, is adjusted

@@ -15,6 +15,7 @@ import pytest
 from fcgen.codegen.generate import GenerateInfo, generate
 from fcgen.codegen.misra import MISRA_DEVIATIONS, deviated_rules
 from fcgen.dsl import QpOptions
+from fcgen.locks import folder_lock
 from fcgen.presets import paper_problem
 
 pytestmark = pytest.mark.skipif(shutil.which("cppcheck") is None, reason="needs cppcheck (Debian: cppcheck)")
@@ -68,13 +69,14 @@ def _cppcheck(folder: Path, name: str, *args: str) -> list[dict[str, str]]:
     """cppcheck's findings in <name>_solver.c / <name>_solver.h (the solver's own files)."""
     inc = ["-I.", "-Iosqp", "-Iosqp/lib", "-Iosqp/lib/inc/public"]
     template = "--template={file}:{line}:{column}: {severity}: {message} [{id}]"
-    res = subprocess.run(
-        ["cppcheck", "-q", "--std=c99", template, *args, *inc, f"{name}_solver.c", f"{name}_solver.h"],
-        cwd=folder,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    with folder_lock(folder):  # a checked-in folder: no build restores its OSQP headers while cppcheck reads them
+        res = subprocess.run(
+            ["cppcheck", "-q", "--std=c99", template, *args, *inc, f"{name}_solver.c", f"{name}_solver.h"],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
     assert res.returncode == 0, res.stderr[-2000:]
     found = [m.groupdict() for m in FINDING.finditer(res.stderr)]
     assert len(found) == len([ln for ln in res.stderr.splitlines() if FINDING.match(ln)])

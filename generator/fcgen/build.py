@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .backends import backend_module
 from .codegen.consistency import check_folder
+from .locks import folder_lock
 from .solver_folder import FolderLike, as_folder
 from .targets import get_target
 
@@ -60,7 +61,8 @@ def build(
     alone, cross-compiled with the target's compiler and CPU flags into ``build/<target>``; returns ``lib<name>.a``.
     ``verify`` (``VERIFY=1``: no FP contraction, bit-exact with the reference) builds into ``.../verify``, so both
     variants coexist. ``extra_cflags`` are appended to the flags (e.g. ``-fstack-usage`` for ``footprint``, built
-    apart as ``variant="footprint"``).
+    apart as ``variant="footprint"``). The folder's lock (:func:`~.locks.folder_lock`) is held over the library sync
+    and ``make``: concurrent builds of one folder, from any process, run one after the other.
     """
     folder = as_folder(folder)
     if not folder.checked:
@@ -68,17 +70,18 @@ def build(
     tgt = get_target(target)
     tgt.check_precision(folder.use_float)
     tgt.check_tools()
-    backend_module(folder.backend).restore_library(folder.path, folder.use_float)  # its git-ignored library, if any
     out = folder.build_dir(verify, target, variant).relative_to(folder.path).as_posix()
     if tgt.bare_metal:
         cc = cc or tgt.cc
         cflags = tgt.cflags(cflags if cflags is not None else "-O2")
     if extra_cflags:
         cflags = f"{cflags if cflags is not None else '-O2'} {extra_cflags}"
-    run_make(
-        folder.path,
-        [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}", *tgt.make_variables()],
-        cc,
-        cflags,
-    )
+    with folder_lock(folder.path):  # one make per folder at a time (another process may be building it)
+        backend_module(folder.backend).restore_library(folder.path, folder.use_float)  # its git-ignored library
+        run_make(
+            folder.path,
+            [f"-j{jobs or os.cpu_count() or 1}", f"BUILD={out}", f"VERIFY={int(verify)}", *tgt.make_variables()],
+            cc,
+            cflags,
+        )
     return folder.lib(verify, target, variant)

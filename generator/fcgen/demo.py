@@ -171,7 +171,7 @@ def run_demo(
     if plot:
         from .sim.plots import plot_run
 
-        plot_run(c_log, out_dir / "run_c.png")
+        plot_run(c_log, out_dir / "run_c.png", a_lat_max=pb.bounds.a_lat_max)
     return DemoResult(
         c_log,
         py_log,

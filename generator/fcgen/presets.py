@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import importlib.util
 from dataclasses import replace
 from pathlib import Path
@@ -207,7 +208,25 @@ BACKEND_SUFFIXES = ("ipm",)
 """A preset name may end in ``_<backend>`` for a QP backend other than the default OSQP
 (``truck_lifted_ellipse_ipm``)."""
 SAFE_SUFFIX = "safe"
-"""... and then in ``_safe`` for the safe profile (``truck_lifted_hyperplane_ipm_safe``)."""
+"""... and then in ``_safe`` for the safe profile (``truck_lifted_hyperplane_ipm_safe``; with OSQP
+``truck_lifted_hyperplane_safe``)."""
+
+
+def preset_grammar() -> str:
+    """What a preset name is, in one sentence (the grammar ``preset`` parses; the unknown-preset message)."""
+    return (
+        f"a preset is SCENARIO_FORMULATION_OBSTACLES[_BACKEND][_{SAFE_SUFFIX}] with SCENARIO one of "
+        f"{', '.join(SCENARIOS)}; FORMULATION one of {', '.join(FORMULATIONS)}; OBSTACLES one of "
+        f"{', '.join(OBSTACLES)}; BACKEND one of {', '.join(BACKEND_SUFFIXES)} (without it: OSQP); "
+        f"_{SAFE_SUFFIX}: the safe profile (e.g. truck_lifted_ellipse_ipm_{SAFE_SUFFIX}, "
+        f"truck_lifted_ellipse_{SAFE_SUFFIX})"
+    )
+
+
+def _all_preset_names() -> list[str]:
+    """Every name ``preset_grammar`` allows."""
+    backends = ["", *(f"_{b}" for b in BACKEND_SUFFIXES)]
+    return [f"{n}{b}{s}" for n in preset_names() for b in backends for s in ("", f"_{SAFE_SUFFIX}")]
 
 
 def preset(name: str) -> Problem:
@@ -229,11 +248,9 @@ def preset(name: str) -> Problem:
             for o in OBSTACLES:
                 if name == f"{sc}_{f}_{o}":
                     return paper_problem(sc, f, o)
-    raise ProblemError(
-        f"preset = {name!r} is unknown: allowed one of {', '.join(preset_names())} "
-        f"(each optionally with a QP backend suffix: {', '.join('_' + s for s in BACKEND_SUFFIXES)}, "
-        f"then optionally _{SAFE_SUFFIX} for the safe profile)"
-    )
+    near = difflib.get_close_matches(name, _all_preset_names(), n=1)
+    hint = f"did you mean {near[0]!r}? " if near else ""
+    raise ProblemError(f"preset = {name!r} is unknown: {hint}{preset_grammar()} (`fcgen presets` lists them)")
 
 
 def _parts(name: str) -> tuple[str, str, str]:

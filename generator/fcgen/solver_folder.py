@@ -10,13 +10,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .codegen.consistency import check_folder, read_macros, the_solver
+from .codegen.consistency import WRITE_ONE, check_folder, read_macros, the_solver
 from .dsl import Problem
 from .presets import load_problem
 from .targets import get_target
 
 HEADER_SUFFIX = "_solver.h"
-WRITE_ONE = "write one with `fcgen generate PRESET -o DIR`"
 
 
 def build_dir(gen_dir: Path | str, verify: bool = False, target: str = "host", variant: str | None = None) -> Path:
@@ -29,7 +28,7 @@ def solver_name(gen_dir: Path | str) -> str:
     """The problem name of a generated folder (from its single ``<name>_solver.h``), without reading the rest."""
     heads = sorted(Path(gen_dir).glob(f"*{HEADER_SUFFIX}"))
     if len(heads) != 1:
-        raise FileNotFoundError(f"{gen_dir}: expected exactly one *{HEADER_SUFFIX}, found {len(heads)}")
+        raise FileNotFoundError(f"{gen_dir}: expected exactly one *{HEADER_SUFFIX}, found {len(heads)}; {WRITE_ONE}")
     return heads[0].name[: -len(HEADER_SUFFIX)]
 
 
@@ -98,7 +97,7 @@ def read_folder(path: Path | str, check: bool = True) -> SolverFolder:
         if not (path / "problem.py").is_file():
             raise FileNotFoundError(
                 f"{path} is not a generated solver folder (no problem.py; regenerate it: "
-                f"fcgen generate PRESET -o {path} --force)"
+                f"`fcgen generate PRESET -o {path} --force`)"
             )
     sizes = read_macros(path / f"{name}{HEADER_SUFFIX}", name)
     return SolverFolder(path, name, sizes, load_problem(str(path / "problem.py")), check)

@@ -24,14 +24,14 @@ to OSQP's infinity (1e30) on both sides first, as the osqp Python interface does
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .backends import backend_module
+from .codegen.folder import edits_note
 from .contract import StepResult
 from .csolver import CSolver
 from .dsl import Problem, ProblemError
@@ -39,8 +39,10 @@ from .ocp import INF, build_ocp
 from .presets import CAR, SCENARIOS, TRUCK
 from .reference import RtiSolver
 from .sim.closedloop import ReferenceController, run_closed_loop
+from .sim.runlog import summary
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
+from .verify_report import ENVELOPE_FACTOR, Check, VerifyReport
 
 TOL_QP_DATA = 1e-12
 TOL_SOLUTION = 1e-9
@@ -48,8 +50,8 @@ TOL_TRAJECTORY = 1e-6
 ENVELOPE_EPS = (1e-15, -1e-15, 1e-13, -1e-13)
 """Relative perturbations of the measured state with which the reference drives the plant again where the independent
 closed loops part beyond the tolerance: how far the reference parts from itself under rounding-level changes."""
-ENVELOPE_FACTOR = 2.0
-"""A closed-loop difference passes within this factor of that envelope (the largest over ``ENVELOPE_EPS``)."""
+STRAIGHT_SAMPLES = 10
+"""Samples of the straight-road lockstep (``_straight_probe``)."""
 CLOSED_LOOP = ("trajectory", "cl_control", "cl_qp_iter", "cl_exit_code")
 
 # (key, group, tolerance, description) in table order
@@ -74,12 +76,13 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("plan_check", "status", 0, "plan check stage/reaction, a_lat guard mismatches"),
     ("qp_status", "status", 0, "QP status mismatches"),
     ("qp_iter", "status", 0, "QP iteration mismatches"),
+    ("straight_q", "straight road", TOL_QP_DATA, "q, no curve cap (V_REF, N_REF)"),
+    ("straight_u0", "straight road", TOL_SOLUTION, "first control u0, no curve cap"),
     ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
     ("cl_control", "closed-loop", TOL_TRAJECTORY, "applied controls"),
     ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
     ("cl_exit_code", "closed-loop", 0, "non-zero exit codes, C minus Python"),
 )
-_COUNTS = {"exit_code", "qp_status", "qp_iter", "plan_check", "cl_qp_iter", "cl_exit_code"}
 
 
 def _clearance_diff(c: float, r: float, plan: np.ndarray) -> float:
@@ -116,130 +119,6 @@ def rel_diff(c, r) -> float:
 
 def _clip(a) -> np.ndarray:
     return np.clip(np.asarray(a, dtype=float), -INF, INF)
-
-
-@dataclass
-class Check:
-    """One compared quantity: the largest difference over the run, where it occurred, its tolerance."""
-
-    key: str
-    group: str
-    description: str
-    tol: float
-    max_diff: float = 0.0
-    sample: int = -1  # sample of the largest difference (-1: none / all zero)
-    count: int = 0  # for mismatch counts: samples that differ
-    compared: int = 0  # samples compared
-    envelope: float = 0.0  # closed loops: the reference's own difference under ENVELOPE_EPS (0: not measured)
-
-    @property
-    def allowed(self) -> float:
-        """The tolerance, or ENVELOPE_FACTOR times the reference's own rounding envelope where that is larger."""
-        return max(self.tol, ENVELOPE_FACTOR * self.envelope)
-
-    @property
-    def passed(self) -> bool:
-        return bool(self.max_diff <= self.allowed)  # NaN fails
-
-    def update(self, diff: float, sample: int) -> None:
-        self.compared += 1
-        if self.key in _COUNTS:
-            if diff:
-                self.count += 1
-                if self.sample < 0:
-                    self.sample = sample
-            self.max_diff = float(self.count)
-            return
-        diff = math.inf if math.isnan(diff) else float(diff)
-        if diff > self.max_diff:
-            self.max_diff, self.sample = diff, sample
-
-
-@dataclass
-class VerifyReport:
-    """Result of ``verify``: one ``Check`` per quantity."""
-
-    solver: str
-    gen_dir: str
-    problem: str
-    scenario: str
-    seed: int
-    samples: int
-    checks: list[Check] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    extra: dict = field(default_factory=dict)
-
-    @property
-    def passed(self) -> bool:
-        return all(c.passed for c in self.checks)
-
-    @property
-    def failures(self) -> list[Check]:
-        return [c for c in self.checks if not c.passed]
-
-    def check(self, key: str) -> Check:
-        for c in self.checks:
-            if c.key == key:
-                return c
-        raise KeyError(key)
-
-    def to_dict(self) -> dict:
-        d = asdict(self)
-        for c, cd in zip(self.checks, d["checks"]):
-            cd["passed"], cd["allowed"] = c.passed, c.allowed
-        d["passed"] = self.passed
-        return d
-
-    def to_json(self, path: Path | str) -> None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1, sort_keys=True, default=float) + "\n")
-
-    def format(self) -> str:
-        head = (
-            f"verify {self.solver} ({self.gen_dir}): {self.scenario} scenario, seed {self.seed}, "
-            f"{self.samples} samples, C verification build vs Python reference"
-        )
-        rows = [("group", "quantity", "max rel. diff", "sample", "tolerance", "result")]
-        for c in self.checks:
-            if c.key == "cl_exit_code":
-                diff = f"{c.count}"
-            elif c.key in _COUNTS:
-                diff = f"{c.count}/{c.compared}"
-            else:
-                diff = f"{c.max_diff:.3e}"
-            tol = f"{c.tol:.0e}" if c.tol else "0"
-            if c.allowed > c.tol:
-                env = f"({ENVELOPE_FACTOR:g}x envelope)"
-                tol = f"{c.allowed:.0f} {env}" if c.key in _COUNTS else f"{c.allowed:.1e} {env}"
-            rows.append(
-                (
-                    c.group,
-                    c.description,
-                    diff,
-                    str(c.sample) if c.sample >= 0 else "-",
-                    tol,
-                    "ok" if c.passed else "FAIL",
-                )
-            )
-        w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-        lines = [head]
-        for i, r in enumerate(rows):
-            lines.append("  ".join(s.ljust(w[j]) if j < 2 else s.rjust(w[j]) for j, s in enumerate(r)).rstrip())
-            if i == 0:
-                lines.append("  ".join("-" * x for x in w))
-        lines.append(
-            "max rel. diff: max |C - Python| / max(1, max |Python|) over the run (infinite bounds matched "
-            "exactly); n/m: samples that differ of those compared"
-        )
-        lines += [f"note: {n}" for n in self.notes]
-        bad = self.failures
-        lines.append(
-            "PASS: all tolerances met"
-            if not bad
-            else f"FAIL: {len(bad)} tolerance(s) broken: " + ", ".join(f"{c.group}/{c.description}" for c in bad)
-        )
-        return "\n".join(lines)
 
 
 # --- the problem and scenario of a folder ------------------------------------------------------------------------
@@ -411,6 +290,74 @@ def _closed_loop_diffs(log_c, log_py) -> dict[str, tuple[float, int, int, int]]:
     return out
 
 
+def _checks(backend: str) -> dict[str, Check]:
+    """A fresh check per quantity with the backend's tolerances: a backend that is not bit-exact C vs Python (the IPM:
+    numpy vs C loops) has its own; the variables without cost curvature (P_ii = 0: the paper's free hyperplanes) are
+    fixed by the rows and the backend's regularization only, so their rounding may part more (VERIFY_FREE_TOL)."""
+    bmod = backend_module(backend)
+    tols = {
+        TOL_QP_DATA: getattr(bmod, "VERIFY_QP_DATA_TOL", TOL_QP_DATA),
+        TOL_SOLUTION: getattr(bmod, "VERIFY_SOLUTION_TOL", TOL_SOLUTION),
+    }
+    checks = {k: Check(k, g, d, tols.get(t, t)) for k, g, t, d in QUANTITIES}
+    checks["z_free"].tol = getattr(bmod, "VERIFY_FREE_TOL", checks["z"].tol)
+    return checks
+
+
+def _lockstep(pb: Problem, sc, ocp, cs, checks: dict[str, Check]):
+    """The lockstep comparison of ``cs`` with a fresh reference over scenario ``sc``; returns the reference's log."""
+    if cs.init() != 0:
+        raise RuntimeError(f"{pb.name}_init() failed")
+    return run_closed_loop(pb, sc, controller=_Lockstep(RtiSolver(ocp), cs, checks), ocp=ocp)
+
+
+def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
+    """The lockstep on the scenario's road made straight (curvature 0) for ``STRAIGHT_SAMPLES`` samples: no curve
+    speed caps the reference there, so the solver's default reference speed and offset (``V_REF``, ``N_REF``) enter
+    every stage's costs, which a bendy road's curve reference may hide."""
+    road = replace(sc.road, kappa=np.zeros_like(sc.road.kappa))
+    probe = _checks(pb.qp.backend)
+    _lockstep(pb, replace(sc, road=road, samples=min(sc.samples, STRAIGHT_SAMPLES)), ocp, cs, probe)
+    for key, src in (("straight_q", "q"), ("straight_u0", "u0")):
+        ch, p = checks[key], probe[src]
+        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+
+
+_SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
+
+
+def _closed_loops(pb: Problem, sc, ocp, cs, checks: dict[str, Check], rep: VerifyReport) -> None:
+    """The independent closed loops (C vs Python, each driving the plant), with the reference's rounding envelope
+    where they part beyond the tolerance."""
+    if cs.init() != 0:
+        raise RuntimeError(f"{pb.name}_init() failed")
+    log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
+    log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp)
+    for key, (max_diff, sample, count, compared) in _closed_loop_diffs(log_c, log_py).items():
+        ch = checks[key]
+        ch.max_diff, ch.sample, ch.count, ch.compared = max_diff, sample, count, compared
+    if not all(checks[k].passed for k in CLOSED_LOOP):
+        for eps in ENVELOPE_EPS:
+            log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp)
+            for key, d in _closed_loop_diffs(log_e, log_py).items():
+                checks[key].envelope = max(checks[key].envelope, d[0])
+        rep.notes.append(
+            "the closed loops part beyond the tolerance; the reference itself, its measured state changed by a "
+            f"relative {', '.join(f'{e:+.0e}' for e in ENVELOPE_EPS)}, parts from its own run by up to the "
+            f"'envelope' (this problem amplifies rounding): allowed {ENVELOPE_FACTOR:g}x that"
+        )
+    s_c, s_py = summary(log_c), summary(log_py)
+    rep.extra = {
+        f"{key}_{side}": s[src]
+        for key, src in (
+            ("progress", "progress"),
+            ("collisions", "n_collision_samples"),
+            ("qp_iter_mean", "qp_iter_mean"),
+        )
+        for side, s in (("c", s_c), ("python", s_py))
+    }
+
+
 def verify(
     folder: FolderLike,
     scenario: str | None = None,
@@ -423,7 +370,7 @@ def verify(
 
     ``folder``: a :class:`~.solver_folder.SolverFolder` or its path. ``scenario``: ``'car'`` or ``'truck'``; default
     from the problem (``infer_scenario``). ``closed_loop=False`` skips the second comparison (two independent closed
-    loops).
+    loops). The report notes the folder's files that differ from what ``fcgen generate`` wrote.
     """
     folder = as_folder(folder, check=False)  # the sizes checked in the lockstep's terms below, the rest by build
     name, pb = folder.name, folder.problem
@@ -433,56 +380,20 @@ def verify(
         raise ValueError(f"samples = {samples!r} is invalid: allowed an integer >= 1")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     ocp = build_ocp(pb)
-    ref = RtiSolver(ocp)
-    check_sizes(folder, ref)
+    check_sizes(folder, RtiSolver(ocp))
     cs = CSolver.from_dir(folder, verify=True, **(build_kw or {}))
     rep = VerifyReport(
         solver=name, gen_dir=str(folder.path), problem=pb.name, scenario=scenario, seed=seed, samples=samples
     )
-    # a backend that is not bit-exact C vs Python (the IPM: numpy vs C loops) has its own solution tolerances; the
-    # variables without cost curvature (P_ii = 0: the paper's free hyperplanes) are fixed by the rows and the
-    # backend's regularization only, so their rounding may part more (VERIFY_FREE_TOL)
-    bmod = backend_module(pb.qp.backend)
-    tols = {
-        TOL_QP_DATA: getattr(bmod, "VERIFY_QP_DATA_TOL", TOL_QP_DATA),
-        TOL_SOLUTION: getattr(bmod, "VERIFY_SOLUTION_TOL", TOL_SOLUTION),
-    }
-    checks = {k: Check(k, g, d, tols.get(t, t)) for k, g, t, d in QUANTITIES}
-    checks["z_free"].tol = getattr(bmod, "VERIFY_FREE_TOL", checks["z"].tol)
-    if cs.init() != 0:
-        raise RuntimeError(f"{name}_init() failed")
-    log_py = run_closed_loop(pb, sc, controller=_Lockstep(ref, cs, checks), ocp=ocp)
+    edits = edits_note(folder.path)
+    if edits:
+        rep.notes.append(edits)
+    checks = _checks(pb.qp.backend)
+    log_py = _lockstep(pb, sc, ocp, cs, checks)
     nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
+    _straight_probe(pb, sc, ocp, cs, checks)
     if closed_loop:
-        if cs.init() != 0:
-            raise RuntimeError(f"{name}_init() failed")
-        log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
-        # the lockstep's reference followed the C's iterates: the Python closed loop runs again on its own
-        log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp)
-        for key, (max_diff, sample, count, compared) in _closed_loop_diffs(log_c, log_py).items():
-            ch = checks[key]
-            ch.max_diff, ch.sample, ch.count, ch.compared = max_diff, sample, count, compared
-        if not all(checks[k].passed for k in CLOSED_LOOP):
-            for eps in ENVELOPE_EPS:
-                log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp)
-                for key, d in _closed_loop_diffs(log_e, log_py).items():
-                    checks[key].envelope = max(checks[key].envelope, d[0])
-            rep.notes.append(
-                "the closed loops part beyond the tolerance; the reference itself, its measured state changed by a "
-                f"relative {', '.join(f'{e:+.0e}' for e in ENVELOPE_EPS)}, parts from its own run by up to the "
-                f"'envelope' (this problem amplifies rounding): allowed {ENVELOPE_FACTOR:g}x that"
-            )
-        from .sim.runlog import summary
-
-        s_c, s_py = summary(log_c), summary(log_py)
-        rep.extra = {
-            "progress_c": s_c["progress"],
-            "progress_python": s_py["progress"],
-            "collisions_c": s_c["n_collision_samples"],
-            "collisions_python": s_py["n_collision_samples"],
-            "qp_iter_mean_c": s_c["qp_iter_mean"],
-            "qp_iter_mean_python": s_py["qp_iter_mean"],
-        }
+        _closed_loops(pb, sc, ocp, cs, checks, rep)
     else:
         for k in CLOSED_LOOP:
             del checks[k]

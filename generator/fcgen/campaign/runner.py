@@ -18,6 +18,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +39,23 @@ class Outcome:
     failed: list[tuple[tuple, str]] = field(default_factory=list)
     wall_s: float = 0.0
     workers: int = 0
+    warnings: list[str] = field(default_factory=list)  # what the workers warned, each message once
+
+
+def capturing(fn, *args):
+    """``fn(*args)`` with its warnings caught instead of printed: ``(result, messages)``. Run in the workers, so that
+    their warnings reach the campaign's process (printed once, after the progress bar) instead of each worker's
+    stderr in the middle of the bar."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = fn(*args)
+    return res, [f"{w.category.__name__}: {w.message}" for w in caught]
+
+
+def _note(out: Outcome, messages: list[str]) -> None:
+    for m in messages:
+        if m not in out.warnings:
+            out.warnings.append(m)
 
 
 #: one thread per worker for numpy's BLAS and OpenMP: a run's arrays are tiny, and idle BLAS threads spin on the cores
@@ -127,8 +145,8 @@ def run_campaign(
     try:
         with executor(jobs, scheduler) as (ex, workers):
             out.workers = workers
-            _build_solvers(ex, todo)
-            futs = {ex.submit(run_task, t): t for t in todo}
+            _build_solvers(ex, todo, out)
+            futs = {ex.submit(capturing, run_task, t): t for t in todo}
             try:
                 _collect(futs, out, buf, bar, store, flush_every, flush_seconds)
             except BaseException:  # interrupted: drop the runs not started, keep (flush) the finished ones
@@ -143,14 +161,18 @@ def run_campaign(
     return out
 
 
-def _build_solvers(ex, todo: list[Task]) -> None:
+def _build_solvers(ex, todo: list[Task], out: Outcome) -> None:
     """Generate and compile the C solvers of the runs' configurations first, all workers at once (built lazily by
     the first run of each, a worker would wait on another's build of the same solver). A failed build is not
     raised here: the configuration's runs report it."""
     keys = sorted(
         {(t.config, t.cache_dir, t.cflags) for t in todo if t.config.controller == "c"}, key=lambda k: k[0].key
     )
-    cf.wait([ex.submit(build_solver, *k) for k in keys])  # a build's exception stays in its future, unraised
+    futs = [ex.submit(capturing, build_solver, *k) for k in keys]
+    cf.wait(futs)  # a build's exception stays in its future, unraised: the runs of that configuration report it
+    for fut in futs:
+        if fut.exception() is None:
+            _note(out, fut.result()[1])
 
 
 def _collect(
@@ -162,7 +184,9 @@ def _collect(
     for fut in cf.as_completed(list(futs)):
         task = futs.pop(fut)
         try:
-            buf.append(fut.result())
+            row, messages = fut.result()
+            buf.append(row)
+            _note(out, messages)
             out.computed += 1
         except cf.CancelledError:
             continue

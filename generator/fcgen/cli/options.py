@@ -27,8 +27,9 @@ def _option(*decls: str, **attrs: Any) -> Decorator:
     return click.option(*decls, **{k: v for k, v in attrs.items() if v is not None})
 
 
-def solver_dir_argument(exists: bool = True, required: bool = True) -> Decorator:
-    """SOLVER_DIR: a folder written by ``fcgen generate``."""
+def solver_dir_argument(exists: bool = False, required: bool = True) -> Decorator:
+    """SOLVER_DIR: a folder written by ``fcgen generate`` (a missing one is refused by ``read_folder``, which says
+    the command that writes one)."""
     return click.argument("solver_dir", type=click.Path(file_okay=False, exists=exists), required=required)
 
 

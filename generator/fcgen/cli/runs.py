@@ -4,6 +4,7 @@ artefacts made from their results."""
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import click
@@ -124,7 +125,7 @@ def simulate(
     if plot:
         from ..sim.plots import plot_run
 
-        plot_run(log, plot)
+        plot_run(log, plot, a_lat_max=pb.bounds.a_lat_max)
         click.echo(f"plot written to {plot}")
 
 
@@ -307,7 +308,10 @@ def campaign(
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
-    configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile)
+    with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
+        warnings.simplefilter("always")
+        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile)
+    grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
@@ -318,7 +322,16 @@ def campaign(
 
         check_report_target(report_dir, force_report)
     _seeded_campaign(
-        configs, range(first_seed, first_seed + seeds), samples, cache_dir, clock, cflags, out, jobs, scheduler
+        configs,
+        range(first_seed, first_seed + seeds),
+        samples,
+        cache_dir,
+        clock,
+        cflags,
+        out,
+        jobs,
+        scheduler,
+        grid_warnings,
     )
     if report_dir:
         from ..report.page import write_report
@@ -372,8 +385,10 @@ def _seeded_campaign(
     out: str,
     jobs: int,
     scheduler: str | None,
+    grid_warnings: list[str] = (),  # type: ignore[assignment]
 ) -> None:
-    """The seeded runs into the Parquet store (resumable: SIGTERM stops like Ctrl-C, keeping the finished runs)."""
+    """The seeded runs into the Parquet store (resumable: SIGTERM stops like Ctrl-C, keeping the finished runs); then
+    the warnings (each once) and a results table per configuration."""
     import signal
 
     from ..campaign.grid import make_tasks
@@ -400,12 +415,23 @@ def _seeded_campaign(
         f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
         f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers"
     )
+    for msg in dict.fromkeys([*grid_warnings, *res.warnings]):
+        click.echo(f"warning: {msg}", err=True)
     for run_id, msg in res.failed[:5]:
         click.echo(f"failed {run_id}: {msg}", err=True)
+    _print_table(store, tasks)
     if res.failed:
         fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
     if {t.run_id for t in tasks} <= store.done() and store.needs_compact():
         store.compact()
+
+
+def _print_table(store, tasks: list) -> None:
+    """The short results table of the grid's runs in the store (``fcgen report`` makes the full report)."""
+    from ..campaign.summary import results_table
+
+    if store.done():
+        click.echo(results_table(store.read(), tasks))
 
 
 @click.command()

@@ -38,6 +38,7 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
 
     With a bare-metal --target: the two static libraries alone, cross-compiled, in SOLVER_DIR/build/<target>."""
     from ..build import BuildError, build
+    from ..codegen.folder import edits_note
     from ..solver_folder import read_folder
 
     try:
@@ -50,6 +51,9 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
         if p.is_file() and (p.suffix in (".a", ".so") or p.name.endswith("_example"))
     )
     click.echo(f"built {lib.parent}: {', '.join(products)}")
+    edits = edits_note(solver_dir)
+    if edits:
+        click.echo(f"warning: {edits}", err=True)
 
 
 @click.command(name="verify")

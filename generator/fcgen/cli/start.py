@@ -49,9 +49,10 @@ def list_presets() -> None:
         click.echo(n)
     click.echo(
         "Each is the paper's configuration <scenario>_<formulation>_<obstacle model> with the paper's settings, "
-        "with OSQP. Append _ipm for the same problem with the IPM backend (truck_lifted_ellipse_ipm), then "
-        "_safe for our safe profile (truck_lifted_ellipse_ipm_safe: obstacle shapes that contain the true "
-        "rectangles, exact penalties, the plan check's braking; docs/safe_profile.md). A problem of your own "
-        "(Problem(...)) gets the safe profile's settings by default.",
+        "with OSQP. Append _ipm for the same problem with the IPM backend (truck_lifted_ellipse_ipm), and "
+        "_safe (after _ipm, if any) for our safe profile (truck_lifted_ellipse_ipm_safe, with OSQP "
+        "truck_lifted_ellipse_safe: obstacle shapes that contain the true rectangles, exact penalties, the plan "
+        "check's braking; docs/safe_profile.md). A problem of your own (Problem(...)) gets the safe profile's "
+        "settings by default.",
         err=True,
     )

@@ -24,12 +24,22 @@ class FolderMismatch(ValueError):
     """The folder's files do not make one solver (one line: the file or macro and both values)."""
 
 
+WRITE_ONE = "write one with `fcgen generate PRESET -o DIR`"
+"""The command that makes a good solver folder (every folder error says it)."""
+
+
+def regenerate_command(gen_dir: Path) -> str:
+    """The command that rewrites ``gen_dir`` from its own ``problem.py``."""
+    return f"`fcgen generate {gen_dir / 'problem.py'} -o {gen_dir} --force`"
+
+
 def the_solver(gen_dir: Path) -> str:
     """The name of the one solver in ``gen_dir``."""
     names = solvers_in(gen_dir)
     if len(names) != 1:
         found = ", ".join(f"{n}_solver.h" for n in names) or "none"
-        raise FolderMismatch(f"{gen_dir}: expected the header of exactly one solver (*_solver.h), found {found}")
+        fix = WRITE_ONE if not names else "one solver per folder: `fcgen generate PRESET -o DIR` into a folder each"
+        raise FolderMismatch(f"{gen_dir}: expected the header of exactly one solver (*_solver.h), found {found}; {fix}")
     return names[0]
 
 
@@ -70,7 +80,7 @@ def check_files(gen_dir: Path, name: str) -> None:
         more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
         raise FolderMismatch(
             f"{gen_dir}: missing {missing[0]}{more}, a file of solver {name!r}; regenerate the "
-            f"folder: fcgen generate {gen_dir / 'problem.py'} -o {gen_dir}"
+            f"folder: {regenerate_command(gen_dir)}"
         )
 
 
@@ -82,7 +92,8 @@ def check_sizes(gen_dir: Path, name: str) -> None:
     pb = load_problem(str(gen_dir / "problem.py"))
     if pb.name != name:
         raise FolderMismatch(
-            f"{gen_dir}: problem.py is the problem {pb.name!r}, the header is solver {name!r}; regenerate the folder"
+            f"{gen_dir}: problem.py is the problem {pb.name!r}, the header is solver {name!r}; regenerate the "
+            f"folder: {regenerate_command(gen_dir)}"
         )
     have = read_macros(gen_dir / f"{name}_solver.h", name)
     for key, want in problem_sizes(pb).items():
@@ -91,7 +102,7 @@ def check_sizes(gen_dir: Path, name: str) -> None:
             shown = "missing" if got is None else str(got)
             raise FolderMismatch(
                 f"{gen_dir}: {name}_solver.h has {name.upper()}_{key} {shown} but problem.py "
-                f"gives {want}: the files do not belong together; regenerate the folder"
+                f"gives {want}: the files do not belong together; regenerate the folder: {regenerate_command(gen_dir)}"
             )
 
 

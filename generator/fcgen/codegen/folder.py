@@ -20,6 +20,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterator
+from datetime import UTC, datetime
 from pathlib import Path
 
 from ..atomic import replace_folder, write_text
@@ -117,6 +118,27 @@ def hand_edited(folder: Path) -> list[str]:
     except (OSError, ValueError):
         return []
     return [rel for rel, sha in sorted(rec.items()) if (folder / rel).is_file() and _sha256(folder / rel) != sha]
+
+
+def _utc(t: float) -> str:
+    return datetime.fromtimestamp(t, UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def edits_note(folder: Path | str) -> str | None:
+    """One line naming the files of ``folder`` that differ from what ``fcgen generate`` wrote, when it wrote them and
+    when each was last changed; None when none does (or the folder has no record: a fresh checkout). The OSQP
+    library copy is left out: ``fcgen build`` restores it."""
+    folder = Path(folder)
+    edited = [rel for rel in hand_edited(folder) if not rel.startswith("osqp/lib/")]
+    if not edited:
+        return None
+    shown = ", ".join(f"{rel} (changed {_utc((folder / rel).stat().st_mtime)})" for rel in edited[:3])
+    more = f" and {len(edited) - 3} more" if len(edited) > 3 else ""
+    return (
+        f"{shown}{more} differ{'s' if len(edited) == 1 else ''} from what `fcgen generate` wrote at "
+        f"{_utc((folder / RECORD).stat().st_mtime)} (hand edit?); `fcgen generate {folder / 'problem.py'} -o {folder} "
+        f"--force` restores the generated files"
+    )
 
 
 def _write_record(folder: Path, record: dict[str, str]) -> None:

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .validation import check, finite, positive
+from .validation import check, finite, known_fields, positive
 
 
+@known_fields
 @dataclass(frozen=True)
 class Bounds:
     """Box bounds (paper Table I); the road bounds are on the ego's n.

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .validation import check, nonneg, vector
+from .validation import check, known_fields, nonneg, vector
 
 
+@known_fields
 @dataclass(frozen=True)
 class Weights:
     """Least-squares weights (paper Table II); stage weights ``q`` and ``r`` are multiplied by dt once."""
@@ -21,6 +22,7 @@ class Weights:
         vector("weights.r", self.r, 2)
 
 
+@known_fields
 @dataclass(frozen=True)
 class SoftPenalties:
     """L1 + L2 slack penalties (multiplied by dt per stage); road bounds may be softened too.

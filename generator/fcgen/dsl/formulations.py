@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .validation import check, finite, nonneg
+from .validation import check, finite, known_fields, nonneg
 
 OVERAPPROX = ("fit", "none")
 
 
+@known_fields
 @dataclass(frozen=True)
 class Conventional:
     """5-state Frenet ODE; obstacles over-approximated in (s, n) outside the NLP (``none``: naive, unsafe)."""
@@ -35,6 +36,7 @@ class Conventional:
         return True
 
 
+@known_fields
 @dataclass(frozen=True)
 class DirectElimination:
     """5-state Frenet ODE; obstacle constraints on F^-1(s, n, alpha)."""
@@ -46,6 +48,7 @@ class DirectElimination:
         return False
 
 
+@known_fields
 @dataclass(frozen=True)
 class Lifted:
     """8-state lifted ODE; obstacle constraints on the Cartesian states."""

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .validation import check, finite
+from .validation import check, finite, known_fields
 
 
+@known_fields
 @dataclass(frozen=True)
 class Horizon:
     """N shooting intervals; the controller runs once a sample of ``dt``.
@@ -98,6 +99,7 @@ class Horizon:
         return self.dt * self.offsets[-1]
 
 
+@known_fields
 @dataclass(frozen=True)
 class RoadWindow:
     """The road the solver sees at run time: samples with spacing ds, at most ``samples`` of them."""

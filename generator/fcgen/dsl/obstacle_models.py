@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .validation import check, finite
+from .validation import check, finite, known_fields
 
 ELLIPSE_SHAPES = ("minkowski", "paper")
 
 
+@known_fields
 @dataclass(frozen=True)
 class Ellipse:
     """Opponent covered by an ellipse, ego by one circle.
@@ -28,6 +29,7 @@ class Ellipse:
 CIRCLE_RADII = ("cover", "paper")
 
 
+@known_fields
 @dataclass(frozen=True)
 class CoveringCircles:
     """n circles along each vehicle's axis (ego uses n_ego, default n)."""
@@ -56,6 +58,7 @@ class CoveringCircles:
         return self.n if self.n_ego is None else self.n_ego
 
 
+@known_fields
 @dataclass(frozen=True)
 class SeparatingHyperplane:
     """Per opponent and stage a hyperplane theta = [t1, t2, t3], t1^2 + t2^2 = 1, separating the vertices.

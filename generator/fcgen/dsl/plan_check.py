@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .validation import check
+from .validation import check, known_fields
 
 
+@known_fields
 @dataclass(frozen=True)
 class PlanCheck:
     """After each feedback: the plan's clearance to every opponent's true rectangle (separating axes), and a reaction.

@@ -17,12 +17,13 @@ from .obstacle_models import CoveringCircles, Ellipse, ObstacleModel, Separating
 from .plan_check import PlanCheck
 from .qp_options import QpOptions
 from .tracking import Reference
-from .validation import ProblemError, check
+from .validation import ProblemError, check, known_fields
 from .vehicle import Opponents, Vehicle, Wind
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 
 
+@known_fields
 @dataclass(frozen=True)
 class Problem:
     """A complete NMPC problem: what ``fcgen generate`` turns into a C solver."""
@@ -105,7 +106,7 @@ class Problem:
                     warnings.warn(
                         f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
                         f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
-                        stacklevel=3,
+                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
                     )
 
     def with_(self, **changes) -> Problem:

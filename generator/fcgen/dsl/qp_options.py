@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .validation import check, finite, positive
+from .validation import check, finite, known_fields, positive
 
 BACKENDS = ("osqp", "ipm")
 """Names ``QpOptions.backend`` accepts; each is a module of ``fcgen.backends`` (the DSL owns the names, the backends
@@ -19,6 +19,7 @@ samples of six presets (``benchmarks/rti_budget.py``) 60 is identical to no budg
 ``max_iter_cold``). Presets of configurations measured to afford less set it (``fcgen.presets.IPM_RTI_BUDGET``)."""
 
 
+@known_fields
 @dataclass(frozen=True)
 class QpOptions:
     """QP backend and its settings (OSQP's names), used identically by the Python reference and the generated C.

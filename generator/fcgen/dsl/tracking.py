@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .validation import check, finite, nonneg
+from .validation import check, finite, known_fields, nonneg
 
 
+@known_fields
 @dataclass(frozen=True)
 class Reference:
     """Tracking reference per node k: s_ref,k, v_ref,k (v_ref, capped by the curve speed), n_ref, alpha = delta = 0.

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .validation import check, finite, nonneg, positive
+from .validation import check, finite, known_fields, nonneg, positive
 
 
+@known_fields
 @dataclass(frozen=True)
 class Vehicle:
     """Kinematic single-track vehicle; reference point is the rear axle (SPEC section 1)."""
@@ -43,6 +44,7 @@ class Vehicle:
         return math.hypot(self.l_ch / 2, self.w_ch / 2)
 
 
+@known_fields
 @dataclass(frozen=True)
 class Wind:
     """Wind speed and the direction it comes from."""
@@ -55,6 +57,7 @@ class Wind:
         finite("wind.phi", self.phi)
 
 
+@known_fields
 @dataclass(frozen=True)
 class Opponents:
     """Number of opponents and their (common) dimensions."""

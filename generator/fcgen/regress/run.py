@@ -31,11 +31,14 @@ def _kind(path: Path) -> str:
         if is_suite(path):
             return "suite"
         raise UnusableInput(
-            f"{path}: neither a solver folder (no <name>_solver.h) nor a golden suite (no manifest.json)"
+            f"{path}: neither a solver folder (no <name>_solver.h) nor a golden suite (no manifest.json); {_MAKE_ONE}"
         )
     if path.is_file():
         return "log"
-    raise UnusableInput(f"{path}: no such file or folder")
+    raise UnusableInput(f"{path}: no such file or folder; {_MAKE_ONE}")
+
+
+_MAKE_ONE = "write a solver folder with `fcgen generate PRESET -o DIR`, a suite with `fcgen record DIR -o SUITE`"
 
 
 def _unusable(fn, *args):

@@ -100,4 +100,4 @@ def example_run(df: pd.DataFrame, out_dir: Path) -> list[Path]:
         ),
     )
     stem = out_dir / f"run_{cfg.scenario}_{cfg.formulation}_{cfg.model}_seed{int(r['seed'])}"
-    return [plot_run(log, stem.with_suffix(".png")), plot_run(log, stem.with_suffix(".svg"))]
+    return [plot_run(log, stem.with_suffix(ext), a_lat_max=pb.bounds.a_lat_max) for ext in (".png", ".svg")]

@@ -16,6 +16,7 @@ from pathlib import Path
 from ..build import BuildError, build, run_make
 from ..codegen.render import render_template
 from ..dsl import Problem
+from ..locks import folder_lock
 from ..solver_folder import FolderLike, as_folder
 from ..targets import HARNESS_STACK, Target, TargetError, get_target
 from .export import export_scenario
@@ -65,30 +66,33 @@ def build_harness(
     """
     folder = as_folder(folder)
     tgt = get_target(target)
-    try:
-        build(folder, verify=verify, cc=cc, cflags=cflags, target=target, extra_cflags=extra_cflags, variant=variant)
-    except BuildError as exc:
-        raise HarnessError(str(exc)) from None
-    solver_dir = folder.path.resolve()
-    lib_dir = folder.build_dir(verify, target, variant).resolve()
-    out = lib_dir / "firmware_sim"
-    variables = [
-        f"SOLVER_DIR={solver_dir}",
-        f"SOLVER={folder.name}",
-        f"SOLVER_BUILD={lib_dir}",
-        f"BUILD={out}",
-        f"VERIFY={int(verify)}",
-        *([f"CPPFLAGS={' '.join(harness_defines)}"] if harness_defines else []),
-    ]
-    if tgt.bare_metal:
-        ld = out / f"{tgt.name}.ld"
-        out.mkdir(parents=True, exist_ok=True)
-        text = linker_script(tgt)
-        if not ld.is_file() or ld.read_text() != text:
-            ld.write_text(text)
-        variables += tgt.harness_make_variables(ld)
-        cc = cc or tgt.cc
-    run_make(harness_source_dir(), variables, cc, cflags, HarnessError)
+    with folder_lock(folder.path):  # the solver's build and the harness's, one process at a time
+        try:
+            build(
+                folder, verify=verify, cc=cc, cflags=cflags, target=target, extra_cflags=extra_cflags, variant=variant
+            )
+        except BuildError as exc:
+            raise HarnessError(str(exc)) from None
+        solver_dir = folder.path.resolve()
+        lib_dir = folder.build_dir(verify, target, variant).resolve()
+        out = lib_dir / "firmware_sim"
+        variables = [
+            f"SOLVER_DIR={solver_dir}",
+            f"SOLVER={folder.name}",
+            f"SOLVER_BUILD={lib_dir}",
+            f"BUILD={out}",
+            f"VERIFY={int(verify)}",
+            *([f"CPPFLAGS={' '.join(harness_defines)}"] if harness_defines else []),
+        ]
+        if tgt.bare_metal:
+            ld = out / f"{tgt.name}.ld"
+            out.mkdir(parents=True, exist_ok=True)
+            text = linker_script(tgt)
+            if not ld.is_file() or ld.read_text() != text:
+                ld.write_text(text)
+            variables += tgt.harness_make_variables(ld)
+            cc = cc or tgt.cc
+        run_make(harness_source_dir(), variables, cc, cflags, HarnessError)
     return out / tgt.harness_executable
 
 
