@@ -59,6 +59,7 @@ def _row(**kw) -> dict:
         collision_fcgen=False,
         collision_checker=False,
         road_departure=False,
+        start_off_road=False,
         progress_m=10.0,
         rti_ms_median=0.5,
         max_abs_a_lat=1.0,
@@ -78,5 +79,10 @@ def test_a_campaign_row_and_its_report_state_the_samples_without_a_solution():
     report = summary_markdown(pd.DataFrame([_row(), bad], columns=list(ROW_KEYS)))
     assert "1 of 2 runs, 1 samples without a solution." in report
     assert "| t | p | 1 | ERR_QP_INFEASIBLE x1 | - |" in report
+    off = _row(scenario="u", road_departure=True, start_off_road=True)
+    late = _row(scenario="w", road_departure=True, start_off_road=False)
+    report = summary_markdown(pd.DataFrame([off, late, _row()], columns=list(ROW_KEYS)))
+    assert "Road departures (checker): 2, of which 1 start off the road" in report
+    assert "and 1 after an on-road start." in report
     clean = summary_markdown(pd.DataFrame([_row()], columns=list(ROW_KEYS)))
     assert "## Samples without a solution, non-finite values\n\nNone." in clean

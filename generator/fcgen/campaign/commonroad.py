@@ -37,6 +37,7 @@ ROW_KEYS = (
     "collision_step_checker",
     "road_departure",
     "departure_step",
+    "start_off_road",
     "agree",
     "responsibility",
     "max_abs_a_lat",
@@ -143,6 +144,7 @@ def run_cr_task(task: CrTask) -> dict:
         collision_step_checker=_step(run.checker.get("collision_step")),
         road_departure=bool(run.checker.get("road_departure", False)),
         departure_step=_step(run.checker.get("departure_step")),
+        start_off_road=run.checker.get("departure_step") == 0,
         agree=run.agree,
         responsibility=run.responsibility,
         max_abs_a_lat=float(np.max(np.abs(log.a_lat))),
@@ -281,7 +283,10 @@ def summary_markdown(df) -> str:
             f"| fcgen: none | {int((~a & b).sum())} | {int((~a & ~b).sum())} |",
             "",
             f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
-            f"{int(ran.road_departure.astype(bool).sum())}.",
+            f"{int(ran.road_departure.astype(bool).sum())}, of which {_count(ran.start_off_road)} start off the road "
+            "(the scenario's: the recorded ego's chassis crosses the road boundary at the initial state) and "
+            f"{_count(ran.road_departure.astype(bool) & ~ran.start_off_road.fillna(False).astype(bool))} after an "
+            "on-road start.",
             "",
             f"Goal reached: {_count(ran.goal_reached)} of {len(ran)} runs. Solutions valid by the drivability "
             f"checker: {_count(ran.solution_valid)} (all but the goal: {_count(ran.solution_valid_but_goal)}; "
