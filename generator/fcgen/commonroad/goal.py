@@ -15,9 +15,9 @@ Rules (tested in tests/test_commonroad_goal.py):
   gives a position: only once it is within the horizon's reach, ``v_goal``: the interval is the speed at the goal,
   not on the way, and recorded traffic behind does not brake for an ego that slows early); at most the initial
   lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
-- **Lateral reference** (``goal_frenet``): the goal position's centre's lateral offset on the reference path (the
-  lane the goal lies in), held within the band the ego may use at the goal's ``s``; 0 (the reference path's lane)
-  where the goal gives no position.
+- **The goal's lateral offset** (``goal_frenet``, ``lateral_reference``): the goal position's centre's offset on the
+  reference path, held within the band the ego may use at the goal's ``s``: the target-lane rule's goal
+  (``commonroad.lanes``); None where the goal gives no position.
 """
 
 from __future__ import annotations
