@@ -126,3 +126,21 @@ def test_the_solution_verdict_finds_a_wrong_start_and_an_infeasible_jump(left_go
     jump[5:, 1] = 5.0
     v = solution_verdict(sc, jump)
     assert not v["feasible"] and v["infeasible_step"] == 5 and not v["valid_but_goal"]
+
+
+def test_an_obstacle_with_a_set_based_prediction_is_refused():
+    """A set-based prediction (occupancy sets, CommonRoad's S scenarios) is not a recorded trajectory: refused, naming
+    the obstacle."""
+    from commonroad.geometry.shape import Rectangle
+    from commonroad.prediction.prediction import Occupancy, SetBasedPrediction
+    from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
+    from commonroad.scenario.state import InitialState
+
+    from fcgen.commonroad import ScenarioRefused
+    from fcgen.commonroad.traffic import obstacle_from
+
+    box = Rectangle(4.0, 2.0)
+    init = InitialState(position=np.zeros(2), orientation=0.0, velocity=10.0, time_step=0, yaw_rate=0.0, slip_angle=0.0)
+    ob = DynamicObstacle(7, ObstacleType.CAR, box, init, SetBasedPrediction(1, [Occupancy(1, Rectangle(6.0, 3.0))]))
+    with pytest.raises(ScenarioRefused, match="obstacle 7: a SetBasedPrediction"):
+        obstacle_from(ob, 0.1)

@@ -4,7 +4,8 @@ of them fill the solver's opponent slots.
 Rules (tested in tests/test_commonroad.py):
 
 - **Shape**: a CommonRoad ``Rectangle`` (length, width) whose pose is its centre (shape offset 0). Any other shape
-  refuses the scenario (``ScenarioRefused`` naming the obstacle).
+  refuses the scenario (``ScenarioRefused`` naming the obstacle), so does a set-based prediction (occupancy sets:
+  the drivability checker sees them grow, fcgen would see the obstacle only at its initial step).
 - **Prediction = the recording** (the paper's perfect-prediction assumption): the recorded centre pose at every
   recorded step; **after the recorded end, constant velocity along the last heading** (the last state's velocity,
   else the last two positions' difference); before its first step an obstacle is not there (``None``). A static
@@ -78,6 +79,10 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
         raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle")
     states = [ob.initial_state]
     static = isinstance(ob, StaticObstacle)
+    if not static and ob.prediction is not None and not hasattr(ob.prediction, "trajectory"):
+        raise ScenarioRefused(
+            f"obstacle {ob.obstacle_id}: a {type(ob.prediction).__name__} (occupancy sets, not a recorded trajectory)"
+        )
     if not static and ob.prediction is not None and hasattr(ob.prediction, "trajectory"):
         states += [s for s in ob.prediction.trajectory.state_list if s.time_step > ob.initial_state.time_step]
     states.sort(key=lambda s: s.time_step)
