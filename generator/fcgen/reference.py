@@ -23,7 +23,7 @@ from .hyperplane_guess import theta_init
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .plan_check import a_lat_guard, braking_control, plan_verdict
-from .plant import plant_function
+from .plant import DelayLine, plant_function
 from .qp import QpLayout, build_layout
 from .qp_outcome import (
     COLD_RESTART_NOTE,
@@ -97,6 +97,8 @@ class RtiSolver:
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
+        self.x_plan: np.ndarray = np.zeros(5)  # where the plan starts: x0, or x0 predicted over Problem.delay samples
+        self.delay_line = DelayLine(self._plant, self.ocp.problem.delay, self.ocp.nu)  # reset keeps it: the plant has
         self.reset()
 
     def reset(self) -> None:
@@ -362,9 +364,12 @@ class RtiSolver:
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
-        p0 = self.stage_params(0, self.x0[0])
-        x0_full = np.array(ocp.init_state(self.x0, p0)).ravel()
-        q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
+        self.x_plan = self.delay_line.predict(self.x0, self._road_params)  # x0 itself without a delay
+        if not np.all(np.isfinite(self.x_plan)):
+            raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
+        p0 = self.stage_params(0, self.x_plan[0])
+        x0_full = np.array(ocp.init_state(self.x_plan, p0)).ravel()
+        q = self.q + lay.q_ds0 * (self.x_plan[0] - self.s0_guess)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
@@ -400,6 +405,7 @@ class RtiSolver:
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
+        self.delay_line.push(self.u_applied)
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
@@ -413,17 +419,15 @@ class RtiSolver:
         return self.u0()
 
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
-        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
+        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        assert self.x0 is not None  # feedback checked it
         st.a_lat_guard = a_lat_guard(
-            self.ocp.problem, self.x0, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
+            self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
-        """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
-        assert self.x0 is not None  # feedback checked it
-        return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
+        """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``)."""
+        return np.array(self._plant(self.x_plan, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
@@ -449,8 +453,7 @@ class RtiSolver:
             best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            assert self.x0 is not None  # feedback checked it
-            self.u_applied[0] = braking_control(pb, self.x0)
+            self.u_applied[0] = braking_control(pb, self.x_plan)
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:

@@ -123,6 +123,7 @@ def workspace_members(
     fit: dict | None = None,
     n_band: int = 0,
     curve: bool = False,
+    delay: int = 0,
 ) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
@@ -132,7 +133,11 @@ def workspace_members(
         return (f"{NAME}_{key}" + (f" + {extra}" if extra else ""), sizes[key] + extra)
 
     shape_dim = max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"])
-    members = _input_members(M, R, opp_dim, shape_dim) + _state_members(M, R, work, n_band)
+    # the delay compensation's controls handed out last: an input (reset keeps it: the vehicle still has them)
+    delayed = [("NAME_real_t", "u_hist", [delay, M("NU")], R)] if delay else []
+    members = _input_members(M, R, opp_dim, shape_dim) + delayed + _state_members(M, R, work, n_band)
+    if delay:  # the plan's start: x0 predicted over the delay
+        members.append(("NAME_real_t", "x_plan", [5], R))
     if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
         members += [
             ("NAME_real_t", "curve_c", [M("ROAD_MAX")], R),
