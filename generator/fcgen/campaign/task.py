@@ -189,7 +189,7 @@ def make_row(
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
-        elif k == "qp_status_counts":
+        elif k in ("qp_status_counts", "unsolved_exit_codes"):  # name -> count, as JSON text
             row[k] = json.dumps(v, sort_keys=True)
         else:
             row[k] = v

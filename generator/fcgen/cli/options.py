@@ -95,9 +95,18 @@ def fmt_summary(s: dict) -> str:
         f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
         f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
         f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
-        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g} | "
+        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g}{_unsolved(s)} | "
         f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2"
     )
+
+
+def _unsolved(s: dict) -> str:
+    """`` (N samples without a solution: CODE xM, ...)`` when the run has such samples (their slack is not finite)."""
+    n = s.get("samples_unsolved", 0)
+    if not n:
+        return ""
+    codes = ", ".join(f"{k} x{v}" for k, v in s.get("unsolved_exit_codes", {}).items())
+    return f" over the solved samples ({n} without a solution: {codes})"
 
 
 def names(text: str) -> list[str]:

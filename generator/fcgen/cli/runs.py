@@ -173,7 +173,7 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
 
     from ..campaign.commonroad import load_for
     from ..commonroad import ScenarioRefused, plot_run, write_solution
-    from ..sim.commonroad_run import run_commonroad
+    from ..sim.commonroad_run import goal_line, run_commonroad
     from ..sim.runlog import summary
 
     try:
@@ -195,6 +195,7 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
         f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
         + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
     )
+    click.echo(goal_line(log.meta["extra"]["commonroad"]))
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
