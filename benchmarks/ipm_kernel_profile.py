@@ -26,10 +26,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from ipm_iteration_bench import compile_harness, record, write_qps  # noqa: E402
+from ipm_iteration_bench import compile_harness, record, write_qps
 
-from fcgen.codegen.generate import generate  # noqa: E402
-from fcgen.presets import preset as get_preset  # noqa: E402
+from fcgen.codegen.generate import generate
+from fcgen.presets import preset as get_preset
 
 ROOT = Path(__file__).resolve().parent.parent
 
