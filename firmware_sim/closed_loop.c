@@ -35,6 +35,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "fs_geometry.h"
 #include "fs_log.h"
@@ -169,11 +170,29 @@ static int controller_step(const double x[5], int w0) {
   return rc;
 }
 
+/* The control the plant applies in sample j: the one computed fs_sc.latency samples earlier (zeros before the first;
+ * the same queue as fcgen.sim.plants.actuation). */
+static void actuate(int j, const double u[2], double ua[2]) {
+  static double queue[FS_MAX_LATENCY][2];
+  const int d = fs_sc.latency;
+  if (d == 0) {
+    ua[0] = u[0];
+    ua[1] = u[1];
+    return;
+  }
+  if (j == 0) (void)memset(queue, 0, sizeof queue);
+  ua[0] = queue[j % d][0];
+  ua[1] = queue[j % d][1];
+  queue[j % d][0] = u[0];
+  queue[j % d][1] = u[1];
+}
+
 /* sample j: its record, the controller, the control and status into the run, the plant's step; 0, or 3 (aborted) */
 static int run_sample(int j) {
   const double *x = &g_xs[(size_t)j * 5];
   double *u = &g_us[(size_t)j * 2];
   double fw;
+  double ua[2];
   int rc;
   status_t st;
   real_t ur[2];
@@ -204,7 +223,8 @@ static int run_sample(int j) {
   g_tf[j] = (double)st.ticks_feedback / (double)FS_TICKS_PER_SECOND;
   g_qi[j] = st.qp_iter;
   g_qs[j] = st.qp_status;
-  return fs_plant_step(j, x, u, &g_xs[(size_t)(j + 1) * 5]);
+  actuate(j, u, ua);
+  return fs_plant_step(j, x, ua, &g_xs[(size_t)(j + 1) * 5]);
 }
 
 /* after the loop, as run_closed_loop: time, Cartesian poses, collisions, lateral acceleration */

@@ -161,11 +161,22 @@ static void read_sizes(void) {
   fs_sc.n_bound = read_double();
 }
 
+/* The optional "latency D" line (a delay-compensated solver's plant), then "ego_l". */
+static void read_latency(void) {
+  fs_sc.latency = 0;
+  if (strcmp(next_token(), "latency") == 0) {
+    fs_sc.latency = (int)read_long();
+    if (fs_sc.latency < 0 || fs_sc.latency > FS_MAX_LATENCY) fail_data("latency is outside 0 .. FS_MAX_LATENCY");
+    (void)next_token();
+  }
+  if (strcmp(g_tok, "ego_l") != 0) fail_data("expected 'latency' or 'ego_l'");
+}
+
 void fs_read_header(void) {
   int i;
   read_names();
   read_sizes();
-  expect_key("ego_l");
+  read_latency();
   fs_sc.ego_l = read_double();
   read_dims("ego_dims", &fs_sc.ego_dims);
   for (i = 0; i < NOPP; ++i) read_dims("opp_dims", &fs_sc.opp_dims[i]);

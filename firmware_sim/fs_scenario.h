@@ -8,6 +8,7 @@
 #include "fs_solver.h"
 
 #define SCENARIO_FORMAT "fcgen-scenario/1"
+#define FS_MAX_LATENCY 8 /* the largest "latency" (Problem.delay's range) */
 
 /* a vehicle's dimensions (sim/collision.py's chassis) */
 typedef struct {
@@ -22,6 +23,7 @@ typedef struct {
   int n_versions;
   long seed;
   int samples, road_window, road_size;
+  int latency; /* samples between a control's computation and its actuation (the optional "latency" line; 0) */
   double dt, window_behind, n_bound, ego_l;
   fs_dims_t ego_dims, opp_dims[NOPP + 1];
   double x0[5];

@@ -22,6 +22,8 @@ fi
 command -v qemu-system-arm >/dev/null 2>&1 || need+=(qemu-system-arm)
 command -v cppcheck >/dev/null 2>&1 || need+=(cppcheck)
 command -v cmake >/dev/null 2>&1 || need+=(cmake)
+# the contract fuzzer: clang's float-cast-overflow sanitizer and libFuzzer (tests/fuzzbuild.py falls back to gcc)
+command -v clang >/dev/null 2>&1 || need+=(clang)
 if [ "${#need[@]}" -gt 0 ]; then apt_install "${need[@]}"; fi
 
 python3 - <<'PY' || { echo "setup: fcgen needs Python >= 3.11" >&2; exit 1; }

@@ -46,13 +46,15 @@ def write_scenario(
     speed_limit: float | None = None,
     dt: float = 0.1,
     statics=(),
+    goal: dict | None = None,
 ) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
     constant speed for ``steps`` recorded steps (speed 0: standing); ``end_lane``: (lane, s) that lane ends at s;
-    ``statics``: (id, lane, s, length, width) static obstacles; ``speed_limit``: a MAX_SPEED sign on the ego's lane."""
+    ``statics``: (id, lane, s, length, width) static obstacles; ``speed_limit``: a MAX_SPEED sign on the ego's lane;
+    ``goal``: a goal position ``lane``, ``s`` (a rectangle ``length`` x ``width``, default 6 x 3 m) and optionally a
+    ``velocity`` (lo, hi) and an ``orientation`` (lo, hi) interval beside the time steps ``goal_steps``."""
     from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
-    from commonroad.common.util import Interval
     from commonroad.geometry.shape import Circle, Rectangle
     from commonroad.planning.goal import GoalRegion
     from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
@@ -60,7 +62,7 @@ def write_scenario(
     from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
     from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
     from commonroad.scenario.scenario import Scenario, ScenarioID
-    from commonroad.scenario.state import CustomState, InitialState, KSState
+    from commonroad.scenario.state import InitialState, KSState
     from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDGermany
     from commonroad.scenario.trajectory import Trajectory
 
@@ -149,9 +151,26 @@ def write_scenario(
         InitialState(
             position=exy, orientation=eth, velocity=ego_v, time_step=0, yaw_rate=0.0, slip_angle=0.0, acceleration=0.0
         ),
-        GoalRegion([CustomState(time_step=Interval(*goal_steps))]),
+        GoalRegion([_goal_state(goal, goal_steps, pose)]),
     )
     CommonRoadFileWriter(
         sc, PlanningProblemSet([pp]), "fcgen tests", "fcgen", "written by the tests", set()
     ).write_to_file(str(path), OverwriteExistingFile.ALWAYS)
     return path
+
+
+def _goal_state(goal: dict | None, steps: tuple[int, int], pose):
+    """The goal state: the time steps, and where ``goal`` gives them a position, a velocity and an orientation."""
+    from commonroad.common.util import AngleInterval, Interval
+    from commonroad.geometry.shape import Rectangle
+    from commonroad.scenario.state import CustomState
+
+    kw: dict = {"time_step": Interval(*steps)}
+    if goal is not None:
+        xy, th = pose(goal["lane"], goal["s"])
+        kw["position"] = Rectangle(goal.get("length", 6.0), goal.get("width", 3.0), xy, th)
+        if "velocity" in goal:
+            kw["velocity"] = Interval(*goal["velocity"])
+        if "orientation" in goal:
+            kw["orientation"] = AngleInterval(*goal["orientation"])
+    return CustomState(**kw)

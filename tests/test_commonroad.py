@@ -94,13 +94,15 @@ def test_past_the_lanelets_the_road_keeps_its_last_curvature_then_runs_straight(
 
 
 def test_a_parked_car_and_a_speed_limit(tmp_path):
-    """A static obstacle stands at its pose at every step and is always present; a MAX_SPEED sign of 25 m/s on the
-    ego's lane sets the reference speed."""
+    """A static obstacle stands at its pose at every step and is always present; a MAX_SPEED sign on the ego's lane
+    caps the reference speed (25 m/s leaves the ego's 20 m/s, 15 m/s sets it)."""
     sc = load_for(PB, write_scenario(tmp_path / "park.xml", statics=[(9, 0, 120.0, 4.4, 1.8)], speed_limit=25.0))
+    assert (sc.v_ref, sc.v_ref_source) == (20.0, "initial speed")
+    sc = load_for(PB, write_scenario(tmp_path / "park.xml", statics=[(9, 0, 120.0, 4.4, 1.8)], speed_limit=15.0))
     car = next(o for o in sc.obstacles if o.id == 9)
     assert car.static and car.present(0) and car.present(500)
     np.testing.assert_allclose(car.pose(300), [120.0, -LANE, 0.0], atol=1e-9)
-    assert (sc.v_ref, sc.v_ref_source) == (25.0, "speed limit")
+    assert (sc.v_ref, sc.v_ref_source) == (15.0, "speed limit")
 
 
 def test_obstacles_shapes_recordings_and_extrapolation(straight):

@@ -125,6 +125,8 @@ def _imports_outside_require(tree: ast.AST) -> list[tuple[int, str]]:
                 isinstance(i.context_expr, ast.Call) and getattr(i.context_expr.func, "id", "") == "require"
                 for i in node.items
             )
+        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING":
+            guarded = True  # read by the type checker only, never imported at run time
         names = []
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -150,4 +152,7 @@ def test_every_import_of_an_extras_package_goes_through_require():
     # the check finds what it looks for
     assert _imports_outside_require(ast.parse("import pandas\nwith require('plot'):\n    import matplotlib\n")) == [
         (1, "pandas")
+    ]
+    assert _imports_outside_require(ast.parse("if TYPE_CHECKING:\n    import pandas\nif x:\n    import dask\n")) == [
+        (4, "dask")
     ]

@@ -290,7 +290,7 @@ def test_bad_bands_and_shapes_are_refused_and_change_nothing(c_solvers):
             sv.set_opponent_shapes(shapes)
         assert e.value.code == "ERR_OPP_SHAPE"
     np.testing.assert_array_equal(sv.opp_shape, ocp.default_shapes())  # nothing changed
-    with pytest.raises(ValueError, match=r"opponent shape width = 0.0 is invalid: allowed > 0"):
+    with pytest.raises(ValueError, match=r"opponent shape width = 0.0 is invalid: allowed in \[0.1, 100.0\] m"):
         obs.opponent_shape(pb.obstacles, pb.ego, 5.0, 0.0, 0.0)
 
 

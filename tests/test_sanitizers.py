@@ -1,5 +1,6 @@
-"""ASan + UBSan: a generated solver and the firmware_sim harness run a closed loop without a report, and the C fuzz
-harness (tests/c/fuzz_api.c) drives the API with seeded random valid and invalid call sequences."""
+"""ASan + UBSan (clang: float-cast-overflow too): a generated solver and the firmware_sim harness run a closed loop
+without a report, and the C fuzz harness (tests/c/fuzz_api.c) drives the API with seeded random valid and invalid
+call sequences (the contract fuzzer of every entry: tests/test_fuzz_contract.py)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fuzzbuild import CC, CLANG, REPORT, SAN_ENV, SANITIZE
 
 from fcgen.build import build, run_make
 from fcgen.codegen.generate import generate
@@ -20,16 +22,14 @@ from fcgen.sim.harness import build_harness
 from fcgen.sim.runlog import RunLog, summary
 from fcgen.sim.scenario import make_scenario
 
-pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
+pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in (CC, "make")), reason="needs a C compiler, make")
 
-SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -g -O1"
-SAN_ENV = {
-    "ASAN_OPTIONS": "detect_leaks=1:halt_on_error=1:abort_on_error=0",
-    "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1",
-}
-REPORT = re.compile(r"AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:")
 FUZZ_DIR = Path(__file__).parent / "c"
 SAMPLES = 50
+
+
+def run_sanitized_raw(cmd: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **SAN_ENV})
 
 
 def run_sanitized(cmd: list[str], **kw) -> subprocess.CompletedProcess:
@@ -43,7 +43,7 @@ def solver(tmp_path_factory) -> Path:
     """truck_lifted_ellipse built with the sanitizers (the flags are in the build's flags stamp)."""
     d = tmp_path_factory.mktemp("san") / "solver"
     generate(preset("truck_lifted_ellipse"), d)
-    build(d, cflags=SANITIZE)
+    build(d, cc=CC, cflags=SANITIZE)
     assert SANITIZE in (d / "build" / "flags.txt").read_text()
     return d
 
@@ -52,7 +52,7 @@ def test_sanitized_solver_example_and_firmware_closed_loop(solver, tmp_path):
     name = next(solver.glob("*_solver.h")).name[: -len("_solver.h")]
     ex = run_sanitized([str(solver / "build" / f"{name}_example")])
     assert ex.returncode == 0 and "exit 0" in ex.stdout, ex.stdout + ex.stderr
-    exe = build_harness(solver, cflags=SANITIZE)
+    exe = build_harness(solver, cc=CC, cflags=SANITIZE)
     assert SANITIZE in (exe.parent / "flags.txt").read_text()
     pb = load_problem(str(solver / "problem.py"))
     sc = make_scenario("truck", 3, n_opp=pb.opponents.count, samples=SAMPLES, dt=pb.horizon.dt)
@@ -75,6 +75,7 @@ def fuzz_exe(solver: Path, out: Path, f_d_max: float | None = None) -> Path:
     run_make(
         FUZZ_DIR,
         [f"SOLVER_DIR={solver}", f"SOLVER_BUILD={solver / 'build'}", f"BUILD={out}", f"FUZZDEFS={defs}"],
+        cc=CC,
         cflags=SANITIZE,
     )
     return out / "fuzz_api"
@@ -136,3 +137,23 @@ def test_fuzz_reports_a_broken_expectation(solver, tmp_path):
     res = run_sanitized([str(exe), "1", "2"])
     c = counts(res.stdout)
     assert res.returncode == 1 and c["violations"] > 0 and c["violation_u_outside_box"] > 0, res.stdout
+
+
+@pytest.mark.skipif(not CLANG, reason="float-cast-overflow is clang's (gcc: the solver's own range checks)")
+def test_the_sanitizer_flags_catch_a_float_to_int_overflow(tmp_path):
+    """The class of the conventional fit's floor on accepted extreme input (an int conversion of 2.5e307): the
+    project's sanitizer flags report it, so a solver with such a conversion fails the tests above."""
+    src = tmp_path / "cast.c"
+    src.write_text(
+        "#include <stdlib.h>\nint main(int argc, char **argv) {\n"
+        '  double v = strtod(argc > 1 ? argv[1] : "0", NULL);\n  return (int)v == 7;\n}\n'
+    )
+    subprocess.run([CC, *SANITIZE.split(), str(src), "-o", str(tmp_path / "cast")], check=True)
+    fine = subprocess.run(
+        [str(tmp_path / "cast"), "7.5"], capture_output=True, text=True, env={**os.environ, **SAN_ENV}
+    )
+    assert fine.returncode == 1 and not REPORT.search(fine.stderr), fine.stderr
+    bad = subprocess.run(
+        [str(tmp_path / "cast"), "2.5e307"], capture_output=True, text=True, env={**os.environ, **SAN_ENV}
+    )
+    assert bad.returncode != 0 and "outside the range of representable values" in bad.stderr, bad.stderr

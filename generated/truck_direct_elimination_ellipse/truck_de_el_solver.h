@@ -32,7 +32,7 @@ extern "C" {
 #define TRUCK_DE_EL_NNZ_J 2525 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_DE_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
 #define TRUCK_DE_EL_RTI_BUDGET 400 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
-#define TRUCK_DE_EL_WORKSPACE_BYTES 386996 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_DE_EL_WORKSPACE_BYTES 396836 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_DE_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -58,7 +58,8 @@ enum {
   TRUCK_DE_EL_ERR_QP_INPUT_BOUNDS = 15,
   TRUCK_DE_EL_ERR_ROAD_BOUNDS = 16,
   TRUCK_DE_EL_ERR_OPP_SHAPE = 17,
-  TRUCK_DE_EL_ERR_REFERENCE = 18
+  TRUCK_DE_EL_ERR_REFERENCE = 18,
+  TRUCK_DE_EL_ERR_NULL_POINTER = 19
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -75,8 +76,9 @@ enum {
 };
 
 /* ---- safety contract ----------------------------------------------------------------------------------------------
- * Rejected calls: a call returning TRUCK_DE_EL_ERR_NOT_PREPARED ... TRUCK_DE_EL_ERR_ROAD_SIZE, or TRUCK_DE_EL_ERR_QP_NONFINITE
- *   from prepare (non-finite linearization), leaves the solver bitwise as before (plan, duals, preparation, QP data,
+ * Rejected calls: a call returning TRUCK_DE_EL_ERR_NOT_PREPARED ... TRUCK_DE_EL_ERR_ROAD_SIZE, _ERR_OPP_FRENET,
+ *   _ERR_ROAD_BOUNDS, _ERR_OPP_SHAPE, _ERR_REFERENCE, or TRUCK_DE_EL_ERR_QP_NONFINITE from prepare (non-finite
+ *   linearization), leaves the solver bitwise as before (plan, duals, preparation, QP data,
  *   QP backend, get_u0, status) except status.exit_code. A rejected feedback keeps the preparation: fix the input and
  *   call feedback again. Exception: TRUCK_DE_EL_ERR_QP_NUMERICAL from prepare (the backend could not load the matrices)
  *   leaves l, u, A_x of the attempt and a freshly reset backend; plan and duals are kept, nothing is prepared.
@@ -114,7 +116,8 @@ enum {
  */
 
 /* Plan check (after every feedback that solved or fell back): the plan's true chassis against every opponent's true
- *   rectangle (the poses given to set_opponents) at stages 0..N, by separating axes: status.plan_clearance (> 0
+ *   rectangle (the poses given to set_opponents) at every stage 0..N, on the road windows the preparation planned
+ *   with (a road set between prepare and feedback does not change which stages are checked), by separating axes: status.plan_clearance (> 0
  *   apart, < 0 overlapping by that much) and its stage. Where an opponent's first overlap among stages
  *   1..TRUCK_DE_EL_REACT_STAGES has its centre ahead of the ego's there or at stage 0 (along the ego's heading:
  *   braking opens that gap; for one beside or behind it would close it), get_u0 brakes: F_d = -min(F_d_max, m max(v0, 0) / dt) (v0 the measured speed), the steering rate kept, and
@@ -140,7 +143,7 @@ enum {
 /* What the last call reported. ticks_*: the phase's duration in ticks of the clock given to set_clock, a difference
  * modulo 2^32 (right across one wrap of the counter; 0 without a clock). */
 typedef struct {
-  int exit_code;      /* TRUCK_DE_EL_OK or an error code */
+  int exit_code;      /* the last call's code (TRUCK_DE_EL_OK after an accepted call); getters do not change it */
   int qp_status;      /* generic status of the last QP: TRUCK_DE_EL_QP_SOLVED, ... (0: none since prepare) */
   int qp_raw_status;  /* the QP backend's own status value (OSQP 1.1.3 (embedded mode 2)) */
   int qp_iter;        /* iterations of the last QP */
@@ -157,6 +160,15 @@ typedef struct {
   uint32_t ticks_feedback; /* duration of the last feedback that consumed its sample (0 after a prepare) */
 } truck_de_el_status_t;
 
+/* ---- input ranges (a value outside its range, NaN or infinite: the call's error code, nothing changed) ----------- */
+/* set_road: 2 <= n <= TRUCK_DE_EL_ROAD_MAX, ds within [0.001, 100.0] m, s0 and every sample finite (ERR_ROAD_SIZE, ERR_NONFINITE_ROAD) */
+/* set_road_bounds: n_min[i] < n_max[i], both within [-10.0, 10.0] m (Bounds.n_min, n_max) (ERR_ROAD_BOUNDS) */
+/* set_opponent_shapes: length and width within [0.1, 100.0] m (ERR_OPP_SHAPE) */
+/* set_opponent_shapes: the centre offset within the chassis, |offset| <= length / 2 (ERR_OPP_SHAPE) */
+/* set_reference: v_ref within [0, 100.0] m/s, n_ref within [-10.0, 10.0] m (ERR_REFERENCE) */
+/* set_state, set_opponents: finite values (ERR_NONFINITE_STATE, ERR_NONFINITE_OPPONENTS) */
+/* every pointer non-NULL (set_*: the call's code above; getters: TRUCK_DE_EL_ERR_NULL_POINTER), except get_qp's */
+
 /* ---- API -------------------------------------------------------------------------------------------------------- */
 /* Everything back to the zero-initialized solver except the clock (inputs, plan, QP data, backend). Optional at start. */
 int truck_de_el_init(void);
@@ -165,7 +177,8 @@ int truck_de_el_init(void);
 void truck_de_el_set_clock(uint32_t (*clock_ticks)(void));
 /* Measured Frenet state x0 = [s, n, alpha, v, delta]. */
 int truck_de_el_set_state(const truck_de_el_real_t x0[5]);
-/* Road samples on the grid s0 + i ds, i < n, 2 <= n <= TRUCK_DE_EL_ROAD_MAX; copied. It must cover the horizon. */
+/* Road samples on the grid s0 + i ds, i < n, 2 <= n <= TRUCK_DE_EL_ROAD_MAX, ds within [0.001, 100.0] m; copied. It must
+ * cover the horizon. */
 int truck_de_el_set_road(truck_de_el_real_t s0, truck_de_el_real_t ds, int n, const truck_de_el_real_t *kappa,
     const truck_de_el_real_t *phi_gamma, const truck_de_el_real_t *gamma_x, const truck_de_el_real_t *gamma_y);
 /* The road's drivable band at each sample of the road set last: n_min[i] < n_max[i], within [Bounds.n_min,
@@ -176,11 +189,11 @@ int truck_de_el_set_road_bounds(const truck_de_el_real_t *n_min, const truck_de_
 /* Opponent poses [x, y, phi] of stages 0..N: (N+1) x NOPP x NOPP_PAR, row-major; copied. The pose's point is
  * where its shape's offset says (the problem's vehicle: its rear axle). */
 int truck_de_el_set_opponents(const truck_de_el_real_t *params);
-/* The tracking reference from now on: speed v_ref >= 0 (m/s) and lateral offset n_ref (m), e.g. a road's speed
- * limit and a lane's centre (init: the problem's, 40.0 and 0.0). ERR_REFERENCE: nothing changed. */
+/* The tracking reference from now on: speed v_ref within [0, 100.0] m/s and lateral offset n_ref within [-10.0, 10.0] m,
+ * e.g. a road's speed limit and a lane's centre (init: the problem's, 40.0 and 0.0). ERR_REFERENCE: nothing changed. */
 int truck_de_el_set_reference(truck_de_el_real_t v_ref, truck_de_el_real_t n_ref);
-/* Every opponent's shape: NOPP x NOPP_SHAPE values [length, width, offset] (chassis length and width > 0,
- * m; how far its centre lies ahead of the pose's point along its heading);
+/* Every opponent's shape: NOPP x NOPP_SHAPE values [length, width, offset] (chassis length and width,
+ * m, see the input ranges; how far its centre lies ahead of the pose's point along its heading);
  * copied, kept until set again (init: the problem's opponent vehicle). ERR_OPP_SHAPE: nothing changed. */
 int truck_de_el_set_opponent_shapes(const truck_de_el_real_t *shapes);
 /* Preparation phase: shift the plan (or build the initial guess from the state), linearize, build the QP except
@@ -189,15 +202,17 @@ int truck_de_el_set_opponent_shapes(const truck_de_el_real_t *shapes);
 int truck_de_el_prepare(void);
 /* Feedback phase: embed the state set last, solve the QP, take the full step if the QP is usable (contract above). */
 int truck_de_el_feedback(void);
+/* Getters: TRUCK_DE_EL_OK, or TRUCK_DE_EL_ERR_NULL_POINTER for a NULL output (nothing written); a getter changes
+ * nothing, not even the status. */
 /* The control to apply [F_d, r]: the plan's u0 (the fallback after an unusable QP) projected on the input box;
  * zeros before the first feedback. A rejected call does not change it. */
-void truck_de_el_get_u0(truck_de_el_real_t u[2]);
+int truck_de_el_get_u0(truck_de_el_real_t u[2]);
 /* States (N+1) x NX and controls N x NU of the plan (the last feedback's), row-major. */
-void truck_de_el_get_states(truck_de_el_real_t *x);
-void truck_de_el_get_controls(truck_de_el_real_t *u);
+int truck_de_el_get_states(truck_de_el_real_t *x);
+int truck_de_el_get_controls(truck_de_el_real_t *u);
 /* Largest slack of stages 1..N (0 if none is positive). */
 truck_de_el_real_t truck_de_el_max_slack(void);
-void truck_de_el_get_status(truck_de_el_status_t *st);
+int truck_de_el_get_status(truck_de_el_status_t *st);
 /* Forget plan, duals, preparation, status and QP backend state; keep the inputs. The next prepare builds a new
  * guess from the state. */
 void truck_de_el_reset(void);
@@ -205,12 +220,12 @@ void truck_de_el_reset(void);
 int truck_de_el_has_guess(void);
 /* Verification: the opponents' part of the stage parameters of the last prepare, (N+1) x NOPP x NOPP_STAGE,
  * row-major, copied (conventional: the fitted Frenet boxes; else the poses as set). */
-void truck_de_el_get_opp_params(truck_de_el_real_t *p);
-/* Verification: read-only views of the QP data (any pointer may be NULL). q is the cost vector as last built
+int truck_de_el_get_opp_params(truck_de_el_real_t *p);
+/* Verification: read-only views of the QP data (any pointer may be NULL; always TRUCK_DE_EL_OK). q is the cost vector as last built
  * (after prepare: without the s0 correction; after feedback: as passed to the QP backend); z, y: the backend's
  * primal solution (scaled step) and the solver's dual guess. After a prepare rejected with ERR_QP_NONFINITE, u and
  * A_x hold that call's (non-finite) model values until the next prepare (the QP the backend holds is unchanged). */
-void truck_de_el_get_qp(const truck_de_el_real_t **q, const truck_de_el_real_t **l, const truck_de_el_real_t **u,
+int truck_de_el_get_qp(const truck_de_el_real_t **q, const truck_de_el_real_t **l, const truck_de_el_real_t **u,
     const truck_de_el_real_t **A_x, const truck_de_el_real_t **P_x, const truck_de_el_real_t **z,
     const truck_de_el_real_t **y);
 

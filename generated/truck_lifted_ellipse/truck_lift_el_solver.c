@@ -42,6 +42,12 @@
 #define N_MIN ((truck_lift_el_real_t)-10.0) /* the band set_road_bounds accepts: Bounds.n_min .. n_max */
 #define N_MAX ((truck_lift_el_real_t)10.0)
 #define R_EGO ((truck_lift_el_real_t)2.2141589825484527) /* the ego's covering radius (the containing ellipse's check) */
+/* the ranges the setters accept (fcgen.contract.InputRanges; the header documents them) */
+#define DS_MIN ((truck_lift_el_real_t)0.001)
+#define DS_MAX ((truck_lift_el_real_t)100.0)
+#define SHAPE_MIN ((truck_lift_el_real_t)0.1)
+#define SHAPE_MAX ((truck_lift_el_real_t)100.0)
+#define V_REF_MAX ((truck_lift_el_real_t)100.0)
 #define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 120 /* cycles of the permutation A_SRC */
@@ -1382,6 +1388,7 @@ typedef struct {
   int cold;
   int qp_ready;
   int fit_outside;
+  truck_lift_el_real_t plan_road[TRUCK_LIFT_EL_N + 1][P_REF];
 } truck_lift_el_workspace_t;
 
 static truck_lift_el_workspace_t truck_lift_el_ws;
@@ -1394,6 +1401,26 @@ static uint32_t now(void) { return (ws.clock != NULL) ? ws.clock() : 0u; }
 static int fail(int code) {
   ws.status.exit_code = code;
   return code;
+}
+
+/* ---- input checks (every entry checks all of its inputs before it changes anything) ----------------------------- */
+/* An accepted call: status.exit_code always describes the last call. */
+static int ok(void) {
+  ws.status.exit_code = TRUCK_LIFT_EL_OK;
+  return TRUCK_LIFT_EL_OK;
+}
+
+/* 1 if lo <= v <= hi (0 for NaN). */
+static int within(truck_lift_el_real_t v, truck_lift_el_real_t lo, truck_lift_el_real_t hi) { return ((v >= lo) && (v <= hi)) ? 1 : 0; }
+
+/* One opponent's shape values (finite): length and width within [SHAPE_MIN, SHAPE_MAX], the centre offset within
+ * the chassis (|offset| <= length / 2). */
+static int shape_ok(const truck_lift_el_real_t *v) {
+  const truck_lift_el_real_t half = v[0] / (truck_lift_el_real_t)2;
+  if (!within(v[0], SHAPE_MIN, SHAPE_MAX) || !within(v[1], SHAPE_MIN, SHAPE_MAX) || !within(v[2], -half, half)) {
+    return 0;
+  }
+  return 1;
 }
 
 static int all_finite(const truck_lift_el_real_t *v, int n) {
@@ -1507,10 +1534,8 @@ static void stage_opponents(truck_lift_el_real_t *dst, int k) {
   }
 }
 
-/* p_k = [road window at s | x_ref_k | opponents of stage k] */
-static int stage_params(truck_lift_el_real_t *p, int k, truck_lift_el_real_t s) {
-  const int rc = road_window(p, s);
-  if (rc != TRUCK_LIFT_EL_OK) return rc;
+/* p_k's parts after the road window: x_ref_k, the opponents of stage k (and the stage's interval). */
+static void stage_rest(truck_lift_el_real_t *p, int k) {
   if (ws.ref_set != 0) { /* set_reference */
     p[P_REF] = ws.s0_guess + (((truck_lift_el_real_t)k * DT) * ws.ref_v);
     p[P_REF + 1] = ws.ref_n;
@@ -1523,6 +1548,13 @@ static int stage_params(truck_lift_el_real_t *p, int k, truck_lift_el_real_t s) 
   p[P_REF + 2] = 0.0;
   p[P_REF + 4] = 0.0;
   stage_opponents(&p[P_OPP], k);
+}
+
+/* p_k = [road window at s | x_ref_k | opponents of stage k] */
+static int stage_params(truck_lift_el_real_t *p, int k, truck_lift_el_real_t s) {
+  const int rc = road_window(p, s);
+  if (rc != TRUCK_LIFT_EL_OK) return rc;
+  stage_rest(p, k);
   return TRUCK_LIFT_EL_OK;
 }
 
@@ -1534,6 +1566,7 @@ static truck_lift_el_real_t band_at(const truck_lift_el_real_t *a, truck_lift_el
   truck_lift_el_real_t tau;
   int i;
   fi = (fi < REAL_0) ? REAL_0 : ((fi > last) ? last : fi);
+  fi = (fi == fi) ? fi : REAL_0; /* NaN: not reached (s passed window_start), but never converted */
   i = (int)fi;
   tau = t - fi;
   tau = (tau < REAL_0) ? REAL_0 : ((tau > (truck_lift_el_real_t)1) ? (truck_lift_el_real_t)1 : tau);
@@ -1665,8 +1698,8 @@ static void a_lat_guard(void) {
   }
 }
 
-/* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the prepared guess's road
- * windows (a stage whose window the road no longer covers is skipped); braking where an opponent's first overlap
+/* The plan check (fcgen.reference.RtiSolver._plan_check): each stage's clearance on the road windows the last
+ * preparation planned with (plan_road: every stage, whatever road was set since); braking where an opponent's first overlap
  * among stages 1..REACT_STAGES has it ahead of the ego there or at stage 0. */
 static void plan_check(void) {
   int k;
@@ -1679,9 +1712,8 @@ static void plan_check(void) {
   int met[OPP_DIM] = {0};
   truck_lift_el_real_t ahead0[OPP_DIM] = {0};
   for (k = 0; (TRUCK_LIFT_EL_NOPP > 0) && (k <= TRUCK_LIFT_EL_N); ++k) {
-    if (stage_params(ws.p_fb, k, ws.w_tmp[STAGES[k].s]) != TRUCK_LIFT_EL_OK) {
-      continue;
-    }
+    copy(ws.plan_road[k], ws.p_fb, P_REF);
+    stage_rest(ws.p_fb, k);
     call4(truck_lift_el_plan_clearance, &ws.w[STAGES[k].var], ws.p_fb, ws.opp[k], opp_shapes(), c, ahead);
     if (k == 0) { /* where each opponent is now: ahead of the ego or not */
       copy(ahead, ahead0, TRUCK_LIFT_EL_NOPP);
@@ -1715,14 +1747,17 @@ int truck_lift_el_init(void) {
   return TRUCK_LIFT_EL_OK;
 }
 
-void truck_lift_el_set_clock(uint32_t (*clock_ticks)(void)) { ws.clock = clock_ticks; }
+void truck_lift_el_set_clock(uint32_t (*clock_ticks)(void)) {
+  ws.clock = clock_ticks;
+  (void)ok();
+}
 
 int truck_lift_el_set_state(const truck_lift_el_real_t x0[5]) {
   if (!x0) return fail(TRUCK_LIFT_EL_ERR_NO_STATE);
   if (!all_finite(x0, 5)) return fail(TRUCK_LIFT_EL_ERR_NONFINITE_STATE);
   copy(x0, ws.x0, 5);
   ws.have_x0 = 1;
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 int truck_lift_el_set_road(truck_lift_el_real_t s0, truck_lift_el_real_t ds, int n, const truck_lift_el_real_t *kappa,
@@ -1735,7 +1770,7 @@ int truck_lift_el_set_road(truck_lift_el_real_t s0, truck_lift_el_real_t ds, int
       !all_finite(gamma_x, n) || !all_finite(gamma_y, n)) {
     return fail(TRUCK_LIFT_EL_ERR_NONFINITE_ROAD);
   }
-  if (!(ds > REAL_0)) return fail(TRUCK_LIFT_EL_ERR_ROAD_SIZE);
+  if (!within(ds, DS_MIN, DS_MAX)) return fail(TRUCK_LIFT_EL_ERR_ROAD_SIZE);
   ws.road_s0 = s0;
   ws.road_ds = ds;
   ws.road_n = n;
@@ -1745,7 +1780,7 @@ int truck_lift_el_set_road(truck_lift_el_real_t s0, truck_lift_el_real_t ds, int
   copy(gamma_y, ws.road_gy, n);
   ws.road_set = 1;
   ws.road_band = 0; /* a new road: the problem's constant band until set_road_bounds */
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 int truck_lift_el_set_road_bounds(const truck_lift_el_real_t *n_min, const truck_lift_el_real_t *n_max) {
@@ -1758,52 +1793,49 @@ int truck_lift_el_set_road_bounds(const truck_lift_el_real_t *n_min, const truck
   copy(n_min, ws.road_nmin, ws.road_n);
   copy(n_max, ws.road_nmax, ws.road_n);
   ws.road_band = 1;
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 int truck_lift_el_set_reference(truck_lift_el_real_t v_ref, truck_lift_el_real_t n_ref) {
-  if (!isfinite(v_ref) || !isfinite(n_ref) || !(v_ref >= REAL_0)) return fail(TRUCK_LIFT_EL_ERR_REFERENCE);
+  if (!within(v_ref, REAL_0, V_REF_MAX) || !within(n_ref, N_MIN, N_MAX)) return fail(TRUCK_LIFT_EL_ERR_REFERENCE);
   ws.ref_v = v_ref;
   ws.ref_n = n_ref;
   ws.ref_set = 1;
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 int truck_lift_el_set_opponent_shapes(const truck_lift_el_real_t *shapes) {
   int j;
-  if (TRUCK_LIFT_EL_NOPP == 0) return TRUCK_LIFT_EL_OK;
+  if (TRUCK_LIFT_EL_NOPP == 0) return ok();
   if ((shapes == NULL) || !all_finite(shapes, TRUCK_LIFT_EL_NOPP * TRUCK_LIFT_EL_NOPP_SHAPE)) return fail(TRUCK_LIFT_EL_ERR_OPP_SHAPE);
   for (j = 0; j < TRUCK_LIFT_EL_NOPP; ++j) {
-    const truck_lift_el_real_t *v = &shapes[j * TRUCK_LIFT_EL_NOPP_SHAPE];
-    if (!((v[0] > REAL_0) && (v[1] > REAL_0))) return fail(TRUCK_LIFT_EL_ERR_OPP_SHAPE);
+    if (shape_ok(&shapes[j * TRUCK_LIFT_EL_NOPP_SHAPE]) == 0) return fail(TRUCK_LIFT_EL_ERR_OPP_SHAPE);
   }
   copy(shapes, ws.opp_shape, TRUCK_LIFT_EL_NOPP * TRUCK_LIFT_EL_NOPP_SHAPE);
   ws.opp_shape_set = 1;
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 int truck_lift_el_set_opponents(const truck_lift_el_real_t *params) {
   int k;
-  if (N_OPP_ALL == 0) return TRUCK_LIFT_EL_OK;
+  if (N_OPP_ALL == 0) return ok();
   if (!params || !all_finite(params, (TRUCK_LIFT_EL_N + 1) * N_OPP_ALL)) return fail(TRUCK_LIFT_EL_ERR_NONFINITE_OPPONENTS);
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
     copy(&params[k * N_OPP_ALL], ws.opp[k], N_OPP_ALL);
   }
-  return TRUCK_LIFT_EL_OK;
+  return ok();
 }
 
 /* Transactional: the prepared guess w_tmp, q, p are private until prepared = 1 and are built first (every
  * road window is checked before anything is written); the guess, the duals, the QP backend, the status and `prepared`
  * change only once every check has passed. The constraint values g are built in u and the Jacobian in A_x's memory
  * (RAM): after a prepare rejected for non-finite model values, get_qp's u and A_x show that call's values. */
-int truck_lift_el_prepare(void) {
-  const uint32_t t0 = now();
+static int prepare_phase(uint32_t t0) {
   int i;
   int k;
   int rc;
   int cold;
   int restart;
-  if (ws.prepared != 0) return TRUCK_LIFT_EL_OK; /* documented no-op: the pending preparation stays */
   /* a cold start: no plan, or COLD_RESTART_AFTER unusable QPs in a row (a stale plan is not shifted again) */
   restart = 0;
   if ((ws.have_guess != 0) && (TRUCK_LIFT_EL_COLD_RESTART_AFTER > 0) &&
@@ -1832,6 +1864,7 @@ int truck_lift_el_prepare(void) {
     const stage_t *st = &STAGES[k];
     rc = stage_params(ws.p, k, ws.w_tmp[st->s]);
     if (rc != TRUCK_LIFT_EL_OK) return fail(rc); /* not reached: every window was checked */
+    copy(ws.p, ws.plan_road[k], P_REF); /* read only by this preparation's feedback (the plan check) */
     const casadi_real *next = NULL;
     if (st->next >= 0) {
       next = &ws.w_tmp[st->next];
@@ -1905,6 +1938,14 @@ int truck_lift_el_prepare(void) {
   ws.prepared = 1;
   ws.status.ticks_prepare = (uint32_t)(now() - t0);
   return TRUCK_LIFT_EL_OK;
+}
+
+int truck_lift_el_prepare(void) {
+  const uint32_t t0 = now();
+  int rc;
+  if (ws.prepared != 0) return ok(); /* documented no-op: the pending preparation stays */
+  rc = prepare_phase(t0);
+  return rc;
 }
 
 /* Transactional up to the QP: a rejected call (order, state, road window, non-finite embedding) changes nothing but
@@ -1986,22 +2027,29 @@ int truck_lift_el_feedback(void) {
   return code;
 }
 
-void truck_lift_el_get_u0(truck_lift_el_real_t u[2]) {
+/* ---- getters: a NULL output gives ERR_NULL_POINTER; a getter changes nothing (not even the status) ------------- */
+int truck_lift_el_get_u0(truck_lift_el_real_t u[2]) {
+  if (u == NULL) return TRUCK_LIFT_EL_ERR_NULL_POINTER;
   copy(ws.u_applied, u, TRUCK_LIFT_EL_NU);
+  return TRUCK_LIFT_EL_OK;
 }
 
-void truck_lift_el_get_states(truck_lift_el_real_t *x) {
+int truck_lift_el_get_states(truck_lift_el_real_t *x) {
   int k;
+  if (x == NULL) return TRUCK_LIFT_EL_ERR_NULL_POINTER;
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
     copy(&ws.w[STAGES[k].var], &x[k * TRUCK_LIFT_EL_NX], TRUCK_LIFT_EL_NX);
   }
+  return TRUCK_LIFT_EL_OK;
 }
 
-void truck_lift_el_get_controls(truck_lift_el_real_t *u) {
+int truck_lift_el_get_controls(truck_lift_el_real_t *u) {
   int k;
+  if (u == NULL) return TRUCK_LIFT_EL_ERR_NULL_POINTER;
   for (k = 0; k < TRUCK_LIFT_EL_N; ++k) {
     copy(&ws.w[STAGES[k].u], &u[k * TRUCK_LIFT_EL_NU], TRUCK_LIFT_EL_NU);
   }
+  return TRUCK_LIFT_EL_OK;
 }
 
 truck_lift_el_real_t truck_lift_el_max_slack(void) {
@@ -2016,10 +2064,10 @@ truck_lift_el_real_t truck_lift_el_max_slack(void) {
   return m;
 }
 
-void truck_lift_el_get_status(truck_lift_el_status_t *st) {
-  if (st != NULL) {
-    *st = ws.status;
-  }
+int truck_lift_el_get_status(truck_lift_el_status_t *st) {
+  if (st == NULL) return TRUCK_LIFT_EL_ERR_NULL_POINTER;
+  *st = ws.status;
+  return TRUCK_LIFT_EL_OK;
 }
 
 void truck_lift_el_reset(void) {
@@ -2029,14 +2077,16 @@ void truck_lift_el_reset(void) {
 
 int truck_lift_el_has_guess(void) { return ws.have_guess; }
 
-void truck_lift_el_get_opp_params(truck_lift_el_real_t *p) {
+int truck_lift_el_get_opp_params(truck_lift_el_real_t *p) {
   int k;
+  if (p == NULL) return TRUCK_LIFT_EL_ERR_NULL_POINTER;
   for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
     stage_opponents(&p[k * N_OPP_STAGE], k);
   }
+  return TRUCK_LIFT_EL_OK;
 }
 
-void truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_real_t **l, const truck_lift_el_real_t **u,
+int truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_real_t **l, const truck_lift_el_real_t **u,
     const truck_lift_el_real_t **A_x, const truck_lift_el_real_t **P_x, const truck_lift_el_real_t **z,
     const truck_lift_el_real_t **y) {
   if (q != NULL) {
@@ -2060,4 +2110,5 @@ void truck_lift_el_get_qp(const truck_lift_el_real_t **q, const truck_lift_el_re
   if (y != NULL) {
     *y = ws.y;
   }
+  return TRUCK_LIFT_EL_OK;
 }

@@ -31,9 +31,42 @@ EXIT_CODES = (
     "ERR_ROAD_BOUNDS",
     "ERR_OPP_SHAPE",
     "ERR_REFERENCE",
+    "ERR_NULL_POINTER",
 )
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
 appended, so a code keeps its number)."""
+
+
+@dataclass(frozen=True)
+class InputRanges:
+    """What the run-time setters accept (the C's ``set_road``, ``set_opponent_shapes``, ``set_reference`` and the
+    Python reference alike): ranges a road or a vehicle can have, so that no accepted value reaches an overflow."""
+
+    ds_min: float = 1e-3  # road sample spacing, m
+    ds_max: float = 100.0
+    shape_min: float = 0.1  # an opponent's length and width (and the containing ellipse's semi-axes at most), m
+    shape_max: float = 100.0
+    v_ref_max: float = 100.0  # the reference speed, m/s (n_ref: within the problem's Bounds.n_min .. n_max)
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.ds_min < self.ds_max and 0.0 < self.shape_min < self.shape_max and self.v_ref_max > 0.0):
+            raise ValueError(f"input ranges {self!r}: each lower bound must be > 0 and below its upper bound")
+
+
+INPUT_RANGES = InputRanges()
+"""The ranges of the generated C's setters and of the reference (``docs/c_api.md``)."""
+
+
+def reference_outside(v_ref: float, n_ref: float, n_min: float, n_max: float) -> str:
+    """Why set_reference refuses (v_ref, n_ref) given the band ``Bounds.n_min .. n_max`` ('' if it does not)."""
+    v_max = INPUT_RANGES.v_ref_max
+    if 0.0 <= v_ref <= v_max and n_min <= n_ref <= n_max:
+        return ""
+    return (
+        f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed v_ref in [0, {v_max}] m/s, "
+        f"n_ref in [{n_min}, {n_max}] m (Bounds.n_min, n_max)"
+    )
+
 
 HOST_TICKS_PER_SECOND = 1_000_000_000
 """Ticks per second of ``<name>_host_clock`` / ``_host_cpu_clock`` (nanoseconds modulo 2^32;

@@ -36,6 +36,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Problem", "qp"): ("-", "a `QpOptions`", "QP backend and its settings"),
     ("Problem", "road"): ("-", "a `RoadWindow`; length >= v_max horizon.length + 4 ds", "the road the solver sees"),
     ("Problem", "plan_check"): ("-", "a `PlanCheck`", "the plan's clearance check after each feedback, its reaction"),
+    ("Problem", "delay"): (
+        "samples",
+        "integer in [0, 8]",
+        "delay compensation: the solver plans from the measured state predicted over this many samples with the "
+        "controls it handed out last (the plant applies each control this many samples after its measurement)",
+    ),
     ("PlanCheck", "react_stages"): (
         "-",
         "integer in [0, 500]; 0: report only; 500: the whole horizon",

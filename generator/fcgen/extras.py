@@ -13,6 +13,7 @@ EXTRAS: dict[str, str] = {
     "plot": "figures (matplotlib)",
     "commonroad": "CommonRoad scenarios (commonroad-io, commonroad-drivability-checker)",
     "fmu": "the FMU and its co-simulation (fmpy)",
+    "plants": "CommonRoad's vehicle models as closed-loop plants (commonroad-vehicle-models)",
 }
 """Extra -> what it brings (pyproject.toml's [project.optional-dependencies] lists its packages)."""
 

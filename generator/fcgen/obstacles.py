@@ -14,6 +14,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from .contract import INPUT_RANGES
 from .dsl import CoveringCircles, Ellipse, ObstacleModel, Problem, SeparatingHyperplane, Vehicle
 from .road import Road, casadi_to_cartesian
 
@@ -94,24 +95,28 @@ def vehicle_shape(model: ObstacleModel, ego: Vehicle, veh: Vehicle) -> np.ndarra
 
 def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
     """Refuse one opponent's shape values with a ``ValueError`` naming the value and its range, as the C's
-    ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width > 0; the ellipse's semi-axes at least
-    half the length (width) plus the ego's radius (necessary for containment; ``opponent_shape`` computes them)."""
+    ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width within ``INPUT_RANGES``' shape range, the
+    offset within the chassis; the ellipse's semi-axes at least half the length (width) plus the ego's radius
+    (necessary for containment; ``opponent_shape`` computes them), at most the range's top."""
     v = np.asarray(values, dtype=float)
     names = shape_names(model)[: len(v)]
     for nm, x in zip(names, v):
         if not math.isfinite(x):
             raise ValueError(f"opponent shape {nm} = {x!r} is invalid: allowed a finite value")
+    lo, hi = INPUT_RANGES.shape_min, INPUT_RANGES.shape_max
     for i, nm in enumerate(("length", "width")):
-        if not v[i] > 0.0:
-            raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed > 0")
+        if not lo <= v[i] <= hi:
+            raise ValueError(f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed in [{lo}, {hi}] m")
+    if not abs(v[2]) <= v[0] / 2:
+        raise ValueError(f"opponent shape offset = {float(v[2])!r} is invalid: allowed |offset| <= length / 2")
     if len(v) > 3:
         r = ego_radius(ego)
         for i, nm in ((3, "a"), (4, "b")):
             need = float(v[i - 3] / 2 + r)
-            if not v[i] >= need:
+            if not need <= v[i] <= hi:
                 raise ValueError(
-                    f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed >= {need!r} "
-                    "(half the size plus the ego's radius)"
+                    f"opponent shape {nm} = {float(v[i])!r} is invalid: allowed in [{need!r}, {hi}] m "
+                    "(half the size plus the ego's radius, at most the largest shape)"
                 )
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import casadi as ca
+import numpy as np
 
 from . import models
 from .dsl import Problem
@@ -31,3 +32,24 @@ def _build_plant(problem: Problem, samples: int) -> ca.Function:
     x, u, p = ca.SX.sym("x", 5), ca.SX.sym("u", 2), ca.SX.sym("p", rp.size)
     f = models.ode("frenet", lambda s: casadi_road(s, p, samples)[:2], problem.ego, problem.wind)
     return ca.Function("plant", [x, u, p], [models.rk4(f, x, u, problem.horizon.dt)])
+
+
+class DelayLine:
+    """The delay compensation's state (``Problem.delay`` = D): the D controls handed out last, oldest first (zeros
+    before the first D), and the prediction over them (the generated C's ``delay_predict``, ``delay_push``)."""
+
+    def __init__(self, plant: ca.Function, delay: int, nu: int = 2):
+        self.plant, self.u_hist = plant, np.zeros((delay, nu))
+
+    def predict(self, x0: np.ndarray, road_params) -> np.ndarray:
+        """x0 stepped by the plant over the controls, each step on ``road_params(s)`` of its start; x0 itself (the
+        same object) without a delay."""
+        x = x0
+        for u in self.u_hist:
+            x = np.array(self.plant(x, u, road_params(float(x[0])))).ravel()
+        return x
+
+    def push(self, u: np.ndarray) -> None:
+        """The control just handed out joins the ones the plant has yet to apply (the oldest leaves)."""
+        if len(self.u_hist):
+            self.u_hist = np.vstack([self.u_hist[1:], u])

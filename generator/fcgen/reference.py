@@ -16,14 +16,14 @@ import numpy as np
 
 from . import obstacles as obs
 from .backends import QP_NONFINITE, QP_STATUSES, QP_USABLE, make_backend
-from .contract import EXIT_CODES, INT_MAX, SolverError, Status
+from .contract import EXIT_CODES, INT_MAX, SolverError, Status, reference_outside
 from .dsl import QpOptions
 from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
 from .plan_check import a_lat_guard, braking_control, plan_verdict
-from .plant import plant_function
+from .plant import DelayLine, plant_function
 from .qp import QpLayout, build_layout
 from .qp_outcome import (
     COLD_RESTART_NOTE,
@@ -97,6 +97,8 @@ class RtiSolver:
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
+        self.x_plan: np.ndarray = np.zeros(5)  # where the plan starts: x0, or x0 predicted over Problem.delay samples
+        self.delay_line = DelayLine(self._plant, self.ocp.problem.delay, self.ocp.nu)  # reset keeps it: the plant has
         self.reset()
 
     def reset(self) -> None:
@@ -138,15 +140,16 @@ class RtiSolver:
         if outside:
             raise self._fail("ERR_ROAD_BOUNDS", outside)
         self.road = road
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_reference(self, v_ref: float, n_ref: float) -> None:
         """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
         a road's speed limit, a lane's centre."""
-        if not (math.isfinite(v_ref) and math.isfinite(n_ref) and v_ref >= 0.0):
-            raise self._fail(
-                "ERR_REFERENCE", f"reference: v_ref = {v_ref!r}, n_ref = {n_ref!r}; allowed finite, v_ref >= 0"
-            )
+        b = self.ocp.problem.bounds
+        if why := reference_outside(v_ref, n_ref, b.n_min, b.n_max):
+            raise self._fail("ERR_REFERENCE", why)
         self.ref = (float(v_ref), float(n_ref))
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> None:
         """Every opponent's shape values, shape (n_opp, n_opp_shape) (``obstacles.shape_names``); kept until set
@@ -162,6 +165,7 @@ class RtiSolver:
             except ValueError as e:
                 raise self._fail("ERR_OPP_SHAPE", f"opponent {j}: {e}") from None
         self.opp_shape = shapes.copy()
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_opponents(self, params: np.ndarray) -> None:
         """Per-stage opponent parameters, shape (N+1, n_opp, n_opp_par)."""
@@ -175,12 +179,14 @@ class RtiSolver:
         if not np.all(np.isfinite(params)):
             raise self._fail("ERR_NONFINITE_OPPONENTS", "opponents: NaN or infinite pose")
         self.opp = params.reshape(self.ocp.N + 1, -1)
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_state(self, x0) -> None:
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (5,) or not np.all(np.isfinite(x0)):
             raise self._fail("ERR_NONFINITE_STATE", "state: expected 5 finite values [s, n, alpha, v, delta]")
         self.x0 = x0
+        self.status.exit_code = 0  # an accepted call (the C's ok())
 
     # -- parameters --------------------------------------------------------------------------------
     def _window_start(self, road: Road, s: float) -> int | None:
@@ -225,6 +231,9 @@ class RtiSolver:
             )
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
+        return np.concatenate([self._road_params(s), self._stage_rest(k)])
+
+    def _stage_rest(self, k: int) -> np.ndarray:
         pb = self.ocp.problem
         v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
         if self.curve_ref is not None:
@@ -237,7 +246,7 @@ class RtiSolver:
         else:
             opp = self.opp_stage[k]
         dt = [] if self.ocp.p_dt is None else [self._stage_dt[k]]
-        return np.concatenate([self._road_params(s), xref, opp, dt])
+        return np.concatenate([xref, opp, dt])
 
     def _fit_opponents(self) -> int:
         """Conventional: the opponents' poses -> their fitted Frenet boxes in ``opp_stage`` (``fcgen.oppfit``), as the
@@ -290,12 +299,18 @@ class RtiSolver:
 
     # -- the two phases -----------------------------------------------------------------------------
     def prepare(self, shift: bool = True) -> None:
-        """Shift the plan (or build the initial guess), linearize, build the QP (all but x0), load the backend.
-
-        Transactional: every check runs before anything visible changes. A no-op while already prepared."""
-        t0 = time.perf_counter()
+        """Shift the plan (or build the guess), linearize, build the QP, load the backend; transactional (fit too)."""
         if self.prepared:
+            self.status.exit_code = 0  # an accepted call (the C's ok())
             return
+        kept = self.opp_stage
+        try:
+            self._prepare(shift, time.perf_counter())
+        except SolverError as e:
+            self.opp_stage = self.opp_stage if e.code == "ERR_QP_NUMERICAL" else kept
+            raise
+
+    def _prepare(self, shift: bool, t0: float) -> None:
         ocp, lay = self.ocp, self.lay
         opp_outside = self._fit_opponents()
         K = self.qp_opts.cold_restart_after
@@ -362,9 +377,12 @@ class RtiSolver:
         if self.x0 is None:
             raise self._fail("ERR_NO_STATE", "state not set")
         ocp, lay = self.ocp, self.lay
-        p0 = self.stage_params(0, self.x0[0])
-        x0_full = np.array(ocp.init_state(self.x0, p0)).ravel()
-        q = self.q + lay.q_ds0 * (self.x0[0] - self.s0_guess)
+        self.x_plan = self.delay_line.predict(self.x0, self._road_params)  # x0 itself without a delay
+        if not np.all(np.isfinite(self.x_plan)):
+            raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
+        p0 = self.stage_params(0, self.x_plan[0])
+        x0_full = np.array(ocp.init_state(self.x_plan, p0)).ravel()
+        q = self.q + lay.q_ds0 * (self.x_plan[0] - self.s0_guess)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
@@ -400,6 +418,7 @@ class RtiSolver:
         st.u_projected = int(st.u_violation > 0.0)
         self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
+        self.delay_line.push(self.u_applied)
         st.exit_code = EXIT_CODES.index(code)
         st.qp_unusable_run = 0 if code == "OK" else min(st.qp_unusable_run + 1, INT_MAX)
         st.time_feedback = time.perf_counter() - t0
@@ -413,44 +432,30 @@ class RtiSolver:
         return self.u0()
 
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
-        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from x0 on stage 0's road."""
+        """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        assert self.x0 is not None  # feedback checked it
         st.a_lat_guard = a_lat_guard(
-            self.ocp.problem, self.x0, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
+            self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
-        """The plant's state one sample after x0 under get_u0 (``fcgen.plant``; the C's ``<name>_plant``)."""
-        assert self.x0 is not None  # feedback checked it
-        return np.array(self._plant(self.x0, self.u_applied, p_road)).ravel().tolist()
+        """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``)."""
+        return np.array(self._plant(self.x_plan, self.u_applied, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
-        """The plan's clearance to every opponent's true rectangle at stages 0..N (``Ocp.plan_clearance``, stage
-        parameters on the prepared guess's s, as prepare built them; a stage whose window the road no longer covers is
-        skipped), its verdict (``plan_check.plan_verdict``) and, where it says so, braking:
-        F_d = -min(F_d_max, m max(v0, 0) / dt), the steering rate of get_u0 kept."""
-        ocp, lay, pb = self.ocp, self.lay, self.ocp.problem
+        """The plan's clearance to each opponent's rectangle at every stage (``Ocp.plan_clearance`` on the road the
+        preparation planned with, ``self.P``), its verdict (``plan_verdict``), braking where it says so."""
+        ocp, pb = self.ocp, self.ocp.problem
         best, best_k, react = math.inf, -1, False
         if pb.opponents.count:
-            s_k = self.w_prep[lay.s_vars]
-            road = self.road
-            ok = [road is not None and math.isfinite(s) and self._window_start(road, s) is not None for s in s_k]
-            P = np.stack(
-                [
-                    self.stage_params(k, s) if good else np.zeros(ocp.np_stage)
-                    for k, (s, good) in enumerate(zip(s_k, ok))
-                ],
-                axis=1,
-            )
+            P = np.stack([np.concatenate([self.P[k][ocp.p_road], self._stage_rest(k)]) for k in range(ocp.N + 1)], 1)
             shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
             C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
-            self.stage_clearance = np.where(ok, np.min(C, axis=0), math.inf)
-            best, best_k, react = plan_verdict(C, A, ok, min(pb.plan_check.react_stages, ocp.N))
+            self.stage_clearance = np.min(C, axis=0)
+            best, best_k, react = plan_verdict(C, A, [True] * (ocp.N + 1), min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
-            assert self.x0 is not None  # feedback checked it
-            self.u_applied[0] = braking_control(pb, self.x0)
+            self.u_applied[0] = braking_control(pb, self.x_plan)
 
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:

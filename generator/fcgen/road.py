@@ -24,6 +24,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from .contract import INPUT_RANGES
 from .dsl import Bounds
 
 # --- CPU-independent elementwise trigonometry ---------------------------------------------------
@@ -110,8 +111,9 @@ class Road:
         m = len(self.kappa)
         if m < 2 or any(len(a) != m for a in (self.phi, self.gx, self.gy)):
             raise ValueError("road: kappa, phi_gamma, gamma_x, gamma_y must have the same length >= 2")
-        if not (self.ds > 0 and math.isfinite(self.ds)):
-            raise ValueError(f"road.ds = {self.ds!r} is invalid: allowed > 0")
+        ds_lo, ds_hi = INPUT_RANGES.ds_min, INPUT_RANGES.ds_max
+        if not ds_lo <= self.ds <= ds_hi:
+            raise ValueError(f"road.ds = {self.ds!r} is invalid: allowed in [{ds_lo}, {ds_hi}] m (the C's set_road)")
         for name in ("kappa", "phi", "gx", "gy"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"road.{name} contains NaN or infinite values")

@@ -20,7 +20,7 @@ import os
 import platform
 import re
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +30,7 @@ from .atomic import carry, check_folder_target, describe, staged_folder, write_t
 from .build import DEFAULT_BUILD, VERIFY_BUILD, build
 from .csolver import CSolver
 from .sim.closedloop import PLAN_LEVELS, run_closed_loop
+from .sim.plants import PlantSpec
 from .sim.runlog import FORMAT_VERSION, RunLog, package_versions, read_text
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder
@@ -55,6 +56,7 @@ class SuiteSettings:
     timing: bool = True
     commonroad: str | None = None  # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
     planning_problem: int | None = None
+    plant: PlantSpec = field(default_factory=PlantSpec)  # the plant and perturbations of the runs (docs/plants.md)
 
 
 #: the settings of the checked-in goldens ``generated/<x>/golden`` (``fcgen record --golden-for generated --force``):
@@ -244,7 +246,13 @@ def _record_into(
     for seed in settings.seeds if settings.commonroad is None else ():
         sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=settings.samples, dt=pb.horizon.dt)
         log = run_closed_loop(
-            pb, sc, controller=CSolver(lib, folder=folder), exit_codes=True, plan=settings.plan, progress=progress
+            pb,
+            sc,
+            controller=CSolver(lib, folder=folder),
+            exit_codes=True,
+            plan=settings.plan,
+            progress=progress,
+            plant=settings.plant,
         )
         log = _finish(log, info["precision"], settings.timing)
         fname = log_name(scenario, seed)
@@ -271,6 +279,7 @@ def _record_into(
             "plan": settings.plan,
             "timing": settings.timing,
             "controller": "c",
+            **({} if settings.plant.is_default else {"plant": settings.plant.as_meta()}),
             **({"commonroad": entries[0]["commonroad"]} if settings.commonroad is not None else {}),
         },
         "logs": entries,

@@ -38,7 +38,7 @@ from .dsl import Problem, ProblemError
 from .ocp import INF, build_ocp
 from .presets import CAR, SCENARIOS, TRUCK
 from .reference import RtiSolver
-from .sim.closedloop import ReferenceController, run_closed_loop
+from .sim.closedloop import PlantSpec, ReferenceController, run_closed_loop
 from .sim.runlog import summary
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
@@ -304,11 +304,12 @@ def _checks(backend: str) -> dict[str, Check]:
     return checks
 
 
-def _lockstep(pb: Problem, sc, ocp, cs, checks: dict[str, Check]):
-    """The lockstep comparison of ``cs`` with a fresh reference over scenario ``sc``; returns the reference's log."""
+def _lockstep(pb: Problem, sc, ocp, cs, checks: dict[str, Check], plant: PlantSpec | None = None):
+    """The lockstep comparison of ``cs`` with a fresh reference over scenario ``sc`` (on ``plant``); returns the
+    reference's log."""
     if cs.init() != 0:
         raise RuntimeError(f"{pb.name}_init() failed")
-    return run_closed_loop(pb, sc, controller=_Lockstep(RtiSolver(ocp), cs, checks), ocp=ocp)
+    return run_closed_loop(pb, sc, controller=_Lockstep(RtiSolver(ocp), cs, checks), ocp=ocp, plant=plant)
 
 
 def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
@@ -326,19 +327,21 @@ def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
 _SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
 
 
-def _closed_loops(pb: Problem, sc, ocp, cs, checks: dict[str, Check], rep: VerifyReport) -> None:
-    """The independent closed loops (C vs Python, each driving the plant), with the reference's rounding envelope
+def _closed_loops(
+    pb: Problem, sc, ocp, cs, checks: dict[str, Check], rep: VerifyReport, plant: PlantSpec | None = None
+) -> None:
+    """The independent closed loops (C vs Python, each driving ``plant``), with the reference's rounding envelope
     where they part beyond the tolerance."""
     if cs.init() != 0:
         raise RuntimeError(f"{pb.name}_init() failed")
-    log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp)
-    log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp)
+    log_c = run_closed_loop(pb, sc, controller=cs, ocp=ocp, plant=plant)
+    log_py = run_closed_loop(pb, sc, controller=ReferenceController(ocp), ocp=ocp, plant=plant)
     for key, (max_diff, sample, count, compared) in _closed_loop_diffs(log_c, log_py).items():
         ch = checks[key]
         ch.max_diff, ch.sample, ch.count, ch.compared = max_diff, sample, count, compared
     if not all(checks[k].passed for k in CLOSED_LOOP):
         for eps in ENVELOPE_EPS:
-            log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp)
+            log_e = run_closed_loop(pb, sc, controller=_PerturbedReference(ocp, eps), ocp=ocp, plant=plant)
             for key, d in _closed_loop_diffs(log_e, log_py).items():
                 checks[key].envelope = max(checks[key].envelope, d[0])
         rep.notes.append(
@@ -365,12 +368,14 @@ def verify(
     samples: int = 200,
     closed_loop: bool = True,
     build_kw: dict | None = None,
+    plant: PlantSpec | None = None,
 ) -> VerifyReport:
     """Compare the generated C (verification build) with the Python reference on one seeded scenario.
 
     ``folder``: a :class:`~.solver_folder.SolverFolder` or its path. ``scenario``: ``'car'`` or ``'truck'``; default
     from the problem (``infer_scenario``). ``closed_loop=False`` skips the second comparison (two independent closed
-    loops). The report notes the folder's files that differ from what ``fcgen generate`` wrote.
+    loops). The report notes the folder's files that differ from what ``fcgen generate`` wrote. ``plant``: the
+    closed loops' plant and perturbations (docs/plants.md; the same seeded noise for C and Python).
     """
     folder = as_folder(folder, check=False)  # the sizes checked in the lockstep's terms below, the rest by build
     name, pb = folder.name, folder.problem
@@ -389,11 +394,11 @@ def verify(
     if edits:
         rep.notes.append(edits)
     checks = _checks(pb.qp.backend)
-    log_py = _lockstep(pb, sc, ocp, cs, checks)
+    log_py = _lockstep(pb, sc, ocp, cs, checks, plant)
     nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
     _straight_probe(pb, sc, ocp, cs, checks)
     if closed_loop:
-        _closed_loops(pb, sc, ocp, cs, checks, rep)
+        _closed_loops(pb, sc, ocp, cs, checks, rep, plant)
     else:
         for k in CLOSED_LOOP:
             del checks[k]

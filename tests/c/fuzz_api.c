@@ -515,7 +515,7 @@ static void r_set_road(void) {
   } else if (!isfinite((real_t)s0) || !isfinite((real_t)ds) || !all_finite(k, n) || !all_finite(p, n) ||
              !all_finite(x, n) || !all_finite(y, n)) {
     want = U_(_ERR_NONFINITE_ROAD);
-  } else if (!((real_t)ds > 0)) {
+  } else if (!((real_t)ds >= (real_t)1e-3 && (real_t)ds <= (real_t)100.0)) { /* fcgen.contract.INPUT_RANGES */
     want = U_(_ERR_ROAD_SIZE);
   } else {
     want = U_(_OK);

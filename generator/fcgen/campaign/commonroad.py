@@ -37,12 +37,25 @@ ROW_KEYS = (
     "collision_step_checker",
     "road_departure",
     "departure_step",
+    "start_off_road",
     "agree",
     "responsibility",
     "max_abs_a_lat",
     "rti_ms_median",
     "qp_iter_mean",
     "exit_codes_nonzero",
+    "goal_reached",
+    "goal_step",
+    "v_ref_source",
+    "n_ref",
+    "solution_valid",
+    "solution_valid_but_goal",
+    "solution_starts",
+    "solution_feasible",
+    "max_slack",
+    "unsolved_samples",
+    "unsolved_codes",
+    "nonfinite",
     "wall_s",
 )
 
@@ -131,15 +144,59 @@ def run_cr_task(task: CrTask) -> dict:
         collision_step_checker=_step(run.checker.get("collision_step")),
         road_departure=bool(run.checker.get("road_departure", False)),
         departure_step=_step(run.checker.get("departure_step")),
+        start_off_road=run.checker.get("departure_step") == 0,
         agree=run.agree,
         responsibility=run.responsibility,
         max_abs_a_lat=float(np.max(np.abs(log.a_lat))),
         rti_ms_median=float(np.median(t_ms)),
         qp_iter_mean=float(np.mean(log.qp_iter)),
         exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]),
+        **slack_fields(np.asarray(log.max_slack, dtype=float), cr["unsolved"]),
+        **goal_fields(cr),
         wall_s=time.perf_counter() - t0,
     )
+    row["nonfinite"] = nonfinite_fields(row)
     return row
+
+
+def goal_fields(cr: dict) -> dict:
+    """The row's goal and solution fields from the run log's ``extra.commonroad``."""
+    g, sol = cr["goal"], cr["solution"]
+    return {
+        "goal_reached": bool(g["reached"]),
+        "goal_step": _step(g["step"]),
+        "v_ref_source": g["v_ref_source"],
+        "n_ref": float(cr["n_ref"]),
+        "solution_valid": bool(sol["valid"]),
+        "solution_valid_but_goal": bool(sol["valid_but_goal"]),
+        "solution_starts": bool(sol["starts_at_initial_state"]),
+        "solution_feasible": bool(sol["feasible"]),
+    }
+
+
+def slack_fields(slack: np.ndarray, unsolved: dict) -> dict:
+    """The row's ``max_slack`` (over the samples with a solution, 0 when none has one: ``unsolved_samples`` then says
+    so), ``unsolved_samples`` and ``unsolved_codes`` (``"CODE xN, ..."``, "" without)."""
+    ok = np.isfinite(slack)
+    return {
+        "max_slack": float(slack[ok].max()) if ok.any() else 0.0,
+        "unsolved_samples": int(unsolved["samples"]),
+        "unsolved_codes": ", ".join(f"{k} x{v}" for k, v in unsolved["exit_codes"].items()),
+    }
+
+
+def nonfinite_fields(row: dict) -> str:
+    """The names of a row's numeric fields whose value is not finite (comma-separated, "" when every one is): a row
+    states such a value instead of hiding it in a NaN."""
+    return ", ".join(
+        k
+        for k, v in row.items()
+        if isinstance(v, (float, np.floating)) and not isinstance(v, bool) and not np.isfinite(v)
+    )
+
+
+def _count(col) -> int:
+    return int(col.fillna(False).astype(bool).sum())
 
 
 def _step(v) -> int:
@@ -181,6 +238,25 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
     return o / "commonroad.md"
 
 
+def unsolved_lines(ran) -> list[str]:
+    """The report's section on samples without a solution and on non-finite values in rows ("None." when none)."""
+    lines = ["## Samples without a solution, non-finite values", ""]
+    bad = ran[(ran.unsolved_samples.fillna(0).astype(int) > 0) | (ran.nonfinite.fillna("") != "")]
+    if not len(bad):
+        return [*lines, "None.", ""]
+    lines += [
+        f"{len(bad)} of {len(ran)} runs, {int(bad.unsolved_samples.fillna(0).sum())} samples without a solution.",
+        "",
+        "| scenario | configuration | samples without a solution | exit codes | non-finite fields |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {r.scenario} | {r.problem} | {r.unsolved_samples} | {r.unsolved_codes or '-'} | {r.nonfinite or '-'} |"
+        for r in bad.itertuples()
+    ]
+    return [*lines, ""]
+
+
 def summary_markdown(df) -> str:
     """Scenarios run / refused (reasons), the agreement of the two collision checks, collisions by responsibility."""
     ran, refused = df[df.status == "ran"], df[df.status == "refused"]
@@ -207,9 +283,18 @@ def summary_markdown(df) -> str:
             f"| fcgen: none | {int((~a & b).sum())} | {int((~a & ~b).sum())} |",
             "",
             f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
-            f"{int(ran.road_departure.astype(bool).sum())}.",
+            f"{int(ran.road_departure.astype(bool).sum())}, of which {_count(ran.start_off_road)} start off the road "
+            "(the scenario's: the recorded ego's chassis crosses the road boundary at the initial state) and "
+            f"{_count(ran.road_departure.astype(bool) & ~ran.start_off_road.fillna(False).astype(bool))} after an "
+            "on-road start.",
+            "",
+            f"Goal reached: {_count(ran.goal_reached)} of {len(ran)} runs. Solutions valid by the drivability "
+            f"checker: {_count(ran.solution_valid)} (all but the goal: {_count(ran.solution_valid_but_goal)}; "
+            f"starting at the initial state: {_count(ran.solution_starts)}; feasible: "
+            f"{_count(ran.solution_feasible)}).",
             "",
         ]
+        lines += unsolved_lines(ran)
         col = ran[a | b]
         lines += ["## Collisions", ""]
         if len(col):
@@ -228,12 +313,14 @@ def summary_markdown(df) -> str:
             "",
             "## Per configuration",
             "",
-            "| configuration | runs | collisions (fcgen) | progress mean, m | RTI median, ms | max abs a_lat |",
-            "|---|---|---|---|---|---|",
+            "| configuration | runs | collisions (fcgen) | goal reached | valid solutions | progress mean, m | "
+            "RTI median, ms | max abs a_lat |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for name, g in ran.groupby("problem"):
             lines.append(
-                f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | "
-                f"{g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | {g.max_abs_a_lat.max():.2f} |"
+                f"| {name} | {len(g)} | {int(g.collision_fcgen.astype(bool).sum())} | {_count(g.goal_reached)} | "
+                f"{_count(g.solution_valid)} | {g.progress_m.mean():.1f} | {g.rti_ms_median.median():.3f} | "
+                f"{g.max_abs_a_lat.max():.2f} |"
             )
     return "\n".join(lines) + "\n"

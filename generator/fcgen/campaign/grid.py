@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
 from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
+from ..sim.plants import PlantSpec
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
 PAPER_CIRCLES = {"truck": (5, 7), "car": (1, 3)}
@@ -27,8 +28,12 @@ class Config:
     controller: str = "c"
     backend: str = "osqp"
     profile: str = "paper"  # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
+    plant: PlantSpec = field(default_factory=PlantSpec)  # the plant, its perturbations (docs/plants.md)
+    delay: int = 0  # the solvers' delay compensation (Problem.delay), samples
 
     def __post_init__(self) -> None:
+        if not isinstance(self.plant, PlantSpec):
+            raise ProblemError(f"plant = {self.plant!r} is invalid: allowed a PlantSpec")
         _one_of("profile", self.profile, PROFILES)
         _one_of("scenario", self.scenario, SCENARIOS)
         _one_of("formulation", self.formulation, tuple(FORMULATIONS))
@@ -49,7 +54,9 @@ class Config:
     def key(self) -> str:
         """Identifies the configuration in the results (with the seed and the sample count: one run)."""
         key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
-        return key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
+        key = key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
+        key = key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
+        return key if not self.delay else f"{key}/comp{self.delay}"
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -67,10 +74,29 @@ class Config:
             pb = paper_problem(
                 self.scenario, self.formulation, self.obstacles, self.circles or None, profile=self.profile, **over
             )
-        return pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
+        pb = pb if self.profile == "paper" else pb.with_(name=f"{pb.name}_{self.profile}")
+        if self.plant.params == "matched":
+            from ..sim.plants.commonroad_vm import matched_problem
+
+            pb = matched_problem(pb, "matched")
+        return pb.with_(delay=self.delay, name=f"{pb.name}_d{self.delay}"[:31]) if self.delay else pb
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
+        ``latency``, ``steer_lag``, ``noise`` (a default run's row has none of them, as before the plants)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay")}
+        if self.delay:
+            d["delay"] = self.delay
+        if not self.plant.is_default:
+            p = asdict(self.plant)
+            d.update(
+                plant=p["kind"],
+                plant_params=p["params"],
+                latency=p["latency"],
+                steer_lag=float(p["steer_lag"]),
+                noise=",".join(f"{v:g}" for v in self.plant.noise),
+            )
+        return d
 
 
 def _one_of(field: str, value, allowed: tuple) -> None:
@@ -102,6 +128,8 @@ def paper_grid(
     controller: str = "c",
     backend: str = "osqp",
     profile: str = "paper",
+    plant: PlantSpec | None = None,
+    delay: int = 0,
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -110,7 +138,7 @@ def paper_grid(
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(Config(sc, form, kind, n, controller, backend, profile))
+                    out.append(Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec(), delay))
     return out
 
 

@@ -3,9 +3,12 @@ and time per RTI (the runs of this call's grid, those of an earlier call that it
 
 from __future__ import annotations
 
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from .grid import Task
+
+if TYPE_CHECKING:  # the table's rows come from the campaign's store (the 'campaign' extra)
+    import pandas as pd
 
 COLUMNS = ("configuration", "runs", "collisions", "progress [m]", "time per RTI [ms]")
 

@@ -87,6 +87,22 @@ def _alat_outcome(a_lat: np.ndarray, bound: float) -> dict:
     }
 
 
+def _plant_columns(log, bound: float) -> dict:
+    """A perturbed run's extra columns: the model formula's a_lat outcome on the plant's states, the plant's and the
+    formula's samples above bound + 0.5 m/s^2, the controls the plant's limits cut."""
+    ex = log.meta["extra"]
+    plant, model = np.abs(np.asarray(log.a_lat)), np.abs(np.asarray(log.a_lat_model))
+    return {
+        "a_lat_over05_samples": int(np.count_nonzero(plant > bound + 0.5)),
+        "a_lat_model_over05_samples": int(np.count_nonzero(model > bound + 0.5)),
+        "a_lat_model_over_samples": int(np.count_nonzero(model > bound)),
+        "max_abs_a_lat_model": float(np.max(model)),
+        "plant_cut_samples": int(ex.get("plant_cut_samples", 0)),
+        "plant_cut_steer_rate": int(ex.get("plant_cut_steer_rate", 0)),
+        "plant_cut_accel": int(ex.get("plant_cut_accel", 0)),
+    }
+
+
 def run_task(task: Task) -> dict:
     """Run one closed loop of ``task`` (C solver from the cache, or the Python reference); returns its row."""
     from ..sim.closedloop import ReferenceController, run_closed_loop
@@ -103,14 +119,14 @@ def run_task(task: Task) -> dict:
             if rc:
                 raise RuntimeError(f"{pb.name}_init() returned {rc}")
             _set_clock(solver, task.clock)
-            log = run_closed_loop(pb, sc, controller=solver)
+            log = run_closed_loop(pb, sc, controller=solver, plant=cfg.plant)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         sizes = {"qp_n": solver.n, "qp_m": solver.m, "qp_nnz_a": solver.nnz_A, "n_opp_par": solver.n_opp_par}
     else:
         ocp = _ocp(pb)
         t_start, t0, c0 = time.time(), time.perf_counter(), time.process_time()
         ctrl = ReferenceController(ocp)
-        log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp)
+        log = run_closed_loop(pb, sc, controller=ctrl, ocp=ocp, plant=cfg.plant)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         lay = ctrl.solver.lay
         sizes = {"qp_n": lay.n, "qp_m": lay.m, "qp_nnz_a": lay.nnz_A, "n_opp_par": ocp.n_opp_par}
@@ -173,7 +189,7 @@ def make_row(
     for k, v in s.items():
         if isinstance(v, dict) and k.endswith("_ms"):
             row.update({f"{k}_{q}": float(v[q]) for q in STAT_KEYS})
-        elif k == "qp_status_counts":
+        elif k in ("qp_status_counts", "unsolved_exit_codes"):  # name -> count, as JSON text
             row[k] = json.dumps(v, sort_keys=True)
         else:
             row[k] = v
@@ -184,6 +200,8 @@ def make_row(
     row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))  # samples the plan check braked
     row["a_lat_guards"] = int(log.meta["extra"].get("a_lat_guards", 0))  # samples the a_lat guard acted
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
+    if log.a_lat_model is not None:  # a perturbed run: the plant's a_lat above, the model formula's here
+        row.update(_plant_columns(log, problem.bounds.a_lat_max))
     row.update(collision or {})
     row.update(sizes)
     row["wall_s"] = float(wall)

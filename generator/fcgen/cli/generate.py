@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import click
 
+from ..dsl import ProblemError
 from ..presets import load_problem
 from .options import fail, force_option, names, out_dir_option
 
@@ -24,7 +25,14 @@ from .options import fail, force_option, names, out_dir_option
     metavar="SECONDS",
     help="give up (exit 1, OUT untouched) if loading PROBLEM and generating take longer [default: no limit]",
 )
-def generate(problem_spec, out_dir, use_float, force, timeout):
+@click.option(
+    "--delay",
+    type=int,
+    default=None,
+    help="compensate this many samples of latency between measurement and actuation (Problem.delay, 0..8; "
+    "default: the problem's own)",
+)
+def generate(problem_spec, out_dir, use_float, force, timeout, delay):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
     from ..atomic import TimeLimit, check_folder_target, time_limit
     from ..codegen.generate import generate as gen
@@ -39,6 +47,11 @@ def generate(problem_spec, out_dir, use_float, force, timeout):
             else "",
         ):
             pb = load_problem(problem_spec)
+            if delay is not None:
+                try:
+                    pb = pb.with_(delay=delay)
+                except ProblemError as exc:
+                    fail(f"--delay: {exc}")
             info = gen(pb, out_dir, use_float=use_float, force=force)
     except TimeLimit as exc:
         fail(str(exc))

@@ -14,6 +14,8 @@ from .options import (
     fail,
     force_option,
     out_dir_option,
+    plant_options,
+    plant_spec,
     samples_option,
     scenario_option,
     solver_dir_argument,
@@ -56,13 +58,37 @@ from .options import (
     "file; `fcgen regress` runs it again)",
 )
 @click.option("--planning-problem", "cr_pp", type=int, default=None, help="with --commonroad: the planning problem")
+@plant_options
 def record(
-    solver_dir, out_dir, scenario, seeds, samples, plan, verify, timing, cc, cflags, golden_root, force, cr_file, cr_pp
+    solver_dir,
+    out_dir,
+    scenario,
+    seeds,
+    samples,
+    plan,
+    verify,
+    timing,
+    cc,
+    cflags,
+    golden_root,
+    force,
+    cr_file,
+    cr_pp,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
 ):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from ..build import BuildError
     from ..suite import SuiteSettings, parse_seeds, record_goldens, record_suite
 
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    if spec.params == "matched":
+        fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
+    if not spec.is_default and (golden_root is not None or cr_file):
+        fail("--golden-for and --commonroad record fcgen's own plant (no --plant, --latency, --steer-lag, --noise)")
     try:
         if golden_root is not None:
             if solver_dir is not None or out_dir is not None:
@@ -83,6 +109,7 @@ def record(
             timing=timing,
             commonroad=cr_file,
             planning_problem=cr_pp,
+            plant=spec,
         )
         out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
         man = record_suite(solver_dir, out, st, progress=sys.stderr.isatty(), force=force)  # read once there
@@ -132,15 +159,40 @@ def record(
 @cflags_option("C flags for NEW (default: $CFLAGS or the Makefile's -O2)")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="write the report (JSON)")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="plot the divergence over time (PNG)")
-def regress(new, golden, mode, preset, tols, timing, controller, verify, cc, cflags, json_out, plot):
+@plant_options
+def regress(
+    new,
+    golden,
+    mode,
+    preset,
+    tols,
+    timing,
+    controller,
+    verify,
+    cc,
+    cflags,
+    json_out,
+    plot,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
+):
     """Compare NEW (run log, suite or solver folder) with GOLDEN (run log or suite).
 
-    Exit code 0: within tolerance, 1: out of tolerance, 2: unusable input.
+    Exit code 0: within tolerance, 1: out of tolerance, 2: unusable input. With ``--mode closed-loop`` the plant
+    options give the plant and perturbations (default: what each golden log records).
     """
     from ..build import BuildError
     from ..regress import UnusableInput, parse_tol
     from ..regress import regress as run
 
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    if not spec.is_default and mode != "closed-loop":
+        fail("--plant, --latency, --steer-lag and --noise go with --mode closed-loop")
+    if spec.params == "matched":
+        fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
     try:
         overrides = dict(parse_tol(t) for t in tols)
         rep = run(
@@ -153,6 +205,7 @@ def regress(new, golden, mode, preset, tols, timing, controller, verify, cc, cfl
             controller=controller,
             build_kw={"verify": verify, "cc": cc, "cflags": cflags},
             progress=sys.stderr.isatty(),
+            plant=None if spec.is_default else spec,
         )
     except (UnusableInput, BuildError) as exc:
         click.echo(f"Error: {str(exc).splitlines()[0]}", err=True)

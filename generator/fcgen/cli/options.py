@@ -95,11 +95,137 @@ def fmt_summary(s: dict) -> str:
         f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
         f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
         f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
-        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g} | "
+        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g}{_unsolved(s)} | "
         f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2"
     )
+
+
+def _unsolved(s: dict) -> str:
+    """`` (N samples without a solution: CODE xM, ...)`` when the run has such samples (their slack is not finite)."""
+    n = s.get("samples_unsolved", 0)
+    if not n:
+        return ""
+    codes = ", ".join(f"{k} x{v}" for k, v in s.get("unsolved_exit_codes", {}).items())
+    return f" over the solved samples ({n} without a solution: {codes})"
 
 
 def names(text: str) -> list[str]:
     """The names of a comma-separated option value."""
     return [x.strip() for x in text.split(",") if x.strip()]
+
+
+PLANT_OPTION_NAMES = ("plant", "plant_params", "latency", "steer_lag", "noise")
+
+
+def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise`` (docs/plants.md)."""
+    from ..sim.plants import PLANT_KINDS, PLANT_PARAMS
+    from ..sim.plants.spec import MAX_LATENCY, MAX_STEER_LAG
+
+    opts = [
+        click.option(
+            "--plant",
+            type=click.Choice(PLANT_KINDS),
+            default="model",
+            show_default=True,
+            help="the plant: fcgen's own model, or CommonRoad's kinematic single track (ks), single track (st), "
+            "single track drift (std) or multi-body (mb) model (docs/plants.md)",
+        ),
+        click.option(
+            "--plant-params",
+            type=click.Choice(PLANT_PARAMS),
+            default="paper",
+            show_default=True,
+            help="the BMW 320i with the paper's ego geometry and mass (paper), or as shipped with the controller's "
+            "wheelbase and mass set to it (matched)",
+        ),
+        click.option(
+            "--latency",
+            type=click.IntRange(0, MAX_LATENCY),
+            default=0,
+            show_default=True,
+            help="samples between measurement and actuation",
+        ),
+        click.option(
+            "--steer-lag",
+            type=click.FloatRange(0.0, MAX_STEER_LAG),
+            default=0.0,
+            show_default=True,
+            help="time constant (s) of a first-order steering actuator",
+        ),
+        click.option(
+            "--noise",
+            default=None,
+            help="Gaussian noise on the measured (s, n, alpha, v, delta): five stds, or 'default' "
+            "(0.05 m, 0.05 m, 0.005 rad, 0.05 m/s, 0.002 rad); seeded from the run's seed",
+        ),
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+def plant_spec(
+    plant: str, plant_params: str, latency: int, steer_lag: float, noise: str | None, commonroad: bool = False
+):
+    """The ``PlantSpec`` of the plant options; a bad value, a missing ``[plants]`` extra or perturbations with
+    ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
+    from ..dsl import ProblemError
+    from ..sim.plants import PlantSpec, parse_noise
+
+    try:
+        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise))
+    except ProblemError as exc:
+        fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
+    if commonroad and not spec.is_default:
+        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
+    if spec.kind != "model" or spec.params == "matched":
+        from ..extras import MissingExtra
+        from ..sim.plants.commonroad_vm import vehicle_models
+
+        try:
+            vehicle_models()
+        except MissingExtra as exc:
+            fail(str(exc))
+    return spec
+
+
+def plant_line(spec, log, a_lat_max: float) -> str:
+    """One line on a perturbed run: the plant, its a_lat beside the model formula's, the cut controls."""
+    import numpy as np
+
+    ex = log.meta["extra"]
+    bound = a_lat_max + 0.5
+    over = float(np.mean(np.abs(np.asarray(log.a_lat)) > bound)) * 100
+    return (
+        f"plant {spec.label()} | max |a_lat| plant {float(np.max(np.abs(log.a_lat))):.2f}, model formula "
+        f"{ex['max_abs_a_lat_model']:.2f} m/s^2 | plant |a_lat| > {bound:g}: {over:.1f} % of samples | "
+        f"controls cut by the plant's limits: {ex['plant_cut_samples']} samples (steering rate "
+        f"{ex['plant_cut_steer_rate']}, angle {ex['plant_cut_steer_angle']}, acceleration {ex['plant_cut_accel']})"
+    )
+
+
+def matched_for(pb, spec, controller: str):
+    """``pb`` with the controller's wheelbase and mass matched to the plant (``--plant-params matched``: the Python
+    controller only; a C solver or FMU is generated from the problem it has)."""
+    if spec.params != "matched":
+        return pb
+    if controller != "python":
+        fail(
+            "--plant-params matched sets the controller's wheelbase and mass: use --controller python, or "
+            "`fcgen campaign` (it generates its solvers)"
+        )
+    from ..sim.plants.commonroad_vm import matched_problem
+
+    return matched_problem(pb, spec.params)
+
+
+def delay_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--delay``: the generated solvers' delay compensation (``Problem.delay``)."""
+    return click.option(
+        "--delay",
+        type=click.IntRange(0, 8),
+        default=0,
+        show_default=True,
+        help="generate the solvers with delay compensation of this many samples (Problem.delay; docs/plants.md)",
+    )(f)

@@ -13,12 +13,17 @@ from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
 from .options import (
     cflags_option,
+    delay_option,
     fail,
     fmt_summary,
     force_option,
+    matched_for,
     names,
     out_dir_option,
     out_file_option,
+    plant_line,
+    plant_options,
+    plant_spec,
     samples_option,
     scenario_option,
     seed_option,
@@ -77,6 +82,7 @@ from .options import (
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
+@plant_options
 def simulate(
     scenario,
     formulation,
@@ -93,6 +99,11 @@ def simulate(
     cr_file,
     cr_pp,
     cr_solution,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from ..sim.closedloop import run_closed_loop
@@ -109,6 +120,8 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_file))
+    pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution)
@@ -116,9 +129,11 @@ def simulate(
     if cr_pp is not None or cr_solution:
         fail("--planning-problem and --solution go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
+    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
+    if not spec.is_default:
+        click.echo(plant_line(spec, log, pb.bounds.a_lat_max))
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -156,7 +171,7 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
 
     from ..campaign.commonroad import load_for
     from ..commonroad import ScenarioRefused, plot_run, write_solution
-    from ..sim.commonroad_run import run_commonroad
+    from ..sim.commonroad_run import goal_line, run_commonroad
     from ..sim.runlog import summary
 
     try:
@@ -178,6 +193,7 @@ def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution)
         f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
         + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
     )
+    click.echo(goal_line(log.meta["extra"]["commonroad"]))
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -284,6 +300,8 @@ def _verdict(v: dict) -> str:
     help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
+@plant_options
+@delay_option
 def campaign(
     scenarios,
     formulations,
@@ -303,13 +321,20 @@ def campaign(
     force_report,
     profile,
     cr_dir,
+    plant,
+    plant_params,
+    latency,
+    steer_lag,
+    noise,
+    delay,
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
-        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile)
+        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
@@ -338,7 +363,7 @@ def campaign(
         click.echo(f"report written to {write_report(out, report_dir, force=force_report)}")
 
 
-def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str) -> list:
+def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str, backend: str, profile: str, pd=()):
     """The campaign's configurations; an unknown name or a backend this fcgen lacks fails before any worker starts."""
     from ..campaign.grid import paper_grid
 
@@ -349,7 +374,9 @@ def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str
         if s not in SCENARIOS:
             fail(f"--scenarios: {s!r} is invalid: allowed {', '.join(SCENARIOS)}")
     try:
-        configs = paper_grid(names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile)
+        configs = paper_grid(
+            names(scenarios), names(formulations), names(obstacle_list), controller, backend, profile, *pd
+        )
         for c in configs:
             c.problem()  # a backend this fcgen lacks fails here, before any worker starts
     except ProblemError as exc:

@@ -18,6 +18,8 @@ from .options import (
     fmt_summary,
     force_option,
     out_file_option,
+    plant_options,
+    plant_spec,
     samples_option,
     scenario_option,
     seed_option,
@@ -62,14 +64,18 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
 @seed_option()
 @samples_option()
 @out_file_option("write the report (JSON)")
-def verify_cmd(solver_dir, scenario, seed, samples, out):
+@plant_options
+def verify_cmd(solver_dir, scenario, seed, samples, out, plant, plant_params, latency, steer_lag, noise):
     """Compare a generated solver (verification build) with the Python reference, sample by sample."""
     from ..build import BuildError
     from ..solver_folder import read_folder
     from ..verify import verify
 
+    spec = plant_spec(plant, plant_params, latency, steer_lag, noise)
+    if spec.params == "matched":
+        fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
     try:  # its sizes are compared in the lockstep's terms first, the rest of the folder checked by the build
-        rep = verify(read_folder(solver_dir, check=False), scenario=scenario, seed=seed, samples=samples)
+        rep = verify(read_folder(solver_dir, check=False), scenario=scenario, seed=seed, samples=samples, plant=spec)
     except BuildError as exc:
         fail(str(exc))
     click.echo(rep.format())

@@ -21,7 +21,7 @@ from .. import __version__
 from .. import obstacles as obs
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
-from ..contract import HOST_TICKS_PER_SECOND
+from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
 from ..qp import QpLayout, build_layout
@@ -129,7 +129,9 @@ def problem_source(obj: Any, indent: int = 0) -> str:
         return repr(obj)
     pad = " " * (indent + 4)
     args = [
-        f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}" for f in dataclasses.fields(obj) if f.init
+        f"{pad}{f.name}={problem_source(getattr(obj, f.name), indent + 4)}"
+        for f in dataclasses.fields(obj)
+        if f.init and not (f.metadata.get("omit_default") and getattr(obj, f.name) == f.default)
     ]
     if not args:
         return f"{type(obj).__name__}()"
@@ -275,7 +277,15 @@ def _memory(
     fit = fit_context(ocp)
     curve = curve_speed_constants(problem)
     ws_members, ws_bytes = workspace_members(
-        problem.name, tab["sizes"], work, real_size, n_opp_all, fit, len(lay.band_rows), curve=curve is not None
+        problem.name,
+        tab["sizes"],
+        work,
+        real_size,
+        n_opp_all,
+        fit,
+        len(lay.band_rows),
+        curve=curve is not None,
+        delay=problem.delay,
     )
     const_bytes = (
         sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
@@ -333,6 +343,9 @@ def _solver_context(
         "cold_restart_note": cold_note,
         "cold_restart_lines": _wrap_comment(f"Cold restart: {cold_note}.", 114),
         "first_state_member": FIRST_STATE_MEMBER,
+        "delay": problem.delay,
+        "x_plan": "ws.x_plan" if problem.delay else "ws.x0",  # where the plan starts (delay compensation)
+        "x_plan_doc": "the plan's start (x0 predicted over the delay)" if problem.delay else "x0",
         "host_ticks_per_second": HOST_TICKS_PER_SECOND,
         "problem": problem,
         "formulation": problem.formulation.kind,
@@ -387,6 +400,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "n_max": c_real(problem.bounds.n_max),
         "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE),
         "ego_radius": c_real(obs.ego_radius(problem.ego)),
+        "ranges": {k: c_real(v) for k, v in dataclasses.asdict(INPUT_RANGES).items()},
         "p_road": {
             "S0": 0,
             "DS": 1,

@@ -61,7 +61,8 @@ def _input_members(M: Callable[..., Dim], R: tuple[int, int], opp_dim: int, shap
 
 def _state_members(M: Callable[..., Dim], R: tuple[int, int], work: dict, n_band: int) -> list[Member]:
     """Everything reset() zeroes, from ``FIRST_STATE_MEMBER`` on: the plan, the QP's data, CasADi's work arrays."""
-    n, m, nnz = M("QP_N"), M("QP_M"), M("QP_NNZ_A")
+    n, m, nnz, window = M("QP_N"), M("QP_M"), M("QP_NNZ_A"), M("ROAD_WINDOW")
+    assert isinstance(window, tuple)
     return [
         ("NAME_real_t", FIRST_STATE_MEMBER, [n], R),
         ("NAME_real_t", "y", [m], R),
@@ -90,6 +91,8 @@ def _state_members(M: Callable[..., Dim], R: tuple[int, int], work: dict, n_band
         ("int", "cold", [], _I),
         ("int", "qp_ready", [], _I),
         ("int", "fit_outside", [], _I),
+        # the road window of each stage of the last preparation (the plan check's road: set_road may change in between)
+        ("NAME_real_t", "plan_road", [M("N", 1), ("P_REF", 2 + 4 * window[1])], R),
     ]
 
 
@@ -98,6 +101,7 @@ def _fit_members(M: Callable[..., Dim], R: tuple[int, int], fit: dict, name: str
     road = M("ROAD_MAX")
     out: list[Member] = [
         ("NAME_real_t", "opp_stage", [M("N", 1), fit["n_opp_stage"]], R),
+        ("NAME_real_t", "opp_stage_kept", [M("N", 1), fit["n_opp_stage"]], R),  # restored by a refused prepare
         ("NAME_real_t", "fit_P", [2 * fit["npt"]], R),
         ("NAME_real_t", "fit_d", [fit["npt"]], R),
         ("NAME_real_t", "fit_fr", [3 * fit["npt"]], R),
@@ -123,6 +127,7 @@ def workspace_members(
     fit: dict | None = None,
     n_band: int = 0,
     curve: bool = False,
+    delay: int = 0,
 ) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
@@ -132,7 +137,11 @@ def workspace_members(
         return (f"{NAME}_{key}" + (f" + {extra}" if extra else ""), sizes[key] + extra)
 
     shape_dim = max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"])
-    members = _input_members(M, R, opp_dim, shape_dim) + _state_members(M, R, work, n_band)
+    # the delay compensation's controls handed out last: an input (reset keeps it: the vehicle still has them)
+    delayed = [("NAME_real_t", "u_hist", [delay, M("NU")], R)] if delay else []
+    members = _input_members(M, R, opp_dim, shape_dim) + delayed + _state_members(M, R, work, n_band)
+    if delay:  # the plan's start: x0 predicted over the delay
+        members.append(("NAME_real_t", "x_plan", [5], R))
     if curve:  # the curve reference per node (Reference.curve_a_lat): a / |kappa| per road sample, s_ref, v_ref
         members += [
             ("NAME_real_t", "curve_c", [M("ROAD_MAX")], R),

@@ -9,9 +9,10 @@ import warnings
 warnings.filterwarnings("ignore", category=DeprecationWarning, module=r"commonroad(\.|$)")
 warnings.filterwarnings("ignore", category=DeprecationWarning, message=r"Call to deprecated create function")
 
-from .judge import drivability_verdict, fcgen_collisions, write_solution
+from .judge import drivability_verdict, fcgen_collisions
 from .plot import plot_run
 from .scenario import CrScenario, load_scenario
+from .solution import solution_verdict, write_solution
 from .traffic import CrObstacle, ScenarioRefused, opponent_horizon, select_opponents
 
 __all__ = [
@@ -24,5 +25,6 @@ __all__ = [
     "opponent_horizon",
     "plot_run",
     "select_opponents",
+    "solution_verdict",
     "write_solution",
 ]

@@ -1,7 +1,7 @@
 """A run on a scenario, judged twice: by the CommonRoad drivability checker (``commonroad_dc``: the ego's rectangle
 against every obstacle of the scenario over time, and against the road boundary) and by fcgen's own rectangle check
 (separating axes, the campaign's judge) against the same obstacles at the same steps; and written out as a
-CommonRoad solution file.
+CommonRoad solution file (``solution``).
 
 ``ego_centres`` (K + 1, 3): the ego chassis' centre pose [x, y, phi] at steps ``sc.first_step + j``.
 """
@@ -9,7 +9,6 @@ CommonRoad solution file.
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 
 import numpy as np
 
@@ -86,43 +85,3 @@ def fcgen_verdict(sc, pen: np.ndarray) -> dict:
 def fcgen_collisions(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
     """fcgen's verdict with its own rectangle check against every obstacle present at each step (``fcgen_verdict``)."""
     return fcgen_verdict(sc, penetrations(sc, ego_centres, length, width))
-
-
-def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:
-    """A CommonRoad solution file of the run: planning problem ``sc.planning_problem_id``, kinematic single-track
-    model (KS: its position is the rear axle, as fcgen's state), vehicle type BMW 320i, cost function SM1;
-    ``ego_states`` (K + 1, 5): rear axle [x, y, phi], speed, steering angle per sample."""
-    with require("commonroad", "a CommonRoad solution file"):
-        from commonroad.common.solution import (
-            CommonRoadSolutionWriter,
-            CostFunction,
-            PlanningProblemSolution,
-            Solution,
-            VehicleModel,
-            VehicleType,
-        )
-        from commonroad.scenario.state import KSState
-        from commonroad.scenario.trajectory import Trajectory
-
-    states = [
-        KSState(
-            time_step=sc.first_step + j,
-            position=np.array([x[0], x[1]]),
-            orientation=float(x[2]),
-            velocity=float(x[3]),
-            steering_angle=float(x[4]),
-        )
-        for j, x in enumerate(np.asarray(ego_states, dtype=float))
-    ]
-    pps = PlanningProblemSolution(
-        planning_problem_id=sc.planning_problem_id,
-        vehicle_model=VehicleModel.KS,
-        vehicle_type=VehicleType.BMW_320i,
-        cost_function=CostFunction.SM1,
-        trajectory=Trajectory(sc.first_step, states),
-    )
-    sol = Solution(sc.scenario.scenario_id, [pps])
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(CommonRoadSolutionWriter(sol).dump())
-    return out

@@ -3,9 +3,10 @@ obstacles; or refuse it with one line naming the reason.
 
 - **Ego**: the planning problem's initial state (CommonRoad's position is the vehicle's centre: fcgen's state is the
   rear axle, half the ego's wheelbase behind it), its speed, steering angle 0.
-- **Reference speed** (``v_ref_source``): the initial lanelet's speed limit (a ``MAX_SPEED`` sign), else the
-  initial speed brought into the goal's velocity interval (the ego keeps the traffic's speed where the goal allows
-  it: the recorded traffic does not react to an ego that slows down), else the initial speed.
+- **Reference speed** (``v_ref_source``): the goal's (``goal.goal_speed``): the initial speed (the ego keeps the
+  traffic's speed where the goal allows it: the recorded traffic does not react to an ego that slows down) brought
+  into the speeds that reach the goal position within its time window, into the goal's speed interval, at most the
+  initial lanelet's speed limit and ``v_max``.
 - **Samples** (``samples_source``): to the end of the goal's time interval, else to the last recorded obstacle step,
   at least 1.
 """
@@ -22,6 +23,7 @@ import numpy as np
 from ..dsl import Vehicle
 from ..extras import require
 from ..road import Road
+from .goal import goal_centres, goal_frenet, goal_speed, speed_limit
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
 
@@ -48,6 +50,9 @@ class CrScenario:
     planning_problem: object = None
     file: str = ""  # the XML's file name and sha256 (a suite keeps a copy; regress finds it by them)
     sha256: str = ""
+    goal_sn: tuple[float, float] | None = None  # the goal position's centre (s, n) on the road (None: no position)
+    v_goal: float = 0.0  # the reference speed once the goal is within the horizon's reach (goal.goal_speed)
+    v_goal_source: str = ""
 
 
 def load_scenario(
@@ -84,12 +89,21 @@ def load_scenario(
     for ids in (pp.goal.lanelets_of_goal_position or {}).values():
         goals |= set(ids)
     v0 = float(getattr(st, "velocity", 0.0) or 0.0)
-    v_ref, v_src = reference_speed(net, first, pp, v0)
+    limit = speed_limit(net, first)
+    ahead = [float(np.hypot(*(c - centre))) for c in goal_centres(pp)]
+    v_ref, v_src = goal_speed(pp, v0, dt, ahead[0] if ahead else None, limit, v_max)
     step0 = int(st.time_step)
     samples, s_src = run_length(pp, obstacles, step0)
     horizon_m = horizon_s * max(v0, v_ref)
     chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
     road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
+    goal_sn = goal_frenet(pp, road)
+    v_goal, g_src = v_ref, v_src
+    if goal_sn is not None:  # the distance along the reference path (the straight line's above only sized the horizon)
+        s_c = road.to_frenet(np.array([centre[0]]), np.array([centre[1]]), np.array([0.0]))[0]
+        d_goal = goal_sn[0] - float(s_c[0])
+        v_goal, g_src = goal_speed(pp, v0, dt, d_goal, limit, v_max)
+        v_ref, v_src = goal_speed(pp, v0, dt, d_goal, limit, v_max, near=False)
     if info["path_ahead_m"] < horizon_m:
         raise ScenarioRefused(
             f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
@@ -117,6 +131,9 @@ def load_scenario(
         pp,
         Path(path).name,
         digest,
+        goal_sn,
+        v_goal,
+        g_src,
     )
 
 
@@ -142,20 +159,6 @@ def _read(path: str | Path, planning_problem_id: int | None):
     if planning_problem_id not in problems:
         raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
     return scenario, problems[planning_problem_id], planning_problem_id
-
-
-def reference_speed(net, lanelet_id: int, pp, v0: float) -> tuple[float, str]:
-    """The reference speed and where it came from (module docstring)."""
-    for sid in sorted(net.find_lanelet_by_id(lanelet_id).traffic_signs or []):
-        sign = net.find_traffic_sign_by_id(sid)
-        for el in sign.traffic_sign_elements:
-            if "MAX_SPEED" in str(el.traffic_sign_element_id.name) and el.additional_values:
-                return float(el.additional_values[0]), "speed limit"
-    for gs in pp.goal.state_list:
-        v = getattr(gs, "velocity", None)
-        if v is not None and hasattr(v, "start"):
-            return min(max(float(v0), float(v.start)), float(v.end)), "goal velocity"
-    return float(v0), "initial speed"
 
 
 def run_length(pp, obstacles, step0: int) -> tuple[int, str]:

@@ -4,7 +4,8 @@ of them fill the solver's opponent slots.
 Rules (tested in tests/test_commonroad.py):
 
 - **Shape**: a CommonRoad ``Rectangle`` (length, width) whose pose is its centre (shape offset 0). Any other shape
-  refuses the scenario (``ScenarioRefused`` naming the obstacle).
+  refuses the scenario (``ScenarioRefused`` naming the obstacle), so does a set-based prediction (occupancy sets:
+  the drivability checker sees them grow, fcgen would see the obstacle only at its initial step).
 - **Prediction = the recording** (the paper's perfect-prediction assumption): the recorded centre pose at every
   recorded step; **after the recorded end, constant velocity along the last heading** (the last state's velocity,
   else the last two positions' difference); before its first step an obstacle is not there (``None``). A static
@@ -12,7 +13,9 @@ Rules (tested in tests/test_commonroad.py):
 - **Presence**: an obstacle is present at step t when it is static or recorded at t (it appears at its first step
   and disappears after its last: the drivability checker sees it over the same steps).
 - **Relevance** (``select_opponents``): of the obstacles present at a step, the ``n_slots`` nearest to the ego's
-  centre (Euclidean distance of the centres at that step), ties by obstacle id.
+  centre, ties by obstacle id: in a closed loop by their closest approach over the horizon (the ego at constant
+  velocity along its heading, the obstacles as predicted: a slower vehicle ahead in the ego's lane comes before one
+  beside it at the same speed), else by the Euclidean distance of the centres at that step.
 - **Empty slots**: a neutral opponent, a 4 m x 2 m box 1 km beyond the road's bounding box (south-west of it),
   heading 0, standing: it never constrains the plan (the conventional fit leaves it out).
 """
@@ -76,6 +79,10 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
         raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle")
     states = [ob.initial_state]
     static = isinstance(ob, StaticObstacle)
+    if not static and ob.prediction is not None and not hasattr(ob.prediction, "trajectory"):
+        raise ScenarioRefused(
+            f"obstacle {ob.obstacle_id}: a {type(ob.prediction).__name__} (occupancy sets, not a recorded trajectory)"
+        )
     if not static and ob.prediction is not None and hasattr(ob.prediction, "trajectory"):
         states += [s for s in ob.prediction.trajectory.state_list if s.time_step > ob.initial_state.time_step]
     states.sort(key=lambda s: s.time_step)
@@ -93,17 +100,35 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
     )
 
 
-def select_opponents(obstacles, step: int, ego_xy, n_slots: int) -> tuple[int | None, ...]:
+def select_opponents(
+    obstacles, step: int, ego_xy, n_slots: int, ego_v=None, offsets=None, N: int = 0
+) -> tuple[int | None, ...]:
     """Indices into ``obstacles`` of the ``n_slots`` present obstacles nearest to ``ego_xy`` at ``step`` (ties by
-    id); ``None`` for the slots left empty."""
+    id); ``None`` for the slots left empty. With the ego's velocity ``ego_v`` (vx, vy): nearest by their closest
+    approach over the horizon's ``N`` stages (stage k ``offsets[k]`` steps on, default k), the ego at constant
+    velocity, the obstacles as predicted."""
     cand = []
     for i, ob in enumerate(obstacles):
         if ob.present(step):
-            p = ob.pose(step)
-            cand.append((math.hypot(p[0] - ego_xy[0], p[1] - ego_xy[1]), ob.id, i))
+            cand.append((_approach(ob, step, ego_xy, ego_v, offsets, N), ob.id, i))
     cand.sort()
     chosen = [i for _, _, i in cand[:n_slots]]
     return tuple(chosen) + (None,) * (n_slots - len(chosen))
+
+
+def _approach(ob, step: int, ego_xy, ego_v, offsets, N: int) -> float:
+    """The obstacle's distance to the ego now, or (``ego_v`` given) its closest approach over the horizon."""
+    p = ob.pose(step)
+    d = math.hypot(p[0] - ego_xy[0], p[1] - ego_xy[1])
+    if ego_v is None:
+        return d
+    dt = ob.dt
+    for k in range(1, N + 1):
+        m = k if offsets is None else int(offsets[k])
+        q = ob.pose(step + m)
+        ex, ey = ego_xy[0] + ego_v[0] * m * dt, ego_xy[1] + ego_v[1] * m * dt
+        d = min(d, math.hypot(q[0] - ex, q[1] - ey))
+    return d
 
 
 def neutral_pose(road) -> np.ndarray:
@@ -111,13 +136,13 @@ def neutral_pose(road) -> np.ndarray:
     return np.array([float(np.min(road.gx)) - NEUTRAL_DISTANCE, float(np.min(road.gy)) - NEUTRAL_DISTANCE, 0.0])
 
 
-def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None):
+def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None, ego_v=None):
     """The solver's opponents at closed-loop sample ``step`` (scenario step ``sc.first_step + step``): centre poses
     (N+1, n_slots, 3) over the horizon (stage k: ``offsets[k]`` scenario steps later, default k), shapes
     (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
-    (None for an empty slot)."""
+    (None for an empty slot); ``ego_v``: the ego's velocity for the relevance rule (``select_opponents``)."""
     t0 = sc.first_step + step
-    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots)
+    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots, ego_v, offsets, N)
     poses = np.zeros((N + 1, n_slots, 3))
     shapes = np.zeros((n_slots, 3))
     ids: list[int | None] = []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from ..cnames import name_clash
@@ -21,6 +21,9 @@ from .validation import ProblemError, check, known_fields
 from .vehicle import Opponents, Vehicle, Wind
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
+
+#: the largest ``Problem.delay`` (samples): the controls kept for the delay compensation's prediction
+MAX_DELAY = 8
 
 
 @known_fields
@@ -42,6 +45,9 @@ class Problem:
     qp: QpOptions = QpOptions()
     road: RoadWindow = RoadWindow()
     plan_check: PlanCheck = PlanCheck()
+    #: samples between measurement and actuation that the solver compensates (docs/plants.md); a folder's problem.py
+    #: names it only when it is not 0
+    delay: int = field(default=0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -88,6 +94,12 @@ class Problem:
             self.bounds.a_lat_margin,
             f"(0, a_lat_max = {self.bounds.a_lat_max}) m/s^2 with plan_check.a_lat_guard "
             "(the guard steers to a_lat_max - a_lat_margin; False allows 0)",
+        )
+        check(
+            isinstance(self.delay, int) and not isinstance(self.delay, bool) and 0 <= self.delay <= MAX_DELAY,
+            "delay",
+            self.delay,
+            f"an integer in [0, {MAX_DELAY}] samples",
         )
         reach = self.bounds.v_max * self.horizon.length
         check(

@@ -13,6 +13,7 @@ from ..build import build
 from ..csolver import CSolver
 from ..ocp import build_ocp
 from ..sim.closedloop import ReferenceController, run_closed_loop
+from ..sim.plants import PlantSpec, plant_of
 from ..sim.replay import plan_level, replay, scenario_of
 from ..sim.runlog import RunLog
 from ..solver_folder import SolverFolder, read_folder
@@ -71,12 +72,14 @@ def regress(
     controller: str = "c",
     build_kw: dict | None = None,
     progress: bool = False,
+    plant: PlantSpec | None = None,
 ) -> RegressReport:
     """Compare NEW (log, suite or solver folder) with GOLDEN (log or suite); see the module docstring.
 
     ``mode``: for a solver folder ``"replay"`` (default) or ``"closed-loop"``; ``controller``: ``"c"`` (the folder's
     compiled solver, ``build_kw`` passed to ``fcgen.build.build``; ``verify`` defaults to the golden suite's) or
-    ``"python"`` (its Python reference).
+    ``"python"`` (its Python reference). ``plant``: the closed loop's plant and perturbations (default: what each
+    golden log records in ``meta.extra.plant``, else fcgen's model).
     """
     new, golden = Path(new), Path(golden)
     kind_new = _kind(new)
@@ -90,7 +93,7 @@ def regress(
     if kind_new == "suite":
         return _suite_vs(new, golden, gold, preset, tol, timing)
     return _folder_vs(
-        new, golden, gold, mode or "replay", preset, tol, timing, controller, dict(build_kw or {}), progress
+        new, golden, gold, mode or "replay", preset, tol, timing, controller, dict(build_kw or {}), progress, plant
     )
 
 
@@ -148,6 +151,7 @@ def _folder_vs(
     controller: str,
     build_kw: dict,
     progress: bool,
+    plant: PlantSpec | None = None,
 ) -> RegressReport:
     """A solver folder (read once, built once) replayed on the golden inputs or run in closed loop again."""
     prec_gold, gold_logs, man = gold
@@ -162,6 +166,7 @@ def _folder_vs(
     if build_kw.get("verify") is None:  # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(folder, controller, build_kw, progress)
+    runner.plant = plant
     runner.golden_dir = golden if golden.is_dir() else golden.parent  # where a CommonRoad log's scenario file is
     if runner.lib is not None:
         stamp = runner.lib.parent / "flags.txt"
@@ -228,6 +233,7 @@ class _Runner:
     """Builds the new solver once and runs it (replay or closed loop) on each golden log."""
 
     golden_dir: Path = Path(".")
+    plant: PlantSpec | None = None  # the closed loop's plant (None: each golden log's own)
 
     def __init__(self, folder: SolverFolder, controller: str, build_kw: dict, progress: bool):
         if controller not in ("c", "python"):
@@ -246,8 +252,14 @@ class _Runner:
         if "commonroad" in gold.meta.get("extra", {}):
             return _unusable(self._commonroad, gold, mode)
         if mode == "replay":
+            if not plant_of(gold).is_default:
+                raise UnusableInput(
+                    "a golden log of a perturbed run (meta.extra.plant: noise, latency or another plant) is "
+                    "compared with --mode closed-loop, not replayed"
+                )
             return _unusable(replay, self.problem, gold, self.make(), None, self.progress)
         sc = _unusable(scenario_of, gold, self.problem)
+        spec = self.plant or plant_of(gold)
         return _unusable(
             lambda: run_closed_loop(
                 self.problem,
@@ -257,6 +269,7 @@ class _Runner:
                 progress=self.progress,
                 exit_codes=gold.exit_code is not None,
                 plan=plan_level(gold),
+                plant=spec,
             )
         )
 

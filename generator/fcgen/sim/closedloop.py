@@ -18,6 +18,8 @@ from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
 from ..road import Road, RoadWindowParams
+from .perturbed import PerturbedRun, perturbed_fields, perturbed_meta, run_perturbed
+from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
 
@@ -271,9 +273,9 @@ def dims(v: Vehicle) -> dict:
     return {"l_f": v.l_f, "l_r": v.l_r, "l_r_ch": v.l_r_ch, "l_f_ch": v.l_f_ch, "w_ch": v.w_ch}
 
 
-def _meta(problem: Problem, sc: Scenario, kind: str, planlog: PlanLog, results: list[StepResult]) -> dict:
+def _meta(problem: Problem, sc: Scenario, kind: str, planlog: PlanLog, results: list[StepResult], more: dict) -> dict:
     """The run log's ``meta`` of a closed loop: the problem, the scenario, the controller and the counts of exit
-    codes, plan reactions and a_lat guard actions."""
+    codes, plan reactions and a_lat guard actions (and ``more`` of them: a perturbed run's)."""
     return make_meta(
         problem=problem.name,
         formulation=problem.formulation.kind,
@@ -288,6 +290,7 @@ def _meta(problem: Problem, sc: Scenario, kind: str, planlog: PlanLog, results: 
             "exit_codes_nonzero": int(np.count_nonzero(planlog.exit_code)),
             "plan_reactions": int(sum(r.plan_reaction for r in results)),
             "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in results)),
+            **more,
         },
     )
 
@@ -303,10 +306,12 @@ def _run_log(
     opp_params: OpponentParams,
     store_exit_codes: bool,
     with_plan_fields: bool,
+    pert: tuple[PlantSpec, PerturbedRun] | None = None,
 ) -> RunLog:
     """The run log of a finished closed loop: the per-sample statistics of ``results`` (and their exit codes into
     ``planlog`` when ``store_exit_codes``: no plan was logged), the Cartesian poses, the collisions on the true
-    rectangles, a_lat, the meta data; ``planlog``'s fields when ``with_plan_fields``."""
+    rectangles, a_lat, the meta data; ``planlog``'s fields when ``with_plan_fields``; ``pert``: a perturbed run's
+    plant a_lat, meta entries and optional fields (``sim.perturbed``)."""
     K = len(results)
     road = sc.road
     tp, tf = np.zeros(K), np.zeros(K)
@@ -329,8 +334,8 @@ def _run_log(
     opp_fr = sc.opp_frenet(t)
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
-    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l
-    meta = _meta(problem, sc, kind, planlog, results)
+    a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else np.asarray(pert[1].a_lat)
+    meta = _meta(problem, sc, kind, planlog, results, perturbed_meta(*pert) if pert is not None else {})
     road_dict = {
         "s": road.s,
         "kappa": road.kappa,
@@ -359,7 +364,23 @@ def _run_log(
         max_slack=slack,
         ego=dims(problem.ego),
         **(planlog.fields() if with_plan_fields else {}),
+        **(perturbed_fields(pert[1]) if pert is not None else {}),
     )
+
+
+def _perturbed(problem: Problem, sc: Scenario, spec: PlantSpec, controller, step, horizon, plant_step, add):
+    """``run_closed_loop``'s samples with ``spec``'s plant and perturbations (``sim.perturbed``): the same controller
+    calls on the measured state, the window from the road's start at the latest (a noisy s there)."""
+    road = sc.road
+
+    def solve(j: int, x: np.ndarray) -> StepResult:
+        s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)
+        if step is not None:
+            return step(x, s_start, horizon(j + problem.delay))
+        return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
+
+    hook = (lambda j, r: add(j, controller, r)) if add else None
+    return run_perturbed(problem, sc, spec, solve, lambda x, u: plant_step(x, u).copy(), hook)
 
 
 def run_closed_loop(
@@ -370,17 +391,20 @@ def run_closed_loop(
     progress: bool = False,
     exit_codes: bool = False,
     plan: str = "none",
+    plant: PlantSpec | None = None,
 ) -> RunLog:
     """Simulate ``sc.samples`` samples; returns the run log (SPEC section 7 metrics).
 
     ``exit_codes``: log each sample's exit code (optional field ``exit_code``); ``plan`` (``PLAN_LEVELS``): also log
     the planned controls (``"controls"``) or controls and states (``"full"``) of every sample; either needs a
-    controller with ``plan()``.
+    controller with ``plan()``. ``plant``: another plant or perturbations (``sim.plants``, docs/plants.md); the
+    default is fcgen's own model, measured exactly, without latency.
     """
+    spec = plant or PlantSpec()
     if controller is None:
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
-    plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
+    model_plant = Plant(problem, ocp.road_params.samples if ocp is not None else road_window_samples(problem))
     opp_params = opponent_params(problem, sc)
     K = sc.samples
     road = sc.road
@@ -393,14 +417,17 @@ def run_closed_loop(
         it = extras.progress(it, desc=f"{problem.name} seed {sc.seed}", unit="sample", leave=False)
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
-    plant_step, horizon, results = plant.road_stepper(road), opp_params.horizon, []
+    plant_step, horizon, results = model_plant.road_stepper(road), opp_params.horizon, []
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
+    pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
+    if pert is not None:  # another plant or perturbations: that loop instead of this one
+        xs, us, results, it = pert.xs, pert.us, pert.results, range(0)
     for j in it:
         x = xs[j]
         if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
-            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j))
+            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j + problem.delay))
         else:
-            r = controller.step(x, solver_window(problem, road, x), horizon(j))
+            r = controller.step(x, solver_window(problem, road, x), horizon(j + problem.delay))
         u = us[j]
         u[:] = r.u
         if add is not None:
@@ -408,4 +435,16 @@ def run_closed_loop(
         results.append(r)
         xs[j + 1] = plant_step(x, u)
     with_plan_fields = exit_codes or plan != "none"
-    return _run_log(problem, sc, controller.kind, xs, us, results, planlog, opp_params, add is None, with_plan_fields)
+    return _run_log(
+        problem,
+        sc,
+        controller.kind,
+        xs,
+        us,
+        results,
+        planlog,
+        opp_params,
+        add is None,
+        with_plan_fields,
+        None if pert is None else (spec, pert),
+    )

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -54,9 +54,10 @@ class CommonRoadRun:
 
     @property
     def ego_states(self) -> np.ndarray:
-        """(K + 1, 5): the ego's rear axle [x, y, phi], speed and steering angle per sample (the solution file's)."""
+        """(K + 1, 5): the ego's chassis centre [x, y, phi] (CommonRoad's position), speed and steering angle per
+        sample (the solution file's)."""
         f = np.asarray(self.log.ego_frenet)
-        return np.column_stack([np.asarray(self.log.ego_cartesian), f[:, 3], f[:, 4]])
+        return np.column_stack([self.ego_centres, f[:, 3], f[:, 4]])
 
     @property
     def agree(self) -> bool:
@@ -65,6 +66,7 @@ class CommonRoadRun:
 
 
 HEADING_MARGIN = 0.25  # m: the band's extra shrink for the chassis' corners at a small heading
+LANE_DRIFT = 0.05  # m: the lateral reference follows its lane's centre when it moves more than this
 
 
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
@@ -128,6 +130,8 @@ def run_commonroad(
             "sha256": sc.sha256,
             "planning_problem": sc.planning_problem_id,
             "v_ref": float(sc.v_ref),
+            "n_ref": float(loop.lane_changes[0][1]) if loop.lane_changes else 0.0,
+            "lane_changes": loop.lane_changes,
             "band_cut": cut,
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
@@ -135,6 +139,9 @@ def run_commonroad(
             "fcgen": _plain(own),
             "responsibility": who,
             "agree": bool(checker["collision"]) == bool(own["collision"]),
+            "unsolved": unsolved_status(loop.results),
+            "goal": goal_status(sc, road, centres, loop.xs),
+            "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
@@ -152,6 +159,14 @@ class _Loop:
     results: list  # each sample's StepResult
     slot_ids: list  # per sample the obstacle id in each opponent slot (-1: empty)
     planlog: PlanLog
+    lane_changes: list = field(default_factory=list)  # [sample, n_ref, reason] where the lateral reference changed
+
+    def end_at(self, j: int) -> None:
+        """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
+        self.xs, self.us = self.xs[: j + 1], self.us[:j]
+        pl = self.planlog
+        pl.K, pl.exit_code = j, pl.exit_code[:j]
+        pl.states, pl.controls = pl.states[:j], pl.controls[:j]
 
 
 def _drive(
@@ -167,6 +182,8 @@ def _drive(
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
+    from ..commonroad.goal import lateral_reference, reached
+    from ..commonroad.lanes import SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -174,19 +191,34 @@ def _drive(
     loop.xs[0] = sc.x0
     if states is not None:
         loop.xs[:] = states
-    rc = controller.set_reference(sc.v_ref, 0.0)
-    if rc:
-        raise ValueError(f"scenario {sc.name}: set_reference({sc.v_ref}, 0) refused (exit code {rc})")
+    goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
+    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
+    n_ref, v_ref = None, sc.v_ref
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
     if progress:
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
+    goal = sc.planning_problem if states is None else None
     for j in it:
         x = loop.xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
         centre = (rx + half_l * math.cos(rphi), ry + half_l * math.sin(rphi))
-        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets)
+        if j and goal is not None and reached(goal, sc.first_step + j, centre, rphi, float(x[3])):
+            loop.end_at(j)  # the goal is reached: the run ends there
+            break
+        traffic = traffic_at(sc.obstacles, sc.road, sc.first_step + j, sc.dt)
+        n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
+        if n_ref is None or abs(n_new - n_ref) > SETTLED:
+            loop.lane_changes.append([j, n_new, why])
+        v_new = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
+        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref:  # the lane's centre moves with s
+            n_ref, v_ref = n_new, v_new
+            rc = controller.set_reference(v_ref, n_ref)
+            if rc:
+                raise ValueError(f"scenario {sc.name}: set_reference({v_ref}, {n_ref}) refused (exit code {rc})")
+        ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
+        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         r = controller.step(x, solver_window(problem, road, x), poses)
@@ -199,6 +231,14 @@ def _drive(
         if states is None:
             loop.xs[j + 1] = plant.step(x, loop.us[j], road)
     return loop
+
+
+def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
+    """Whether the goal position is within the horizon's reach of the ego's centre (its speed interval applies)."""
+    if sc.goal_sn is None or not sc.v_goal:
+        return False
+    reach = problem.horizon.N * problem.horizon.dt * max(float(x[3]), sc.v_goal) + 2 * half_l
+    return sc.goal_sn[0] - (float(x[0]) + half_l) <= reach
 
 
 class _SlotShapes:
@@ -340,6 +380,51 @@ def _responsibility(
     return responsible(
         centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )
+
+
+def goal_status(sc, road: Road, centres: np.ndarray, xs: np.ndarray) -> dict:
+    """Whether and when the ego reached the planning problem's goal region (``commonroad.goal.first_reached``):
+    ``reached``, ``sample`` / ``step`` / ``time_s`` (None without), ``v_ref_source``, ``n_ref_source`` (``road``:
+    the band the solver gets)."""
+    from ..commonroad.goal import first_reached, lateral_reference
+
+    j = None if sc.planning_problem is None else first_reached(sc.planning_problem, sc.first_step, centres, xs[:, 3])
+    return {
+        "reached": j is not None,
+        "sample": j,
+        "step": None if j is None else sc.first_step + j,
+        "time_s": None if j is None else j * sc.dt,
+        "v_ref_source": sc.v_ref_source,
+        "n_ref_source": lateral_reference(sc.goal_sn, road)[1],
+    }
+
+
+def goal_line(cr: dict) -> str:
+    """One line of a run's goal, references and solution verdict (the log's ``extra.commonroad``)."""
+    g, sol = cr["goal"], cr["solution"]
+    reached = f"reached at step {g['step']} ({g['time_s']:.1f} s)" if g["reached"] else "not reached"
+    parts = [k for k in ("starts_at_initial_state", "feasible", "goal_reached") if not sol[k]]
+    parts += [k for k in ("obstacle_collision", "road_departure") if sol[k]]
+    verdict = "valid" if sol["valid"] else "not valid (" + ", ".join(f"{k}" for k in parts) + ")"
+    return (
+        f"goal: {reached}; v_ref {cr['v_ref']:.1f} m/s ({g['v_ref_source']}); lateral reference "
+        + ", ".join(f"{n:.2f} m at sample {j} ({why})" for j, n, why in cr["lane_changes"])
+        + f"; solution (drivability checker): {verdict}"
+    )
+
+
+def unsolved_status(results: list) -> dict:
+    """The samples without a solution (their slack is not finite: the exit code says why): ``samples`` (count),
+    ``first_sample`` (None without one), ``exit_codes`` (name -> count)."""
+    from ..contract import EXIT_CODES
+
+    bad = [j for j, r in enumerate(results) if r.exit_code or not math.isfinite(r.max_slack)]
+    codes: dict[str, int] = {}
+    for j in bad:
+        c = int(results[j].exit_code)
+        name = EXIT_CODES[c] if 0 < c < len(EXIT_CODES) else ("OK but non-finite slack" if c == 0 else f"unknown({c})")
+        codes[name] = codes.get(name, 0) + 1
+    return {"samples": len(bad), "first_sample": bad[0] if bad else None, "exit_codes": dict(sorted(codes.items()))}
 
 
 def _plain(d: dict) -> dict:

@@ -104,6 +104,8 @@ def export_scenario(
         f.write(f"plant_window {plant_window}\n")
         _line(f, "window_behind", [WINDOW_BEHIND])
         _line(f, "n_bound", [pb.bounds.n_max])
+        if pb.delay:  # a delay-compensated solver: the plant applies each control this many samples late
+            f.write(f"latency {pb.delay}\n")
         _line(f, "ego_l", [pb.ego.l])
         de = dims(pb.ego)
         _line(f, "ego_dims", [de[k] for k in ("l_f", "l_r", "l_r_ch", "l_f_ch", "w_ch")])
@@ -121,7 +123,7 @@ def export_scenario(
             _line(f, "opp_cartesian", opp_cart[j])
             _line(f, "opp_frenet", opp_fr[j])
             if j < K:
-                blk = opp_params.horizon(j)
+                blk = opp_params.horizon(j + pb.delay)  # the plan starts Problem.delay samples later
                 if blk.shape != (N + 1, n_opp, n_opp_par):
                     raise ValueError(
                         f"opponent parameters of sample {j} have shape {blk.shape}, "

@@ -101,7 +101,7 @@ def replay(
         it = extras.progress(it, desc=f"replay {problem.name} seed {sc.seed}", unit="sample", leave=False)
     for j in it:
         x = np.array(log.ego_frenet[j])
-        r = controller.step(x, solver_window(problem, sc.road, x), opp_params.horizon(j))
+        r = controller.step(x, solver_window(problem, sc.road, x), opp_params.horizon(j + problem.delay))
         us[j] = r.u
         tp[j], tf[j], qi[j], qs[j], slack[j] = r.time_prepare, r.time_feedback, r.qp_iter, r.qp_status, r.max_slack
         planlog.add(j, controller, r)

@@ -22,6 +22,7 @@ from .schema import (
     FORMAT_VERSION,
     META_KEYS,
     OPTIONAL_FIELDS,
+    OPTIONAL_STATE_FIELDS,
     ROAD_ARRAY_KEYS,
     SAMPLE_FIELDS,
     STATE_FIELDS,
@@ -144,6 +145,12 @@ class RunLog:
     plan_states: NDArray[np.float64] | None = field(default=None)
     #: planned controls u_0 .. u_{N-1} of each sample's solution, (K, N, nu)
     plan_controls: NDArray[np.float64] | None = field(default=None)
+    #: the model formula's a_lat on a foreign plant's states, (K + 1,) (docs/plants.md)
+    a_lat_model: NDArray[np.float64] | None = field(default=None)
+    #: the control the plant got after latency and steering lag, (K, 2)
+    control_applied: NDArray[np.float64] | None = field(default=None)
+    #: the plant's input limits that cut the control (flags: 1 steering rate, 2 steering angle, 4 acceleration)
+    plant_cut: NDArray[np.int64] | None = field(default=None)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -175,7 +182,7 @@ class RunLog:
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise ValueError(f"field 'meta.N': expected a positive integer for {name!r}, got {n!r}")
         given = np.shape(decode_nonfinite(value) if isinstance(value, list) else value)
-        shape = [self.n_controls]
+        shape = [self.n_states if name in OPTIONAL_STATE_FIELDS else self.n_controls]
         for i, d in enumerate(trailing, start=1):
             if d == "*":
                 d = given[i] if len(given) > i and given[i] > 0 else 1

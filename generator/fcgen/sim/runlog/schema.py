@@ -65,7 +65,14 @@ OPTIONAL_FIELDS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "exit_code": ("int", ()),
     "plan_states": ("float", ("N+1", "*")),
     "plan_controls": ("float", ("N", "*")),
+    # a plant other than fcgen's model or a perturbed loop (docs/plants.md): the model formula's a_lat on the plant's
+    # states (K + 1 rows), the control the plant got (after latency and steering lag), the input limits that cut it
+    "a_lat_model": ("float", ()),
+    "control_applied": ("float", (2,)),
+    "plant_cut": ("int", ()),
 }
+#: The optional fields with one row per state sample (K + 1); the others have one per control sample (K).
+OPTIONAL_STATE_FIELDS: tuple[str, ...] = ("a_lat_model",)
 
 #: Generic QP status codes (``fcgen.backends.QP_STATUSES``: the same for every QP backend, C and Python alike), without
 #: the ``QP_`` prefix, lower case. The backend's own status is not logged.

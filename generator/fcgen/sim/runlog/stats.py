@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ...contract import EXIT_CODES
 from .log import RunLog
 from .schema import qp_status_name
 
@@ -34,8 +35,10 @@ def summary(log: RunLog) -> dict[str, Any]:
     Keys: ``progress`` (final minus initial ``s``, m), ``s_final`` (m), ``n_states``, ``n_controls``,
     ``n_collision_samples``, ``time_total_ms`` / ``time_prepare_ms`` / ``time_feedback_ms`` (dicts with
     mean, median, p99, max in ms), ``qp_iter_mean``, ``qp_iter_max``, ``qp_status_counts`` (status name ->
-    count, names from ``QP_STATUS_NAMES``), ``max_slack``, ``max_abs_a_lat`` (m/s^2). Statistics over an
-    empty set are NaN (``qp_iter_max``: 0).
+    count, names from ``QP_STATUS_NAMES``), ``max_slack`` (over the samples with a solution),
+    ``samples_unsolved`` (samples without a solution: their logged slack is not finite) and ``unsolved_exit_codes``
+    (exit code name -> count of those samples, from the log's ``exit_code``; ``"unknown"`` without it),
+    ``max_abs_a_lat`` (m/s^2). Statistics over an empty set are NaN (``qp_iter_max``: 0).
     """
     s = log.ego_frenet[:, 0]
     counts: dict[str, int] = {}
@@ -44,6 +47,8 @@ def summary(log: RunLog) -> dict[str, Any]:
         name = qp_status_name(code)
         counts[name] = counts.get(name, 0) + n
     k = log.n_controls
+    slack = np.asarray(log.max_slack, dtype=float)
+    solved = np.isfinite(slack)
     t_total, t_prepare, t_feedback = _stats_ms(log.time_total, log.time_prepare, log.time_feedback)
     return {
         "progress": float(s[-1] - s[0]),
@@ -57,9 +62,23 @@ def summary(log: RunLog) -> dict[str, Any]:
         "qp_iter_mean": float(np.mean(log.qp_iter)) if k else math.nan,
         "qp_iter_max": int(np.max(log.qp_iter)) if k else 0,
         "qp_status_counts": dict(sorted(counts.items())),
-        "max_slack": float(np.max(log.max_slack)) if k else math.nan,
+        "max_slack": float(np.max(slack[solved])) if solved.any() else math.nan,
+        "samples_unsolved": int(np.count_nonzero(~solved)),
+        "unsolved_exit_codes": unsolved_exit_codes(log, ~solved),
         "max_abs_a_lat": float(np.max(np.abs(log.a_lat))),
     }
+
+
+def unsolved_exit_codes(log: RunLog, unsolved: NDArray[np.bool_]) -> dict[str, int]:
+    """Exit code name -> count over the samples ``unsolved`` (``"unknown"``: a log without ``exit_code``)."""
+    if log.exit_code is None:
+        return {"unknown": int(np.count_nonzero(unsolved))} if unsolved.any() else {}
+    codes, counts = np.unique(np.asarray(log.exit_code)[unsolved], return_counts=True)
+    return {_exit_name(int(c)): int(n) for c, n in zip(codes, counts)}
+
+
+def _exit_name(code: int) -> str:
+    return EXIT_CODES[code] if 0 <= code < len(EXIT_CODES) else f"unknown({code})"
 
 
 def compare(log_a: RunLog, log_b: RunLog) -> dict[str, float]:

@@ -1,0 +1,217 @@
+"""The lanes along a scenario's road and the rule that picks the lane the ego drives in (its lateral reference).
+
+**Lanes** (``road_lanes``): every lanelet of the scenario that runs in the road's direction, its centre line on the
+road's Frenet frame (``s``, ``n``) over the stretch it covers. The lanes at ``s`` are the lanelets covering it; a lane
+*continues* past ``s`` while some lanelet covers the same ``n`` (within half a lane, ``SAME_LANE``) farther on.
+
+**The target lane** (``TargetLane.update``, once per sample; tested in tests/test_commonroad_lanes.py). The target is
+a lane centre ``n`` (at the start the ego's own lane); the controller gets it as ``set_reference``'s ``n_ref`` (one
+value over the horizon, changed at the sample the target changes), the goal position's centre instead once the
+target is the goal's lane. In this order:
+
+1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target) and the target
+   lane's gap is no longer free (the goal's lane: no longer has room, step 3), the target goes back to the lane the
+   ego is in.
+2. **A lane that ends**: where the target lane does not continue over the look-ahead (``LOOK_AHEAD`` s at the
+   ego's speed, at least ``MIN_AHEAD``), the adjacent lane that continues (towards the goal's side first, then the
+   left), when its gap is free (else the target stays and the NMPC brakes for the lane's end).
+3. **The goal's lane**: where the goal gives a position, the lane nearest its centre, one lane at a time, when the
+   next lane has room beside the ego (a gap with no time gap asked and ``T_CLOSE_GOAL`` s of closing speed behind:
+   the goal is where the recorded driver went, and the NMPC keeps its distance to the vehicles it sees).
+4. **A slower vehicle ahead**: where the ego is settled in its target lane and the vehicle ahead in it within the
+   look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
+   vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
+
+**A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
+ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
+length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SAME_LANE = 1.75  # m: half a lane: a centre within it is in the lane
+SETTLED = 0.5  # m: the ego is in its target lane when its n is within this of the lane's centre
+LOOK_AHEAD = 4.0  # s: how far ahead (at the ego's speed) a lane end or a slower vehicle matters
+MIN_AHEAD = 40.0  # m: at least this far
+SLOWER = 2.0  # m/s: a vehicle ahead this much below the reference speed makes another lane worth changing to
+T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
+T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
+T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
+
+
+@dataclass(frozen=True, eq=False)
+class Lane:
+    """One lanelet's centre line on the road's Frenet frame (``s`` increasing)."""
+
+    id: int
+    s: np.ndarray
+    n: np.ndarray
+
+    def covers(self, s: float) -> bool:
+        return bool(self.s[0] <= s <= self.s[-1])
+
+    def n_at(self, s: float) -> float:
+        return float(np.interp(s, self.s, self.n))
+
+
+def road_lanes(net, road) -> list[Lane]:
+    """The lanelets running in the road's direction as ``Lane``s (module docstring)."""
+    out = []
+    for ll in net.lanelets:
+        cv = np.asarray(ll.center_vertices, dtype=float)
+        if len(cv) < 2:
+            continue
+        d = np.diff(cv, axis=0)
+        head = np.arctan2(d[:, 1], d[:, 0])
+        s, n, a = road.to_frenet(cv[:-1, 0], cv[:-1, 1], head)
+        s, n, a = np.asarray(s), np.asarray(n), np.asarray(a)
+        ok = (np.cos(a) > 0.5) & (np.abs(n) < 30.0)
+        if ok.sum() < 2 or not np.all(np.diff(s[ok]) > 0):
+            continue
+        out.append(
+            Lane(int(ll.lanelet_id), np.append(s[ok], s[ok][-1] + np.hypot(*d[-1])), np.append(n[ok], n[ok][-1]))
+        )
+    return out
+
+
+def lanes_at(lanes: list[Lane], s: float) -> list[float]:
+    """The lane centres at ``s`` (sorted right to left, lanelets of one lane merged)."""
+    ns = sorted(lane.n_at(s) for lane in lanes if lane.covers(s))
+    merged: list[float] = []
+    for n in ns:
+        if not merged or n - merged[-1] > SAME_LANE:
+            merged.append(n)
+    return merged
+
+
+def continues(lanes: list[Lane], s: float, n: float, ahead: float) -> bool:
+    """Whether a lane at offset ``n`` goes on to ``s + ahead`` (some lanelet covers it there within ``SAME_LANE``)."""
+    end = s + ahead
+    return any(lane.covers(end) and abs(lane.n_at(end) - n) <= SAME_LANE for lane in lanes)
+
+
+@dataclass(frozen=True)
+class Traffic:
+    """The vehicles at one sample on the road's Frenet frame: centre ``s``, ``n`` and speed ``v`` (arrays)."""
+
+    s: np.ndarray
+    n: np.ndarray
+    v: np.ndarray
+
+    def in_lane(self, n_lane: float) -> np.ndarray:
+        return np.abs(self.n - n_lane) <= SAME_LANE
+
+
+def gap_free(
+    traffic: Traffic, n_lane: float, s: float, v: float, length: float, t_gap: float = T_GAP, t_close: float = T_CLOSE
+) -> bool:
+    """Whether the gap in the lane at ``n_lane`` beside the ego (centre ``s``, speed ``v``) is free (module
+    docstring)."""
+    m = traffic.in_lane(n_lane)
+    ds, vo = traffic.s[m] - s, traffic.v[m]
+    ahead_ok = (ds < 0) | (ds > length + t_gap * v)
+    behind_ok = (ds >= 0) | (-ds > length + t_gap * vo + t_close * np.maximum(vo - v, 0.0))
+    return bool(np.all(ahead_ok & behind_ok))
+
+
+def leader(traffic: Traffic, n_lane: float, s: float, reach: float) -> tuple[float, float] | None:
+    """The nearest vehicle ahead in the lane within ``reach``: (distance, speed), None without one."""
+    m = traffic.in_lane(n_lane) & (traffic.s > s) & (traffic.s <= s + reach)
+    if not m.any():
+        return None
+    i = int(np.argmin(np.where(m, traffic.s, np.inf)))
+    return float(traffic.s[i] - s), float(traffic.v[i])
+
+
+@dataclass
+class TargetLane:
+    """The target-lane rule's state over a run (module docstring): the lanes, the goal's lateral offset, the ego's
+    chassis length and reference speed; ``n`` the current target."""
+
+    lanes: list[Lane]
+    goal_n: float | None
+    length: float
+    v_ref: float
+    n: float
+    reason: str = "start"
+
+    def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
+        """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
+        here = lanes_at(self.lanes, s)
+        if not here:
+            return self.n, self.reason
+        own = min(here, key=lambda c: abs(c - n_ego))
+        target = min(here, key=lambda c: abs(c - self.n))
+        reach = max(MIN_AHEAD, LOOK_AHEAD * v)
+        settled = abs(n_ego - target) <= SETTLED
+
+        def free(c: float) -> bool:
+            if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
+                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL)
+            return gap_free(traffic, c, s, v, self.length)
+
+        if not settled and not free(target):
+            return self._set(own, "the gap closed")
+        i = here.index(target)
+        left = here[i + 1] if i + 1 < len(here) else None
+        right = here[i - 1] if i > 0 else None
+        toward = None
+        if self.goal_n is not None and abs(self.goal_n - target) > SAME_LANE:
+            toward = left if self.goal_n > target else right
+        neighbours = list(dict.fromkeys(c for c in (toward, left, right) if c is not None))
+        if not continues(self.lanes, s, target, reach):
+            for c in neighbours:
+                if continues(self.lanes, s, c, reach) and free(c):
+                    return self._set(c, "the lane ends")
+            return self._set(target, self.reason)
+        if toward is not None:
+            return self._set(toward if free(toward) else target, "the goal's lane")
+        lead = leader(traffic, target, s, reach)
+        if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
+            for c in neighbours:
+                away = self.goal_n is not None and abs(self.goal_n - c) > abs(self.goal_n - target)
+                other = leader(traffic, c, s, reach)
+                faster = other is None or (other[0] > lead[0] and other[1] > lead[1])
+                if not away and faster and continues(self.lanes, s, c, reach) and free(c):
+                    return self._set(c, "a slower vehicle ahead")
+        return self._set(target, self.reason)
+
+    def _set(self, n: float, reason: str) -> tuple[float, str]:
+        """Keep the target lane ``n``; the reference is the goal's centre once the target is the goal's lane."""
+        if abs(n - self.n) > SAME_LANE:  # another lane (not its centre's drift along the road)
+            self.reason = reason
+        self.n = n
+        if self.goal_n is not None and abs(self.goal_n - n) <= SAME_LANE:
+            return self.goal_n, self.reason
+        return self.n, self.reason
+
+
+def target_lane(sc, length: float, goal_n: float | None, n_ego: float) -> TargetLane:
+    """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane."""
+    lanes = road_lanes(sc.scenario.lanelet_network, sc.road)
+    s0 = float(sc.x0[0])
+    here = lanes_at(lanes, s0)
+    own = min(here, key=lambda c: abs(c - n_ego)) if here else 0.0
+    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own)
+
+
+def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
+    """The obstacles present at ``step`` on ``road``'s Frenet frame, their speeds from their poses one step on."""
+    rows = []
+    for ob in obstacles:
+        if not ob.present(step):
+            continue
+        p, q = ob.pose(step), ob.pose(step + 1)
+        if p is None:
+            continue
+        v = 0.0 if q is None or ob.static else float(np.hypot(q[0] - p[0], q[1] - p[1]) / dt)
+        rows.append((p[0], p[1], p[2], v))
+    if not rows:
+        return Traffic(np.zeros(0), np.zeros(0), np.zeros(0))
+    a = np.array(rows)
+    s, n, _ = road.to_frenet(a[:, 0], a[:, 1], a[:, 2])
+    return Traffic(np.atleast_1d(np.asarray(s, dtype=float)), np.atleast_1d(np.asarray(n, dtype=float)), a[:, 3])

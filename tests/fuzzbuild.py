@@ -1,0 +1,87 @@
+"""Build and run the contract fuzzer (tests/c/fuzz_contract.c) on a generated solver: the sanitizer flags (clang's
+float-cast-overflow where clang is installed), the driver's defines from the problem, its "key value" counts.
+Used by tests/test_fuzz_contract.py and scripts/fuzz_contract.py."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+from fcgen.build import build, run_make
+from fcgen.codegen.generate import generate
+from fcgen.presets import load_problem, preset
+
+FUZZ_DIR = Path(__file__).parent / "c"
+CLANG = shutil.which("clang") is not None
+CC = "clang" if CLANG else "gcc"
+# gcc has no float-cast-overflow: there the solver's own range checks stand alone
+SANITIZE = (
+    "-fsanitize=address,undefined" + (",float-cast-overflow" if CLANG else "") + " -fno-sanitize-recover=all -g -O1"
+)
+LIBFUZZER = "-fsanitize=fuzzer-no-link," + SANITIZE.removeprefix("-fsanitize=")
+SAN_ENV = {
+    "ASAN_OPTIONS": "detect_leaks=1:halt_on_error=1:abort_on_error=0",
+    "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1",
+}
+REPORT = re.compile(r"AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:")
+# one solver of each backend and precision, the hyperplane and the conventional formulation
+SOLVERS = {
+    "ipm_double": ("truck_lifted_ellipse_ipm_safe", False),
+    "ipm_float": ("truck_lifted_ellipse_ipm_safe", True),
+    "ipm_hyperplane": ("car_direct_elimination_hyperplane_ipm_safe", False),
+    "osqp_conventional": ("truck_conventional_circles", False),
+}
+
+
+def defines(folder: Path) -> str:
+    """The driver's -D flags: the input box, the road's spacing and the band of the folder's problem."""
+    pb = load_problem(str(folder / "problem.py"))
+    b = pb.bounds
+    return (
+        f"-DFUZZ_F_D_MAX={b.F_d_max!r} -DFUZZ_R_MAX={b.r_max!r} -DFUZZ_DS={pb.road.ds!r} "
+        f"-DFUZZ_N_MIN={b.n_min!r} -DFUZZ_N_MAX={b.n_max!r}"
+    )
+
+
+def build_fuzzer(key: str, out: Path, libfuzzer: bool = False) -> Path:
+    """Generate the solver of SOLVERS[key] into out/solver, build it with the sanitizers and the driver against it."""
+    name, use_float = SOLVERS[key]
+    folder = out / "solver"
+    if not (folder / "problem.py").exists():
+        generate(preset(name), folder, use_float=use_float)
+    flags = LIBFUZZER if libfuzzer else SANITIZE
+    build(folder, cc=CC, cflags=flags)
+    target = "fuzz_contract_libfuzzer" if libfuzzer else "fuzz_contract"
+    run_make(
+        FUZZ_DIR,
+        [
+            f"SOLVER_DIR={folder}",
+            f"SOLVER_BUILD={folder / 'build'}",
+            f"BUILD={out}",
+            f"FUZZDEFS={defines(folder)}",
+            target,
+        ],
+        cc=CC,
+        cflags=flags,
+    )
+    return out / target
+
+
+def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
+    """Run under the sanitizers' options; the result, its stderr checked for a report by the caller."""
+    return subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **SAN_ENV}, **kw)
+
+
+def counts(stdout: str) -> dict[str, float]:
+    """The driver's "key value" lines ("rc CODE n" as rc_CODE, "kind NAME n" as kind_NAME)."""
+    out: dict[str, float] = {}
+    for line in stdout.splitlines():
+        parts = line.split()
+        if len(parts) == 2:
+            out[parts[0]] = float(parts[1])
+        elif len(parts) == 3 and parts[0] in ("rc", "kind"):
+            out[f"{parts[0]}_{parts[1]}"] = float(parts[2])
+    return out

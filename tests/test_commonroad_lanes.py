@@ -1,0 +1,132 @@
+"""The target-lane rule (``fcgen.commonroad.lanes``) on scenarios the tests write with commonroad-io: a lane that
+ends, a goal in the left lane, a slower vehicle ahead, a gap that closes; a closed loop where the ego's lane ends."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from crscenes import LANE, write_scenario
+
+from fcgen.campaign.commonroad import load_for
+from fcgen.commonroad.lanes import T_CLOSE, T_GAP, Traffic, gap_free, lanes_at, road_lanes, target_lane
+from fcgen.presets import preset
+
+pytestmark = [
+    pytest.mark.filterwarnings("ignore::UserWarning"),
+    pytest.mark.filterwarnings("ignore::DeprecationWarning"),
+]
+PB = preset("car_lifted_ellipse_ipm")
+L = PB.ego.l_ch
+NONE = Traffic(np.zeros(0), np.zeros(0), np.zeros(0))
+
+
+def _s(sc, x: float) -> float:
+    """The road's s of the point (x, 0) on the straight test road."""
+    return float(sc.road.to_frenet(np.array([x]), np.array([0.0]), np.array([0.0]))[0][0])
+
+
+def _traffic(sc, *cars) -> Traffic:
+    """Vehicles (x, lane offset n, speed) on the straight road."""
+    a = np.array(cars, dtype=float).reshape(-1, 3)
+    return Traffic(np.array([_s(sc, x) for x in a[:, 0]]), a[:, 1], a[:, 2])
+
+
+def test_the_lanes_along_the_road(tmp_path):
+    """Three lanes of 3.5 m, the ego on the middle one: lane centres -3.5, 0, 3.5; where the right lane ends (x = 150)
+    two are left."""
+    sc = load_for(PB, write_scenario(tmp_path / "l.xml", end_lane=(0, 150.0)))
+    lanes = road_lanes(sc.scenario.lanelet_network, sc.road)
+    np.testing.assert_allclose(lanes_at(lanes, _s(sc, 100.0)), [-LANE, 0.0, LANE], atol=1e-6)
+    np.testing.assert_allclose(lanes_at(lanes, _s(sc, 160.0)), [0.0, LANE], atol=1e-6)
+
+
+def test_a_lane_that_ends(tmp_path):
+    """Two lanes, the ego (20 m/s) on the right one, which ends at x = 150. At x = 50 the end is beyond the look-ahead
+    (4 s x 20 m/s = 80 m): the target stays; at x = 100 it is within: the left lane, when its gap is free; a car
+    beside the ego in the left lane keeps the target (the NMPC brakes for the lane's end)."""
+    sc = load_for(PB, write_scenario(tmp_path / "e.xml", lanes=2, ego_lane=0, end_lane=(0, 150.0)))
+    tl = target_lane(sc, L, None, 0.0)
+    assert tl.update(_s(sc, 50.0), 0.0, 20.0, NONE) == (pytest.approx(0.0, abs=1e-6), "start")
+    n, why = tl.update(_s(sc, 100.0), 0.0, 20.0, NONE)
+    assert (n, why) == (pytest.approx(LANE, abs=1e-6), "the lane ends")
+    tl = target_lane(sc, L, None, 0.0)
+    n, _ = tl.update(_s(sc, 100.0), 0.0, 20.0, _traffic(sc, (101.0, LANE, 20.0)))
+    assert n == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_goal_in_the_left_lane(tmp_path):
+    """The goal's lane is the left one: the reference is the goal's centre (n = 3.5) as soon as the left lane has room
+    beside the ego; a car overlapping the ego there keeps it in its lane until it has passed."""
+    sc = load_for(PB, write_scenario(tmp_path / "g.xml", goal={"lane": 2, "s": 170.0}, goal_steps=(50, 70)))
+    goal_n = sc.goal_sn[1]
+    tl = target_lane(sc, L, goal_n, 0.0)
+    beside = _traffic(sc, (52.0, LANE, 20.0))
+    assert tl.update(_s(sc, 50.0), 0.0, 20.0, beside)[0] == pytest.approx(0.0, abs=1e-6)
+    n, why = tl.update(_s(sc, 50.0), 0.0, 20.0, _traffic(sc, (50.0 + L + 1.0, LANE, 20.0)))
+    assert (n, why) == (pytest.approx(goal_n, abs=1e-9), "the goal's lane")
+
+
+def test_a_slower_vehicle_ahead(tmp_path):
+    """Three lanes, the ego settled in the middle at 20 m/s (v_ref 20): a car 30 m ahead at 10 m/s (more than 2 m/s
+    slower) sends it to the left lane when that lane's gap is free; with a slower car nearer ahead on the left, to the
+    right; a car ahead only 1 m/s slower keeps it."""
+    sc = load_for(PB, write_scenario(tmp_path / "s.xml"))
+    slow = (80.0, 0.0, 10.0)
+    n, why = target_lane(sc, L, None, 0.0).update(_s(sc, 50.0), 0.0, 20.0, _traffic(sc, slow))
+    assert (n, why) == (pytest.approx(LANE, abs=1e-6), "a slower vehicle ahead")
+    left_slow = _traffic(sc, slow, (70.0, LANE, 8.0))
+    n, _ = target_lane(sc, L, None, 0.0).update(_s(sc, 50.0), 0.0, 20.0, left_slow)
+    assert n == pytest.approx(-LANE, abs=1e-6)
+    n, _ = target_lane(sc, L, None, 0.0).update(_s(sc, 50.0), 0.0, 20.0, _traffic(sc, (80.0, 0.0, 19.0)))
+    assert n == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_gap_that_closes(tmp_path):
+    """The ego has begun a change to the left lane (n = 1.0, not settled) when a car 20 m behind closes in at 30 m/s:
+    the gap it needs is L + 1 s x 30 + 3 s x 10 = 64 m: the target goes back to the ego's lane."""
+    sc = load_for(PB, write_scenario(tmp_path / "c.xml"))
+    s = _s(sc, 50.0)
+    tl = target_lane(sc, L, None, 0.0)
+    assert tl.update(s, 0.0, 20.0, _traffic(sc, (80.0, 0.0, 10.0)))[0] == pytest.approx(LANE, abs=1e-6)
+    closing = _traffic(sc, (80.0, 0.0, 10.0), (30.0, LANE, 30.0))
+    assert not gap_free(closing, LANE, s, 20.0, L)
+    assert (T_GAP, T_CLOSE) == (1.0, 3.0)  # the gap of the docstring's figure
+    assert tl.update(s, 1.0, 20.0, closing) == (pytest.approx(0.0, abs=1e-6), "the gap closed")
+    far = _traffic(sc, (80.0, 0.0, 10.0), (50.0 - L - 30.0 - 30.0 - 1.0, LANE, 30.0))
+    assert gap_free(far, LANE, s, 20.0, L)
+
+
+def test_the_ego_leaves_a_lane_that_ends(tmp_path):
+    """Closed loop (Python reference): two lanes, the ego's ends at x = 200: it changes to the left lane, stays on the
+    road (the drivability checker) and collides with nothing."""
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    sc = load_for(
+        PB, write_scenario(tmp_path / "r.xml", lanes=2, ego_lane=0, end_lane=(0, 200.0), goal_steps=(90, 100))
+    )
+    run = run_commonroad(PB, sc)
+    cr = run.log.meta["extra"]["commonroad"]
+    assert [why for _, _, why in cr["lane_changes"]] == ["start", "the lane ends"]
+    assert not run.checker["road_departure"] and not run.checker["collision"]
+    assert abs(np.asarray(run.log.ego_frenet)[-1, 1] - LANE) < 0.3
+
+
+def test_the_relevance_rule_in_a_closed_loop_sees_a_slower_vehicle_ahead(tmp_path):
+    """Ego at x = 50 (centre), 20 m/s along x. A car 20 m ahead at 10 m/s closes to 0 within 2 s; cars beside (3.5 m
+    left and right, level with the ego) and one 6 m behind, all at 20 m/s, stay nearer now. By the distance now the
+    car ahead is not among three slots; by the closest approach over the 4 s horizon it is the first (0 m), before the
+    cars beside (3.5 m, ties by id) and the one behind (6 m)."""
+    from fcgen.commonroad import select_opponents
+
+    cars = [
+        (11, 1, 70.0, 10.0, 60, 4.5, 1.8),
+        (12, 2, 50.0, 20.0, 60, 4.5, 1.8),
+        (13, 0, 50.0, 20.0, 60, 4.5, 1.8),
+        (14, 1, 44.0, 20.0, 60, 4.5, 1.8),
+    ]
+    sc = load_for(PB, write_scenario(tmp_path / "v.xml", obstacles=cars))
+    ids = [o.id for o in sc.obstacles]
+    now = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)
+    assert [ids[i] for i in now] == [12, 13, 14]
+    ahead = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (20.0, 0.0), None, PB.horizon.N)
+    assert [ids[i] for i in ahead] == [11, 12, 13]
