@@ -132,6 +132,7 @@ def _row(seed: int) -> dict:
         "collision": seed % 7 == 0,
         "qp_iter_max": seed % 5,
         "time_rti_ms": [0.1 * seed, 0.2, 0.3 + seed],
+        "cpu_s": 0.01 * (seed + 1),
     }
 
 
@@ -185,3 +186,10 @@ def test_collect_writes_batches_and_keeps_no_finished_future(tmp_path):
     assert out.warnings == ["UserWarning: w"]  # the workers' warnings, each once
     assert len(store.parts()) == 3 and buf == []  # 6 rows in batches of 2, nothing left over
     assert sorted(store.read()["seed"]) == [0, 1, 2, 4, 5, 6]
+    # the time split: RTI times (1.1 seed + 0.5) ms and loop CPU 0.01 (seed + 1) s of the six runs, summed by hand
+    assert out.solver_s == pytest.approx(1e-3 * (1.1 * 18 + 0.5 * 6)) and out.loop_cpu_s == pytest.approx(0.24)
+    out.wall_s, out.workers = 1.2, 2
+    assert out.time_split() == (
+        "5.00 runs/s; solver 0.0 s = 9.5 % of the closed loops' CPU (0.2 s), the loops 10.0 % of the workers' "
+        "wall time (2.4 s)"
+    )

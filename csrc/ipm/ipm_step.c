@@ -24,11 +24,14 @@ static void ipm_ineq_ATx(int corr, ipm_real_t sm) {
   int k;
   int a;
   (void)memcpy(IPM_W.h, IPM_W.r_d, sizeof IPM_W.h); /* the soft rows' slacks' entries are not read */
-  if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows) */
+  if (corr != 0) { /* flat over the sides (measured: cheaper on the Cortex-M7 than by rows); the corrector's target
+                    * kept in IPM_W.dlam (the predictor's dlam is read here for the last time) for ipm_ineq_sides */
     int j;
     for (j = 0; j < IPM_NSIDE; ++j) {
       const int r = IPM_SIDE_ROW[j];
-      IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], ipm_rc(1, sm, j));
+      const ipm_real_t rc = ipm_rc(1, sm, j);
+      IPM_W.dlam[j] = rc;
+      IPM_W.ar[r] = ((IPM_SIDE_2ND[j] != 0) ? IPM_W.ar[r] : REAL_0) + ipm_side_g(j, IPM_SIDE_SG[j], rc);
     }
   }
   for (k = 0; k <= IPM_N; ++k) {
@@ -57,14 +60,15 @@ static inline ipm_real_t ipm_side_step(int j, ipm_real_t sg, ipm_real_t ad, ipm_
 }
 
 /* the sides' steps dt, dlam from A dz on the inequality rows (per row in IPM_W.ar: general, then box rows; then one
- * pass over the sides, written once per target); returns the largest step to the boundary (at most amax0) */
-static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t sm, ipm_real_t amax0) {
+ * pass over the sides, written once per target: the corrector's, ipm_ineq_ATx left in IPM_W.dlam); returns the
+ * largest step to the boundary (at most amax0) */
+static ipm_real_t ipm_ineq_sides(int corr, ipm_real_t amax0) {
   int j;
   ipm_real_t amax = amax0;
   ipm_ineq_Ax(IPM_W.dz, IPM_W.ar);
   if (corr != 0) { /* flat over the sides (measured: cheaper here than by rows) */
     for (j = 0; j < IPM_NSIDE; ++j) {
-      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], ipm_rc(1, sm, j), amax);
+      amax = ipm_side_step(j, IPM_SIDE_SG[j], IPM_W.ar[IPM_SIDE_ROW[j]], IPM_W.dlam[j], amax);
     }
   } else { /* the predictor also sums t lam, t dlam + lam dt, dt dlam into IPM_W.aff (mu_aff for any step length) */
     ipm_real_t s0 = REAL_0;
@@ -92,7 +96,7 @@ static int ipm_direction(int corr, ipm_real_t sm, int factor, ipm_real_t *amax) 
   if (ipm_backward(corr, sm, factor) != 0) {
     return 1;
   }
-  *amax = ipm_ineq_sides(corr, sm, ipm_forward(corr, sm));
+  *amax = ipm_ineq_sides(corr, ipm_forward(corr, sm));
   return 0;
 }
 

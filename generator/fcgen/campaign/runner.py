@@ -40,6 +40,20 @@ class Outcome:
     wall_s: float = 0.0
     workers: int = 0
     warnings: list[str] = field(default_factory=list)  # what the workers warned, each message once
+    solver_s: float = 0.0  # the computed runs' time inside the solver (the sum of their RTI times, by --clock)
+    loop_cpu_s: float = 0.0  # the computed runs' closed loops' CPU time (solver, plant, the loop's Python)
+
+    def time_split(self) -> str:
+        """One line: runs per second, the solver's share of the closed loops' CPU and the loops' share of the
+        workers' wall time (the rest: scenarios, run logs, rows, results store, waiting)."""
+        rate = self.computed / self.wall_s if self.wall_s > 0 else 0.0
+        worker_s = self.wall_s * max(self.workers, 1)
+        solver = 100.0 * self.solver_s / self.loop_cpu_s if self.loop_cpu_s > 0 else 0.0
+        loops = 100.0 * self.loop_cpu_s / worker_s if worker_s > 0 else 0.0
+        return (
+            f"{rate:.2f} runs/s; solver {self.solver_s:.1f} s = {solver:.1f} % of the closed loops' CPU "
+            f"({self.loop_cpu_s:.1f} s), the loops {loops:.1f} % of the workers' wall time ({worker_s:.1f} s)"
+        )
 
 
 def capturing(fn, *args):
@@ -188,6 +202,8 @@ def _collect(
             buf.append(row)
             _note(out, messages)
             out.computed += 1
+            out.solver_s += 1e-3 * float(sum(row["time_rti_ms"]))
+            out.loop_cpu_s += float(row["cpu_s"])
         except cf.CancelledError:
             continue
         except Exception as exc:  # noqa: BLE001 - a run that fails (any error) is reported, not written; retried next call

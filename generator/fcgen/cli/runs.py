@@ -442,10 +442,9 @@ def _seeded_campaign(
         res = run_campaign(tasks, out, jobs=jobs, scheduler=scheduler, progress=True)
     except KeyboardInterrupt:
         fail(f"interrupted: the finished runs are in {out}; run the same command again to resume")
-    rate = res.computed / res.wall_s if res.wall_s > 0 else 0.0
     click.echo(
         f"{res.computed} runs computed, {res.skipped} already done, {len(res.failed)} failed; "
-        f"{res.wall_s:.1f} s wall, {rate:.2f} runs/s on {res.workers or jobs} workers"
+        f"{res.wall_s:.1f} s wall on {res.workers or jobs} workers; {res.time_split()}"
     )
     for msg in dict.fromkeys([*grid_warnings, *res.warnings]):
         click.echo(f"warning: {msg}", err=True)
