@@ -215,3 +215,18 @@ def test_campaign_row_of_a_perturbed_configuration():
     row = run_task(Task(cfg, 2, 12, "unused"))
     assert (row["plant"], row["latency"], row["noise"]) == ("st", 1, "0.05,0.05,0.005,0.05,0.002")
     assert row["a_lat_model_over05_samples"] >= 0 and row["max_abs_a_lat_model"] > 0
+
+
+@pytest.mark.parametrize("v0", [1.0, 3.0, 5.0])
+def test_st_stops_steered_without_diverging_or_reversing(v0):
+    """Braking to a standstill with the wheels steered: the tyre dynamics stiffen as 1/v (a fixed dt/20 RK4 step
+    diverged to a non-finite slip angle below about 1 m/s) and the brake holds the car at v = 0 (the package's
+    acceleration would reverse it); the path is the kinematic arc's: no lateral jump."""
+    pl = CommonRoadPlant(PB, "st")
+    pl.reset([0.0, 0.0, 0.0, v0, 0.15], straight_road(200.0))
+    speeds = [pl.step((-800.0 * v0, 0.0))[0][3] for _ in range(40)]
+    assert all(math.isfinite(c) for c in pl.x)
+    assert min(speeds) == 0.0 and speeds[-1] == 0.0
+    assert all(b <= a + 1e-12 for a, b in zip(speeds, speeds[1:], strict=False))  # never speeds up, never reverses
+    s, n = pl.frenet()[:2]
+    assert 0.0 < s < v0 * v0 and abs(n) < s  # stopped within the braking distance, on the arc's side

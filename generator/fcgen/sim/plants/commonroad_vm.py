@@ -175,14 +175,29 @@ class CommonRoadPlant:
         """Apply fcgen's control u = (F_d, r) for one sample (RK4, ``substeps`` steps); returns fcgen's measured
         state after it and the sample's ``StepInfo`` (a_lat at its start; cut: any limit during the sample)."""
         info = self.lateral_acceleration(u)
-        h = self.dt / self.substeps
-        x, f = self.x, self._f
-        for _ in range(self.substeps):
+        x, f, left = self.x, self._f, self.dt
+        while left > 0.0:
+            h = min(self.dt / self.substeps, self._stable_step(x), left)
+            left = 0.0 if h >= left else left - h
             info.cut |= self._cut(x, u)
             k1 = f(x, u)
             k2 = f([a + h / 2 * b for a, b in zip(x, k1, strict=True)], u)
             k3 = f([a + h / 2 * b for a, b in zip(x, k2, strict=True)], u)
             k4 = f([a + h * b for a, b in zip(x, k3, strict=True)], u)
             x = [a + h / 6 * (p + 2 * q + 2 * r + w) for a, p, q, r, w in zip(x, k1, k2, k3, k4, strict=True)]
+            if x[3] < 0.0 and u[0] <= 0.0:  # a brake stops the car, it does not drive it backwards
+                x[3] = 0.0
+        if not all(math.isfinite(c) for c in x):
+            raise FloatingPointError(f"the {self.kind} plant's state is not finite after a sample: {x}")
         self.x = x
         return self.frenet(), info
+
+    def _stable_step(self, x: list[float]) -> float:
+        """The largest RK4 step that keeps the single-track tyre dynamics stable at state x: their eigenvalues grow
+        as 1/v, bounded by 2 mu g C_S / v (slip angle and yaw rate rows), and RK4 needs h |lambda| < 2.78; h
+        |lambda| <= 2 is used. Unbounded for ``ks`` and below the package's kinematic switch (|v| < 0.1 m/s)."""
+        if self.kind != "st" or abs(x[3]) < 0.1:
+            return math.inf
+        mu = float(self.p.tire.p_dy1)
+        c_s = -float(self.p.tire.p_ky1) / mu
+        return 2.0 * abs(x[3]) / (2.0 * mu * G * c_s)
