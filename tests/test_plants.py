@@ -4,6 +4,7 @@ between controller and plant (latency, steering lag, noise)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import replace
 
@@ -227,6 +228,6 @@ def test_st_stops_steered_without_diverging_or_reversing(v0):
     speeds = [pl.step((-800.0 * v0, 0.0))[0][3] for _ in range(40)]
     assert all(math.isfinite(c) for c in pl.x)
     assert min(speeds) == 0.0 and speeds[-1] == 0.0
-    assert all(b <= a + 1e-12 for a, b in zip(speeds, speeds[1:], strict=False))  # never speeds up, never reverses
+    assert all(b <= a + 1e-12 for a, b in itertools.pairwise(speeds))  # never speeds up, never reverses
     s, n = pl.frenet()[:2]
     assert 0.0 < s < v0 * v0 and abs(n) < s  # stopped within the braking distance, on the arc's side
