@@ -56,6 +56,7 @@ class SuiteSettings:
     timing: bool = True
     commonroad: str | None = None  # a CommonRoad scenario file instead of the seeds (its copy joins the suite)
     planning_problem: int | None = None
+    traffic: str = "recorded"  # with ``commonroad``: recorded or reactive traffic (commonroad.reactive)
     plant: PlantSpec = field(default_factory=PlantSpec)  # the plant and perturbations of the runs (docs/plants.md)
 
 
@@ -224,7 +225,14 @@ def _record_into(
         from .sim.commonroad_run import run_commonroad
 
         sc = load_for(pb, settings.commonroad, settings.planning_problem)
-        log = run_commonroad(pb, sc, controller=CSolver(lib, folder=folder), plan=settings.plan, progress=progress).log
+        log = run_commonroad(
+            pb,
+            sc,
+            controller=CSolver(lib, folder=folder),
+            plan=settings.plan,
+            progress=progress,
+            traffic=settings.traffic,
+        ).log
         log = _finish(log, info["precision"], settings.timing)
         fname = f"cr_{sc.name}.json.xz"
         log.to_json(out / fname)

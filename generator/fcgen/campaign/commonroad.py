@@ -25,6 +25,7 @@ ROW_KEYS = (
     "formulation",
     "obstacle_model",
     "controller",
+    "traffic",
     "status",
     "reason",
     "samples",
@@ -56,6 +57,9 @@ ROW_KEYS = (
     "unsolved_samples",
     "unsolved_codes",
     "nonfinite",
+    "reacted",
+    "reacted_to_ego",
+    "first_reaction_sample",
     "wall_s",
 )
 
@@ -67,6 +71,7 @@ class CrTask:
     config: Config
     path: str
     cache_dir: str
+    traffic: str = "recorded"  # or "reactive" (commonroad.reactive)
 
 
 def scenario_files(folder: str | Path) -> list[Path]:
@@ -111,6 +116,7 @@ def run_cr_task(task: CrTask) -> dict:
         formulation=pb.formulation.kind,
         obstacle_model=pb.obstacles.kind,
         controller=cfg.controller,
+        traffic=task.traffic,
         status="refused",
         reason="",
     )
@@ -122,9 +128,9 @@ def run_cr_task(task: CrTask) -> dict:
             with lock:
                 if solver.init():
                     raise RuntimeError(f"{pb.name}_init() failed")
-                run = run_commonroad(pb, sc, controller=solver)
+                run = run_commonroad(pb, sc, controller=solver, traffic=task.traffic)
         else:
-            run = run_commonroad(pb, sc, ocp=_ocp(pb))
+            run = run_commonroad(pb, sc, ocp=_ocp(pb), traffic=task.traffic)
     except ScenarioRefused as exc:
         row["reason"] = str(exc)
         row["wall_s"] = time.perf_counter() - t0
@@ -153,6 +159,7 @@ def run_cr_task(task: CrTask) -> dict:
         exit_codes_nonzero=int(log.meta["extra"]["exit_codes_nonzero"]),
         **slack_fields(np.asarray(log.max_slack, dtype=float), cr["unsolved"]),
         **goal_fields(cr),
+        **traffic_fields(cr),
         wall_s=time.perf_counter() - t0,
     )
     row["nonfinite"] = nonfinite_fields(row)
@@ -171,6 +178,17 @@ def goal_fields(cr: dict) -> dict:
         "solution_valid_but_goal": bool(sol["valid_but_goal"]),
         "solution_starts": bool(sol["starts_at_initial_state"]),
         "solution_feasible": bool(sol["feasible"]),
+    }
+
+
+def traffic_fields(cr: dict) -> dict:
+    """The row's reactive-traffic fields from the run log's ``extra.commonroad.traffic``: how many vehicles reacted,
+    how many of them to the ego, the first sample one did (-1: none)."""
+    reactions = cr.get("traffic", {}).get("reactions", [])
+    return {
+        "reacted": len(reactions),
+        "reacted_to_ego": sum(r[3] == "ego" for r in reactions),
+        "first_reaction_sample": min((int(r[1]) for r in reactions), default=-1),
     }
 
 
@@ -204,16 +222,26 @@ def _step(v) -> int:
 
 
 def run_cr_campaign(
-    configs: list[Config], folder: str | Path, out: str | Path, cache_dir: str, jobs: int = 2, echo=print
+    configs: list[Config],
+    folder: str | Path,
+    out: str | Path,
+    cache_dir: str,
+    jobs: int = 2,
+    echo=print,
+    traffic: str = "recorded",
 ) -> list[dict]:
-    """Every scenario of ``folder`` in every configuration; writes the rows and the summary into ``out``."""
+    """Every scenario of ``folder`` in every configuration in ``traffic`` (``recorded`` or ``reactive``); writes the
+    rows and the summary into ``out``."""
+    from ..commonroad.reactive import check_traffic
+
+    check_traffic(traffic)
     from .task import build_solver
 
     files = scenario_files(folder)
     for cfg in configs:  # compiled once, before the workers share the cache
         if cfg.controller == "c":
             build_solver(cfg, cache_dir)
-    tasks = [CrTask(cfg, str(f), cache_dir) for cfg in configs for f in files]
+    tasks = [CrTask(cfg, str(f), cache_dir, traffic) for cfg in configs for f in files]
     echo(f"{len(files)} scenarios x {len(configs)} configurations = {len(tasks)} runs ({jobs} processes)")
     if jobs > 1:
         with ProcessPoolExecutor(jobs) as ex:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from .commonroad import traffic_option
 from .options import (
     cc_option,
     cflags_option,
@@ -59,6 +60,7 @@ from .options import (
 )
 @click.option("--planning-problem", "cr_pp", type=int, default=None, help="with --commonroad: the planning problem")
 @plant_options
+@traffic_option()
 def record(
     solver_dir,
     out_dir,
@@ -80,6 +82,7 @@ def record(
     steer_lag,
     noise,
     prediction,
+    traffic,
 ):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from ..build import BuildError
@@ -97,6 +100,8 @@ def record(
             for path in record_goldens(golden_root, echo=click.echo, force=force):
                 click.echo(f"golden suite written to {path}")
             return
+        if traffic != "recorded" and not cr_file:
+            fail("--traffic goes with --commonroad")
         if solver_dir is None:
             fail("give SOLVER_DIR (a folder written by `fcgen generate`) or --golden-for ROOT")
         st = SuiteSettings(
@@ -110,6 +115,7 @@ def record(
             timing=timing,
             commonroad=cr_file,
             planning_problem=cr_pp,
+            traffic=traffic,
             plant=spec,
         )
         out = Path(out_dir) if out_dir else Path(solver_dir) / "golden"
@@ -161,6 +167,7 @@ def record(
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="write the report (JSON)")
 @click.option("--plot", type=click.Path(dir_okay=False), default=None, help="plot the divergence over time (PNG)")
 @plant_options
+@traffic_option(None, " [default: as the golden log was recorded]")
 def regress(
     new,
     golden,
@@ -180,6 +187,7 @@ def regress(
     steer_lag,
     noise,
     prediction,
+    traffic,
 ):
     """Compare NEW (run log, suite or solver folder) with GOLDEN (run log or suite).
 
@@ -208,6 +216,7 @@ def regress(
             build_kw={"verify": verify, "cc": cc, "cflags": cflags},
             progress=sys.stderr.isatty(),
             plant=None if spec.is_default else spec,
+            traffic=traffic,
         )
     except (UnusableInput, BuildError) as exc:
         click.echo(f"Error: {str(exc).splitlines()[0]}", err=True)

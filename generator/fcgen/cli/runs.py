@@ -11,6 +11,7 @@ import click
 
 from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
+from .commonroad import commonroad_campaign, simulate_commonroad, traffic_option
 from .options import (
     cflags_option,
     delay_option,
@@ -84,6 +85,7 @@ from .robust import robust_configs, robustness_options
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
 @plant_options
+@traffic_option()
 def simulate(
     scenario,
     formulation,
@@ -106,6 +108,7 @@ def simulate(
     steer_lag,
     noise,
     prediction,
+    traffic,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
     from ..sim.closedloop import run_closed_loop
@@ -126,10 +129,10 @@ def simulate(
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
-        _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution)
+        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic)
         return
-    if cr_pp is not None or cr_solution:
-        fail("--planning-problem and --solution go with --commonroad")
+    if cr_pp is not None or cr_solution or traffic != "recorded":
+        fail("--planning-problem, --solution and --traffic go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
     s = summary(log)
@@ -164,51 +167,6 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
             fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
         return CSolver.from_dir(solver_dir)
     return None
-
-
-def _simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution) -> None:
-    """``simulate --commonroad``: one CommonRoad scenario; its verdicts printed; a refused scenario: one line,
-    exit 1."""
-    from dataclasses import replace as dc_replace
-
-    from ..campaign.commonroad import load_for
-    from ..commonroad import ScenarioRefused, plot_run, write_solution
-    from ..sim.commonroad_run import goal_line, run_commonroad
-    from ..sim.runlog import summary
-
-    try:
-        sc = load_for(pb, cr_file, cr_pp)
-        if samples < sc.samples:
-            sc = dc_replace(sc, samples=samples)
-        run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty())
-    except ScenarioRefused as exc:
-        fail(f"refused: {exc}")
-    log = run.log
-    click.echo(
-        f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "
-        f"{fmt_summary(summary(log))}"
-    )
-    ck, own = run.checker, run.fcgen
-    click.echo(
-        f"collision: fcgen {_verdict(own)}, drivability checker {_verdict(ck)}"
-        f"{'' if run.agree else ' (DISAGREE)'}; road departure (checker): "
-        f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
-        + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
-    )
-    click.echo(goal_line(log.meta["extra"]["commonroad"]))
-    if out:
-        log.to_json(out)
-        click.echo(f"run log written to {out}")
-    if solution:
-        write_solution(sc, run.ego_states, solution)
-        click.echo(f"CommonRoad solution written to {solution}")
-    if plot:
-        plot_run(sc, run.ego_centres, plot)
-        click.echo(f"plot written to {plot}")
-
-
-def _verdict(v: dict) -> str:
-    return f"yes (step {v.get('collision_step')})" if v.get("collision") else "none"
 
 
 @click.command()
@@ -303,6 +261,7 @@ def _verdict(v: dict) -> str:
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
 @plant_options
+@traffic_option()
 @delay_option
 @robustness_options
 def campaign(
@@ -330,6 +289,7 @@ def campaign(
     steer_lag,
     noise,
     prediction,
+    traffic,
     delay,
     **robust,
 ):
@@ -345,8 +305,10 @@ def campaign(
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
-        _commonroad_campaign(configs, cr_dir, out, cache_dir, jobs)
+        commonroad_campaign(configs, cr_dir, out, cache_dir, jobs, traffic)
         return
+    if traffic != "recorded":
+        fail("--traffic goes with --commonroad")
     if report_dir:
         from ..report.page import check_report_target
 
@@ -388,23 +350,6 @@ def _grid(scenarios: str, formulations: str, obstacle_list: str, controller: str
     except ProblemError as exc:
         fail(f"--obstacles/--backend: {exc}")
     return configs
-
-
-def _commonroad_campaign(configs: list, cr_dir: str, out: str, cache_dir: str, jobs: int) -> None:
-    """``campaign --commonroad``: every scenario of the folder in every configuration; the agreement printed."""
-    from ..campaign.commonroad import run_cr_campaign
-
-    try:
-        rows = run_cr_campaign(configs, cr_dir, out, str(Path(cache_dir).resolve()), jobs=jobs, echo=click.echo)
-    except ValueError as exc:
-        fail(str(exc))
-    ran = [r for r in rows if r["status"] == "ran"]
-    click.echo(
-        f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen "
-        f"{sum(r['collision_fcgen'] for r in ran)}, "
-        f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
-        f"{len(ran)}; summary {Path(out) / 'commonroad.md'}"
-    )
 
 
 def _seeded_campaign(

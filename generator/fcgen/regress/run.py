@@ -73,13 +73,15 @@ def regress(
     build_kw: dict | None = None,
     progress: bool = False,
     plant: PlantSpec | None = None,
+    traffic: str | None = None,
 ) -> RegressReport:
     """Compare NEW (log, suite or solver folder) with GOLDEN (log or suite); see the module docstring.
 
     ``mode``: for a solver folder ``"replay"`` (default) or ``"closed-loop"``; ``controller``: ``"c"`` (the folder's
     compiled solver, ``build_kw`` passed to ``fcgen.build.build``; ``verify`` defaults to the golden suite's) or
     ``"python"`` (its Python reference). ``plant``: the closed loop's plant and perturbations (default: what each
-    golden log records in ``meta.extra.plant``, else fcgen's model).
+    golden log records in ``meta.extra.plant``, else fcgen's model). ``traffic``: a CommonRoad log's traffic mode
+    (``recorded`` or ``reactive``; default: the golden log's).
     """
     new, golden = Path(new), Path(golden)
     kind_new = _kind(new)
@@ -93,7 +95,18 @@ def regress(
     if kind_new == "suite":
         return _suite_vs(new, golden, gold, preset, tol, timing)
     return _folder_vs(
-        new, golden, gold, mode or "replay", preset, tol, timing, controller, dict(build_kw or {}), progress, plant
+        new,
+        golden,
+        gold,
+        mode or "replay",
+        preset,
+        tol,
+        timing,
+        controller,
+        dict(build_kw or {}),
+        progress,
+        plant,
+        traffic,
     )
 
 
@@ -152,6 +165,7 @@ def _folder_vs(
     build_kw: dict,
     progress: bool,
     plant: PlantSpec | None = None,
+    traffic: str | None = None,
 ) -> RegressReport:
     """A solver folder (read once, built once) replayed on the golden inputs or run in closed loop again."""
     prec_gold, gold_logs, man = gold
@@ -166,7 +180,7 @@ def _folder_vs(
     if build_kw.get("verify") is None:  # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(folder, controller, build_kw, progress)
-    runner.plant = plant
+    runner.plant, runner.traffic = plant, traffic
     runner.golden_dir = golden if golden.is_dir() else golden.parent  # where a CommonRoad log's scenario file is
     if runner.lib is not None:
         stamp = runner.lib.parent / "flags.txt"
@@ -234,6 +248,7 @@ class _Runner:
 
     golden_dir: Path = Path(".")
     plant: PlantSpec | None = None  # the closed loop's plant (None: each golden log's own)
+    traffic: str | None = None  # a CommonRoad log's traffic mode (None: each golden log's own)
 
     def __init__(self, folder: SolverFolder, controller: str, build_kw: dict, progress: bool):
         if controller not in ("c", "python"):
@@ -296,4 +311,5 @@ class _Runner:
             plan=plan_level(gold),
             progress=self.progress,
             states=states,
+            traffic=self.traffic or cr.get("traffic", {}).get("mode", "recorded"),
         ).log

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -95,13 +95,16 @@ def run_commonroad(
     plan: str = "none",
     progress: bool = False,
     states: np.ndarray | None = None,
+    traffic: str = "recorded",
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
     ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
-    plant's, sample by sample, and the log keeps them."""
+    plant's, sample by sample, and the log keeps them. ``traffic``: ``recorded`` (the recordings) or ``reactive``
+    (``commonroad.reactive``: the run is judged on what the vehicles drove)."""
     from .. import commonroad as cr
     from ..commonroad.judge import fcgen_verdict, penetrations
+    from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(
@@ -112,7 +115,11 @@ def run_commonroad(
         controller = ReferenceController(ocp)
     road, cut = scenario_road(problem, sc)
     plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
-    loop = _drive(problem, sc, controller, road, plant, plan, progress, states)
+    world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
+    loop = _drive(problem, sc, controller, road, plant, plan, progress, states, world)
+    if world is not None:  # judged on what the vehicles drove
+        sc = world.scenario()
+        sc = replace(sc, scenario=driven_scenario(sc, sc.obstacles))
     ego = problem.ego
     ego_cart, centres = _ego_poses(road, loop.xs, ego.l / 2)
     opp_cart = _obstacle_poses(sc, len(loop.xs))
@@ -142,6 +149,7 @@ def run_commonroad(
             "unsolved": unsolved_status(loop.results),
             "goal": goal_status(sc, road, centres, loop.xs),
             "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
+            "traffic": {"mode": "recorded", "reactions": []} if world is None else world.log(),
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
@@ -178,6 +186,7 @@ def _drive(
     plan: str,
     progress: bool,
     states: np.ndarray | None,
+    world=None,
 ) -> _Loop:
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
@@ -207,6 +216,9 @@ def _drive(
         if j and goal is not None and reached(goal, sc.first_step + j, centre, rphi, float(x[3])):
             loop.end_at(j)  # the goal is reached: the run ends there
             break
+        if world is not None:  # reactive traffic: the vehicles' switches and IDM steps from this sample's state
+            world.update(j, float(x[0]) + half_l, float(x[1]), float(x[3]))
+            sc = world.scenario()
         traffic = traffic_at(sc.obstacles, sc.road, sc.first_step + j, sc.dt)
         n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
         if n_ref is None or abs(n_new - n_ref) > SETTLED:

@@ -1,0 +1,104 @@
+"""The CommonRoad parts of ``fcgen simulate`` and ``fcgen campaign`` (docs/commonroad.md): one scenario run and
+printed, a folder of scenarios run into rows; the ``--traffic`` option (``simulate``, ``campaign``, ``record``,
+``regress``)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .options import fail, fmt_summary
+
+
+def traffic_option(default: str | None = "recorded", what: str = "") -> Callable[[Callable[..., Any]], Any]:
+    """``--traffic recorded|reactive`` (docs/commonroad.md); an unknown mode: one line naming the allowed ones."""
+
+    def check(ctx, param, value):
+        if value is None:
+            return None
+        from ..commonroad.reactive import check_traffic
+
+        try:
+            return check_traffic(value)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc)) from None
+
+    return click.option(
+        "--traffic",
+        default=default,
+        show_default=default is not None,
+        callback=check,
+        metavar="recorded|reactive",
+        help="with --commonroad: the recorded vehicles follow their recordings (recorded), or follow them until the "
+        "IDM would brake harder for the vehicle ahead (the ego included) and the IDM from then on (reactive)" + what,
+    )
+
+
+def simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, traffic: str = "recorded") -> None:
+    """``simulate --commonroad``: one CommonRoad scenario; its verdicts printed; a refused scenario: one line,
+    exit 1."""
+    from dataclasses import replace as dc_replace
+
+    from ..campaign.commonroad import load_for
+    from ..commonroad import ScenarioRefused, plot_run, write_solution
+    from ..sim.commonroad_run import goal_line, run_commonroad
+    from ..sim.runlog import summary
+
+    try:
+        sc = load_for(pb, cr_file, cr_pp)
+        if samples < sc.samples:
+            sc = dc_replace(sc, samples=samples)
+        run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), traffic=traffic)
+    except ScenarioRefused as exc:
+        fail(f"refused: {exc}")
+    log = run.log
+    click.echo(
+        f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "
+        f"{fmt_summary(summary(log))}"
+    )
+    ck, own = run.checker, run.fcgen
+    click.echo(
+        f"collision: fcgen {_verdict(own)}, drivability checker {_verdict(ck)}"
+        f"{'' if run.agree else ' (DISAGREE)'}; road departure (checker): "
+        f"{_verdict({'collision': ck.get('road_departure'), 'collision_step': ck.get('departure_step')})}"
+        + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
+    )
+    click.echo(goal_line(log.meta["extra"]["commonroad"]))
+    if out:
+        log.to_json(out)
+        click.echo(f"run log written to {out}")
+    if solution:
+        write_solution(sc, run.ego_states, solution)
+        click.echo(f"CommonRoad solution written to {solution}")
+    if plot:
+        plot_run(sc, run.ego_centres, plot)
+        click.echo(f"plot written to {plot}")
+
+
+def _verdict(v: dict) -> str:
+    return f"yes (step {v.get('collision_step')})" if v.get("collision") else "none"
+
+
+def commonroad_campaign(
+    configs: list, cr_dir: str, out: str, cache_dir: str, jobs: int, traffic: str = "recorded"
+) -> None:
+    """``campaign --commonroad``: every scenario of the folder in every configuration; the agreement printed."""
+    from ..campaign.commonroad import run_cr_campaign
+
+    try:
+        rows = run_cr_campaign(
+            configs, cr_dir, out, str(Path(cache_dir).resolve()), jobs=jobs, echo=click.echo, traffic=traffic
+        )
+    except ValueError as exc:
+        fail(str(exc))
+    ran = [r for r in rows if r["status"] == "ran"]
+    click.echo(
+        f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen "
+        f"{sum(r['collision_fcgen'] for r in ran)}, "
+        f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
+        f"{len(ran)}; summary {Path(out) / 'commonroad.md'}"
+    )
