@@ -35,4 +35,11 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e '.[test]'
+# commonroad-crime, the criticality measures of CommonRoad runs (docs/commonroad.md): its releases need commonroad-clcs,
+# which pins osqp~=0.6.5 against fcgen's osqp==1.1.3, so pip cannot resolve it beside fcgen and it is no extra; these
+# are installed without their declared dependencies (they import and run with fcgen's), then what they import
+.venv/bin/python -m pip install -q --no-deps commonroad-crime==0.4.5 commonroad-clcs==2025.2.0 \
+  commonroad-reach==2025.2.1 commonroad-route-planner==2025.1.0
+.venv/bin/python -m pip install -q imageio==2.38.2 Cython==3.3.1 opencv-python-headless==5.1.0.95 seaborn==0.13.2 \
+  omegaconf==2.4.0 networkx==3.6.1
 echo "setup: ready ($(.venv/bin/fcgen --version))" >&2

@@ -112,6 +112,7 @@ EXTRA_PACKAGES = (
     "fmpy",
     "commonroad",
     "commonroad_dc",
+    "commonroad_crime",
 )
 
 

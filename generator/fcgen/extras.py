@@ -11,7 +11,8 @@ from typing import Any, TypeVar
 EXTRAS: dict[str, str] = {
     "campaign": "the paper's campaign and its report (tqdm, dask[distributed], pandas, pyarrow)",
     "plot": "figures (matplotlib)",
-    "commonroad": "CommonRoad scenarios (commonroad-io, commonroad-drivability-checker)",
+    "commonroad": "CommonRoad scenarios (commonroad-io, commonroad-drivability-checker; the criticality measures' "
+    "commonroad-crime is installed by scripts/setup.sh: docs/commonroad.md)",
     "fmu": "the FMU and its co-simulation (fmpy)",
     "plants": "CommonRoad's vehicle models as closed-loop plants (commonroad-vehicle-models)",
 }

@@ -60,6 +60,13 @@ ROW_KEYS = (
     "reacted",
     "reacted_to_ego",
     "first_reaction_sample",
+    "ttc_ahead_min_s",
+    "ttc_ahead_obstacle",
+    "ttc_behind_min_s",
+    "ttc_behind_obstacle",
+    "thw_ahead_min_s",
+    "thw_behind_min_s",
+    "criticality_error",
     "wall_s",
 )
 
@@ -160,6 +167,7 @@ def run_cr_task(task: CrTask) -> dict:
         **slack_fields(np.asarray(log.max_slack, dtype=float), cr["unsolved"]),
         **goal_fields(cr),
         **traffic_fields(cr),
+        **criticality_fields(cr),
         wall_s=time.perf_counter() - t0,
     )
     row["nonfinite"] = nonfinite_fields(row)
@@ -190,6 +198,17 @@ def traffic_fields(cr: dict) -> dict:
         "reacted_to_ego": sum(r[3] == "ego" for r in reactions),
         "first_reaction_sample": min((int(r[1]) for r in reactions), default=-1),
     }
+
+
+def criticality_fields(cr: dict) -> dict:
+    """The row's criticality fields from the run log's ``extra.commonroad.criticality`` (None: no vehicle closed in,
+    or none was measured: ``criticality_error`` says why)."""
+    c = cr.get("criticality", {})
+    out = {f"{m}_min_s": c.get(m, {}).get("min") for m in ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind")}
+    out["ttc_ahead_obstacle"] = c.get("ttc_ahead", {}).get("obstacle")
+    out["ttc_behind_obstacle"] = c.get("ttc_behind", {}).get("obstacle")
+    out["criticality_error"] = c.get("error", "")
+    return out
 
 
 def slack_fields(slack: np.ndarray, unsolved: dict) -> dict:

@@ -103,6 +103,7 @@ def run_commonroad(
     plant's, sample by sample, and the log keeps them. ``traffic``: ``recorded`` (the recordings) or ``reactive``
     (``commonroad.reactive``: the run is judged on what the vehicles drove)."""
     from .. import commonroad as cr
+    from ..commonroad.criticality import criticality
     from ..commonroad.judge import fcgen_verdict, penetrations
     from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
 
@@ -150,6 +151,7 @@ def run_commonroad(
             "goal": goal_status(sc, road, centres, loop.xs),
             "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
             "traffic": {"mode": "recorded", "reactions": []} if world is None else world.log(),
+            "criticality": criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch),
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)

@@ -1,0 +1,151 @@
+"""The field's criticality measures of a run, computed with ``commonroad-crime`` (CriMe, TUM) on the logged scenario:
+the scenario's lanelets with its vehicles as they drove (recorded, or in reactive traffic as they reacted) and the ego
+added as a dynamic obstacle with its driven trajectory.
+
+Per run (tested in tests/test_commonroad_criticality.py on a constructed two-vehicle scenario):
+
+- **Time-to-collision** (CriMe's ``TTC``: the headway along the ego's lanelets' curvilinear frame, bumper to bumper,
+  over the closing speed, with constant accelerations where they differ by more than 0.1 m/s^2) to the vehicle
+  ahead: its minimum over the samples and the vehicles in the ego's lanelets (CriMe's "same lanelet": the occupied
+  lanelets with their predecessors and successors); to the vehicle behind: the same with the follower as CriMe's
+  ego and the ego as the other vehicle. Infinite (stored as None) where nobody closes in.
+- **Time headway** (CriMe's ``THW``: the time the follower's front needs to reach where the leader's rear is now,
+  on the follower's driven trajectory; resolution one time step) to the vehicle ahead and behind, minimum likewise.
+- Which vehicles are asked at a sample: those present within ``REACH`` m of the ego's centre and ``LATERAL`` m
+  across the road (fcgen's Frenet frame), for the measures ahead those whose centre is ahead of the ego's, behind
+  those behind it (CriMe decides who is in the lane).
+
+Not an extra: ``commonroad-crime`` needs ``commonroad-clcs``, which pins ``osqp~=0.6.5`` against ``osqp==1.1.3``;
+scripts/setup.sh installs both without their declared dependencies. Where it is missing, ``error`` says so.
+
+The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
+the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values.
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+import logging
+import math
+
+import numpy as np
+
+from ..extras import require
+
+REACH = 120.0  # m: vehicles farther from the ego's centre are not asked
+LATERAL = 3.0  # m across the road (half a lane and about half a car): vehicles farther to the side are not asked
+MEASURES = ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind")
+NOT_INSTALLED = "commonroad-crime is not installed (scripts/setup.sh installs it: docs/commonroad.md)"
+
+
+def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, width: float, keep=None):
+    """A copy of ``sc.scenario`` (the driven vehicles; only the obstacle ids in ``keep`` if given) with the ego as a
+    dynamic obstacle (chassis centre poses ``centres`` (K + 1, 3) and ``speeds`` at steps ``sc.first_step + j``); and
+    the ego's obstacle id."""
+    with require("commonroad", "the criticality measures' logged scenario"):
+        from commonroad.geometry.shape import Rectangle
+        from commonroad.prediction.prediction import TrajectoryPrediction
+        from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
+        from commonroad.scenario.state import CustomState, InitialState
+        from commonroad.scenario.trajectory import Trajectory
+
+    out = copy.deepcopy(sc.scenario)
+    ego_id = out.generate_object_id()
+    if keep is not None:
+        out.remove_obstacle([ob for ob in out.obstacles if ob.obstacle_id not in keep])
+    shape = Rectangle(length, width)
+
+    def state(cls, j: int):
+        c = centres[j]
+        return cls(
+            position=np.array(c[:2], dtype=float),
+            orientation=float(c[2]),
+            velocity=float(speeds[j]),
+            time_step=sc.first_step + j,
+        )
+
+    init = state(InitialState, 0)
+    init.acceleration, init.yaw_rate, init.slip_angle = 0.0, 0.0, 0.0
+    traj = [state(CustomState, j) for j in range(1, len(centres))]
+    pred = TrajectoryPrediction(Trajectory(sc.first_step + 1, traj), shape) if traj else None
+    out.add_objects(DynamicObstacle(ego_id, ObstacleType.CAR, shape, init, pred))
+    return out, ego_id
+
+
+def candidates(sc, centres: np.ndarray, j: int) -> dict[int, bool]:
+    """The obstacle ids present at sample ``j`` near the ego (``REACH``, ``LATERAL`` on the road's Frenet frame), each
+    with whether its centre is ahead of the ego's."""
+    t = sc.first_step + j
+    obs = [ob for ob in sc.obstacles if not ob.static and ob.present(t) and ob.pose(t) is not None]
+    if not obs:
+        return {}
+    p = np.array([ob.pose(t) for ob in obs])
+    s, n, _ = (np.atleast_1d(np.asarray(a, dtype=float)) for a in sc.road.to_frenet(*p.T))
+    c = centres[j]
+    es, en, _ = (float(np.atleast_1d(a)[0]) for a in sc.road.to_frenet(*(np.array([v]) for v in c)))
+    near = (np.abs(s - es) <= REACH) & (np.abs(n - en) <= LATERAL)
+    return {int(ob.id): bool(si > es) for ob, k, si in zip(obs, near, s) if k}
+
+
+def _measures(config_cls, scenario, ego_id: int):
+    """CriMe's TTC and THW with ``ego_id`` as CriMe's ego."""
+    with require("commonroad", "the criticality measures (commonroad-crime)"):
+        from commonroad_crime.measure import THW, TTC
+
+    cfg = config_cls()
+    cfg.update(ego_id=ego_id, sce=scenario)
+    cfg.debug.save_plots = False
+    return TTC(cfg), THW(cfg)
+
+
+def _follower(config_cls, scenario, oid: int) -> tuple:
+    """CriMe's TTC and THW with obstacle ``oid`` as CriMe's ego (the ego as the vehicle ahead); () where CriMe cannot
+    place it on a lanelet at its first step (it is then not asked as a follower)."""
+    try:
+        return _measures(config_cls, scenario, oid)
+    except (IndexError, KeyError, TypeError, ValueError):
+        return ()
+
+
+def criticality(sc, centres: np.ndarray, speeds: np.ndarray, length: float, width: float) -> dict:
+    """The run's measures: per name of ``MEASURES`` ``{"min": s or None (infinite), "obstacle": id, "sample": j}``,
+    the per-sample minima ``series`` (None: infinite) and ``error`` ("" when measured)."""
+    out: dict = {m: {"min": None, "obstacle": None, "sample": None} for m in MEASURES}
+    series: dict[str, list] = {m: [] for m in MEASURES}
+    out["series"], out["error"] = series, ""
+    if importlib.util.find_spec("commonroad_crime") is None:
+        out["error"] = NOT_INSTALLED
+        return out
+    with require("commonroad", "the criticality measures (commonroad-crime)"):
+        from commonroad_crime.data_structure.configuration import CriMeConfiguration
+
+    logging.getLogger("commonroad_crime").setLevel(logging.ERROR)
+    near = [candidates(sc, centres, j) for j in range(len(centres))]
+    others = sorted({i for ids in near for i in ids})
+    scenario, ego_id = logged_scenario(sc, centres, speeds, length, width, keep=set(others))
+    vals = {m: np.full(len(centres), np.inf) for m in MEASURES}
+    who = {m: np.full(len(centres), -1) for m in MEASURES}
+    try:
+        scenario.assign_obstacles_to_lanelets(obstacle_ids={ego_id, *others})
+        ego = _measures(CriMeConfiguration, scenario, ego_id)
+        for oid in others:  # one other vehicle at a time: CriMe prepares a vehicle's states once per change
+            ahead = [j for j, ids in enumerate(near) if ids.get(oid) is True]
+            behind = [j for j, ids in enumerate(near) if ids.get(oid) is False]
+            fol = _follower(CriMeConfiguration, scenario, oid) if behind else ()
+            pairs = [("ttc_ahead", ego[0], oid, ahead), ("thw_ahead", ego[1], oid, ahead)]
+            pairs += [("ttc_behind", fol[0], ego_id, behind), ("thw_behind", fol[1], ego_id, behind)] if fol else []
+            for name, measure, other, steps in pairs:
+                for j in steps:
+                    v = float(measure.compute(other, sc.first_step + j, verbose=False))
+                    if math.isfinite(v) and v < vals[name][j]:
+                        vals[name][j], who[name][j] = v, oid
+    except Exception as exc:  # noqa: BLE001 - what CriMe raises on a run it cannot measure, stated in the log
+        out["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        return out
+    for m in MEASURES:
+        series[m][:] = [float(v) if math.isfinite(v) else None for v in vals[m]]
+        if np.isfinite(vals[m]).any():
+            j = int(np.argmin(vals[m]))
+            out[m] = {"min": float(vals[m][j]), "obstacle": int(who[m][j]), "sample": j}
+    return out

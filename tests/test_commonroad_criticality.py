@@ -1,0 +1,57 @@
+"""The criticality measures (fcgen.commonroad.criticality, commonroad-crime) against hand-computed values on a
+constructed scenario: the ego at a constant 20 m/s between a slower vehicle ahead and a faster one behind in its
+lane, all at constant speeds, so TTC = gap / closing speed and THW = gap / follower's speed (to the next step)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from crscenes import write_scenario
+
+from fcgen.campaign.commonroad import load_for
+from fcgen.commonroad.criticality import criticality
+from fcgen.presets import preset
+
+pytestmark = [
+    pytest.mark.filterwarnings("ignore::UserWarning"),
+    pytest.mark.filterwarnings("ignore::DeprecationWarning"),
+]
+PB = preset("car_lifted_ellipse_ipm")
+CAR = PB.ego
+K = 30  # samples
+AHEAD = (1, 1, 90.0, 15.0, 60, 4.0, 1.8)  # id, lane (the ego's), centre s at step 0, speed, steps, length, width
+BEHIND = (2, 1, 10.0, 25.0, 60, 5.0, 1.8)
+BESIDE = (3, 2, 56.0, 10.0, 60, 4.0, 1.8)  # the lane to the left, closing fast: not in the ego's lane
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    path = write_scenario(tmp_path_factory.mktemp("crit") / "three.xml", obstacles=[AHEAD, BEHIND, BESIDE])
+    sc = load_for(PB, path)
+    j = np.arange(K + 1)
+    centres = np.stack([50.0 + 20.0 * sc.dt * j, np.zeros(K + 1), np.zeros(K + 1)], axis=1)
+    return sc, criticality(sc, centres, np.full(K + 1, 20.0), CAR.l_ch, CAR.w_ch)
+
+
+def test_ttc_is_the_gap_over_the_closing_speed(run):
+    _, c = run
+    assert c["error"] == ""
+    gap_ahead = 90.0 - 50.0 - (4.0 + CAR.l_ch) / 2  # bumper to bumper at step 0, closing at 5 m/s
+    gap_behind = 50.0 - 10.0 - (5.0 + CAR.l_ch) / 2  # the follower closes at 5 m/s
+    for j in range(K + 1):
+        assert c["series"]["ttc_ahead"][j] == pytest.approx((gap_ahead - 0.5 * j) / 5.0, abs=0.006)
+        assert c["series"]["ttc_behind"][j] == pytest.approx((gap_behind - 0.5 * j) / 5.0, abs=0.006)
+    assert c["ttc_ahead"] == {"min": pytest.approx((gap_ahead - 0.5 * K) / 5.0, abs=0.006), "obstacle": 1, "sample": K}
+    assert c["ttc_behind"]["obstacle"] == 2 and c["ttc_behind"]["sample"] == K
+
+
+def test_thw_is_the_gap_over_the_followers_speed_to_the_next_step(run):
+    sc, c = run
+    gap_ahead = 90.0 - 50.0 - (4.0 + CAR.l_ch) / 2
+    gap_behind = 50.0 - 10.0 - (5.0 + CAR.l_ch) / 2
+    # the first step at which the follower's front has passed where the leader's rear is at the sample
+    assert c["series"]["thw_ahead"][0] == pytest.approx(math.floor(gap_ahead / (20.0 * sc.dt) + 1) * sc.dt)
+    assert c["series"]["thw_behind"][0] == pytest.approx(math.floor(gap_behind / (25.0 * sc.dt) + 1) * sc.dt)
+    assert c["thw_ahead"]["obstacle"] == 1 and c["thw_behind"]["obstacle"] == 2
