@@ -279,6 +279,14 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
     o = Path(out)
     o.mkdir(parents=True, exist_ok=True)
     df = pd.DataFrame(rows, columns=list(ROW_KEYS))
+    if (o / "commonroad.parquet").is_file():  # runs of other scenarios, configurations or traffic modes are kept
+        old = pd.read_parquet(o / "commonroad.parquet")
+        key = ["scenario", "problem", "controller", "traffic"]
+        old = old.reindex(columns=list(ROW_KEYS))
+        old["traffic"] = old["traffic"].fillna("recorded")
+        new_keys = set(map(tuple, df[key].astype(str).values))
+        old = old[[tuple(k) not in new_keys for k in old[key].astype(str).values]]
+        df = pd.concat([old, df], ignore_index=True) if len(old) else df
     df.to_parquet(o / "commonroad.parquet", index=False)
     df.to_csv(o / "commonroad.csv", index=False)
     (o / "commonroad.md").write_text(summary_markdown(df))

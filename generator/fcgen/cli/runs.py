@@ -437,8 +437,13 @@ def profiles(paper, safe, out):
 @click.option("--no-example", is_flag=True, help="skip the Fig. 1-like picture (it re-simulates one run)")
 @force_option("replace an existing report in OUT")
 def report(results, out_dir, no_example, force):
-    """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page."""
+    """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page (a
+    CommonRoad campaign's folder: its outcomes, criticality and worst runs)."""
+    from ..report.commonroad import is_commonroad, write_cr_report
     from ..report.page import write_report
 
-    path = write_report(results, out_dir, example=not no_example, force=force)
+    if is_commonroad(results):
+        path = write_cr_report(results, out_dir, force=force)
+    else:
+        path = write_report(results, out_dir, example=not no_example, force=force)
     click.echo(f"report written to {path}")

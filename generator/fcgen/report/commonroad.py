@@ -1,0 +1,139 @@
+"""``fcgen report`` of a CommonRoad campaign (a results folder holding ``commonroad.parquet``): per configuration and
+traffic mode the runs, the scenarios refused, the collisions by responsibility, the road departures after an on-road
+start, the goal, the valid solutions, the vehicles that reacted, and the criticality measures' distributions with the
+worst runs named (docs/commonroad.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..extras import require
+
+WHO = ("ego_into_opponent", "opponent_from_behind", "opponent_from_side")
+MEASURES = (
+    ("ttc_ahead_min_s", "TTC ahead"),
+    ("ttc_behind_min_s", "TTC behind"),
+    ("thw_ahead_min_s", "THW ahead"),
+    ("thw_behind_min_s", "THW behind"),
+)
+WORST = 5  # runs named per measure
+
+
+def is_commonroad(results: str | Path) -> bool:
+    """Whether ``results`` is a CommonRoad campaign's folder (or its ``commonroad.parquet``)."""
+    p = Path(results)
+    return (p / "commonroad.parquet").is_file() or p.name == "commonroad.parquet"
+
+
+def _count(col) -> int:
+    return int(col.fillna(False).astype(bool).sum())
+
+
+def _fmt(v) -> str:
+    return "-" if v is None or v != v else f"{v:.2f}"
+
+
+def outcome_table(ran) -> list[str]:
+    """Per configuration and traffic mode: runs, collisions by responsibility, departures, goal, valid, reactions."""
+    lines = [
+        "| configuration | traffic | runs | collisions: ego into opponent / opponent from behind / from the side | "
+        "road departures after an on-road start | goal reached | valid solutions | vehicles reacted (to the ego) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (name, traffic), g in ran.groupby(["problem", "traffic"], sort=True):
+        hit = g[g.collision_fcgen.fillna(False).astype(bool)]
+        who = " / ".join(str(int((hit.responsibility == w).sum())) for w in WHO)
+        dep = _count(g.road_departure.astype(bool) & ~g.start_off_road.fillna(False).astype(bool))
+        lines.append(
+            f"| {name} | {traffic} | {len(g)} | {who} | {dep} | {_count(g.goal_reached)} | "
+            f"{_count(g.solution_valid)} | {int(g.reacted.fillna(0).sum())} ({int(g.reacted_to_ego.fillna(0).sum())}) |"
+        )
+    return [*lines, ""]
+
+
+def criticality_table(ran) -> list[str]:
+    """Per traffic mode and measure: runs measured, runs where nobody closed in, the distribution of the run minima
+    (s) and how many lie below 1 s and 2 s."""
+    lines = [
+        "| traffic | measure | runs measured | none closing in | min | 5 % | median | 95 % | below 1 s | below 2 s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for traffic, g in ran.groupby("traffic", sort=True):
+        ok = g[g.criticality_error.fillna("") == ""]
+        for col, label in MEASURES:
+            v = ok[col].dropna().astype(float)
+            q = v.quantile([0.0, 0.05, 0.5, 0.95]).tolist() if len(v) else [None] * 4
+            lines.append(
+                f"| {traffic} | {label} | {len(ok)} | {len(ok) - len(v)} | "
+                + " | ".join(_fmt(x) for x in q)
+                + f" | {int((v < 1.0).sum())} | {int((v < 2.0).sum())} |"
+            )
+    bad = ran[ran.criticality_error.fillna("") != ""]
+    if len(bad):
+        lines += ["", f"Not measured: {len(bad)} runs ({'; '.join(sorted(set(bad.criticality_error)))})."]
+    return [*lines, ""]
+
+
+def worst_runs(ran) -> list[str]:
+    """The ``WORST`` runs with the smallest time-to-collision ahead and behind, named."""
+    lines = []
+    for col, label in MEASURES[:2]:
+        obst = col.replace("_min_s", "_obstacle")
+        w = ran[ran[col].notna()].sort_values(col).head(WORST)
+        lines += [f"**Smallest {label}**", "", "| scenario | configuration | traffic | s | vehicle | collision |"]
+        lines.append("|---|---|---|---|---|---|")
+        lines += [
+            f"| {r.scenario} | {r.problem} | {r.traffic} | {getattr(r, col):.2f} | {_int(getattr(r, obst))} | "
+            f"{r.responsibility or '-'} |"
+            for r in w.itertuples()
+        ]
+        lines.append("")
+    return lines
+
+
+def _int(v) -> str:
+    return "-" if v is None or v != v else str(int(v))
+
+
+def commonroad_markdown(df) -> str:
+    """The report's page."""
+    ran, refused = df[df.status == "ran"], df[df.status == "refused"]
+    lines = [
+        "# CommonRoad campaign report",
+        "",
+        f"{df.scenario.nunique()} scenarios, {df.problem.nunique()} configurations, traffic "
+        f"{', '.join(sorted(df.traffic.fillna('recorded').unique()))}: {len(ran)} runs, {len(refused)} refused.",
+        "",
+    ]
+    if len(refused):
+        lines += ["## Refused", "", "| reason | runs |", "|---|---|"]
+        lines += [f"| {why} | {n} |" for why, n in refused.reason.value_counts().items()]
+        lines.append("")
+    if len(ran):
+        lines += ["## Outcomes", "", *outcome_table(ran)]
+        lines += ["## Criticality (commonroad-crime, minimum per run)", "", *criticality_table(ran)]
+        lines += ["## Worst runs", "", *worst_runs(ran)]
+    return "\n".join(lines) + "\n"
+
+
+def write_cr_report(results: str | Path, out_dir: str | Path, force: bool = False) -> Path:
+    """The CommonRoad report of ``results`` into ``out_dir`` (``README.md``)."""
+    with require("campaign", "the CommonRoad report"):
+        import pandas as pd
+    from .page import check_report_target
+
+    check_report_target(out_dir, force)
+    p = Path(results)
+    df = pd.read_parquet(p / "commonroad.parquet" if p.is_dir() else p)
+    if "traffic" not in df.columns:
+        df["traffic"] = "recorded"
+    for col, _ in MEASURES:
+        if col not in df.columns:
+            df[col] = None
+    for col in ("criticality_error", "reacted", "reacted_to_ego", "ttc_ahead_obstacle", "ttc_behind_obstacle"):
+        if col not in df.columns:
+            df[col] = "" if col == "criticality_error" else None
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "README.md").write_text(commonroad_markdown(df))
+    return out / "README.md"
