@@ -67,6 +67,7 @@ ROW_KEYS = (
     "thw_ahead_min_s",
     "thw_behind_min_s",
     "criticality_error",
+    "criticality_skipped",
     "wall_s",
 )
 
@@ -208,6 +209,7 @@ def criticality_fields(cr: dict) -> dict:
     out["ttc_ahead_obstacle"] = c.get("ttc_ahead", {}).get("obstacle")
     out["ttc_behind_obstacle"] = c.get("ttc_behind", {}).get("obstacle")
     out["criticality_error"] = c.get("error", "")
+    out["criticality_skipped"] = int(sum(c.get("skipped", {}).values()))
     return out
 
 

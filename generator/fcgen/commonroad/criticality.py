@@ -11,15 +11,20 @@ Per run (tested in tests/test_commonroad_criticality.py on a constructed two-veh
   ego and the ego as the other vehicle. Infinite (stored as None) where nobody closes in.
 - **Time headway** (CriMe's ``THW``: the time the follower's front needs to reach where the leader's rear is now,
   on the follower's driven trajectory; resolution one time step) to the vehicle ahead and behind, minimum likewise.
-- Which vehicles are asked at a sample: those present within ``REACH`` m of the ego's centre and ``LATERAL`` m
-  across the road (fcgen's Frenet frame), for the measures ahead those whose centre is ahead of the ego's, behind
-  those behind it (CriMe decides who is in the lane).
+- Which vehicles are asked at a sample: those in the ego's lane by fcgen's lane rule (centres within half a lane,
+  ``LATERAL``, across the road on fcgen's Frenet frame) within ``REACH`` m, for the measures ahead those whose centre
+  is ahead of the ego's, behind those behind it; CriMe's own "same lanelet" test (occupied lanelets with their
+  predecessors and successors) must agree. Without the first, CriMe counts a vehicle beside the ego whose rectangle
+  touches the ego's lanelet, with a headway of its longitudinal offset (a TTC of 0.01 s beside a car in the next
+  lane, on US-101).
 
 Not an extra: ``commonroad-crime`` needs ``commonroad-clcs``, which pins ``osqp~=0.6.5`` against ``osqp==1.1.3``;
 scripts/setup.sh installs both without their declared dependencies. Where it is missing, ``error`` says so.
 
 The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
-the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values.
+the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values; a
+value it cannot compute at one step (a vehicle outside the curvilinear frame of the follower's lanelets) is left out
+and counted (``skipped``).
 """
 
 from __future__ import annotations
@@ -32,9 +37,10 @@ import math
 import numpy as np
 
 from ..extras import require
+from .lanes import SAME_LANE
 
 REACH = 120.0  # m: vehicles farther from the ego's centre are not asked
-LATERAL = 3.0  # m across the road (half a lane and about half a car): vehicles farther to the side are not asked
+LATERAL = SAME_LANE  # m across the road: a centre farther to the side is in another lane (commonroad.lanes)
 MEASURES = ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind")
 NOT_INSTALLED = "commonroad-crime is not installed (scripts/setup.sh installs it: docs/commonroad.md)"
 
@@ -108,9 +114,20 @@ def _follower(config_cls, scenario, oid: int) -> tuple:
         return ()
 
 
+def _value(measure, other: int, step: int, skipped: dict[str, int]) -> float:
+    """CriMe's value at ``step``; a value CriMe cannot compute there (a vehicle outside its curvilinear frame or
+    off every lanelet) is left out and counted in ``skipped`` by the exception's name."""
+    try:
+        return float(measure.compute(other, step, verbose=False))
+    except Exception as exc:  # noqa: BLE001 - what CriMe raises at a step it cannot measure, counted in the log
+        skipped[type(exc).__name__] = skipped.get(type(exc).__name__, 0) + 1
+        return math.inf
+
+
 def criticality(sc, centres: np.ndarray, speeds: np.ndarray, length: float, width: float) -> dict:
     """The run's measures: per name of ``MEASURES`` ``{"min": s or None (infinite), "obstacle": id, "sample": j}``,
-    the per-sample minima ``series`` (None: infinite) and ``error`` ("" when measured)."""
+    the per-sample minima ``series`` (None: infinite), ``skipped`` (the values CriMe could not compute, by exception)
+    and ``error`` ("" when measured)."""
     out: dict = {m: {"min": None, "obstacle": None, "sample": None} for m in MEASURES}
     series: dict[str, list] = {m: [] for m in MEASURES}
     out["series"], out["error"] = series, ""
@@ -125,6 +142,7 @@ def criticality(sc, centres: np.ndarray, speeds: np.ndarray, length: float, widt
     others = sorted({i for ids in near for i in ids})
     scenario, ego_id = logged_scenario(sc, centres, speeds, length, width, keep=set(others))
     vals = {m: np.full(len(centres), np.inf) for m in MEASURES}
+    skipped: dict[str, int] = {}
     who = {m: np.full(len(centres), -1) for m in MEASURES}
     try:
         scenario.assign_obstacles_to_lanelets(obstacle_ids={ego_id, *others})
@@ -137,12 +155,13 @@ def criticality(sc, centres: np.ndarray, speeds: np.ndarray, length: float, widt
             pairs += [("ttc_behind", fol[0], ego_id, behind), ("thw_behind", fol[1], ego_id, behind)] if fol else []
             for name, measure, other, steps in pairs:
                 for j in steps:
-                    v = float(measure.compute(other, sc.first_step + j, verbose=False))
+                    v = _value(measure, other, sc.first_step + j, skipped)
                     if math.isfinite(v) and v < vals[name][j]:
                         vals[name][j], who[name][j] = v, oid
     except Exception as exc:  # noqa: BLE001 - what CriMe raises on a run it cannot measure, stated in the log
         out["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
         return out
+    out["skipped"] = skipped
     for m in MEASURES:
         series[m][:] = [float(v) if math.isfinite(v) else None for v in vals[m]]
         if np.isfinite(vals[m]).any():
