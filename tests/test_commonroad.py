@@ -311,3 +311,33 @@ def test_record_and_regress_a_commonroad_suite(solver_dir, tmp_path):
     (suite / "rec.xml").write_bytes(xml.read_bytes() + b"<!-- changed -->\n")
     r = CliRunner().invoke(main, ["regress", str(solver_dir), str(suite)])
     assert r.exit_code == 2 and "rec.xml" in r.output, r.output
+
+
+def test_record_and_regress_in_reactive_traffic(solver_dir, tmp_path):
+    """``record --traffic reactive``: a faster vehicle behind the ego in its lane reacts to the ego (the log names it,
+    its leader the ego) and keeps its distance; ``regress`` replays and re-runs the suite in the golden log's traffic
+    mode within the same-build tolerances."""
+    from fcgen.cli import main
+    from fcgen.suite import load_log
+
+    fast = (4, 1, 0.0, 28.0, 60, 4.5, 1.8)  # 50 m behind the ego's centre, 8 m/s faster
+    xml = write_scenario(tmp_path / "react.xml", obstacles=[STANDING, fast], goal_steps=(25, 30))
+    suite = tmp_path / "suite"
+    r = CliRunner().invoke(
+        main,
+        ["record", str(solver_dir), "-o", str(suite), "--commonroad", str(xml), "--traffic", "reactive", "--verify"],
+    )
+    assert r.exit_code == 0, r.output
+    log = load_log(next(suite.glob("cr_*.json.xz")))
+    cr = log.meta["extra"]["commonroad"]
+    assert cr["traffic"]["mode"] == "reactive"
+    assert [(rx[0], rx[3]) for rx in cr["traffic"]["reactions"]] == [(4, "ego")]
+    assert not cr["fcgen"]["collision"]
+    k = cr["obstacle_ids"].index(4)
+    recorded_s = 0.0 + 28.0 * 0.1 * np.arange(len(log.t))
+    driven_s = np.asarray(log.opp_cartesian)[:, k, 0]
+    assert np.all(driven_s <= recorded_s + 1e-9) and driven_s[-1] < recorded_s[-1] - 1.0  # it braked
+    assert cr["criticality"]["error"] == ""
+    for extra in ([], ["--mode", "closed-loop"]):
+        r = CliRunner().invoke(main, ["regress", str(solver_dir), str(suite), *extra])
+        assert r.exit_code == 0 and "PASS" in r.output, r.output
