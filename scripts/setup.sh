@@ -40,6 +40,5 @@ fi
 # are installed without their declared dependencies (they import and run with fcgen's), then what they import
 .venv/bin/python -m pip install -q --no-deps commonroad-crime==0.4.5 commonroad-clcs==2025.2.0 \
   commonroad-reach==2025.2.1 commonroad-route-planner==2025.1.0
-.venv/bin/python -m pip install -q imageio==2.38.2 Cython==3.3.1 opencv-python-headless==5.1.0.95 seaborn==0.13.2 \
-  omegaconf==2.4.0 networkx==3.6.1
+.venv/bin/python -m pip install -q imageio==2.38.2 Cython==3.3.1 opencv-python-headless==5.1.0.95 seaborn==0.13.2
 echo "setup: ready ($(.venv/bin/fcgen --version))" >&2
