@@ -256,6 +256,7 @@ def test_simulate_and_campaign_commands(straight, tmp_path):
         )
         assert r.exit_code == 0, r.output
         assert "collision: fcgen none, drivability checker none" in r.output
+        assert "traffic: recorded; criticality (minimum): TTC ahead " in r.output
         assert all((tmp_path / f).is_file() for f in ("log.json", "sol.xml", "run.png"))
         r = CliRunner().invoke(main, ["simulate", "--commonroad", str(bad), "--problem", "car_lifted_ellipse_ipm"])
         assert r.exit_code == 1 and r.output.count("\n") == 1 and "refused:" in r.output and "horizon" in r.output

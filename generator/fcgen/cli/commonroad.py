@@ -68,6 +68,7 @@ def simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, 
         + (f"; responsibility: {run.responsibility}" if run.responsibility else "")
     )
     click.echo(goal_line(log.meta["extra"]["commonroad"]))
+    click.echo(traffic_line(log.meta["extra"]["commonroad"]))
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -77,6 +78,27 @@ def simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, 
     if plot:
         plot_run(sc, run.ego_centres, plot)
         click.echo(f"plot written to {plot}")
+
+
+def traffic_line(cr: dict) -> str:
+    """One line of a run's traffic mode (the reactions) and criticality measures (the log's ``extra.commonroad``)."""
+    tr, c = cr["traffic"], cr["criticality"]
+    rx = tr["reactions"]
+    line = f"traffic: {tr['mode']}"
+    if tr["mode"] == "reactive":
+        line += f" ({len(rx)} vehicles reacted, {sum(r[3] == 'ego' for r in rx)} to the ego)"
+    if c["error"]:
+        return f"{line}; criticality: not measured ({c['error']})"
+    parts = []
+    for m in ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind"):
+        v = c[m]
+        what = (
+            "none closing in"
+            if v["min"] is None
+            else f"{v['min']:.2f} s (vehicle {v['obstacle']}, sample {v['sample']})"
+        )
+        parts.append(f"{m.replace('_', ' ').upper().replace(' AHEAD', ' ahead').replace(' BEHIND', ' behind')} {what}")
+    return f"{line}; criticality (minimum): " + ", ".join(parts)
 
 
 def _verdict(v: dict) -> str:
