@@ -55,3 +55,29 @@ def test_thw_is_the_gap_over_the_followers_speed_to_the_next_step(run):
     assert c["series"]["thw_ahead"][0] == pytest.approx(math.floor(gap_ahead / (20.0 * sc.dt) + 1) * sc.dt)
     assert c["series"]["thw_behind"][0] == pytest.approx(math.floor(gap_behind / (25.0 * sc.dt) + 1) * sc.dt)
     assert c["thw_ahead"]["obstacle"] == 1 and c["thw_behind"]["obstacle"] == 2
+
+
+def test_the_measures_do_not_depend_on_the_road_s_heading(tmp_path):
+    """The same scenario turned by 45 degrees about the origin (CriMe's headway shifts positions by half a length on
+    x and y alike: fcgen hands it the scenario turned back to the ego's heading) gives the same TTC and THW."""
+    from commonroad.common.file_reader import CommonRoadFileReader
+    from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
+
+    path = write_scenario(tmp_path / "three.xml", obstacles=[AHEAD, BEHIND, BESIDE])
+    scenario, pps = CommonRoadFileReader(str(path)).open()
+    turn = math.pi / 4
+    scenario.translate_rotate(np.zeros(2), turn)
+    pps.translate_rotate(np.zeros(2), turn)
+    CommonRoadFileWriter(scenario, pps).write_to_file(str(tmp_path / "turned.xml"), OverwriteExistingFile.ALWAYS)
+    sc = load_for(PB, tmp_path / "turned.xml")
+    j = np.arange(K + 1)
+    x, y = 50.0 + 20.0 * sc.dt * j, np.zeros(K + 1)
+    c, s = math.cos(turn), math.sin(turn)
+    centres = np.stack([c * x - s * y, s * x + c * y, np.full(K + 1, turn)], axis=1)
+    turned = criticality(sc, centres, np.full(K + 1, 20.0), CAR.l_ch, CAR.w_ch)
+    gap_ahead = 90.0 - 50.0 - (4.0 + CAR.l_ch) / 2
+    assert turned["error"] == ""
+    for j in range(K + 1):
+        assert turned["series"]["ttc_ahead"][j] == pytest.approx((gap_ahead - 0.5 * j) / 5.0, abs=0.006)
+    # THW's resolution is one step: the turned coordinates' rounding may move the crossing by one
+    assert turned["series"]["thw_ahead"][0] == pytest.approx(gap_ahead / 20.0, abs=sc.dt + 1e-9)

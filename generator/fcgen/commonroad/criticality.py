@@ -21,6 +21,13 @@ Per run (tested in tests/test_commonroad_criticality.py on a constructed two-veh
 Not an extra: ``commonroad-crime`` needs ``commonroad-clcs``, which pins ``osqp~=0.6.5`` against ``osqp==1.1.3``;
 scripts/setup.sh installs both without their declared dependencies. Where it is missing, ``error`` says so.
 
+**Along x** (``logged_scenario``): CriMe's headway in its TTC (``HW``) moves a position by half the vehicle's length
+on x and on y alike (``position + length / 2``), which is along the road only for a road along x; on the US-101
+scenarios, heading about -45 degrees, that shift is across the road and the TTC's gap is centre to centre (about
+4.7 m too long for two cars). CriMe gets the logged scenario rotated so that the ego's initial heading is along x
+(the measures do not depend on the frame otherwise; the lanelets' spatial index is rebuilt, commonroad-io's rotation
+keeps the old one); tested on the constructed scenario turned by 45 degrees.
+
 The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
 the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values; a
 value it cannot compute at one step (a vehicle outside the curvilinear frame of the follower's lanelets) is left out
@@ -52,6 +59,7 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     with require("commonroad", "the criticality measures' logged scenario"):
         from commonroad.geometry.shape import Rectangle
         from commonroad.prediction.prediction import TrajectoryPrediction
+        from commonroad.scenario.lanelet import LaneletNetwork
         from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
         from commonroad.scenario.state import CustomState, InitialState
         from commonroad.scenario.trajectory import Trajectory
@@ -76,6 +84,8 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     traj = [state(CustomState, j) for j in range(1, len(centres))]
     pred = TrajectoryPrediction(Trajectory(sc.first_step + 1, traj), shape) if traj else None
     out.add_objects(DynamicObstacle(ego_id, ObstacleType.CAR, shape, init, pred))
+    out.translate_rotate(np.zeros(2), -float(centres[0, 2]))  # the ego's initial heading along x (module docstring)
+    out.replace_lanelet_network(LaneletNetwork.create_from_lanelet_network(out.lanelet_network))  # index rebuilt
     return out, ego_id
 
 
