@@ -126,6 +126,9 @@ def run_commonroad(
     opp_cart = _obstacle_poses(sc, len(loop.xs))
     pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
     who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
+    # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
+    # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
+    crit = criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     extra = {
@@ -151,7 +154,7 @@ def run_commonroad(
             "goal": goal_status(sc, road, centres, loop.xs),
             "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
             "traffic": {"mode": "recorded", "reactions": []} if world is None else world.log(),
-            "criticality": criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch),
+            "criticality": crit,
         },
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
