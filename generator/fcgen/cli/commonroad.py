@@ -92,11 +92,7 @@ def traffic_line(cr: dict) -> str:
     parts = []
     for m in ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind"):
         v = c[m]
-        what = (
-            "none closing in"
-            if v["min"] is None
-            else f"{v['min']:.2f} s (vehicle {v['obstacle']}, sample {v['sample']})"
-        )
+        what = "none" if v["min"] is None else f"{v['min']:.2f} s (vehicle {v['obstacle']}, sample {v['sample']})"
         parts.append(f"{m.replace('_', ' ').upper().replace(' AHEAD', ' ahead').replace(' BEHIND', ' behind')} {what}")
     return f"{line}; criticality (minimum): " + ", ".join(parts)
 
