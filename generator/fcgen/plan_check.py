@@ -39,7 +39,7 @@ def a_lat_guard(
             u[0] = braking_control(problem, x0)
             return 2
     if problem.plan_check.drive_limit:
-        cap = drive_limit(abs(lateral_acceleration(x1[3], x1[4], l)), b.a_lat_max, b.F_d_max)
+        cap = drive_limit(abs(lateral_acceleration(x1[3], x1[4], l)), b.a_lat_max - b.a_lat_margin, b.F_d_max)
         if u[0] > cap:
             u[0] = cap
             status = status or 3
