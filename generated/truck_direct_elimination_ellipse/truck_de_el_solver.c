@@ -1534,7 +1534,8 @@ static void a_lat_guard(void) {
   }
   if ((DRIVE_LIMIT != 0) && (ws.status.a_lat_guard != 2)) {
     const truck_de_el_real_t *xe = (over == 0) ? x1 : x2; /* the step with the rate applied */
-    const truck_de_el_real_t cap = drive_limit(fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE)), A_LAT_MAX, U_HI[0]);
+    const truck_de_el_real_t cap =
+        drive_limit(fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE)), A_LAT_GUARD_TO, U_HI[0]);
     if (ws.u_applied[0] > cap) {
       ws.u_applied[0] = cap;
       if (ws.status.a_lat_guard == 0) {
