@@ -53,17 +53,22 @@ def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
     assert _guard(no_tyres, x1, [f_d, 0.1]) == (0, pytest.approx(np.array([f_d, 0.1])))
 
 
-def test_driving_at_the_guard_target_gets_no_drive_force():
-    """At the guard's target (4.95 m/s^2) the ellipse leaves no drive force (status 3, the rate kept); at 3 m/s^2,
-    F_d_max sqrt(1 - (3 / 4.95)^2) = 7954.2 N; braking is never cut; straight ahead the whole force."""
+def test_where_the_guard_steers_it_does_not_drive():
+    """20 m/s, the plan's step ending at 5.5 m/s^2 while driving with 5,000 N: the guard steers to 4.95 m/s^2 (d = 1:
+    no braking) and the friction ellipse leaves no drive force at its target, F_d_max sqrt(1 - (4.95 / 4.95)^2) = 0
+    (status 1); within the bound the drive force is kept (0); braking is never cut; without the drive limit the force
+    is kept where the guard steers."""
     v = 20.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, A_TO)], [5000.0, 0.02])
-    assert status == 3 and u[0] == pytest.approx(0.0, abs=1e-4) and u[1] == 0.02
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, -_delta(v, 3.0)], [9000.0, 0.0])
-    assert status == 3 and u[0] == pytest.approx(1e4 * math.sqrt(1.0 - (3.0 / A_TO) ** 2), rel=1e-12)
-    assert u[0] == pytest.approx(7954.2, abs=0.1)
-    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 3.0)], [-3000.0, 0.0])[0] == 0
-    assert _guard(SAFE, [0.0, 0.0, 0.0, v, 0.0], [1e4, 0.0]) == (0, pytest.approx(np.array([1e4, 0.0])))
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
+    assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
+    assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [5000.0, 0.1]) == (
+        0,
+        pytest.approx(np.array([5000.0, 0.1])),
+    )
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1])[1][0] == -3000.0
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False))
+    assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
 
 
 def test_profiles():

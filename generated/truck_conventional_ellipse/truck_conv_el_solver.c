@@ -2140,7 +2140,6 @@ static truck_conv_el_real_t next_a_lat(truck_conv_el_real_t x1[5]) {
  * acting or not: a fixed cost, which fcgen wcet's measured feedback tail therefore covers. */
 static void a_lat_guard(void) {
   truck_conv_el_real_t x1[5];
-  truck_conv_el_real_t x2[5];
   const truck_conv_el_real_t r_plan = ws.u_applied[1];
   int over = 0;
   int still = 0;
@@ -2153,27 +2152,23 @@ static void a_lat_guard(void) {
   }
   ws.u_applied[1] = guard_steering_rate(x1[3], x1[4], ws.x0[4], A_LAT_GUARD_TO * tyre_gain(x1[3]), L_WHEELBASE,
                                         SAMPLE_DT, U_LO[1], U_HI[1]);
-  if (next_a_lat(x2) > A_LAT_MAX) {
+  if (next_a_lat(x1) > A_LAT_MAX) {
     still = 1;
   }
   if (over == 0) {
     ws.u_applied[1] = r_plan;
   } else if (still == 0) {
     ws.status.a_lat_guard = 1;
+    if (DRIVE_LIMIT != 0) { /* a vehicle with tyres turns less than the formula says while it drives */
+      const truck_conv_el_real_t cap =
+          drive_limit(fabs(lateral_acceleration(x1[3], x1[4], L_WHEELBASE)), A_LAT_GUARD_TO, U_HI[0]);
+      if (ws.u_applied[0] > cap) {
+        ws.u_applied[0] = cap;
+      }
+    }
   } else { /* the rate bound cut it short */
     ws.u_applied[0] = braking_force(ws.x0[3], BRAKE_M_PER_DT, U_HI[0]);
     ws.status.a_lat_guard = 2;
-  }
-  if ((DRIVE_LIMIT != 0) && (ws.status.a_lat_guard != 2)) {
-    const truck_conv_el_real_t *xe = (over == 0) ? x1 : x2; /* the step with the rate applied */
-    const truck_conv_el_real_t cap =
-        drive_limit(fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE)), A_LAT_GUARD_TO, U_HI[0]);
-    if (ws.u_applied[0] > cap) {
-      ws.u_applied[0] = cap;
-      if (ws.status.a_lat_guard == 0) {
-        ws.status.a_lat_guard = 3;
-      }
-    }
   }
 }
 

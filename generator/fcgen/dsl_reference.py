@@ -69,8 +69,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("PlanCheck", "drive_limit"): (
         "-",
         "True or False",
-        "the a_lat guard also keeps a positive drive force within a friction ellipse with the next sample's lateral "
-        "acceleration (F_d_max sqrt(1 - (a_lat / a_lat_max)^2))",
+        "where the a_lat guard sets the steering rate, it also keeps a positive drive force within a friction ellipse "
+        "with the next sample's lateral acceleration (F_d_max sqrt(1 - (a_lat / (a_lat_max - a_lat_margin))^2))",
     ),
     ("Ellipse", "shape"): (
         "-",

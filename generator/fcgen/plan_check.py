@@ -21,29 +21,28 @@ def a_lat_guard(
     """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in tyre-aware |a_lat|
     (``tyre_a_lat``), the steering rate that ends at ``a_lat_max - a_lat_margin`` in it (status 1; with wind the speed,
     and so the end, moves a little with the rate: the margin covers it), and where the step with that rate still ends
-    above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); then, with
-    ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end cut to it (3 where
-    nothing else acted); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
+    above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); where the rate
+    sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
+    to it (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
     plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs both
     steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control and
     status)."""
     if not problem.plan_check.a_lat_guard:
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
-    x1, status = plant_step(), 0
-    if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
-        d = tyre_gain(problem, x1[3], u[0])
-        u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
-        x1, status = plant_step(), 1
-        if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
-            u[0] = braking_control(problem, x0)
-            return 2
-    if problem.plan_check.drive_limit:
-        cap = drive_limit(abs(lateral_acceleration(x1[3], x1[4], l)), b.a_lat_max - b.a_lat_margin, b.F_d_max)
-        if u[0] > cap:
-            u[0] = cap
-            status = status or 3
-    return status
+    x1 = plant_step()
+    if tyre_a_lat(problem, x1, u[0]) <= b.a_lat_max:
+        return 0
+    d = tyre_gain(problem, x1[3], u[0])
+    u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
+    x1 = plant_step()
+    if tyre_a_lat(problem, x1, u[0]) <= b.a_lat_max:
+        if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
+            cap = drive_limit(abs(lateral_acceleration(x1[3], x1[4], l)), b.a_lat_max - b.a_lat_margin, b.F_d_max)
+            u[0] = min(u[0], cap)
+        return 1
+    u[0] = braking_control(problem, x0)
+    return 2
 
 
 def tyre_gain(problem: Problem, v: float, f_d: float) -> float:
