@@ -21,6 +21,7 @@ from fcgen.reactions import (
     guard_steering_rate,
     lateral_acceleration,
     load_transfer_gain,
+    understeer_drive_limit,
 )
 
 SOLVER = Path(__file__).resolve().parents[1] / "generated" / "truck_lifted_ellipse" / "truck_lift_el_solver.c"
@@ -98,6 +99,18 @@ DRIVE = [
     (6.0, 5.0, 1e4, 0.0),  # beyond it: none either (not a NaN)
 ]
 
+# (a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected): m slack g^2 l_f l_r / (k l h v^2 (a_lat - slack)), by hand:
+# with k = 0.05, l_f = l_r = h = 1, slack 0.5, a_lat 1.5, v = 10, m = 1: 0.5 * 96.2361 / (0.1 * 100) = 4.811805
+UNDER = [
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 4.811805),
+    (2.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 4.811805 / 2),  # twice the excess: half the force
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1000.0, 4811.805),  # per kg
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 4000.0, 1000.0, 4000.0),  # at most f_max
+    (0.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # within the slack: no limit
+    (1.5, 0.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # standing
+    (1.5, 10.0, 0.0, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # no tyres
+]
+
 
 @pytest.mark.parametrize("v0, dt, expected", BRAKE)
 def test_braking_force_by_hand(v0, dt, expected):
@@ -124,6 +137,21 @@ def test_load_transfer_gain_by_hand(v, a_x, k, l_f, l_r, h, expected):
 @pytest.mark.parametrize("a_lat, a_max, f_max, expected", DRIVE)
 def test_drive_limit_by_hand(a_lat, a_max, f_max, expected):
     assert drive_limit(a_lat, a_max, f_max) == pytest.approx(expected, rel=1e-15, abs=0.0)
+
+
+@pytest.mark.parametrize("a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected", UNDER)
+def test_understeer_drive_limit_by_hand(a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected):
+    assert understeer_drive_limit(a_lat, v, k, l_f, l_r, h, slack, f_max, m) == pytest.approx(expected, rel=1e-6)
+
+
+def test_understeer_drive_limit_keeps_the_deficit_near_its_slack():
+    """A second method: at the limit's drive force, the single-track model's exact yaw divisor (unclamped K, not the
+    linearization) turns the car within 10 % of ``slack`` less than the formula (fcgen's car at 15 m/s, 4.95 m/s^2)."""
+    g, c, l_f, l_r, h, m, v, a, slack = 9.81, 21.92, 1.7, 1.7, 0.614, 1160.0, 15.0, 4.95, 0.25
+    k = 1.0 / ((l_f + l_r) * c)
+    a_x = understeer_drive_limit(a, v, k, l_f, l_r, h, slack, 1e6, m) / m
+    d = 1.0 + k * (l_r / (g * l_r - a_x * h) - l_f / (g * l_f + a_x * h)) * v * v
+    assert a * (1.0 - 1.0 / d) == pytest.approx(slack, rel=0.1)
 
 
 def test_load_transfer_gain_is_the_single_track_yaw_gain():
@@ -167,6 +195,7 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
     calls += [f"lateral_acceleration({v!r}, {delta!r}, {l!r})" for v, delta, l, _ in A_LAT]
     calls += [f"load_transfer_gain({', '.join(map(repr, case[:-1]))})" for case in LOAD]
     calls += [f"drive_limit({', '.join(map(repr, case[:-1]))})" for case in DRIVE]
+    calls += [f"understeer_drive_limit({', '.join(map(repr, case[:-1]))})" for case in UNDER]
     calls = [c.replace("nan", "NAN") for c in calls]
     body = "\n".join(f"  put({c});" for c in calls)
     test_c = tmp_path / "reactions_test.c"
@@ -180,6 +209,7 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
 {_c_function(src, "braking_force")}
 {_c_function(src, "load_transfer_gain")}
 {_c_function(src, "drive_limit")}
+{_c_function(src, "understeer_drive_limit")}
 {_c_function(src, "lateral_acceleration")}
 {_c_function(src, "guard_steering_rate")}
 static void put(double x) {{
@@ -219,6 +249,7 @@ int main(void) {{
     want += [lateral_acceleration(v, delta, l) for v, delta, l, _ in A_LAT]
     want += [load_transfer_gain(*case[:-1]) for case in LOAD]
     want += [drive_limit(*case[:-1]) for case in DRIVE]
+    want += [understeer_drive_limit(*case[:-1]) for case in UNDER]
     assert len(got) == len(want) == len(calls)
     for call, g, w in zip(calls, got, want):
         assert g == _bits(w), f"{call}: C {g}, Python {_bits(w)} ({w!r})"

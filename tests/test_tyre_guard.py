@@ -56,19 +56,31 @@ def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
 def test_where_the_guard_steers_it_does_not_drive():
     """20 m/s, the plan's step ending at 5.5 m/s^2 while driving with 5,000 N: the guard steers to 4.95 m/s^2 (d = 1:
     no braking) and the friction ellipse leaves no drive force at its target, F_d_max sqrt(1 - (4.95 / 4.95)^2) = 0
-    (status 1); within the bound the drive force is kept (0); braking is never cut; without the drive limit the force
-    is kept where the guard steers."""
+    (status 1); braking is never cut; without the drive limit the force is kept where the guard steers."""
     v = 20.0
     status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
     assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
     assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
-    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [5000.0, 0.1]) == (
-        0,
-        pytest.approx(np.array([5000.0, 0.1])),
-    )
     assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1])[1][0] == -3000.0
     free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False))
     assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
+
+
+def test_within_the_bound_the_drive_force_keeps_the_understeer_within_its_slack():
+    """20 m/s at the formula's 4.9 m/s^2 (the guard does not steer): driving with 5,000 N would make the tyres turn
+    0.25 m/s^2 less at m 0.25 g^2 l_f l_r / (k l h v^2 (4.9 - 0.25)) = 290 * 96.2361 * 2.89 / (0.02801 * 400 * 4.65)
+    = 1,548 N (k = 1 / (3.4 * 21.92)): cut to it, status 3; 1,000 N is kept (0), braking too (the guard steers:
+    the tyres turn more); straight ahead the whole force."""
+    v = 20.0
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [5000.0, 0.1])
+    k = 1.0 / (L * 21.92)
+    assert status == 3 and u[1] == 0.1
+    assert u[0] == pytest.approx(1160.0 * 0.25 * 9.81**2 * 1.7 * 1.7 / (k * L * 0.614 * v * v * (4.9 - 0.25)), rel=1e-9)
+    assert u[0] == pytest.approx(1548.0, abs=1.0)
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [1000.0, 0.1]) == (0, pytest.approx(np.array([1e3, 0.1])))
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [-3000.0, 0.1])  # braking: the tyres turn more
+    assert status == 1 and u[0] == -3000.0
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, 0.0], [1e4, 0.0]) == (0, pytest.approx(np.array([1e4, 0.0])))
 
 
 def test_profiles():

@@ -32,6 +32,7 @@
 #define TYRE_GAIN_MIN ((truck_lift_el_ipm_real_t)0.1) /* fcgen.reactions.GAIN_MIN */
 #define TYRE_ONE ((truck_lift_el_ipm_real_t)1.0) /* its largest value */
 #define EGO_M ((truck_lift_el_ipm_real_t)1160.0) /* the ego's mass: a_x = F_d / m */
+#define DRIVE_SLACK ((truck_lift_el_ipm_real_t)0.25) /* fcgen.reactions.DRIVE_SLACK */
 #define DRIVE_LIMIT 0 /* PlanCheck.drive_limit: the a_lat guard's friction ellipse on the drive force */
 #define BRAKE_M_PER_DT ((truck_lift_el_ipm_real_t)11600.0) /* m / dt of the braking control (braking_force) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
@@ -6021,6 +6022,21 @@ static truck_lift_el_ipm_real_t drive_limit(truck_lift_el_ipm_real_t a_lat, truc
   return f_max * sqrt((q > REAL_0) ? q : REAL_0);
 }
 
+/* The drive force at which the tyres turn at most slack less than the formula's a_lat (fcgen.reactions.
+ * understeer_drive_limit: the same operations). */
+static truck_lift_el_ipm_real_t understeer_drive_limit(truck_lift_el_ipm_real_t a_lat, truck_lift_el_ipm_real_t v, truck_lift_el_ipm_real_t k,
+                                               truck_lift_el_ipm_real_t l_f, truck_lift_el_ipm_real_t l_r, truck_lift_el_ipm_real_t h,
+                                               truck_lift_el_ipm_real_t slack, truck_lift_el_ipm_real_t f_max, truck_lift_el_ipm_real_t m) {
+  const truck_lift_el_ipm_real_t e = a_lat - slack;
+  const truck_lift_el_ipm_real_t q = k * (l_f + l_r) * h * v * v * e;
+  truck_lift_el_ipm_real_t f;
+  if ((e <= REAL_0) || (q <= REAL_0)) {
+    return f_max;
+  }
+  f = m * slack * TYRE_G * TYRE_G * l_f * l_r / q;
+  return (f < f_max) ? f : f_max;
+}
+
 /* The a_lat guard's steering rate (fcgen.reactions.guard_steering_rate: the same operations): from delta0, in one
  * sample time dt, to the steering angle at which speed v on wheelbase l gives |a_lat| = a_to, on delta's side; within
  * [lo, hi]; 0 (within [lo, hi]) for v = 0 (standing: |a_lat| is 0, the rate is not used). */
@@ -6052,6 +6068,7 @@ static truck_lift_el_ipm_real_t next_a_lat(truck_lift_el_ipm_real_t x1[5]) {
  * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. Both plant steps run on every path,
  * acting or not: a fixed cost, which fcgen wcet's measured feedback tail therefore covers. */
 static void a_lat_guard(void) {
+  truck_lift_el_ipm_real_t xa[5]; /* the step with the plan's rate */
   truck_lift_el_ipm_real_t x1[5];
   const truck_lift_el_ipm_real_t r_plan = ws.u_applied[1];
   int over = 0;
@@ -6060,10 +6077,10 @@ static void a_lat_guard(void) {
   if (TRUCK_LIFT_EL_IPM_A_LAT_GUARD == 0) {
     return;
   }
-  if (next_a_lat(x1) > A_LAT_MAX) {
+  if (next_a_lat(xa) > A_LAT_MAX) {
     over = 1;
   }
-  ws.u_applied[1] = guard_steering_rate(x1[3], x1[4], ws.x0[4], A_LAT_GUARD_TO * tyre_gain(x1[3]), L_WHEELBASE,
+  ws.u_applied[1] = guard_steering_rate(xa[3], xa[4], ws.x0[4], A_LAT_GUARD_TO * tyre_gain(xa[3]), L_WHEELBASE,
                                         SAMPLE_DT, U_LO[1], U_HI[1]);
   if (next_a_lat(x1) > A_LAT_MAX) {
     still = 1;
@@ -6072,16 +6089,22 @@ static void a_lat_guard(void) {
     ws.u_applied[1] = r_plan;
   } else if (still == 0) {
     ws.status.a_lat_guard = 1;
-    if (DRIVE_LIMIT != 0) { /* a vehicle with tyres turns less than the formula says while it drives */
-      const truck_lift_el_ipm_real_t cap =
-          drive_limit(fabs(lateral_acceleration(x1[3], x1[4], L_WHEELBASE)), A_LAT_GUARD_TO, U_HI[0]);
-      if (ws.u_applied[0] > cap) {
-        ws.u_applied[0] = cap;
-      }
-    }
   } else { /* the rate bound cut it short */
     ws.u_applied[0] = braking_force(ws.x0[3], BRAKE_M_PER_DT, U_HI[0]);
     ws.status.a_lat_guard = 2;
+  }
+  if ((DRIVE_LIMIT != 0) && (ws.status.a_lat_guard != 2)) { /* tyres turn less than the formula while driving */
+    const truck_lift_el_ipm_real_t *xe = (over == 0) ? xa : x1; /* the step with the rate applied */
+    const truck_lift_el_ipm_real_t a = fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE));
+    const truck_lift_el_ipm_real_t cap =
+        (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
+                    : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
+    if (ws.u_applied[0] > cap) {
+      ws.u_applied[0] = cap;
+      if (ws.status.a_lat_guard == 0) {
+        ws.status.a_lat_guard = 3;
+      }
+    }
   }
 }
 

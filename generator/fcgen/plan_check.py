@@ -12,7 +12,15 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from .dsl import Problem
-from .reactions import braking_force, drive_limit, guard_steering_rate, lateral_acceleration, load_transfer_gain
+from .reactions import (
+    DRIVE_SLACK,
+    braking_force,
+    drive_limit,
+    guard_steering_rate,
+    lateral_acceleration,
+    load_transfer_gain,
+    understeer_drive_limit,
+)
 
 
 def a_lat_guard(
@@ -30,19 +38,29 @@ def a_lat_guard(
     if not problem.plan_check.a_lat_guard:
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
-    x1 = plant_step()
-    if tyre_a_lat(problem, x1, u[0]) <= b.a_lat_max:
-        return 0
-    d = tyre_gain(problem, x1[3], u[0])
-    u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
-    x1 = plant_step()
-    if tyre_a_lat(problem, x1, u[0]) <= b.a_lat_max:
-        if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
-            cap = drive_limit(abs(lateral_acceleration(x1[3], x1[4], l)), b.a_lat_max - b.a_lat_margin, b.F_d_max)
-            u[0] = min(u[0], cap)
-        return 1
-    u[0] = braking_control(problem, x0)
-    return 2
+    x1, status = plant_step(), 0
+    if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
+        d = tyre_gain(problem, x1[3], u[0])
+        u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
+        x1, status = plant_step(), 1
+        if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
+            u[0] = braking_control(problem, x0)
+            return 2
+    if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
+        a = abs(lateral_acceleration(x1[3], x1[4], l))
+        cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
+        if u[0] > cap:
+            u[0] = cap
+            status = status or 3
+    return status
+
+
+def understeer_cap(problem: Problem, x: Sequence[float], a: float) -> float:
+    """``reactions.understeer_drive_limit`` at state x with the formula's |a_lat| ``a`` and the problem's tyres."""
+    pc, e = problem.plan_check, problem.ego
+    return understeer_drive_limit(
+        a, x[3], tyre_k(problem), e.l_f, e.l_r, pc.h_cg, DRIVE_SLACK, problem.bounds.F_d_max, e.m
+    )
 
 
 def tyre_gain(problem: Problem, v: float, f_d: float) -> float:

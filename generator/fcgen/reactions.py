@@ -59,8 +59,25 @@ def drive_limit(a_lat: float, a_max: float, f_max: float) -> float:
     return f_max * math.sqrt(q if q > 0.0 else 0.0)
 
 
+def understeer_drive_limit(
+    a_lat: float, v: float, k: float, l_f: float, l_r: float, h: float, slack: float, f_max: float, m: float
+) -> float:
+    """The drive force at which the tyres turn at most ``slack`` less than the formula's ``a_lat`` at speed ``v``
+    (``load_transfer_gain``'s model, linearized in ``a_x``: ``K = k h a_x l / (g^2 l_f l_r)``, and ``a_lat (1 - 1/d)
+    <= slack``: ``a_x <= slack g^2 l_f l_r / (k l h v^2 (a_lat - slack))``), at most ``f_max``; ``f_max`` where
+    ``|a_lat| <= slack``, at standstill or without tyres (``k h = 0``)."""
+    e = a_lat - slack
+    q = k * (l_f + l_r) * h * v * v * e
+    if e <= 0.0 or q <= 0.0:
+        return f_max
+    f = m * slack * G * G * l_f * l_r / q
+    return f if f < f_max else f_max
+
+
 G = 9.81
 """Gravity (m/s^2) of the load transfer (CommonRoad's single-track model's)."""
+DRIVE_SLACK = 0.25
+"""m/s^2 the tyres may turn less than the formula says while the vehicle drives (``understeer_drive_limit``)."""
 GAIN_MIN = 0.1
 """The smallest divisor ``load_transfer_gain`` gives: beyond the critical speed the guard takes the tyre-aware a_lat as
 10 times the formula's (it then steers towards straight ahead)."""

@@ -439,6 +439,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "tyre_gain_min": c_real(reactions.GAIN_MIN),
         "ego_m": c_real(problem.ego.m),
         "drive_limit": int(problem.plan_check.drive_limit),
+        "drive_slack": c_real(reactions.DRIVE_SLACK),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }
