@@ -69,8 +69,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("PlanCheck", "drive_limit"): (
         "-",
         "True or False",
-        "where the a_lat guard sets the steering rate, it also keeps a positive drive force within a friction ellipse "
-        "with the next sample's lateral acceleration (F_d_max sqrt(1 - (a_lat / (a_lat_max - a_lat_margin))^2))",
+        "the a_lat guard also limits a positive drive force: where it steers, to a friction ellipse with the next "
+        "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula",
     ),
     ("Ellipse", "shape"): (
         "-",

@@ -30,9 +30,11 @@ class PlanCheck:
     of a single-track model with those tyres under the control's braking (``reactions.load_transfer_gain``: braking
     moves load onto the front axle and the vehicle turns more than the kinematic formula says; never less). The
     defaults are CommonRoad's BMW 320i's (docs/plants.md "The tyre-aware guard"); ``tyre_stiffness = 0``: the formula.
-    ``drive_limit``: where the guard sets the steering rate, it also keeps a positive drive force within a friction
-    ellipse with the lateral acceleration at the step's end (``reactions.drive_limit``; none at the guard's target):
-    driving makes a vehicle with tyres turn less than the formula says, out of the bend.
+    ``drive_limit``: driving makes a vehicle with tyres turn less than the formula says, out of the bend; the guard
+    then also limits a positive drive force: where it sets the steering rate, to a friction ellipse with the step's
+    lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
+    ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
+    where only that acted).
     """
 
     react_stages: int = 500
