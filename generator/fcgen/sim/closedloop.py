@@ -154,6 +154,22 @@ class ReferenceController:
             return exc.exit_code
         return 0
 
+    def set_reference_stages(self, v_ref, n_ref) -> int:
+        """The reference per node (N+1 values each; ``fcgen.stage_inputs``); returns the exit code (as the C's)."""
+        return self._code(self.solver.set_reference_stages, v_ref, n_ref)
+
+    def set_obstacle_margins(self, margins) -> int:
+        """The obstacle margin per stage (N+1 values, >= 0); returns the exit code (as the C's)."""
+        return self._code(self.solver.set_obstacle_margins, margins)
+
+    @staticmethod
+    def _code(call, *args) -> int:
+        try:
+            call(*args)
+        except SolverError as exc:
+            return exc.exit_code
+        return 0
+
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.solver.states(), self.solver.controls()
