@@ -435,7 +435,7 @@ def run_closed_loop(
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, results = model_plant.road_stepper(road), []
-    horizon = opponent_horizon(problem, sc, spec, opp_params)  # the truth, or its prediction (sim.prediction)
+    horizon = opponent_horizon(problem, sc, spec, opp_params, controller)  # the truth, or its prediction
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
     pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
     if pert is not None:  # another plant or perturbations: that loop instead of this one
