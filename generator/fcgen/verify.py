@@ -185,6 +185,11 @@ class _Lockstep:
     def _upd(self, key: str, diff: float) -> None:
         self.checks[key].update(diff, self.j)
 
+    def set_obstacle_margins(self, margins) -> int:
+        """Both solvers' margins (the prediction's, ``sim.prediction.MARGIN_RULE``); the C's exit code."""
+        self.ref.set_obstacle_margins(margins)
+        return self.cs.set_obstacle_margins(margins)
+
     def step(self, x0: np.ndarray, road, opp: np.ndarray) -> StepResult:
         sv, cs = self.ref, self.cs
         # both controllers' own phases, so the call order is the one the closed loop uses

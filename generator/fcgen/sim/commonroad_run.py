@@ -5,8 +5,9 @@ CommonRoad drivability checker.
 Per sample ``j`` (scenario time step ``sc.first_step + j``): the ``NOPP`` most relevant obstacles
 (``commonroad.select_opponents``) fill the solver's opponent slots with their predicted centre poses over the horizon
 and their shapes (``set_opponent_shapes`` when a slot's occupant changes); the road window and its band go to the
-solver as in the paper's loop; the plant is the same kinematic model. The reference is ``set_reference(v_ref, 0)``:
-the scenario's speed and the reference path's lane centre.
+solver as in the paper's loop; the plant is the same kinematic model. The reference is ``set_reference(v_ref,
+n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), per stage during a planned lane change
+(``set_reference_stages``).
 
 The solver's lateral bound is on the ego's reference point (its rear axle), so it gets the drivable band shrunk by
 half the ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners):
