@@ -296,7 +296,7 @@ def curve_reference(
     road: Road,
     s0: float,
     times: Sequence[float],
-    v_set: float | Sequence[float],
+    v_set: float | Sequence[float] | np.ndarray,
     a_lat: float,
     decel: float,
     v_max: float,
