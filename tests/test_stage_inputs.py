@@ -255,3 +255,19 @@ def test_bad_per_stage_values_are_refused_and_change_nothing(c_solvers):
     # the reference after its refused calls: the same QP as the C's
     sv.prepare()
     np.testing.assert_array_equal(got["q"], sv.q)
+
+
+def test_values_at_the_edges_of_their_ranges_are_accepted(c_solvers):
+    """v_ref 0 and 100 m/s, n_ref at Bounds.n_min and n_max, margins 0 and 10 m (alternating over the stages): OK in C
+    and Python, and the status says OK."""
+    pb = SAFE_EL
+    cs, sv = c_solvers[pb.name], RtiSolver(build_ocp(pb))
+    k = np.arange(pb.horizon.N + 1) % 2
+    v = np.where(k, INPUT_RANGES.v_ref_max, 0.0)
+    n = np.where(k, pb.bounds.n_max, pb.bounds.n_min)
+    m = np.where(k, INPUT_RANGES.margin_max, 0.0)
+    assert cs.init() == 0 and cs.set_reference_stages(v, n) == 0 and cs.set_obstacle_margins(m) == 0
+    assert cs.status().exit_code == 0
+    sv.set_reference_stages(v, n)
+    sv.set_obstacle_margins(m)
+    assert sv.status.exit_code == 0
