@@ -44,9 +44,14 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     "model+cv+pm1": (PlantSpec(prediction="constant-velocity", prediction_margin=1.0), 0),
     "model+ca": (PlantSpec(prediction="constant-acceleration"), 0),
     "model+ca+pm1": (PlantSpec(prediction="constant-acceleration", prediction_margin=1.0), 0),
+    "model+cv+pm3": (PlantSpec(prediction="constant-velocity", prediction_margin=3.0), 0),
     "worst+cv": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity"), 1),
     "worst+cv+pm1": (
         PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity", prediction_margin=1.0),
+        1,
+    ),
+    "worst+cv+pm3": (
+        PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity", prediction_margin=3.0),
         1,
     ),
 }
