@@ -127,7 +127,11 @@ enum {
 /* The a_lat guard (1: on): where the plant's step from x0 with the control to apply would end above a_lat_max =
  * 5.0 m/s^2 in |a_lat|, get_u0's steering rate is the one that ends at a_lat_max - a_lat_margin
  * (status.a_lat_guard = 1); where the step with that rate still ends above a_lat_max (the rate bound cut it short),
- * the solver also brakes as the plan check does (2). The plan is not changed. */
+ * the solver also brakes as the plan check does (2). |a_lat| is the formula's over a single-track yaw gain under the
+ * control's braking (PlanCheck.tyre_stiffness, h_cg; the formula's where 0). With PlanCheck.drive_limit a positive
+ * drive force is limited too: where the guard sets the steering rate to F_d_max sqrt(1 - (a_lat / a_to)^2) at the
+ * step's end (a_to = a_lat_max - a_lat_margin), elsewhere to where the tyres turn at most DRIVE_SLACK less than the
+ * formula (3 where only that acted). The plan is not changed. */
 #define TRUCK_LIFT_EL_IPM_A_LAT_GUARD 0
 
 /* The sample of node k = 0..N, counted from the current one: set_opponents' stage k is the opponents' pose that many
@@ -154,7 +158,8 @@ typedef struct {
   int cold_restarts;  /* prepares that cold-started after TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER unusable QPs in a row */
   int plan_clearance_stage; /* the stage of plan_clearance (-1: no opponent) */
   int plan_reaction;  /* 1: the plan check braked: get_u0 is the braking control (see Plan check) */
-  int a_lat_guard;    /* 1: the a_lat guard set get_u0's steering rate, 2: it braked too (see TRUCK_LIFT_EL_IPM_A_LAT_GUARD) */
+  int a_lat_guard;    /* 1: the a_lat guard set get_u0's steering rate, 2: it braked too, 3: it limited the drive force
+                         only (see TRUCK_LIFT_EL_IPM_A_LAT_GUARD) */
   truck_lift_el_ipm_real_t u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   truck_lift_el_ipm_real_t plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
   uint32_t ticks_prepare;  /* duration of the last prepare that prepared */

@@ -17,13 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, reactions
 from .. import obstacles as obs
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
 from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
+from ..plan_check import tyre_k
 from ..qp import QpLayout, build_layout
 from ..reference import (
     COLD_RESTART_NOTE,
@@ -434,6 +435,15 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "wheelbase": c_real(problem.ego.l),
         "a_lat_max": c_real(problem.bounds.a_lat_max),
         "a_lat_guard_to": c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
+        "tyre_k": c_real(tyre_k(problem)),
+        "tyre_l_f": c_real(problem.ego.l_f),
+        "tyre_l_r": c_real(problem.ego.l_r),
+        "tyre_h_cg": c_real(problem.plan_check.h_cg),
+        "tyre_g": c_real(reactions.G),
+        "tyre_gain_min": c_real(reactions.GAIN_MIN),
+        "ego_m": c_real(problem.ego.m),
+        "drive_limit": int(problem.plan_check.drive_limit),
+        "drive_slack": c_real(reactions.DRIVE_SLACK),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }
