@@ -58,6 +58,7 @@
 #define SHAPE_MIN ((truck_de_el_real_t)0.1)
 #define SHAPE_MAX ((truck_de_el_real_t)100.0)
 #define V_REF_MAX ((truck_de_el_real_t)100.0)
+#define MARGIN_MAX ((truck_de_el_real_t)10.0)
 #define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 42 /* cycles of the permutation A_SRC */
@@ -1168,8 +1169,9 @@ typedef struct {
   clock_fn_t clock;
   int road_n;
   int road_set;
-  truck_de_el_real_t ref_v;
-  truck_de_el_real_t ref_n;
+  truck_de_el_real_t ref_v[TRUCK_DE_EL_N + 1];
+  truck_de_el_real_t ref_n[TRUCK_DE_EL_N + 1];
+  truck_de_el_real_t margin[TRUCK_DE_EL_N + 1];
   int road_band;
   int opp_shape_set;
   int ref_set;
@@ -1334,8 +1336,9 @@ static const truck_de_el_real_t *opp_shapes(void) { return (ws.opp_shape_set != 
 
 /* The opponents' part of stage k's parameters into dst (per opponent its pose at stage k, then its shape). */
 static void stage_opponents(truck_de_el_real_t *dst, int k) {
-  int i;
   int j;
+  const truck_de_el_real_t m = ws.margin[k];
+  int i;
   const truck_de_el_real_t *shape = opp_shapes();
   for (j = 0; j < TRUCK_DE_EL_NOPP; ++j) {
     for (i = 0; i < TRUCK_DE_EL_NOPP_PAR; ++i) {
@@ -1345,14 +1348,31 @@ static void stage_opponents(truck_de_el_real_t *dst, int k) {
       dst[(j * TRUCK_DE_EL_NOPP_STAGE) + TRUCK_DE_EL_NOPP_PAR + i] = shape[(j * TRUCK_DE_EL_NOPP_SHAPE) + i];
     }
   }
+  for (j = 0; (m != REAL_0) && (j < TRUCK_DE_EL_NOPP); ++j) { /* the margin grows the shape (fcgen.stage_inputs) */
+    dst[(j * TRUCK_DE_EL_NOPP_STAGE) + 3] += (truck_de_el_real_t)2.0 * m;
+    dst[(j * TRUCK_DE_EL_NOPP_STAGE) + 4] += (truck_de_el_real_t)2.0 * m;
+  }
+}
+
+/* Node k's s_ref of a per-stage reference (fcgen.stage_inputs.reference_s): s_(k-1) + (t_k - t_(k-1)) v_ref,(k-1). */
+static truck_de_el_real_t ref_s(int k) {
+  truck_de_el_real_t s = ws.s0_guess;
+  truck_de_el_real_t t_prev = REAL_0;
+  int i;
+  for (i = 1; i <= k; ++i) {
+    const truck_de_el_real_t t = ((truck_de_el_real_t)i * DT);
+    s = s + ((t - t_prev) * ws.ref_v[i - 1]);
+    t_prev = t;
+  }
+  return s;
 }
 
 /* p_k's parts after the road window: x_ref_k, the opponents of stage k (and the stage's interval). */
 static void stage_rest(truck_de_el_real_t *p, int k) {
-  if (ws.ref_set != 0) { /* set_reference */
-    p[P_REF] = ws.s0_guess + (((truck_de_el_real_t)k * DT) * ws.ref_v);
-    p[P_REF + 1] = ws.ref_n;
-    p[P_REF + 3] = ws.ref_v;
+  if (ws.ref_set != 0) { /* set_reference (1: one speed for every node), set_reference_stages (2) */
+    p[P_REF] = (ws.ref_set == 2) ? ref_s(k) : (ws.s0_guess + (((truck_de_el_real_t)k * DT) * ws.ref_v[k]));
+    p[P_REF + 1] = ws.ref_n[k];
+    p[P_REF + 3] = ws.ref_v[k];
   } else {
     p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
     p[P_REF + 1] = N_REF;
@@ -1662,10 +1682,35 @@ int truck_de_el_set_road_bounds(const truck_de_el_real_t *n_min, const truck_de_
 }
 
 int truck_de_el_set_reference(truck_de_el_real_t v_ref, truck_de_el_real_t n_ref) {
+  int k;
   if (!within(v_ref, REAL_0, V_REF_MAX) || !within(n_ref, N_MIN, N_MAX)) return fail(TRUCK_DE_EL_ERR_REFERENCE);
-  ws.ref_v = v_ref;
-  ws.ref_n = n_ref;
+  for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
+    ws.ref_v[k] = v_ref;
+    ws.ref_n[k] = n_ref;
+  }
   ws.ref_set = 1;
+  return ok();
+}
+
+int truck_de_el_set_reference_stages(const truck_de_el_real_t *v_ref, const truck_de_el_real_t *n_ref) {
+  int k;
+  if ((v_ref == NULL) || (n_ref == NULL)) return fail(TRUCK_DE_EL_ERR_NULL_POINTER);
+  for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
+    if (!within(v_ref[k], REAL_0, V_REF_MAX) || !within(n_ref[k], N_MIN, N_MAX)) return fail(TRUCK_DE_EL_ERR_REFERENCE);
+  }
+  copy(v_ref, ws.ref_v, TRUCK_DE_EL_N + 1);
+  copy(n_ref, ws.ref_n, TRUCK_DE_EL_N + 1);
+  ws.ref_set = 2;
+  return ok();
+}
+
+int truck_de_el_set_obstacle_margins(const truck_de_el_real_t *margins) {
+  int k;
+  if (margins == NULL) return fail(TRUCK_DE_EL_ERR_NULL_POINTER);
+  for (k = 0; k <= TRUCK_DE_EL_N; ++k) {
+    if (!within(margins[k], REAL_0, MARGIN_MAX)) return fail(TRUCK_DE_EL_ERR_MARGIN);
+  }
+  copy(margins, ws.margin, TRUCK_DE_EL_N + 1);
   return ok();
 }
 

@@ -36,6 +36,7 @@ from ..reference import (
     input_box,
     warm_max_iter,
 )
+from ..stage_inputs import margin_meaning, margin_terms
 from ..targets import README_BEGIN, README_END, cross_targets
 from .folder import staged, write_if_changed
 from .misra import MISRA_DEVIATIONS
@@ -419,6 +420,9 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "stage_offsets": c_macro_list(problem.horizon.offsets),
         # node k's time in set_reference's s_ref,k: k DT on a uniform grid (the same rounding as k * interval)
         "ref_time": f"(({name}_real_t)k * DT)" if ocp.p_dt is None else "STAGES[k].t",
+        "ref_time_i": f"(({name}_real_t)i * DT)" if ocp.p_dt is None else "STAGES[i].t",
+        "margin_terms": [(i, c_real(f)) for i, f in margin_terms(ocp)],
+        "margin_doc": margin_meaning(ocp),
         "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
         "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
         "max_iter": warm_max_iter(problem.qp),
