@@ -10,6 +10,7 @@ import shutil
 import subprocess
 from pathlib import Path
 from typing import NamedTuple
+from unittest.mock import patch
 
 from fcgen.build import build, run_make
 from fcgen.codegen.generate import generate
@@ -58,15 +59,20 @@ def defines(folder: Path) -> str:
     )
 
 
-def build_fuzzer(key: str, out: Path, libfuzzer: bool = False) -> Path:
-    """Generate the solver of SOLVERS[key] into out/solver, build it with the sanitizers and the driver against it."""
+def build_fuzzer(key: str, out: Path, libfuzzer: bool = False, qp_lib_sanitized: bool = True) -> Path:
+    """Generate the solver of SOLVERS[key] into out/solver, build it with the sanitizers and the driver against it.
+
+    ``qp_lib_sanitized=False``: OSQP's own library (third-party, the ADMM iterations: most of a feedback's time) is
+    built without the sanitizers; the solver, its tables and the driver keep them (the long run's OSQP solver)."""
     fz = SOLVERS[key]
     out = out.resolve()  # make runs in FUZZ_DIR
     folder = out / "solver"
     if not (folder / "problem.py").exists():
         generate(preset(fz.preset).with_(delay=fz.delay), folder, use_float=fz.use_float)
     flags = LIBFUZZER if libfuzzer else SANITIZE
-    build(folder, cc=CC, cflags=flags)
+    plain = {} if qp_lib_sanitized else {"OSQP_OPTFLAGS": "-O3 -fno-sanitize=" + flags.split()[0].split("=")[1]}
+    with patch.dict(os.environ, plain):  # the solver's Makefile takes OSQP_OPTFLAGS from the environment
+        build(folder, cc=CC, cflags=flags)
     target = "fuzz_contract_libfuzzer" if libfuzzer else "fuzz_contract"
     run_make(
         FUZZ_DIR,
