@@ -35,13 +35,28 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     "st+lat2+comp2": (PlantSpec(kind="st", latency=2), 2),
     "st+noise": (PlantSpec(kind="st", noise=DEFAULT_NOISE), 0),
     "st+lat1+comp1+noise+lag0.1": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
-    # the latency alone, on fcgen's own plant
+    # the latency alone, on fcgen's own plant (these and the predictions below: with --only)
     "model+lat1": (PlantSpec(latency=1), 0),
     "model+lat2": (PlantSpec(latency=2), 0),
     "model+lat2+comp2": (PlantSpec(latency=2), 2),
+    # predicted traffic, with and without the obstacle margin growing with the prediction's error (c = 1)
+    "model+cv": (PlantSpec(prediction="constant-velocity"), 0),
+    "model+cv+pm1": (PlantSpec(prediction="constant-velocity", prediction_margin=1.0), 0),
+    "model+ca": (PlantSpec(prediction="constant-acceleration"), 0),
+    "model+ca+pm1": (PlantSpec(prediction="constant-acceleration", prediction_margin=1.0), 0),
+    "model+cv+pm3": (PlantSpec(prediction="constant-velocity", prediction_margin=3.0), 0),
+    "worst+cv": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity"), 1),
+    "worst+cv+pm1": (
+        PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity", prediction_margin=1.0),
+        1,
+    ),
+    "worst+cv+pm3": (
+        PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity", prediction_margin=3.0),
+        1,
+    ),
 }
 #: run by default (the others with --only)
-DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith("model+")]
+DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith(("model+", "worst+"))]
 CONFIGS = [(sc, form) for sc in ("car", "truck") for form in ("direct_elimination", "lifted")]
 
 

@@ -555,7 +555,7 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     import ctypes
 
     from fcgen.codegen.workspace import status_layout
-    from fcgen.csolver import _STATUS, _STATUS_FIELDS
+    from fcgen.contract import STATUS_FIELDS, STATUS_STRUCTS
 
     p = paper_problem("car", "lifted", "ellipse", name="car_tick")
     p = dataclasses.replace(p, horizon=dataclasses.replace(p.horizon, N=4))
@@ -569,7 +569,7 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
     probe.write_text(
         '#include <stddef.h>\n#include <stdio.h>\n#include "car_tick_solver.h"\nint main(void) {\n'
         '  printf("sizeof %zu\\n", sizeof(car_tick_status_t));\n'
-        + "".join(f'  printf("{f} %zu\\n", offsetof(car_tick_status_t, {f}));\n' for f in _STATUS_FIELDS)
+        + "".join(f'  printf("{f} %zu\\n", offsetof(car_tick_status_t, {f}));\n' for f in STATUS_FIELDS)
         + "  return 0;\n}\n"
     )
     exe = tmp_path / "layout"
@@ -586,8 +586,8 @@ def test_status_layout_and_tick_clock(tmp_path: Path, use_float: bool) -> None:
             for ln in subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()
         )
     )
-    cls, packed = _STATUS[use_float]
-    assert c_layout == {"sizeof": ctypes.sizeof(cls), **{f: getattr(cls, f).offset for f in _STATUS_FIELDS}}
+    cls, packed = STATUS_STRUCTS[use_float]
+    assert c_layout == {"sizeof": ctypes.sizeof(cls), **{f: getattr(cls, f).offset for f in STATUS_FIELDS}}
     assert c_layout["sizeof"] == packed.size == status_layout(4 if use_float else 8)[0] == (60 if use_float else 72)
     # the tick clock: exact differences, across a wrap of the counter too
     cs = CSolver(build(info.out_dir))

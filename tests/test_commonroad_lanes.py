@@ -130,3 +130,50 @@ def test_the_relevance_rule_in_a_closed_loop_sees_a_slower_vehicle_ahead(tmp_pat
     assert [ids[i] for i in now] == [12, 13, 14]
     ahead = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (20.0, 0.0), None, PB.horizon.N)
     assert [ids[i] for i in ahead] == [11, 12, 13]
+
+
+def test_a_lane_change_profile_by_hand():
+    """n_ref per node of a change from 0 to 3.5 m over 3 s: 0 before it, 3.5 after it, h(u) = 3 u^2 - 2 u^3 between
+    (at u = 1/2: 1.75 m; 1 s in: 3.5 (3/9 - 2/27) = 0.9074 m); planned 1 s ago the profile is shifted by 1 s."""
+    from fcgen.commonroad.lanes import lane_change_profile
+
+    t = np.array([0.0, 1.0, 1.5, 3.0, 4.0])
+    np.testing.assert_allclose(lane_change_profile(0.0, 3.5, 0.0, t), [0.0, 3.5 * 7 / 27, 1.75, 3.5, 3.5], atol=1e-12)
+    np.testing.assert_allclose(lane_change_profile(0.0, 3.5, 1.0, t[:2]), [3.5 * 7 / 27, 3.5 * 20 / 27], atol=1e-12)
+    back = lane_change_profile(3.5, 0.0, 0.0, t)  # back to the lane it came from: the mirror image
+    np.testing.assert_allclose(back, 3.5 - lane_change_profile(0.0, 3.5, 0.0, t), atol=1e-12)
+
+
+def test_a_planned_lane_change_gets_n_ref_per_stage(tmp_path):
+    """The lane that ends, closed loop: with the per-stage n_ref (the default CHANGE_TIME) the solver's reference moves
+    along the horizon from the ego's lane to the target's; the ego reaches the target lane on the road without a
+    collision, as with the target's centre at once (change_time = 0), and no later than 1 s after it."""
+    from fcgen.commonroad.lanes import CHANGE_TIME
+    from fcgen.ocp import build_ocp
+    from fcgen.sim.closedloop import ReferenceController
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    sc = load_for(
+        PB, write_scenario(tmp_path / "r.xml", lanes=2, ego_lane=0, end_lane=(0, 200.0), goal_steps=(90, 100))
+    )
+    seen: list[np.ndarray] = []
+
+    class Spy(ReferenceController):
+        def set_reference_stages(self, v_ref, n_ref) -> int:
+            seen.append(np.array(n_ref))
+            return super().set_reference_stages(v_ref, n_ref)
+
+    runs = {}
+    for change in (CHANGE_TIME, 0.0):
+        runs[change] = run_commonroad(PB, sc, controller=Spy(build_ocp(PB)), change_time=change)
+        n = np.asarray(runs[change].log.ego_frenet)[:, 1]
+        assert not runs[change].checker["road_departure"] and not runs[change].checker["collision"]
+        assert abs(n[-1] - LANE) < 0.3
+    assert len(seen) == round(
+        CHANGE_TIME / PB.horizon.dt
+    )  # one per sample of the change (the sample it is planned on first)
+    first = seen[0]
+    assert first[0] == pytest.approx(0.0, abs=0.3) and first[-1] == pytest.approx(LANE, abs=0.3)
+    assert np.all(np.diff(first) >= -1e-12)  # moving towards the target along the horizon
+    t_in = {c: int(np.argmax(np.abs(np.asarray(r.log.ego_frenet)[:, 1] - LANE) < 0.3)) for c, r in runs.items()}
+    assert t_in[CHANGE_TIME] <= t_in[0.0] + round(1.0 / PB.horizon.dt)

@@ -199,6 +199,16 @@ INVALID = [
     ("a_lat margin >= bound", lambda: Bounds(a_lat_margin=5.0), "bounds.a_lat_margin", "[0, a_lat_max = 5.0)"),
     ("formulation type", lambda: Problem(name="p", formulation="lifted"), "formulation", "Lifted()"),
     ("a_lat guard not a bool", lambda: PlanCheck(a_lat_guard=1), "plan_check.a_lat_guard", "True or False"),
+    ("tyre stiffness < 0", lambda: PlanCheck(tyre_stiffness=-1.0), "plan_check.tyre_stiffness", "[0, 100] 1/rad"),
+    ("tyre stiffness NaN", lambda: PlanCheck(tyre_stiffness=math.nan), "plan_check.tyre_stiffness", "finite"),
+    ("h_cg > 3 m", lambda: PlanCheck(h_cg=3.5), "plan_check.h_cg", "[0, 3] m"),
+    ("drive limit not a bool", lambda: PlanCheck(drive_limit=0), "plan_check.drive_limit", "True or False"),
+    (
+        "h_cg moving more than an axle's load",  # 1e4 N / 1160 kg * 2.5 m = 21.6 > 9.81 * 1.7 = 16.7 m^2/s^2
+        lambda: Problem(name="p", plan_check=PlanCheck(h_cg=2.5)),
+        "plan_check.h_cg",
+        "[0, 1.935) m with plan_check.tyre_stiffness > 0",
+    ),
     (
         "a_lat guard without margin",
         lambda: Problem(name="p", bounds=Bounds(a_lat_margin=0.0)),

@@ -143,3 +143,55 @@ def test_verify_passes_with_predicted_traffic(tmp_path):
     spec = PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity")
     rep = verify(tmp_path / name, seed=2, samples=40, plant=spec)
     assert rep.passed, rep.format()
+
+
+def test_the_margin_rule_by_hand():
+    """MARGIN_RULE without noise: a constant-velocity opponent gives 0 at every stage; constant acceleration a gives
+    e = a SPAN dt (the two spans' mean speeds differ by that), m_k = c tau_k e with tau_k = (delay + k) dt, capped at
+    10 m."""
+    from fcgen.contract import INPUT_RANGES
+
+    cv = PredictedOpponents("constant-velocity", _line(lambda t: 12.0 * t), OFFSETS, DT, delay=1)
+    assert np.max(cv.margins(30, 1.0)) < 1e-12  # rounding of the two speeds only
+    acc = PredictedOpponents("constant-velocity", _line(lambda t: 10.0 * t + 0.5 * 1.5 * t**2), OFFSETS, DT, delay=1)
+    e = 1.5 * SPAN * DT
+    np.testing.assert_allclose(acc.margins(30, 2.0), 2.0 * (1 + OFFSETS) * DT * e, rtol=1e-9)
+    assert np.max(acc.margins(30, 1000.0)) == INPUT_RANGES.margin_max
+
+
+def test_a_prediction_margin_needs_a_prediction():
+    with pytest.raises(ProblemError, match="prediction_margin"):
+        PlantSpec(prediction_margin=1.0)
+    with pytest.raises(ProblemError, match="prediction_margin"):
+        PlantSpec(prediction="constant-velocity", prediction_margin=-1.0)
+    spec = PlantSpec(prediction="constant-velocity", prediction_margin=1.0)
+    assert spec.label() == "model+cv+pm1" and spec.as_meta()["prediction_margin"] == 1.0
+    assert "prediction_margin" not in PlantSpec(prediction="constant-velocity").as_meta()  # logs as before
+
+
+def test_the_closed_loop_sets_the_margins_of_the_rule(tmp_path):
+    """The loop gives the solver the rule's margins before each solve (the reference's margins after the last sample
+    are that sample's), and the C equals the reference with them (fcgen verify: the lockstep sets both)."""
+    from fcgen.codegen.generate import generate
+    from fcgen.ocp import build_ocp
+    from fcgen.presets import preset
+    from fcgen.sim.closedloop import ReferenceController, opponent_params, run_closed_loop
+    from fcgen.sim.plants import DEFAULT_NOISE
+    from fcgen.sim.prediction import PredictedOpponents as PO
+    from fcgen.sim.scenario import make_scenario
+    from fcgen.verify import verify
+
+    name = "car_lifted_ellipse_ipm_safe"
+    pb = preset(name)
+    spec = PlantSpec(prediction="constant-velocity", noise=DEFAULT_NOISE, prediction_margin=1.0)
+    sc = make_scenario("car", 2, n_opp=pb.opponents.count, samples=12, dt=pb.horizon.dt)
+    ctl = ReferenceController(build_ocp(pb))
+    run_closed_loop(pb, sc, controller=ctl, plant=spec)
+    opp = opponent_params(pb, sc)
+    pred = PO("constant-velocity", opp.at_index, pb.horizon.offsets, sc.dt, noise=DEFAULT_NOISE[:3], seed=sc.seed)
+    want = pred.margins(sc.samples - 1, 1.0)
+    np.testing.assert_array_equal(ctl.solver.margins, want)
+    assert want[-1] > want[1] > 0.0
+    generate(pb, tmp_path / name)
+    rep = verify(tmp_path / name, seed=2, samples=30, plant=spec, closed_loop=False)
+    assert rep.passed, rep.format()

@@ -14,7 +14,15 @@ from pathlib import Path
 
 import pytest
 
-from fcgen.reactions import braking_force, guard_steering_rate, lateral_acceleration
+from fcgen.reactions import (
+    GAIN_MIN,
+    braking_force,
+    drive_limit,
+    guard_steering_rate,
+    lateral_acceleration,
+    load_transfer_gain,
+    understeer_drive_limit,
+)
 
 SOLVER = Path(__file__).resolve().parents[1] / "generated" / "truck_lifted_ellipse" / "truck_lift_el_solver.c"
 NAME = "truck_lift_el"
@@ -68,6 +76,41 @@ A_LAT = [
     (20.0, 0.05, 3.4, 400.0 * TAN_005 / 3.4),
 ]
 
+# (v, a_x, k, l_f, l_r, h, expected divisor) of the tyre-aware a_lat, worked out by hand with g = 9.81. With
+# l_f = l_r = 1 and a_x h = -g / 2: K = k (1 / (1.5 g) - 1 / (0.5 g)) = -4 k / (3 g); k = 1 / (l c) = 1 / 20 for c = 10,
+# so K v^2 = -1/2 at v^2 = 3 g 10 / 4 = 73.575: the divisor 1/2
+G_HALF = 9.81 / 2
+LOAD = [
+    (math.sqrt(73.575), -G_HALF, 0.05, 1.0, 1.0, 1.0, 0.5),  # braking: turns twice as much as the formula
+    (math.sqrt(73.575), -G_HALF / 2, 0.05, 1.0, 1.0, 2.0, 0.5),  # the same a_x h
+    (20.0, 0.0, 0.05, 1.0, 1.0, 1.0, 1.0),  # no load transfer, equal tyres: neutral
+    (20.0, -G_HALF, 0.0, 1.0, 1.0, 1.0, 1.0),  # no tyres: the formula
+    (20.0, G_HALF, 0.05, 1.0, 1.0, 1.0, 1.0),  # accelerating: understeer, never more than the formula allows
+    (20.0, -G_HALF, 0.05, 1.0, 1.0, 1.0, GAIN_MIN),  # K v^2 = -0.2 / (3 g) 400 = -2.7: beyond the critical speed
+    (math.sqrt(73.575), -G_HALF, 0.05, 1.0, 1.0, 0.0, 1.0),  # no height: no load transfer
+]
+
+# (a_lat, a_max, f_max, expected drive force limit): f_max sqrt(1 - (a_lat / a_max)^2), by hand
+DRIVE = [
+    (0.0, 5.0, 1e4, 1e4),  # straight ahead: the whole drive force
+    (3.0, 5.0, 1e4, 8000.0),  # sqrt(1 - 0.36) = 0.8
+    (-4.0, 5.0, 1e4, 6000.0),  # either side
+    (5.0, 5.0, 1e4, 0.0),  # at the bound: no drive force
+    (6.0, 5.0, 1e4, 0.0),  # beyond it: none either (not a NaN)
+]
+
+# (a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected): m slack g^2 l_f l_r / (k l h v^2 (a_lat - slack)), by hand:
+# with k = 0.05, l_f = l_r = h = 1, slack 0.5, a_lat 1.5, v = 10, m = 1: 0.5 * 96.2361 / (0.1 * 100) = 4.811805
+UNDER = [
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 4.811805),
+    (2.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 4.811805 / 2),  # twice the excess: half the force
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1000.0, 4811.805),  # per kg
+    (1.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 4000.0, 1000.0, 4000.0),  # at most f_max
+    (0.5, 10.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # within the slack: no limit
+    (1.5, 0.0, 0.05, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # standing
+    (1.5, 10.0, 0.0, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # no tyres
+]
+
 
 @pytest.mark.parametrize("v0, dt, expected", BRAKE)
 def test_braking_force_by_hand(v0, dt, expected):
@@ -84,6 +127,47 @@ def test_guard_steering_rate_by_hand(v, delta, delta0, a_to, l, dt, lo, hi, expe
 @pytest.mark.parametrize("v, delta, l, expected", A_LAT)
 def test_lateral_acceleration_by_hand(v, delta, l, expected):
     assert lateral_acceleration(v, delta, l) == pytest.approx(expected, rel=1e-14, abs=0.0)
+
+
+@pytest.mark.parametrize("v, a_x, k, l_f, l_r, h, expected", LOAD)
+def test_load_transfer_gain_by_hand(v, a_x, k, l_f, l_r, h, expected):
+    assert load_transfer_gain(v, a_x, k, l_f, l_r, h) == pytest.approx(expected, rel=1e-14)
+
+
+@pytest.mark.parametrize("a_lat, a_max, f_max, expected", DRIVE)
+def test_drive_limit_by_hand(a_lat, a_max, f_max, expected):
+    assert drive_limit(a_lat, a_max, f_max) == pytest.approx(expected, rel=1e-15, abs=0.0)
+
+
+@pytest.mark.parametrize("a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected", UNDER)
+def test_understeer_drive_limit_by_hand(a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected):
+    assert understeer_drive_limit(a_lat, v, k, l_f, l_r, h, slack, f_max, m) == pytest.approx(expected, rel=1e-6)
+
+
+def test_understeer_drive_limit_keeps_the_deficit_near_its_slack():
+    """A second method: at the limit's drive force, the single-track model's exact yaw divisor (unclamped K, not the
+    linearization) turns the car within 10 % of ``slack`` less than the formula (fcgen's car at 15 m/s, 4.95 m/s^2)."""
+    g, c, l_f, l_r, h, m, v, a, slack = 9.81, 21.92, 1.7, 1.7, 0.614, 1160.0, 15.0, 4.95, 0.25
+    k = 1.0 / ((l_f + l_r) * c)
+    a_x = understeer_drive_limit(a, v, k, l_f, l_r, h, slack, 1e6, m) / m
+    d = 1.0 + k * (l_r / (g * l_r - a_x * h) - l_f / (g * l_f + a_x * h)) * v * v
+    assert a * (1.0 - 1.0 / d) == pytest.approx(slack, rel=0.1)
+
+
+def test_load_transfer_gain_is_the_single_track_yaw_gain():
+    """A second method: the steady-state yaw rate of the linear single-track model (cornering stiffness per unit load c
+    on both axles, axle loads m (g l_r - a_x h) / l and m (g l_f + a_x h) / l), solved from its two equilibrium
+    equations, over the kinematic v delta / l, equals 1 / divisor (a car braking at 4 m/s^2 at 18 m/s)."""
+    g, c, l_f, l_r, h, a_x, v, delta = 9.81, 21.92, 1.2, 1.5, 0.6, -4.0, 18.0, 0.01
+    l = l_f + l_r
+    cf, cr = c * (g * l_r - a_x * h) / l, c * (g * l_f + a_x * h) / l  # per unit mass
+    # lateral: cf af + cr ar = v r; yaw (per unit mass): l_f cf af - l_r cr ar = 0; af = delta - beta - l_f r / v,
+    # ar = -beta + l_r r / v: linear in (beta, r)
+    a = [[-cf - cr, -(cf * l_f - cr * l_r) / v - v], [-l_f * cf + l_r * cr, -(l_f * l_f * cf + l_r * l_r * cr) / v]]
+    rhs = [-cf * delta, -l_f * cf * delta]
+    det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+    r = (a[0][0] * rhs[1] - a[1][0] * rhs[0]) / det
+    assert (v * delta / l) / r == pytest.approx(load_transfer_gain(v, a_x, 1.0 / (l * c), l_f, l_r, h), rel=1e-12)
 
 
 def _c_function(source: str, name: str) -> str:
@@ -104,9 +188,14 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
     src = SOLVER.read_text()
     real_0 = re.search(r"^#define REAL_0 .*$", src, re.M)
     assert real_0 is not None
+    tyre = "\n".join(re.findall(r"^#define TYRE_(?:G|GAIN_MIN|ONE) .*$", src, re.M))
+    assert tyre.count("#define") == 3
     calls = [f"braking_force({v0!r}, {M / dt!r}, 1e4)" for v0, dt, _ in BRAKE]
     calls += [f"guard_steering_rate({', '.join(map(repr, case[:-1]))})" for case in RATE]
     calls += [f"lateral_acceleration({v!r}, {delta!r}, {l!r})" for v, delta, l, _ in A_LAT]
+    calls += [f"load_transfer_gain({', '.join(map(repr, case[:-1]))})" for case in LOAD]
+    calls += [f"drive_limit({', '.join(map(repr, case[:-1]))})" for case in DRIVE]
+    calls += [f"understeer_drive_limit({', '.join(map(repr, case[:-1]))})" for case in UNDER]
     calls = [c.replace("nan", "NAN") for c in calls]
     body = "\n".join(f"  put({c});" for c in calls)
     test_c = tmp_path / "reactions_test.c"
@@ -116,7 +205,11 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
 #include <string.h>
 #include "{NAME}_solver.h"
 {real_0.group(0)}
+{tyre}
 {_c_function(src, "braking_force")}
+{_c_function(src, "load_transfer_gain")}
+{_c_function(src, "drive_limit")}
+{_c_function(src, "understeer_drive_limit")}
 {_c_function(src, "lateral_acceleration")}
 {_c_function(src, "guard_steering_rate")}
 static void put(double x) {{
@@ -154,6 +247,9 @@ int main(void) {{
     want = [braking_force(v0, M / dt, 1e4) for v0, dt, _ in BRAKE]
     want += [guard_steering_rate(*case[:-1]) for case in RATE]
     want += [lateral_acceleration(v, delta, l) for v, delta, l, _ in A_LAT]
+    want += [load_transfer_gain(*case[:-1]) for case in LOAD]
+    want += [drive_limit(*case[:-1]) for case in DRIVE]
+    want += [understeer_drive_limit(*case[:-1]) for case in UNDER]
     assert len(got) == len(want) == len(calls)
     for call, g, w in zip(calls, got, want):
         assert g == _bits(w), f"{call}: C {g}, Python {_bits(w)} ({w!r})"

@@ -45,19 +45,24 @@ def _small(
     return generate(p, out, use_float=use_float)
 
 
-@pytest.fixture(scope="module")
-def folders(tmp_path_factory) -> list[GenerateInfo]:
-    """Both backends, double and float; the IPM with (hyperplane) and without stage equalities (its code differs); the
-    paper profile and the safe one."""
-    tmp = tmp_path_factory.mktemp("sa")
-    return [
-        _small("lifted", "ellipse", "sa_d", False, tmp / "d"),
-        _small("conventional", "hyperplane", "sa_f", True, tmp / "f"),
-        _small("lifted", "ellipse", "sa_id", False, tmp / "id", "ipm"),
-        _small("conventional", "hyperplane", "sa_if", True, tmp / "if", "ipm"),
-        _small("direct_elimination", "ellipse", "sa_g", True, tmp / "g", "ipm", fine=2),
-        _small("direct_elimination", "hyperplane", "sa_s", False, tmp / "s", "ipm", profile="safe"),
-    ]
+#: the analysed solvers: both backends, double and float; the IPM with (hyperplane) and without stage equalities (its
+#: code differs); the paper profile and the safe one. One test per solver, so that the workers share the analysis.
+FOLDERS = {
+    "sa_d": ("lifted", "ellipse", False, "osqp", None, "paper"),
+    "sa_f": ("conventional", "hyperplane", True, "osqp", None, "paper"),
+    "sa_id": ("lifted", "ellipse", False, "ipm", None, "paper"),
+    "sa_if": ("conventional", "hyperplane", True, "ipm", None, "paper"),
+    "sa_g": ("direct_elimination", "ellipse", True, "ipm", 2, "paper"),
+    "sa_s": ("direct_elimination", "hyperplane", False, "ipm", None, "safe"),
+}
+
+
+@pytest.fixture(scope="module", params=sorted(FOLDERS))
+def folder(request, tmp_path_factory) -> GenerateInfo:
+    """One solver of ``FOLDERS``, generated once per module and worker."""
+    formulation, obstacles, use_float, backend, fine, profile = FOLDERS[request.param]
+    out = tmp_path_factory.mktemp(request.param)
+    return _small(formulation, obstacles, request.param, use_float, out, backend, fine, profile)
 
 
 def _expected_misra(info: GenerateInfo) -> set[str]:
@@ -83,9 +88,8 @@ def _cppcheck(folder: Path, name: str, *args: str) -> list[dict[str, str]]:
     return [f for f in found if Path(f["file"]).name in (f"{name}_solver.c", f"{name}_solver.h")]
 
 
-def test_cppcheck_clean(folders: list[GenerateInfo]) -> None:
-    for info in folders:
-        assert _cppcheck(info.out_dir, info.name, "--enable=warning,style,portability") == []
+def test_cppcheck_clean(folder: GenerateInfo) -> None:
+    assert _cppcheck(folder.out_dir, folder.name, "--enable=warning,style,portability") == []
 
 
 def test_cppcheck_clean_on_the_checked_in_default() -> None:
@@ -101,13 +105,12 @@ def test_cppcheck_sees_a_defect(tmp_path: Path) -> None:
     assert "arrayIndexOutOfBounds" in {f["id"] for f in found}
 
 
-def test_misra_findings_are_the_deviations(folders: list[GenerateInfo]) -> None:
-    for info in folders:
-        found = _cppcheck(info.out_dir, info.name, "--addon=misra")
-        rules = {f["id"].removeprefix("misra-c2012-") for f in found}
-        assert all(f["id"].startswith("misra-c2012-") for f in found), found
-        expected = _expected_misra(info)
-        assert rules == expected, (info.name, sorted(rules - expected), sorted(expected - rules))
-        readme = (info.out_dir / "README.md").read_text()
-        for rule, category, reason in MISRA_DEVIATIONS:
-            assert f"| {rule} | {category} | {reason} |" in readme
+def test_misra_findings_are_the_deviations(folder: GenerateInfo) -> None:
+    found = _cppcheck(folder.out_dir, folder.name, "--addon=misra")
+    rules = {f["id"].removeprefix("misra-c2012-") for f in found}
+    assert all(f["id"].startswith("misra-c2012-") for f in found), found
+    expected = _expected_misra(folder)
+    assert rules == expected, (folder.name, sorted(rules - expected), sorted(expected - rules))
+    readme = (folder.out_dir / "README.md").read_text()
+    for rule, category, reason in MISRA_DEVIATIONS:
+        assert f"| {rule} | {category} | {reason} |" in readme

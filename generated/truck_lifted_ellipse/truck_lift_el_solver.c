@@ -24,6 +24,16 @@
 #define L_WHEELBASE ((truck_lift_el_real_t)3.4) /* the ego's l = l_f + l_r */
 #define A_LAT_MAX ((truck_lift_el_real_t)5.0) /* the a_lat guard's bound, Bounds.a_lat_max */
 #define A_LAT_GUARD_TO ((truck_lift_el_real_t)5.0) /* where its steering rate ends: a_lat_max - a_lat_margin */
+#define TYRE_K ((truck_lift_el_real_t)0.0) /* 1 / (l tyre_stiffness), 0 without tyres (the a_lat guard) */
+#define TYRE_L_F ((truck_lift_el_real_t)1.7) /* the ego's l_f */
+#define TYRE_L_R ((truck_lift_el_real_t)1.7) /* the ego's l_r */
+#define TYRE_H_CG ((truck_lift_el_real_t)0.614) /* PlanCheck.h_cg */
+#define TYRE_G ((truck_lift_el_real_t)9.81) /* gravity of the load transfer (fcgen.reactions.G) */
+#define TYRE_GAIN_MIN ((truck_lift_el_real_t)0.1) /* fcgen.reactions.GAIN_MIN */
+#define TYRE_ONE ((truck_lift_el_real_t)1.0) /* its largest value */
+#define EGO_M ((truck_lift_el_real_t)1160.0) /* the ego's mass: a_x = F_d / m */
+#define DRIVE_SLACK ((truck_lift_el_real_t)0.25) /* fcgen.reactions.DRIVE_SLACK */
+#define DRIVE_LIMIT 0 /* PlanCheck.drive_limit: the a_lat guard's friction ellipse on the drive force */
 #define BRAKE_M_PER_DT ((truck_lift_el_real_t)11600.0) /* m / dt of the braking control (braking_force) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
@@ -48,6 +58,7 @@
 #define SHAPE_MIN ((truck_lift_el_real_t)0.1)
 #define SHAPE_MAX ((truck_lift_el_real_t)100.0)
 #define V_REF_MAX ((truck_lift_el_real_t)100.0)
+#define MARGIN_MAX ((truck_lift_el_real_t)10.0)
 #define N_OPP_STAGE 18 /* opponents' part of a stage's parameters */
 #define N_SLACK 160
 #define N_A_CYCLES 120 /* cycles of the permutation A_SRC */
@@ -1355,8 +1366,9 @@ typedef struct {
   clock_fn_t clock;
   int road_n;
   int road_set;
-  truck_lift_el_real_t ref_v;
-  truck_lift_el_real_t ref_n;
+  truck_lift_el_real_t ref_v[TRUCK_LIFT_EL_N + 1];
+  truck_lift_el_real_t ref_n[TRUCK_LIFT_EL_N + 1];
+  truck_lift_el_real_t margin[TRUCK_LIFT_EL_N + 1];
   int road_band;
   int opp_shape_set;
   int ref_set;
@@ -1521,8 +1533,9 @@ static const truck_lift_el_real_t *opp_shapes(void) { return (ws.opp_shape_set !
 
 /* The opponents' part of stage k's parameters into dst (per opponent its pose at stage k, then its shape). */
 static void stage_opponents(truck_lift_el_real_t *dst, int k) {
-  int i;
   int j;
+  const truck_lift_el_real_t m = ws.margin[k];
+  int i;
   const truck_lift_el_real_t *shape = opp_shapes();
   for (j = 0; j < TRUCK_LIFT_EL_NOPP; ++j) {
     for (i = 0; i < TRUCK_LIFT_EL_NOPP_PAR; ++i) {
@@ -1532,14 +1545,31 @@ static void stage_opponents(truck_lift_el_real_t *dst, int k) {
       dst[(j * TRUCK_LIFT_EL_NOPP_STAGE) + TRUCK_LIFT_EL_NOPP_PAR + i] = shape[(j * TRUCK_LIFT_EL_NOPP_SHAPE) + i];
     }
   }
+  for (j = 0; (m != REAL_0) && (j < TRUCK_LIFT_EL_NOPP); ++j) { /* the margin grows the shape (fcgen.stage_inputs) */
+    dst[(j * TRUCK_LIFT_EL_NOPP_STAGE) + 3] += (truck_lift_el_real_t)2.0 * m;
+    dst[(j * TRUCK_LIFT_EL_NOPP_STAGE) + 4] += (truck_lift_el_real_t)2.0 * m;
+  }
+}
+
+/* Node k's s_ref of a per-stage reference (fcgen.stage_inputs.reference_s): s_(k-1) + (t_k - t_(k-1)) v_ref,(k-1). */
+static truck_lift_el_real_t ref_s(int k) {
+  truck_lift_el_real_t s = ws.s0_guess;
+  truck_lift_el_real_t t_prev = REAL_0;
+  int i;
+  for (i = 1; i <= k; ++i) {
+    const truck_lift_el_real_t t = ((truck_lift_el_real_t)i * DT);
+    s = s + ((t - t_prev) * ws.ref_v[i - 1]);
+    t_prev = t;
+  }
+  return s;
 }
 
 /* p_k's parts after the road window: x_ref_k, the opponents of stage k (and the stage's interval). */
 static void stage_rest(truck_lift_el_real_t *p, int k) {
-  if (ws.ref_set != 0) { /* set_reference */
-    p[P_REF] = ws.s0_guess + (((truck_lift_el_real_t)k * DT) * ws.ref_v);
-    p[P_REF + 1] = ws.ref_n;
-    p[P_REF + 3] = ws.ref_v;
+  if (ws.ref_set != 0) { /* set_reference (1: one speed for every node), set_reference_stages (2) */
+    p[P_REF] = (ws.ref_set == 2) ? ref_s(k) : (ws.s0_guess + (((truck_lift_el_real_t)k * DT) * ws.ref_v[k]));
+    p[P_REF + 1] = ws.ref_n[k];
+    p[P_REF + 3] = ws.ref_v[k];
   } else {
     p[P_REF] = ws.s0_guess + STAGES[k].s_ref;
     p[P_REF + 1] = N_REF;
@@ -1647,6 +1677,38 @@ static truck_lift_el_real_t lateral_acceleration(truck_lift_el_real_t v, truck_l
   return v * v * tan(delta) / l;
 }
 
+/* The divisor of the guard's tyre-aware a_lat (fcgen.reactions.load_transfer_gain: the same operations): the
+ * single-track steady-state yaw gain 1 + K v^2 under longitudinal acceleration a_x, within [GAIN_MIN, 1]. */
+static truck_lift_el_real_t load_transfer_gain(truck_lift_el_real_t v, truck_lift_el_real_t a_x, truck_lift_el_real_t k,
+                                           truck_lift_el_real_t l_f, truck_lift_el_real_t l_r, truck_lift_el_real_t h) {
+  const truck_lift_el_real_t kk = k * (l_r / (TYRE_G * l_r - a_x * h) - l_f / (TYRE_G * l_f + a_x * h));
+  const truck_lift_el_real_t d = TYRE_ONE + kk * v * v;
+  return (d < TYRE_GAIN_MIN) ? TYRE_GAIN_MIN : ((d > TYRE_ONE) ? TYRE_ONE : d);
+}
+
+/* The combined-acceleration limit on the drive force (fcgen.reactions.drive_limit: the same operations): a friction
+ * ellipse of semi-axes f_max and a_max, f_max sqrt(1 - (a_lat / a_max)^2), 0 from |a_lat| >= a_max on. */
+static truck_lift_el_real_t drive_limit(truck_lift_el_real_t a_lat, truck_lift_el_real_t a_max, truck_lift_el_real_t f_max) {
+  const truck_lift_el_real_t r = a_lat / a_max;
+  const truck_lift_el_real_t q = TYRE_ONE - r * r;
+  return f_max * sqrt((q > REAL_0) ? q : REAL_0);
+}
+
+/* The drive force at which the tyres turn at most slack less than the formula's a_lat (fcgen.reactions.
+ * understeer_drive_limit: the same operations). */
+static truck_lift_el_real_t understeer_drive_limit(truck_lift_el_real_t a_lat, truck_lift_el_real_t v, truck_lift_el_real_t k,
+                                               truck_lift_el_real_t l_f, truck_lift_el_real_t l_r, truck_lift_el_real_t h,
+                                               truck_lift_el_real_t slack, truck_lift_el_real_t f_max, truck_lift_el_real_t m) {
+  const truck_lift_el_real_t e = a_lat - slack;
+  const truck_lift_el_real_t q = k * (l_f + l_r) * h * v * v * e;
+  truck_lift_el_real_t f;
+  if ((e <= REAL_0) || (q <= REAL_0)) {
+    return f_max;
+  }
+  f = m * slack * TYRE_G * TYRE_G * l_f * l_r / q;
+  return (f < f_max) ? f : f_max;
+}
+
 /* The a_lat guard's steering rate (fcgen.reactions.guard_steering_rate: the same operations): from delta0, in one
  * sample time dt, to the steering angle at which speed v on wheelbase l gives |a_lat| = a_to, on delta's side; within
  * [lo, hi]; 0 (within [lo, hi]) for v = 0 (standing: |a_lat| is 0, the rate is not used). */
@@ -1660,10 +1722,16 @@ static truck_lift_el_real_t guard_steering_rate(truck_lift_el_real_t v, truck_li
   return (r < lo) ? lo : ((r > hi) ? hi : r);
 }
 
-/* |a_lat| of x1, the plant's state one sample after x0 under get_u0 (p_fb's road window). */
+/* The guard's divisor at speed v under get_u0's drive force (fcgen.plan_check.tyre_gain). */
+static truck_lift_el_real_t tyre_gain(truck_lift_el_real_t v) {
+  return load_transfer_gain(v, ws.u_applied[0] / EGO_M, TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG);
+}
+
+/* The tyre-aware |a_lat| of x1, the plant's state one sample after x0 under get_u0 (p_fb's road window):
+ * the formula's over tyre_gain (fcgen.plan_check.tyre_a_lat). */
 static truck_lift_el_real_t next_a_lat(truck_lift_el_real_t x1[5]) {
   call3(truck_lift_el_plant, ws.x0, ws.u_applied, ws.p_fb, x1, NULL, NULL);
-  return fabs(lateral_acceleration(x1[3], x1[4], L_WHEELBASE));
+  return fabs(lateral_acceleration(x1[3], x1[4], L_WHEELBASE)) / tyre_gain(x1[3]);
 }
 
 /* The a_lat guard (fcgen.reference.RtiSolver._a_lat_guard; before the plan check, while p_fb is stage 0's): where
@@ -1672,6 +1740,7 @@ static truck_lift_el_real_t next_a_lat(truck_lift_el_real_t x1[5]) {
  * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. Both plant steps run on every path,
  * acting or not: a fixed cost, which fcgen wcet's measured feedback tail therefore covers. */
 static void a_lat_guard(void) {
+  truck_lift_el_real_t xa[5]; /* the step with the plan's rate */
   truck_lift_el_real_t x1[5];
   const truck_lift_el_real_t r_plan = ws.u_applied[1];
   int over = 0;
@@ -1680,11 +1749,11 @@ static void a_lat_guard(void) {
   if (TRUCK_LIFT_EL_A_LAT_GUARD == 0) {
     return;
   }
-  if (next_a_lat(x1) > A_LAT_MAX) {
+  if (next_a_lat(xa) > A_LAT_MAX) {
     over = 1;
   }
-  ws.u_applied[1] =
-      guard_steering_rate(x1[3], x1[4], ws.x0[4], A_LAT_GUARD_TO, L_WHEELBASE, SAMPLE_DT, U_LO[1], U_HI[1]);
+  ws.u_applied[1] = guard_steering_rate(xa[3], xa[4], ws.x0[4], A_LAT_GUARD_TO * tyre_gain(xa[3]), L_WHEELBASE,
+                                        SAMPLE_DT, U_LO[1], U_HI[1]);
   if (next_a_lat(x1) > A_LAT_MAX) {
     still = 1;
   }
@@ -1695,6 +1764,19 @@ static void a_lat_guard(void) {
   } else { /* the rate bound cut it short */
     ws.u_applied[0] = braking_force(ws.x0[3], BRAKE_M_PER_DT, U_HI[0]);
     ws.status.a_lat_guard = 2;
+  }
+  if ((DRIVE_LIMIT != 0) && (ws.status.a_lat_guard != 2)) { /* tyres turn less than the formula while driving */
+    const truck_lift_el_real_t *xe = (over == 0) ? xa : x1; /* the step with the rate applied */
+    const truck_lift_el_real_t a = fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE));
+    const truck_lift_el_real_t cap =
+        (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
+                    : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
+    if (ws.u_applied[0] > cap) {
+      ws.u_applied[0] = cap;
+      if (ws.status.a_lat_guard == 0) {
+        ws.status.a_lat_guard = 3;
+      }
+    }
   }
 }
 
@@ -1797,10 +1879,35 @@ int truck_lift_el_set_road_bounds(const truck_lift_el_real_t *n_min, const truck
 }
 
 int truck_lift_el_set_reference(truck_lift_el_real_t v_ref, truck_lift_el_real_t n_ref) {
+  int k;
   if (!within(v_ref, REAL_0, V_REF_MAX) || !within(n_ref, N_MIN, N_MAX)) return fail(TRUCK_LIFT_EL_ERR_REFERENCE);
-  ws.ref_v = v_ref;
-  ws.ref_n = n_ref;
+  for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
+    ws.ref_v[k] = v_ref;
+    ws.ref_n[k] = n_ref;
+  }
   ws.ref_set = 1;
+  return ok();
+}
+
+int truck_lift_el_set_reference_stages(const truck_lift_el_real_t *v_ref, const truck_lift_el_real_t *n_ref) {
+  int k;
+  if ((v_ref == NULL) || (n_ref == NULL)) return fail(TRUCK_LIFT_EL_ERR_NULL_POINTER);
+  for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
+    if (!within(v_ref[k], REAL_0, V_REF_MAX) || !within(n_ref[k], N_MIN, N_MAX)) return fail(TRUCK_LIFT_EL_ERR_REFERENCE);
+  }
+  copy(v_ref, ws.ref_v, TRUCK_LIFT_EL_N + 1);
+  copy(n_ref, ws.ref_n, TRUCK_LIFT_EL_N + 1);
+  ws.ref_set = 2;
+  return ok();
+}
+
+int truck_lift_el_set_obstacle_margins(const truck_lift_el_real_t *margins) {
+  int k;
+  if (margins == NULL) return fail(TRUCK_LIFT_EL_ERR_NULL_POINTER);
+  for (k = 0; k <= TRUCK_LIFT_EL_N; ++k) {
+    if (!within(margins[k], REAL_0, MARGIN_MAX)) return fail(TRUCK_LIFT_EL_ERR_MARGIN);
+  }
+  copy(margins, ws.margin, TRUCK_LIFT_EL_N + 1);
   return ok();
 }
 

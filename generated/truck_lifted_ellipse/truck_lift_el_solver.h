@@ -32,7 +32,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_LIFT_EL_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
 #define TRUCK_LIFT_EL_RTI_BUDGET 400 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
-#define TRUCK_LIFT_EL_WORKSPACE_BYTES 494456 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
+#define TRUCK_LIFT_EL_WORKSPACE_BYTES 495424 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_USE_FLOAT 0 /* 1: generated for float */
 
 /* Real type of every array of this API; equal to the QP backend's real type (double for this solver). */
@@ -59,7 +59,8 @@ enum {
   TRUCK_LIFT_EL_ERR_ROAD_BOUNDS = 16,
   TRUCK_LIFT_EL_ERR_OPP_SHAPE = 17,
   TRUCK_LIFT_EL_ERR_REFERENCE = 18,
-  TRUCK_LIFT_EL_ERR_NULL_POINTER = 19
+  TRUCK_LIFT_EL_ERR_NULL_POINTER = 19,
+  TRUCK_LIFT_EL_ERR_MARGIN = 20
 };
 
 /* ---- QP status (generic, the same for every QP backend; 0: no QP solved since prepare) --------------------------- */
@@ -77,8 +78,8 @@ enum {
 
 /* ---- safety contract ----------------------------------------------------------------------------------------------
  * Rejected calls: a call returning TRUCK_LIFT_EL_ERR_NOT_PREPARED ... TRUCK_LIFT_EL_ERR_ROAD_SIZE, _ERR_OPP_FRENET,
- *   _ERR_ROAD_BOUNDS, _ERR_OPP_SHAPE, _ERR_REFERENCE, or TRUCK_LIFT_EL_ERR_QP_NONFINITE from prepare (non-finite
- *   linearization), leaves the solver bitwise as before (plan, duals, preparation, QP data,
+ *   _ERR_ROAD_BOUNDS, _ERR_OPP_SHAPE, _ERR_REFERENCE, _ERR_MARGIN, _ERR_NULL_POINTER, or TRUCK_LIFT_EL_ERR_QP_NONFINITE
+ *   from prepare (non-finite linearization), leaves the solver bitwise as before (plan, duals, preparation, QP data,
  *   QP backend, get_u0, status) except status.exit_code. A rejected feedback keeps the preparation: fix the input and
  *   call feedback again. Exception: TRUCK_LIFT_EL_ERR_QP_NUMERICAL from prepare (the backend could not load the matrices)
  *   leaves l, u, A_x of the attempt and a freshly reset backend; plan and duals are kept, nothing is prepared.
@@ -126,7 +127,11 @@ enum {
 /* The a_lat guard (1: on): where the plant's step from x0 with the control to apply would end above a_lat_max =
  * 5.0 m/s^2 in |a_lat|, get_u0's steering rate is the one that ends at a_lat_max - a_lat_margin
  * (status.a_lat_guard = 1); where the step with that rate still ends above a_lat_max (the rate bound cut it short),
- * the solver also brakes as the plan check does (2). The plan is not changed. */
+ * the solver also brakes as the plan check does (2). |a_lat| is the formula's over a single-track yaw gain under the
+ * control's braking (PlanCheck.tyre_stiffness, h_cg; the formula's where 0). With PlanCheck.drive_limit a positive
+ * drive force is limited too: where the guard sets the steering rate to F_d_max sqrt(1 - (a_lat / a_to)^2) at the
+ * step's end (a_to = a_lat_max - a_lat_margin), elsewhere to where the tyres turn at most DRIVE_SLACK less than the
+ * formula (3 where only that acted). The plan is not changed. */
 #define TRUCK_LIFT_EL_A_LAT_GUARD 0
 
 /* The sample of node k = 0..N, counted from the current one: set_opponents' stage k is the opponents' pose that many
@@ -153,7 +158,8 @@ typedef struct {
   int cold_restarts;  /* prepares that cold-started after TRUCK_LIFT_EL_COLD_RESTART_AFTER unusable QPs in a row */
   int plan_clearance_stage; /* the stage of plan_clearance (-1: no opponent) */
   int plan_reaction;  /* 1: the plan check braked: get_u0 is the braking control (see Plan check) */
-  int a_lat_guard;    /* 1: the a_lat guard set get_u0's steering rate, 2: it braked too (see TRUCK_LIFT_EL_A_LAT_GUARD) */
+  int a_lat_guard;    /* 1: the a_lat guard set get_u0's steering rate, 2: it braked too, 3: it limited the drive force
+                         only (see TRUCK_LIFT_EL_A_LAT_GUARD) */
   truck_lift_el_real_t u_violation; /* how far the plan's u0 left the box: max_i excess_i / limit_i; 0 inside */
   truck_lift_el_real_t plan_clearance; /* the plan's smallest clearance to an opponent's rectangle over stages 0..N, m (INFINITY: none) */
   uint32_t ticks_prepare;  /* duration of the last prepare that prepared */
@@ -166,8 +172,11 @@ typedef struct {
 /* set_opponent_shapes: length and width within [0.1, 100.0] m (ERR_OPP_SHAPE) */
 /* set_opponent_shapes: the centre offset within the chassis, |offset| <= length / 2 (ERR_OPP_SHAPE) */
 /* set_reference: v_ref within [0, 100.0] m/s, n_ref within [-10.0, 10.0] m (ERR_REFERENCE) */
+/* set_reference_stages: per node k = 0..N, v_ref[k] within [0, 100.0] m/s, n_ref[k] within [-10.0, 10.0] m (ERR_REFERENCE) */
+/* set_obstacle_margins: per stage k = 0..N, margins[k] within [0, 10.0] m (ERR_MARGIN) */
 /* set_state, set_opponents: finite values (ERR_NONFINITE_STATE, ERR_NONFINITE_OPPONENTS) */
-/* every pointer non-NULL (set_*: the call's code above; getters: TRUCK_LIFT_EL_ERR_NULL_POINTER), except get_qp's */
+/* every pointer non-NULL (set_reference_stages, set_obstacle_margins, getters: TRUCK_LIFT_EL_ERR_NULL_POINTER; the other
+ * set_*: the call's code above), except get_qp's */
 
 /* ---- API -------------------------------------------------------------------------------------------------------- */
 /* Everything back to the zero-initialized solver except the clock (inputs, plan, QP data, backend). Optional at start. */
@@ -192,6 +201,15 @@ int truck_lift_el_set_opponents(const truck_lift_el_real_t *params);
 /* The tracking reference from now on: speed v_ref within [0, 100.0] m/s and lateral offset n_ref within [-10.0, 10.0] m,
  * e.g. a road's speed limit and a lane's centre (init: the problem's, 40.0 and 0.0). ERR_REFERENCE: nothing changed. */
 int truck_lift_el_set_reference(truck_lift_el_real_t v_ref, truck_lift_el_real_t n_ref);
+/* The tracking reference per node k = 0..N (TRUCK_LIFT_EL_N + 1 values each; copied, kept until set_reference or this is
+ * called again), e.g. n_ref moving from one lane's centre to the next over a planned lane change. x_ref,k = [s_ref,k,
+ * n_ref[k], 0, v_ref,k, 0] with v_ref,k = v_ref[k] and
+ * s_ref,0 = the plan's s, s_ref,k = s_ref,k-1 + (t_k - t_k-1) v_ref,k-1. Equal values give set_reference's n_ref exactly and its s_ref up to rounding (s0 + t_k v_ref). ERR_REFERENCE, ERR_NULL_POINTER: nothing changed. */
+int truck_lift_el_set_reference_stages(const truck_lift_el_real_t *v_ref, const truck_lift_el_real_t *n_ref);
+/* An extra distance m_k >= 0 per stage k = 0..N (TRUCK_LIFT_EL_N + 1 values; copied, kept until set again; init: 0, the
+ * problem's constraint unchanged) the obstacle constraint of stage k keeps from every opponent: the chassis' length and width grow by 2 m_k (the rectangle grown by m_k on each side, centre kept): the paper's semi-axes sqrt(2) L + r, sqrt(2) W + r grow by sqrt(2) m_k.
+ * The plan check keeps the true shapes. ERR_MARGIN, ERR_NULL_POINTER: nothing changed. */
+int truck_lift_el_set_obstacle_margins(const truck_lift_el_real_t *margins);
 /* Every opponent's shape: NOPP x NOPP_SHAPE values [length, width, offset] (chassis length and width,
  * m, see the input ranges; how far its centre lies ahead of the pose's point along its heading);
  * copied, kept until set again (init: the problem's opponent vehicle). ERR_OPP_SHAPE: nothing changed. */

@@ -7,6 +7,8 @@ definition without importing each other.
 
 from __future__ import annotations
 
+import ctypes
+import struct
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +34,7 @@ EXIT_CODES = (
     "ERR_OPP_SHAPE",
     "ERR_REFERENCE",
     "ERR_NULL_POINTER",
+    "ERR_MARGIN",
 )
 """Exit codes shared by the reference and the generated C API (``<NAME>_<code>``), in enum order (new codes are
 appended, so a code keeps its number)."""
@@ -47,9 +50,15 @@ class InputRanges:
     shape_min: float = 0.1  # an opponent's length and width (and the containing ellipse's semi-axes at most), m
     shape_max: float = 100.0
     v_ref_max: float = 100.0  # the reference speed, m/s (n_ref: within the problem's Bounds.n_min .. n_max)
+    margin_max: float = 10.0  # an obstacle margin per stage (set_obstacle_margins), m, at least 0
 
     def __post_init__(self) -> None:
-        if not (0.0 < self.ds_min < self.ds_max and 0.0 < self.shape_min < self.shape_max and self.v_ref_max > 0.0):
+        if not (
+            0.0 < self.ds_min < self.ds_max
+            and 0.0 < self.shape_min < self.shape_max
+            and self.v_ref_max > 0.0
+            and self.margin_max > 0.0
+        ):
             raise ValueError(f"input ranges {self!r}: each lower bound must be > 0 and below its upper bound")
 
 
@@ -120,3 +129,41 @@ class StepResult:
     max_slack: float
     plan_reaction: int = 0  # 1: the plan check braked this sample (status.plan_reaction)
     a_lat_guard: int = 0  # 1: the a_lat guard set the steering rate, 2: it braked too (status.a_lat_guard)
+
+
+# The C status struct's layout (the ctypes binding, fcgen.csolver)
+STATUS_INTS = (
+    "exit_code",
+    "qp_status",
+    "qp_raw_status",
+    "qp_iter",
+    "u_projected",
+    "opp_outside",
+    "qp_unusable_run",
+    "cold_restarts",
+    "plan_clearance_stage",
+    "plan_reaction",
+    "a_lat_guard",
+)
+STATUS_REALS = ("u_violation", "plan_clearance")
+STATUS_TICKS = ("ticks_prepare", "ticks_feedback")
+
+
+def status_struct(use_float: bool) -> tuple[type[ctypes.Structure], struct.Struct]:
+    """The C status struct (``<name>_get_status``) of a precision as a ctypes class, and its layout for ``struct``
+    (all fields in one call; native alignment, as ctypes lays it out)."""
+    real, code = (ctypes.c_float, "f") if use_float else (ctypes.c_double, "d")
+    fields = (
+        [(f, ctypes.c_int) for f in STATUS_INTS]
+        + [(f, real) for f in STATUS_REALS]
+        + [(f, ctypes.c_uint32) for f in STATUS_TICKS]
+    )
+    cls = type(f"_CStatus{'Float' if use_float else 'Double'}", (ctypes.Structure,), {"_fields_": fields})
+    layout = struct.Struct("@" + "i" * len(STATUS_INTS) + code * len(STATUS_REALS) + "I" * len(STATUS_TICKS))
+    assert layout.size == ctypes.sizeof(cls)
+    return cls, layout
+
+
+#: per precision (``use_float``): the ctypes class and the ``struct`` layout of ``<name>_status_t``
+STATUS_STRUCTS = {use_float: status_struct(use_float) for use_float in (False, True)}
+STATUS_FIELDS = STATUS_INTS + STATUS_REALS + STATUS_TICKS

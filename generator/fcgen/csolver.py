@@ -8,52 +8,24 @@ from __future__ import annotations
 
 import ctypes
 import math
-import struct
 from pathlib import Path
 
 import numpy as np
 
 from .build import build
 from .codegen.consistency import read_macros
-from .contract import EXIT_CODES, HOST_TICKS_PER_SECOND, Status, StepResult
+from .contract import (
+    EXIT_CODES,
+    HOST_TICKS_PER_SECOND,
+    STATUS_FIELDS,
+    STATUS_INTS,
+    STATUS_REALS,
+    STATUS_STRUCTS,
+    Status,
+    StepResult,
+)
 from .road import Road
 from .solver_folder import FolderLike, SolverFolder, as_folder, solver_name
-
-_STATUS_INTS = (
-    "exit_code",
-    "qp_status",
-    "qp_raw_status",
-    "qp_iter",
-    "u_projected",
-    "opp_outside",
-    "qp_unusable_run",
-    "cold_restarts",
-    "plan_clearance_stage",
-    "plan_reaction",
-    "a_lat_guard",
-)
-_STATUS_REALS = ("u_violation", "plan_clearance")
-_STATUS_TICKS = ("ticks_prepare", "ticks_feedback")
-
-
-def _status_struct(use_float: bool) -> tuple[type[ctypes.Structure], struct.Struct]:
-    """The C status struct (``<name>_get_status``) of a precision as a ctypes class, and its layout for ``struct``
-    (all fields in one call; native alignment, as ctypes lays it out)."""
-    real, code = (ctypes.c_float, "f") if use_float else (ctypes.c_double, "d")
-    fields = (
-        [(f, ctypes.c_int) for f in _STATUS_INTS]
-        + [(f, real) for f in _STATUS_REALS]
-        + [(f, ctypes.c_uint32) for f in _STATUS_TICKS]
-    )
-    cls = type(f"_CStatus{'Float' if use_float else 'Double'}", (ctypes.Structure,), {"_fields_": fields})
-    layout = struct.Struct("@" + "i" * len(_STATUS_INTS) + code * len(_STATUS_REALS) + "I" * len(_STATUS_TICKS))
-    assert layout.size == ctypes.sizeof(cls)
-    return cls, layout
-
-
-#: per precision (``use_float``): the ctypes class and the ``struct`` layout of ``<name>_status_t``
-_STATUS = {use_float: _status_struct(use_float) for use_float in (False, True)}
-_STATUS_FIELDS = _STATUS_INTS + _STATUS_REALS + _STATUS_TICKS
 
 
 class CSolver:
@@ -87,7 +59,7 @@ class CSolver:
         self.n, self.m, self.nnz_A = s["QP_N"], s["QP_M"], s["QP_NNZ_A"]
         self.dtype = np.float32 if s.get("USE_FLOAT") else np.float64
         self._real = ctypes.c_float if s.get("USE_FLOAT") else ctypes.c_double
-        self._status_cls, self._status_layout = _STATUS[bool(s.get("USE_FLOAT"))]
+        self._status_cls, self._status_layout = STATUS_STRUCTS[bool(s.get("USE_FLOAT"))]
         self.ticks_per_second = HOST_TICKS_PER_SECOND  # of the host clocks given to set_clock below
         self.lib = ctypes.CDLL(str(lib_path.resolve()))
         self._declare()
@@ -132,6 +104,8 @@ class CSolver:
             "set_road_bounds": ([PR, PR], I),
             "set_opponent_shapes": ([PR], I),
             "set_reference": ([R, R], I),
+            "set_reference_stages": ([PR, PR], I),
+            "set_obstacle_margins": ([PR], I),
             "feedback": ([], I),
             "get_u0": ([PR], I),
             "get_states": ([PR], I),
@@ -209,6 +183,15 @@ class CSolver:
     def set_reference(self, v_ref: float, n_ref: float) -> int:
         return self._fns["set_reference"](v_ref, n_ref)
 
+    def set_reference_stages(self, v_ref, n_ref) -> int:  # N+1 values each; None passes NULL
+        v, n = (None if a is None else self._input(key, a, self.N + 1) for key, a in (("vref", v_ref), ("nref", n_ref)))
+        return self._fns["set_reference_stages"](v, n)
+
+    def set_obstacle_margins(self, margins) -> int:  # N+1 values; None passes NULL
+        return self._fns["set_obstacle_margins"](
+            None if margins is None else self._input("margin", margins, self.N + 1)
+        )
+
     def set_opponent_shapes(self, shapes) -> int:
         return self._fns["set_opponent_shapes"](self._input("shape", shapes, self.n_opp * self.sizes["NOPP_SHAPE"]))
 
@@ -254,7 +237,7 @@ class CSolver:
         self._fns["get_status"](self._status_addr)
         tps = self.ticks_per_second
         return Status(
-            **{f: getattr(st, f) for f in _STATUS_INTS + _STATUS_REALS},
+            **{f: getattr(st, f) for f in STATUS_INTS + STATUS_REALS},
             time_prepare=st.ticks_prepare / tps,
             time_feedback=st.ticks_feedback / tps,
         )
@@ -423,7 +406,7 @@ class CSolver:
         st, u0, nan = self._status, self._u0, math.nan
         unpack, tps = self._status_layout.unpack_from, self.ticks_per_second
         i_status, i_iter, i_prep, i_fb, i_react, i_guard = (
-            _STATUS_FIELDS.index(k)
+            STATUS_FIELDS.index(k)
             for k in ("qp_status", "qp_iter", "ticks_prepare", "ticks_feedback", "plan_reaction", "a_lat_guard")
         )
 

@@ -55,6 +55,23 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "acceleration within +-bounds.a_lat_max (steering rate, else braking; needs "
         "bounds.a_lat_margin > 0)",
     ),
+    ("PlanCheck", "tyre_stiffness"): (
+        "1/rad",
+        "[0, 100]; 0: the kinematic formula",
+        "the tyres' cornering stiffness per unit normal load (mu C_S): the a_lat guard tests the formula's a_lat "
+        "divided by a single-track model's yaw gain under the control's braking (default: CommonRoad's BMW 320i)",
+    ),
+    ("PlanCheck", "h_cg"): (
+        "m",
+        "[0, 3], F_d_max / m h_cg < g min(l_f, l_r)",
+        "the centre of gravity's height: the load braking moves onto the front axle (the tyre-aware a_lat guard)",
+    ),
+    ("PlanCheck", "drive_limit"): (
+        "-",
+        "True or False",
+        "the a_lat guard also limits a positive drive force: where it steers, to a friction ellipse with the next "
+        "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula",
+    ),
     ("Ellipse", "shape"): (
         "-",
         "`minkowski` or `paper`",

@@ -12,31 +12,72 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from .dsl import Problem
-from .reactions import braking_force, guard_steering_rate, lateral_acceleration
+from .reactions import (
+    DRIVE_SLACK,
+    braking_force,
+    drive_limit,
+    guard_steering_rate,
+    lateral_acceleration,
+    load_transfer_gain,
+    understeer_drive_limit,
+)
 
 
 def a_lat_guard(
     problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: float, plant_step: Callable[[], Sequence[float]]
 ) -> int:
-    """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in |a_lat|, the steering rate that
-    ends at ``a_lat_max - a_lat_margin`` (status 1; with wind the speed, and so the end, moves a little with the rate:
-    the margin covers it), and where the step with that rate still ends above the bound (the rate bound ``[lo, hi]``
-    cut it short), braking as the plan check does (2); 0: the guard is off or did not act. ``u`` is changed in place;
-    ``plant_step()`` is the plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's
-    order (the C runs both steps in every feedback and keeps the plan's rate where the first ends within the bound:
-    the same control and status)."""
+    """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in tyre-aware |a_lat|
+    (``tyre_a_lat``), the steering rate that ends at ``a_lat_max - a_lat_margin`` in it (status 1; with wind the speed,
+    and so the end, moves a little with the rate: the margin covers it), and where the step with that rate still ends
+    above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); where the rate
+    sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
+    to it (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
+    plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs both
+    steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control and
+    status)."""
     if not problem.plan_check.a_lat_guard:
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
-    x1 = plant_step()
-    if abs(lateral_acceleration(x1[3], x1[4], l)) <= b.a_lat_max:
-        return 0
-    u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), b.a_lat_max - b.a_lat_margin, l, dt, lo, hi)
-    x1 = plant_step()
-    if abs(lateral_acceleration(x1[3], x1[4], l)) <= b.a_lat_max:
-        return 1
-    u[0] = braking_control(problem, x0)
-    return 2
+    x1, status = plant_step(), 0
+    if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
+        d = tyre_gain(problem, x1[3], u[0])
+        u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
+        x1, status = plant_step(), 1
+        if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
+            u[0] = braking_control(problem, x0)
+            return 2
+    if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
+        a = abs(lateral_acceleration(x1[3], x1[4], l))
+        cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
+        if u[0] > cap:
+            u[0] = cap
+            status = status or 3
+    return status
+
+
+def understeer_cap(problem: Problem, x: Sequence[float], a: float) -> float:
+    """``reactions.understeer_drive_limit`` at state x with the formula's |a_lat| ``a`` and the problem's tyres."""
+    pc, e = problem.plan_check, problem.ego
+    return understeer_drive_limit(
+        a, x[3], tyre_k(problem), e.l_f, e.l_r, pc.h_cg, DRIVE_SLACK, problem.bounds.F_d_max, e.m
+    )
+
+
+def tyre_gain(problem: Problem, v: float, f_d: float) -> float:
+    """``reactions.load_transfer_gain`` at speed v under drive force ``f_d`` with the problem's tyres (1: none)."""
+    pc, e = problem.plan_check, problem.ego
+    return load_transfer_gain(v, f_d / e.m, tyre_k(problem), e.l_f, e.l_r, pc.h_cg)
+
+
+def tyre_k(problem: Problem) -> float:
+    """``1 / (l c)`` of ``load_transfer_gain`` (``c``: ``plan_check.tyre_stiffness``; 0 without tyres)."""
+    c = problem.plan_check.tyre_stiffness
+    return 1.0 / (problem.ego.l * c) if c > 0 else 0.0
+
+
+def tyre_a_lat(problem: Problem, x: Sequence[float], f_d: float) -> float:
+    """The guard's tyre-aware |a_lat| at state x under drive force ``f_d``: |formula| / ``tyre_gain``."""
+    return abs(lateral_acceleration(x[3], x[4], problem.ego.l)) / tyre_gain(problem, x[3], f_d)
 
 
 def plan_verdict(

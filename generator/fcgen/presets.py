@@ -47,7 +47,7 @@ PROFILES = ("paper", "safe")
 """``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults
 (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
-PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False)
+PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False, tyre_stiffness=0.0, drive_limit=False)
 PAPER_QP = QpOptions(ipm_scaled_start=False)
 """The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP)."""
 PAPER_A_LAT_MARGIN = 0.0

@@ -34,3 +34,50 @@ def guard_steering_rate(
     if v != 0.0:
         r = (math.copysign(math.atan((a_to * l) / (v * v)), delta) - delta0) / dt
     return lo if r < lo else (hi if r > hi else r)
+
+
+def load_transfer_gain(v: float, a_x: float, k: float, l_f: float, l_r: float, h: float) -> float:
+    """The divisor ``d`` of the a_lat guard's tyre-aware lateral acceleration ``v^2 tan(delta) / (l d)``: the linear
+    single-track model's steady-state yaw gain under a longitudinal acceleration ``a_x`` (tyres of one cornering
+    stiffness per unit load on both axles, the load moved by ``a_x h / l``), ``d = 1 + K v^2`` with
+    ``K = k (l_r / (g l_r - a_x h) - l_f / (g l_f + a_x h))``, ``k = 1 / (l c)``; braking (``a_x < 0``) moves load onto
+    the front axle: ``K < 0``, the vehicle turns more than the kinematic formula says. ``d`` is at most 1 (the guard
+    never allows more than the formula) and at least ``GAIN_MIN`` (beyond the critical speed, ``d <= 0``); ``k = 0``:
+    1 (the kinematic formula)."""
+    kk = k * (l_r / (G * l_r - a_x * h) - l_f / (G * l_f + a_x * h))
+    d = 1.0 + kk * v * v
+    return GAIN_MIN if d < GAIN_MIN else (1.0 if d > 1.0 else d)
+
+
+def drive_limit(a_lat: float, a_max: float, f_max: float) -> float:
+    """The combined-acceleration limit on the drive force: a friction ellipse with the semi-axes ``f_max`` (the drive
+    force's bound) and ``a_max`` (the lateral acceleration's), ``f_max sqrt(1 - (a_lat / a_max)^2)``, 0 where
+    ``|a_lat| >= a_max``: driving while cornering moves load off the front axle and the vehicle turns less than the
+    kinematic formula says (understeer), out of the plan's path."""
+    r = a_lat / a_max
+    q = 1.0 - r * r
+    return f_max * math.sqrt(q if q > 0.0 else 0.0)
+
+
+def understeer_drive_limit(
+    a_lat: float, v: float, k: float, l_f: float, l_r: float, h: float, slack: float, f_max: float, m: float
+) -> float:
+    """The drive force at which the tyres turn at most ``slack`` less than the formula's ``a_lat`` at speed ``v``
+    (``load_transfer_gain``'s model, linearized in ``a_x``: ``K = k h a_x l / (g^2 l_f l_r)``, and ``a_lat (1 - 1/d)
+    <= slack``: ``a_x <= slack g^2 l_f l_r / (k l h v^2 (a_lat - slack))``), at most ``f_max``; ``f_max`` where
+    ``|a_lat| <= slack``, at standstill or without tyres (``k h = 0``)."""
+    e = a_lat - slack
+    q = k * (l_f + l_r) * h * v * v * e
+    if e <= 0.0 or q <= 0.0:
+        return f_max
+    f = m * slack * G * G * l_f * l_r / q
+    return f if f < f_max else f_max
+
+
+G = 9.81
+"""Gravity (m/s^2) of the load transfer (CommonRoad's single-track model's)."""
+DRIVE_SLACK = 0.25
+"""m/s^2 the tyres may turn less than the formula says while the vehicle drives (``understeer_drive_limit``)."""
+GAIN_MIN = 0.1
+"""The smallest divisor ``load_transfer_gain`` gives: beyond the critical speed the guard takes the tyre-aware a_lat as
+10 times the formula's (it then steers towards straight ahead)."""

@@ -36,6 +36,7 @@ from .qp_outcome import (
     warm_max_iter,
 )
 from .road import Road, band_outside, curve_reference
+from .stage_inputs import StageInputsMixin, grow_opponents, margin_terms, stage_xref
 
 __all__ = [
     "COLD_RESTART_NOTE",
@@ -58,7 +59,7 @@ __all__ = [
 feedback() reads MAX_INPUT_VIOLATION from this module's namespace (a test may patch it here)."""
 
 
-class RtiSolver:
+class RtiSolver(StageInputsMixin):
     """SQP-RTI: ``prepare()`` linearizes at the shifted guess, ``feedback()`` embeds x0 and solves one QP.
 
     The same contract as the generated C (see its header): a rejected call raises :class:`SolverError` and changes
@@ -86,6 +87,7 @@ class RtiSolver:
         self._plant = plant_function(ocp.problem, ocp.road_params.samples)  # the a_lat guard's step
         self.qp = make_backend(self.lay, self.qp_opts)
         self._fitter = OppFitter(ocp.fit, N + 1, ocp.problem.opponents.count) if ocp.fit else None
+        self._margin_terms = margin_terms(ocp)
         self.init()
 
     def init(self) -> None:
@@ -93,7 +95,9 @@ class RtiSolver:
         self.road: Road | None = None
         self.opp = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_par))
         self.opp_shape = self.ocp.default_shapes()  # (n_opp, n_opp_shape): set_opponent_shapes
-        self.ref: tuple[float, float] | None = None  # (v_ref, n_ref) of set_reference; None: the problem's
+        self.ref: tuple[np.ndarray, np.ndarray] | None = None  # (v_ref, n_ref) per node; None: the problem's
+        self.ref_stages = False  # set by set_reference_stages (s_ref per stage), not set_reference (s0 + t_k v_ref)
+        self.margins = np.zeros(self.ocp.N + 1)  # set_obstacle_margins (fcgen.stage_inputs)
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
@@ -145,10 +149,10 @@ class RtiSolver:
     def set_reference(self, v_ref: float, n_ref: float) -> None:
         """The tracking reference's speed and lateral offset from now on (``init``: the problem's ``Reference``):
         a road's speed limit, a lane's centre."""
-        b = self.ocp.problem.bounds
+        b, n = self.ocp.problem.bounds, self.ocp.N + 1
         if why := reference_outside(v_ref, n_ref, b.n_min, b.n_max):
             raise self._fail("ERR_REFERENCE", why)
-        self.ref = (float(v_ref), float(n_ref))
+        self.ref, self.ref_stages = (np.full(n, float(v_ref)), np.full(n, float(n_ref))), False
         self.status.exit_code = 0  # an accepted call (the C's ok())
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> None:
@@ -218,33 +222,24 @@ class RtiSolver:
         if ref.curve_a_lat > 0.0 and self.road is not None:
             traffic = ref.curve_traffic_clearance > 0.0 and self.status.plan_clearance < ref.curve_traffic_clearance
             a_lat = ref.curve_a_lat_traffic if traffic else ref.curve_a_lat
-            v_set = self.ref[0] if self.ref is not None else ref.v_ref
+            v_set = self.ref[0] if self.ref is not None else np.full(self.ocp.N + 1, ref.v_ref)
+            s0, along = float(self.s0_guess), ref.curve_along_horizon
             self.curve_ref = curve_reference(
-                self.road,
-                float(self.s0_guess),
-                self._times,
-                v_set,
-                a_lat,
-                ref.curve_decel,
-                bnd.v_max,
-                ref.curve_along_horizon,
+                self.road, s0, self._times, v_set, a_lat, ref.curve_decel, bnd.v_max, along, self.ref_stages
             )
 
     def stage_params(self, k: int, s: float) -> np.ndarray:
         return np.concatenate([self._road_params(s), self._stage_rest(k)])
 
     def _stage_rest(self, k: int) -> np.ndarray:
-        pb = self.ocp.problem
-        v_ref, n_ref = self.ref if self.ref is not None else (pb.reference.v_ref, pb.reference.n_ref)
-        if self.curve_ref is not None:
-            xref = [self.curve_ref[0][k], n_ref, 0.0, self.curve_ref[1][k], 0.0]
-        else:
-            xref = [self.s0_guess + self._times[k] * v_ref, n_ref, 0.0, v_ref, 0.0]
+        ocp, default = self.ocp, (self.ocp.problem.reference.v_ref, self.ocp.problem.reference.n_ref)
+        xref = stage_xref(k, self.s0_guess, self._times, self.ref, self.ref_stages, default, self.curve_ref)
         if self._fitter is None:  # per opponent its pose at stage k, then its shape
-            n = self.ocp.problem.opponents.count
+            n = ocp.problem.opponents.count
             opp = np.concatenate([self.opp[k].reshape(n, -1), self.opp_shape], axis=1).ravel()
         else:
             opp = self.opp_stage[k]
+        opp = grow_opponents(opp, ocp.n_opp_stage, self._margin_terms, float(self.margins[k]))
         dt = [] if self.ocp.p_dt is None else [self._stage_dt[k]]
         return np.concatenate([xref, opp, dt])
 

@@ -296,27 +296,30 @@ def curve_reference(
     road: Road,
     s0: float,
     times: Sequence[float],
-    v_set: float,
+    v_set: float | Sequence[float] | np.ndarray,
     a_lat: float,
     decel: float,
     v_max: float,
     along: bool = True,
+    stages: bool = False,
 ) -> tuple[list[float], list[float]]:
-    """The reference along the horizon that brakes for the bends ahead: per node k, ``v_k = min(v_set,
+    """The reference along the horizon that brakes for the bends ahead: per node k, ``v_k = min(v_set_k,
     curve_speed(s_k))`` at ``s_k``, with ``s_0 = s0`` and ``s_k = s_(k-1) + (t_k - t_(k-1)) v_(k-1)``; ``along =
-    False``: ``v_k = v_0`` and ``s_k = s0 + t_k v_0`` (the curve speed at the plan's start only).
+    False``: the curve speed at the plan's start only, ``v_k = min(v_set_k, curve_speed(s0))`` and ``s_k = s0 + t_k
+    v_0`` (one ``v_set`` for every node) or as along (``stages``: a per-node ``v_set``, ``set_reference_stages``).
 
     A speed capped only at the plan's start asks for that speed over the whole horizon, and the plan then brakes
     for a bend through its a_lat rows; per node it brakes through the tracking cost. The C's ``curve_reference``
     does the same operations in the same order."""
     s_ref, v_ref = [], []
-    s, v, t_prev = float(s0), 0.0, 0.0
+    s, v, t_prev, c = float(s0), 0.0, 0.0, 0.0
+    v_sets = [v_set] * len(times) if isinstance(v_set, float | int) else list(v_set)
     for k, t in enumerate(times):
         if k > 0:
-            s = s + (t - t_prev) * v if along else float(s0) + t * v
+            s = s + (t - t_prev) * v if (along or stages) else float(s0) + t * v
         if along or k == 0:
             c = curve_speed(road, s, a_lat, decel, v_max)
-            v = c if c < v_set else v_set
+        v = c if c < v_sets[k] else v_sets[k]
         s_ref.append(s)
         v_ref.append(v)
         t_prev = t

@@ -78,6 +78,9 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("qp_iter", "status", 0, "QP iteration mismatches"),
     ("straight_q", "straight road", TOL_QP_DATA, "q, no curve cap (V_REF, N_REF)"),
     ("straight_u0", "straight road", TOL_SOLUTION, "first control u0, no curve cap"),
+    ("stage_params", "stage inputs", TOL_QP_DATA, "stage parameters, reference and margin per stage"),
+    ("stage_q", "stage inputs", TOL_QP_DATA, "q, reference and margin per stage"),
+    ("stage_u0", "stage inputs", TOL_SOLUTION, "first control u0, reference and margin per stage"),
     ("trajectory", "closed-loop", TOL_TRAJECTORY, "ego states"),
     ("cl_control", "closed-loop", TOL_TRAJECTORY, "applied controls"),
     ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
@@ -181,6 +184,11 @@ class _Lockstep:
 
     def _upd(self, key: str, diff: float) -> None:
         self.checks[key].update(diff, self.j)
+
+    def set_obstacle_margins(self, margins) -> int:
+        """Both solvers' margins (the prediction's, ``sim.prediction.MARGIN_RULE``); the C's exit code."""
+        self.ref.set_obstacle_margins(margins)
+        return self.cs.set_obstacle_margins(margins)
 
     def step(self, x0: np.ndarray, road, opp: np.ndarray) -> StepResult:
         sv, cs = self.ref, self.cs
@@ -324,6 +332,31 @@ def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
         ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
 
 
+def stage_probe_inputs(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """v_ref, n_ref and obstacle margins that differ at every stage: 60-100 % of the problem's v_ref, n_ref across
+    the middle fifth of the band, margins 0-0.5 m."""
+    k = np.arange(pb.horizon.N + 1) / pb.horizon.N
+    lo, hi = pb.bounds.n_min, pb.bounds.n_max
+    return pb.reference.v_ref * (0.6 + 0.4 * k), lo + (hi - lo) * (0.4 + 0.2 * k), 0.5 * k
+
+
+def _stage_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
+    """The lockstep for ``STRAIGHT_SAMPLES`` samples with a reference per node and an obstacle margin per stage that
+    differ at every stage (``set_reference_stages``, ``set_obstacle_margins``): the C's per-stage paths."""
+    v, n, m = stage_probe_inputs(pb)
+    sv = RtiSolver(ocp)
+    sv.set_reference_stages(v, n)
+    sv.set_obstacle_margins(m)
+    if cs.init() != 0 or cs.set_reference_stages(v, n) != 0 or cs.set_obstacle_margins(m) != 0:
+        raise RuntimeError(f"{pb.name}: init or the per-stage inputs refused")
+    probe = _checks(pb.qp.backend)
+    short = replace(sc, samples=min(sc.samples, STRAIGHT_SAMPLES))
+    run_closed_loop(pb, short, controller=_Lockstep(sv, cs, probe), ocp=ocp)
+    for key, src in (("stage_params", "params"), ("stage_q", "q"), ("stage_u0", "u0")):
+        ch, p = checks[key], probe[src]
+        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+
+
 _SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
 
 
@@ -397,6 +430,7 @@ def verify(
     log_py = _lockstep(pb, sc, ocp, cs, checks, plant)
     nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
     _straight_probe(pb, sc, ocp, cs, checks)
+    _stage_probe(pb, sc, ocp, cs, checks)
     if closed_loop:
         _closed_loops(pb, sc, ocp, cs, checks, rep, plant)
     else:

@@ -5,7 +5,7 @@
  *   fuzz_contract SEED TRIALS [CALLS [WEIGHTS]]
  *
  * A trial is CALLS random calls (default 200) after init(): set_state, set_road, set_road_bounds, set_opponents,
- * set_opponent_shapes, set_reference, set_clock, prepare, feedback, reset, init and every getter, with valid,
+ * set_opponent_shapes, set_reference (and its per-stage forms), set_clock, prepare, feedback, reset, init and every getter, with valid,
  * extreme (1e30, 1e-30, 0, negative, the type's largest and denormal values), NaN/inf and NULL inputs. After each
  * call the solver's observable state (every getter's output, bit for bit) is hashed. Then the twin: init() again
  * and only the calls the fuzzed run accepted, replayed with the same inputs (a reset() replayed as init() plus the
@@ -62,9 +62,11 @@ typedef char fz_delay_is_the_solvers[(U_(_DELAY) == FUZZ_DELAY) ? 1 : -1];
 #ifdef FUZZ_VOID_GETTERS /* a solver of fcgen 0.20.0 (getters without a code): no NULL given to them */
 #define ERR_NULL 19
 #define GETRC(e) ((e), 0)
+#define CODE_LAST ERR_NULL
 #else
 #define ERR_NULL U_(_ERR_NULL_POINTER)
 #define GETRC(e) (e)
+#define CODE_LAST U_(_ERR_MARGIN) /* the last documented code */
 #endif
 
 /* ---------------------------------------------------------------------------------------------- random */
@@ -249,6 +251,37 @@ static int call_get(void) {
   }
 }
 
+/* set_reference, or set_reference_stages / set_obstacle_margins (solvers that have them): per-stage values that
+ * differ across stages, now and then one entry extreme, non-finite or out of range (a negative margin, n_ref beyond
+ * the band), or NULL */
+static real_t a_vref[N + 1], a_nref[N + 1], a_margin[N + 1];
+static int call_reference(void) {
+#ifndef FUZZ_VOID_GETTERS
+  const int which = pick(3);
+  const int null = pick(100) < 4 ? 1 + pick(2) : 0;
+  int k;
+  if (which == 1) {
+    const double v0 = unif(0.0, 30.0), v1 = unif(0.0, 30.0), n0 = unif(-2.0, 2.0), n1 = unif(-2.0, 2.0);
+    for (k = 0; k <= N; ++k) {
+      a_vref[k] = (real_t)(v0 + (v1 - v0) * k / N);
+      a_nref[k] = (real_t)(n0 + (n1 - n0) * k / N);
+    }
+    corrupt(a_vref, N + 1);
+    corrupt(a_nref, N + 1);
+    if (pick(100) < 3) a_nref[pick(N + 1)] = (real_t)(FUZZ_N_MAX + 0.5);
+    return S_(_set_reference_stages)(null == 1 ? NULL : a_vref, null == 2 ? NULL : a_nref);
+  }
+  if (which == 2) {
+    const double m0 = unif(0.0, 0.5), slope = unif(0.0, 0.1);
+    for (k = 0; k <= N; ++k) a_margin[k] = (real_t)(m0 + slope * k);
+    corrupt(a_margin, N + 1);
+    if (pick(100) < 3) a_margin[pick(N + 1)] = (real_t)(pick(2) ? -0.1 : 1e3);
+    return S_(_set_obstacle_margins)(null != 0 ? NULL : a_margin);
+  }
+#endif
+  return S_(_set_reference)(val(unif(0.0, 30.0)), val(unif(-2.0, 2.0)));
+}
+
 /* the call of kind with inputs drawn from seed; idx: its place in the trial */
 static int do_call(int kind, uint64_t seed, int idx) {
   const uint64_t keep = fz_rng;
@@ -273,7 +306,7 @@ static int do_call(int kind, uint64_t seed, int idx) {
     rc = call_shapes();
     break;
   case C_REF:
-    rc = S_(_set_reference)(val(unif(0.0, 30.0)), val(unif(-2.0, 2.0)));
+    rc = call_reference();
     break;
   case C_CLOCK: {
     const int c = pick(3);
@@ -430,7 +463,7 @@ static void run_trial(int calls) {
     ++n_kind[kind];
     n_refused += r->refused && kind != C_GET;
     if (r->rc >= 0 && r->rc < MAX_CODE) ++n_rc[r->rc];
-    if (r->rc < 0 || r->rc > ERR_NULL) violation(&v_code, "undocumented code", i, kind, r->rc);
+    if (r->rc < 0 || r->rc > CODE_LAST) violation(&v_code, "undocumented code", i, kind, r->rc);
     if (kind == C_PREPARE && r->rc == U_(_ERR_QP_NONFINITE)) taint = 1;
     if ((kind == C_PREPARE && r->rc == OK) || kind == C_INIT) taint = 0;
     r->taint = taint;

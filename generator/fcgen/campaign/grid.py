@@ -99,6 +99,8 @@ class Config:
             )
             if self.plant.prediction != "oracle":  # the rows of perturbations without prediction: as before it
                 d["prediction"] = self.plant.prediction
+            if self.plant.prediction_margin:
+                d["prediction_margin"] = float(self.plant.prediction_margin)
         return d
 
 

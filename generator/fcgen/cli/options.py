@@ -121,7 +121,7 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise``, ``--prediction``
     (docs/plants.md)."""
     from ..sim.plants import PLANT_KINDS, PLANT_PARAMS, PREDICTIONS
-    from ..sim.plants.spec import MAX_LATENCY, MAX_STEER_LAG
+    from ..sim.plants.spec import MAX_LATENCY, MAX_PREDICTION_MARGIN, MAX_STEER_LAG
 
     opts = [
         click.option(
@@ -169,6 +169,16 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
             "from their observed poses (with --noise's s, n, alpha stds on x, y, phi); the collision check uses "
             "the true motion",
         ),
+        click.option(  # read by plant_spec from the context: every command that takes the plant options has it
+            "--prediction-margin",
+            type=click.FloatRange(0.0, MAX_PREDICTION_MARGIN),
+            default=0.0,
+            show_default=True,
+            expose_value=False,
+            callback=lambda ctx, _param, v: ctx.meta.__setitem__("prediction_margin", v),
+            help="c of an obstacle margin per stage growing with the prediction's expected error, c tau_k e "
+            "(docs/plants.md, 'Margins from the prediction's error'; 0: none; needs --prediction)",
+        ),
     ]
     for o in reversed(opts):
         f = o(f)
@@ -190,7 +200,9 @@ def plant_spec(
     from ..sim.plants import PlantSpec, parse_noise
 
     try:
-        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise), prediction)
+        ctx = click.get_current_context(silent=True)
+        margin = float(ctx.meta.get("prediction_margin", 0.0)) if ctx is not None else 0.0
+        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise), prediction, margin)
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
     if commonroad and not spec.is_default:

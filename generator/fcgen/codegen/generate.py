@@ -17,13 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, reactions
 from .. import obstacles as obs
 from ..backends import QP_STATUSES, QP_USABLE, BackendFiles, backend_module
 from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
 from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
+from ..plan_check import tyre_k
 from ..qp import QpLayout, build_layout
 from ..reference import (
     COLD_RESTART_NOTE,
@@ -35,6 +36,7 @@ from ..reference import (
     input_box,
     warm_max_iter,
 )
+from ..stage_inputs import margin_meaning, margin_terms
 from ..targets import README_BEGIN, README_END, cross_targets
 from .folder import staged, write_if_changed
 from .misra import MISRA_DEVIATIONS
@@ -418,6 +420,9 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "stage_offsets": c_macro_list(problem.horizon.offsets),
         # node k's time in set_reference's s_ref,k: k DT on a uniform grid (the same rounding as k * interval)
         "ref_time": f"(({name}_real_t)k * DT)" if ocp.p_dt is None else "STAGES[k].t",
+        "ref_time_i": f"(({name}_real_t)i * DT)" if ocp.p_dt is None else "STAGES[i].t",
+        "margin_terms": [(i, c_real(f)) for i, f in margin_terms(ocp)],
+        "margin_doc": margin_meaning(ocp),
         "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
         "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
         "max_iter": warm_max_iter(problem.qp),
@@ -430,6 +435,15 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "wheelbase": c_real(problem.ego.l),
         "a_lat_max": c_real(problem.bounds.a_lat_max),
         "a_lat_guard_to": c_real(problem.bounds.a_lat_max - problem.bounds.a_lat_margin),
+        "tyre_k": c_real(tyre_k(problem)),
+        "tyre_l_f": c_real(problem.ego.l_f),
+        "tyre_l_r": c_real(problem.ego.l_r),
+        "tyre_h_cg": c_real(problem.plan_check.h_cg),
+        "tyre_g": c_real(reactions.G),
+        "tyre_gain_min": c_real(reactions.GAIN_MIN),
+        "ego_m": c_real(problem.ego.m),
+        "drive_limit": int(problem.plan_check.drive_limit),
+        "drive_slack": c_real(reactions.DRIVE_SLACK),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }

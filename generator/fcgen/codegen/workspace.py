@@ -50,8 +50,9 @@ def _input_members(M: Callable[..., Dim], R: tuple[int, int], opp_dim: int, shap
         ("clock_fn_t", "clock", [], _P),
         ("int", "road_n", [], _I),
         ("int", "road_set", [], _I),
-        ("NAME_real_t", "ref_v", [], R),
-        ("NAME_real_t", "ref_n", [], R),
+        ("NAME_real_t", "ref_v", [M("N", 1)], R),  # the reference per node (set_reference: every node alike)
+        ("NAME_real_t", "ref_n", [M("N", 1)], R),
+        ("NAME_real_t", "margin", [M("N", 1)], R),  # the obstacle margin per stage (set_obstacle_margins)
         ("int", "road_band", [], _I),
         ("int", "opp_shape_set", [], _I),
         ("int", "ref_set", [], _I),

@@ -6,8 +6,10 @@ road's Frenet frame (``s``, ``n``) over the stretch it covers. The lanes at ``s`
 
 **The target lane** (``TargetLane.update``, once per sample; tested in tests/test_commonroad_lanes.py). The target is
 a lane centre ``n`` (at the start the ego's own lane); the controller gets it as ``set_reference``'s ``n_ref`` (one
-value over the horizon, changed at the sample the target changes), the goal position's centre instead once the
-target is the goal's lane. In this order:
+value over the horizon), the goal position's centre instead once the target is the goal's lane. When the target
+changes, the change is planned from that sample on: for ``CHANGE_TIME`` s the controller gets ``n_ref`` per stage
+(``set_reference_stages``, ``lane_change_profile``), moving from the lane the ego tracked to the target's centre along
+the horizon. In this order:
 
 1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target) and the target
    lane's gap is no longer free (the goal's lane: no longer has room, step 3), the target goes back to the lane the
@@ -41,6 +43,7 @@ SLOWER = 2.0  # m/s: a vehicle ahead this much below the reference speed makes a
 T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
+CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,3 +218,11 @@ def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
     a = np.array(rows)
     s, n, _ = road.to_frenet(a[:, 0], a[:, 1], a[:, 2])
     return Traffic(np.atleast_1d(np.asarray(s, dtype=float)), np.atleast_1d(np.asarray(n, dtype=float)), a[:, 3])
+
+
+def lane_change_profile(n_from: float, n_to: float, since: float, times, duration: float = CHANGE_TIME) -> np.ndarray:
+    """n_ref per node of a lane change planned ``since`` s ago over ``duration`` s: node k (time t_k from now) at
+    n_from + (n_to - n_from) h(u), u = (since + t_k) / duration within [0, 1], h(u) = 3 u^2 - 2 u^3 (no lateral speed
+    asked at either end)."""
+    u = np.clip((since + np.asarray(times, dtype=float)) / duration, 0.0, 1.0)
+    return n_from + (n_to - n_from) * (3.0 * u * u - 2.0 * u * u * u)

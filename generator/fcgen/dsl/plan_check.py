@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .validation import check, known_fields
+from .validation import check, finite, known_fields
 
 
 @known_fields
@@ -24,10 +24,24 @@ class PlanCheck:
     speed, and so the end, moves a little with the steering rate (the scenarios' 20 m/s wind: up to 4e-5 m/s^2). A
     guarantee at the actuator behind the plan's soft a_lat rows (docs/safe_profile.md "The a_lat guard"). False: the
     paper's presets, and the conventional formulation's safe ones (``presets.SAFE_PLAN_CHECK_CONVENTIONAL``).
+
+    ``tyre_stiffness`` (1/rad: the tyres' cornering stiffness per unit normal load, mu C_S) and ``h_cg`` (m: the centre
+    of gravity's height) make the guard test a tyre-aware |a_lat|: the formula's divided by the steady-state yaw gain
+    of a single-track model with those tyres under the control's braking (``reactions.load_transfer_gain``: braking
+    moves load onto the front axle and the vehicle turns more than the kinematic formula says; never less). The
+    defaults are CommonRoad's BMW 320i's (docs/plants.md "The tyre-aware guard"); ``tyre_stiffness = 0``: the formula.
+    ``drive_limit``: driving makes a vehicle with tyres turn less than the formula says, out of the bend; the guard
+    then also limits a positive drive force: where it sets the steering rate, to a friction ellipse with the step's
+    lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
+    ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
+    where only that acted).
     """
 
     react_stages: int = 500
     a_lat_guard: bool = True
+    tyre_stiffness: float = 21.92
+    h_cg: float = 0.614
+    drive_limit: bool = True
 
     def __post_init__(self) -> None:
         check(
@@ -37,3 +51,11 @@ class PlanCheck:
             "an integer in [0, 500] (0: report only)",
         )
         check(type(self.a_lat_guard) is bool, "plan_check.a_lat_guard", self.a_lat_guard, "True or False")
+        check(
+            0.0 <= finite("plan_check.tyre_stiffness", self.tyre_stiffness) <= 100.0,
+            "plan_check.tyre_stiffness",
+            self.tyre_stiffness,
+            "[0, 100] 1/rad (0: the kinematic formula)",
+        )
+        check(0.0 <= finite("plan_check.h_cg", self.h_cg) <= 3.0, "plan_check.h_cg", self.h_cg, "[0, 3] m")
+        check(type(self.drive_limit) is bool, "plan_check.drive_limit", self.drive_limit, "True or False")

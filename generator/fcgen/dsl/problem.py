@@ -95,6 +95,14 @@ class Problem:
             f"(0, a_lat_max = {self.bounds.a_lat_max}) m/s^2 with plan_check.a_lat_guard "
             "(the guard steers to a_lat_max - a_lat_margin; False allows 0)",
         )
+        pc, lim = self.plan_check, 9.81 * min(self.ego.l_f, self.ego.l_r)
+        check(
+            pc.tyre_stiffness == 0 or self.bounds.F_d_max / self.ego.m * pc.h_cg < lim,
+            "plan_check.h_cg",
+            pc.h_cg,
+            f"[0, {lim * self.ego.m / self.bounds.F_d_max:.4g}) m with plan_check.tyre_stiffness > 0 (full braking "
+            "moves at most an axle's whole load: F_d_max / m h_cg < g min(l_f, l_r))",
+        )
         check(
             isinstance(self.delay, int) and not isinstance(self.delay, bool) and 0 <= self.delay <= MAX_DELAY,
             "delay",

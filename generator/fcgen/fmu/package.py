@@ -99,7 +99,13 @@ def variables(sizes: dict[str, int]) -> list[Var]:
         ),
         Var("plan_clearance_stage", "Int32", False, (), "the stage of plan_clearance (-1: no opponent)"),
         Var("plan_reaction", "Int32", False, (), "1: the plan check braked (u0 is the braking control)"),
-        Var("a_lat_guard", "Int32", False, (), "1: the a_lat guard set u0's steering rate, 2: it braked too"),
+        Var(
+            "a_lat_guard",
+            "Int32",
+            False,
+            (),
+            "1: the a_lat guard set u0's steering rate, 2: it braked too, 3: it limited the drive force only",
+        ),
     ]
 
 

@@ -154,6 +154,22 @@ class ReferenceController:
             return exc.exit_code
         return 0
 
+    def set_reference_stages(self, v_ref, n_ref) -> int:
+        """The reference per node (N+1 values each; ``fcgen.stage_inputs``); returns the exit code (as the C's)."""
+        return self._code(self.solver.set_reference_stages, v_ref, n_ref)
+
+    def set_obstacle_margins(self, margins) -> int:
+        """The obstacle margin per stage (N+1 values, >= 0); returns the exit code (as the C's)."""
+        return self._code(self.solver.set_obstacle_margins, margins)
+
+    @staticmethod
+    def _code(call, *args) -> int:
+        try:
+            call(*args)
+        except SolverError as exc:
+            return exc.exit_code
+        return 0
+
     def plan(self) -> tuple[np.ndarray, np.ndarray]:
         """The planned trajectory of the last solution: states (N+1, nx), controls (N, nu)."""
         return self.solver.states(), self.solver.controls()
@@ -419,7 +435,7 @@ def run_closed_loop(
     stepper = getattr(controller, "window_stepper", None)
     step = stepper(road, problem.road.samples) if stepper is not None else None
     plant_step, results = model_plant.road_stepper(road), []
-    horizon = opponent_horizon(problem, sc, spec, opp_params)  # the truth, or its prediction (sim.prediction)
+    horizon = opponent_horizon(problem, sc, spec, opp_params, controller)  # the truth, or its prediction
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
     pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
     if pert is not None:  # another plant or perturbations: that loop instead of this one

@@ -5,8 +5,9 @@ CommonRoad drivability checker.
 Per sample ``j`` (scenario time step ``sc.first_step + j``): the ``NOPP`` most relevant obstacles
 (``commonroad.select_opponents``) fill the solver's opponent slots with their predicted centre poses over the horizon
 and their shapes (``set_opponent_shapes`` when a slot's occupant changes); the road window and its band go to the
-solver as in the paper's loop; the plant is the same kinematic model. The reference is ``set_reference(v_ref, 0)``:
-the scenario's speed and the reference path's lane centre.
+solver as in the paper's loop; the plant is the same kinematic model. The reference is ``set_reference(v_ref,
+n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), per stage during a planned lane change
+(``set_reference_stages``).
 
 The solver's lateral bound is on the ego's reference point (its rear axle), so it gets the drivable band shrunk by
 half the ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners):
@@ -38,6 +39,8 @@ class ScenarioController(Controller, Protocol):
     """A controller a CommonRoad run drives: it also takes the scenario's reference speed and its occupants' shapes."""
 
     def set_reference(self, v_ref: float, n_ref: float) -> int: ...
+
+    def set_reference_stages(self, v_ref, n_ref) -> int: ...
 
     def set_opponent_shapes(self, shapes: np.ndarray) -> int: ...
 
@@ -95,11 +98,13 @@ def run_commonroad(
     plan: str = "none",
     progress: bool = False,
     states: np.ndarray | None = None,
+    change_time: float | None = None,
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
     ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
-    plant's, sample by sample, and the log keeps them."""
+    plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
+    many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage)."""
     from .. import commonroad as cr
     from ..commonroad.judge import fcgen_verdict, penetrations
 
@@ -112,7 +117,7 @@ def run_commonroad(
         controller = ReferenceController(ocp)
     road, cut = scenario_road(problem, sc)
     plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
-    loop = _drive(problem, sc, controller, road, plant, plan, progress, states)
+    loop = _drive(problem, sc, controller, road, plant, plan, progress, states, change_time)
     ego = problem.ego
     ego_cart, centres = _ego_poses(road, loop.xs, ego.l / 2)
     opp_cart = _obstacle_poses(sc, len(loop.xs))
@@ -178,12 +183,13 @@ def _drive(
     plan: str,
     progress: bool,
     states: np.ndarray | None,
+    change_time: float | None = None,
 ) -> _Loop:
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
     from ..commonroad.goal import lateral_reference, reached
-    from ..commonroad.lanes import SETTLED, target_lane, traffic_at
+    from ..commonroad.lanes import CHANGE_TIME, SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -193,7 +199,9 @@ def _drive(
         loop.xs[:] = states
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
     lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
-    n_ref, v_ref = None, sc.v_ref
+    n_ref, v_ref, n_now = None, sc.v_ref, 0.0
+    ramp: tuple[float, int] | None = None  # a lane change under way: (stage 0's n_ref when planned, its sample)
+    change = CHANGE_TIME if change_time is None else change_time
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
     if progress:
@@ -212,11 +220,15 @@ def _drive(
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
         v_new = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
-        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref:  # the lane's centre moves with s
-            n_ref, v_ref = n_new, v_new
-            rc = controller.set_reference(v_ref, n_ref)
-            if rc:
-                raise ValueError(f"scenario {sc.name}: set_reference({v_ref}, {n_ref}) refused (exit code {rc})")
+        if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
+            ramp = (n_now, j)
+        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
+            n_ref, v_ref = n_new, v_new  # (the lane's centre moves with s)
+            since = 0.0 if ramp is None else (j - ramp[1]) * problem.horizon.dt
+            ramp = ramp if since < change else None
+            n_now = _set_lateral(
+                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, change)
+            )
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
@@ -231,6 +243,21 @@ def _drive(
         if states is None:
             loop.xs[j + 1] = plant.step(x, loop.us[j], road)
     return loop
+
+
+def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: float, ramp) -> float:
+    """``set_reference(v_ref, n_ref)``, or during a lane change (``ramp`` = (n_from, seconds since, duration)) the
+    per-stage n_ref of ``lane_change_profile``; returns stage 0's n_ref."""
+    from ..commonroad.lanes import lane_change_profile
+
+    if ramp is None:
+        rc, n0 = controller.set_reference(v_ref, n_ref), n_ref
+    else:
+        prof = lane_change_profile(ramp[0], n_ref, ramp[1], problem.horizon.times, ramp[2])
+        rc, n0 = controller.set_reference_stages(np.full(len(prof), v_ref), prof), float(prof[0])
+    if rc:
+        raise ValueError(f"scenario {name}: the reference ({v_ref}, {n_ref}) refused (exit code {rc})")
+    return n0
 
 
 def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:

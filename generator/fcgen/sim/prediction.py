@@ -3,15 +3,26 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
+from ..contract import INPUT_RANGES
 from ..road import Road
 from .plants.spec import PREDICTIONS
 
 #: samples between the two observed poses a speed is taken from (two such spans for an acceleration)
 SPAN = 5
+
+MARGIN_RULE = (
+    "m_k = min(10 m, c tau_k e): tau_k the time from the last observation to stage k, e the speed error expected of "
+    "the prediction, max over the opponents of |v1 - v0| (the speed change observed between the last two spans of "
+    "SPAN samples: what a prediction at one speed misses) + sqrt(2) sigma_xy / (SPAN dt) (the noise's error on a speed "
+    "from two positions SPAN samples apart)"
+)
+"""The obstacle margin per stage of ``PlantSpec.prediction_margin = c`` (docs/plants.md, "Margins from the
+prediction's error"); set with ``set_obstacle_margins`` before each sample's solve."""
 
 
 class PredictedOpponents:
@@ -73,6 +84,16 @@ class PredictedOpponents:
         out[..., 2] = phi
         return out
 
+    def margins(self, i: int, c: float) -> np.ndarray:
+        """The obstacle margin per stage at sample ``i`` (``MARGIN_RULE``)."""
+        j0 = i - self.delay
+        tau = ((i - j0) + self.offsets) * self.dt
+        p0, p1, p2 = (self.observed(j0 - q * SPAN) for q in (0, 1, 2))
+        v1 = np.hypot(*(p0[:, :2] - p1[:, :2]).T) / (SPAN * self.dt)
+        v0 = np.hypot(*(p1[:, :2] - p2[:, :2]).T) / (SPAN * self.dt)
+        e = float(np.max(np.abs(v1 - v0), initial=0.0)) + math.sqrt(2.0) * float(max(self.noise[:2])) / (SPAN * self.dt)
+        return np.minimum(c * tau * e, INPUT_RANGES.margin_max)
+
     def _lane(self, p0: np.ndarray, p1: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Along the road's reference line at the observed offset and progress rate ds/dt, heading along it."""
         road = self.road
@@ -85,9 +106,11 @@ class PredictedOpponents:
         return np.stack([x, y, phi], axis=-1)
 
 
-def opponent_horizon(problem, sc, spec, opp_params) -> Callable[[int], np.ndarray]:
+def opponent_horizon(problem, sc, spec, opp_params, controller=None) -> Callable[[int], np.ndarray]:
     """What the solver is given at each sample: ``opp_params.horizon`` (``oracle``) or the prediction of
-    ``spec.prediction`` from the observed poses (with the measured state's noise on s, n, alpha as x, y, phi)."""
+    ``spec.prediction`` from the observed poses (with the measured state's noise on s, n, alpha as x, y, phi). With
+    ``spec.prediction_margin`` it also sets ``controller``'s obstacle margins of that sample (``MARGIN_RULE``) each
+    time a sample's prediction is asked for (just before its solve)."""
     if spec.prediction == "oracle":
         return opp_params.horizon
     pred = PredictedOpponents(
@@ -100,4 +123,13 @@ def opponent_horizon(problem, sc, spec, opp_params) -> Callable[[int], np.ndarra
         tuple(spec.noise[:3]),
         sc.seed,
     )
-    return pred.horizon
+    if not spec.prediction_margin or controller is None:
+        return pred.horizon
+
+    def horizon(i: int) -> np.ndarray:
+        rc = controller.set_obstacle_margins(pred.margins(i, spec.prediction_margin))
+        if rc != 0:
+            raise RuntimeError(f"set_obstacle_margins refused the prediction's margins (exit code {rc})")
+        return pred.horizon(i)
+
+    return horizon

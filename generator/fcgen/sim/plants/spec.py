@@ -23,6 +23,8 @@ PREDICTION_LABELS = {"constant-velocity": "cv", "constant-acceleration": "ca", "
 MAX_LATENCY = 8
 #: the largest steering lag time constant (s)
 MAX_STEER_LAG = 2.0
+#: the largest factor c of the prediction's margin rule
+MAX_PREDICTION_MARGIN = 10.0
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,9 @@ class PlantSpec:
     steer_lag: float = 0.0  # s, time constant of a first-order steering actuator (0: none)
     noise: tuple[float, ...] = (0.0,) * 5  # std of the Gaussian noise on the measured (s, n, alpha, v, delta)
     prediction: str = "oracle"  # the opponents' futures the solver is given (sim.prediction.PREDICTIONS)
+    # c of the obstacle margin per stage that grows with the prediction's expected error (sim.prediction.MARGIN_RULE;
+    # 0: none, the problem's own margin)
+    prediction_margin: float = 0.0
 
     def __post_init__(self) -> None:
         check(self.kind in PLANT_KINDS, "plant", self.kind, f"one of {', '.join(PLANT_KINDS)}")
@@ -52,6 +57,18 @@ class PlantSpec:
             f"[0, {MAX_STEER_LAG}] s",
         )
         check(self.prediction in PREDICTIONS, "prediction", self.prediction, f"one of {', '.join(PREDICTIONS)}")
+        check(
+            0 <= finite("prediction_margin", self.prediction_margin) <= MAX_PREDICTION_MARGIN,
+            "prediction_margin",
+            self.prediction_margin,
+            f"[0, {MAX_PREDICTION_MARGIN}] (0: none)",
+        )
+        check(
+            self.prediction_margin == 0 or self.prediction != "oracle",
+            "prediction_margin",
+            self.prediction_margin,
+            "0 with the oracle (a margin grows with a prediction's error: give --prediction)",
+        )
         check(isinstance(self.noise, tuple) and len(self.noise) == 5, "noise", self.noise, "a tuple of 5 stds")
         for i, v in enumerate(self.noise):
             check(0 <= finite(f"noise[{i}]", v) <= 10, f"noise[{i}]", v, "[0, 10]")
@@ -76,12 +93,16 @@ class PlantSpec:
             parts.append("noise" if self.noise == DEFAULT_NOISE else "noise" + ":".join(f"{v:g}" for v in self.noise))
         if self.prediction != "oracle":
             parts.append(PREDICTION_LABELS[self.prediction])
+        if self.prediction_margin:
+            parts.append(f"pm{self.prediction_margin:g}")
         return "+".join(parts)
 
     def as_meta(self) -> dict:
         """The run log's ``meta.extra.plant`` and a campaign row's plant columns."""
         d = asdict(self)
         d["noise"] = list(self.noise)
+        if not self.prediction_margin:  # a log or suite without the margin: as before it
+            del d["prediction_margin"]
         return d
 
 

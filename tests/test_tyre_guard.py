@@ -1,0 +1,90 @@
+"""The safe profile's tyre-aware a_lat guard and its drive limit (``PlanCheck.tyre_stiffness``, ``h_cg``,
+``drive_limit``) on get_u0, with the plant's step given: the flags, the steering rate and the drive force worked out by
+hand from the single-track yaw gain and the friction ellipse (docs/safe_profile.md)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fcgen.dsl import PlanCheck, Problem
+from fcgen.plan_check import a_lat_guard
+from fcgen.presets import preset
+
+SAFE = Problem(name="car_safe")  # the DSL's defaults are the safe profile's: a = b = 1.7 m, m = 1160 kg
+L, DT, A_TO = 3.4, 0.1, 4.95
+
+
+def _delta(v: float, a: float) -> float:
+    """The steering angle at which the formula gives a_lat = a at speed v."""
+    return math.atan(a * L / (v * v))
+
+
+def _guard(problem: Problem, x1: list[float], u: list[float]) -> tuple[int, np.ndarray]:
+    """The guard on control u from x0 = (.., v1, 0.03), its plant step ending at x1 with the plan's rate u[1] and at
+    the steering angle 0.03 + r dt with another rate r (the speed x1's)."""
+    uu = np.array(u, dtype=float)
+    x0 = np.array([0.0, 0.0, 0.0, x1[3], 0.03])
+    r_plan = float(uu[1])
+
+    def step() -> list[float]:
+        return list(x1) if uu[1] == r_plan else [*x1[:4], 0.03 + float(uu[1]) * DT]
+
+    return a_lat_guard(problem, x0, uu, -0.39, 0.39, step), uu
+
+
+def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
+    """18 m/s at the formula's 4.5 m/s^2 (within the bound) while braking at 8 m/s^2: load transfer a_x h = -4.912,
+    g l_r = g l_f = 16.677, so K = (1.7 / 21.589 - 1.7 / 11.765) / (3.4 * 21.92) = -8.825e-4 and d = 1 - 0.286 = 0.714:
+    the tyres give 6.3 m/s^2. The guard steers to 4.95 d = 3.53 m/s^2 of the formula (status 1), the force kept."""
+    v, f_d = 18.0, -8.0 * 1160.0
+    x1 = [0.0, 0.0, 0.0, v, _delta(v, 4.5)]
+    status, u = _guard(SAFE, x1, [f_d, 0.1])
+    k = (1.7 / (9.81 * 1.7 + 8.0 * 0.614) - 1.7 / (9.81 * 1.7 - 8.0 * 0.614)) / (L * 21.92)
+    d = 1.0 + k * v * v
+    assert d == pytest.approx(0.714, abs=1e-3)
+    assert status == 1 and u[0] == f_d
+    assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
+    # without tyres (the paper's guard) the same step passes: 4.5 <= 5
+    no_tyres = SAFE.with_(plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False))
+    assert _guard(no_tyres, x1, [f_d, 0.1]) == (0, pytest.approx(np.array([f_d, 0.1])))
+
+
+def test_where_the_guard_steers_it_does_not_drive():
+    """20 m/s, the plan's step ending at 5.5 m/s^2 while driving with 5,000 N: the guard steers to 4.95 m/s^2 (d = 1:
+    no braking) and the friction ellipse leaves no drive force at its target, F_d_max sqrt(1 - (4.95 / 4.95)^2) = 0
+    (status 1); braking is never cut; without the drive limit the force is kept where the guard steers."""
+    v = 20.0
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
+    assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
+    assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1])[1][0] == -3000.0
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False))
+    assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
+
+
+def test_within_the_bound_the_drive_force_keeps_the_understeer_within_its_slack():
+    """20 m/s at the formula's 4.9 m/s^2 (the guard does not steer): driving with 5,000 N would make the tyres turn
+    0.25 m/s^2 less at m 0.25 g^2 l_f l_r / (k l h v^2 (4.9 - 0.25)) = 290 * 96.2361 * 2.89 / (0.02801 * 400 * 4.65)
+    = 1,548 N (k = 1 / (3.4 * 21.92)): cut to it, status 3; 1,000 N is kept (0), braking too (the guard steers:
+    the tyres turn more); straight ahead the whole force."""
+    v = 20.0
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [5000.0, 0.1])
+    k = 1.0 / (L * 21.92)
+    assert status == 3 and u[1] == 0.1
+    assert u[0] == pytest.approx(1160.0 * 0.25 * 9.81**2 * 1.7 * 1.7 / (k * L * 0.614 * v * v * (4.9 - 0.25)), rel=1e-9)
+    assert u[0] == pytest.approx(1548.0, abs=1.0)
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [1000.0, 0.1]) == (0, pytest.approx(np.array([1e3, 0.1])))
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.9)], [-3000.0, 0.1])  # braking: the tyres turn more
+    assert status == 1 and u[0] == -3000.0
+    assert _guard(SAFE, [0.0, 0.0, 0.0, v, 0.0], [1e4, 0.0]) == (0, pytest.approx(np.array([1e4, 0.0])))
+
+
+def test_profiles():
+    """The safe presets carry the tyre-aware guard and the drive limit; the paper's have neither."""
+    safe, paper = preset("car_lifted_ellipse_ipm_safe"), preset("car_lifted_ellipse")
+    assert safe.plan_check == PlanCheck() and safe.plan_check.tyre_stiffness > 0 and safe.plan_check.drive_limit
+    assert paper.plan_check.tyre_stiffness == 0 and not paper.plan_check.drive_limit
