@@ -5,8 +5,9 @@
  *   fuzz_contract SEED TRIALS [CALLS [WEIGHTS]]
  *
  * A trial is CALLS random calls (default 200) after init(): set_state, set_road, set_road_bounds, set_opponents,
- * set_opponent_shapes, set_reference (and its per-stage forms), set_clock, prepare, feedback, reset, init and every getter, with valid,
- * extreme (1e30, 1e-30, 0, negative, the type's largest and denormal values), NaN/inf and NULL inputs. After each
+ * set_opponent_shapes, set_reference (and its per-stage forms), set_clock, prepare, feedback, reset, init and every
+ * getter, with valid, extreme (1e30, 1e-30, 0, negative, the type's largest and denormal values), NaN/inf and NULL
+ * inputs. After each
  * call the solver's observable state (every getter's output, bit for bit) is hashed. Then the twin: init() again
  * and only the calls the fuzzed run accepted, replayed with the same inputs (a reset() replayed as init() plus the
  * inputs set since the last init, in their order: reset equals a fresh solver given the same inputs; with a delay line,
