@@ -9,6 +9,8 @@ import re
 import shutil
 import subprocess
 from pathlib import Path
+from typing import NamedTuple
+from unittest.mock import patch
 
 from fcgen.build import build, run_make
 from fcgen.codegen.generate import generate
@@ -19,7 +21,7 @@ CLANG = shutil.which("clang") is not None
 CC = "clang" if CLANG else "gcc"
 # gcc has no float-cast-overflow: there the solver's own range checks stand alone
 SANITIZE = (
-    "-fsanitize=address,undefined" + (",float-cast-overflow" if CLANG else "") + " -fno-sanitize-recover=all -g -O1"
+    "-fsanitize=address,undefined" + (",float-cast-overflow" if CLANG else "") + " -fno-sanitize-recover=all -g -O2"
 )
 LIBFUZZER = "-fsanitize=fuzzer-no-link," + SANITIZE.removeprefix("-fsanitize=")
 SAN_ENV = {
@@ -27,33 +29,50 @@ SAN_ENV = {
     "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1",
 }
 REPORT = re.compile(r"AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:")
-# one solver of each backend and precision, the hyperplane and the conventional formulation
+
+
+class Fuzzed(NamedTuple):
+    """A solver the contract fuzzer drives: the preset, its precision and delay compensation (Problem.delay)."""
+
+    preset: str
+    use_float: bool = False
+    delay: int = 0
+
+
+# one solver of each backend and precision, the hyperplane and the conventional formulation, the delay compensation
 SOLVERS = {
-    "ipm_double": ("truck_lifted_ellipse_ipm_safe", False),
-    "ipm_float": ("truck_lifted_ellipse_ipm_safe", True),
-    "ipm_hyperplane": ("car_direct_elimination_hyperplane_ipm_safe", False),
-    "osqp_conventional": ("truck_conventional_circles", False),
+    "ipm_double": Fuzzed("truck_lifted_ellipse_ipm_safe"),
+    "ipm_float": Fuzzed("truck_lifted_ellipse_ipm_safe", use_float=True),
+    "ipm_hyperplane": Fuzzed("car_direct_elimination_hyperplane_ipm_safe"),
+    "osqp_conventional": Fuzzed("truck_conventional_circles"),
+    "ipm_delay": Fuzzed("truck_lifted_ellipse_ipm_safe", delay=2),
 }
 
 
 def defines(folder: Path) -> str:
-    """The driver's -D flags: the input box, the road's spacing and the band of the folder's problem."""
+    """The driver's -D flags: the input box, the road's spacing, the band and the delay of the folder's problem."""
     pb = load_problem(str(folder / "problem.py"))
     b = pb.bounds
     return (
         f"-DFUZZ_F_D_MAX={b.F_d_max!r} -DFUZZ_R_MAX={b.r_max!r} -DFUZZ_DS={pb.road.ds!r} "
-        f"-DFUZZ_N_MIN={b.n_min!r} -DFUZZ_N_MAX={b.n_max!r}"
+        f"-DFUZZ_N_MIN={b.n_min!r} -DFUZZ_N_MAX={b.n_max!r} -DFUZZ_DELAY={pb.delay}"
     )
 
 
-def build_fuzzer(key: str, out: Path, libfuzzer: bool = False) -> Path:
-    """Generate the solver of SOLVERS[key] into out/solver, build it with the sanitizers and the driver against it."""
-    name, use_float = SOLVERS[key]
+def build_fuzzer(key: str, out: Path, libfuzzer: bool = False, qp_lib_sanitized: bool = True) -> Path:
+    """Generate the solver of SOLVERS[key] into out/solver, build it with the sanitizers and the driver against it.
+
+    ``qp_lib_sanitized=False``: OSQP's own library (third-party, the ADMM iterations: most of a feedback's time) is
+    built without the sanitizers; the solver, its tables and the driver keep them (the long run's OSQP solver)."""
+    fz = SOLVERS[key]
+    out = out.resolve()  # make runs in FUZZ_DIR
     folder = out / "solver"
     if not (folder / "problem.py").exists():
-        generate(preset(name), folder, use_float=use_float)
+        generate(preset(fz.preset).with_(delay=fz.delay), folder, use_float=fz.use_float)
     flags = LIBFUZZER if libfuzzer else SANITIZE
-    build(folder, cc=CC, cflags=flags)
+    plain = {} if qp_lib_sanitized else {"OSQP_OPTFLAGS": "-O3 -fno-sanitize=" + flags.split()[0].split("=")[1]}
+    with patch.dict(os.environ, plain):  # the solver's Makefile takes OSQP_OPTFLAGS from the environment
+        build(folder, cc=CC, cflags=flags)
     target = "fuzz_contract_libfuzzer" if libfuzzer else "fuzz_contract"
     run_make(
         FUZZ_DIR,
@@ -76,12 +95,12 @@ def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
 
 
 def counts(stdout: str) -> dict[str, float]:
-    """The driver's "key value" lines ("rc CODE n" as rc_CODE, "kind NAME n" as kind_NAME)."""
+    """The driver's "key value" lines ("rc CODE n" as rc_CODE, "kind NAME n" as kind_NAME, "seconds NAME t")."""
     out: dict[str, float] = {}
     for line in stdout.splitlines():
         parts = line.split()
         if len(parts) == 2:
             out[parts[0]] = float(parts[1])
-        elif len(parts) == 3 and parts[0] in ("rc", "kind"):
+        elif len(parts) == 3 and parts[0] in ("rc", "kind", "seconds"):
             out[f"{parts[0]}_{parts[1]}"] = float(parts[2])
     return out

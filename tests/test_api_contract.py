@@ -234,3 +234,39 @@ def test_the_plan_check_reacts_the_same_with_the_road_set_before_or_after_prepar
     assert np.array_equal(pu_after, pu_full)
     assert py_full.plan_clearance_stage == full.plan_clearance_stage and py_full.plan_reaction == 1
     assert py_full.plan_clearance == pytest.approx(full.plan_clearance, abs=1e-6)
+
+
+# -- the delay compensation's line: only a feedback that consumed its sample moves it ---------------------------------
+@pytest.fixture(scope="module")
+def delayed(tmp_path_factory) -> CSolver:
+    return CSolver(build(generate(LIFTED.with_(delay=2), tmp_path_factory.mktemp("delay") / "s").out_dir))
+
+
+def _delayed_run(cs: CSolver, refused: list | None) -> list:
+    """Five samples on a straight road, the ego at 20 m/s; before the fourth feedback the states given, each
+    feedback on them refused."""
+    pb, out = LIFTED, []
+    assert cs.init() == OK and cs.set_road(_road(pb)) == OK and cs.set_opponents(_opponents(pb, 60.0)) == OK
+    for k in range(5):
+        x = X0 + np.array([2.0 * k, 0.1, 0.0, 0.0, 0.0])
+        assert cs.set_state(x) == OK and cs.prepare() == OK
+        if k == 3 and refused:
+            for x_bad in refused:  # finite, so accepted; the prediction leaves the road or overflows
+                assert cs.set_state(x_bad) == OK
+                assert cs.feedback() in (code("ERR_ROAD_WINDOW"), code("ERR_NONFINITE_STATE")), x_bad
+            assert cs.set_state(x) == OK
+        assert cs.feedback() == OK
+        out.append((cs.u0().copy(), cs.states().copy()))
+    return out
+
+
+def test_a_feedback_refused_by_the_delay_prediction_leaves_the_delay_line(delayed):
+    """A state whose prediction over the delay leaves the road (or overflows) refuses the feedback before its QP: the
+    controls the vehicle has yet to apply stay as they were, so the samples after it are bit for bit the same."""
+    plain = _delayed_run(delayed, None)
+    fast = X0 + np.array([6.0, 0.1, 0.0, 1e6, 0.0])  # on the road; a sample later 1e5 m further: off it
+    huge = X0 + np.array([6.0, 0.1, 0.0, 1e300, 0.0])
+    refused = _delayed_run(delayed, [fast, huge])
+    for (u_a, x_a), (u_b, x_b) in zip(plain, refused, strict=True):
+        assert np.array_equal(u_a, u_b) and np.array_equal(x_a, x_b)
+    assert not np.array_equal(plain[3][1][0], plain[2][1][0])  # the samples move: the check can see a change

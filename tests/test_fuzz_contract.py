@@ -1,6 +1,6 @@
-"""The contract fuzzer (tests/c/fuzz_contract.c) on one solver of each backend and precision, under ASan + UBSan
-(clang: float-cast-overflow too): a short seeded run here; the long run and libFuzzer: scripts/fuzz_contract.py
-(docs/verification.md)."""
+"""The contract fuzzer (tests/c/fuzz_contract.c) on one solver of each backend and precision and one with delay
+compensation, under ASan + UBSan (clang: float-cast-overflow too): a short seeded run here; the long run and
+libFuzzer: scripts/fuzz_contract.py (docs/verification.md)."""
 
 from __future__ import annotations
 
@@ -40,6 +40,7 @@ def test_random_calls_keep_the_contract(fuzzer, key):
     c = counts(res.stdout)
     assert res.returncode == 0 and c["violations"] == 0, res.stdout + res.stderr[-3000:]
     assert c["calls"] == trials * 200 and c["compared"] == c["calls"], c
+    assert f"progress trials {trials} calls {trials * 200} " in res.stderr, res.stderr[-2000:]
     assert all(v == 0 for k, v in c.items() if k.startswith("violation_")), c
     # every entry was called; calls refused, NULL given to getters refused, samples solved
     kinds = ("set_state", "set_road", "set_road_bounds", "set_opponents", "set_opponent_shapes", "set_reference")
@@ -53,6 +54,16 @@ def test_the_fuzzer_is_reproducible_by_seed(fuzzer):
     exe = str(fuzzer("ipm_double"))
     a, b, other = (run([exe, s, "2"], timeout=300).stdout for s in ("7", "7", "8"))
     assert a == b and a != other
+
+
+def test_the_call_mix_is_the_one_given(fuzzer):
+    """The weights on the command line decide the kinds drawn (the kinds not named keep the driver's)."""
+    res = run([str(fuzzer("ipm_double")), "3", "2", "100", "prepare=0,feedback=0,getter=200"], timeout=300)
+    c = counts(res.stdout)
+    assert res.returncode == 0 and c["calls"] == 200, res.stdout + res.stderr[-2000:]
+    assert c["kind_prepare"] == 0 and c["kind_feedback"] == 0 and c["kind_getter"] > 100 and c["kind_set_state"] > 0, c
+    bad = run([str(fuzzer("ipm_double")), "3", "2", "100", "feedbak=2"], timeout=60)
+    assert bad.returncode == 2 and "WEIGHTS" in bad.stderr
 
 
 def test_the_fuzzer_reports_a_broken_expectation(fuzzer, tmp_path):

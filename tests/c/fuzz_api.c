@@ -32,30 +32,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if !defined(SOLVER) || !defined(SOLVER_UPPER) || !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) || !defined(FUZZ_DS)
+#if !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) || !defined(FUZZ_DS)
 #error "compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX=.. -DFUZZ_R_MAX=.. -DFUZZ_DS=.."
 #endif
 
-#define FZ_CAT_(a, b) a##b
-#define FZ_CAT(a, b) FZ_CAT_(a, b)
-#define FZ_STR_(x) #x
-#define FZ_STR(x) FZ_STR_(x)
-#define S_(x) FZ_CAT(SOLVER, x)
-#define U_(x) FZ_CAT(SOLVER_UPPER, x)
+#include "fuzz_common.h" /* the solver's names and sizes, rnd, pick, unif, nonfinite, qp_outcome */
 
-#include FZ_STR(S_(_solver).h)
-
-typedef S_(_real_t) real_t;
-typedef S_(_status_t) status_t;
-
-#define NX U_(_NX)
-#define NU U_(_NU)
-#define N U_(_N)
-#define NOPP U_(_NOPP)
-#define NOPP_PAR U_(_NOPP_PAR)
-#define ROAD_MAX U_(_ROAD_MAX)
 #define ROAD_WINDOW U_(_ROAD_WINDOW)
-#define OPP_BLOCK ((N + 1) * NOPP * NOPP_PAR)
 #define NSTATES ((N + 1) * NX)
 
 #if NOPP_PAR != 3
@@ -67,30 +50,12 @@ typedef S_(_status_t) status_t;
 #define G_S0 (-20.0)
 
 /* ------------------------------------------------------------------------------------------------ random */
-static uint64_t rng_state;
-static uint64_t rnd(void) { /* splitmix64 */
-  uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-static int pick(int n) {
-  return (int)(rnd() % (uint64_t)n);
-}
-static double unif(double a, double b) {
-  return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0);
-}
-static double nonfinite(void) {
-  static const double v[3] = {NAN, INFINITY, -INFINITY};
-  return v[pick(3)];
-}
 static double extreme(void) {
   static const double v[10] = {1e15, -1e15, 1e300, -1e300, DBL_MAX, 4.9e-324, -4.9e-324, 1e-310, -0.0, 1e30};
   return v[pick(10)];
 }
 
 /* ------------------------------------------------------------------------------------------------ counts */
-#define MAX_CODE 64
 static long n_calls, n_invalid, n_rejected_ok, n_rc[MAX_CODE], n_qs[MAX_CODE];
 static long n_fb_ok, n_fb_unusable, n_fb_input_bounds, n_projected, n_fallback_checked, n_checked, n_equal, n_episodes,
     n_cold_restarts;
@@ -190,13 +155,6 @@ static int qp_exit(int qs) {
   default:
     return U_(_ERR_QP);
   }
-}
-
-/* a feedback return code that means "the sample was consumed by a QP" (not a rejected call) */
-static int qp_outcome(int rc) {
-  return rc == U_(_OK) || rc == U_(_ERR_QP) || rc == U_(_ERR_QP_INFEASIBLE) || rc == U_(_ERR_QP_DUAL_INFEASIBLE) ||
-         rc == U_(_ERR_QP_NONCONVEX) || rc == U_(_ERR_QP_NONFINITE) || rc == U_(_ERR_QP_NUMERICAL) ||
-         rc == U_(_ERR_QP_INPUT_BOUNDS);
 }
 
 /* what a rejected call must not change */
@@ -719,7 +677,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "usage: %s SEED EPISODES\n", argv[0]);
     return 2;
   }
-  rng_state = (uint64_t)seed;
+  fz_rng = (uint64_t)seed;
   make_good();
   run_good(-1, 1); /* the reference: the fresh (zero-initialised) solver */
   after_good();

@@ -2,14 +2,16 @@
  * fuzz_contract.c -- random calls on every public entry of a generated fcgen solver, checked against a twin
  * (tests/test_fuzz_contract.py; the long run and the libFuzzer entry: docs/verification.md).
  *
- *   fuzz_contract SEED TRIALS [CALLS]
+ *   fuzz_contract SEED TRIALS [CALLS [WEIGHTS]]
  *
  * A trial is CALLS random calls (default 200) after init(): set_state, set_road, set_road_bounds, set_opponents,
- * set_opponent_shapes, set_reference (and its per-stage forms), set_clock, prepare, feedback, reset, init and every getter, with valid,
- * extreme (1e30, 1e-30, 0, negative, the type's largest and denormal values), NaN/inf and NULL inputs. After each
+ * set_opponent_shapes, set_reference (and its per-stage forms), set_clock, prepare, feedback, reset, init and every
+ * getter, with valid, extreme (1e30, 1e-30, 0, negative, the type's largest and denormal values), NaN/inf and NULL
+ * inputs. After each
  * call the solver's observable state (every getter's output, bit for bit) is hashed. Then the twin: init() again
  * and only the calls the fuzzed run accepted, replayed with the same inputs (a reset() replayed as init() plus the
- * inputs set since the last init, in their order: reset equals a fresh solver given the same inputs). Checks:
+ * inputs set since the last init, in their order: reset equals a fresh solver given the same inputs; with a delay line,
+ * -DFUZZ_DELAY > 0, replayed as reset(): reset keeps the controls the vehicle has yet to apply). Checks:
  *   - twin: after each call of the fuzzed run, its state equals the twin's after the accepted calls so far (a
  *     refused call leaves the solver bit for bit as it was; after a prepare refused with ERR_QP_NONFINITE only
  *     get_qp's u and A_x may differ, as the header says) and the twin's calls return the same codes;
@@ -18,10 +20,15 @@
  *   - outputs: after a feedback that consumed its sample, get_u0 is finite and inside the input box; with opponents
  *     the plan check reports a stage (it checked every stage: never plan_clearance_stage = -1).
  * Built with -fsanitize=address,undefined (clang: also float-cast-overflow) -fno-sanitize-recover=all, a sanitizer
- * report aborts the run. Prints "key value" counts; exit 1 on any violation, 2: usage.
+ * report aborts the run. WEIGHTS: how often kinds are drawn, "kind=w,..." with the names of the counts (the others keep
+ * theirs: set_state 14, set_road 5, set_road_bounds 5, set_opponents 10, set_opponent_shapes 5, set_reference 5,
+ * set_clock 2, prepare 16, feedback 16, reset 2, init 1, getter 12). Prints "key value" counts (per kind: calls, returned codes),
+ * on stderr every 10 s "progress ..." and at the end the processor seconds per kind and the slowest call; exit 1 on
+ * any violation, 2: usage.
  * -DFUZZ_LIBFUZZER: LLVMFuzzerTestOneInput instead of main (the input bytes drive the choices of one trial).
  * Build: -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX= -DFUZZ_R_MAX= -DFUZZ_DS= -DFUZZ_N_MIN= -DFUZZ_N_MAX=
- *        -I<solver folder>, linked with lib<name>.a lib<name>_osqp.a -lm (tests/c/Makefile, target fuzz_contract).
+ *        [-DFUZZ_DELAY=<Problem.delay>] -I<solver folder>, linked with lib<name>.a lib<name>_osqp.a -lm
+ *        (tests/c/Makefile, target fuzz_contract).
  */
 #include <float.h>
 #include <math.h>
@@ -30,40 +37,28 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
-#if !defined(SOLVER) || !defined(SOLVER_UPPER) || !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) ||                    \
-    !defined(FUZZ_DS) || !defined(FUZZ_N_MIN) || !defined(FUZZ_N_MAX)
+#if !defined(FUZZ_F_D_MAX) || !defined(FUZZ_R_MAX) || !defined(FUZZ_DS) || !defined(FUZZ_N_MIN) || !defined(FUZZ_N_MAX)
 #error                                                                                                                 \
     "compile with -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX= -DFUZZ_R_MAX= -DFUZZ_DS= -DFUZZ_N_MIN= -DFUZZ_N_MAX="
 #endif
 
-#define FZ_CAT_(a, b) a##b
-#define FZ_CAT(a, b) FZ_CAT_(a, b)
-#define FZ_STR_(x) #x
-#define FZ_STR(x) FZ_STR_(x)
-#define S_(x) FZ_CAT(SOLVER, x)
-#define U_(x) FZ_CAT(SOLVER_UPPER, x)
+#include "fuzz_common.h" /* the solver's names and sizes, rnd, pick, unif, nonfinite, qp_outcome */
 
-#include FZ_STR(S_(_solver).h)
-
-typedef S_(_real_t) real_t;
-typedef S_(_status_t) status_t;
-
-#define NX U_(_NX)
-#define NU U_(_NU)
-#define N U_(_N)
-#define NOPP U_(_NOPP)
-#define NOPP_PAR U_(_NOPP_PAR)
 #define NOPP_STAGE U_(_NOPP_STAGE)
 #define NOPP_SHAPE U_(_NOPP_SHAPE)
-#define ROAD_MAX U_(_ROAD_MAX)
 #define QP_N U_(_QP_N)
 #define QP_M U_(_QP_M)
 #define NNZ_A U_(_QP_NNZ_A)
-#define OPP_BLOCK ((N + 1) * NOPP * NOPP_PAR)
 #define SHAPE_BLOCK (NOPP * NOPP_SHAPE)
+#ifndef FUZZ_DELAY
+#define FUZZ_DELAY 0 /* Problem.delay of the solver */
+#endif
+#if FUZZ_DELAY > 0
+typedef char fz_delay_is_the_solvers[(U_(_DELAY) == FUZZ_DELAY) ? 1 : -1];
+#endif
 #define MAX_CALLS 1000
-#define MAX_CODE 64
 #define OK U_(_OK)
 #ifdef FUZZ_VOID_GETTERS /* a solver of fcgen 0.20.0 (getters without a code): no NULL given to them */
 #define ERR_NULL 19
@@ -76,52 +71,25 @@ typedef S_(_status_t) status_t;
 #endif
 
 /* ---------------------------------------------------------------------------------------------- random */
-static uint64_t rng;
-static const uint8_t *stream; /* libFuzzer: the input's bytes come first */
-static size_t stream_left;
-static uint64_t rnd(void) {
-  uint64_t z;
-  if (stream_left >= 8u) {
-    memcpy(&z, stream, 8u);
-    stream += 8;
-    stream_left -= 8u;
-    return z;
-  }
-  z = (rng += 0x9E3779B97F4A7C15ull); /* splitmix64 */
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-static int pick(int n) {
-  return (int)(rnd() % (uint64_t)n);
-}
-static double unif(double a, double b) {
-  return a + (b - a) * ((double)(rnd() >> 11) / 9007199254740992.0);
-}
-
 /* an extreme value of the real type (no conversion out of its range) */
 static real_t extreme(void) {
   static const double d[12] = {1e30, -1e30, 1e-30, -1e-30, 0.0, -0.0, -1.0, 1e300, -1e300, DBL_MAX, 4.9e-324, 1e-310};
   static const double f[10] = {1e30, -1e30, 1e-30, -1e-30, 0.0, -0.0, -1.0, 3.4e38, 1.4e-45, 1e-40};
   return (sizeof(real_t) == sizeof(double)) ? (real_t)d[pick(12)] : (real_t)f[pick(10)];
 }
-static real_t nonfinite(void) {
-  static const double v[3] = {NAN, INFINITY, -INFINITY};
-  return (real_t)v[pick(3)];
-}
 /* a valid value mostly, else an extreme or non-finite one or the valid one negated */
 static real_t val(double valid) {
   const int m = pick(100);
   if (m < 85) return (real_t)valid;
   if (m < 93) return extreme();
-  if (m < 97) return nonfinite();
+  if (m < 97) return (real_t)nonfinite();
   return (real_t)-valid;
 }
 /* one entry of an array corrupted now and then */
 static void corrupt(real_t *a, int n) {
   const int m = pick(100);
   if (n <= 0 || m >= 12) return;
-  a[pick(n)] = (m < 8) ? extreme() : nonfinite();
+  a[pick(n)] = (m < 8) ? extreme() : (real_t)nonfinite();
 }
 
 /* ---------------------------------------------------------------------------------------------- clocks */
@@ -149,7 +117,8 @@ enum {
   C_GET,
   C_KINDS
 };
-static const int WEIGHT[C_KINDS] = {14, 5, 5, 10, 5, 5, 2, 16, 16, 2, 1, 12};
+/* how often each kind is drawn (relative); the command line may give others (a mix with fewer feedbacks) */
+static int weight[C_KINDS] = {14, 5, 5, 10, 5, 5, 2, 16, 16, 2, 1, 12};
 static const char *const KIND_NAME[C_KINDS] = {
     "set_state",     "set_road",  "set_road_bounds", "set_opponents", "set_opponent_shapes",
     "set_reference", "set_clock", "prepare",         "feedback",      "reset",
@@ -316,11 +285,11 @@ static int call_reference(void) {
 
 /* the call of kind with inputs drawn from seed; idx: its place in the trial */
 static int do_call(int kind, uint64_t seed, int idx) {
-  const uint64_t keep = rng;
-  const size_t left = stream_left;
+  const uint64_t keep = fz_rng;
+  const size_t left = fz_stream_left;
   int rc = OK;
-  rng = seed;
-  stream_left = 0u; /* inputs from the seed only (the twin draws them again) */
+  fz_rng = seed;
+  fz_stream_left = 0u; /* inputs from the seed only (the twin draws them again) */
   switch (kind) {
   case C_STATE:
     rc = call_state(idx);
@@ -361,8 +330,8 @@ static int do_call(int kind, uint64_t seed, int idx) {
     rc = call_get();
     break;
   }
-  rng = keep;
-  stream_left = left;
+  fz_rng = keep;
+  fz_stream_left = left;
   return rc;
 }
 
@@ -417,7 +386,15 @@ static void observe(uint64_t *main_h, uint64_t *qp_h, int *exit_code) {
 
 /* ---------------------------------------------------------------------------------------------- checks */
 static long n_calls, n_trials, n_refused, n_replayed, n_rc[MAX_CODE], n_kind[C_KINDS], n_fb_consumed, n_fb_ok, n_react,
-    n_null_get, n_compared;
+    n_null_get, n_compared, n_qp_iter, max_qp_iter;
+/* where the time goes (processor seconds, clock()): per kind in the fuzzed run, the twin's replay, the slowest call */
+static double t_kind[C_KINDS], t_twin, t_slowest;
+static int slowest_kind, slowest_idx;
+static long slowest_trial;
+static double seconds(clock_t a, clock_t b) {
+  return (double)(b - a) / (double)CLOCKS_PER_SEC;
+}
+
 static long violations, v_code, v_status, v_twin, v_twin_rc, v_output, v_plan_check, v_null;
 
 static void violation(long *counter, const char *what, int idx, double a, double b) {
@@ -425,16 +402,9 @@ static void violation(long *counter, const char *what, int idx, double a, double
   if (++violations <= 20) fprintf(stderr, "violation: %s (call %d: %.17g, %.17g)\n", what, idx, a, b);
 }
 
-/* a call that consumed its feedback sample (the QP ran), not a refused one */
-static int consumed(int rc) {
-  return rc == OK || rc == U_(_ERR_QP) || rc == U_(_ERR_QP_INFEASIBLE) || rc == U_(_ERR_QP_DUAL_INFEASIBLE) ||
-         rc == U_(_ERR_QP_NONCONVEX) || rc == U_(_ERR_QP_NONFINITE) || rc == U_(_ERR_QP_NUMERICAL) ||
-         rc == U_(_ERR_QP_INPUT_BOUNDS);
-}
-
 /* the calls the header says change nothing but status.exit_code */
 static int refused(int kind, int rc) {
-  if (kind == C_FEEDBACK) return !consumed(rc);
+  if (kind == C_FEEDBACK) return !qp_outcome(rc);
   if (kind == C_PREPARE) return rc != OK && rc != U_(_ERR_QP_NUMERICAL);
   if (kind == C_GET) return 1; /* a getter changes nothing at all */
   return rc != OK;
@@ -455,6 +425,8 @@ static void check_outputs(int idx, int rc) {
     violation(&v_plan_check, "the plan check skipped stages (no stage reported)", idx, st.plan_clearance_stage,
               (double)st.plan_clearance);
   n_react += st.plan_reaction != 0;
+  n_qp_iter += st.qp_iter;
+  if (st.qp_iter > max_qp_iter) max_qp_iter = st.qp_iter;
 }
 
 typedef struct {
@@ -465,17 +437,28 @@ static rec_t recs[MAX_CALLS];
 
 static void run_trial(int calls) {
   int i, total = 0, last_rc = OK, taint = 0, inputs[MAX_CALLS], n_inputs = 0;
-  for (i = 0; i < C_KINDS; ++i) total += WEIGHT[i];
+  clock_t c0;
+  double dt;
+  for (i = 0; i < C_KINDS; ++i) total += weight[i];
   clock_t0 = 0u;
   S_(_set_clock)(NULL);
   (void)S_(_init)();
   for (i = 0; i < calls; ++i) { /* the fuzzed run */
     rec_t *r = &recs[i];
     int w = pick(total), kind = 0;
-    while (w >= WEIGHT[kind]) w -= WEIGHT[kind++];
+    while (w >= weight[kind]) w -= weight[kind++];
     r->kind = kind;
     r->seed = rnd();
+    c0 = clock();
     r->rc = do_call(kind, r->seed, i);
+    dt = seconds(c0, clock());
+    t_kind[kind] += dt;
+    if (dt > t_slowest) {
+      t_slowest = dt;
+      slowest_kind = kind;
+      slowest_idx = i;
+      slowest_trial = n_trials;
+    }
     r->refused = refused(kind, r->rc);
     ++n_calls;
     ++n_kind[kind];
@@ -494,8 +477,9 @@ static void run_trial(int calls) {
     observe(&r->h_main, &r->h_qp, &r->exit_code);
     if (r->exit_code != last_rc)
       violation(&v_status, "status.exit_code is not the last call's code", i, r->exit_code, last_rc);
-    if (kind == C_FEEDBACK && consumed(r->rc)) check_outputs(i, r->rc);
+    if (kind == C_FEEDBACK && qp_outcome(r->rc)) check_outputs(i, r->rc);
   }
+  c0 = clock();
   clock_t0 = 0u; /* the twin: the accepted calls only, from init() */
   S_(_set_clock)(NULL);
   (void)S_(_init)();
@@ -504,7 +488,7 @@ static void run_trial(int calls) {
     uint64_t hm, hq;
     int ec, j;
     if (!r->refused) {
-      if (r->kind == C_RESET) { /* a fresh solver given the same inputs */
+      if (r->kind == C_RESET && FUZZ_DELAY == 0) { /* a fresh solver given the same inputs */
         (void)S_(_init)();
         for (j = 0; j < n_inputs; ++j) (void)do_call(recs[inputs[j]].kind, recs[inputs[j]].seed, inputs[j]);
       } else {
@@ -521,6 +505,7 @@ static void run_trial(int calls) {
       violation(&v_twin, r->refused ? "a refused call changed the solver" : "the state differs from the twin's", i,
                 r->kind, r->rc);
   }
+  t_twin += seconds(c0, clock());
   ++n_trials;
 }
 
@@ -530,9 +515,15 @@ static void report(void) {
          n_compared);
   printf("feedback_consumed %ld\nfeedback_ok %ld\nplan_reactions %ld\nnull_getters %ld\n", n_fb_consumed, n_fb_ok,
          n_react, n_null_get);
+  printf("qp_iterations %ld\nqp_iterations_max %ld\n", n_qp_iter, max_qp_iter);
   for (i = 0; i < C_KINDS; ++i) printf("kind %s %ld\n", KIND_NAME[i], n_kind[i]);
   for (i = 0; i < MAX_CODE; ++i)
     if (n_rc[i]) printf("rc %d %ld\n", i, n_rc[i]);
+  for (i = 0; i < C_KINDS; ++i) printf("weight %s %d\n", KIND_NAME[i], weight[i]);
+  /* the timings on stderr: stdout is a function of the seed */
+  for (i = 0; i < C_KINDS; ++i) fprintf(stderr, "seconds %s %.3f\n", KIND_NAME[i], t_kind[i]);
+  fprintf(stderr, "seconds twin %.3f\nslowest_call_seconds %.6f\nslowest_call %s trial %ld call %d\n", t_twin,
+          t_slowest, KIND_NAME[slowest_kind], slowest_trial, slowest_idx);
   printf("violation_code %ld\nviolation_status %ld\nviolation_twin %ld\nviolation_twin_rc %ld\n", v_code, v_status,
          v_twin, v_twin_rc);
   printf("violation_output %ld\nviolation_plan_check %ld\nviolation_null %ld\nviolations %ld\n", v_output, v_plan_check,
@@ -543,11 +534,11 @@ static void report(void) {
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   const int calls = (int)((size / 16u) < 8u ? 8u : ((size / 16u) > 300u ? 300u : size / 16u));
-  stream = data;
-  stream_left = size;
-  rng = 0x1234u;
+  fz_stream = data;
+  fz_stream_left = size;
+  fz_rng = 0x1234u;
   run_trial(calls);
-  stream_left = 0u;
+  fz_stream_left = 0u;
   if (violations != 0) {
     report();
     abort();
@@ -555,18 +546,55 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   return 0;
 }
 #else
+/* "kind=w,...": the weights of the kinds named (KIND_NAME), the others keep theirs; 0 if malformed */
+static int parse_weights(const char *text) {
+  int i, total = 0;
+  while (*text != '\0') {
+    const char *eq = strchr(text, '=');
+    char *end;
+    long w;
+    for (i = 0; i < C_KINDS; ++i)
+      if (eq != NULL && strlen(KIND_NAME[i]) == (size_t)(eq - text) &&
+          !strncmp(text, KIND_NAME[i], (size_t)(eq - text)))
+        break;
+    if (i == C_KINDS) return 0;
+    w = strtol(eq + 1, &end, 10);
+    if (end == eq + 1 || w < 0 || w > 1000 || (*end != ',' && *end != '\0')) return 0;
+    weight[i] = (int)w;
+    text = (*end == ',') ? end + 1 : end;
+  }
+  for (i = 0; i < C_KINDS; ++i) total += weight[i];
+  return total > 0;
+}
+
+#define PROGRESS_SECONDS 10
 int main(int argc, char **argv) {
+  const clock_t start = clock();
+  time_t last = time(NULL);
   long t, trials;
   int calls = 200;
   if (argc < 3) {
-    fprintf(stderr, "usage: %s SEED TRIALS [CALLS]\n", argv[0]);
+    fprintf(stderr, "usage: %s SEED TRIALS [CALLS [WEIGHTS]]\n", argv[0]);
     return 2;
   }
-  rng = strtoull(argv[1], NULL, 10) * 0x2545F4914F6CDD1Dull;
+  fz_rng = strtoull(argv[1], NULL, 10) * 0x2545F4914F6CDD1Dull;
   trials = strtol(argv[2], NULL, 10);
   if (argc > 3) calls = atoi(argv[3]);
-  if (calls < 1 || calls > MAX_CALLS || trials < 1) return 2;
-  for (t = 0; t < trials; ++t) run_trial(calls);
+  if (calls < 1 || calls > MAX_CALLS || trials < 1 || (argc > 4 && !parse_weights(argv[4]))) {
+    fprintf(stderr, "usage: %s SEED TRIALS [CALLS (1..%d) [WEIGHTS: kind=w,... w in 0..1000, e.g. feedback=8]]\n",
+            argv[0], MAX_CALLS);
+    return 2;
+  }
+  for (t = 0; t < trials; ++t) {
+    run_trial(calls);
+    if (time(NULL) - last >= PROGRESS_SECONDS || t + 1 == trials) { /* a long run says how far it is */
+      const double cpu = seconds(start, clock());
+      last = time(NULL);
+      fprintf(stderr, "progress trials %ld calls %ld cpu_seconds %.0f calls_per_s %.0f violations %ld\n", n_trials,
+              n_calls, cpu, cpu > 0.0 ? (double)n_calls / cpu : 0.0, violations);
+      fflush(stderr);
+    }
+  }
   report();
   return violations != 0;
 }
