@@ -252,12 +252,14 @@ def test_simulate_and_campaign_commands(straight, tmp_path):
                 str(tmp_path / "sol.xml"),
                 "--plot",
                 str(tmp_path / "run.png"),
+                "--animate",
+                str(tmp_path / "run.gif"),
             ],
         )
         assert r.exit_code == 0, r.output
         assert "collision: fcgen none, drivability checker none" in r.output
         assert "traffic: recorded; criticality (minimum): TTC ahead " in r.output
-        assert all((tmp_path / f).is_file() for f in ("log.json", "sol.xml", "run.png"))
+        assert all((tmp_path / f).is_file() for f in ("log.json", "sol.xml", "run.png", "run.gif"))
         r = CliRunner().invoke(main, ["simulate", "--commonroad", str(bad), "--problem", "car_lifted_ellipse_ipm"])
         assert r.exit_code == 1 and r.output.count("\n") == 1 and "refused:" in r.output and "horizon" in r.output
         out = tmp_path / "res"

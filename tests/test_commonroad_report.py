@@ -105,4 +105,4 @@ def test_an_unknown_traffic_mode_is_one_line_naming_the_allowed_ones(command, tm
 def test_reactive_traffic_without_a_commonroad_scenario_is_refused():
     res = CliRunner().invoke(main, ["simulate", "--traffic", "reactive", "--samples", "2"])
     assert res.exit_code == 1
-    assert "--planning-problem, --solution and --traffic go with --commonroad" in res.output
+    assert "--planning-problem, --solution, --animate and --traffic go with --commonroad" in res.output

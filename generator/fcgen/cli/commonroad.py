@@ -38,9 +38,11 @@ def traffic_option(default: str | None = "recorded", what: str = "") -> Callable
     )
 
 
-def simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, traffic: str = "recorded") -> None:
+def simulate_commonroad(
+    pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, traffic: str = "recorded", animate: str | None = None
+) -> None:
     """``simulate --commonroad``: one CommonRoad scenario; its verdicts printed; a refused scenario: one line,
-    exit 1."""
+    exit 1. The picture and the animation show the traffic as it drove (reactive: not the recording)."""
     from dataclasses import replace as dc_replace
 
     from ..campaign.commonroad import load_for
@@ -76,8 +78,16 @@ def simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, 
         write_solution(sc, run.ego_states, solution)
         click.echo(f"CommonRoad solution written to {solution}")
     if plot:
-        plot_run(sc, run.ego_centres, plot)
+        plot_run(run.scenario, run.ego_centres, plot)
         click.echo(f"plot written to {plot}")
+    if animate:
+        from ..commonroad.animate import animate_run
+
+        try:
+            animate_run(run.scenario, run.ego_centres, animate)
+        except ValueError as exc:
+            fail(f"--animate: {exc}")
+        click.echo(f"animation written to {animate}")
 
 
 def traffic_line(cr: dict) -> str:

@@ -78,6 +78,12 @@ from .robust import robust_configs, robustness_options
     help="with --commonroad: the planning problem's id (default: the file's first)",
 )
 @click.option(
+    "--animate",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="with --commonroad: write an animation of the run (.gif; .mp4 with ffmpeg on PATH)",
+)
+@click.option(
     "--solution",
     "cr_solution",
     type=click.Path(dir_okay=False),
@@ -101,6 +107,7 @@ def simulate(
     plot,
     cr_file,
     cr_pp,
+    animate,
     cr_solution,
     plant,
     plant_params,
@@ -129,10 +136,10 @@ def simulate(
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
-        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic)
+        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate)
         return
-    if cr_pp is not None or cr_solution or traffic != "recorded":
-        fail("--planning-problem, --solution and --traffic go with --commonroad")
+    if cr_pp is not None or cr_solution or animate or traffic != "recorded":
+        fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
     s = summary(log)

@@ -54,6 +54,7 @@ class CommonRoadRun:
     fcgen: dict  # fcgen's rectangle check against every obstacle (``commonroad.fcgen_collisions``)
     responsibility: str  # of the first collision by fcgen's check ("" without one; rule: sim/collision_kind.py)
     ego_centres: np.ndarray  # (K + 1, 3) the ego's chassis centre poses (the solution file's and the checker's)
+    scenario: object = None  # the CrScenario as driven (reactive traffic: the vehicles' driven trajectories)
 
     @property
     def ego_states(self) -> np.ndarray:
@@ -165,7 +166,7 @@ def run_commonroad(
     }
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
     log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, hits, extra)
-    return CommonRoadRun(log, checker, own, who, centres)
+    return CommonRoadRun(log, checker, own, who, centres, sc)
 
 
 @dataclass(eq=False)
