@@ -231,3 +231,18 @@ def test_st_stops_steered_without_diverging_or_reversing(v0):
     assert all(b <= a + 1e-12 for a, b in itertools.pairwise(speeds))  # never speeds up, never reverses
     s, n = pl.frenet()[:2]
     assert 0.0 < s < v0 * v0 and abs(n) < s  # stopped within the braking distance, on the arc's side
+
+
+def test_the_plant_options_reach_the_run_as_one_plant_spec():
+    """The seven plant options, given on the command line, make the run's ``PlantSpec`` (its label on the plant line);
+    a bad value is one line naming its option."""
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    args = ["simulate", "--samples", "3", "--plant", "ks", "--latency", "1", "--noise", "default"]
+    res = CliRunner().invoke(main, [*args, "--prediction", "constant-velocity", "--prediction-margin", "1"])
+    assert res.exit_code == 0, res.output
+    assert "plant ks+lat1+noise+cv+pm1 |" in res.output
+    res = CliRunner().invoke(main, ["simulate", "--samples", "3", "--noise", "1,2"])
+    assert res.exit_code == 1 and res.output.startswith("Error: --noise: noise = '1,2' is invalid")

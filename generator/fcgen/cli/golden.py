@@ -76,19 +76,13 @@ def record(
     force,
     cr_file,
     cr_pp,
-    plant,
-    plant_params,
-    latency,
-    steer_lag,
-    noise,
-    prediction,
     traffic,
 ):
     """Record a golden suite: the C controller's run logs on seeded scenarios plus a manifest."""
     from ..build import BuildError
     from ..suite import SuiteSettings, parse_seeds, record_goldens, record_suite
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction)
+    spec = plant_spec()
     if spec.params == "matched":
         fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
     if not spec.is_default and (golden_root is not None or cr_file):
@@ -181,12 +175,6 @@ def regress(
     cflags,
     json_out,
     plot,
-    plant,
-    plant_params,
-    latency,
-    steer_lag,
-    noise,
-    prediction,
     traffic,
 ):
     """Compare NEW (run log, suite or solver folder) with GOLDEN (run log or suite).
@@ -198,7 +186,7 @@ def regress(
     from ..regress import UnusableInput, parse_tol
     from ..regress import regress as run
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction)
+    spec = plant_spec()
     if not spec.is_default and mode != "closed-loop":
         fail("--plant, --latency, --steer-lag and --noise go with --mode closed-loop")
     if spec.params == "matched":

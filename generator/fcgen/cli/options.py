@@ -114,18 +114,27 @@ def names(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-PLANT_OPTION_NAMES = ("plant", "plant_params", "latency", "steer_lag", "noise", "prediction")
+#: where the plant options keep their values in the click context (``plant_spec`` reads them)
+_PLANT_META = "fcgen.plant_options"
+
+
+def _keep(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    ctx.meta.setdefault(_PLANT_META, {})[param.name] = value
+    return value
 
 
 def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
-    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise``, ``--prediction``
-    (docs/plants.md)."""
+    """``--plant``, ``--plant-params``, ``--latency``, ``--steer-lag``, ``--noise``, ``--prediction``,
+    ``--prediction-margin`` (docs/plants.md): not passed to the command, which gets them as one ``PlantSpec`` from
+    ``plant_spec()``."""
     from ..sim.plants import PLANT_KINDS, PLANT_PARAMS, PREDICTIONS
     from ..sim.plants.spec import MAX_LATENCY, MAX_PREDICTION_MARGIN, MAX_STEER_LAG
 
     opts = [
         click.option(
             "--plant",
+            expose_value=False,
+            callback=_keep,
             type=click.Choice(PLANT_KINDS),
             default="model",
             show_default=True,
@@ -134,6 +143,8 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
         ),
         click.option(
             "--plant-params",
+            expose_value=False,
+            callback=_keep,
             type=click.Choice(PLANT_PARAMS),
             default="paper",
             show_default=True,
@@ -142,6 +153,8 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
         ),
         click.option(
             "--latency",
+            expose_value=False,
+            callback=_keep,
             type=click.IntRange(0, MAX_LATENCY),
             default=0,
             show_default=True,
@@ -149,6 +162,8 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
         ),
         click.option(
             "--steer-lag",
+            expose_value=False,
+            callback=_keep,
             type=click.FloatRange(0.0, MAX_STEER_LAG),
             default=0.0,
             show_default=True,
@@ -156,12 +171,16 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
         ),
         click.option(
             "--noise",
+            expose_value=False,
+            callback=_keep,
             default=None,
             help="Gaussian noise on the measured (s, n, alpha, v, delta): five stds, or 'default' "
             "(0.05 m, 0.05 m, 0.005 rad, 0.05 m/s, 0.002 rad); seeded from the run's seed",
         ),
         click.option(
             "--prediction",
+            expose_value=False,
+            callback=_keep,
             type=click.Choice(PREDICTIONS),
             default="oracle",
             show_default=True,
@@ -169,13 +188,13 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
             "from their observed poses (with --noise's s, n, alpha stds on x, y, phi); the collision check uses "
             "the true motion",
         ),
-        click.option(  # read by plant_spec from the context: every command that takes the plant options has it
+        click.option(
             "--prediction-margin",
+            expose_value=False,
+            callback=_keep,
             type=click.FloatRange(0.0, MAX_PREDICTION_MARGIN),
             default=0.0,
             show_default=True,
-            expose_value=False,
-            callback=lambda ctx, _param, v: ctx.meta.__setitem__("prediction_margin", v),
             help="c of an obstacle margin per stage growing with the prediction's expected error, c tau_k e "
             "(docs/plants.md, 'Margins from the prediction's error'; 0: none; needs --prediction)",
         ),
@@ -185,24 +204,23 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def plant_spec(
-    plant: str,
-    plant_params: str,
-    latency: int,
-    steer_lag: float,
-    noise: str | None,
-    prediction: str = "oracle",
-    commonroad: bool = False,
-):
-    """The ``PlantSpec`` of the plant options; a bad value, a missing ``[plants]`` extra or perturbations with
-    ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
+def plant_spec(commonroad: bool = False):
+    """The ``PlantSpec`` of the running command's plant options; a bad value, a missing ``[plants]`` extra or
+    perturbations with ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
     from ..dsl import ProblemError
     from ..sim.plants import PlantSpec, parse_noise
 
+    o = click.get_current_context().meta.get(_PLANT_META, {})
     try:
-        ctx = click.get_current_context(silent=True)
-        margin = float(ctx.meta.get("prediction_margin", 0.0)) if ctx is not None else 0.0
-        spec = PlantSpec(plant, plant_params, latency, float(steer_lag), parse_noise(noise), prediction, margin)
+        spec = PlantSpec(
+            o.get("plant", "model"),
+            o.get("plant_params", "paper"),
+            o.get("latency", 0),
+            float(o.get("steer_lag", 0.0)),
+            parse_noise(o.get("noise")),
+            o.get("prediction", "oracle"),
+            float(o.get("prediction_margin", 0.0)),
+        )
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
     if commonroad and not spec.is_default:

@@ -109,12 +109,6 @@ def simulate(
     cr_pp,
     animate,
     cr_solution,
-    plant,
-    plant_params,
-    latency,
-    steer_lag,
-    noise,
-    prediction,
     traffic,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
@@ -132,7 +126,7 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction, commonroad=bool(cr_file))
+    spec = plant_spec(commonroad=bool(cr_file))
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
@@ -290,12 +284,6 @@ def campaign(
     force_report,
     profile,
     cr_dir,
-    plant,
-    plant_params,
-    latency,
-    steer_lag,
-    noise,
-    prediction,
     traffic,
     delay,
     **robust,
@@ -303,7 +291,7 @@ def campaign(
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction, commonroad=bool(cr_dir))
+    spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
         configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))

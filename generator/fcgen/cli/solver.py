@@ -65,13 +65,13 @@ def build_cmd(solver_dir, verify, cc, cflags, target):
 @samples_option()
 @out_file_option("write the report (JSON)")
 @plant_options
-def verify_cmd(solver_dir, scenario, seed, samples, out, plant, plant_params, latency, steer_lag, noise, prediction):
+def verify_cmd(solver_dir, scenario, seed, samples, out):
     """Compare a generated solver (verification build) with the Python reference, sample by sample."""
     from ..build import BuildError
     from ..solver_folder import read_folder
     from ..verify import verify
 
-    spec = plant_spec(plant, plant_params, latency, steer_lag, noise, prediction)
+    spec = plant_spec()
     if spec.params == "matched":
         fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
     try:  # its sizes are compared in the lockstep's terms first, the rest of the folder checked by the build
