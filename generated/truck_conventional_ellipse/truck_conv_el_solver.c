@@ -1360,7 +1360,10 @@ static void stage_opponents(truck_conv_el_real_t *dst, int k) {
   int j;
   const truck_conv_el_real_t m = ws.margin[k];
   copy(ws.opp_stage[k], dst, N_OPP_STAGE);
-  for (j = 0; (m != REAL_0) && (j < TRUCK_CONV_EL_NOPP); ++j) { /* the margin grows the shape (fcgen.stage_inputs) */
+  if (m == REAL_0) {
+    return;
+  }
+  for (j = 0; j < TRUCK_CONV_EL_NOPP; ++j) { /* the margin grows the shape (fcgen.stage_inputs) */
     dst[(j * TRUCK_CONV_EL_NOPP_STAGE) + 3] += (truck_conv_el_real_t)1.0 * m;
     dst[(j * TRUCK_CONV_EL_NOPP_STAGE) + 4] += (truck_conv_el_real_t)1.0 * m;
   }
@@ -2117,8 +2120,8 @@ static truck_conv_el_real_t lateral_acceleration(truck_conv_el_real_t v, truck_c
  * single-track steady-state yaw gain 1 + K v^2 under longitudinal acceleration a_x, within [GAIN_MIN, 1]. */
 static truck_conv_el_real_t load_transfer_gain(truck_conv_el_real_t v, truck_conv_el_real_t a_x, truck_conv_el_real_t k,
                                            truck_conv_el_real_t l_f, truck_conv_el_real_t l_r, truck_conv_el_real_t h) {
-  const truck_conv_el_real_t kk = k * (l_r / (TYRE_G * l_r - a_x * h) - l_f / (TYRE_G * l_f + a_x * h));
-  const truck_conv_el_real_t d = TYRE_ONE + kk * v * v;
+  const truck_conv_el_real_t kk = k * ((l_r / ((TYRE_G * l_r) - (a_x * h))) - (l_f / ((TYRE_G * l_f) + (a_x * h))));
+  const truck_conv_el_real_t d = TYRE_ONE + ((kk * v) * v);
   return (d < TYRE_GAIN_MIN) ? TYRE_GAIN_MIN : ((d > TYRE_ONE) ? TYRE_ONE : d);
 }
 
@@ -2126,7 +2129,7 @@ static truck_conv_el_real_t load_transfer_gain(truck_conv_el_real_t v, truck_con
  * ellipse of semi-axes f_max and a_max, f_max sqrt(1 - (a_lat / a_max)^2), 0 from |a_lat| >= a_max on. */
 static truck_conv_el_real_t drive_limit(truck_conv_el_real_t a_lat, truck_conv_el_real_t a_max, truck_conv_el_real_t f_max) {
   const truck_conv_el_real_t r = a_lat / a_max;
-  const truck_conv_el_real_t q = TYRE_ONE - r * r;
+  const truck_conv_el_real_t q = TYRE_ONE - (r * r);
   return f_max * sqrt((q > REAL_0) ? q : REAL_0);
 }
 
