@@ -12,13 +12,16 @@ Rules (tested in tests/test_commonroad_band.py):
   a lane that ends narrows it where it ends); where no such lanelet covers the sample (the road's extensions), the
   road's band.
 - **The way back** (``way_back``): where the ego's reference point (the rear axle, whose bound is the band shrunk for
-  the chassis) is less than ``BACK_MARGIN`` inside an edge of the band at its ``s`` or beyond it, or would cross it
-  within ``BACK_TURN`` s at its heading (a start over the road's edge, a band that narrows under the ego, a heading
-  towards the edge it cannot steer out of in time), that edge is moved out: to the ego's path at its current heading
-  plus ``BACK_MARGIN`` (at its ``s`` and behind: its ``n`` plus ``BACK_MARGIN``; the heading's drift held after
-  ``BACK_TURN`` s), returning to the band ahead along ``3 u^2 - 2 u^3`` over ``max(BACK_MIN, BACK_TIME v)`` metres.
-  The QP keeps a solution and the plan comes back inside the band, where the band as a hard bound would leave it
-  without one (the contract's fallback driving) until the ego stood inside it again.
+  the chassis) is less than ``BACK_MARGIN`` inside an edge of the band at its ``s`` or beyond it (a start over the
+  road's edge, a band that narrows under the ego, a lane change called off), or, after a sample whose QP had no
+  solution, would cross it within ``BACK_TURN`` s at its heading (a heading towards the edge it cannot steer out of
+  in time), that edge is moved out: to the ego's path plus ``BACK_MARGIN`` (at its ``s`` and behind its ``n``; after
+  a sample without a solution its path at its current heading, the drift held after ``BACK_TURN`` s), returning to
+  the band ahead along ``3 u^2 - 2 u^3`` over ``max(BACK_MIN, BACK_TIME v)`` metres. The QP keeps a solution and the
+  plan comes back inside the band, where the band as a hard bound would leave it without one (the contract's
+  fallback driving) until the ego stood inside it again. The heading counts only after a failure: counted always,
+  it gives the plan room beyond the band wherever the ego heads towards an edge, which the plan uses (measured:
+  more road departures, docs/commonroad.md).
 """
 
 from __future__ import annotations
@@ -73,12 +76,20 @@ def lane_band(
 
 
 def way_back(
-    s: np.ndarray, lo: np.ndarray, hi: np.ndarray, s0: float, n0: float, alpha: float, v: float
+    s: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    s0: float,
+    n0: float,
+    alpha: float,
+    v: float,
+    heading: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """The band ``lo``/``hi`` at the road samples ``s`` with the way back for a reference point at (``s0``, ``n0``),
-    heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge."""
+    heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
+    the ego's path at its heading counts (else its position alone)."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    turn = max(v, 0.0) * BACK_TURN
+    turn = max(v, 0.0) * BACK_TURN if heading else 0.0
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
@@ -121,9 +132,10 @@ class SolverBand:
         if self.rule not in BAND_RULES:
             raise ValueError(f"band {self.rule!r} is not a band rule: allowed {', '.join(BAND_RULES)}")
 
-    def set(self, win, x: np.ndarray, target: float) -> bool:
+    def set(self, win, x: np.ndarray, target: float, heading: bool = False) -> bool:
         """Put the band of the rear axle at state ``x`` (Frenet) into the solver's road window ``win`` (in place);
-        ``target``: the target lane's centre. Whether the way back moved an edge."""
+        ``target``: the target lane's centre; ``heading``: the way back counts the ego's heading (after a sample
+        without a solution). Whether the way back moved an edge."""
         if self.rule == "road":
             return False
         s_win = win.s
@@ -143,7 +155,7 @@ class SolverBand:
             lo, hi = np.where(narrow, win.n_min, lo), np.where(narrow, win.n_max, hi)
         else:
             lo, hi = win.n_min, win.n_max
-        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), float(x[1]), float(x[2]), float(x[3]))
+        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), float(x[1]), float(x[2]), float(x[3]), heading)
         win.n_min[:] = np.maximum(lo, self.n_bounds[0])
         win.n_max[:] = np.minimum(hi, self.n_bounds[1])
         return moved

@@ -32,7 +32,9 @@ from ..ocp import Ocp, build_ocp
 from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
 from .collision_kind import LANE_WINDOW, responsible
+from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
+from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 
 __all__ = ["CommonRoadRun", "goal_line", "goal_status", "run_commonroad", "scenario_road", "unsolved_status"]
@@ -105,6 +107,7 @@ def run_commonroad(
     change_time: float | None = None,
     traffic: str = "recorded",
     band: str = "lanes",
+    plant: PlantSpec | None = None,
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
@@ -112,7 +115,8 @@ def run_commonroad(
     plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
-    vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``)."""
+    vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
+    its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
     from .. import commonroad as cr
     from ..commonroad.criticality import criticality
     from ..commonroad.judge import fcgen_verdict, penetrations
@@ -126,9 +130,11 @@ def run_commonroad(
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
     road, cut = scenario_road(problem, sc)
-    plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
+    model = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
+    spec = plant or PlantSpec()
+    world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
-    loop = _drive(problem, sc, controller, road, plant, plan, progress, states, change_time, world, band)
+    loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
     if world is not None:  # judged on what the vehicles drove
         sc = world.scenario()
         sc = replace(sc, scenario=driven_scenario(sc, sc.obstacles))
@@ -146,6 +152,11 @@ def run_commonroad(
         "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
         "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
         "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+        **(
+            {}
+            if spec.is_default
+            else {"plant": spec.as_meta(), "plant_cut_samples": int(np.count_nonzero(world_plant.cut))}
+        ),
         "commonroad": {
             "scenario": sc.name,
             "file": sc.file,
@@ -200,7 +211,7 @@ def _drive(
     sc,
     controller: ScenarioController,
     road: Road,
-    plant: Plant,
+    plant: ScenarioPlant,
     plan: str,
     progress: bool,
     states: np.ndarray | None,
@@ -260,10 +271,11 @@ def _drive(
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
-        win = solver_window(problem, road, x)
-        if band.set(win, x, lane.n):
+        xm = plant.measure(x) if states is None else x  # what the controller measures
+        win = solver_window(problem, road, xm)
+        if band.set(win, xm, lane.n, bool(loop.results and loop.results[-1].exit_code)):
             loop.way_back.append(j)
-        r = controller.step(x, win, poses)
+        r = controller.step(xm, win, poses)
         loop.us[j] = r.u
         loop.planlog.add(j, controller, r)
         loop.results.append(r)
