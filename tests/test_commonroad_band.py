@@ -9,7 +9,7 @@ import pytest
 from crscenes import LANE, write_scenario
 
 from fcgen.campaign.commonroad import load_for
-from fcgen.commonroad.band import BACK_MARGIN, SolverBand, lane_band, lanes_in_use, way_back
+from fcgen.commonroad.band import BACK_MARGIN, BACK_ROOM, SolverBand, lane_band, lanes_in_use, way_back
 from fcgen.commonroad.lanes import road_lanes
 from fcgen.presets import preset
 from fcgen.sim.closedloop import solver_window
@@ -65,31 +65,34 @@ def test_the_band_of_the_lanes(tmp_path):
 
 
 def test_the_way_back_by_hand():
-    """Band [-1, 1]; the rear axle at n = -2 (s = 100, 10 m/s): the lower edge is -2.1 at s <= 100 and returns to -1
-    over max(10, 3 s x 10 m/s) = 30 m as 3u^2 - 2u^3: -2.1 + 1.1 x 0.5 = -1.55 at s = 115, -1 from s = 130 on; the
-    upper edge stays. An ego 0.5 m inside the band moves nothing; one 0.05 m inside moves the edge to 0.1 m beyond
-    it."""
+    """Band [-1, 1]; the rear axle at n = -2 (s = 100, 10 m/s, heading 0): the lower edge is -2.02 (BACK_ROOM beyond
+    it) at s <= 100 and returns to -1 over max(10, 3 s x 10 m/s) = 30 m as 3u^2 - 2u^3: -2.02 + 1.02 x 0.5 = -1.51 at
+    s = 115, -1 from s = 130 on; the upper edge stays. An ego 0.5 m inside the band moves nothing; one 0.05 m inside an
+    edge (less than BACK_MARGIN) gets the edge BACK_ROOM beyond it where the band is narrower than that."""
     s = np.arange(80.0, 161.0, 5.0)
     lo, hi = np.full(len(s), -1.0), np.full(len(s), 1.0)
     lo2, hi2, moved = way_back(s, lo, hi, 100.0, -2.0, 0.0, 10.0)
     assert moved
     at = dict(zip(s.tolist(), lo2.tolist(), strict=True))
-    assert at[80.0] == at[100.0] == pytest.approx(-2.0 - BACK_MARGIN)
-    assert at[115.0] == pytest.approx(-2.1 + 1.1 * 0.5)
+    assert at[80.0] == at[100.0] == pytest.approx(-2.0 - BACK_ROOM)
+    assert at[115.0] == pytest.approx(-2.02 + 1.02 * 0.5)
     assert at[130.0] == at[160.0] == pytest.approx(-1.0)
     np.testing.assert_array_equal(hi2, hi)
     assert np.all(np.diff(lo2[s >= 100.0]) >= 0.0)  # back monotonically
     _, _, moved = way_back(s, lo, hi, 100.0, 0.5, 0.0, 10.0)
     assert not moved
-    _, hi3, moved = way_back(s, lo, hi, 100.0, 0.95, 0.0, 10.0)
-    assert moved and hi3[0] == pytest.approx(0.95 + BACK_MARGIN)
+    assert BACK_MARGIN == 0.1
+    _, hi3, moved = way_back(s, lo, np.where(s <= 100.0, 0.96, hi), 100.0, 0.95, 0.0, 10.0)
+    assert moved and hi3[0] == pytest.approx(0.95 + BACK_ROOM)
+    assert not way_back(s, lo, hi, 100.0, 0.95, 0.0, 10.0)[2]  # 0.97 is inside the band: nothing to move
 
 
 def test_the_way_back_for_a_heading_towards_the_edge():
-    """Band [-1, 1], the rear axle at n = 0.5 (s = 100, 10 m/s) heading 0.1 rad to the left: at that heading it
-    would be at 0.5 + 10 tan(0.1) = 1.503 after BACK_TURN = 1 s (10 m): the upper edge moves to that path plus 0.1 m,
-    returning over 30 m: at s = 105 (u = 1/6) 1.1017 + (1 - 1.1017) h(1/6), at s = 110 (u = 1/3)
-    1.6030 + (1 - 1.6030) h(1/3), h(u) = 3u^2 - 2u^3. Heading 0.1 rad to the right, it moves nothing."""
+    """Band [-1, 1], the rear axle at n = 0.5 (s = 100, 10 m/s) heading 0.1 rad to the left, after a sample without a
+    solution: at that heading it would be at 0.5 + 10 tan(0.1) = 1.503 after BACK_TURN = 1 s (10 m): the upper edge
+    moves to that path plus BACK_ROOM, returning over 30 m: at s = 105 (u = 1/6) e + (1 - e) h(1/6) with
+    e = 0.52 + 5 tan(0.1), at s = 110 (u = 1/3) with e = 0.52 + 10 tan(0.1), h(u) = 3u^2 - 2u^3. Heading 0.1 rad to
+    the right, it moves nothing; without the failure (the path over BACK_STEP = 0.2 s, 2 m: 0.72 m) neither."""
     s = np.arange(80.0, 161.0, 5.0)
     lo, hi = np.full(len(s), -1.0), np.full(len(s), 1.0)
     _, hi2, moved = way_back(s, lo, hi, 100.0, 0.5, 0.1, 10.0)
@@ -100,10 +103,11 @@ def test_the_way_back_for_a_heading_towards_the_edge():
         return 3 * u * u - 2 * u**3
 
     for x, u in ((105.0, 1 / 6), (110.0, 1 / 3)):
-        edge = 0.5 + BACK_MARGIN + np.tan(0.1) * min(x - 100.0, 10.0)
+        edge = 0.5 + BACK_ROOM + np.tan(0.1) * min(x - 100.0, 10.0)
         assert at[x] == pytest.approx(edge + (1.0 - edge) * h(u))
     assert at[100.0] == at[80.0] == 1.0 and at[130.0] == 1.0
     assert not way_back(s, lo, hi, 100.0, 0.5, -0.1, 10.0)[2]
+    assert not way_back(s, lo, hi, 100.0, 0.5, 0.1, 10.0, heading=False)[2]
 
 
 def test_the_solver_band_of_a_lane_and_of_a_lane_change(tmp_path):

@@ -15,9 +15,11 @@ Rules (tested in tests/test_commonroad_band.py):
   the chassis) is less than ``BACK_MARGIN`` inside an edge of the band at its ``s`` or beyond it (a start over the
   road's edge, a band that narrows under the ego, a lane change called off), or, after a sample whose QP had no
   solution, would cross it within ``BACK_TURN`` s at its heading (a heading towards the edge it cannot steer out of
-  in time), that edge is moved out: to the ego's path plus ``BACK_MARGIN`` (at its ``s`` and behind its ``n``; after
-  a sample without a solution its path at its current heading, the drift held after ``BACK_TURN`` s), returning to
-  the band ahead along ``3 u^2 - 2 u^3`` over ``max(BACK_MIN, BACK_TIME v)`` metres. The QP keeps a solution and the
+  in time), that edge is moved out: to the ego's path at its current heading over ``BACK_STEP`` s (after a sample
+  without a solution ``BACK_TURN`` s; the drift held after it) plus ``BACK_ROOM`` (at its ``s`` and behind: its
+  ``n`` plus ``BACK_ROOM``), returning to the band ahead along ``3 u^2 - 2 u^3`` over ``max(BACK_MIN, BACK_TIME v)``
+  metres. The room beyond the ego is kept small: an obstacle row pushing the plan outwards would use it, sample
+  after sample. The QP keeps a solution and the
   plan comes back inside the band, where the band as a hard bound would leave it without one (the contract's
   fallback driving) until the ego stood inside it again. The heading counts only after a failure: counted always,
   it gives the plan room beyond the band wherever the ego heads towards an edge, which the plan uses (measured:
@@ -34,7 +36,9 @@ from ..road import Road
 from .lanes import SAME_LANE, Lane
 
 OVERLAP = 0.1  # m: a lane the chassis overlaps by less is not in use
-BACK_MARGIN = 0.1  # m: the moved edge lies this far beyond the ego's reference point
+BACK_MARGIN = 0.1  # m: an ego less than this inside an edge moves it
+BACK_ROOM = 0.02  # m: the moved edge lies this far beyond the ego's path
+BACK_STEP = 0.2  # s: the ego's path at its heading the moved edge holds (after a sample without a solution: BACK_TURN)
 BACK_TIME = 3.0  # s: the moved edge returns to the band over this time at the ego's speed ...
 BACK_MIN = 10.0  # m: ... and at least this distance
 BACK_TURN = 1.0  # s: the moved edge holds the ego's path at its current heading for this time
@@ -89,7 +93,7 @@ def way_back(
     heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
     the ego's path at its heading counts (else its position alone)."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    turn = max(v, 0.0) * BACK_TURN if heading else 0.0
+    turn = max(v, 0.0) * (BACK_TURN if heading else BACK_STEP)
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
@@ -97,11 +101,15 @@ def way_back(
     for sign in (-1.0, 1.0):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
         drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
-        edge = n0 + sign * (BACK_MARGIN + drift * ahead)  # the path at the current heading for BACK_TURN s
-        at = [float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)]
-        if max(at) <= 0.0:
+        edge = n0 + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
+        if (
+            sign * (n0 - float(np.interp(s0, s, band))) < -BACK_MARGIN
+            and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
+        ):
             continue
         new = edge + (band - edge) * h
+        if not np.any(sign * (new - band) > 0.0):
+            continue
         band = np.minimum(band, new) if sign < 0 else np.maximum(band, new)
         lo, hi = (band, hi) if sign < 0 else (lo, band)
         moved = True
