@@ -5,7 +5,7 @@ checker; after an on-road start and starts off the road), goal reached, samples 
 band the way back widened.
 
     python benchmarks/band_rules.py DIR_OR_XML... [--problem car_lifted_ellipse_ipm_safe] [--rules road,lanes] \\
-        [--traffic recorded,reactive] [--out results/band_rules.json]
+        [--traffic recorded,reactive] [--plant model|ks|st|std|mb] [--out results/band_rules.json]
 
 The compiled C of the problem (built into ``.fcgen-cache/solvers``); the criticality measures are left out (they do
 not depend on the band and take most of a run's time). Prints a Markdown table (sums per traffic mode and rule) and
@@ -46,7 +46,7 @@ def _row(sc, run, traffic: str, rule: str, cpu: float) -> dict:
     }
 
 
-def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], cache: str) -> list[dict]:
+def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], cache: str, plant: str) -> list[dict]:
     import fcgen.commonroad.criticality as crit
     from fcgen.campaign.commonroad import load_for
     from fcgen.campaign.solvers import ensure_solver
@@ -54,6 +54,7 @@ def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], ca
     from fcgen.csolver import CSolver
     from fcgen.presets import preset
     from fcgen.sim.commonroad_run import run_commonroad
+    from fcgen.sim.plants import PlantSpec
 
     crit.criticality = lambda *a, **k: {"error": "left out (benchmarks/band_rules.py)", "series": {}}
     pb = preset(problem)
@@ -69,8 +70,8 @@ def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], ca
             for rule in rules:
                 cs.init()
                 t0 = time.process_time()
-                run = run_commonroad(pb, sc, controller=cs, traffic=traffic, band=rule)
-                rows.append(_row(sc, run, traffic, rule, time.process_time() - t0))
+                run = run_commonroad(pb, sc, controller=cs, traffic=traffic, band=rule, plant=PlantSpec(plant))
+                rows.append({**_row(sc, run, traffic, rule, time.process_time() - t0), "plant": plant})
                 print(json.dumps(rows[-1]), flush=True)
     return rows
 
@@ -105,6 +106,7 @@ def main() -> None:
     ap.add_argument("--rules", default="road,lanes")
     ap.add_argument("--traffic", default="recorded,reactive")
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
+    ap.add_argument("--plant", default="model", help="the plant (sim.plants.PLANT_KINDS)")
     ap.add_argument("--out", default="results/band_rules.json")
     args = ap.parse_args()
     files: list[Path] = []
@@ -112,7 +114,7 @@ def main() -> None:
         files += sorted(p.glob("*.xml")) if p.is_dir() else [p]
     rules, modes = args.rules.split(","), args.traffic.split(",")
     t0 = time.time()
-    rows = runs(files, args.problem, rules, modes, str(Path(args.cache).resolve()))
+    rows = runs(files, args.problem, rules, modes, str(Path(args.cache).resolve()), args.plant)
     text = markdown(rows, rules, modes)
     print(text)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
@@ -120,7 +122,8 @@ def main() -> None:
 
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    meta = {"fcgen": __version__, "commit": commit, "problem": args.problem, "wall_s": time.time() - t0}
+    meta = {"fcgen": __version__, "commit": commit, "problem": args.problem, "plant": args.plant}
+    meta["wall_s"] = time.time() - t0
     out.write_text(json.dumps({"meta": meta, "markdown": text, "rows": rows}, indent=1) + "\n")
     print(f"{len(rows)} rows in {meta['wall_s']:.0f} s, written to {out}")
 
