@@ -149,14 +149,7 @@ def run_commonroad(
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     extra = {
-        "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
-        "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
-        "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
-        **(
-            {}
-            if spec.is_default
-            else {"plant": spec.as_meta(), "plant_cut_samples": int(np.count_nonzero(world_plant.cut))}
-        ),
+        **_loop_extra(loop, spec, world_plant),
         "commonroad": {
             "scenario": sc.name,
             "file": sc.file,
@@ -183,6 +176,19 @@ def run_commonroad(
     hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
     log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, hits, extra)
     return CommonRoadRun(log, checker, own, who, centres, sc)
+
+
+def _loop_extra(loop, spec: PlantSpec, plant: ScenarioPlant) -> dict:
+    """The run log's ``extra`` entries of the loop itself: the samples with an exit code, the plan check's reactions,
+    the a_lat guards and (another plant than fcgen's model) the plant and its cut samples."""
+    out: dict = {
+        "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
+        "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
+        "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+    }
+    if not spec.is_default:
+        out.update(plant=spec.as_meta(), plant_cut_samples=int(np.count_nonzero(plant.cut)))
+    return out
 
 
 @dataclass(eq=False)
