@@ -63,6 +63,7 @@ def test_simulate_commonroad_with_a_plant_and_a_refused_prediction(lane):
     r = CliRunner().invoke(main, [*args, "--plant", "st", "--latency", "1"])
     assert r.exit_code == 0, r.output
     assert "plant st+lat1 | samples whose control the plant's input limits cut:" in r.output
+    assert "band: lanes; the way back widened it at " in r.output
     r = CliRunner().invoke(main, [*args, "--prediction", "constant-velocity"])
     assert r.exit_code != 0
     assert "--commonroad predicts the opponents by the scenario (no --prediction, --prediction-margin)" in r.output

@@ -82,6 +82,7 @@ def simulate_commonroad(
     )
     click.echo(goal_line(log.meta["extra"]["commonroad"]))
     click.echo(traffic_line(log.meta["extra"]["commonroad"]))
+    click.echo(band_line(log.meta["extra"]["commonroad"]))
     if "plant" in log.meta["extra"]:
         ex = log.meta["extra"]
         click.echo(
@@ -104,6 +105,14 @@ def simulate_commonroad(
         except ValueError as exc:
             fail(f"--animate: {exc}")
         click.echo(f"animation written to {animate}")
+
+
+def band_line(cr: dict) -> str:
+    """One line of a run's band rule and the samples whose band the way back widened (``commonroad.band``)."""
+    b = cr.get("band", {"rule": "road", "way_back_samples": []})
+    back = b["way_back_samples"]
+    where = f" (the first sample {back[0]}, the last {back[-1]})" if back else ""
+    return f"band: {b['rule']}; the way back widened it at {len(back)} samples{where}"
 
 
 def traffic_line(cr: dict) -> str:
