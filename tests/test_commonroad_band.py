@@ -161,3 +161,19 @@ def test_an_ego_that_starts_over_the_edge_drives_back(tmp_path):
     assert np.min(corners) >= -HALF
     assert run.checker["road_departure"] and run.checker["departure_step"] == 0
     assert not run.checker["collision"]
+
+
+def test_the_checker_sees_an_ego_back_on_the_road_and_off_it_again(tmp_path):
+    """Three lanes of 3.5 m (the road's edges at y = -5.25 and 5.25), the chassis 4.0 x 1.9 m along x: centred at
+    y = -5.0 it crosses the right edge (to -5.95), at y = 0 it is clear, at y = 4.8 it crosses the left edge (to
+    5.75). Off, off, on, on, off, on: the departure at 0, back at 2, off again at 4; starting on the road, the
+    departure at 2 and no return asked."""
+    from fcgen.commonroad.judge import drivability_verdict
+
+    sc = load_for(PB, write_scenario(tmp_path / "j.xml"))
+    ys = [-5.0, -5.0, 0.0, 0.0, 4.8, 0.0]
+    centres = np.array([[50.0 + 2.0 * j, y, 0.0] for j, y in enumerate(ys)])
+    v = drivability_verdict(sc, centres, PB.ego.l_ch, PB.ego.w_ch)
+    assert (v["departure_step"], v["back_on_road_step"], v["departure_again_step"]) == (0, 2, 4)
+    v = drivability_verdict(sc, centres[2:], PB.ego.l_ch, PB.ego.w_ch)
+    assert (v["departure_step"], v["back_on_road_step"], v["departure_again_step"]) == (2, None, None)
