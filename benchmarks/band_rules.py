@@ -37,6 +37,7 @@ def _row(sc, run, traffic: str, rule: str, cpu: float) -> dict:
         "departure": bool(run.checker["road_departure"]),
         "start_off_road": dep == 0,
         "departure_step": dep,
+        "departure_again_step": run.checker.get("departure_again_step"),
         "goal_reached": bool(cr["goal"].get("reached")),
         "unsolved": int(cr["unsolved"]["samples"]),
         "way_back": len(cr["band"]["way_back_samples"]),
