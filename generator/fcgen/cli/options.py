@@ -204,9 +204,10 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def plant_spec(commonroad: bool = False):
+def plant_spec(commonroad: bool = False, commonroad_plant: bool = False):
     """The ``PlantSpec`` of the running command's plant options; a bad value, a missing ``[plants]`` extra or
-    perturbations with ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
+    perturbations with ``--commonroad`` (which runs fcgen's own plant; ``commonroad_plant``: the command runs the
+    plant options on a CommonRoad scenario, but not another prediction): one line, exit 1."""
     from ..dsl import ProblemError
     from ..sim.plants import PlantSpec, parse_noise
 
@@ -223,7 +224,9 @@ def plant_spec(commonroad: bool = False):
         )
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
-    if commonroad and not spec.is_default:
+    if commonroad and commonroad_plant and (spec.prediction != "oracle" or spec.prediction_margin):
+        fail("--commonroad predicts the opponents by the scenario (no --prediction, --prediction-margin)")
+    if commonroad and not commonroad_plant and not spec.is_default:
         fail(
             "--commonroad runs fcgen's own plant without perturbations "
             "(no --plant, --latency, --steer-lag, --noise, --prediction)"

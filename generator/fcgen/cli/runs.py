@@ -126,11 +126,11 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    spec = plant_spec(commonroad=bool(cr_file))
+    spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
-        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate)
+        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
         return
     if cr_pp is not None or cr_solution or animate or traffic != "recorded":
         fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")

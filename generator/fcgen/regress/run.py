@@ -312,4 +312,5 @@ class _Runner:
             progress=self.progress,
             states=states,
             traffic=self.traffic or cr.get("traffic", {}).get("mode", "recorded"),
+            band=cr.get("band", {}).get("rule", "road"),  # a log from before the band rules: the road's band
         ).log
