@@ -139,3 +139,18 @@ def test_st_plant_on_the_host_c_equals_python(solver, tmp_path):
     for k in ("plant_cut_samples", "plant_cut_steer_rate", "max_abs_a_lat_model"):
         assert log_c.meta["extra"][k] == log_py.meta["extra"][k], k
     assert not np.allclose(log_c.a_lat, log_c.a_lat_model, atol=1e-3)  # the tyre's a_lat, not the formula's
+
+
+def test_simulate_refuses_a_problem_without_the_solvers_delay(solver):
+    """The closed loop hands a compensated solver the opponents from the plan's start (Problem.delay samples ahead):
+    a --problem without the folder's delay would hand them out of step, so it is refused naming the fix."""
+    from fcgen.cli import main
+
+    args = ["simulate", "--controller", "c", "--solver-dir", str(solver), "--samples", "2", "--latency", "1"]
+    res = CliRunner().invoke(main, [*args, "--problem", "truck_lifted_ellipse"])
+    assert res.exit_code == 1
+    assert f"compensates delay = 1 samples, the problem 'truck_lift_el' has delay = 0: give --problem {solver}" in (
+        res.output
+    )
+    res = CliRunner().invoke(main, [*args, "--problem", str(solver / "problem.py")])
+    assert res.exit_code == 0, res.output

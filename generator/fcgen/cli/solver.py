@@ -18,6 +18,7 @@ from .options import (
     fmt_summary,
     force_option,
     out_file_option,
+    plant_line,
     plant_options,
     plant_options_given,
     plant_spec,
@@ -296,6 +297,10 @@ def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflag
     click.echo(
         f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | {fmt_summary(summary(log))}"
     )
+    if "plant" in log.meta.get("extra", {}):  # a perturbed run: the plant's a_lat beside the formula's, the cuts
+        from ..sim.plants import plant_of
+
+        click.echo(plant_line(plant_of(log), log, folder.problem.bounds.a_lat_max))
     if get_target(target).qemu_machine:
         click.echo(f"(solver times on {target}: QEMU's virtual clock under -icount shift=0, 1 ns per instruction)")
     click.echo(f"run log written to {out}")
