@@ -154,3 +154,17 @@ def test_simulate_refuses_a_problem_without_the_solvers_delay(solver):
     )
     res = CliRunner().invoke(main, [*args, "--problem", str(solver / "problem.py")])
     assert res.exit_code == 0, res.output
+
+
+def test_cosim_names_a_harness_out_of_turn(tmp_path):
+    """A harness that answers a sample with anything but its control line stops the co-simulation with one error
+    naming the sample and the line (and the harness is ended)."""
+    from fcgen.sim.cosim import CosimError, run_cosim
+
+    fake = tmp_path / "fake_harness"
+    fake.write_text("#!/bin/sh\necho 'hello'\ncat > /dev/null\n")
+    fake.chmod(0o755)
+    pb = paper_problem("truck", "lifted", "ellipse")
+    sc = make_scenario("truck", 0, n_opp=pb.opponents.count, samples=3, dt=pb.horizon.dt)
+    with pytest.raises(CosimError, match=r"sample 0: expected the line 'u 0 F_D R' from the harness, got 'hello'"):
+        run_cosim(fake, pb, sc, PlantSpec(kind="st"), tmp_path / "run.json", timeout=60)
