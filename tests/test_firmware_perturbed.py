@@ -168,3 +168,19 @@ def test_cosim_names_a_harness_out_of_turn(tmp_path):
     sc = make_scenario("truck", 0, n_opp=pb.opponents.count, samples=3, dt=pb.horizon.dt)
     with pytest.raises(CosimError, match=r"sample 0: expected the line 'u 0 F_D R' from the harness, got 'hello'"):
         run_cosim(fake, pb, sc, PlantSpec(kind="st"), tmp_path / "run.json", timeout=60)
+
+
+def test_prediction_in_the_harness_c_equals_python(solver, tmp_path):
+    """With --prediction the file's opp_params are the prediction's futures: the Python loop's, to the tolerance."""
+    from fcgen.csolver import CSolver
+    from fcgen.sim.closedloop import run_closed_loop
+    from fcgen.sim.harness import firmware_sim
+
+    spec = PlantSpec(latency=1, noise=DEFAULT_NOISE, prediction="constant-velocity")
+    log_c = firmware_sim(solver, "truck", 3, 20, tmp_path / "c.json", verify=True, plant=spec)
+    sc = make_scenario("truck", 3, n_opp=PB.opponents.count, samples=20, dt=PB.horizon.dt)
+    log_py = run_closed_loop(PB, sc, controller=CSolver.from_dir(solver, verify=True), plant=spec)
+    np.testing.assert_allclose(log_c.ego_frenet, log_py.ego_frenet, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(log_c.control, log_py.control, rtol=1e-6, atol=1e-6)
+    assert log_c.meta["extra"]["plant"] == spec.as_meta()
+    assert "prediction constant-velocity" in next(solver.rglob("scenario_truck_seed3_20_*cv.txt")).read_text()

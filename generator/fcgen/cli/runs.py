@@ -163,7 +163,6 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
             fail(str(exc))
     if controller == "c":
         from ..csolver import CSolver
-
         from ..solver_folder import read_folder
 
         if solver_dir is None:

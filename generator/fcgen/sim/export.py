@@ -59,7 +59,7 @@ def _word(text: str) -> str:
 
 
 class HarnessPlantError(ValueError):
-    """A plant or perturbation the C harness does not carry (it steps fcgen's own plant)."""
+    """A plant or perturbation a scenario file for the C harness cannot carry."""
 
 
 def harness_plant(problem: Problem, plant: PlantSpec | None, external: bool = False) -> PlantSpec:
