@@ -7,6 +7,7 @@ from collections.abc import Callable
 from typing import Any, NoReturn
 
 import click
+from click.core import ParameterSource
 
 from ..presets import SCENARIOS
 from ..targets import TARGETS
@@ -240,6 +241,13 @@ def plant_spec(commonroad: bool = False, commonroad_plant: bool = False):
         except MissingExtra as exc:
             fail(str(exc))
     return spec
+
+
+def plant_options_given() -> bool:
+    """Whether the command line (or the environment) gave any plant option, even at its default value."""
+    ctx = click.get_current_context()
+    given = (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+    return any(ctx.get_parameter_source(name) in given for name in ctx.meta.get(_PLANT_META, {}))
 
 
 def plant_line(spec, log, a_lat_max: float) -> str:

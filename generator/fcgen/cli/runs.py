@@ -163,10 +163,17 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
             fail(str(exc))
     if controller == "c":
         from ..csolver import CSolver
+        from ..solver_folder import read_folder
 
         if solver_dir is None:
             fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
-        return CSolver.from_dir(solver_dir)
+        folder = read_folder(solver_dir)
+        if folder.problem.delay != pb.delay:  # the loop hands out the opponents from the plan's start
+            fail(
+                f"--solver-dir {solver_dir} compensates delay = {folder.problem.delay} samples, the problem "
+                f"{pb.name!r} has delay = {pb.delay}: give --problem {Path(solver_dir) / 'problem.py'}"
+            )
+        return CSolver.from_dir(folder)
     return None
 
 
