@@ -2183,7 +2183,6 @@ static truck_conv_el_real_t next_a_lat(truck_conv_el_real_t x1[5]) {
 static void a_lat_guard(void) {
   truck_conv_el_real_t xa[5]; /* the step with the plan's rate */
   truck_conv_el_real_t x1[5];
-  truck_conv_el_real_t x2[5]; /* the step with the drive force the limit left */
   const truck_conv_el_real_t r_plan = ws.u_applied[1];
   int over = 0;
   int still = 0;
@@ -2213,6 +2212,7 @@ static void a_lat_guard(void) {
     const truck_conv_el_real_t cap =
         (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
                     : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
+    truck_conv_el_real_t x2[5]; /* the step with the drive force the limit left */
     int cut = 0;
     if (ws.u_applied[0] > cap) {
       ws.u_applied[0] = cap;
