@@ -159,6 +159,29 @@ def test_the_margin_rule_by_hand():
     assert np.max(acc.margins(30, 1000.0)) == INPUT_RANGES.margin_max
 
 
+def test_the_margin_rule_covers_the_turn_a_straight_line_misses():
+    """An opponent on a circle arc (radius R, speed v) at constant speed: e = 0, and the straight-line predictions miss
+    its turn: t = v1 omega with v1 = 2 R sin(omega SPAN dt / 2) / (SPAN dt) (the chord's speed) and omega = v / R,
+    m_k = c tau_k^2 t / 2 (by hand); the true pose at stage k is m_k from the prediction to 1 % at c = 1 (the error the
+    margin is for); lane-following, which follows the arc, takes no turn term."""
+    R, v, c = 50.0, 15.0, 1.0
+    omega = v / R
+
+    def truth(j: int) -> np.ndarray:
+        th = omega * j * DT
+        return np.array([[R * math.sin(th), R * (1 - math.cos(th)), th]])
+
+    pred = PredictedOpponents("constant-velocity", truth, OFFSETS, DT)
+    tau = OFFSETS * DT
+    v1 = 2 * R * math.sin(omega * SPAN * DT / 2) / (SPAN * DT)
+    m = pred.margins(30, c)
+    np.testing.assert_allclose(m, c * 0.5 * v1 * omega * tau**2, rtol=1e-9, atol=1e-9)
+    dist = np.hypot(*(pred.horizon(30)[:, 0, :2] - _true_horizon(truth, 30)[:, 0, :2]).T)
+    assert np.all(dist <= 1.01 * m) and np.all(dist[1:] > 0.95 * m[1:])  # the error, to 1 % (the chord's speed)
+    lane = PredictedOpponents("lane-following", truth, OFFSETS, DT, road=Road.from_curvature(np.full(200, 1 / R), 1.0))
+    assert np.max(lane.margins(30, c)) < 1e-9
+
+
 def test_a_prediction_margin_needs_a_prediction():
     with pytest.raises(ProblemError, match="prediction_margin"):
         PlantSpec(prediction_margin=1.0)

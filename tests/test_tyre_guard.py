@@ -66,6 +66,26 @@ def test_where_the_guard_steers_it_does_not_drive():
     assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
 
 
+def test_where_the_guard_steers_and_cuts_the_drive_it_steers_for_the_slower_step():
+    """A plant step whose end speed follows the force, v1 = 20 + F_d / m dt: the plan drives with 5,000 N (v1 =
+    20.431 m/s) and its step ends at 5.5 m/s^2. The rate set for 4.95 at 20.431 m/s would end at 4.95 (20 / 20.431)^2
+    = 4.74 m/s^2 once the ellipse has cut the force to 0 and the step ends at 20 m/s; the guard sets the rate again for
+    that step: (delta(20, 4.95) - 0.03) / dt, status 1."""
+    v0, m = 20.0, 1160.0
+    x0 = np.array([0.0, 0.0, 0.0, v0, 0.03])
+    uu = np.array([5000.0, (_delta(v0 + 5000.0 / m * DT, 5.5) - 0.03) / DT])
+
+    def step() -> list[float]:
+        return [0.0, 0.0, 0.0, v0 + float(uu[0]) / m * DT, 0.03 + float(uu[1]) * DT]
+
+    status = a_lat_guard(SAFE, x0, uu, -0.39, 0.39, step)
+    assert status == 1 and uu[0] == pytest.approx(0.0, abs=1e-2)
+    assert uu[1] == pytest.approx((_delta(v0 + uu[0] / m * DT, A_TO) - 0.03) / DT, rel=1e-9)
+    first = (_delta(v0 + 5000.0 / m * DT, A_TO) - 0.03) / DT  # the rate for the uncut force's step
+    a_first = v0**2 * math.tan(0.03 + first * DT) / L
+    assert a_first == pytest.approx(A_TO * (v0 / (v0 + 5000.0 / m * DT)) ** 2, rel=1e-9) and a_first < 4.75
+
+
 def test_within_the_bound_the_drive_force_keeps_the_understeer_within_its_slack():
     """20 m/s at the formula's 4.9 m/s^2 (the guard does not steer): driving with 5,000 N would make the tyres turn
     0.25 m/s^2 less at m 0.25 g^2 l_f l_r / (k l h v^2 (4.9 - 0.25)) = 290 * 96.2361 * 2.89 / (0.02801 * 400 * 4.65)

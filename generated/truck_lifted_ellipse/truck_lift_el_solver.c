@@ -1740,8 +1740,10 @@ static truck_lift_el_real_t next_a_lat(truck_lift_el_real_t x1[5]) {
 /* The a_lat guard (fcgen.reference.RtiSolver._a_lat_guard; before the plan check, while p_fb is stage 0's): where
  * the plant's step with get_u0 ends above A_LAT_MAX in |a_lat|, the steering rate that ends at A_LAT_GUARD_TO (with
  * wind the speed moves a little with the rate: the margin covers it), and where the step with that rate still ends
- * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does. Both plant steps run on every path,
- * acting or not: a fixed cost, which fcgen wcet's measured feedback tail therefore covers. */
+ * above A_LAT_MAX (the rate bound cut it short), braking as the plan check does; with DRIVE_LIMIT the drive force
+ * limited, and where that cut it while the guard steers, the rate set again for the slower step. The plant steps (two,
+ * three with DRIVE_LIMIT) run on every path, acting or not: a fixed cost, which fcgen wcet's measured feedback tail
+ * therefore covers. */
 static void a_lat_guard(void) {
   truck_lift_el_real_t xa[5]; /* the step with the plan's rate */
   truck_lift_el_real_t x1[5];
@@ -1774,11 +1776,21 @@ static void a_lat_guard(void) {
     const truck_lift_el_real_t cap =
         (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
                     : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
+    truck_lift_el_real_t x2[5]; /* the step with the drive force the limit left */
+    int cut = 0;
     if (ws.u_applied[0] > cap) {
       ws.u_applied[0] = cap;
+      cut = 1;
       if (ws.status.a_lat_guard == 0) {
         ws.status.a_lat_guard = 3;
       }
+    }
+    /* the step with the force as it now is (on every path: a fixed cost); where the guard steers and cut the force,
+     * the rate again for that step's end, which is slower than the one the rate was set for */
+    call3(truck_lift_el_plant, ws.x0, ws.u_applied, ws.p_fb, x2, NULL, NULL);
+    if ((cut != 0) && (ws.status.a_lat_guard == 1)) {
+      ws.u_applied[1] = guard_steering_rate(x2[3], x2[4], ws.x0[4], A_LAT_GUARD_TO * tyre_gain(x2[3]), L_WHEELBASE,
+                                            SAMPLE_DT, U_LO[1], U_HI[1]);
     }
   }
 }

@@ -31,10 +31,11 @@ def a_lat_guard(
     and so the end, moves a little with the rate: the margin covers it), and where the step with that rate still ends
     above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); where the rate
     sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
-    to it (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
-    plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs both
-    steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control and
-    status)."""
+    to it, and where the guard steers the rate is set again for the end of the step with the cut force, which is
+    slower (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
+    plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs the
+    three steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control
+    and status)."""
     if not problem.plan_check.a_lat_guard:
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
@@ -52,6 +53,10 @@ def a_lat_guard(
         if u[0] > cap:
             u[0] = cap
             status = status or 3
+            if status == 1:  # the rate was set for the speed of the uncut force: set again for the slower step's end
+                x2 = plant_step()
+                a_to = (b.a_lat_max - b.a_lat_margin) * tyre_gain(problem, x2[3], u[0])
+                u[1] = guard_steering_rate(x2[3], x2[4], float(x0[4]), a_to, l, dt, lo, hi)
     return status
 
 

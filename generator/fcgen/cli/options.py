@@ -196,8 +196,9 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
             type=click.FloatRange(0.0, MAX_PREDICTION_MARGIN),
             default=0.0,
             show_default=True,
-            help="c of an obstacle margin per stage growing with the prediction's expected error, c tau_k e "
-            "(docs/plants.md, 'Margins from the prediction's error'; 0: none; needs --prediction)",
+            help="c of an obstacle margin per stage growing with the prediction's expected error, "
+            "c (tau_k e + tau_k^2 t / 2), t the turn a straight-line prediction misses (docs/plants.md, 'Margins "
+            "from the prediction's error'; 0: none; needs --prediction)",
         ),
     ]
     for o in reversed(opts):

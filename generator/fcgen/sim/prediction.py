@@ -16,10 +16,12 @@ from .plants.spec import PREDICTIONS
 SPAN = 5
 
 MARGIN_RULE = (
-    "m_k = min(10 m, c tau_k e): tau_k the time from the last observation to stage k, e the speed error expected of "
-    "the prediction, max over the opponents of |v1 - v0| (the speed change observed between the last two spans of "
-    "SPAN samples: what a prediction at one speed misses) + sqrt(2) sigma_xy / (SPAN dt) (the noise's error on a speed "
-    "from two positions SPAN samples apart)"
+    "m_k = min(10 m, c (tau_k e + tau_k^2 t / 2)): tau_k the time from the last observation to stage k, e the speed "
+    "error expected of the prediction, max over the opponents of |v1 - v0| (the speed change observed between the last "
+    "two spans of SPAN samples: what a prediction at one speed misses) + sqrt(2) sigma_xy / (SPAN dt) (the noise's "
+    "error on a speed from two positions SPAN samples apart); t, for the straight-line predictions, the turn they "
+    "miss: max over the opponents of v1 |omega|, omega the heading change observed over the last span per second "
+    "(a straight line leaves an arc of that lateral acceleration by tau^2 t / 2); 0 for lane-following"
 )
 """The obstacle margin per stage of ``PlantSpec.prediction_margin = c`` (docs/plants.md, "Margins from the
 prediction's error"); set with ``set_obstacle_margins`` before each sample's solve."""
@@ -92,7 +94,11 @@ class PredictedOpponents:
         v1 = np.hypot(*(p0[:, :2] - p1[:, :2]).T) / (SPAN * self.dt)
         v0 = np.hypot(*(p1[:, :2] - p2[:, :2]).T) / (SPAN * self.dt)
         e = float(np.max(np.abs(v1 - v0), initial=0.0)) + math.sqrt(2.0) * float(max(self.noise[:2])) / (SPAN * self.dt)
-        return np.minimum(c * tau * e, INPUT_RANGES.margin_max)
+        t = 0.0  # the lateral acceleration a straight line misses (lane-following follows the bends)
+        if self.kind != "lane-following":
+            omega = np.abs(np.angle(np.exp(1j * (p0[:, 2] - p1[:, 2])))) / (SPAN * self.dt)
+            t = float(np.max(v1 * omega, initial=0.0))
+        return np.minimum(c * (tau * e + 0.5 * t * tau**2), INPUT_RANGES.margin_max)
 
     def _lane(self, p0: np.ndarray, p1: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Along the road's reference line at the observed offset and progress rate ds/dt, heading along it."""
