@@ -15,6 +15,10 @@
  *                  x_{j+1} = plant(x_j, u_j, local road window starting one sample behind s_j)
  * then, as Python does after the loop: ego Cartesian poses by the inverse Frenet transform on the whole road,
  * collision flags by the exact separating-axis rectangle test, a_lat = v^2 tan(delta) / l.
+ * With the scenario's perturbations (fcgen.sim.perturbed.run_perturbed): the solver gets x_j plus the sample's
+ * measurement_error, the plant the control of sample j - latency through the steering actuator's lag; with a plant on
+ * the host ("plant KIND PARAMS", fcgen.sim.cosim) the harness writes each applied control to stdout ("u J F_D R")
+ * and the next sample's record brings the plant's state.
  *
  * This file is the closed-loop driver (and the timing probe of `fcgen wcet`); the jobs it calls live apart:
  *   fs_solver.h    the solver it is compiled for (macros) and the fixed maxima;
@@ -48,8 +52,11 @@ FS_HARNESS_MEM static double g_t[FS_MAX_SAMPLES + 1];
 FS_HARNESS_MEM static double g_xs[(FS_MAX_SAMPLES + 1) * 5];
 FS_HARNESS_MEM static double g_ego_cart[(FS_MAX_SAMPLES + 1) * 3];
 FS_HARNESS_MEM static int g_collision[FS_MAX_SAMPLES + 1];
-FS_HARNESS_MEM static double g_a_lat[FS_MAX_SAMPLES + 1];
+FS_HARNESS_MEM static double g_a_lat[FS_MAX_SAMPLES + 1]; /* the plant's (an external plant's own) */
+FS_HARNESS_MEM static double g_a_lat_model[FS_MAX_SAMPLES + 1]; /* the model's formula on the same states */
+FS_HARNESS_MEM static int g_cut[FS_MAX_SAMPLES]; /* an external plant's input-limit cut flags */
 FS_HARNESS_MEM static double g_us[FS_MAX_SAMPLES * 2];
+FS_HARNESS_MEM static double g_ua[FS_MAX_SAMPLES * 2]; /* the controls the plant got (latency, steering lag) */
 FS_HARNESS_MEM static double g_tp[FS_MAX_SAMPLES], g_tf[FS_MAX_SAMPLES], g_slack[FS_MAX_SAMPLES];
 FS_HARNESS_MEM static int g_qi[FS_MAX_SAMPLES], g_qs[FS_MAX_SAMPLES];
 static int g_exit_nonzero;
@@ -170,42 +177,81 @@ static int controller_step(const double x[5], int w0) {
   return rc;
 }
 
+/* The steering actuator's lag (fcgen.sim.plants.actuation.Actuation._lagged_rate): the commanded angle integrates
+ * the rate r, the actual angle delta follows it with time constant tau; returns the constant rate that ends the
+ * sample at the first-order response's exact angle. */
+static double lagged_rate(int j, double r, double delta) {
+  static double cmd; /* the commanded angle, from the plant's angle at the first sample */
+  const double tau = fs_sc.steer_lag, h = fs_sc.dt;
+  double e0, e1;
+  if (j == 0) cmd = delta;
+  e0 = cmd - delta; /* commanded minus actual */
+  e1 = r * tau + (e0 - r * tau) * exp(-h / tau); /* e' = r - e / tau over the sample */
+  cmd += r * h;
+  return (cmd - e1 - delta) / h;
+}
+
 /* The control the plant applies in sample j: the one computed fs_sc.latency samples earlier (zeros before the first;
- * the same queue as fcgen.sim.plants.actuation). */
-static void actuate(int j, const double u[2], double ua[2]) {
+ * the same queue as fcgen.sim.plants.actuation), its steering rate through the actuator's lag; delta: the plant's
+ * steering angle. */
+static void actuate(int j, const double u[2], double delta, double ua[2]) {
   static double queue[FS_MAX_LATENCY][2];
   const int d = fs_sc.latency;
   if (d == 0) {
     ua[0] = u[0];
     ua[1] = u[1];
-    return;
+  } else {
+    if (j == 0) (void)memset(queue, 0, sizeof queue);
+    ua[0] = queue[j % d][0];
+    ua[1] = queue[j % d][1];
+    queue[j % d][0] = u[0];
+    queue[j % d][1] = u[1];
   }
-  if (j == 0) (void)memset(queue, 0, sizeof queue);
-  ua[0] = queue[j % d][0];
-  ua[1] = queue[j % d][1];
-  queue[j % d][0] = u[0];
-  queue[j % d][1] = u[1];
+  if (fs_sc.steer_lag > 0.0) ua[1] = lagged_rate(j, ua[1], delta);
 }
 
-/* sample j: its record, the controller, the control and status into the run, the plant's step; 0, or 3 (aborted) */
+/* An external plant (the host steps it, fcgen.sim.cosim): the record of sample j brought x_j and the plant's a_lat
+ * and cut flags of sample j - 1 (at j = K also its a_lat at x_K). */
+static void take_plant_state(int j) {
+  int i;
+  if (!fs_sc.external || j == 0) return;
+  for (i = 0; i < 5; ++i) g_xs[(size_t)j * 5 + (size_t)i] = fs_plant_in[i];
+  g_a_lat[j - 1] = fs_plant_in[5];
+  g_cut[j - 1] = (int)fs_plant_in[6];
+  if (j == fs_sc.samples) g_a_lat[j] = fs_plant_in[7];
+}
+
+/* The applied control to the host's plant: one line "u J F_D R" on stdout, flushed (the host answers with the next
+ * sample's record). */
+static int send_control(int j, const double ua[2]) {
+  printf("u %d %.17g %.17g\n", j, ua[0], ua[1]);
+  return fflush(stdout) == 0 ? 0 : 3;
+}
+
+/* sample j: its record, the controller on the measured state, the control and status into the run, the plant's
+ * step; 0, or 3 (aborted) */
 static int run_sample(int j) {
   const double *x = &g_xs[(size_t)j * 5];
   double *u = &g_us[(size_t)j * 2];
-  double fw;
-  double ua[2];
-  int rc;
+  double fw, s_start;
+  double xm[5];
+  int rc, i;
   status_t st;
   real_t ur[2];
   fs_read_sample(j);
-  /* road.window(x[0] - WINDOW_BEHIND, road_window) */
-  fw = floor(((x[0] - fs_sc.window_behind) - fs_sc.road_s0) / fs_sc.road_ds);
+  take_plant_state(j);
+  for (i = 0; i < 5; ++i) xm[i] = fs_sc.noisy ? x[i] + fs_meas_err[i] : x[i]; /* Actuation.measure */
+  /* road.window(x[0] - WINDOW_BEHIND, road_window); a perturbed loop starts it at the road's start at the latest */
+  s_start = xm[0] - fs_sc.window_behind;
+  if (fs_sc.perturbed && s_start < fs_sc.road_s0) s_start = fs_sc.road_s0;
+  fw = floor((s_start - fs_sc.road_s0) / fs_sc.road_ds);
   if (!(fw >= 0.0) || fw + (double)fs_sc.road_window > (double)fs_sc.road_size) {
-    fprintf(stderr, "closed_loop: sample %d: road window at s = %.1f is outside the road [%.1f, %.1f]\n", j,
-            x[0] - fs_sc.window_behind, fs_sc.road_s0, fs_sc.road_s0 + fs_sc.road_ds * (double)(fs_sc.road_size - 1));
+    fprintf(stderr, "closed_loop: sample %d: road window at s = %.1f is outside the road [%.1f, %.1f]\n", j, s_start,
+            fs_sc.road_s0, fs_sc.road_s0 + fs_sc.road_ds * (double)(fs_sc.road_size - 1));
     return 3;
   }
   FS_PROBE_BEGIN(j);
-  rc = controller_step(x, (int)fw);
+  rc = controller_step(xm, (int)fw);
   FS_PROBE_END(j);
   S_(_get_status)(&st);
   /* get_u0 is always the control to apply: after an unusable QP the solver's fallback, after a rejected call the
@@ -223,8 +269,9 @@ static int run_sample(int j) {
   g_tf[j] = (double)st.ticks_feedback / (double)FS_TICKS_PER_SECOND;
   g_qi[j] = st.qp_iter;
   g_qs[j] = st.qp_status;
-  actuate(j, u, ua);
-  return fs_plant_step(j, x, ua, &g_xs[(size_t)(j + 1) * 5]);
+  actuate(j, u, x[4], &g_ua[(size_t)j * 2]);
+  if (fs_sc.external) return send_control(j, &g_ua[(size_t)j * 2]);
+  return fs_plant_step(j, x, &g_ua[(size_t)j * 2], &g_xs[(size_t)(j + 1) * 5]);
 }
 
 /* after the loop, as run_closed_loop: time, Cartesian poses, collisions, lateral acceleration */
@@ -235,7 +282,8 @@ static void evaluate_run(int K) {
     g_t[j] = (double)j * fs_sc.dt;
     fs_to_cartesian(x[0], x[1], x[2], &g_ego_cart[(size_t)j * 3]);
     g_collision[j] = fs_collides(&g_ego_cart[(size_t)j * 3], &fs_opp_cart[(size_t)j * NOPP * 3]);
-    g_a_lat[j] = fs_a_lat(x);
+    g_a_lat_model[j] = fs_a_lat(x);
+    if (!fs_sc.external) g_a_lat[j] = g_a_lat_model[j];
   }
 }
 
@@ -249,6 +297,9 @@ static int write_run_log(const char *path, int K) {
   run.collision = g_collision;
   run.a_lat = g_a_lat;
   run.control = g_us;
+  run.control_applied = fs_sc.perturbed ? g_ua : NULL;
+  run.a_lat_model = g_a_lat_model;
+  run.plant_cut = g_cut;
   run.max_slack = g_slack;
   run.time_prepare = g_tp;
   run.time_feedback = g_tf;
@@ -281,6 +332,7 @@ int main(int argc, char **argv) {
     if (rc) return rc;
   }
   fs_read_sample(K);
+  take_plant_state(K);
   fs_read_end();
   FS_PROBE_CLOSE();
   fs_scenario_close();

@@ -208,8 +208,47 @@ static void write_versions(void) {
   close_at(2, '}');
 }
 
+/* a perturbed run's meta.extra entries after "harness" (fcgen.sim.perturbed.perturbed_meta): the plant and the
+ * perturbations, the samples the plant's input limits cut, the largest |a_lat| of the model's formula */
+static void write_plant_meta(const fs_run_t *run) {
+  int j, cut[4] = {0, 0, 0, 0}; /* any, steering rate, steering angle, acceleration */
+  double amax = 0.0;
+  for (j = 0; j <= run->samples; ++j) amax = fabs(run->a_lat_model[j]) > amax ? fabs(run->a_lat_model[j]) : amax;
+  for (j = 0; j < run->samples; ++j) {
+    cut[0] += run->plant_cut[j] != 0;
+    cut[1] += (run->plant_cut[j] & 1) != 0;
+    cut[2] += (run->plant_cut[j] & 2) != 0;
+    cut[3] += (run->plant_cut[j] & 4) != 0;
+  }
+  key(3, "max_abs_a_lat_model", 0);
+  put_double(amax);
+  key(3, "plant", 0);
+  fputs("{\n", g_out);
+  key(4, "kind", 1);
+  put_str(fs_sc.plant);
+  key(4, "latency", 0);
+  fprintf(g_out, "%d", fs_sc.latency);
+  key(4, "noise", 0);
+  row_d(fs_sc.noise, 5);
+  key(4, "params", 0);
+  put_str(fs_sc.plant_params);
+  key(4, "prediction", 0);
+  put_str(fs_sc.prediction);
+  key(4, "steer_lag", 0);
+  put_double(fs_sc.steer_lag);
+  close_at(3, '}');
+  key(3, "plant_cut_accel", 0);
+  fprintf(g_out, "%d", cut[3]);
+  key(3, "plant_cut_samples", 0);
+  fprintf(g_out, "%d", cut[0]);
+  key(3, "plant_cut_steer_angle", 0);
+  fprintf(g_out, "%d", cut[2]);
+  key(3, "plant_cut_steer_rate", 0);
+  fprintf(g_out, "%d", cut[1]);
+}
+
 /* meta, keys sorted as Python sorts them ("N" first) */
-static void write_meta(int exit_nonzero) {
+static void write_meta(const fs_run_t *run) {
   key(1, "meta", 0);
   fputs("{\n", g_out);
   key(2, "N", 1);
@@ -221,9 +260,10 @@ static void write_meta(int exit_nonzero) {
   key(2, "extra", 0);
   fputs("{\n", g_out);
   key(3, "exit_codes_nonzero", 1);
-  fprintf(g_out, "%d", exit_nonzero);
+  fprintf(g_out, "%d", run->exit_nonzero);
   key(3, "harness", 0);
   put_str("c-firmware_sim");
+  if (run->control_applied) write_plant_meta(run);
   close_at(2, '}');
   key(2, "formulation", 0);
   put_str(fs_sc.formulation);
@@ -285,10 +325,18 @@ static void write_samples(const fs_run_t *run) {
   fputs("{\n", g_out);
   key(2, "a_lat", 1);
   row_d(run->a_lat, K + 1);
+  if (run->control_applied) {
+    key(2, "a_lat_model", 0);
+    row_d(run->a_lat_model, K + 1);
+  }
   key(2, "collision", 0);
   row_i(run->collision, K + 1, 1);
   key(2, "control", 0);
   mat_d(run->control, K, 2, 2);
+  if (run->control_applied) {
+    key(2, "control_applied", 0);
+    mat_d(run->control_applied, K, 2, 2);
+  }
   key(2, "ego_cartesian", 0);
   mat_d(run->ego_cartesian, K + 1, 3, 2);
   key(2, "ego_frenet", 0);
@@ -299,6 +347,10 @@ static void write_samples(const fs_run_t *run) {
   cube_d(fs_opp_cart, K + 1, NOPP, 2);
   key(2, "opp_frenet", 0);
   cube_d(fs_opp_fr, K + 1, NOPP, 2);
+  if (run->control_applied) {
+    key(2, "plant_cut", 0);
+    row_i(run->plant_cut, K, 0);
+  }
   key(2, "qp_iter", 0);
   row_i(run->qp_iter, K, 0);
   key(2, "qp_status", 0);
@@ -323,7 +375,7 @@ int fs_write_log(const char *path, const fs_run_t *run) {
   dims_obj(&fs_sc.ego_dims, 1);
   key(1, "format", 0);
   put_str(RUNLOG_FORMAT);
-  write_meta(run->exit_nonzero);
+  write_meta(run);
   write_opponents();
   write_road();
   write_samples(run);

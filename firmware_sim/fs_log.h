@@ -14,8 +14,11 @@ typedef struct {
   const double *ego_frenet; /* (K + 1) x 5 */
   const double *ego_cartesian; /* (K + 1) x 3 */
   const int *collision; /* K + 1 */
-  const double *a_lat; /* K + 1 */
+  const double *a_lat; /* K + 1, the plant's */
+  const double *a_lat_model; /* K + 1, the model's formula on the same states (a perturbed run's field) */
+  const int *plant_cut; /* K, the plant's input-limit cut flags (1 steering rate, 2 angle, 4 acceleration) */
   const double *control; /* K x 2 */
+  const double *control_applied; /* K x 2, the controls the plant got; NULL: an unperturbed run (fs_sc.perturbed) */
   const double *max_slack; /* K */
   const double *time_prepare; /* K, seconds */
   const double *time_feedback; /* K, seconds */

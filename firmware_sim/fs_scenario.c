@@ -10,6 +10,8 @@ FS_HARNESS_MEM double fs_kappa[FS_MAX_ROAD], fs_phi[FS_MAX_ROAD], fs_gx[FS_MAX_R
 FS_HARNESS_MEM double fs_opp_cart[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
 FS_HARNESS_MEM double fs_opp_fr[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
 FS_HARNESS_MEM real_t fs_opp_params[OPP_BLOCK + 1];
+double fs_meas_err[5];
+double fs_plant_in[8];
 
 static FILE *g_in;
 static const char *g_in_name;
@@ -161,22 +163,57 @@ static void read_sizes(void) {
   fs_sc.n_bound = read_double();
 }
 
-/* The optional "latency D" line (a delay-compensated solver's plant), then "ego_l". */
-static void read_latency(void) {
+/* The optional perturbation lines "latency D", "steer_lag TAU", "noise STD x 5", "prediction WORD",
+ * "plant KIND PARAMS" (docs/scenario_file.md), then "ego_l". */
+static void read_perturbations(void) {
+  int i;
   fs_sc.latency = 0;
-  if (strcmp(next_token(), "latency") == 0) {
+  fs_sc.steer_lag = 0.0;
+  fs_sc.noisy = 0;
+  for (i = 0; i < 5; ++i) fs_sc.noise[i] = 0.0;
+  next_token();
+  if (strcmp(g_tok, "latency") == 0) {
     fs_sc.latency = (int)read_long();
     if (fs_sc.latency < 0 || fs_sc.latency > FS_MAX_LATENCY) fail_data("latency is outside 0 .. FS_MAX_LATENCY");
-    (void)next_token();
+    next_token();
   }
-  if (strcmp(g_tok, "ego_l") != 0) fail_data("expected 'latency' or 'ego_l'");
+  if (strcmp(g_tok, "steer_lag") == 0) {
+    fs_sc.steer_lag = read_double();
+    if (!(fs_sc.steer_lag > 0.0 && fs_sc.steer_lag <= FS_MAX_STEER_LAG)) fail_data("steer_lag is outside (0, 2] s");
+    next_token();
+  }
+  if (strcmp(g_tok, "noise") == 0) {
+    for (i = 0; i < 5; ++i) {
+      fs_sc.noise[i] = read_double();
+      if (!(fs_sc.noise[i] >= 0.0)) fail_data("noise: a std is negative or not a number");
+    }
+    fs_sc.noisy = 1;
+    next_token();
+  }
+  strcpy(fs_sc.prediction, "oracle");
+  if (strcmp(g_tok, "prediction") == 0) {
+    read_word(fs_sc.prediction);
+    next_token();
+  }
+  strcpy(fs_sc.plant, "model");
+  strcpy(fs_sc.plant_params, "paper");
+  if (strcmp(g_tok, "plant") == 0) {
+    read_word(fs_sc.plant);
+    read_word(fs_sc.plant_params);
+    next_token();
+  }
+  if (strcmp(g_tok, "ego_l") != 0)
+    fail_data("expected 'latency', 'steer_lag', 'noise', 'prediction', 'plant' or 'ego_l'");
+  fs_sc.external = strcmp(fs_sc.plant, "model") != 0;
+  fs_sc.perturbed = fs_sc.latency > 0 || fs_sc.steer_lag > 0.0 || fs_sc.noisy ||
+                    strcmp(fs_sc.prediction, "oracle") != 0 || fs_sc.external;
 }
 
 void fs_read_header(void) {
   int i;
   read_names();
   read_sizes();
-  read_latency();
+  read_perturbations();
   fs_sc.ego_l = read_double();
   read_dims("ego_dims", &fs_sc.ego_dims);
   for (i = 0; i < NOPP; ++i) read_dims("opp_dims", &fs_sc.opp_dims[i]);
@@ -198,7 +235,10 @@ void fs_read_sample(int j) {
   if (read_long() != j) fail_data("samples out of order");
   read_doubles("opp_cartesian", &fs_opp_cart[(size_t)j * NOPP * 3], NOPP * 3);
   read_doubles("opp_frenet", &fs_opp_fr[(size_t)j * NOPP * 3], NOPP * 3);
+  if (j > 0 && fs_sc.external) read_doubles("plant_state", fs_plant_in, 7);
   if (j < fs_sc.samples) read_reals("opp_params", fs_opp_params, OPP_BLOCK);
+  if (j < fs_sc.samples && fs_sc.noisy) read_doubles("measurement_error", fs_meas_err, 5);
+  if (j == fs_sc.samples && fs_sc.external) read_doubles("plant_a_lat", &fs_plant_in[7], 1);
 }
 
 void fs_read_end(void) {

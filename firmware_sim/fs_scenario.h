@@ -9,6 +9,7 @@
 
 #define SCENARIO_FORMAT "fcgen-scenario/1"
 #define FS_MAX_LATENCY 8 /* the largest "latency" (Problem.delay's range) */
+#define FS_MAX_STEER_LAG 2.0 /* s, the largest "steer_lag" (fcgen.sim.plants.spec.MAX_STEER_LAG) */
 
 /* a vehicle's dimensions (sim/collision.py's chassis) */
 typedef struct {
@@ -23,7 +24,15 @@ typedef struct {
   int n_versions;
   long seed;
   int samples, road_window, road_size;
-  int latency; /* samples between a control's computation and its actuation (the optional "latency" line; 0) */
+  /* the perturbations between solver and plant (the optional lines; fcgen.sim.plants.actuation): */
+  int latency; /* samples between a control's computation and its actuation ("latency"; 0) */
+  double steer_lag; /* s, a first-order steering actuator's time constant ("steer_lag"; 0: none) */
+  int noisy; /* 1: each sample's record ends in the measured state's error ("noise": the stds) */
+  double noise[5];
+  char prediction[FS_MAX_WORD]; /* the opponents' futures in opp_params ("prediction"; oracle: the truth) */
+  char plant[FS_MAX_WORD], plant_params[FS_MAX_WORD]; /* "plant KIND PARAMS"; model: fcgen's, <name>_plant */
+  int external; /* 1: the host steps the plant; each sample's record brings its state ("plant_state") */
+  int perturbed; /* any of these: the run log gets the perturbed run's fields (docs/plants.md) */
   double dt, window_behind, n_bound, ego_l;
   fs_dims_t ego_dims, opp_dims[NOPP + 1];
   double x0[5];
@@ -38,6 +47,11 @@ extern double fs_opp_cart[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
 extern double fs_opp_fr[(FS_MAX_SAMPLES + 1) * NOPP * 3 + 1];
 /* the current sample's opponent block for the solver's set_opponents */
 extern real_t fs_opp_params[OPP_BLOCK + 1];
+/* the current sample's measurement error (the noise's draw; zeros without noise), added to the state the solver gets */
+extern double fs_meas_err[5];
+/* with an external plant: the current sample's plant state x_j (5), the plant's a_lat and input-limit cut flags of
+ * sample j - 1 ("plant_state", j >= 1), and at j = K the plant's a_lat at x_K ("plant_a_lat") */
+extern double fs_plant_in[8];
 
 /* Open the file (0; else 2 after one line on stderr). */
 int fs_scenario_open(const char *path);

@@ -47,13 +47,15 @@ def write_scenario(
     dt: float = 0.1,
     statics=(),
     goal: dict | None = None,
+    ego_n: float = 0.0,
 ) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
     constant speed for ``steps`` recorded steps (speed 0: standing); ``end_lane``: (lane, s) that lane ends at s;
     ``statics``: (id, lane, s, length, width) static obstacles; ``speed_limit``: a MAX_SPEED sign on the ego's lane;
     ``goal``: a goal position ``lane``, ``s`` (a rectangle ``length`` x ``width``, default 6 x 3 m) and optionally a
-    ``velocity`` (lo, hi) and an ``orientation`` (lo, hi) interval beside the time steps ``goal_steps``."""
+    ``velocity`` (lo, hi) and an ``orientation`` (lo, hi) interval beside the time steps ``goal_steps``; ``ego_n``:
+    the ego's start this far left of its lane's centre."""
     from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
     from commonroad.geometry.shape import Circle, Rectangle
     from commonroad.planning.goal import GoalRegion
@@ -145,7 +147,7 @@ def write_scenario(
                 ),
             )
         )
-    exy, eth = pose(ego_lane, ego_x)
+    exy, eth = pose(ego_lane + ego_n / LANE, ego_x)
     pp = PlanningProblem(
         1,
         InitialState(

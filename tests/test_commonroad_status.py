@@ -83,6 +83,10 @@ def test_a_campaign_row_and_its_report_state_the_samples_without_a_solution():
     late = _row(scenario="w", road_departure=True, start_off_road=False)
     report = summary_markdown(pd.DataFrame([off, late, _row()], columns=list(ROW_KEYS)))
     assert "Road departures (checker): 2, of which 1 start off the road" in report
-    assert "and 1 after an on-road start." in report
+    assert "and 1 after the ego was on the road (an on-road start, or back from a start off it)." in report
+    again = _row(scenario="v", road_departure=True, start_off_road=True, departure_again_step=70)
+    report = summary_markdown(pd.DataFrame([off, late, again, _row()], columns=list(ROW_KEYS)))
+    assert "Road departures (checker): 3, of which 2 start off the road" in report
+    assert "and 2 after the ego was on the road" in report
     clean = summary_markdown(pd.DataFrame([_row()], columns=list(ROW_KEYS)))
     assert "## Samples without a solution, non-finite values\n\nNone." in clean

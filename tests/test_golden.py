@@ -29,10 +29,9 @@ def test_generated_solver_reproduces_its_golden(folder, tmp_path):
     # build a copy: other tests build generated/<folder> in place, possibly on another worker at the same time
     solver = tmp_path / folder
     shutil.copytree(ROOT / folder, solver, ignore=shutil.ignore_patterns("build", GOLDEN_DIR))
-    rep = regress(
+    rep = regress(  # replay; a golden of a perturbed run (`record --golden-for ... --noise ...`) in closed loop
         solver,
         ROOT / folder / GOLDEN_DIR,
-        mode="replay",
         preset="same-build",
         build_kw={"verify": GOLDEN_SETTINGS.verify},
     )

@@ -66,6 +66,22 @@ def test_sanitized_solver_example_and_firmware_closed_loop(solver, tmp_path):
     assert s["progress"] > 50.0, s  # it drove (> 10 m/s over 5 s)
 
 
+def test_sanitized_firmware_closed_loop_with_perturbations(solver, tmp_path):
+    """The harness's latency queue (3 samples: it wraps), steering lag and measurement errors under the sanitizers."""
+    from fcgen.sim.plants import DEFAULT_NOISE, PlantSpec
+
+    exe = build_harness(solver, cc=CC, cflags=SANITIZE)
+    pb = load_problem(str(solver / "problem.py"))
+    sc = make_scenario("truck", 3, n_opp=pb.opponents.count, samples=SAMPLES, dt=pb.horizon.dt)
+    spec = PlantSpec(latency=3, steer_lag=0.1, noise=DEFAULT_NOISE)
+    data = export_scenario(pb, sc, tmp_path / "scenario.txt", plant=spec)
+    res = run_sanitized([str(exe), str(data), str(tmp_path / "run.json")])
+    assert res.returncode == 0, res.stderr[-4000:]
+    log = RunLog.from_json(tmp_path / "run.json")
+    assert log.meta["extra"]["plant"] == spec.as_meta() and np.all(np.isfinite(log.control_applied))
+    np.testing.assert_array_equal(np.asarray(log.control_applied)[3:, 0], np.asarray(log.control)[:-3, 0])
+
+
 def fuzz_exe(solver: Path, out: Path, f_d_max: float | None = None) -> Path:
     pb = load_problem(str(solver / "problem.py"))
     defs = (

@@ -17,7 +17,7 @@ from fcgen.cli import main
 from fcgen.codegen.generate import GenerateInfo, generate
 from fcgen.footprint import footprint, section_sizes
 from fcgen.presets import preset
-from fcgen.sim.harness import firmware_sim, linker_script
+from fcgen.sim.harness import HarnessError, firmware_sim, linker_script
 from fcgen.sim.runlog import compare
 from fcgen.solver_folder import build_dir
 from fcgen.targets import TARGETS, TargetError, get_target
@@ -262,6 +262,25 @@ def test_closed_loop_double_on_m7_matches_host(gen_double, tmp_path) -> None:
     again = firmware_sim(d, "truck", SEED, 4, tmp_path / "m7b.json", target="cortex-m7", timeout=300)
     np.testing.assert_allclose(again.time_prepare, log_t.time_prepare[:4], rtol=0, atol=40.5e-9)
     np.testing.assert_allclose(again.time_feedback, log_t.time_feedback[:4], rtol=0, atol=40.5e-9)
+
+
+@needs_toolchain
+def test_perturbed_closed_loop_on_m7_matches_host(gen_double, tmp_path) -> None:
+    """Latency (2 samples), steering lag and the seeded measurement noise run in the bare-metal image as on the host
+    (the errors come in the scenario file); a CommonRoad plant, stepped by the host, is refused for the target."""
+    from fcgen.sim.plants import DEFAULT_NOISE, PlantSpec
+
+    d = gen_double.out_dir
+    spec = PlantSpec(latency=2, steer_lag=0.1, noise=DEFAULT_NOISE)
+    log_t = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "m7.json", target="cortex-m7", timeout=300, plant=spec)
+    log_h = firmware_sim(d, "truck", SEED, SAMPLES, tmp_path / "host.json", plant=spec)
+    diff = compare(log_t, log_h)
+    assert diff["ego_frenet"] <= 1e-6 and diff["control"] <= 1e-5 and diff["control_applied"] <= 1e-5, diff
+    assert np.array_equal(log_t.qp_iter, log_h.qp_iter) and np.array_equal(log_t.qp_status, log_h.qp_status)
+    assert log_t.meta["extra"]["exit_codes_nonzero"] == log_h.meta["extra"]["exit_codes_nonzero"]
+    assert log_t.meta["extra"]["plant"] == spec.as_meta() == log_h.meta["extra"]["plant"]
+    with pytest.raises(HarnessError, match="--plant st: the host steps the plant in lockstep"):
+        firmware_sim(d, "truck", SEED, 2, tmp_path / "st.json", target="cortex-m7", plant=PlantSpec(kind="st"))
 
 
 @needs_toolchain

@@ -20,7 +20,7 @@ import os
 import platform
 import re
 import subprocess
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ from .atomic import carry, check_folder_target, describe, staged_folder, write_t
 from .build import DEFAULT_BUILD, VERIFY_BUILD, build
 from .csolver import CSolver
 from .sim.closedloop import PLAN_LEVELS, run_closed_loop
-from .sim.plants import PlantSpec
+from .sim.plants import PlantSpec, plant_from_meta
 from .sim.runlog import FORMAT_VERSION, RunLog, package_versions, read_text
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder
@@ -298,8 +298,6 @@ def _record_into(
 
 def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
     """The log with ``meta.precision`` set and, unless ``timing``, the timing fields zeroed."""
-    from dataclasses import replace
-
     meta = {**log.meta, "precision": precision}
     kw: dict[str, Any] = {"meta": meta}
     if not timing:
@@ -309,10 +307,15 @@ def _finish(log: RunLog, precision: str, timing: bool) -> RunLog:
 
 
 def record_goldens(
-    root: Path | str, settings: SuiteSettings = GOLDEN_SETTINGS, echo=None, force: bool = False
+    root: Path | str,
+    settings: SuiteSettings = GOLDEN_SETTINGS,
+    echo=None,
+    force: bool = False,
+    plant: PlantSpec | None = None,
 ) -> list[Path]:
     """Re-record ``<root>/<solver>/golden`` for every generated solver folder under ``root`` (existing suites only
-    with ``force``; every target is checked before the first is recorded)."""
+    with ``force``; every target is checked before the first is recorded). ``plant``: the runs' plant and
+    perturbations; None: each suite's own (its manifest's ``settings.plant``; a new suite: fcgen's model)."""
     root = Path(root)
     folders = sorted(p for p in root.iterdir() if p.is_dir() and any(p.glob("*_solver.h"))) if root.is_dir() else []
     if not folders:
@@ -323,9 +326,18 @@ def record_goldens(
     for d in folders:
         if echo:
             echo(f"{d / GOLDEN_DIR}:")
-        record_suite(d, d / GOLDEN_DIR, settings, echo=echo, force=force)
+        spec = suite_plant(d / GOLDEN_DIR) if plant is None else plant
+        record_suite(d, d / GOLDEN_DIR, replace(settings, plant=spec), echo=echo, force=force)
         out.append(d / GOLDEN_DIR)
     return out
+
+
+def suite_plant(path: Path | str) -> PlantSpec:
+    """The plant and perturbations a golden suite was recorded with (``settings.plant`` of its manifest; no suite,
+    or none recorded: fcgen's model)."""
+    if not is_suite(path):
+        return PlantSpec()
+    return plant_from_meta(load_manifest(path).get("settings", {}).get("plant"))
 
 
 # ----------------------------------------------------------------------------- read

@@ -32,6 +32,7 @@ ROW_KEYS = (
     "progress_m",
     "v_ref",
     "band_cut_m",
+    "way_back_samples",
     "collision_fcgen",
     "collision_step_fcgen",
     "collision_checker",
@@ -39,6 +40,7 @@ ROW_KEYS = (
     "road_departure",
     "departure_step",
     "start_off_road",
+    "departure_again_step",
     "agree",
     "responsibility",
     "max_abs_a_lat",
@@ -152,6 +154,7 @@ def run_cr_task(task: CrTask) -> dict:
         progress_m=float(log.ego_frenet[-1, 0] - log.ego_frenet[0, 0]),
         v_ref=float(cr["v_ref"]),
         band_cut_m=float(cr["band_cut"]),
+        way_back_samples=len(cr["band"]["way_back_samples"]),
         collision_fcgen=bool(run.fcgen["collision"]),
         collision_step_fcgen=_step(run.fcgen.get("collision_step")),
         collision_checker=bool(run.checker["collision"]),
@@ -159,6 +162,7 @@ def run_cr_task(task: CrTask) -> dict:
         road_departure=bool(run.checker.get("road_departure", False)),
         departure_step=_step(run.checker.get("departure_step")),
         start_off_road=run.checker.get("departure_step") == 0,
+        departure_again_step=_step(run.checker.get("departure_again_step")),
         agree=run.agree,
         responsibility=run.responsibility,
         max_abs_a_lat=float(np.max(np.abs(log.a_lat))),
@@ -236,6 +240,15 @@ def nonfinite_fields(row: dict) -> str:
 
 def _count(col) -> int:
     return int(col.fillna(False).astype(bool).sum())
+
+
+def departed_on_road(df):
+    """Which rows' runs left the road after the ego was on it: a departure after an on-road start, or, after a start
+    off the road, a departure once back on it (``departure_again_step``)."""
+    on = df.road_departure.astype(bool) & ~df.start_off_road.fillna(False).astype(bool)
+    if "departure_again_step" in df:
+        on = on | (df.departure_again_step.fillna(-1).astype(int) >= 0)
+    return on
 
 
 def _step(v) -> int:
@@ -342,8 +355,8 @@ def summary_markdown(df) -> str:
             f"Agreement: {int((a == b).sum())} of {len(ran)} runs. Road departures (checker): "
             f"{int(ran.road_departure.astype(bool).sum())}, of which {_count(ran.start_off_road)} start off the road "
             "(the scenario's: the recorded ego's chassis crosses the road boundary at the initial state) and "
-            f"{_count(ran.road_departure.astype(bool) & ~ran.start_off_road.fillna(False).astype(bool))} after an "
-            "on-road start.",
+            f"{_count(departed_on_road(ran))} after the ego was on the road (an on-road start, or back from a start "
+            "off it).",
             "",
             f"Goal reached: {_count(ran.goal_reached)} of {len(ran)} runs. Solutions valid by the drivability "
             f"checker: {_count(ran.solution_valid)} (all but the goal: {_count(ran.solution_valid_but_goal)}; "

@@ -39,10 +39,21 @@ def traffic_option(default: str | None = "recorded", what: str = "") -> Callable
 
 
 def simulate_commonroad(
-    pb, cr_file, cr_pp, samples, ctrl, out, plot, solution, traffic: str = "recorded", animate: str | None = None
+    pb,
+    cr_file,
+    cr_pp,
+    samples,
+    ctrl,
+    out,
+    plot,
+    solution,
+    traffic: str = "recorded",
+    animate: str | None = None,
+    plant=None,
 ) -> None:
     """``simulate --commonroad``: one CommonRoad scenario; its verdicts printed; a refused scenario: one line,
-    exit 1. The picture and the animation show the traffic as it drove (reactive: not the recording)."""
+    exit 1. The picture and the animation show the traffic as it drove (reactive: not the recording). ``plant``: the
+    plant options' ``PlantSpec`` (default fcgen's model)."""
     from dataclasses import replace as dc_replace
 
     from ..campaign.commonroad import load_for
@@ -54,7 +65,7 @@ def simulate_commonroad(
         sc = load_for(pb, cr_file, cr_pp)
         if samples < sc.samples:
             sc = dc_replace(sc, samples=samples)
-        run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), traffic=traffic)
+        run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), traffic=traffic, plant=plant)
     except ScenarioRefused as exc:
         fail(f"refused: {exc}")
     log = run.log
@@ -71,6 +82,12 @@ def simulate_commonroad(
     )
     click.echo(goal_line(log.meta["extra"]["commonroad"]))
     click.echo(traffic_line(log.meta["extra"]["commonroad"]))
+    click.echo(band_line(log.meta["extra"]["commonroad"]))
+    if "plant" in log.meta["extra"]:
+        ex = log.meta["extra"]
+        click.echo(
+            f"plant {plant.label()} | samples whose control the plant's input limits cut: {ex['plant_cut_samples']}"
+        )
     if out:
         log.to_json(out)
         click.echo(f"run log written to {out}")
@@ -88,6 +105,14 @@ def simulate_commonroad(
         except ValueError as exc:
             fail(f"--animate: {exc}")
         click.echo(f"animation written to {animate}")
+
+
+def band_line(cr: dict) -> str:
+    """One line of a run's band rule and the samples whose band the way back widened (``commonroad.band``)."""
+    b = cr.get("band", {"rule": "road", "way_back_samples": []})
+    back = b["way_back_samples"]
+    where = f" (the first sample {back[0]}, the last {back[-1]})" if back else ""
+    return f"band: {b['rule']}; the way back widened it at {len(back)} samples{where}"
 
 
 def traffic_line(cr: dict) -> str:

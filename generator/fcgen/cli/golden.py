@@ -16,6 +16,7 @@ from .options import (
     force_option,
     out_dir_option,
     plant_options,
+    plant_options_given,
     plant_spec,
     samples_option,
     scenario_option,
@@ -47,7 +48,8 @@ from .options import (
     type=click.Path(file_okay=False),
     default=None,
     help="re-record ROOT/<solver>/golden of every solver folder under ROOT with the checked-in goldens' "
-    "settings (2 seeds x 200 samples, verification build, planned controls, no timing)",
+    "settings (2 seeds x 200 samples, verification build, planned controls, no timing) and each suite's plant "
+    "and perturbations, or the ones the plant options give",
 )
 @force_option("replace an existing golden suite in the output folder")
 @click.option(
@@ -85,13 +87,14 @@ def record(
     spec = plant_spec()
     if spec.params == "matched":
         fail("--plant-params matched sets the controller's wheelbase and mass: generate the solver from that problem")
-    if not spec.is_default and (golden_root is not None or cr_file):
-        fail("--golden-for and --commonroad record fcgen's own plant (no --plant, --latency, --steer-lag, --noise)")
+    if not spec.is_default and cr_file:
+        fail("--commonroad records fcgen's own plant (no --plant, --latency, --steer-lag, --noise)")
     try:
         if golden_root is not None:
             if solver_dir is not None or out_dir is not None:
                 fail("--golden-for ROOT records every folder under ROOT: give no SOLVER_DIR and no -o")
-            for path in record_goldens(golden_root, echo=click.echo, force=force):
+            given = spec if plant_options_given() else None  # None: each suite keeps its own
+            for path in record_goldens(golden_root, echo=click.echo, force=force, plant=given):
                 click.echo(f"golden suite written to {path}")
             return
         if traffic != "recorded" and not cr_file:
@@ -135,7 +138,8 @@ def record(
     "--mode",
     type=click.Choice(("replay", "closed-loop")),
     default=None,
-    help="for a solver folder NEW: replay the golden inputs (default) or run the closed loop again",
+    help="for a solver folder NEW: replay the golden inputs or run the closed loop again [default: replay; a "
+    "golden log of a perturbed run: closed-loop, with its recorded plant and perturbations]",
 )
 @click.option(
     "--preset",

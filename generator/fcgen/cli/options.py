@@ -7,6 +7,7 @@ from collections.abc import Callable
 from typing import Any, NoReturn
 
 import click
+from click.core import ParameterSource
 
 from ..presets import SCENARIOS
 from ..targets import TARGETS
@@ -204,9 +205,10 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def plant_spec(commonroad: bool = False):
+def plant_spec(commonroad: bool = False, commonroad_plant: bool = False):
     """The ``PlantSpec`` of the running command's plant options; a bad value, a missing ``[plants]`` extra or
-    perturbations with ``--commonroad`` (which runs fcgen's own plant): one line, exit 1."""
+    perturbations with ``--commonroad`` (which runs fcgen's own plant; ``commonroad_plant``: the command runs the
+    plant options on a CommonRoad scenario, but not another prediction): one line, exit 1."""
     from ..dsl import ProblemError
     from ..sim.plants import PlantSpec, parse_noise
 
@@ -223,7 +225,9 @@ def plant_spec(commonroad: bool = False):
         )
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
-    if commonroad and not spec.is_default:
+    if commonroad and commonroad_plant and (spec.prediction != "oracle" or spec.prediction_margin):
+        fail("--commonroad predicts the opponents by the scenario (no --prediction, --prediction-margin)")
+    if commonroad and not commonroad_plant and not spec.is_default:
         fail(
             "--commonroad runs fcgen's own plant without perturbations "
             "(no --plant, --latency, --steer-lag, --noise, --prediction)"
@@ -237,6 +241,13 @@ def plant_spec(commonroad: bool = False):
         except MissingExtra as exc:
             fail(str(exc))
     return spec
+
+
+def plant_options_given() -> bool:
+    """Whether the command line (or the environment) gave any plant option, even at its default value."""
+    ctx = click.get_current_context()
+    given = (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+    return any(ctx.get_parameter_source(name) in given for name in ctx.meta.get(_PLANT_META, {}))
 
 
 def plant_line(spec, log, a_lat_max: float) -> str:

@@ -126,11 +126,11 @@ def simulate(
         pb = fmu_problem(fmu_path)
     else:
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
-    spec = plant_spec(commonroad=bool(cr_file))
+    spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
-        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate)
+        simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
         return
     if cr_pp is not None or cr_solution or animate or traffic != "recorded":
         fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")
@@ -163,10 +163,17 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
             fail(str(exc))
     if controller == "c":
         from ..csolver import CSolver
+        from ..solver_folder import read_folder
 
         if solver_dir is None:
             fail("--controller c needs --solver-dir (a folder written by `fcgen generate`)")
-        return CSolver.from_dir(solver_dir)
+        folder = read_folder(solver_dir)
+        if folder.problem.delay != pb.delay:  # the loop hands out the opponents from the plan's start
+            fail(
+                f"--solver-dir {solver_dir} compensates delay = {folder.problem.delay} samples, the problem "
+                f"{pb.name!r} has delay = {pb.delay}: give --problem {Path(solver_dir) / 'problem.py'}"
+            )
+        return CSolver.from_dir(folder)
     return None
 
 

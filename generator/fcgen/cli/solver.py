@@ -18,7 +18,9 @@ from .options import (
     fmt_summary,
     force_option,
     out_file_option,
+    plant_line,
     plant_options,
+    plant_options_given,
     plant_spec,
     samples_option,
     scenario_option,
@@ -269,26 +271,36 @@ def wcet_cmd(solver_dir, target, seeds, samples, validate_seeds, cflags, jobs, t
     is_flag=True,
     help="also run the host harness on the same scenario and print the largest differences",
 )
+@plant_options
 def firmware_sim_cmd(solver_dir, scenario, seed, samples, out, verify, cc, cflags, target, compare_host):
     """Closed loop in C (firmware_sim/): build SOLVER_DIR and the harness, export the scenario, run, summarize.
 
-    With a bare-metal --target the harness is a semihosting image run under QEMU (-icount shift=0)."""
+    With a bare-metal --target the harness is a semihosting image run under QEMU (-icount shift=0). --latency,
+    --steer-lag, --noise and --prediction put the perturbations between solver and plant (default: the latency a
+    delay-compensated solver compensates); the plant is fcgen's own."""
+    from ..sim.export import HarnessPlantError
     from ..sim.harness import HarnessError, firmware_sim
     from ..sim.runlog import compare, summary
     from ..solver_folder import read_folder
 
+    spec = plant_spec() if plant_options_given() else None
     folder = read_folder(solver_dir)
+    kw = {"verify": verify, "plant": spec}
     try:
-        log = firmware_sim(folder, scenario, seed, samples, out, verify=verify, cc=cc, cflags=cflags, target=target)
+        log = firmware_sim(folder, scenario, seed, samples, out, cc=cc, cflags=cflags, target=target, **kw)
         host = None
         if compare_host:
             host_out = str(Path(out).with_suffix("")) + ".host.json"
-            host = firmware_sim(folder, scenario, seed, samples, host_out, verify=verify)
-    except HarnessError as exc:
+            host = firmware_sim(folder, scenario, seed, samples, host_out, **kw)
+    except (HarnessError, HarnessPlantError) as exc:
         fail(str(exc))
     click.echo(
         f"{log.meta['problem']} | {scenario} seed {seed} | C firmware_sim on {target} | {fmt_summary(summary(log))}"
     )
+    if "plant" in log.meta.get("extra", {}):  # a perturbed run: the plant's a_lat beside the formula's, the cuts
+        from ..sim.plants import plant_of
+
+        click.echo(plant_line(plant_of(log), log, folder.problem.bounds.a_lat_max))
     if get_target(target).qemu_machine:
         click.echo(f"(solver times on {target}: QEMU's virtual clock under -icount shift=0, 1 ns per instruction)")
     click.echo(f"run log written to {out}")

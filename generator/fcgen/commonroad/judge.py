@@ -28,7 +28,9 @@ def _rect(pycrcc, length: float, width: float, pose) -> object:
 def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float) -> dict:
     """The checker's verdict: ``collision`` / ``collision_step`` (first closed-loop sample touching an obstacle,
     None without), ``obstacle_id``, ``road_departure`` / ``departure_step`` (the ego's rectangle touching the road
-    boundary of the lanelet network, obb_rectangles)."""
+    boundary of the lanelet network, obb_rectangles); after a start off the road (``departure_step`` 0) the first
+    sample clear of the boundary (``back_on_road_step``) and the first touching it again after that
+    (``departure_again_step``; None without)."""
     with require("commonroad", "the drivability checker"):
         from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
         from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_checker
@@ -36,20 +38,27 @@ def drivability_verdict(sc, ego_centres: np.ndarray, length: float, width: float
         pycrcc = importlib.import_module("commonroad_dc.pycrcc")  # by name: its stub file does not parse (mypy)
     cc = create_collision_checker(sc.scenario)
     _, boundary = create_road_boundary_obstacle(sc.scenario, method="obb_rectangles")
-    hit = dep = None
+    hit = dep = back = again = None
     for j, pose in enumerate(np.asarray(ego_centres, dtype=float)):
         r = _rect(pycrcc, length, width, pose)
         if hit is None and cc.time_slice(sc.first_step + j).collide(r):
             hit = j
-        if dep is None and boundary.collide(r):
-            dep = j
-        if hit is not None and dep is not None:
+        if dep is None or dep == 0:
+            off = boundary.collide(r)
+            dep = j if dep is None and off else dep
+            if dep == 0 and back is None and not off:
+                back = j
+            elif back is not None and again is None and off:
+                again = j
+        if hit is not None and dep is not None and (dep > 0 or again is not None):
             break
     return {
         "collision": hit is not None,
         "collision_step": hit,
         "road_departure": dep is not None,
         "departure_step": dep,
+        "back_on_road_step": back,
+        "departure_again_step": again,
     }
 
 

@@ -53,6 +53,8 @@ class Lane:
     id: int
     s: np.ndarray
     n: np.ndarray
+    right: np.ndarray | None = None  # its right and left edges' n at the same s (None: not known)
+    left: np.ndarray | None = None
 
     def covers(self, s: float) -> bool:
         return bool(self.s[0] <= s <= self.s[-1])
@@ -75,10 +77,22 @@ def road_lanes(net, road) -> list[Lane]:
         ok = (np.cos(a) > 0.5) & (np.abs(n) < 30.0)
         if ok.sum() < 2 or not np.all(np.diff(s[ok]) > 0):
             continue
+        sides = [_edge_n(road, np.asarray(v, dtype=float), s, len(cv)) for v in (ll.right_vertices, ll.left_vertices)]
+        s_end = s[ok][-1] + np.hypot(*d[-1])
         out.append(
-            Lane(int(ll.lanelet_id), np.append(s[ok], s[ok][-1] + np.hypot(*d[-1])), np.append(n[ok], n[ok][-1]))
+            Lane(int(ll.lanelet_id), np.append(s[ok], s_end), *(np.append(e[ok], e[ok][-1]) for e in (n, *sides)))
         )
     return out
+
+
+def _edge_n(road, v: np.ndarray, s: np.ndarray, count: int) -> np.ndarray:
+    """The road's n of a lanelet's edge vertices ``v`` beside its first ``count - 1`` centre vertices (at ``s``)."""
+    if len(v) != count:  # commonroad-io's lanelets have as many edge vertices as centre ones; else resample
+        t = np.linspace(0.0, 1.0, len(v))
+        u = np.linspace(0.0, 1.0, count)
+        v = np.stack([np.interp(u, t, v[:, 0]), np.interp(u, t, v[:, 1])], axis=1)
+    _, n, _ = road.to_frenet(v[:-1, 0], v[:-1, 1], np.zeros(count - 1), s)
+    return np.asarray(n, dtype=float)
 
 
 def lanes_at(lanes: list[Lane], s: float) -> list[float]:

@@ -77,11 +77,12 @@ def regress(
 ) -> RegressReport:
     """Compare NEW (log, suite or solver folder) with GOLDEN (log or suite); see the module docstring.
 
-    ``mode``: for a solver folder ``"replay"`` (default) or ``"closed-loop"``; ``controller``: ``"c"`` (the folder's
-    compiled solver, ``build_kw`` passed to ``fcgen.build.build``; ``verify`` defaults to the golden suite's) or
-    ``"python"`` (its Python reference). ``plant``: the closed loop's plant and perturbations (default: what each
-    golden log records in ``meta.extra.plant``, else fcgen's model). ``traffic``: a CommonRoad log's traffic mode
-    (``recorded`` or ``reactive``; default: the golden log's).
+    ``mode``: for a solver folder ``"replay"`` or ``"closed-loop"`` (default: replay, a golden log of a perturbed
+    run in closed loop: its states are the plant's, not what the controller measured); ``controller``: ``"c"`` (the
+    folder's compiled solver, ``build_kw`` passed to ``fcgen.build.build``; ``verify`` defaults to the golden
+    suite's) or ``"python"`` (its Python reference). ``plant``: the closed loop's plant and perturbations (default:
+    what each golden log records in ``meta.extra.plant``, else fcgen's model). ``traffic``: a CommonRoad log's
+    traffic mode (``recorded`` or ``reactive``; default: the golden log's).
     """
     new, golden = Path(new), Path(golden)
     kind_new = _kind(new)
@@ -98,7 +99,7 @@ def regress(
         new,
         golden,
         gold,
-        mode or "replay",
+        mode,
         preset,
         tol,
         timing,
@@ -157,7 +158,7 @@ def _folder_vs(
     new: Path,
     golden: Path,
     gold: tuple,
-    mode: str,
+    mode: str | None,
     preset: str | None,
     tol: dict[str, Tol] | None,
     timing: bool,
@@ -176,7 +177,12 @@ def _folder_vs(
     if man is not None:
         _check_problem(info, man, new, golden)
         notes += _record_notes(info["problem"], man["problem"], "the solver")
-    rep = RegressReport(mode, str(new), str(golden), name, tols, timing, notes=notes)
+    modes = [mode or _default_mode(g) for g in gold_logs]
+    rep_mode = modes[0] if len(set(modes)) == 1 else "replay and closed-loop"
+    rep = RegressReport(rep_mode, str(new), str(golden), name, tols, timing, notes=notes)
+    if mode is None and "closed-loop" in modes:
+        notes.append("golden logs of a perturbed run (meta.extra.plant) run in closed loop again, not replayed")
+    notes += _plant_notes(plant, gold_logs, modes)
     if build_kw.get("verify") is None:  # by default the kind of build the golden suite was recorded with
         build_kw["verify"] = bool(man is not None and man.get("build", {}).get("verify"))
     runner = _Runner(folder, controller, build_kw, progress)
@@ -195,16 +201,34 @@ def _folder_vs(
             f"GOLDEN built with: {man.get('build', {}).get('compile_line', 'unknown')} "
             f"({man.get('build', {}).get('cc_version', 'unknown compiler')}, {man['precision']})"
         )
-    for g in gold_logs:
+    for g, m in zip(gold_logs, modes, strict=True):
         label = f"{g.meta['scenario']} seed {g.meta['seed']}"
         if g.meta["problem"] != info["name"]:
             raise UnusableInput(
                 f"{label}: another problem: GOLDEN was recorded by {g.meta['problem']!r}, NEW is {info['name']!r}"
             )
-        out = runner.run(g, mode)
-        fields = REPLAY_FIELDS if mode == "replay" else ALL_FIELDS
+        out = runner.run(g, m)
+        fields = REPLAY_FIELDS if m == "replay" else ALL_FIELDS
         rep.logs.append(compare_logs(out, g, tols, fields=fields, timing=timing, label=label))
     return rep
+
+
+def _default_mode(gold: RunLog) -> str:
+    """Replay, but a golden log of a perturbed run (not a CommonRoad one) runs in closed loop again."""
+    perturbed = not plant_of(gold).is_default and "commonroad" not in gold.meta.get("extra", {})
+    return "closed-loop" if perturbed else "replay"
+
+
+def _plant_notes(plant: PlantSpec | None, gold_logs: list[RunLog], modes: list[str]) -> list[str]:
+    """A note per golden log whose recorded plant and perturbations the given ``plant`` replaces."""
+    if plant is None:
+        return []
+    return [
+        f"{g.meta['scenario']} seed {g.meta['seed']}: run with the plant {plant.label()}, "
+        f"the golden log was recorded with {plant_of(g).label()}"
+        for g, m in zip(gold_logs, modes, strict=True)
+        if m == "closed-loop" and plant != plant_of(g)
+    ]
 
 
 def _record_notes(a: dict[str, Any], b: dict[str, Any], who: str) -> list[str]:
@@ -312,4 +336,5 @@ class _Runner:
             progress=self.progress,
             states=states,
             traffic=self.traffic or cr.get("traffic", {}).get("mode", "recorded"),
+            band=cr.get("band", {}).get("rule", "road"),  # a log from before the band rules: the road's band
         ).log

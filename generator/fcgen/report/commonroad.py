@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..campaign.commonroad import departed_on_road
 from ..extras import require
 
 WHO = ("ego_into_opponent", "opponent_from_behind", "opponent_from_side")
@@ -37,13 +38,14 @@ def outcome_table(ran) -> list[str]:
     """Per configuration and traffic mode: runs, collisions by responsibility, departures, goal, valid, reactions."""
     lines = [
         "| configuration | traffic | runs | collisions: ego into opponent / opponent from behind / from the side | "
-        "road departures after an on-road start | goal reached | valid solutions | vehicles reacted (to the ego) |",
+        "road departures after the ego was on the road | goal reached | valid solutions | "
+        "vehicles reacted (to the ego) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for (name, traffic), g in ran.groupby(["problem", "traffic"], sort=True):
         hit = g[g.collision_fcgen.fillna(False).astype(bool)]
         who = " / ".join(str(int((hit.responsibility == w).sum())) for w in WHO)
-        dep = _count(g.road_departure.astype(bool) & ~g.start_off_road.fillna(False).astype(bool))
+        dep = _count(departed_on_road(g))
         lines.append(
             f"| {name} | {traffic} | {len(g)} | {who} | {dep} | {_count(g.goal_reached)} | "
             f"{_count(g.solution_valid)} | {int(g.reacted.fillna(0).sum())} ({int(g.reacted_to_ego.fillna(0).sum())}) |"

@@ -32,7 +32,12 @@ from ..ocp import Ocp, build_ocp
 from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
 from .collision_kind import LANE_WINDOW, responsible
+from .commonroad_plant import ScenarioPlant
+from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
+from .plants import PlantSpec
 from .runlog import RunLog, make_meta
+
+__all__ = ["CommonRoadRun", "goal_line", "goal_status", "run_commonroad", "scenario_road", "unsolved_status"]
 
 
 class ScenarioController(Controller, Protocol):
@@ -101,6 +106,8 @@ def run_commonroad(
     states: np.ndarray | None = None,
     change_time: float | None = None,
     traffic: str = "recorded",
+    band: str = "lanes",
+    plant: PlantSpec | None = None,
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
@@ -108,7 +115,8 @@ def run_commonroad(
     plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
-    vehicles drove)."""
+    vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
+    its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
     from .. import commonroad as cr
     from ..commonroad.criticality import criticality
     from ..commonroad.judge import fcgen_verdict, penetrations
@@ -122,9 +130,11 @@ def run_commonroad(
         ocp = ocp or build_ocp(problem)
         controller = ReferenceController(ocp)
     road, cut = scenario_road(problem, sc)
-    plant = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
+    model = Plant(problem, ocp.road_params.samples if ocp is not None else build_ocp(problem).road_params.samples)
+    spec = plant or PlantSpec()
+    world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
-    loop = _drive(problem, sc, controller, road, plant, plan, progress, states, change_time, world)
+    loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
     if world is not None:  # judged on what the vehicles drove
         sc = world.scenario()
         sc = replace(sc, scenario=driven_scenario(sc, sc.obstacles))
@@ -139,9 +149,7 @@ def run_commonroad(
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     extra = {
-        "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
-        "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
-        "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+        **_loop_extra(loop, spec, world_plant),
         "commonroad": {
             "scenario": sc.name,
             "file": sc.file,
@@ -151,6 +159,7 @@ def run_commonroad(
             "n_ref": float(loop.lane_changes[0][1]) if loop.lane_changes else 0.0,
             "lane_changes": loop.lane_changes,
             "band_cut": cut,
+            "band": {"rule": band, "way_back_samples": loop.way_back},
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
             "checker": _plain(checker),
@@ -169,6 +178,19 @@ def run_commonroad(
     return CommonRoadRun(log, checker, own, who, centres, sc)
 
 
+def _loop_extra(loop, spec: PlantSpec, plant: ScenarioPlant) -> dict:
+    """The run log's ``extra`` entries of the loop itself: the samples with an exit code, the plan check's reactions,
+    the a_lat guards and (another plant than fcgen's model) the plant and its cut samples."""
+    out: dict = {
+        "exit_codes_nonzero": int(np.count_nonzero(loop.planlog.exit_code)),
+        "plan_reactions": int(sum(r.plan_reaction for r in loop.results)),
+        "a_lat_guards": int(sum(r.a_lat_guard > 0 for r in loop.results)),
+    }
+    if not spec.is_default:
+        out.update(plant=spec.as_meta(), plant_cut_samples=int(np.count_nonzero(plant.cut)))
+    return out
+
+
 @dataclass(eq=False)
 class _Loop:
     """What the closed loop on a scenario leaves: the ego's states and controls, each sample's step result, the
@@ -180,6 +202,7 @@ class _Loop:
     slot_ids: list  # per sample the obstacle id in each opponent slot (-1: empty)
     planlog: PlanLog
     lane_changes: list = field(default_factory=list)  # [sample, n_ref, reason] where the lateral reference changed
+    way_back: list = field(default_factory=list)  # the samples whose band the way back widened (commonroad.band)
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -194,12 +217,13 @@ def _drive(
     sc,
     controller: ScenarioController,
     road: Road,
-    plant: Plant,
+    plant: ScenarioPlant,
     plan: str,
     progress: bool,
     states: np.ndarray | None,
     change_time: float | None = None,
     world=None,
+    band_rule: str = "lanes",
 ) -> _Loop:
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
@@ -215,6 +239,7 @@ def _drive(
         loop.xs[:] = states
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
     lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
+    band = solver_band(problem, sc, lane.lanes, band_rule)
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
     ramp: tuple[float, int] | None = None  # a lane change under way: (stage 0's n_ref when planned, its sample)
     change = CHANGE_TIME if change_time is None else change_time
@@ -252,16 +277,27 @@ def _drive(
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
-        r = controller.step(x, solver_window(problem, road, x), poses)
+        xm = plant.measure(x) if states is None else x  # what the controller measures
+        win = solver_window(problem, road, xm)
+        if band.set(win, xm, lane.n, bool(loop.results and loop.results[-1].exit_code)):
+            loop.way_back.append(j)
+        r = controller.step(xm, win, poses)
         loop.us[j] = r.u
-        if plan != "none":
-            loop.planlog.add(j, controller, r)
-        else:
-            loop.planlog.exit_code[j] = r.exit_code
+        loop.planlog.add(j, controller, r)
         loop.results.append(r)
         if states is None:
             loop.xs[j + 1] = plant.step(x, loop.us[j], road)
     return loop
+
+
+def solver_band(problem: Problem, sc, lanes: list, rule: str):
+    """The rule that makes the solver's band at each sample (``commonroad.band``): the rear axle's band is the lanes'
+    shrunk by half the chassis' width plus ``HEADING_MARGIN``, cut to the problem's ``Bounds``."""
+    from ..commonroad.band import SolverBand
+
+    ego, b = problem.ego, problem.bounds
+    inset = ego.w_ch / 2 + HEADING_MARGIN
+    return SolverBand(rule, lanes, sc.road, inset, (b.n_min, b.n_max), ego.l_ch / 2, ego.w_ch / 2, ego.l / 2)
 
 
 def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: float, ramp) -> float:
@@ -426,62 +462,3 @@ def _responsibility(
     return responsible(
         centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )
-
-
-def goal_status(sc, road: Road, centres: np.ndarray, xs: np.ndarray) -> dict:
-    """Whether and when the ego reached the planning problem's goal region (``commonroad.goal.first_reached``):
-    ``reached``, ``sample`` / ``step`` / ``time_s`` (None without), ``v_ref_source``, ``n_ref_source`` (``road``:
-    the band the solver gets)."""
-    from ..commonroad.goal import first_reached, lateral_reference
-
-    j = None if sc.planning_problem is None else first_reached(sc.planning_problem, sc.first_step, centres, xs[:, 3])
-    return {
-        "reached": j is not None,
-        "sample": j,
-        "step": None if j is None else sc.first_step + j,
-        "time_s": None if j is None else j * sc.dt,
-        "v_ref_source": sc.v_ref_source,
-        "n_ref_source": lateral_reference(sc.goal_sn, road)[1],
-    }
-
-
-def goal_line(cr: dict) -> str:
-    """One line of a run's goal, references and solution verdict (the log's ``extra.commonroad``)."""
-    g, sol = cr["goal"], cr["solution"]
-    reached = f"reached at step {g['step']} ({g['time_s']:.1f} s)" if g["reached"] else "not reached"
-    parts = [k for k in ("starts_at_initial_state", "feasible", "goal_reached") if not sol[k]]
-    parts += [k for k in ("obstacle_collision", "road_departure") if sol[k]]
-    verdict = "valid" if sol["valid"] else "not valid (" + ", ".join(f"{k}" for k in parts) + ")"
-    return (
-        f"goal: {reached}; v_ref {cr['v_ref']:.1f} m/s ({g['v_ref_source']}); lateral reference "
-        + ", ".join(f"{n:.2f} m at sample {j} ({why})" for j, n, why in cr["lane_changes"])
-        + f"; solution (drivability checker): {verdict}"
-    )
-
-
-def unsolved_status(results: list) -> dict:
-    """The samples without a solution (their slack is not finite: the exit code says why): ``samples`` (count),
-    ``first_sample`` (None without one), ``exit_codes`` (name -> count)."""
-    from ..contract import EXIT_CODES
-
-    bad = [j for j, r in enumerate(results) if r.exit_code or not math.isfinite(r.max_slack)]
-    codes: dict[str, int] = {}
-    for j in bad:
-        c = int(results[j].exit_code)
-        name = EXIT_CODES[c] if 0 < c < len(EXIT_CODES) else ("OK but non-finite slack" if c == 0 else f"unknown({c})")
-        codes[name] = codes.get(name, 0) + 1
-    return {"samples": len(bad), "first_sample": bad[0] if bad else None, "exit_codes": dict(sorted(codes.items()))}
-
-
-def _plain(d: dict) -> dict:
-    """A verdict as plain JSON data (numpy scalars and None kept as numbers / null)."""
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, (np.integer, np.bool_)):
-            v = v.item()
-        elif isinstance(v, np.floating):
-            v = float(v)
-        elif isinstance(v, (list, tuple, np.ndarray)):
-            v = [x.item() if hasattr(x, "item") else x for x in v]
-        out[k] = v
-    return out

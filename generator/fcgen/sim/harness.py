@@ -19,7 +19,9 @@ from ..dsl import Problem
 from ..locks import folder_lock
 from ..solver_folder import FolderLike, as_folder
 from ..targets import HARNESS_STACK, Target, TargetError, get_target
-from .export import export_scenario
+from .cosim import CosimError, run_cosim
+from .export import export_scenario, harness_plant
+from .plants import PlantSpec
 from .runlog import RunLog
 from .scenario import make_scenario
 
@@ -140,20 +142,36 @@ def firmware_sim(
     problem: Problem | None = None,
     target: str = "host",
     timeout: float | None = None,
+    plant: PlantSpec | None = None,
 ) -> RunLog:
     """Build solver and harness, export the scenario, run the C closed loop; returns the run log written to ``out``.
 
     The problem defaults to the one the folder records (``problem.py``), so data file and compiled solver agree.
-    ``target``: a name of ``fcgen.targets`` (a bare-metal target runs the image under QEMU).
+    ``target``: a name of ``fcgen.targets`` (a bare-metal target runs the image under QEMU). ``plant``: the latency,
+    steering lag, measurement noise and prediction between solver and plant (``export.harness_plant``; default: the
+    latency a delay-compensated solver compensates); a CommonRoad plant is stepped on the host in lockstep with the
+    host harness (``sim.cosim``).
     """
     folder = as_folder(folder)
     problem = folder.problem if problem is None else problem
+    kind = "model" if plant is None else plant.kind
+    host_plant = kind != "model"  # CommonRoad's models: stepped here (sim.cosim)
+    if host_plant and get_target(target).bare_metal:
+        raise HarnessError(f"--plant {kind}: the host steps the plant in lockstep with the host harness only")
+    spec = harness_plant(problem, plant, external=host_plant)  # refused before anything is built
     sc = make_scenario(scenario, seed, n_opp=problem.opponents.count, samples=samples, dt=problem.horizon.dt)
     exe = build_harness(folder, verify=verify, cc=cc, cflags=cflags, target=target)
-    data = exe.parent / f"scenario_{scenario}_seed{seed}_{samples}.txt"
-    export_scenario(problem, sc, data, samples, solver_name=folder.name)
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    log = run_harness(exe, data, out, timeout=timeout, target=target)
+    if host_plant:
+        try:
+            log = run_cosim(exe, problem, sc, spec, out, solver_name=folder.name, timeout=timeout)
+        except CosimError as exc:
+            raise HarnessError(str(exc)) from None
+    else:
+        label = "" if spec.is_default else f"_{spec.label().replace(':', '_')}"
+        data = exe.parent / f"scenario_{scenario}_seed{seed}_{samples}{label}.txt"
+        export_scenario(problem, sc, data, samples, solver_name=folder.name, plant=spec)
+        log = run_harness(exe, data, out, timeout=timeout, target=target)
     # record where it ran and in which precision (meta.precision as `fcgen record` writes it: `fcgen regress` picks
     # its tolerance preset from it)
     meta = {

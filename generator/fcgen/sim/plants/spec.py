@@ -121,10 +121,16 @@ def parse_noise(text: str | None) -> tuple[float, ...]:
     return vals
 
 
-def plant_of(log) -> PlantSpec:
-    """The plant and perturbations a run log records (``meta.extra.plant``; none: fcgen's model)."""
-    d = dict(log.meta.get("extra", {}).get("plant") or {})
+def plant_from_meta(meta: dict | None) -> PlantSpec:
+    """The ``PlantSpec`` of ``as_meta()``'s dict (a run log's ``meta.extra.plant``, a suite's ``settings.plant``;
+    none or empty: fcgen's model)."""
+    d = dict(meta or {})
     if not d:
         return PlantSpec()
     d["noise"] = tuple(float(v) for v in d.get("noise", (0.0,) * 5))
     return PlantSpec(**d)
+
+
+def plant_of(log) -> PlantSpec:
+    """The plant and perturbations a run log records (``meta.extra.plant``; none: fcgen's model)."""
+    return plant_from_meta(log.meta.get("extra", {}).get("plant"))
