@@ -50,7 +50,8 @@ def test_default_budget_is_the_backends():
 
 def test_measured_presets_and_campaign_runs_share_the_budget():
     """IPM_RTI_BUDGET's configurations: their _ipm preset and the campaign's IPM run of them carry the budget (one
-    problem, the one fcgen wcet bounds); the safe profile, OSQP and the other configurations keep the default."""
+    problem, the one fcgen wcet bounds); the safe profile and the other configurations keep the default; OSQP's
+    presets and campaign runs carry OSQP_MAX_ITER's cap."""
     from fcgen.campaign.grid import Config
     from fcgen.presets import IPM_RTI_BUDGET
 
@@ -64,7 +65,10 @@ def test_measured_presets_and_campaign_runs_share_the_budget():
                 assert Config(sc, f, o, n, backend="ipm").problem().qp == pb.qp
                 assert preset(f"{sc}_{f}_{o}_ipm_safe").qp == QpOptions(backend="ipm")
                 # the paper's OSQP presets: the defaults but the IPM's start (the paper profile's, no effect on OSQP)
-                assert preset(f"{sc}_{f}_{o}").qp == replace(QpOptions(), ipm_scaled_start=False)
+                # and the measured ADMM cap (40 with the ellipse, 60 with the hyperplanes), as their campaign runs
+                cap = {"ellipse": 40, "hyperplane": 60}[o]
+                assert preset(f"{sc}_{f}_{o}").qp == replace(QpOptions(), ipm_scaled_start=False, max_iter=cap)
+                assert Config(sc, f, o, n).problem().qp == preset(f"{sc}_{f}_{o}").qp
 
 
 @needs_cc

@@ -48,8 +48,18 @@ PROFILES = ("paper", "safe")
 (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
 PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False, tyre_stiffness=0.0, drive_limit=False)
+OSQP_MAX_ITER: dict[str, int] = {"ellipse": 40, "hyperplane": 60, "circles": 60}
+"""The ADMM cap of a warm-started QP (``QpOptions.max_iter``) in the OSQP presets and campaign runs, per obstacle model
+(the dataclass's default, 60, stays the IPM's own cap). An ADMM iteration costs the same whatever OSQP's embedded
+settings (219 k x86 instructions, three quarters of them the two triangular solves with the LDL' factor;
+docs/performance.md, "OSQP: the iterations are the cost"), so the iterations a QP are what an RTI costs: 40 instead
+of 60 take 28-30 % off truck_lifted_ellipse's RTI. ``benchmarks/osqp_settings.py``, truck, 20 seeds x 200 samples per
+configuration, 40 against 60: the ellipse's three formulations +0.54 % mean progress (per seed median -0.04 %; the
+rest a few seeds changing manoeuvre), the truck grid's mean +0.15 %, no new collision; the hyperplanes -1.5 % (DE and
+lifted -1.9 %) and the covering circles (C7 lifted -8 %) keep 60."""
 PAPER_QP = QpOptions(ipm_scaled_start=False)
-"""The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP)."""
+"""The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP);
+a paper problem gets its model's OSQP cap (``OSQP_MAX_ITER``) on top."""
 PAPER_A_LAT_MARGIN = 0.0
 """The paper plans |a_lat| up to its bound (``Bounds.a_lat_margin``; the safe profile keeps the default inside it)."""
 PAPER_CURVE_A_LAT = 0.0
@@ -108,7 +118,10 @@ campaign's IPM runs use. Every other configuration keeps ``QpOptions``' default 
 
 
 def preset_qp(backend: str, formulation: str, obstacles: str, profile: str = "paper") -> QpOptions:
-    """The QP options of a preset or a campaign configuration: the backend, with the IPM's measured RTI budget."""
+    """The QP options of a preset or a campaign configuration: the backend, with OSQP's cap or the IPM's measured RTI
+    budget."""
+    if backend == "osqp":
+        return QpOptions(backend=backend, max_iter=OSQP_MAX_ITER[obstacles], ipm_scaled_start=profile != "paper")
     budget = IPM_RTI_BUDGET.get((profile, formulation, obstacles)) if backend == "ipm" else None
     return QpOptions(backend=backend, rti_budget=budget, ipm_scaled_start=profile != "paper")
 
@@ -178,7 +191,7 @@ def paper_problem(
         {
             "soft": PAPER_SOFT,
             "plan_check": PAPER_PLAN_CHECK,
-            "qp": PAPER_QP,
+            "qp": replace(PAPER_QP, max_iter=OSQP_MAX_ITER[obstacles]),
             "reference": Reference(curve_a_lat=PAPER_CURVE_A_LAT),
         }
         if profile == "paper"
