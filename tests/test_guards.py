@@ -164,9 +164,10 @@ def _progress(tmp: Path, tag: str, use_float: bool, seeds) -> list[float]:
 
 
 def test_float_osqp_closed_loop_within_the_readmes_bounds_of_double(tmp_path, monkeypatch):
-    """README: a float OSQP build (sigma raised to 1e-3) keeps the mean progress of 20 truck seeds within 0.01 % of
-    double, every seed within 0.5 % (measured: mean -0.005 %, worst seed 8, -0.15 %). With the double build's sigma
-    (1e-6) in float, seed 10 ends 12.6 % apart (mean +0.78 %): the bound can fail."""
+    """docs/c_api.md: a float OSQP build (sigma raised to 1e-3) keeps the mean progress of 20 truck seeds within
+    0.05 % of double, every seed within 0.5 % (measured with the ellipse presets' cap of 40 ADMM iterations: mean
+    +0.017 %, worst seed 18, -0.36 %; at the cap of 60: mean -0.005 %, worst -0.15 %). With the double build's sigma
+    (1e-6) in float, seed 11 ends 2.1 % apart (mean -0.16 %; at the cap of 60 seed 10, 12.6 %): the bound can fail."""
     import numpy as np
 
     from fcgen.backends import osqp as osqp_backend
@@ -174,8 +175,8 @@ def test_float_osqp_closed_loop_within_the_readmes_bounds_of_double(tmp_path, mo
     dbl = np.array(_progress(tmp_path, "d", False, FLOAT_SEEDS))
     flt = np.array(_progress(tmp_path, "f", True, FLOAT_SEEDS))
     rel = flt / dbl - 1
-    assert abs(flt.mean() / dbl.mean() - 1) < 1e-4, flt.mean() / dbl.mean() - 1
+    assert abs(flt.mean() / dbl.mean() - 1) < 5e-4, flt.mean() / dbl.mean() - 1
     assert np.max(np.abs(rel)) < 5e-3, rel
     monkeypatch.setattr(osqp_backend, "FLOAT_SIGMA_MIN", 1e-6)
-    (bad,) = _progress(tmp_path, "f6", True, [10])
-    assert abs(bad / dbl[10] - 1) > 5e-3, bad / dbl[10] - 1
+    (bad,) = _progress(tmp_path, "f6", True, [11])
+    assert abs(bad / dbl[11] - 1) > 5e-3, bad / dbl[11] - 1
