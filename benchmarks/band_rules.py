@@ -88,8 +88,11 @@ def markdown(rows: list[dict], rules: list[str], modes: list[str]) -> str:
             rs = [r for r in rows if r.get("band") == rule and r.get("traffic") == traffic]
             if not rs:
                 continue
-            dep = [r["scenario"].replace("USA_", "").replace("_T-1", "") for r in rs if r["departure"]]
-            dep = [d for d, r in zip(dep, [r for r in rs if r["departure"]], strict=True) if not r["start_off_road"]]
+            dep = [
+                r["scenario"].replace("USA_", "").replace("_T-1", "")
+                for r in rs
+                if r["departure"] and not r["start_off_road"]
+            ]
             lines.append(
                 f"| {traffic} | {rule} | {len(rs)} | {sum(r['collision'] for r in rs)} "
                 f"({sum(r['responsibility'] == 'ego_into_opponent' for r in rs)}) | {len(dep)}"
