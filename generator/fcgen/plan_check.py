@@ -14,6 +14,7 @@ import numpy as np
 from .dsl import Problem
 from .reactions import (
     DRIVE_SLACK,
+    bend_brake_limit,
     braking_force,
     drive_limit,
     guard_steering_rate,
@@ -40,6 +41,7 @@ def a_lat_guard(
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
     x1, status = plant_step(), 0
+    xa = x1  # the step with the plan's rate
     if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
         d = tyre_gain(problem, x1[3], u[0])
         u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
@@ -50,6 +52,8 @@ def a_lat_guard(
     if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
         a = abs(lateral_acceleration(x1[3], x1[4], l))
         cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
+        if status == 1:  # too fast for the path the plan turns onto: brake towards its speed
+            cap = min(cap, bend_cap(problem, xa))
         if u[0] > cap:
             u[0] = cap
             status = status or 3
@@ -58,6 +62,15 @@ def a_lat_guard(
                 a_to = (b.a_lat_max - b.a_lat_margin) * tyre_gain(problem, x2[3], u[0])
                 u[1] = guard_steering_rate(x2[3], x2[4], float(x0[4]), a_to, l, dt, lo, hi)
     return status
+
+
+def bend_cap(problem: Problem, xa: Sequence[float]) -> float:
+    """``reactions.bend_brake_limit`` at the end of the step with the plan's control, at most ``F_d_max`` braking."""
+    b, pc = problem.bounds, problem.plan_check
+    f = bend_brake_limit(
+        xa[3], xa[4], problem.ego.l, b.a_lat_max - b.a_lat_margin, pc.bend_brake, problem.ego.m, problem.horizon.dt
+    )
+    return f if f > -b.F_d_max else -b.F_d_max
 
 
 def understeer_cap(problem: Problem, x: Sequence[float], a: float) -> float:
