@@ -65,12 +65,12 @@ def a_lat_guard(
 
 
 def bend_cap(problem: Problem, xa: Sequence[float]) -> float:
-    """``reactions.bend_brake_limit`` at the end of the step with the plan's control, at most ``F_d_max`` braking."""
+    """``reactions.bend_brake_limit`` at the end of the step with the plan's control (its speed and steering angle)."""
     b, pc = problem.bounds, problem.plan_check
-    f = bend_brake_limit(
-        xa[3], xa[4], problem.ego.l, b.a_lat_max - b.a_lat_margin, pc.bend_brake, problem.ego.m, problem.horizon.dt
+    a_to = b.a_lat_max - b.a_lat_margin
+    return bend_brake_limit(
+        xa[3], xa[4], problem.ego.l, a_to, pc.bend_brake, problem.ego.m, problem.horizon.dt, b.F_d_max
     )
-    return f if f > -b.F_d_max else -b.F_d_max
 
 
 def understeer_cap(problem: Problem, x: Sequence[float], a: float) -> float:

@@ -74,16 +74,19 @@ def understeer_drive_limit(
     return f if f < f_max else f_max
 
 
-def bend_brake_limit(v: float, delta: float, l: float, a_to: float, a_brake: float, m: float, dt: float) -> float:
+def bend_brake_limit(
+    v: float, delta: float, l: float, a_to: float, a_brake: float, m: float, dt: float, f_max: float
+) -> float:
     """The a_lat guard's braking where it steers: too fast for the path the plan turns onto (curvature ``|tan(delta)| /
     l``) at ``|a_lat| = a_to``, the drive force's cap ``-m min(a_brake, (v - v_bend) / dt)``, ``v_bend = sqrt(a_to l /
-    |tan(delta)|)``: the speed falls towards the one that path allows, at most at ``a_brake``; +inf where ``v`` is
-    within it or ``a_brake = 0``."""
+    |tan(delta)|)``, at least ``-f_max``: the speed falls towards the one that path allows, at most at ``a_brake``;
+    ``f_max`` (no cap) where ``v`` is within it or ``a_brake`` is 0."""
     k = abs(math.tan(delta)) / l
     if a_brake <= 0.0 or v * v * k <= a_to:
-        return math.inf
+        return f_max
     a = (v - math.sqrt(a_to / k)) / dt
-    return -m * (a if a < a_brake else a_brake)
+    a = -m * (a if a < a_brake else a_brake)
+    return a if a > -f_max else -f_max
 
 
 G = 9.81
