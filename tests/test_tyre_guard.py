@@ -24,7 +24,7 @@ def _delta(v: float, a: float) -> float:
     return math.atan(a * L / (v * v))
 
 
-def _guard(problem: Problem, x1: list[float], u: list[float]) -> tuple[int, np.ndarray]:
+def _guard(problem: Problem, x1: list[float], u: list[float], slack: float = 0.0) -> tuple[int, np.ndarray]:
     """The guard on control u from x0 = (.., v1, 0.03), its plant step ending at x1 with the plan's rate u[1] and at
     the steering angle 0.03 + r dt with another rate r (the speed x1's)."""
     uu = np.array(u, dtype=float)
@@ -34,7 +34,7 @@ def _guard(problem: Problem, x1: list[float], u: list[float]) -> tuple[int, np.n
     def step() -> list[float]:
         return list(x1) if uu[1] == r_plan else [*x1[:4], 0.03 + float(uu[1]) * DT]
 
-    return a_lat_guard(problem, x0, uu, -0.39, 0.39, step), uu
+    return a_lat_guard(problem, x0, uu, -0.39, 0.39, step, slack), uu
 
 
 def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
@@ -74,21 +74,24 @@ def test_where_the_guard_steers_it_does_not_drive():
 
 
 def test_where_the_guard_steers_too_fast_for_the_plans_path_it_brakes():
-    """The same step with the safe profile's bend braking (2 m/s^2): the plan's path, 5.5 m/s^2 at 20 m/s, allows
+    """The same step with the safe profile's bend braking (2 m/s^2), the plan holding a slack of 5 (above
+    reactions.BEND_SLACK = 1; with 0.5 the force is cut to 0 as above): the plan's path, 5.5 m/s^2 at 20 m/s, allows
     20 sqrt(4.95 / 5.5) = 18.97 m/s at the guard's target, 10.3 m/s^2 of braking away in one sample: the force becomes
     -2 m = -2,320 N, and the rate is set again for that step at the tyre-aware target under 2 m/s^2 of braking,
     4.95 d (d = 1 + 400 (1.7 / 17.905 - 1.7 / 15.449) / 74.528 = 0.919: the tyres turn 9 % more), status 1. A plan
     braking harder keeps its force; where the plan's path allows the speed (4.94 m/s^2 of the formula, the tyre-aware
     a_lat above 5 only through the plan's braking) nothing is added."""
     v = 20.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=0.5)
+    assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=5.0)
     d = _gain(-2.0)
     assert d == pytest.approx(0.919, abs=1e-3)
     assert status == 1 and u[0] == pytest.approx(-2320.0, rel=1e-12)
     assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1])
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1], slack=5.0)
     assert status == 1 and u[0] == -3000.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.94)], [-3000.0, 0.1])  # 4.94 / d(3000 N) > 5
+    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.94)], [-3000.0, 0.1], slack=5.0)  # 4.94 / d(3 kN) > 5
     assert status == 1 and u[0] == -3000.0
 
 
@@ -138,9 +141,9 @@ def test_profiles():
 
 
 def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
-    """The step of the test above (v1 = 20 + F_d / m dt) with the bend braking: the plan's path at 5.5 m/s^2 and
-    20.431 m/s allows 20.431 sqrt(0.9) = 19.38 m/s, so the force is capped to -2 m = -2,320 N (v1 = 19.8 m/s) and the
-    rate set for that step's end at the tyre-aware target under 2 m/s^2 of braking: (delta(19.8, 4.95 d) - 0.03) / dt,
+    """The step of the test above (v1 = 20 + F_d / m dt) with the bend braking (a slack of 5): the plan's path at
+    5.5 m/s^2 and 20.431 m/s allows 20.431 sqrt(0.9) = 19.38 m/s, so the force is capped to -2 m = -2,320 N (v1 =
+    19.8 m/s) and the rate set for that step's end at the tyre-aware target under 2 m/s^2 of braking: (delta(19.8, 4.95 d) - 0.03) / dt,
     d = 1 + 19.8^2 (1.7 / 17.905 - 1.7 / 15.449) / 74.528."""
     v0, m = 20.0, 1160.0
     x0 = np.array([0.0, 0.0, 0.0, v0, 0.03])
@@ -149,7 +152,7 @@ def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
     def step() -> list[float]:
         return [0.0, 0.0, 0.0, v0 + float(uu[0]) / m * DT, 0.03 + float(uu[1]) * DT]
 
-    assert a_lat_guard(SAFE, x0, uu, -0.39, 0.39, step) == 1
+    assert a_lat_guard(SAFE, x0, uu, -0.39, 0.39, step, 5.0) == 1
     assert uu[0] == pytest.approx(-2320.0, rel=1e-12)
     d = 1.0 + 19.8**2 * (1.7 / (9.81 * 1.7 + 2.0 * 0.614) - 1.7 / (9.81 * 1.7 - 2.0 * 0.614)) / (L * 21.92)
     assert uu[1] == pytest.approx((_delta(19.8, A_TO * d) - 0.03) / DT, rel=1e-9)

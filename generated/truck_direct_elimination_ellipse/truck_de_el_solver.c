@@ -35,6 +35,7 @@
 #define DRIVE_SLACK ((truck_de_el_real_t)0.25) /* fcgen.reactions.DRIVE_SLACK */
 #define DRIVE_LIMIT 0 /* PlanCheck.drive_limit: the a_lat guard's friction ellipse on the drive force */
 #define BEND_BRAKE ((truck_de_el_real_t)0.0) /* PlanCheck.bend_brake: its braking where it steers (m/s^2) */
+#define BEND_SLACK ((truck_de_el_real_t)1.0) /* ... while the plan holds a slack above (reactions.BEND_SLACK) */
 #define BRAKE_M_PER_DT ((truck_de_el_real_t)11600.0) /* m / dt of the braking control (braking_force) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
@@ -1595,7 +1596,7 @@ static void a_lat_guard(void) {
     truck_de_el_real_t cap =
         (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
                     : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
-    if (ws.status.a_lat_guard == 1) { /* too fast for the plan's path: brake towards its speed */
+    if ((ws.status.a_lat_guard == 1) && (truck_de_el_max_slack() > BEND_SLACK)) { /* too fast for the plan's path */
       const truck_de_el_real_t bend = bend_brake_limit(xa[3], xa[4], A_LAT_GUARD_TO, BEND_BRAKE, U_HI[0]);
       cap = (bend < cap) ? bend : cap;
     }

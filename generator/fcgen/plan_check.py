@@ -13,6 +13,7 @@ import numpy as np
 
 from .dsl import Problem
 from .reactions import (
+    BEND_SLACK,
     DRIVE_SLACK,
     bend_brake_limit,
     braking_force,
@@ -25,7 +26,13 @@ from .reactions import (
 
 
 def a_lat_guard(
-    problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: float, plant_step: Callable[[], Sequence[float]]
+    problem: Problem,
+    x0: np.ndarray,
+    u: np.ndarray,
+    lo: float,
+    hi: float,
+    plant_step: Callable[[], Sequence[float]],
+    slack: float = 0.0,
 ) -> int:
     """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in tyre-aware |a_lat|
     (``tyre_a_lat``), the steering rate that ends at ``a_lat_max - a_lat_margin`` in it (status 1; with wind the speed,
@@ -33,7 +40,9 @@ def a_lat_guard(
     above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); where the rate
     sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
     to it, and where the guard steers the rate is set again for the end of the step with the cut force, which is
-    slower (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
+    slower (status 1 still), and where the plan also holds a slack above ``reactions.BEND_SLACK`` (``slack``: the
+    plan's largest, the C's ``max_slack()``) the force is capped to brake for the plan's path (``bend_cap``); 0: the
+    guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
     plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs the
     three steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control
     and status)."""
@@ -52,7 +61,7 @@ def a_lat_guard(
     if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
         a = abs(lateral_acceleration(x1[3], x1[4], l))
         cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
-        if status == 1:  # too fast for the path the plan turns onto: brake towards its speed
+        if status == 1 and slack > BEND_SLACK:  # too fast for the plan's path, the plan in slack: brake for it
             cap = min(cap, bend_cap(problem, xa))
         if u[0] > cap:
             u[0] = cap

@@ -93,6 +93,9 @@ G = 9.81
 """Gravity (m/s^2) of the load transfer (CommonRoad's single-track model's)."""
 DRIVE_SLACK = 0.25
 """m/s^2 the tyres may turn less than the formula says while the vehicle drives (``understeer_drive_limit``)."""
+BEND_SLACK = 1.0
+"""The plan's largest slack above which the a_lat guard, where it steers, also brakes for the plan's path
+(``bend_brake_limit``): a plan that cannot keep its rows, too fast for where it goes."""
 GAIN_MIN = 0.1
 """The smallest divisor ``load_transfer_gain`` gives: beyond the critical speed the guard takes the tyre-aware a_lat as
 10 times the formula's (it then steers towards straight ahead)."""

@@ -429,8 +429,15 @@ class RtiSolver(StageInputsMixin):
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
         """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
+        sl = float(np.max(self.slacks())) if self.ocp.n_sigma else 0.0
         st.a_lat_guard = a_lat_guard(
-            self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
+            self.ocp.problem,
+            self.x_plan,
+            self.u_applied,
+            lo,
+            hi,
+            lambda: self._plant_step(p_road),
+            sl if (sl > 0.0 or math.isnan(sl)) else 0.0,  # the C's max_slack()
         )
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
