@@ -143,8 +143,8 @@ def test_profiles():
 def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
     """The step of the test above (v1 = 20 + F_d / m dt) with the bend braking (a slack of 5): the plan's path at
     5.5 m/s^2 and 20.431 m/s allows 20.431 sqrt(0.9) = 19.38 m/s, so the force is capped to -2 m = -2,320 N (v1 =
-    19.8 m/s) and the rate set for that step's end at the tyre-aware target under 2 m/s^2 of braking: (delta(19.8, 4.95 d) - 0.03) / dt,
-    d = 1 + 19.8^2 (1.7 / 17.905 - 1.7 / 15.449) / 74.528."""
+    19.8 m/s) and the rate set for that step's end at the tyre-aware target under 2 m/s^2 of braking:
+    (delta(19.8, 4.95 d) - 0.03) / dt, d = 1 + 19.8^2 (1.7 / 17.905 - 1.7 / 15.449) / 74.528."""
     v0, m = 20.0, 1160.0
     x0 = np.array([0.0, 0.0, 0.0, v0, 0.03])
     uu = np.array([5000.0, (_delta(v0 + 5000.0 / m * DT, 5.5) - 0.03) / DT])
