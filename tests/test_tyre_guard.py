@@ -15,7 +15,8 @@ from fcgen.plan_check import a_lat_guard
 from fcgen.presets import preset
 
 SAFE = Problem(name="car_safe")  # the DSL's defaults are the safe profile's: a = b = 1.7 m, m = 1160 kg
-NO_BEND = SAFE.with_(plan_check=replace(SAFE.plan_check, bend_brake=0.0))
+NO_BEND = SAFE  # the safe profile brakes for no bend (bend_brake = 0)
+BEND = SAFE.with_(plan_check=replace(SAFE.plan_check, bend_brake=2.0))
 L, DT, A_TO = 3.4, 0.1, 4.95
 
 
@@ -74,7 +75,7 @@ def test_where_the_guard_steers_it_does_not_drive():
 
 
 def test_where_the_guard_steers_too_fast_for_the_plans_path_it_brakes():
-    """The same step with the safe profile's bend braking (2 m/s^2), the plan holding a slack of 5 (above
+    """The same step with the bend braking at 2 m/s^2, the plan holding a slack of 5 (above
     reactions.BEND_SLACK = 1; with 0.5 the force is cut to 0 as above): the plan's path, 5.5 m/s^2 at 20 m/s, allows
     20 sqrt(4.95 / 5.5) = 18.97 m/s at the guard's target, 10.3 m/s^2 of braking away in one sample: the force becomes
     -2 m = -2,320 N, and the rate is set again for that step at the tyre-aware target under 2 m/s^2 of braking,
@@ -82,16 +83,16 @@ def test_where_the_guard_steers_too_fast_for_the_plans_path_it_brakes():
     braking harder keeps its force; where the plan's path allows the speed (4.94 m/s^2 of the formula, the tyre-aware
     a_lat above 5 only through the plan's braking) nothing is added."""
     v = 20.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=0.5)
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=0.5)
     assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=5.0)
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=5.0)
     d = _gain(-2.0)
     assert d == pytest.approx(0.919, abs=1e-3)
     assert status == 1 and u[0] == pytest.approx(-2320.0, rel=1e-12)
     assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1], slack=5.0)
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1], slack=5.0)
     assert status == 1 and u[0] == -3000.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 4.94)], [-3000.0, 0.1], slack=5.0)  # 4.94 / d(3 kN) > 5
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 4.94)], [-3000.0, 0.1], slack=5.0)  # 4.94 / d(3 kN) > 5
     assert status == 1 and u[0] == -3000.0
 
 
@@ -133,11 +134,12 @@ def test_within_the_bound_the_drive_force_keeps_the_understeer_within_its_slack(
 
 
 def test_profiles():
-    """The safe presets carry the tyre-aware guard, the drive limit and the bend braking; the paper's have none."""
+    """The safe presets carry the tyre-aware guard and the drive limit; the paper's have neither; neither brakes for
+    the bend."""
     safe, paper = preset("car_lifted_ellipse_ipm_safe"), preset("car_lifted_ellipse")
     assert safe.plan_check == PlanCheck() and safe.plan_check.tyre_stiffness > 0 and safe.plan_check.drive_limit
     assert paper.plan_check.tyre_stiffness == 0 and not paper.plan_check.drive_limit
-    assert safe.plan_check.bend_brake == 2.0 and paper.plan_check.bend_brake == 0.0
+    assert safe.plan_check.bend_brake == 0.0 and paper.plan_check.bend_brake == 0.0
 
 
 def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
@@ -152,7 +154,7 @@ def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
     def step() -> list[float]:
         return [0.0, 0.0, 0.0, v0 + float(uu[0]) / m * DT, 0.03 + float(uu[1]) * DT]
 
-    assert a_lat_guard(SAFE, x0, uu, -0.39, 0.39, step, 5.0) == 1
+    assert a_lat_guard(BEND, x0, uu, -0.39, 0.39, step, 5.0) == 1
     assert uu[0] == pytest.approx(-2320.0, rel=1e-12)
     d = 1.0 + 19.8**2 * (1.7 / (9.81 * 1.7 + 2.0 * 0.614) - 1.7 / (9.81 * 1.7 - 2.0 * 0.614)) / (L * 21.92)
     assert uu[1] == pytest.approx((_delta(19.8, A_TO * d) - 0.03) / DT, rel=1e-9)
@@ -161,7 +163,7 @@ def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
 def test_bend_brake_needs_the_drive_limit_and_a_range():
     """``bend_brake`` caps the drive force where the drive limit does: refused without it, and outside [0, 10]."""
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake"):
-        PlanCheck(drive_limit=False)
+        PlanCheck(drive_limit=False, bend_brake=2.0)
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake.*\[0, 10\]"):
         PlanCheck(bend_brake=-1.0)
     assert PlanCheck(drive_limit=False, bend_brake=0.0).bend_brake == 0.0
