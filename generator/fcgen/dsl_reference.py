@@ -74,9 +74,10 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ),
     ("PlanCheck", "bend_brake"): (
         "m/s^2",
-        "[0, 10], 0 without drive_limit; 0: off",
-        "where the a_lat guard steers, the ego is too fast for the path the plan turns onto: the drive force is "
-        "capped to brake towards that path's speed at the guard's target, at most at this deceleration",
+        "[0, 10], 0 without drive_limit; 0: off (the default)",
+        "where the a_lat guard steers and the plan holds a slack above 1, the ego is too fast for the path the plan "
+        "turns onto: the drive force is capped to brake towards that path's speed at the guard's target, at most at "
+        "this deceleration (off in the safe profile: docs/safe_profile.md)",
     ),
     ("Ellipse", "shape"): (
         "-",
