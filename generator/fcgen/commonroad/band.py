@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dsl import Vehicle
+from ..models import corner_n
 from ..road import Road
 from .lanes import SAME_LANE, Lane
 
@@ -84,26 +86,28 @@ def way_back(
     lo: np.ndarray,
     hi: np.ndarray,
     s0: float,
-    n0: float,
+    n0: float | tuple[float, float],
     alpha: float,
     v: float,
     heading: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """The band ``lo``/``hi`` at the road samples ``s`` with the way back for a reference point at (``s0``, ``n0``),
     heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
-    the ego's path at its heading counts (else its position alone)."""
+    the ego's path at its heading counts (else its position alone). ``n0`` a pair: the point nearest the lower and
+    the upper edge (the chassis' outermost corners on each side)."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     turn = max(v, 0.0) * (BACK_TURN if heading else BACK_STEP)
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
     moved = False
-    for sign in (-1.0, 1.0):  # the lower, then the upper edge
+    n_side = (n0, n0) if isinstance(n0, float | int) else n0
+    for sign, n_e in zip((-1.0, 1.0), n_side):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
         drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
-        edge = n0 + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
+        edge = n_e + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
         if (
-            sign * (n0 - float(np.interp(s0, s, band))) < -BACK_MARGIN
+            sign * (n_e - float(np.interp(s0, s, band))) < -BACK_MARGIN
             and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
         ):
             continue
@@ -121,11 +125,24 @@ BAND_RULES = ("road", "road_back", "lanes")
 lanes in use with the way back (the default)."""
 
 
+def chassis_reach(s: np.ndarray, lo: np.ndarray, hi: np.ndarray, behind: float, ahead: float) -> tuple:
+    """The band a chassis from ``behind`` to ``ahead`` metres of a point at ``s`` keeps on the road samples ``s``
+    (ascending): at each sample the narrowest of the band over that stretch (the corners' rows take the band at the
+    rear axle's ``s``)."""
+    s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    out_lo, out_hi = lo.copy(), hi.copy()
+    for d in np.unique(np.r_[np.linspace(behind, ahead, 9), 0.0]):
+        out_lo = np.maximum(out_lo, np.interp(s + d, s, lo))
+        out_hi = np.minimum(out_hi, np.interp(s + d, s, hi))
+    return out_lo, out_hi
+
+
 @dataclass(frozen=True, eq=False)
 class SolverBand:
     """What the solver's band at a sample is made of: the rule (``BAND_RULES``), the lanes, the road's band, the
-    inset for the chassis (the rear axle's band is the lanes' shrunk by it) and the problem's ``Bounds`` it is cut to;
-    the chassis' half length and width and the rear axle's distance to its centre."""
+    inset for the chassis (the rear axle's band is the lanes' shrunk by it; with ``corners``, the corners' band by
+    it) and the problem's ``Bounds`` it is cut to; the chassis' half length and width and the rear axle's distance to
+    its centre; ``corners``: whether the band bounds the chassis' corners (``Bounds.road_bound``)."""
 
     rule: str
     lanes: list
@@ -135,10 +152,17 @@ class SolverBand:
     half_length: float
     half_width: float
     to_centre: float
+    corners: bool = False
 
     def __post_init__(self) -> None:
         if self.rule not in BAND_RULES:
             raise ValueError(f"band {self.rule!r} is not a band rule: allowed {', '.join(BAND_RULES)}")
+
+    @property
+    def vehicle(self) -> Vehicle:
+        """The chassis' geometry as a ``Vehicle`` (for ``models.corner_n``)."""
+        half = self.half_length
+        return Vehicle(l_f=self.to_centre, l_r=self.to_centre, l_f_ch=half, l_r_ch=half, w_ch=2 * self.half_width)
 
     def set(self, win, x: np.ndarray, target: float, heading: bool = False) -> bool:
         """Put the band of the rear axle at state ``x`` (Frenet) into the solver's road window ``win`` (in place);
@@ -157,13 +181,22 @@ class SolverBand:
             reach = self.half_length * abs(np.sin(a)) + self.half_width * np.cos(a)
             centres = lanes_in_use(self.lanes, s_c, n_c - reach, n_c + reach, target)
             lo_l, hi_l = lane_band(self.lanes, s_win, centres, road_lo, road_hi)
+            if self.corners:
+                behind, ahead = self.to_centre - self.half_length, self.to_centre + self.half_length
+                lo_l, hi_l = chassis_reach(s_win, lo_l, hi_l, behind, ahead)
             lo = np.maximum(lo_l + self.inset, self.n_bounds[0])
             hi = np.minimum(hi_l - self.inset, self.n_bounds[1])
             narrow = ~(lo < hi)  # a lane narrower than the chassis there: the road's band
             lo, hi = np.where(narrow, win.n_min, lo), np.where(narrow, win.n_max, hi)
         else:
             lo, hi = win.n_min, win.n_max
-        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), float(x[1]), float(x[2]), float(x[3]), heading)
+        n0: float | tuple[float, float] = float(x[1])
+        if self.corners:  # the outermost corner on each side
+            c = np.array(
+                [float(v) for v in corner_n(float(x[1]), float(x[2]), self.vehicle, self.road.eval(float(x[0]))[0])]
+            )
+            n0 = (float(c[2:].min()), float(c[:2].max()))
+        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), n0, float(x[2]), float(x[3]), heading)
         win.n_min[:] = np.maximum(lo, self.n_bounds[0])
         win.n_max[:] = np.minimum(hi, self.n_bounds[1])
         return moved
