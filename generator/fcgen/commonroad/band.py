@@ -93,22 +93,28 @@ def way_back(
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """The band ``lo``/``hi`` at the road samples ``s`` with the way back for a reference point at (``s0``, ``n0``),
     heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
-    the ego's path at its heading counts (else its position alone). ``n0`` a pair: the point nearest the lower and
-    the upper edge (the chassis' outermost corners on each side)."""
+    the ego's path at its heading counts (else its position alone). ``n0`` a pair: the points nearest the lower and
+    the upper edge, the chassis' outermost corners on each side, whose rows hold them inside the band: then an edge
+    moves only where such a corner is beyond it, or after a sample without a solution (the rule as for the rear axle;
+    a corner near the edge is where the corners' band lets the car drive, and the room beyond it would be used)."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     turn = max(v, 0.0) * (BACK_TURN if heading else BACK_STEP)
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
     moved = False
-    n_side = (n0, n0) if isinstance(n0, float | int) else n0
+    corners = not isinstance(n0, float | int)
+    n_side = n0 if corners else (n0, n0)
     for sign, n_e in zip((-1.0, 1.0), n_side):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
         drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
         edge = n_e + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
-        if (
-            sign * (n_e - float(np.interp(s0, s, band))) < -BACK_MARGIN
-            and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
+        inside = -sign * (n_e - float(np.interp(s0, s, band)))  # how far inside the edge at s0
+        if corners and not heading:
+            if inside >= 0.0:
+                continue
+        elif (
+            inside > BACK_MARGIN and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
         ):
             continue
         new = edge + (band - edge) * h
