@@ -166,3 +166,17 @@ def test_the_corners_stay_on_the_road_where_the_rear_axle_bound_lets_them_cross(
     assert rear.max() > 2.5 + 0.1
     assert corners.max() <= 2.5 + 0.01
     assert corners.max() > 2.5 - 0.1  # it does drive to the edge
+
+
+@pytest.mark.parametrize("name", ["car_lifted_ellipse_ipm_safe", "car_conventional_ellipse_safe"])
+def test_the_c_computes_the_corner_rows_as_the_reference(tmp_path, name):
+    """``fcgen verify`` on a corners problem (the IPM and OSQP): the C's rows, Jacobians, QP and closed loop are the
+    reference's within verify's tolerances."""
+    from fcgen.codegen.generate import generate
+    from fcgen.verify import verify
+
+    pb = _corners(preset(name))
+    generate(pb.with_(name="corners"), tmp_path / "g")
+    rep = verify(tmp_path / "g", samples=40)
+    assert rep.passed, rep.format()
+    assert any(nm.startswith("road_front_left") for nm in build_layout(build_ocp(pb)).row_names)
