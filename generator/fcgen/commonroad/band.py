@@ -108,14 +108,10 @@ def way_back(
     for sign, n_e in zip((-1.0, 1.0), n_side):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
         drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
-        edge = n_e + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
+        room, margin = (0.0, 0.0) if corners and not heading else (BACK_ROOM, BACK_MARGIN)
+        edge = n_e + sign * (room + drift * ahead)  # the path at the current heading, then held
         inside = -sign * (n_e - float(np.interp(s0, s, band)))  # how far inside the edge at s0
-        if corners and not heading:
-            if inside >= 0.0:
-                continue
-        elif (
-            inside > BACK_MARGIN and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
-        ):
+        if inside > margin and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0:
             continue
         new = edge + (band - edge) * h
         if not np.any(sign * (new - band) > 0.0):

@@ -76,7 +76,7 @@ class CommonRoadRun:
 
 
 HEADING_MARGIN = 0.25  # m: the rear axle's band's extra shrink for the chassis' corners at a small heading
-CORNER_MARGIN = 0.05  # m: the corners' band's shrink (the linearisation at the previous plan, the samples between)
+CORNER_MARGIN = 0.15  # m: the corners' band's shrink (the linearisation at the previous plan, the samples between)
 LANE_DRIFT = 0.05  # m: the lateral reference follows its lane's centre when it moves more than this
 
 
