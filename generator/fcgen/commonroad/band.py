@@ -108,8 +108,8 @@ def way_back(
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
     moved = False
-    corners = not isinstance(n0, float | int)
-    n_side = n0 if corners else (n0, n0)
+    corners = isinstance(n0, tuple)
+    n_side: tuple[float, float] = n0 if isinstance(n0, tuple) else (float(n0), float(n0))
     for sign, n_e in zip((-1.0, 1.0), n_side):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
         drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
