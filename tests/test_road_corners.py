@@ -180,3 +180,18 @@ def test_the_c_computes_the_corner_rows_as_the_reference(tmp_path, name):
     rep = verify(tmp_path / "g", samples=40)
     assert rep.passed, rep.format()
     assert any(nm.startswith("road_front_left") for nm in build_layout(build_ocp(pb)).row_names)
+
+
+def test_simulate_refuses_a_solver_folder_of_the_other_road_bound():
+    """``simulate --road-bound corners`` with a solver folder generated for the rear axle: one line naming both."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    d = Path(__file__).resolve().parents[1] / "generated" / "truck_lifted_ellipse_ipm"
+    args = ["simulate", "--controller", "c", "--solver-dir", str(d), "--problem", str(d / "problem.py")]
+    res = CliRunner().invoke(main, [*args, "--road-bound", "corners", "--samples", "2"])
+    assert res.exit_code == 1, res.output
+    assert "road_bound = 'rear_axle'" in res.output and "'corners'" in res.output
