@@ -49,6 +49,7 @@ BACK_STEP = 0.2  # s: the ego's path at its heading the moved edge holds (after 
 BACK_TIME = 3.0  # s: the moved edge returns to the band over this time at the ego's speed ...
 BACK_MIN = 10.0  # m: ... and at least this distance
 BACK_TURN = 1.0  # s: the moved edge holds the ego's path at its current heading for this time
+CORNER_STEP = 0.1  # s: the corners' path (at their current lateral speed) the moved edge holds
 
 
 def lanes_in_use(lanes: list[Lane], s: float, n_lo: float, n_hi: float, target: float) -> tuple[float, float]:
@@ -95,26 +96,29 @@ def way_back(
     alpha: float,
     v: float,
     heading: bool = True,
+    drift: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """The band ``lo``/``hi`` at the road samples ``s`` with the way back for a reference point at (``s0``, ``n0``),
     heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
     the ego's path at its heading counts (else its position alone). ``n0`` a pair: the points nearest the lower and
     the upper edge, the chassis' outermost corners on each side, whose rows hold them inside the band: then an edge
     moves only where such a corner is beyond it, or after a sample without a solution (the rule as for the rear axle;
-    a corner near the edge is where the corners' band lets the car drive, and the room beyond it would be used)."""
+    a corner near the edge is where the corners' band lets the car drive, and the room beyond it would be used).
+    ``drift``: then the corners' outward motion per metre along the road (lower, upper side), their path's over
+    ``CORNER_STEP`` instead of ``BACK_STEP`` at the heading."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    turn = max(v, 0.0) * (BACK_TURN if heading else BACK_STEP)
+    corners = drift is not None and not heading
+    turn = max(v, 0.0) * (BACK_TURN if heading else CORNER_STEP if corners else BACK_STEP)
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
     moved = False
-    corners = isinstance(n0, tuple)
     n_side: tuple[float, float] = n0 if isinstance(n0, tuple) else (float(n0), float(n0))
-    for sign, n_e in zip((-1.0, 1.0), n_side):  # the lower, then the upper edge
+    for i, (sign, n_e) in enumerate(zip((-1.0, 1.0), n_side)):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
-        drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
-        room, margin = (0.0, 0.0) if corners and not heading else (BACK_ROOM, BACK_MARGIN)
-        edge = n_e + sign * (room + drift * ahead)  # the path at the current heading, then held
+        per_m = max(sign * (np.tan(alpha) if drift is None or heading else drift[i]), 0.0)  # towards this edge
+        room, margin = (0.0, 0.0) if corners else (BACK_ROOM, BACK_MARGIN)
+        edge = n_e + sign * (room + per_m * ahead)  # the path at the current heading, then held
         inside = -sign * (n_e - float(np.interp(s0, s, band)))  # how far inside the edge at s0
         if inside > margin and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0:
             continue
@@ -171,6 +175,23 @@ class SolverBand:
         half = self.half_length
         return Vehicle(l_f=self.to_centre, l_r=self.to_centre, l_f_ch=half, l_r_ch=half, w_ch=2 * self.half_width)
 
+    def corner_motion(self, x: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+        """At Frenet state ``x``: the outermost corner's n on the lower and the upper side, and how far the corners
+        there move outwards per metre along the road over ``CORNER_STEP`` (Euler, steering angle held)."""
+        s, n, a, v, d = (float(e) for e in x[:5])
+        kappa = float(self.road.eval(s)[0])
+        c0 = np.array([float(c) for c in corner_n(n, a, self.vehicle, kappa)])
+        t = CORNER_STEP
+        s_dot = v * np.cos(a) / (1.0 - n * kappa)
+        a1 = a + t * (v * np.tan(d) / (2.0 * self.to_centre) - kappa * s_dot)
+        c1 = np.array([float(c) for c in corner_n(n + t * v * np.sin(a), a1, self.vehicle, kappa)])
+        path = max(v * t, 1e-9)
+        lo_i, hi_i = 2 + int(np.argmin(c0[2:])), int(np.argmax(c0[:2]))
+        return (float(c0[lo_i]), float(c0[hi_i])), (
+            float(c1[lo_i] - c0[lo_i]) / path,
+            float(c1[hi_i] - c0[hi_i]) / path,
+        )
+
     def set(self, win, x: np.ndarray, target: float, heading: bool = False) -> bool:
         """Put the band of the rear axle at state ``x`` (Frenet) into the solver's road window ``win`` (in place);
         ``target``: the target lane's centre; ``heading``: the way back counts the ego's heading (after a sample
@@ -198,12 +219,10 @@ class SolverBand:
         else:
             lo, hi = win.n_min, win.n_max
         n0: float | tuple[float, float] = float(x[1])
-        if self.corners:  # the outermost corner on each side
-            c = np.array(
-                [float(v) for v in corner_n(float(x[1]), float(x[2]), self.vehicle, self.road.eval(float(x[0]))[0])]
-            )
-            n0 = (float(c[2:].min()), float(c[:2].max()))
-        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), n0, float(x[2]), float(x[3]), heading)
+        drift = None
+        if self.corners:  # the outermost corner on each side, and its lateral speed
+            n0, drift = self.corner_motion(x)
+        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), n0, float(x[2]), float(x[3]), heading, drift)
         win.n_min[:] = np.maximum(lo, self.n_bounds[0])
         win.n_max[:] = np.minimum(hi, self.n_bounds[1])
         return moved
