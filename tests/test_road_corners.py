@@ -195,3 +195,43 @@ def test_simulate_refuses_a_solver_folder_of_the_other_road_bound():
     res = CliRunner().invoke(main, [*args, "--road-bound", "corners", "--samples", "2"])
     assert res.exit_code == 1, res.output
     assert "road_bound = 'rear_axle'" in res.output and "'corners'" in res.output
+
+
+def test_the_corners_way_back_by_hand():
+    """Band [-1, 1] on s = 80..160 m (0.5 m), the upper corner at 0.98 moving out 0.1 m per metre at 10 m/s: over
+    CORNER_STEP = 0.1 s (1 m) it would reach 1.08, so the upper edge moves to that path without BACK_ROOM: 1.08 at
+    s = 101, returning to 1 over max(10, 3 x 10) = 30 m as 3u^2 - 2u^3 (1.08 - 0.08 h(1/30) at s = 101); at and
+    behind s0 the band, which holds the corner, stays. At 0.5 (its path 0.6) nothing moves; a corner 0.05 beyond the
+    edge and not moving gets the edge where it is (1.05 at s0). After a sample without a solution, the rear axle's
+    rule (BACK_ROOM beyond the path at the heading)."""
+    from fcgen.commonroad.band import BACK_ROOM, CORNER_STEP, way_back
+
+    assert CORNER_STEP == 0.1
+    s = np.arange(80.0, 160.5, 0.5)
+    lo, hi = np.full(len(s), -1.0), np.full(len(s), 1.0)
+    _, hi2, moved = way_back(s, lo, hi, 100.0, (-0.5, 0.98), 0.0, 10.0, False, (0.0, 0.1))
+    assert moved
+    at = dict(zip(s.tolist(), hi2.tolist(), strict=True))
+    u = 1.0 / 30.0
+    assert at[101.0] == pytest.approx(1.08 - 0.08 * (3 * u * u - 2 * u**3))
+    assert at[100.0] == at[80.0] == 1.0 and at[130.0] == 1.0
+    assert not way_back(s, lo, hi, 100.0, (-0.5, 0.5), 0.0, 10.0, False, (0.0, 0.1))[2]
+    _, hi3, moved = way_back(s, lo, hi, 100.0, (-0.5, 1.05), 0.0, 10.0, False, (0.0, 0.0))
+    assert moved and hi3[s == 100.0][0] == pytest.approx(1.05)
+    _, hi4, _ = way_back(s, lo, hi, 100.0, (-0.5, 1.05), 0.0, 10.0, True, (0.0, 0.0))
+    assert hi4[s == 100.0][0] == pytest.approx(1.05 + BACK_ROOM)
+
+
+def test_the_corners_motion_on_a_straight_road():
+    """Heading 0.1 rad, steering angle 0, 10 m/s on a straight road: the heading does not change, so the outermost
+    corner on either side moves sin(0.1) towards +n per metre along the road (the signed change of n: towards the
+    upper edge, away from the lower one)."""
+    from fcgen.commonroad.band import SolverBand
+
+    road = Road.from_curvature(np.zeros(301), 1.0)
+    band = SolverBand("lanes", [], road, 0.15, (-10.0, 10.0), 2.0, 0.95, 1.7, True)
+    (n_lo, n_hi), (d_lo, d_hi) = band.corner_motion(np.array([50.0, 0.4, 0.1, 10.0, 0.0]))
+    c = [float(v) for v in corner_n(0.4, 0.1, CAR)]
+    assert (n_lo, n_hi) == pytest.approx((min(c[2:]), max(c[:2])))
+    assert d_hi == pytest.approx(math.sin(0.1), rel=1e-9)
+    assert d_lo == pytest.approx(math.sin(0.1), rel=1e-9)

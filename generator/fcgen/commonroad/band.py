@@ -26,9 +26,11 @@ Rules (tested in tests/test_commonroad_band.py):
   more road departures, docs/commonroad.md).
 - **With the corners' band** (``Bounds.road_bound = "corners"``, ``SolverBand.corners``): the reference points are
   the outermost corner on each side; their band is the narrowest over the chassis' length (``chassis_reach``); an
-  edge moves only where such a corner is beyond it or its path over ``BACK_STEP`` crosses it, to that path without
-  ``BACK_ROOM`` (a corner at the edge is where the band lets the car drive: room beyond it was used, sample after
-  sample); after a sample without a solution, as for the rear axle.
+  edge moves only where such a corner is beyond it or its own path over ``CORNER_STEP`` (its lateral speed from the
+  heading and the yaw rate at the held steering angle: what the next sample brings whatever the plan) crosses it, to
+  that path without ``BACK_ROOM`` (a corner at the edge is where the band lets the car drive: room beyond it, or the
+  rear axle's straight path over ``BACK_STEP``, was used sample after sample); after a sample without a solution, as
+  for the rear axle.
 """
 
 from __future__ import annotations
