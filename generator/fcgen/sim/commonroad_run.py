@@ -9,10 +9,11 @@ solver as in the paper's loop; the plant is the same kinematic model. The refere
 n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), per stage during a planned lane change
 (``set_reference_stages``).
 
-The solver's lateral bound is on the ego's reference point (its rear axle), so it gets the drivable band shrunk by
-half the ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners):
-the chassis stays on the road while the bound holds. The problem's road band ``Bounds.n_min``/``n_max`` stays what it
-is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
+The solver's lateral bound (``Bounds.road_bound``) on the chassis' corners gets the drivable band shrunk by
+``CORNER_MARGIN``, at each sample the narrowest of the band over the chassis' length (its rows take the band at the
+rear axle's ``s``); on the rear axle, the band shrunk by half the ego's width plus ``HEADING_MARGIN`` (what a heading
+of up to ~4 degrees adds at the chassis' front corners). The problem's road band ``Bounds.n_min``/``n_max`` stays
+what it is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
 ``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
 """
 
@@ -74,17 +75,30 @@ class CommonRoadRun:
         return bool(self.checker["collision"]) == bool(self.fcgen["collision"])
 
 
-HEADING_MARGIN = 0.25  # m: the band's extra shrink for the chassis' corners at a small heading
+HEADING_MARGIN = 0.25  # m: the rear axle's band's extra shrink for the chassis' corners at a small heading
+CORNER_MARGIN = 0.15  # m: the corners' band's shrink (the linearisation at the previous plan, the samples between)
 LANE_DRIFT = 0.05  # m: the lateral reference follows its lane's centre when it moves more than this
 
 
+def band_inset(problem: Problem) -> float:
+    """How far the solver's band lies inside the drivable band: ``CORNER_MARGIN`` for the chassis' corners, half the
+    ego's width plus ``HEADING_MARGIN`` for its rear axle (``Bounds.road_bound``)."""
+    if problem.bounds.road_bound == "corners":
+        return CORNER_MARGIN
+    return problem.ego.w_ch / 2 + HEADING_MARGIN
+
+
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
-    """The scenario's road with the band the ego's rear axle may use (shrunk by half its width and
-    ``HEADING_MARGIN``), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
+    """The scenario's road with the band the solver's road rows get (``band_inset``; the corners': the narrowest over
+    the chassis' length), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
     most (m, 0: none)."""
-    road, b = sc.road, problem.bounds
-    inset = problem.ego.w_ch / 2 + HEADING_MARGIN
+    from ..commonroad.band import chassis_reach
+
+    road, b, ego = sc.road, problem.bounds, problem.ego
+    inset = band_inset(problem)
     lo0, hi0 = road.n_min + inset, road.n_max - inset
+    if b.road_bound == "corners":
+        lo0, hi0 = chassis_reach(road.s, lo0, hi0, (ego.l - ego.l_ch) / 2, (ego.l + ego.l_ch) / 2)
     lo, hi = np.maximum(lo0, b.n_min), np.minimum(hi0, b.n_max)
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
@@ -291,13 +305,14 @@ def _drive(
 
 
 def solver_band(problem: Problem, sc, lanes: list, rule: str):
-    """The rule that makes the solver's band at each sample (``commonroad.band``): the rear axle's band is the lanes'
-    shrunk by half the chassis' width plus ``HEADING_MARGIN``, cut to the problem's ``Bounds``."""
+    """The rule that makes the solver's band at each sample (``commonroad.band``): the lanes' band shrunk by
+    ``band_inset``, cut to the problem's ``Bounds``."""
     from ..commonroad.band import SolverBand
 
     ego, b = problem.ego, problem.bounds
-    inset = ego.w_ch / 2 + HEADING_MARGIN
-    return SolverBand(rule, lanes, sc.road, inset, (b.n_min, b.n_max), ego.l_ch / 2, ego.w_ch / 2, ego.l / 2)
+    corners = b.road_bound == "corners"
+    bounds = (b.n_min, b.n_max)
+    return SolverBand(rule, lanes, sc.road, band_inset(problem), bounds, ego.l_ch / 2, ego.w_ch / 2, ego.l / 2, corners)
 
 
 def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: float, ramp) -> float:
