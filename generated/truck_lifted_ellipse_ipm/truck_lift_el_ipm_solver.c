@@ -6090,6 +6090,19 @@ static truck_lift_el_ipm_real_t bend_brake_limit(truck_lift_el_ipm_real_t v, tru
   return (a > -f_max) ? a : -f_max;
 }
 
+/* The plan's largest slack of stages 1..N, 0 if none is positive (truck_lift_el_ipm_max_slack; the a_lat guard's bend braking). */
+static truck_lift_el_ipm_real_t largest_slack(void) {
+  truck_lift_el_ipm_real_t m = 0.0;
+  int i;
+  for (i = 0; i < N_SLACK; ++i) {
+    const truck_lift_el_ipm_real_t v = ws.w[SLACK_VARS[i]];
+    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
+      m = v;
+    }
+  }
+  return m;
+}
+
 /* The guard's divisor at speed v under get_u0's drive force (fcgen.plan_check.tyre_gain). */
 static truck_lift_el_ipm_real_t tyre_gain(truck_lift_el_ipm_real_t v) {
   return load_transfer_gain(v, ws.u_applied[0] / EGO_M, TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG);
@@ -6141,7 +6154,7 @@ static void a_lat_guard(void) {
     truck_lift_el_ipm_real_t cap =
         (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
                     : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
-    if ((ws.status.a_lat_guard == 1) && (truck_lift_el_ipm_max_slack() > BEND_SLACK)) { /* too fast for the plan's path */
+    if ((ws.status.a_lat_guard == 1) && (largest_slack() > BEND_SLACK)) { /* too fast for the plan's path */
       const truck_lift_el_ipm_real_t bend = bend_brake_limit(xa[3], xa[4], A_LAT_GUARD_TO, BEND_BRAKE, U_HI[0]);
       cap = (bend < cap) ? bend : cap;
     }
@@ -6544,15 +6557,7 @@ int truck_lift_el_ipm_get_controls(truck_lift_el_ipm_real_t *u) {
 }
 
 truck_lift_el_ipm_real_t truck_lift_el_ipm_max_slack(void) {
-  truck_lift_el_ipm_real_t m = 0.0;
-  int i;
-  for (i = 0; i < N_SLACK; ++i) {
-    const truck_lift_el_ipm_real_t v = ws.w[SLACK_VARS[i]];
-    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
-      m = v;
-    }
-  }
-  return m;
+  return largest_slack();
 }
 
 int truck_lift_el_ipm_get_status(truck_lift_el_ipm_status_t *st) {
