@@ -23,6 +23,7 @@ import numpy as np
 from ..dsl import Vehicle
 from ..extras import require
 from ..road import Road
+from .drivable import check_goal_reachable, check_oncoming, check_route
 from .goal import goal_centres, goal_frenet, goal_speed, speed_limit
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
@@ -107,10 +108,15 @@ def load_scenario(
     if info["path_ahead_m"] < horizon_m:
         raise ScenarioRefused(
             f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
-            f"shorter than the horizon's {horizon_m:.0f} m"
+            f"shorter than the horizon's {horizon_m:.0f} m",
+            kind="path shorter than the horizon",
         )
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
+    reach_m = samples * dt * max(v0, v_ref) + horizon_m  # what the run can drive, and see, at the reference speed
+    check_goal_reachable(net, first, goals)
+    check_route(net, road, float(x0[0]), reach_m)
+    check_oncoming(obstacles, road, float(x0[0]), reach_m, range(step0, step0 + samples + 1))
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,
@@ -148,16 +154,19 @@ def _read(path: str | Path, planning_problem_id: int | None):
     except Exception as exc:  # noqa: BLE001 - whatever commonroad-io raises on a file it cannot read
         raise ScenarioRefused(
             f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+            f"{str(exc).splitlines()[0] if str(exc) else ''})",
+            kind="unreadable file",
         ) from None
     name = str(scenario.scenario_id)
     problems = pps.planning_problem_dict
     if not problems:
-        raise ScenarioRefused(f"{name}: no planning problem")
+        raise ScenarioRefused(f"{name}: no planning problem", kind="no planning problem")
     if planning_problem_id is None:
         planning_problem_id = sorted(problems)[0]
     if planning_problem_id not in problems:
-        raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
+        raise ScenarioRefused(
+            f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})", kind="no planning problem"
+        )
     return scenario, problems[planning_problem_id], planning_problem_id
 
 

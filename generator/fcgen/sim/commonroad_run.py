@@ -96,6 +96,9 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
     return Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, lo, hi), cut
 
 
+NOT_MEASURED = "not measured (criticality off)"
+
+
 def run_commonroad(
     problem: Problem,
     sc,
@@ -108,6 +111,7 @@ def run_commonroad(
     traffic: str = "recorded",
     band: str = "lanes",
     plant: PlantSpec | None = None,
+    criticality: bool = True,
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
 
@@ -116,15 +120,18 @@ def run_commonroad(
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
-    its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
+    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False leaves the
+    criticality measures out (their ``error`` says so)."""
     from .. import commonroad as cr
-    from ..commonroad.criticality import criticality
+    from ..commonroad.criticality import criticality as measures
+    from ..commonroad.criticality import unmeasured
     from ..commonroad.judge import fcgen_verdict, penetrations
     from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(
-            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s"
+            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s",
+            kind="time step",
         )
     if controller is None:
         ocp = ocp or build_ocp(problem)
@@ -145,7 +152,7 @@ def run_commonroad(
     who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
     # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
     # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
-    crit = criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch)
+    crit = measures(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch) if criticality else unmeasured(NOT_MEASURED)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     extra = {
