@@ -74,6 +74,7 @@ ROW_KEYS = (
     "criticality_error",
     "criticality_skipped",
     "wall_s",
+    "cpu_s",
 )
 
 
@@ -136,7 +137,7 @@ def run_cr_task(task: CrTask) -> dict:
         status="refused",
         reason="",
     )
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         _check_listed(task)
         row["sha256"] = sha256_of(task.path)
@@ -151,7 +152,7 @@ def run_cr_task(task: CrTask) -> dict:
         else:
             run = run_commonroad(pb, sc, ocp=_ocp(pb), **kw)
     except ScenarioRefused as exc:
-        row.update(refusal=exc.kind, reason=str(exc), wall_s=time.perf_counter() - t0)
+        row.update(refusal=exc.kind, reason=str(exc), wall_s=time.perf_counter() - t0, cpu_s=time.process_time() - c0)
         return row
     log = run.log
     cr = log.meta["extra"]["commonroad"]
@@ -182,6 +183,7 @@ def run_cr_task(task: CrTask) -> dict:
         **traffic_fields(cr),
         **criticality_fields(cr),
         wall_s=time.perf_counter() - t0,
+        cpu_s=time.process_time() - c0,  # the worker's CPU: what a run costs on a machine not shared
     )
     row["nonfinite"] = nonfinite_fields(row)
     return row

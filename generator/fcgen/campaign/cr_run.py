@@ -10,6 +10,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import functools
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..commonroad.catalog import read_list
@@ -90,7 +91,7 @@ def run_cr_campaign(
     echo(f"{len(tasks)} runs, {len(tasks) - len(todo)} already in {out}, {len(todo)} to run ({where})")
     t0 = time.perf_counter()
     if todo:
-        with executor(jobs, scheduler) as (ex, _):
+        with executor(jobs, scheduler) if jobs > 1 or scheduler else _inline() as (ex, _):
             failed = _collect({ex.submit(run_cr_task, t): t for t in todo}, out, echo)
         echo(f"{len(todo)} runs in {time.perf_counter() - t0:.0f} s wall, {failed} failed (run again to retry)")
     p = Path(out) / "commonroad.parquet"
@@ -101,6 +102,22 @@ def run_cr_campaign(
     keys = {task_key(t) for t in tasks}
     rows = pd.read_parquet(p).to_dict("records")
     return [r for r in rows if (r["scenario"], r["problem"], r["controller"], r["traffic"]) in keys]
+
+
+@contextmanager
+def _inline():
+    """One process: each task run when submitted (a future holding its row or its exception)."""
+
+    class Inline:
+        def submit(self, fn, *args):
+            fut: cf.Future = cf.Future()
+            try:
+                fut.set_result(fn(*args))
+            except Exception as exc:  # noqa: BLE001 - kept in the future, as a pool's worker would
+                fut.set_exception(exc)
+            return fut
+
+    yield Inline(), 1
 
 
 def _collect(futs: dict, out: str | Path, echo) -> int:
