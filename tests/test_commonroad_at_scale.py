@@ -240,25 +240,37 @@ def test_each_refusal_names_its_kind_in_one_line(tmp_path):
         assert load_for(PB, write_scenario(tmp_path / "ZAM_Plain-1_1_T-1.xml")).samples == 40
 
 
-def test_a_lane_that_forks_off_is_not_a_crossing(tmp_path):
-    """An exit lane leaving the ego's lane at 40 degrees (a successor of its predecessor) is not an intersection."""
-    from commonroad.common.file_reader import CommonRoadFileReader
+def _net(exit_connected: bool, angle: float = 0.7):
+    """A lane along x split at x = 100 into a lane straight on and an exit lane at ``angle`` (rad; a successor of the
+    first lane, or, unconnected, a lane that only crosses the route there)."""
+    from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 
-    from fcgen.commonroad.drivable import _siblings
+    def lane(lid, centre, **kw):
+        d = np.diff(centre, axis=0)[0]
+        nrm = np.array([-d[1], d[0]]) / np.hypot(*d)
+        return Lanelet(centre + 1.75 * nrm, centre, centre - 1.75 * nrm, lid, **kw)
 
-    path = _edit(write_scenario(tmp_path / "ZAM_Fork-1_1_T-1.xml"), lanelet=(903, _line(100.0, 0.0, 150.0, 42.0)))
-    net = CommonRoadFileReader(str(path)).open()[0].lanelet_network
-    assert 903 not in _siblings(net, {101})  # unconnected: it crosses
-    with pytest.raises(ScenarioRefused) as e:
-        load_for(PB, path)
+    exit_line = _line(100.0, 0.0, 100.0 + 60.0 * math.cos(angle), 60.0 * math.sin(angle))
+    lls = [
+        lane(1, _line(0.0, 0.0, 100.0, 0.0), successor=[2, 3] if exit_connected else [2]),
+        lane(2, _line(100.0, 0.0, 400.0, 0.0), predecessor=[1]),
+        lane(3, exit_line, predecessor=[1] if exit_connected else None),
+    ]
+    return LaneletNetwork.create_from_lanelet_list(lls)
+
+
+def test_a_lane_that_forks_off_is_not_a_crossing_one_that_crosses_is():
+    from fcgen.commonroad.drivable import check_route
+    from fcgen.road import straight_road
+
+    road = straight_road(400.0)
+    check_route(_net(True), road, 50.0, 200.0)  # the exit forks off lane 1: driven
+    with pytest.raises(ScenarioRefused, match=r"lanelet 3 crosses the route 5\d m ahead at 40 degrees") as e:
+        check_route(_net(False), road, 50.0, 200.0)
     assert e.value.kind == "intersection"
-    # the same lane as a fork: the ego's lane split at 100 m into a straight and the exit lane
-    from commonroad.scenario.lanelet import Lanelet
-
-    net.find_lanelet_by_id(903).predecessor.append(101)
-    net.find_lanelet_by_id(101).successor.append(903)
-    assert 903 in _siblings(net, {101}) or 903 in _siblings(net, {903})
-    assert isinstance(net.find_lanelet_by_id(903), Lanelet)
+    check_route(_net(False), road, 50.0, 40.0)  # the crossing lies beyond what the run can reach
+    with pytest.raises(ScenarioRefused, match="at 80 degrees"):  # a turning lane off the route's lane crosses it
+        check_route(_net(True, math.radians(80.0)), road, 50.0, 200.0)
 
 
 def test_the_campaign_counts_refusals_by_kind_refuses_a_changed_file_and_resumes(tmp_path):
@@ -343,6 +355,7 @@ def _row(scenario, traffic, status="ran", **kw):
         criticality_error="",
         rti_ms_median=0.3,
         wall_s=2.0,
+        cpu_s=None,
     )
     row.update(kw)
     return row

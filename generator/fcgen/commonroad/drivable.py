@@ -8,7 +8,8 @@ Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write 
   (``reach_m``: its samples at the larger of the initial and the reference speed, plus the horizon), every
   ``PROBE_STEP`` metres, a lanelet holding the path's point whose heading there differs from the path's by
   ``CROSS_ANGLE`` to 180 - ``CROSS_ANGLE`` degrees (a crossing lane; not one that forks from or merges into the
-  route's lanelets), or a lanelet the network lists inside an
+  route's lanelets at less than ``FORK_ANGLE``: a turning lane that leaves the route's predecessor and crosses it
+  further on is a crossing), or a lanelet the network lists inside an
   intersection (an incoming's successor).
 - **Oncoming traffic**: a lanelet on that stretch holding the path's point against its direction (more than
   180 - ``CROSS_ANGLE`` degrees off: a shared two-way lane), or a recorded vehicle during the run whose centre is
@@ -29,7 +30,8 @@ from ..road import Road
 from .traffic import CrObstacle, ScenarioRefused
 
 PROBE_STEP = 2.0  # m between the path's points probed for crossing lanes
-CROSS_ANGLE = 30.0  # degrees: a lanelet this far off the path's heading at a shared point crosses it
+CROSS_ANGLE = 30.0  # degrees: a lanelet this far off the path's heading at a shared point crosses it ...
+FORK_ANGLE = 60.0  # ... unless it forks from or merges into the route's lanelets and is less than this far off
 OBSTACLE_STRIDE = 5  # recorded steps between the poses checked for oncoming vehicles
 
 
@@ -51,7 +53,7 @@ def check_route(net, road: Road, s0: float, reach_m: float) -> None:
             raise ScenarioRefused(
                 f"an intersection: lanelet {lid} of the route {ahead:.0f} m ahead belongs to one", kind="intersection"
             )
-        if CROSS_ANGLE <= off <= 180.0 - CROSS_ANGLE and lid not in siblings:
+        if CROSS_ANGLE <= off <= 180.0 - CROSS_ANGLE and not (lid in siblings and off < FORK_ANGLE):
             raise ScenarioRefused(
                 f"an intersection: lanelet {lid} crosses the route {ahead:.0f} m ahead at {off:.0f} degrees",
                 kind="intersection",
