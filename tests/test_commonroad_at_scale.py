@@ -190,7 +190,7 @@ def _polygon():
 
 def scenario_cases(folder):
     """One scenario per kind of refusal (file name -> kind) and one fcgen drives, written into ``folder``."""
-    w = lambda name, **kw: write_scenario(folder / name, **kw)  # noqa: E731 - a short alias
+    w = lambda name, **kw: write_scenario(folder / name, **kw)
     cases = {
         # a lane crossing the ego's at right angles 70 m ahead (within the 40 samples at 20 m/s plus the horizon)
         "ZAM_Cross-1_1_T-1.xml": (
