@@ -35,6 +35,14 @@ FORK_ANGLE = 60.0  # ... unless it forks from or merges into the route's lanelet
 OBSTACLE_STRIDE = 5  # recorded steps between the poses checked for oncoming vehicles
 
 
+def check_drivable(net, road: Road, first: int, goals: set[int], obstacles, s0: float, reach_m: float, steps) -> None:
+    """The three checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can
+    drive ``reach_m`` (its samples at its speed, plus the horizon)."""
+    check_goal_reachable(net, first, goals)
+    check_route(net, road, s0, reach_m)
+    check_oncoming(obstacles, road, s0, reach_m, steps)
+
+
 def check_route(net, road: Road, s0: float, reach_m: float) -> None:
     """Refuse (``intersection`` or ``oncoming traffic``) a route that crosses lanes or shares one with traffic in
     the other direction between ``s0`` and ``s0 + reach_m`` on ``road``."""

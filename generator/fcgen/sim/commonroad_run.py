@@ -99,6 +99,13 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
 NOT_MEASURED = "not measured (criticality off)"
 
 
+def _criticality(sc, centres: np.ndarray, speeds: np.ndarray, ego, on: bool) -> dict:
+    """The run's criticality measures (``commonroad.criticality``), or their empty result saying they are off."""
+    from ..commonroad.criticality import criticality, unmeasured
+
+    return criticality(sc, centres, speeds, ego.l_ch, ego.w_ch) if on else unmeasured(NOT_MEASURED)
+
+
 def run_commonroad(
     problem: Problem,
     sc,
@@ -113,18 +120,14 @@ def run_commonroad(
     plant: PlantSpec | None = None,
     criticality: bool = True,
 ) -> CommonRoadRun:
-    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
-
-    ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
+    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``). ``states``
+    (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
     plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
-    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False leaves the
-    criticality measures out (their ``error`` says so)."""
+    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False: not measured."""
     from .. import commonroad as cr
-    from ..commonroad.criticality import criticality as measures
-    from ..commonroad.criticality import unmeasured
     from ..commonroad.judge import fcgen_verdict, penetrations
     from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
 
@@ -152,7 +155,7 @@ def run_commonroad(
     who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
     # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
     # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
-    crit = measures(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch) if criticality else unmeasured(NOT_MEASURED)
+    crit = _criticality(sc, centres, loop.xs[:, 3], ego, criticality)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     extra = {
