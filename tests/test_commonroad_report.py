@@ -58,7 +58,7 @@ ROWS = [
 
 def test_the_report_counts_by_traffic_mode_and_names_the_worst_runs():
     md = commonroad_markdown(pd.DataFrame(ROWS, columns=list(ROW_KEYS)))
-    assert "3 scenarios, 1 configurations, traffic reactive, recorded: 4 runs, 1 refused." in md
+    assert "3 scenarios, 1 configurations, traffic reactive, recorded: 4 runs, 1 refused or failed." in md
     assert "| no planning problem | reactive | 1 | C: C: no planning problem |" in md
     # recorded: one collision, an opponent from behind; reactive: one departure, 8 vehicles reacted, 3 to the ego
     assert "| car_lifted_ellipse_ipm_safe | recorded | 2 | 0 / 1 / 0 | 0 | 1 | 1 | 0 (0) |" in md

@@ -330,17 +330,21 @@ def unsolved_lines(ran) -> list[str]:
 
 def summary_markdown(df) -> str:
     """Scenarios run / refused (reasons), the agreement of the two collision checks, collisions by responsibility."""
-    ran, refused = df[df.status == "ran"], df[df.status == "refused"]
+    ran, refused = df[df.status == "ran"], df[df.status != "ran"]
     lines = [
         "# CommonRoad scenarios",
         "",
         f"{df.scenario.nunique()} scenarios x {df.problem.nunique()} configurations: {len(ran)} runs, "
-        f"{len(refused)} refused.",
+        f"{len(refused)} refused or failed.",
         "",
     ]
     if len(refused):
-        lines += ["## Refused", "", "| scenario | configuration | reason |", "|---|---|---|"]
-        lines += [f"| {r.scenario} | {r.problem} | {r.reason} |" for r in refused.itertuples()]
+        lines += ["## Refused or failed", "", "| scenario | configuration | traffic | kind | reason |"]
+        lines.append("|---|---|---|---|---|")
+        lines += [
+            f"| {r.scenario} | {r.problem} | {r.traffic} | {r.refusal or 'other'} | {r.reason} |"
+            for r in refused.itertuples()
+        ]
         lines.append("")
     if len(ran):
         a = ran.collision_fcgen.astype(bool)

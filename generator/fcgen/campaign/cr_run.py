@@ -13,11 +13,11 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..commonroad.catalog import read_list
-from .commonroad import CrTask, run_cr_task, scenario_files, write_results
+from ..commonroad.catalog import dataset_of, read_list
+from .commonroad import ROW_KEYS, CrTask, run_cr_task, scenario_files, write_results
 from .grid import Config
 
-RETRIED = ("hash differs", "not in the cache")  # refusals of the file, not the scenario: run again on resume
+RETRIED = ("hash differs", "not in the cache", "error")  # the file's refusals and the runs that raised: run again
 FLUSH_ROWS = 20  # rows written at least every this many runs ...
 FLUSH_SECONDS = 60.0  # ... or this many seconds
 
@@ -93,7 +93,8 @@ def run_cr_campaign(
     if todo:
         with executor(jobs, scheduler) if jobs > 1 or scheduler else _inline() as (ex, _):
             failed = _collect({ex.submit(run_cr_task, t): t for t in todo}, out, echo)
-        echo(f"{len(todo)} runs in {time.perf_counter() - t0:.0f} s wall, {failed} failed (run again to retry)")
+        wall = time.perf_counter() - t0
+        echo(f"{len(todo)} runs in {wall:.0f} s wall, {failed} failed (written; run again to retry)")
     p = Path(out) / "commonroad.parquet"
     if not p.is_file():
         return []
@@ -102,6 +103,23 @@ def run_cr_campaign(
     keys = {task_key(t) for t in tasks}
     rows = pd.read_parquet(p).to_dict("records")
     return [r for r in rows if (r["scenario"], r["problem"], r["controller"], r["traffic"]) in keys]
+
+
+def failed_row(task: CrTask, error: str) -> dict:
+    """The row of a run that raised ``error``: status ``failed``, refusal kind ``error``, the error in ``reason``."""
+    row = dict.fromkeys(ROW_KEYS)
+    row.update(
+        scenario=Path(task.path).stem,
+        dataset=dataset_of(task.path),
+        file=Path(task.path).name,
+        problem=_problem_name(task.config),
+        controller=task.config.controller,
+        traffic=task.traffic,
+        status="failed",
+        refusal="error",
+        reason=error,
+    )
+    return row
 
 
 @contextmanager
@@ -122,7 +140,8 @@ def _inline():
 
 def _collect(futs: dict, out: str | Path, echo) -> int:
     """Write the finished runs' rows in batches (``FLUSH_ROWS`` / ``FLUSH_SECONDS``); an interruption keeps them. A
-    run that raises is named and not written (the next call runs it again); returns how many did."""
+    run that raises is named and written as ``failed`` (kind ``error``; the next call runs it again); returns how
+    many did."""
     buf: list[dict] = []
     last = time.monotonic()
     n = failed = 0
@@ -132,10 +151,10 @@ def _collect(futs: dict, out: str | Path, echo) -> int:
             n += 1
             try:
                 row = fut.result()
-            except Exception as exc:  # noqa: BLE001 - any error of one run: named, the campaign goes on
-                echo(f"failed {Path(task.path).name} ({task.traffic}): {type(exc).__name__}: {exc}")
+            except Exception as exc:  # noqa: BLE001 - any error of one run: named, counted, the campaign goes on
+                row = failed_row(task, f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}")
+                echo(f"failed {row['file']} ({task.traffic}): {row['reason']}")
                 failed += 1
-                continue
             buf.append(row)
             if row["status"] == "refused":
                 echo(f"refused {row['file']} ({row['refusal']}): {row['reason']}")

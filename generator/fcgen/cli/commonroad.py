@@ -189,7 +189,7 @@ def commonroad_campaign(
     ran = [r for r in rows if r["status"] == "ran"]
     why = Counter(r["refusal"] or "other" for r in rows if r["status"] != "ran")
     click.echo(
-        f"{len(ran)} runs, {len(rows) - len(ran)} refused"
+        f"{len(ran)} runs, {len(rows) - len(ran)} refused or failed"
         + (f" ({', '.join(f'{k} {v}' for k, v in why.most_common())})" if why else "")
         + f"; collisions fcgen {sum(bool(r['collision_fcgen']) for r in ran)}, "
         f"checker {sum(bool(r['collision_checker']) for r in ran)}, agreement {sum(bool(r['agree']) for r in ran)} "

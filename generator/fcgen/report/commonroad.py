@@ -59,8 +59,8 @@ def dataset_table(df) -> list[str]:
     ego was on the road, goal reached, valid solutions, the smallest and the median TTC ahead, the median time per
     cycle (RTI) and the mean CPU time per run (its wall time for rows without it)."""
     lines = [
-        "| data set | traffic | scenarios | runs | refused (why) | collisions: ego into opponent / opponent from "
-        "behind / from the side | road departures | goal reached | valid solutions | TTC ahead: min / median, s | "
+        "| data set | traffic | scenarios | runs | refused or failed (why) | collisions: ego into opponent / opponent "
+        "from behind / from the side | road departures | goal reached | valid solutions | TTC ahead: min / median, s | "
         "RTI median, ms | CPU per run, s |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -141,12 +141,13 @@ def _int(v) -> str:
 def commonroad_markdown(df) -> str:
     """The report's page."""
     df = with_defaults(df.copy())
-    ran, refused = df[df.status == "ran"], df[df.status == "refused"]
+    ran, refused = df[df.status == "ran"], df[df.status != "ran"]
     lines = [
         "# CommonRoad campaign report",
         "",
         f"{df.scenario.nunique()} scenarios, {df.problem.nunique()} configurations, traffic "
-        f"{', '.join(sorted(df.traffic.fillna('recorded').unique()))}: {len(ran)} runs, {len(refused)} refused.",
+        f"{', '.join(sorted(df.traffic.fillna('recorded').unique()))}: {len(ran)} runs, {len(refused)} refused or "
+        "failed.",
         "",
     ]
     lines += ["## Per data set", "", *dataset_table(df)]
