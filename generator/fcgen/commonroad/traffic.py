@@ -62,6 +62,7 @@ REFUSAL_KINDS = (
     "non-consecutive recording",
     "path shorter than the horizon",
     "path not followed",
+    "band outside the bounds",
     "time step",
     "other",
 )

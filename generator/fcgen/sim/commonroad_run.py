@@ -89,9 +89,12 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
         i = int(np.flatnonzero(lo >= hi)[0])
-        raise ValueError(
+        from ..commonroad import ScenarioRefused
+
+        raise ScenarioRefused(
             f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
-            f"[{b.n_min}, {b.n_max}] m"
+            f"[{b.n_min}, {b.n_max}] m",
+            kind="band outside the bounds",
         )
     return Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, lo, hi), cut
 
