@@ -159,6 +159,8 @@ def _read(path: str | Path, planning_problem_id: int | None):
         raise ScenarioRefused(
             f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})", kind="no planning problem"
         )
+    if not problems[planning_problem_id].goal.state_list:
+        raise ScenarioRefused(f"{name}: planning problem {planning_problem_id} has no goal state", kind="no goal")
     return scenario, problems[planning_problem_id], planning_problem_id
 
 

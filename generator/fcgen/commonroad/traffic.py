@@ -53,6 +53,7 @@ REFUSAL_KINDS = (
     "not in the cache",
     "unreadable file",
     "no planning problem",
+    "no goal",
     "no lanelet at the start",
     "goal unreachable",
     "intersection",
