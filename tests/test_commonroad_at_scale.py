@@ -389,3 +389,26 @@ def test_the_report_groups_by_data_set_and_traffic_mode_with_refusals_by_reason(
     assert "| all | all | 6 | 4 | 3 (intersection 2, oncoming traffic 1) |" in md
     assert "| intersection | recorded | 2 | DEU_Muc-1_1_T-1: an intersection: lanelet 3 |" in md
     assert "| oncoming traffic | recorded | 1 | DEU_Muc-3_1_T-1: oncoming traffic: v 5 |" in md
+
+
+def test_a_run_that_raises_is_written_as_failed_and_run_again(tmp_path, monkeypatch):
+    import fcgen.campaign.cr_run as cr_run
+
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    write_scenario(folder / "ZAM_Plain-1_1_T-1.xml")
+    configs = paper_grid(["car"], ["lifted"], ["ellipse"], "python", "ipm", "safe")
+
+    def boom(task):
+        raise RuntimeError("the loop broke\nsecond line")
+
+    monkeypatch.setattr(cr_run, "run_cr_task", boom)
+    lines: list[str] = []
+    rows = run_cr_campaign(configs, folder, tmp_path / "res", str(tmp_path / "s"), jobs=1, echo=lines.append)
+    assert [(r["status"], r["refusal"], r["reason"]) for r in rows] == [
+        ("failed", "error", "RuntimeError: the loop broke")
+    ]
+    assert "failed ZAM_Plain-1_1_T-1.xml (recorded): RuntimeError: the loop broke" in lines
+    lines.clear()
+    run_cr_campaign(configs, folder, tmp_path / "res", str(tmp_path / "s"), jobs=1, echo=lines.append)
+    assert lines[0].startswith("1 runs, 0 already in")  # a failed run is run again
