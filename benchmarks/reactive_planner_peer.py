@@ -267,7 +267,8 @@ def markdown(rows: list[dict], modes: list[str]) -> str:
     """Sums per planner and traffic mode."""
     lines = [
         "| planner | traffic | runs | could not start | collisions (ego into opponent / opponent from behind / side) | "
-        "departures after an on-road start | goal reached | valid solutions (all but the goal) | stopped early | "
+        "departures after an on-road start (after a start off the road) | goal reached | "
+        "valid solutions (all but the goal) | stopped early | "
         "samples on the fallback | min TTC ahead (s) | runs TTC ahead < 1 s | plan CPU median / max (ms) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -279,15 +280,14 @@ def markdown(rows: list[dict], modes: list[str]) -> str:
             continue
         resp = [sum(r["responsibility"] == k for r in rs) for k in ("ego_into_opponent", "opponent_from_behind")]
         side = sum(r["collision_fcgen"] for r in rs) - sum(resp)
-        dep = sum(
-            (r["road_departure"] and not r["start_off_road"]) or (r["departure_again_step"] or -1) >= 0 for r in rs
-        )
+        dep = sum(bool(r["road_departure"]) and not r["start_off_road"] for r in rs)
+        again = sum((r["departure_again_step"] if r["departure_again_step"] is not None else -1) >= 0 for r in rs)
         ttc = [r["ttc_ahead_min_s"] for r in rs if r.get("ttc_ahead_min_s") is not None]
         ms = [r["plan_ms_median"] for r in rs if r["plan_ms_median"] is not None]
         mx = [r["plan_ms_max"] for r in rs if r["plan_ms_max"] is not None]
         lines.append(
             f"| {planner} | {traffic} | {len(rs)} | {len(err)} | {sum(r['collision_fcgen'] for r in rs)} "
-            f"({resp[0]} / {resp[1]} / {side}) | {dep} | {sum(r['goal_reached'] for r in rs)} | "
+            f"({resp[0]} / {resp[1]} / {side}) | {dep} ({again}) | {sum(r['goal_reached'] for r in rs)} | "
             f"{sum(r['solution_valid'] for r in rs)} "
             f"({sum(r['solution_valid_but_goal'] for r in rs)}) | {sum(bool(r['stopped_early']) for r in rs)} | "
             f"{sum(r['fallback_samples'] for r in rs)} | {_num(min(ttc) if ttc else None)} | "
