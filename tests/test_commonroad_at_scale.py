@@ -412,3 +412,16 @@ def test_a_run_that_raises_is_written_as_failed_and_run_again(tmp_path, monkeypa
     lines.clear()
     run_cr_campaign(configs, folder, tmp_path / "res", str(tmp_path / "s"), jobs=1, echo=lines.append)
     assert lines[0].startswith("1 runs, 0 already in")  # a failed run is run again
+
+
+def test_a_run_without_the_criticality_measures_says_so(tmp_path):
+    from fcgen.sim.commonroad_judge import NOT_MEASURED
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    pb = preset("car_lifted_ellipse_ipm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sc = load_for(pb, write_scenario(tmp_path / "ZAM_Plain-1_1_T-1.xml", goal_steps=(4, 5)))
+        c = run_commonroad(pb, sc, criticality=False).log.meta["extra"]["commonroad"]["criticality"]
+    assert c["error"] == NOT_MEASURED
+    assert all(c[m]["min"] is None and c["series"][m] == [] for m in ("ttc_ahead", "ttc_behind"))
