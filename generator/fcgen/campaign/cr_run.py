@@ -14,6 +14,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..commonroad.catalog import dataset_of, read_list
+from ..extras import require
 from .commonroad import ROW_KEYS, CrTask, run_cr_task, scenario_files, write_results
 from .grid import Config
 
@@ -43,7 +44,8 @@ def done_keys(out: str | Path) -> set[tuple[str, str, str, str]]:
     p = Path(out) / "commonroad.parquet"
     if not p.is_file():
         return set()
-    import pandas as pd
+    with require("campaign", "the CommonRoad campaign's results"):
+        import pandas as pd
 
     df = pd.read_parquet(p)
     if "refusal" in df.columns:
@@ -98,7 +100,8 @@ def run_cr_campaign(
     p = Path(out) / "commonroad.parquet"
     if not p.is_file():
         return []
-    import pandas as pd
+    with require("campaign", "the CommonRoad campaign's results"):
+        import pandas as pd
 
     keys = {task_key(t) for t in tasks}
     rows = pd.read_parquet(p).to_dict("records")
