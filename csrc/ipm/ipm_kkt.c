@@ -150,8 +150,8 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  /* every entry of P_k finite? (its upper triangle is never written: 0 since qpb_reset) */
-  return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
+  /* every entry of P_k finite? (its lower triangle: the upper one is never written, 0 since qpb_reset) */
+  return (isfinite(ipm_pk_nonfinite(IPM_W.P[k])) == 0) ? 1 : 0;
 }
 
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals (ipm_check leaves them in

@@ -9,6 +9,12 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   const int lo = IPM_XU_LO[k];
   const int hi = IPM_XU_HI[k];
   const ipm_real_t *xs = &x[IPM_XU_V[k]];
+  if ((lo == 0) && (hi == IPM_NXU)) { /* every slot has a variable (most stages): a copy of a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      v[a] = xs[a];
+    }
+    return;
+  }
   for (a = 0; a < lo; ++a) {
     v[a] = REAL_0;
   }
@@ -27,6 +33,12 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x, int sub
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
   }
@@ -39,6 +51,12 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = vs[a];
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = vs[a];
   }

@@ -3759,6 +3759,15 @@ static void ipm_pk(ipm_real_t (*H)[IPM_NXU], ipm_real_t (*W)[IPM_NX], ipm_real_t
   Pk[7][7] = H[7][7] - ((W[0][7] * W[0][7]) + (W[1][7] * W[1][7]));
 }
 
+/* 0 times each entry of P on and below the diagonal, summed: NaN once one is not finite (P_k's finiteness test) */
+static ipm_real_t ipm_pk_nonfinite(ipm_real_t (*P)[IPM_NX]) {
+  const ipm_real_t s0 = ((P[0][0] * REAL_0) + (P[2][1] * REAL_0) + (P[3][2] * REAL_0) + (P[4][2] * REAL_0) + (P[5][1] * REAL_0) + (P[5][5] * REAL_0) + (P[6][3] * REAL_0) + (P[7][0] * REAL_0) + (P[7][4] * REAL_0));
+  const ipm_real_t s1 = ((P[1][0] * REAL_0) + (P[2][2] * REAL_0) + (P[3][3] * REAL_0) + (P[4][3] * REAL_0) + (P[5][2] * REAL_0) + (P[6][0] * REAL_0) + (P[6][4] * REAL_0) + (P[7][1] * REAL_0) + (P[7][5] * REAL_0));
+  const ipm_real_t s2 = ((P[1][1] * REAL_0) + (P[3][0] * REAL_0) + (P[4][0] * REAL_0) + (P[4][4] * REAL_0) + (P[5][3] * REAL_0) + (P[6][1] * REAL_0) + (P[6][5] * REAL_0) + (P[7][2] * REAL_0) + (P[7][6] * REAL_0));
+  const ipm_real_t s3 = ((P[2][0] * REAL_0) + (P[3][1] * REAL_0) + (P[4][1] * REAL_0) + (P[5][0] * REAL_0) + (P[5][4] * REAL_0) + (P[6][2] * REAL_0) + (P[6][6] * REAL_0) + (P[7][3] * REAL_0) + (P[7][7] * REAL_0));
+  return (s0 + s1) + (s2 + s3);
+}
+
 #if IPM_U_DENSE
 /* ---- R's factor and solves at this problem's IPM_NU (u_kernels), for all inputs at once: the generic loops'
  * operations, written out (a block-diagonal R's factor has exact zeros between its blocks) ---- */
@@ -4427,6 +4436,12 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   const int lo = IPM_XU_LO[k];
   const int hi = IPM_XU_HI[k];
   const ipm_real_t *xs = &x[IPM_XU_V[k]];
+  if ((lo == 0) && (hi == IPM_NXU)) { /* every slot has a variable (most stages): a copy of a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      v[a] = xs[a];
+    }
+    return;
+  }
   for (a = 0; a < lo; ++a) {
     v[a] = REAL_0;
   }
@@ -4445,6 +4460,12 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x, int sub
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
   }
@@ -4457,6 +4478,12 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = vs[a];
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = vs[a];
   }
@@ -4925,25 +4952,44 @@ static void ipm_ineq_rows(ipm_real_t *acc) {
   }
 }
 
-/* the equality rows' residuals A z - l in IPM_W.wr; returns their largest magnitude, at least rmax0. Then the
- * dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+/* the equality rows' residuals A z - l in IPM_W.wr (the init rows, the dynamics rows by stage, the stage equality
+ * rows: every equality row once); returns their largest magnitude, at least rmax0. The dynamics rows' residuals
+ * become c_k = -r_eq / E (ipm_stage_c) in the same pass */
 static ipm_real_t ipm_eq_residuals(const ipm_real_t *l, ipm_real_t rmax0) {
   int i;
-  int j;
   int k;
   ipm_real_t rmax = rmax0;
-  for (j = 0; j < IPM_NEQ; ++j) {
-    const int r = IPM_EQ_ALL[j];
-    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
-    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
-      rmax = IPM_FABS(IPM_W.wr[r]);
+  for (i = 0; i < IPM_NX; ++i) {
+    const int r = IPM_INIT_ROWS[i];
+    const ipm_real_t v = IPM_W.wr[r] - l[r];
+    IPM_W.wr[r] = v;
+    if (IPM_FABS(v) > rmax) {
+      rmax = IPM_FABS(v);
     }
   }
   for (k = 0; k < IPM_N; ++k) {
+    const ipm_idx_t *rows = &IPM_DYN_ROWS[k * IPM_NX];
     for (i = 0; i < IPM_NX; ++i) {
-      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
+      const int r = rows[i];
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+      IPM_W.wr[r] = v * (-IPM_W.Einv[k][i]);
     }
   }
+#if IPM_NE > 0
+  for (i = 0; i < ((IPM_N + 1) * IPM_NE1); ++i) {
+    const int r = IPM_EQ_ROW[i];
+    if (r >= 0) {
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      IPM_W.wr[r] = v;
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+    }
+  }
+#endif
   return rmax;
 }
 
@@ -5158,8 +5204,8 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  /* every entry of P_k finite? (its upper triangle is never written: 0 since qpb_reset) */
-  return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
+  /* every entry of P_k finite? (its lower triangle: the upper one is never written, 0 since qpb_reset) */
+  return (isfinite(ipm_pk_nonfinite(IPM_W.P[k])) == 0) ? 1 : 0;
 }
 
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals (ipm_check leaves them in
