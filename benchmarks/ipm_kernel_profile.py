@@ -119,7 +119,7 @@ KERNELS: dict[str, tuple[str, ...]] = {
         "ipm_direction",
         "ipm_step",
     ),
-    "finiteness tests, max / min": ("ipm_nonfinite", "ipm_max", "ipm_min"),
+    "finiteness tests, max / min": ("ipm_nonfinite", "ipm_dz_nonfinite", "ipm_pk_nonfinite", "ipm_max", "ipm_min"),
     "QP start and result": (
         "qpb_solve",
         "qpb_reset",

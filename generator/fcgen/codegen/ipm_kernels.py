@@ -99,7 +99,10 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     ]
     low = [f"P[{i}][{j}]" for i in range(nx) for j in range(i + 1)]  # P_k's finiteness test: 0 x each, 4 chains
     chains = [low[c::4] for c in range(4)]
-    pk_nf = [f"const ipm_real_t s{c} = {_c_sum([f'({e} * REAL_0)' for e in ch]) if ch else 'REAL_0'};" for c, ch in enumerate(chains)]
+    pk_nf = [
+        f"const ipm_real_t s{c} = {_c_sum([f'({e} * REAL_0)' for e in ch]) if ch else 'REAL_0'};"
+        for c, ch in enumerate(chains)
+    ]
     pk_nf.append("return (s0 + s1) + (s2 + s3);")
     return {
         k: "\n  ".join(v)
