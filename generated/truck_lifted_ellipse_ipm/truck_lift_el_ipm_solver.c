@@ -4527,9 +4527,18 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
     ipm_real_t f[IPM_NX] = {0};
     ipm_gather_xu(k, x, v);
     ipm_fg_axpy(IPM_W.fgb[k], v, f);
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+    if (IPM_XU_LO[k + 1] == 0) { /* x_{k+1} on consecutive variables, the stage's dynamics rows consecutive */
+      const ipm_real_t *xn = &x[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      ipm_real_t *o = &out[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        o[i] = IPM_W.Ax[en[i]] * (xn[i] - f[i]);
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+      }
     }
   }
 }
@@ -4561,10 +4570,20 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   for (k = 0; k < IPM_N; ++k) { /* E_i v_i on x_{k+1}[i], -[F G]' (E v) on (x_k, u_k) */
     ipm_real_t w[IPM_NX];
     ipm_real_t g[IPM_NXU] = {0};
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
-      out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+    if (IPM_XU_LO[k + 1] == 0) { /* as in ipm_Ax: x_{k+1}'s variables and the dynamics rows consecutive */
+      ipm_real_t *xn = &out[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      const ipm_real_t *vr = &v[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        w[i] = IPM_W.Ax[en[i]] * vr[i];
+        xn[i] += w[i];
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
+        out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+      }
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
     ipm_add_xu(k, g, out, 1); /* x - g: the x + (-g) of a negation pass, exactly */
@@ -5058,6 +5077,20 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
 /* ---- the Newton (KKT) system, stage by stage: its factorization (box weights on the diagonal, each slack eliminated
  * with its rows, the stage equalities by a Schur complement of their own, a Riccati recursion k = N..0) and its
  * solve (the backward sweep's p_k, kk_k; the forward sweep's step) ---- */
+/* stage k's Newton block's diagonal += hd of the slot's variable (hs: the first's), 1 for a slot without one */
+static void ipm_stage_diag_any(int k, const ipm_real_t *hs) {
+  int a;
+  for (a = 0; a < IPM_XU_LO[k]; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+  for (; a < IPM_XU_HI[k]; ++a) {
+    IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
+  }
+  for (; a < IPM_NXU; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+}
+
 /* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
  * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings (the rows' parts written out at a stage
  * IPM_GEN_PAT flags) */
@@ -5072,14 +5105,12 @@ static void ipm_stage_hessian(int k) {
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
     const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
     int a;
-    for (a = 0; a < IPM_XU_LO[k]; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
-    }
-    for (; a < IPM_XU_HI[k]; ++a) {
-      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
-    }
-    for (; a < IPM_NXU; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
+    if ((IPM_XU_LO[k] == 0) && (IPM_XU_HI[k] == IPM_NXU)) { /* every slot has a variable (most stages) */
+      for (a = 0; a < IPM_NXU; ++a) {
+        IPM_W.H[a][a] += hs[a];
+      }
+    } else {
+      ipm_stage_diag_any(k, hs);
     }
   }
   IPM_GEN_ROWS(k, ipm_gen_couple_h(k), ipm_couple_h_any(k));
@@ -5328,12 +5359,14 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);
-    for (i = 0; i < IPM_NX; ++i) {
-      const ipm_real_t v = pd[i] + IPM_W.p[k][i];
-      if (k == 0) {
-        IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
-      } else {
-        IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+    if (k == 0) {
+      for (i = 0; i < IPM_NX; ++i) {
+        IPM_W.gd[IPM_INIT_ROWS[i]] = (-(pd[i] + IPM_W.p[k][i])) / IPM_W.einit[i];
+      }
+    } else { /* the stage's dynamics rows are consecutive (ipm_stage_c) */
+      ipm_real_t *gd = &IPM_W.gd[IPM_DYN_ROWS[(k - 1) * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        gd[i] = (-(pd[i] + IPM_W.p[k][i])) * IPM_W.Einv[k - 1][i];
       }
     }
 #if IPM_NE > 0
