@@ -28,8 +28,8 @@ static void ipm_stage_hessian(int k) {
   ipm_sr_hessian(k);
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
     const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
-    int a;
     if ((IPM_XU_LO[k] == 0) && (IPM_XU_HI[k] == IPM_NXU)) { /* every slot has a variable (most stages) */
+      int a;
       for (a = 0; a < IPM_NXU; ++a) {
         IPM_W.H[a][a] += hs[a];
       }
