@@ -5,7 +5,8 @@ checker; after an on-road start and starts off the road), goal reached, samples 
 band the way back widened.
 
     python benchmarks/band_rules.py DIR_OR_XML... [--problem car_lifted_ellipse_ipm_safe] [--rules road,lanes] \\
-        [--traffic recorded,reactive] [--plant model|ks|st|std|mb] [--out results/band_rules.json]
+        [--traffic recorded,reactive] [--plant model|ks|st|std|mb] [--road-bound corners|rear_axle] \\
+        [--out results/band_rules.json]
 
 The compiled C of the problem (built into ``.fcgen-cache/solvers``); the criticality measures are left out (they do
 not depend on the band and take most of a run's time). Prints a Markdown table (sums per traffic mode and rule) and
@@ -15,6 +16,7 @@ writes the per-run rows (JSON) to ``--out``. Runs one after another: use ``nice`
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import subprocess
 import time
@@ -47,7 +49,9 @@ def _row(sc, run, traffic: str, rule: str, cpu: float) -> dict:
     }
 
 
-def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], cache: str, plant: str) -> list[dict]:
+def runs(
+    files: list[Path], problem: str, rules: list[str], modes: list[str], cache: str, plant: str, road_bound: str
+) -> list[dict]:
     import fcgen.commonroad.criticality as crit
     from fcgen.campaign.commonroad import load_for
     from fcgen.campaign.solvers import ensure_solver
@@ -59,6 +63,7 @@ def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], ca
 
     crit.criticality = lambda *a, **k: {"error": "left out (benchmarks/band_rules.py)", "series": {}}
     pb = preset(problem)
+    pb = pb.with_(bounds=dataclasses.replace(pb.bounds, road_bound=road_bound))
     cs = CSolver(str(ensure_solver(pb, cache)))
     rows = []
     for f in files:
@@ -72,7 +77,8 @@ def runs(files: list[Path], problem: str, rules: list[str], modes: list[str], ca
                 cs.init()
                 t0 = time.process_time()
                 run = run_commonroad(pb, sc, controller=cs, traffic=traffic, band=rule, plant=PlantSpec(plant))
-                rows.append({**_row(sc, run, traffic, rule, time.process_time() - t0), "plant": plant})
+                row = _row(sc, run, traffic, rule, time.process_time() - t0)
+                rows.append({**row, "plant": plant, "road_bound": road_bound})
                 print(json.dumps(rows[-1]), flush=True)
     return rows
 
@@ -111,6 +117,7 @@ def main() -> None:
     ap.add_argument("--traffic", default="recorded,reactive")
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
     ap.add_argument("--plant", default="model", help="the plant (sim.plants.PLANT_KINDS)")
+    ap.add_argument("--road-bound", default="corners", help="what the band bounds (Bounds.road_bound)")
     ap.add_argument("--out", default="results/band_rules.json")
     args = ap.parse_args()
     files: list[Path] = []
@@ -118,7 +125,7 @@ def main() -> None:
         files += sorted(p.glob("*.xml")) if p.is_dir() else [p]
     rules, modes = args.rules.split(","), args.traffic.split(",")
     t0 = time.time()
-    rows = runs(files, args.problem, rules, modes, str(Path(args.cache).resolve()), args.plant)
+    rows = runs(files, args.problem, rules, modes, str(Path(args.cache).resolve()), args.plant, args.road_bound)
     text = markdown(rows, rules, modes)
     print(text)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
@@ -127,6 +134,7 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     meta = {"fcgen": __version__, "commit": commit, "problem": args.problem, "plant": args.plant}
+    meta["road_bound"] = args.road_bound
     meta["wall_s"] = time.time() - t0
     out.write_text(json.dumps({"meta": meta, "markdown": text, "rows": rows}, indent=1) + "\n")
     print(f"{len(rows)} rows in {meta['wall_s']:.0f} s, written to {out}")

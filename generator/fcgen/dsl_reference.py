@@ -156,8 +156,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("Bounds", "v_min"): ("m/s", "0 <= v_min < v_max", "speed lower bound"),
     ("Bounds", "v_max"): ("m/s", "> v_min", "speed upper bound"),
     ("Bounds", "alpha_max"): ("rad", "(0, pi/2)", "|alpha| bound (heading relative to the road)"),
-    ("Bounds", "n_min"): ("m", "< n_max", "road bound on the ego's n (right)"),
-    ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left)"),
+    ("Bounds", "n_min"): ("m", "< n_max", "road bound on the ego's n (right; road_bound says which point)"),
+    ("Bounds", "n_max"): ("m", "> n_min", "road bound on the ego's n (left; road_bound says which point)"),
     ("Bounds", "a_lat_max"): ("m/s^2", "> 0", "|a_lat| bound (a soft row)"),
     ("Bounds", "v_N_max"): ("m/s", "[v_min, v_max]", "terminal speed bound"),
     ("Bounds", "a_lat_margin"): (
@@ -166,6 +166,13 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "the plan keeps abs(a_lat) this far inside a_lat_max "
         "(a real-time iteration's linearization and coarse intervals overshoot it; the "
         "paper's presets: 0)",
+    ),
+    ("Bounds", "road_bound"): (
+        "-",
+        "'rear_axle' or 'corners'",
+        "what n_min/n_max and the road's band bound: the rear axle's n (a box bound), or the chassis' four corners "
+        "(one row each, n + x_c sin(alpha) +- (w_ch/2) cos(alpha) with the road's curvature; 4 rows per stage, "
+        "about 1.1x the instructions per RTI)",
     ),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),

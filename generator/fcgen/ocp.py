@@ -20,11 +20,12 @@ from . import obstacles as obs
 from .dsl import Conventional, Lifted, Problem
 from .oppfit import OppFit, build_oppfit
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
+from .road_rows import BAND_SCALE, road_rows
 
 INF = 1e30  # OSQP_INFTY: OSQP treats bounds at or beyond it as infinite
 
 # Typical ranges: the QP is solved in variables divided by these (SPEC section 8: scaling matters most).
-STATE_SCALE = {"s": 10.0, "n": 5.0, "alpha": 0.5, "v": 10.0, "delta": 0.3, "x": 10.0, "y": 10.0, "phi": 0.5}
+STATE_SCALE = {"s": 10.0, "n": BAND_SCALE, "alpha": 0.5, "v": 10.0, "delta": 0.3, "x": 10.0, "y": 10.0, "phi": 0.5}
 CONTROL_SCALE = {"F_d": 1e4, "r": 0.39}
 
 
@@ -240,21 +241,16 @@ def _dynamics(pb: Problem, st: _Stage) -> ca.SX:
 
 
 def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
-    """The soft rows of the lateral acceleration (inside ``a_lat_max - a_lat_margin``) and, with ``soft_road``, of
-    the road bounds: (name, g, lower, upper), slacks 0 and 1."""
+    """The soft rows of the lateral acceleration (inside ``a_lat_max - a_lat_margin``, slack 0) and the road's rows
+    (``road_rows``: with ``soft_road`` on slack 1)."""
     bnd, xs, sgs = pb.bounds, st.xs, st.sgs
     lim = (bnd.a_lat_max - bnd.a_lat_margin) / bnd.a_lat_max  # the planned bound (1.0 without a margin)
     rows = [
         ("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
         ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim),
     ]
-    if pb.soft.soft_road:
-        sn = STATE_SCALE["n"]
-        rows += [
-            ("road_lo", (xs[1] + sgs[1]) / sn, bnd.n_min / sn, INF),
-            ("road_hi", (xs[1] - sgs[1]) / sn, -INF, bnd.n_max / sn),
-        ]
-    return rows
+    kappa = casadi_road(xs[0], st.p_road, st.rp.samples)[0] if bnd.road_bound == "corners" else 0.0
+    return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, kappa)
 
 
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:
@@ -307,13 +303,13 @@ def _box_rows(pb: Problem, st: _Stage, x_next: ca.SX) -> dict[str, list[tuple]]:
     init rows, scaled: (name, g, lower, upper)."""
     bnd, xs, us, sgs = pb.bounds, st.xs, st.us, st.sgs
     Dx, Du, Dsg = st.Dx, st.Du, st.Dsg
-    soft_road = pb.soft.soft_road
+    soft_road, corners = pb.soft.soft_road, bnd.road_bound == "corners"
 
     def state_bounds(terminal: bool):
         out = []
         for i, nm in enumerate(st.names_x):
             lo, hi = {
-                "n": (bnd.n_min, bnd.n_max) if not soft_road else None,
+                "n": (bnd.n_min, bnd.n_max) if not (soft_road or corners) else None,
                 "alpha": (-bnd.alpha_max, bnd.alpha_max),
                 "v": (bnd.v_min, bnd.v_N_max if terminal else bnd.v_max),
                 "delta": (-bnd.delta_max, bnd.delta_max),

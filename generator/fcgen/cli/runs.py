@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -90,6 +91,13 @@ from .robust import robust_configs, robustness_options
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
+@click.option(
+    "--road-bound",
+    type=click.Choice(("rear_axle", "corners")),
+    default=None,
+    help="what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
+    "problem's own (--controller c: the solver folder's must be it)",
+)
 @plant_options
 @traffic_option()
 def simulate(
@@ -109,6 +117,7 @@ def simulate(
     cr_pp,
     animate,
     cr_solution,
+    road_bound,
     traffic,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
@@ -128,6 +137,8 @@ def simulate(
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
     spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
+    if road_bound is not None:
+        pb = pb.with_(bounds=replace(pb.bounds, road_bound=road_bound))
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
@@ -172,6 +183,11 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
             fail(
                 f"--solver-dir {solver_dir} compensates delay = {folder.problem.delay} samples, the problem "
                 f"{pb.name!r} has delay = {pb.delay}: give --problem {Path(solver_dir) / 'problem.py'}"
+            )
+        if folder.problem.bounds.road_bound != pb.bounds.road_bound:
+            fail(
+                f"--solver-dir {solver_dir} bounds road_bound = {folder.problem.bounds.road_bound!r}, the problem "
+                f"{pb.name!r} {pb.bounds.road_bound!r}: generate the solver from the problem, or leave out --road-bound"
             )
         return CSolver.from_dir(folder)
     return None

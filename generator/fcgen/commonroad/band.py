@@ -24,6 +24,13 @@ Rules (tested in tests/test_commonroad_band.py):
   fallback driving) until the ego stood inside it again. The heading counts only after a failure: counted always,
   it gives the plan room beyond the band wherever the ego heads towards an edge, which the plan uses (measured:
   more road departures, docs/commonroad.md).
+- **With the corners' band** (``Bounds.road_bound = "corners"``, ``SolverBand.corners``): the reference points are
+  the outermost corner on each side; their band is the narrowest over the chassis' length (``chassis_reach``); an
+  edge moves only where such a corner is beyond it or its own path over ``CORNER_STEP`` (its lateral speed from the
+  heading and the yaw rate at the held steering angle: what the next sample brings whatever the plan) crosses it, to
+  that path without ``BACK_ROOM`` (a corner at the edge is where the band lets the car drive: room beyond it, or the
+  rear axle's straight path over ``BACK_STEP``, was used sample after sample); after a sample without a solution, as
+  for the rear axle.
 """
 
 from __future__ import annotations
@@ -32,6 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dsl import Vehicle
+from ..models import corner_n
 from ..road import Road
 from .lanes import SAME_LANE, Lane
 
@@ -42,6 +51,7 @@ BACK_STEP = 0.2  # s: the ego's path at its heading the moved edge holds (after 
 BACK_TIME = 3.0  # s: the moved edge returns to the band over this time at the ego's speed ...
 BACK_MIN = 10.0  # m: ... and at least this distance
 BACK_TURN = 1.0  # s: the moved edge holds the ego's path at its current heading for this time
+CORNER_STEP = 0.1  # s: the corners' path (at their current lateral speed) the moved edge holds
 
 
 def lanes_in_use(lanes: list[Lane], s: float, n_lo: float, n_hi: float, target: float) -> tuple[float, float]:
@@ -84,28 +94,35 @@ def way_back(
     lo: np.ndarray,
     hi: np.ndarray,
     s0: float,
-    n0: float,
+    n0: float | tuple[float, float],
     alpha: float,
     v: float,
     heading: bool = True,
+    drift: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """The band ``lo``/``hi`` at the road samples ``s`` with the way back for a reference point at (``s0``, ``n0``),
     heading ``alpha`` to the road, speed ``v`` (module docstring), and whether it moved an edge; ``heading``: whether
-    the ego's path at its heading counts (else its position alone)."""
+    the ego's path at its heading counts (else its position alone). ``n0`` a pair: the points nearest the lower and
+    the upper edge, the chassis' outermost corners on each side, whose rows hold them inside the band: then an edge
+    moves only where such a corner is beyond it, or after a sample without a solution (the rule as for the rear axle;
+    a corner near the edge is where the corners' band lets the car drive, and the room beyond it would be used).
+    ``drift``: then the corners' outward motion per metre along the road (lower, upper side), their path's over
+    ``CORNER_STEP`` instead of ``BACK_STEP`` at the heading."""
     s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    turn = max(v, 0.0) * (BACK_TURN if heading else BACK_STEP)
+    corners = drift is not None and not heading
+    turn = max(v, 0.0) * (BACK_TURN if heading else CORNER_STEP if corners else BACK_STEP)
     ahead = np.clip(s - s0, 0.0, turn)
     u = np.clip((s - s0) / max(BACK_MIN, BACK_TIME * max(v, 0.0)), 0.0, 1.0)
     h = 3.0 * u * u - 2.0 * u * u * u
     moved = False
-    for sign in (-1.0, 1.0):  # the lower, then the upper edge
+    n_side: tuple[float, float] = n0 if isinstance(n0, tuple) else (float(n0), float(n0))
+    for i, (sign, n_e) in enumerate(zip((-1.0, 1.0), n_side)):  # the lower, then the upper edge
         band = lo if sign < 0 else hi
-        drift = max(sign * np.tan(alpha), 0.0)  # towards this edge, per metre along the road
-        edge = n0 + sign * (BACK_ROOM + drift * ahead)  # the path at the current heading, then held
-        if (
-            sign * (n0 - float(np.interp(s0, s, band))) < -BACK_MARGIN
-            and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0
-        ):
+        per_m = max(sign * (np.tan(alpha) if drift is None or heading else drift[i]), 0.0)  # towards this edge
+        room, margin = (0.0, 0.0) if corners else (BACK_ROOM, BACK_MARGIN)
+        edge = n_e + sign * (room + per_m * ahead)  # the path at the current heading, then held
+        inside = -sign * (n_e - float(np.interp(s0, s, band)))  # how far inside the edge at s0
+        if inside > margin and max(float(np.interp(s0 + d, s, sign * (edge - band))) for d in (0.0, turn)) <= 0.0:
             continue
         new = edge + (band - edge) * h
         if not np.any(sign * (new - band) > 0.0):
@@ -121,11 +138,24 @@ BAND_RULES = ("road", "road_back", "lanes")
 lanes in use with the way back (the default)."""
 
 
+def chassis_reach(s: np.ndarray, lo: np.ndarray, hi: np.ndarray, behind: float, ahead: float) -> tuple:
+    """The band a chassis from ``behind`` to ``ahead`` metres of a point at ``s`` keeps on the road samples ``s``
+    (ascending): at each sample the narrowest of the band over that stretch (the corners' rows take the band at the
+    rear axle's ``s``)."""
+    s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    out_lo, out_hi = lo.copy(), hi.copy()
+    for d in np.unique(np.r_[np.linspace(behind, ahead, 9), 0.0]):
+        out_lo = np.maximum(out_lo, np.interp(s + d, s, lo))
+        out_hi = np.minimum(out_hi, np.interp(s + d, s, hi))
+    return out_lo, out_hi
+
+
 @dataclass(frozen=True, eq=False)
 class SolverBand:
     """What the solver's band at a sample is made of: the rule (``BAND_RULES``), the lanes, the road's band, the
-    inset for the chassis (the rear axle's band is the lanes' shrunk by it) and the problem's ``Bounds`` it is cut to;
-    the chassis' half length and width and the rear axle's distance to its centre."""
+    inset for the chassis (the rear axle's band is the lanes' shrunk by it; with ``corners``, the corners' band by
+    it) and the problem's ``Bounds`` it is cut to; the chassis' half length and width and the rear axle's distance to
+    its centre; ``corners``: whether the band bounds the chassis' corners (``Bounds.road_bound``)."""
 
     rule: str
     lanes: list
@@ -135,10 +165,34 @@ class SolverBand:
     half_length: float
     half_width: float
     to_centre: float
+    corners: bool = False
 
     def __post_init__(self) -> None:
         if self.rule not in BAND_RULES:
             raise ValueError(f"band {self.rule!r} is not a band rule: allowed {', '.join(BAND_RULES)}")
+
+    @property
+    def vehicle(self) -> Vehicle:
+        """The chassis' geometry as a ``Vehicle`` (for ``models.corner_n``)."""
+        half = self.half_length
+        return Vehicle(l_f=self.to_centre, l_r=self.to_centre, l_f_ch=half, l_r_ch=half, w_ch=2 * self.half_width)
+
+    def corner_motion(self, x: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+        """At Frenet state ``x``: the outermost corner's n on the lower and the upper side, and how far the corners
+        there move outwards per metre along the road over ``CORNER_STEP`` (Euler, steering angle held)."""
+        s, n, a, v, d = (float(e) for e in x[:5])
+        kappa = float(self.road.eval(s)[0])
+        c0 = np.array([float(c) for c in corner_n(n, a, self.vehicle, kappa)])
+        t = CORNER_STEP
+        s_dot = v * np.cos(a) / (1.0 - n * kappa)
+        a1 = a + t * (v * np.tan(d) / (2.0 * self.to_centre) - kappa * s_dot)
+        c1 = np.array([float(c) for c in corner_n(n + t * v * np.sin(a), a1, self.vehicle, kappa)])
+        path = max(v * t, 1e-9)
+        lo_i, hi_i = 2 + int(np.argmin(c0[2:])), int(np.argmax(c0[:2]))
+        return (float(c0[lo_i]), float(c0[hi_i])), (
+            float(c1[lo_i] - c0[lo_i]) / path,
+            float(c1[hi_i] - c0[hi_i]) / path,
+        )
 
     def set(self, win, x: np.ndarray, target: float, heading: bool = False) -> bool:
         """Put the band of the rear axle at state ``x`` (Frenet) into the solver's road window ``win`` (in place);
@@ -157,13 +211,20 @@ class SolverBand:
             reach = self.half_length * abs(np.sin(a)) + self.half_width * np.cos(a)
             centres = lanes_in_use(self.lanes, s_c, n_c - reach, n_c + reach, target)
             lo_l, hi_l = lane_band(self.lanes, s_win, centres, road_lo, road_hi)
+            if self.corners:
+                behind, ahead = self.to_centre - self.half_length, self.to_centre + self.half_length
+                lo_l, hi_l = chassis_reach(s_win, lo_l, hi_l, behind, ahead)
             lo = np.maximum(lo_l + self.inset, self.n_bounds[0])
             hi = np.minimum(hi_l - self.inset, self.n_bounds[1])
             narrow = ~(lo < hi)  # a lane narrower than the chassis there: the road's band
             lo, hi = np.where(narrow, win.n_min, lo), np.where(narrow, win.n_max, hi)
         else:
             lo, hi = win.n_min, win.n_max
-        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), float(x[1]), float(x[2]), float(x[3]), heading)
+        n0: float | tuple[float, float] = float(x[1])
+        drift = None
+        if self.corners:  # the outermost corner on each side, and its lateral speed
+            n0, drift = self.corner_motion(x)
+        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), n0, float(x[2]), float(x[3]), heading, drift)
         win.n_min[:] = np.maximum(lo, self.n_bounds[0])
         win.n_max[:] = np.minimum(hi, self.n_bounds[1])
         return moved

@@ -8,7 +8,7 @@ options, plan check, the problem); ``from fcgen.dsl import X`` is the way to use
 
 from __future__ import annotations
 
-from .bounds import Bounds
+from .bounds import ROAD_BOUNDS, Bounds
 from .costs import SoftPenalties, Weights
 from .formulations import OVERAPPROX, Conventional, DirectElimination, Formulation, Lifted
 from .horizon import Horizon, RoadWindow
@@ -33,6 +33,7 @@ __all__ = [
     "CIRCLE_RADII",
     "ELLIPSE_SHAPES",
     "OVERAPPROX",
+    "ROAD_BOUNDS",
     "RTI_BUDGET_DEFAULT",
     "Bounds",
     "Conventional",

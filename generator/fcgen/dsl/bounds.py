@@ -7,11 +7,19 @@ from dataclasses import dataclass
 
 from .validation import check, finite, known_fields, positive
 
+ROAD_BOUNDS = ("rear_axle", "corners")
+"""What ``Bounds.n_min``/``n_max`` bound: the rear axle's n, or the chassis' four corners' n."""
+
 
 @known_fields
 @dataclass(frozen=True)
 class Bounds:
-    """Box bounds (paper Table I); the road bounds are on the ego's n.
+    """Box bounds (paper Table I); the road bounds ``n_min``/``n_max`` are on the ego's n (``road_bound``).
+
+    ``road_bound``: what the road band bounds. ``"rear_axle"`` (the paper's, the default): the reference point's n, a
+    box bound. ``"corners"``: the chassis' four corners, ``n + x_c sin(alpha) +- (w_ch/2) cos(alpha)`` with the front
+    and rear of the chassis at ``x_c`` from the rear axle (``models.corner_n``), one linearised row per corner
+    (docs/problem_reference.md).
 
     ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``. The default (the safe profile's, 0.05 m/s^2)
     absorbs what one real-time iteration's linearization leaves where the plan holds the bound: on the safe grid it
@@ -31,6 +39,7 @@ class Bounds:
     a_lat_max: float = 5.0
     v_N_max: float = 15.0
     a_lat_margin: float = 0.05
+    road_bound: str = "rear_axle"
 
     def __post_init__(self) -> None:
         for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
@@ -64,4 +73,10 @@ class Bounds:
             "bounds.n_min",
             self.n_min,
             f"< n_max = {self.n_max}",
+        )
+        check(
+            self.road_bound in ROAD_BOUNDS,
+            "bounds.road_bound",
+            self.road_bound,
+            " or ".join(repr(b) for b in ROAD_BOUNDS),
         )

@@ -13,10 +13,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..ocp import INF, STATE_SCALE, Ocp
+from ..road_rows import BAND_SIDES
 
 # Rows whose bound comes from the road's drivable band (Road.n_min/n_max) at the stage's s when the road has one:
-# row name -> the sides it takes (0: lower <- n_min, 1: upper <- n_max); every such row is n / BAND_SCALE (+ slack).
-BAND_ROW_SIDES = {"bound_n": (0, 1), "road_lo": (0,), "road_hi": (1,)}
+# row name -> the sides it takes (0: lower <- n_min, 1: upper <- n_max); every such row is the rear axle's or a
+# chassis corner's n / BAND_SCALE (+ slack; road_rows).
+BAND_ROW_SIDES = {"bound_n": (0, 1)} | BAND_SIDES
 BAND_SCALE = STATE_SCALE["n"]
 
 

@@ -9,10 +9,11 @@ solver as in the paper's loop; the plant is the same kinematic model. The refere
 n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), per stage during a planned lane change
 (``set_reference_stages``).
 
-The solver's lateral bound is on the ego's reference point (its rear axle), so it gets the drivable band shrunk by
-half the ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners):
-the chassis stays on the road while the bound holds. The problem's road band ``Bounds.n_min``/``n_max`` stays what it
-is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
+The solver's lateral bound (``Bounds.road_bound``) on the chassis' corners gets the drivable band shrunk by
+``CORNER_MARGIN``, at each sample the narrowest of the band over the chassis' length (its rows take the band at the
+rear axle's ``s``); on the rear axle, the band shrunk by half the ego's width plus ``HEADING_MARGIN`` (what a heading
+of up to ~4 degrees adds at the chassis' front corners). The problem's road band ``Bounds.n_min``/``n_max`` stays
+what it is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
 ``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
 """
 
@@ -20,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -31,7 +32,7 @@ from ..dsl import Problem
 from ..ocp import Ocp, build_ocp
 from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
-from .collision_kind import LANE_WINDOW, responsible
+from .commonroad_judge import driven, judge_drive
 from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
 from .plants import PlantSpec
@@ -74,17 +75,30 @@ class CommonRoadRun:
         return bool(self.checker["collision"]) == bool(self.fcgen["collision"])
 
 
-HEADING_MARGIN = 0.25  # m: the band's extra shrink for the chassis' corners at a small heading
+HEADING_MARGIN = 0.25  # m: the rear axle's band's extra shrink for the chassis' corners at a small heading
+CORNER_MARGIN = 0.15  # m: the corners' band's shrink (the linearisation at the previous plan, the samples between)
 LANE_DRIFT = 0.05  # m: the lateral reference follows its lane's centre when it moves more than this
 
 
+def band_inset(problem: Problem) -> float:
+    """How far the solver's band lies inside the drivable band: ``CORNER_MARGIN`` for the chassis' corners, half the
+    ego's width plus ``HEADING_MARGIN`` for its rear axle (``Bounds.road_bound``)."""
+    if problem.bounds.road_bound == "corners":
+        return CORNER_MARGIN
+    return problem.ego.w_ch / 2 + HEADING_MARGIN
+
+
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
-    """The scenario's road with the band the ego's rear axle may use (shrunk by half its width and
-    ``HEADING_MARGIN``), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
+    """The scenario's road with the band the solver's road rows get (``band_inset``; the corners': the narrowest over
+    the chassis' length), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
     most (m, 0: none)."""
-    road, b = sc.road, problem.bounds
-    inset = problem.ego.w_ch / 2 + HEADING_MARGIN
+    from ..commonroad.band import chassis_reach
+
+    road, b, ego = sc.road, problem.bounds, problem.ego
+    inset = band_inset(problem)
     lo0, hi0 = road.n_min + inset, road.n_max - inset
+    if b.road_bound == "corners":
+        lo0, hi0 = chassis_reach(road.s, lo0, hi0, (ego.l - ego.l_ch) / 2, (ego.l + ego.l_ch) / 2)
     lo, hi = np.maximum(lo0, b.n_min), np.minimum(hi0, b.n_max)
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
@@ -118,9 +132,7 @@ def run_commonroad(
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
     its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
     from .. import commonroad as cr
-    from ..commonroad.criticality import criticality
-    from ..commonroad.judge import fcgen_verdict, penetrations
-    from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
+    from ..commonroad.reactive import ReactiveTraffic, check_traffic
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(
@@ -135,19 +147,9 @@ def run_commonroad(
     world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
     loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
-    if world is not None:  # judged on what the vehicles drove
-        sc = world.scenario()
-        sc = replace(sc, scenario=driven_scenario(sc, sc.obstacles))
-    ego = problem.ego
-    ego_cart, centres = _ego_poses(road, loop.xs, ego.l / 2)
-    opp_cart = _obstacle_poses(sc, len(loop.xs))
-    pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
-    who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
-    # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
-    # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
-    crit = criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch)
-    checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
-    own = fcgen_verdict(sc, pen)
+    sc = driven(sc, world)  # judged on what the vehicles drove
+    v = judge_drive(problem, sc, road, loop.xs)
+    checker, own, who, centres = v.checker, v.fcgen, v.responsibility, v.centres
     extra = {
         **_loop_extra(loop, spec, world_plant),
         "commonroad": {
@@ -167,14 +169,14 @@ def run_commonroad(
             "responsibility": who,
             "agree": bool(checker["collision"]) == bool(own["collision"]),
             "unsolved": unsolved_status(loop.results),
-            "goal": goal_status(sc, road, centres, loop.xs),
-            "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
+            "goal": v.goal,
+            "solution": v.solution,
             "traffic": {"mode": "recorded", "reactions": []} if world is None else world.log(),
-            "criticality": crit,
+            "criticality": v.criticality,
         },
     }
-    hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
-    log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, hits, extra)
+    hits = np.asarray((v.pen > 0.0).any(axis=1), dtype=bool)
+    log = _run_log(problem, sc, controller.kind, road, loop, v.ego_cart, v.opp_cart, hits, extra)
     return CommonRoadRun(log, checker, own, who, centres, sc)
 
 
@@ -291,13 +293,14 @@ def _drive(
 
 
 def solver_band(problem: Problem, sc, lanes: list, rule: str):
-    """The rule that makes the solver's band at each sample (``commonroad.band``): the rear axle's band is the lanes'
-    shrunk by half the chassis' width plus ``HEADING_MARGIN``, cut to the problem's ``Bounds``."""
+    """The rule that makes the solver's band at each sample (``commonroad.band``): the lanes' band shrunk by
+    ``band_inset``, cut to the problem's ``Bounds``."""
     from ..commonroad.band import SolverBand
 
     ego, b = problem.ego, problem.bounds
-    inset = ego.w_ch / 2 + HEADING_MARGIN
-    return SolverBand(rule, lanes, sc.road, inset, (b.n_min, b.n_max), ego.l_ch / 2, ego.w_ch / 2, ego.l / 2)
+    corners = b.road_bound == "corners"
+    bounds = (b.n_min, b.n_max)
+    return SolverBand(rule, lanes, sc.road, band_inset(problem), bounds, ego.l_ch / 2, ego.w_ch / 2, ego.l / 2, corners)
 
 
 def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: float, ramp) -> float:
@@ -349,29 +352,6 @@ class _SlotShapes:
         if rc:
             raise ValueError(f"scenario {self.sc.name}: set_opponent_shapes refused at sample {j} (exit code {rc})")
         self.now = key
-
-
-def _ego_poses(road: Road, xs: np.ndarray, half_l: float) -> tuple[np.ndarray, np.ndarray]:
-    """(K + 1, 3) the ego's rear-axle poses [x, y, phi] and its chassis centre poses (half the wheelbase ahead)."""
-    ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
-    ego_cart = np.stack([ex, ey, ephi], axis=1)
-    centres = ego_cart.copy()
-    centres[:, 0] += half_l * np.cos(ephi)
-    centres[:, 1] += half_l * np.sin(ephi)
-    return ego_cart, centres
-
-
-def _obstacle_poses(sc, n_states: int) -> np.ndarray:
-    """(K + 1, O, 3) every obstacle of the scenario at every sample where it is recorded (NaN elsewhere)."""
-    opp_cart = np.full((n_states, len(sc.obstacles), 3), np.nan)
-    for i, ob in enumerate(sc.obstacles):
-        for j in range(n_states):
-            step = sc.first_step + j
-            if ob.static or ob.first_step <= step <= ob.last_step:
-                p = ob.pose(step)
-                if p is not None:
-                    opp_cart[j, i] = p
-    return opp_cart
 
 
 def _run_log(
@@ -441,24 +421,4 @@ def _run_log(
         max_slack=stats["max_slack"],
         ego=dims(ego),
         **loop.planlog.fields(),
-    )
-
-
-def _responsibility(
-    pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray, opp_cart: np.ndarray, dt: float
-) -> str:
-    """The responsibility class of the first contact (``collision_kind.responsible``; "" without one)."""
-    hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
-    if not hit.size:
-        return ""
-    j = int(hit[0])
-    k = int(np.argmax(pen[j]))
-    j0 = max(j - 1, 0)
-    span = max(j - j0, 1) * dt
-    ego_v = (centres[j, :2] - centres[j0, :2]) / span
-    prev = opp_cart[j0, k, :2] if np.all(np.isfinite(opp_cart[j0, k, :2])) else opp_cart[j, k, :2]
-    opp_v = (opp_cart[j, k, :2] - prev) / span
-    w = round(LANE_WINDOW / dt)
-    return responsible(
-        centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )
