@@ -26,6 +26,7 @@ from .options import (
     plant_line,
     plant_options,
     plant_spec,
+    road_bound_option,
     samples_option,
     scenario_option,
     seed_option,
@@ -91,12 +92,9 @@ from .robust import robust_configs, robustness_options
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
-@click.option(
-    "--road-bound",
-    type=click.Choice(("rear_axle", "corners")),
-    default=None,
-    help="what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
-    "problem's own (--controller c: the solver folder's must be it)",
+@road_bound_option(
+    "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
+    "problem's own (--controller c: the solver folder's must be it)"
 )
 @plant_options
 @traffic_option()
@@ -284,6 +282,10 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
+@road_bound_option(
+    "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
+    "corners; default: the presets' (rear_axle)"
+)
 @plant_options
 @traffic_option()
 @delay_option
@@ -307,6 +309,7 @@ def campaign(
     force_report,
     profile,
     cr_dir,
+    road_bound,
     traffic,
     delay,
     **robust,
@@ -317,7 +320,15 @@ def campaign(
     spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
-        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
+        configs = _grid(
+            scenarios,
+            formulations,
+            obstacle_list,
+            controller,
+            backend,
+            profile,
+            (spec, delay, road_bound or "rear_axle"),
+        )
     configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
