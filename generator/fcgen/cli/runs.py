@@ -26,6 +26,7 @@ from .options import (
     plant_line,
     plant_options,
     plant_spec,
+    road_bound_option,
     samples_option,
     scenario_option,
     seed_option,
@@ -91,12 +92,9 @@ from .robust import robust_configs, robustness_options
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
-@click.option(
-    "--road-bound",
-    type=click.Choice(("rear_axle", "corners")),
-    default=None,
-    help="what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
-    "problem's own (--controller c: the solver folder's must be it)",
+@road_bound_option(
+    "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
+    "problem's own (--controller c: the solver folder's must be it)"
 )
 @plant_options
 @traffic_option()
@@ -285,6 +283,10 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
 @campaign_cr_options
+@road_bound_option(
+    "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
+    "corners; default: the presets' (rear_axle)"
+)
 @plant_options
 @traffic_option()
 @delay_option
@@ -310,6 +312,7 @@ def campaign(
     cr_dir,
     scenario_list,
     criticality,
+    road_bound,
     traffic,
     delay,
     **robust,
@@ -320,7 +323,15 @@ def campaign(
     spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
-        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
+        configs = _grid(
+            scenarios,
+            formulations,
+            obstacle_list,
+            controller,
+            backend,
+            profile,
+            (spec, delay, road_bound or "rear_axle"),
+        )
     configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..dsl import Problem
 from ..road import Road
-from .collision_kind import LANE_WINDOW, responsible
+from .collision_kind import LANE_WINDOW, behind_rear, responsible
 from .commonroad_status import _plain, goal_status
 
 
@@ -69,7 +69,7 @@ def judge_drive(
     centres[:, 1] += ego.l / 2 * np.sin(centres[:, 2])
     opp_cart = obstacle_poses(sc, len(xs))
     pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
-    who = responsibility(pen, ego_cart, centres, xs, opp_cart, sc.dt)
+    who = responsibility(pen, ego_cart, centres, xs, opp_cart, sc, road)
     # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
     # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
     crit = measures(sc, centres, xs[:, 3], ego.l_ch, ego.w_ch) if criticality else unmeasured(NOT_MEASURED)
@@ -94,22 +94,36 @@ def obstacle_poses(sc, n_states: int) -> np.ndarray:
 
 
 def responsibility(
-    pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray, opp_cart: np.ndarray, dt: float
+    pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray, opp_cart: np.ndarray, sc, road: Road
 ) -> str:
-    """The responsibility class of the first contact (``collision_kind.responsible``; "" without one)."""
+    """The responsibility class of the first contact (``collision_kind.responsible``; "" without one); the obstacles'
+    lanes kept or not by their centres' n on the ego's ``road``."""
     hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
     if not hit.size:
         return ""
     j = int(hit[0])
     k = int(np.argmax(pen[j]))
     j0 = max(j - 1, 0)
-    span = max(j - j0, 1) * dt
+    span = max(j - j0, 1) * sc.dt
     ego_v = (centres[j, :2] - centres[j0, :2]) / span
     prev = opp_cart[j0, k, :2] if np.all(np.isfinite(opp_cart[j0, k, :2])) else opp_cart[j, k, :2]
     opp_v = (opp_cart[j, k, :2] - prev) / span
-    w = round(LANE_WINDOW / dt)
+    win = slice(max(0, j - round(LANE_WINDOW / sc.dt)), j + 1)
+    seen = opp_cart[win, k]
+    opp_n = np.full(len(seen), np.nan)  # NaN where not recorded: the lane not known kept
+    ok = np.all(np.isfinite(seen), axis=1)
+    if ok.any():
+        opp_n[ok] = road.to_frenet(seen[ok, 0], seen[ok, 1], seen[ok, 2])[1]
+    rear = behind_rear(centres[j, :2], opp_cart[j, k, :2], float(opp_cart[j, k, 2]), 0.5 * sc.obstacles[k].length)
     return responsible(
-        centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
+        centres[j, :2],
+        float(ego_cart[j, 2]),
+        ego_v,
+        opp_cart[j, k, :2],
+        opp_v,
+        xs[win, 1],
+        opp_n_before=opp_n,
+        rear=rear,
     )
 
 
