@@ -12,7 +12,7 @@ import click
 
 from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
-from .commonroad import commonroad_campaign, simulate_commonroad, traffic_option
+from .commonroad import campaign_cr_options, commonroad_campaign, simulate_commonroad, traffic_option
 from .options import (
     cflags_option,
     delay_option,
@@ -282,6 +282,7 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
+@campaign_cr_options
 @road_bound_option(
     "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
     "corners; default: the presets' (rear_axle)"
@@ -309,6 +310,8 @@ def campaign(
     force_report,
     profile,
     cr_dir,
+    scenario_list,
+    criticality,
     road_bound,
     traffic,
     delay,
@@ -334,8 +337,14 @@ def campaign(
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
-        commonroad_campaign(configs, cr_dir, out, cache_dir, jobs, traffic)
+        commonroad_campaign(configs, cr_dir, out, cache_dir, jobs, traffic, scheduler, scenario_list, criticality)
+        if report_dir:
+            from ..report.commonroad import write_cr_report
+
+            click.echo(f"report written to {write_cr_report(out, report_dir, force=force_report)}")
         return
+    if scenario_list or not criticality:
+        fail("--scenario-list and --no-criticality go with --commonroad")
     if traffic != "recorded":
         fail("--traffic goes with --commonroad")
     if report_dir:

@@ -46,11 +46,18 @@ def driven(sc, world) -> object:
     return replace(out, scenario=driven_scenario(out, out.obstacles))
 
 
-def judge_drive(problem: Problem, sc, road: Road, xs: np.ndarray, ego_cart: np.ndarray | None = None) -> Judged:
+NOT_MEASURED = "not measured (criticality off)"
+
+
+def judge_drive(
+    problem: Problem, sc, road: Road, xs: np.ndarray, ego_cart: np.ndarray | None = None, criticality: bool = True
+) -> Judged:
     """Judge the ego's rear-axle states ``xs`` (K + 1, 5: s, n, alpha, v, delta on ``road``) on the driven scenario
-    ``sc``; ``ego_cart``: the rear-axle poses if the driver has them (else from ``xs`` on ``road``)."""
+    ``sc``; ``ego_cart``: the rear-axle poses if the driver has them (else from ``xs`` on ``road``); ``criticality``:
+    False leaves the criticality measures out (their ``error``: ``NOT_MEASURED``)."""
     from .. import commonroad as cr
-    from ..commonroad.criticality import criticality
+    from ..commonroad.criticality import criticality as measures
+    from ..commonroad.criticality import unmeasured
     from ..commonroad.judge import fcgen_verdict, penetrations
 
     ego = problem.ego
@@ -65,7 +72,7 @@ def judge_drive(problem: Problem, sc, road: Road, xs: np.ndarray, ego_cart: np.n
     who = responsibility(pen, ego_cart, centres, xs, opp_cart, sc, road)
     # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
     # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
-    crit = criticality(sc, centres, xs[:, 3], ego.l_ch, ego.w_ch)
+    crit = measures(sc, centres, xs[:, 3], ego.l_ch, ego.w_ch) if criticality else unmeasured(NOT_MEASURED)
     checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
     own = fcgen_verdict(sc, pen)
     solution = _plain(cr.solution_verdict(sc, np.column_stack([centres, xs[:, 3:5]])))

@@ -103,9 +103,12 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
         i = int(np.flatnonzero(lo >= hi)[0])
-        raise ValueError(
+        from ..commonroad import ScenarioRefused
+
+        raise ScenarioRefused(
             f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
-            f"[{b.n_min}, {b.n_max}] m"
+            f"[{b.n_min}, {b.n_max}] m",
+            kind="band outside the bounds",
         )
     return Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, lo, hi), cut
 
@@ -122,21 +125,22 @@ def run_commonroad(
     traffic: str = "recorded",
     band: str = "lanes",
     plant: PlantSpec | None = None,
+    criticality: bool = True,
 ) -> CommonRoadRun:
-    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
-
-    ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
+    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``). ``states``
+    (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
     plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
-    its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
+    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False: not measured."""
     from .. import commonroad as cr
     from ..commonroad.reactive import ReactiveTraffic, check_traffic
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(
-            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s"
+            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s",
+            kind="time step",
         )
     if controller is None:
         ocp = ocp or build_ocp(problem)
@@ -148,7 +152,7 @@ def run_commonroad(
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
     loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
     sc = driven(sc, world)  # judged on what the vehicles drove
-    v = judge_drive(problem, sc, road, loop.xs)
+    v = judge_drive(problem, sc, road, loop.xs, criticality=criticality)
     checker, own, who, centres = v.checker, v.fcgen, v.responsibility, v.centres
     extra = {
         **_loop_extra(loop, spec, world_plant),
