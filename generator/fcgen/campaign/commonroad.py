@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +27,7 @@ ROW_KEYS = (
     "problem",
     "formulation",
     "obstacle_model",
+    "road_bound",
     "controller",
     "traffic",
     "status",
@@ -132,6 +134,7 @@ def run_cr_task(task: CrTask) -> dict:
         problem=pb.name,
         formulation=pb.formulation.kind,
         obstacle_model=pb.obstacles.kind,
+        road_bound=pb.bounds.road_bound,
         controller=cfg.controller,
         traffic=task.traffic,
         status="refused",
@@ -142,7 +145,7 @@ def run_cr_task(task: CrTask) -> dict:
         _check_listed(task)
         row["sha256"] = sha256_of(task.path)
         sc = load_for(pb, task.path)
-        kw = {"traffic": task.traffic, "criticality": task.criticality}
+        kw: dict[str, Any] = {"traffic": task.traffic, "criticality": task.criticality}
         if cfg.controller == "c":
             solver, lock = _solver(lib)
             with lock:

@@ -13,7 +13,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..commonroad.catalog import dataset_of, read_list
+from ..commonroad.catalog import ListedScenario, dataset_of, read_list
 from ..extras import require
 from .commonroad import ROW_KEYS, CrTask, run_cr_task, scenario_files, write_results
 from .grid import Config
@@ -32,6 +32,7 @@ def cr_tasks(
     criticality: bool = True,
 ) -> list[CrTask]:
     """Every scenario (the folder's ``*.xml``, or the list's files looked up in the folder) in every configuration."""
+    files: list[tuple[str, ListedScenario | None]]
     if scenario_list is None:
         files = [(str(f), None) for f in scenario_files(folder)]
     else:
