@@ -48,7 +48,7 @@ KERNELS: dict[str, tuple[str, ...]] = {
         "ipm_stage_equalities",
         "ipm_eq_project",
     ),
-    "stage Hessian, hd (box weights)": ("ipm_stage_hessian", "ipm_hd"),
+    "stage Hessian, hd (box weights)": ("ipm_stage_hessian", "ipm_stage_diag_any", "ipm_hd"),
     "general rows, written out": (
         "ipm_gen_weights",
         "ipm_gen_rows_h",
@@ -119,7 +119,7 @@ KERNELS: dict[str, tuple[str, ...]] = {
         "ipm_direction",
         "ipm_step",
     ),
-    "finiteness tests, max / min": ("ipm_nonfinite", "ipm_max", "ipm_min"),
+    "finiteness tests, max / min": ("ipm_nonfinite", "ipm_dz_nonfinite", "ipm_pk_nonfinite", "ipm_max", "ipm_min"),
     "QP start and result": (
         "qpb_solve",
         "qpb_reset",

@@ -53,6 +53,19 @@ def test_the_paper_grid_has_24_configurations_with_the_papers_obstacle_models():
         Config("car", "lifted", "ellipse", controller="matlab")
 
 
+def test_a_corners_configuration_has_its_own_key_problem_and_row_column():
+    rear, corners = Config("car", "lifted", "ellipse"), Config("car", "lifted", "ellipse", road_bound="corners")
+    assert rear.key == "car/lifted/EL/c/osqp" and corners.key == "car/lifted/EL/c/osqp/corners"
+    assert rear.problem().bounds.road_bound == "rear_axle" and "road_bound" not in rear.as_dict()
+    pb = corners.problem()
+    assert pb.bounds.road_bound == "corners" and corners.as_dict()["road_bound"] == "corners"
+    assert pb.name != rear.problem().name and replace(pb.bounds, road_bound="rear_axle") == rear.problem().bounds
+    grid = paper_grid(["truck"], ["lifted"], ["ellipse"], road_bound="corners")
+    assert [c.road_bound for c in grid] == ["corners"]
+    with pytest.raises(ProblemError, match="road_bound = 'front' is invalid: allowed one of rear_axle, corners"):
+        Config("car", "lifted", "ellipse", road_bound="front")
+
+
 def test_solver_cache_is_keyed_by_the_problem_and_built_once(cache):
     a, b = paper_problem("truck", "lifted", "ellipse"), paper_problem("truck", "direct_elimination", "ellipse")
     assert solver_hash(a) == solver_hash(paper_problem("truck", "lifted", "ellipse"))

@@ -83,3 +83,73 @@ def test_the_truck_ellipse_shortfall_matches_a_grid_of_ego_circles():
     assert 0.3 < gap < 0.4 and worst == pytest.approx(gap, abs=0.02)
     # the car opponent is (nearly) covered
     assert ellipse_shortfall(0.5 * CAR.l_ch, 0.5 * CAR.w_ch, r) < 0.1
+
+
+# responsibility (collision_kind.responsible) of hand-built runs: 1 s at 0.1 s, the first contact at the last
+# sample (asserted), chassis centres given; on the straight road s = x, n = y
+DT, T = 0.1, np.linspace(0.0, 1.0, 11)
+STRAIGHT = Road.from_curvature(np.zeros(200), 2.0)
+
+
+def straight_run(ego_c, ego_phi, opp_c, opp_phi):
+    """``first_collision`` of a car ego and a car opponent given by their chassis centres (11, 2) and headings."""
+    ego = np.array([rear_axle(c, p, CAR) for c, p in zip(ego_c, ego_phi)])
+    opp = np.array([rear_axle(c, p, CAR) for c, p in zip(opp_c, opp_phi)])[:, None]
+    return first_collision(STRAIGHT, ego, dims(CAR), opp, opp.copy(), [dims(CAR)], ego[:, 1], DT)
+
+
+def test_a_lane_kept_rear_end_of_a_slower_car_is_the_egos():
+    # both in lane n = 0, the ego at 20 m/s, the car ahead at 15: the ego's front (20 t + 2) passes the car's rear
+    # (8.7 + 15 t - 2) at t = 0.94: 0.2 m apart at t = 0.9, 0.3 m deep at t = 1
+    info = straight_run(np.c_[20 * T, 0 * T], 0 * T, np.c_[8.7 + 15 * T, 0 * T], 0 * T)
+    assert info.sample == 10 and info.depth == pytest.approx(0.3)
+    assert info.responsibility == "ego_into_opponent"  # both kept their lanes: the ego closed in on its rear
+
+
+def test_a_car_cutting_in_ahead_is_from_the_side():
+    # the ego keeps n = 0 at 20 m/s; the car ahead, at 15 m/s, moves from n = 3.0 to 1.2 in the second (heading
+    # atan(-1.8 / 15)): its rear-right corner (x - 2.10, 0.50) at t = 1 is 0.3 m behind the ego's front (x = 22)
+    b = math.atan2(-1.8, 15.0)
+    info = straight_run(np.c_[20 * T, 0 * T], 0 * T, np.c_[8.8 + 15 * T, 3.0 - 1.8 * T], 0 * T + b)
+    assert info.sample == 10 and info.kind == "rear_corner"  # the ego touches its rear, faster ...
+    assert info.responsibility == "opponent_from_side"  # ... but the car did not keep its lane, the ego did
+
+
+def test_an_opponent_from_behind():
+    # the ego at 15 m/s, a car behind in its lane at 20: its front reaches 0.3 m into the ego's rear at t = 1
+    info = straight_run(np.c_[15 * T, 0 * T], 0 * T, np.c_[-8.7 + 20 * T, 0 * T], 0 * T)
+    assert info.sample == 10 and info.depth == pytest.approx(0.3)
+    assert info.responsibility == "opponent_from_behind"
+
+
+def test_a_lane_change_into_a_car_beside_is_the_egos():
+    # the ego at 20 m/s moves from n = -3.9 to -1.9 (heading atan(2 / 20)) into a car in lane n = 0 beside it, 1 m
+    # ahead, at 20 m/s: a contact on the car's side (the ego's centre ahead of its rear edge), the ego's lane changed
+    a = math.atan2(2.0, 20.0)
+    info = straight_run(np.c_[20 * T, -3.9 + 2.0 * T], 0 * T + a, np.c_[1.0 + 20 * T, 0 * T], 0 * T)
+    assert info.sample == 10
+    assert info.responsibility == "ego_into_opponent"
+
+
+def test_a_truck_front_swept_into_the_egos_lane_is_from_the_side():
+    # a 25 m radius bend (centre on the left); the truck's rear axle in lane n = 0 at 15 m/s, its heading turning
+    # from 0.3 rad left of the lane to along it over the second (it enters the bend): its front-right corner (23 m
+    # ahead of the axle, 2 m right) sweeps out to n = R - hypot(23, R + 2) = -10.36 m. The ego keeps n = -11.31
+    # (its left side 0.3 m inside that corner's last n), its centre level with the corner, at the truck's s rate
+    R, s_opp = 25.0, 100.0
+    road = Road.from_curvature(np.full(200, 1.0 / R), 2.0)
+    x, y, phi = (float(np.ravel(v)[0]) for v in road.to_cartesian(np.array([s_opp]), np.zeros(1), np.zeros(1)))
+    corner = (
+        np.array([x, y])
+        + 23.0 * np.array([math.cos(phi), math.sin(phi)])
+        - 2.0 * np.array([-math.sin(phi), math.cos(phi)])
+    )
+    n_e = R - math.hypot(23.0, R + 2.0) - 0.5 * CAR.w_ch + 0.3
+    s_e = float(road.project(corner[:1], corner[1:])[0]) - 0.5 * CAR.l + 15.0 * (T - 1.0)
+    s_t, alpha_t = s_opp + 15.0 * (T - 1.0), 0.3 * (1.0 - T)
+    opp = np.stack(road.to_cartesian(s_t, 0 * T, alpha_t), axis=1)[:, None]
+    ego = np.stack(road.to_cartesian(s_e, n_e + 0 * T, 0 * T), axis=1)
+    opp_f = np.stack([s_t, 0 * T, alpha_t], axis=1)[:, None]
+    info = first_collision(road, ego, dims(CAR), opp, opp_f, [dims(TRUCK)], n_e + 0 * T, DT)
+    assert info.sample == 10 and info.corner == 1 and info.kind == "swept_front"
+    assert info.responsibility == "opponent_from_side"

@@ -52,14 +52,14 @@ ROWS = [
     ),
     _row("A", "reactive", ttc_ahead_min_s=1.5, reacted=5, reacted_to_ego=2),
     _row("B", "reactive", road_departure=True, reacted=3, reacted_to_ego=1, ttc_ahead_min_s=None),
-    _row("C", "reactive", status="refused", reason="C: no planning problem"),
+    _row("C", "reactive", status="refused", refusal="no planning problem", reason="C: no planning problem"),
 ]
 
 
 def test_the_report_counts_by_traffic_mode_and_names_the_worst_runs():
     md = commonroad_markdown(pd.DataFrame(ROWS, columns=list(ROW_KEYS)))
-    assert "3 scenarios, 1 configurations, traffic reactive, recorded: 4 runs, 1 refused." in md
-    assert "| C: no planning problem | 1 |" in md
+    assert "3 scenarios, 1 configurations, traffic reactive, recorded: 4 runs, 1 refused or failed." in md
+    assert "| no planning problem | reactive | 1 | C: C: no planning problem |" in md
     # recorded: one collision, an opponent from behind; reactive: one departure, 8 vehicles reacted, 3 to the ego
     assert "| car_lifted_ellipse_ipm_safe | recorded | 2 | 0 / 1 / 0 | 0 | 1 | 1 | 0 (0) |" in md
     assert "| car_lifted_ellipse_ipm_safe | reactive | 2 | 0 / 0 / 0 | 1 | 2 | 2 | 8 (3) |" in md

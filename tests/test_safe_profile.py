@@ -202,22 +202,28 @@ def test_sat_clearance_is_minus_the_judges_overlap():
 
 
 def test_responsibility_rule_on_hand_made_contacts():
-    from fcgen.sim.collision_kind import responsible
+    from fcgen.sim.collision_kind import behind_rear, responsible
 
-    kept = np.full(11, 2.0)  # the ego's n over the last second: its lane kept
+    kept = np.full(11, 2.0)  # a Frenet n over the last second: the lane kept
     moved = np.linspace(0.0, 2.0, 11)  # changed its lane by 2 m
     ego_c, east = np.array([0.0, 0.0]), 0.0
     v_ego = np.array([20.0, 0.0])
+
+    def who(opp_c, opp_v, ego_n, opp_n=kept):
+        rear = behind_rear(ego_c, opp_c, math.atan2(opp_v[1], opp_v[0]), 2.0)  # a car: 4 m long
+        return responsible(ego_c, east, v_ego, opp_c, opp_v, ego_n, opp_n_before=opp_n, rear=rear)
+
     # a faster opponent behind the ego: it ran into the ego's rear, whatever the ego's lane
-    assert (
-        responsible(ego_c, east, v_ego, np.array([-4.0, 0.5]), np.array([25.0, 0.0]), moved) == "opponent_from_behind"
-    )
-    # a slower opponent ahead: the ego ran into it (lane kept or not)
-    assert responsible(ego_c, east, v_ego, np.array([4.0, 0.0]), np.array([15.0, 0.0]), moved) == "ego_into_opponent"
-    # beside the ego, the ego kept its lane: the opponent came into it (a swept truck front)
-    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), kept) == "opponent_from_side"
+    assert who(np.array([-4.0, 0.5]), np.array([25.0, 0.0]), moved) == "opponent_from_behind"
+    # a slower opponent ahead in its lane, the ego's front at its rear: the ego ran into it, lane kept or not
+    assert who(np.array([4.0, 0.0]), np.array([15.0, 0.0]), moved) == "ego_into_opponent"
+    assert who(np.array([4.0, 0.0]), np.array([15.0, 0.0]), kept) == "ego_into_opponent"
+    # the same contact with the opponent cutting in (its n moved) and the ego in its lane: the opponent's
+    assert who(np.array([4.0, 0.0]), np.array([15.0, 0.0]), kept, moved) == "opponent_from_side"
+    # beside the ego (the ego's centre ahead of its rear edge), the ego kept its lane: the opponent came into it
+    assert who(np.array([1.0, 2.5]), np.array([15.0, -1.0]), kept) == "opponent_from_side"
     # the same contact after the ego changed lanes: the ego's
-    assert responsible(ego_c, east, v_ego, np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) == "ego_into_opponent"
+    assert who(np.array([1.0, 2.5]), np.array([15.0, -1.0]), moved) == "ego_into_opponent"
 
 
 def _converged_slacks(pb, gap: float, offset: float):

@@ -2,23 +2,26 @@
  * A finiteness test, NaN-aware max/min, Cholesky factor and triangular solves, and the solves with a stage's R_bar
  * over its input blocks (or written out for all inputs: IPM_U_DENSE, u_kernels in the problem header). */
 
-/* 0 times each of v[0 .. n - 1], summed in four independent chains: NaN once one is not finite (a finiteness test
- * whose adds overlap instead of waiting on each other) */
-static ipm_real_t ipm_nonfinite(const ipm_real_t *v, int n) {
+/* 0 times each entry of the step IPM_W.dz, summed in four independent chains: NaN once one is not finite (a
+ * finiteness test whose adds overlap instead of waiting on each other; P_k's own test is ipm_pk_nonfinite) */
+static ipm_real_t ipm_dz_nonfinite(void) {
+  const ipm_real_t *v = IPM_W.dz;
   ipm_real_t s0 = REAL_0;
   ipm_real_t s1 = REAL_0;
   ipm_real_t s2 = REAL_0;
   ipm_real_t s3 = REAL_0;
   int i;
-  for (i = 0; (i + 3) < n; i += 4) {
+  for (i = 0; (i + 3) < IPM_NV; i += 4) {
     s0 += v[i] * REAL_0;
     s1 += v[i + 1] * REAL_0;
     s2 += v[i + 2] * REAL_0;
     s3 += v[i + 3] * REAL_0;
   }
-  for (; i < n; ++i) {
+#if (IPM_NV % 4) != 0 /* the last entries (a loop that never runs would be flagged by gcc once inlined) */
+  for (i = IPM_NV - (IPM_NV % 4); i < IPM_NV; ++i) {
     s0 += v[i] * REAL_0;
   }
+#endif
   return (s0 + s1) + (s2 + s3);
 }
 

@@ -1,6 +1,20 @@
 /* ---- the Newton (KKT) system, stage by stage: its factorization (box weights on the diagonal, each slack eliminated
  * with its rows, the stage equalities by a Schur complement of their own, a Riccati recursion k = N..0) and its
  * solve (the backward sweep's p_k, kk_k; the forward sweep's step) ---- */
+/* stage k's Newton block's diagonal += hd of the slot's variable (hs: the first's), 1 for a slot without one */
+static void ipm_stage_diag_any(int k, const ipm_real_t *hs) {
+  int a;
+  for (a = 0; a < IPM_XU_LO[k]; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+  for (; a < IPM_XU_HI[k]; ++a) {
+    IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
+  }
+  for (; a < IPM_NXU; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+}
+
 /* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
  * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings (the rows' parts written out at a stage
  * IPM_GEN_PAT flags) */
@@ -14,15 +28,13 @@ static void ipm_stage_hessian(int k) {
   ipm_sr_hessian(k);
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
     const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
-    int a;
-    for (a = 0; a < IPM_XU_LO[k]; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
-    }
-    for (; a < IPM_XU_HI[k]; ++a) {
-      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
-    }
-    for (; a < IPM_NXU; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
+    if ((IPM_XU_LO[k] == 0) && (IPM_XU_HI[k] == IPM_NXU)) { /* every slot has a variable (most stages) */
+      int a;
+      for (a = 0; a < IPM_NXU; ++a) {
+        IPM_W.H[a][a] += hs[a];
+      }
+    } else {
+      ipm_stage_diag_any(k, hs);
     }
   }
   IPM_GEN_ROWS(k, ipm_gen_couple_h(k), ipm_couple_h_any(k));
@@ -150,8 +162,8 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  /* every entry of P_k finite? (its upper triangle is never written: 0 since qpb_reset) */
-  return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
+  /* every entry of P_k finite? (its lower triangle: the upper one is never written, 0 since qpb_reset) */
+  return (isfinite(ipm_pk_nonfinite(IPM_W.P[k])) == 0) ? 1 : 0;
 }
 
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals (ipm_check leaves them in
@@ -271,12 +283,14 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);
-    for (i = 0; i < IPM_NX; ++i) {
-      const ipm_real_t v = pd[i] + IPM_W.p[k][i];
-      if (k == 0) {
-        IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
-      } else {
-        IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+    if (k == 0) {
+      for (i = 0; i < IPM_NX; ++i) {
+        IPM_W.gd[IPM_INIT_ROWS[i]] = (-(pd[i] + IPM_W.p[k][i])) / IPM_W.einit[i];
+      }
+    } else { /* the stage's dynamics rows are consecutive (ipm_stage_c) */
+      ipm_real_t *gd = &IPM_W.gd[IPM_DYN_ROWS[(k - 1) * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        gd[i] = (-(pd[i] + IPM_W.p[k][i])) * IPM_W.Einv[k - 1][i];
       }
     }
 #if IPM_NE > 0

@@ -9,6 +9,12 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   const int lo = IPM_XU_LO[k];
   const int hi = IPM_XU_HI[k];
   const ipm_real_t *xs = &x[IPM_XU_V[k]];
+  if ((lo == 0) && (hi == IPM_NXU)) { /* every slot has a variable (most stages): a copy of a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      v[a] = xs[a];
+    }
+    return;
+  }
   for (a = 0; a < lo; ++a) {
     v[a] = REAL_0;
   }
@@ -27,6 +33,12 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x, int sub
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
   }
@@ -39,6 +51,12 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = vs[a];
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = vs[a];
   }
@@ -79,9 +97,18 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
     ipm_real_t f[IPM_NX] = {0};
     ipm_gather_xu(k, x, v);
     ipm_fg_axpy(IPM_W.fgb[k], v, f);
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+    if (IPM_XU_LO[k + 1] == 0) { /* x_{k+1} on consecutive variables, the stage's dynamics rows consecutive */
+      const ipm_real_t *xn = &x[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      ipm_real_t *o = &out[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        o[i] = IPM_W.Ax[en[i]] * (xn[i] - f[i]);
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+      }
     }
   }
 }
@@ -113,10 +140,20 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   for (k = 0; k < IPM_N; ++k) { /* E_i v_i on x_{k+1}[i], -[F G]' (E v) on (x_k, u_k) */
     ipm_real_t w[IPM_NX];
     ipm_real_t g[IPM_NXU] = {0};
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
-      out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+    if (IPM_XU_LO[k + 1] == 0) { /* as in ipm_Ax: x_{k+1}'s variables and the dynamics rows consecutive */
+      ipm_real_t *xn = &out[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      const ipm_real_t *vr = &v[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        w[i] = IPM_W.Ax[en[i]] * vr[i];
+        xn[i] += w[i];
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
+        out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+      }
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
     ipm_add_xu(k, g, out, 1); /* x - g: the x + (-g) of a negation pass, exactly */

@@ -66,25 +66,44 @@ static void ipm_ineq_rows(ipm_real_t *acc) {
   }
 }
 
-/* the equality rows' residuals A z - l in IPM_W.wr; returns their largest magnitude, at least rmax0. Then the
- * dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+/* the equality rows' residuals A z - l in IPM_W.wr (the init rows, the dynamics rows by stage, the stage equality
+ * rows: every equality row once); returns their largest magnitude, at least rmax0. The dynamics rows' residuals
+ * become c_k = -r_eq / E (ipm_stage_c) in the same pass */
 static ipm_real_t ipm_eq_residuals(const ipm_real_t *l, ipm_real_t rmax0) {
   int i;
-  int j;
   int k;
   ipm_real_t rmax = rmax0;
-  for (j = 0; j < IPM_NEQ; ++j) {
-    const int r = IPM_EQ_ALL[j];
-    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
-    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
-      rmax = IPM_FABS(IPM_W.wr[r]);
+  for (i = 0; i < IPM_NX; ++i) {
+    const int r = IPM_INIT_ROWS[i];
+    const ipm_real_t v = IPM_W.wr[r] - l[r];
+    IPM_W.wr[r] = v;
+    if (IPM_FABS(v) > rmax) {
+      rmax = IPM_FABS(v);
     }
   }
   for (k = 0; k < IPM_N; ++k) {
+    const ipm_idx_t *rows = &IPM_DYN_ROWS[k * IPM_NX];
     for (i = 0; i < IPM_NX; ++i) {
-      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
+      const int r = rows[i];
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+      IPM_W.wr[r] = v * (-IPM_W.Einv[k][i]);
     }
   }
+#if IPM_NE > 0
+  for (i = 0; i < ((IPM_N + 1) * IPM_NE1); ++i) {
+    const int r = IPM_EQ_ROW[i];
+    if (r >= 0) {
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      IPM_W.wr[r] = v;
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+    }
+  }
+#endif
   return rmax;
 }
 

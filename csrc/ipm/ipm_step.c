@@ -127,7 +127,7 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  nf = ipm_nonfinite(IPM_W.dz, IPM_NV); /* NaN once an entry of the step is not finite (the soft rows' slacks': 0) */
+  nf = ipm_dz_nonfinite(); /* NaN once an entry of the step is not finite (the soft rows' slacks': 0) */
   if (isfinite(nf) == 0) {
     return IPM_RAW_QP_NONFINITE;
   }

@@ -3761,6 +3761,15 @@ static void ipm_pk(ipm_real_t (*H)[IPM_NXU], ipm_real_t (*W)[IPM_NX], ipm_real_t
   Pk[7][7] = H[7][7] - ((W[0][7] * W[0][7]) + (W[1][7] * W[1][7]));
 }
 
+/* 0 times each entry of P on and below the diagonal, summed: NaN once one is not finite (P_k's finiteness test) */
+static ipm_real_t ipm_pk_nonfinite(ipm_real_t (*P)[IPM_NX]) {
+  const ipm_real_t s0 = ((P[0][0] * REAL_0) + (P[2][1] * REAL_0) + (P[3][2] * REAL_0) + (P[4][2] * REAL_0) + (P[5][1] * REAL_0) + (P[5][5] * REAL_0) + (P[6][3] * REAL_0) + (P[7][0] * REAL_0) + (P[7][4] * REAL_0));
+  const ipm_real_t s1 = ((P[1][0] * REAL_0) + (P[2][2] * REAL_0) + (P[3][3] * REAL_0) + (P[4][3] * REAL_0) + (P[5][2] * REAL_0) + (P[6][0] * REAL_0) + (P[6][4] * REAL_0) + (P[7][1] * REAL_0) + (P[7][5] * REAL_0));
+  const ipm_real_t s2 = ((P[1][1] * REAL_0) + (P[3][0] * REAL_0) + (P[4][0] * REAL_0) + (P[4][4] * REAL_0) + (P[5][3] * REAL_0) + (P[6][1] * REAL_0) + (P[6][5] * REAL_0) + (P[7][2] * REAL_0) + (P[7][6] * REAL_0));
+  const ipm_real_t s3 = ((P[2][0] * REAL_0) + (P[3][1] * REAL_0) + (P[4][1] * REAL_0) + (P[5][0] * REAL_0) + (P[5][4] * REAL_0) + (P[6][2] * REAL_0) + (P[6][6] * REAL_0) + (P[7][3] * REAL_0) + (P[7][7] * REAL_0));
+  return (s0 + s1) + (s2 + s3);
+}
+
 #if IPM_U_DENSE
 /* ---- R's factor and solves at this problem's IPM_NU (u_kernels), for all inputs at once: the generic loops'
  * operations, written out (a block-diagonal R's factor has exact zeros between its blocks) ---- */
@@ -4058,23 +4067,26 @@ static inline void ipm_sr_forward_sums(int j, const ipm_real_t *f, ipm_real_t (*
  * A finiteness test, NaN-aware max/min, Cholesky factor and triangular solves, and the solves with a stage's R_bar
  * over its input blocks (or written out for all inputs: IPM_U_DENSE, u_kernels in the problem header). */
 
-/* 0 times each of v[0 .. n - 1], summed in four independent chains: NaN once one is not finite (a finiteness test
- * whose adds overlap instead of waiting on each other) */
-static ipm_real_t ipm_nonfinite(const ipm_real_t *v, int n) {
+/* 0 times each entry of the step IPM_W.dz, summed in four independent chains: NaN once one is not finite (a
+ * finiteness test whose adds overlap instead of waiting on each other; P_k's own test is ipm_pk_nonfinite) */
+static ipm_real_t ipm_dz_nonfinite(void) {
+  const ipm_real_t *v = IPM_W.dz;
   ipm_real_t s0 = REAL_0;
   ipm_real_t s1 = REAL_0;
   ipm_real_t s2 = REAL_0;
   ipm_real_t s3 = REAL_0;
   int i;
-  for (i = 0; (i + 3) < n; i += 4) {
+  for (i = 0; (i + 3) < IPM_NV; i += 4) {
     s0 += v[i] * REAL_0;
     s1 += v[i + 1] * REAL_0;
     s2 += v[i + 2] * REAL_0;
     s3 += v[i + 3] * REAL_0;
   }
-  for (; i < n; ++i) {
+#if (IPM_NV % 4) != 0 /* the last entries (a loop that never runs would be flagged by gcc once inlined) */
+  for (i = IPM_NV - (IPM_NV % 4); i < IPM_NV; ++i) {
     s0 += v[i] * REAL_0;
   }
+#endif
   return (s0 + s1) + (s2 + s3);
 }
 
@@ -4429,6 +4441,12 @@ static inline void ipm_gather_xu(int k, const ipm_real_t *x, ipm_real_t *v) {
   const int lo = IPM_XU_LO[k];
   const int hi = IPM_XU_HI[k];
   const ipm_real_t *xs = &x[IPM_XU_V[k]];
+  if ((lo == 0) && (hi == IPM_NXU)) { /* every slot has a variable (most stages): a copy of a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      v[a] = xs[a];
+    }
+    return;
+  }
   for (a = 0; a < lo; ++a) {
     v[a] = REAL_0;
   }
@@ -4447,6 +4465,12 @@ static inline void ipm_add_xu(int k, const ipm_real_t *v, ipm_real_t *x, int sub
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = (sub != 0) ? (xs[a] - vs[a]) : (xs[a] + vs[a]);
   }
@@ -4459,6 +4483,12 @@ static inline void ipm_set_xu(int k, const ipm_real_t *v, ipm_real_t *x) {
   const ipm_real_t *vs = &v[lo];
   ipm_real_t *xs = &x[IPM_XU_V[k]];
   int a;
+  if (n == IPM_NXU) { /* every slot has a variable (most stages): a constant length */
+    for (a = 0; a < IPM_NXU; ++a) {
+      xs[a] = vs[a];
+    }
+    return;
+  }
   for (a = 0; a < n; ++a) {
     xs[a] = vs[a];
   }
@@ -4499,9 +4529,18 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
     ipm_real_t f[IPM_NX] = {0};
     ipm_gather_xu(k, x, v);
     ipm_fg_axpy(IPM_W.fgb[k], v, f);
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+    if (IPM_XU_LO[k + 1] == 0) { /* x_{k+1} on consecutive variables, the stage's dynamics rows consecutive */
+      const ipm_real_t *xn = &x[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      ipm_real_t *o = &out[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        o[i] = IPM_W.Ax[en[i]] * (xn[i] - f[i]);
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
+      }
     }
   }
 }
@@ -4533,10 +4572,20 @@ static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out
   for (k = 0; k < IPM_N; ++k) { /* E_i v_i on x_{k+1}[i], -[F G]' (E v) on (x_k, u_k) */
     ipm_real_t w[IPM_NX];
     ipm_real_t g[IPM_NXU] = {0};
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = (k * IPM_NX) + i;
-      w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
-      out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+    if (IPM_XU_LO[k + 1] == 0) { /* as in ipm_Ax: x_{k+1}'s variables and the dynamics rows consecutive */
+      ipm_real_t *xn = &out[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      const ipm_real_t *vr = &v[IPM_DYN_ROWS[k * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        w[i] = IPM_W.Ax[en[i]] * vr[i];
+        xn[i] += w[i];
+      }
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int r = (k * IPM_NX) + i;
+        w[i] = IPM_W.Ax[IPM_DYN_NEXT[r]] * v[IPM_DYN_ROWS[r]];
+        out[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] += w[i];
+      }
     }
     ipm_fg_tdot(IPM_W.fgb[k], w, g);
     ipm_add_xu(k, g, out, 1); /* x - g: the x + (-g) of a negation pass, exactly */
@@ -4927,25 +4976,44 @@ static void ipm_ineq_rows(ipm_real_t *acc) {
   }
 }
 
-/* the equality rows' residuals A z - l in IPM_W.wr; returns their largest magnitude, at least rmax0. Then the
- * dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c) */
+/* the equality rows' residuals A z - l in IPM_W.wr (the init rows, the dynamics rows by stage, the stage equality
+ * rows: every equality row once); returns their largest magnitude, at least rmax0. The dynamics rows' residuals
+ * become c_k = -r_eq / E (ipm_stage_c) in the same pass */
 static ipm_real_t ipm_eq_residuals(const ipm_real_t *l, ipm_real_t rmax0) {
   int i;
-  int j;
   int k;
   ipm_real_t rmax = rmax0;
-  for (j = 0; j < IPM_NEQ; ++j) {
-    const int r = IPM_EQ_ALL[j];
-    IPM_W.wr[r] = IPM_W.wr[r] - l[r];
-    if (IPM_FABS(IPM_W.wr[r]) > rmax) {
-      rmax = IPM_FABS(IPM_W.wr[r]);
+  for (i = 0; i < IPM_NX; ++i) {
+    const int r = IPM_INIT_ROWS[i];
+    const ipm_real_t v = IPM_W.wr[r] - l[r];
+    IPM_W.wr[r] = v;
+    if (IPM_FABS(v) > rmax) {
+      rmax = IPM_FABS(v);
     }
   }
   for (k = 0; k < IPM_N; ++k) {
+    const ipm_idx_t *rows = &IPM_DYN_ROWS[k * IPM_NX];
     for (i = 0; i < IPM_NX; ++i) {
-      IPM_W.wr[IPM_DYN_ROWS[(k * IPM_NX) + i]] *= -IPM_W.Einv[k][i];
+      const int r = rows[i];
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+      IPM_W.wr[r] = v * (-IPM_W.Einv[k][i]);
     }
   }
+#if IPM_NE > 0
+  for (i = 0; i < ((IPM_N + 1) * IPM_NE1); ++i) {
+    const int r = IPM_EQ_ROW[i];
+    if (r >= 0) {
+      const ipm_real_t v = IPM_W.wr[r] - l[r];
+      IPM_W.wr[r] = v;
+      if (IPM_FABS(v) > rmax) {
+        rmax = IPM_FABS(v);
+      }
+    }
+  }
+#endif
   return rmax;
 }
 
@@ -5011,6 +5079,20 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
 /* ---- the Newton (KKT) system, stage by stage: its factorization (box weights on the diagonal, each slack eliminated
  * with its rows, the stage equalities by a Schur complement of their own, a Riccati recursion k = N..0) and its
  * solve (the backward sweep's p_k, kk_k; the forward sweep's step) ---- */
+/* stage k's Newton block's diagonal += hd of the slot's variable (hs: the first's), 1 for a slot without one */
+static void ipm_stage_diag_any(int k, const ipm_real_t *hs) {
+  int a;
+  for (a = 0; a < IPM_XU_LO[k]; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+  for (; a < IPM_XU_HI[k]; ++a) {
+    IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
+  }
+  for (; a < IPM_NXU; ++a) {
+    IPM_W.H[a][a] += IPM_ONE;
+  }
+}
+
 /* stage k's Hessian block IPM_W.H over (x_k, u_k), on and above the diagonal (the factorization reads no other
  * entry): its rows' weights, P + box weights (IPM_W.h), slack couplings (the rows' parts written out at a stage
  * IPM_GEN_PAT flags) */
@@ -5024,15 +5106,13 @@ static void ipm_stage_hessian(int k) {
   ipm_sr_hessian(k);
   { /* the diagonal: hd of the slot's variable, 1 for a slot without one */
     const ipm_real_t *hs = &IPM_W.hd[IPM_XU_V[k]];
-    int a;
-    for (a = 0; a < IPM_XU_LO[k]; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
-    }
-    for (; a < IPM_XU_HI[k]; ++a) {
-      IPM_W.H[a][a] += hs[a - IPM_XU_LO[k]];
-    }
-    for (; a < IPM_NXU; ++a) {
-      IPM_W.H[a][a] += IPM_ONE;
+    if ((IPM_XU_LO[k] == 0) && (IPM_XU_HI[k] == IPM_NXU)) { /* every slot has a variable (most stages) */
+      int a;
+      for (a = 0; a < IPM_NXU; ++a) {
+        IPM_W.H[a][a] += hs[a];
+      }
+    } else {
+      ipm_stage_diag_any(k, hs);
     }
   }
   IPM_GEN_ROWS(k, ipm_gen_couple_h(k), ipm_couple_h_any(k));
@@ -5160,8 +5240,8 @@ static int ipm_factor_stage(int k) {
     return 1;
   }
 #endif
-  /* every entry of P_k finite? (its upper triangle is never written: 0 since qpb_reset) */
-  return (isfinite(ipm_nonfinite(&IPM_W.P[k][0][0], IPM_NX * IPM_NX)) == 0) ? 1 : 0;
+  /* every entry of P_k finite? (its lower triangle: the upper one is never written, 0 since qpb_reset) */
+  return (isfinite(ipm_pk_nonfinite(IPM_W.P[k])) == 0) ? 1 : 0;
 }
 
 /* ---- one Newton direction for the right-hand side IPM_W.h and the equality residuals (ipm_check leaves them in
@@ -5281,12 +5361,14 @@ static void ipm_forward_stage(int k, int duals, const ipm_real_t *dx, const ipm_
   if (duals != 0) { /* the equality rows' multiplier step: -(P_k dx + p_k), scaled */
     ipm_real_t pd[IPM_NX];
     ipm_mv(IPM_W.P[k], dx, pd);
-    for (i = 0; i < IPM_NX; ++i) {
-      const ipm_real_t v = pd[i] + IPM_W.p[k][i];
-      if (k == 0) {
-        IPM_W.gd[IPM_INIT_ROWS[i]] = (-v) / IPM_W.einit[i];
-      } else {
-        IPM_W.gd[IPM_DYN_ROWS[((k - 1) * IPM_NX) + i]] = (-v) * IPM_W.Einv[k - 1][i];
+    if (k == 0) {
+      for (i = 0; i < IPM_NX; ++i) {
+        IPM_W.gd[IPM_INIT_ROWS[i]] = (-(pd[i] + IPM_W.p[k][i])) / IPM_W.einit[i];
+      }
+    } else { /* the stage's dynamics rows are consecutive (ipm_stage_c) */
+      ipm_real_t *gd = &IPM_W.gd[IPM_DYN_ROWS[(k - 1) * IPM_NX]];
+      for (i = 0; i < IPM_NX; ++i) {
+        gd[i] = (-(pd[i] + IPM_W.p[k][i])) * IPM_W.Einv[k - 1][i];
       }
     }
 #if IPM_NE > 0
@@ -5471,7 +5553,7 @@ static int ipm_step(ipm_real_t mu) {
   if (alpha > IPM_ONE) {
     alpha = IPM_ONE;
   }
-  nf = ipm_nonfinite(IPM_W.dz, IPM_NV); /* NaN once an entry of the step is not finite (the soft rows' slacks': 0) */
+  nf = ipm_dz_nonfinite(); /* NaN once an entry of the step is not finite (the soft rows' slacks': 0) */
   if (isfinite(nf) == 0) {
     return IPM_RAW_QP_NONFINITE;
   }

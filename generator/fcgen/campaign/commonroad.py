@@ -9,24 +9,29 @@ refused, the agreement table of the two collision checks, the collisions by resp
 from __future__ import annotations
 
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..commonroad.catalog import HashMismatch, ListedScenario, check_file, dataset_of, sha256_of
 from ..extras import require
 from .grid import Config
 
 ROW_KEYS = (
     "scenario",
+    "dataset",
     "file",
+    "sha256",
     "problem",
     "formulation",
     "obstacle_model",
+    "road_bound",
     "controller",
     "traffic",
     "status",
+    "refusal",
     "reason",
     "samples",
     "progress_m",
@@ -71,6 +76,7 @@ ROW_KEYS = (
     "criticality_error",
     "criticality_skipped",
     "wall_s",
+    "cpu_s",
 )
 
 
@@ -82,6 +88,8 @@ class CrTask:
     path: str
     cache_dir: str
     traffic: str = "recorded"  # or "reactive" (commonroad.reactive)
+    listed: ListedScenario | None = None  # the scenario list's row: the file must have its hash
+    criticality: bool = True  # the criticality measures (commonroad-crime: most of a run's time)
 
 
 def scenario_files(folder: str | Path) -> list[Path]:
@@ -121,29 +129,33 @@ def run_cr_task(task: CrTask) -> dict:
     row = dict.fromkeys(ROW_KEYS)
     row.update(
         scenario=Path(task.path).stem,
+        dataset=dataset_of(task.path),
         file=Path(task.path).name,
         problem=pb.name,
         formulation=pb.formulation.kind,
         obstacle_model=pb.obstacles.kind,
+        road_bound=pb.bounds.road_bound,
         controller=cfg.controller,
         traffic=task.traffic,
         status="refused",
         reason="",
     )
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
+        _check_listed(task)
+        row["sha256"] = sha256_of(task.path)
         sc = load_for(pb, task.path)
+        kw: dict[str, Any] = {"traffic": task.traffic, "criticality": task.criticality}
         if cfg.controller == "c":
             solver, lock = _solver(lib)
             with lock:
                 if solver.init():
                     raise RuntimeError(f"{pb.name}_init() failed")
-                run = run_commonroad(pb, sc, controller=solver, traffic=task.traffic)
+                run = run_commonroad(pb, sc, controller=solver, **kw)
         else:
-            run = run_commonroad(pb, sc, ocp=_ocp(pb), traffic=task.traffic)
+            run = run_commonroad(pb, sc, ocp=_ocp(pb), **kw)
     except ScenarioRefused as exc:
-        row["reason"] = str(exc)
-        row["wall_s"] = time.perf_counter() - t0
+        row.update(refusal=exc.kind, reason=str(exc), wall_s=time.perf_counter() - t0, cpu_s=time.process_time() - c0)
         return row
     log = run.log
     cr = log.meta["extra"]["commonroad"]
@@ -174,9 +186,26 @@ def run_cr_task(task: CrTask) -> dict:
         **traffic_fields(cr),
         **criticality_fields(cr),
         wall_s=time.perf_counter() - t0,
+        cpu_s=time.process_time() - c0,  # the worker's CPU: what a run costs on a machine not shared
     )
     row["nonfinite"] = nonfinite_fields(row)
     return row
+
+
+def _check_listed(task: CrTask) -> None:
+    """A listed scenario's file must be in the cache with the list's hash (else ``ScenarioRefused``, kind ``not in
+    the cache`` or ``hash differs``)."""
+    from ..commonroad import ScenarioRefused
+
+    if task.listed is None:
+        return
+    if not Path(task.path).is_file():
+        where = Path(task.path).parent
+        raise ScenarioRefused(f"{task.listed.file}: not in the scenario cache {where}", kind="not in the cache")
+    try:
+        check_file(task.path, task.listed)
+    except HashMismatch as exc:
+        raise ScenarioRefused(str(exc), kind="hash differs") from None
 
 
 def goal_fields(cr: dict) -> dict:
@@ -255,37 +284,6 @@ def _step(v) -> int:
     return -1 if v is None else int(v)
 
 
-def run_cr_campaign(
-    configs: list[Config],
-    folder: str | Path,
-    out: str | Path,
-    cache_dir: str,
-    jobs: int = 2,
-    echo=print,
-    traffic: str = "recorded",
-) -> list[dict]:
-    """Every scenario of ``folder`` in every configuration in ``traffic`` (``recorded`` or ``reactive``); writes the
-    rows and the summary into ``out``."""
-    from ..commonroad.reactive import check_traffic
-
-    check_traffic(traffic)
-    from .task import build_solver
-
-    files = scenario_files(folder)
-    for cfg in configs:  # compiled once, before the workers share the cache
-        if cfg.controller == "c":
-            build_solver(cfg, cache_dir)
-    tasks = [CrTask(cfg, str(f), cache_dir, traffic) for cfg in configs for f in files]
-    echo(f"{len(files)} scenarios x {len(configs)} configurations = {len(tasks)} runs ({jobs} processes)")
-    if jobs > 1:
-        with ProcessPoolExecutor(jobs) as ex:
-            rows = list(ex.map(run_cr_task, tasks))
-    else:
-        rows = [run_cr_task(t) for t in tasks]
-    write_results(rows, out)
-    return rows
-
-
 def write_results(rows: list[dict], out: str | Path) -> Path:
     """``commonroad.parquet``, ``commonroad.csv`` and the summary ``commonroad.md`` into ``out``."""
     with require("campaign", "the CommonRoad campaign's tables"):
@@ -299,12 +297,18 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
         key = ["scenario", "problem", "controller", "traffic"]
         old = old.reindex(columns=list(ROW_KEYS))
         old["traffic"] = old["traffic"].fillna("recorded")
+        old["dataset"] = old["dataset"].fillna(old["scenario"].map(dataset_of))
         new_keys = set(map(tuple, df[key].astype(str).values))
         old = old[[tuple(k) not in new_keys for k in old[key].astype(str).values]]
         df = pd.concat([old, df], ignore_index=True) if len(old) else df
-    df.to_parquet(o / "commonroad.parquet", index=False)
-    df.to_csv(o / "commonroad.csv", index=False)
-    (o / "commonroad.md").write_text(summary_markdown(df))
+    for name, write in (
+        ("commonroad.parquet", lambda t: df.to_parquet(t, index=False)),
+        ("commonroad.csv", lambda t: df.to_csv(t, index=False)),
+        ("commonroad.md", lambda t: t.write_text(summary_markdown(df))),
+    ):  # each file whole or not at all: a campaign killed while writing resumes from the last complete one
+        tmp = o / f".{name}.tmp"
+        write(tmp)
+        tmp.replace(o / name)
     return o / "commonroad.md"
 
 
@@ -329,17 +333,21 @@ def unsolved_lines(ran) -> list[str]:
 
 def summary_markdown(df) -> str:
     """Scenarios run / refused (reasons), the agreement of the two collision checks, collisions by responsibility."""
-    ran, refused = df[df.status == "ran"], df[df.status == "refused"]
+    ran, refused = df[df.status == "ran"], df[df.status != "ran"]
     lines = [
         "# CommonRoad scenarios",
         "",
         f"{df.scenario.nunique()} scenarios x {df.problem.nunique()} configurations: {len(ran)} runs, "
-        f"{len(refused)} refused.",
+        f"{len(refused)} refused or failed.",
         "",
     ]
     if len(refused):
-        lines += ["## Refused", "", "| scenario | configuration | reason |", "|---|---|---|"]
-        lines += [f"| {r.scenario} | {r.problem} | {r.reason} |" for r in refused.itertuples()]
+        lines += ["## Refused or failed", "", "| scenario | configuration | traffic | kind | reason |"]
+        lines.append("|---|---|---|---|---|")
+        lines += [
+            f"| {r.scenario} | {r.problem} | {r.traffic} | {r.refusal or 'other'} | {r.reason} |"
+            for r in refused.itertuples()
+        ]
         lines.append("")
     if len(ran):
         a = ran.collision_fcgen.astype(bool)

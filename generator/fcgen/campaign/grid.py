@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
+from ..dsl.bounds import ROAD_BOUNDS
 from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
 from ..sim.plants import PlantSpec
 
@@ -30,6 +31,7 @@ class Config:
     profile: str = "paper"  # paper | safe (fcgen.presets.PROFILES): the same seed's scenario in both
     plant: PlantSpec = field(default_factory=PlantSpec)  # the plant, its perturbations (docs/plants.md)
     delay: int = 0  # the solvers' delay compensation (Problem.delay), samples
+    road_bound: str = "rear_axle"  # what the road band bounds (Bounds.road_bound): rear_axle | corners
 
     def __post_init__(self) -> None:
         if not isinstance(self.plant, PlantSpec):
@@ -40,6 +42,7 @@ class Config:
         _one_of("obstacles", self.obstacles, OBSTACLE_NAMES)
         _one_of("controller", self.controller, CONTROLLERS)
         _one_of("backend", self.backend, BACKENDS)
+        _one_of("road_bound", self.road_bound, ROAD_BOUNDS)
         if (self.obstacles == "circles") != (self.circles > 0):
             raise ProblemError(
                 f"circles = {self.circles} is invalid: allowed >= 1 with obstacles = 'circles', 0 otherwise"
@@ -56,7 +59,8 @@ class Config:
         key = f"{self.scenario}/{self.formulation}/{self.model}/{self.controller}/{self.backend}"
         key = key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
         key = key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
-        return key if not self.delay else f"{key}/comp{self.delay}"
+        key = key if not self.delay else f"{key}/comp{self.delay}"
+        return key if self.road_bound == "rear_axle" else f"{key}/{self.road_bound}"  # as before the corners
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -79,15 +83,19 @@ class Config:
             from ..sim.plants.commonroad_vm import matched_problem
 
             pb = matched_problem(pb, "matched")
+        if self.road_bound != "rear_axle":
+            pb = pb.with_(bounds=replace(pb.bounds, road_bound=self.road_bound), name=f"{pb.name}_cb"[:31])
         return pb.with_(delay=self.delay, name=f"{pb.name}_d{self.delay}"[:31]) if self.delay else pb
 
     def as_dict(self) -> dict:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
         ``latency``, ``steer_lag``, ``noise`` and ``prediction`` when predicted (a default run's row has none
         of them, as before the plants)."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay")}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay", "road_bound")}
         if self.delay:
             d["delay"] = self.delay
+        if self.road_bound != "rear_axle":  # the rows of the rear axle's bound: as before the corners
+            d["road_bound"] = self.road_bound
         if not self.plant.is_default:
             p = asdict(self.plant)
             d.update(
@@ -135,6 +143,7 @@ def paper_grid(
     profile: str = "paper",
     plant: PlantSpec | None = None,
     delay: int = 0,
+    road_bound: str = "rear_axle",
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -143,7 +152,9 @@ def paper_grid(
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec(), delay))
+                    out.append(
+                        Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec(), delay, road_bound)
+                    )
     return out
 
 

@@ -38,6 +38,24 @@ def traffic_option(default: str | None = "recorded", what: str = "") -> Callable
     )
 
 
+def campaign_cr_options(f: Callable[..., Any]) -> Any:
+    """``campaign``'s ``--scenario-list`` and ``--criticality/--no-criticality`` (with ``--commonroad``)."""
+    f = click.option(
+        "--criticality/--no-criticality",
+        default=True,
+        show_default=True,
+        help="with --commonroad: the criticality measures (commonroad-crime; most of a run's time)",
+    )(f)
+    return click.option(
+        "--scenario-list",
+        type=click.Path(dir_okay=False, exists=True),
+        default=None,
+        help="with --commonroad DIR: run the files of this list (CSV: file, dataset, sha256, ...; "
+        "docs/commonroad/commonroad_search_scenarios.csv) found in DIR; a file missing or with another hash is "
+        "refused and counted",
+    )(f)
+
+
 def simulate_commonroad(
     pb,
     cr_file,
@@ -137,21 +155,43 @@ def _verdict(v: dict) -> str:
 
 
 def commonroad_campaign(
-    configs: list, cr_dir: str, out: str, cache_dir: str, jobs: int, traffic: str = "recorded"
+    configs: list,
+    cr_dir: str,
+    out: str,
+    cache_dir: str,
+    jobs: int,
+    traffic: str = "recorded",
+    scheduler: str | None = None,
+    scenario_list: str | None = None,
+    criticality: bool = True,
 ) -> None:
-    """``campaign --commonroad``: every scenario of the folder in every configuration; the agreement printed."""
-    from ..campaign.commonroad import run_cr_campaign
+    """``campaign --commonroad``: every scenario of the folder (or of the list) in every configuration, resumable;
+    the agreement and the refusals by reason printed."""
+    from collections import Counter
+
+    from ..campaign.cr_run import run_cr_campaign
 
     try:
         rows = run_cr_campaign(
-            configs, cr_dir, out, str(Path(cache_dir).resolve()), jobs=jobs, echo=click.echo, traffic=traffic
+            configs,
+            cr_dir,
+            out,
+            str(Path(cache_dir).resolve()),
+            jobs=jobs,
+            echo=click.echo,
+            traffic=traffic,
+            scenario_list=scenario_list,
+            scheduler=scheduler,
+            criticality=criticality,
         )
     except ValueError as exc:
         fail(str(exc))
     ran = [r for r in rows if r["status"] == "ran"]
+    why = Counter(r["refusal"] or "other" for r in rows if r["status"] != "ran")
     click.echo(
-        f"{len(ran)} runs, {len(rows) - len(ran)} refused; collisions fcgen "
-        f"{sum(r['collision_fcgen'] for r in ran)}, "
-        f"checker {sum(r['collision_checker'] for r in ran)}, agreement {sum(r['agree'] for r in ran)} of "
-        f"{len(ran)}; summary {Path(out) / 'commonroad.md'}"
+        f"{len(ran)} runs, {len(rows) - len(ran)} refused or failed"
+        + (f" ({', '.join(f'{k} {v}' for k, v in why.most_common())})" if why else "")
+        + f"; collisions fcgen {sum(bool(r['collision_fcgen']) for r in ran)}, "
+        f"checker {sum(bool(r['collision_checker']) for r in ran)}, agreement {sum(bool(r['agree']) for r in ran)} "
+        f"of {len(ran)}; summary {Path(out) / 'commonroad.md'}"
     )

@@ -290,3 +290,10 @@ def delay_option(f: Callable[..., Any]) -> Callable[..., Any]:
         show_default=True,
         help="generate the solvers with delay compensation of this many samples (Problem.delay; docs/plants.md)",
     )(f)
+
+
+def road_bound_option(help: str) -> Decorator:
+    """``--road-bound``: what the road band bounds (``Bounds.road_bound``)."""
+    from ..dsl.bounds import ROAD_BOUNDS
+
+    return click.option("--road-bound", type=click.Choice(ROAD_BOUNDS), default=None, help=help)

@@ -12,7 +12,7 @@ import click
 
 from ..dsl import ProblemError
 from ..presets import FORMULATIONS, OBSTACLES, SCENARIOS, load_problem, paper_problem
-from .commonroad import commonroad_campaign, simulate_commonroad, traffic_option
+from .commonroad import campaign_cr_options, commonroad_campaign, simulate_commonroad, traffic_option
 from .options import (
     cflags_option,
     delay_option,
@@ -26,6 +26,7 @@ from .options import (
     plant_line,
     plant_options,
     plant_spec,
+    road_bound_option,
     samples_option,
     scenario_option,
     seed_option,
@@ -91,12 +92,9 @@ from .robust import robust_configs, robustness_options
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
-@click.option(
-    "--road-bound",
-    type=click.Choice(("rear_axle", "corners")),
-    default=None,
-    help="what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
-    "problem's own (--controller c: the solver folder's must be it)",
+@road_bound_option(
+    "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
+    "problem's own (--controller c: the solver folder's must be it)"
 )
 @plant_options
 @traffic_option()
@@ -284,6 +282,11 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     help="run every CommonRoad scenario (*.xml) of this folder in every configuration instead of the seeds "
     "(rows, agreement of the collision checks and a summary into --out: docs/commonroad.md)",
 )
+@campaign_cr_options
+@road_bound_option(
+    "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
+    "corners; default: the presets' (rear_axle)"
+)
 @plant_options
 @traffic_option()
 @delay_option
@@ -307,6 +310,9 @@ def campaign(
     force_report,
     profile,
     cr_dir,
+    scenario_list,
+    criticality,
+    road_bound,
     traffic,
     delay,
     **robust,
@@ -317,14 +323,28 @@ def campaign(
     spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
         warnings.simplefilter("always")
-        configs = _grid(scenarios, formulations, obstacle_list, controller, backend, profile, (spec, delay))
+        configs = _grid(
+            scenarios,
+            formulations,
+            obstacle_list,
+            controller,
+            backend,
+            profile,
+            (spec, delay, road_bound or "rear_axle"),
+        )
     configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
     if cr_dir:
-        commonroad_campaign(configs, cr_dir, out, cache_dir, jobs, traffic)
+        commonroad_campaign(configs, cr_dir, out, cache_dir, jobs, traffic, scheduler, scenario_list, criticality)
+        if report_dir:
+            from ..report.commonroad import write_cr_report
+
+            click.echo(f"report written to {write_cr_report(out, report_dir, force=force_report)}")
         return
+    if scenario_list or not criticality:
+        fail("--scenario-list and --no-criticality go with --commonroad")
     if traffic != "recorded":
         fail("--traffic goes with --commonroad")
     if report_dir:

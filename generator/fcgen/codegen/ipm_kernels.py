@@ -81,7 +81,8 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
     constant: a loop of 8 costs more in counting than in multiplying on a Cortex-M). ``mv``: y = P x (NX x NX, its
     lower triangle read); ``wx``: y = W1 x (NU x NX); ``q_wtx``: y = q - W1' x (p_k straight from the kernel: no
     copy that reads back values just stored); ``pk``: Pk = H[x][x] - W1' W1 on and below the diagonal (H's upper
-    triangle read)."""
+    triangle read); ``pk_nf``: 0 times each entry of P's lower triangle (all the factorization writes), summed in four
+    chains: NaN once one is not finite."""
     pxs = [_c_sum([f"({_lower('P', i, j)} * x[{j}])" for j in range(nx)]) for i in range(nx)]  # (P x)[i]
     mv = [f"y[{i}] = {pxs[i]};" for i in range(nx)]
     wx = [f"y[{i}] = {_c_sum([f'(W[{i}][{j}] * x[{j}])' for j in range(nx)])};" for i in range(nu)]
@@ -96,7 +97,17 @@ def dense_kernels(nx: int, nu: int) -> dict[str, str]:
         for i in range(nx)
         for ln in (f"const ipm_real_t y{i} = {pxs[i]};", f"y[{i}] = y{i};", f"z[{i}] = y{i} + a[{i}];")
     ]
-    return {k: "\n  ".join(v) for k, v in (("mv", mv), ("mv_add", mv_add), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk))}
+    low = [f"P[{i}][{j}]" for i in range(nx) for j in range(i + 1)]  # P_k's finiteness test: 0 x each, 4 chains
+    chains = [low[c::4] for c in range(4)]
+    pk_nf = [
+        f"const ipm_real_t s{c} = {_c_sum([f'({e} * REAL_0)' for e in ch]) if ch else 'REAL_0'};"
+        for c, ch in enumerate(chains)
+    ]
+    pk_nf.append("return (s0 + s1) + (s2 + s3);")
+    return {
+        k: "\n  ".join(v)
+        for k, v in (("mv", mv), ("mv_add", mv_add), ("wx", wx), ("q_wtx", q_wtx), ("pk", pk), ("pk_nf", pk_nf))
+    }
 
 
 def u_kernels(nu: int, nx: int) -> dict[str, str]:

@@ -134,16 +134,21 @@ def _value(measure, other: int, step: int, skipped: dict[str, int]) -> float:
         return math.inf
 
 
+def unmeasured(error: str) -> dict:
+    """``criticality``'s result for a run not measured (``error`` says why)."""
+    out: dict = {m: {"min": None, "obstacle": None, "sample": None} for m in MEASURES}
+    out["series"], out["error"] = {m: [] for m in MEASURES}, error
+    return out
+
+
 def criticality(sc, centres: np.ndarray, speeds: np.ndarray, length: float, width: float) -> dict:
     """The run's measures: per name of ``MEASURES`` ``{"min": s or None (infinite), "obstacle": id, "sample": j}``,
     the per-sample minima ``series`` (None: infinite), ``skipped`` (the values CriMe could not compute, by exception)
     and ``error`` ("" when measured)."""
-    out: dict = {m: {"min": None, "obstacle": None, "sample": None} for m in MEASURES}
-    series: dict[str, list] = {m: [] for m in MEASURES}
-    out["series"], out["error"] = series, ""
+    out = unmeasured("")
+    series: dict[str, list] = out["series"]
     if importlib.util.find_spec("commonroad_crime") is None:
-        out["error"] = NOT_INSTALLED
-        return out
+        return unmeasured(NOT_INSTALLED)
     with require("commonroad", "the criticality measures (commonroad-crime)"):
         from commonroad_crime.data_structure.configuration import CriMeConfiguration
 

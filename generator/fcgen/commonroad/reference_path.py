@@ -43,7 +43,8 @@ def initial_lanelet(net, xy, heading: float) -> int:
     """The lanelet holding the ego's start (of several: heading nearest the ego's)."""
     ids = net.find_lanelet_by_position([np.asarray(xy, dtype=float)])[0]
     if not ids:
-        raise ScenarioRefused(f"no lanelet at the ego's start ({xy[0]:.1f}, {xy[1]:.1f})")
+        where = f"({xy[0]:.1f}, {xy[1]:.1f})"
+        raise ScenarioRefused(f"no lanelet at the ego's start {where}", kind="no lanelet at the start")
 
     return min(ids, key=lambda lid: (abs(math.remainder(lanelet_heading(net, lid, xy) - heading, 2 * math.pi)), lid))
 
@@ -163,7 +164,8 @@ def build_road(
     if dev > MAX_DEVIATION:
         raise ScenarioRefused(
             f"the reference path's integrated centre line leaves the lanelets' by {dev:.2f} m "
-            f"(allowed {MAX_DEVIATION} m)"
+            f"(allowed {MAX_DEVIATION} m)",
+            kind="path not followed",
         )
     n_min, n_max = drivable_band(net, road)
     road = Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, n_min, n_max)
@@ -225,7 +227,7 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
             lo[i], hi[i] = edge(i, -1.0), edge(i, 1.0)
     ok = np.flatnonzero(np.isfinite(lo))
     if not ok.size:
-        raise ScenarioRefused("the reference path lies on no lanelet")
+        raise ScenarioRefused("the reference path lies on no lanelet", kind="path not followed")
     for gap in np.flatnonzero(~np.isfinite(lo)):  # held from the nearest sample on the lanelets
         j = ok[np.argmin(np.abs(ok - gap))]
         lo[gap], hi[gap] = lo[j], hi[j]

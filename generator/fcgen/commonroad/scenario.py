@@ -23,6 +23,7 @@ import numpy as np
 from ..dsl import Vehicle
 from ..extras import require
 from ..road import Road
+from .drivable import check_drivable
 from .goal import goal_centres, goal_frenet, goal_speed, speed_limit
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
@@ -73,21 +74,15 @@ def load_scenario(
     scenario, pp, planning_problem_id = _read(path, planning_problem_id)
     name = str(scenario.scenario_id)
     dt = float(scenario.dt)
-    obstacles = tuple(
-        obstacle_from(ob, dt)
-        for ob in sorted(
-            list(scenario.dynamic_obstacles) + list(scenario.static_obstacles), key=lambda o: o.obstacle_id
-        )
-    )
+    listed = sorted([*scenario.dynamic_obstacles, *scenario.static_obstacles], key=lambda o: o.obstacle_id)
+    obstacles = tuple(obstacle_from(ob, dt) for ob in listed)
     st = pp.initial_state
     heading = float(st.orientation)
     centre = np.asarray(st.position, dtype=float)
     rear = centre - (ego.l / 2) * np.array([math.cos(heading), math.sin(heading)])
     net = scenario.lanelet_network
     first = initial_lanelet(net, centre, heading)
-    goals = set()
-    for ids in (pp.goal.lanelets_of_goal_position or {}).values():
-        goals |= set(ids)
+    goals = {lid for ids in (pp.goal.lanelets_of_goal_position or {}).values() for lid in ids}
     v0 = float(getattr(st, "velocity", 0.0) or 0.0)
     limit = speed_limit(net, first)
     ahead = [float(np.hypot(*(c - centre))) for c in goal_centres(pp)]
@@ -107,10 +102,13 @@ def load_scenario(
     if info["path_ahead_m"] < horizon_m:
         raise ScenarioRefused(
             f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "
-            f"shorter than the horizon's {horizon_m:.0f} m"
+            f"shorter than the horizon's {horizon_m:.0f} m",
+            kind="path shorter than the horizon",
         )
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
+    reach_m, steps = samples * dt * max(v0, v_ref) + horizon_m, range(step0, step0 + samples + 1)
+    check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps)  # docs: what fcgen can drive
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,
@@ -148,16 +146,21 @@ def _read(path: str | Path, planning_problem_id: int | None):
     except Exception as exc:  # noqa: BLE001 - whatever commonroad-io raises on a file it cannot read
         raise ScenarioRefused(
             f"{Path(path).name}: not a readable CommonRoad file ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+            f"{str(exc).splitlines()[0] if str(exc) else ''})",
+            kind="unreadable file",
         ) from None
     name = str(scenario.scenario_id)
     problems = pps.planning_problem_dict
     if not problems:
-        raise ScenarioRefused(f"{name}: no planning problem")
+        raise ScenarioRefused(f"{name}: no planning problem", kind="no planning problem")
     if planning_problem_id is None:
         planning_problem_id = sorted(problems)[0]
     if planning_problem_id not in problems:
-        raise ScenarioRefused(f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})")
+        raise ScenarioRefused(
+            f"{name}: no planning problem {planning_problem_id} (it has {sorted(problems)})", kind="no planning problem"
+        )
+    if not problems[planning_problem_id].goal.state_list:
+        raise ScenarioRefused(f"{name}: planning problem {planning_problem_id} has no goal state", kind="no goal")
     return scenario, problems[planning_problem_id], planning_problem_id
 
 

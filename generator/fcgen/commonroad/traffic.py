@@ -34,7 +34,39 @@ NEUTRAL_DISTANCE = 1000.0
 
 
 class ScenarioRefused(ValueError):
-    """A scenario fcgen cannot drive; the message is one line naming the reason."""
+    """A scenario fcgen cannot drive; the message is one line naming the reason, ``kind`` the reason's class (one
+    of ``REFUSAL_KINDS``: the campaign counts refusals by it)."""
+
+    def __init__(self, message: str, kind: str = "other") -> None:
+        if kind not in REFUSAL_KINDS:
+            raise ValueError(f"ScenarioRefused kind {kind!r} is invalid: allowed {', '.join(REFUSAL_KINDS)}")
+        super().__init__(message)
+        self.kind = kind
+
+    def __reduce__(self):  # pickled with its kind (a worker's refusal reaches the campaign's process)
+        return (type(self), (str(self), self.kind))
+
+
+#: the classes of reasons a scenario is refused for (docs/commonroad.md, "What a scenario becomes")
+REFUSAL_KINDS = (
+    "hash differs",
+    "not in the cache",
+    "unreadable file",
+    "no planning problem",
+    "no goal",
+    "no lanelet at the start",
+    "goal unreachable",
+    "intersection",
+    "oncoming traffic",
+    "non-rectangular obstacle",
+    "set-based prediction",
+    "non-consecutive recording",
+    "path shorter than the horizon",
+    "path not followed",
+    "band outside the bounds",
+    "time step",
+    "other",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,19 +108,25 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
 
     shape = ob.obstacle_shape
     if not isinstance(shape, Rectangle):
-        raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle")
+        raise ScenarioRefused(
+            f"obstacle {ob.obstacle_id}: its shape is a {type(shape).__name__}, not a rectangle",
+            kind="non-rectangular obstacle",
+        )
     states = [ob.initial_state]
     static = isinstance(ob, StaticObstacle)
     if not static and ob.prediction is not None and not hasattr(ob.prediction, "trajectory"):
         raise ScenarioRefused(
-            f"obstacle {ob.obstacle_id}: a {type(ob.prediction).__name__} (occupancy sets, not a recorded trajectory)"
+            f"obstacle {ob.obstacle_id}: a {type(ob.prediction).__name__} (occupancy sets, not a recorded trajectory)",
+            kind="set-based prediction",
         )
     if not static and ob.prediction is not None and hasattr(ob.prediction, "trajectory"):
         states += [s for s in ob.prediction.trajectory.state_list if s.time_step > ob.initial_state.time_step]
     states.sort(key=lambda s: s.time_step)
     steps = [int(s.time_step) for s in states]
     if steps != list(range(steps[0], steps[0] + len(steps))):
-        raise ScenarioRefused(f"obstacle {ob.obstacle_id}: its recorded time steps are not consecutive")
+        raise ScenarioRefused(
+            f"obstacle {ob.obstacle_id}: its recorded time steps are not consecutive", kind="non-consecutive recording"
+        )
     centres = np.array(
         [[float(s.position[0]), float(s.position[1]), float(getattr(s, "orientation", 0.0) or 0.0)] for s in states]
     )

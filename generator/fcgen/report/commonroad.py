@@ -1,7 +1,8 @@
 """``fcgen report`` of a CommonRoad campaign (a results folder holding ``commonroad.parquet``): per configuration and
 traffic mode the runs, the scenarios refused, the collisions by responsibility, the road departures after an on-road
 start, the goal, the valid solutions, the vehicles that reacted, and the criticality measures' distributions with the
-worst runs named (docs/commonroad.md)."""
+worst runs named; per data set (the scenarios' location, ``USA_US101``) and traffic mode the same with the refusals by
+reason and the time per cycle (docs/commonroad.md)."""
 
 from __future__ import annotations
 
@@ -53,6 +54,46 @@ def outcome_table(ran) -> list[str]:
     return [*lines, ""]
 
 
+def dataset_table(df) -> list[str]:
+    """Per data set and traffic mode: runs, refused (by reason), collisions by responsibility, departures after the
+    ego was on the road, goal reached, valid solutions, the smallest and the median TTC ahead, the median time per
+    cycle (RTI) and the mean CPU time per run (its wall time for rows without it)."""
+    lines = [
+        "| data set | traffic | scenarios | runs | refused or failed (why) | collisions: ego into opponent / opponent "
+        "from behind / from the side | road departures | goal reached | valid solutions | TTC ahead: min / median, s | "
+        "RTI median, ms | CPU per run, s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    groups = list(df.groupby(["dataset", "traffic"], sort=True))
+    for (dataset, traffic), g in [*groups, (("all", "all"), df)]:
+        ran, refused = g[g.status == "ran"], g[g.status != "ran"]
+        why = ", ".join(f"{k} {v}" for k, v in refused.refusal.fillna("other").value_counts().items())
+        hit = ran[ran.collision_fcgen.fillna(False).astype(bool)]
+        who = " / ".join(str(int((hit.responsibility == w).sum())) for w in WHO)
+        ttc = ran.ttc_ahead_min_s.dropna().astype(float)
+        ttc_s = f"{ttc.min():.2f} / {ttc.median():.2f}" if len(ttc) else "-"
+        rti = f"{ran.rti_ms_median.astype(float).median():.3f}" if len(ran) else "-"
+        cpu = ran.cpu_s.fillna(ran.wall_s).astype(float)
+        wall = f"{cpu.mean():.1f}" if len(ran) else "-"
+        lines.append(
+            f"| {dataset} | {traffic} | {g.scenario.nunique()} | {len(ran)} | {len(refused)}"
+            + (f" ({why})" if why else "")
+            + f" | {who} | {_count(departed_on_road(ran)) if len(ran) else 0} | {_count(ran.goal_reached)} | "
+            f"{_count(ran.solution_valid)} | {ttc_s} | {rti} | {wall} |"
+        )
+    return [*lines, ""]
+
+
+def refusal_table(refused) -> list[str]:
+    """Refused runs per reason (``refusal``) and traffic mode, with an example."""
+    lines = ["| reason | traffic | runs | example |", "|---|---|---|---|"]
+    kinds = refused.assign(refusal=refused.refusal.fillna("other"))
+    for (kind, traffic), g in kinds.groupby(["refusal", "traffic"], sort=True):
+        r = g.iloc[0]
+        lines.append(f"| {kind} | {traffic} | {len(g)} | {r.scenario}: {r.reason} |")
+    return [*lines, ""]
+
+
 def criticality_table(ran) -> list[str]:
     """Per traffic mode and measure: runs measured, runs where nobody closed in, the distribution of the run minima
     (s) and how many lie below 1 s and 2 s."""
@@ -99,18 +140,19 @@ def _int(v) -> str:
 
 def commonroad_markdown(df) -> str:
     """The report's page."""
-    ran, refused = df[df.status == "ran"], df[df.status == "refused"]
+    df = with_defaults(df.copy())
+    ran, refused = df[df.status == "ran"], df[df.status != "ran"]
     lines = [
         "# CommonRoad campaign report",
         "",
         f"{df.scenario.nunique()} scenarios, {df.problem.nunique()} configurations, traffic "
-        f"{', '.join(sorted(df.traffic.fillna('recorded').unique()))}: {len(ran)} runs, {len(refused)} refused.",
+        f"{', '.join(sorted(df.traffic.fillna('recorded').unique()))}: {len(ran)} runs, {len(refused)} refused or "
+        "failed.",
         "",
     ]
+    lines += ["## Per data set", "", *dataset_table(df)]
     if len(refused):
-        lines += ["## Refused", "", "| reason | runs |", "|---|---|"]
-        lines += [f"| {why} | {n} |" for why, n in refused.reason.value_counts().items()]
-        lines.append("")
+        lines += ["## Refused", "", *refusal_table(refused)]
     if len(ran):
         lines += ["## Outcomes", "", *outcome_table(ran)]
         lines += ["## Criticality (commonroad-crime, minimum per run)", "", *criticality_table(ran)]
@@ -127,15 +169,34 @@ def write_cr_report(results: str | Path, out_dir: str | Path, force: bool = Fals
     check_report_target(out_dir, force)
     p = Path(results)
     df = pd.read_parquet(p / "commonroad.parquet" if p.is_dir() else p)
+    df = with_defaults(df)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "README.md").write_text(commonroad_markdown(df))
+    return out / "README.md"
+
+
+def with_defaults(df):
+    """The columns an older campaign's rows lack, filled: the traffic mode (recorded), the data set (from the
+    scenario's name), the refusal kind (other), the criticality columns (none)."""
+    from ..commonroad.catalog import dataset_of
+
     if "traffic" not in df.columns:
         df["traffic"] = "recorded"
+    df["traffic"] = df["traffic"].fillna("recorded")
+    if "dataset" not in df.columns:
+        df["dataset"] = None
+    df["dataset"] = df["dataset"].fillna(df["scenario"].map(dataset_of))
+    if "refusal" not in df.columns:
+        df["refusal"] = None
+    df.loc[(df.status != "ran") & df.refusal.isna(), "refusal"] = "other"
     for col, _ in MEASURES:
         if col not in df.columns:
             df[col] = None
     for col in ("criticality_error", "reacted", "reacted_to_ego", "ttc_ahead_obstacle", "ttc_behind_obstacle"):
         if col not in df.columns:
             df[col] = "" if col == "criticality_error" else None
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "README.md").write_text(commonroad_markdown(df))
-    return out / "README.md"
+    for col in ("rti_ms_median", "wall_s", "cpu_s"):
+        if col not in df.columns:
+            df[col] = None
+    return df

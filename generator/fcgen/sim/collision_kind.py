@@ -10,14 +10,20 @@ true poses only (never the solver's slacks). The kinds of the first colliding sa
 - ``rear_corner``: the ego clips a *rear* corner of the opponent (it swerves past it while overtaking).
 - ``front_corner``: any other front-corner contact.
 
-Who moved into whom (``responsibility``), at the first colliding sample, from the true poses (rule ``responsible``):
+Who moved into whom (``responsibility``), at the first colliding sample, from the true poses (rule ``responsible``),
+the first that applies:
 
-- ``opponent_from_behind``: the opponent's centre is behind the ego's (along the ego's heading) and the opponent is
-  faster along that heading: it ran into the ego's rear.
-- ``opponent_from_side``: otherwise, if the ego kept its lane (its Frenet n within ``LANE_KEPT`` of its value at
-  contact over the ``LANE_WINDOW`` before): the opponent came into the ego's lane (a truck's front swept across it
-  by a bend is the usual case).
-- ``ego_into_opponent``: everything else: the ego changed its lane into the opponent, or ran into a slower one ahead.
+1. ``opponent_from_behind``: the opponent's centre is behind the ego's (along the ego's heading) and the opponent is
+   faster along that heading: it ran into the ego's rear.
+2. ``ego_into_opponent``: the ego ran into the rear of an opponent ahead that kept its lane: the opponent's centre is
+   ahead of the ego's (along the ego's heading), the ego is faster along that heading, the ego's chassis centre lies
+   behind the opponent's rear edge (along the opponent's heading: the ego's front touches the opponent's rear face
+   or a rear corner from behind, not its side) and the opponent's Frenet n stayed within ``LANE_KEPT`` of its value
+   at contact over the ``LANE_WINDOW`` before; whether the ego kept its lane or not (a rear-end in the lane).
+3. ``opponent_from_side``: the ego kept its lane (its Frenet n within ``LANE_KEPT`` of its value at contact over the
+   ``LANE_WINDOW`` before): the opponent came into the ego's lane (a truck's front swept across it by a bend, the
+   truck's rear axle in its lane; an opponent cutting in ahead, its n moving toward the ego's).
+4. ``ego_into_opponent``: everything else: the ego changed its lane into the opponent.
 """
 
 from __future__ import annotations
@@ -67,15 +73,41 @@ def classify(kind_corner: int, sweep: float) -> str:
     return "swept_front" if sweep > SWEEP_MIN else "front_corner"
 
 
+def kept_lane(n_before: np.ndarray) -> bool:
+    """Whether a vehicle kept its lane: its Frenet n over ``LANE_WINDOW`` up to the contact (finite, last = at
+    contact) stayed within ``LANE_KEPT`` of its value at contact."""
+    n = np.asarray(n_before, dtype=float)
+    return bool(n.size) and bool(np.all(np.isfinite(n))) and float(np.max(np.abs(n - n[-1]))) <= LANE_KEPT
+
+
+def behind_rear(ego_c: np.ndarray, opp_c: np.ndarray, opp_phi: float, opp_half_length: float) -> bool:
+    """Whether the ego's chassis centre ``ego_c`` lies behind the rear edge of the opponent's chassis (centre
+    ``opp_c``, heading ``opp_phi``, half length ``opp_half_length``): a contact there is on its rear, not its side."""
+    h = np.array([math.cos(opp_phi), math.sin(opp_phi)])
+    return float((np.asarray(ego_c) - np.asarray(opp_c)) @ h) < -opp_half_length
+
+
 def responsible(
-    ego_c: np.ndarray, ego_phi: float, ego_v: np.ndarray, opp_c: np.ndarray, opp_v: np.ndarray, n_before: np.ndarray
+    ego_c: np.ndarray,
+    ego_phi: float,
+    ego_v: np.ndarray,
+    opp_c: np.ndarray,
+    opp_v: np.ndarray,
+    n_before: np.ndarray,
+    *,
+    opp_n_before: np.ndarray,
+    rear: bool,
 ) -> str:
     """The responsibility class (module docstring) of a contact: chassis centres ``ego_c``/``opp_c``, the ego's
-    heading, both velocities (m/s, Cartesian), the ego's Frenet n over ``LANE_WINDOW`` up to the contact."""
+    heading, both velocities (m/s, Cartesian), the ego's and the opponent's Frenet n over ``LANE_WINDOW`` up to the
+    contact, ``rear``: the ego's centre behind the opponent's rear edge (``behind_rear``)."""
     h = np.array([math.cos(ego_phi), math.sin(ego_phi)])
-    if float((opp_c - ego_c) @ h) < 0.0 and float(opp_v @ h) > float(ego_v @ h):
+    ahead, closing = float((opp_c - ego_c) @ h), float(ego_v @ h) - float(opp_v @ h)
+    if ahead < 0.0 and closing < 0.0:
         return "opponent_from_behind"
-    if len(n_before) and float(np.max(np.abs(n_before - n_before[-1]))) <= LANE_KEPT:
+    if ahead > 0.0 and closing > 0.0 and rear and kept_lane(opp_n_before):
+        return "ego_into_opponent"
+    if kept_lane(n_before):
         return "opponent_from_side"
     return "ego_into_opponent"
 
@@ -115,13 +147,16 @@ def first_collision(
         ego_v = (ego_pose[j, :2] - ego_pose[j0, :2]) / span
         opp_v = (opp_pose[j, k, :2] - opp_pose[j0, k, :2]) / span
         w = round(LANE_WINDOW / dt)
+        opp_c, opp_phi = oc.mean(axis=0), float(opp_pose[j, k, 2])
         who = responsible(
             centre,
             float(ego_pose[j, 2]),
             ego_v,
-            oc.mean(axis=0),
+            opp_c,
             opp_v,
             np.asarray(ego_n[max(0, j - w) : j + 1], dtype=float),
+            opp_n_before=np.asarray(opp_frenet[max(0, j - w) : j + 1, k, 1], dtype=float),
+            rear=behind_rear(centre, opp_c, opp_phi, half_ch),
         )
     return CollisionInfo(float(pen.max()), j, k, ci, sweep, classify(ci, sweep), who)
 

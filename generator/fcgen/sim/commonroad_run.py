@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -32,7 +32,7 @@ from ..dsl import Problem
 from ..ocp import Ocp, build_ocp
 from ..road import Road
 from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, solver_window
-from .collision_kind import LANE_WINDOW, responsible
+from .commonroad_judge import driven, judge_drive
 from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
 from .plants import PlantSpec
@@ -103,9 +103,12 @@ def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):
         i = int(np.flatnonzero(lo >= hi)[0])
-        raise ValueError(
+        from ..commonroad import ScenarioRefused
+
+        raise ScenarioRefused(
             f"scenario {sc.name}: the drivable band at s = {road.s[i]:.1f} m lies outside the problem's "
-            f"[{b.n_min}, {b.n_max}] m"
+            f"[{b.n_min}, {b.n_max}] m",
+            kind="band outside the bounds",
         )
     return Road(road.s0, road.ds, road.kappa, road.phi, road.gx, road.gy, lo, hi), cut
 
@@ -122,23 +125,22 @@ def run_commonroad(
     traffic: str = "recorded",
     band: str = "lanes",
     plant: PlantSpec | None = None,
+    criticality: bool = True,
 ) -> CommonRoadRun:
-    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``).
-
-    ``states`` (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
+    """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``). ``states``
+    (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
     plant's, sample by sample, and the log keeps them. ``change_time``: a lane change's per-stage ``n_ref`` over that
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
-    its perturbations (``sim.commonroad_plant``; default fcgen's model)."""
+    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False: not measured."""
     from .. import commonroad as cr
-    from ..commonroad.criticality import criticality
-    from ..commonroad.judge import fcgen_verdict, penetrations
-    from ..commonroad.reactive import ReactiveTraffic, check_traffic, driven_scenario
+    from ..commonroad.reactive import ReactiveTraffic, check_traffic
 
     if not math.isclose(sc.dt, problem.horizon.dt, rel_tol=1e-9):
         raise cr.ScenarioRefused(
-            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s"
+            f"scenario {sc.name}: its time step {sc.dt} s is not the problem's dt {problem.horizon.dt} s",
+            kind="time step",
         )
     if controller is None:
         ocp = ocp or build_ocp(problem)
@@ -149,19 +151,9 @@ def run_commonroad(
     world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
     loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
-    if world is not None:  # judged on what the vehicles drove
-        sc = world.scenario()
-        sc = replace(sc, scenario=driven_scenario(sc, sc.obstacles))
-    ego = problem.ego
-    ego_cart, centres = _ego_poses(road, loop.xs, ego.l / 2)
-    opp_cart = _obstacle_poses(sc, len(loop.xs))
-    pen = penetrations(sc, centres, ego.l_ch, ego.w_ch)
-    who = _responsibility(pen, ego_cart, centres, loop.xs, opp_cart, sc.dt)
-    # before the drivability checker: after it has read the scenario, CriMe's lanelet queries on the turned copy
-    # find nothing (a state of commonroad-io's objects the copy keeps; docs/commonroad.md)
-    crit = criticality(sc, centres, loop.xs[:, 3], ego.l_ch, ego.w_ch)
-    checker = cr.drivability_verdict(sc, centres, ego.l_ch, ego.w_ch)
-    own = fcgen_verdict(sc, pen)
+    sc = driven(sc, world)  # judged on what the vehicles drove
+    v = judge_drive(problem, sc, road, loop.xs, criticality=criticality)
+    checker, own, who, centres = v.checker, v.fcgen, v.responsibility, v.centres
     extra = {
         **_loop_extra(loop, spec, world_plant),
         "commonroad": {
@@ -181,14 +173,14 @@ def run_commonroad(
             "responsibility": who,
             "agree": bool(checker["collision"]) == bool(own["collision"]),
             "unsolved": unsolved_status(loop.results),
-            "goal": goal_status(sc, road, centres, loop.xs),
-            "solution": _plain(cr.solution_verdict(sc, np.column_stack([centres, loop.xs[:, 3:5]]))),
+            "goal": v.goal,
+            "solution": v.solution,
             "traffic": {"mode": "recorded", "reactions": []} if world is None else world.log(),
-            "criticality": crit,
+            "criticality": v.criticality,
         },
     }
-    hits = np.asarray((pen > 0.0).any(axis=1), dtype=bool)
-    log = _run_log(problem, sc, controller.kind, road, loop, ego_cart, opp_cart, hits, extra)
+    hits = np.asarray((v.pen > 0.0).any(axis=1), dtype=bool)
+    log = _run_log(problem, sc, controller.kind, road, loop, v.ego_cart, v.opp_cart, hits, extra)
     return CommonRoadRun(log, checker, own, who, centres, sc)
 
 
@@ -366,29 +358,6 @@ class _SlotShapes:
         self.now = key
 
 
-def _ego_poses(road: Road, xs: np.ndarray, half_l: float) -> tuple[np.ndarray, np.ndarray]:
-    """(K + 1, 3) the ego's rear-axle poses [x, y, phi] and its chassis centre poses (half the wheelbase ahead)."""
-    ex, ey, ephi = road.to_cartesian(xs[:, 0], xs[:, 1], xs[:, 2])
-    ego_cart = np.stack([ex, ey, ephi], axis=1)
-    centres = ego_cart.copy()
-    centres[:, 0] += half_l * np.cos(ephi)
-    centres[:, 1] += half_l * np.sin(ephi)
-    return ego_cart, centres
-
-
-def _obstacle_poses(sc, n_states: int) -> np.ndarray:
-    """(K + 1, O, 3) every obstacle of the scenario at every sample where it is recorded (NaN elsewhere)."""
-    opp_cart = np.full((n_states, len(sc.obstacles), 3), np.nan)
-    for i, ob in enumerate(sc.obstacles):
-        for j in range(n_states):
-            step = sc.first_step + j
-            if ob.static or ob.first_step <= step <= ob.last_step:
-                p = ob.pose(step)
-                if p is not None:
-                    opp_cart[j, i] = p
-    return opp_cart
-
-
 def _run_log(
     problem: Problem,
     sc,
@@ -456,24 +425,4 @@ def _run_log(
         max_slack=stats["max_slack"],
         ego=dims(ego),
         **loop.planlog.fields(),
-    )
-
-
-def _responsibility(
-    pen: np.ndarray, ego_cart: np.ndarray, centres: np.ndarray, xs: np.ndarray, opp_cart: np.ndarray, dt: float
-) -> str:
-    """The responsibility class of the first contact (``collision_kind.responsible``; "" without one)."""
-    hit = np.flatnonzero(pen.max(axis=1, initial=0.0) > 0.0)
-    if not hit.size:
-        return ""
-    j = int(hit[0])
-    k = int(np.argmax(pen[j]))
-    j0 = max(j - 1, 0)
-    span = max(j - j0, 1) * dt
-    ego_v = (centres[j, :2] - centres[j0, :2]) / span
-    prev = opp_cart[j0, k, :2] if np.all(np.isfinite(opp_cart[j0, k, :2])) else opp_cart[j, k, :2]
-    opp_v = (opp_cart[j, k, :2] - prev) / span
-    w = round(LANE_WINDOW / dt)
-    return responsible(
-        centres[j, :2], float(ego_cart[j, 2]), ego_v, opp_cart[j, k, :2], opp_v, xs[max(0, j - w) : j + 1, 1]
     )

@@ -1,0 +1,151 @@
+"""What fcgen can drive: a scenario is refused, with the reason's kind, where its route crosses other lanes (an
+intersection), where its road carries traffic against the ego's direction (oncoming traffic), or where its goal's
+lanelets cannot be reached along the lanes from the start.
+
+Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write with commonroad-io):
+
+- **Intersection**: along the reference path from the ego's start over the distance the run can drive
+  (``reach_m``: its samples at the larger of the initial and the reference speed, plus the horizon), every
+  ``PROBE_STEP`` metres, a lanelet holding the path's point whose heading there differs from the path's by
+  ``CROSS_ANGLE`` to 180 - ``CROSS_ANGLE`` degrees (a crossing lane; not one that forks from or merges into the
+  route's lanelets at less than ``FORK_ANGLE``: a turning lane that leaves the route's predecessor and crosses it
+  further on is a crossing), or a lanelet the network lists inside an
+  intersection (an incoming's successor).
+- **Oncoming traffic**: a lanelet on that stretch holding the path's point against its direction (more than
+  180 - ``CROSS_ANGLE`` degrees off: a shared two-way lane), or a recorded vehicle during the run whose centre is
+  in the road's band (the lanes of the ego's direction) within that stretch, heading more than 90 degrees against
+  the road.
+- **Goal unreachable**: the goal names lanelets and none of them can be reached from the start lanelet along
+  successors and adjacent lanes of the same direction (fcgen's lane rule moves one lane at a time, the road follows
+  successors).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..road import Road
+from .traffic import CrObstacle, ScenarioRefused
+
+PROBE_STEP = 2.0  # m between the path's points probed for crossing lanes
+CROSS_ANGLE = 30.0  # degrees: a lanelet this far off the path's heading at a shared point crosses it ...
+FORK_ANGLE = 60.0  # ... unless it forks from or merges into the route's lanelets and is less than this far off
+OBSTACLE_STRIDE = 5  # recorded steps between the poses checked for oncoming vehicles
+
+
+def check_drivable(net, road: Road, first: int, goals: set[int], obstacles, s0: float, reach_m: float, steps) -> None:
+    """The three checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can
+    drive ``reach_m`` (its samples at its speed, plus the horizon)."""
+    check_goal_reachable(net, first, goals)
+    check_route(net, road, s0, reach_m)
+    check_oncoming(obstacles, road, s0, reach_m, steps)
+
+
+def check_route(net, road: Road, s0: float, reach_m: float) -> None:
+    """Refuse (``intersection`` or ``oncoming traffic``) a route that crosses lanes or shares one with traffic in
+    the other direction between ``s0`` and ``s0 + reach_m`` on ``road``."""
+    in_junction = {lid for inter in getattr(net, "intersections", []) for lid in _intersection_lanelets(inter)}
+    s = np.arange(s0, min(s0 + reach_m, road.s_end), PROBE_STEP)
+    x, y, phi = road.to_cartesian(s, np.zeros_like(s), np.zeros_like(s))
+    found = net.find_lanelet_by_position([np.array([xi, yi]) for xi, yi in zip(x, y, strict=True)])
+    probes = [
+        (si - s0, lid, abs(math.degrees(math.remainder(_heading(net, lid, (xi, yi)) - ph, 2 * math.pi))))
+        for si, xi, yi, ph, ids in zip(s, x, y, phi, found, strict=True)
+        for lid in ids
+    ]
+    siblings = _siblings(net, {lid for _, lid, off in probes if off < CROSS_ANGLE})
+    for ahead, lid, off in probes:
+        if lid in in_junction:
+            raise ScenarioRefused(
+                f"an intersection: lanelet {lid} of the route {ahead:.0f} m ahead belongs to one", kind="intersection"
+            )
+        if CROSS_ANGLE <= off <= 180.0 - CROSS_ANGLE and not (lid in siblings and off < FORK_ANGLE):
+            raise ScenarioRefused(
+                f"an intersection: lanelet {lid} crosses the route {ahead:.0f} m ahead at {off:.0f} degrees",
+                kind="intersection",
+            )
+        if off > 180.0 - CROSS_ANGLE:
+            raise ScenarioRefused(
+                f"oncoming traffic: lanelet {lid} runs against the route {ahead:.0f} m ahead (a two-way lane)",
+                kind="oncoming traffic",
+            )
+
+
+def _siblings(net, route: set[int]) -> set[int]:
+    """The lanelets that fork from or merge into the route's (a successor of a route lanelet's predecessor, a
+    predecessor of its successor): they leave or join the route, they do not cross it."""
+    out = set(route)
+    for lid in route:
+        lan = net.find_lanelet_by_id(lid)
+        for p in lan.predecessor or []:
+            out |= set(net.find_lanelet_by_id(p).successor or [])
+        for q in lan.successor or []:
+            out |= set(net.find_lanelet_by_id(q).predecessor or [])
+    return out
+
+
+def check_oncoming(obstacles: tuple[CrObstacle, ...], road: Road, s0: float, reach_m: float, steps) -> None:
+    """Refuse (``oncoming traffic``) a vehicle recorded at one of ``steps`` in the road's band between ``s0`` and
+    ``s0 + reach_m``, heading more than 90 degrees against the road."""
+    if road.n_min is None or road.n_max is None:
+        return
+    for ob in obstacles:
+        if ob.static:
+            continue
+        idx = [t - ob.first_step for t in steps if ob.first_step <= t <= ob.last_step][::OBSTACLE_STRIDE]
+        if not idx:
+            continue
+        c = ob.centres[idx]
+        s, n, a = road.to_frenet(c[:, 0], c[:, 1], c[:, 2])
+        lo = np.interp(s, road.s, road.n_min)
+        hi = np.interp(s, road.s, road.n_max)
+        against = np.abs(np.remainder(a + np.pi, 2 * np.pi) - np.pi) > np.pi / 2
+        bad = (s >= s0) & (s <= s0 + reach_m) & (n > lo) & (n < hi) & against
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ScenarioRefused(
+                f"oncoming traffic: vehicle {ob.id} drives against the road in the ego's lanes "
+                f"{float(s[k] - s0):.0f} m ahead at step {ob.first_step + idx[k]}",
+                kind="oncoming traffic",
+            )
+
+
+def check_goal_reachable(net, first: int, goals: set[int], depth: int = 200) -> None:
+    """Refuse (``goal unreachable``) when ``goals`` (lanelet ids; empty: nothing to check) has no lanelet reachable
+    from ``first`` along successors and adjacent lanes of the same direction."""
+    if not goals:
+        return
+    seen, todo = {first}, [first]
+    while todo and len(seen) < depth:
+        lan = net.find_lanelet_by_id(todo.pop())
+        nxt = list(lan.successor or [])
+        if lan.adj_left is not None and lan.adj_left_same_direction:
+            nxt.append(lan.adj_left)
+        if lan.adj_right is not None and lan.adj_right_same_direction:
+            nxt.append(lan.adj_right)
+        for lid in nxt:
+            if lid not in seen and net.find_lanelet_by_id(lid) is not None:
+                seen.add(lid)
+                todo.append(lid)
+    if not seen & goals:
+        raise ScenarioRefused(
+            f"goal unreachable: none of the goal's lanelets {sorted(goals)} lies along the lanes from lanelet {first}",
+            kind="goal unreachable",
+        )
+
+
+def _heading(net, lid: int, xy) -> float:
+    from .reference_path import lanelet_heading
+
+    return lanelet_heading(net, lid, xy)
+
+
+def _intersection_lanelets(inter) -> set[int]:
+    """The lanelets inside an intersection of commonroad-io (its incomings' successors)."""
+    out: set[int] = set()
+    for inc in getattr(inter, "incomings", []):
+        for attr in ("successors_right", "successors_straight", "successors_left"):
+            out |= set(getattr(inc, attr, None) or ())
+    return out
