@@ -3,11 +3,14 @@ the colliding runs by responsibility, the plant's |a_lat| above its bound + 0.5 
 QP statuses, beside the unperturbed safe profile on the same seeds.
 
     python benchmarks/perturbations.py --seeds 20 [--first-seed 0] [--jobs 2] [--samples 200] \\
-        [--only st,st+lat1+comp1] [--out results/perturbations.json] [--add EARLIER.json ...]
+        [--only st,st+lat1+comp1] [--out results/perturbations.json] [--add EARLIER.json ...] \\
+        [--plan-check bend_brake=0]
 
 The compiled C of the safe presets (IPM backend; generated and built into ``.fcgen-cache/solvers``), the car and truck
 scenarios, direct elimination and lifted with the ellipse. Prints a Markdown table and writes the per-run rows and
-the table (JSON) to ``--out``. Runs are independent: use ``nice`` on a shared machine.
+the table (JSON) to ``--out``, each run's row as it ends to ``--out`` with ``.jsonl`` (a stopped measurement keeps its
+runs: ``--add`` takes that file too). ``--plan-check`` replaces fields of the safe profile's ``PlanCheck`` (a change
+measured against the profile as it is). Runs are independent: use ``nice`` on a shared machine.
 """
 
 from __future__ import annotations
@@ -66,13 +69,23 @@ def _config(scenario: str, formulation: str, spec: PlantSpec, delay: int):
     return Config(scenario, formulation, "ellipse", 0, "c", "ipm", "safe", spec, delay)
 
 
-def build(scenario: str, formulation: str, delay: int, cache: str) -> str:
+def _problem(scenario: str, formulation: str, spec: PlantSpec, delay: int, plan_check: dict):
+    """The configuration's problem, its ``PlanCheck`` fields replaced by ``plan_check``."""
+    from dataclasses import replace
+
+    pb = _config(scenario, formulation, spec, delay).problem()
+    return pb.with_(plan_check=replace(pb.plan_check, **plan_check)) if plan_check else pb
+
+
+def build(scenario: str, formulation: str, delay: int, cache: str, plan_check: dict | None = None) -> str:
     from fcgen.campaign.solvers import ensure_solver
 
-    return str(ensure_solver(_config(scenario, formulation, PlantSpec(), delay).problem(), cache))
+    return str(ensure_solver(_problem(scenario, formulation, PlantSpec(), delay, plan_check or {}), cache))
 
 
-def run_one(label: str, scenario: str, formulation: str, seed: int, samples: int, cache: str) -> dict:
+def run_one(
+    label: str, scenario: str, formulation: str, seed: int, samples: int, cache: str, plan_check: dict | None = None
+) -> dict:
     """One closed loop; its row of figures."""
     from fcgen.campaign.task import collision_columns
     from fcgen.csolver import CSolver
@@ -81,9 +94,8 @@ def run_one(label: str, scenario: str, formulation: str, seed: int, samples: int
     from fcgen.sim.scenario import make_scenario
 
     spec, delay = PERTURBATIONS[label]
-    cfg = _config(scenario, formulation, spec, delay)
-    pb = cfg.problem()
-    solver = CSolver(build(scenario, formulation, delay, cache))
+    pb = _problem(scenario, formulation, spec, delay, plan_check or {})
+    solver = CSolver(build(scenario, formulation, delay, cache, plan_check))
     solver.init()
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     log = run_closed_loop(pb, sc, controller=solver, plant=spec)
@@ -183,8 +195,13 @@ def main() -> None:
     ap.add_argument("--only", default="", help="comma-separated perturbation labels (default: all)")
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
     ap.add_argument("--out", default="results/perturbations.json")
-    ap.add_argument("--add", nargs="*", default=[], help="results files of other seeds to merge into the table")
+    ap.add_argument("--add", nargs="*", default=[], help="results files (.json or .jsonl) of other runs to merge in")
+    ap.add_argument("--plan-check", default="", help="FIELD=VALUE,... replacing the safe PlanCheck's (floats)")
     args = ap.parse_args()
+    try:
+        plan_check = {k: float(v) for k, v in (x.split("=") for x in args.plan_check.split(",") if x)}
+    except ValueError:
+        ap.error(f"--plan-check: {args.plan_check!r} is invalid: allowed FIELD=NUMBER,... (e.g. bend_brake=0)")
     labels = [x for x in args.only.split(",") if x] or DEFAULT_LABELS
     if "model" not in labels and not args.add:  # the unperturbed runs of the same seeds (or from an --add file)
         labels.insert(0, "model")
@@ -197,31 +214,38 @@ def main() -> None:
     ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(args.jobs, mp_context=ctx) as ex:
         delays = sorted({PERTURBATIONS[x][1] for x in labels})
-        for f in [ex.submit(build, sc, form, d, cache) for sc, form in CONFIGS for d in delays]:
+        for f in [ex.submit(build, sc, form, d, cache, plan_check) for sc, form in CONFIGS for d in delays]:
             f.result()
         futs = [
-            ex.submit(run_one, label, sc, form, seed, args.samples, cache)
+            ex.submit(run_one, label, sc, form, seed, args.samples, cache, plan_check)
             for seed in seeds
             for sc, form in CONFIGS
             for label in labels
         ]
-        rows = [f.result() for f in cf.as_completed(futs)]
-    for extra in args.add:  # earlier runs of other seeds
-        rows += json.loads(Path(extra).read_text())["rows"]
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        rows = []
+        with out.with_suffix(".jsonl").open("w") as runs:
+            for f in cf.as_completed(futs):
+                rows.append(f.result())
+                runs.write(json.dumps(rows[-1]) + "\n")
+                runs.flush()
+    for extra in map(Path, args.add):  # earlier runs of other seeds
+        text = extra.read_text()
+        rows += [json.loads(x) for x in text.splitlines()] if extra.suffix == ".jsonl" else json.loads(text)["rows"]
     tab = table(rows)
     text = markdown(tab)
     print(text)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     from fcgen import __version__
 
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     meta = {
         "fcgen": __version__,
         "commit": commit,
         "seeds": sorted({r["seed"] for r in rows}),
         "samples": args.samples,
         "configs": [f"{sc}/{form}/EL/c/ipm/safe" for sc, form in CONFIGS],
+        "plan_check": plan_check,
         "wall_s": time.time() - t0,
     }
     out.write_text(json.dumps({"meta": meta, "table": tab, "markdown": text, "rows": rows}, indent=1) + "\n")

@@ -16,6 +16,7 @@ import pytest
 
 from fcgen.reactions import (
     GAIN_MIN,
+    bend_brake_limit,
     braking_force,
     drive_limit,
     guard_steering_rate,
@@ -111,6 +112,20 @@ UNDER = [
     (1.5, 10.0, 0.0, 1.0, 1.0, 1.0, 0.5, 1e4, 1.0, 1e4),  # no tyres
 ]
 
+# (v, delta, a_to, a_brake, f_max, expected) with l = 3.4, m = 1160, dt = 0.1 (the C's L_WHEELBASE, EGO_M, SAMPLE_DT):
+# the path's curvature |tan(delta)| / l, its speed v_bend = sqrt(a_to / curvature), by hand
+D55 = math.atan(5.5 * 3.4 / 400.0)  # at 20 m/s the formula's 5.5 m/s^2: v_bend = 20 sqrt(4.95 / 5.5) = 20 sqrt(0.9)
+D50 = math.atan(5.0 * 3.4 / 400.0)  # 5.0 m/s^2: v_bend = 20 sqrt(0.99), 0.1 m/s below 20
+BEND = [
+    (20.0, D55, 4.95, 2.0, 1e4, -2320.0),  # (20 - 18.97) / 0.1 = 10.3 m/s^2: at most 2, -2 m
+    (20.0, -D55, 4.95, 2.0, 1e4, -2320.0),  # either side
+    (20.0, D50, 4.95, 2.0, 1e4, -1160.0 * 20.0 * (1.0 - math.sqrt(0.99)) / 0.1),  # 1.0025 m/s^2 takes it to v_bend
+    (20.0, D55, 4.95, 10.0, 1e4, -1e4),  # -11,600 N: at most F_d_max
+    (20.0, math.atan(4.9 * 3.4 / 400.0), 4.95, 2.0, 1e4, 1e4),  # within the path's speed: no cap
+    (20.0, 0.0, 4.95, 2.0, 1e4, 1e4),  # straight ahead
+    (20.0, D55, 4.95, 0.0, 1e4, 1e4),  # off
+]
+
 
 @pytest.mark.parametrize("v0, dt, expected", BRAKE)
 def test_braking_force_by_hand(v0, dt, expected):
@@ -142,6 +157,11 @@ def test_drive_limit_by_hand(a_lat, a_max, f_max, expected):
 @pytest.mark.parametrize("a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected", UNDER)
 def test_understeer_drive_limit_by_hand(a_lat, v, k, l_f, l_r, h, slack, f_max, m, expected):
     assert understeer_drive_limit(a_lat, v, k, l_f, l_r, h, slack, f_max, m) == pytest.approx(expected, rel=1e-6)
+
+
+@pytest.mark.parametrize("v, delta, a_to, a_brake, f_max, expected", BEND)
+def test_bend_brake_limit_by_hand(v, delta, a_to, a_brake, f_max, expected):
+    assert bend_brake_limit(v, delta, 3.4, a_to, a_brake, 1160.0, 0.1, f_max) == pytest.approx(expected, rel=1e-9)
 
 
 def test_understeer_drive_limit_keeps_the_deficit_near_its_slack():
@@ -188,14 +208,15 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
     src = SOLVER.read_text()
     real_0 = re.search(r"^#define REAL_0 .*$", src, re.M)
     assert real_0 is not None
-    tyre = "\n".join(re.findall(r"^#define TYRE_(?:G|GAIN_MIN|ONE) .*$", src, re.M))
-    assert tyre.count("#define") == 3
+    tyre = "\n".join(re.findall(r"^#define (?:TYRE_(?:G|GAIN_MIN|ONE)|L_WHEELBASE|EGO_M|SAMPLE_DT) .*$", src, re.M))
+    assert tyre.count("#define") == 6
     calls = [f"braking_force({v0!r}, {M / dt!r}, 1e4)" for v0, dt, _ in BRAKE]
     calls += [f"guard_steering_rate({', '.join(map(repr, case[:-1]))})" for case in RATE]
     calls += [f"lateral_acceleration({v!r}, {delta!r}, {l!r})" for v, delta, l, _ in A_LAT]
     calls += [f"load_transfer_gain({', '.join(map(repr, case[:-1]))})" for case in LOAD]
     calls += [f"drive_limit({', '.join(map(repr, case[:-1]))})" for case in DRIVE]
     calls += [f"understeer_drive_limit({', '.join(map(repr, case[:-1]))})" for case in UNDER]
+    calls += [f"bend_brake_limit({', '.join(map(repr, case[:-1]))})" for case in BEND]
     calls = [c.replace("nan", "NAN") for c in calls]
     body = "\n".join(f"  put({c});" for c in calls)
     test_c = tmp_path / "reactions_test.c"
@@ -212,6 +233,7 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
 {_c_function(src, "understeer_drive_limit")}
 {_c_function(src, "lateral_acceleration")}
 {_c_function(src, "guard_steering_rate")}
+{_c_function(src, "bend_brake_limit")}
 static void put(double x) {{
   uint64_t b;
   memcpy(&b, &x, sizeof b);
@@ -250,6 +272,7 @@ int main(void) {{
     want += [load_transfer_gain(*case[:-1]) for case in LOAD]
     want += [drive_limit(*case[:-1]) for case in DRIVE]
     want += [understeer_drive_limit(*case[:-1]) for case in UNDER]
+    want += [bend_brake_limit(v, d, 3.4, a, ab, 1160.0, 0.1, f) for v, d, a, ab, f, _ in BEND]
     assert len(got) == len(want) == len(calls)
     for call, g, w in zip(calls, got, want):
         assert g == _bits(w), f"{call}: C {g}, Python {_bits(w)} ({w!r})"

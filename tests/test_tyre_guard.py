@@ -15,6 +15,8 @@ from fcgen.plan_check import a_lat_guard
 from fcgen.presets import preset
 
 SAFE = Problem(name="car_safe")  # the DSL's defaults are the safe profile's: a = b = 1.7 m, m = 1160 kg
+NO_BEND = SAFE  # the safe profile brakes for no bend (bend_brake = 0)
+BEND = SAFE.with_(plan_check=replace(SAFE.plan_check, bend_brake=2.0))
 L, DT, A_TO = 3.4, 0.1, 4.95
 
 
@@ -23,7 +25,7 @@ def _delta(v: float, a: float) -> float:
     return math.atan(a * L / (v * v))
 
 
-def _guard(problem: Problem, x1: list[float], u: list[float]) -> tuple[int, np.ndarray]:
+def _guard(problem: Problem, x1: list[float], u: list[float], slack: float = 0.0) -> tuple[int, np.ndarray]:
     """The guard on control u from x0 = (.., v1, 0.03), its plant step ending at x1 with the plan's rate u[1] and at
     the steering angle 0.03 + r dt with another rate r (the speed x1's)."""
     uu = np.array(u, dtype=float)
@@ -33,7 +35,7 @@ def _guard(problem: Problem, x1: list[float], u: list[float]) -> tuple[int, np.n
     def step() -> list[float]:
         return list(x1) if uu[1] == r_plan else [*x1[:4], 0.03 + float(uu[1]) * DT]
 
-    return a_lat_guard(problem, x0, uu, -0.39, 0.39, step), uu
+    return a_lat_guard(problem, x0, uu, -0.39, 0.39, step, slack), uu
 
 
 def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
@@ -49,28 +51,56 @@ def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
     assert status == 1 and u[0] == f_d
     assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
     # without tyres (the paper's guard) the same step passes: 4.5 <= 5
-    no_tyres = SAFE.with_(plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False))
+    no_tyres = SAFE.with_(plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0))
     assert _guard(no_tyres, x1, [f_d, 0.1]) == (0, pytest.approx(np.array([f_d, 0.1])))
 
 
+def _gain(a_x: float) -> float:
+    """The guard's divisor d at 20 m/s under the longitudinal acceleration a_x (a = b = 1.7 m, h = 0.614 m,
+    c = 21.92): the linear single-track model's yaw gain by hand."""
+    k = (1.7 / (9.81 * 1.7 - a_x * 0.614) - 1.7 / (9.81 * 1.7 + a_x * 0.614)) / (L * 21.92)
+    return 1.0 + k * 400.0
+
+
 def test_where_the_guard_steers_it_does_not_drive():
-    """20 m/s, the plan's step ending at 5.5 m/s^2 while driving with 5,000 N: the guard steers to 4.95 m/s^2 (d = 1:
-    no braking) and the friction ellipse leaves no drive force at its target, F_d_max sqrt(1 - (4.95 / 4.95)^2) = 0
-    (status 1); braking is never cut; without the drive limit the force is kept where the guard steers."""
+    """20 m/s, the plan's step ending at 5.5 m/s^2 while driving with 5,000 N: the guard steers to 4.95 m/s^2 and the
+    friction ellipse leaves no drive force at its target (F_d_max sqrt(1 - 1) = 0); without the bend braking (0) that
+    is all (status 1), and without the drive limit the force is kept where the guard steers."""
     v = 20.0
-    status, u = _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
+    status, u = _guard(NO_BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
     assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
     assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
-    assert _guard(SAFE, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1])[1][0] == -3000.0
-    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False))
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, bend_brake=0.0))
     assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
+
+
+def test_where_the_guard_steers_too_fast_for_the_plans_path_it_brakes():
+    """The same step with the bend braking at 2 m/s^2, the plan holding a slack of 5 (above
+    reactions.BEND_SLACK = 1; with 0.5 the force is cut to 0 as above): the plan's path, 5.5 m/s^2 at 20 m/s, allows
+    20 sqrt(4.95 / 5.5) = 18.97 m/s at the guard's target, 10.3 m/s^2 of braking away in one sample: the force becomes
+    -2 m = -2,320 N, and the rate is set again for that step at the tyre-aware target under 2 m/s^2 of braking,
+    4.95 d (d = 1 + 400 (1.7 / 17.905 - 1.7 / 15.449) / 74.528 = 0.919: the tyres turn 9 % more), status 1. A plan
+    braking harder keeps its force; where the plan's path allows the speed (4.94 m/s^2 of the formula, the tyre-aware
+    a_lat above 5 only through the plan's braking) nothing is added."""
+    v = 20.0
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=0.5)
+    assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1], slack=5.0)
+    d = _gain(-2.0)
+    assert d == pytest.approx(0.919, abs=1e-3)
+    assert status == 1 and u[0] == pytest.approx(-2320.0, rel=1e-12)
+    assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [-3000.0, 0.1], slack=5.0)
+    assert status == 1 and u[0] == -3000.0
+    status, u = _guard(BEND, [0.0, 0.0, 0.0, v, _delta(v, 4.94)], [-3000.0, 0.1], slack=5.0)  # 4.94 / d(3 kN) > 5
+    assert status == 1 and u[0] == -3000.0
 
 
 def test_where_the_guard_steers_and_cuts_the_drive_it_steers_for_the_slower_step():
     """A plant step whose end speed follows the force, v1 = 20 + F_d / m dt: the plan drives with 5,000 N (v1 =
     20.431 m/s) and its step ends at 5.5 m/s^2. The rate set for 4.95 at 20.431 m/s would end at 4.95 (20 / 20.431)^2
     = 4.74 m/s^2 once the ellipse has cut the force to 0 and the step ends at 20 m/s; the guard sets the rate again for
-    that step: (delta(20, 4.95) - 0.03) / dt, status 1."""
+    that step: (delta(20, 4.95) - 0.03) / dt, status 1 (without the bend braking, which the next test adds)."""
     v0, m = 20.0, 1160.0
     x0 = np.array([0.0, 0.0, 0.0, v0, 0.03])
     uu = np.array([5000.0, (_delta(v0 + 5000.0 / m * DT, 5.5) - 0.03) / DT])
@@ -78,7 +108,7 @@ def test_where_the_guard_steers_and_cuts_the_drive_it_steers_for_the_slower_step
     def step() -> list[float]:
         return [0.0, 0.0, 0.0, v0 + float(uu[0]) / m * DT, 0.03 + float(uu[1]) * DT]
 
-    status = a_lat_guard(SAFE, x0, uu, -0.39, 0.39, step)
+    status = a_lat_guard(NO_BEND, x0, uu, -0.39, 0.39, step)
     assert status == 1 and uu[0] == pytest.approx(0.0, abs=1e-2)
     assert uu[1] == pytest.approx((_delta(v0 + uu[0] / m * DT, A_TO) - 0.03) / DT, rel=1e-9)
     first = (_delta(v0 + 5000.0 / m * DT, A_TO) - 0.03) / DT  # the rate for the uncut force's step
@@ -104,7 +134,36 @@ def test_within_the_bound_the_drive_force_keeps_the_understeer_within_its_slack(
 
 
 def test_profiles():
-    """The safe presets carry the tyre-aware guard and the drive limit; the paper's have neither."""
+    """The safe presets carry the tyre-aware guard and the drive limit; the paper's have neither; neither brakes for
+    the bend."""
     safe, paper = preset("car_lifted_ellipse_ipm_safe"), preset("car_lifted_ellipse")
     assert safe.plan_check == PlanCheck() and safe.plan_check.tyre_stiffness > 0 and safe.plan_check.drive_limit
     assert paper.plan_check.tyre_stiffness == 0 and not paper.plan_check.drive_limit
+    assert safe.plan_check.bend_brake == 0.0 and paper.plan_check.bend_brake == 0.0
+
+
+def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
+    """The step of the test above (v1 = 20 + F_d / m dt) with the bend braking (a slack of 5): the plan's path at
+    5.5 m/s^2 and 20.431 m/s allows 20.431 sqrt(0.9) = 19.38 m/s, so the force is capped to -2 m = -2,320 N (v1 =
+    19.8 m/s) and the rate set for that step's end at the tyre-aware target under 2 m/s^2 of braking:
+    (delta(19.8, 4.95 d) - 0.03) / dt, d = 1 + 19.8^2 (1.7 / 17.905 - 1.7 / 15.449) / 74.528."""
+    v0, m = 20.0, 1160.0
+    x0 = np.array([0.0, 0.0, 0.0, v0, 0.03])
+    uu = np.array([5000.0, (_delta(v0 + 5000.0 / m * DT, 5.5) - 0.03) / DT])
+
+    def step() -> list[float]:
+        return [0.0, 0.0, 0.0, v0 + float(uu[0]) / m * DT, 0.03 + float(uu[1]) * DT]
+
+    assert a_lat_guard(BEND, x0, uu, -0.39, 0.39, step, 5.0) == 1
+    assert uu[0] == pytest.approx(-2320.0, rel=1e-12)
+    d = 1.0 + 19.8**2 * (1.7 / (9.81 * 1.7 + 2.0 * 0.614) - 1.7 / (9.81 * 1.7 - 2.0 * 0.614)) / (L * 21.92)
+    assert uu[1] == pytest.approx((_delta(19.8, A_TO * d) - 0.03) / DT, rel=1e-9)
+
+
+def test_bend_brake_needs_the_drive_limit_and_a_range():
+    """``bend_brake`` caps the drive force where the drive limit does: refused without it, and outside [0, 10]."""
+    with pytest.raises(ValueError, match=r"plan_check\.bend_brake"):
+        PlanCheck(drive_limit=False, bend_brake=2.0)
+    with pytest.raises(ValueError, match=r"plan_check\.bend_brake.*\[0, 10\]"):
+        PlanCheck(bend_brake=-1.0)
+    assert PlanCheck(drive_limit=False, bend_brake=0.0).bend_brake == 0.0

@@ -95,4 +95,5 @@ problem = Problem(
         a_lat_guard=False,
         tyre_stiffness=0.0,
         h_cg=0.614,
-        drive_limit=False))
+        drive_limit=False,
+        bend_brake=0.0))

@@ -34,6 +34,8 @@
 #define EGO_M ((truck_lift_el_real_t)1160.0) /* the ego's mass: a_x = F_d / m */
 #define DRIVE_SLACK ((truck_lift_el_real_t)0.25) /* fcgen.reactions.DRIVE_SLACK */
 #define DRIVE_LIMIT 0 /* PlanCheck.drive_limit: the a_lat guard's friction ellipse on the drive force */
+#define BEND_BRAKE ((truck_lift_el_real_t)0.0) /* PlanCheck.bend_brake: its braking where it steers (m/s^2) */
+#define BEND_SLACK ((truck_lift_el_real_t)1.0) /* ... while the plan holds a slack above (reactions.BEND_SLACK) */
 #define BRAKE_M_PER_DT ((truck_lift_el_real_t)11600.0) /* m / dt of the braking control (braking_force) */
 /* parameter vector of a stage: [road window | x_ref (5) | opponents] */
 #define P_ROAD_S0 0
@@ -1725,6 +1727,34 @@ static truck_lift_el_real_t guard_steering_rate(truck_lift_el_real_t v, truck_li
   return (r < lo) ? lo : ((r > hi) ? hi : r);
 }
 
+/* The a_lat guard's braking where it steers (fcgen.reactions.bend_brake_limit: the same operations): the drive force's
+ * cap that brakes towards the speed the plan's path (curvature |tan(delta)| / l) allows at a_to, at most at a_brake;
+ * f_max (no cap) where v is within it or a_brake is 0. */
+static truck_lift_el_real_t bend_brake_limit(truck_lift_el_real_t v, truck_lift_el_real_t delta, truck_lift_el_real_t a_to,
+                                         truck_lift_el_real_t a_brake, truck_lift_el_real_t f_max) {
+  const truck_lift_el_real_t k = fabs(tan(delta)) / L_WHEELBASE;
+  truck_lift_el_real_t a;
+  if ((a_brake <= REAL_0) || (((v * v) * k) <= a_to)) {
+    return f_max;
+  }
+  a = (v - sqrt(a_to / k)) / SAMPLE_DT;
+  a = -EGO_M * ((a < a_brake) ? a : a_brake);
+  return (a > -f_max) ? a : -f_max;
+}
+
+/* The plan's largest slack of stages 1..N, 0 if none is positive (truck_lift_el_max_slack; the a_lat guard's bend braking). */
+static truck_lift_el_real_t largest_slack(void) {
+  truck_lift_el_real_t m = 0.0;
+  int i;
+  for (i = 0; i < N_SLACK; ++i) {
+    const truck_lift_el_real_t v = ws.w[SLACK_VARS[i]];
+    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
+      m = v;
+    }
+  }
+  return m;
+}
+
 /* The guard's divisor at speed v under get_u0's drive force (fcgen.plan_check.tyre_gain). */
 static truck_lift_el_real_t tyre_gain(truck_lift_el_real_t v) {
   return load_transfer_gain(v, ws.u_applied[0] / EGO_M, TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG);
@@ -1773,9 +1803,13 @@ static void a_lat_guard(void) {
   if ((DRIVE_LIMIT != 0) && (ws.status.a_lat_guard != 2)) { /* tyres turn less than the formula while driving */
     const truck_lift_el_real_t *xe = (over == 0) ? xa : x1; /* the step with the rate applied */
     const truck_lift_el_real_t a = fabs(lateral_acceleration(xe[3], xe[4], L_WHEELBASE));
-    const truck_lift_el_real_t cap =
+    truck_lift_el_real_t cap =
         (over == 0) ? understeer_drive_limit(a, xe[3], TYRE_K, TYRE_L_F, TYRE_L_R, TYRE_H_CG, DRIVE_SLACK, U_HI[0], EGO_M)
                     : drive_limit(a, A_LAT_GUARD_TO, U_HI[0]);
+    if ((ws.status.a_lat_guard == 1) && (largest_slack() > BEND_SLACK)) { /* too fast for the plan's path */
+      const truck_lift_el_real_t bend = bend_brake_limit(xa[3], xa[4], A_LAT_GUARD_TO, BEND_BRAKE, U_HI[0]);
+      cap = (bend < cap) ? bend : cap;
+    }
     truck_lift_el_real_t x2[5]; /* the step with the drive force the limit left */
     int cut = 0;
     if (ws.u_applied[0] > cap) {
@@ -2175,15 +2209,7 @@ int truck_lift_el_get_controls(truck_lift_el_real_t *u) {
 }
 
 truck_lift_el_real_t truck_lift_el_max_slack(void) {
-  truck_lift_el_real_t m = 0.0;
-  int i;
-  for (i = 0; i < N_SLACK; ++i) {
-    const truck_lift_el_real_t v = ws.w[SLACK_VARS[i]];
-    if ((v > m) || isnan(v)) { /* NaN propagates, as numpy's max */
-      m = v;
-    }
-  }
-  return m;
+  return largest_slack();
 }
 
 int truck_lift_el_get_status(truck_lift_el_status_t *st) {

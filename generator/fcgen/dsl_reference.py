@@ -72,6 +72,13 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "the a_lat guard also limits a positive drive force: where it steers, to a friction ellipse with the next "
         "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula",
     ),
+    ("PlanCheck", "bend_brake"): (
+        "m/s^2",
+        "[0, 10], 0 without drive_limit; 0: off (the default)",
+        "where the a_lat guard steers and the plan holds a slack above 1, the ego is too fast for the path the plan "
+        "turns onto: the drive force is capped to brake towards that path's speed at the guard's target, at most at "
+        "this deceleration (off in the safe profile: docs/safe_profile.md)",
+    ),
     ("Ellipse", "shape"): (
         "-",
         "`minkowski` or `paper`",

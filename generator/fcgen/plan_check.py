@@ -13,7 +13,9 @@ import numpy as np
 
 from .dsl import Problem
 from .reactions import (
+    BEND_SLACK,
     DRIVE_SLACK,
+    bend_brake_limit,
     braking_force,
     drive_limit,
     guard_steering_rate,
@@ -24,7 +26,13 @@ from .reactions import (
 
 
 def a_lat_guard(
-    problem: Problem, x0: np.ndarray, u: np.ndarray, lo: float, hi: float, plant_step: Callable[[], Sequence[float]]
+    problem: Problem,
+    x0: np.ndarray,
+    u: np.ndarray,
+    lo: float,
+    hi: float,
+    plant_step: Callable[[], Sequence[float]],
+    slack: float = 0.0,
 ) -> int:
     """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in tyre-aware |a_lat|
     (``tyre_a_lat``), the steering rate that ends at ``a_lat_max - a_lat_margin`` in it (status 1; with wind the speed,
@@ -32,7 +40,9 @@ def a_lat_guard(
     above the bound (the rate bound ``[lo, hi]`` cut it short), braking as the plan check does (2); where the rate
     sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
     to it, and where the guard steers the rate is set again for the end of the step with the cut force, which is
-    slower (status 1 still); 0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
+    slower (status 1 still), and where the plan also holds a slack above ``reactions.BEND_SLACK`` (``slack``: the
+    plan's largest, the C's ``max_slack()``) the force is capped to brake for the plan's path (``bend_cap``); 0: the
+    guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
     plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs the
     three steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control
     and status)."""
@@ -40,6 +50,7 @@ def a_lat_guard(
         return 0
     b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
     x1, status = plant_step(), 0
+    xa = x1  # the step with the plan's rate
     if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
         d = tyre_gain(problem, x1[3], u[0])
         u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
@@ -50,6 +61,8 @@ def a_lat_guard(
     if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
         a = abs(lateral_acceleration(x1[3], x1[4], l))
         cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
+        if status == 1 and slack > BEND_SLACK:  # too fast for the plan's path, the plan in slack: brake for it
+            cap = min(cap, bend_cap(problem, xa))
         if u[0] > cap:
             u[0] = cap
             status = status or 3
@@ -58,6 +71,15 @@ def a_lat_guard(
                 a_to = (b.a_lat_max - b.a_lat_margin) * tyre_gain(problem, x2[3], u[0])
                 u[1] = guard_steering_rate(x2[3], x2[4], float(x0[4]), a_to, l, dt, lo, hi)
     return status
+
+
+def bend_cap(problem: Problem, xa: Sequence[float]) -> float:
+    """``reactions.bend_brake_limit`` at the end of the step with the plan's control (its speed and steering angle)."""
+    b, pc = problem.bounds, problem.plan_check
+    a_to = b.a_lat_max - b.a_lat_margin
+    return bend_brake_limit(
+        xa[3], xa[4], problem.ego.l, a_to, pc.bend_brake, problem.ego.m, problem.horizon.dt, b.F_d_max
+    )
 
 
 def understeer_cap(problem: Problem, x: Sequence[float], a: float) -> float:

@@ -74,10 +74,28 @@ def understeer_drive_limit(
     return f if f < f_max else f_max
 
 
+def bend_brake_limit(
+    v: float, delta: float, l: float, a_to: float, a_brake: float, m: float, dt: float, f_max: float
+) -> float:
+    """The a_lat guard's braking where it steers: too fast for the path the plan turns onto (curvature ``|tan(delta)| /
+    l``) at ``|a_lat| = a_to``, the drive force's cap ``-m min(a_brake, (v - v_bend) / dt)``, ``v_bend = sqrt(a_to l /
+    |tan(delta)|)``, at least ``-f_max``: the speed falls towards the one that path allows, at most at ``a_brake``;
+    ``f_max`` (no cap) where ``v`` is within it or ``a_brake`` is 0."""
+    k = abs(math.tan(delta)) / l
+    if a_brake <= 0.0 or v * v * k <= a_to:
+        return f_max
+    a = (v - math.sqrt(a_to / k)) / dt
+    a = -m * (a if a < a_brake else a_brake)
+    return a if a > -f_max else -f_max
+
+
 G = 9.81
 """Gravity (m/s^2) of the load transfer (CommonRoad's single-track model's)."""
 DRIVE_SLACK = 0.25
 """m/s^2 the tyres may turn less than the formula says while the vehicle drives (``understeer_drive_limit``)."""
+BEND_SLACK = 1.0
+"""The plan's largest slack above which the a_lat guard, where it steers, also brakes for the plan's path
+(``bend_brake_limit``): a plan that cannot keep its rows, too fast for where it goes."""
 GAIN_MIN = 0.1
 """The smallest divisor ``load_transfer_gain`` gives: beyond the critical speed the guard takes the tyre-aware a_lat as
 10 times the formula's (it then steers towards straight ahead)."""

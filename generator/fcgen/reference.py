@@ -429,9 +429,9 @@ class RtiSolver(StageInputsMixin):
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
         """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
-        st.a_lat_guard = a_lat_guard(
-            self.ocp.problem, self.x_plan, self.u_applied, lo, hi, lambda: self._plant_step(p_road)
-        )
+        slack = max(float(np.max(self.slacks())), 0.0)  # the C's max_slack(): a NaN stays NaN
+        step = lambda: self._plant_step(p_road)  # noqa: E731
+        st.a_lat_guard = a_lat_guard(self.ocp.problem, self.x_plan, self.u_applied, lo, hi, step, slack)
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
         """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``)."""

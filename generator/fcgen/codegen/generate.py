@@ -444,6 +444,8 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "ego_m": c_real(problem.ego.m),
         "drive_limit": int(problem.plan_check.drive_limit),
         "drive_slack": c_real(reactions.DRIVE_SLACK),
+        "bend_brake": c_real(problem.plan_check.bend_brake),
+        "bend_slack": c_real(reactions.BEND_SLACK),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }

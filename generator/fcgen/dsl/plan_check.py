@@ -34,7 +34,11 @@ class PlanCheck:
     then also limits a positive drive force: where it sets the steering rate, to a friction ellipse with the step's
     lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
     ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
-    where only that acted).
+    where only that acted). ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
+    slack above ``reactions.BEND_SLACK``, the ego is too fast for the path the plan turns onto at the guard's target;
+    the drive force is then also capped to brake towards that path's speed within one sample, at most at
+    ``bend_brake`` (``reactions.bend_brake_limit``); 0 (the default, also in the safe profile: measured, it traded
+    an ego-caused collision for two of a truck into the braking ego, docs/safe_profile.md): off.
     """
 
     react_stages: int = 500
@@ -42,6 +46,7 @@ class PlanCheck:
     tyre_stiffness: float = 21.92
     h_cg: float = 0.614
     drive_limit: bool = True
+    bend_brake: float = 0.0
 
     def __post_init__(self) -> None:
         check(
@@ -59,3 +64,15 @@ class PlanCheck:
         )
         check(0.0 <= finite("plan_check.h_cg", self.h_cg) <= 3.0, "plan_check.h_cg", self.h_cg, "[0, 3] m")
         check(type(self.drive_limit) is bool, "plan_check.drive_limit", self.drive_limit, "True or False")
+        check(
+            0.0 <= finite("plan_check.bend_brake", self.bend_brake) <= 10.0,
+            "plan_check.bend_brake",
+            self.bend_brake,
+            "[0, 10] m/s^2 (0: off)",
+        )
+        check(
+            self.bend_brake == 0.0 or self.drive_limit,
+            "plan_check.bend_brake",
+            self.bend_brake,
+            "0 without plan_check.drive_limit (it caps the drive force where the drive limit does)",
+        )
