@@ -44,6 +44,7 @@ T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
 CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
+GOAL_LANE = "the goal's lane"  # the rule's reason for a change towards the goal's lane
 
 
 @dataclass(frozen=True, eq=False)
@@ -186,7 +187,7 @@ class TargetLane:
                     return self._set(c, "the lane ends")
             return self._set(target, self.reason)
         if toward is not None:
-            return self._set(toward if free(toward) else target, "the goal's lane")
+            return self._set(toward if free(toward) else target, GOAL_LANE)
         lead = leader(traffic, target, s, reach)
         if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
             for c in neighbours:
