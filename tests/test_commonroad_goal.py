@@ -184,29 +184,6 @@ def test_the_goal_speed_interval_is_aimed_inside_its_ends():
     assert speed_now(capped, 0.0, 0.0, False) == (25.0, "speed limit")
 
 
-def test_near_the_goal_the_lateral_reference_holds_the_ego_within_its_width(tmp_path):
-    """A 6 x 3 m goal centred on lane 2 (n = 3.5 m, extent 2.0-5.0 m) with an orientation interval: the goal's lane
-    centre as the target gives way to the ego's own n held HOLD_MARGIN = 0.3 m inside the sides (3.0 stays 3.0; 2.1
-    becomes 2.3; 5.5 becomes 4.7); a target outside the extent (another lane) and a goal without an orientation
-    interval keep the target."""
-    from fcgen.commonroad.goal import HOLD_MARGIN, goal_extent, hold_lateral
-
-    g = {"lane": 2, "s": 100.0, "orientation": (-0.2, 0.2)}
-    sc = load_for(PB, write_scenario(tmp_path / "o.xml", goal=g, goal_steps=(10, 20)))
-    ext = goal_extent(sc.planning_problem, sc.road)
-    assert ext[1] == pytest.approx((LANE - 1.5, LANE + 1.5), abs=0.02) and ext[2]
-    assert ext[0][1] - ext[0][0] == pytest.approx(6.0, abs=0.02)  # along the straight road: its length
-    assert sum(ext[0]) / 2 == pytest.approx(sc.goal_sn[0], abs=0.02)
-    pp = sc.planning_problem
-    assert HOLD_MARGIN == 0.3
-    assert hold_lateral(pp, ext, LANE, 3.0) == 3.0
-    assert hold_lateral(pp, ext, LANE, 2.1) == pytest.approx(ext[1][0] + 0.3)
-    assert hold_lateral(pp, ext, LANE, 5.5) == pytest.approx(ext[1][1] - 0.3)
-    assert hold_lateral(pp, ext, 0.0, 3.0) == 0.0
-    plain = load_for(PB, write_scenario(tmp_path / "p.xml", goal={"lane": 2, "s": 100.0}, goal_steps=(10, 20)))
-    assert hold_lateral(plain.planning_problem, ext, LANE, 3.0) == LANE
-
-
 def test_a_lane_change_for_the_goal_is_planned_within_the_time_left():
     """A change towards the goal's lane planned 1.2 s before the goal window's start (3 s) takes MIN_CHANGE = 2 s,
     one planned at 0 s the usual 3 s, one without a window the usual 3 s."""
@@ -227,6 +204,9 @@ def test_a_goal_at_the_speed_intervals_end_and_a_tight_window_is_reached(tmp_pat
 
     goal = {"lane": 1, "s": 50.0 + 140.0, "length": 2.2, "width": 1.7, "velocity": (18.24, 24.24)}
     sc = load_for(PB, write_scenario(tmp_path / "t.xml", goal=goal, goal_steps=(70, 80), ego_v=16.8, length=600.0))
+    s_g = sc.goal_sn[0]  # the goal's extent along the straight road: its 2.2 m length about its centre
+    assert sc.goal_timing.span == pytest.approx((s_g - 1.1, s_g + 1.1), abs=0.02)
+    assert sc.goal_timing.window == pytest.approx((7.0, 8.0)) and sc.goal_timing.speeds == (18.24, 24.24)
     run = run_commonroad(PB, sc, criticality=False)
     g = run.log.meta["extra"]["commonroad"]["goal"]
     assert g["reached"] and 70 <= g["step"] <= 80

@@ -18,11 +18,6 @@ Rules (tested in tests/test_commonroad_goal.py):
   ego arrived 0.2 m/s outside it) where the goal gives a position only once it is within the horizon's reach (the
   interval is the speed at the goal, not on the way: recorded traffic behind does not brake for an ego that slows
   early); at most the initial lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
-- **Near the goal, its heading** (``hold_lateral``): where the goal gives an orientation interval and one position
-  shape, once the goal is within the horizon's reach the lateral reference is the ego's own offset held
-  ``HOLD_MARGIN`` inside the shape's lateral extent: an ego already in the goal region's width drives on parallel to the
-  road instead of steering for the shape's centre (at walking speed, steering 0.6 m sideways held the heading
-  5 degrees off the road, outside the goal's orientation interval).
 - **A lane change for the goal** (``change_time``): planned over at most the time left to the goal window's start,
   at least ``MIN_CHANGE`` s.
 - **The goal's lateral offset** (``goal_frenet``, ``lateral_reference``): the goal position's centre's offset on the
@@ -43,7 +38,6 @@ WINDOW_MARGIN = 0.25  # of the goal's time window (and its extent along the road
 SPEED_MARGIN = 0.5  # m/s inside the goal's speed interval (at most a quarter of its width): the tracking's offset
 MIN_TIME = 1.0  # s: the shortest time the arrival band divides by (a late ego's urgency)
 MIN_CHANGE = 2.0  # s: the shortest lane change planned for the goal
-HOLD_MARGIN = 0.3  # m: the held lateral reference stays this far inside the goal shape's sides (at most a quarter)
 
 
 def _goal_centre(shape) -> np.ndarray | None:
@@ -241,9 +235,9 @@ def _vertices(shape) -> np.ndarray | None:
     return None if v is None else np.asarray(v, dtype=float)[:, :2]
 
 
-def goal_extent(pp, road) -> tuple[tuple[float, float], tuple[float, float], bool] | None:
-    """The first goal state's position on ``road``: its extent along the road ``(s_lo, s_hi)``, across it
-    ``(n_lo, n_hi)``, and whether it is one shape (not a group of several); None: no position."""
+def goal_extent(pp, road) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The first goal state's position on ``road``: its extent along the road ``(s_lo, s_hi)`` and across it
+    ``(n_lo, n_hi)``; None: no position."""
     gs = pp.goal.state_list[0]
     shape = getattr(gs, "position", None) if gs.has_value("position") else None
     v = _vertices(shape)
@@ -251,19 +245,4 @@ def goal_extent(pp, road) -> tuple[tuple[float, float], tuple[float, float], boo
         return None
     s, n, _ = road.to_frenet(v[:, 0], v[:, 1], np.zeros(len(v)))
     s, n = np.asarray(s, dtype=float), np.asarray(n, dtype=float)
-    one = not hasattr(shape, "shapes") or len(shape.shapes) == 1
-    return (float(s.min()), float(s.max())), (float(n.min()), float(n.max())), one
-
-
-def hold_lateral(pp, extent, n_target: float, n_ego: float) -> float:
-    """Near the goal (module docstring): the lateral reference ``n_target`` replaced by the ego's ``n_ego`` held
-    ``HOLD_MARGIN`` inside the goal shape's lateral extent, where the goal gives an orientation interval, one shape, and
-    ``n_target`` lies within that extent (the target is the goal's lane)."""
-    gs = pp.goal.state_list[0]
-    if extent is None or not extent[2] or _interval(gs, "orientation") is None:
-        return n_target
-    lo, hi = extent[1]
-    if not lo <= n_target <= hi:
-        return n_target
-    m = min(HOLD_MARGIN, 0.25 * (hi - lo))
-    return min(max(n_ego, lo + m), hi - m)
+    return (float(s.min()), float(s.max())), (float(n.min()), float(n.max()))

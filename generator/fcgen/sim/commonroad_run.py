@@ -237,7 +237,7 @@ def _drive(
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
     from ..commonroad.goal import change_time as goal_change
-    from ..commonroad.goal import hold_lateral, lateral_reference, reached
+    from ..commonroad.goal import lateral_reference, reached
     from ..commonroad.lanes import CHANGE_TIME, GOAL_LANE, SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
@@ -276,14 +276,12 @@ def _drive(
         v_new = _speed(sc, t_j, float(x[0]) + half_l, near)
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
             ramp = (n_now, j, goal_change(sc.goal_timing, t_j, change) if why == GOAL_LANE else change)
-        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None or near:
+        if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
             n_ref, v_ref = n_new, v_new  # (the lane's centre moves with s)
             since = 0.0 if ramp is None else (j - ramp[1]) * problem.horizon.dt
             ramp = ramp if ramp is not None and since < ramp[2] else None
-            held = near and ramp is None and goal is not None  # near the goal: parallel to the road within its width
-            n_give = hold_lateral(goal, sc.goal_extent, n_ref, float(x[1])) if held else n_ref
             n_now = _set_lateral(
-                controller, sc.name, problem, v_ref, n_give, None if ramp is None else (ramp[0], since, ramp[2])
+                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, ramp[2])
             )
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
