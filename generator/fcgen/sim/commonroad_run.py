@@ -273,7 +273,7 @@ def _drive(
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
         near, t_j = _goal_near(sc, problem, x, half_l), j * problem.horizon.dt
-        v_new = _speed(sc, t_j, float(x[0]) + half_l, near)
+        v_new = _speed(sc, t_j, float(x[0]) + half_l, near, traffic, float(x[1]), problem.ego.l_ch)
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
             ramp = (n_now, j, goal_change(sc.goal_timing, t_j, change) if why == GOAL_LANE else change)
         if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
@@ -327,14 +327,21 @@ def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: f
     return n0
 
 
-def _speed(sc, t: float, s_c: float, near: bool) -> float:
+def _speed(sc, t: float, s_c: float, near: bool, traffic, n: float, length: float) -> float:
     """The reference speed at time ``t`` with the ego's centre at ``s_c`` (``commonroad.goal.speed_now``; a scenario
-    loaded without the goal's timing: its start's reference, the goal's once near)."""
+    loaded without the goal's timing: its start's reference, the goal's once near), raised to a faster vehicle's
+    closing in from behind in the ego's lane (``commonroad.lanes.keep_ahead``; at most the lane's limit and
+    ``v_max``)."""
     from ..commonroad.goal import speed_now
+    from ..commonroad.lanes import keep_ahead
 
-    if sc.goal_timing is None:
-        return sc.v_goal if near else sc.v_ref
-    return speed_now(sc.goal_timing, t, s_c, near)[0]
+    g = sc.goal_timing
+    v = (sc.v_goal if near else sc.v_ref) if g is None else speed_now(g, t, s_c, near)[0]
+    v_behind = keep_ahead(traffic, n, s_c, v, length)
+    if v_behind is None:
+        return v
+    cap = math.inf if g is None else min(g.v_max, math.inf if g.limit is None else g.limit)
+    return max(v, min(v_behind, cap))
 
 
 def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
