@@ -151,8 +151,8 @@ def test_the_speed_reference_makes_up_lost_time_from_what_is_left():
     """A 2 m goal 100-102 m ahead, its window 7-8 s, the traffic's 12 m/s (hand-derived): the middle halves are
     100.5-101.5 m and 7.25-7.75 s, so at the start the ego needs 100.5 / 7.75 = 12.97 m/s at least. Having lost time
     (60 m driven at 5 s) it asks 40.5 / 2.75 = 14.73 m/s; ahead of time (95 m at 5 s) at most 6.5 / 2.25 = 2.89 m/s;
-    late (95 m at 7.5 s) the distance in MIN_TIME = 1 s: 5.5 m/s at least, so the traffic's 12 m/s stays; past the
-    goal, nothing to time."""
+    late (95 m at 7.5 s) the distance in MIN_TIME = 1 s: 5.5 m/s at least, so the traffic's 12 m/s stays; just before
+    the window's middle half no upper bound to speak of; past the goal, nothing to time."""
     from fcgen.commonroad.goal import MIN_TIME, GoalTiming, arrival_band, speed_now
 
     g = GoalTiming((100.0, 102.0), (7.0, 8.0), None, 12.0, None, 40.0)
@@ -161,6 +161,8 @@ def test_the_speed_reference_makes_up_lost_time_from_what_is_left():
     assert speed_now(g, 5.0, 60.0, False) == (pytest.approx(40.5 / 2.75), "goal time window")
     assert speed_now(g, 5.0, 95.0, False) == (pytest.approx(6.5 / 2.25), "goal time window")
     assert MIN_TIME == 1.0 and arrival_band(g, 7.5, 95.0) == (pytest.approx(5.5), math.inf)
+    # 0.05 s before the window's middle half, 6.5 m ahead of its far end: up to 6.5 / 0.05 = 130 m/s is not early
+    assert arrival_band(g, 7.2, 95.0) == (pytest.approx(5.5 / 1.0), pytest.approx(6.5 / 0.05))
     assert speed_now(g, 7.5, 95.0, False) == (12.0, "initial speed")
     assert arrival_band(g, 7.5, 101.6) is None and speed_now(g, 7.5, 101.6, True) == (12.0, "initial speed")
     with pytest.raises(ValueError, match=r"GoalTiming.window .* allowed a finite interval"):

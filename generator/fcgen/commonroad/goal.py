@@ -13,7 +13,8 @@ Rules (tested in tests/test_commonroad_goal.py):
   road (``GoalTiming.span``; a point: its centre) within the middle half of the goal's time window (a quarter of
   either left free at each end for the ego's acceleration and the tracking's lag), computed from the distance and
   the time *left* at each sample (the ego that lost time behind a slower vehicle or in a lane change makes it up; at
-  most ``MIN_TIME`` s of urgency: a late ego asks the distance in 1 s, not in 0); into the goal's speed interval
+  most ``MIN_TIME`` s of urgency: a late ego asks the distance in 1 s, not in 0; an early one is held back only by
+  the time left to the window's middle half); into the goal's speed interval
   shrunk by ``SPEED_MARGIN`` (the tracking settles a little below its reference: aimed at the interval's edge the
   ego arrived 0.2 m/s outside it) where the goal gives a position only once it is within the horizon's reach (the
   interval is the speed at the goal, not on the way: recorded traffic behind does not brake for an ego that slows
@@ -117,7 +118,7 @@ def arrival_band(g: GoalTiming, t: float, s_c: float) -> tuple[float, float] | N
     t_a, t_b = (v - t for v in _shrunk(*g.window))
     if s_hi <= s_c:
         return None
-    hi = (s_hi - s_c) / max(t_a, MIN_TIME) if t_a > 0 else math.inf
+    hi = (s_hi - s_c) / t_a if t_a > 0 else math.inf
     lo = max(s_lo - s_c, 0.0) / max(t_b, MIN_TIME)
     return lo, hi
 
