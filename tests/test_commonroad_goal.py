@@ -153,7 +153,7 @@ def test_the_speed_reference_makes_up_lost_time_from_what_is_left():
     (60 m driven at 5 s) it asks 40.5 / 2.75 = 14.73 m/s; ahead of time (95 m at 5 s) at most 6.5 / 2.25 = 2.89 m/s;
     late (95 m at 7.5 s) the distance in MIN_TIME = 1 s: 5.5 m/s at least, so the traffic's 12 m/s stays; just before
     the window's middle half no upper bound to speak of; past the goal, nothing to time."""
-    from fcgen.commonroad.goal import MIN_TIME, GoalTiming, arrival_band, speed_now
+    from fcgen.commonroad.goal import MIN_TIME, SPAN_MARGIN, GoalTiming, arrival_band, speed_now
 
     g = GoalTiming((100.0, 102.0), (7.0, 8.0), None, 12.0, None, 40.0)
     assert arrival_band(g, 0.0, 0.0) == pytest.approx((100.5 / 7.75, 101.5 / 7.25))
@@ -165,6 +165,10 @@ def test_the_speed_reference_makes_up_lost_time_from_what_is_left():
     assert arrival_band(g, 7.2, 95.0) == (pytest.approx(5.5 / 1.0), pytest.approx(6.5 / 0.05))
     assert speed_now(g, 7.5, 95.0, False) == (12.0, "initial speed")
     assert arrival_band(g, 7.5, 101.6) is None and speed_now(g, 7.5, 101.6, True) == (12.0, "initial speed")
+    # a goal lanelet 80 m long (100-180 m), steps 30-31: all but SPAN_MARGIN = 2 m at either end, 102-178 m, within
+    # 3.025-3.075 s: from 50 m at 16 m/s, 52 / 3.075 = 16.91 m/s at least
+    lane = GoalTiming((100.0, 180.0), (3.0, 3.1), None, 16.0, None, 40.0)
+    assert SPAN_MARGIN == 2.0 and arrival_band(lane, 0.0, 50.0) == pytest.approx((52.0 / 3.075, 128.0 / 3.025))
     with pytest.raises(ValueError, match=r"GoalTiming.window .* allowed a finite interval"):
         GoalTiming((100.0, 102.0), (8.0, 7.0), None, 12.0, None, 40.0)
 

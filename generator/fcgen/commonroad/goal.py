@@ -10,7 +10,8 @@ Rules (tested in tests/test_commonroad_goal.py):
 - **Reached** at the first sample ``j >= 1`` whose state is in the goal region; the run ends there.
 - **Reference speed** (``goal_speed``; per sample ``speed_now``), in this order: the initial speed (the traffic's);
   brought into the speeds that bring the ego's centre into the middle half of the goal position's extent along the
-  road (``GoalTiming.span``; a point: its centre) within the middle half of the goal's time window (a quarter of
+  road (``GoalTiming.span``; a point: its centre; of a long one, a goal lanelet, all but ``SPAN_MARGIN`` at either
+  end) within the middle half of the goal's time window (a quarter of
   either left free at each end for the ego's acceleration and the tracking's lag), computed from the distance and
   the time *left* at each sample (the ego that lost time behind a slower vehicle or in a lane change makes it up; at
   most ``MIN_TIME`` s of urgency: a late ego asks the distance in 1 s, not in 0; an early one is held back only by
@@ -38,6 +39,7 @@ from ..extras import require
 WINDOW_MARGIN = 0.25  # of the goal's time window (and its extent along the road) kept free at either end
 SPEED_MARGIN = 0.5  # m/s inside the goal's speed interval (at most a quarter of its width): the tracking's offset
 MIN_TIME = 1.0  # s: the shortest time the arrival band divides by (a late ego's urgency)
+SPAN_MARGIN = 2.0  # m: at most this of the goal's extent along the road kept free at either end (a long goal lanelet)
 MIN_CHANGE = 2.0  # s: the shortest lane change planned for the goal
 
 
@@ -114,7 +116,8 @@ def arrival_band(g: GoalTiming, t: float, s_c: float) -> tuple[float, float] | N
     middle of its time window, from what is left (module docstring); None: no position or window, or passed it."""
     if g.span is None or g.window is None:
         return None
-    s_lo, s_hi = _shrunk(*g.span)
+    m = min(WINDOW_MARGIN * (g.span[1] - g.span[0]), SPAN_MARGIN)
+    s_lo, s_hi = g.span[0] + m, g.span[1] - m
     t_a, t_b = (v - t for v in _shrunk(*g.window))
     if s_hi <= s_c:
         return None
