@@ -24,6 +24,11 @@ the horizon. In this order:
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
 
+**A vehicle closing in from behind** (``keep_ahead``): where the nearest vehicle behind in the ego's lane is
+within the chassis length plus ``T_BEHIND`` s of its speed and drives faster than the reference speed, its speed is
+the reference speed (at most the lane's limit and ``v_max``): recorded traffic does not brake for an ego slower than
+the driver it followed (the vehicle ahead stays the NMPC's constraint).
+
 **A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
 ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
 length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in.
@@ -44,6 +49,8 @@ T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
 CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
+GOAL_LANE = "the goal's lane"  # the rule's reason for a change towards the goal's lane
+T_BEHIND = 1.5  # s: a faster vehicle behind in the ego's lane nearer than this of its speed sets the reference speed
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,6 +142,18 @@ def gap_free(
     return bool(np.all(ahead_ok & behind_ok))
 
 
+def keep_ahead(traffic: Traffic, n_lane: float, s: float, v_ref: float, length: float) -> float | None:
+    """The speed of the nearest vehicle behind in the lane at ``n_lane`` (the ego's centre at ``s``) where it is within
+    the chassis length plus ``T_BEHIND`` s of its speed and faster than ``v_ref``; None: no such vehicle (module
+    docstring: recorded traffic does not brake for an ego slower than the driver it followed)."""
+    m = traffic.in_lane(n_lane) & (traffic.s < s)
+    if not m.any():
+        return None
+    i = int(np.argmax(np.where(m, traffic.s, -np.inf)))
+    gap, v = float(s - traffic.s[i]), float(traffic.v[i])
+    return v if gap < length + T_BEHIND * v and v > v_ref else None
+
+
 def leader(traffic: Traffic, n_lane: float, s: float, reach: float) -> tuple[float, float] | None:
     """The nearest vehicle ahead in the lane within ``reach``: (distance, speed), None without one."""
     m = traffic.in_lane(n_lane) & (traffic.s > s) & (traffic.s <= s + reach)
@@ -186,7 +205,7 @@ class TargetLane:
                     return self._set(c, "the lane ends")
             return self._set(target, self.reason)
         if toward is not None:
-            return self._set(toward if free(toward) else target, "the goal's lane")
+            return self._set(toward if free(toward) else target, GOAL_LANE)
         lead = leader(traffic, target, s, reach)
         if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
             for c in neighbours:

@@ -162,6 +162,7 @@ def run_commonroad(
             "sha256": sc.sha256,
             "planning_problem": sc.planning_problem_id,
             "v_ref": float(sc.v_ref),
+            "v_ref_samples": loop.v_refs,
             "n_ref": float(loop.lane_changes[0][1]) if loop.lane_changes else 0.0,
             "lane_changes": loop.lane_changes,
             "band_cut": cut,
@@ -209,6 +210,7 @@ class _Loop:
     planlog: PlanLog
     lane_changes: list = field(default_factory=list)  # [sample, n_ref, reason] where the lateral reference changed
     way_back: list = field(default_factory=list)  # the samples whose band the way back widened (commonroad.band)
+    v_refs: list = field(default_factory=list)  # the reference speed per sample (commonroad.goal.speed_now)
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -234,8 +236,9 @@ def _drive(
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
+    from ..commonroad.goal import change_time as goal_change
     from ..commonroad.goal import lateral_reference, reached
-    from ..commonroad.lanes import CHANGE_TIME, SETTLED, target_lane, traffic_at
+    from ..commonroad.lanes import CHANGE_TIME, GOAL_LANE, SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -247,7 +250,7 @@ def _drive(
     lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
     band = solver_band(problem, sc, lane.lanes, band_rule)
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
-    ramp: tuple[float, int] | None = None  # a lane change under way: (stage 0's n_ref when planned, its sample)
+    ramp: tuple[float, int, float] | None = None  # a lane change under way: (stage 0's n_ref, its sample, duration)
     change = CHANGE_TIME if change_time is None else change_time
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
@@ -269,16 +272,18 @@ def _drive(
         n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
-        v_new = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
+        near, t_j = _goal_near(sc, problem, x, half_l), j * problem.horizon.dt
+        v_new = _speed(sc, t_j, float(x[0]) + half_l, near, traffic, float(x[1]), problem.ego.l_ch)
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
-            ramp = (n_now, j)
+            ramp = (n_now, j, goal_change(sc.goal_timing, t_j, change) if why == GOAL_LANE else change)
         if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
             n_ref, v_ref = n_new, v_new  # (the lane's centre moves with s)
             since = 0.0 if ramp is None else (j - ramp[1]) * problem.horizon.dt
-            ramp = ramp if since < change else None
+            ramp = ramp if ramp is not None and since < ramp[2] else None
             n_now = _set_lateral(
-                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, change)
+                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, ramp[2])
             )
+        loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
@@ -320,6 +325,23 @@ def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: f
     if rc:
         raise ValueError(f"scenario {name}: the reference ({v_ref}, {n_ref}) refused (exit code {rc})")
     return n0
+
+
+def _speed(sc, t: float, s_c: float, near: bool, traffic, n: float, length: float) -> float:
+    """The reference speed at time ``t`` with the ego's centre at ``s_c`` (``commonroad.goal.speed_now``; a scenario
+    loaded without the goal's timing: its start's reference, the goal's once near), raised to a faster vehicle's
+    closing in from behind in the ego's lane (``commonroad.lanes.keep_ahead``; at most the lane's limit and
+    ``v_max``)."""
+    from ..commonroad.goal import speed_now
+    from ..commonroad.lanes import keep_ahead
+
+    g = sc.goal_timing
+    v = (sc.v_goal if near else sc.v_ref) if g is None else speed_now(g, t, s_c, near)[0]
+    v_behind = keep_ahead(traffic, n, s_c, v, length)
+    if v_behind is None:
+        return v
+    cap = math.inf if g is None else min(g.v_max, math.inf if g.limit is None else g.limit)
+    return max(v, min(v_behind, cap))
 
 
 def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
