@@ -26,7 +26,10 @@ the horizon. In this order:
 
 **A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
 ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
-length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in.
+length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in. The safe profile's
+driver (``close_ahead``) asks the same of the vehicle ahead: ahead by the chassis length plus ``T_GAP`` s at the ego's
+speed plus ``T_CLOSE`` s (towards the goal's lane ``T_CLOSE_GOAL`` s, and no time gap) of the speed by which the ego
+closes in on it, so that a change never ends in a gap that a slower vehicle ahead closes within that time.
 """
 
 from __future__ import annotations
@@ -113,24 +116,37 @@ def continues(lanes: list[Lane], s: float, n: float, ahead: float) -> bool:
 
 @dataclass(frozen=True)
 class Traffic:
-    """The vehicles at one sample on the road's Frenet frame: centre ``s``, ``n`` and speed ``v`` (arrays)."""
+    """The vehicles at one sample on the road's Frenet frame: centre ``s``, ``n``, speed ``v`` and length (arrays;
+    ``length`` None: not known, taken as 0)."""
 
     s: np.ndarray
     n: np.ndarray
     v: np.ndarray
+    length: np.ndarray | None = None
+
+    def lengths(self) -> np.ndarray:
+        return np.zeros(len(self.s)) if self.length is None else np.asarray(self.length, dtype=float)
 
     def in_lane(self, n_lane: float) -> np.ndarray:
         return np.abs(self.n - n_lane) <= SAME_LANE
 
 
 def gap_free(
-    traffic: Traffic, n_lane: float, s: float, v: float, length: float, t_gap: float = T_GAP, t_close: float = T_CLOSE
+    traffic: Traffic,
+    n_lane: float,
+    s: float,
+    v: float,
+    length: float,
+    t_gap: float = T_GAP,
+    t_close: float = T_CLOSE,
+    t_close_ahead: float = 0.0,
 ) -> bool:
     """Whether the gap in the lane at ``n_lane`` beside the ego (centre ``s``, speed ``v``) is free (module
-    docstring)."""
+    docstring); ``t_close_ahead``: s of the speed by which the ego closes in on a vehicle ahead asked on top (the
+    safe profile's ``T_CLOSE``; 0: none)."""
     m = traffic.in_lane(n_lane)
     ds, vo = traffic.s[m] - s, traffic.v[m]
-    ahead_ok = (ds < 0) | (ds > length + t_gap * v)
+    ahead_ok = (ds < 0) | (ds > length + t_gap * v + t_close_ahead * np.maximum(v - vo, 0.0))
     behind_ok = (ds >= 0) | (-ds > length + t_gap * vo + t_close * np.maximum(vo - v, 0.0))
     return bool(np.all(ahead_ok & behind_ok))
 
@@ -155,6 +171,7 @@ class TargetLane:
     v_ref: float
     n: float
     reason: str = "start"
+    close_ahead: bool = False  # the safe profile's gap: also T_CLOSE (goal's lane T_CLOSE_GOAL) of closing ahead
 
     def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
         """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
@@ -168,8 +185,9 @@ class TargetLane:
 
         def free(c: float) -> bool:
             if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
-                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL)
-            return gap_free(traffic, c, s, v, self.length)
+                ahead = T_CLOSE_GOAL if self.close_ahead else 0.0
+                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL, ahead)
+            return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
         if not settled and not free(target):
             return self._set(own, "the gap closed")
@@ -207,13 +225,14 @@ class TargetLane:
         return self.n, self.reason
 
 
-def target_lane(sc, length: float, goal_n: float | None, n_ego: float) -> TargetLane:
-    """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane."""
+def target_lane(sc, length: float, goal_n: float | None, n_ego: float, close_ahead: bool = False) -> TargetLane:
+    """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane;
+    ``close_ahead``: the safe profile's gap (``TargetLane.close_ahead``)."""
     lanes = road_lanes(sc.scenario.lanelet_network, sc.road)
     s0 = float(sc.x0[0])
     here = lanes_at(lanes, s0)
     own = min(here, key=lambda c: abs(c - n_ego)) if here else 0.0
-    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own)
+    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own, close_ahead=close_ahead)
 
 
 def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
@@ -226,12 +245,13 @@ def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
         if p is None:
             continue
         v = 0.0 if q is None or ob.static else float(np.hypot(q[0] - p[0], q[1] - p[1]) / dt)
-        rows.append((p[0], p[1], p[2], v))
+        rows.append((p[0], p[1], p[2], v, ob.length))
     if not rows:
-        return Traffic(np.zeros(0), np.zeros(0), np.zeros(0))
+        return Traffic(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))
     a = np.array(rows)
     s, n, _ = road.to_frenet(a[:, 0], a[:, 1], a[:, 2])
-    return Traffic(np.atleast_1d(np.asarray(s, dtype=float)), np.atleast_1d(np.asarray(n, dtype=float)), a[:, 3])
+    s, n = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (s, n))
+    return Traffic(s, n, a[:, 3], a[:, 4])
 
 
 def lane_change_profile(n_from: float, n_to: float, since: float, times, duration: float = CHANGE_TIME) -> np.ndarray:
