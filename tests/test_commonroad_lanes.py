@@ -177,3 +177,18 @@ def test_a_planned_lane_change_gets_n_ref_per_stage(tmp_path):
     assert np.all(np.diff(first) >= -1e-12)  # moving towards the target along the horizon
     t_in = {c: int(np.argmax(np.abs(np.asarray(r.log.ego_frenet)[:, 1] - LANE) < 0.3)) for c, r in runs.items()}
     assert t_in[CHANGE_TIME] <= t_in[0.0] + round(1.0 / PB.horizon.dt)
+
+
+def test_a_lane_beyond_a_median_is_not_beside_the_ego():
+    """Lanes at n = 0 (the ego's) and n = 19 m (a road beyond a median, as 19 m left of USA_Peach-3_1's start): a car
+    30 m ahead at 5 m/s in the ego's lane does not send the ego 19 m to the left (more than ``ADJACENT`` = 5 m); with
+    the other lane at 3.5 m it does."""
+    from fcgen.commonroad.lanes import ADJACENT, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    slow = Traffic(np.array([130.0]), np.array([0.0]), np.array([5.0]))
+    assert ADJACENT == 5.0
+    for other, expected in ((19.0, 0.0), (LANE, LANE)):
+        lanes = [Lane(1, s, np.zeros_like(s)), Lane(2, s, np.full_like(s, other))]
+        n, _ = TargetLane(lanes, None, L, 20.0, 0.0).update(100.0, 0.0, 20.0, slow)
+        assert n == pytest.approx(expected, abs=1e-9)

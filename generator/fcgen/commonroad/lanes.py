@@ -24,6 +24,10 @@ the horizon. In this order:
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
 
+A lane is beside the target (a candidate of steps 2-4) when it is the next one to the right or left at ``s`` and its
+centre lies within ``ADJACENT`` of the target's: lanelets of the same direction farther off (a parallel road beyond a
+median, 19 m to the left of USA_Peach-3_x's start) are not a lane change away.
+
 **A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
 ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
 length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in. The safe profile's
@@ -47,6 +51,7 @@ T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
 CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
+ADJACENT = 5.0  # m: a lane whose centre lies farther from the target's is not beside it (a road beyond a median)
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,8 +197,8 @@ class TargetLane:
         if not settled and not free(target):
             return self._set(own, "the gap closed")
         i = here.index(target)
-        left = here[i + 1] if i + 1 < len(here) else None
-        right = here[i - 1] if i > 0 else None
+        left = here[i + 1] if i + 1 < len(here) and here[i + 1] - target <= ADJACENT else None
+        right = here[i - 1] if i > 0 and target - here[i - 1] <= ADJACENT else None
         toward = None
         if self.goal_n is not None and abs(self.goal_n - target) > SAME_LANE:
             toward = left if self.goal_n > target else right

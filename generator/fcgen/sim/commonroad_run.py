@@ -335,7 +335,13 @@ def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: f
         prof = lane_change_profile(ramp[0], n_ref, ramp[1], problem.horizon.times, ramp[2])
         rc, n0 = controller.set_reference_stages(np.full(len(prof), v_ref), prof), float(prof[0])
     if rc:
-        raise ValueError(f"scenario {name}: the reference ({v_ref}, {n_ref}) refused (exit code {rc})")
+        from ..commonroad import ScenarioRefused
+
+        raise ScenarioRefused(
+            f"scenario {name}: the solver refuses the reference v_ref {v_ref:.2f} m/s, n_ref {n_ref:.2f} m "
+            f"(exit code {rc}; the problem's band [{problem.bounds.n_min}, {problem.bounds.n_max}] m)",
+            kind="reference refused",
+        )
     return n0
 
 
