@@ -4,15 +4,16 @@ The goal's reference speed (``goal.goal_speed``) ignores the traffic: the NMPC t
 vehicle ahead only where its obstacle rows bind, a few metres behind it, and closes in on it at the full speed
 difference. With ``Following`` the reference speed is also at most
 
-    v_follow = max(0, v_lead + (gap - s0 - t_gap v_lead) / t_close)
+    v_follow = max(0, v_lead + max(0, gap - s0 - t_gap v_lead) / t_close)
 
 for the nearest vehicle ahead in the ego's corridor: its centre ahead of the ego's centre and within half a lane
-(``lanes.SAME_LANE``) across the road of the ego's centre or of the target lane's centre (both lanes during a lane
-change), ``gap`` bumper to bumper along the road (the centres' distance less the half lengths), ``v_lead`` its
-speed. At ``v_follow`` the gap settles at ``s0 + t_gap v_lead`` (the time gap); beyond it the ego closes in at most at
-``(gap - s0 - t_gap v_lead) / t_close``, so the time to collision at the reference speed, ``gap / (v_ref -
-v_lead)``, is at least ``t_close`` (``gap t_close / (gap - s0 - t_gap v_lead)``); inside it the reference is slower
-than the vehicle ahead and the gap opens.
+(``lanes.SAME_LANE``) across the road of the ego's centre (the vehicles the criticality measures ask about), ``gap``
+bumper to bumper along the road (the centres' distance less the half lengths), ``v_lead`` its speed. Beyond the
+gap ``s0 + t_gap v_lead`` the ego closes in at most at ``(gap - s0 - t_gap v_lead) / t_close``, so the time to
+collision at the reference speed, ``gap / (v_ref - v_lead)``, is at least ``t_close`` (``gap t_close / (gap - s0 -
+t_gap v_lead)``); within it the reference is the vehicle's speed (no closing in; the rule does not brake below it to
+open the gap: the NMPC's obstacle rows keep the distance, and braking below the traffic's speed cost goals and drew
+recorded followers into the ego in a first design, docs/commonroad.md).
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ class Following:
     """The rule's parameters: the time gap ``t_gap`` (s) and standstill gap ``s0`` (m) it settles at, and the time
     ``t_close`` (s) over which it closes a larger gap (the smallest time to collision its reference asks for)."""
 
-    t_gap: float = 1.5
-    s0: float = 3.0
-    t_close: float = 3.0
+    t_gap: float = 1.0
+    s0: float = 2.0
+    t_close: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("t_gap", "s0", "t_close"):
@@ -42,7 +43,7 @@ class Following:
 
     def speed(self, gap: float, v_lead: float) -> float:
         """v_follow (module docstring) for a bumper-to-bumper ``gap`` (m) to a vehicle ahead at ``v_lead`` (m/s)."""
-        return max(0.0, v_lead + (gap - self.s0 - self.t_gap * v_lead) / self.t_close)
+        return max(0.0, v_lead + max(0.0, gap - self.s0 - self.t_gap * v_lead) / self.t_close)
 
 
 def vehicle_ahead(

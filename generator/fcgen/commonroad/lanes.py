@@ -31,9 +31,10 @@ median, 19 m to the left of USA_Peach-3_x's start) are not a lane change away.
 **A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
 ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
 length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in. The safe profile's
-driver (``close_ahead``) asks the same of the vehicle ahead: ahead by the chassis length plus ``T_GAP`` s at the ego's
-speed plus ``T_CLOSE`` s (towards the goal's lane ``T_CLOSE_GOAL`` s, and no time gap) of the speed by which the ego
-closes in on it, so that a change never ends in a gap that a slower vehicle ahead closes within that time.
+driver (``close_ahead``) asks the same of the vehicle ahead in a lane of steps 2 and 4 (not the goal's lane, where
+room is enough): ahead by the chassis length plus ``T_GAP`` s at the ego's speed plus ``T_CLOSE`` s of the speed by
+which the ego closes in on it, so that a change never ends in a gap that a slower vehicle ahead closes within that
+time.
 """
 
 from __future__ import annotations
@@ -176,7 +177,7 @@ class TargetLane:
     v_ref: float
     n: float
     reason: str = "start"
-    close_ahead: bool = False  # the safe profile's gap: also T_CLOSE (goal's lane T_CLOSE_GOAL) of closing ahead
+    close_ahead: bool = False  # the safe profile's gap: also T_CLOSE of closing ahead (not towards the goal's lane)
 
     def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
         """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
@@ -190,8 +191,7 @@ class TargetLane:
 
         def free(c: float) -> bool:
             if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
-                ahead = T_CLOSE_GOAL if self.close_ahead else 0.0
-                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL, ahead)
+                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL)
             return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
         if not settled and not free(target):

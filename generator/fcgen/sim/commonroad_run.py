@@ -285,7 +285,7 @@ def _drive(
         n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
-        v_new, capped = _speed_reference(sc, problem, x, follow, traffic, lane.n)
+        v_new, capped = _speed_reference(sc, problem, x, follow, traffic)
         loop.followed += capped
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
             ramp = (n_now, j)
@@ -345,9 +345,9 @@ def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: f
     return n0
 
 
-def _speed_reference(sc, problem: Problem, x: np.ndarray, follow: Following | None, traffic, n_target: float):
+def _speed_reference(sc, problem: Problem, x: np.ndarray, follow: Following | None, traffic):
     """The reference speed at state ``x``: the goal's (``_goal_near``), at most ``follow``'s behind the vehicle ahead
-    in the ego's corridor (its centre's ``n`` and the target lane's); and whether the vehicle ahead capped it."""
+    in the ego's corridor (within half a lane of its centre's ``n``); and whether the vehicle ahead capped it."""
     half_l = problem.ego.l / 2
     v = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
     if follow is None:
@@ -355,7 +355,7 @@ def _speed_reference(sc, problem: Problem, x: np.ndarray, follow: Following | No
     from ..commonroad.follow import follow_speed
 
     s_c, n_c = float(x[0]) + half_l * math.cos(float(x[2])), float(x[1]) + half_l * math.sin(float(x[2]))
-    cap = follow_speed(follow, traffic, s_c, (n_c, n_target), problem.ego.l_ch)
+    cap = follow_speed(follow, traffic, s_c, (n_c,), problem.ego.l_ch)
     return (v, False) if cap is None or cap >= v else (cap, True)
 
 
