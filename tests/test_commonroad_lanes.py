@@ -211,3 +211,18 @@ def test_recorded_traffic_behind_is_not_made_to_run_into_the_ego(tmp_path):
     np.testing.assert_allclose(run.log.meta["extra"]["commonroad"]["v_ref_samples"][:30], 15.0, rtol=1e-9)
     assert not run.fcgen["collision"] and not run.checker["collision"]
     assert float(np.min(run.log.ego_frenet[:, 3])) > 14.0
+
+
+def test_a_lane_beyond_a_median_is_not_beside_the_ego():
+    """Lanes at n = 0 (the ego's) and n = 19 m (a road beyond a median, as 19 m left of USA_Peach-3_1's start): a car
+    30 m ahead at 5 m/s in the ego's lane does not send the ego 19 m to the left (more than ``ADJACENT`` = 5 m); with
+    the other lane at 3.5 m it does."""
+    from fcgen.commonroad.lanes import ADJACENT, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    slow = Traffic(np.array([130.0]), np.array([0.0]), np.array([5.0]))
+    assert ADJACENT == 5.0
+    for other, expected in ((19.0, 0.0), (LANE, LANE)):
+        lanes = [Lane(1, s, np.zeros_like(s)), Lane(2, s, np.full_like(s, other))]
+        n, _ = TargetLane(lanes, None, L, 20.0, 0.0).update(100.0, 0.0, 20.0, slow)
+        assert n == pytest.approx(expected, abs=1e-9)
