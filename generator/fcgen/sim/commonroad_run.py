@@ -289,8 +289,7 @@ def _drive(
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
         t_j = j * problem.horizon.dt
-        v_new, capped = _speed_reference(sc, problem, x, t_j, follow, traffic)
-        loop.followed += capped
+        v_new = _speed_reference(sc, problem, x, t_j, follow, traffic, loop)
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
             ramp = (n_now, j, goal_change(sc.goal_timing, t_j, change) if why == GOAL_LANE else change)
         if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
@@ -367,19 +366,22 @@ def _speed(sc, t: float, s_c: float, near: bool, traffic, n: float, length: floa
     return max(v, min(v_behind, cap))
 
 
-def _speed_reference(sc, problem: Problem, x: np.ndarray, t: float, follow: Following | None, traffic):
+def _speed_reference(sc, problem: Problem, x: np.ndarray, t: float, follow: Following | None, traffic, loop: _Loop):
     """The reference speed at state ``x`` and time ``t`` (``_speed``), at most ``follow``'s behind the vehicle ahead
-    in the ego's corridor (within half a lane of its centre's ``n``); and whether the vehicle ahead capped it."""
+    in the ego's corridor (within half a lane of its centre's ``n``; ``loop.followed`` counts the samples it caps)."""
     half_l = problem.ego.l / 2
     near = _goal_near(sc, problem, x, half_l)
     v = _speed(sc, t, float(x[0]) + half_l, near, traffic, float(x[1]), problem.ego.l_ch)
     if follow is None:
-        return v, False
+        return v
     from ..commonroad.follow import follow_speed
 
     s_c, n_c = float(x[0]) + half_l * math.cos(float(x[2])), float(x[1]) + half_l * math.sin(float(x[2]))
     cap = follow_speed(follow, traffic, s_c, (n_c,), problem.ego.l_ch)
-    return (v, False) if cap is None or cap >= v else (cap, True)
+    if cap is None or cap >= v:
+        return v
+    loop.followed += 1
+    return cap
 
 
 def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
