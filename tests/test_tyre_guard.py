@@ -51,7 +51,9 @@ def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
     assert status == 1 and u[0] == f_d
     assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
     # without tyres (the paper's guard) the same step passes: 4.5 <= 5
-    no_tyres = SAFE.with_(plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0))
+    no_tyres = SAFE.with_(
+        plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0, drive_rise=0.0)
+    )
     assert _guard(no_tyres, x1, [f_d, 0.1]) == (0, pytest.approx(np.array([f_d, 0.1])))
 
 
@@ -70,7 +72,7 @@ def test_where_the_guard_steers_it_does_not_drive():
     status, u = _guard(NO_BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
     assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
     assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
-    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, bend_brake=0.0))
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, bend_brake=0.0, drive_rise=0.0))
     assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
 
 
@@ -163,7 +165,7 @@ def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
 def test_bend_brake_needs_the_drive_limit_and_a_range():
     """``bend_brake`` caps the drive force where the drive limit does: refused without it, and outside [0, 10]."""
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake"):
-        PlanCheck(drive_limit=False, bend_brake=2.0)
+        PlanCheck(drive_limit=False, bend_brake=2.0, drive_rise=0.0)
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake.*\[0, 10\]"):
         PlanCheck(bend_brake=-1.0)
-    assert PlanCheck(drive_limit=False, bend_brake=0.0).bend_brake == 0.0
+    assert PlanCheck(drive_limit=False, bend_brake=0.0, drive_rise=0.0).bend_brake == 0.0

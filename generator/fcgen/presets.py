@@ -47,7 +47,15 @@ PROFILES = ("paper", "safe")
 """``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults
 (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
-PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0)
+PAPER_PLAN_CHECK = PlanCheck(
+    react_stages=0,
+    a_lat_guard=False,
+    tyre_stiffness=0.0,
+    drive_limit=False,
+    bend_brake=0.0,
+    brake_memory=False,
+    drive_rise=0.0,
+)
 OSQP_MAX_ITER: dict[str, int] = {"ellipse": 40, "hyperplane": 60, "circles": 60}
 """The ADMM cap of a warm-started QP (``QpOptions.max_iter``) in the OSQP presets and campaign runs, per obstacle model
 (the dataclass's default, 60, stays the IPM's own cap). An ADMM iteration costs the same whatever OSQP's embedded
