@@ -199,6 +199,11 @@ def markdown(tab: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _field_value(text: str) -> float | bool:
+    """A ``--plan-check`` value: true or false (the boolean fields), else a number."""
+    return {"true": True, "false": False}[text.lower()] if text.lower() in ("true", "false") else float(text)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=20)
@@ -209,12 +214,17 @@ def main() -> None:
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
     ap.add_argument("--out", default="results/perturbations.json")
     ap.add_argument("--add", nargs="*", default=[], help="results files (.json or .jsonl) of other runs to merge in")
-    ap.add_argument("--plan-check", default="", help="FIELD=VALUE,... replacing the safe PlanCheck's (floats)")
+    ap.add_argument(
+        "--plan-check", default="", help="FIELD=VALUE,... replacing the safe PlanCheck's (numbers, true, false)"
+    )
     args = ap.parse_args()
     try:
-        plan_check = {k: float(v) for k, v in (x.split("=") for x in args.plan_check.split(",") if x)}
+        plan_check = {k: _field_value(v) for k, v in (x.split("=") for x in args.plan_check.split(",") if x)}
     except ValueError:
-        ap.error(f"--plan-check: {args.plan_check!r} is invalid: allowed FIELD=NUMBER,... (e.g. bend_brake=0)")
+        ap.error(
+            f"--plan-check: {args.plan_check!r} is invalid: allowed FIELD=VALUE,... "
+            "(e.g. bend_brake=0,brake_memory=false)"
+        )
     labels = [x for x in args.only.split(",") if x] or DEFAULT_LABELS
     if "model" not in labels and not args.add:  # the unperturbed runs of the same seeds (or from an --add file)
         labels.insert(0, "model")

@@ -47,15 +47,7 @@ PROFILES = ("paper", "safe")
 """``paper``: the paper's settings (its presets, Table III); ``safe``: ours, the DSL's defaults
 (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
-PAPER_PLAN_CHECK = PlanCheck(
-    react_stages=0,
-    a_lat_guard=False,
-    tyre_stiffness=0.0,
-    drive_limit=False,
-    bend_brake=0.0,
-    brake_memory=False,
-    drive_rise=0.0,
-)
+PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0)
 OSQP_MAX_ITER: dict[str, int] = {"ellipse": 40, "hyperplane": 60, "circles": 60}
 """The ADMM cap of a warm-started QP (``QpOptions.max_iter``) in the OSQP presets and campaign runs, per obstacle model
 (the dataclass's default, 60, stays the IPM's own cap). An ADMM iteration costs the same whatever OSQP's embedded
@@ -102,6 +94,11 @@ def safe_reference(formulation) -> Reference:
     return SAFE_REFERENCE_CONVENTIONAL if isinstance(formulation, Conventional) else Reference()
 
 
+SAFE_PLAN_CHECK = PlanCheck(brake_memory=True, drive_rise=3.0)
+"""The safe profile's plan check (but for the conventional formulation): the DSL's defaults, and the a_lat guard's
+memory of the last drive force, braking (``brake_memory``) and the drive force's rise per sample (``drive_rise``,
+m/s^2 per sample; docs/safe_profile.md "The guard's memory of the last force")."""
+
 SAFE_PLAN_CHECK_CONVENTIONAL = PlanCheck(a_lat_guard=False)
 """The safe profile's plan check for the conventional formulation: without the a_lat guard. Its a_lat rows are the
 dearer ones (3e8, ``SAFE_SOFT_CONVENTIONAL``), and its plans keep the bound on their own within 0.37 m/s^2 on the full
@@ -112,7 +109,7 @@ above 0.5 m/s^2 before, and moved one of them, truck HP seed 45, onto a path tha
 
 def safe_plan_check(formulation) -> PlanCheck:
     """The safe profile's plan check of a formulation (the DSL's defaults but for the conventional one)."""
-    return SAFE_PLAN_CHECK_CONVENTIONAL if isinstance(formulation, Conventional) else PlanCheck()
+    return SAFE_PLAN_CHECK_CONVENTIONAL if isinstance(formulation, Conventional) else SAFE_PLAN_CHECK
 
 
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {

@@ -453,7 +453,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "f_last": has_f_last(problem),
         "steer_lag": problem.steer_lag > 0,
         "lag_tau": c_real(problem.steer_lag),
-        "lag_decay": c_real(lag_constants(problem)[1] if problem.steer_lag > 0 else 0.0),
+        "lag_decay": c_real((lag_constants(problem) or (0.0, 0.0))[1]),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }

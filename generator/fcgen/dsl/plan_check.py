@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .validation import check, finite, known_fields
 
@@ -44,7 +44,9 @@ class PlanCheck:
     handed-out control's braking (a tyre's yaw rate and slip angle still carry the braking of the sample before when
     the braking eases). ``drive_rise`` (m/s^2 per sample, with ``drive_limit``): the drive force rises by at most
     ``m drive_rise`` above the last handed-out one per sample (a switch from braking to driving in one sample turns
-    a vehicle with tyres more than the formula says); 0: off. Braking is never limited.
+    a vehicle with tyres more than the formula says); 0: off. Braking harder is never limited, easing it is. Both off
+    by default (a folder's problem.py names them only when set); the safe presets set them
+    (``presets.SAFE_PLAN_CHECK``).
     """
 
     react_stages: int = 500
@@ -53,8 +55,8 @@ class PlanCheck:
     h_cg: float = 0.614
     drive_limit: bool = True
     bend_brake: float = 0.0
-    brake_memory: bool = True
-    drive_rise: float = 3.0
+    brake_memory: bool = field(default=False, metadata={"omit_default": True})
+    drive_rise: float = field(default=0.0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
