@@ -149,10 +149,12 @@ def test_profiles_of_the_presets():
             else d.reference
         )
         assert preset(name).reference.curve_a_lat == 0.0
-        # the DSL's plan check, but the conventional formulation's has no a_lat guard (its a_lat rows hold the bound)
+        # the DSL's plan check with the guard's memory of the last force (SAFE_PLAN_CHECK), but the conventional
+        # formulation's has no a_lat guard (its a_lat rows hold the bound)
         assert preset(name + "_safe").plan_check == (
-            replace(d.plan_check, a_lat_guard=False) if conventional else d.plan_check
+            replace(d.plan_check, a_lat_guard=False) if conventional else SAFE_PLAN_CHECK
         )
+        assert replace(d.plan_check, brake_memory=True, drive_rise=SAFE_PLAN_CHECK.drive_rise) == SAFE_PLAN_CHECK
         assert not preset(name).plan_check.a_lat_guard
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):

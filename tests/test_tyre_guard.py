@@ -204,16 +204,17 @@ def test_the_drive_force_rises_at_most_drive_rise_a_sample():
     gets -10,000 + 3 m = -6,520 N (status 3); after 5,000 N, 8,480 N; braking that eases from -10,000 N to -3,000 N
     eases to -6,520 N too; braking harder is never limited; without drive_rise the whole force."""
     x1 = [0.0, 0.0, 0.0, 20.0, 0.0]
+    rise = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_rise=3.0))  # 3 m/s^2 a sample: 3,480 N
 
     def run(problem: Problem, f: float, f_last: float) -> tuple[int, float]:
         uu = np.array([f, 0.0])
         return a_lat_guard(problem, np.array(x1), uu, -0.39, 0.39, lambda: list(x1), 0.0, f_last), float(uu[0])
 
-    assert run(SAFE, 1e4, -1e4) == (3, pytest.approx(-10000.0 + 3.0 * 1160.0, rel=1e-15))
-    assert run(SAFE, 1e4, 5000.0) == (3, pytest.approx(8480.0, rel=1e-15))
-    assert run(SAFE, -3000.0, 1e4) == (0, -3000.0)
-    assert run(SAFE, -3000.0, -1e4) == (3, pytest.approx(-6520.0, rel=1e-15))
-    assert run(SAFE, -9000.0, -1e4) == (0, -9000.0)  # a rise of 1,000 N: within 3,480
+    assert run(rise, 1e4, -1e4) == (3, pytest.approx(-10000.0 + 3.0 * 1160.0, rel=1e-15))
+    assert run(rise, 1e4, 5000.0) == (3, pytest.approx(8480.0, rel=1e-15))
+    assert run(rise, -3000.0, 1e4) == (0, -3000.0)
+    assert run(rise, -3000.0, -1e4) == (3, pytest.approx(-6520.0, rel=1e-15))
+    assert run(rise, -9000.0, -1e4) == (0, -9000.0)  # a rise of 1,000 N: within 3,480
     free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_rise=0.0))
     assert run(free, 1e4, -1e4) == (0, 1e4)
     with pytest.raises(ValueError, match=r"plan_check\.drive_rise.*\[0, 100\]"):

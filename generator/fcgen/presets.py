@@ -94,7 +94,7 @@ def safe_reference(formulation) -> Reference:
     return SAFE_REFERENCE_CONVENTIONAL if isinstance(formulation, Conventional) else Reference()
 
 
-SAFE_PLAN_CHECK = PlanCheck(brake_memory=True, drive_rise=3.0)
+SAFE_PLAN_CHECK = PlanCheck(brake_memory=True, drive_rise=4.0)
 """The safe profile's plan check (but for the conventional formulation): the DSL's defaults, and the a_lat guard's
 memory of the last drive force, braking (``brake_memory``) and the drive force's rise per sample (``drive_rise``,
 m/s^2 per sample; docs/safe_profile.md "The guard's memory of the last force")."""
