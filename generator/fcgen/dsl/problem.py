@@ -93,6 +93,22 @@ class Problem:
             ("plan_check", PlanCheck),
         ):
             check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
+        self._check_across_fields()
+        if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
+            for who, veh, n in (
+                ("opponents", self.opponents.vehicle, self.obstacles.n),
+                ("ego", self.ego, self.obstacles.ego_circles),
+            ):
+                if not circles_cover(veh.l_ch, veh.w_ch, n):
+                    need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
+                    warnings.warn(
+                        f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
+                        f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
+                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
+                    )
+
+    def _check_across_fields(self) -> None:
+        """The checks that tie one field to another (guard margin, tyre load, delay, lag, road length)."""
         check(
             not self.plan_check.a_lat_guard or self.bounds.a_lat_margin > 0,
             "bounds.a_lat_margin",
@@ -130,18 +146,6 @@ class Problem:
             self.road.length,
             f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)",
         )
-        if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
-            for who, veh, n in (
-                ("opponents", self.opponents.vehicle, self.obstacles.n),
-                ("ego", self.ego, self.obstacles.ego_circles),
-            ):
-                if not circles_cover(veh.l_ch, veh.w_ch, n):
-                    need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
-                    warnings.warn(
-                        f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
-                        f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
-                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
-                    )
 
     def with_(self, **changes) -> Problem:
         """A copy with some fields replaced (validated again)."""
