@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from crrows import cr_row as _row
 from crscenes import write_scenario
 
 from fcgen.campaign.commonroad import ROW_KEYS, load_for
@@ -330,35 +331,6 @@ def test_an_unknown_traffic_mode_is_one_line_naming_the_allowed_ones(tmp_path):
 
 
 # --- the report's page per data set -------------------------------------------------------------------------------
-
-
-def _row(scenario, traffic, status="ran", **kw):
-    row = dict.fromkeys(ROW_KEYS)
-    row.update(
-        scenario=scenario,
-        dataset=dataset_of(scenario),
-        file=f"{scenario}.xml",
-        problem="car_lifted_ellipse_ipm_safe",
-        controller="c",
-        traffic=traffic,
-        status=status,
-        reason="",
-        collision_fcgen=False,
-        collision_checker=False,
-        road_departure=False,
-        start_off_road=False,
-        responsibility="",
-        goal_reached=status == "ran",
-        solution_valid=False,
-        reacted=0,
-        reacted_to_ego=0,
-        criticality_error="",
-        rti_ms_median=0.3,
-        wall_s=2.0,
-        cpu_s=None,
-    )
-    row.update(kw)
-    return row
 
 
 def test_the_report_groups_by_data_set_and_traffic_mode_with_refusals_by_reason():
