@@ -14,7 +14,7 @@ verdict, criticality) and written as the campaign's rows (``fcgen.campaign.commo
 
     .venv/bin/pip install --no-deps -r benchmarks/requirements-peer.txt
 
-(``commonroad-reactive-planner==2025.1``, ``methodtools==0.4.7``, ``wirerope==1.0.0``).
+(``commonroad-reactive-planner==2025.1``, ``methodtools==0.4.7``, ``wirerope==1.0.0`` and the ``six`` it imports).
 
 **The three adaptations** the 2025.1 release needs beside the current CommonRoad packages (written here, not in its
 sources): the route planner's API (``RoutePlanner.plan_routes()`` returns a list of lanelet sequences, a
