@@ -8,6 +8,7 @@ import hashlib
 import math
 import subprocess
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -397,3 +398,32 @@ def test_a_run_without_the_criticality_measures_says_so(tmp_path):
         c = run_commonroad(pb, sc, criticality=False).log.meta["extra"]["commonroad"]["criticality"]
     assert c["error"] == NOT_MEASURED
     assert all(c[m]["min"] is None and c["series"][m] == [] for m in ("ttc_ahead", "ttc_behind"))
+
+
+def test_one_process_writes_each_run_as_it_finishes_so_a_stopped_campaign_resumes(tmp_path, monkeypatch):
+    import fcgen.campaign.cr_run as cr_run
+
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    for i in range(3):
+        write_scenario(folder / f"ZAM_Plain-{i}_1_T-1.xml")
+    configs = paper_grid(["car"], ["lifted"], ["ellipse"], "python", "ipm", "safe")
+    out = tmp_path / "res"
+    seen: list[int] = []
+
+    def one(task):  # the third run stops the campaign (as a kill would); before it, what is on disk
+        p = out / "commonroad.parquet"
+        seen.append(len(pd.read_parquet(p)) if p.is_file() else 0)
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+        name = cr_run._problem_name(task.config)
+        return _row(Path(task.path).stem, task.traffic, problem=name, controller=task.config.controller)
+
+    monkeypatch.setattr(cr_run, "run_cr_task", one)
+    monkeypatch.setattr(cr_run, "FLUSH_ROWS", 1)
+    with pytest.raises(KeyboardInterrupt):
+        run_cr_campaign(configs, folder, out, str(tmp_path / "s"), jobs=1, echo=lambda _: None)
+    assert seen == [0, 1, 2]  # each row written before the next run starts
+    lines: list[str] = []
+    run_cr_campaign(configs, folder, out, str(tmp_path / "s"), jobs=1, echo=lines.append)
+    assert lines[0] == f"3 runs, 2 already in {out}, 1 to run (1 processes)"
