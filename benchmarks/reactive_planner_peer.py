@@ -318,7 +318,9 @@ def select(files: list[Path], modes: list[str], like: dict | None, per_dataset: 
     (a sample), refused by fcgen's own checks (``refused``: the list's file checks, ``listed_files``)."""
     if like is None:
         pick = stratified([f.stem for f in files if f.stem not in refused], per_dataset)
-        return [(f, m, refused.get(f.stem)) for f in files for m in modes if f.stem in pick or f.stem in refused]
+        return round_robin(
+            [(f, m, refused.get(f.stem)) for f in files for m in modes if f.stem in pick or f.stem in refused]
+        )
     drove = [s for (s, m), why in like.items() if why is None and m in modes]
     pick = stratified(drove, per_dataset)
     tasks = []
@@ -326,7 +328,22 @@ def select(files: list[Path], modes: list[str], like: dict | None, per_dataset: 
         for m in modes:
             why = like.get((f.stem, m), {"refused": "not in fcgen's rows", "refusal": "not run by fcgen"})
             tasks.append((f, m, SAMPLED_OUT if why is None and f.stem not in pick else why))
-    return tasks
+    return round_robin(tasks)
+
+
+def round_robin(tasks: list[tuple]) -> list[tuple]:
+    """The tasks with the runs last, taken in turn from each data set (its first scenario in both traffic modes, then
+    every data set's second, ...): a run stopped part-way holds a sample of every data set."""
+    from fcgen.commonroad.catalog import dataset_of
+
+    rank: dict[str, int] = {}
+    seen: dict[str, int] = {}
+    for f, _, why in tasks:
+        if why is None and f.stem not in rank:
+            d = dataset_of(f.stem)
+            rank[f.stem] = seen.get(d, 0)
+            seen[d] = rank[f.stem] + 1
+    return sorted(tasks, key=lambda t: (t[2] is None, rank.get(t[0].stem, -1), dataset_of(t[0].stem), t[0].stem))
 
 
 def campaign_rows(rows: list[dict]) -> list[dict]:
