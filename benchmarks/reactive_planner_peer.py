@@ -373,6 +373,18 @@ def campaign_rows(rows: list[dict]) -> list[dict]:
     return out
 
 
+def unique(rows: list[dict]) -> list[dict]:
+    """The rows with one per (scenario, traffic mode): the first (results of several files, one per traffic mode,
+    each resumed from a copy of the same earlier file)."""
+    seen: set = set()
+    out = []
+    for r in rows:
+        if (r["scenario"], r.get("traffic")) not in seen:
+            seen.add((r["scenario"], r.get("traffic")))
+            out.append(r)
+    return out
+
+
 def save(out: Path, rows: list[dict], meta: dict) -> None:
     """The rows (and ``meta``) as JSON, written whole."""
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -473,7 +485,7 @@ def main() -> None:
         files += sorted(p.glob("*.xml")) if p.is_dir() else [p]
     modes = args.traffic.split(",")
     t0 = time.time()
-    rows = [r for f in args.rows for r in json.loads(Path(f).read_text())["rows"]]
+    rows = unique([r for f in args.rows for r in json.loads(Path(f).read_text())["rows"]])
     if not rows:
         from fcgen.presets import preset
 
