@@ -16,7 +16,7 @@ from fcgen.report.commonroad import commonroad_markdown
 
 PEER = "commonroad-reactive-planner 2025.1"
 US, MUC = "USA_US101-1_1_T-1", "DEU_Muc-1_1_T-1"
-PAPER = "car_lifted_ellipse_ipm_paper"
+PAPER = "car_lift_el_ipm"  # the paper profile's names have no suffix
 
 
 def _peer(scenario, traffic, status="ran", **kw):

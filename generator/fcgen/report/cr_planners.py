@@ -26,11 +26,11 @@ MEASURES = (
 
 
 def planner_of(problem: str, controller: str) -> str:
-    """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else ``fcgen PROFILE`` with
-    the profile the last ``_`` part of the problem's name (``car_lift_el_ipm_safe`` -> ``fcgen safe``)."""
+    """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else fcgen's profile: the
+    safe profile's problems end in ``_safe`` (``presets.preset``), the paper profile's do not."""
     if controller == "peer":
         return PLANNERS[2]
-    return f"fcgen {str(problem).rsplit('_', 1)[-1]}"
+    return PLANNERS[0] if str(problem).endswith("_safe") else PLANNERS[1]
 
 
 def column(g) -> list[str]:
