@@ -467,6 +467,7 @@ def main() -> None:
     ap.add_argument("--commonroad", help="the cache folder of --scenario-list's files")
     ap.add_argument("--like", help="a `fcgen campaign --commonroad` folder: drive what fcgen drove, copy its refusals")
     ap.add_argument("--sample", type=int, default=0, help="up to this many driven scenarios per data set (0: all)")
+    ap.add_argument("--exclude", action="append", default=[], help="a scenario left out of the sample (its name)")
     ap.add_argument("--problem", default="car_lifted_ellipse_ipm_safe", help="the ego's size and dt (fcgen preset)")
     ap.add_argument("--traffic", default="recorded,reactive")
     ap.add_argument("--no-criticality", action="store_true", help="leave out the criticality measures (CriMe)")
@@ -491,6 +492,7 @@ def main() -> None:
 
         like = fcgen_status(args.like, preset(args.problem).name) if args.like else None
         tasks = select(files, modes, like, args.sample, file_refusals)
+        tasks = [(f, m, SAMPLED_OUT if f.stem in args.exclude and why is None else why) for f, m, why in tasks]
         rows = runs(tasks, args.problem, not args.no_criticality, Path(args.out))
     text = markdown(rows + [r for f in args.fcgen for r in fcgen_rows(f)], modes)
     print(text)
