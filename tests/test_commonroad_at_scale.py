@@ -427,3 +427,22 @@ def test_one_process_writes_each_run_as_it_finishes_so_a_stopped_campaign_resume
     lines: list[str] = []
     run_cr_campaign(configs, folder, out, str(tmp_path / "s"), jobs=1, echo=lines.append)
     assert lines[0] == f"3 runs, 2 already in {out}, 1 to run (1 processes)"
+
+
+def test_a_reference_the_solver_refuses_is_a_refusal_of_its_own_kind(tmp_path):
+    """A controller that refuses the reference (exit code 18, what the C solver returns for an n_ref outside the
+    problem's band): the run is refused with the kind ``reference refused`` and a line naming the reference and the
+    band, not an error."""
+    from fcgen.ocp import build_ocp
+    from fcgen.sim.closedloop import ReferenceController
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    class Refusing(ReferenceController):
+        def set_reference(self, v_ref, n_ref) -> int:
+            return 18
+
+    sc = load_for(PB, write_scenario(tmp_path / "r.xml"))
+    line = r"refuses the reference v_ref 20.00 m/s, n_ref 0.00 m \(exit code 18"
+    with pytest.raises(ScenarioRefused, match=line) as e:
+        run_commonroad(PB, sc, controller=Refusing(build_ocp(PB)), criticality=False)
+    assert e.value.kind == "reference refused"

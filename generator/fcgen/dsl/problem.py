@@ -24,6 +24,8 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 
 #: the largest ``Problem.delay`` (samples): the controls kept for the delay compensation's prediction
 MAX_DELAY = 8
+#: the largest ``Problem.steer_lag`` (s), the closed loop's steering actuator's
+MAX_STEER_LAG = 2.0
 
 
 @known_fields
@@ -48,6 +50,9 @@ class Problem:
     #: samples between measurement and actuation that the solver compensates (docs/plants.md); a folder's problem.py
     #: names it only when it is not 0
     delay: int = field(default=0, metadata={"omit_default": True})
+    #: s, the time constant of a first-order steering actuator that the delay compensation's prediction and the a_lat
+    #: guard's plant step model (docs/plants.md); 0: none
+    steer_lag: float = field(default=0.0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -108,6 +113,15 @@ class Problem:
             "delay",
             self.delay,
             f"an integer in [0, {MAX_DELAY}] samples",
+        )
+        check(
+            isinstance(self.steer_lag, (int, float))
+            and not isinstance(self.steer_lag, bool)
+            and math.isfinite(self.steer_lag)
+            and 0.0 <= self.steer_lag <= MAX_STEER_LAG,
+            "steer_lag",
+            self.steer_lag,
+            f"[0, {MAX_STEER_LAG:g}] s (0: no steering lag)",
         )
         reach = self.bounds.v_max * self.horizon.length
         check(
