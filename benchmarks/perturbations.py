@@ -38,6 +38,8 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     "st+lat2+comp2": (PlantSpec(kind="st", latency=2), 2),
     "st+noise": (PlantSpec(kind="st", noise=DEFAULT_NOISE), 0),
     "st+lat1+comp1+noise+lag0.1": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
+    # the same with solvers that model the steering lag (Problem.steer_lag = 0.1 s)
+    "st+lat1+comp1+noise+lag0.1+lagc": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
     # the latency alone, on fcgen's own plant (these and the predictions below: with --only)
     "model+lat1": (PlantSpec(latency=1), 0),
     "model+lat2": (PlantSpec(latency=2), 0),
@@ -58,6 +60,8 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
         1,
     ),
 }
+#: the labels whose solvers model the plant's steering lag (Problem.steer_lag)
+LAG_MODELLED = {"st+lat1+comp1+noise+lag0.1+lagc"}
 #: run by default (the others with --only)
 DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith(("model+", "worst+"))]
 CONFIGS = [(sc, form) for sc in ("car", "truck") for form in ("direct_elimination", "lifted")]
@@ -69,18 +73,27 @@ def _config(scenario: str, formulation: str, spec: PlantSpec, delay: int):
     return Config(scenario, formulation, "ellipse", 0, "c", "ipm", "safe", spec, delay)
 
 
-def _problem(scenario: str, formulation: str, spec: PlantSpec, delay: int, plan_check: dict):
-    """The configuration's problem, its ``PlanCheck`` fields replaced by ``plan_check``."""
+def _problem(scenario: str, formulation: str, spec: PlantSpec, delay: int, plan_check: dict, lag: float = 0.0):
+    """The configuration's problem, its ``PlanCheck`` fields replaced by ``plan_check``, modelling a steering lag
+    ``lag`` (s; 0: none)."""
     from dataclasses import replace
 
     pb = _config(scenario, formulation, spec, delay).problem()
-    return pb.with_(plan_check=replace(pb.plan_check, **plan_check)) if plan_check else pb
+    pb = pb.with_(plan_check=replace(pb.plan_check, **plan_check)) if plan_check else pb
+    return pb.with_(steer_lag=lag, name=f"{pb.name[:29]}_l") if lag else pb
 
 
-def build(scenario: str, formulation: str, delay: int, cache: str, plan_check: dict | None = None) -> str:
+def _lag(label: str) -> float:
+    """The steering lag the label's solvers model (0: none)."""
+    return PERTURBATIONS[label][0].steer_lag if label in LAG_MODELLED else 0.0
+
+
+def build(
+    scenario: str, formulation: str, delay: int, cache: str, plan_check: dict | None = None, lag: float = 0.0
+) -> str:
     from fcgen.campaign.solvers import ensure_solver
 
-    return str(ensure_solver(_problem(scenario, formulation, PlantSpec(), delay, plan_check or {}), cache))
+    return str(ensure_solver(_problem(scenario, formulation, PlantSpec(), delay, plan_check or {}, lag), cache))
 
 
 def run_one(
@@ -94,8 +107,8 @@ def run_one(
     from fcgen.sim.scenario import make_scenario
 
     spec, delay = PERTURBATIONS[label]
-    pb = _problem(scenario, formulation, spec, delay, plan_check or {})
-    solver = CSolver(build(scenario, formulation, delay, cache, plan_check))
+    pb = _problem(scenario, formulation, spec, delay, plan_check or {}, _lag(label))
+    solver = CSolver(build(scenario, formulation, delay, cache, plan_check, _lag(label)))
     solver.init()
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     log = run_closed_loop(pb, sc, controller=solver, plant=spec)
@@ -186,6 +199,11 @@ def markdown(tab: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _field_value(text: str) -> float | bool:
+    """A ``--plan-check`` value: true or false (the boolean fields), else a number."""
+    return {"true": True, "false": False}[text.lower()] if text.lower() in ("true", "false") else float(text)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=20)
@@ -196,12 +214,17 @@ def main() -> None:
     ap.add_argument("--cache", default=".fcgen-cache/solvers")
     ap.add_argument("--out", default="results/perturbations.json")
     ap.add_argument("--add", nargs="*", default=[], help="results files (.json or .jsonl) of other runs to merge in")
-    ap.add_argument("--plan-check", default="", help="FIELD=VALUE,... replacing the safe PlanCheck's (floats)")
+    ap.add_argument(
+        "--plan-check", default="", help="FIELD=VALUE,... replacing the safe PlanCheck's (numbers, true, false)"
+    )
     args = ap.parse_args()
     try:
-        plan_check = {k: float(v) for k, v in (x.split("=") for x in args.plan_check.split(",") if x)}
+        plan_check = {k: _field_value(v) for k, v in (x.split("=") for x in args.plan_check.split(",") if x)}
     except ValueError:
-        ap.error(f"--plan-check: {args.plan_check!r} is invalid: allowed FIELD=NUMBER,... (e.g. bend_brake=0)")
+        ap.error(
+            f"--plan-check: {args.plan_check!r} is invalid: allowed FIELD=VALUE,... "
+            "(e.g. bend_brake=0,brake_memory=false)"
+        )
     labels = [x for x in args.only.split(",") if x] or DEFAULT_LABELS
     if "model" not in labels and not args.add:  # the unperturbed runs of the same seeds (or from an --add file)
         labels.insert(0, "model")
@@ -213,8 +236,8 @@ def main() -> None:
     t0 = time.time()
     ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(args.jobs, mp_context=ctx) as ex:
-        delays = sorted({PERTURBATIONS[x][1] for x in labels})
-        for f in [ex.submit(build, sc, form, d, cache, plan_check) for sc, form in CONFIGS for d in delays]:
+        delays = sorted({(PERTURBATIONS[x][1], _lag(x)) for x in labels})
+        for f in [ex.submit(build, sc, form, d, cache, plan_check, g) for sc, form in CONFIGS for d, g in delays]:
             f.result()
         futs = [
             ex.submit(run_one, label, sc, form, seed, args.samples, cache, plan_check)

@@ -14,7 +14,7 @@ verdict, criticality) and written as the campaign's rows (``fcgen.campaign.commo
 
     .venv/bin/pip install --no-deps -r benchmarks/requirements-peer.txt
 
-(``commonroad-reactive-planner==2025.1``, ``methodtools==0.4.7``, ``wirerope==1.0.0``).
+(``commonroad-reactive-planner==2025.1``, ``methodtools==0.4.7``, ``wirerope==1.0.0`` and the ``six`` it imports).
 
 **The three adaptations** the 2025.1 release needs beside the current CommonRoad packages (written here, not in its
 sources): the route planner's API (``RoutePlanner.plan_routes()`` returns a list of lanelet sequences, a
@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 PEER = "commonroad-reactive-planner 2025.1"
+SAMPLED_OUT = {"sampled_out": True}  # a scenario fcgen drove that the sample (--sample) leaves out: not run
 
 
 def reference_path(scenario, planning_problem) -> np.ndarray:
@@ -210,32 +211,186 @@ def judge(problem, sc, d: dict, traffic: str, criticality: bool) -> dict:
     }
 
 
-def runs(files: list[Path], problem_name: str, modes: list[str], criticality: bool) -> list[dict]:
+def runs(tasks: list[tuple[Path, str, dict | None]], problem_name: str, criticality: bool, out: Path) -> list[dict]:
+    """The rows of ``tasks`` (``select``'s: a file, a traffic mode and fcgen's refusal or None); a task already in
+    ``out`` is not run again, and ``out`` is rewritten after every run (resumable)."""
     from fcgen.campaign.commonroad import load_for
     from fcgen.commonroad import ScenarioRefused
     from fcgen.presets import preset
 
     logging.getLogger("RP_LOGGER").setLevel(logging.ERROR)
     pb = preset(problem_name)
-    rows = []
-    for f in files:
+    rows = json.loads(out.read_text())["rows"] if out.is_file() else []
+    done = {(r["scenario"], r.get("traffic")) for r in rows}
+    for f, traffic, fcgen_refusal in tasks:
+        if (f.stem, traffic) in done:
+            continue
+        if fcgen_refusal is not None:
+            rows.append({"scenario": f.stem, "traffic": traffic, **fcgen_refusal})
+            continue
         try:
             sc = load_for(pb, f)
+            refusal_checks(pb, sc)
         except ScenarioRefused as exc:
-            rows.append({"scenario": f.stem, "refused": str(exc)})
+            rows.append({"scenario": f.stem, "traffic": traffic, "refused": str(exc), "refusal": exc.kind})
             print(json.dumps(rows[-1]), flush=True)
             continue
-        for traffic in modes:
-            t0 = time.process_time()
-            try:
-                d = drive(pb, sc, traffic)
-            except Exception as exc:  # noqa: BLE001 - a planner that cannot start (its route, its frame) is counted
-                rows.append({"scenario": sc.name, "traffic": traffic, "error": f"{type(exc).__name__}: {exc}"[:200]})
-                print(json.dumps(rows[-1]), flush=True)
-                continue
+        t0 = time.process_time()
+        try:
+            d = drive(pb, sc, traffic)
+        except Exception as exc:  # noqa: BLE001 - a planner that cannot start (its route, its frame) is counted
+            rows.append({"scenario": sc.name, "traffic": traffic, "error": f"{type(exc).__name__}: {exc}"[:200]})
+            print(json.dumps(rows[-1]), flush=True)
+        else:
             rows.append({"planner": PEER, **judge(pb, sc, d, traffic, criticality), "cpu_s": time.process_time() - t0})
             print(json.dumps(rows[-1], default=str), flush=True)
+        save(out, rows, {"partial": True})
     return rows
+
+
+def refusal_checks(pb, sc) -> None:
+    """fcgen's refusals made after loading (``ScenarioRefused``): a time step other than the problem's, a road band
+    outside the problem's bounds (``sim.commonroad_run``'s checks, in its order)."""
+    from fcgen.commonroad import ScenarioRefused
+    from fcgen.sim.commonroad_run import scenario_road
+
+    if not math.isclose(sc.dt, pb.horizon.dt, rel_tol=1e-9):
+        raise ScenarioRefused(f"scenario {sc.name}: its time step {sc.dt} s is not {pb.horizon.dt} s", kind="time step")
+    scenario_road(pb, sc)
+
+
+def listed_files(scenario_list: str, cache: str) -> tuple[list[Path], dict[str, dict]]:
+    """The files of a scenario list in a cache folder (``fcgen.commonroad.catalog``), and the refusals of those
+    missing (``not in the cache``) or with another hash (``hash differs``), as fcgen's campaign refuses them."""
+    from fcgen.commonroad.catalog import HashMismatch, check_file, read_list
+
+    files, refused = [], {}
+    for r in read_list(scenario_list):
+        f = Path(cache) / r.file
+        files.append(f)
+        if not f.is_file():
+            refused[f.stem] = {"refused": f"{r.file}: not in the scenario cache {cache}", "refusal": "not in the cache"}
+            continue
+        try:
+            check_file(f, r)
+        except HashMismatch as exc:
+            refused[f.stem] = {"refused": str(exc), "refusal": "hash differs"}
+    return files, refused
+
+
+def fcgen_status(folder: str, problem: str) -> dict[tuple[str, str], dict | None]:
+    """(scenario, traffic) -> None where fcgen's campaign in ``folder`` drove it with ``problem`` (``Problem.name``;
+    or the folder's only configuration), else its refusal (kind and reason) as the peer's row gets it."""
+    import pandas as pd
+
+    df = pd.read_parquet(Path(folder) / "commonroad.parquet")
+    names = sorted(df.problem.unique())
+    if problem not in names and len(names) != 1:
+        raise SystemExit(f"--like {folder}: no rows of {problem} in it, but of {names} (give --problem)")
+    df = df[df.problem == (problem if problem in names else names[0])]
+    out: dict[tuple[str, str], dict | None] = {}
+    for r in df.itertuples():
+        why = {"refused": f"fcgen {r.status}: {r.reason}", "refusal": r.refusal or "other"}
+        out[(r.scenario, r.traffic or "recorded")] = None if r.status == "ran" else why
+    return out
+
+
+def stratified(names: list[str], per_dataset: int) -> set[str]:
+    """Up to ``per_dataset`` names of each data set (``catalog.dataset_of``), evenly spaced in name order (the i-th
+    of k from n: index floor((i + 0.5) n / k)); ``per_dataset`` 0: all."""
+    from fcgen.commonroad.catalog import dataset_of
+
+    by: dict[str, list[str]] = {}
+    for n in sorted(set(names)):
+        by.setdefault(dataset_of(n), []).append(n)
+    if per_dataset <= 0:
+        return set(names)
+    pick = set()
+    for group in by.values():
+        k = min(per_dataset, len(group))
+        pick |= {group[int((i + 0.5) * len(group) / k)] for i in range(k)}
+    return pick
+
+
+def select(files: list[Path], modes: list[str], like: dict | None, per_dataset: int, refused: dict) -> list[tuple]:
+    """The tasks (file, traffic, fcgen's refusal or None): with ``like`` (``fcgen_status``) the scenarios fcgen
+    drove in that traffic mode (a sample of them: ``stratified``) and fcgen's refusals copied; without, every file
+    (a sample), refused by fcgen's own checks (``refused``: the list's file checks, ``listed_files``)."""
+    if like is None:
+        pick = stratified([f.stem for f in files if f.stem not in refused], per_dataset)
+        return round_robin(
+            [(f, m, refused.get(f.stem)) for f in files for m in modes if f.stem in pick or f.stem in refused]
+        )
+    drove = [s for (s, m), why in like.items() if why is None and m in modes]
+    pick = stratified(drove, per_dataset)
+    tasks = []
+    for f in files:
+        for m in modes:
+            why = like.get((f.stem, m), {"refused": "not in fcgen's rows", "refusal": "not run by fcgen"})
+            tasks.append((f, m, SAMPLED_OUT if why is None and f.stem not in pick else why))
+    return round_robin(tasks)
+
+
+def round_robin(tasks: list[tuple]) -> list[tuple]:
+    """The tasks with the runs last, taken in turn from each data set (its first scenario in both traffic modes, then
+    every data set's second, ...): a run stopped part-way holds a sample of every data set."""
+    from fcgen.commonroad.catalog import dataset_of
+
+    rank: dict[str, int] = {}
+    seen: dict[str, int] = {}
+    for f, _, why in tasks:
+        if why is None and f.stem not in rank:
+            d = dataset_of(f.stem)
+            rank[f.stem] = seen.get(d, 0)
+            seen[d] = rank[f.stem] + 1
+    return sorted(tasks, key=lambda t: (t[2] is None, rank.get(t[0].stem, -1), dataset_of(t[0].stem), t[0].stem))
+
+
+def campaign_rows(rows: list[dict]) -> list[dict]:
+    """The peer's rows in ``fcgen campaign --commonroad``'s fields (``fcgen report`` reads them): problem the
+    planner's name, controller ``peer``, time per cycle its plan's CPU time, samples without a solution its samples
+    on the last plan; one that could not start is ``failed`` (kind ``peer could not start``)."""
+    from fcgen.campaign.commonroad import ROW_KEYS
+    from fcgen.commonroad.catalog import dataset_of
+
+    out = []
+    for r in rows:
+        row = dict.fromkeys(ROW_KEYS)
+        row.update({k: v for k, v in r.items() if k in ROW_KEYS})
+        row.update(scenario=r["scenario"], dataset=dataset_of(r["scenario"]), problem=PEER, controller="peer")
+        row["traffic"] = r.get("traffic") or "recorded"
+        if r.get("sampled_out"):
+            row.update(status="sampled out", reason="not in the sample (--sample)")
+        elif "error" in r:
+            row.update(status="failed", refusal="peer could not start", reason=r["error"])
+        elif "refused" in r:
+            row.update(status="refused", refusal=r.get("refusal") or "other", reason=r["refused"])
+        else:
+            row.update(status="ran", rti_ms_median=r["plan_ms_median"], unsolved_samples=r["fallback_samples"])
+            for k in ("departure_step", "collision_step_fcgen", "departure_again_step", "goal_step"):
+                row[k] = -1 if row[k] is None else int(row[k])
+        out.append(row)
+    return out
+
+
+def unique(rows: list[dict]) -> list[dict]:
+    """The rows with one per (scenario, traffic mode): the first (results of several files, one per traffic mode,
+    each resumed from a copy of the same earlier file)."""
+    seen: set = set()
+    out = []
+    for r in rows:
+        if (r["scenario"], r.get("traffic")) not in seen:
+            seen.add((r["scenario"], r.get("traffic")))
+            out.append(r)
+    return out
+
+
+def save(out: Path, rows: list[dict], meta: dict) -> None:
+    """The rows (and ``meta``) as JSON, written whole."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, default=str) + "\n")
+    tmp.replace(out)
 
 
 def fcgen_rows(folder: str) -> list[dict]:
@@ -273,7 +428,11 @@ def markdown(rows: list[dict], modes: list[str]) -> str:
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for planner, traffic in [(p, m) for p in dict.fromkeys(r.get("planner", PEER) for r in rows) for m in modes]:
-        mine = [r for r in rows if r.get("planner", PEER) == planner and r.get("traffic") == traffic]
+        mine = [
+            r
+            for r in rows
+            if r.get("planner", PEER) == planner and r.get("traffic") == traffic and not r.get("sampled_out")
+        ]
         rs = [r for r in mine if "error" not in r and "refused" not in r]
         err = [r for r in mine if "error" in r]
         if not mine:
@@ -303,32 +462,56 @@ def _num(v) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("paths", nargs="*")
+    ap.add_argument("paths", nargs="*", help="scenario files or folders (or --scenario-list with --commonroad)")
+    ap.add_argument("--scenario-list", help="a scenario list (docs/commonroad/*.csv): its files in --commonroad")
+    ap.add_argument("--commonroad", help="the cache folder of --scenario-list's files")
+    ap.add_argument("--like", help="a `fcgen campaign --commonroad` folder: drive what fcgen drove, copy its refusals")
+    ap.add_argument("--sample", type=int, default=0, help="up to this many driven scenarios per data set (0: all)")
+    ap.add_argument("--exclude", action="append", default=[], help="a scenario left out of the sample (its name)")
     ap.add_argument("--problem", default="car_lifted_ellipse_ipm_safe", help="the ego's size and dt (fcgen preset)")
     ap.add_argument("--traffic", default="recorded,reactive")
     ap.add_argument("--no-criticality", action="store_true", help="leave out the criticality measures (CriMe)")
     ap.add_argument("--fcgen", action="append", default=[], help="a `fcgen campaign --commonroad` folder to put beside")
     ap.add_argument("--rows", action="append", default=[], help="this script's results (JSON) instead of running")
-    ap.add_argument("--out", default="results/peer.json")
+    ap.add_argument("--campaign-out", help="also write the rows as a campaign folder (fcgen report reads it)")
+    ap.add_argument("--out", default="results/peer.json", help="the rows (JSON); a run already in it is not rerun")
     args = ap.parse_args()
     files: list[Path] = []
+    file_refusals: dict[str, dict] = {}
+    if args.scenario_list:
+        if not args.commonroad:
+            raise SystemExit("--scenario-list needs --commonroad CACHE (the folder of its files)")
+        files, file_refusals = listed_files(args.scenario_list, args.commonroad)
     for p in map(Path, args.paths):
         files += sorted(p.glob("*.xml")) if p.is_dir() else [p]
     modes = args.traffic.split(",")
     t0 = time.time()
-    rows = [r for f in args.rows for r in json.loads(Path(f).read_text())["rows"]]
-    rows = rows or runs(files, args.problem, modes, not args.no_criticality)
+    rows = unique([r for f in args.rows for r in json.loads(Path(f).read_text())["rows"]])
+    if not rows:
+        from fcgen.presets import preset
+
+        like = fcgen_status(args.like, preset(args.problem).name) if args.like else None
+        tasks = select(files, modes, like, args.sample, file_refusals)
+        tasks = [(f, m, SAMPLED_OUT if f.stem in args.exclude and why is None else why) for f, m, why in tasks]
+        rows = runs(tasks, args.problem, not args.no_criticality, Path(args.out))
     text = markdown(rows + [r for f in args.fcgen for r in fcgen_rows(f)], modes)
     print(text)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     from importlib.metadata import version
 
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     meta = {"commit": commit, "problem": args.problem, "planner": version("commonroad-reactive-planner")}
-    meta["wall_s"] = time.time() - t0
-    out.write_text(json.dumps({"meta": meta, "markdown": text, "rows": rows}, indent=1, default=str) + "\n")
-    print(f"{len(rows)} rows in {meta['wall_s']:.0f} s, written to {out}")
+    meta.update(like=args.like, sample_per_dataset=args.sample, wall_s=time.time() - t0)
+    if args.rows:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps({"meta": meta, "markdown": text, "rows": rows}, indent=1, default=str) + "\n")
+    else:
+        save(Path(args.out), rows, meta)
+    if args.campaign_out:
+        from fcgen.campaign.commonroad import write_results
+
+        write_results(campaign_rows(rows), args.campaign_out)
+    print(f"{len(rows)} rows in {meta['wall_s']:.0f} s, written to {args.out}")
 
 
 if __name__ == "__main__":

@@ -8,11 +8,13 @@ import hashlib
 import math
 import subprocess
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from crrows import cr_row as _row
 from crscenes import write_scenario
 
 from fcgen.campaign.commonroad import ROW_KEYS, load_for
@@ -332,35 +334,6 @@ def test_an_unknown_traffic_mode_is_one_line_naming_the_allowed_ones(tmp_path):
 # --- the report's page per data set -------------------------------------------------------------------------------
 
 
-def _row(scenario, traffic, status="ran", **kw):
-    row = dict.fromkeys(ROW_KEYS)
-    row.update(
-        scenario=scenario,
-        dataset=dataset_of(scenario),
-        file=f"{scenario}.xml",
-        problem="car_lifted_ellipse_ipm_safe",
-        controller="c",
-        traffic=traffic,
-        status=status,
-        reason="",
-        collision_fcgen=False,
-        collision_checker=False,
-        road_departure=False,
-        start_off_road=False,
-        responsibility="",
-        goal_reached=status == "ran",
-        solution_valid=False,
-        reacted=0,
-        reacted_to_ego=0,
-        criticality_error="",
-        rti_ms_median=0.3,
-        wall_s=2.0,
-        cpu_s=None,
-    )
-    row.update(kw)
-    return row
-
-
 def test_the_report_groups_by_data_set_and_traffic_mode_with_refusals_by_reason():
     rows = [
         _row("USA_US101-1_1_T-1", "recorded", ttc_ahead_min_s=0.5, solution_valid=True, rti_ms_median=0.2),
@@ -425,3 +398,51 @@ def test_a_run_without_the_criticality_measures_says_so(tmp_path):
         c = run_commonroad(pb, sc, criticality=False).log.meta["extra"]["commonroad"]["criticality"]
     assert c["error"] == NOT_MEASURED
     assert all(c[m]["min"] is None and c["series"][m] == [] for m in ("ttc_ahead", "ttc_behind"))
+
+
+def test_one_process_writes_each_run_as_it_finishes_so_a_stopped_campaign_resumes(tmp_path, monkeypatch):
+    import fcgen.campaign.cr_run as cr_run
+
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    for i in range(3):
+        write_scenario(folder / f"ZAM_Plain-{i}_1_T-1.xml")
+    configs = paper_grid(["car"], ["lifted"], ["ellipse"], "python", "ipm", "safe")
+    out = tmp_path / "res"
+    seen: list[int] = []
+
+    def one(task):  # the third run stops the campaign (as a kill would); before it, what is on disk
+        p = out / "commonroad.parquet"
+        seen.append(len(pd.read_parquet(p)) if p.is_file() else 0)
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+        name = cr_run._problem_name(task.config)
+        return _row(Path(task.path).stem, task.traffic, problem=name, controller=task.config.controller)
+
+    monkeypatch.setattr(cr_run, "run_cr_task", one)
+    monkeypatch.setattr(cr_run, "FLUSH_ROWS", 1)
+    with pytest.raises(KeyboardInterrupt):
+        run_cr_campaign(configs, folder, out, str(tmp_path / "s"), jobs=1, echo=lambda _: None)
+    assert seen == [0, 1, 2]  # each row written before the next run starts
+    lines: list[str] = []
+    run_cr_campaign(configs, folder, out, str(tmp_path / "s"), jobs=1, echo=lines.append)
+    assert lines[0] == f"3 runs, 2 already in {out}, 1 to run (1 processes)"
+
+
+def test_a_reference_the_solver_refuses_is_a_refusal_of_its_own_kind(tmp_path):
+    """A controller that refuses the reference (exit code 18, what the C solver returns for an n_ref outside the
+    problem's band): the run is refused with the kind ``reference refused`` and a line naming the reference and the
+    band, not an error."""
+    from fcgen.ocp import build_ocp
+    from fcgen.sim.closedloop import ReferenceController
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    class Refusing(ReferenceController):
+        def set_reference(self, v_ref, n_ref) -> int:
+            return 18
+
+    sc = load_for(PB, write_scenario(tmp_path / "r.xml"))
+    line = r"refuses the reference v_ref 20.00 m/s, n_ref 0.00 m \(exit code 18"
+    with pytest.raises(ScenarioRefused, match=line) as e:
+        run_commonroad(PB, sc, controller=Refusing(build_ocp(PB)), criticality=False)
+    assert e.value.kind == "reference refused"

@@ -47,9 +47,10 @@ def test_the_reference_speed_drives_for_the_goal(tmp_path):
         PB,
         write_scenario(tmp_path / "c.xml", goal={**goal, "velocity": (0.0, 30.0)}, goal_steps=(40, 60), length=600.0),
     )
-    # the speed interval is the speed at the goal: it applies once the goal is within the horizon's reach
+    # the speed interval is the speed at the goal: it applies once the goal is within the horizon's reach, aimed
+    # SPEED_MARGIN (0.5 m/s) inside its upper end 30 m/s
     assert (sc.v_ref, sc.v_ref_source) == (pytest.approx(lo, rel=1e-3), "goal time window")
-    assert (sc.v_goal, sc.v_goal_source) == (30.0, "goal velocity")
+    assert (sc.v_goal, sc.v_goal_source) == (29.5, "goal velocity")
     sc = load_for(
         PB,
         write_scenario(tmp_path / "d.xml", goal=goal, goal_steps=(40, 60), length=600.0, speed_limit=25.0),
@@ -144,3 +145,76 @@ def test_an_obstacle_with_a_set_based_prediction_is_refused():
     ob = DynamicObstacle(7, ObstacleType.CAR, box, init, SetBasedPrediction(1, [Occupancy(1, Rectangle(6.0, 3.0))]))
     with pytest.raises(ScenarioRefused, match="obstacle 7: a SetBasedPrediction"):
         obstacle_from(ob, 0.1)
+
+
+def test_the_speed_reference_makes_up_lost_time_from_what_is_left():
+    """A 2 m goal 100-102 m ahead, its window 7-8 s, the traffic's 12 m/s (hand-derived): the middle halves are
+    100.5-101.5 m and 7.25-7.75 s, so at the start the ego needs 100.5 / 7.75 = 12.97 m/s at least. Having lost time
+    (60 m driven at 5 s) it asks 40.5 / 2.75 = 14.73 m/s; ahead of time (95 m at 5 s) at most 6.5 / 2.25 = 2.89 m/s;
+    late (95 m at 7.5 s) the distance in MIN_TIME = 1 s: 5.5 m/s at least, so the traffic's 12 m/s stays; just before
+    the window's middle half no upper bound to speak of; past the goal, nothing to time."""
+    from fcgen.commonroad.goal import MIN_TIME, SPAN_MARGIN, GoalTiming, arrival_band, speed_now
+
+    g = GoalTiming((100.0, 102.0), (7.0, 8.0), None, 12.0, None, 40.0)
+    assert arrival_band(g, 0.0, 0.0) == pytest.approx((100.5 / 7.75, 101.5 / 7.25))
+    assert speed_now(g, 0.0, 0.0, False) == (pytest.approx(100.5 / 7.75), "goal time window")
+    assert speed_now(g, 5.0, 60.0, False) == (pytest.approx(40.5 / 2.75), "goal time window")
+    assert speed_now(g, 5.0, 95.0, False) == (pytest.approx(6.5 / 2.25), "goal time window")
+    assert MIN_TIME == 1.0 and arrival_band(g, 7.5, 95.0) == (pytest.approx(5.5), math.inf)
+    # 0.05 s before the window's middle half, 6.5 m ahead of its far end: up to 6.5 / 0.05 = 130 m/s is not early
+    assert arrival_band(g, 7.2, 95.0) == (pytest.approx(5.5 / 1.0), pytest.approx(6.5 / 0.05))
+    assert speed_now(g, 7.5, 95.0, False) == (12.0, "initial speed")
+    assert arrival_band(g, 7.5, 101.6) is None and speed_now(g, 7.5, 101.6, True) == (12.0, "initial speed")
+    # a goal lanelet 80 m long (100-180 m), steps 30-31: all but SPAN_MARGIN = 2 m at either end, 102-178 m, within
+    # 3.025-3.075 s: from 50 m at 16 m/s, 52 / 3.075 = 16.91 m/s at least
+    lane = GoalTiming((100.0, 180.0), (3.0, 3.1), None, 16.0, None, 40.0)
+    assert SPAN_MARGIN == 2.0 and arrival_band(lane, 0.0, 50.0) == pytest.approx((52.0 / 3.075, 128.0 / 3.025))
+    with pytest.raises(ValueError, match=r"GoalTiming.window .* allowed a finite interval"):
+        GoalTiming((100.0, 102.0), (8.0, 7.0), None, 12.0, None, 40.0)
+
+
+def test_the_goal_speed_interval_is_aimed_inside_its_ends():
+    """Near the goal its speed interval applies SPEED_MARGIN = 0.5 m/s inside its ends (at most a quarter of its
+    width): 18.24-24.24 m/s takes the traffic's 16.8 m/s to 18.74 (the tracking settled 0.2 m/s below a reference at
+    the interval's lower end, outside it); 0-1 m/s takes 3 m/s to 0.75; before the goal is near, the interval does
+    not apply; the lane's limit and v_max cap it."""
+    from fcgen.commonroad.goal import SPEED_MARGIN, GoalTiming, speed_now
+
+    assert SPEED_MARGIN == 0.5
+    g = GoalTiming((500.0, 502.0), None, (18.24, 24.24), 16.8, None, 40.0)
+    assert speed_now(g, 0.0, 0.0, True) == (pytest.approx(18.74), "goal velocity")
+    assert speed_now(g, 0.0, 0.0, False) == (16.8, "initial speed")
+    slow = GoalTiming((500.0, 502.0), None, (0.0, 1.0), 3.0, None, 40.0)
+    assert speed_now(slow, 0.0, 0.0, True) == (pytest.approx(0.75), "goal velocity")
+    capped = GoalTiming(None, None, (30.0, 40.0), 20.0, 25.0, 40.0)
+    assert speed_now(capped, 0.0, 0.0, False) == (25.0, "speed limit")
+
+
+def test_a_lane_change_for_the_goal_is_planned_within_the_time_left():
+    """A change towards the goal's lane planned 1.2 s before the goal window's start (3 s) takes MIN_CHANGE = 2 s,
+    one planned at 0 s the usual 3 s, one without a window the usual 3 s."""
+    from fcgen.commonroad.goal import MIN_CHANGE, GoalTiming, change_time
+
+    g = GoalTiming(None, (3.0, 3.1), None, 16.0, None, 40.0)
+    assert MIN_CHANGE == 2.0
+    assert change_time(g, 1.8, 3.0) == 2.0 and change_time(g, 0.5, 3.0) == 2.5 and change_time(g, 0.0, 3.0) == 3.0
+    assert change_time(GoalTiming(None, None, None, 16.0, None, 40.0), 1.8, 3.0) == 3.0
+    assert change_time(None, 1.8, 3.0) == 3.0
+
+
+def test_a_goal_at_the_speed_intervals_end_and_a_tight_window_is_reached(tmp_path):
+    """The ego at 16.8 m/s, a 2.2 x 1.7 m goal 140 m ahead (centre to centre) in its lane, steps 70-80 and 18.24-24.24
+    m/s (the recorded driver's ~21 m/s): the window asks 140 / 7.75 = 18.06 m/s at least, and the speed at the goal at
+    least 18.24. The ego arrives within the window at a speed inside the interval and the run ends there."""
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    goal = {"lane": 1, "s": 50.0 + 140.0, "length": 2.2, "width": 1.7, "velocity": (18.24, 24.24)}
+    sc = load_for(PB, write_scenario(tmp_path / "t.xml", goal=goal, goal_steps=(70, 80), ego_v=16.8, length=600.0))
+    s_g = sc.goal_sn[0]  # the goal's extent along the straight road: its 2.2 m length about its centre
+    assert sc.goal_timing.span == pytest.approx((s_g - 1.1, s_g + 1.1), abs=0.02)
+    assert sc.goal_timing.window == pytest.approx((7.0, 8.0)) and sc.goal_timing.speeds == (18.24, 24.24)
+    run = run_commonroad(PB, sc, criticality=False)
+    g = run.log.meta["extra"]["commonroad"]["goal"]
+    assert g["reached"] and 70 <= g["step"] <= 80
+    v_end = float(run.log.ego_frenet[-1, 3])
+    assert 18.24 <= v_end <= 24.24

@@ -177,3 +177,52 @@ def test_a_planned_lane_change_gets_n_ref_per_stage(tmp_path):
     assert np.all(np.diff(first) >= -1e-12)  # moving towards the target along the horizon
     t_in = {c: int(np.argmax(np.abs(np.asarray(r.log.ego_frenet)[:, 1] - LANE) < 0.3)) for c, r in runs.items()}
     assert t_in[CHANGE_TIME] <= t_in[0.0] + round(1.0 / PB.horizon.dt)
+
+
+def test_a_faster_vehicle_closing_in_from_behind_sets_the_reference_speed():
+    """The ego's centre at s = 20 in the lane at n = 0, chassis 4 m: the vehicle behind at s = 10 (20 m/s) is within
+    4 + T_BEHIND (1.5 s) x 20 = 34 m and faster than a 15 m/s reference: its 20 m/s; not faster than 22 m/s: None; at
+    s = -40 (60 m behind): None; one a lane over (n = 3.5) never counts."""
+    from fcgen.commonroad.lanes import T_BEHIND, keep_ahead
+
+    assert T_BEHIND == 1.5
+    tr = Traffic(np.array([10.0, 30.0, 15.0]), np.array([0.0, 0.0, 3.5]), np.array([20.0, 15.0, 30.0]))
+    assert keep_ahead(tr, 0.0, 20.0, 15.0, 4.0) == 20.0
+    assert keep_ahead(tr, 0.0, 20.0, 22.0, 4.0) is None
+    far = Traffic(np.array([-40.0, 15.0]), np.array([0.0, 3.5]), np.array([20.0, 30.0]))
+    assert keep_ahead(far, 0.0, 20.0, 15.0, 4.0) is None
+    assert keep_ahead(NONE, 0.0, 20.0, 15.0, 4.0) is None
+
+
+def test_recorded_traffic_behind_is_not_made_to_run_into_the_ego(tmp_path):
+    """The ego at 15 m/s in lane 1, a goal 100 m ahead within steps 95-105 (its window asks 100 / 10.25 ... 100 / 9.75
+    = 9.8-10.3 m/s), and a recorded car 10 m behind at a constant 15 m/s (it does not brake). With the car within
+    4 + 1.5 s x 15 m/s of the ego, the reference speed is the car's 15 m/s, not the goal's 10.3, at every sample
+    while it stays there; no collision."""
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    follower = (9, 1, 40.0, 15.0, 120, 4.5, 1.8)
+    path = write_scenario(
+        tmp_path / "f.xml", ego_v=15.0, goal={"lane": 1, "s": 150.0}, goal_steps=(95, 105), obstacles=[follower]
+    )
+    sc = load_for(PB, path)
+    assert sc.v_ref_source == "goal time window" and sc.v_ref == pytest.approx(100.0 / 9.75, rel=0.01)
+    run = run_commonroad(PB, sc, criticality=False)
+    np.testing.assert_allclose(run.log.meta["extra"]["commonroad"]["v_ref_samples"][:30], 15.0, rtol=1e-9)
+    assert not run.fcgen["collision"] and not run.checker["collision"]
+    assert float(np.min(run.log.ego_frenet[:, 3])) > 14.0
+
+
+def test_a_lane_beyond_a_median_is_not_beside_the_ego():
+    """Lanes at n = 0 (the ego's) and n = 19 m (a road beyond a median, as 19 m left of USA_Peach-3_1's start): a car
+    30 m ahead at 5 m/s in the ego's lane does not send the ego 19 m to the left (more than ``ADJACENT`` = 5 m); with
+    the other lane at 3.5 m it does."""
+    from fcgen.commonroad.lanes import ADJACENT, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    slow = Traffic(np.array([130.0]), np.array([0.0]), np.array([5.0]))
+    assert ADJACENT == 5.0
+    for other, expected in ((19.0, 0.0), (LANE, LANE)):
+        lanes = [Lane(1, s, np.zeros_like(s)), Lane(2, s, np.full_like(s, other))]
+        n, _ = TargetLane(lanes, None, L, 20.0, 0.0).update(100.0, 0.0, 20.0, slow)
+        assert n == pytest.approx(expected, abs=1e-9)

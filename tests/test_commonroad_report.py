@@ -6,39 +6,14 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from crrows import cr_row as _row
 
 from fcgen.campaign.commonroad import ROW_KEYS, write_results
 from fcgen.cli import main
 from fcgen.report.commonroad import commonroad_markdown, is_commonroad, write_cr_report
 
-
-def _row(scenario: str, traffic: str, **kw) -> dict:
-    row = dict.fromkeys(ROW_KEYS)
-    row.update(
-        scenario=scenario,
-        file=f"{scenario}.xml",
-        problem="car_lifted_ellipse_ipm_safe",
-        controller="c",
-        traffic=traffic,
-        status="ran",
-        reason="",
-        collision_fcgen=False,
-        collision_checker=False,
-        road_departure=False,
-        start_off_road=False,
-        responsibility="",
-        goal_reached=True,
-        solution_valid=True,
-        reacted=0,
-        reacted_to_ego=0,
-        criticality_error="",
-    )
-    row.update(kw)
-    return row
-
-
 ROWS = [
-    _row("A", "recorded", ttc_ahead_min_s=0.8, ttc_ahead_obstacle=7, ttc_behind_min_s=3.0),
+    _row("A", "recorded", solution_valid=True, ttc_ahead_min_s=0.8, ttc_ahead_obstacle=7, ttc_behind_min_s=3.0),
     _row(
         "B",
         "recorded",
@@ -50,9 +25,9 @@ ROWS = [
         ttc_behind_min_s=0.4,
         ttc_behind_obstacle=9,
     ),
-    _row("A", "reactive", ttc_ahead_min_s=1.5, reacted=5, reacted_to_ego=2),
-    _row("B", "reactive", road_departure=True, reacted=3, reacted_to_ego=1, ttc_ahead_min_s=None),
-    _row("C", "reactive", status="refused", refusal="no planning problem", reason="C: no planning problem"),
+    _row("A", "reactive", solution_valid=True, ttc_ahead_min_s=1.5, reacted=5, reacted_to_ego=2),
+    _row("B", "reactive", solution_valid=True, road_departure=True, reacted=3, reacted_to_ego=1, ttc_ahead_min_s=None),
+    _row("C", "reactive", "refused", refusal="no planning problem", reason="C: no planning problem"),
 ]
 
 

@@ -20,6 +20,9 @@ from fcgen.reactions import (
     braking_force,
     drive_limit,
     guard_steering_rate,
+    lag_command,
+    lag_error,
+    lagged_rate,
     lateral_acceleration,
     load_transfer_gain,
     understeer_drive_limit,
@@ -126,6 +129,37 @@ BEND = [
     (20.0, D55, 4.95, 0.0, 1e4, 1e4),  # off
 ]
 
+E1, E2 = math.exp(-1.0), math.exp(-0.5)  # tau = dt, tau = 2 dt
+# (r, e, tau, decay, dt, expected lag e1, expected lagged rate) of the first-order steering actuator, by hand:
+# e1 = r tau + (e - r tau) decay, the rate r + (e - e1) / dt
+LAG = [
+    (0.2, 0.01, 0.1, 0.5, 0.1, 0.015, 0.15),  # rt = 0.02: e1 = 0.02 - 0.005
+    (0.3, 0.0, 0.1, E1, 0.1, 0.03 * (1.0 - E1), 0.3 * E1),  # from rest: the angle moves r (h - tau (1 - e^-1))
+    (0.0, 0.02, 0.1, E1, 0.1, 0.02 * E1, 0.2 * (1.0 - E1)),  # no command: the angle catches up with the lag
+    (-0.39, -0.01, 0.2, E2, 0.1, -0.078 + 0.068 * E2, -0.39 + (0.068 - 0.068 * E2) / 0.1),  # rt = -0.078
+]
+
+
+@pytest.mark.parametrize("r, e, tau, decay, dt, e1, rate", LAG)
+def test_lag_by_hand(r, e, tau, decay, dt, e1, rate):
+    assert lag_error(r, e, tau, decay) == pytest.approx(e1, rel=1e-13, abs=1e-17)
+    assert lagged_rate(r, e, tau, decay, dt) == pytest.approx(rate, rel=1e-13, abs=1e-16)
+    assert lag_command(lagged_rate(r, e, tau, decay, dt), e, tau, decay, dt) == pytest.approx(r, rel=1e-12, abs=1e-15)
+
+
+def test_lagged_rate_is_the_closed_loops_actuator():
+    """A second method: the closed loop's first-order steering actuator (``sim.plants.actuation``, which integrates
+    the commanded angle and takes the actual one from the plant) gives the same rates over a run of commands."""
+    from fcgen.sim.plants import PlantSpec
+    from fcgen.sim.plants.actuation import Actuation
+
+    tau, dt = 0.1, 0.1
+    act, delta, e = Actuation(PlantSpec(steer_lag=tau), 0, dt), 0.05, 0.0
+    for r in (0.39, 0.39, -0.2, 0.0, 0.1, -0.39, 0.0, 0.0):
+        got = float(act.actuate([0.0, r], delta)[1])
+        assert got == pytest.approx(lagged_rate(r, e, tau, math.exp(-dt / tau), dt), rel=1e-12, abs=1e-15)
+        delta, e = delta + got * dt, lag_error(r, e, tau, math.exp(-dt / tau))
+
 
 @pytest.mark.parametrize("v0, dt, expected", BRAKE)
 def test_braking_force_by_hand(v0, dt, expected):
@@ -195,6 +229,51 @@ def _c_function(source: str, name: str) -> str:
     found = re.findall(rf"^static {NAME}_real_t {name}\(.*?^}}\n", source, re.M | re.S)
     assert len(found) == 1, f"{name}: {len(found)} definitions in {SOLVER.name}"
     return found[0]
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_the_c_lag_functions_give_the_same_bits(tmp_path):
+    """The C's lag_error, lagged_rate and lag_command (templates/actuator.c.j2, rendered with a steering lag) give
+    Python's bits on the cases above."""
+    from fcgen.codegen.render import environment
+
+    ctx = {"name": NAME, "NAME": NAME.upper(), "steer_lag": True, "lag_tau": "0.1", "lag_decay": "0.5", "delay": 0}
+    src = environment().get_template("actuator.c.j2").render(**ctx, x_plan="ws.x0", x_plan_doc="x0", f_last=False)
+    calls = [f"lag_error({r!r}, {e!r}, {t!r}, {d!r})" for r, e, t, d, *_ in LAG]
+    calls += [f"lagged_rate({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
+    calls += [f"lag_command({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
+    body = "\n".join(f"  put({c});" for c in calls)
+    test_c = tmp_path / "lag_test.c"
+    test_c.write_text(f"""#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "{NAME}_solver.h"
+#define TYRE_ONE (({NAME}_real_t)1.0)
+{_c_function(src, "lag_error")}
+{_c_function(src, "lagged_rate")}
+{_c_function(src, "lag_command")}
+static void put(double x) {{
+  uint64_t b;
+  memcpy(&b, &x, sizeof b);
+  printf("%016" PRIx64 "\\n", b);
+}}
+
+int main(void) {{
+{body}
+  return 0;
+}}
+""")
+    exe = tmp_path / "lag_test"
+    flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off", f"-I{SOLVER.parent}"]
+    subprocess.run(["gcc", *flags, str(test_c), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
+    got = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    want = [lag_error(r, e, t, d) for r, e, t, d, *_ in LAG]
+    want += [lagged_rate(r, e, t, d, h) for r, e, t, d, h, *_ in LAG]
+    want += [lag_command(r, e, t, d, h) for r, e, t, d, h, *_ in LAG]
+    assert len(got) == len(want) == len(calls)
+    for call, g, w in zip(calls, got, want):
+        assert g == _bits(w), f"{call}: C {g}, Python {_bits(w)} ({w!r})"
 
 
 def _bits(x: float) -> str:

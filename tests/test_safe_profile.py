@@ -13,7 +13,7 @@ from fcgen import obstacles as obs
 from fcgen.collision import chassis_corners, sat_overlap
 from fcgen.dsl import CoveringCircles, Ellipse, Horizon, PlanCheck, Problem, ProblemError, SeparatingHyperplane
 from fcgen.ocp import build_ocp
-from fcgen.presets import CAR, PAPER_SOFT, SAFE_SOFT_CONVENTIONAL, TRUCK, preset, preset_names
+from fcgen.presets import CAR, PAPER_SOFT, SAFE_PLAN_CHECK, SAFE_SOFT_CONVENTIONAL, TRUCK, preset, preset_names
 from fcgen.reference import RtiSolver
 from fcgen.road import straight_road
 
@@ -128,7 +128,7 @@ def test_profiles_of_the_presets():
     assert safe.soft.obstacle_l1 > safe.soft.a_lat_l1 > PAPER_SOFT.a_lat_l1
     assert paper.soft == PAPER_SOFT and paper.plan_check.react_stages == 0 and paper.obstacles.anchor == 0.0
     assert not paper.plan_check.a_lat_guard and safe.plan_check.a_lat_guard  # the paper applies its plan's u0
-    assert safe.soft == Problem("x").soft and safe.plan_check == PlanCheck() and safe.obstacles.anchor > 0
+    assert safe.soft == Problem("x").soft and safe.plan_check == SAFE_PLAN_CHECK and safe.obstacles.anchor > 0
     # Problem()'s defaults are the safe profile
     d = Problem("x")
     assert d.obstacles == Ellipse() and d.obstacles.shape == "minkowski" and d.plan_check.react_stages > 0
@@ -149,10 +149,12 @@ def test_profiles_of_the_presets():
             else d.reference
         )
         assert preset(name).reference.curve_a_lat == 0.0
-        # the DSL's plan check, but the conventional formulation's has no a_lat guard (its a_lat rows hold the bound)
+        # the DSL's plan check with the guard's memory of the last force (SAFE_PLAN_CHECK), but the conventional
+        # formulation's has no a_lat guard (its a_lat rows hold the bound)
         assert preset(name + "_safe").plan_check == (
-            replace(d.plan_check, a_lat_guard=False) if conventional else d.plan_check
+            replace(d.plan_check, a_lat_guard=False) if conventional else SAFE_PLAN_CHECK
         )
+        assert replace(d.plan_check, brake_memory=True, drive_rise=SAFE_PLAN_CHECK.drive_rise) == SAFE_PLAN_CHECK
         assert not preset(name).plan_check.a_lat_guard
         assert preset(name + "_ipm_safe").qp.backend == "ipm"
     with pytest.raises(ProblemError, match="unknown"):

@@ -33,20 +33,24 @@ def _small(
     backend: str = "osqp",
     fine: int | None = None,
     profile: str = "paper",
+    delay: int = 0,
+    steer_lag: float = 0.0,
 ) -> GenerateInfo:
     """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same.
     ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid); ``profile``:
-    the safe one adds code of its own (the curve reference, the a_lat guard)."""
+    the safe one adds code of its own (the curve reference, the a_lat guard); ``delay``, ``steer_lag``: the delay
+    compensation and the steering lag's model (code of their own too)."""
     p = paper_problem("car", formulation, obstacles, name=name, profile=profile)
     hz = dataclasses.replace(p.horizon, N=4)
     if fine is not None:
         hz = dataclasses.replace(hz, stride=3, fine=fine)
-    p = dataclasses.replace(p, horizon=hz, qp=QpOptions(backend=backend))
+    p = dataclasses.replace(p, horizon=hz, qp=QpOptions(backend=backend), delay=delay, steer_lag=steer_lag)
     return generate(p, out, use_float=use_float)
 
 
 #: the analysed solvers: both backends, double and float; the IPM with (hyperplane) and without stage equalities (its
-#: code differs); the paper profile and the safe one. One test per solver, so that the workers share the analysis.
+#: code differs); the paper profile and the safe one, with the delay compensation and the steering lag's model too.
+#: One test per solver, so that the workers share the analysis.
 FOLDERS = {
     "sa_d": ("lifted", "ellipse", False, "osqp", None, "paper"),
     "sa_f": ("conventional", "hyperplane", True, "osqp", None, "paper"),
@@ -54,15 +58,17 @@ FOLDERS = {
     "sa_if": ("conventional", "hyperplane", True, "ipm", None, "paper"),
     "sa_g": ("direct_elimination", "ellipse", True, "ipm", 2, "paper"),
     "sa_s": ("direct_elimination", "hyperplane", False, "ipm", None, "safe"),
+    "sa_sl": ("lifted", "ellipse", False, "ipm", None, "safe", 1, 0.1),
+    "sa_sl0": ("lifted", "ellipse", True, "ipm", None, "safe", 0, 0.1),
 }
 
 
 @pytest.fixture(scope="module", params=sorted(FOLDERS))
 def folder(request, tmp_path_factory) -> GenerateInfo:
     """One solver of ``FOLDERS``, generated once per module and worker."""
-    formulation, obstacles, use_float, backend, fine, profile = FOLDERS[request.param]
+    formulation, obstacles, use_float, backend, fine, profile, *lag = FOLDERS[request.param]
     out = tmp_path_factory.mktemp(request.param)
-    return _small(formulation, obstacles, request.param, use_float, out, backend, fine, profile)
+    return _small(formulation, obstacles, request.param, use_float, out, backend, fine, profile, *lag)
 
 
 def _expected_misra(info: GenerateInfo) -> set[str]:

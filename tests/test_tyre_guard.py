@@ -12,9 +12,9 @@ import pytest
 
 from fcgen.dsl import PlanCheck, Problem
 from fcgen.plan_check import a_lat_guard
-from fcgen.presets import preset
+from fcgen.presets import SAFE_PLAN_CHECK, preset
 
-SAFE = Problem(name="car_safe")  # the DSL's defaults are the safe profile's: a = b = 1.7 m, m = 1160 kg
+SAFE = Problem(name="car_safe", plan_check=SAFE_PLAN_CHECK)  # the safe profile's: a = b = 1.7 m, m = 1160 kg
 NO_BEND = SAFE  # the safe profile brakes for no bend (bend_brake = 0)
 BEND = SAFE.with_(plan_check=replace(SAFE.plan_check, bend_brake=2.0))
 L, DT, A_TO = 3.4, 0.1, 4.95
@@ -51,7 +51,9 @@ def test_braking_in_a_bend_the_guard_steers_to_the_tyre_aware_target():
     assert status == 1 and u[0] == f_d
     assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
     # without tyres (the paper's guard) the same step passes: 4.5 <= 5
-    no_tyres = SAFE.with_(plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0))
+    no_tyres = SAFE.with_(
+        plan_check=replace(SAFE.plan_check, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0, drive_rise=0.0)
+    )
     assert _guard(no_tyres, x1, [f_d, 0.1]) == (0, pytest.approx(np.array([f_d, 0.1])))
 
 
@@ -70,7 +72,7 @@ def test_where_the_guard_steers_it_does_not_drive():
     status, u = _guard(NO_BEND, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])
     assert status == 1 and u[0] == pytest.approx(0.0, abs=1e-2)
     assert u[1] == pytest.approx((_delta(v, A_TO) - 0.03) / DT, rel=1e-12)
-    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, bend_brake=0.0))
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, bend_brake=0.0, drive_rise=0.0))
     assert _guard(free, [0.0, 0.0, 0.0, v, _delta(v, 5.5)], [5000.0, 0.1])[1][0] == 5000.0
 
 
@@ -137,7 +139,7 @@ def test_profiles():
     """The safe presets carry the tyre-aware guard and the drive limit; the paper's have neither; neither brakes for
     the bend."""
     safe, paper = preset("car_lifted_ellipse_ipm_safe"), preset("car_lifted_ellipse")
-    assert safe.plan_check == PlanCheck() and safe.plan_check.tyre_stiffness > 0 and safe.plan_check.drive_limit
+    assert safe.plan_check == SAFE_PLAN_CHECK and safe.plan_check.tyre_stiffness > 0 and safe.plan_check.drive_limit
     assert paper.plan_check.tyre_stiffness == 0 and not paper.plan_check.drive_limit
     assert safe.plan_check.bend_brake == 0.0 and paper.plan_check.bend_brake == 0.0
 
@@ -163,7 +165,95 @@ def test_braking_for_the_plans_path_on_a_step_that_follows_the_force():
 def test_bend_brake_needs_the_drive_limit_and_a_range():
     """``bend_brake`` caps the drive force where the drive limit does: refused without it, and outside [0, 10]."""
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake"):
-        PlanCheck(drive_limit=False, bend_brake=2.0)
+        PlanCheck(drive_limit=False, bend_brake=2.0, drive_rise=0.0)
     with pytest.raises(ValueError, match=r"plan_check\.bend_brake.*\[0, 10\]"):
         PlanCheck(bend_brake=-1.0)
-    assert PlanCheck(drive_limit=False, bend_brake=0.0).bend_brake == 0.0
+    assert PlanCheck(drive_limit=False, bend_brake=0.0, drive_rise=0.0).bend_brake == 0.0
+
+
+def test_the_guard_remembers_the_last_braking():
+    """18 m/s at the formula's 4.5 m/s^2, the control easing from 8 m/s^2 of braking (handed out last: -9,280 N) to
+    -2,000 N: under -2,000 N alone d = 1 + 324 (1.7 / (16.677 + 1.0586) - 1.7 / (16.677 - 1.0586)) / 74.528 = 0.9436
+    and the tyres' 4.77 m/s^2 pass (status 0); with the brake memory the load transfer is the last sample's
+    (d = 0.714, 6.3 m/s^2, the test above): the guard steers to 4.95 d (status 1), the force kept (without the drive
+    force's rise limit, which would also slow the easing: the next test)."""
+    v, f_last = 18.0, -8.0 * 1160.0
+    x1 = [0.0, 0.0, 0.0, v, _delta(v, 4.5)]
+    x0 = np.array([0.0, 0.0, 0.0, v, 0.03])
+    k = (1.7 / (9.81 * 1.7 + 8.0 * 0.614) - 1.7 / (9.81 * 1.7 - 8.0 * 0.614)) / (L * 21.92)
+    d = 1.0 + k * v * v
+
+    def run(problem: Problem) -> tuple[int, np.ndarray]:
+        uu = np.array([-2000.0, 0.1])
+        step = lambda: list(x1) if uu[1] == 0.1 else [*x1[:4], 0.03 + float(uu[1]) * DT]
+        return a_lat_guard(problem, x0, uu, -0.39, 0.39, step, 0.0, f_last), uu
+
+    a_x = -2000.0 / 1160.0
+    d_now = 1.0 + v * v * (1.7 / (9.81 * 1.7 - a_x * 0.614) - 1.7 / (9.81 * 1.7 + a_x * 0.614)) / (L * 21.92)
+    assert d_now == pytest.approx(0.9436, abs=1e-4) and 4.5 / d_now < 5.0
+    memory = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_rise=0.0))
+    forget = SAFE.with_(plan_check=replace(SAFE.plan_check, brake_memory=False, drive_rise=0.0))
+    assert run(forget)[0] == 0
+    status, u = run(memory)
+    assert status == 1 and u[0] == -2000.0
+    assert u[1] == pytest.approx((_delta(v, A_TO * d) - 0.03) / DT, rel=1e-12)
+
+
+def test_the_drive_force_rises_at_most_drive_rise_a_sample():
+    """Straight ahead at 20 m/s (no a_lat): after full braking (-10,000 N handed out last) a plan asking for full drive
+    gets -10,000 + 3 m = -6,520 N (status 3); after 5,000 N, 8,480 N; braking that eases from -10,000 N to -3,000 N
+    eases to -6,520 N too; braking harder is never limited; without drive_rise the whole force."""
+    x1 = [0.0, 0.0, 0.0, 20.0, 0.0]
+    rise = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_rise=3.0))  # 3 m/s^2 a sample: 3,480 N
+
+    def run(problem: Problem, f: float, f_last: float) -> tuple[int, float]:
+        uu = np.array([f, 0.0])
+        return a_lat_guard(problem, np.array(x1), uu, -0.39, 0.39, lambda: list(x1), 0.0, f_last), float(uu[0])
+
+    assert run(rise, 1e4, -1e4) == (3, pytest.approx(-10000.0 + 3.0 * 1160.0, rel=1e-15))
+    assert run(rise, 1e4, 5000.0) == (3, pytest.approx(8480.0, rel=1e-15))
+    assert run(rise, -3000.0, 1e4) == (0, -3000.0)
+    assert run(rise, -3000.0, -1e4) == (3, pytest.approx(-6520.0, rel=1e-15))
+    assert run(rise, -9000.0, -1e4) == (0, -9000.0)  # a rise of 1,000 N: within 3,480
+    free = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_rise=0.0))
+    assert run(free, 1e4, -1e4) == (0, 1e4)
+    with pytest.raises(ValueError, match=r"plan_check\.drive_rise.*\[0, 100\]"):
+        PlanCheck(drive_rise=-1.0)
+    with pytest.raises(ValueError, match=r"plan_check\.drive_rise"):
+        PlanCheck(drive_limit=False, bend_brake=0.0, drive_rise=3.0)
+
+
+def test_with_a_steering_lag_the_guard_commands_the_rate_the_lag_turns_into_its_target():
+    """The first test's step (18 m/s, braking at 8 m/s^2, the tyre-aware target 4.95 d) on a vehicle whose steering
+    actuator lags by tau = 0.1 s (Problem.steer_lag), 0.004 rad of lag carried in: the guard commands the rate whose
+    lagged rate ends the step at the target's angle. Checked with the closed loop's actuator
+    (``sim.plants.actuation``, commanded angle = actual + lag), the second method: its applied rate over the sample
+    ends at delta(18, 4.95 d)."""
+    from fcgen.sim.plants import PlantSpec
+    from fcgen.sim.plants.actuation import Actuation
+
+    v, f_d, e, delta0 = 18.0, -8.0 * 1160.0, 0.004, 0.03
+    lagged = SAFE.with_(steer_lag=0.1)
+    k = (1.7 / (9.81 * 1.7 + 8.0 * 0.614) - 1.7 / (9.81 * 1.7 - 8.0 * 0.614)) / (L * 21.92)
+    target = _delta(v, A_TO * (1.0 + k * v * v))
+    uu = np.array([f_d, 0.1])
+    x0 = np.array([0.0, 0.0, 0.0, v, delta0])
+
+    def applied(r: float) -> float:
+        act = Actuation(PlantSpec(steer_lag=0.1), 0, DT)
+        act._delta_cmd = delta0 + e  # the lag carried in
+        return float(act.actuate([f_d, r], delta0)[1])
+
+    def step() -> list[float]:
+        return [0.0, 0.0, 0.0, v, delta0 + applied(float(uu[1])) * DT]
+
+    uu[1] = (_delta(v, 4.5) - delta0) / (applied(1.0) - applied(0.0)) / DT  # a plan rate ending at 4.5: linear in r
+    uu[1] -= applied(0.0) / (applied(1.0) - applied(0.0))
+    assert delta0 + applied(float(uu[1])) * DT == pytest.approx(_delta(v, 4.5), rel=1e-12)
+    status = a_lat_guard(lagged, x0, uu, -0.39, 0.39, step, 0.0, f_d, e)
+    assert status == 1 and uu[0] == f_d
+    assert delta0 + applied(float(uu[1])) * DT == pytest.approx(target, rel=1e-12)
+    # the guard without the lag in its model sets the rate for an actuator without lag: the lagging one misses the
+    # target by more than a tenth of the angle's step
+    r_plain = (target - delta0) / DT
+    assert abs(delta0 + applied(r_plain) * DT - target) > 0.1 * abs(target - delta0)

@@ -42,6 +42,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "delay compensation: the solver plans from the measured state predicted over this many samples with the "
         "controls it handed out last (the plant applies each control this many samples after its measurement)",
     ),
+    ("Problem", "steer_lag"): (
+        "s",
+        "[0, 2]; 0: none",
+        "a first-order steering actuator's time constant that the delay compensation's prediction and the a_lat "
+        "guard's plant step model (the lag of the angle behind the commanded rates is kept in the workspace)",
+    ),
     ("PlanCheck", "react_stages"): (
         "-",
         "integer in [0, 500]; 0: report only; 500: the whole horizon",
@@ -78,6 +84,18 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "where the a_lat guard steers and the plan holds a slack above 1, the ego is too fast for the path the plan "
         "turns onto: the drive force is capped to brake towards that path's speed at the guard's target, at most at "
         "this deceleration (off in the safe profile: docs/safe_profile.md)",
+    ),
+    ("PlanCheck", "brake_memory"): (
+        "-",
+        "True or False",
+        "the tyre-aware a_lat guard takes the load transfer of the harder of the control's and the last handed-out "
+        "control's braking (the tyres still carry the braking of the sample before)",
+    ),
+    ("PlanCheck", "drive_rise"): (
+        "m/s^2 per sample",
+        "[0, 100], 0 without drive_limit; 0: off",
+        "the drive force rises by at most m times this above the last handed-out one per sample (braking is never "
+        "limited): a switch from braking to driving in one sample turns a vehicle with tyres more than the formula",
     ),
     ("Ellipse", "shape"): (
         "-",

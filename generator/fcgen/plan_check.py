@@ -11,7 +11,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .dsl import Problem
+from .dsl import PlanCheck, Problem
 from .reactions import (
     BEND_SLACK,
     DRIVE_SLACK,
@@ -19,6 +19,8 @@ from .reactions import (
     braking_force,
     drive_limit,
     guard_steering_rate,
+    lag_command,
+    lagged_rate,
     lateral_acceleration,
     load_transfer_gain,
     understeer_drive_limit,
@@ -33,6 +35,8 @@ def a_lat_guard(
     hi: float,
     plant_step: Callable[[], Sequence[float]],
     slack: float = 0.0,
+    f_last: float = math.inf,
+    lag_e: float = 0.0,
 ) -> int:
     """Where the plant's step from x0 with get_u0 ``u`` ends above ``a_lat_max`` in tyre-aware |a_lat|
     (``tyre_a_lat``), the steering rate that ends at ``a_lat_max - a_lat_margin`` in it (status 1; with wind the speed,
@@ -41,36 +45,74 @@ def a_lat_guard(
     sufficed, with ``plan_check.drive_limit``, a drive force above ``reactions.drive_limit`` at that step's end is cut
     to it, and where the guard steers the rate is set again for the end of the step with the cut force, which is
     slower (status 1 still), and where the plan also holds a slack above ``reactions.BEND_SLACK`` (``slack``: the
-    plan's largest, the C's ``max_slack()``) the force is capped to brake for the plan's path (``bend_cap``); 0: the
-    guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the
-    plant's state one sample after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs the
-    three steps in every feedback and keeps the plan's rate where the first ends within the bound: the same control
-    and status)."""
+    plan's largest, the C's ``max_slack()``) the force is capped to brake for the plan's path (``bend_cap``); with
+    ``drive_rise`` the force rises at most ``m drive_rise`` above ``f_last``, the drive force handed out last (inf:
+    none known), which ``brake_memory`` also takes into the load transfer (``hard_force``); with ``Problem.steer_lag``
+    the rates are the commanded ones whose lagged rates from the lag ``lag_e`` the step applies (``guard_rate``);
+    0: the guard is off or did not act. ``u`` is changed in place; ``plant_step()`` is the plant's state one sample
+    after x0 under ``u`` as it is then. The C's operations in the C's order (the C runs the three steps in every
+    feedback and keeps the plan's rate where the first ends within the bound: the same control and status)."""
     if not problem.plan_check.a_lat_guard:
         return 0
-    b, l, dt = problem.bounds, problem.ego.l, problem.horizon.dt
+    b, pc = problem.bounds, problem.plan_check
     x1, status = plant_step(), 0
     xa = x1  # the step with the plan's rate
-    if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
-        d = tyre_gain(problem, x1[3], u[0])
-        u[1] = guard_steering_rate(x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, l, dt, lo, hi)
+    if tyre_a_lat(problem, x1, hard_force(pc, u[0], f_last)) > b.a_lat_max:
+        d = tyre_gain(problem, x1[3], hard_force(pc, u[0], f_last))
+        u[1] = guard_rate(problem, x1[3], x1[4], float(x0[4]), (b.a_lat_max - b.a_lat_margin) * d, lo, hi, lag_e)
         x1, status = plant_step(), 1
-        if tyre_a_lat(problem, x1, u[0]) > b.a_lat_max:
+        if tyre_a_lat(problem, x1, hard_force(pc, u[0], f_last)) > b.a_lat_max:
             u[0] = braking_control(problem, x0)
             return 2
-    if problem.plan_check.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
-        a = abs(lateral_acceleration(x1[3], x1[4], l))
+    if pc.drive_limit:  # a vehicle with tyres turns less than the formula says while it drives
+        a = abs(lateral_acceleration(x1[3], x1[4], problem.ego.l))
         cap = drive_limit(a, b.a_lat_max - b.a_lat_margin, b.F_d_max) if status == 1 else understeer_cap(problem, x1, a)
         if status == 1 and slack > BEND_SLACK:  # too fast for the plan's path, the plan in slack: brake for it
             cap = min(cap, bend_cap(problem, xa))
+        rise = problem.ego.m * pc.drive_rise
+        if rise > 0.0 and f_last + rise < cap:  # from braking to driving over samples
+            cap = f_last + rise
         if u[0] > cap:
             u[0] = cap
             status = status or 3
             if status == 1:  # the rate was set for the speed of the uncut force: set again for the slower step's end
                 x2 = plant_step()
-                a_to = (b.a_lat_max - b.a_lat_margin) * tyre_gain(problem, x2[3], u[0])
-                u[1] = guard_steering_rate(x2[3], x2[4], float(x0[4]), a_to, l, dt, lo, hi)
+                a_to = (b.a_lat_max - b.a_lat_margin) * tyre_gain(problem, x2[3], hard_force(pc, u[0], f_last))
+                u[1] = guard_rate(problem, x2[3], x2[4], float(x0[4]), a_to, lo, hi, lag_e)
     return status
+
+
+def hard_force(pc: PlanCheck, f_d: float, f_last: float) -> float:
+    """The drive force whose braking the tyre-aware a_lat takes: with ``brake_memory`` the harder (smaller) of ``f_d``
+    and ``f_last``, the force handed out last; else ``f_d``."""
+    return f_last if pc.brake_memory and f_last < f_d else f_d
+
+
+def has_f_last(problem: Problem) -> bool:
+    """Whether the guard needs the drive force handed out last (``brake_memory``, ``drive_rise``; the C's f_last)."""
+    pc = problem.plan_check
+    return pc.a_lat_guard and (pc.brake_memory or pc.drive_rise > 0)
+
+
+def lag_constants(problem: Problem) -> tuple[float, float] | None:
+    """``(tau, exp(-dt / tau))`` of ``Problem.steer_lag``'s actuator (``reactions.lag_error``); None without a lag."""
+    tau = problem.steer_lag
+    return (tau, math.exp(-problem.horizon.dt / tau)) if tau > 0 else None
+
+
+def guard_rate(
+    problem: Problem, v: float, delta: float, delta0: float, a_to: float, lo: float, hi: float, lag_e: float
+) -> float:
+    """``reactions.guard_steering_rate`` from ``delta0``; with a steering lag the commanded rate within ``[lo, hi]``
+    whose lagged rate from ``lag_e`` is that rate (``reactions.lag_command``), the rate clipped to the lagged rates
+    of ``lo`` and ``hi`` first."""
+    l, dt, lag = problem.ego.l, problem.horizon.dt, lag_constants(problem)
+    if lag is None:
+        return guard_steering_rate(v, delta, delta0, a_to, l, dt, lo, hi)
+    tau, decay = lag
+    lo_e, hi_e = lagged_rate(lo, lag_e, tau, decay, dt), lagged_rate(hi, lag_e, tau, decay, dt)
+    r = lag_command(guard_steering_rate(v, delta, delta0, a_to, l, dt, lo_e, hi_e), lag_e, tau, decay, dt)
+    return lo if r < lo else (hi if r > hi else r)
 
 
 def bend_cap(problem: Problem, xa: Sequence[float]) -> float:

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import models
 from .dsl import Problem
+from .reactions import lag_error, lagged_rate
 from .road import RoadWindowParams, casadi_road
 
 
@@ -36,20 +37,42 @@ def _build_plant(problem: Problem, samples: int) -> ca.Function:
 
 class DelayLine:
     """The delay compensation's state (``Problem.delay`` = D): the D controls handed out last, oldest first (zeros
-    before the first D), and the prediction over them (the generated C's ``delay_predict``, ``delay_push``)."""
+    before the first D), and the prediction over them (the generated C's ``delay_predict``, ``delay_push``); with
+    ``lag = (tau, decay)`` (``plan_check.lag_constants``) the steering actuator's lag ``lag_e`` at the measurement
+    and ``lag_plan`` at the plan's start; ``f_last``, the drive force handed out last (the a_lat guard's memory)."""
 
-    def __init__(self, plant: ca.Function, delay: int, nu: int = 2):
+    def __init__(self, plant: ca.Function, delay: int, nu: int = 2, lag: tuple[float, float] | None = None, dt=0.1):
         self.plant, self.u_hist = plant, np.zeros((delay, nu))
+        self.lag, self.dt = lag, dt
+        self.lag_e = self.lag_plan = 0.0
+        self.f_last = 0.0
 
     def predict(self, x0: np.ndarray, road_params) -> np.ndarray:
-        """x0 stepped by the plant over the controls, each step on ``road_params(s)`` of its start; x0 itself (the
-        same object) without a delay."""
-        x = x0
+        """x0 stepped by the plant over the controls, each step on ``road_params(s)`` of its start, their steering
+        rates through the lag (``lag_plan`` then holds the lag at the end); x0 itself (the same object) without a
+        delay."""
+        x, e = x0, self.lag_e
         for u in self.u_hist:
+            if self.lag is not None:
+                r = float(u[1])
+                u = np.array([u[0], lagged_rate(r, e, *self.lag, self.dt)])
+                e = lag_error(r, e, *self.lag)
             x = np.array(self.plant(x, u, road_params(float(x[0])))).ravel()
+        self.lag_plan = e
         return x
 
+    def applied(self, u: np.ndarray) -> np.ndarray:
+        """The control ``u`` as the plant applies it from the plan's start: its steering rate through the lag."""
+        if self.lag is None:
+            return u
+        return np.array([u[0], lagged_rate(float(u[1]), self.lag_plan, *self.lag, self.dt)])
+
     def push(self, u: np.ndarray) -> None:
-        """The control just handed out joins the ones the plant has yet to apply (the oldest leaves)."""
+        """The control just handed out joins the ones the plant has yet to apply (the oldest leaves); the lag moves on
+        by the sample the plant now applies (the oldest, or ``u`` without a delay)."""
+        if self.lag is not None:
+            r = float(self.u_hist[0][1]) if len(self.u_hist) else float(u[1])
+            self.lag_e = lag_error(r, self.lag_e, *self.lag)
         if len(self.u_hist):
             self.u_hist = np.vstack([self.u_hist[1:], u])
+        self.f_last = float(u[0])

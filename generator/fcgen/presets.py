@@ -96,6 +96,11 @@ def safe_reference(formulation) -> Reference:
     return SAFE_REFERENCE_CONVENTIONAL if isinstance(formulation, Conventional) else Reference()
 
 
+SAFE_PLAN_CHECK = PlanCheck(brake_memory=True, drive_rise=4.0)
+"""The safe profile's plan check (but for the conventional formulation): the DSL's defaults, and the a_lat guard's
+memory of the last drive force, braking (``brake_memory``) and the drive force's rise per sample (``drive_rise``,
+m/s^2 per sample; docs/safe_profile.md "The guard's memory of the last force")."""
+
 SAFE_PLAN_CHECK_CONVENTIONAL = PlanCheck(a_lat_guard=False)
 """The safe profile's plan check for the conventional formulation: without the a_lat guard. Its a_lat rows are the
 dearer ones (3e8, ``SAFE_SOFT_CONVENTIONAL``), and its plans keep the bound on their own within 0.37 m/s^2 on the full
@@ -106,7 +111,7 @@ above 0.5 m/s^2 before, and moved one of them, truck HP seed 45, onto a path tha
 
 def safe_plan_check(formulation) -> PlanCheck:
     """The safe profile's plan check of a formulation (the DSL's defaults but for the conventional one)."""
-    return SAFE_PLAN_CHECK_CONVENTIONAL if isinstance(formulation, Conventional) else PlanCheck()
+    return SAFE_PLAN_CHECK_CONVENTIONAL if isinstance(formulation, Conventional) else SAFE_PLAN_CHECK
 
 
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {

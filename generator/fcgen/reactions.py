@@ -89,6 +89,27 @@ def bend_brake_limit(
     return a if a > -f_max else -f_max
 
 
+def lag_error(r: float, e: float, tau: float, decay: float) -> float:
+    """A first-order steering actuator of time constant ``tau`` (``decay = exp(-dt / tau)``): the commanded minus the
+    actual steering angle one sample after ``e`` under the commanded rate ``r``, ``e1 = r tau + (e - r tau) decay``
+    (``e' = r - e / tau`` solved over the sample)."""
+    rt = r * tau
+    return rt + (e - rt) * decay
+
+
+def lagged_rate(r: float, e: float, tau: float, decay: float, dt: float) -> float:
+    """The constant rate at which the actual steering angle moves over the sample under the commanded rate ``r`` from
+    the lag ``e``: ``r + (e - e1) / dt`` (``lag_error``'s ``e1``; the closed loop's steering actuator)."""
+    return r + (e - lag_error(r, e, tau, decay)) / dt
+
+
+def lag_command(r_eff: float, e: float, tau: float, decay: float, dt: float) -> float:
+    """The commanded rate whose ``lagged_rate`` from ``e`` is ``r_eff``: ``lagged_rate`` is affine in ``r``,
+    ``r (1 - tau g / dt) + e g / dt`` with ``g = 1 - decay`` (its slope in (0, 1))."""
+    g = 1.0 - decay
+    return (r_eff - e * g / dt) / (1.0 - tau * g / dt)
+
+
 G = 9.81
 """Gravity (m/s^2) of the load transfer (CommonRoad's single-track model's)."""
 DRIVE_SLACK = 0.25

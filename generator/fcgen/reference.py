@@ -22,7 +22,7 @@ from .guess import cold_start_frenet, last_window_s
 from .hyperplane_guess import theta_init
 from .ocp import Ocp, build_ocp
 from .oppfit import STRETCH_MAX, OppFitter
-from .plan_check import a_lat_guard, braking_control, plan_verdict
+from .plan_check import a_lat_guard, braking_control, lag_constants, plan_verdict
 from .plant import DelayLine, plant_function
 from .qp import QpLayout, build_layout
 from .qp_outcome import (
@@ -102,7 +102,8 @@ class RtiSolver(StageInputsMixin):
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None
         self.x_plan: np.ndarray = np.zeros(5)  # where the plan starts: x0, or x0 predicted over Problem.delay samples
-        self.delay_line = DelayLine(self._plant, self.ocp.problem.delay, self.ocp.nu)  # reset keeps it: the plant has
+        pb = self.ocp.problem  # the actuator's memory: reset keeps it (the plant has those controls)
+        self.delay_line = DelayLine(self._plant, pb.delay, self.ocp.nu, lag_constants(pb), pb.horizon.dt)
         self.reset()
 
     def reset(self) -> None:
@@ -431,11 +432,14 @@ class RtiSolver(StageInputsMixin):
         lo, hi = float(self._box[0][1]), float(self._box[1][1])
         slack = max(float(np.max(self.slacks())), 0.0)  # the C's max_slack(): a NaN stays NaN
         step = lambda: self._plant_step(p_road)  # noqa: E731
-        st.a_lat_guard = a_lat_guard(self.ocp.problem, self.x_plan, self.u_applied, lo, hi, step, slack)
+        f_last, lag = self.delay_line.f_last, self.delay_line.lag_plan
+        st.a_lat_guard = a_lat_guard(self.ocp.problem, self.x_plan, self.u_applied, lo, hi, step, slack, f_last, lag)
 
     def _plant_step(self, p_road: np.ndarray) -> list[float]:
-        """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``)."""
-        return np.array(self._plant(self.x_plan, self.u_applied, p_road)).ravel().tolist()
+        """The plant's state one sample after the plan's start under get_u0 (the C's ``<name>_plant``), its steering
+        rate through the steering lag (``Problem.steer_lag``)."""
+        u = self.delay_line.applied(self.u_applied)
+        return np.array(self._plant(self.x_plan, u, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
         """The plan's clearance to each opponent's rectangle at every stage (``Ocp.plan_clearance`` on the road the

@@ -10,7 +10,6 @@ from __future__ import annotations
 import concurrent.futures as cf
 import functools
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 from ..commonroad.catalog import ListedScenario, dataset_of, read_list
@@ -94,8 +93,12 @@ def run_cr_campaign(
     echo(f"{len(tasks)} runs, {len(tasks) - len(todo)} already in {out}, {len(todo)} to run ({where})")
     t0 = time.perf_counter()
     if todo:
-        with executor(jobs, scheduler) if jobs > 1 or scheduler else _inline() as (ex, _):
-            failed = _collect({ex.submit(run_cr_task, t): t for t in todo}, out, echo)
+        if jobs > 1 or scheduler:
+            with executor(jobs, scheduler) as (ex, _):
+                futs = {ex.submit(run_cr_task, t): t for t in todo}
+                failed = _collect(((futs[f], f) for f in cf.as_completed(list(futs))), len(todo), out, echo, futs)
+        else:  # one process: each run when its turn comes, its row written as the others' are
+            failed = _collect(((t, _run_inline(t)) for t in todo), len(todo), out, echo, {})
         wall = time.perf_counter() - t0
         echo(f"{len(todo)} runs in {wall:.0f} s wall, {failed} failed (written; run again to retry)")
     p = Path(out) / "commonroad.parquet"
@@ -126,32 +129,25 @@ def failed_row(task: CrTask, error: str) -> dict:
     return row
 
 
-@contextmanager
-def _inline():
-    """One process: each task run when submitted (a future holding its row or its exception)."""
-
-    class Inline:
-        def submit(self, fn, *args):
-            fut: cf.Future = cf.Future()
-            try:
-                fut.set_result(fn(*args))
-            except Exception as exc:  # noqa: BLE001 - kept in the future, as a pool's worker would
-                fut.set_exception(exc)
-            return fut
-
-    yield Inline(), 1
+def _run_inline(task: CrTask) -> cf.Future:
+    """One task run in this process: a finished future holding its row or its exception."""
+    fut: cf.Future = cf.Future()
+    try:
+        fut.set_result(run_cr_task(task))
+    except Exception as exc:  # noqa: BLE001 - kept in the future, as a pool's worker would
+        fut.set_exception(exc)
+    return fut
 
 
-def _collect(futs: dict, out: str | Path, echo) -> int:
-    """Write the finished runs' rows in batches (``FLUSH_ROWS`` / ``FLUSH_SECONDS``); an interruption keeps them. A
-    run that raises is named and written as ``failed`` (kind ``error``; the next call runs it again); returns how
-    many did."""
+def _collect(done, total: int, out: str | Path, echo, futs: dict) -> int:
+    """Write the finished runs' rows (``done``: (task, finished future) as they finish) in batches (``FLUSH_ROWS`` /
+    ``FLUSH_SECONDS``); an interruption keeps them and cancels ``futs``. A run that raises is named and written as
+    ``failed`` (kind ``error``; the next call runs it again); returns how many did."""
     buf: list[dict] = []
     last = time.monotonic()
     n = failed = 0
     try:
-        for fut in cf.as_completed(list(futs)):
-            task = futs[fut]
+        for task, fut in done:
             n += 1
             try:
                 row = fut.result()
@@ -164,7 +160,7 @@ def _collect(futs: dict, out: str | Path, echo) -> int:
                 echo(f"refused {row['file']} ({row['refusal']}): {row['reason']}")
             if len(buf) >= FLUSH_ROWS or time.monotonic() - last > FLUSH_SECONDS:
                 write_results(buf, out)
-                echo(f"{n} of {len(futs)} runs done")
+                echo(f"{n} of {total} runs done")
                 buf.clear()
                 last = time.monotonic()
     except BaseException:

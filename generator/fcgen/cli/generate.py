@@ -32,7 +32,15 @@ from .options import fail, force_option, names, out_dir_option
     help="compensate this many samples of latency between measurement and actuation (Problem.delay, 0..8; "
     "default: the problem's own)",
 )
-def generate(problem_spec, out_dir, use_float, force, timeout, delay):
+@click.option(
+    "--steer-lag",
+    type=float,
+    default=None,
+    metavar="TAU",
+    help="model a first-order steering actuator of this time constant in the delay compensation and the a_lat "
+    "guard (Problem.steer_lag, 0..2 s; default: the problem's own)",
+)
+def generate(problem_spec, out_dir, use_float, force, timeout, delay, steer_lag):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
     from ..atomic import TimeLimit, check_folder_target, time_limit
     from ..codegen.generate import generate as gen
@@ -52,6 +60,11 @@ def generate(problem_spec, out_dir, use_float, force, timeout, delay):
                     pb = pb.with_(delay=delay)
                 except ProblemError as exc:
                     fail(f"--delay: {exc}")
+            if steer_lag is not None:
+                try:
+                    pb = pb.with_(steer_lag=steer_lag)
+                except ProblemError as exc:
+                    fail(f"--steer-lag: {exc}")
             info = gen(pb, out_dir, use_float=use_float, force=force)
     except TimeLimit as exc:
         fail(str(exc))

@@ -474,14 +474,20 @@ def profiles(paper, safe, out):
 @out_dir_option("report folder", required=True)
 @click.option("--no-example", is_flag=True, help="skip the Fig. 1-like picture (it re-simulates one run)")
 @force_option("replace an existing report in OUT")
-def report(results, out_dir, no_example, force):
+@click.option("--with", "more", multiple=True, type=click.Path(exists=True), help="another CommonRoad folder's rows")
+def report(results, out_dir, no_example, force, more):
     """The paper's artefacts from campaign RESULTS: Table III, progress, box plots, Fig. 1, findings page (a
-    CommonRoad campaign's folder: its outcomes, criticality and worst runs)."""
+    CommonRoad campaign's folder: its outcomes, criticality, worst runs, planners side by side with --with's)."""
     from ..report.commonroad import is_commonroad, write_cr_report
     from ..report.page import write_report
 
+    if more and not is_commonroad(results):
+        fail("report: --with goes with a CommonRoad campaign's folder")
     if is_commonroad(results):
-        path = write_cr_report(results, out_dir, force=force)
+        try:
+            path = write_cr_report(results, out_dir, force=force, more=more)
+        except ValueError as exc:
+            fail(f"report: {exc}")
     else:
         path = write_report(results, out_dir, example=not no_example, force=force)
     click.echo(f"report written to {path}")

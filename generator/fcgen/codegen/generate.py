@@ -24,7 +24,7 @@ from ..c_literals import c_list, c_macro_list, c_real, c_real_literal
 from ..contract import HOST_TICKS_PER_SECOND, INPUT_RANGES
 from ..dsl import Problem
 from ..ocp import INF, Ocp, build_ocp
-from ..plan_check import tyre_k
+from ..plan_check import has_f_last, lag_constants, tyre_k
 from ..qp import QpLayout, build_layout
 from ..reference import (
     COLD_RESTART_NOTE,
@@ -288,6 +288,8 @@ def _memory(
         len(lay.band_rows),
         curve=curve is not None,
         delay=problem.delay,
+        f_last=has_f_last(problem),
+        steer_lag=problem.steer_lag > 0,
     )
     const_bytes = (
         sum(len(t) for t in tab["index_tables"].values()) * tab["index_size"]
@@ -446,6 +448,12 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "drive_slack": c_real(reactions.DRIVE_SLACK),
         "bend_brake": c_real(problem.plan_check.bend_brake),
         "bend_slack": c_real(reactions.BEND_SLACK),
+        "brake_memory": int(problem.plan_check.brake_memory),
+        "drive_rise": c_real(problem.ego.m * problem.plan_check.drive_rise),
+        "f_last": has_f_last(problem),
+        "steer_lag": problem.steer_lag > 0,
+        "lag_tau": c_real(problem.steer_lag),
+        "lag_decay": c_real((lag_constants(problem) or (0.0, 0.0))[1]),
         "far_opp": c_list(far_opponent_row(ocp), c_real),
         "road_ds": c_real(problem.road.ds),
     }

@@ -129,6 +129,8 @@ def workspace_members(
     n_band: int = 0,
     curve: bool = False,
     delay: int = 0,
+    f_last: bool = False,
+    steer_lag: bool = False,
 ) -> tuple[list[dict[str, Any]], int]:
     """Members of ``<name>_workspace_t`` for the template, and its sizeof on an LP64 target (natural padding)."""
     NAME = name.upper()
@@ -140,6 +142,10 @@ def workspace_members(
     shape_dim = max(1, sizes["NOPP"] * sizes["NOPP_SHAPE"])
     # the delay compensation's controls handed out last: an input (reset keeps it: the vehicle still has them)
     delayed = [("NAME_real_t", "u_hist", [delay, M("NU")], R)] if delay else []
+    # the a_lat guard's memory of the drive force handed out last, the steering lag at the measurement and at the
+    # plan's start: the actuator's (reset keeps them too)
+    delayed += [("NAME_real_t", "f_last", [], R)] if f_last else []
+    delayed += [("NAME_real_t", "lag_e", [], R), ("NAME_real_t", "lag_plan", [], R)] if steer_lag else []
     members = _input_members(M, R, opp_dim, shape_dim) + delayed + _state_members(M, R, work, n_band)
     if delay:  # the plan's start: x0 predicted over the delay
         members.append(("NAME_real_t", "x_plan", [5], R))

@@ -8,13 +8,20 @@ Rules (tested in tests/test_commonroad_goal.py):
   initial state's and the solution file's), its heading (wrapped into each goal orientation interval's turn where
   one is given), its speed.
 - **Reached** at the first sample ``j >= 1`` whose state is in the goal region; the run ends there.
-- **Reference speed** (``goal_speed``), in this order: the initial speed (the traffic's); brought into the speeds
-  that arrive at the goal position's centre (its distance ``d`` ahead along the reference path) within the middle
-  half of the goal's time window ``[t_a, t_b]`` (``d / t_b <= v <= d / t_a``, a quarter of the window left free at
-  either end for the ego's acceleration and the tracking's lag); into the goal's speed interval (where the goal
-  gives a position: only once it is within the horizon's reach, ``v_goal``: the interval is the speed at the goal,
-  not on the way, and recorded traffic behind does not brake for an ego that slows early); at most the initial
-  lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
+- **Reference speed** (``goal_speed``; per sample ``speed_now``), in this order: the initial speed (the traffic's);
+  brought into the speeds that bring the ego's centre into the middle half of the goal position's extent along the
+  road (``GoalTiming.span``; a point: its centre; of a long one, a goal lanelet, all but ``SPAN_MARGIN`` at either
+  end) within the middle half of the goal's time window (a quarter of
+  either left free at each end for the ego's acceleration and the tracking's lag), computed from the distance and
+  the time *left* at each sample (the ego that lost time behind a slower vehicle or in a lane change makes it up; at
+  most ``MIN_TIME`` s of urgency: a late ego asks the distance in 1 s, not in 0; an early one is held back only by
+  the time left to the window's middle half); into the goal's speed interval
+  shrunk by ``SPEED_MARGIN`` (the tracking settles a little below its reference: aimed at the interval's edge the
+  ego arrived 0.2 m/s outside it) where the goal gives a position only once it is within the horizon's reach (the
+  interval is the speed at the goal, not on the way: recorded traffic behind does not brake for an ego that slows
+  early); at most the initial lanelet's speed limit (a ``MAX_SPEED`` sign); at most ``v_max``.
+- **A lane change for the goal** (``change_time``): planned over at most the time left to the goal window's start,
+  at least ``MIN_CHANGE`` s.
 - **The goal's lateral offset** (``goal_frenet``, ``lateral_reference``): the goal position's centre's offset on the
   reference path, held within the band the ego may use at the goal's ``s``: the target-lane rule's goal
   (``commonroad.lanes``); None where the goal gives no position.
@@ -23,12 +30,17 @@ Rules (tested in tests/test_commonroad_goal.py):
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..extras import require
 
-WINDOW_MARGIN = 0.25  # of the goal's time window kept free at either end (the ego's acceleration, the tracking's lag)
+WINDOW_MARGIN = 0.25  # of the goal's time window (and its extent along the road) kept free at either end
+SPEED_MARGIN = 0.5  # m/s inside the goal's speed interval (at most a quarter of its width): the tracking's offset
+MIN_TIME = 1.0  # s: the shortest time the arrival band divides by (a late ego's urgency)
+SPAN_MARGIN = 2.0  # m: at most this of the goal's extent along the road kept free at either end (a long goal lanelet)
+MIN_CHANGE = 2.0  # s: the shortest lane change planned for the goal
 
 
 def _goal_centre(shape) -> np.ndarray | None:
@@ -66,31 +78,96 @@ def speed_limit(net, lanelet_id: int) -> float | None:
     return None
 
 
-def goal_speed(
-    pp, v0: float, dt: float, distance: float | None, limit: float | None, v_max: float, near: bool = True
-) -> tuple[float, str]:
-    """The reference speed and what set it last (module docstring): ``distance`` (m) to the goal position's centre
-    along the reference path (None: no position), ``limit`` the lane's speed limit (None: none); ``near=False``: the
-    speed on the way, before the goal is within the horizon (the goal's speed interval left out)."""
-    v, src = float(v0), "initial speed"
+def _inside(lo: float, hi: float) -> tuple[float, float]:
+    """The speed interval shrunk by ``SPEED_MARGIN`` (at most a quarter of its width) at either end."""
+    m = min(SPEED_MARGIN, 0.25 * (hi - lo))
+    return lo + m, hi - m
+
+
+def _shrunk(a: float, b: float) -> tuple[float, float]:
+    """The middle of ``[a, b]``: ``WINDOW_MARGIN`` of its width left free at either end."""
+    return a + WINDOW_MARGIN * (b - a), b - WINDOW_MARGIN * (b - a)
+
+
+@dataclass(frozen=True)
+class GoalTiming:
+    """What the speed reference needs of the goal (module docstring): its position's extent along the road ``span``
+    (s, m; None: no position), its time window (s after the initial step; None: none), its speed interval (m/s;
+    None: none); the traffic's speed ``v0``, the lane's speed ``limit`` (None: none) and ``v_max``."""
+
+    span: tuple[float, float] | None
+    window: tuple[float, float] | None
+    speeds: tuple[float, float] | None
+    v0: float
+    limit: float | None
+    v_max: float
+
+    def __post_init__(self) -> None:
+        for name in ("span", "window", "speeds"):
+            iv = getattr(self, name)
+            if iv is not None and not (math.isfinite(iv[0]) and math.isfinite(iv[1]) and iv[0] <= iv[1]):
+                raise ValueError(f"GoalTiming.{name} = {iv} is invalid: allowed a finite interval (lo <= hi)")
+        if not (math.isfinite(self.v0) and self.v0 >= 0.0 and self.v_max > 0.0):
+            raise ValueError(f"GoalTiming v0 = {self.v0}, v_max = {self.v_max} is invalid: allowed v0 >= 0, v_max > 0")
+
+
+def arrival_band(g: GoalTiming, t: float, s_c: float) -> tuple[float, float] | None:
+    """The speeds that bring the ego's centre (at ``s_c`` at time ``t``) into the middle of the goal's extent within the
+    middle of its time window, from what is left (module docstring); None: no position or window, or passed it."""
+    if g.span is None or g.window is None:
+        return None
+    m = min(WINDOW_MARGIN * (g.span[1] - g.span[0]), SPAN_MARGIN)
+    s_lo, s_hi = g.span[0] + m, g.span[1] - m
+    t_a, t_b = (v - t for v in _shrunk(*g.window))
+    if s_hi <= s_c:
+        return None
+    hi = (s_hi - s_c) / t_a if t_a > 0 else math.inf
+    lo = max(s_lo - s_c, 0.0) / max(t_b, MIN_TIME)
+    return lo, hi
+
+
+def speed_now(g: GoalTiming, t: float, s_c: float, near: bool) -> tuple[float, str]:
+    """The reference speed at time ``t`` with the ego's centre at ``s_c`` on the road, and what set it last (module
+    docstring); ``near``: the goal is within the horizon's reach (its speed interval applies)."""
+    v, src = float(g.v0), "initial speed"
+    band = arrival_band(g, t, s_c)
+    if band is not None and not band[0] <= v <= band[1]:
+        v, src = min(max(v, band[0]), band[1]), "goal time window"
+    if g.speeds is not None and (near or g.span is None):
+        lo, hi = _inside(*g.speeds)
+        if not lo <= v <= hi:
+            v, src = min(max(v, lo), hi), "goal velocity"
+    if g.limit is not None and v > g.limit:
+        v, src = g.limit, "speed limit"
+    if v > g.v_max:
+        v, src = g.v_max, "v_max"
+    return v, src
+
+
+def timing_of(pp, dt: float, span: tuple[float, float] | None, v0: float, limit: float | None, v_max: float):
+    """The ``GoalTiming`` of a planning problem (its first goal state), ``span`` its position's extent on the road."""
     step0 = int(pp.initial_state.time_step)
     gs = pp.goal.state_list[0]
     t = _interval(gs, "time_step")
-    if distance is not None and distance > 0 and t is not None:
-        t_a, t_b = (t[0] - step0) * dt, (t[1] - step0) * dt
-        t_a, t_b = t_a + WINDOW_MARGIN * (t_b - t_a), t_b - WINDOW_MARGIN * (t_b - t_a)
-        hi = distance / t_a if t_a > 0 else math.inf
-        lo = distance / t_b if t_b > 0 else math.inf
-        if not lo <= v <= hi:
-            v, src = min(max(v, lo), hi), "goal time window"
-    vi = _interval(gs, "velocity") if near or distance is None else None
-    if vi is not None and not vi[0] <= v <= vi[1]:
-        v, src = min(max(v, vi[0]), vi[1]), "goal velocity"
-    if limit is not None and v > limit:
-        v, src = limit, "speed limit"
-    if v > v_max:
-        v, src = v_max, "v_max"
-    return v, src
+    window = None if t is None else ((t[0] - step0) * dt, (t[1] - step0) * dt)
+    return GoalTiming(span, window, _interval(gs, "velocity"), float(v0), limit, float(v_max))
+
+
+def goal_speed(
+    pp, v0: float, dt: float, distance: float | None, limit: float | None, v_max: float, near: bool = True
+) -> tuple[float, str]:
+    """The reference speed at the start and what set it last (``speed_now``): ``distance`` (m) to the goal position's
+    centre along the reference path (None: no position), ``limit`` the lane's speed limit (None: none); ``near=False``:
+    the speed on the way, before the goal is within the horizon (the goal's speed interval left out)."""
+    span = None if distance is None or distance <= 0 else (float(distance), float(distance))
+    return speed_now(timing_of(pp, dt, span, v0, limit, v_max), 0.0, 0.0, near or distance is None)
+
+
+def change_time(g: GoalTiming | None, t: float, default: float) -> float:
+    """How long a lane change towards the goal's lane planned at time ``t`` takes (module docstring)."""
+    if g is None or g.window is None:
+        return default
+    return min(default, max(MIN_CHANGE, g.window[0] - t))
 
 
 def _wrapped(phi: float, pp) -> list[float]:
@@ -145,3 +222,31 @@ def lateral_reference(goal_sn: tuple[float, float] | None, road) -> tuple[float,
     if lo <= n <= hi:
         return n, "goal position"
     return min(max(n, lo), hi), "goal position, held within the band"
+
+
+def _vertices(shape) -> np.ndarray | None:
+    """The outline points of a goal position (a rectangle's or polygon's vertices, a circle's bounding square, a shape
+    group's together); None: no shape."""
+    if shape is None:
+        return None
+    if hasattr(shape, "shapes"):
+        vs = [v for v in (_vertices(s) for s in shape.shapes) if v is not None]
+        return np.vstack(vs) if vs else None
+    if hasattr(shape, "radius"):
+        c, r = np.asarray(shape.center, dtype=float), float(shape.radius)
+        return c + r * np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]])
+    v = getattr(shape, "vertices", None)
+    return None if v is None else np.asarray(v, dtype=float)[:, :2]
+
+
+def goal_extent(pp, road) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The first goal state's position on ``road``: its extent along the road ``(s_lo, s_hi)`` and across it
+    ``(n_lo, n_hi)``; None: no position."""
+    gs = pp.goal.state_list[0]
+    shape = getattr(gs, "position", None) if gs.has_value("position") else None
+    v = _vertices(shape)
+    if v is None:
+        return None
+    s, n, _ = road.to_frenet(v[:, 0], v[:, 1], np.zeros(len(v)))
+    s, n = np.asarray(s, dtype=float), np.asarray(n, dtype=float)
+    return (float(s.min()), float(s.max())), (float(n.min()), float(n.max()))

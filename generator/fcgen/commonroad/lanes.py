@@ -24,9 +24,22 @@ the horizon. In this order:
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
 
+**A vehicle closing in from behind** (``keep_ahead``): where the nearest vehicle behind in the ego's lane is
+within the chassis length plus ``T_BEHIND`` s of its speed and drives faster than the reference speed, its speed is
+the reference speed (at most the lane's limit and ``v_max``): recorded traffic does not brake for an ego slower than
+the driver it followed (the vehicle ahead stays the NMPC's constraint).
+
+A lane is beside the target (a candidate of steps 2-4) when it is the next one to the right or left at ``s`` and its
+centre lies within ``ADJACENT`` of the target's: lanelets of the same direction farther off (a parallel road beyond a
+median, 19 m to the left of USA_Peach-3_x's start) are not a lane change away.
+
 **A gap is free** when no vehicle in that lane (its centre within ``SAME_LANE`` of the lane's centre) is ahead of the
 ego's centre by less than the chassis length plus ``T_GAP`` s at the ego's speed, nor behind by less than the chassis
-length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in.
+length plus ``T_GAP`` s at its own speed plus ``T_CLOSE`` s of the speed by which it closes in. The safe profile's
+driver (``close_ahead``) asks the same of the vehicle ahead in a lane of steps 2 and 4 (not the goal's lane, where
+room is enough): ahead by the chassis length plus ``T_GAP`` s at the ego's speed plus ``T_CLOSE`` s of the speed by
+which the ego closes in on it, so that a change never ends in a gap that a slower vehicle ahead closes within that
+time.
 """
 
 from __future__ import annotations
@@ -44,6 +57,9 @@ T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
 CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
+GOAL_LANE = "the goal's lane"  # the rule's reason for a change towards the goal's lane
+T_BEHIND = 1.5  # s: a faster vehicle behind in the ego's lane nearer than this of its speed sets the reference speed
+ADJACENT = 5.0  # m: a lane whose centre lies farther from the target's is not beside it (a road beyond a median)
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,26 +129,51 @@ def continues(lanes: list[Lane], s: float, n: float, ahead: float) -> bool:
 
 @dataclass(frozen=True)
 class Traffic:
-    """The vehicles at one sample on the road's Frenet frame: centre ``s``, ``n`` and speed ``v`` (arrays)."""
+    """The vehicles at one sample on the road's Frenet frame: centre ``s``, ``n``, speed ``v`` and length (arrays;
+    ``length`` None: not known, taken as 0)."""
 
     s: np.ndarray
     n: np.ndarray
     v: np.ndarray
+    length: np.ndarray | None = None
+
+    def lengths(self) -> np.ndarray:
+        return np.zeros(len(self.s)) if self.length is None else np.asarray(self.length, dtype=float)
 
     def in_lane(self, n_lane: float) -> np.ndarray:
         return np.abs(self.n - n_lane) <= SAME_LANE
 
 
 def gap_free(
-    traffic: Traffic, n_lane: float, s: float, v: float, length: float, t_gap: float = T_GAP, t_close: float = T_CLOSE
+    traffic: Traffic,
+    n_lane: float,
+    s: float,
+    v: float,
+    length: float,
+    t_gap: float = T_GAP,
+    t_close: float = T_CLOSE,
+    t_close_ahead: float = 0.0,
 ) -> bool:
     """Whether the gap in the lane at ``n_lane`` beside the ego (centre ``s``, speed ``v``) is free (module
-    docstring)."""
+    docstring); ``t_close_ahead``: s of the speed by which the ego closes in on a vehicle ahead asked on top (the
+    safe profile's ``T_CLOSE``; 0: none)."""
     m = traffic.in_lane(n_lane)
     ds, vo = traffic.s[m] - s, traffic.v[m]
-    ahead_ok = (ds < 0) | (ds > length + t_gap * v)
+    ahead_ok = (ds < 0) | (ds > length + t_gap * v + t_close_ahead * np.maximum(v - vo, 0.0))
     behind_ok = (ds >= 0) | (-ds > length + t_gap * vo + t_close * np.maximum(vo - v, 0.0))
     return bool(np.all(ahead_ok & behind_ok))
+
+
+def keep_ahead(traffic: Traffic, n_lane: float, s: float, v_ref: float, length: float) -> float | None:
+    """The speed of the nearest vehicle behind in the lane at ``n_lane`` (the ego's centre at ``s``) where it is within
+    the chassis length plus ``T_BEHIND`` s of its speed and faster than ``v_ref``; None: no such vehicle (module
+    docstring: recorded traffic does not brake for an ego slower than the driver it followed)."""
+    m = traffic.in_lane(n_lane) & (traffic.s < s)
+    if not m.any():
+        return None
+    i = int(np.argmax(np.where(m, traffic.s, -np.inf)))
+    gap, v = float(s - traffic.s[i]), float(traffic.v[i])
+    return v if gap < length + T_BEHIND * v and v > v_ref else None
 
 
 def leader(traffic: Traffic, n_lane: float, s: float, reach: float) -> tuple[float, float] | None:
@@ -155,6 +196,7 @@ class TargetLane:
     v_ref: float
     n: float
     reason: str = "start"
+    close_ahead: bool = False  # the safe profile's gap: also T_CLOSE of closing ahead (not towards the goal's lane)
 
     def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
         """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
@@ -169,13 +211,13 @@ class TargetLane:
         def free(c: float) -> bool:
             if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
                 return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL)
-            return gap_free(traffic, c, s, v, self.length)
+            return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
         if not settled and not free(target):
             return self._set(own, "the gap closed")
         i = here.index(target)
-        left = here[i + 1] if i + 1 < len(here) else None
-        right = here[i - 1] if i > 0 else None
+        left = here[i + 1] if i + 1 < len(here) and here[i + 1] - target <= ADJACENT else None
+        right = here[i - 1] if i > 0 and target - here[i - 1] <= ADJACENT else None
         toward = None
         if self.goal_n is not None and abs(self.goal_n - target) > SAME_LANE:
             toward = left if self.goal_n > target else right
@@ -186,7 +228,7 @@ class TargetLane:
                     return self._set(c, "the lane ends")
             return self._set(target, self.reason)
         if toward is not None:
-            return self._set(toward if free(toward) else target, "the goal's lane")
+            return self._set(toward if free(toward) else target, GOAL_LANE)
         lead = leader(traffic, target, s, reach)
         if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
             for c in neighbours:
@@ -207,13 +249,14 @@ class TargetLane:
         return self.n, self.reason
 
 
-def target_lane(sc, length: float, goal_n: float | None, n_ego: float) -> TargetLane:
-    """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane."""
+def target_lane(sc, length: float, goal_n: float | None, n_ego: float, close_ahead: bool = False) -> TargetLane:
+    """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane;
+    ``close_ahead``: the safe profile's gap (``TargetLane.close_ahead``)."""
     lanes = road_lanes(sc.scenario.lanelet_network, sc.road)
     s0 = float(sc.x0[0])
     here = lanes_at(lanes, s0)
     own = min(here, key=lambda c: abs(c - n_ego)) if here else 0.0
-    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own)
+    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own, close_ahead=close_ahead)
 
 
 def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
@@ -226,12 +269,13 @@ def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
         if p is None:
             continue
         v = 0.0 if q is None or ob.static else float(np.hypot(q[0] - p[0], q[1] - p[1]) / dt)
-        rows.append((p[0], p[1], p[2], v))
+        rows.append((p[0], p[1], p[2], v, ob.length))
     if not rows:
-        return Traffic(np.zeros(0), np.zeros(0), np.zeros(0))
+        return Traffic(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))
     a = np.array(rows)
     s, n, _ = road.to_frenet(a[:, 0], a[:, 1], a[:, 2])
-    return Traffic(np.atleast_1d(np.asarray(s, dtype=float)), np.atleast_1d(np.asarray(n, dtype=float)), a[:, 3])
+    s, n = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (s, n))
+    return Traffic(s, n, a[:, 3], a[:, 4])
 
 
 def lane_change_profile(n_from: float, n_to: float, since: float, times, duration: float = CHANGE_TIME) -> np.ndarray:

@@ -24,7 +24,7 @@ from ..dsl import Vehicle
 from ..extras import require
 from ..road import Road
 from .drivable import check_drivable
-from .goal import goal_centres, goal_frenet, goal_speed, speed_limit
+from .goal import goal_centres, goal_extent, goal_frenet, goal_speed, speed_limit, timing_of
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
 
@@ -54,6 +54,8 @@ class CrScenario:
     goal_sn: tuple[float, float] | None = None  # the goal position's centre (s, n) on the road (None: no position)
     v_goal: float = 0.0  # the reference speed once the goal is within the horizon's reach (goal.goal_speed)
     v_goal_source: str = ""
+    goal_timing: object = None  # goal.GoalTiming: the per-sample reference speed's goal (None: none)
+    goal_extent: tuple | None = None  # goal.goal_extent: the goal position's extent on the road (None: no position)
 
 
 def load_scenario(
@@ -92,8 +94,9 @@ def load_scenario(
     horizon_m = horizon_s * max(v0, v_ref)
     chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
     road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
-    goal_sn = goal_frenet(pp, road)
+    goal_sn, extent = goal_frenet(pp, road), goal_extent(pp, road)
     v_goal, g_src = v_ref, v_src
+    timing = timing_of(pp, dt, None if extent is None else extent[0], v0, limit, v_max)
     if goal_sn is not None:  # the distance along the reference path (the straight line's above only sized the horizon)
         s_c = road.to_frenet(np.array([centre[0]]), np.array([centre[1]]), np.array([0.0]))[0]
         d_goal = goal_sn[0] - float(s_c[0])
@@ -132,6 +135,8 @@ def load_scenario(
         goal_sn,
         v_goal,
         g_src,
+        timing,
+        extent,
     )
 
 

@@ -64,6 +64,7 @@ REFUSAL_KINDS = (
     "path shorter than the horizon",
     "path not followed",
     "band outside the bounds",
+    "reference refused",
     "time step",
     "other",
 )

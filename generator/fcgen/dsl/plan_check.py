@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .validation import check, finite, known_fields
 
@@ -39,6 +39,14 @@ class PlanCheck:
     the drive force is then also capped to brake towards that path's speed within one sample, at most at
     ``bend_brake`` (``reactions.bend_brake_limit``); 0 (the default, also in the safe profile: measured, it traded
     an ego-caused collision for two of a truck into the braking ego, docs/safe_profile.md): off.
+
+    ``brake_memory``: the tyre-aware |a_lat| takes the load transfer of the harder of the control's and the last
+    handed-out control's braking (a tyre's yaw rate and slip angle still carry the braking of the sample before when
+    the braking eases). ``drive_rise`` (m/s^2 per sample, with ``drive_limit``): the drive force rises by at most
+    ``m drive_rise`` above the last handed-out one per sample (a switch from braking to driving in one sample turns
+    a vehicle with tyres more than the formula says); 0: off. Braking harder is never limited, easing it is. Both off
+    by default (a folder's problem.py names them only when set); the safe presets set them
+    (``presets.SAFE_PLAN_CHECK``).
     """
 
     react_stages: int = 500
@@ -47,6 +55,8 @@ class PlanCheck:
     h_cg: float = 0.614
     drive_limit: bool = True
     bend_brake: float = 0.0
+    brake_memory: bool = field(default=False, metadata={"omit_default": True})
+    drive_rise: float = field(default=0.0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -74,5 +84,18 @@ class PlanCheck:
             self.bend_brake == 0.0 or self.drive_limit,
             "plan_check.bend_brake",
             self.bend_brake,
+            "0 without plan_check.drive_limit (it caps the drive force where the drive limit does)",
+        )
+        check(type(self.brake_memory) is bool, "plan_check.brake_memory", self.brake_memory, "True or False")
+        check(
+            0.0 <= finite("plan_check.drive_rise", self.drive_rise) <= 100.0,
+            "plan_check.drive_rise",
+            self.drive_rise,
+            "[0, 100] m/s^2 per sample (0: off)",
+        )
+        check(
+            self.drive_rise == 0.0 or self.drive_limit,
+            "plan_check.drive_rise",
+            self.drive_rise,
             "0 without plan_check.drive_limit (it caps the drive force where the drive limit does)",
         )

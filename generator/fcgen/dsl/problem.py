@@ -24,6 +24,8 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 
 #: the largest ``Problem.delay`` (samples): the controls kept for the delay compensation's prediction
 MAX_DELAY = 8
+#: the largest ``Problem.steer_lag`` (s), the closed loop's steering actuator's
+MAX_STEER_LAG = 2.0
 
 
 @known_fields
@@ -48,6 +50,9 @@ class Problem:
     #: samples between measurement and actuation that the solver compensates (docs/plants.md); a folder's problem.py
     #: names it only when it is not 0
     delay: int = field(default=0, metadata={"omit_default": True})
+    #: s, the time constant of a first-order steering actuator that the delay compensation's prediction and the a_lat
+    #: guard's plant step model (docs/plants.md); 0: none
+    steer_lag: float = field(default=0.0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -88,6 +93,22 @@ class Problem:
             ("plan_check", PlanCheck),
         ):
             check(isinstance(getattr(self, f), t), f, getattr(self, f), f"a {t.__name__}")
+        self._check_across_fields()
+        if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
+            for who, veh, n in (
+                ("opponents", self.opponents.vehicle, self.obstacles.n),
+                ("ego", self.ego, self.obstacles.ego_circles),
+            ):
+                if not circles_cover(veh.l_ch, veh.w_ch, n):
+                    need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
+                    warnings.warn(
+                        f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
+                        f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
+                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
+                    )
+
+    def _check_across_fields(self) -> None:
+        """The checks that tie one field to another (guard margin, tyre load, delay, lag, road length)."""
         check(
             not self.plan_check.a_lat_guard or self.bounds.a_lat_margin > 0,
             "bounds.a_lat_margin",
@@ -109,6 +130,15 @@ class Problem:
             self.delay,
             f"an integer in [0, {MAX_DELAY}] samples",
         )
+        check(
+            isinstance(self.steer_lag, (int, float))
+            and not isinstance(self.steer_lag, bool)
+            and math.isfinite(self.steer_lag)
+            and 0.0 <= self.steer_lag <= MAX_STEER_LAG,
+            "steer_lag",
+            self.steer_lag,
+            f"[0, {MAX_STEER_LAG:g}] s (0: no steering lag)",
+        )
         reach = self.bounds.v_max * self.horizon.length
         check(
             self.road.length >= reach + 4 * self.road.ds,
@@ -116,18 +146,6 @@ class Problem:
             self.road.length,
             f">= v_max * horizon.length + 4 ds = {reach + 4 * self.road.ds:g} m (the window must cover the horizon)",
         )
-        if isinstance(self.obstacles, CoveringCircles) and self.obstacles.radius == "paper":
-            for who, veh, n in (
-                ("opponents", self.opponents.vehicle, self.obstacles.n),
-                ("ego", self.ego, self.obstacles.ego_circles),
-            ):
-                if not circles_cover(veh.l_ch, veh.w_ch, n):
-                    need = math.ceil((veh.l_ch - veh.w_ch) / veh.w_ch) + 1
-                    warnings.warn(
-                        f"obstacles: {n} circles of radius w/sqrt(2) do not cover the {who} chassis "
-                        f"({veh.l_ch:g} x {veh.w_ch:g} m); at least {need} are needed",
-                        stacklevel=4,  # the caller of Problem(...): past __post_init__, __init__, known_fields
-                    )
 
     def with_(self, **changes) -> Problem:
         """A copy with some fields replaced (validated again)."""

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from ..campaign.commonroad import departed_on_road
 from ..extras import require
+from .cr_planners import SAMPLED_OUT, planner_section
 
 WHO = ("ego_into_opponent", "opponent_from_behind", "opponent_from_side")
 MEASURES = (
@@ -141,6 +142,7 @@ def _int(v) -> str:
 def commonroad_markdown(df) -> str:
     """The report's page."""
     df = with_defaults(df.copy())
+    every, df = df, df[df.status != SAMPLED_OUT]  # a sample's left-out runs: counted in the planners' section only
     ran, refused = df[df.status == "ran"], df[df.status != "ran"]
     lines = [
         "# CommonRoad campaign report",
@@ -151,6 +153,7 @@ def commonroad_markdown(df) -> str:
         "",
     ]
     lines += ["## Per data set", "", *dataset_table(df)]
+    lines += planner_section(every)
     if len(refused):
         lines += ["## Refused", "", *refusal_table(refused)]
     if len(ran):
@@ -160,16 +163,20 @@ def commonroad_markdown(df) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_cr_report(results: str | Path, out_dir: str | Path, force: bool = False) -> Path:
-    """The CommonRoad report of ``results`` into ``out_dir`` (``README.md``)."""
+def write_cr_report(results: str | Path, out_dir: str | Path, force: bool = False, more: tuple = ()) -> Path:
+    """The CommonRoad report of ``results`` and the folders ``more`` (another profile's campaign, the peer planner's
+    rows) into ``out_dir`` (``README.md``)."""
     with require("campaign", "the CommonRoad report"):
         import pandas as pd
     from .page import check_report_target
 
     check_report_target(out_dir, force)
-    p = Path(results)
-    df = pd.read_parquet(p / "commonroad.parquet" if p.is_dir() else p)
-    df = with_defaults(df)
+    frames = []
+    for p in map(Path, (results, *more)):
+        if not is_commonroad(p):
+            raise ValueError(f"{p}: not a CommonRoad campaign's folder (no commonroad.parquet in it)")
+        frames.append(with_defaults(pd.read_parquet(p / "commonroad.parquet" if p.is_dir() else p)))
+    df = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "README.md").write_text(commonroad_markdown(df))

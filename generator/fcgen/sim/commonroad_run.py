@@ -19,10 +19,11 @@ what it is: where the scenario's band is wider, the solver gets it cut to that (
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -37,6 +38,9 @@ from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
 from .plants import PlantSpec
 from .runlog import RunLog, make_meta
+
+if TYPE_CHECKING:
+    from ..commonroad.follow import Following
 
 __all__ = ["CommonRoadRun", "goal_line", "goal_status", "run_commonroad", "scenario_road", "unsolved_status"]
 
@@ -126,6 +130,7 @@ def run_commonroad(
     band: str = "lanes",
     plant: PlantSpec | None = None,
     criticality: bool = True,
+    follow: Following | str | None = "profile",
 ) -> CommonRoadRun:
     """Run ``sc.samples`` samples of a loaded CommonRoad scenario (``fcgen.commonroad.load_scenario``). ``states``
     (K + 1, 5): a replay (``fcgen regress``): the controller gets these measured states instead of the
@@ -133,7 +138,10 @@ def run_commonroad(
     many seconds (default ``commonroad.lanes.CHANGE_TIME``; 0: the target's centre at once on every stage).
     ``traffic``: ``recorded`` (the recordings) or ``reactive`` (``commonroad.reactive``: the run is judged on what the
     vehicles drove). ``band``: the solver's lateral band (``commonroad.band.BAND_RULES``). ``plant``: the plant and
-    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False: not measured."""
+    its perturbations (``sim.commonroad_plant``; default fcgen's model). ``criticality``: False: not measured.
+    ``follow``: the speed reference behind the vehicle ahead and the lane rule's gap ahead (``commonroad.follow``);
+    ``"profile"``: the problem's profile's (``follow.profile_following``: the safe profile's, none for the paper's);
+    None: neither."""
     from .. import commonroad as cr
     from ..commonroad.reactive import ReactiveTraffic, check_traffic
 
@@ -150,7 +158,12 @@ def run_commonroad(
     spec = plant or PlantSpec()
     world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
-    loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band)
+    from ..commonroad.follow import profile_following
+
+    rule = profile_following(problem) if isinstance(follow, str) and follow == "profile" else follow
+    if isinstance(rule, str):
+        raise ValueError(f"follow = {follow!r}: allowed 'profile', None or a commonroad.follow.Following")
+    loop = _drive(problem, sc, controller, road, world_plant, plan, progress, states, change_time, world, band, rule)
     sc = driven(sc, world)  # judged on what the vehicles drove
     v = judge_drive(problem, sc, road, loop.xs, criticality=criticality)
     checker, own, who, centres = v.checker, v.fcgen, v.responsibility, v.centres
@@ -162,10 +175,12 @@ def run_commonroad(
             "sha256": sc.sha256,
             "planning_problem": sc.planning_problem_id,
             "v_ref": float(sc.v_ref),
+            "v_ref_samples": loop.v_refs,
             "n_ref": float(loop.lane_changes[0][1]) if loop.lane_changes else 0.0,
             "lane_changes": loop.lane_changes,
             "band_cut": cut,
             "band": {"rule": band, "way_back_samples": loop.way_back},
+            "follow": None if rule is None else {**dataclasses.asdict(rule), "samples": loop.followed},
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
             "checker": _plain(checker),
@@ -209,6 +224,8 @@ class _Loop:
     planlog: PlanLog
     lane_changes: list = field(default_factory=list)  # [sample, n_ref, reason] where the lateral reference changed
     way_back: list = field(default_factory=list)  # the samples whose band the way back widened (commonroad.band)
+    v_refs: list = field(default_factory=list)  # the reference speed per sample (commonroad.goal.speed_now)
+    followed: int = 0  # the samples whose reference speed the vehicle ahead capped (commonroad.follow)
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -230,12 +247,14 @@ def _drive(
     change_time: float | None = None,
     world=None,
     band_rule: str = "lanes",
+    follow: Following | None = None,
 ) -> _Loop:
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
+    from ..commonroad.goal import change_time as goal_change
     from ..commonroad.goal import lateral_reference, reached
-    from ..commonroad.lanes import CHANGE_TIME, SETTLED, target_lane, traffic_at
+    from ..commonroad.lanes import CHANGE_TIME, GOAL_LANE, SETTLED, target_lane, traffic_at
 
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
@@ -244,10 +263,10 @@ def _drive(
     if states is not None:
         loop.xs[:] = states
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
-    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]))
+    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]), close_ahead=follow is not None)
     band = solver_band(problem, sc, lane.lanes, band_rule)
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
-    ramp: tuple[float, int] | None = None  # a lane change under way: (stage 0's n_ref when planned, its sample)
+    ramp: tuple[float, int, float] | None = None  # a lane change under way: (stage 0's n_ref, its sample, duration)
     change = CHANGE_TIME if change_time is None else change_time
     shapes_in = _SlotShapes(problem, sc, controller)
     it: Iterable[int] = range(K)
@@ -269,16 +288,18 @@ def _drive(
         n_new, why = lane.update(float(x[0]) + half_l, float(x[1]), float(x[3]), traffic)
         if n_ref is None or abs(n_new - n_ref) > SETTLED:
             loop.lane_changes.append([j, n_new, why])
-        v_new = sc.v_goal if _goal_near(sc, problem, x, half_l) else sc.v_ref
+        t_j = j * problem.horizon.dt
+        v_new = _speed_reference(sc, problem, x, t_j, follow, traffic, loop)
         if n_ref is not None and abs(n_new - n_ref) > SETTLED and change > 0.0:  # a new target: planned from now
-            ramp = (n_now, j)
+            ramp = (n_now, j, goal_change(sc.goal_timing, t_j, change) if why == GOAL_LANE else change)
         if n_ref is None or abs(n_new - n_ref) > LANE_DRIFT or v_new != v_ref or ramp is not None:
             n_ref, v_ref = n_new, v_new  # (the lane's centre moves with s)
             since = 0.0 if ramp is None else (j - ramp[1]) * problem.horizon.dt
-            ramp = ramp if since < change else None
+            ramp = ramp if ramp is not None and since < ramp[2] else None
             n_now = _set_lateral(
-                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, change)
+                controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, ramp[2])
             )
+        loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
@@ -318,8 +339,49 @@ def _set_lateral(controller, name: str, problem: Problem, v_ref: float, n_ref: f
         prof = lane_change_profile(ramp[0], n_ref, ramp[1], problem.horizon.times, ramp[2])
         rc, n0 = controller.set_reference_stages(np.full(len(prof), v_ref), prof), float(prof[0])
     if rc:
-        raise ValueError(f"scenario {name}: the reference ({v_ref}, {n_ref}) refused (exit code {rc})")
+        from ..commonroad import ScenarioRefused
+
+        raise ScenarioRefused(
+            f"scenario {name}: the solver refuses the reference v_ref {v_ref:.2f} m/s, n_ref {n_ref:.2f} m "
+            f"(exit code {rc}; the problem's band [{problem.bounds.n_min}, {problem.bounds.n_max}] m)",
+            kind="reference refused",
+        )
     return n0
+
+
+def _speed(sc, t: float, s_c: float, near: bool, traffic, n: float, length: float) -> float:
+    """The reference speed at time ``t`` with the ego's centre at ``s_c`` (``commonroad.goal.speed_now``; a scenario
+    loaded without the goal's timing: its start's reference, the goal's once near), raised to a faster vehicle's
+    closing in from behind in the ego's lane (``commonroad.lanes.keep_ahead``; at most the lane's limit and
+    ``v_max``)."""
+    from ..commonroad.goal import speed_now
+    from ..commonroad.lanes import keep_ahead
+
+    g = sc.goal_timing
+    v = (sc.v_goal if near else sc.v_ref) if g is None else speed_now(g, t, s_c, near)[0]
+    v_behind = keep_ahead(traffic, n, s_c, v, length)
+    if v_behind is None:
+        return v
+    cap = math.inf if g is None else min(g.v_max, math.inf if g.limit is None else g.limit)
+    return max(v, min(v_behind, cap))
+
+
+def _speed_reference(sc, problem: Problem, x: np.ndarray, t: float, follow: Following | None, traffic, loop: _Loop):
+    """The reference speed at state ``x`` and time ``t`` (``_speed``), at most ``follow``'s behind the vehicle ahead
+    in the ego's corridor (within half a lane of its centre's ``n``; ``loop.followed`` counts the samples it caps)."""
+    half_l = problem.ego.l / 2
+    near = _goal_near(sc, problem, x, half_l)
+    v = _speed(sc, t, float(x[0]) + half_l, near, traffic, float(x[1]), problem.ego.l_ch)
+    if follow is None:
+        return v
+    from ..commonroad.follow import follow_speed
+
+    s_c, n_c = float(x[0]) + half_l * math.cos(float(x[2])), float(x[1]) + half_l * math.sin(float(x[2]))
+    cap = follow_speed(follow, traffic, s_c, (n_c,), problem.ego.l_ch)
+    if cap is None or cap >= v:
+        return v
+    loop.followed += 1
+    return cap
 
 
 def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
