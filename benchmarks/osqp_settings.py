@@ -1,16 +1,16 @@
 """OSQP's real-time settings in closed loop: progress, QP iterations and caps per variant (docs/performance.md).
 
     python benchmarks/osqp_settings.py [--seeds 20] [--samples 200] [--configs lifted/EL,direct_elimination/EL]
-        [--jobs 2] [--out results/osqp_settings.json] VARIANT ...
+        [--scenario truck] [--jobs 2] [--out results/osqp_settings.json] VARIANT ...
 
 A VARIANT is ``label:field=value,field=value`` of ``QpOptions`` (``base:`` for the presets' own options), e.g.
 ``cap40:max_iter=40`` or ``cap40_rho15:max_iter=40,rho=0.15``. The first variant is the baseline. Per variant and
-configuration of the truck grid with OSQP (``fcgen.campaign.grid.paper_grid``; ``--configs``: those whose key
-contains one of the comma-separated parts), the C solver (generated and built once into
-``.fcgen-cache/osqp_settings``) closes the loop on seeds 0..SEEDS-1. Printed per variant: mean progress over all
-runs and its difference to the baseline (all runs; the worst configuration; the worst seed), collision samples,
-runs with a collision the baseline does not have, QP iterations (mean; share of warm QPs at their cap), QP
-statuses. Written: JSON with the per-run figures.
+configuration of the truck grid (``--scenario car``: the car's) with OSQP (``fcgen.campaign.grid.paper_grid``;
+``--configs``: those whose key contains one of the comma-separated parts), the C solver (generated and built once
+into ``.fcgen-cache/osqp_settings``) closes the loop on seeds 0..SEEDS-1. Printed per variant: mean progress over
+all runs and its difference to the baseline (all runs; the worst configuration; the worst seed), collision samples,
+runs with a collision the baseline does not have, QP iterations (mean; share of warm QPs at their cap), QP statuses.
+Written: JSON with the per-run figures.
 """
 
 from __future__ import annotations
@@ -127,11 +127,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--samples", type=int, default=200)
     ap.add_argument("--configs", default="", help="comma-separated parts of the configuration keys to keep")
+    ap.add_argument("--scenario", choices=("truck", "car"), default="truck")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("results/osqp_settings.json"))
     a = ap.parse_args()
     parts = [p for p in a.configs.split(",") if p]
-    cfgs = [c for c in paper_grid(scenarios=("truck",), backend="osqp") if not parts or any(p in c.key for p in parts)]
+    grid = paper_grid(scenarios=(a.scenario,), backend="osqp")
+    cfgs = [c for c in grid if not parts or any(p in c.key for p in parts)]
     variants = [parse_variant(v) for v in a.variants]
     results: dict[str, dict] = {}
     base = None

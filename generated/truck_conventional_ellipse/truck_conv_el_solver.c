@@ -15,7 +15,7 @@
 #define QP_INF ((truck_conv_el_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define FLOOR floor /* floor of double */
 #define REAL_0 ((truck_conv_el_real_t)0.0) /* zero of the real type (no promotion to double in float) */
-#define MAX_ITER 40 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
+#define MAX_ITER 35 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
 #define MAX_ITER_COLD 400 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
@@ -1098,7 +1098,7 @@ void truck_conv_el_probe(int event);
 #include "truck_conv_el_workspace.h"
 
 #define QPB_SOLVER (&truck_conv_el_solver)
-#define QPB_MAX_ITER 40
+#define QPB_MAX_ITER 35
 
 typedef char truck_conv_el_check_osqp_real[(sizeof(truck_conv_el_real_t) == sizeof(OSQPFloat)) ? 1 : -1];
 

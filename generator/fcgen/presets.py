@@ -48,15 +48,17 @@ PROFILES = ("paper", "safe")
 (docs/safe_profile.md)."""
 PAPER_SOFT = SoftPenalties(obstacle_l1=1e7, obstacle_l2=1e6, a_lat_l1=1e5, a_lat_l2=1e4)
 PAPER_PLAN_CHECK = PlanCheck(react_stages=0, a_lat_guard=False, tyre_stiffness=0.0, drive_limit=False, bend_brake=0.0)
-OSQP_MAX_ITER: dict[str, int] = {"ellipse": 40, "hyperplane": 60, "circles": 60}
+OSQP_MAX_ITER: dict[str, int] = {"ellipse": 35, "hyperplane": 60, "circles": 60}
 """The ADMM cap of a warm-started QP (``QpOptions.max_iter``) in the OSQP presets and campaign runs, per obstacle model
 (the dataclass's default, 60, stays the IPM's own cap). An ADMM iteration costs the same whatever OSQP's embedded
 settings (219 k x86 instructions, three quarters of them the two triangular solves with the LDL' factor;
-docs/performance.md, "OSQP: the iterations are the cost"), so the iterations a QP are what an RTI costs: 40 instead
-of 60 take 28-30 % off truck_lifted_ellipse's RTI. ``benchmarks/osqp_settings.py``, truck, 20 seeds x 200 samples per
-configuration, 40 against 60: the ellipse's three formulations +0.54 % mean progress (per seed median -0.04 %; the
-rest a few seeds changing manoeuvre), the truck grid's mean +0.15 %, no new collision; the hyperplanes -1.5 % (DE and
-lifted -1.9 %) and the covering circles (C7 lifted -8 %) keep 60."""
+docs/performance.md, "OSQP: the iterations are the cost"), so the iterations a QP are what an RTI costs: 35 instead
+of 60 take 37 % off truck_lifted_ellipse's RTI on the Cortex-M7 (16.73 -> 10.56 M instructions).
+``benchmarks/osqp_settings.py``, truck, 20 seeds x 200 samples per configuration: 40 against 60, the ellipse's three
+formulations +0.54 % mean progress (per seed median -0.04 %; the rest a few seeds changing manoeuvre), the truck
+grid's mean +0.15 %, no new collision; 35 against 40, the ellipse's -0.03 % (worst formulation -0.34 %), no new
+collision (30: -0.09 %, worst -0.45 %, a seed 21 % apart). The hyperplanes (-1.5 % at 40) and the covering circles
+(C7 lifted -8 %) keep 60."""
 PAPER_QP = QpOptions(ipm_scaled_start=False)
 """The paper profile's QP options: the defaults but the IPM's start as before the safe profile (no effect on OSQP);
 a paper problem gets its model's OSQP cap (``OSQP_MAX_ITER``) on top."""

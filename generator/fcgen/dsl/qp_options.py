@@ -33,7 +33,7 @@ class QpOptions:
     refusals in a row from sample 14, then the plan shifted past its end braked the ego into reverse); with 3 it
     cold-starts at samples 17 and 34 and finishes its 200 samples at 396.7 m.
     Defaults are the real-time mode (a fixed iteration budget, as RTI uses it): ``max_iter = 60`` (the OSQP presets
-    and campaign runs cap at ``fcgen.presets.OSQP_MAX_ITER``: 40 with the ellipse),
+    and campaign runs cap at ``fcgen.presets.OSQP_MAX_ITER``: 35 with the ellipse),
     ``rho = 0.2``, ``check_termination = 40`` (a check costs about one iteration), ``scaling = 1`` (one Ruiz
     pass: prepare 0.4 -> 0.15 ms, same convergence as 10 here). ``QpOptions.converged()`` is the quality reference.
     rho is what decides how good a capped solve is: on truck_lifted_ellipse (20 seeds, cap 60) rho = 1 left the
