@@ -14,6 +14,7 @@ from unittest.mock import patch
 
 from fcgen.build import build, run_make
 from fcgen.codegen.generate import generate
+from fcgen.plan_check import has_f_last
 from fcgen.presets import load_problem, preset
 
 FUZZ_DIR = Path(__file__).parent / "c"
@@ -50,12 +51,14 @@ SOLVERS = {
 
 
 def defines(folder: Path) -> str:
-    """The driver's -D flags: the input box, the road's spacing, the band and the delay of the folder's problem."""
+    """The driver's -D flags: the input box, the road's spacing, the band, the delay of the folder's problem and
+    whether its reset keeps the actuator's memory (the delay line, the last drive force, the steering lag)."""
     pb = load_problem(str(folder / "problem.py"))
     b = pb.bounds
+    keeps = int(pb.delay > 0 or has_f_last(pb) or pb.steer_lag > 0)
     return (
         f"-DFUZZ_F_D_MAX={b.F_d_max!r} -DFUZZ_R_MAX={b.r_max!r} -DFUZZ_DS={pb.road.ds!r} "
-        f"-DFUZZ_N_MIN={b.n_min!r} -DFUZZ_N_MAX={b.n_max!r} -DFUZZ_DELAY={pb.delay}"
+        f"-DFUZZ_N_MIN={b.n_min!r} -DFUZZ_N_MAX={b.n_max!r} -DFUZZ_DELAY={pb.delay} -DFUZZ_KEEPS={keeps}"
     )
 
 

@@ -10,8 +10,9 @@
  * inputs. After each
  * call the solver's observable state (every getter's output, bit for bit) is hashed. Then the twin: init() again
  * and only the calls the fuzzed run accepted, replayed with the same inputs (a reset() replayed as init() plus the
- * inputs set since the last init, in their order: reset equals a fresh solver given the same inputs; with a delay line,
- * -DFUZZ_DELAY > 0, replayed as reset(): reset keeps the controls the vehicle has yet to apply). Checks:
+ * inputs set since the last init, in their order: reset equals a fresh solver given the same inputs; where reset keeps
+ * the actuator's memory, -DFUZZ_KEEPS=1 (a delay line, the drive force handed out last, the steering lag: what the
+ * vehicle still has), replayed as reset()). Checks:
  *   - twin: after each call of the fuzzed run, its state equals the twin's after the accepted calls so far (a
  *     refused call leaves the solver bit for bit as it was; after a prepare refused with ERR_QP_NONFINITE only
  *     get_qp's u and A_x may differ, as the header says) and the twin's calls return the same codes;
@@ -27,7 +28,7 @@
  * any violation, 2: usage.
  * -DFUZZ_LIBFUZZER: LLVMFuzzerTestOneInput instead of main (the input bytes drive the choices of one trial).
  * Build: -DSOLVER=<name> -DSOLVER_UPPER=<NAME> -DFUZZ_F_D_MAX= -DFUZZ_R_MAX= -DFUZZ_DS= -DFUZZ_N_MIN= -DFUZZ_N_MAX=
- *        [-DFUZZ_DELAY=<Problem.delay>] -I<solver folder>, linked with lib<name>.a lib<name>_osqp.a -lm
+ *        [-DFUZZ_DELAY=<Problem.delay>] [-DFUZZ_KEEPS=1] -I<solver folder>, linked with lib<name>.a lib<name>_osqp.a -lm
  *        (tests/c/Makefile, target fuzz_contract).
  */
 #include <float.h>
@@ -54,6 +55,9 @@
 #define SHAPE_BLOCK (NOPP * NOPP_SHAPE)
 #ifndef FUZZ_DELAY
 #define FUZZ_DELAY 0 /* Problem.delay of the solver */
+#endif
+#ifndef FUZZ_KEEPS
+#define FUZZ_KEEPS (FUZZ_DELAY > 0) /* reset keeps the actuator's memory (fuzzbuild.defines) */
 #endif
 #if FUZZ_DELAY > 0
 typedef char fz_delay_is_the_solvers[(U_(_DELAY) == FUZZ_DELAY) ? 1 : -1];
@@ -488,7 +492,7 @@ static void run_trial(int calls) {
     uint64_t hm, hq;
     int ec, j;
     if (!r->refused) {
-      if (r->kind == C_RESET && FUZZ_DELAY == 0) { /* a fresh solver given the same inputs */
+      if (r->kind == C_RESET && !FUZZ_KEEPS) { /* a fresh solver given the same inputs */
         (void)S_(_init)();
         for (j = 0; j < n_inputs; ++j) (void)do_call(recs[inputs[j]].kind, recs[inputs[j]].seed, inputs[j]);
       } else {
