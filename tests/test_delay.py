@@ -23,9 +23,9 @@ def test_delay_validated_naming_field_and_range():
             PB.with_(delay=bad)
 
 
-@pytest.mark.parametrize("D", [1, 2])
-def test_prediction_is_the_state_the_plant_reaches(D):
-    pb = PB.with_(delay=D)
+def predicted_run(pb, D: int, tau: float = 0.0):
+    """40 samples of the truck scenario with ``pb``'s reference solver and a plant of latency ``D`` and steering lag
+    ``tau``: the plans' start states (the delay compensation's predictions) and the run log."""
     ctrl = ReferenceController(build_ocp(pb))
     planned = []
     step = ctrl.step
@@ -37,7 +37,12 @@ def test_prediction_is_the_state_the_plant_reaches(D):
 
     ctrl.step = recording_step
     sc = make_scenario("truck", 0, n_opp=pb.opponents.count, samples=40, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, plant=PlantSpec(latency=D))
+    return planned, run_closed_loop(pb, sc, controller=ctrl, plant=PlantSpec(latency=D, steer_lag=tau))
+
+
+@pytest.mark.parametrize("D", [1, 2])
+def test_prediction_is_the_state_the_plant_reaches(D):
+    planned, log = predicted_run(PB.with_(delay=D), D)
     xs = np.asarray(log.ego_frenet)
     assert np.max(np.abs(np.array(planned[: 40 - D]) - xs[D:40])) < 1e-9
     # the controls it predicted with are the ones the plant got: the latency's queue, zeros first

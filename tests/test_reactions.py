@@ -231,28 +231,17 @@ def _c_function(source: str, name: str) -> str:
     return found[0]
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
-def test_the_c_lag_functions_give_the_same_bits(tmp_path):
-    """The C's lag_error, lagged_rate and lag_command (templates/actuator.c.j2, rendered with a steering lag) give
-    Python's bits on the cases above."""
-    from fcgen.codegen.render import environment
-
-    ctx = {"name": NAME, "NAME": NAME.upper(), "steer_lag": True, "lag_tau": "0.1", "lag_decay": "0.5", "delay": 0}
-    src = environment().get_template("actuator.c.j2").render(**ctx, x_plan="ws.x0", x_plan_doc="x0", f_last=False)
-    calls = [f"lag_error({r!r}, {e!r}, {t!r}, {d!r})" for r, e, t, d, *_ in LAG]
-    calls += [f"lagged_rate({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
-    calls += [f"lag_command({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
+def _c_bits(tmp_path, prelude: str, calls: list[str]) -> list[str]:
+    """Each call's double result as hex bits, from a C program of ``prelude`` (the solver's functions) compiled as the
+    verification build compiles (no FP contraction)."""
     body = "\n".join(f"  put({c});" for c in calls)
-    test_c = tmp_path / "lag_test.c"
+    test_c = tmp_path / "bits_test.c"
     test_c.write_text(f"""#include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include "{NAME}_solver.h"
-#define TYRE_ONE (({NAME}_real_t)1.0)
-{_c_function(src, "lag_error")}
-{_c_function(src, "lagged_rate")}
-{_c_function(src, "lag_command")}
+{prelude}
 static void put(double x) {{
   uint64_t b;
   memcpy(&b, &x, sizeof b);
@@ -264,10 +253,28 @@ int main(void) {{
   return 0;
 }}
 """)
-    exe = tmp_path / "lag_test"
+    exe = tmp_path / "bits_test"
     flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off", f"-I{SOLVER.parent}"]
     subprocess.run(["gcc", *flags, str(test_c), "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
-    got = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    return subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_the_c_lag_functions_give_the_same_bits(tmp_path):
+    """The C's lag_error, lagged_rate and lag_command (templates/actuator.c.j2, rendered with a steering lag) give
+    Python's bits on the cases above."""
+    from fcgen.codegen.render import environment
+
+    ctx = {"name": NAME, "NAME": NAME.upper(), "steer_lag": True, "lag_tau": "0.1", "lag_decay": "0.5", "delay": 0}
+    src = environment().get_template("actuator.c.j2").render(**ctx, x_plan="ws.x0", x_plan_doc="x0", f_last=False)
+    calls = [f"lag_error({r!r}, {e!r}, {t!r}, {d!r})" for r, e, t, d, *_ in LAG]
+    calls += [f"lagged_rate({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
+    calls += [f"lag_command({r!r}, {e!r}, {t!r}, {d!r}, {h!r})" for r, e, t, d, h, *_ in LAG]
+    prelude = "\n".join(
+        ["#define TYRE_ONE ((" + NAME + "_real_t)1.0)"]
+        + [_c_function(src, f) for f in ("lag_error", "lagged_rate", "lag_command")]
+    )
+    got = _c_bits(tmp_path, prelude, calls)
     want = [lag_error(r, e, t, d) for r, e, t, d, *_ in LAG]
     want += [lagged_rate(r, e, t, d, h) for r, e, t, d, h, *_ in LAG]
     want += [lag_command(r, e, t, d, h) for r, e, t, d, h, *_ in LAG]
@@ -297,54 +304,16 @@ def test_the_c_functions_give_the_same_bits(tmp_path):
     calls += [f"understeer_drive_limit({', '.join(map(repr, case[:-1]))})" for case in UNDER]
     calls += [f"bend_brake_limit({', '.join(map(repr, case[:-1]))})" for case in BEND]
     calls = [c.replace("nan", "NAN") for c in calls]
-    body = "\n".join(f"  put({c});" for c in calls)
-    test_c = tmp_path / "reactions_test.c"
-    test_c.write_text(f"""#include <inttypes.h>
-#include <math.h>
-#include <stdio.h>
-#include <string.h>
-#include "{NAME}_solver.h"
-{real_0.group(0)}
-{tyre}
-{_c_function(src, "braking_force")}
-{_c_function(src, "load_transfer_gain")}
-{_c_function(src, "drive_limit")}
-{_c_function(src, "understeer_drive_limit")}
-{_c_function(src, "lateral_acceleration")}
-{_c_function(src, "guard_steering_rate")}
-{_c_function(src, "bend_brake_limit")}
-static void put(double x) {{
-  uint64_t b;
-  memcpy(&b, &x, sizeof b);
-  printf("%016" PRIx64 "\\n", b);
-}}
-
-int main(void) {{
-{body}
-  return 0;
-}}
-""")
-    exe = tmp_path / "reactions_test"
-    subprocess.run(
-        [
-            "gcc",
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-ffp-contract=off",
-            f"-I{SOLVER.parent}",
-            str(test_c),
-            "-o",
-            str(exe),
-            "-lm",
-        ],
-        check=True,
-        capture_output=True,
-        text=True,
+    fns = (
+        "braking_force",
+        "load_transfer_gain",
+        "drive_limit",
+        "understeer_drive_limit",
+        "lateral_acceleration",
+        "guard_steering_rate",
+        "bend_brake_limit",
     )
-    got = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    got = _c_bits(tmp_path, "\n".join([real_0.group(0), tyre] + [_c_function(src, f) for f in fns]), calls)
     want = [braking_force(v0, M / dt, 1e4) for v0, dt, _ in BRAKE]
     want += [guard_steering_rate(*case[:-1]) for case in RATE]
     want += [lateral_acceleration(v, delta, l) for v, delta, l, _ in A_LAT]

@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_delay import predicted_run
 
 from fcgen.dsl import ProblemError
-from fcgen.ocp import build_ocp
 from fcgen.presets import paper_problem
-from fcgen.sim.closedloop import ReferenceController, run_closed_loop
 from fcgen.sim.plants import PlantSpec
-from fcgen.sim.scenario import make_scenario
 
 PB = paper_problem("truck", "lifted", "ellipse", profile="safe")
 
@@ -35,18 +33,7 @@ def test_problem_source_names_the_lag_only_when_set():
 @pytest.mark.parametrize("D, tau", [(1, 0.1), (2, 0.2)])
 def test_prediction_through_the_lag_is_the_state_the_plant_reaches(D, tau):
     pb = PB.with_(delay=D, steer_lag=tau)
-    ctrl = ReferenceController(build_ocp(pb))
-    planned = []
-    step = ctrl.step
-
-    def recording_step(x0, road, opp):
-        r = step(x0, road, opp)
-        planned.append(ctrl.solver.x_plan.copy())
-        return r
-
-    ctrl.step = recording_step
-    sc = make_scenario("truck", 0, n_opp=pb.opponents.count, samples=40, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, plant=PlantSpec(latency=D, steer_lag=tau))
+    planned, log = predicted_run(pb, D, tau)
     xs = np.asarray(log.ego_frenet)
     rates = np.asarray(log.control)[:, 1]
     assert np.ptp(rates) > 0.05  # the run steers: the lag matters
