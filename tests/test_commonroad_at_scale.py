@@ -289,16 +289,20 @@ def test_the_campaign_counts_refusals_by_kind_refuses_a_changed_file_and_resumes
     configs = paper_grid(["car"], ["lifted"], ["ellipse"], "python", "ipm", "safe")
     lines: list[str] = []
     out = tmp_path / "res"
-    got = run_cr_campaign(
-        configs,
-        folder,
-        out,
-        str(tmp_path / "solvers"),
-        jobs=1,
-        echo=lines.append,
-        scenario_list=tmp_path / "list.csv",
-        criticality=False,
-    )
+
+    def campaign():
+        return run_cr_campaign(
+            configs,
+            folder,
+            out,
+            str(tmp_path / "solvers"),
+            jobs=1,
+            echo=lines.append,
+            scenario_list=tmp_path / "list.csv",
+            criticality=False,
+        )
+
+    got = campaign()
     kinds = {r["file"]: r["refusal"] for r in got}
     want = {name: kind for name, (_, kind) in cases.items()}
     want["ZAM_Short-1_1_T-1.xml"] = "hash differs"
@@ -309,16 +313,7 @@ def test_the_campaign_counts_refusals_by_kind_refuses_a_changed_file_and_resumes
     # the file put right: a second call runs again only the runs refused for their file
     changed.write_bytes(changed.read_bytes().replace(b"<!-- changed -->", b""))
     lines.clear()
-    got = run_cr_campaign(
-        configs,
-        folder,
-        out,
-        str(tmp_path / "solvers"),
-        jobs=1,
-        echo=lines.append,
-        scenario_list=tmp_path / "list.csv",
-        criticality=False,
-    )
+    got = campaign()
     assert lines[0] == f"8 runs, 6 already in {out}, 2 to run (1 processes)"
     assert {r["file"]: r["refusal"] for r in got}["ZAM_Short-1_1_T-1.xml"] == "path shorter than the horizon"
     assert len(pd.read_parquet(out / "commonroad.parquet")) == 8
