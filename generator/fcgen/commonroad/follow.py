@@ -14,6 +14,13 @@ collision at the reference speed, ``gap / (v_ref - v_lead)``, is at least ``t_cl
 t_gap v_lead)``); within it the reference is the vehicle's speed (no closing in; the rule does not brake below it to
 open the gap: the NMPC's obstacle rows keep the distance, and braking below the traffic's speed cost goals and drew
 recorded followers into the ego in a first design, docs/commonroad.md).
+
+**The leader's rows** (``lead_shape``): the reference is a wish the NMPC trades against its obstacle rows. Squeezed
+(a vehicle in the next lane coming level from behind, whose safe ellipse reaches across the ego's lane), the plan
+drives at full force towards its leader whatever the reference, until the leader's own ellipse binds about 0.9 m
+bumper to bumper. So the leader's rectangle the solver gets (its rows and the plan check) is also lengthened backwards
+by ``t_row`` times the speed by which the ego closes in on it (rounded up to ``row_step``): at that closing speed the
+rows bind at a time to collision of more than ``t_row``; at the leader's speed or slower it is the vehicle as it is.
 """
 
 from __future__ import annotations
@@ -34,9 +41,11 @@ class Following:
     t_gap: float = 1.0
     s0: float = 2.0
     t_close: float = 2.0
+    t_row: float = 1.5  # s: the leader's rectangle lengthened by this times the closing speed (module docstring)
+    row_step: float = 0.5  # m: the lengthening rounded up to a multiple of this (fewer shapes to compute)
 
     def __post_init__(self) -> None:
-        for name in ("t_gap", "s0", "t_close"):
+        for name in ("t_gap", "s0", "t_close", "t_row", "row_step"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
                 raise ValueError(f"Following.{name} = {v!r}: must be a finite number > 0")
@@ -44,6 +53,12 @@ class Following:
     def speed(self, gap: float, v_lead: float) -> float:
         """v_follow (module docstring) for a bumper-to-bumper ``gap`` (m) to a vehicle ahead at ``v_lead`` (m/s)."""
         return max(0.0, v_lead + max(0.0, gap - self.s0 - self.t_gap * v_lead) / self.t_close)
+
+    def extension(self, v_ego: float, v_lead: float) -> float:
+        """How far (m) the leader's rectangle is lengthened backwards: ``t_row`` (v_ego - v_lead), at least 0,
+        rounded up to a multiple of ``row_step``."""
+        g = self.t_row * max(0.0, v_ego - v_lead)
+        return self.row_step * math.ceil(g / self.row_step - 1e-9)
 
 
 def vehicle_ahead(
@@ -62,6 +77,30 @@ def vehicle_ahead(
     gaps = np.where(m, traffic.s - s - (lengths + ego_length) / 2, np.inf)
     i = int(np.argmin(gaps))
     return float(gaps[i]), float(traffic.v[i]), i
+
+
+def lead_shape(rule: Following, sc, step: int, ids, shapes: np.ndarray, ego, x: np.ndarray) -> tuple:
+    """The opponent slots' shapes (length, width, offset) with the leader's lengthened backwards (module docstring),
+    and whether it was: the nearest occupant ahead in the ego's corridor (``vehicle_ahead`` among the slots' vehicles
+    at scenario step ``step``; ``x``: the ego's rear-axle state on ``sc.road``, ``ego``: its ``Vehicle``).
+    ``shapes`` as it is without one or when the ego does not close in on it."""
+    from .lanes import traffic_at
+
+    by_id = {int(ob.id): ob for ob in sc.obstacles}
+    slots = [j for j, i in enumerate(ids) if i is not None and int(i) in by_id]
+    traffic = traffic_at([by_id[int(ids[j])] for j in slots], sc.road, step, sc.dt)
+    if len(traffic.s) != len(slots):  # an occupant without a pose at the step: its slot's index is unknown
+        return shapes, False
+    half = ego.l / 2
+    s_c, n_c = float(x[0]) + half * math.cos(float(x[2])), float(x[1]) + half * math.sin(float(x[2]))
+    lead = vehicle_ahead(traffic, s_c, (n_c,), ego.l_ch)
+    g = 0.0 if lead is None else rule.extension(float(x[3]), lead[1])
+    if lead is None or g <= 0.0:
+        return shapes, False
+    out = np.array(shapes, dtype=float)
+    j = slots[lead[2]]
+    out[j] = (out[j, 0] + g, out[j, 1], out[j, 2] - g / 2)  # the front where it is, the rear g further back
+    return out, True
 
 
 def follow_speed(rule: Following, traffic: Traffic, s: float, lanes_n: tuple[float, ...], ego_length: float):
