@@ -107,7 +107,7 @@ def crime_orientations(lanelet) -> np.ndarray:
     """A lanelet's orientations along its centre line as CriMe computes them (its smoothing, else the vertices;
     ``commonroad_crime.utility.solver.compute_lanelet_width_orientation``), in (-pi, pi]."""
     with require("commonroad", "the criticality measures (commonroad-crime)"):
-        from commonroad_clcs.util import compute_orientation_from_polyline
+        from commonroad_clcs.util import compute_orientation_from_polyline  # type: ignore[import-untyped]
         from commonroad_crime.utility.solver import smoothing_reference_path
 
     try:
@@ -131,8 +131,8 @@ def turn_for_crime(scenario) -> float:
     """The rotation (rad) after which the lanelets the vehicles drive on that head within ``SAME_DIRECTION`` of x
     have their smallest orientation (``crime_orientations``) at ``MARGIN``; 0 without such a lanelet."""
     net = scenario.lanelet_network
-    o = [crime_orientations(net.find_lanelet_by_id(i)) for i in sorted(driven_lanelets(scenario))]
-    o = np.concatenate(o) if o else np.zeros(0)
+    per = [crime_orientations(net.find_lanelet_by_id(i)) for i in sorted(driven_lanelets(scenario))]
+    o = np.concatenate(per) if per else np.zeros(0)
     o = o[np.abs(o) < SAME_DIRECTION]
     return float(MARGIN - np.min(o)) if len(o) else 0.0
 

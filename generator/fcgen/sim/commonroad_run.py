@@ -40,7 +40,7 @@ from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 
 if TYPE_CHECKING:
-    from ..commonroad.follow import Following
+    from ..commonroad.follow import Following, LeadRows
 
 __all__ = ["CommonRoadRun", "goal_line", "goal_status", "run_commonroad", "scenario_road", "unsolved_status"]
 
@@ -182,7 +182,7 @@ def run_commonroad(
             "band": {"rule": band, "way_back_samples": loop.way_back},
             "follow": None
             if rule is None
-            else {**dataclasses.asdict(rule), "samples": loop.followed, "lead": loop.lead_rows},
+            else {**dataclasses.asdict(rule), "samples": loop.followed, "lead": getattr(loop.lead_rows, "samples", 0)},
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
             "checker": _plain(checker),
@@ -228,7 +228,7 @@ class _Loop:
     way_back: list = field(default_factory=list)  # the samples whose band the way back widened (commonroad.band)
     v_refs: list = field(default_factory=list)  # the reference speed per sample (commonroad.goal.speed_now)
     followed: int = 0  # the samples whose reference speed the vehicle ahead capped (commonroad.follow)
-    lead_rows: int = 0  # the samples whose leader's rectangle the closing speed lengthened (commonroad.follow)
+    lead_rows: LeadRows | None = None  # the leader's rectangle lengthened by the closing speed (commonroad.follow)
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -255,7 +255,7 @@ def _drive(
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
-    from ..commonroad.follow import lead_shape
+    from ..commonroad.follow import LeadRows
     from ..commonroad.goal import change_time as goal_change
     from ..commonroad.goal import lateral_reference, reached
     from ..commonroad.lanes import CHANGE_TIME, GOAL_LANE, SETTLED, target_lane, traffic_at
@@ -263,6 +263,7 @@ def _drive(
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
     loop = _Loop(np.zeros((K + 1, 5)), np.zeros((K, 2)), [], [], PlanLog(K, N, plan))
+    loop.lead_rows = None if follow is None else LeadRows(follow, problem.horizon.dt)
     loop.xs[0] = sc.x0
     if states is not None:
         loop.xs[:] = states
@@ -306,9 +307,8 @@ def _drive(
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
-        if follow is not None:  # the leader's rectangle lengthened by the closing speed (commonroad.follow)
-            shapes, longer = lead_shape(follow, sc, sc.first_step + j, ids, shapes, problem.ego, x)
-            loop.lead_rows += longer
+        if loop.lead_rows is not None:  # the leader's rectangle lengthened by the closing speed
+            shapes = loop.lead_rows.shapes(sc, sc.first_step + j, ids, shapes, problem.ego, x)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
