@@ -27,6 +27,7 @@ push it back).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -111,16 +112,16 @@ class LeadRows:
         s_c, n_c = float(x[0]) + half * math.cos(float(x[2])), float(x[1]) + half * math.sin(float(x[2]))
         ok = len(traffic.s) == len(slots)  # else an occupant without a pose at the step: its slot is unknown
         lead = vehicle_ahead(traffic, s_c, (n_c,), ego.l_ch) if ok else None
-        oid = None if lead is None else int(ids[slots[lead[2]]])
-        closing = lead is not None and float(x[3]) > lead[1]
+        gap, v_lead, i = (0.0, math.inf, -1) if lead is None else lead
+        oid, closing = (None if lead is None else int(ids[slots[i]])), float(x[3]) > v_lead
         held = self.held - self.rule.t_row * self.rule.b_release * self.dt if closing and oid == self.lead else 0.0
         self.lead = oid
-        self.held = max(self.rule.t_row * (float(x[3]) - lead[1]), held) if closing else 0.0
-        g = self.rule.extension(float(x[3]), lead[1], lead[0], self.held) if closing else 0.0
-        if lead is None or g <= 0.0:
+        self.held = max(self.rule.t_row * (float(x[3]) - v_lead), held) if closing else 0.0
+        g = self.rule.extension(float(x[3]), v_lead, gap, self.held) if closing else 0.0
+        if g <= 0.0:
             return shapes
         out = np.array(shapes, dtype=float)
-        j = slots[lead[2]]
+        j = slots[i]
         out[j] = (out[j, 0] + g, out[j, 1], out[j, 2] - g / 2)  # the front where it is, the rear g further back
         self.samples += 1
         return out
@@ -130,6 +131,14 @@ def follow_speed(rule: Following, traffic: Traffic, s: float, lanes_n: tuple[flo
     """The reference speed's cap behind the vehicle ahead (``Following.speed``), None without a vehicle ahead."""
     lead = vehicle_ahead(traffic, s, lanes_n, ego_length)
     return None if lead is None else rule.speed(lead[0], lead[1])
+
+
+def follow_log(rule: Following | None, followed: int, rows: LeadRows | None) -> dict | None:
+    """The run log's ``extra.commonroad.follow``: the rule's parameters, the samples whose reference the vehicle
+    ahead capped (``samples``) and whose leader's rectangle it lengthened (``lead``); None without the rule."""
+    if rule is None:
+        return None
+    return {**dataclasses.asdict(rule), "samples": followed, "lead": 0 if rows is None else rows.samples}
 
 
 def profile_following(problem) -> Following | None:

@@ -19,7 +19,6 @@ what it is: where the scenario's band is wider, the solver gets it cut to that (
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -158,7 +157,7 @@ def run_commonroad(
     spec = plant or PlantSpec()
     world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
-    from ..commonroad.follow import profile_following
+    from ..commonroad.follow import follow_log, profile_following
 
     rule = profile_following(problem) if isinstance(follow, str) and follow == "profile" else follow
     if isinstance(rule, str):
@@ -180,9 +179,7 @@ def run_commonroad(
             "lane_changes": loop.lane_changes,
             "band_cut": cut,
             "band": {"rule": band, "way_back_samples": loop.way_back},
-            "follow": None
-            if rule is None
-            else {**dataclasses.asdict(rule), "samples": loop.followed, "lead": getattr(loop.lead_rows, "samples", 0)},
+            "follow": follow_log(rule, loop.followed, loop.lead_rows),
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
             "checker": _plain(checker),
@@ -255,7 +252,6 @@ def _drive(
     """The closed loop: per sample the scenario's opponents into the solver's slots (their shapes when an occupant
     changes), one controller step, one plant step (or the replayed state)."""
     from .. import commonroad as cr
-    from ..commonroad.follow import LeadRows
     from ..commonroad.goal import change_time as goal_change
     from ..commonroad.goal import lateral_reference, reached
     from ..commonroad.lanes import CHANGE_TIME, GOAL_LANE, SETTLED, target_lane, traffic_at
@@ -263,7 +259,6 @@ def _drive(
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
     loop = _Loop(np.zeros((K + 1, 5)), np.zeros((K, 2)), [], [], PlanLog(K, N, plan))
-    loop.lead_rows = None if follow is None else LeadRows(follow, problem.horizon.dt)
     loop.xs[0] = sc.x0
     if states is not None:
         loop.xs[:] = states
@@ -273,7 +268,7 @@ def _drive(
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
     ramp: tuple[float, int, float] | None = None  # a lane change under way: (stage 0's n_ref, its sample, duration)
     change = CHANGE_TIME if change_time is None else change_time
-    shapes_in = _SlotShapes(problem, sc, controller)
+    shapes_in = _SlotShapes(problem, sc, controller, follow, loop)
     it: Iterable[int] = range(K)
     if progress:
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
@@ -307,9 +302,7 @@ def _drive(
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
-        if loop.lead_rows is not None:  # the leader's rectangle lengthened by the closing speed
-            shapes = loop.lead_rows.shapes(sc, sc.first_step + j, ids, shapes, problem.ego, x)
-        shapes_in.set(j, shapes)
+        shapes_in.set(j, shapes, sc, ids, x)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
         win = solver_window(problem, road, xm)
@@ -401,15 +394,24 @@ def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
 
 class _SlotShapes:
     """The opponent slots' shapes as the controller has them: ``set_opponent_shapes`` only when an occupant's
-    (length, width, offset) changes, each shape's values computed once."""
+    (length, width, offset) changes, each shape's values computed once; with ``follow`` the leader's lengthened
+    (``commonroad.follow.LeadRows``, kept in ``loop.lead_rows``)."""
 
-    def __init__(self, problem: Problem, sc, controller: ScenarioController):
+    def __init__(self, problem: Problem, sc, controller: ScenarioController, follow=None, loop=None):
+        from ..commonroad.follow import LeadRows
+
         self.problem, self.sc, self.controller = problem, sc, controller
         self.cache: dict[tuple, np.ndarray] = {}
         self.now: tuple | None = None
+        self.rows = None if follow is None else LeadRows(follow, problem.horizon.dt)
+        if loop is not None:
+            loop.lead_rows = self.rows
 
-    def set(self, j: int, shapes) -> None:
-        """Give the controller the slots' (length, width, offset) of sample ``j`` if they changed."""
+    def set(self, j: int, shapes, sc=None, ids=(), x=None) -> None:
+        """Give the controller the slots' (length, width, offset) of sample ``j`` if they changed (the leader's
+        lengthened: ``sc`` as driven at ``j``, the slots' obstacle ids ``ids``, the ego's state ``x``)."""
+        if self.rows is not None and sc is not None:
+            shapes = self.rows.shapes(sc, sc.first_step + j, ids, shapes, self.problem.ego, x)
         key = tuple(map(tuple, np.asarray(shapes, dtype=float)))
         if key == self.now:
             return
