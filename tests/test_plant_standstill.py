@@ -31,14 +31,13 @@ def test_a_standing_vehicle_without_enough_drive_stays_where_it_is(setup):
         assert xn[3] == 0.0
         np.testing.assert_array_equal(xn[:3], x[:3])
         assert xn[4] == pytest.approx(x[4] + 0.05 * pb.horizon.dt, abs=1e-15)
-        # what the smooth model gives (the NLP's): backwards
         step = plant.road_stepper(road)
         assert step(x, u).tobytes() == xn.tobytes()
 
 
 def test_a_braking_vehicle_stops_within_the_sample_where_the_ode_says(setup):
-    """From 0.3 m/s, braking hard on a straight road (the preset's head wind): stopped at the end of the sample, after the distance the
-    longitudinal ODE integrated to v = 0 gives (scipy's event, an independent integrator)."""
+    """From 0.3 m/s, braking hard on a straight road (the preset's head wind): stopped at the end of the sample,
+    after the distance the longitudinal ODE integrated to v = 0 gives (scipy's event, an independent integrator)."""
     pb, plant, road = setup
     ego, F = pb.ego, -4000.0
     assert pb.wind.phi == 0.0  # the road runs along x: the wind's whole speed adds to the ego's
