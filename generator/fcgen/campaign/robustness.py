@@ -70,7 +70,11 @@ def run_seconds(c: Config) -> float:
     return RUN_SECONDS[c.plant.kind] + (LANE_SECONDS if c.plant.prediction == "lane-following" else 0.0)
 
 
-def estimated_minutes(configs: list[Config], seeds: int, samples: int, jobs: int) -> float:
-    """The grid's estimated time on ``jobs`` otherwise idle cores (solvers compiled once per problem not included)."""
-    per_seed = sum(run_seconds(c) for c in configs) * samples / 200.0
-    return per_seed * seeds / max(1, jobs) / 60.0
+def estimated_minutes(
+    configs: list[Config], seeds: int | range, samples: int, jobs: int, done: frozenset | set = frozenset()
+) -> float:
+    """The grid's estimated time on ``jobs`` otherwise idle cores for the runs not in ``done`` (the (config key, seed)
+    pairs already in the results at these samples and clock); solvers compiled once per problem not included."""
+    seeds = range(seeds) if isinstance(seeds, int) else seeds
+    runs = sum(run_seconds(c) for c in configs for s in seeds if (c.key, s) not in done)
+    return runs * samples / 200.0 / max(1, jobs) / 60.0

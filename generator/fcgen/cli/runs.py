@@ -332,7 +332,8 @@ def campaign(
             profile,
             (spec, delay, road_bound or "rear_axle"),
         )
-    configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
+    seed_range = range(first_seed, first_seed + seeds)
+    configs = robust_configs(configs, spec, delay, seed_range, samples, jobs, (out, clock), **robust)  # its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
@@ -353,7 +354,7 @@ def campaign(
         check_report_target(report_dir, force_report)
     _seeded_campaign(
         configs,
-        range(first_seed, first_seed + seeds),
+        seed_range,
         samples,
         cache_dir,
         clock,
