@@ -36,6 +36,7 @@ from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, s
 from .commonroad_judge import driven, judge_drive
 from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
+from .cr_prediction import run_prediction
 from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 
@@ -274,6 +275,7 @@ def _drive(
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
     goal = sc.planning_problem if states is None else None
+    seen = run_prediction(plant.spec, sc)  # None: the solver sees the scenario's future
     for j in it:
         x = loop.xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
@@ -301,7 +303,8 @@ def _drive(
             )
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
-        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
+        view = sc if seen is None else dataclasses.replace(sc, obstacles=seen.at(sc.obstacles, sc.first_step + j))
+        poses, shapes, ids = cr.opponent_horizon(view, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
