@@ -296,6 +296,7 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
     o = Path(out)
     o.mkdir(parents=True, exist_ok=True)
     df = pd.DataFrame(rows, columns=list(ROW_KEYS))
+    df["prediction"] = df["prediction"].fillna("oracle")  # rows made without one (as before the column)
     if (o / "commonroad.parquet").is_file():  # runs of other scenarios, configurations or traffic modes are kept
         old = pd.read_parquet(o / "commonroad.parquet")
         key = ["scenario", "problem", "controller", "traffic", "prediction"]

@@ -19,7 +19,9 @@ angle to the lane; the straight-line rules are those of the paper's road (``sim.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,10 +153,14 @@ class ScenarioPrediction:
         return np.column_stack([p0[0] + dist * math.cos(p0[2]), p0[1] + dist * math.sin(p0[2]), np.full_like(t, p0[2])])
 
 
-def run_prediction(spec, sc) -> ScenarioPrediction | None:
-    """A run's prediction of a ``PlantSpec`` (the measurement's noise on x, y, phi) on ``sc``; None for ``oracle``."""
+def seen_traffic(spec, sc) -> Callable:
+    """``view(sc, j)``: the scenario as the solver sees it at loop sample ``j`` under a ``PlantSpec``'s prediction
+    (the measurement's noise on x, y, phi): ``sc`` itself for ``oracle``, else its obstacles predicted."""
+    if spec.prediction == "oracle":
+        return lambda s, j: s
     net = getattr(sc.scenario, "lanelet_network", None)
-    return None if spec.prediction == "oracle" else ScenarioPrediction(spec.prediction, net, sc.dt, spec.noise[:3])
+    pred = ScenarioPrediction(spec.prediction, net, sc.dt, spec.noise[:3])
+    return lambda s, j: dataclasses.replace(s, obstacles=pred.at(s.obstacles, s.first_step + j))
 
 
 class PredictedObstacle:
