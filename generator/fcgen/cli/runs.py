@@ -144,7 +144,10 @@ def simulate(
     if cr_pp is not None or cr_solution or animate or traffic != "recorded":
         fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
+    try:
+        log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
+    except FloatingPointError as exc:  # the plant left its domain (sim.plants.commonroad_vm): a status, not a trace
+        fail(f"the run stopped: {exc}")
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
     if not spec.is_default:
