@@ -3,11 +3,21 @@ resumed, the budget guard and the one-line errors."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from click.testing import CliRunner
 
 from fcgen.campaign.grid import Config
-from fcgen.campaign.robustness import AXES, LANE_SECONDS, RUN_SECONDS, cells, estimated_minutes, robustness_grid
+from fcgen.campaign.robustness import (
+    AXES,
+    IPM_RUN_SECONDS,
+    LANE_SECONDS,
+    RUN_SECONDS,
+    cells,
+    estimated_minutes,
+    robustness_grid,
+)
 from fcgen.campaign.store import ResultStore
 from fcgen.cli import main
 from fcgen.dsl import ProblemError
@@ -43,6 +53,9 @@ def test_cells_grow_per_axis_and_start_unperturbed():
     # on resume only the runs not in the results count: half the seeds of every configuration done, half the time
     done = {(c.key, s) for c in grid for s in range(50)}
     assert estimated_minutes(grid, range(100), 200, 2, done) == pytest.approx(per_seed * 50 / 2 / 60)
+    ipm = [replace(c, backend="ipm") for c in grid]  # the IPM's per-run seconds
+    per_ipm = 8 * IPM_RUN_SECONDS["model"] + 2 * LANE_SECONDS
+    assert estimated_minutes(ipm, 100, 200, 2) == pytest.approx(per_ipm * 100 / 2 / 60)
     lane = {(c.key, s) for c in grid for s in range(100) if c.plant.prediction == "lane-following"}
     assert estimated_minutes(grid, range(100), 200, 2, lane) == pytest.approx(6 * RUN_SECONDS["model"] * 100 / 2 / 60)
 
