@@ -13,6 +13,7 @@ from fcgen.campaign.robustness import (
     AXES,
     IPM_RUN_SECONDS,
     LANE_SECONDS,
+    MARGIN_C,
     RUN_SECONDS,
     cells,
     estimated_minutes,
@@ -42,22 +43,29 @@ def test_cells_grow_per_axis_and_start_unperturbed():
         Config("car", "lifted", "ellipse", profile="safe"),
         Config("car", "lifted", "hyperplane", profile="safe"),
     ]
+    # the margins from the prediction's error beside the fixed margin: c = MARGIN_C, the straight line and the lane
+    margins = [(c.spec.prediction, c.spec.prediction_margin) for c in cs if c.spec.prediction_margin]
+    assert margins == [
+        ("constant-velocity", MARGIN_C),
+        ("lane-following", MARGIN_C),
+        ("constant-velocity", MARGIN_C),
+    ]
     grid = robustness_grid(configs, ("prediction",))
-    assert len(grid) == 2 * 4 and len({c.key for c in grid}) == len(grid)  # every cell its own key
+    assert len(grid) == 2 * 6 and len({c.key for c in grid}) == len(grid)  # every cell its own key
     with pytest.raises(ProblemError, match="axes"):
         cells(("gravity",))
     # the estimate: the sum of the runs' estimated seconds over the jobs
-    per_seed = 8 * RUN_SECONDS["model"] + 2 * LANE_SECONDS  # two configurations' lane-following cells
+    per_seed = 12 * RUN_SECONDS["model"] + 4 * LANE_SECONDS  # two configurations' two lane-following cells
     assert estimated_minutes(grid, 100, 200, 2) == pytest.approx(per_seed * 100 / 2 / 60)
     assert estimated_minutes(grid, 100, 100, 1) == pytest.approx(per_seed * 100 / 2 / 60)
     # on resume only the runs not in the results count: half the seeds of every configuration done, half the time
     done = {(c.key, s) for c in grid for s in range(50)}
     assert estimated_minutes(grid, range(100), 200, 2, done) == pytest.approx(per_seed * 50 / 2 / 60)
     ipm = [replace(c, backend="ipm") for c in grid]  # the IPM's per-run seconds
-    per_ipm = 8 * IPM_RUN_SECONDS["model"] + 2 * LANE_SECONDS
+    per_ipm = 12 * IPM_RUN_SECONDS["model"] + 4 * LANE_SECONDS
     assert estimated_minutes(ipm, 100, 200, 2) == pytest.approx(per_ipm * 100 / 2 / 60)
     lane = {(c.key, s) for c in grid for s in range(100) if c.plant.prediction == "lane-following"}
-    assert estimated_minutes(grid, range(100), 200, 2, lane) == pytest.approx(6 * RUN_SECONDS["model"] * 100 / 2 / 60)
+    assert estimated_minutes(grid, range(100), 200, 2, lane) == pytest.approx(8 * RUN_SECONDS["model"] * 100 / 2 / 60)
 
 
 def _args(out, *more):
@@ -89,13 +97,20 @@ def test_tiny_robustness_grid_into_parquet_and_resumed(tmp_path):
     res = CliRunner().invoke(main, _args(out, "--axes", "prediction", "--seeds", "1"))
     assert res.exit_code == 0, res.output
     df = ResultStore(out).read()
-    assert len(df) == 4 and df["config"].nunique() == 4
-    assert sorted(df["prediction"].dropna()) == ["constant-acceleration", "constant-velocity", "lane-following"]
+    assert len(df) == 6 and df["config"].nunique() == 6
+    assert sorted(df["prediction"].dropna()) == [
+        "constant-acceleration",
+        "constant-velocity",
+        "constant-velocity",
+        "lane-following",
+        "lane-following",
+    ]
+    assert sorted(df["prediction_margin"].dropna()) == [MARGIN_C, MARGIN_C]  # the two cells with the margins
     again = CliRunner().invoke(main, _args(out, "--axes", "prediction", "--seeds", "2"))
     assert again.exit_code == 0, again.output
-    assert "4 configurations x 2 seeds (4 runs not yet in --out)" in again.output  # the estimate: seed 1 only
+    assert "6 configurations x 2 seeds (6 runs not yet in --out)" in again.output  # the estimate: seed 1 only
     df = ResultStore(out).read()
-    assert len(df) == 8 and not df.duplicated(["config", "seed"]).any()  # the new seed only, nothing twice
+    assert len(df) == 12 and not df.duplicated(["config", "seed"]).any()  # the new seed only, nothing twice
     # every run done: an estimate of 0 min, so even a tiny --budget passes without --yes (8 samples: 0.2 s est.)
     done = CliRunner().invoke(main, _args(out, "--axes", "prediction", "--seeds", "2", "--budget", "0.0001"))
     assert done.exit_code == 0 and "(0 runs not yet in --out), estimated 0.0 min" in done.output
@@ -169,6 +184,7 @@ def test_envelope_states_per_axis_where_every_configuration_holds_and_what_break
     from fcgen.report.robustness import envelope, section, split_keys, suffix
 
     noise2x = suffix(next(c for c in cells() if c.magnitude == "2x"))
+    cv_margin = suffix(next(c for c in cells() if c.magnitude == "constant-velocity+margin1"))
     a, b = "car/lifted/EL/c/osqp/safe", "truck/direct_elimination/HP/c/osqp/safe"
     qp = json.dumps({"solved": 10})
 
@@ -184,6 +200,7 @@ def test_envelope_states_per_axis_where_every_configuration_holds_and_what_break
         rows += [row(base, "/model+lat1/comp1", s) for s in range(2)]
         rows += [row(base, "/model+lat3", s) for s in range(2)]  # breaks nothing, but after the break at 2
         rows += [row(base, noise2x, s) for s in range(3)]  # 1x not measured
+        rows += [row(base, cv_margin, s) for s in range(2)]  # the margins from the error: holds, a row of its own
     rows += [row(a, "/model+lat2", s) for s in range(2)]
     rows += [row(b, "/model+lat2", 0, over=1), row(b, "/model+lat2", 1)]  # 1 of 400 samples: 0.25 %
     rows += [row(a, "/model+cv", 0, resp="ego_into_opponent"), row(a, "/model+cv", 1)]
@@ -193,7 +210,12 @@ def test_envelope_states_per_axis_where_every_configuration_holds_and_what_break
     assert f"| latency [samples], without compensation | 1, 2, 3 | 1 | 2 | {b} (a_lat 0.25 %) | 2 |" in text
     assert "| latency [samples], compensated | 1+comp | 1+comp | - | none | 2 |" in text
     assert "| noise [x the default stds] | 2x | 2x | - | none | 3 |" in text
-    assert f"| prediction | constant-velocity | 0 | constant-velocity | {a} (1 of 2 runs ego-caused) | 2 |" in text
+    cv_row = f"| constant-velocity | 0 | constant-velocity | {a} (1 of 2 runs ego-caused) | 2 |"
+    assert f"| prediction, the fixed margin {cv_row}" in text
+    assert (
+        "| prediction, margins from its error | constant-velocity+margin1 | constant-velocity+margin1 | - | none | 2 |"
+        in text
+    )
     assert "steering lag" not in text and "| plant |" not in text and "unperturbed" not in text.split("|---|")[1]
     assert "### Recommended operating envelope" in "\n".join(section(df))
     # an unperturbed configuration that misses the targets: nothing holds, named in its own row

@@ -27,9 +27,14 @@ def _noise(k: float) -> PlantSpec:
     return PlantSpec(noise=tuple(k * v for v in DEFAULT_NOISE))
 
 
-def _worst(prediction: str) -> PlantSpec:
+def _worst(prediction: str, margin: float = 0.0) -> PlantSpec:
     """The plant issue's worst case with a prediction: st, one sample of latency (compensated), default noise."""
-    return PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction=prediction)
+    return PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, prediction=prediction, prediction_margin=margin)
+
+
+#: c of the margins that grow with the prediction's expected error (``PlantSpec.prediction_margin``) in the cells that
+#: measure them beside the fixed margin (docs/plants.md, "Margins from the prediction's error")
+MARGIN_C = 1.0
 
 
 def cells(axes=AXES) -> list[Cell]:
@@ -46,9 +51,21 @@ def cells(axes=AXES) -> list[Cell]:
         "prediction": [
             Cell("prediction", p, PlantSpec(prediction=p))
             for p in ("constant-velocity", "constant-acceleration", "lane-following")
+        ]
+        + [
+            Cell("prediction", f"{p}+margin{MARGIN_C:g}", PlantSpec(prediction=p, prediction_margin=MARGIN_C))
+            for p in ("constant-velocity", "lane-following")
         ],
         "combined": [Cell("combined", f"st+lat1comp+noise+{p}", _worst(p), 1) for p in ("oracle", "constant-velocity")]
-        + [Cell("combined", "st+lat1comp+noise+lane-following", _worst("lane-following"), 1)],
+        + [Cell("combined", "st+lat1comp+noise+lane-following", _worst("lane-following"), 1)]
+        + [
+            Cell(
+                "combined",
+                f"st+lat1comp+noise+constant-velocity+margin{MARGIN_C:g}",
+                _worst("constant-velocity", MARGIN_C),
+                1,
+            )
+        ],
     }
     return [Cell("none", "0", PlantSpec())] + [c for a in AXES if a in axes for c in by_axis[a]]
 

@@ -113,9 +113,11 @@ ENVELOPE_ROWS = (
     ("latency [samples], compensated", "latency", lambda m: "+comp" in m),
     ("noise [x the default stds]", "noise", None),
     ("steering lag [s]", "steer-lag", None),
-    ("prediction", "prediction", None),
+    ("prediction, the fixed margin", "prediction", lambda m: "+margin" not in m),
+    ("prediction, margins from its error", "prediction", lambda m: "+margin" in m),
     ("plant", "plant", None),
-    ("combined", "combined", None),
+    ("combined, the fixed margin", "combined", lambda m: "+margin" not in m),
+    ("combined, margins from the prediction's error", "combined", lambda m: "+margin" in m),
 )
 
 
