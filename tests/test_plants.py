@@ -111,6 +111,18 @@ def test_stop(kind):
     assert x == pytest.approx([6.0, 0.0, 0.0, 0.0, 0.0], abs=1e-9)
 
 
+@pytest.mark.parametrize("kind", ["ks", "st"])
+def test_standing_car_with_a_drive_force_below_the_resistance_stays(kind):
+    """v = 0 and a drive force of half the rolling resistance (no wind, no drag): the net force -c_roll / 2 would
+    take the car backwards at -c_roll / (2 m) per second; resistance only opposes motion, so it stands."""
+    pb = PB.with_(wind=Wind(v=0.0), ego=replace(PB.ego, c_air=0.0))
+    pl = CommonRoadPlant(pb, kind)
+    pl.reset([5.0, 0.5, 0.0, 0.0, 0.0], straight_road(200.0))
+    for _ in range(10):
+        x, _ = pl.step((0.5 * pb.ego.c_roll, 0.0))
+    assert x == pytest.approx([5.0, 0.5, 0.0, 0.0, 0.0], abs=1e-12)
+
+
 def _manoeuvre(substeps: int) -> np.ndarray:
     pl = CommonRoadPlant(PB, "st", substeps=substeps)
     pl.reset([0.0, 0.0, 0.0, 20.0, 0.0], straight_road(800.0))
@@ -246,3 +258,16 @@ def test_the_plant_options_reach_the_run_as_one_plant_spec():
     assert "plant ks+lat1+noise+cv+pm1 |" in res.output
     res = CliRunner().invoke(main, ["simulate", "--samples", "3", "--noise", "1,2"])
     assert res.exit_code == 1 and res.output.startswith("Error: --noise: noise = '1,2' is invalid")
+
+
+def test_a_plant_that_leaves_its_domain_stops_the_run_with_one_line(monkeypatch):
+    """A plant state that is no longer finite (the ``st`` integration once left the slip-angle mapping's domain on
+    car seeds 16 and 29): ``fcgen simulate`` says so in one line, exit 1, no traceback."""
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    monkeypatch.setattr(CommonRoadPlant, "_f", lambda self, x, u: [math.nan] * len(x))
+    r = CliRunner().invoke(main, ["simulate", "--scenario", "car", "--plant", "st", "--samples", "3"])
+    assert r.exit_code == 1 and r.output.count("\n") == 1, r.output
+    assert r.output.startswith("Error: the run stopped: the st plant's state is not finite after a sample")
