@@ -12,6 +12,7 @@ import pytest
 from fcgen.build import build
 from fcgen.campaign.grid import Config
 from fcgen.codegen.generate import generate
+from fcgen.contract import INPUT_RANGES
 from fcgen.csolver import CSolver
 from fcgen.dsl import ProblemError
 from fcgen.ocp import build_ocp
@@ -96,3 +97,25 @@ def test_the_safe_profile_keeps_its_margin_only_under_a_compensated_latency():
     assert safe.delay == 1 and safe.obstacle_margin == SAFE_DELAY_MARGIN
     assert Config("car", "lifted", "ellipse", 0, "c", "ipm", "safe", st, 0).problem().obstacle_margin == 0.0
     assert Config("car", "lifted", "ellipse", 0, "c", "ipm", "paper", st, 1).problem().obstacle_margin == 0.0
+
+
+def test_prediction_margins_come_on_top_of_the_problems():
+    """With predicted traffic and ``PlantSpec.prediction_margin`` the loop sets the rule's margins plus the
+    problem's own before each solve (the reference's margins after the last sample are that sample's)."""
+    from fcgen.sim.closedloop import ReferenceController, opponent_params, run_closed_loop
+    from fcgen.sim.plants import DEFAULT_NOISE
+    from fcgen.sim.prediction import PredictedOpponents
+    from fcgen.sim.scenario import make_scenario
+
+    pb = SAFE_EL.with_(obstacle_margin=M)
+    spec = PlantSpec(prediction="constant-velocity", noise=DEFAULT_NOISE, prediction_margin=1.0)
+    sc = make_scenario("car", 2, n_opp=pb.opponents.count, samples=12, dt=pb.horizon.dt)
+    ctl = ReferenceController(build_ocp(pb))
+    run_closed_loop(pb, sc, controller=ctl, plant=spec)
+    opp = opponent_params(pb, sc)
+    pred = PredictedOpponents(
+        "constant-velocity", opp.at_index, pb.horizon.offsets, sc.dt, noise=DEFAULT_NOISE[:3], seed=sc.seed
+    )
+    want = pred.margins(sc.samples - 1, 1.0) + M  # within set_obstacle_margins' range
+    assert np.count_nonzero(want < INPUT_RANGES.margin_max) > 10
+    np.testing.assert_array_equal(ctl.solver.margins, np.minimum(want, INPUT_RANGES.margin_max))
