@@ -1,6 +1,6 @@
 """The plant options on CommonRoad scenarios (``fcgen.sim.commonroad_plant``, ``simulate --commonroad --plant``): the
 default is fcgen's model bit for bit; CommonRoad's single-track model on a straight lane drives what the kinematic
-model drives; another prediction is refused with one line."""
+model drives; a prediction margin is refused with one line (predictions: tests/test_cr_prediction.py)."""
 
 from __future__ import annotations
 
@@ -40,8 +40,8 @@ def test_the_default_plant_is_fcgens_model_bit_for_bit(lane):
     assert plant.measure(x) is x
     u = np.array([800.0, 0.05])
     np.testing.assert_array_equal(plant.step(x, u, road), model.step(x, u, road))
-    with pytest.raises(ValueError, match="prediction 'constant-velocity' and prediction_margin are not"):
-        ScenarioPlant(PB, PlantSpec(prediction="constant-velocity"), model, sc.x0, road)
+    with pytest.raises(ValueError, match="prediction_margin is not for a CommonRoad run"):
+        ScenarioPlant(PB, PlantSpec(prediction="constant-velocity", prediction_margin=1.0), model, sc.x0, road)
 
 
 def test_the_single_track_plant_on_a_straight_lane_drives_as_the_model(lane):
@@ -64,6 +64,6 @@ def test_simulate_commonroad_with_a_plant_and_a_refused_prediction(lane):
     assert r.exit_code == 0, r.output
     assert "plant st+lat1 | samples whose control the plant's input limits cut:" in r.output
     assert "band: lanes; the way back widened it at " in r.output
-    r = CliRunner().invoke(main, [*args, "--prediction", "constant-velocity"])
+    r = CliRunner().invoke(main, [*args, "--prediction", "constant-velocity", "--prediction-margin", "0.5"])
     assert r.exit_code != 0
-    assert "--commonroad predicts the opponents by the scenario (no --prediction, --prediction-margin)" in r.output
+    assert "--prediction-margin is not for --commonroad" in r.output

@@ -246,3 +246,16 @@ def test_the_plant_options_reach_the_run_as_one_plant_spec():
     assert "plant ks+lat1+noise+cv+pm1 |" in res.output
     res = CliRunner().invoke(main, ["simulate", "--samples", "3", "--noise", "1,2"])
     assert res.exit_code == 1 and res.output.startswith("Error: --noise: noise = '1,2' is invalid")
+
+
+def test_a_plant_that_leaves_its_domain_stops_the_run_with_one_line(monkeypatch):
+    """A plant state that is no longer finite (the ``st`` integration once left the slip-angle mapping's domain on
+    car seeds 16 and 29): ``fcgen simulate`` says so in one line, exit 1, no traceback."""
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+
+    monkeypatch.setattr(CommonRoadPlant, "_f", lambda self, x, u: [math.nan] * len(x))
+    r = CliRunner().invoke(main, ["simulate", "--scenario", "car", "--plant", "st", "--samples", "3"])
+    assert r.exit_code == 1 and r.output.count("\n") == 1, r.output
+    assert r.output.startswith("Error: the run stopped: the st plant's state is not finite after a sample")

@@ -30,6 +30,7 @@ ROW_KEYS = (
     "road_bound",
     "controller",
     "traffic",
+    "prediction",
     "status",
     "refusal",
     "reason",
@@ -137,6 +138,7 @@ def run_cr_task(task: CrTask) -> dict:
         road_bound=pb.bounds.road_bound,
         controller=cfg.controller,
         traffic=task.traffic,
+        prediction=cfg.plant.prediction,
         status="refused",
         reason="",
     )
@@ -146,6 +148,8 @@ def run_cr_task(task: CrTask) -> dict:
         row["sha256"] = sha256_of(task.path)
         sc = load_for(pb, task.path)
         kw: dict[str, Any] = {"traffic": task.traffic, "criticality": task.criticality}
+        if cfg.plant.prediction != "oracle":  # the opponents predicted from their observed poses (sim.cr_prediction)
+            kw["plant"] = cfg.plant
         if cfg.controller == "c":
             solver, lock = _solver(lib)
             with lock:
@@ -292,11 +296,13 @@ def write_results(rows: list[dict], out: str | Path) -> Path:
     o = Path(out)
     o.mkdir(parents=True, exist_ok=True)
     df = pd.DataFrame(rows, columns=list(ROW_KEYS))
+    df["prediction"] = df["prediction"].fillna("oracle")  # rows made without one (as before the column)
     if (o / "commonroad.parquet").is_file():  # runs of other scenarios, configurations or traffic modes are kept
         old = pd.read_parquet(o / "commonroad.parquet")
-        key = ["scenario", "problem", "controller", "traffic"]
+        key = ["scenario", "problem", "controller", "traffic", "prediction"]
         old = old.reindex(columns=list(ROW_KEYS))
         old["traffic"] = old["traffic"].fillna("recorded")
+        old["prediction"] = old["prediction"].fillna("oracle")
         old["dataset"] = old["dataset"].fillna(old["scenario"].map(dataset_of))
         new_keys = set(map(tuple, df[key].astype(str).values))
         old = old[[tuple(k) not in new_keys for k in old[key].astype(str).values]]

@@ -39,8 +39,8 @@ def cr_tasks(
     return [CrTask(cfg, f, cache_dir, traffic, row, criticality) for cfg in configs for f, row in files]
 
 
-def done_keys(out: str | Path) -> set[tuple[str, str, str, str]]:
-    """The (scenario, problem, controller, traffic) of the runs already in ``out`` that are not run again."""
+def done_keys(out: str | Path) -> set[tuple[str, str, str, str, str]]:
+    """The (scenario, problem, controller, traffic, prediction) of the runs already in ``out`` not run again."""
     p = Path(out) / "commonroad.parquet"
     if not p.is_file():
         return set()
@@ -50,13 +50,15 @@ def done_keys(out: str | Path) -> set[tuple[str, str, str, str]]:
     df = pd.read_parquet(p)
     if "refusal" in df.columns:
         df = df[~df.refusal.isin(RETRIED)]
-    traffic = df.traffic.fillna("recorded") if "traffic" in df.columns else "recorded"
-    return set(zip(df.scenario, df.problem, df.controller, traffic, strict=True))
+    traffic = df.traffic.fillna("recorded") if "traffic" in df.columns else ["recorded"] * len(df)
+    pred = df.prediction.fillna("oracle") if "prediction" in df.columns else ["oracle"] * len(df)
+    return set(zip(df.scenario, df.problem, df.controller, traffic, pred, strict=True))
 
 
-def task_key(task: CrTask) -> tuple[str, str, str, str]:
-    """A task's key in the results (the row's scenario, problem, controller, traffic)."""
-    return (Path(task.path).stem, _problem_name(task.config), task.config.controller, task.traffic)
+def task_key(task: CrTask) -> tuple[str, str, str, str, str]:
+    """A task's key in the results (the row's scenario, problem, controller, traffic, prediction)."""
+    cfg = task.config
+    return (Path(task.path).stem, _problem_name(cfg), cfg.controller, task.traffic, cfg.plant.prediction)
 
 
 @functools.cache
@@ -109,7 +111,13 @@ def run_cr_campaign(
 
     keys = {task_key(t) for t in tasks}
     rows = pd.read_parquet(p).to_dict("records")
-    return [r for r in rows if (r["scenario"], r["problem"], r["controller"], r["traffic"]) in keys]
+    return [r for r in rows if (r["scenario"], r["problem"], r["controller"], r["traffic"], _pred(r)) in keys]
+
+
+def _pred(row: dict) -> str:
+    """A row's prediction (``oracle`` in rows written before the column)."""
+    p = row.get("prediction")
+    return p if isinstance(p, str) else "oracle"
 
 
 def failed_row(task: CrTask, error: str) -> dict:
@@ -122,6 +130,7 @@ def failed_row(task: CrTask, error: str) -> dict:
         problem=_problem_name(task.config),
         controller=task.config.controller,
         traffic=task.traffic,
+        prediction=task.config.plant.prediction,
         status="failed",
         refusal="error",
         reason=error,

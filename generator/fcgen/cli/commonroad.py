@@ -86,6 +86,8 @@ def simulate_commonroad(
         run = run_commonroad(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), traffic=traffic, plant=plant)
     except ScenarioRefused as exc:
         fail(f"refused: {exc}")
+    except FloatingPointError as exc:  # the plant left its domain (sim.plants.commonroad_vm): a status, not a trace
+        fail(f"the run stopped: {exc}")
     log = run.log
     click.echo(
         f"{pb.name} | CommonRoad {sc.name} ({sc.samples} samples, v_ref {sc.v_ref:.1f} m/s) | "

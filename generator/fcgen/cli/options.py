@@ -4,6 +4,7 @@ line of a closed loop."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any, NoReturn
 
 import click
@@ -209,7 +210,7 @@ def plant_options(f: Callable[..., Any]) -> Callable[..., Any]:
 def plant_spec(commonroad: bool = False, commonroad_plant: bool = False):
     """The ``PlantSpec`` of the running command's plant options; a bad value, a missing ``[plants]`` extra or
     perturbations with ``--commonroad`` (which runs fcgen's own plant; ``commonroad_plant``: the command runs the
-    plant options on a CommonRoad scenario, but not another prediction): one line, exit 1."""
+    plant options on a CommonRoad scenario; a campaign: only --prediction): one line, exit 1."""
     from ..dsl import ProblemError
     from ..sim.plants import PlantSpec, parse_noise
 
@@ -226,13 +227,10 @@ def plant_spec(commonroad: bool = False, commonroad_plant: bool = False):
         )
     except ProblemError as exc:
         fail(f"--{str(exc).split(' ', 1)[0].replace('_', '-')}: {exc}")
-    if commonroad and commonroad_plant and (spec.prediction != "oracle" or spec.prediction_margin):
-        fail("--commonroad predicts the opponents by the scenario (no --prediction, --prediction-margin)")
-    if commonroad and not commonroad_plant and not spec.is_default:
-        fail(
-            "--commonroad runs fcgen's own plant without perturbations "
-            "(no --plant, --latency, --steer-lag, --noise, --prediction)"
-        )
+    if commonroad and spec.prediction_margin:
+        fail("--prediction-margin is not for --commonroad (its margins follow the paper road's opponents)")
+    if commonroad and not commonroad_plant and not replace(spec, prediction="oracle").is_default:
+        fail("--commonroad runs fcgen's own plant without perturbations (no --plant, --latency, --steer-lag, --noise)")
     if spec.kind != "model" or spec.params == "matched":
         from ..extras import MissingExtra
         from ..sim.plants.commonroad_vm import vehicle_models

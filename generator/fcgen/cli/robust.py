@@ -43,9 +43,23 @@ def robustness_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def robust_configs(configs: list, spec, delay: int, seeds: int, samples: int, jobs: int, **robust) -> list:
+def _done(grid: list, seeds: range, samples: int, out: str, clock: str) -> set:
+    """The (config key, seed) pairs of the grid whose runs are already in the results folder ``out``."""
+    from pathlib import Path
+
+    from ..campaign.grid import Task
+    from ..campaign.store import ResultStore
+
+    if not Path(out).is_dir():
+        return set()
+    ids = ResultStore(out).done()
+    return {(c.key, s) for c in grid for s in seeds if Task(c, s, samples, "", clock).run_id in ids}
+
+
+def robust_configs(configs: list, spec, delay: int, seeds: range, samples: int, jobs: int, run: tuple, **robust):
     """``configs`` (no ``--robustness``) or the robustness grid over them; bad axes, plant options given beside
-    ``--robustness`` or an estimate above ``--budget`` without ``--yes``: one line, exit 1."""
+    ``--robustness`` or an estimate above ``--budget`` without ``--yes``: one line, exit 1. The estimate counts the
+    runs not yet in the results folder (``run``: its path and the clock)."""
     if not robust["robustness"]:
         return configs
     from ..campaign.robustness import AXES, estimated_minutes, robustness_grid
@@ -57,11 +71,14 @@ def robust_configs(configs: list, spec, delay: int, seeds: int, samples: int, jo
         grid = robustness_grid(configs, tuple(names(robust["axes"])))
     except ProblemError:
         fail(f"--axes: {robust['axes']!r} is invalid: allowed comma-separated of {', '.join(AXES)}")
-    est = estimated_minutes(grid, seeds, samples, jobs)
+    done = _done(grid, seeds, samples, *run)
+    left = len(grid) * len(seeds) - len(done)
+    est = estimated_minutes(grid, seeds, samples, jobs, done)
+    what = f"{len(grid)} configurations x {len(seeds)} seeds ({left} runs not yet in --out)"
     if est > robust["budget"] and not robust["yes"]:
         fail(
-            f"--robustness: {len(grid)} configurations x {seeds} seeds are estimated at {est:.0f} min on {jobs} "
-            f"jobs, above --budget {robust['budget']:g} min: pass --yes, or fewer --seeds, --axes or configurations"
+            f"--robustness: {what} are estimated at {est:.0f} min on {jobs} jobs, above --budget "
+            f"{robust['budget']:g} min: pass --yes, or fewer --seeds, --axes or configurations"
         )
-    click.echo(f"robustness grid: {len(grid)} configurations x {seeds} seeds, estimated {est:.1f} min on {jobs} jobs")
+    click.echo(f"robustness grid: {what}, estimated {est:.1f} min on {jobs} jobs")
     return grid

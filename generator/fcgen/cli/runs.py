@@ -144,7 +144,10 @@ def simulate(
     if cr_pp is not None or cr_solution or animate or traffic != "recorded":
         fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
-    log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
+    try:
+        log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
+    except FloatingPointError as exc:  # the plant left its domain (sim.plants.commonroad_vm): a status, not a trace
+        fail(f"the run stopped: {exc}")
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
     if not spec.is_default:
@@ -332,7 +335,8 @@ def campaign(
             profile,
             (spec, delay, road_bound or "rear_axle"),
         )
-    configs = robust_configs(configs, spec, delay, seeds, samples, jobs, **robust)  # --robustness: its grid
+    seed_range = range(first_seed, first_seed + seeds)
+    configs = robust_configs(configs, spec, delay, seed_range, samples, jobs, (out, clock), **robust)  # its grid
     grid_warnings = [f"{w.category.__name__}: {w.message}" for w in caught]
     check_folder_target(out, "a campaign results folder")
     check_folder_target(cache_dir, "the compiled solvers' cache", option="--cache")
@@ -353,7 +357,7 @@ def campaign(
         check_report_target(report_dir, force_report)
     _seeded_campaign(
         configs,
-        range(first_seed, first_seed + seeds),
+        seed_range,
         samples,
         cache_dir,
         clock,

@@ -83,6 +83,13 @@ class CrObstacle:
     centres: np.ndarray  # (steps, 3): x, y, orientation of the rectangle's centre
     last_velocity: float  # m/s along the last heading (the extrapolation's)
     dt: float
+    speeds: np.ndarray | None = None  # (steps,) the recorded speed at each step, NaN where not recorded
+
+    def speed_at(self, step: int) -> float:
+        """The recorded speed at ``step`` (what a radar reads); 0 where none is recorded."""
+        i = step - self.first_step
+        ok = self.speeds is not None and 0 <= i < len(self.speeds) and math.isfinite(float(self.speeds[i]))
+        return float(self.speeds[i]) if ok else 0.0  # type: ignore[index]
 
     def present(self, step: int) -> bool:
         """Recorded at ``step`` (a static obstacle: always)."""
@@ -134,8 +141,18 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
     v = getattr(states[-1], "velocity", None)
     if v is None:
         v = (float(np.hypot(*(centres[-1, :2] - centres[-2, :2]))) / dt) if len(states) > 1 else 0.0
+    speeds = np.array([math.nan if getattr(s, "velocity", None) is None else float(s.velocity) for s in states])
     return CrObstacle(
-        int(ob.obstacle_id), static, float(shape.length), float(shape.width), steps[0], steps[-1], centres, float(v), dt
+        int(ob.obstacle_id),
+        static,
+        float(shape.length),
+        float(shape.width),
+        steps[0],
+        steps[-1],
+        centres,
+        float(v),
+        dt,
+        speeds,
     )
 
 

@@ -184,13 +184,16 @@ def write_cr_report(results: str | Path, out_dir: str | Path, force: bool = Fals
 
 
 def with_defaults(df):
-    """The columns an older campaign's rows lack, filled: the traffic mode (recorded), the data set (from the
-    scenario's name), the refusal kind (other), the criticality columns (none)."""
+    """The columns an older campaign's rows lack, filled: the traffic mode (recorded; with a prediction its name
+    after it), the data set (from the scenario's name), the refusal kind (other), the criticality columns (none)."""
     from ..commonroad.catalog import dataset_of
 
     if "traffic" not in df.columns:
         df["traffic"] = "recorded"
     df["traffic"] = df["traffic"].fillna("recorded")
+    if "prediction" in df.columns:  # predicted traffic in rows of its own: "recorded, lane-following"
+        pred = df["prediction"].fillna("oracle")
+        df["traffic"] = df["traffic"].where(pred == "oracle", df["traffic"] + ", " + pred)
     if "dataset" not in df.columns:
         df["dataset"] = None
     df["dataset"] = df["dataset"].fillna(df["scenario"].map(dataset_of))

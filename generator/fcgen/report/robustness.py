@@ -56,6 +56,11 @@ def _cell_figures(g: pd.DataFrame) -> dict:
     }
 
 
+def _broken(f: dict) -> bool:
+    """A cell's figures miss the targets: a collision the ego caused, or the a_lat excess above ``A_LAT_SHARE``."""
+    return f["ego"] > 0 or (f["over05"] == f["over05"] and f["over05"] > A_LAT_SHARE)
+
+
 def section(df: pd.DataFrame) -> list[str]:
     """The markdown lines of the section; none for results without perturbed rows."""
     if "plant" not in df.columns or df["plant"].isna().all():
@@ -87,8 +92,7 @@ def section(df: pd.DataFrame) -> list[str]:
                 f"{f['progress']:.1f} | {100 * (f['progress'] / ref - 1):+.1f} % | {100 * f['solved']:.1f} % | "
                 f"{f['reactions']} | {f['guards']} |"
             )
-            broken = f["ego"] > 0 or (f["over05"] == f["over05"] and f["over05"] > A_LAT_SHARE)
-            if broken and axis not in first:
+            if _broken(f) and axis not in first:
                 first[axis] = mag
         breaks.append(f"- {base}: " + (", ".join(f"{a} at {m}" for a, m in first.items()) or "holds in every cell"))
     lines += [
@@ -98,8 +102,68 @@ def section(df: pd.DataFrame) -> list[str]:
         "",
         *breaks,
         "",
+        *envelope(df),
     ]
     return lines
+
+
+#: the envelope's rows: (label, axis, whether a magnitude belongs to the row); latency split by compensation
+ENVELOPE_ROWS = (
+    ("latency [samples], without compensation", "latency", lambda m: "+comp" not in m),
+    ("latency [samples], compensated", "latency", lambda m: "+comp" in m),
+    ("noise [x the default stds]", "noise", None),
+    ("steering lag [s]", "steer-lag", None),
+    ("prediction, the fixed margin", "prediction", lambda m: "+margin" not in m),
+    ("prediction, margins from its error", "prediction", lambda m: "+margin" in m),
+    ("plant", "plant", None),
+    ("combined, the fixed margin", "combined", lambda m: "+margin" not in m),
+    ("combined, margins from the prediction's error", "combined", lambda m: "+margin" in m),
+)
+
+
+def _why(f: dict) -> str:
+    parts = [f"{f['ego']} of {f['runs']} runs ego-caused"] if f["ego"] else []
+    if f["over05"] == f["over05"] and f["over05"] > A_LAT_SHARE:
+        parts.append(f"a_lat {100 * f['over05']:.2f} %")
+    return ", ".join(parts)
+
+
+def _breaking(df: pd.DataFrame, axis: str, mag: str) -> tuple[list[str], int]:
+    """The configurations that miss the targets in a cell (with why), and the fewest runs of a configuration there."""
+    g = df[(df["axis"] == axis) & (df["magnitude"] == mag)]
+    figs = {base: _cell_figures(gb) for base, gb in g.groupby("base", sort=True)}
+    return [f"{b} ({_why(f)})" for b, f in figs.items() if _broken(f)], min(f["runs"] for f in figs.values())
+
+
+def envelope(df: pd.DataFrame) -> list[str]:
+    """The recommended operating envelope: per axis the largest magnitude up to which every configuration holds the
+    targets at every magnitude measured, and the first where one misses them (which, and why). ``df`` split."""
+    lines = [
+        "### Recommended operating envelope",
+        "",
+        f"Per axis, the largest magnitude up to which every configuration measured holds the targets (no collision the "
+        f"ego causes, the plant's |a_lat| above bound + 0.5 in at most {100 * A_LAT_SHARE:g} % of the samples) at "
+        "that magnitude and every smaller one, and the first magnitude where one misses them.",
+        "",
+        "| axis | magnitudes measured | holds up to | first breaks at | configurations that break there | "
+        "fewest runs a configuration |",
+        "|---|---|---|---|---|---|",
+    ]
+    bad, _ = _breaking(df, "none", "0") if (df["axis"] == "none").any() else ([], 0)
+    if bad:
+        lines.append(f"| unperturbed | 0 | - | 0 | {'; '.join(bad)} | - |")
+    order = [(c.axis, c.magnitude) for c in cells()]
+    for label, axis, keep in ENVELOPE_ROWS:
+        present = set(zip(df["axis"], df["magnitude"]))
+        mags = [m for a, m in order if a == axis and (a, m) in present and (keep is None or keep(m))]
+        if not mags:
+            continue
+        found = [_breaking(df, axis, m) for m in mags]
+        k = next((i for i, (broken, _) in enumerate(found) if broken), None)
+        held = "-" if bad else ("0" if k == 0 else mags[(len(mags) if k is None else k) - 1])
+        first, who = ("-", "none") if k is None else (mags[k], "; ".join(found[k][0]))
+        lines.append(f"| {label} | {', '.join(mags)} | {held} | {first} | {who} | {min(n for _, n in found)} |")
+    return [*lines, ""]
 
 
 def _shares(g: pd.DataFrame) -> tuple[float, float]:

@@ -1,7 +1,7 @@
 """The plant of a CommonRoad run (``run_commonroad(plant=...)``): fcgen's own model, or what a ``PlantSpec`` names
 (``sim.plants``): a CommonRoad vehicle model (``--plant ks|st|std|mb``) and the perturbations between controller and
-plant (noise on the measured state, latency, steering lag). The opponents' futures stay the scenario's (its recordings
-or the reacting vehicles'): a spec with another prediction is refused."""
+plant (noise on the measured state, latency, steering lag). A spec's prediction is the loop's (``sim.cr_prediction``);
+its ``prediction_margin`` is refused."""
 
 from __future__ import annotations
 
@@ -19,11 +19,8 @@ class ScenarioPlant:
     spec, the state itself and fcgen's model (``Plant.step``), bit for bit."""
 
     def __init__(self, problem: Problem, spec: PlantSpec, model: Plant, x0: np.ndarray, road: Road):
-        if spec.prediction != "oracle" or spec.prediction_margin:
-            raise ValueError(
-                f"a CommonRoad run predicts the opponents by the scenario: prediction {spec.prediction!r} and "
-                "prediction_margin are not for --commonroad"
-            )
+        if spec.prediction_margin:
+            raise ValueError("prediction_margin is not for a CommonRoad run (its margins are the paper road's)")
         self.spec, self.model = spec, model
         self.act = Actuation(spec, 0, problem.horizon.dt)
         self.vm = None

@@ -36,6 +36,7 @@ from .closedloop import Controller, PlanLog, Plant, ReferenceController, dims, s
 from .commonroad_judge import driven, judge_drive
 from .commonroad_plant import ScenarioPlant
 from .commonroad_status import _plain, goal_line, goal_status, unsolved_status
+from .cr_prediction import seen_traffic
 from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 
@@ -259,9 +260,7 @@ def _drive(
     N, n_slots = problem.horizon.N, problem.opponents.count
     K = sc.samples if states is None else len(states) - 1
     loop = _Loop(np.zeros((K + 1, 5)), np.zeros((K, 2)), [], [], PlanLog(K, N, plan))
-    loop.xs[0] = sc.x0
-    if states is not None:
-        loop.xs[:] = states
+    loop.xs[:] = sc.x0 if states is None else states  # (a run's later states are the plant's)
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
     lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]), close_ahead=follow is not None)
     band = solver_band(problem, sc, lane.lanes, band_rule)
@@ -274,6 +273,7 @@ def _drive(
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
     half_l = problem.ego.l / 2
     goal = sc.planning_problem if states is None else None
+    seen = seen_traffic(plant.spec, sc)  # the obstacles as the solver sees them at a sample (``sim.cr_prediction``)
     for j in it:
         x = loop.xs[j]
         rx, ry, rphi = (float(v) for v in road.to_cartesian(x[0], x[1], x[2]))
@@ -301,7 +301,7 @@ def _drive(
             )
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
-        poses, shapes, ids = cr.opponent_horizon(sc, j, centre, n_slots, N, problem.horizon.offsets, ego_v)
+        poses, shapes, ids = cr.opponent_horizon(seen(sc, j), j, centre, n_slots, N, problem.horizon.offsets, ego_v)
         shapes_in.set(j, shapes)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
