@@ -111,6 +111,18 @@ def test_stop(kind):
     assert x == pytest.approx([6.0, 0.0, 0.0, 0.0, 0.0], abs=1e-9)
 
 
+@pytest.mark.parametrize("kind", ["ks", "st"])
+def test_standing_car_with_a_drive_force_below_the_resistance_stays(kind):
+    """v = 0 and a drive force of half the rolling resistance (no wind, no drag): the net force -c_roll / 2 would
+    take the car backwards at -c_roll / (2 m) per second; resistance only opposes motion, so it stands."""
+    pb = PB.with_(wind=Wind(v=0.0), ego=replace(PB.ego, c_air=0.0))
+    pl = CommonRoadPlant(pb, kind)
+    pl.reset([5.0, 0.5, 0.0, 0.0, 0.0], straight_road(200.0))
+    for _ in range(10):
+        x, _ = pl.step((0.5 * pb.ego.c_roll, 0.0))
+    assert x == pytest.approx([5.0, 0.5, 0.0, 0.0, 0.0], abs=1e-12)
+
+
 def _manoeuvre(substeps: int) -> np.ndarray:
     pl = CommonRoadPlant(PB, "st", substeps=substeps)
     pl.reset([0.0, 0.0, 0.0, 20.0, 0.0], straight_road(800.0))

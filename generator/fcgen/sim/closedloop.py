@@ -23,6 +23,7 @@ from .plants import PlantSpec
 from .prediction import opponent_horizon
 from .runlog import RunLog, make_meta
 from .scenario import OpponentParams, Scenario
+from .standstill import rolls_back, stopped
 
 WINDOW_BEHIND = 50.0  # m of road the solver's window keeps behind the ego (covers an opponent being overtaken)
 
@@ -177,9 +178,11 @@ class ReferenceController:
 
 class Plant:
     """``plant_function`` evaluated through a CasADi ``FunctionBuffer``: the same SX evaluation as ``plant(x, u, p)``
-    (bit for bit) without its per-call conversions to and from ``DM`` (~1 us instead of ~65 us a sample)."""
+    (bit for bit) without its per-call conversions to and from ``DM`` (~1 us instead of ~65 us a sample); a sample
+    that would take ``v >= 0`` below 0 stops the vehicle instead (``standstill``)."""
 
     def __init__(self, problem: Problem, samples: int):
+        self.problem, self.samples = problem, samples
         self.function = plant_function(problem, samples)
         self.road_params = RoadWindowParams(samples)
         self._x, self._u, self._p, self._out = np.zeros(5), np.zeros(2), np.zeros(self.road_params.size), np.zeros(5)
@@ -197,6 +200,8 @@ class Plant:
         self._u[:] = u
         self.road_params.pack_into(self._p, road, i0)
         self._eval()
+        if rolls_back(x, self._out):  # standstill: the vehicle stops, it does not roll backwards
+            return stopped(self.problem, self.samples, x, u, self._p, self._out)
         return self._out.copy()
 
     def road_stepper(self, road: Road):
@@ -207,7 +212,7 @@ class Plant:
         table = _window_table(road, K) if _frozen(road) else _build_window_table(road, K)
         n = len(table)
         xb, ub, pb, out, ev = self._x, self._u, self._p, self._out, self._eval
-        s0, ds, floor = road.s0, road.ds, math.floor
+        s0, ds, floor, pr = road.s0, road.ds, math.floor, self.problem
 
         def step(x: np.ndarray, u: np.ndarray) -> np.ndarray:
             i0 = int(floor((x.item(0) - s0) / ds)) - 1  # a float's arithmetic: the same as on x[0]
@@ -218,6 +223,8 @@ class Plant:
             else:
                 rp.pack_into(pb, road, i0)  # raises its ValueError
             ev()
+            if out.item(3) < 0.0 <= x.item(3):  # standstill (rolls_back): the vehicle stops, it does not roll back
+                return stopped(pr, K, x, u, pb, out)
             return out
 
         return step

@@ -138,9 +138,11 @@ class CommonRoadPlant:
         return [float(s), float(n), float(alpha), v, delta]
 
     def _inputs(self, x: list[float], u: tuple[float, float]) -> list[float]:
-        """fcgen's (F_d, r) -> the package's (steering velocity, longitudinal acceleration) at plant state x."""
+        """fcgen's (F_d, r) -> the package's (steering velocity, longitudinal acceleration) at plant state x (at v <= 0
+        not below 0: what would move the car backwards only holds it)."""
         _, _, psi, v, _ = self.rear_state(x)
-        return [u[1], mapping.drive_acceleration(u[0], v, psi, self.m, self.ego.c_air, self.c_roll, self.wind)]
+        a = mapping.drive_acceleration(u[0], v, psi, self.m, self.ego.c_air, self.c_roll, self.wind)
+        return [u[1], max(a, 0.0) if v <= 0.0 else a]  # a standing car: brakes and resistance hold it, no more
 
     def _f(self, x: list[float], u: tuple[float, float]) -> list[float]:
         return self._ode(list(x), self._inputs(x, u), self.p)
@@ -184,8 +186,9 @@ class CommonRoadPlant:
             k2 = f([a + h / 2 * b for a, b in zip(x, k1, strict=True)], u)
             k3 = f([a + h / 2 * b for a, b in zip(x, k2, strict=True)], u)
             k4 = f([a + h * b for a, b in zip(x, k3, strict=True)], u)
+            v0 = x[3]
             x = [a + h / 6 * (p + 2 * q + 2 * r + w) for a, p, q, r, w in zip(x, k1, k2, k3, k4, strict=True)]
-            if x[3] < 0.0 and u[0] <= 0.0:  # a brake stops the car, it does not drive it backwards
+            if x[3] < 0.0 <= v0:  # brakes and resistance stop the car, they do not drive it backwards
                 x[3] = 0.0
         if not all(math.isfinite(c) for c in x):
             raise FloatingPointError(f"the {self.kind} plant's state is not finite after a sample: {x}")
