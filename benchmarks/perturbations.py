@@ -40,6 +40,8 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     "st+lat1+comp1+noise+lag0.1": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
     # the same with solvers that model the steering lag (Problem.steer_lag = 0.1 s)
     "st+lat1+comp1+noise+lag0.1+lagc": (PlantSpec(kind="st", latency=1, noise=DEFAULT_NOISE, steer_lag=0.1), 1),
+    # all together with two samples of latency, compensated (with --only)
+    "st+lat2+comp2+noise+lag0.1+lagc": (PlantSpec(kind="st", latency=2, noise=DEFAULT_NOISE, steer_lag=0.1), 2),
     # the latency alone, on fcgen's own plant (these and the predictions below: with --only)
     "model+lat1": (PlantSpec(latency=1), 0),
     "model+lat2": (PlantSpec(latency=2), 0),
@@ -61,9 +63,9 @@ PERTURBATIONS: dict[str, tuple[PlantSpec, int]] = {
     ),
 }
 #: the labels whose solvers model the plant's steering lag (Problem.steer_lag)
-LAG_MODELLED = {"st+lat1+comp1+noise+lag0.1+lagc"}
+LAG_MODELLED = {"st+lat1+comp1+noise+lag0.1+lagc", "st+lat2+comp2+noise+lag0.1+lagc"}
 #: run by default (the others with --only)
-DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith(("model+", "worst+"))]
+DEFAULT_LABELS = [x for x in PERTURBATIONS if not x.startswith(("model+", "worst+", "st+lat2+comp2+noise"))]
 CONFIGS = [(sc, form) for sc in ("car", "truck") for form in ("direct_elimination", "lifted")]
 
 

@@ -35,21 +35,24 @@ def _small(
     profile: str = "paper",
     delay: int = 0,
     steer_lag: float = 0.0,
+    obstacle_margin: float = 0.0,
 ) -> GenerateInfo:
     """A short horizon (small tables: the analysis takes seconds); the code is the template's all the same.
     ``fine``: that many one-sample intervals, then intervals of three (the safe profile's unequal grid); ``profile``:
     the safe one adds code of its own (the curve reference, the a_lat guard); ``delay``, ``steer_lag``: the delay
-    compensation and the steering lag's model (code of their own too)."""
+    compensation and the steering lag's model (code of their own too); ``obstacle_margin``: init's margins."""
     p = paper_problem("car", formulation, obstacles, name=name, profile=profile)
     hz = dataclasses.replace(p.horizon, N=4)
     if fine is not None:
         hz = dataclasses.replace(hz, stride=3, fine=fine)
     p = dataclasses.replace(p, horizon=hz, qp=QpOptions(backend=backend), delay=delay, steer_lag=steer_lag)
+    p = dataclasses.replace(p, obstacle_margin=obstacle_margin)
     return generate(p, out, use_float=use_float)
 
 
 #: the analysed solvers: both backends, double and float; the IPM with (hyperplane) and without stage equalities (its
-#: code differs); the paper profile and the safe one, with the delay compensation and the steering lag's model too.
+#: code differs); the paper profile and the safe one, with the delay compensation, the steering lag's model and the
+#: margin init sets (the safe profile's under latency) too.
 #: One test per solver, so that the workers share the analysis.
 FOLDERS = {
     "sa_d": ("lifted", "ellipse", False, "osqp", None, "paper"),
@@ -58,7 +61,7 @@ FOLDERS = {
     "sa_if": ("conventional", "hyperplane", True, "ipm", None, "paper"),
     "sa_g": ("direct_elimination", "ellipse", True, "ipm", 2, "paper"),
     "sa_s": ("direct_elimination", "hyperplane", False, "ipm", None, "safe"),
-    "sa_sl": ("lifted", "ellipse", False, "ipm", None, "safe", 1, 0.1),
+    "sa_sl": ("lifted", "ellipse", False, "ipm", None, "safe", 1, 0.1, 1.5),
     "sa_sl0": ("lifted", "ellipse", True, "ipm", None, "safe", 0, 0.1),
 }
 

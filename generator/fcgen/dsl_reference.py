@@ -48,6 +48,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "a first-order steering actuator's time constant that the delay compensation's prediction and the a_lat "
         "guard's plant step model (the lag of the angle behind the commanded rates is kept in the workspace)",
     ),
+    ("Problem", "obstacle_margin"): (
+        "m",
+        "[0, 10]; 0: none",
+        "the obstacle margin of every stage from init on (set_obstacle_margins replaces it, reset keeps it): an "
+        "extra distance from every opponent (the safe profile's with a delay: presets.SAFE_DELAY_MARGIN)",
+    ),
     ("PlanCheck", "react_stages"): (
         "-",
         "integer in [0, 500]; 0: report only; 500: the whole horizon",

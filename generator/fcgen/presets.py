@@ -101,6 +101,18 @@ SAFE_PLAN_CHECK = PlanCheck(brake_memory=True, drive_rise=4.0)
 memory of the last drive force, braking (``brake_memory``) and the drive force's rise per sample (``drive_rise``,
 m/s^2 per sample; docs/safe_profile.md "The guard's memory of the last force")."""
 
+SAFE_DELAY_MARGIN = 1.5
+"""The safe profile's obstacle margin (m, ``Problem.obstacle_margin``) where its solver compensates a latency
+(``Problem.delay`` >= 1): with the delay, a single-track plant, noise and a 0.1 s steering lag the plant leaves its
+plan wide in the bends after an overtake, into the lane of the truck it passed; 0.5 and 1.0 m left ego-caused
+contacts on seeds 0-99, 1.5 m none (docs/plants.md "The margin under latency"). Without a delay: none."""
+
+
+def safe_delay_margin(profile: str, delay: int) -> float:
+    """The obstacle margin (m) of a profile's problem compensating ``delay`` samples (``SAFE_DELAY_MARGIN``)."""
+    return SAFE_DELAY_MARGIN if profile != "paper" and delay > 0 else 0.0
+
+
 SAFE_PLAN_CHECK_CONVENTIONAL = PlanCheck(a_lat_guard=False)
 """The safe profile's plan check for the conventional formulation: without the a_lat guard. Its a_lat rows are the
 dearer ones (3e8, ``SAFE_SOFT_CONVENTIONAL``), and its plans keep the bound on their own within 0.37 m/s^2 on the full

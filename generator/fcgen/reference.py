@@ -97,7 +97,7 @@ class RtiSolver(StageInputsMixin):
         self.opp_shape = self.ocp.default_shapes()  # (n_opp, n_opp_shape): set_opponent_shapes
         self.ref: tuple[np.ndarray, np.ndarray] | None = None  # (v_ref, n_ref) per node; None: the problem's
         self.ref_stages = False  # set by set_reference_stages (s_ref per stage), not set_reference (s0 + t_k v_ref)
-        self.margins = np.zeros(self.ocp.N + 1)  # set_obstacle_margins (fcgen.stage_inputs)
+        self.margins = np.full(self.ocp.N + 1, self.ocp.problem.obstacle_margin)  # set_obstacle_margins
         # conventional: the opponents' part of the stage parameters, fitted by prepare (private until it commits)
         self.opp_stage = np.zeros((self.ocp.N + 1, self.ocp.problem.opponents.count * self.ocp.n_opp_stage))
         self.x0: np.ndarray | None = None

@@ -8,7 +8,7 @@ from typing import Any
 
 from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
 from ..dsl.bounds import ROAD_BOUNDS
-from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp
+from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp, safe_delay_margin
 from ..sim.plants import PlantSpec
 
 #: the paper's obstacle models per scenario: EL, C5/C7 (trucks) or C1/C3 (cars), HP
@@ -85,7 +85,10 @@ class Config:
             pb = matched_problem(pb, "matched")
         if self.road_bound != "rear_axle":
             pb = pb.with_(bounds=replace(pb.bounds, road_bound=self.road_bound), name=f"{pb.name}_cb"[:31])
-        return pb.with_(delay=self.delay, name=f"{pb.name}_d{self.delay}"[:31]) if self.delay else pb
+        if not self.delay:
+            return pb
+        margin = safe_delay_margin(self.profile, self.delay)  # the safe profile's margin under latency
+        return pb.with_(delay=self.delay, obstacle_margin=margin, name=f"{pb.name}_d{self.delay}"[:31])
 
     def as_dict(self) -> dict:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,

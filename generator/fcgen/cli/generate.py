@@ -40,7 +40,15 @@ from .options import fail, force_option, names, out_dir_option
     help="model a first-order steering actuator of this time constant in the delay compensation and the a_lat "
     "guard (Problem.steer_lag, 0..2 s; default: the problem's own)",
 )
-def generate(problem_spec, out_dir, use_float, force, timeout, delay, steer_lag):
+@click.option(
+    "--obstacle-margin",
+    type=float,
+    default=None,
+    metavar="M",
+    help="keep M m more from every opponent at every stage from init on (Problem.obstacle_margin, 0..10 m; the "
+    "safe profile's under latency: 1.5; default: the problem's own)",
+)
+def generate(problem_spec, out_dir, use_float, force, timeout, delay, steer_lag, obstacle_margin):
     """Write the C solver of PROBLEM (a preset name or a Python file) into a self-contained folder."""
     from ..atomic import TimeLimit, check_folder_target, time_limit
     from ..codegen.generate import generate as gen
@@ -55,16 +63,16 @@ def generate(problem_spec, out_dir, use_float, force, timeout, delay, steer_lag)
             else "",
         ):
             pb = load_problem(problem_spec)
-            if delay is not None:
-                try:
-                    pb = pb.with_(delay=delay)
-                except ProblemError as exc:
-                    fail(f"--delay: {exc}")
-            if steer_lag is not None:
-                try:
-                    pb = pb.with_(steer_lag=steer_lag)
-                except ProblemError as exc:
-                    fail(f"--steer-lag: {exc}")
+            for flag, key, value in (
+                ("--delay", "delay", delay),
+                ("--steer-lag", "steer_lag", steer_lag),
+                ("--obstacle-margin", "obstacle_margin", obstacle_margin),
+            ):
+                if value is not None:
+                    try:
+                        pb = pb.with_(**{key: value})
+                    except ProblemError as exc:
+                        fail(f"{flag}: {exc}")
             info = gen(pb, out_dir, use_float=use_float, force=force)
     except TimeLimit as exc:
         fail(str(exc))

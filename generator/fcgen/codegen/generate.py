@@ -425,6 +425,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "ref_time_i": f"(({name}_real_t)i * DT)" if ocp.p_dt is None else "STAGES[i].t",
         "margin_terms": [(i, c_real(f)) for i, f in margin_terms(ocp)],
         "margin_doc": margin_meaning(ocp),
+        "init_margin": c_real(problem.obstacle_margin) if problem.obstacle_margin else None,  # init's margins
         "shift_vars": shift_statement("ws.w_tmp", "ws.w", "VAR_SHIFT", lay.shift_fraction, lay.shift_split_var, name),
         "shift_duals": shift_statement("ws.y", "ws.y", "ROW_SHIFT", lay.shift_fraction, lay.shift_split_row, name),
         "max_iter": warm_max_iter(problem.qp),

@@ -26,6 +26,8 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
 MAX_DELAY = 8
 #: the largest ``Problem.steer_lag`` (s), the closed loop's steering actuator's
 MAX_STEER_LAG = 2.0
+#: the largest ``Problem.obstacle_margin`` (m): ``set_obstacle_margins``' range (``contract.INPUT_RANGES.margin_max``)
+MAX_OBSTACLE_MARGIN = 10.0
 
 
 @known_fields
@@ -53,6 +55,9 @@ class Problem:
     #: s, the time constant of a first-order steering actuator that the delay compensation's prediction and the a_lat
     #: guard's plant step model (docs/plants.md); 0: none
     steer_lag: float = field(default=0.0, metadata={"omit_default": True})
+    #: m, the obstacle margin of every stage from ``init`` on (``set_obstacle_margins`` replaces it; reset keeps the
+    #: margins): an extra distance from every opponent for a vehicle that leaves its plan (docs/plants.md); 0: none
+    obstacle_margin: float = field(default=0.0, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -138,6 +143,15 @@ class Problem:
             "steer_lag",
             self.steer_lag,
             f"[0, {MAX_STEER_LAG:g}] s (0: no steering lag)",
+        )
+        check(
+            isinstance(self.obstacle_margin, (int, float))
+            and not isinstance(self.obstacle_margin, bool)
+            and math.isfinite(self.obstacle_margin)
+            and 0.0 <= self.obstacle_margin <= MAX_OBSTACLE_MARGIN,
+            "obstacle_margin",
+            self.obstacle_margin,
+            f"[0, {MAX_OBSTACLE_MARGIN:g}] m (0: none)",
         )
         reach = self.bounds.v_max * self.horizon.length
         check(

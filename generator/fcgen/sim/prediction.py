@@ -115,8 +115,8 @@ class PredictedOpponents:
 def opponent_horizon(problem, sc, spec, opp_params, controller=None) -> Callable[[int], np.ndarray]:
     """What the solver is given at each sample: ``opp_params.horizon`` (``oracle``) or the prediction of
     ``spec.prediction`` from the observed poses (with the measured state's noise on s, n, alpha as x, y, phi). With
-    ``spec.prediction_margin`` it also sets ``controller``'s obstacle margins of that sample (``MARGIN_RULE``) each
-    time a sample's prediction is asked for (just before its solve)."""
+    ``spec.prediction_margin`` it also sets ``controller``'s obstacle margins of that sample (``MARGIN_RULE``, plus
+    ``Problem.obstacle_margin``) each time a sample's prediction is asked for (just before its solve)."""
     if spec.prediction == "oracle":
         return opp_params.horizon
     pred = PredictedOpponents(
@@ -132,8 +132,9 @@ def opponent_horizon(problem, sc, spec, opp_params, controller=None) -> Callable
     if not spec.prediction_margin or controller is None:
         return pred.horizon
 
-    def horizon(i: int) -> np.ndarray:
-        rc = controller.set_obstacle_margins(pred.margins(i, spec.prediction_margin))
+    def horizon(i: int) -> np.ndarray:  # on top of the problem's own margin (Problem.obstacle_margin), which it sets
+        m = np.minimum(pred.margins(i, spec.prediction_margin) + problem.obstacle_margin, INPUT_RANGES.margin_max)
+        rc = controller.set_obstacle_margins(m)
         if rc != 0:
             raise RuntimeError(f"set_obstacle_margins refused the prediction's margins (exit code {rc})")
         return pred.horizon(i)
