@@ -81,3 +81,31 @@ def test_the_measures_do_not_depend_on_the_road_s_heading(tmp_path):
         assert turned["series"]["ttc_ahead"][j] == pytest.approx((gap_ahead - 0.5 * j) / 5.0, abs=0.006)
     # THW's resolution is one step: the turned coordinates' rounding may move the crossing by one
     assert turned["series"]["thw_ahead"][0] == pytest.approx(gap_ahead / 20.0, abs=sc.dt + 1e-9)
+
+
+def test_a_vehicle_ahead_at_a_constant_gap_reads_no_closing_where_the_lane_s_orientation_crosses_0(tmp_path):
+    """A left bend (radius 2000 m) turned so that its lanes head along x at s = 200 m (orientation -0.1 .. +0.1 rad):
+    the ego (its initial heading 1 degree left of its lane's) and a vehicle 30 m ahead in its lane at 5 m/s each, a
+    constant gap. By hand the TTC is infinite; CriMe's cosines of the lane's orientations at the two (0.015 rad apart on
+    the bend) make a closing of a few mm/s: a TTC of thousands of seconds. Turned so that the ego's initial heading is
+    along x, the lane's orientation crossed CriMe's wrap at 0 where the vehicle ahead drove: 4.0 s (docstring)."""
+    from commonroad.common.file_reader import CommonRoadFileReader
+    from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
+
+    radius, s_ego, v, turn = 2000.0, 150.0, 5.0, -200.0 / 2000.0
+    ahead = (1, 1, s_ego + 30.0, v, 60, 4.0, 1.8)
+    path = write_scenario(tmp_path / "bend.xml", radius=radius, ego_x=s_ego, ego_v=v, obstacles=[ahead])
+    scenario, pps = CommonRoadFileReader(str(path)).open()
+    scenario.translate_rotate(np.zeros(2), turn)
+    pps.translate_rotate(np.zeros(2), turn)
+    CommonRoadFileWriter(scenario, pps).write_to_file(str(tmp_path / "turned.xml"), OverwriteExistingFile.ALWAYS)
+    sc = load_for(PB, tmp_path / "turned.xml")
+    th = (s_ego + v * sc.dt * np.arange(K + 1)) / radius
+    x, y = radius * np.sin(th), radius * (1.0 - np.cos(th))
+    c, s = math.cos(turn), math.sin(turn)
+    centres = np.stack([c * x - s * y, s * x + c * y, th + turn], axis=1)
+    centres[0, 2] += math.radians(1.0)
+    out = criticality(sc, centres, np.full(K + 1, v), CAR.l_ch, CAR.w_ch)
+    assert out["error"] == ""
+    ttc = out["series"]["ttc_ahead"]
+    assert all(t is not None and t > 100.0 for t in ttc), ttc  # measured at every sample, no closing

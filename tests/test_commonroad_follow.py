@@ -9,7 +9,7 @@ import pytest
 from crscenes import LANE, write_scenario
 
 from fcgen.campaign.commonroad import load_for
-from fcgen.commonroad.follow import Following, follow_speed, profile_following, vehicle_ahead
+from fcgen.commonroad.follow import Following, LeadRows, follow_speed, profile_following, vehicle_ahead
 from fcgen.commonroad.lanes import T_CLOSE, T_GAP, Traffic, gap_free, target_lane
 from fcgen.presets import preset
 
@@ -58,7 +58,8 @@ def test_the_follow_speed_never_asks_for_a_time_to_collision_below_t_close():
 
 
 def test_bad_parameters_are_refused():
-    for kw in ({"t_gap": 0.0}, {"s0": -1.0}, {"t_close": float("nan")}):
+    bad = ({"t_gap": 0.0}, {"s0": -1.0}, {"t_close": float("nan")}, {"t_row": -1.0}, {"row_step": 0.0})
+    for kw in (*bad, {"b_release": float("inf")}):
         with pytest.raises(ValueError, match=f"Following.{next(iter(kw))}"):
             Following(**kw)
 
@@ -82,6 +83,50 @@ def test_the_vehicle_ahead_in_the_corridor(tmp_path):
     assert (gap, v, i) == (pytest.approx(10.0 - (5.0 + L) / 2, abs=1e-6), 15.0, 1)
     assert follow_speed(Following(), tr, s, (0.0,), L) == pytest.approx(Following().speed(30.0 - (4.0 + L) / 2, 10.0))
     assert vehicle_ahead(tr, _s(sc, 90.0), (0.0,), L) is None
+
+
+def test_the_leader_s_lengthening_by_hand():
+    """t_row 1.5 s, rounded up to 0.5 m: closing at 5 m/s 7.5 m; at 3.1 m/s 4.65 -> 5 m; not closing in, none, or
+    what is held; at most the gap less 1 m rounded down (9.9 m: 8.5 m)."""
+    f = Following()
+    assert (f.t_row, f.row_step, f.b_release, f.row_gap) == (1.5, 0.5, 2.0, 1.0)
+    assert f.extension(20.0, 15.0, 30.0) == pytest.approx(7.5, abs=1e-12)
+    assert f.extension(20.0, 16.9, 30.0) == pytest.approx(5.0, abs=1e-12)
+    assert f.extension(10.0, 10.0, 30.0) == 0.0
+    assert f.extension(10.0, 12.0, 30.0) == 0.0
+    assert f.extension(10.0, 12.0, 30.0, held=6.1) == pytest.approx(6.5, abs=1e-12)
+    assert f.extension(20.0, 10.0, 9.9) == pytest.approx(8.5, abs=1e-12)
+    assert f.extension(20.0, 10.0, 0.5) == 0.0
+
+
+def test_the_leader_s_rectangle_lengthened_backwards(tmp_path):
+    """The ego's centre at x = 50 in the middle lane at 20 m/s; in the slots a 5 m car in the left lane at x = 60, a
+    4 m car ahead in the ego's lane at x = 80 (both 10 m/s, 26 m ahead bumper to bumper): the second slot's rectangle
+    1.5 x 10 = 15 m longer, its centre 7.5 m back (the front where it is); the left lane's car as it is. Then at 12 m/s
+    the lengthening shrinks by 1.5 x 2 x 0.1 = 0.3 m a sample (15 -> 14.7 -> 14.4 ..., rounded up to 0.5 m) down to
+    1.5 x 2 = 3 m; at the car's speed it is gone at once; without the car ahead in the slots, nothing is held."""
+    cars = [(11, 1, 80.0, 10.0, 20, 4.0, 1.8), (12, 2, 60.0, 10.0, 20, 5.0, 1.8)]
+    sc = load_for(SAFE, write_scenario(tmp_path / "l.xml", obstacles=cars))
+    shapes = np.array([(5.0, 1.8, 0.0), (4.0, 1.8, 0.0), (1.0, 1.0, 0.0)])
+    x = np.array([_s(sc, 50.0) - SAFE.ego.l / 2, 0.0, 0.0, 20.0, 0.0])  # the rear axle's state: the centre at 50
+    rows = LeadRows(Following(), sc.dt)
+    out = rows.shapes(sc, 0, (12, 11, None), shapes, SAFE.ego, x)
+    assert out[1] == pytest.approx([4.0 + 15.0, 1.8, -7.5], abs=1e-9)
+    assert out[0] == pytest.approx(shapes[0]) and out[2] == pytest.approx(shapes[2])
+    assert shapes[1] == pytest.approx([4.0, 1.8, 0.0])  # the caller's array untouched
+    x[3] = 12.0
+    lengths = [rows.shapes(sc, 0, (12, 11, None), shapes, SAFE.ego, x)[1, 0] - 4.0 for _ in range(50)]
+    assert lengths[:4] == pytest.approx([15.0, 14.5, 14.5, 14.0], abs=1e-9)
+    assert np.all(np.diff(lengths) <= 0.0) and lengths[-1] == pytest.approx(3.0, abs=1e-9)
+    x[3] = 10.0
+    assert rows.shapes(sc, 0, (12, 11, None), shapes, SAFE.ego, x) is shapes and rows.samples == 51
+    rows = LeadRows(Following(), sc.dt)
+    x[3] = 20.0
+    rows.shapes(sc, 0, (12, 11, None), shapes, SAFE.ego, x)
+    assert rows.shapes(sc, 0, (12, None, None), shapes, SAFE.ego, x) is shapes
+    x[3] = 12.0
+    out = rows.shapes(sc, 0, (12, 11, None), shapes, SAFE.ego, x)  # the lead changed: nothing held
+    assert out[1, 0] == pytest.approx(4.0 + 3.0, abs=1e-9)
 
 
 def test_the_safe_lane_rule_asks_for_room_ahead_of_a_slower_car(tmp_path):
@@ -129,6 +174,7 @@ def test_the_safe_profile_follows_a_slower_car_in_a_closed_loop(tmp_path):
     gap, ttc, follow, hit = out["safe"]
     assert not hit
     assert follow["samples"] > 0 and follow["t_close"] == 2.0
+    assert follow["lead"] > 0  # closing in from 20 m/s: the car's rectangle lengthened
     assert gap[-1] == pytest.approx(12.0, abs=2.0)
     assert ttc.min() >= 1.5
     gap, ttc, follow, _ = out["paper"]

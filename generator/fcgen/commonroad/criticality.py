@@ -21,12 +21,20 @@ Per run (tested in tests/test_commonroad_criticality.py on a constructed two-veh
 Not an extra: ``commonroad-crime`` needs ``commonroad-clcs``, which pins ``osqp~=0.6.5`` against ``osqp==1.1.3``;
 scripts/setup.sh installs both without their declared dependencies. Where it is missing, ``error`` says so.
 
-**Along x** (``logged_scenario``): CriMe's headway in its TTC (``HW``) moves a position by half the vehicle's length
-on x and on y alike (``position + length / 2``), which is along the road only for a road along x; on the US-101
-scenarios, heading about -45 degrees, that shift is across the road and the TTC's gap is centre to centre (about
-4.7 m too long for two cars). CriMe gets the logged scenario rotated so that the ego's initial heading is along x
-(the measures do not depend on the frame otherwise; the lanelets' spatial index is rebuilt, commonroad-io's rotation
-keeps the old one); tested on the constructed scenario turned by 45 degrees.
+**The frame** (``logged_scenario``, ``turn_for_crime``): CriMe's TTC takes the speeds along the lane as the speeds
+times the cosine of the lanelet's orientation in the scenario's frame (``cos(orientation)``, not of the angle between
+vehicle and lane), and its headway (``HW``) moves a position by half the vehicle's length on x and on y alike
+(``position + length / 2``): both are right only for a lane heading along x. And CriMe keeps the lanelets'
+orientations in [0, 2 pi) and interpolates them linearly along a lanelet (``get_orientation_point``, whose own comment
+names the problem): where a lanelet's orientation crosses 0 it reads about pi between the two vertices, a vehicle
+there drives backwards, and a vehicle ahead at a constant gap seems to close in at twice its speed (US101-6_3: 0.35 s
+where gap and speeds give 3.6 s). CriMe gets the logged scenario turned so that the lanelets the vehicles drive on
+(the ego's, the others' at their states) head along x but all above 0: their smallest orientation as CriMe computes it
+(its smoothing, ``crime_orientations``) at ``MARGIN`` rad. The cost is the lanes' spread of orientations ``theta``
+(0.00-0.06 rad on US-101): a headway longer by at most (l_1 + l_2) / 2 (cos theta + sin theta - 1) and speeds along
+the lane smaller by the factor cos theta. The lanelets' spatial index is rebuilt (commonroad-io's rotation keeps the
+old one). Tested on a constructed road turned by 45 degrees, and on a bend whose orientation crosses 0 with a vehicle
+ahead at a constant gap (no closing).
 
 The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
 the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values; a
@@ -46,6 +54,8 @@ import numpy as np
 from ..extras import require
 from .lanes import SAME_LANE
 
+MARGIN = 0.002  # rad: the smallest lanelet orientation CriMe gets (above its wrap at 0)
+SAME_DIRECTION = math.pi / 2  # rad: a lanelet turned further from the ego's heading is not the ego's direction
 REACH = 120.0  # m: vehicles farther from the ego's centre are not asked
 LATERAL = SAME_LANE  # m across the road: a centre farther to the side is in another lane (commonroad.lanes)
 MEASURES = ("ttc_ahead", "ttc_behind", "thw_ahead", "thw_behind")
@@ -84,9 +94,47 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     traj = [state(CustomState, j) for j in range(1, len(centres))]
     pred = TrajectoryPrediction(Trajectory(sc.first_step + 1, traj), shape) if traj else None
     out.add_objects(DynamicObstacle(ego_id, ObstacleType.CAR, shape, init, pred))
-    out.translate_rotate(np.zeros(2), -float(centres[0, 2]))  # the ego's initial heading along x (module docstring)
+    out.translate_rotate(np.zeros(2), -float(centres[0, 2]))  # first the ego's initial heading along x
     out.replace_lanelet_network(LaneletNetwork.create_from_lanelet_network(out.lanelet_network))  # index rebuilt
+    turn = turn_for_crime(out)  # then the driven lanelets above CriMe's wrap at 0 (module docstring)
+    if turn:
+        out.translate_rotate(np.zeros(2), turn)
+        out.replace_lanelet_network(LaneletNetwork.create_from_lanelet_network(out.lanelet_network))
     return out, ego_id
+
+
+def crime_orientations(lanelet) -> np.ndarray:
+    """A lanelet's orientations along its centre line as CriMe computes them (its smoothing, else the vertices;
+    ``commonroad_crime.utility.solver.compute_lanelet_width_orientation``), in (-pi, pi]."""
+    with require("commonroad", "the criticality measures (commonroad-crime)"):
+        from commonroad_clcs.util import compute_orientation_from_polyline  # type: ignore[import-untyped]
+        from commonroad_crime.utility.solver import smoothing_reference_path
+
+    try:
+        centre = smoothing_reference_path(lanelet.center_vertices, 5, 15)
+    except (TypeError, ValueError):
+        centre = lanelet.center_vertices
+    return np.angle(np.exp(1j * np.asarray(compute_orientation_from_polyline(centre), dtype=float)))
+
+
+def driven_lanelets(scenario) -> set[int]:
+    """The ids of the lanelets under a vehicle of ``scenario`` at one of its states."""
+    pts = []
+    for ob in scenario.dynamic_obstacles:
+        states = [ob.initial_state, *([] if ob.prediction is None else ob.prediction.trajectory.state_list)]
+        pts += [np.asarray(st.position, dtype=float) for st in states]
+    found = scenario.lanelet_network.find_lanelet_by_position(pts) if pts else []
+    return {int(i) for ids in found for i in ids}
+
+
+def turn_for_crime(scenario) -> float:
+    """The rotation (rad) after which the lanelets the vehicles drive on that head within ``SAME_DIRECTION`` of x
+    have their smallest orientation (``crime_orientations``) at ``MARGIN``; 0 without such a lanelet."""
+    net = scenario.lanelet_network
+    per = [crime_orientations(net.find_lanelet_by_id(i)) for i in sorted(driven_lanelets(scenario))]
+    o = np.concatenate(per) if per else np.zeros(0)
+    o = o[np.abs(o) < SAME_DIRECTION]
+    return float(MARGIN - np.min(o)) if len(o) else 0.0
 
 
 def candidates(sc, centres: np.ndarray, j: int) -> dict[int, bool]:

@@ -19,7 +19,6 @@ what it is: where the scenario's band is wider, the solver gets it cut to that (
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -41,7 +40,7 @@ from .plants import PlantSpec
 from .runlog import RunLog, make_meta
 
 if TYPE_CHECKING:
-    from ..commonroad.follow import Following
+    from ..commonroad.follow import Following, LeadRows
 
 __all__ = ["CommonRoadRun", "goal_line", "goal_status", "run_commonroad", "scenario_road", "unsolved_status"]
 
@@ -159,7 +158,7 @@ def run_commonroad(
     spec = plant or PlantSpec()
     world_plant = ScenarioPlant(problem, spec, model, sc.x0, road)
     world = ReactiveTraffic(sc, problem.ego.l_ch) if check_traffic(traffic) == "reactive" else None
-    from ..commonroad.follow import profile_following
+    from ..commonroad.follow import follow_log, profile_following
 
     rule = profile_following(problem) if isinstance(follow, str) and follow == "profile" else follow
     if isinstance(rule, str):
@@ -181,7 +180,7 @@ def run_commonroad(
             "lane_changes": loop.lane_changes,
             "band_cut": cut,
             "band": {"rule": band, "way_back_samples": loop.way_back},
-            "follow": None if rule is None else {**dataclasses.asdict(rule), "samples": loop.followed},
+            "follow": follow_log(rule, loop.followed, loop.lead_rows),
             "obstacle_ids": [int(ob.id) for ob in sc.obstacles],
             "slots": loop.slot_ids,
             "checker": _plain(checker),
@@ -227,6 +226,7 @@ class _Loop:
     way_back: list = field(default_factory=list)  # the samples whose band the way back widened (commonroad.band)
     v_refs: list = field(default_factory=list)  # the reference speed per sample (commonroad.goal.speed_now)
     followed: int = 0  # the samples whose reference speed the vehicle ahead capped (commonroad.follow)
+    lead_rows: LeadRows | None = None  # the leader's rectangle lengthened by the closing speed (commonroad.follow)
 
     def end_at(self, j: int) -> None:
         """End the run at sample ``j`` (its state the last): ``j`` controls, ``j + 1`` states."""
@@ -267,7 +267,7 @@ def _drive(
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
     ramp: tuple[float, int, float] | None = None  # a lane change under way: (stage 0's n_ref, its sample, duration)
     change = CHANGE_TIME if change_time is None else change_time
-    shapes_in = _SlotShapes(problem, sc, controller)
+    shapes_in = _SlotShapes(problem, sc, controller, follow, loop)
     it: Iterable[int] = range(K)
     if progress:
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
@@ -302,7 +302,7 @@ def _drive(
         loop.v_refs.append(float(v_ref))
         ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
         poses, shapes, ids = cr.opponent_horizon(seen(sc, j), j, centre, n_slots, N, problem.horizon.offsets, ego_v)
-        shapes_in.set(j, shapes)
+        shapes_in.set(j, shapes, sc, ids, x)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
         win = solver_window(problem, road, xm)
@@ -394,15 +394,24 @@ def _goal_near(sc, problem: Problem, x: np.ndarray, half_l: float) -> bool:
 
 class _SlotShapes:
     """The opponent slots' shapes as the controller has them: ``set_opponent_shapes`` only when an occupant's
-    (length, width, offset) changes, each shape's values computed once."""
+    (length, width, offset) changes, each shape's values computed once; with ``follow`` the leader's lengthened
+    (``commonroad.follow.LeadRows``, kept in ``loop.lead_rows``)."""
 
-    def __init__(self, problem: Problem, sc, controller: ScenarioController):
+    def __init__(self, problem: Problem, sc, controller: ScenarioController, follow=None, loop=None):
+        from ..commonroad.follow import LeadRows
+
         self.problem, self.sc, self.controller = problem, sc, controller
         self.cache: dict[tuple, np.ndarray] = {}
         self.now: tuple | None = None
+        self.rows = None if follow is None else LeadRows(follow, problem.horizon.dt)
+        if loop is not None:
+            loop.lead_rows = self.rows
 
-    def set(self, j: int, shapes) -> None:
-        """Give the controller the slots' (length, width, offset) of sample ``j`` if they changed."""
+    def set(self, j: int, shapes, sc=None, ids=(), x=None) -> None:
+        """Give the controller the slots' (length, width, offset) of sample ``j`` if they changed (the leader's
+        lengthened: ``sc`` as driven at ``j``, the slots' obstacle ids ``ids``, the ego's state ``x``)."""
+        if self.rows is not None and sc is not None:
+            shapes = self.rows.shapes(sc, sc.first_step + j, ids, shapes, self.problem.ego, x)
         key = tuple(map(tuple, np.asarray(shapes, dtype=float)))
         if key == self.now:
             return
