@@ -20,6 +20,7 @@ from fcgen.presets import paper_problem
 from fcgen.road import Road, RoadWindowParams, random_road
 from fcgen.sim.closedloop import Plant, plant_function
 from fcgen.sim.scenario import OpponentParams, make_scenario, realistic_road
+from fcgen.sim.standstill import rolls_back
 
 
 def _bits(a) -> bytes:
@@ -33,6 +34,7 @@ def test_plant_buffer_equals_the_casadi_call_bit_for_bit(scenario):
     f, rp, plant = plant_function(pb, samples), RoadWindowParams(samples), Plant(pb, samples)
     rng = np.random.default_rng(7)
     road = random_road(3, length=400.0, s0=-50.0)
+    stood = 0
     for k in range(300):
         s = rng.uniform(-40.0, 300.0) if k % 10 else road.s0 + road.ds * rng.integers(5, 150)  # on a grid point too
         x = np.array([s, rng.uniform(-6, 6), rng.uniform(-0.5, 0.5), rng.uniform(0.0, 40.0), rng.uniform(-0.4, 0.4)])
@@ -40,7 +42,12 @@ def test_plant_buffer_equals_the_casadi_call_bit_for_bit(scenario):
         i0 = math.floor((x[0] - road.s0) / road.ds) - 1
         want = np.array(f(x, u, rp.pack(road, i0))).ravel()
         got = plant.step(x, u, road)
+        if rolls_back(x, want):  # the plant stands instead (tests/test_plant_standstill.py): v = 0, delta as the call
+            stood += 1
+            assert got[3] == 0.0 and _bits(got[4]) == _bits(want[4]), (k, got, want)
+            continue
         assert _bits(got) == _bits(want), (k, got - want)
+    assert 0 < stood < 30  # the draws reach the standstill a few times; every other draw is the call bit for bit
     assert got is not plant.step(x, u, road)  # a fresh array each call (the log keeps them)
     assert plant_function(pb, samples) is f  # built once per problem and window size
 
