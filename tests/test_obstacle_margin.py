@@ -8,6 +8,7 @@ import shutil
 
 import numpy as np
 import pytest
+from one_opponent import one_opponent, window_road
 
 from fcgen.build import build
 from fcgen.campaign.grid import Config
@@ -18,7 +19,6 @@ from fcgen.dsl import ProblemError
 from fcgen.ocp import build_ocp
 from fcgen.presets import SAFE_DELAY_MARGIN, preset, safe_delay_margin
 from fcgen.reference import RtiSolver
-from fcgen.road import straight_road
 from fcgen.sim.plants import PlantSpec
 
 SAFE_EL = preset("car_lifted_ellipse_ipm_safe")
@@ -26,24 +26,10 @@ M = 0.4
 X0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
 
 
-def _opp(pb) -> np.ndarray:
-    """One opponent 40 m ahead, 0.5 m left, at 5 m/s; the others far away."""
-    N = pb.horizon.N
-    opp = np.zeros((N + 1, pb.opponents.count, 3))
-    opp[..., 0], opp[..., 1] = -1000.0, 500.0
-    opp[:, 0, 0] = 40.0 + 5.0 * np.arange(N + 1) * pb.horizon.interval
-    opp[:, 0, 1] = 0.5
-    return opp
-
-
-def _road(pb):
-    return straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
-
-
 def _prepared(pb, margins=None) -> RtiSolver:
     sv = RtiSolver(build_ocp(pb))
-    sv.set_road(_road(pb))
-    sv.set_opponents(_opp(pb))
+    sv.set_road(window_road(pb))
+    sv.set_opponents(one_opponent(pb))
     if margins is not None:
         sv.set_obstacle_margins(margins)
     sv.set_state(X0)
@@ -78,14 +64,14 @@ def test_the_c_starts_with_the_margin_and_reset_keeps_it(tmp_path):
     pb = SAFE_EL.with_(obstacle_margin=M, name="car_margin")
     cs = CSolver(build(generate(pb, tmp_path / "s").out_dir, verify=True))
     ref_m, ref_0 = _prepared(SAFE_EL, margins=np.full(41, M)), _prepared(SAFE_EL)
-    assert cs.init() == 0 and cs.set_road(_road(pb)) == 0 and cs.set_opponents(_opp(pb)) == 0
+    assert cs.init() == 0 and cs.set_road(window_road(pb)) == 0 and cs.set_opponents(one_opponent(pb)) == 0
     assert cs.set_state(X0) == 0 and cs.prepare() == 0
     np.testing.assert_array_equal(cs.get_opp_params(), ref_m.P[:, ref_m.ocp.p_opp])
     cs.reset()
     np.testing.assert_array_equal(cs.get_opp_params(), ref_m.P[:, ref_m.ocp.p_opp])
     assert cs.set_obstacle_margins(np.zeros(41)) == 0
     np.testing.assert_array_equal(cs.get_opp_params(), ref_0.P[:, ref_0.ocp.p_opp])
-    assert cs.init() == 0 and cs.set_opponents(_opp(pb)) == 0  # init restores the problem's margin
+    assert cs.init() == 0 and cs.set_opponents(one_opponent(pb)) == 0  # init restores the problem's margin
     np.testing.assert_array_equal(cs.get_opp_params(), ref_m.P[:, ref_m.ocp.p_opp])
 
 

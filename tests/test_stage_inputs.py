@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from one_opponent import one_opponent, window_road
 
 from fcgen import obstacles as obs
 from fcgen.build import build
@@ -19,7 +20,6 @@ from fcgen.dsl import Opponents
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reference import RtiSolver, SolverError
-from fcgen.road import straight_road
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -28,20 +28,6 @@ PAPER_CC = preset("car_direct_elimination_circles")  # OSQP, one speed for the h
 CONV = preset("car_conventional_circles")  # the conventional fit
 HYP = preset("car_lifted_hyperplane")  # separating hyperplanes
 PRESETS = (SAFE_EL, PAPER_CC, CONV, HYP)
-
-
-def _road(pb):
-    return straight_road(length=(pb.road.samples - 1) * pb.road.ds, ds=pb.road.ds, s0=-20.0)
-
-
-def _opp(pb) -> np.ndarray:
-    """One opponent 40 m ahead, 0.5 m left, at 5 m/s; the others far away."""
-    N = pb.horizon.N
-    opp = np.zeros((N + 1, pb.opponents.count, 3))
-    opp[..., 0], opp[..., 1] = -1000.0, 500.0
-    opp[:, 0, 0] = 40.0 + 5.0 * np.arange(N + 1) * pb.horizon.interval
-    opp[:, 0, 1] = 0.5
-    return opp
 
 
 X0 = np.array([0.0, 0.0, 0.0, 15.0, 0.0])
@@ -55,8 +41,8 @@ def _ramps(pb):
 
 def _prepared(pb, ref=None, stages=None, margins=None) -> RtiSolver:
     sv = RtiSolver(build_ocp(pb))
-    sv.set_road(_road(pb))
-    sv.set_opponents(_opp(pb))
+    sv.set_road(window_road(pb))
+    sv.set_opponents(one_opponent(pb))
     if ref is not None:
         sv.set_reference(*ref)
     if stages is not None:
@@ -77,7 +63,7 @@ def c_solvers(tmp_path_factory):
 
 
 def _c_prepared(cs, pb, stages=None, margins=None, ref=None):
-    assert cs.init() == 0 and cs.set_road(_road(pb)) == 0 and cs.set_opponents(_opp(pb)) == 0
+    assert cs.init() == 0 and cs.set_road(window_road(pb)) == 0 and cs.set_opponents(one_opponent(pb)) == 0
     if ref is not None:
         assert cs.set_reference(*ref) == 0
     if stages is not None:
@@ -146,7 +132,7 @@ def test_a_margin_on_the_ellipse_enlarges_its_semi_axes_by_hand():
     _, _, m = _ramps(pb)
     sv0, sv = _prepared(pb), _prepared(pb, margins=m)
     a, b = obs.vehicle_shape(pb.obstacles, pb.ego, pb.opponents.vehicle)[3:5]
-    opp, veh = _opp(pb)[:, 0], pb.opponents.vehicle
+    opp, veh = one_opponent(pb)[:, 0], pb.opponents.vehicle
     names = sv.ocp.first.var_names
     ix, iy, iphi = names.index("x"), names.index("y"), names.index("phi")
     g, g0 = _rows(sv, "opp0_h0"), _rows(sv0, "opp0_h0")
@@ -227,7 +213,7 @@ def test_bad_per_stage_values_are_refused_and_change_nothing(c_solvers):
     nb = n.copy()
     nb[3] = pb.bounds.n_max + 0.1
     bad_refs.append((v, nb))
-    assert cs.init() == 0 and cs.set_road(_road(pb)) == 0 and cs.set_opponents(_opp(pb)) == 0
+    assert cs.init() == 0 and cs.set_road(window_road(pb)) == 0 and cs.set_opponents(one_opponent(pb)) == 0
     assert cs.set_reference_stages(v, n) == 0 and cs.set_obstacle_margins(m) == 0
     for vb, nb in bad_refs:
         assert cs.set_reference_stages(vb, nb) == _code("ERR_REFERENCE")

@@ -14,24 +14,28 @@ from .reactions import lag_error, lagged_rate
 from .road import RoadWindowParams, casadi_road
 
 
-def plant_function(problem: Problem, samples: int) -> ca.Function:
+def plant_function(problem: Problem, samples: int, step_input: bool = False) -> ca.Function:
     """One RK4 step of the 5-state Frenet model with a road window parameter (same formula as the NLP); built once per
-    problem and window size in a process (a CasADi Function is immutable)."""
+    problem and window size in a process (a CasADi Function is immutable). ``step_input``: the step's length is a
+    fourth input ``h`` (the standstill's part of a sample), else the sample ``dt``."""
     try:
-        return _cached_plant(problem, samples)
+        return _cached_plant(problem, samples, step_input)
     except TypeError:  # a problem that cannot be hashed (a hand-made field): built every time
-        return _build_plant(problem, samples)
+        return _build_plant(problem, samples, step_input)
 
 
 @lru_cache(maxsize=64)
-def _cached_plant(problem: Problem, samples: int) -> ca.Function:
-    return _build_plant(problem, samples)
+def _cached_plant(problem: Problem, samples: int, step_input: bool) -> ca.Function:
+    return _build_plant(problem, samples, step_input)
 
 
-def _build_plant(problem: Problem, samples: int) -> ca.Function:
+def _build_plant(problem: Problem, samples: int, step_input: bool) -> ca.Function:
     rp = RoadWindowParams(samples)
     x, u, p = ca.SX.sym("x", 5), ca.SX.sym("u", 2), ca.SX.sym("p", rp.size)
     f = models.ode("frenet", lambda s: casadi_road(s, p, samples)[:2], problem.ego, problem.wind)
+    if step_input:
+        h = ca.SX.sym("h")
+        return ca.Function("plant_h", [x, u, p, h], [models.rk4(f, x, u, h)])
     return ca.Function("plant", [x, u, p], [models.rk4(f, x, u, problem.horizon.dt)])
 
 

@@ -6,14 +6,10 @@ as at the stop, ``v = 0``, the steering angle moved by the steering rate over th
 
 from __future__ import annotations
 
-from functools import lru_cache
-
-import casadi as ca
 import numpy as np
 
-from .. import models
 from ..dsl import Problem
-from ..road import RoadWindowParams, casadi_road
+from ..plant import plant_function
 
 V, DELTA = 3, 4  # the speed's and the steering angle's index in the Frenet state [s, n, alpha, v, delta]
 BISECTIONS = 40  # halvings of the sample: the stop time to dt / 2**40 (~1e-13 s at 0.1 s)
@@ -24,30 +20,10 @@ def rolls_back(x: np.ndarray, xn: np.ndarray) -> bool:
     return bool(x[V] >= 0.0 > xn[V])
 
 
-def _partial_step(problem: Problem, samples: int) -> ca.Function:
-    """One RK4 step of length ``h`` (an input) of the plant's Frenet model: ``f(x, u, p, h)``."""
-    try:
-        return _cached_partial_step(problem, samples)
-    except TypeError:  # a problem that cannot be hashed (a hand-made field): built every time
-        return _build_partial_step(problem, samples)
-
-
-@lru_cache(maxsize=64)
-def _cached_partial_step(problem: Problem, samples: int) -> ca.Function:
-    return _build_partial_step(problem, samples)
-
-
-def _build_partial_step(problem: Problem, samples: int) -> ca.Function:
-    rp = RoadWindowParams(samples)
-    x, u, p, h = ca.SX.sym("x", 5), ca.SX.sym("u", 2), ca.SX.sym("p", rp.size), ca.SX.sym("h")
-    f = models.ode("frenet", lambda s: casadi_road(s, p, samples)[:2], problem.ego, problem.wind)
-    return ca.Function("plant_h", [x, u, p, h], [models.rk4(f, x, u, h)])
-
-
 def stopped(problem: Problem, samples: int, x: np.ndarray, u: np.ndarray, p: np.ndarray, xn: np.ndarray):
     """The plant's state one sample after ``x`` when the model's step ``xn`` rolls back (``rolls_back``): the state at
     the stop (the largest RK4 step length with ``v >= 0``), standing (``v = 0``), with ``xn``'s steering angle."""
-    step = _partial_step(problem, samples)
+    step = plant_function(problem, samples, step_input=True)  # f(x, u, p, h)
     lo, hi = 0.0, float(problem.horizon.dt)
     at_lo = np.asarray(x, dtype=float).copy()
     for _ in range(BISECTIONS):
