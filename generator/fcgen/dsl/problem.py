@@ -17,7 +17,7 @@ from .obstacle_models import CoveringCircles, Ellipse, ObstacleModel, Separating
 from .plan_check import PlanCheck
 from .qp_options import QpOptions
 from .tracking import Reference
-from .validation import ProblemError, check, known_fields
+from .validation import ProblemError, check, known_fields, real_in
 from .vehicle import Opponents, Vehicle, Wind
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,30}$")
@@ -135,22 +135,12 @@ class Problem:
             self.delay,
             f"an integer in [0, {MAX_DELAY}] samples",
         )
-        check(
-            isinstance(self.steer_lag, (int, float))
-            and not isinstance(self.steer_lag, bool)
-            and math.isfinite(self.steer_lag)
-            and 0.0 <= self.steer_lag <= MAX_STEER_LAG,
-            "steer_lag",
-            self.steer_lag,
-            f"[0, {MAX_STEER_LAG:g}] s (0: no steering lag)",
-        )
-        check(
-            isinstance(self.obstacle_margin, (int, float))
-            and not isinstance(self.obstacle_margin, bool)
-            and math.isfinite(self.obstacle_margin)
-            and 0.0 <= self.obstacle_margin <= MAX_OBSTACLE_MARGIN,
+        real_in("steer_lag", self.steer_lag, 0.0, MAX_STEER_LAG, f"[0, {MAX_STEER_LAG:g}] s (0: no steering lag)")
+        real_in(
             "obstacle_margin",
             self.obstacle_margin,
+            0.0,
+            MAX_OBSTACLE_MARGIN,
             f"[0, {MAX_OBSTACLE_MARGIN:g}] m (0: none)",
         )
         reach = self.bounds.v_max * self.horizon.length

@@ -62,6 +62,12 @@ def finite(name: str, value) -> float:
     return v
 
 
+def real_in(name: str, value, lo: float, hi: float, allowed: str) -> None:
+    """``value`` is a real number (not a bool) in [lo, hi], else ``ProblemError`` naming ``allowed``."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    check(ok and math.isfinite(value) and lo <= value <= hi, name, value, allowed)
+
+
 def positive(name: str, value) -> None:
     """``value`` is a finite real number > 0."""
     check(finite(name, value) > 0, name, value, "> 0")
