@@ -19,6 +19,7 @@ from . import models
 from . import obstacles as obs
 from .dsl import Conventional, Lifted, Problem
 from .oppfit import OppFit, build_oppfit
+from .reactions import DRIVE_SLACK, understeer_excess
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
 from .road_rows import BAND_SCALE, road_rows
 
@@ -253,6 +254,19 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
     return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, kappa)
 
 
+def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
+    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the soft rows that keep a planned
+    drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
+    ``reactions.DRIVE_SLACK`` (on the a_lat slack), so that the plan drives as the vehicle will; none otherwise."""
+    pc, e, bnd = pb.plan_check, pb.ego, pb.bounds
+    if not (pc.a_lat_guard and pc.drive_limit and pc.tyre_stiffness > 0):
+        return []
+    a_x = ca.fmax(st.us[0], 0.0) / e.m
+    excess = [understeer_excess(s * a, st.xs[3], a_x, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg) for s in (1, -1)]
+    lim = DRIVE_SLACK / bnd.a_lat_max
+    return [(f"drive_{nm}", (x - st.sgs[0]) / bnd.a_lat_max, -INF, lim) for nm, x in zip(("hi", "lo"), excess)]
+
+
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:
     """The ego's pose the obstacle rows use: (s, n, alpha) for the conventional formulation, else [x, y, phi] (the
     lifted states, or F^-1 on the stage's road window)."""
@@ -349,9 +363,11 @@ def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
     }
 
 
-def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict) -> dict[str, tuple]:
+def _stage_specs(
+    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive_rows: list
+) -> dict[str, tuple]:
     """Per stage shape (first, middle, last): its variables, its row groups in order, its cost, its variables'
-    scales and names."""
+    scales and names (``drive_rows``, on (x, u), in the middle stages only)."""
     xs, us, ths, sgs = st.xs, st.us, st.ths, st.sgs
     names_u = list(models.CONTROL_NAMES)
     names_th = [f"theta{i}" for i in range(st.n_theta)]
@@ -366,7 +382,7 @@ def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: di
         ),
         "middle": (
             ca.vertcat(xs, us, ths, sgs),
-            [box["dyn"], soft_rows, eq_rows, box["state"], box["u"], box["sigma"]],
+            [box["dyn"], soft_rows + drive_rows, eq_rows, box["state"], box["u"], box["sigma"]],
             cost["track"] + cost["u"] + cost["sigma"],
             np.r_[st.Dx, st.Du, st.Dth, st.Dsg],
             list(st.names_x) + names_u + names_th + names_sg,
@@ -456,7 +472,7 @@ def build_ocp(problem: Problem) -> Ocp:
     soft_rows = _a_lat_and_road_rows(pb, st, a)
     obstacle_rows, eq_rows, theta_mid = _obstacle_rows(pb, st, first_slack=1 + int(pb.soft.soft_road))  # a_lat, road
     box = _box_rows(pb, st, x_next)
-    specs = _stage_specs(st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st))
+    specs = _stage_specs(st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st), _drive_rows(pb, st, a))
     hess_diag, cost_scale = _scaled_hessians(st, specs)
     stages, costs = {}, {}
     for key, spec in specs.items():
