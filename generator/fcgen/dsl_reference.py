@@ -82,7 +82,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "-",
         "True or False",
         "the a_lat guard also limits a positive drive force: where it steers, to a friction ellipse with the next "
-        "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula",
+        "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula; "
+        "the plan's stages 1..N-1 keep that second limit too (soft rows on the a_lat slack)",
     ),
     ("PlanCheck", "bend_brake"): (
         "m/s^2",

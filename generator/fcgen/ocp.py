@@ -255,16 +255,16 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
 
 
 def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
-    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the soft rows that keep a planned
+    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the soft row that keeps a planned
     drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
-    ``reactions.DRIVE_SLACK`` (on the a_lat slack), so that the plan drives as the vehicle will; none otherwise."""
+    ``reactions.DRIVE_SLACK`` (on the a_lat slack), so that the plan drives as the vehicle will; none otherwise.
+    ``|a_lat|``'s kink at 0 lies where the row cannot bind (the excess is negative within the slack)."""
     pc, e, bnd = pb.plan_check, pb.ego, pb.bounds
     if not (pc.a_lat_guard and pc.drive_limit and pc.tyre_stiffness > 0):
         return []
     a_x = ca.fmax(st.us[0], 0.0) / e.m
-    excess = [understeer_excess(s * a, st.xs[3], a_x, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg) for s in (1, -1)]
-    lim = DRIVE_SLACK / bnd.a_lat_max
-    return [(f"drive_{nm}", (x - st.sgs[0]) / bnd.a_lat_max, -INF, lim) for nm, x in zip(("hi", "lo"), excess)]
+    excess = understeer_excess(ca.fabs(a), st.xs[3], a_x, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg)
+    return [("drive", (excess - st.sgs[0]) / bnd.a_lat_max, -INF, DRIVE_SLACK / bnd.a_lat_max)]
 
 
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:

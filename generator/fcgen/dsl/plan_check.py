@@ -34,7 +34,9 @@ class PlanCheck:
     then also limits a positive drive force: where it sets the steering rate, to a friction ellipse with the step's
     lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
     ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
-    where only that acted). ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
+    where only that acted); the plan keeps that second limit at its stages 1..N-1 (soft rows on the a_lat slack,
+    ``ocp._drive_rows``: a plan that drives where the guard would cut it leaves the vehicle behind the plan, in
+    traffic). ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
     slack above ``reactions.BEND_SLACK``, the ego is too fast for the path the plan turns onto at the guard's target;
     the drive force is then also capped to brake towards that path's speed within one sample, at most at
     ``bend_brake`` (``reactions.bend_brake_limit``); 0 (the default, also in the safe profile: measured, it traded
