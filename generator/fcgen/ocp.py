@@ -254,17 +254,22 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
     return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, kappa)
 
 
-def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
-    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the soft row that keeps a planned
+def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> dict[str, list[tuple]]:
+    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the row that keeps a planned
     drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
-    ``reactions.DRIVE_SLACK`` (on the a_lat slack), so that the plan drives as the vehicle will; none otherwise.
-    ``|a_lat|``'s kink at 0 lies where the row cannot bind (the excess is negative within the slack)."""
+    ``reactions.DRIVE_SLACK``, so that the plan drives as the vehicle will: hard at stage 0 (a bound on u_0 from the
+    measured state, as the guard's), soft on the a_lat slack at 1..N-1; none otherwise. Braking gives a negative
+    excess: never limited."""
     pc, e, bnd = pb.plan_check, pb.ego, pb.bounds
     if not (pc.a_lat_guard and pc.drive_limit and pc.tyre_stiffness > 0):
-        return []
-    a_x = ca.fmax(st.us[0], 0.0) / e.m
-    excess = understeer_excess(ca.fabs(a), st.xs[3], a_x, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg)
-    return [("drive", (excess - st.sgs[0]) / bnd.a_lat_max, -INF, DRIVE_SLACK / bnd.a_lat_max)]
+        return {"first": [], "middle": []}
+    over = ca.fmax(ca.fabs(a) - DRIVE_SLACK, 0.0)
+    excess = understeer_excess(over, st.xs[3], st.us[0] / e.m, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg)
+    hi = DRIVE_SLACK / bnd.a_lat_max
+    return {
+        "first": [("drive", excess / bnd.a_lat_max, -INF, hi)],
+        "middle": [("drive", (excess - st.sgs[0]) / bnd.a_lat_max, -INF, hi)],
+    }
 
 
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:
@@ -364,10 +369,10 @@ def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
 
 
 def _stage_specs(
-    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive_rows: list
+    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive_rows: dict[str, list]
 ) -> dict[str, tuple]:
     """Per stage shape (first, middle, last): its variables, its row groups in order, its cost, its variables'
-    scales and names (``drive_rows``, on (x, u), in the middle stages only)."""
+    scales and names (``drive_rows``: on (x, u), none at N)."""
     xs, us, ths, sgs = st.xs, st.us, st.ths, st.sgs
     names_u = list(models.CONTROL_NAMES)
     names_th = [f"theta{i}" for i in range(st.n_theta)]
@@ -375,14 +380,14 @@ def _stage_specs(
     return {
         "first": (
             ca.vertcat(xs, us),
-            [box["init"], box["dyn"], box["u"]],
+            [box["init"], box["dyn"], drive_rows["first"], box["u"]],
             cost["track"] + cost["u"],
             np.r_[st.Dx, st.Du],
             list(st.names_x) + names_u,
         ),
         "middle": (
             ca.vertcat(xs, us, ths, sgs),
-            [box["dyn"], soft_rows + drive_rows, eq_rows, box["state"], box["u"], box["sigma"]],
+            [box["dyn"], soft_rows + drive_rows["middle"], eq_rows, box["state"], box["u"], box["sigma"]],
             cost["track"] + cost["u"] + cost["sigma"],
             np.r_[st.Dx, st.Du, st.Dth, st.Dsg],
             list(st.names_x) + names_u + names_th + names_sg,
