@@ -73,7 +73,7 @@ def test_the_goals_lane_counts_the_gap_a_vehicle_opens(tmp_path):
     23 m/s pulls away (4 - 3 = 1 m): the change starts; one at 20 m/s does not."""
     from fcgen.commonroad.lanes import T_CLOSE_GOAL, T_OPEN_GOAL
 
-    assert (T_OPEN_GOAL, T_CLOSE_GOAL) == (1.0, 1.0) and L == pytest.approx(4.0)
+    assert (T_OPEN_GOAL, T_CLOSE_GOAL) == (1.0, 1.0) and pytest.approx(4.0) == L
     sc = load_for(PB, write_scenario(tmp_path / "o.xml", goal={"lane": 2, "s": 170.0}, goal_steps=(50, 70)))
     goal_n = sc.goal_sn[1]
     for dx, v_car, changes in ((-2.5, 17.0, True), (-2.5, 20.0, False), (-2.5, 22.0, False), (2.5, 23.0, True)):
