@@ -84,6 +84,21 @@ def test_the_goals_lane_counts_the_gap_a_vehicle_opens(tmp_path):
     assert not gap_free(_traffic(sc, (47.5, LANE, 17.0)), LANE, _s(sc, 50.0), 20.0, L, 0.0, T_CLOSE_GOAL)
 
 
+def test_an_ego_off_its_lanes_centre_is_not_changing_lanes(tmp_path):
+    """The ego starts 0.7 m left of its lane's centre (more than SETTLED = 0.5 m) at 20 m/s, with the safe profile's gap
+    and a car 15 m ahead at 15 m/s in its lane (short of L + 1 s x 20 + 3 s x 5 = 39 m): the ego's own lane is not a
+    gap that closed; the goal's lane to the left is empty: the target is the goal's lane."""
+    from fcgen.commonroad.lanes import SETTLED
+
+    assert SETTLED == 0.5
+    sc = load_for(PB, write_scenario(tmp_path / "u.xml", goal={"lane": 2, "s": 170.0}, goal_steps=(50, 70)))
+    goal_n = sc.goal_sn[1]
+    ahead = _traffic(sc, (65.0, 0.0, 15.0))
+    assert not gap_free(ahead, 0.0, _s(sc, 50.0), 20.0, L, t_close_ahead=T_CLOSE)
+    n, why = target_lane(sc, L, goal_n, 0.7, close_ahead=True).update(_s(sc, 50.0), 0.7, 20.0, ahead)
+    assert (n, why) == (pytest.approx(goal_n, abs=1e-9), "the goal's lane")
+
+
 def test_a_slower_vehicle_ahead(tmp_path):
     """Three lanes, the ego settled in the middle at 20 m/s (v_ref 20): a car 30 m ahead at 10 m/s (more than 2 m/s
     slower) sends it to the left lane when that lane's gap is free; with a slower car nearer ahead on the left, to the

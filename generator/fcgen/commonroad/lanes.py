@@ -11,9 +11,10 @@ changes, the change is planned from that sample on: for ``CHANGE_TIME`` s the co
 (``set_reference_stages``, ``lane_change_profile``), moving from the lane the ego tracked to the target's centre along
 the horizon. In this order:
 
-1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target) and the target
-   lane's gap is no longer free (the goal's lane: no longer has room, step 3), the target goes back to the lane the
-   ego is in.
+1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target, and the target
+   another lane than the one the ego is in) and the target lane's gap is no longer free (the goal's lane: no longer
+   has room, step 3), the target goes back to the lane the ego is in. An ego off its own lane's centre (a recorded
+   start 0.6 m off it) is not changing lanes: the steps below still apply.
 2. **A lane that ends**: where the target lane does not continue over the look-ahead (``LOOK_AHEAD`` s at the
    ego's speed, at least ``MIN_AHEAD``), the adjacent lane that continues (towards the goal's side first, then the
    left), when its gap is free (else the target stays and the NMPC brakes for the lane's end).
@@ -221,7 +222,7 @@ class TargetLane:
                 return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL, t_open=T_OPEN_GOAL)
             return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
-        if not settled and not free(target):
+        if not settled and target != own and not free(target):
             return self._set(own, "the gap closed")
         i = here.index(target)
         left = here[i + 1] if i + 1 < len(here) and here[i + 1] - target <= ADJACENT else None
