@@ -44,11 +44,11 @@ orientation crosses 0 with a vehicle ahead at a constant gap (no closing).
 ego (its orientation at both vehicles' positions, its curvilinear frame). At a junction that can be a lanelet
 turning off where the ego drives straight on; and a turning lanelet set the turn above (DEU_Muc-17: its smallest
 orientation -1.57 rad turned the straight road 1.6 rad off x; a vehicle 19.6 m ahead and 5.1 m/s faster read 0.85 s,
-its speed along the turning lanelet under the ego about -10 m/s). CriMe's copy leaves out the lanelets that turn off the ego's road:
-those with a centre segment on the road (within its drivable band widened by ``ROUTE_SLACK``) heading more than
-``OFF_ROUTE`` away from the road's heading (turning and oncoming lanes). A vehicle on them is still asked where it
-lies on a kept lanelet, and not where it does not (CriMe's "same lanelet" test). Tested on a junction's turning and
-oncoming lanelets (left out) beside its straight one (kept).
+its speed along the turning lanelet under the ego about -10 m/s). CriMe's copy leaves out the lanelets that turn
+off the ego's road: those with a centre segment on the road (within its drivable band widened by ``ROUTE_SLACK``)
+heading more than ``OFF_ROUTE`` away from the road's heading (turning and oncoming lanes). A vehicle on them is still
+asked where it lies on a kept lanelet, and not where it does not (CriMe's "same lanelet" test). Tested on a junction's
+turning and oncoming lanelets (left out) beside its straight one (kept).
 
 The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
 the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values; a
