@@ -109,3 +109,47 @@ def test_a_vehicle_ahead_at_a_constant_gap_reads_no_closing_where_the_lane_s_ori
     assert out["error"] == ""
     ttc = out["series"]["ttc_ahead"]
     assert all(t is not None and t > 100.0 for t in ttc), ttc  # measured at every sample, no closing
+
+
+def _lanelet(lid: int, road, s, n):
+    """A stand-in lanelet (id, centre vertices) whose centre runs through the road-frame points (``s``, ``n``)."""
+    from types import SimpleNamespace
+
+    x, y, _ = road.to_cartesian(np.asarray(s, dtype=float), np.asarray(n, dtype=float), np.zeros(len(s)))
+    return SimpleNamespace(lanelet_id=lid, center_vertices=np.stack([x, y], axis=1))
+
+
+def test_the_lanelets_that_turn_off_the_ego_s_road_are_left_out(tmp_path):
+    """On a straight three-lane road: a lanelet along the ego's lane, one merging at 0.1 rad and a crossing street 30 m
+    to the side stay; a right turn of radius 15 m from the ego's lane (heading 0.25 rad away after 3.75 m of arc,
+    0.47 m to the side, on the road) and an oncoming lane (heading pi) are left out."""
+    from types import SimpleNamespace
+
+    from fcgen.commonroad.criticality import OFF_ROUTE, off_route
+
+    sc = load_for(PB, write_scenario(tmp_path / "road.xml"))
+    road = sc.road
+    th = np.linspace(0.0, math.pi / 2, 20)
+    ramp = np.linspace(0.0, 40.0, 21)
+    lanelets = [
+        _lanelet(1, road, np.linspace(60.0, 120.0, 31), np.zeros(31)),  # straight on
+        _lanelet(2, road, 100.0 + 15.0 * np.sin(th), -15.0 * (1.0 - np.cos(th))),  # a right turn
+        _lanelet(3, road, np.linspace(120.0, 60.0, 31), np.full(31, 3.5)),  # oncoming
+        _lanelet(4, road, 60.0 + ramp, -9.0 + math.tan(0.1) * ramp),  # merging at 0.1 rad
+        _lanelet(5, road, np.full(11, 100.0), np.linspace(30.0, 60.0, 11)),  # a street crossing 30 m to the side
+    ]
+    assert 15.0 * (1.0 - math.cos(OFF_ROUTE)) < 0.5  # the turn is still on the road where it heads 0.25 rad away
+    assert off_route(SimpleNamespace(lanelets=lanelets), road) == [2, 3]
+
+
+def test_crime_orientations_hold_the_centre_s_own_vertices():
+    """CriMe takes a lanelet's centre vertices as they are where a smoothing fails: their orientations are among the
+    ones the turn puts above 0 (a kink of -0.5 m over 10 m: atan2(-0.5, 10) = -0.04996 rad)."""
+    from commonroad.scenario.lanelet import Lanelet
+
+    from fcgen.commonroad.criticality import crime_orientations
+
+    centre = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, -0.5], [30.0, -0.5], [40.0, -0.5]])
+    side = np.array([0.0, 1.75])
+    la = Lanelet(centre + side, centre, centre - side, 7)
+    assert float(np.min(crime_orientations(la))) == pytest.approx(math.atan2(-0.5, 10.0), abs=1e-9)

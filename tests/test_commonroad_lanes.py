@@ -66,6 +66,39 @@ def test_a_goal_in_the_left_lane(tmp_path):
     assert (n, why) == (pytest.approx(goal_n, abs=1e-9), "the goal's lane")
 
 
+def test_the_goals_lane_counts_the_gap_a_vehicle_opens(tmp_path):
+    """The goal's lane to the left, the ego at 20 m/s (chassis L = 4 m): a car there 2.5 m behind the ego's centre
+    asks L = 4 m without the credit; at 17 m/s it drops back 3 m/s x T_OPEN_GOAL (1 s), so 4 - 3 = 1 m is enough: the
+    change starts; at 20 m/s (no opening) or 22 m/s (closing: 4 + 1 s x 2 m/s = 6 m) it is not. Ahead by 2.5 m, one at
+    23 m/s pulls away (4 - 3 = 1 m): the change starts; one at 20 m/s does not."""
+    from fcgen.commonroad.lanes import T_CLOSE_GOAL, T_OPEN_GOAL
+
+    assert (T_OPEN_GOAL, T_CLOSE_GOAL) == (1.0, 1.0) and pytest.approx(4.0) == L
+    sc = load_for(PB, write_scenario(tmp_path / "o.xml", goal={"lane": 2, "s": 170.0}, goal_steps=(50, 70)))
+    goal_n = sc.goal_sn[1]
+    for dx, v_car, changes in ((-2.5, 17.0, True), (-2.5, 20.0, False), (-2.5, 22.0, False), (2.5, 23.0, True)):
+        n, _ = target_lane(sc, L, goal_n, 0.0).update(_s(sc, 50.0), 0.0, 20.0, _traffic(sc, (50.0 + dx, LANE, v_car)))
+        assert n == pytest.approx(goal_n if changes else 0.0, abs=1e-6), (dx, v_car)
+    n, _ = target_lane(sc, L, goal_n, 0.0).update(_s(sc, 50.0), 0.0, 20.0, _traffic(sc, (52.5, LANE, 20.0)))
+    assert n == pytest.approx(0.0, abs=1e-6)
+    assert not gap_free(_traffic(sc, (47.5, LANE, 17.0)), LANE, _s(sc, 50.0), 20.0, L, 0.0, T_CLOSE_GOAL)
+
+
+def test_an_ego_off_its_lanes_centre_is_not_changing_lanes(tmp_path):
+    """The ego starts 0.7 m left of its lane's centre (more than SETTLED = 0.5 m) at 20 m/s, with the safe profile's gap
+    and a car 15 m ahead at 15 m/s in its lane (short of L + 1 s x 20 + 3 s x 5 = 39 m): the ego's own lane is not a
+    gap that closed; the goal's lane to the left is empty: the target is the goal's lane."""
+    from fcgen.commonroad.lanes import SETTLED
+
+    assert SETTLED == 0.5
+    sc = load_for(PB, write_scenario(tmp_path / "u.xml", goal={"lane": 2, "s": 170.0}, goal_steps=(50, 70)))
+    goal_n = sc.goal_sn[1]
+    ahead = _traffic(sc, (65.0, 0.0, 15.0))
+    assert not gap_free(ahead, 0.0, _s(sc, 50.0), 20.0, L, t_close_ahead=T_CLOSE)
+    n, why = target_lane(sc, L, goal_n, 0.7, close_ahead=True).update(_s(sc, 50.0), 0.7, 20.0, ahead)
+    assert (n, why) == (pytest.approx(goal_n, abs=1e-9), "the goal's lane")
+
+
 def test_a_slower_vehicle_ahead(tmp_path):
     """Three lanes, the ego settled in the middle at 20 m/s (v_ref 20): a car 30 m ahead at 10 m/s (more than 2 m/s
     slower) sends it to the left lane when that lane's gap is free; with a slower car nearer ahead on the left, to the

@@ -33,8 +33,22 @@ where gap and speeds give 3.6 s). CriMe gets the logged scenario turned so that 
 (its smoothing, ``crime_orientations``) at ``MARGIN`` rad. The cost is the lanes' spread of orientations ``theta``
 (0.00-0.06 rad on US-101): a headway longer by at most (l_1 + l_2) / 2 (cos theta + sin theta - 1) and speeds along
 the lane smaller by the factor cos theta. The lanelets' spatial index is rebuilt (commonroad-io's rotation keeps the
-old one). Tested on a constructed road turned by 45 degrees, and on a bend whose orientation crosses 0 with a vehicle
-ahead at a constant gap (no closing).
+old one). CriMe falls back to a lanelet's vertices as they are where its smoothing of the centre or of a border
+fails, and whether it fails can change with the turn itself (US101-28_1: a border's smoothing failed only once
+turned, the raw centre reached 0.017 rad below 0, and a vehicle 5.4 m ahead and faster read 0.19 s): the turn puts
+the raw centres' orientations above 0 as well (``crime_orientations``), and is applied again (at most ``TURNS``
+times) while one still reads below 0. Tested on a constructed road turned by 45 degrees, and on a bend whose
+orientation crosses 0 with a vehicle ahead at a constant gap (no closing).
+
+**The lanelets CriMe gets** (``off_route``): CriMe measures in the frame of the first lanelet it finds under the
+ego (its orientation at both vehicles' positions, its curvilinear frame). At a junction that can be a lanelet
+turning off where the ego drives straight on; and a turning lanelet set the turn above (DEU_Muc-17: its smallest
+orientation -1.57 rad turned the straight road 1.6 rad off x; a vehicle 19.6 m ahead and 5.1 m/s faster read 0.85 s,
+its speed along the turning lanelet under the ego about -10 m/s). CriMe's copy leaves out the lanelets that turn
+off the ego's road: those with a centre segment on the road (within its drivable band widened by ``ROUTE_SLACK``)
+heading more than ``OFF_ROUTE`` away from the road's heading (turning and oncoming lanes). A vehicle on them is still
+asked where it lies on a kept lanelet, and not where it does not (CriMe's "same lanelet" test). Tested on a junction's
+turning and oncoming lanelets (left out) beside its straight one (kept).
 
 The ego's states for CriMe: position (the chassis centre), orientation, speed; CriMe differentiates the speeds for
 the accelerations. A run CriMe cannot measure (an ego start outside every lanelet) gets ``error`` and no values; a
@@ -44,6 +58,7 @@ and counted (``skipped``).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import importlib.util
 import logging
@@ -55,6 +70,9 @@ from ..extras import require
 from .lanes import SAME_LANE
 
 MARGIN = 0.002  # rad: the smallest lanelet orientation CriMe gets (above its wrap at 0)
+TURNS = 3  # the turn for CriMe applied at most this often (module docstring, ``logged_scenario``)
+OFF_ROUTE = 0.25  # rad: a lanelet heading further from the road where it lies on it is left out of CriMe's copy
+ROUTE_SLACK = 2.0  # m: "on the road": within its drivable band widened by this on each side
 SAME_DIRECTION = math.pi / 2  # rad: a lanelet turned further from the ego's heading is not the ego's direction
 REACH = 120.0  # m: vehicles farther from the ego's centre are not asked
 LATERAL = SAME_LANE  # m across the road: a centre farther to the side is in another lane (commonroad.lanes)
@@ -78,6 +96,8 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     ego_id = out.generate_object_id()
     if keep is not None:
         out.remove_obstacle([ob for ob in out.obstacles if ob.obstacle_id not in keep])
+    for i in off_route(out.lanelet_network, sc.road):
+        out.lanelet_network.remove_lanelet(i, rtree=False)  # (the index is rebuilt below)
     shape = Rectangle(length, width)
 
     def state(cls, j: int):
@@ -97,24 +117,50 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     out.translate_rotate(np.zeros(2), -float(centres[0, 2]))  # first the ego's initial heading along x
     out.replace_lanelet_network(LaneletNetwork.create_from_lanelet_network(out.lanelet_network))  # index rebuilt
     turn = turn_for_crime(out)  # then the driven lanelets above CriMe's wrap at 0 (module docstring)
-    if turn:
+    for _ in range(TURNS):  # turned again while a smoothing the turn changed still reads below 0
+        if not turn:
+            break
         out.translate_rotate(np.zeros(2), turn)
         out.replace_lanelet_network(LaneletNetwork.create_from_lanelet_network(out.lanelet_network))
+        turn = turn_for_crime(out)
+        turn = turn if turn > MARGIN else 0.0
     return out, ego_id
 
 
+def off_route(net, road) -> list[int]:
+    """The ids of the lanelets of ``net`` that turn off the ego's ``road``: a segment of the centre line on the road
+    (its drivable band widened by ``ROUTE_SLACK``) heading more than ``OFF_ROUTE`` away from the road's heading."""
+    lo_n, hi_n = (
+        (np.full(len(road.s), -np.inf), np.full(len(road.s), np.inf))
+        if road.n_min is None
+        else (road.n_min, road.n_max)
+    )
+    out = []
+    for la in net.lanelets:
+        c = np.asarray(la.center_vertices, dtype=float)
+        d = np.diff(c, axis=0)
+        mid, phi = (c[:-1] + c[1:]) / 2, np.arctan2(d[:, 1], d[:, 0])
+        s, n, a = (np.asarray(v, dtype=float) for v in road.to_frenet(mid[:, 0], mid[:, 1], phi))
+        on = (s >= road.s[0]) & (s <= road.s[-1])
+        on &= (n >= np.interp(s, road.s, lo_n) - ROUTE_SLACK) & (n <= np.interp(s, road.s, hi_n) + ROUTE_SLACK)
+        if np.any(on & (np.abs(np.angle(np.exp(1j * a))) > OFF_ROUTE)):
+            out.append(int(la.lanelet_id))
+    return out
+
+
 def crime_orientations(lanelet) -> np.ndarray:
-    """A lanelet's orientations along its centre line as CriMe computes them (its smoothing, else the vertices;
-    ``commonroad_crime.utility.solver.compute_lanelet_width_orientation``), in (-pi, pi]."""
+    """Every orientation CriMe may take along a lanelet's centre line, in (-pi, pi]: its smoothed centre line's and
+    its centre vertices' (``compute_lanelet_width_orientation`` takes these where the smoothing of the centre or of a
+    border fails, and a rotation of a few mrad can make it fail: US101-28_1)."""
     with require("commonroad", "the criticality measures (commonroad-crime)"):
         from commonroad_clcs.util import compute_orientation_from_polyline  # type: ignore[import-untyped]
         from commonroad_crime.utility.solver import smoothing_reference_path
 
-    try:
-        centre = smoothing_reference_path(lanelet.center_vertices, 5, 15)
-    except (TypeError, ValueError):
-        centre = lanelet.center_vertices
-    return np.angle(np.exp(1j * np.asarray(compute_orientation_from_polyline(centre), dtype=float)))
+    lines = [lanelet.center_vertices]
+    with contextlib.suppress(TypeError, ValueError):  # CriMe's own fallback: the vertices as they are
+        lines.append(smoothing_reference_path(lanelet.center_vertices, 5, 15))
+    o = np.concatenate([np.asarray(compute_orientation_from_polyline(c), dtype=float) for c in lines])
+    return np.angle(np.exp(1j * o))
 
 
 def driven_lanelets(scenario) -> set[int]:

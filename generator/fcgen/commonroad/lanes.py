@@ -11,15 +11,19 @@ changes, the change is planned from that sample on: for ``CHANGE_TIME`` s the co
 (``set_reference_stages``, ``lane_change_profile``), moving from the lane the ego tracked to the target's centre along
 the horizon. In this order:
 
-1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target) and the target
-   lane's gap is no longer free (the goal's lane: no longer has room, step 3), the target goes back to the lane the
-   ego is in.
+1. **The gap closes**: while the ego changes lanes (its ``n`` more than ``SETTLED`` from the target, and the target
+   another lane than the one the ego is in) and the target lane's gap is no longer free (the goal's lane: no longer
+   has room, step 3), the target goes back to the lane the ego is in. An ego off its own lane's centre (a recorded
+   start 0.6 m off it) is not changing lanes: the steps below still apply.
 2. **A lane that ends**: where the target lane does not continue over the look-ahead (``LOOK_AHEAD`` s at the
    ego's speed, at least ``MIN_AHEAD``), the adjacent lane that continues (towards the goal's side first, then the
    left), when its gap is free (else the target stays and the NMPC brakes for the lane's end).
 3. **The goal's lane**: where the goal gives a position, the lane nearest its centre, one lane at a time, when the
    next lane has room beside the ego (a gap with no time gap asked and ``T_CLOSE_GOAL`` s of closing speed behind:
-   the goal is where the recorded driver went, and the NMPC keeps its distance to the vehicles it sees).
+   the goal is where the recorded driver went, and the NMPC keeps its distance to the vehicles it sees). The room
+   counts ``T_OPEN_GOAL`` s of the speed by which a vehicle there opens the gap (a slower one behind drops back, a
+   faster one ahead pulls away): the ego's corner crosses the lane line about half-way through the change, so a
+   driver starts beside a slower vehicle it is passing rather than waiting until it is clear.
 4. **A slower vehicle ahead**: where the ego is settled in its target lane and the vehicle ahead in it within the
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
@@ -56,6 +60,7 @@ SLOWER = 2.0  # m/s: a vehicle ahead this much below the reference speed makes a
 T_GAP = 1.0  # s: time gap to the vehicles ahead and behind in a target lane
 T_CLOSE = 3.0  # s: of the closing speed of a vehicle behind
 T_CLOSE_GOAL = 1.0  # s: of the closing speed of a vehicle behind, towards the goal's lane (no time gap asked)
+T_OPEN_GOAL = 1.0  # s: of the speed by which a vehicle in the goal's lane opens the gap, credited to the room there
 CHANGE_TIME = 3.0  # s: a planned lane change's n_ref moves from one lane's centre to the next over this time
 GOAL_LANE = "the goal's lane"  # the rule's reason for a change towards the goal's lane
 T_BEHIND = 1.5  # s: a faster vehicle behind in the ego's lane nearer than this of its speed sets the reference speed
@@ -153,14 +158,18 @@ def gap_free(
     t_gap: float = T_GAP,
     t_close: float = T_CLOSE,
     t_close_ahead: float = 0.0,
+    t_open: float = 0.0,
 ) -> bool:
     """Whether the gap in the lane at ``n_lane`` beside the ego (centre ``s``, speed ``v``) is free (module
     docstring); ``t_close_ahead``: s of the speed by which the ego closes in on a vehicle ahead asked on top (the
-    safe profile's ``T_CLOSE``; 0: none)."""
+    safe profile's ``T_CLOSE``; 0: none); ``t_open``: s of the speed by which a vehicle opens the gap (slower behind,
+    faster ahead) credited (the goal's lane's ``T_OPEN_GOAL``; 0: none)."""
     m = traffic.in_lane(n_lane)
     ds, vo = traffic.s[m] - s, traffic.v[m]
-    ahead_ok = (ds < 0) | (ds > length + t_gap * v + t_close_ahead * np.maximum(v - vo, 0.0))
-    behind_ok = (ds >= 0) | (-ds > length + t_gap * vo + t_close * np.maximum(vo - v, 0.0))
+    ahead = length + t_gap * v + t_close_ahead * np.maximum(v - vo, 0.0) - t_open * np.maximum(vo - v, 0.0)
+    behind = length + t_gap * vo + t_close * np.maximum(vo - v, 0.0) - t_open * np.maximum(v - vo, 0.0)
+    ahead_ok = (ds < 0) | (ds > ahead)
+    behind_ok = (ds >= 0) | (-ds > behind)
     return bool(np.all(ahead_ok & behind_ok))
 
 
@@ -210,10 +219,10 @@ class TargetLane:
 
         def free(c: float) -> bool:
             if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
-                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL)
+                return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL, t_open=T_OPEN_GOAL)
             return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
-        if not settled and not free(target):
+        if not settled and target != own and not free(target):
             return self._set(own, "the gap closed")
         i = here.index(target)
         left = here[i + 1] if i + 1 < len(here) and here[i + 1] - target <= ADJACENT else None
