@@ -1,5 +1,5 @@
-"""The plan's drive rows: where the a_lat guard's drive limit would cut a drive force, the plan does not plan it
-(``ocp._drive_rows``, ``reactions.understeer_excess``)."""
+"""The plan's drive rows (``PlanCheck.drive_rows``): where the a_lat guard's drive limit would cut a drive force, the
+plan does not plan it (``ocp._drive_rows``, ``reactions.understeer_excess``)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 from one_opponent import window_road
 
+from fcgen.dsl import ProblemError
 from fcgen.ocp import build_ocp
 from fcgen.presets import preset
 from fcgen.reactions import DRIVE_SLACK, G, understeer_drive_limit, understeer_excess
 from fcgen.reference import RtiSolver
 
-SAFE = preset("car_lifted_ellipse_ipm_safe")
-NO_DRIVE_LIMIT = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, drive_rise=0.0))
+PROFILE = preset("car_lifted_ellipse_ipm_safe")
+SAFE = PROFILE.with_(plan_check=replace(PROFILE.plan_check, drive_rows=True))
+NO_DRIVE_LIMIT = SAFE.with_(plan_check=replace(SAFE.plan_check, drive_limit=False, drive_rise=0.0, drive_rows=False))
 E, PC = SAFE.ego, SAFE.plan_check
 
 
@@ -45,13 +47,31 @@ def _rows(pb, stage: str) -> tuple[str, ...]:
     return tuple(r for r in getattr(build_ocp(pb), stage).row_names if r == "drive")
 
 
-def test_stages_0_to_n_minus_1_carry_the_drive_row_with_the_drive_limit_only():
+def _with_rows(name: str):
+    pb = preset(name)
+    return pb.with_(plan_check=replace(pb.plan_check, drive_rows=True))
+
+
+def test_stages_0_to_n_minus_1_carry_the_drive_row_where_asked_for():
     assert _rows(SAFE, "first") == _rows(SAFE, "middle") == ("drive",)
     assert _rows(SAFE, "last") == ()  # no control at N
-    assert _rows(preset("car_direct_elimination_circles_ipm_safe"), "middle") == ("drive",)
-    assert _rows(preset("car_lifted_ellipse_ipm"), "middle") == ()  # the paper's presets: none
-    assert _rows(preset("car_conventional_ellipse_ipm_safe"), "middle") == ()  # no a_lat guard there
+    assert _rows(_with_rows("car_direct_elimination_circles_ipm_safe"), "middle") == ("drive",)
+    assert _rows(PROFILE, "middle") == _rows(PROFILE, "first") == ()  # off in the safe profile
+    assert _rows(preset("car_lifted_ellipse_ipm"), "middle") == ()  # and in the paper's presets
+    conventional = preset("car_conventional_ellipse_ipm_safe")  # no a_lat guard there: no rows
+    assert _rows(conventional.with_(plan_check=replace(conventional.plan_check, drive_rows=True)), "middle") == ()
     assert _rows(NO_DRIVE_LIMIT, "middle") == ()
+
+
+@pytest.mark.parametrize("bad", [1, "yes", None])
+def test_drive_rows_is_a_bool(bad):
+    with pytest.raises(ProblemError, match=r"plan_check.drive_rows = .* is invalid: allowed True or False"):
+        replace(PROFILE.plan_check, drive_rows=bad)
+
+
+def test_drive_rows_need_the_drive_limit():
+    with pytest.raises(ProblemError, match=r"plan_check.drive_rows = True is invalid: allowed False without"):
+        replace(PROFILE.plan_check, drive_limit=False, drive_rise=0.0, drive_rows=True)
 
 
 @pytest.mark.parametrize("stage", ["first", "middle"])

@@ -255,13 +255,13 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
 
 
 def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> dict[str, list[tuple]]:
-    """With the a_lat guard's drive limit (``plan_check.drive_limit``, tyres known): the row that keeps a planned
-    drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
+    """With ``plan_check.drive_rows`` (the a_lat guard's drive limit in the plan, tyres known): the row that keeps a
+    planned drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
     ``reactions.DRIVE_SLACK``, so that the plan drives as the vehicle will: hard at stage 0 (a bound on u_0 from the
     measured state, as the guard's), soft on the a_lat slack at 1..N-1; none otherwise. Braking gives a negative
     excess: never limited."""
     pc, e, bnd = pb.plan_check, pb.ego, pb.bounds
-    if not (pc.a_lat_guard and pc.drive_limit and pc.tyre_stiffness > 0):
+    if not (pc.a_lat_guard and pc.drive_rows and pc.tyre_stiffness > 0):
         return {"first": [], "middle": []}
     over = ca.fmax(ca.fabs(a) - DRIVE_SLACK, 0.0)
     excess = understeer_excess(over, st.xs[3], st.us[0] / e.m, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg)
