@@ -1,5 +1,5 @@
 """The plan's drive rows (``PlanCheck.drive_rows``): where the a_lat guard's drive limit would cut a drive force, the
-plan does not plan it (``ocp._drive_rows``, ``reactions.understeer_excess``)."""
+plan does not plan it (``drive_rows.drive_rows``, ``reactions.understeer_excess``)."""
 
 from __future__ import annotations
 

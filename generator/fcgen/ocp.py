@@ -17,9 +17,9 @@ import numpy as np
 
 from . import models
 from . import obstacles as obs
+from .drive_rows import drive_rows
 from .dsl import Conventional, Lifted, Problem
 from .oppfit import OppFit, build_oppfit
-from .reactions import DRIVE_SLACK, understeer_excess
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
 from .road_rows import BAND_SCALE, road_rows
 
@@ -254,24 +254,6 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
     return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, kappa)
 
 
-def _drive_rows(pb: Problem, st: _Stage, a: ca.SX) -> dict[str, list[tuple]]:
-    """With ``plan_check.drive_rows`` (the a_lat guard's drive limit in the plan, tyres known): the row that keeps a
-    planned drive force where the guard would not cut it, ``reactions.understeer_excess`` of the stage's (x, u) within
-    ``reactions.DRIVE_SLACK``, so that the plan drives as the vehicle will: hard at stage 0 (a bound on u_0 from the
-    measured state, as the guard's), soft on the a_lat slack at 1..N-1; none otherwise. Braking gives a negative
-    excess: never limited."""
-    pc, e, bnd = pb.plan_check, pb.ego, pb.bounds
-    if not (pc.a_lat_guard and pc.drive_rows and pc.tyre_stiffness > 0):
-        return {"first": [], "middle": []}
-    over = ca.fmax(ca.fabs(a) - DRIVE_SLACK, 0.0)
-    excess = understeer_excess(over, st.xs[3], st.us[0] / e.m, pc.tyre_stiffness, e.l_f, e.l_r, pc.h_cg)
-    hi = DRIVE_SLACK / bnd.a_lat_max
-    return {
-        "first": [("drive", excess / bnd.a_lat_max, -INF, hi)],
-        "middle": [("drive", (excess - st.sgs[0]) / bnd.a_lat_max, -INF, hi)],
-    }
-
-
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:
     """The ego's pose the obstacle rows use: (s, n, alpha) for the conventional formulation, else [x, y, phi] (the
     lifted states, or F^-1 on the stage's road window)."""
@@ -369,10 +351,10 @@ def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
 
 
 def _stage_specs(
-    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive_rows: dict[str, list]
+    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive: dict[str, list]
 ) -> dict[str, tuple]:
     """Per stage shape (first, middle, last): its variables, its row groups in order, its cost, its variables'
-    scales and names (``drive_rows``: on (x, u), none at N)."""
+    scales and names (``drive``: the drive rows on (x, u), none at N)."""
     xs, us, ths, sgs = st.xs, st.us, st.ths, st.sgs
     names_u = list(models.CONTROL_NAMES)
     names_th = [f"theta{i}" for i in range(st.n_theta)]
@@ -380,14 +362,14 @@ def _stage_specs(
     return {
         "first": (
             ca.vertcat(xs, us),
-            [box["init"], box["dyn"], drive_rows["first"], box["u"]],
+            [box["init"], box["dyn"], drive["first"], box["u"]],
             cost["track"] + cost["u"],
             np.r_[st.Dx, st.Du],
             list(st.names_x) + names_u,
         ),
         "middle": (
             ca.vertcat(xs, us, ths, sgs),
-            [box["dyn"], soft_rows + drive_rows["middle"], eq_rows, box["state"], box["u"], box["sigma"]],
+            [box["dyn"], soft_rows + drive["middle"], eq_rows, box["state"], box["u"], box["sigma"]],
             cost["track"] + cost["u"] + cost["sigma"],
             np.r_[st.Dx, st.Du, st.Dth, st.Dsg],
             list(st.names_x) + names_u + names_th + names_sg,
@@ -477,7 +459,9 @@ def build_ocp(problem: Problem) -> Ocp:
     soft_rows = _a_lat_and_road_rows(pb, st, a)
     obstacle_rows, eq_rows, theta_mid = _obstacle_rows(pb, st, first_slack=1 + int(pb.soft.soft_road))  # a_lat, road
     box = _box_rows(pb, st, x_next)
-    specs = _stage_specs(st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st), _drive_rows(pb, st, a))
+    specs = _stage_specs(
+        st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st), drive_rows(pb, st.xs, st.us, st.sgs[0], a)
+    )
     hess_diag, cost_scale = _scaled_hessians(st, specs)
     stages, costs = {}, {}
     for key, spec in specs.items():

@@ -35,7 +35,7 @@ class PlanCheck:
     lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
     ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
     where only that acted). ``drive_rows`` (with ``drive_limit``): the plan keeps that second limit too
-    (``ocp._drive_rows``: a hard row on u_0, soft rows on the a_lat slack at 1..N-1), so that it does not plan a
+    (``fcgen.drive_rows``: a hard row on u_0, soft rows on the a_lat slack at 1..N-1), so that it does not plan a
     drive force the guard will cut; off by default and in the safe profile (measured: docs/safe_profile.md "The
     plan's drive rows").
     ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
