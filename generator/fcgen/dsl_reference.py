@@ -84,6 +84,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "the a_lat guard also limits a positive drive force: where it steers, to a friction ellipse with the next "
         "sample's lateral acceleration, elsewhere to where the tyres turn at most 0.25 m/s^2 less than the formula",
     ),
+    ("PlanCheck", "drive_rows"): (
+        "-",
+        "True or False, False without drive_limit",
+        "the plan keeps the drive limit's second part too: a hard row on u_0 and soft rows on the a_lat slack at "
+        "stages 1..N-1 (off in the safe profile: docs/safe_profile.md)",
+    ),
     ("PlanCheck", "bend_brake"): (
         "m/s^2",
         "[0, 10], 0 without drive_limit; 0: off (the default)",

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import models
 from . import obstacles as obs
+from .drive_rows import drive_rows
 from .dsl import Conventional, Lifted, Problem
 from .oppfit import OppFit, build_oppfit
 from .road import RoadWindowParams, casadi_road, casadi_to_cartesian
@@ -349,9 +350,11 @@ def _costs(pb: Problem, st: _Stage) -> dict[str, ca.SX]:
     }
 
 
-def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict) -> dict[str, tuple]:
+def _stage_specs(
+    st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: dict, drive: dict[str, list]
+) -> dict[str, tuple]:
     """Per stage shape (first, middle, last): its variables, its row groups in order, its cost, its variables'
-    scales and names."""
+    scales and names (``drive``: the drive rows on (x, u), none at N)."""
     xs, us, ths, sgs = st.xs, st.us, st.ths, st.sgs
     names_u = list(models.CONTROL_NAMES)
     names_th = [f"theta{i}" for i in range(st.n_theta)]
@@ -359,14 +362,14 @@ def _stage_specs(st: _Stage, soft_rows: list, eq_rows: list, box: dict, cost: di
     return {
         "first": (
             ca.vertcat(xs, us),
-            [box["init"], box["dyn"], box["u"]],
+            [box["init"], box["dyn"], drive["first"], box["u"]],
             cost["track"] + cost["u"],
             np.r_[st.Dx, st.Du],
             list(st.names_x) + names_u,
         ),
         "middle": (
             ca.vertcat(xs, us, ths, sgs),
-            [box["dyn"], soft_rows, eq_rows, box["state"], box["u"], box["sigma"]],
+            [box["dyn"], soft_rows + drive["middle"], eq_rows, box["state"], box["u"], box["sigma"]],
             cost["track"] + cost["u"] + cost["sigma"],
             np.r_[st.Dx, st.Du, st.Dth, st.Dsg],
             list(st.names_x) + names_u + names_th + names_sg,
@@ -456,7 +459,9 @@ def build_ocp(problem: Problem) -> Ocp:
     soft_rows = _a_lat_and_road_rows(pb, st, a)
     obstacle_rows, eq_rows, theta_mid = _obstacle_rows(pb, st, first_slack=1 + int(pb.soft.soft_road))  # a_lat, road
     box = _box_rows(pb, st, x_next)
-    specs = _stage_specs(st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st))
+    specs = _stage_specs(
+        st, soft_rows + obstacle_rows, eq_rows, box, _costs(pb, st), drive_rows(pb, st.xs, st.us, st.sgs[0], a)
+    )
     hess_diag, cost_scale = _scaled_hessians(st, specs)
     stages, costs = {}, {}
     for key, spec in specs.items():

@@ -74,6 +74,15 @@ def understeer_drive_limit(
     return f if f < f_max else f_max
 
 
+def understeer_excess(a_over, v, a_x, c: float, l_f: float, l_r: float, h: float):
+    """How much less than the formula the tyres turn under the acceleration ``a_x`` at speed ``v`` beyond
+    ``DRIVE_SLACK``'s share, in ``understeer_drive_limit``'s linear model (``c``: the tyres' cornering stiffness per
+    unit load; ``a_over``: the formula's ``|a_lat|`` beyond ``DRIVE_SLACK``, at least 0): ``a_x h v^2 a_over / (c g^2
+    l_f l_r)``, at most ``DRIVE_SLACK`` where that limit lets ``a_x`` through; negative when braking. Plain
+    arithmetic: floats and CasADi symbols alike."""
+    return a_x * h * v * v * a_over / (c * G * G * l_f * l_r)
+
+
 def bend_brake_limit(
     v: float, delta: float, l: float, a_to: float, a_brake: float, m: float, dt: float, f_max: float
 ) -> float:

@@ -34,7 +34,11 @@ class PlanCheck:
     then also limits a positive drive force: where it sets the steering rate, to a friction ellipse with the step's
     lateral acceleration (``reactions.drive_limit``; none at its target), elsewhere to where the tyres turn at most
     ``reactions.DRIVE_SLACK`` less than the formula (``reactions.understeer_drive_limit``; status.a_lat_guard = 3
-    where only that acted). ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
+    where only that acted). ``drive_rows`` (with ``drive_limit``): the plan keeps that second limit too
+    (``fcgen.drive_rows``: a hard row on u_0, soft rows on the a_lat slack at 1..N-1), so that it does not plan a
+    drive force the guard will cut; off by default and in the safe profile (measured: docs/safe_profile.md "The
+    plan's drive rows").
+    ``bend_brake`` (m/s^2, with ``drive_limit``): where the guard steers and the plan holds a
     slack above ``reactions.BEND_SLACK``, the ego is too fast for the path the plan turns onto at the guard's target;
     the drive force is then also capped to brake towards that path's speed within one sample, at most at
     ``bend_brake`` (``reactions.bend_brake_limit``); 0 (the default, also in the safe profile: measured, it traded
@@ -57,6 +61,7 @@ class PlanCheck:
     bend_brake: float = 0.0
     brake_memory: bool = field(default=False, metadata={"omit_default": True})
     drive_rise: float = field(default=0.0, metadata={"omit_default": True})
+    drive_rows: bool = field(default=False, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         check(
@@ -85,6 +90,13 @@ class PlanCheck:
             "plan_check.bend_brake",
             self.bend_brake,
             "0 without plan_check.drive_limit (it caps the drive force where the drive limit does)",
+        )
+        check(type(self.drive_rows) is bool, "plan_check.drive_rows", self.drive_rows, "True or False")
+        check(
+            not self.drive_rows or self.drive_limit,
+            "plan_check.drive_rows",
+            self.drive_rows,
+            "False without plan_check.drive_limit (the rows are the drive limit's)",
         )
         check(type(self.brake_memory) is bool, "plan_check.brake_memory", self.brake_memory, "True or False")
         check(
