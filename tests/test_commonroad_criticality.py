@@ -140,6 +140,7 @@ def test_the_lanelets_that_turn_off_the_ego_s_road_are_left_out(tmp_path):
     ]
     assert 15.0 * (1.0 - math.cos(OFF_ROUTE)) < 0.5  # the turn is still on the road where it heads 0.25 rad away
     assert off_route(SimpleNamespace(lanelets=lanelets), road) == [2, 3]
+    assert off_route(SimpleNamespace(lanelets=lanelets), road, {2}) == [3]  # the ego drives on the turn: kept
 
 
 def test_crime_orientations_hold_the_centre_s_own_vertices():

@@ -63,6 +63,7 @@ import copy
 import importlib.util
 import logging
 import math
+from collections.abc import Collection
 
 import numpy as np
 
@@ -96,7 +97,8 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     ego_id = out.generate_object_id()
     if keep is not None:
         out.remove_obstacle([ob for ob in out.obstacles if ob.obstacle_id not in keep])
-    for i in off_route(out.lanelet_network, sc.road):
+    driven = {i for ids in out.lanelet_network.find_lanelet_by_position(list(centres[:, :2])) for i in ids}
+    for i in off_route(out.lanelet_network, sc.road, driven):  # CriMe needs the ego's own lanelets (US101-32_1)
         out.lanelet_network.remove_lanelet(i, rtree=False)  # (the index is rebuilt below)
     shape = Rectangle(length, width)
 
@@ -127,9 +129,10 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     return out, ego_id
 
 
-def off_route(net, road) -> list[int]:
+def off_route(net, road, driven: Collection[int] = ()) -> list[int]:
     """The ids of the lanelets of ``net`` that turn off the ego's ``road``: a segment of the centre line on the road
-    (its drivable band widened by ``ROUTE_SLACK``) heading more than ``OFF_ROUTE`` away from the road's heading."""
+    (its drivable band widened by ``ROUTE_SLACK``) heading more than ``OFF_ROUTE`` away from the road's heading; but
+    for those in ``driven`` (the lanelets under the ego's logged poses)."""
     lo_n, hi_n = (
         (np.full(len(road.s), -np.inf), np.full(len(road.s), np.inf))
         if road.n_min is None
@@ -137,6 +140,8 @@ def off_route(net, road) -> list[int]:
     )
     out = []
     for la in net.lanelets:
+        if la.lanelet_id in driven:
+            continue
         c = np.asarray(la.center_vertices, dtype=float)
         d = np.diff(c, axis=0)
         mid, phi = (c[:-1] + c[1:]) / 2, np.arctan2(d[:, 1], d[:, 0])
