@@ -140,7 +140,17 @@ def test_the_lanelets_that_turn_off_the_ego_s_road_are_left_out(tmp_path):
     ]
     assert 15.0 * (1.0 - math.cos(OFF_ROUTE)) < 0.5  # the turn is still on the road where it heads 0.25 rad away
     assert off_route(SimpleNamespace(lanelets=lanelets), road) == [2, 3]
-    assert off_route(SimpleNamespace(lanelets=lanelets), road, {2}) == [3]  # the ego drives on the turn: kept
+
+
+def test_a_turning_lanelet_is_kept_back_only_under_a_pose_on_no_other():
+    """CriMe needs a lanelet under each of the ego's poses: a left-out lanelet is kept back where a pose lies on it
+    alone (an on-ramp the ego starts on), not where the pose also lies on a lanelet along the road (a turn forking
+    from the ego's lane, DEU_Muc-17)."""
+    from fcgen.commonroad.criticality import kept_back
+
+    assert kept_back([2, 3], [[1, 2], [1], [1, 4]]) == set()  # the fork: the turn stays out
+    assert kept_back([2, 3], [[2], [1, 2], [1]]) == {2}  # the ego starts on the turn alone
+    assert kept_back([2, 3], [[], [2, 3], [1]]) == {2, 3}  # a pose on left-out lanelets only: both back
 
 
 def test_crime_orientations_hold_the_centre_s_own_vertices():

@@ -46,7 +46,8 @@ turning off where the ego drives straight on; and a turning lanelet set the turn
 orientation -1.57 rad turned the straight road 1.6 rad off x; a vehicle 19.6 m ahead and 5.1 m/s faster read 0.85 s,
 its speed along the turning lanelet under the ego about -10 m/s). CriMe's copy leaves out the lanelets that turn
 off the ego's road: those with a centre segment on the road (within its drivable band widened by ``ROUTE_SLACK``)
-heading more than ``OFF_ROUTE`` away from the road's heading (turning and oncoming lanes). A vehicle on them is still
+heading more than ``OFF_ROUTE`` away from the road's heading (turning and oncoming lanes), but for those under an ego
+pose that lies on no other lanelet (``kept_back``: CriMe needs a lanelet under each pose). A vehicle on them is still
 asked where it lies on a kept lanelet, and not where it does not (CriMe's "same lanelet" test). Tested on a junction's
 turning and oncoming lanelets (left out) beside its straight one (kept).
 
@@ -97,8 +98,9 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     ego_id = out.generate_object_id()
     if keep is not None:
         out.remove_obstacle([ob for ob in out.obstacles if ob.obstacle_id not in keep])
-    driven = {i for ids in out.lanelet_network.find_lanelet_by_position(list(centres[:, :2])) for i in ids}
-    for i in off_route(out.lanelet_network, sc.road, driven):  # CriMe needs the ego's own lanelets (US101-32_1)
+    off = off_route(out.lanelet_network, sc.road)
+    back = kept_back(off, out.lanelet_network.find_lanelet_by_position(list(centres[:, :2])))
+    for i in sorted(set(off) - back):  # CriMe needs a lanelet under each of the ego's poses (US101-32_1)
         out.lanelet_network.remove_lanelet(i, rtree=False)  # (the index is rebuilt below)
     shape = Rectangle(length, width)
 
@@ -129,10 +131,9 @@ def logged_scenario(sc, centres: np.ndarray, speeds: np.ndarray, length: float, 
     return out, ego_id
 
 
-def off_route(net, road, driven: Collection[int] = ()) -> list[int]:
+def off_route(net, road) -> list[int]:
     """The ids of the lanelets of ``net`` that turn off the ego's ``road``: a segment of the centre line on the road
-    (its drivable band widened by ``ROUTE_SLACK``) heading more than ``OFF_ROUTE`` away from the road's heading; but
-    for those in ``driven`` (the lanelets under the ego's logged poses)."""
+    (its drivable band widened by ``ROUTE_SLACK``) heading more than ``OFF_ROUTE`` away from the road's heading."""
     lo_n, hi_n = (
         (np.full(len(road.s), -np.inf), np.full(len(road.s), np.inf))
         if road.n_min is None
@@ -140,8 +141,6 @@ def off_route(net, road, driven: Collection[int] = ()) -> list[int]:
     )
     out = []
     for la in net.lanelets:
-        if la.lanelet_id in driven:
-            continue
         c = np.asarray(la.center_vertices, dtype=float)
         d = np.diff(c, axis=0)
         mid, phi = (c[:-1] + c[1:]) / 2, np.arctan2(d[:, 1], d[:, 0])
@@ -151,6 +150,14 @@ def off_route(net, road, driven: Collection[int] = ()) -> list[int]:
         if np.any(on & (np.abs(np.angle(np.exp(1j * a))) > OFF_ROUTE)):
             out.append(int(la.lanelet_id))
     return out
+
+
+def kept_back(off: Collection[int], under) -> set[int]:
+    """Of the lanelets ``off`` (``off_route``'s), those under an ego pose (``under``: the lanelet ids under each) that
+    lies on no other lanelet: CriMe needs one under every pose (US101-32_1's on-ramp), but a pose that also lies on a
+    lanelet along the road keeps the turning one out (DEU_Muc-17: CriMe would measure in the turn)."""
+    off = set(off)
+    return {i for ids in under if ids and set(ids) <= off for i in ids}
 
 
 def crime_orientations(lanelet) -> np.ndarray:
