@@ -441,3 +441,49 @@ def test_a_reference_the_solver_refuses_is_a_refusal_of_its_own_kind(tmp_path):
     with pytest.raises(ScenarioRefused, match=line) as e:
         run_commonroad(PB, sc, controller=Refusing(build_ocp(PB)), criticality=False)
     assert e.value.kind == "reference refused"
+
+
+def _turn_road(radius: float, at: float = 60.0, angle: float = math.pi / 2, half: float = 1.75):
+    """A straight road with one left turn of ``radius`` through ``angle`` starting ``at`` metres along it (grid
+    0.5 m), its band ``half`` metres to each side."""
+    import dataclasses
+
+    from fcgen.road import Road
+
+    ds = 0.5
+    s = np.arange(0.0, 300.0, ds)
+    kappa = np.where((s >= at) & (s < at + radius * angle), 1.0 / radius, 0.0)
+    road = Road.from_curvature(kappa, ds)
+    return dataclasses.replace(road, n_min=np.full(s.size, -half), n_max=np.full(s.size, half))
+
+
+def test_a_turn_tighter_than_the_car_is_refused_with_the_room_it_needs():
+    """The paper's car turns no tighter than R = 3.4 / tan(0.3) = 10.99 m. A quarter turn of 5 m radius on a 3.5 m
+    band: on the 0.5 m grid its 16 samples of 0.2 / m integrate by trapezoids to 1.60 rad, all within 10 m (r =
+    10 / 1.6 = 6.25 m), and the car's arc between the same tangents lies (10.99 - 6.25)(1 / cos(0.8) - 1) = 2.06 m
+    inside it, more than the 3.5 - 1.9 = 1.6 m free: refused. Driven: the same turn on a 10.5 m band (8.6 m free),
+    a turn of 8 m (1.25 rad in 10 m: 0.70 m), one of 15 m (no window turns tighter than R) and the 5 m turn beyond
+    the run's reach."""
+    from fcgen.commonroad.drivable import check_turns
+
+    kappa_max, width = math.tan(PB.bounds.delta_max) / PB.ego.l, PB.ego.w_ch
+    assert (1.0 / kappa_max, width) == (pytest.approx(10.99, abs=0.005), 1.9)
+    line = r"turns 1\.60 rad within 10 m, 5\d m ahead; .* no tighter than 11\.0 m .* needs 2\.1 m of the band's 1\.6 m"
+    with pytest.raises(ScenarioRefused, match=line) as e:
+        check_turns(_turn_road(5.0), 0.0, 200.0, kappa_max, width)
+    assert e.value.kind == "turn tighter than the car"
+    check_turns(_turn_road(5.0, half=5.25), 0.0, 200.0, kappa_max, width)
+    check_turns(_turn_road(8.0), 0.0, 200.0, kappa_max, width)
+    check_turns(_turn_road(15.0), 0.0, 200.0, kappa_max, width)
+    check_turns(_turn_road(5.0, at=150.0), 0.0, 100.0, kappa_max, width)  # beyond what the run can reach
+
+
+def test_the_cut_a_turn_needs_by_hand():
+    """(R - r)(1 / cos(theta / 2) - 1): a right angle over 10 m (r = 6.37 m) for R = 11 m needs 4.63 (sqrt 2 - 1) =
+    1.92 m; a path that turns wider than the car needs none; a half turn cannot be cut."""
+    from fcgen.commonroad.drivable import cut_needed
+
+    r = 10.0 / (math.pi / 2)
+    assert float(cut_needed(math.pi / 2, 10.0, 11.0)) == pytest.approx((11.0 - r) * (math.sqrt(2.0) - 1.0), rel=1e-12)
+    assert float(cut_needed(0.5, 10.0, 11.0)) == 0.0
+    assert math.isinf(float(cut_needed(math.pi, 10.0, 11.0)))

@@ -8,6 +8,7 @@ refused, the agreement table of the two collision checks, the collisions by resp
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -116,6 +117,7 @@ def load_for(problem, path: str | Path, planning_problem_id: int | None = None):
         v_max=pb.bounds.v_max,
         window_m=(pb.road.samples - 1) * pb.road.ds,
         behind_m=WINDOW_BEHIND + pb.ego.l + 2 * pb.road.ds,
+        kappa_max=math.tan(pb.bounds.delta_max) / pb.ego.l,
     )
 
 

@@ -1,6 +1,6 @@
 """What fcgen can drive: a scenario is refused, with the reason's kind, where its route crosses other lanes (an
-intersection), where its road carries traffic against the ego's direction (oncoming traffic), or where its goal's
-lanelets cannot be reached along the lanes from the start.
+intersection), where its road carries traffic against the ego's direction (oncoming traffic), where its goal's
+lanelets cannot be reached along the lanes from the start, or where the route turns tighter than the car can.
 
 Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write with commonroad-io):
 
@@ -15,6 +15,12 @@ Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write 
   180 - ``CROSS_ANGLE`` degrees off: a shared two-way lane), or a recorded vehicle during the run whose centre is
   in the road's band (the lanes of the ego's direction) within that stretch, heading more than 90 degrees against
   the road.
+- **Turn tighter than the car**: on that stretch the reference path turns, over 10, 20 or 40 m (``TURN_WINDOWS``),
+  by an angle theta that the car at its largest curvature tan(delta_max) / wheelbase (a radius R of 11.0 m for the
+  paper's car: delta_max 0.3 rad, wheelbase 3.4 m) cannot take inside the band: between the turn's two tangents its
+  arc lies (R - r)(1 / cos(theta / 2) - 1) inside the path's arc of radius r = window / theta at the middle, more
+  than the band's width less the chassis' width there (the widest line a driver takes, out-in-out). A junction's
+  turn from one street into another (CHN_Sha: 1.3-1.7 rad within 10 m) is one.
 - **Goal unreachable**: the goal names lanelets and none of them can be reached from the start lanelet along
   successors and adjacent lanes of the same direction (fcgen's lane rule moves one lane at a time, the road follows
   successors).
@@ -33,14 +39,63 @@ PROBE_STEP = 2.0  # m between the path's points probed for crossing lanes
 CROSS_ANGLE = 30.0  # degrees: a lanelet this far off the path's heading at a shared point crosses it ...
 FORK_ANGLE = 60.0  # ... unless it forks from or merges into the route's lanelets and is less than this far off
 OBSTACLE_STRIDE = 5  # recorded steps between the poses checked for oncoming vehicles
+TURN_WINDOWS = (10.0, 20.0, 40.0)  # m: the path's turns are measured as its heading's change over these distances
 
 
-def check_drivable(net, road: Road, first: int, goals: set[int], obstacles, s0: float, reach_m: float, steps) -> None:
-    """The three checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can
-    drive ``reach_m`` (its samples at its speed, plus the horizon)."""
+def check_drivable(
+    net, road: Road, first: int, goals: set[int], obstacles, s0: float, reach_m: float, steps, kappa_max=None, width=0.0
+) -> None:
+    """The checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can drive
+    ``reach_m`` (its samples at its speed, plus the horizon); ``kappa_max``: the car's largest curvature (1/m; None:
+    the turns are not checked), ``width``: its chassis' width."""
     check_goal_reachable(net, first, goals)
     check_route(net, road, s0, reach_m)
+    if kappa_max is not None:
+        check_turns(road, s0, reach_m, kappa_max, width)
     check_oncoming(obstacles, road, s0, reach_m, steps)
+
+
+def check_turns(road: Road, s0: float, reach_m: float, kappa_max: float, width: float) -> None:
+    """Refuse (``turn tighter than the car``) a reference path that turns, over ``TURN_WINDOWS`` metres somewhere
+    between ``s0`` and ``s0 + reach_m``, more than a car of width ``width`` at its largest curvature ``kappa_max`` can
+    inside the band (module docstring: ``cut_needed`` against the band's free width)."""
+    s = road.s
+    on = np.flatnonzero((s >= s0) & (s <= s0 + reach_m))
+    for window in TURN_WINDOWS:
+        w = max(1, round(window / road.ds))
+        if on.size <= w:
+            continue
+        turn = np.abs(road.phi[on[w:]] - road.phi[on[:-w]])
+        free = _band_width(road, on[:-w] + w // 2) - width
+        need = cut_needed(turn, w * road.ds, 1.0 / kappa_max)
+        bad = np.flatnonzero(need > free)
+        if bad.size:
+            k = int(bad[np.argmax(turn[bad])])
+            raise ScenarioRefused(
+                f"a turn tighter than the car: the route turns {float(turn[k]):.2f} rad within {w * road.ds:.0f} m, "
+                f"{float(s[on[k]] - s0):.0f} m ahead; the car, turning no tighter than {1.0 / kappa_max:.1f} m "
+                f"(tan(delta_max) / wheelbase), needs {float(need[k]):.1f} m of the band's {float(free[k]):.1f} m "
+                "free width to cut it",
+                kind="turn tighter than the car",
+            )
+
+
+def cut_needed(turn, length: float, r_car: float):
+    """How far inside a turn by ``turn`` rad over ``length`` m (an arc of radius length / turn between the same two
+    tangents) the arc of radius ``r_car`` lies at its middle: (r_car - r)(1 / cos(turn / 2) - 1), 0 where the car
+    turns tighter than the path; infinite for a turn of pi or more."""
+    turn = np.asarray(turn, dtype=float)
+    r = length / np.maximum(turn, 1e-12)
+    half = np.minimum(turn / 2, math.pi / 2 - 1e-9)
+    need = np.maximum(r_car - r, 0.0) * (1.0 / np.cos(half) - 1.0)
+    return np.where(turn >= math.pi, np.inf, need)
+
+
+def _band_width(road: Road, idx) -> np.ndarray:
+    """The drivable band's width at the road samples ``idx`` (a road without a band: infinite)."""
+    if road.n_min is None or road.n_max is None:
+        return np.full(len(idx), np.inf)
+    return road.n_max[idx] - road.n_min[idx]
 
 
 def check_route(net, road: Road, s0: float, reach_m: float) -> None:

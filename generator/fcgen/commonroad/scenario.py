@@ -68,6 +68,7 @@ def load_scenario(
     v_max: float = 40.0,
     window_m: float = 280.0,
     behind_m: float = 50.0,
+    kappa_max: float | None = None,  # the car's largest curvature (what it can drive: ``drivable``; None: not checked)
 ) -> CrScenario:
     """Read ``path`` (CommonRoad XML) for an ego ``ego`` on fcgen's road grid ``ds``. The reference path must reach
     the horizon (``horizon_s`` at the larger of the initial and the reference speed) ahead of the ego's start; the road
@@ -79,8 +80,7 @@ def load_scenario(
     listed = sorted([*scenario.dynamic_obstacles, *scenario.static_obstacles], key=lambda o: o.obstacle_id)
     obstacles = tuple(obstacle_from(ob, dt) for ob in listed)
     st = pp.initial_state
-    heading = float(st.orientation)
-    centre = np.asarray(st.position, dtype=float)
+    heading, centre = float(st.orientation), np.asarray(st.position, dtype=float)
     rear = centre - (ego.l / 2) * np.array([math.cos(heading), math.sin(heading)])
     net = scenario.lanelet_network
     first = initial_lanelet(net, centre, heading)
@@ -111,7 +111,7 @@ def load_scenario(
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
     reach_m, steps = samples * dt * max(v0, v_ref) + horizon_m, range(step0, step0 + samples + 1)
-    check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps)  # docs: what fcgen can drive
+    check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps, kappa_max, ego.w_ch)
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,

@@ -58,6 +58,7 @@ REFUSAL_KINDS = (
     "goal unreachable",
     "intersection",
     "oncoming traffic",
+    "turn tighter than the car",
     "non-rectangular obstacle",
     "set-based prediction",
     "non-consecutive recording",
