@@ -75,9 +75,8 @@ static void ipm_ineq_Ax(const ipm_real_t *x, ipm_real_t *out) {
   }
 }
 
-/* A z on the rows but the soft rows */
+/* A z on the rows but the soft rows, the init and the dynamics rows (their residuals: ipm_eq_residuals) */
 static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
-  int i;
   int k;
   int p;
   ipm_ineq_Ax(x, out); /* the generic A's box and general rows; then its others (stage equalities) */
@@ -89,31 +88,9 @@ static void ipm_Ax(const ipm_real_t *x, ipm_real_t *out) {
     }
     out[IPM_AR_ROW[r]] = s;
   }
-  for (i = 0; i < IPM_NX; ++i) {
-    out[IPM_INIT_ROWS[i]] = IPM_W.einit[i] * x[IPM_VMAP_XU[i]];
-  }
-  for (k = 0; k < IPM_N; ++k) {
-    ipm_real_t v[IPM_NXU];
-    ipm_real_t f[IPM_NX] = {0};
-    ipm_gather_xu(k, x, v);
-    ipm_fg_axpy(IPM_W.fgb[k], v, f);
-    if (IPM_XU_LO[k + 1] == 0) { /* x_{k+1} on consecutive variables, the stage's dynamics rows consecutive */
-      const ipm_real_t *xn = &x[IPM_XU_V[k + 1]];
-      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
-      ipm_real_t *o = &out[IPM_DYN_ROWS[k * IPM_NX]];
-      for (i = 0; i < IPM_NX; ++i) {
-        o[i] = IPM_W.Ax[en[i]] * (xn[i] - f[i]);
-      }
-    } else {
-      for (i = 0; i < IPM_NX; ++i) {
-        const int r = (k * IPM_NX) + i;
-        out[IPM_DYN_ROWS[r]] = IPM_W.Ax[IPM_DYN_NEXT[r]] * (x[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i]);
-      }
-    }
-  }
 }
 
-/* out = base + A' v over the rows of ipm_Ax (the soft rows add theirs in ipm_sr_check), on the generic variables */
+/* out = base + A' v over the rows but the soft rows (they add theirs in ipm_sr_check), on the generic variables */
 static void ipm_ATx(const ipm_real_t *base, const ipm_real_t *v, ipm_real_t *out) {
   int k;
   int i;

@@ -66,30 +66,50 @@ static void ipm_ineq_rows(ipm_real_t *acc) {
   }
 }
 
-/* the equality rows' residuals A z - l in IPM_W.wr (the init rows, the dynamics rows by stage, the stage equality
- * rows: every equality row once); returns their largest magnitude, at least rmax0. The dynamics rows' residuals
- * become c_k = -r_eq / E (ipm_stage_c) in the same pass */
-static ipm_real_t ipm_eq_residuals(const ipm_real_t *l, ipm_real_t rmax0) {
+/* the equality rows' residuals A z - l in IPM_W.wr, A z of the init and the dynamics rows formed here (the stage
+ * equality rows' by ipm_Ax); returns their largest magnitude, from 0 (the init rows, the dynamics rows by stage, the
+ * stage equality rows: every equality row once). The dynamics rows' residuals become c_k = -r_eq / E (ipm_stage_c)
+ * in the same pass */
+static ipm_real_t ipm_eq_residuals(const ipm_real_t *z, const ipm_real_t *l) {
   int i;
   int k;
-  ipm_real_t rmax = rmax0;
+  ipm_real_t rmax = REAL_0;
   for (i = 0; i < IPM_NX; ++i) {
     const int r = IPM_INIT_ROWS[i];
-    const ipm_real_t v = IPM_W.wr[r] - l[r];
+    const ipm_real_t v = (IPM_W.einit[i] * z[IPM_VMAP_XU[i]]) - l[r];
     IPM_W.wr[r] = v;
     if (IPM_FABS(v) > rmax) {
       rmax = IPM_FABS(v);
     }
   }
-  for (k = 0; k < IPM_N; ++k) {
-    const ipm_idx_t *rows = &IPM_DYN_ROWS[k * IPM_NX];
-    for (i = 0; i < IPM_NX; ++i) {
-      const int r = rows[i];
-      const ipm_real_t v = IPM_W.wr[r] - l[r];
-      if (IPM_FABS(v) > rmax) {
-        rmax = IPM_FABS(v);
+  for (k = 0; k < IPM_N; ++k) { /* row i of stage k: E_i (x_{k+1}[i] - ([F G] v_k)[i]) */
+    ipm_real_t v[IPM_NXU];
+    ipm_real_t f[IPM_NX] = {0};
+    ipm_gather_xu(k, z, v);
+    ipm_fg_axpy(IPM_W.fgb[k], v, f);
+    if (IPM_XU_LO[k + 1] == 0) { /* x_{k+1} on consecutive variables, the stage's dynamics rows consecutive */
+      const ipm_real_t *xn = &z[IPM_XU_V[k + 1]];
+      const ipm_idx_t *en = &IPM_DYN_NEXT[k * IPM_NX];
+      const int r0 = IPM_DYN_ROWS[k * IPM_NX];
+      ipm_real_t *o = &IPM_W.wr[r0];
+      const ipm_real_t *lo = &l[r0];
+      for (i = 0; i < IPM_NX; ++i) {
+        const ipm_real_t d = (IPM_W.Ax[en[i]] * (xn[i] - f[i])) - lo[i];
+        if (IPM_FABS(d) > rmax) {
+          rmax = IPM_FABS(d);
+        }
+        o[i] = d * (-IPM_W.Einv[k][i]);
       }
-      IPM_W.wr[r] = v * (-IPM_W.Einv[k][i]);
+    } else {
+      for (i = 0; i < IPM_NX; ++i) {
+        const int q = (k * IPM_NX) + i;
+        const int r = IPM_DYN_ROWS[q];
+        const ipm_real_t d = (IPM_W.Ax[IPM_DYN_NEXT[q]] * (z[IPM_VMAP_XU[((k + 1) * IPM_NXU) + i]] - f[i])) - l[r];
+        if (IPM_FABS(d) > rmax) {
+          rmax = IPM_FABS(d);
+        }
+        IPM_W.wr[r] = d * (-IPM_W.Einv[k][i]);
+      }
     }
   }
 #if IPM_NE > 0
@@ -137,10 +157,12 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   int raw = IPM_GOING;
   ipm_real_t mu;
   ipm_real_t rmax;
+  ipm_real_t req;
   ipm_real_t m[2];
   ipm_real_t acc[3] = {REAL_0, REAL_0, REAL_0};
   ipm_take_step(q);
-  ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: residuals on the equality rows, then the weights on the others */
+  ipm_Ax(IPM_W.z, IPM_W.wr); /* A z: the weights on the inequality rows, residuals on the others */
+  req = ipm_eq_residuals(IPM_W.z, l);
   ipm_ineq_rows(acc);
   for (j = 0; j < IPM_NFREE; ++j) {
     const int v = IPM_FREE[j];
@@ -150,7 +172,7 @@ static int ipm_check(const ipm_real_t *q, const ipm_real_t *l, ipm_real_t *mu_ou
   m[0] = acc[1]; /* the largest residual or product, the largest multiplier: the soft rows' too */
   m[1] = acc[2];
   mu = acc[0] + ipm_sr_check(m);
-  rmax = ipm_eq_residuals(l, m[0]);
+  rmax = (req > m[0]) ? req : m[0]; /* the max of both (NaN if m[0] is) */
   mu /= (ipm_real_t)IPM_NCOMP;
   rmax = ipm_stationarity_max(rmax);
   if ((isfinite(rmax) == 0) || (isfinite(mu) == 0)) {
