@@ -487,3 +487,10 @@ def test_the_cut_a_turn_needs_by_hand():
     assert float(cut_needed(math.pi / 2, 10.0, 11.0)) == pytest.approx((11.0 - r) * (math.sqrt(2.0) - 1.0), rel=1e-12)
     assert float(cut_needed(0.5, 10.0, 11.0)) == 0.0
     assert math.isinf(float(cut_needed(math.pi, 10.0, 11.0)))
+
+
+def test_a_standing_ego_without_a_speed_to_reach_is_loaded_not_crashed(tmp_path):
+    """An ego at 0 m/s whose goal asks no speed can drive 0 m: the route is checked at its start (commonroad-io's
+    look-up of no points raised a TypeError)."""
+    sc = load_for(PB, write_scenario(tmp_path / "stand.xml", ego_v=0.0))
+    assert sc.x0[3] == 0.0 and sc.samples == 40

@@ -103,6 +103,7 @@ def check_route(net, road: Road, s0: float, reach_m: float) -> None:
     the other direction between ``s0`` and ``s0 + reach_m`` on ``road``."""
     in_junction = {lid for inter in getattr(net, "intersections", []) for lid in _intersection_lanelets(inter)}
     s = np.arange(s0, min(s0 + reach_m, road.s_end), PROBE_STEP)
+    s = s if s.size else np.array([s0])  # a run that cannot move (a standing ego, no speed to reach): its start
     x, y, phi = road.to_cartesian(s, np.zeros_like(s), np.zeros_like(s))
     found = net.find_lanelet_by_position([np.array([xi, yi]) for xi, yi in zip(x, y, strict=True)])
     probes = [
