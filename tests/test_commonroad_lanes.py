@@ -161,8 +161,42 @@ def test_the_relevance_rule_in_a_closed_loop_sees_a_slower_vehicle_ahead(tmp_pat
     ids = [o.id for o in sc.obstacles]
     now = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3)
     assert [ids[i] for i in now] == [12, 13, 14]
-    ahead = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (20.0, 0.0), None, PB.horizon.N)
+    ahead = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (20.0, 0.0), None, PB.horizon.N)  # 20 m/s, heading 0
     assert [ids[i] for i in ahead] == [11, 12, 13]
+
+
+def test_a_standing_ego_sees_the_standing_vehicle_ahead_before_those_passing_beside(tmp_path):
+    """Ego standing at x = 50 (centre), heading 0; vehicle 21 standing 10 m ahead in its lane; 22-24 passing in the
+    left lane (3.5 m) at 15 m/s from x = 35, 20, 5; 25 closing from behind in the ego's lane at 10 m/s from x = 30.
+    The ego at its own speed 0 (the rule without the reference speed): 25 reaches it at 2 s (0 m), 22-24 come level
+    at 1, 2, 3 s (3.5 m), 21 stays at 10 m and gets no slot. The ego at the reference speed of 10 m/s: it reaches 21
+    at 1 s (0 m); 25 stays 20 m behind; 15 - 10 = 5 m/s relative: 22 comes level at 3 s (3.5 m), 23 ends 10 m behind
+    at 4 s (hypot(10, 3.5) = 10.595 m), 24 25 m behind (25.244 m). The nearer of the two: 21 and 25 at 0, then 22."""
+    from fcgen.commonroad import select_opponents
+    from fcgen.commonroad.traffic import _approach
+
+    cars = [
+        (21, 1, 60.0, 0.0, 60, 4.5, 1.8),
+        (22, 2, 35.0, 15.0, 60, 4.5, 1.8),
+        (23, 2, 20.0, 15.0, 60, 4.5, 1.8),
+        (24, 2, 5.0, 15.0, 60, 4.5, 1.8),
+        (25, 1, 30.0, 10.0, 60, 4.5, 1.8),
+    ]
+    sc = load_for(PB, write_scenario(tmp_path / "s.xml", obstacles=cars))  # (its ego start is not used here)
+    ids, N, ego = [o.id for o in sc.obstacles], PB.horizon.N, (0.0, 0.0)  # the standing ego: (speed, heading)
+
+    def approach(v: float) -> list[float]:
+        d = {o.id: _approach(o, 0, (50.0, 0.0), (v, 0.0), None, N) for o in sc.obstacles}
+        return [d[i] for i in (21, 22, 23, 24, 25)]
+
+    np.testing.assert_allclose(approach(0.0), [10.0, 3.5, 3.5, 3.5, 0.0], atol=1e-6)
+    np.testing.assert_allclose(approach(10.0), [0.0, 3.5, 10.595, 25.244, 20.0], atol=2e-3)
+    own = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, ego, None, N, v_ref=0.0)
+    assert [ids[i] for i in own] == [25, 22, 23]
+    ref = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, ego, None, N, v_ref=10.0)
+    assert [ids[i] for i in ref] == [21, 25, 22]
+    slow = select_opponents(sc.obstacles, 0, (50.0, 0.0), 3, (10.0, 0.0), None, N, v_ref=5.0)  # its own 10 m/s
+    assert [ids[i] for i in slow] == [21, 22, 23]
 
 
 def test_a_lane_change_profile_by_hand():

@@ -13,9 +13,13 @@ Rules (tested in tests/test_commonroad.py):
 - **Presence**: an obstacle is present at step t when it is static or recorded at t (it appears at its first step
   and disappears after its last: the drivability checker sees it over the same steps).
 - **Relevance** (``select_opponents``): of the obstacles present at a step, the ``n_slots`` nearest to the ego's
-  centre, ties by obstacle id: in a closed loop by their closest approach over the horizon (the ego at constant
-  velocity along its heading, the obstacles as predicted: a slower vehicle ahead in the ego's lane comes before one
-  beside it at the same speed), else by the Euclidean distance of the centres at that step.
+  centre, ties by obstacle id: in a closed loop by their closest approach over the horizon, the obstacles as
+  predicted and the ego along its heading at constant speed, **the nearer of two approaches: the ego at its own
+  speed, and at the run's reference speed** ``v_ref`` where that is faster (where the ego drives if nothing is in
+  the way). A standing or slow ego so sees the standing vehicle ahead in its lane (it would reach it) before those
+  passing beside it, and keeps a vehicle closing from behind (it would reach the ego at its own speed); a slower
+  vehicle ahead comes before one beside at the same speed. Without the ego's motion: by the Euclidean distance of
+  the centres at that step.
 - **Empty slots**: a neutral opponent, a 4 m x 2 m box 1 km beyond the road's bounding box (south-west of it),
   heading 0, standing: it never constrains the plan (the conventional fit leaves it out).
 """
@@ -158,23 +162,33 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
 
 
 def select_opponents(
-    obstacles, step: int, ego_xy, n_slots: int, ego_v=None, offsets=None, N: int = 0
+    obstacles, step: int, ego_xy, n_slots: int, ego_motion=None, offsets=None, N: int = 0, v_ref: float = 0.0
 ) -> tuple[int | None, ...]:
     """Indices into ``obstacles`` of the ``n_slots`` present obstacles nearest to ``ego_xy`` at ``step`` (ties by
-    id); ``None`` for the slots left empty. With the ego's velocity ``ego_v`` (vx, vy): nearest by their closest
-    approach over the horizon's ``N`` stages (stage k ``offsets[k]`` steps on, default k), the ego at constant
-    velocity, the obstacles as predicted."""
+    id); ``None`` for the slots left empty. With the ego's ``ego_motion`` (speed, heading): nearest by their closest
+    approach over the horizon's ``N`` stages (stage k ``offsets[k]`` steps on, default k), the ego along its heading
+    at its own speed and at ``v_ref`` where that is faster (the nearer of the two), the obstacles as predicted."""
     cand = []
     for i, ob in enumerate(obstacles):
         if ob.present(step):
-            cand.append((_approach(ob, step, ego_xy, ego_v, offsets, N), ob.id, i))
+            cand.append((_relevance(ob, step, ego_xy, ego_motion, v_ref, offsets, N), ob.id, i))
     cand.sort()
     chosen = [i for _, _, i in cand[:n_slots]]
     return tuple(chosen) + (None,) * (n_slots - len(chosen))
 
 
+def _relevance(ob, step: int, ego_xy, ego_motion, v_ref: float, offsets, N: int) -> float:
+    """The obstacle's distance now, or its closest approach to the ego at its own speed or at ``v_ref`` (the nearer)."""
+    if ego_motion is None:
+        return _approach(ob, step, ego_xy, None, offsets, N)
+    v, heading = float(ego_motion[0]), float(ego_motion[1])
+    c, s = math.cos(heading), math.sin(heading)
+    return min(_approach(ob, step, ego_xy, (u * c, u * s), offsets, N) for u in {v, max(v, float(v_ref))})
+
+
 def _approach(ob, step: int, ego_xy, ego_v, offsets, N: int) -> float:
-    """The obstacle's distance to the ego now, or (``ego_v`` given) its closest approach over the horizon."""
+    """The obstacle's distance to the ego now, or (``ego_v`` = (vx, vy) given) its closest approach over the
+    horizon, the ego at that constant velocity."""
     p = ob.pose(step)
     d = math.hypot(p[0] - ego_xy[0], p[1] - ego_xy[1])
     if ego_v is None:
@@ -193,13 +207,14 @@ def neutral_pose(road) -> np.ndarray:
     return np.array([float(np.min(road.gx)) - NEUTRAL_DISTANCE, float(np.min(road.gy)) - NEUTRAL_DISTANCE, 0.0])
 
 
-def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None, ego_v=None):
+def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None, ego_motion=None):
     """The solver's opponents at closed-loop sample ``step`` (scenario step ``sc.first_step + step``): centre poses
     (N+1, n_slots, 3) over the horizon (stage k: ``offsets[k]`` scenario steps later, default k), shapes
     (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
-    (None for an empty slot); ``ego_v``: the ego's velocity for the relevance rule (``select_opponents``)."""
+    (None for an empty slot); ``ego_motion``: the ego's (speed, heading) for the relevance rule
+    (``select_opponents``, with the scenario's ``v_ref``)."""
     t0 = sc.first_step + step
-    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots, ego_v, offsets, N)
+    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots, ego_motion, offsets, N, sc.v_ref)
     poses = np.zeros((N + 1, n_slots, 3))
     shapes = np.zeros((n_slots, 3))
     ids: list[int | None] = []

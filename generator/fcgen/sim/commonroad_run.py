@@ -300,8 +300,8 @@ def _drive(
                 controller, sc.name, problem, v_ref, n_ref, None if ramp is None else (ramp[0], since, ramp[2])
             )
         loop.v_refs.append(float(v_ref))
-        ego_v = (float(x[3]) * math.cos(rphi), float(x[3]) * math.sin(rphi))
-        poses, shapes, ids = cr.opponent_horizon(seen(sc, j), j, centre, n_slots, N, problem.horizon.offsets, ego_v)
+        ego = (float(x[3]), rphi)  # the relevance rule's speed and heading (``select_opponents``)
+        poses, shapes, ids = cr.opponent_horizon(seen(sc, j), j, centre, n_slots, N, problem.horizon.offsets, ego)
         shapes_in.set(j, shapes, sc, ids, x)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
