@@ -48,6 +48,7 @@ def write_scenario(
     statics=(),
     goal: dict | None = None,
     ego_n: float = 0.0,
+    ego_turns: int = 0,
 ) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
@@ -55,7 +56,8 @@ def write_scenario(
     ``statics``: (id, lane, s, length, width) static obstacles; ``speed_limit``: a MAX_SPEED sign on the ego's lane;
     ``goal``: a goal position ``lane``, ``s`` (a rectangle ``length`` x ``width``, default 6 x 3 m) and optionally a
     ``velocity`` (lo, hi) and an ``orientation`` (lo, hi) interval beside the time steps ``goal_steps``; ``ego_n``:
-    the ego's start this far left of its lane's centre."""
+    the ego's start this far left of its lane's centre; ``ego_turns``: its orientation given with this many whole
+    turns (2 pi each) added, the same pose (CommonRoad allows any real orientation)."""
     from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
     from commonroad.geometry.shape import Circle, Rectangle
     from commonroad.planning.goal import GoalRegion
@@ -151,7 +153,13 @@ def write_scenario(
     pp = PlanningProblem(
         1,
         InitialState(
-            position=exy, orientation=eth, velocity=ego_v, time_step=0, yaw_rate=0.0, slip_angle=0.0, acceleration=0.0
+            position=exy,
+            orientation=eth + 2.0 * math.pi * ego_turns,
+            velocity=ego_v,
+            time_step=0,
+            yaw_rate=0.0,
+            slip_angle=0.0,
+            acceleration=0.0,
         ),
         GoalRegion([_goal_state(goal, goal_steps, pose)]),
     )

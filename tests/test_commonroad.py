@@ -61,6 +61,29 @@ def test_a_straight_three_lane_road(straight):
     assert sc.road.s_end >= sc.x0[0] + sc.samples * sc.dt * PB.bounds.v_max + (PB.road.samples - 1) * PB.road.ds
 
 
+def test_a_start_heading_given_with_whole_turns_is_the_same_pose(tmp_path):
+    """CommonRoad allows any real orientation (DEU_Muc-2: -3.351 on a lane heading 2.932; DEU_Muc-17: -4.7 on 1.583).
+    The ego on the straight road's middle lane given 0 - 2 pi (-6.2831) starts at alpha 8.5e-5, not -2 pi (which no
+    step at the yaw rate bound brings inside |alpha| <= alpha_max at stage 1: every QP infeasible, the run on the
+    fallback); every QP of the run is solved, the ego stays in its lane heading along it, and the solution starts at
+    the problem's -6.2831."""
+    from fcgen.sim.commonroad_run import run_commonroad
+
+    safe = preset("car_lifted_ellipse_ipm_safe")  # (the campaign's profile: every QP infeasible before)
+    sc = load_for(safe, write_scenario(tmp_path / "turn.xml", ego_turns=-1, goal_steps=(10, 12)))
+    assert float(sc.planning_problem.initial_state.orientation) == -6.2831  # (the writer keeps 4 decimals)
+    assert sc.x0[2] == pytest.approx(2.0 * math.pi - 6.2831, abs=1e-9)
+    run = run_commonroad(safe, sc, criticality=False)
+    assert run.log.meta["extra"]["commonroad"]["goal"]["step"] == 10  # (the goal's time steps 10-12, no position)
+    assert run.log.exit_code is not None and len(run.log.exit_code) == 10
+    assert np.all(run.log.exit_code == 0)
+    fr = np.asarray(run.log.ego_frenet)
+    assert np.all(np.abs(fr[:, 1]) < 0.5) and np.all(np.abs(fr[:, 2]) < 0.05)
+    sol = run.log.meta["extra"]["commonroad"]["solution"]
+    assert sol["starts_at_initial_state"] and sol["feasible"] and not sol["road_departure"]
+    assert not run.checker["road_departure"]
+
+
 def test_a_bend_of_constant_radius(tmp_path):
     """A left bend of radius 200 m: the curvature 1/200 on the lanelets (within 1.5 %: the smoothing spline through
     the 2 m polyline), the band still +-5.25 m along the normals, the centre line reproduced within 5 cm."""

@@ -14,7 +14,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from fcgen.road import Road, RoadWindowParams, casadi_road, casadi_to_cartesian, random_road, straight_road
+from fcgen.road import (
+    Road,
+    RoadWindowParams,
+    casadi_road,
+    casadi_to_cartesian,
+    random_road,
+    straight_road,
+    wrap_angle,
+)
 
 SEEDS = [0, 1, 7, 42]
 
@@ -304,3 +312,14 @@ def test_road_validation():
         Road(0.0, 0.0, np.zeros(5), np.zeros(5), np.zeros(5), np.zeros(5))
     with pytest.raises(ValueError, match="NaN"):
         Road(0.0, 2.0, np.array([0, np.nan, 0.0]), np.zeros(3), np.zeros(3), np.zeros(3))
+
+
+def test_wrap_angle_takes_whole_turns_off_and_keeps_a_heading_in_range_bit_for_bit():
+    """-3.351 is 2 pi - 3.351 = 2.932185..., -4.7 is 1.583185..., 7 is 0.716815...; 1.0 and pi stay as they are."""
+    assert wrap_angle(-3.351) == pytest.approx(2.932185307179586, abs=1e-12)
+    assert wrap_angle(-4.7) == pytest.approx(1.583185307179586, abs=1e-12)
+    assert wrap_angle(7.0) == pytest.approx(0.7168146928204138, abs=1e-12)
+    assert wrap_angle(1.0) == 1.0 and wrap_angle(math.pi) == math.pi
+    a = np.array([-3.351, 0.3, -math.pi, 4.0 * math.pi + 0.25])
+    np.testing.assert_allclose(wrap_angle(a), [2.932185307179586, 0.3, -math.pi, 0.25], rtol=0, atol=1e-12)
+    assert wrap_angle(a)[1] == 0.3

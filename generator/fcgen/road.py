@@ -272,11 +272,21 @@ class Road:
         return s if s.ndim else float(s)
 
     def to_frenet(self, x, y, phi, s_guess=None):
-        """Forward Frenet transform F: (x, y, phi) -> (s, n, alpha) by local projection."""
+        """Forward Frenet transform F: (x, y, phi) -> (s, n, alpha) by local projection; alpha = phi - phi_road with
+        ``phi``'s whole turns (the exact inverse of ``to_cartesian``; a solver's state takes ``wrap_angle`` of it)."""
         s = self.project(x, y, s_guess)
         _, phi_g, gx, gy, _, _ = self.eval(s)
         n = -(x - gx) * libm_sin(phi_g) + (y - gy) * libm_cos(phi_g)
         return s, n, phi - phi_g
+
+
+def wrap_angle(a):
+    """``a`` (rad; a scalar or an array) less its whole turns, in [-pi, pi]; a value already there unchanged (bit for
+    bit)."""
+    if np.ndim(a) == 0:
+        return a if abs(a) <= math.pi else math.remainder(float(a), 2.0 * math.pi)
+    a = np.asarray(a, dtype=float)
+    return np.where(np.abs(a) <= math.pi, a, np.remainder(a + math.pi, 2.0 * math.pi) - math.pi)
 
 
 def curve_speed(road: Road, s: float, a_lat: float, decel: float, v_max: float) -> float:

@@ -2,7 +2,8 @@
 obstacles; or refuse it with one line naming the reason.
 
 - **Ego**: the planning problem's initial state (CommonRoad's position is the vehicle's centre: fcgen's state is the
-  rear axle, half the ego's wheelbase behind it), its speed, steering angle 0.
+  rear axle, half the ego's wheelbase behind it), its speed, steering angle 0; its heading relative to the road in
+  [-pi, pi] (CommonRoad allows any real orientation: -3.351 on a road heading 2.932 is alpha -0.019, not -6.302).
 - **Reference speed** (``v_ref_source``): the goal's (``goal.goal_speed``): the initial speed (the ego keeps the
   traffic's speed where the goal allows it: the recorded traffic does not react to an ego that slows down) brought
   into the speeds that reach the goal position within its time window, into the goal's speed interval, at most the
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..dsl import Vehicle
 from ..extras import require
-from ..road import Road
+from ..road import Road, wrap_angle
 from .drivable import check_drivable
 from .goal import goal_centres, goal_extent, goal_frenet, goal_speed, speed_limit, timing_of
 from .reference_path import build_road, initial_lanelet, lanelet_chain
@@ -109,7 +110,7 @@ def load_scenario(
             kind="path shorter than the horizon",
         )
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
-    x0 = np.array([float(s[0]), float(n[0]), float(a[0]), v0, 0.0])
+    x0 = np.array([float(s[0]), float(n[0]), wrap_angle(float(a[0])), v0, 0.0])  # a heading given with whole turns
     reach_m, steps = samples * dt * max(v0, v_ref) + horizon_m, range(step0, step0 + samples + 1)
     check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps, kappa_max, ego.w_ch)
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()

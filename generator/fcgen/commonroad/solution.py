@@ -4,7 +4,8 @@
 - **The solution**: planning problem ``sc.planning_problem_id``, the kinematic single-track model (KS), vehicle type
   BMW 320i, cost function SM1, one state per sample from the planning problem's initial time step: position (the
   chassis' centre: CommonRoad's position, the initial state's; the checker's KS puts its rear axle ``b`` behind it),
-  orientation, speed, steering angle.
+  orientation (with the initial state's whole turns: a problem that starts at -3.351 gets -3.351, not 2.932), speed,
+  steering angle.
 - **The verdict** (``solution_verdict``), each part checked on its own (the checker stops at the first failure):
   ``starts_at_initial_state`` (position and orientation within 0.1, speed within 2.0 of the planning problem's),
   ``feasible`` (every transition reachable by the named vehicle model within the checker's tolerances;
@@ -17,6 +18,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -39,15 +41,17 @@ def solution_of(sc, ego_states: np.ndarray):
         from commonroad.scenario.state import KSState
         from commonroad.scenario.trajectory import Trajectory
 
+    xs = np.asarray(ego_states, dtype=float)
+    turns = _turns(sc, float(xs[0, 2])) if len(xs) else 0.0
     states = [
         KSState(
             time_step=sc.first_step + j,
             position=np.array([x[0], x[1]]),
-            orientation=float(x[2]),
+            orientation=float(x[2]) + turns,
             velocity=float(x[3]),
             steering_angle=float(x[4]),
         )
-        for j, x in enumerate(np.asarray(ego_states, dtype=float))
+        for j, x in enumerate(xs)
     ]
     pps = PlanningProblemSolution(
         planning_problem_id=sc.planning_problem_id,
@@ -57,6 +61,16 @@ def solution_of(sc, ego_states: np.ndarray):
         trajectory=Trajectory(sc.first_step, states),
     )
     return Solution(sc.scenario.scenario_id, [pps])
+
+
+def _turns(sc, phi0: float) -> float:
+    """The whole turns (a multiple of 2 pi) that bring ``phi0`` nearest the planning problem's initial orientation
+    (fcgen's heading is the road's plus alpha in [-pi, pi]; a problem may give it with whole turns: -3.351 for
+    2.932)."""
+    init = getattr(getattr(sc.planning_problem, "initial_state", None), "orientation", None)
+    if init is None:
+        return 0.0
+    return 2.0 * math.pi * round((float(init) - phi0) / (2.0 * math.pi))
 
 
 def write_solution(sc, ego_states: np.ndarray, path: str | Path) -> Path:
