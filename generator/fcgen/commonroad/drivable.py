@@ -25,7 +25,7 @@ Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write 
   rear axle): 2.46 m for the paper's car at 11.0 m (w 1.9 m, f 3.7 m), against 1.9 m on a straight. A junction's
   turn from one street into another (CHN_Sha: 1.3-1.7 rad within 10 m) is one; so is a 1.2 rad turn within 10 m
   (0.5 m to cut) on a band of 2.45-2.7 m (CHN_Sha-12_1, 1_5: 0.55-0.8 m beside the chassis' width, 0-0.2 m beside
-  its swept width; driven, the front corner crossed the edge before the turn).
+  its swept width; driven, 12_1's front corner crossed the lane's edge where the turn begins).
 - **Goal unreachable**: the goal names lanelets and none of them can be reached from the start lanelet along
   successors and adjacent lanes of the same direction (fcgen's lane rule moves one lane at a time, the road follows
   successors).
@@ -37,6 +37,7 @@ import math
 
 import numpy as np
 
+from ..dsl import Vehicle
 from ..road import Road
 from .traffic import CrObstacle, ScenarioRefused
 
@@ -57,15 +58,15 @@ def check_drivable(
     reach_m: float,
     steps,
     kappa_max=None,
-    width=0.0,
-    front=0.0,
+    ego: Vehicle | None = None,
 ) -> None:
     """The checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can drive
     ``reach_m`` (its samples at its speed, plus the horizon); ``kappa_max``: the car's largest curvature (1/m; None:
-    the turns are not checked), ``width``: its chassis' width, ``front``: the chassis' front ahead of the rear axle."""
+    the turns are not checked), ``ego``: its chassis (None: a point)."""
     check_goal_reachable(net, first, goals)
     check_route(net, road, s0, reach_m)
     if kappa_max is not None:
+        width, front = (ego.w_ch, ego.l / 2 + ego.l_ch / 2) if ego is not None else (0.0, 0.0)
         check_turns(road, s0, reach_m, kappa_max, width, front)
     check_oncoming(obstacles, road, s0, reach_m, steps)
 
