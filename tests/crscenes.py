@@ -49,6 +49,7 @@ def write_scenario(
     goal: dict | None = None,
     ego_n: float = 0.0,
     ego_turns: int = 0,
+    crack: tuple[float, float, bool] | None = None,
 ) -> Path:
     """Write a scenario: ``lanes`` lanes of 3.5 m (lane 0 the rightmost), the ego on ``ego_lane`` at arc length
     ``ego_x``; ``obstacles``: (id, lane, s0, speed, steps, length, width[, first_step]) driving their lane's centre at
@@ -57,7 +58,9 @@ def write_scenario(
     ``goal``: a goal position ``lane``, ``s`` (a rectangle ``length`` x ``width``, default 6 x 3 m) and optionally a
     ``velocity`` (lo, hi) and an ``orientation`` (lo, hi) interval beside the time steps ``goal_steps``; ``ego_n``:
     the ego's start this far left of its lane's centre; ``ego_turns``: its orientation given with this many whole
-    turns (2 pi each) added, the same pose (CommonRoad allows any real orientation)."""
+    turns (2 pi each) added, the same pose (CommonRoad allows any real orientation); ``crack``: (gap, s, adjacent)
+    lane 0 lies ``gap`` m right of lane 1 at s = 0, the gap closing linearly to none at ``s`` (an on-ramp beside the
+    road), the two adjacent in the map or not."""
     from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
     from commonroad.geometry.shape import Circle, Rectangle
     from commonroad.planning.goal import GoalRegion
@@ -74,6 +77,11 @@ def write_scenario(
     lls = []
     for i in range(lanes):
         left, centre, right = _lane_polylines(pts, nrm, (i - ego_lane) * LANE)
+        if crack is not None and i == 0:
+            gap = crack[0] * np.clip(1.0 - np.arange(len(pts)) * 2.0 / crack[1], 0.0, 1.0)[:, None] * nrm
+            left, centre, right = left - gap, centre - gap, right - gap
+        linked = crack is None or crack[2]  # lanes 0 and 1 adjacent in the map
+        has_left, has_right = i + 1 < lanes and (linked or i > 0), i > 0 and (linked or i > 1)
         if end_lane is not None and end_lane[0] == i:
             keep = int(end_lane[1] / 2.0) + 1
             left, centre, right = left[:keep], centre[:keep], right[:keep]
@@ -83,10 +91,10 @@ def write_scenario(
                 centre,
                 right,
                 100 + i,
-                adjacent_left=100 + i + 1 if i + 1 < lanes else None,
-                adjacent_left_same_direction=True if i + 1 < lanes else None,
-                adjacent_right=100 + i - 1 if i > 0 else None,
-                adjacent_right_same_direction=True if i > 0 else None,
+                adjacent_left=100 + i + 1 if has_left else None,
+                adjacent_left_same_direction=True if has_left else None,
+                adjacent_right=100 + i - 1 if has_right else None,
+                adjacent_right_same_direction=True if has_right else None,
             )
         )
     net = LaneletNetwork.create_from_lanelet_list(lls)

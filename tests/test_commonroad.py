@@ -44,12 +44,13 @@ def straight(tmp_path_factory):
 
 
 def test_a_straight_three_lane_road(straight):
-    """Lanes of 3.5 m, the ego on the middle one: the band is [-5.25, 5.25] at every sample (the scan's tolerance
-    2 cm), the curvature 0; the ego's Frenet start is its rear axle, half the wheelbase behind its centre (50, 0)."""
+    """Lanes of 3.5 m, the ego on the middle one: the band is [-5.25, 5.25] at every sample (the lanelets' edges
+    along the normals, exact), the curvature 0; the ego's Frenet start is its rear axle, half the wheelbase behind
+    its centre (50, 0)."""
     sc = straight
     assert np.all(np.abs(sc.road.kappa) < 1e-9)
-    np.testing.assert_allclose(sc.road.n_min, -1.5 * LANE, atol=0.021)
-    np.testing.assert_allclose(sc.road.n_max, 1.5 * LANE, atol=0.021)
+    np.testing.assert_allclose(sc.road.n_min, -1.5 * LANE, atol=1e-6)
+    np.testing.assert_allclose(sc.road.n_max, 1.5 * LANE, atol=1e-6)
     x, y, phi = sc.road.to_cartesian(sc.x0[0], sc.x0[1], sc.x0[2])
     assert (float(x), float(y), float(phi)) == pytest.approx((50.0 - CAR.l / 2, 0.0, 0.0), abs=1e-9)
     assert sc.x0[3] == 20.0 and sc.x0[4] == 0.0
@@ -103,6 +104,29 @@ def test_a_lane_that_ends_narrows_the_band(tmp_path):
     np.testing.assert_allclose(sc.road.n_max[before], 1.5 * LANE, atol=0.021)
     np.testing.assert_allclose(sc.road.n_max[after], 0.5 * LANE, atol=0.021)
     np.testing.assert_allclose(sc.road.n_min[before | after], -1.5 * LANE, atol=0.021)
+
+
+def test_a_crack_between_lanelets_not_adjacent_ends_the_band(tmp_path):
+    """An on-ramp (lane 0) 5 mm right of the ego's lane at x = 0, the crack closing linearly to none at x = 100 (2.5 mm
+    at x = 50, 0.25 mm at x = 95). Not adjacent in the map: the drivability checker's road boundary runs along the
+    crack (a car across it at x = 60 touches it, at x = 150 not), and the band ends at the ego's lane's right edge,
+    -1.75 m, up to x = 100, -5.25 m beyond. Adjacent in the map: the checker's hull spans the crack, the band runs to
+    lane 0's right edge, -5.25 m less the gap."""
+    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+    from commonroad_dc.pycrcc import RectOBB
+
+    for adjacent in (False, True):
+        path = write_scenario(tmp_path / f"ramp{adjacent}.xml", crack=(0.005, 100.0, adjacent), goal_steps=(20, 30))
+        sc = load_for(PB, path)
+        _, boundary = create_road_boundary_obstacle(sc.scenario, method="obb_rectangles")
+        across = [boundary.collide(RectOBB(2.0, 0.95, 0.0, x, -0.5 * LANE)) for x in (60.0, 150.0)]
+        x = sc.road.gx  # the road runs along x from x = 0
+        crack, after = (x > 4.0) & (x < 98.0), (x > 102.0) & (x < 390.0)
+        assert across == [not adjacent, False]
+        ramp = -1.5 * LANE - 0.005 * (1.0 - x[crack] / 100.0)  # lane 0's right edge
+        np.testing.assert_allclose(sc.road.n_min[crack], ramp if adjacent else -0.5 * LANE, atol=1e-6)
+        np.testing.assert_allclose(sc.road.n_min[after], -1.5 * LANE, atol=1e-6)
+        np.testing.assert_allclose(sc.road.n_max[crack | after], 1.5 * LANE, atol=1e-6)
 
 
 def test_past_the_lanelets_the_road_keeps_its_last_curvature_then_runs_straight(tmp_path):

@@ -461,21 +461,43 @@ def test_a_turn_tighter_than_the_car_is_refused_with_the_room_it_needs():
     """The paper's car turns no tighter than R = 3.4 / tan(0.3) = 10.99 m. A quarter turn of 5 m radius on a 3.5 m
     band: on the 0.5 m grid its 16 samples of 0.2 / m integrate by trapezoids to 1.60 rad, all within 10 m (r =
     10 / 1.6 = 6.25 m), and the car's arc between the same tangents lies (10.99 - 6.25)(1 / cos(0.8) - 1) = 2.06 m
-    inside it, more than the 3.5 - 1.9 = 1.6 m free: refused. Driven: the same turn on a 10.5 m band (8.6 m free),
-    a turn of 8 m (1.25 rad in 10 m: 0.70 m), one of 15 m (no window turns tighter than R) and the 5 m turn beyond
-    the run's reach."""
+    inside it, more than the 3.5 - 2.46 = 1.04 m beside the chassis' swept width at R (test below): refused.
+    Driven: the same turn on a 10.5 m band (8.0 m free), a turn of 8 m (1.25 rad in 10 m: 0.70 m), one of 15 m (no
+    window turns tighter than R) and the 5 m turn beyond the run's reach."""
     from fcgen.commonroad.drivable import check_turns
 
-    kappa_max, width = math.tan(PB.bounds.delta_max) / PB.ego.l, PB.ego.w_ch
-    assert (1.0 / kappa_max, width) == (pytest.approx(10.99, abs=0.005), 1.9)
-    line = r"turns 1\.60 rad within 10 m, 5\d m ahead; .* no tighter than 11\.0 m .* needs 2\.1 m of the band's 1\.6 m"
+    kappa_max, width, front = math.tan(PB.bounds.delta_max) / PB.ego.l, PB.ego.w_ch, PB.ego.l / 2 + PB.ego.l_ch / 2
+    assert (1.0 / kappa_max, width, front) == (pytest.approx(10.99, abs=0.005), 1.9, 3.7)
+    line = r"turns 1\.60 rad within 10 m, 5\d m ahead; .* no tighter than 11\.0 m .* needs 2\.1 m of the band's 1\.0 m"
     with pytest.raises(ScenarioRefused, match=line) as e:
-        check_turns(_turn_road(5.0), 0.0, 200.0, kappa_max, width)
+        check_turns(_turn_road(5.0), 0.0, 200.0, kappa_max, width, front)
     assert e.value.kind == "turn tighter than the car"
-    check_turns(_turn_road(5.0, half=5.25), 0.0, 200.0, kappa_max, width)
-    check_turns(_turn_road(8.0), 0.0, 200.0, kappa_max, width)
-    check_turns(_turn_road(15.0), 0.0, 200.0, kappa_max, width)
-    check_turns(_turn_road(5.0, at=150.0), 0.0, 100.0, kappa_max, width)  # beyond what the run can reach
+    check_turns(_turn_road(5.0, half=5.25), 0.0, 200.0, kappa_max, width, front)
+    check_turns(_turn_road(8.0), 0.0, 200.0, kappa_max, width, front)
+    check_turns(_turn_road(15.0), 0.0, 200.0, kappa_max, width, front)
+    check_turns(_turn_road(5.0, at=150.0), 0.0, 100.0, kappa_max, width, front)  # beyond what the run can reach
+
+
+def test_a_turn_the_chassis_sweeps_wider_than_its_lane_is_refused():
+    """The chassis' swept width on an arc of radius rho through the rear axle: sqrt((rho + w/2)^2 + f^2) - (rho -
+    w/2), for the paper's car (w 1.9 m, f 3.7 m) at R = 10.99 m sqrt(11.94^2 + 3.7^2) - 10.04 = 2.46 m, 1.9 m on a
+    straight. A turn of 10 m radius (1.0 rad within 10 m: 0.14 m to cut) on a 2.3 m band: 0.4 m beside the chassis'
+    width (driven, as a junction's turn in CHN_Sha-12_1 was, its front corner then over the edge), none beside its
+    swept width: refused. Straight, the same band is driven."""
+    from fcgen.commonroad.drivable import check_turns, swept_width
+
+    r_car = PB.ego.l / math.tan(PB.bounds.delta_max)
+    expect = math.sqrt((r_car + 0.95) ** 2 + 3.7**2) - (r_car - 0.95)
+    assert float(swept_width(r_car, 1.9, 3.7)) == pytest.approx(expect, rel=1e-12)
+    assert expect == pytest.approx(2.46, abs=0.005)
+    assert float(swept_width(1e15, 1.9, 3.7)) == pytest.approx(1.9, abs=1e-9)
+    assert float(swept_width(r_car, 1.9, 0.0)) == pytest.approx(1.9, abs=1e-12)
+    kappa_max = 1.0 / r_car
+    check_turns(_turn_road(10.0, half=1.15), 0.0, 200.0, kappa_max, 1.9)  # the chassis' width alone
+    with pytest.raises(ScenarioRefused, match=r"turns 1\.0\d rad within 10 m") as e:
+        check_turns(_turn_road(10.0, half=1.15), 0.0, 200.0, kappa_max, 1.9, 3.7)
+    assert e.value.kind == "turn tighter than the car"
+    check_turns(_turn_road(10.0, angle=0.0, half=1.15), 0.0, 200.0, kappa_max, 1.9, 3.7)
 
 
 def test_the_cut_a_turn_needs_by_hand():

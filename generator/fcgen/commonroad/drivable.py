@@ -19,8 +19,13 @@ Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write 
   by an angle theta that the car at its largest curvature tan(delta_max) / wheelbase (a radius R of 11.0 m for the
   paper's car: delta_max 0.3 rad, wheelbase 3.4 m) cannot take inside the band: between the turn's two tangents its
   arc lies (R - r)(1 / cos(theta / 2) - 1) inside the path's arc of radius r = window / theta at the middle, more
-  than the band's width less the chassis' width there (the widest line a driver takes, out-in-out). A junction's
-  turn from one street into another (CHN_Sha: 1.3-1.7 rad within 10 m) is one.
+  than the band's width less the chassis' swept width there (the widest line a driver takes, out-in-out). The swept
+  width on an arc of radius rho = max(r, R) through the rear axle runs from the inner side at the rear axle
+  (rho - w / 2) to the outer front corner (sqrt((rho + w / 2)^2 + f^2), ``f`` the front of the chassis ahead of the
+  rear axle): 2.46 m for the paper's car at 11.0 m (w 1.9 m, f 3.7 m), against 1.9 m on a straight. A junction's
+  turn from one street into another (CHN_Sha: 1.3-1.7 rad within 10 m) is one; so is a 1.2 rad turn within 10 m
+  (0.5 m to cut) on a band of 2.45-2.7 m (CHN_Sha-12_1, 1_5: 0.55-0.8 m beside the chassis' width, 0-0.2 m beside
+  its swept width; driven, 12_1's front corner crossed the lane's edge where the turn begins).
 - **Goal unreachable**: the goal names lanelets and none of them can be reached from the start lanelet along
   successors and adjacent lanes of the same direction (fcgen's lane rule moves one lane at a time, the road follows
   successors).
@@ -32,6 +37,7 @@ import math
 
 import numpy as np
 
+from ..dsl import Vehicle
 from ..road import Road
 from .traffic import CrObstacle, ScenarioRefused
 
@@ -43,22 +49,33 @@ TURN_WINDOWS = (10.0, 20.0, 40.0)  # m: the path's turns are measured as its hea
 
 
 def check_drivable(
-    net, road: Road, first: int, goals: set[int], obstacles, s0: float, reach_m: float, steps, kappa_max=None, width=0.0
+    net,
+    road: Road,
+    first: int,
+    goals: set[int],
+    obstacles,
+    s0: float,
+    reach_m: float,
+    steps,
+    kappa_max=None,
+    ego: Vehicle | None = None,
 ) -> None:
     """The checks below, in order, for a run from ``s0`` (the ego's ``s``) over the time ``steps`` that can drive
     ``reach_m`` (its samples at its speed, plus the horizon); ``kappa_max``: the car's largest curvature (1/m; None:
-    the turns are not checked), ``width``: its chassis' width."""
+    the turns are not checked), ``ego``: its chassis (None: a point)."""
     check_goal_reachable(net, first, goals)
     check_route(net, road, s0, reach_m)
     if kappa_max is not None:
-        check_turns(road, s0, reach_m, kappa_max, width)
+        width, front = (ego.w_ch, ego.l / 2 + ego.l_ch / 2) if ego is not None else (0.0, 0.0)
+        check_turns(road, s0, reach_m, kappa_max, width, front)
     check_oncoming(obstacles, road, s0, reach_m, steps)
 
 
-def check_turns(road: Road, s0: float, reach_m: float, kappa_max: float, width: float) -> None:
+def check_turns(road: Road, s0: float, reach_m: float, kappa_max: float, width: float, front: float = 0.0) -> None:
     """Refuse (``turn tighter than the car``) a reference path that turns, over ``TURN_WINDOWS`` metres somewhere
-    between ``s0`` and ``s0 + reach_m``, more than a car of width ``width`` at its largest curvature ``kappa_max`` can
-    inside the band (module docstring: ``cut_needed`` against the band's free width)."""
+    between ``s0`` and ``s0 + reach_m``, more than a car of width ``width`` (its front ``front`` ahead of the rear
+    axle) at its largest curvature ``kappa_max`` can inside the band (module docstring: ``cut_needed`` against the
+    band's width less ``swept_width``)."""
     s = road.s
     on = np.flatnonzero((s >= s0) & (s <= s0 + reach_m))
     for window in TURN_WINDOWS:
@@ -66,7 +83,8 @@ def check_turns(road: Road, s0: float, reach_m: float, kappa_max: float, width: 
         if on.size <= w:
             continue
         turn = np.abs(road.phi[on[w:]] - road.phi[on[:-w]])
-        free = _band_width(road, on[:-w] + w // 2) - width
+        rho = np.maximum(w * road.ds / np.maximum(turn, 1e-12), 1.0 / kappa_max)  # the radius the car drives
+        free = _band_width(road, on[:-w] + w // 2) - swept_width(rho, width, front)
         need = cut_needed(turn, w * road.ds, 1.0 / kappa_max)
         bad = np.flatnonzero(need > free)
         if bad.size:
@@ -75,9 +93,16 @@ def check_turns(road: Road, s0: float, reach_m: float, kappa_max: float, width: 
                 f"a turn tighter than the car: the route turns {float(turn[k]):.2f} rad within {w * road.ds:.0f} m, "
                 f"{float(s[on[k]] - s0):.0f} m ahead; the car, turning no tighter than {1.0 / kappa_max:.1f} m "
                 f"(tan(delta_max) / wheelbase), needs {float(need[k]):.1f} m of the band's {float(free[k]):.1f} m "
-                "free width to cut it",
+                "free width (beside the chassis' swept width) to cut it",
                 kind="turn tighter than the car",
             )
+
+
+def swept_width(radius, width: float, front: float):
+    """The width a chassis of width ``width``, its front ``front`` ahead of the rear axle, sweeps on an arc of
+    ``radius`` through its rear axle: from the inner side at the rear axle to the outer front corner."""
+    outer = np.asarray(radius, dtype=float) + width / 2
+    return width + front**2 / (np.sqrt(outer**2 + front**2) + outer)  # sqrt(o^2 + f^2) - o without cancellation
 
 
 def cut_needed(turn, length: float, r_car: float):

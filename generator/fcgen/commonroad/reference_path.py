@@ -16,9 +16,13 @@ Rules (tested in tests/test_commonroad.py):
   samples: a spline's end is its least certain part) for ``horizon`` metres, then straight (what
   the run needs beyond: the horizon from the last sample the ego can reach).
 - **Band**: at each sample, from the centre line outwards along the normal, the extent of the lanelets of the same
-  driving direction (heading within 90 degrees of the road's) that hold the point, found by stepping
-  ``BAND_STEP`` and bisecting to ``BAND_TOL``; where the centre itself is on no lanelet (the extensions) the nearest
-  sample's band is held. A lane that ends narrows the band where it ends.
+  driving direction (heading within 90 degrees of the road's) joined to the one holding the centre: the normal's
+  exact pieces in each lanelet, a piece joining where it overlaps the joined ones or, a lanelet of a lane section
+  already joined (lanelets linked by adjacency, whose hull the drivability checker's road is), lies within
+  ``BAND_STEP`` of them. A crack between lanelets the map does not make adjacent, however narrow, ends the band:
+  the checker's road boundary runs along it (an on-ramp beside a lane, USA_US101-17_1 to 21_1). Where the centre
+  itself is on no lanelet (the extensions) the nearest sample's band is held. A lane that ends narrows the band
+  where it ends.
 """
 
 from __future__ import annotations
@@ -31,8 +35,8 @@ from ..road import Road
 from .traffic import ScenarioRefused
 
 MAX_DEVIATION = 1.0  # m: the integrated centre line against the lanelets' (else refused)
-BAND_STEP = 0.5  # m: the band's outward steps ...
-BAND_TOL = 0.02  # m: ... then bisection to this
+BAND_STEP = 0.5  # m: lanelets of one lane section this close along the normal join (the checker's hull spans them)
+GAP_TOL = 1e-6  # m: other lanelets join only where they overlap within this (a crack is the checker's boundary)
 BAND_MAX = 30.0  # m: the farthest a band edge is looked for
 HOLD_SAMPLES = 10  # the extension's curvature: the median over the path's last samples
 END_TRIM = 4  # samples left out at either end of the spline (its end effects), extended over instead
@@ -195,36 +199,31 @@ def _same_direction(net, lids: list[int], heading: float, xy) -> bool:
 
 
 def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
-    """Per road sample: the right and left edges (n) of the same-direction lanelets along the normal."""
+    """Per road sample: the right and left edges (n) of the same-direction lanelets along the normal, joined where
+    they overlap or, lanelets of one lane section (``lane_sections``), lie within ``BAND_STEP`` of each other."""
+    import shapely
+
     m = road.size
     nx, ny = -np.sin(road.phi), np.cos(road.phi)
-    inside_centre = [
-        bool(ids) and _same_direction(net, ids, road.phi[i], (road.gx[i], road.gy[i]))
-        for i, ids in enumerate(net.find_lanelet_by_position([np.array([road.gx[i], road.gy[i]]) for i in range(m)]))
-    ]
-
-    def inside(i: int, n: float) -> bool:
-        p = np.array([road.gx[i] + n * nx[i], road.gy[i] + n * ny[i]])
-        ids = net.find_lanelet_by_position([p])[0]
-        return bool(ids) and _same_direction(net, ids, road.phi[i], p)
-
-    def edge(i: int, sign: float) -> float:
-        n = 0.0
-        while abs(n) < BAND_MAX and inside(i, n + sign * BAND_STEP):
-            n += sign * BAND_STEP
-        a, b = n, n + sign * BAND_STEP  # a inside, b outside
-        while abs(b - a) > BAND_TOL:
-            c = 0.5 * (a + b)
-            if inside(i, c):
-                a = c
-            else:
-                b = c
-        return a
-
+    segs = shapely.linestrings(
+        np.stack([road.gx - BAND_MAX * nx, road.gx + BAND_MAX * nx], axis=1),
+        np.stack([road.gy - BAND_MAX * ny, road.gy + BAND_MAX * ny], axis=1),
+    )
+    tree, section = shapely.STRtree(segs), lane_sections(net)
+    hits: list[list[tuple[float, float, int]]] = [[] for _ in range(m)]
+    for ll in net.lanelets:
+        poly = ll.polygon.shapely_object
+        for i in tree.query(poly, predicate="intersects"):
+            for part in shapely.get_parts(shapely.intersection(segs[i], poly)):
+                xy = shapely.get_coordinates(part)
+                n = (xy[:, 0] - road.gx[i]) * nx[i] + (xy[:, 1] - road.gy[i]) * ny[i]
+                mid = xy[int(np.argmin(np.abs(n - n.mean())))]
+                if math.cos(lanelet_heading(net, ll.lanelet_id, mid) - road.phi[i]) > 0.0:
+                    hits[i].append((float(n.min()), float(n.max()), section[ll.lanelet_id]))
     lo, hi = np.full(m, np.nan), np.full(m, np.nan)
-    for i in range(m):
-        if inside_centre[i]:
-            lo[i], hi[i] = edge(i, -1.0), edge(i, 1.0)
+    for i, found in enumerate(hits):
+        if any(a <= GAP_TOL and b >= -GAP_TOL for a, b, _ in found):
+            lo[i], hi[i] = -_joined([(-b, -a, k) for a, b, k in found]), _joined(found)
     ok = np.flatnonzero(np.isfinite(lo))
     if not ok.size:
         raise ScenarioRefused("the reference path lies on no lanelet", kind="path not followed")
@@ -232,3 +231,36 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
         j = ok[np.argmin(np.abs(ok - gap))]
         lo[gap], hi[gap] = lo[j], hi[j]
     return lo, hi
+
+
+def _joined(found: list[tuple[float, float, int]]) -> float:
+    """The upper end of the intervals (a, b, section) joined to those holding n = 0: another joins where it overlaps
+    the joined ones (within ``GAP_TOL``) or lies within ``BAND_STEP`` of them in a section already joined."""
+    seed = [(b, k) for a, b, k in found if a <= GAP_TOL and b >= -GAP_TOL]
+    hi, sections = max(b for b, _ in seed), {k for _, k in seed}
+    grown = True
+    while grown:
+        grown = False
+        for a, b, k in found:
+            if b > hi and (a <= hi + GAP_TOL or (k in sections and a <= hi + BAND_STEP)):
+                hi, grown = b, True
+                sections.add(k)
+    return hi
+
+
+def lane_sections(net) -> dict[int, int]:
+    """Each lanelet's lane section: the lanelets joined by adjacency (either direction), as the drivability checker's
+    road boundary joins them (``commonroad_dc.boundary.lanelet_bounds.lane_sections``)."""
+    out: dict[int, int] = {}
+    for ll in net.lanelets:
+        if ll.lanelet_id in out:
+            continue
+        todo = [ll.lanelet_id]
+        while todo:
+            lid = todo.pop()
+            if lid in out:
+                continue
+            out[lid] = ll.lanelet_id
+            lan = net.find_lanelet_by_id(lid)
+            todo += [a for a in (lan.adj_left, lan.adj_right) if a is not None and net.find_lanelet_by_id(a)]
+    return out

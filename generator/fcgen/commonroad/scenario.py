@@ -112,7 +112,7 @@ def load_scenario(
     s, n, a = road.to_frenet(np.array([rear[0]]), np.array([rear[1]]), np.array([heading]))
     x0 = np.array([float(s[0]), float(n[0]), wrap_angle(float(a[0])), v0, 0.0])  # a heading given with whole turns
     reach_m, steps = samples * dt * max(v0, v_ref) + horizon_m, range(step0, step0 + samples + 1)
-    check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps, kappa_max, ego.w_ch)
+    check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps, kappa_max, ego)
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,
