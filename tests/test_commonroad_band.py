@@ -177,3 +177,22 @@ def test_the_checker_sees_an_ego_back_on_the_road_and_off_it_again(tmp_path):
     assert (v["departure_step"], v["back_on_road_step"], v["departure_again_step"]) == (0, 2, 4)
     v = drivability_verdict(sc, centres[2:], PB.ego.l_ch, PB.ego.w_ch)
     assert (v["departure_step"], v["back_on_road_step"], v["departure_again_step"]) == (2, None, None)
+
+
+def test_a_lanelet_whose_borders_cross_still_gives_the_band():
+    """A lanelet whose borders cross (its polygon a bow-tie, as DEU_A9-1_1's self-touching border): the band is
+    measured on the repaired polygon, 1.75 m to each side away from the crossing, not a GEOS TopologyException."""
+    from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+
+    from fcgen.commonroad.reference_path import drivable_band
+    from fcgen.road import straight_road
+
+    x = np.array([0.0, 100.0, 101.0, 300.0])
+    left = np.stack([x, np.array([1.75, 1.75, -1.75, -1.75])], axis=1)
+    right = np.stack([x, np.array([-1.75, -1.75, 1.75, 1.75])], axis=1)
+    net = LaneletNetwork.create_from_lanelet_list([Lanelet(left, (left + right) / 2, right, 1)])
+    road = straight_road(300.0)
+    assert not net.find_lanelet_by_id(1).polygon.shapely_object.is_valid
+    lo, hi = drivable_band(net, road)
+    away = (road.s > 10.0) & (road.s < 90.0)
+    assert np.allclose(lo[away], -1.75, atol=1e-6) and np.allclose(hi[away], 1.75, atol=1e-6)

@@ -213,6 +213,7 @@ def drivable_band(net, road: Road) -> tuple[np.ndarray, np.ndarray]:
     hits: list[list[tuple[float, float, int]]] = [[] for _ in range(m)]
     for ll in net.lanelets:
         poly = ll.polygon.shapely_object
+        poly = poly if poly.is_valid else shapely.make_valid(poly)  # a self-touching border (DEU_A9-1_1)
         for i in tree.query(poly, predicate="intersects"):
             for part in shapely.get_parts(shapely.intersection(segs[i], poly)):
                 xy = shapely.get_coordinates(part)
