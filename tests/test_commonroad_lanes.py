@@ -293,3 +293,24 @@ def test_a_lane_beyond_a_median_is_not_beside_the_ego():
         lanes = [Lane(1, s, np.zeros_like(s)), Lane(2, s, np.full_like(s, other))]
         n, _ = TargetLane(lanes, None, L, 20.0, 0.0).update(100.0, 0.0, 20.0, slow)
         assert n == pytest.approx(expected, abs=1e-9)
+
+
+def test_a_lane_that_pauses_at_a_junction_keeps_the_target():
+    """Three lanes (n = 0, 3.5, 7; the ego's the right one) end 0.1 m apart before a junction (s = 100.0, 100.1,
+    100.2) and go on past it (from s = 108): as the ego's centre passes the ends, the target stays at 0 (the old rule
+    took the nearest lane still present: 3.5, then 7); a lane that ends for good is still left for the next one."""
+    from fcgen.commonroad.lanes import Lane, TargetLane
+
+    before, after = np.linspace(0.0, 100.0, 11), np.linspace(108.0, 300.0, 11)
+    lanes = []
+    for i, n in enumerate((0.0, LANE, 2 * LANE)):
+        s_end = before.copy()
+        s_end[-1] += 0.1 * i
+        lanes += [Lane(2 * i, s_end, np.full(11, n)), Lane(2 * i + 1, after, np.full(11, n))]
+    tl = TargetLane(lanes, None, L, 10.0, 0.0)
+    for s in (99.9, 100.05, 100.15, 100.25, 104.0, 110.0):
+        n, why = tl.update(s, 0.0, 5.0, NONE)
+        assert (n, why) == (0.0, "start"), s
+    ends = [Lane(0, before, np.zeros(11)), Lane(1, np.linspace(0.0, 300.0, 31), np.full(31, LANE))]
+    n, why = TargetLane(ends, None, L, 10.0, 0.0).update(100.5, 0.0, 5.0, NONE)
+    assert (n, why) == (LANE, "start")

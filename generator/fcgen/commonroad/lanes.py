@@ -28,6 +28,11 @@ the horizon. In this order:
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
 
+**A lane that pauses** (a junction, where the map has no lanelet in the road's direction, or the lanes end a few
+centimetres apart before it): where no lane at the ego's ``s`` lies within ``SAME_LANE`` of the target but the target
+lane goes on over the look-ahead, the target is kept; the nearest lane still present there is not a lane change
+(USA_Lanker-2_15: the three lanes end 0.08 m apart before a junction, and the target stepped left twice within 0.2 s).
+
 **A vehicle closing in from behind** (``keep_ahead``): where the nearest vehicle behind in the ego's lane is
 within the chassis length plus ``T_BEHIND`` s of its speed and drives faster than the reference speed, its speed is
 the reference speed (at most the lane's limit and ``v_max``): recorded traffic does not brake for an ego slower than
@@ -212,9 +217,11 @@ class TargetLane:
         here = lanes_at(self.lanes, s)
         if not here:
             return self.n, self.reason
+        reach = max(MIN_AHEAD, LOOK_AHEAD * v)
+        if min(abs(c - self.n) for c in here) > SAME_LANE and continues(self.lanes, s, self.n, reach):
+            return self._set(self.n, self.reason)  # the target lane pauses here (a junction) and goes on: kept
         own = min(here, key=lambda c: abs(c - n_ego))
         target = min(here, key=lambda c: abs(c - self.n))
-        reach = max(MIN_AHEAD, LOOK_AHEAD * v)
         settled = abs(n_ego - target) <= SETTLED
 
         def free(c: float) -> bool:
