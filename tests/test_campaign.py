@@ -284,3 +284,30 @@ def test_cli_campaign_prints_its_warnings_once_after_the_runs_then_a_results_tab
         assert int(runs) == len(r) == 2 and int(coll) == int(r["collision"].sum())
         assert float(prog) == pytest.approx(r["progress"].mean(), abs=0.05)
         assert float(t_rti) == pytest.approx(r["time_total_ms_median"].median(), abs=5e-4)
+
+
+def test_the_commonroad_campaign_of_the_safe_profile_bounds_the_chassis_corners_by_default(tmp_path, monkeypatch):
+    """``campaign --commonroad`` without ``--road-bound``: the corners for ``--profile safe``, the presets' rear axle
+    for ``--profile paper`` and for the paper's road; ``--road-bound`` overrides either."""
+    from click.testing import CliRunner
+
+    import fcgen.cli.runs as runs
+    from fcgen.cli import main
+
+    got = {}
+    monkeypatch.setattr(runs, "commonroad_campaign", lambda configs, *a, **k: got.update(cr=configs))
+    monkeypatch.setattr(runs, "_seeded_campaign", lambda configs, *a, **k: got.update(seeded=configs))
+    base = ["campaign", "--scenarios", "car", "--formulations", "lifted", "--obstacles", "ellipse", "--seeds", "1"]
+    cases = [
+        (["--commonroad", str(tmp_path), "--profile", "safe"], "cr", "corners"),
+        (["--commonroad", str(tmp_path), "--profile", "paper"], "cr", "rear_axle"),
+        (["--commonroad", str(tmp_path), "--profile", "safe", "--road-bound", "rear_axle"], "cr", "rear_axle"),
+        (["--profile", "safe"], "seeded", "rear_axle"),
+        (["--profile", "paper", "--road-bound", "corners"], "seeded", "corners"),
+    ]
+    for i, (extra, kind, bound) in enumerate(cases):
+        got.clear()
+        out = ["--out", str(tmp_path / f"o{i}"), "--cache", str(tmp_path / "c")]
+        r = CliRunner().invoke(main, base + extra + out)
+        assert r.exit_code == 0, r.output
+        assert [c.road_bound for c in got[kind]] == [bound], extra

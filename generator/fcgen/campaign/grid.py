@@ -115,6 +115,12 @@ class Config:
         return d
 
 
+def default_road_bound(commonroad: bool, profile: str) -> str:
+    """A campaign's road bound without ``--road-bound``: the chassis' corners for the safe profile on CommonRoad
+    scenarios (docs/commonroad.md, "The corners' band, the safe profile's on CommonRoad"), else the presets' own."""
+    return "corners" if commonroad and profile == "safe" else "rear_axle"
+
+
 def _one_of(field: str, value, allowed: tuple) -> None:
     if value not in allowed:
         raise ProblemError(f"{field} = {value!r} is invalid: allowed one of {', '.join(map(str, allowed))}")

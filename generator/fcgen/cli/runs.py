@@ -288,7 +288,7 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
 @campaign_cr_options
 @road_bound_option(
     "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
-    "corners; default: the presets' (rear_axle)"
+    "corners; default: the presets' (rear_axle), but corners for --commonroad with --profile safe"
 )
 @plant_options
 @traffic_option()
@@ -322,6 +322,7 @@ def campaign(
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
+    from ..campaign.grid import default_road_bound
 
     spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
@@ -333,7 +334,7 @@ def campaign(
             controller,
             backend,
             profile,
-            (spec, delay, road_bound or "rear_axle"),
+            (spec, delay, road_bound or default_road_bound(bool(cr_dir), profile)),
         )
     seed_range = range(first_seed, first_seed + seeds)
     configs = robust_configs(configs, spec, delay, seed_range, samples, jobs, (out, clock), **robust)  # its grid
