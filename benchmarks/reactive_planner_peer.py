@@ -43,6 +43,7 @@ import logging
 import math
 import subprocess
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -211,15 +212,13 @@ def judge(problem, sc, d: dict, traffic: str, criticality: bool) -> dict:
     }
 
 
-def runs(tasks: list[tuple[Path, str, dict | None]], problem_name: str, criticality: bool, out: Path) -> list[dict]:
+def runs(tasks: list[tuple[Path, str, dict | None]], pb, criticality: bool, out: Path) -> list[dict]:
     """The rows of ``tasks`` (``select``'s: a file, a traffic mode and fcgen's refusal or None); a task already in
     ``out`` is not run again, and ``out`` is rewritten after every run (resumable)."""
     from fcgen.campaign.commonroad import load_for
     from fcgen.commonroad import ScenarioRefused
-    from fcgen.presets import preset
 
     logging.getLogger("RP_LOGGER").setLevel(logging.ERROR)
-    pb = preset(problem_name)
     rows = json.loads(out.read_text())["rows"] if out.is_file() else []
     done = {(r["scenario"], r.get("traffic")) for r in rows}
     for f, traffic, fcgen_refusal in tasks:
@@ -293,6 +292,15 @@ def fcgen_status(folder: str, problem: str) -> dict[tuple[str, str], dict | None
         why = {"refused": f"fcgen {r.status}: {r.reason}", "refusal": r.refusal or "other"}
         out[(r.scenario, r.traffic or "recorded")] = None if r.status == "ran" else why
     return out
+
+
+def like_road_bound(folder: str) -> str:
+    """The road bound of a ``fcgen campaign --commonroad`` folder's runs (``rear_axle`` where its rows have none)."""
+    import pandas as pd
+
+    df = pd.read_parquet(Path(folder) / "commonroad.parquet")
+    vals = sorted(set(df["road_bound"].dropna())) if "road_bound" in df else []
+    return vals[0] if len(vals) == 1 else "rear_axle"
 
 
 def stratified(names: list[str], per_dataset: int) -> set[str]:
@@ -469,6 +477,9 @@ def main() -> None:
     ap.add_argument("--sample", type=int, default=0, help="up to this many driven scenarios per data set (0: all)")
     ap.add_argument("--exclude", action="append", default=[], help="a scenario left out of the sample (its name)")
     ap.add_argument("--problem", default="car_lifted_ellipse_ipm_safe", help="the ego's size and dt (fcgen preset)")
+    ap.add_argument(
+        "--road-bound", choices=("rear_axle", "corners"), help="the loader's band (default: the --like folder's)"
+    )
     ap.add_argument("--traffic", default="recorded,reactive")
     ap.add_argument("--no-criticality", action="store_true", help="leave out the criticality measures (CriMe)")
     ap.add_argument("--fcgen", action="append", default=[], help="a `fcgen campaign --commonroad` folder to put beside")
@@ -490,10 +501,14 @@ def main() -> None:
     if not rows:
         from fcgen.presets import preset
 
-        like = fcgen_status(args.like, preset(args.problem).name) if args.like else None
+        pb = preset(args.problem)
+        like = fcgen_status(args.like, pb.name) if args.like else None
+        bound = args.road_bound or (like_road_bound(args.like) if args.like else None)
+        if bound is not None:  # the loader's band as fcgen's (the corners' band refuses fewer scenarios)
+            pb = pb.with_(bounds=replace(pb.bounds, road_bound=bound))
         tasks = select(files, modes, like, args.sample, file_refusals)
         tasks = [(f, m, SAMPLED_OUT if f.stem in args.exclude and why is None else why) for f, m, why in tasks]
-        rows = runs(tasks, args.problem, not args.no_criticality, Path(args.out))
+        rows = runs(tasks, pb, not args.no_criticality, Path(args.out))
     text = markdown(rows + [r for f in args.fcgen for r in fcgen_rows(f)], modes)
     print(text)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
