@@ -12,7 +12,7 @@ import pytest
 from shapely.geometry import Polygon
 
 from fcgen import obstacles as obs
-from fcgen.campaign.grid import Config
+from fcgen.campaign.grid import Config, paper_grid
 from fcgen.dsl import Ellipse, ProblemError
 from fcgen.presets import CAR
 
@@ -154,3 +154,8 @@ def test_campaign_config_ego_circles():
         Config("car", "lifted", "hyperplane", 0, ego_circles=2)
     with pytest.raises(ProblemError, match=r"ego_circles = 6 is invalid: allowed an integer in \[1, 5\]"):
         Config("car", "lifted", "ellipse", 0, ego_circles=6)
+    # the grid: the ellipse's configurations take the circles, the others keep one; a grid without the ellipse refuses
+    grid = paper_grid(["car"], ["lifted"], ["ellipse", "hyperplane"], road_bound="corners", ego_circles=3)
+    assert [(c.obstacles, c.ego_circles) for c in grid] == [("ellipse", 3), ("hyperplane", 1)]
+    with pytest.raises(ProblemError, match=r"ego_circles = 2 is invalid: allowed 1 unless the grid has the ellipse"):
+        paper_grid(["car"], ["lifted"], ["hyperplane"], ego_circles=2)

@@ -172,6 +172,8 @@ def paper_grid(
                     spec = plant or PlantSpec()
                     circ = ego_circles if kind == "ellipse" else 1  # the ego's circles: the ellipse's rows only
                     out.append(Config(sc, form, kind, n, controller, backend, profile, spec, delay, road_bound, circ))
+    if ego_circles != 1 and not any(c.ego_circles != 1 for c in out):
+        raise ProblemError(f"ego_circles = {ego_circles} is invalid: allowed 1 unless the grid has the ellipse")
     return out
 
 
