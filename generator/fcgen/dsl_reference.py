@@ -115,6 +115,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "the ellipse containing the opponent grown by the ego's "
         "circle (smallest area), or the paper's sqrt(2) L + r, sqrt(2) W + r",
     ),
+    ("Ellipse", "n_ego"): (
+        "-",
+        "integer in [1, 5]",
+        "circles covering the ego along its axis, one row each (CoveringCircles' cover radius); the opponent's "
+        "ellipse grows by their radius (the paper car: 2.21 m with 1, 1.42 m with 2)",
+    ),
     ("CoveringCircles", "radius"): (
         "-",
         "`cover` or `paper`",

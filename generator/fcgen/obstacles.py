@@ -73,10 +73,11 @@ def shape_names(model: ObstacleModel) -> tuple[str, ...]:
     return OPP_SHAPE + (ELLIPSE_AXES if isinstance(model, Ellipse) and model.shape == "minkowski" else ())
 
 
-def ego_radius(ego: Vehicle) -> float:
-    """The radius of the ego's one covering circle (the ellipse rows' r): half its chassis diagonal."""
-    L, W = ego.l_ch / 2, ego.w_ch / 2
-    return (L * L + W * W) ** 0.5
+def ego_radius(model: ObstacleModel, ego: Vehicle) -> float:
+    """The radius of each of the ego's circles in the ellipse rows (the r the opponent's ellipse is grown by):
+    ``circle_radius`` of ``Ellipse.n_ego`` circles with ``cover`` (one circle: half the chassis diagonal)."""
+    n = model.n_ego if isinstance(model, Ellipse) else 1
+    return float(circle_radius(ego.l_ch / 2, ego.w_ch / 2, n, cover=True))
 
 
 def opponent_shape(model: ObstacleModel, ego: Vehicle, length: float, width: float, offset: float) -> np.ndarray:
@@ -84,7 +85,7 @@ def opponent_shape(model: ObstacleModel, ego: Vehicle, length: float, width: flo
     out = np.array([length, width, offset], dtype=float)
     check_opponent_shape(model, ego, out[:3])
     if isinstance(model, Ellipse) and model.shape == "minkowski":
-        out = np.r_[out, containing_ellipse_axes(out[0] / 2, out[1] / 2, ego_radius(ego))]
+        out = np.r_[out, containing_ellipse_axes(out[0] / 2, out[1] / 2, ego_radius(model, ego))]
     return out
 
 
@@ -97,7 +98,7 @@ def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
     """Refuse one opponent's shape values with a ``ValueError`` naming the value and its range, as the C's
     ``set_opponent_shapes`` (``ERR_OPP_SHAPE``): finite, length and width within ``INPUT_RANGES``' shape range, the
     offset within the chassis; the ellipse's semi-axes at least half the length (width) plus the ego's radius
-    (necessary for containment; ``opponent_shape`` computes them), at most the range's top."""
+    (``ego_radius``: necessary for containment; ``opponent_shape`` computes them), at most the range's top."""
     v = np.asarray(values, dtype=float)
     names = shape_names(model)[: len(v)]
     for nm, x in zip(names, v):
@@ -110,7 +111,7 @@ def check_opponent_shape(model: ObstacleModel, ego: Vehicle, values) -> None:
     if not abs(v[2]) <= v[0] / 2:
         raise ValueError(f"opponent shape offset = {float(v[2])!r} is invalid: allowed |offset| <= length / 2")
     if len(v) > 3:
-        r = ego_radius(ego)
+        r = ego_radius(model, ego)
         for i, nm in ((3, "a"), (4, "b")):
             need = float(v[i - 3] / 2 + r)
             if not need <= v[i] <= hi:
@@ -280,7 +281,7 @@ def _fold(op, values: list):
 def rows_per_opponent(model: ObstacleModel) -> int:
     """Soft constraint rows per opponent and stage."""
     if isinstance(model, Ellipse):
-        return 1
+        return model.n_ego
     if isinstance(model, CoveringCircles):
         return model.n * model.ego_circles
     return 8
@@ -295,10 +296,11 @@ def constraint_rows(model: ObstacleModel, ego: Shape, opp: Shape, theta, cover: 
     model's radius rule (the conventional formulation's fitted boxes); ``axes``: the containing ellipse's semi-axes
     given with the opponent's shape (else computed from its size)."""
     if isinstance(model, Ellipse):
-        r = (ego.L * ego.L + ego.W * ego.W) ** 0.5
+        # the ego's n_ego circles (placed and sized as the covering circles' ``cover``): one row each
+        r = circle_radius(ego.L, ego.W, model.n_ego, cover=True)
         if axes is None:
             axes = (containing_ellipse_axes if model.shape == "minkowski" else paper_ellipse_axes)(opp.L, opp.W, r)
-        return [ellipse_h(ego.cx, ego.cy, opp, *axes)], []
+        return [ellipse_h(px, py, opp, *axes) for px, py in circle_centres(ego, model.n_ego)], []
     if isinstance(model, CoveringCircles):
         return circles_h(ego, model.ego_circles, opp, model.n, cover or model.radius == "cover"), []
     rows, eq = hyperplane_h(ego, opp, theta, length, model.margin)

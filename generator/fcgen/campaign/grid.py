@@ -6,7 +6,7 @@ import warnings
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
-from ..dsl import BACKENDS, Problem, ProblemError, QpOptions
+from ..dsl import BACKENDS, Ellipse, Problem, ProblemError, QpOptions
 from ..dsl.bounds import ROAD_BOUNDS
 from ..presets import FORMULATIONS, PROFILES, SCENARIOS, paper_problem, preset_qp, safe_delay_margin
 from ..sim.plants import PlantSpec
@@ -32,6 +32,7 @@ class Config:
     plant: PlantSpec = field(default_factory=PlantSpec)  # the plant, its perturbations (docs/plants.md)
     delay: int = 0  # the solvers' delay compensation (Problem.delay), samples
     road_bound: str = "rear_axle"  # what the road band bounds (Bounds.road_bound): rear_axle | corners
+    ego_circles: int = 1  # the circles covering the ego in the ellipse's rows (Ellipse.n_ego), ellipse only
 
     def __post_init__(self) -> None:
         if not isinstance(self.plant, PlantSpec):
@@ -43,6 +44,10 @@ class Config:
         _one_of("controller", self.controller, CONTROLLERS)
         _one_of("backend", self.backend, BACKENDS)
         _one_of("road_bound", self.road_bound, ROAD_BOUNDS)
+        if not (isinstance(self.ego_circles, int) and 1 <= self.ego_circles <= 5):
+            raise ProblemError(f"ego_circles = {self.ego_circles!r} is invalid: allowed an integer in [1, 5]")
+        if self.ego_circles != 1 and self.obstacles != "ellipse":
+            raise ProblemError(f"ego_circles = {self.ego_circles} is invalid: allowed 1 unless obstacles = 'ellipse'")
         if (self.obstacles == "circles") != (self.circles > 0):
             raise ProblemError(
                 f"circles = {self.circles} is invalid: allowed >= 1 with obstacles = 'circles', 0 otherwise"
@@ -60,7 +65,8 @@ class Config:
         key = key if self.profile == "paper" else f"{key}/{self.profile}"  # paper keys as before the profiles
         key = key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
         key = key if not self.delay else f"{key}/comp{self.delay}"
-        return key if self.road_bound == "rear_axle" else f"{key}/{self.road_bound}"  # as before the corners
+        key = key if self.road_bound == "rear_axle" else f"{key}/{self.road_bound}"  # as before the corners
+        return key if self.ego_circles == 1 else f"{key}/ego{self.ego_circles}"  # as before the ego's circles
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -85,6 +91,10 @@ class Config:
             pb = matched_problem(pb, "matched")
         if self.road_bound != "rear_axle":
             pb = pb.with_(bounds=replace(pb.bounds, road_bound=self.road_bound), name=f"{pb.name}_cb"[:31])
+        if self.ego_circles != 1:
+            n, ob = self.ego_circles, pb.obstacles
+            assert isinstance(ob, Ellipse)  # __post_init__: ego circles with the ellipse only
+            pb = pb.with_(obstacles=replace(ob, n_ego=n), name=f"{pb.name}_e{n}"[:31])
         if not self.delay:
             return pb
         margin = safe_delay_margin(self.profile, self.delay)  # the safe profile's margin under latency
@@ -94,11 +104,14 @@ class Config:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
         ``latency``, ``steer_lag``, ``noise`` and ``prediction`` when predicted (a default run's row has none
         of them, as before the plants)."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("plant", "delay", "road_bound")}
+        skip = ("plant", "delay", "road_bound", "ego_circles")
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
         if self.delay:
             d["delay"] = self.delay
         if self.road_bound != "rear_axle":  # the rows of the rear axle's bound: as before the corners
             d["road_bound"] = self.road_bound
+        if self.ego_circles != 1:  # the rows of the ego's one circle: as before n_ego
+            d["ego_circles"] = self.ego_circles
         if not self.plant.is_default:
             p = asdict(self.plant)
             d.update(
@@ -153,6 +166,7 @@ def paper_grid(
     plant: PlantSpec | None = None,
     delay: int = 0,
     road_bound: str = "rear_axle",
+    ego_circles: int = 1,
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -161,9 +175,11 @@ def paper_grid(
         for ob in obstacles:
             for kind, n in obstacle_variants(sc, ob):
                 for form in formulations:
-                    out.append(
-                        Config(sc, form, kind, n, controller, backend, profile, plant or PlantSpec(), delay, road_bound)
-                    )
+                    spec = plant or PlantSpec()
+                    circ = ego_circles if kind == "ellipse" else 1  # the ego's circles: the ellipse's rows only
+                    out.append(Config(sc, form, kind, n, controller, backend, profile, spec, delay, road_bound, circ))
+    if ego_circles != 1 and not any(c.ego_circles != 1 for c in out):
+        raise ProblemError(f"ego_circles = {ego_circles} is invalid: allowed 1 unless the grid has the ellipse")
     return out
 
 

@@ -295,3 +295,20 @@ def road_bound_option(help: str) -> Decorator:
     from ..dsl.bounds import ROAD_BOUNDS
 
     return click.option("--road-bound", type=click.Choice(ROAD_BOUNDS), default=None, help=help)
+
+
+def ego_circles_option(help: str, default: int | None = 1) -> Decorator:
+    """``--ego-circles``: the circles covering the ego in the ellipse's rows (``Ellipse.n_ego``)."""
+    return click.option("--ego-circles", type=click.IntRange(1, 5), default=default, show_default=True, help=help)
+
+
+def with_band_and_circles(pb, road_bound: str | None, ego_circles: int | None):
+    """``pb`` with ``--road-bound`` and ``--ego-circles`` (``None``: the problem's own; more than one ego circle: an
+    ellipse's rows only)."""
+    if road_bound is not None:
+        pb = pb.with_(bounds=replace(pb.bounds, road_bound=road_bound))
+    if ego_circles is not None:
+        if pb.obstacles.kind != "ellipse":
+            fail(f"--ego-circles {ego_circles}: allowed with the ellipse only (the problem's is {pb.obstacles.kind})")
+        pb = pb.with_(obstacles=replace(pb.obstacles, n_ego=ego_circles))
+    return pb

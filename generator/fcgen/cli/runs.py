@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import sys
 import warnings
-from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -16,6 +15,7 @@ from .commonroad import campaign_cr_options, commonroad_campaign, simulate_commo
 from .options import (
     cflags_option,
     delay_option,
+    ego_circles_option,
     fail,
     fmt_summary,
     force_option,
@@ -31,6 +31,7 @@ from .options import (
     scenario_option,
     seed_option,
     seeds_option,
+    with_band_and_circles,
 )
 from .robust import robust_configs, robustness_options
 
@@ -96,6 +97,7 @@ from .robust import robust_configs, robustness_options
     "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
     "problem's own (--controller c: the solver folder's must be it)"
 )
+@ego_circles_option("the circles covering the ego in the ellipse's rows (Ellipse.n_ego); default: the problem's", None)
 @plant_options
 @traffic_option()
 def simulate(
@@ -116,6 +118,7 @@ def simulate(
     animate,
     cr_solution,
     road_bound,
+    ego_circles,
     traffic,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
@@ -135,8 +138,7 @@ def simulate(
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
     spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
-    if road_bound is not None:
-        pb = pb.with_(bounds=replace(pb.bounds, road_bound=road_bound))
+    pb = with_band_and_circles(pb, road_bound, ego_circles)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
@@ -290,6 +292,7 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
     "what the road band bounds in every configuration (Bounds.road_bound): the rear axle or the chassis' four "
     "corners; default: the presets' (rear_axle), but corners for --commonroad with --profile safe"
 )
+@ego_circles_option("the circles covering the ego in the ellipse's rows (Ellipse.n_ego) in its configurations")
 @plant_options
 @traffic_option()
 @delay_option
@@ -316,6 +319,7 @@ def campaign(
     scenario_list,
     criticality,
     road_bound,
+    ego_circles,
     traffic,
     delay,
     **robust,
@@ -334,7 +338,7 @@ def campaign(
             controller,
             backend,
             profile,
-            (spec, delay, road_bound or default_road_bound(bool(cr_dir), profile)),
+            (spec, delay, road_bound or default_road_bound(bool(cr_dir), profile), ego_circles),
         )
     seed_range = range(first_seed, first_seed + seeds)
     configs = robust_configs(configs, spec, delay, seed_range, samples, jobs, (out, clock), **robust)  # its grid
@@ -438,19 +442,14 @@ def _seeded_campaign(
         click.echo(f"warning: {msg}", err=True)
     for run_id, msg in res.failed[:5]:
         click.echo(f"failed {run_id}: {msg}", err=True)
-    _print_table(store, tasks)
+    if store.done():  # the short results table of the grid's runs (``fcgen report`` makes the full report)
+        from ..campaign.summary import results_table
+
+        click.echo(results_table(store.read(), tasks))
     if res.failed:
         fail(f"{len(res.failed)} run(s) failed; run the same command again to retry them")
     if {t.run_id for t in tasks} <= store.done() and store.needs_compact():
         store.compact()
-
-
-def _print_table(store, tasks: list) -> None:
-    """The short results table of the grid's runs in the store (``fcgen report`` makes the full report)."""
-    from ..campaign.summary import results_table
-
-    if store.done():
-        click.echo(results_table(store.read(), tasks))
 
 
 @click.command()

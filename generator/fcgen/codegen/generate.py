@@ -403,7 +403,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "n_min": c_real(problem.bounds.n_min),
         "n_max": c_real(problem.bounds.n_max),
         "shape_axes": ocp.n_opp_shape > len(obs.OPP_SHAPE),
-        "ego_radius": c_real(obs.ego_radius(problem.ego)),
+        "ego_radius": c_real(obs.ego_radius(problem.obstacles, problem.ego)),
         "ranges": {k: c_real(v) for k, v in dataclasses.asdict(INPUT_RANGES).items()},
         "p_road": {
             "S0": 0,

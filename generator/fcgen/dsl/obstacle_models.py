@@ -12,18 +12,27 @@ ELLIPSE_SHAPES = ("minkowski", "paper")
 @known_fields
 @dataclass(frozen=True)
 class Ellipse:
-    """Opponent covered by an ellipse, ego by one circle.
+    """Opponent covered by an ellipse, ego by ``n_ego`` circles along its axis (one row per ego circle).
 
     ``shape``: ``minkowski`` (default) the smallest-area ellipse that contains the opponent's rectangle grown by the
     ego's circle (``fcgen.obstacles.containing_ellipse_axes``); ``paper``: the paper's semi-axes sqrt(2) L + r,
     sqrt(2) W + r, which leave up to 0.34 m of that grown rectangle uncovered near a truck's corners.
+    ``n_ego``: 1 (the paper's) one circle of the chassis' half diagonal; n > 1 circles placed and sized as
+    ``CoveringCircles``' radius ``cover`` places them (``fcgen.obstacles.ego_radius``): a smaller r, a narrower ellipse.
     """
 
     shape: str = "minkowski"
+    n_ego: int = field(default=1, metadata={"omit_default": True})  # problem.py omits it at 1
     kind: str = field(default="ellipse", init=False, repr=False)
 
     def __post_init__(self) -> None:
         check(self.shape in ELLIPSE_SHAPES, "obstacles.shape", self.shape, f"one of {ELLIPSE_SHAPES}")
+        check(
+            isinstance(self.n_ego, int) and not isinstance(self.n_ego, bool) and 1 <= self.n_ego <= 5,
+            "obstacles.n_ego",
+            self.n_ego,
+            "an integer in [1, 5]",
+        )
 
 
 CIRCLE_RADII = ("cover", "paper")
