@@ -314,3 +314,26 @@ def test_a_lane_that_pauses_at_a_junction_keeps_the_target():
     ends = [Lane(0, before, np.zeros(11)), Lane(1, np.linspace(0.0, 300.0, 31), np.full(31, LANE))]
     n, why = TargetLane(ends, None, L, 10.0, 0.0).update(100.5, 0.0, 5.0, NONE)
     assert (n, why) == (LANE, "start")
+
+
+def test_the_lane_on_the_way_to_the_goals_lane_needs_the_goals_room():
+    """Lanes at n = 0 (the ego's, 20 m/s), 3.5 and 7 (the goal's, two lanes left). A car in the middle lane 12 m behind
+    the ego's centre at 15 m/s: the goal's room (L = 4 m behind, no time gap) is free, the strict gap (L + 1 s x
+    15 m/s = 19 m) is not. The change towards the goal starts into the middle lane (the old rule asked the strict gap
+    there and never started in dense traffic: USA_US101-24_1, 25_1); a car level with the ego there still holds it."""
+    from fcgen.commonroad.lanes import GOAL_LANE, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    lanes = [Lane(i, s, np.full_like(s, n)) for i, n in enumerate((0.0, LANE, 2 * LANE))]
+    behind = Traffic(np.array([88.0]), np.array([LANE]), np.array([15.0]))
+    assert not gap_free(behind, LANE, 100.0, 20.0, L) and L < 100.0 - 88.0
+    n, why = TargetLane(lanes, 2 * LANE, L, 20.0, 0.0, close_ahead=True).update(100.0, 0.0, 20.0, behind)
+    assert (n, why) == (LANE, GOAL_LANE)
+    tl = TargetLane(lanes, 2 * LANE, L, 20.0, 0.0, close_ahead=True)
+    level = Traffic(np.array([101.0]), np.array([LANE]), np.array([20.0]))
+    assert tl.update(100.0, 0.0, 20.0, level) == (0.0, "start")
+    tl.update(100.0, 0.0, 20.0, behind)  # the change starts; under way, the strict gap would call it off
+    held = Traffic(
+        np.array([88.0, 101.0]), np.array([LANE, 2 * LANE]), np.array([15.0, 20.0])
+    )  # the goal's lane: taken
+    assert tl.update(100.0, 1.0, 20.0, held) == (LANE, GOAL_LANE)

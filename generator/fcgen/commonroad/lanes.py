@@ -23,7 +23,9 @@ the horizon. In this order:
    the goal is where the recorded driver went, and the NMPC keeps its distance to the vehicles it sees). The room
    counts ``T_OPEN_GOAL`` s of the speed by which a vehicle there opens the gap (a slower one behind drops back, a
    faster one ahead pulls away): the ego's corner crosses the lane line about half-way through the change, so a
-   driver starts beside a slower vehicle it is passing rather than waiting until it is clear.
+   driver starts beside a slower vehicle it is passing rather than waiting until it is clear. A lane on the way to
+   the goal's lane gets the same room, during the change too (step 1): the strict gap there kept the ego out of
+   dense traffic for the whole run (USA_US101-24_1, 25_1).
 4. **A slower vehicle ahead**: where the ego is settled in its target lane and the vehicle ahead in it within the
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
@@ -224,12 +226,12 @@ class TargetLane:
         target = min(here, key=lambda c: abs(c - self.n))
         settled = abs(n_ego - target) <= SETTLED
 
-        def free(c: float) -> bool:
-            if self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE:  # the goal's lane: room is enough
+        def free(c: float, to_goal: bool = False) -> bool:
+            if to_goal or (self.goal_n is not None and abs(self.goal_n - c) <= SAME_LANE):  # room is enough
                 return gap_free(traffic, c, s, v, self.length, 0.0, T_CLOSE_GOAL, t_open=T_OPEN_GOAL)
             return gap_free(traffic, c, s, v, self.length, t_close_ahead=T_CLOSE if self.close_ahead else 0.0)
 
-        if not settled and target != own and not free(target):
+        if not settled and target != own and not free(target, self.reason == GOAL_LANE):
             return self._set(own, "the gap closed")
         i = here.index(target)
         left = here[i + 1] if i + 1 < len(here) and here[i + 1] - target <= ADJACENT else None
@@ -244,7 +246,7 @@ class TargetLane:
                     return self._set(c, "the lane ends")
             return self._set(target, self.reason)
         if toward is not None:
-            return self._set(toward if free(toward) else target, GOAL_LANE)
+            return self._set(toward if free(toward, True) else target, GOAL_LANE)
         lead = leader(traffic, target, s, reach)
         if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
             for c in neighbours:
