@@ -337,3 +337,21 @@ def test_the_lane_on_the_way_to_the_goals_lane_needs_the_goals_room():
         np.array([88.0, 101.0]), np.array([LANE, 2 * LANE]), np.array([15.0, 20.0])
     )  # the goal's lane: taken
     assert tl.update(100.0, 1.0, 20.0, held) == (LANE, GOAL_LANE)
+
+
+def test_the_goals_lane_rule_does_not_go_back_and_forth():
+    """Two cases that sent the target back at every sample (USA_US101-23_1). (1) A goal held within the band at
+    n = 2.04 m between lanes at 0 and 3.92 m (2.04 and 1.88 m from it, both beyond SAME_LANE): the ego steps to the
+    nearer lane, 3.92, and stays. (2) The goal in the left lane at s = 130 m, a lane that ends at s = 150 m, the ego at
+    s = 100 m and 20 m/s (look-ahead 80 m): the lane goes on to the goal, so it is not a lane that ends."""
+    from fcgen.commonroad.lanes import GOAL_LANE, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    lanes = [Lane(0, s, np.zeros_like(s)), Lane(1, s, np.full_like(s, 3.92))]
+    tl = TargetLane(lanes, 2.04, L, 20.0, 0.0)
+    assert [tl.update(100.0 + k, 0.0, 20.0, NONE)[0] for k in range(3)] == [3.92, 3.92, 3.92]
+    short = np.linspace(0.0, 150.0, 16)
+    lanes = [Lane(0, s, np.zeros_like(s)), Lane(1, short, np.full_like(short, LANE))]
+    tl = TargetLane(lanes, LANE, L, 20.0, 0.0, goal_s=130.0)
+    got = [tl.update(100.0 + k, 0.0, 20.0, NONE) for k in range(3)]
+    assert got == [(LANE, GOAL_LANE)] * 3

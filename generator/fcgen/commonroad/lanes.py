@@ -16,8 +16,9 @@ the horizon. In this order:
    has room, step 3), the target goes back to the lane the ego is in. An ego off its own lane's centre (a recorded
    start 0.6 m off it) is not changing lanes: the steps below still apply.
 2. **A lane that ends**: where the target lane does not continue over the look-ahead (``LOOK_AHEAD`` s at the
-   ego's speed, at least ``MIN_AHEAD``), the adjacent lane that continues (towards the goal's side first, then the
-   left), when its gap is free (else the target stays and the NMPC brakes for the lane's end).
+   ego's speed, at least ``MIN_AHEAD``; to the goal where that is nearer: a lane that ends past it does not), the
+   adjacent lane that continues (towards the goal's side first, then the left), when its gap is free (else the
+   target stays and the NMPC brakes for the lane's end).
 3. **The goal's lane**: where the goal gives a position, the lane nearest its centre, one lane at a time, when the
    next lane has room beside the ego (a gap with no time gap asked and ``T_CLOSE_GOAL`` s of closing speed behind:
    the goal is where the recorded driver went, and the NMPC keeps its distance to the vehicles it sees). The room
@@ -25,7 +26,10 @@ the horizon. In this order:
    faster one ahead pulls away): the ego's corner crosses the lane line about half-way through the change, so a
    driver starts beside a slower vehicle it is passing rather than waiting until it is clear. A lane on the way to
    the goal's lane gets the same room, during the change too (step 1): the strict gap there kept the ego out of
-   dense traffic for the whole run (USA_US101-24_1, 25_1).
+   dense traffic for the whole run (USA_US101-24_1, 25_1). The next lane is a step only where it lies nearer the
+   goal's centre than the target and goes on over the look-ahead (or to the goal, where that is nearer): else step 2
+   or this one sends the ego back at the next sample (USA_US101-23_1, whose goal held within the band lies between
+   two lanes, went back and forth at every sample for 4 s).
 4. **A slower vehicle ahead**: where the ego is settled in its target lane and the vehicle ahead in it within the
    look-ahead drives more than ``SLOWER`` below the reference speed, an adjacent lane whose gap is free and whose
    vehicle ahead (if any) is farther and faster; never away from the goal's lane (step 3 would bring it back).
@@ -213,6 +217,7 @@ class TargetLane:
     n: float
     reason: str = "start"
     close_ahead: bool = False  # the safe profile's gap: also T_CLOSE of closing ahead (not towards the goal's lane)
+    goal_s: float | None = None  # the goal position's centre along the road (None: not known)
 
     def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
         """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
@@ -239,13 +244,16 @@ class TargetLane:
         toward = None
         if self.goal_n is not None and abs(self.goal_n - target) > SAME_LANE:
             toward = left if self.goal_n > target else right
+            if toward is not None and abs(self.goal_n - toward) >= abs(self.goal_n - target):
+                toward = None  # not nearer the goal (a goal between two lanes): the lane nearest it is the target
         neighbours = list(dict.fromkeys(c for c in (toward, left, right) if c is not None))
-        if not continues(self.lanes, s, target, reach):
+        ahead = self._to_goal(s, reach)
+        if not continues(self.lanes, s, target, ahead):
             for c in neighbours:
-                if continues(self.lanes, s, c, reach) and free(c):
+                if continues(self.lanes, s, c, ahead) and free(c):
                     return self._set(c, "the lane ends")
             return self._set(target, self.reason)
-        if toward is not None:
+        if toward is not None and continues(self.lanes, s, toward, ahead):
             return self._set(toward if free(toward, True) else target, GOAL_LANE)
         lead = leader(traffic, target, s, reach)
         if settled and lead is not None and lead[1] < self.v_ref - SLOWER:
@@ -256,6 +264,10 @@ class TargetLane:
                 if not away and faster and continues(self.lanes, s, c, reach) and free(c):
                     return self._set(c, "a slower vehicle ahead")
         return self._set(target, self.reason)
+
+    def _to_goal(self, s: float, reach: float) -> float:
+        """How far ahead a lane towards the goal must go on: the look-ahead, or to the goal where it lies nearer."""
+        return reach if self.goal_s is None or self.goal_s <= s else min(reach, self.goal_s - s)
 
     def _set(self, n: float, reason: str) -> tuple[float, str]:
         """Keep the target lane ``n``; the reference is the goal's centre once the target is the goal's lane."""
@@ -274,7 +286,8 @@ def target_lane(sc, length: float, goal_n: float | None, n_ego: float, close_ahe
     s0 = float(sc.x0[0])
     here = lanes_at(lanes, s0)
     own = min(here, key=lambda c: abs(c - n_ego)) if here else 0.0
-    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own, close_ahead=close_ahead)
+    goal_s = None if sc.goal_sn is None else float(sc.goal_sn[0])
+    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own, close_ahead=close_ahead, goal_s=goal_s)
 
 
 def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:
