@@ -140,3 +140,21 @@ def test_the_peer_drives_a_stratified_sample_of_what_fcgen_drove_and_copies_its_
         ("refused", "intersection", "peer"),
         ("failed", "peer could not start", "peer"),
     ]
+
+
+def test_a_rows_planner_by_its_problems_name():
+    """The safe profile's problem names end in ``_safe`` or carry it before a campaign's variant suffix (the corners'
+    band ``_cb``, ego circles ``_e2``, delay compensation ``_d1``): all fcgen safe; the paper profile's (also with
+    ``_cb``) fcgen paper; the peer's rows by their controller."""
+    from fcgen.report.cr_planners import planner_of
+
+    for name in (
+        "car_lift_el_ipm_safe",
+        "car_lift_el_ipm_safe_cb",
+        "car_lift_el_ipm_safe_cb_e2",
+        "car_lift_hp_safe_d1",
+    ):
+        assert planner_of(name, "c") == "fcgen safe", name
+    for name in (PAPER, "car_lift_el_ipm_cb", "car_lift_el_ipm_e2"):
+        assert planner_of(name, "c") == "fcgen paper", name
+    assert planner_of(PEER, "peer") == "reactive planner"

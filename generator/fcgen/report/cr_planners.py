@@ -5,6 +5,8 @@ departures, the goal, the valid solutions, the time-to-collision ahead and the t
 
 from __future__ import annotations
 
+import re
+
 from ..campaign.commonroad import departed_on_road
 
 PLANNERS = ("fcgen safe", "fcgen paper", "reactive planner", "recorded human driver")
@@ -27,10 +29,11 @@ MEASURES = (
 
 def planner_of(problem: str, controller: str) -> str:
     """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else fcgen's profile: the
-    safe profile's problems end in ``_safe`` (``presets.preset``), the paper profile's do not."""
+    safe profile's problems end in ``_safe`` (``presets.preset``), or have it before a campaign's variant suffix
+    (``_cb`` the corners' band, ``_e<N>`` ego circles, ``_d<N>`` delay compensation); the paper profile's do not."""
     if controller == "peer":
         return PLANNERS[2]
-    return PLANNERS[0] if str(problem).endswith("_safe") else PLANNERS[1]
+    return PLANNERS[0] if re.search(r"_safe(_(cb|e\d|d\d))*$", str(problem)) else PLANNERS[1]
 
 
 def column(g) -> list[str]:
