@@ -355,3 +355,17 @@ def test_the_goals_lane_rule_does_not_go_back_and_forth():
     tl = TargetLane(lanes, LANE, L, 20.0, 0.0, goal_s=130.0)
     got = [tl.update(100.0 + k, 0.0, 20.0, NONE) for k in range(3)]
     assert got == [(LANE, GOAL_LANE)] * 3
+
+
+def test_a_lane_beyond_the_problems_band_is_never_the_target():
+    """Lanes at n = 0 (the ego's), 3.5 and 7 (the goal's), the problem's band n <= 5 m: the change towards the goal
+    stops at 3.5 (the solver refuses a reference beyond its band: USA_US101-26_2 targeted a lane at 13.85 m)."""
+    from fcgen.commonroad.lanes import GOAL_LANE, Lane, TargetLane
+
+    s = np.linspace(0.0, 500.0, 51)
+    lanes = [Lane(i, s, np.full_like(s, n)) for i, n in enumerate((0.0, LANE, 2 * LANE))]
+    tl = TargetLane(lanes, 2 * LANE, L, 20.0, 0.0, n_bounds=(-5.0, 5.0))
+    got = [tl.update(100.0 + k, 0.0, 20.0, NONE) for k in range(3)]
+    assert got == [(LANE, GOAL_LANE)] * 3
+    free = TargetLane(lanes, 2 * LANE, L, 20.0, 0.0)
+    assert [free.update(100.0 + k, 0.0, 20.0, NONE)[0] for k in range(2)] == [LANE, 2 * LANE]

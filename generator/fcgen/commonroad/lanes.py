@@ -44,6 +44,9 @@ within the chassis length plus ``T_BEHIND`` s of its speed and drives faster tha
 the reference speed (at most the lane's limit and ``v_max``): recorded traffic does not brake for an ego slower than
 the driver it followed (the vehicle ahead stays the NMPC's constraint).
 
+A lane whose centre lies beyond the problem's band (``Bounds.n_min``/``n_max``, ``n_bounds``) is never a target: the
+solver refuses such a reference (USA_US101-26_2 in recorded traffic: a lane at 13.85 m, the band +-8.5 m).
+
 A lane is beside the target (a candidate of steps 2-4) when it is the next one to the right or left at ``s`` and its
 centre lies within ``ADJACENT`` of the target's: lanelets of the same direction farther off (a parallel road beyond a
 median, 19 m to the left of USA_Peach-3_x's start) are not a lane change away.
@@ -218,10 +221,11 @@ class TargetLane:
     reason: str = "start"
     close_ahead: bool = False  # the safe profile's gap: also T_CLOSE of closing ahead (not towards the goal's lane)
     goal_s: float | None = None  # the goal position's centre along the road (None: not known)
+    n_bounds: tuple[float, float] = (-np.inf, np.inf)  # the problem's band (Bounds): a lane beyond it is not a target
 
     def update(self, s: float, n_ego: float, v: float, traffic: Traffic) -> tuple[float, str]:
         """The target after the ego's state (centre ``s``, ``n_ego``, speed ``v``) and the traffic at this sample."""
-        here = lanes_at(self.lanes, s)
+        here = [c for c in lanes_at(self.lanes, s) if self.n_bounds[0] <= c <= self.n_bounds[1]]
         if not here:
             return self.n, self.reason
         reach = max(MIN_AHEAD, LOOK_AHEAD * v)
@@ -279,15 +283,19 @@ class TargetLane:
         return self.n, self.reason
 
 
-def target_lane(sc, length: float, goal_n: float | None, n_ego: float, close_ahead: bool = False) -> TargetLane:
+def target_lane(
+    sc, length: float, goal_n: float | None, n_ego: float, close_ahead: bool = False, n_bounds=(-np.inf, np.inf)
+) -> TargetLane:
     """The rule's state at the start of a run on ``sc``: its road's lanes, the target the ego's own lane;
-    ``close_ahead``: the safe profile's gap (``TargetLane.close_ahead``)."""
+    ``close_ahead``: the safe profile's gap (``TargetLane.close_ahead``); ``n_bounds``: the problem's band."""
     lanes = road_lanes(sc.scenario.lanelet_network, sc.road)
     s0 = float(sc.x0[0])
     here = lanes_at(lanes, s0)
     own = min(here, key=lambda c: abs(c - n_ego)) if here else 0.0
     goal_s = None if sc.goal_sn is None else float(sc.goal_sn[0])
-    return TargetLane(lanes, goal_n, length, float(sc.v_ref), own, close_ahead=close_ahead, goal_s=goal_s)
+    n_bounds = (float(n_bounds[0]), float(n_bounds[1]))
+    v_ref = float(sc.v_ref)
+    return TargetLane(lanes, goal_n, length, v_ref, own, close_ahead=close_ahead, goal_s=goal_s, n_bounds=n_bounds)
 
 
 def traffic_at(obstacles, road, step: int, dt: float) -> Traffic:

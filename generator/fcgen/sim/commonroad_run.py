@@ -262,7 +262,8 @@ def _drive(
     loop = _Loop(np.zeros((K + 1, 5)), np.zeros((K, 2)), [], [], PlanLog(K, N, plan))
     loop.xs[:] = sc.x0 if states is None else states  # (a run's later states are the plant's)
     goal_n = None if sc.goal_sn is None else lateral_reference(sc.goal_sn, road)[0]
-    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]), close_ahead=follow is not None)
+    bounds = (problem.bounds.n_min, problem.bounds.n_max)
+    lane = target_lane(sc, problem.ego.l_ch, goal_n, float(sc.x0[1]), follow is not None, bounds)
     band = solver_band(problem, sc, lane.lanes, band_rule)
     n_ref, v_ref, n_now = None, sc.v_ref, 0.0
     ramp: tuple[float, int, float] | None = None  # a lane change under way: (stage 0's n_ref, its sample, duration)
