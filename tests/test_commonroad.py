@@ -195,6 +195,8 @@ def test_unusable_scenarios_are_refused_with_one_line(tmp_path):
         (dict(ego_x=50.0, ego_lane=5, lanes=3), "no lanelet at the ego's start"),
         (dict(length=80.0, ego_x=40.0), "shorter than the horizon"),
         (dict(obstacles=[(7, 0, 60.0, 0.0, 5, 4.0, 2.0)], shape="circle"), "obstacle 7: its shape is a Circle"),
+        # a 6 m goal centred 40 m behind the ego's centre: its front end 37 m behind
+        (dict(ego_x=100.0, goal={"lane": 1, "s": 60.0}), "goal unreachable: the goal's position lies 37.0 m"),
     ]
     for i, (kw, reason) in enumerate(cases):
         path = write_scenario(tmp_path / f"bad{i}.xml", **kw)

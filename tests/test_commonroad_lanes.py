@@ -369,3 +369,39 @@ def test_a_lane_beyond_the_problems_band_is_never_the_target():
     assert got == [(LANE, GOAL_LANE)] * 3
     free = TargetLane(lanes, 2 * LANE, L, 20.0, 0.0)
     assert [free.update(100.0 + k, 0.0, 20.0, NONE)[0] for k in range(2)] == [LANE, 2 * LANE]
+
+
+def _oncoming(oid: int, n_of_step, x0: float = 150.0, v: float = 15.0, heading: float = np.pi):
+    """A car (4.5 m x 1.8 m) from x0 against the road (heading pi) at v, its centre n_of_step(k) left of the road's
+    centre line at step k, recorded for 60 steps."""
+    from fcgen.commonroad.traffic import CrObstacle
+
+    k = np.arange(60)
+    d = np.cos(heading)
+    centres = np.c_[x0 + d * v * 0.1 * k, [n_of_step(i) for i in k], np.full(60, heading)]
+    return CrObstacle(oid, False, 4.5, 1.8, 0, 59, centres, v, 0.1)
+
+
+def test_oncoming_traffic_beside_the_band_gets_no_slot_with_the_corners_band(tmp_path):
+    """One lane of 3.5 m (band -1.75..1.75). A car against the road in the lane beside (n = 3.5: its rectangle 2.6..4.4)
+    stays beside the band over the 4 s horizon: separated, so with the corners' band it gets no slot. Not separated:
+    the same car at n = 2.5 (its rectangle from 1.6, inside the band), one that turns into the ego's lane at step 20
+    (n = 0 from there), one driving with the road beside it."""
+    from fcgen.commonroad.traffic import select_opponents, separated_oncoming
+
+    sc = load_for(PB, write_scenario(tmp_path / "o.xml", lanes=1, ego_lane=0))
+    road, N = sc.road, PB.horizon.N
+    np.testing.assert_allclose([road.n_min[0], road.n_max[0]], [-LANE / 2, LANE / 2], atol=1e-6)
+    beside = _oncoming(1, lambda k: LANE)
+    inside = _oncoming(2, lambda k: 2.5)
+    turning = _oncoming(3, lambda k: LANE if k < 20 else 0.0)
+    along = _oncoming(4, lambda k: LANE, x0=40.0, heading=0.0)
+    assert separated_oncoming(beside, road, 0, None, N)
+    assert not separated_oncoming(inside, road, 0, None, N)
+    assert not separated_oncoming(turning, road, 0, None, N)  # within the horizon at step 0 ...
+    assert separated_oncoming(turning, road, 25, None, N) is False  # ... and in the lane after it
+    assert separated_oncoming(turning, road, 0, None, 10)  # beyond a 1 s horizon it turns: beside over that one
+    assert not separated_oncoming(along, road, 0, None, N)
+    obs = (beside, inside, along)  # from (50, 0): 100.06, 100.03 and 10.6 m away
+    assert select_opponents(obs, 0, (50.0, 0.0), 3) == (2, 1, 0)
+    assert select_opponents(obs, 0, (50.0, 0.0), 3, band_road=road) == (2, 1, None)

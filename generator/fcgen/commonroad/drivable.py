@@ -28,7 +28,8 @@ Rules (tested in tests/test_commonroad_refusals.py on scenarios the tests write 
   its swept width; driven, 12_1's front corner crossed the lane's edge where the turn begins).
 - **Goal unreachable**: the goal names lanelets and none of them can be reached from the start lanelet along
   successors and adjacent lanes of the same direction (fcgen's lane rule moves one lane at a time, the road follows
-  successors).
+  successors); or the goal's position lies wholly behind the ego's centre along its road (``check_goal_ahead``: the
+  ego drives forwards; DEU_Hhr-1_1's goal lies 4-11 m behind its start, and the run stood for 1800 samples).
 """
 
 from __future__ import annotations
@@ -191,6 +192,17 @@ def check_oncoming(obstacles: tuple[CrObstacle, ...], road: Road, s0: float, rea
                 f"{float(s[k] - s0):.0f} m ahead at step {ob.first_step + idx[k]}",
                 kind="oncoming traffic",
             )
+
+
+def check_goal_ahead(extent_s: tuple[float, float] | None, s_centre: float) -> None:
+    """Refuse (``goal unreachable``) a goal position whose extent along the road, ``extent_s`` (s_lo, s_hi; None: no
+    position), ends behind the ego's centre ``s_centre``."""
+    if extent_s is not None and extent_s[1] < s_centre:
+        raise ScenarioRefused(
+            f"goal unreachable: the goal's position lies {s_centre - extent_s[1]:.1f} m and more behind the ego's "
+            "start along its road (the ego drives forwards)",
+            kind="goal unreachable",
+        )
 
 
 def check_goal_reachable(net, first: int, goals: set[int], depth: int = 200) -> None:

@@ -24,7 +24,7 @@ import numpy as np
 from ..dsl import Vehicle
 from ..extras import require
 from ..road import Road, wrap_angle
-from .drivable import check_drivable
+from .drivable import check_drivable, check_goal_ahead
 from .goal import goal_centres, goal_extent, goal_frenet, goal_speed, speed_limit, timing_of
 from .reference_path import build_road, initial_lanelet, lanelet_chain
 from .traffic import CrObstacle, ScenarioRefused, obstacle_from
@@ -96,11 +96,11 @@ def load_scenario(
     chain = lanelet_chain(net, first, goals, horizon_m, behind_m, centre)
     road, info = build_road(net, chain, centre, ds, behind_m, horizon_m, samples * dt * v_max + window_m)
     goal_sn, extent = goal_frenet(pp, road), goal_extent(pp, road)
+    s_centre = float(road.to_frenet(np.array([centre[0]]), np.array([centre[1]]), np.array([0.0]))[0][0])
     v_goal, g_src = v_ref, v_src
     timing = timing_of(pp, dt, None if extent is None else extent[0], v0, limit, v_max)
     if goal_sn is not None:  # the distance along the reference path (the straight line's above only sized the horizon)
-        s_c = road.to_frenet(np.array([centre[0]]), np.array([centre[1]]), np.array([0.0]))[0]
-        d_goal = goal_sn[0] - float(s_c[0])
+        d_goal = goal_sn[0] - s_centre
         v_goal, g_src = goal_speed(pp, v0, dt, d_goal, limit, v_max)
         v_ref, v_src = goal_speed(pp, v0, dt, d_goal, limit, v_max, near=False)
     if info["path_ahead_m"] < horizon_m:
@@ -113,6 +113,7 @@ def load_scenario(
     x0 = np.array([float(s[0]), float(n[0]), wrap_angle(float(a[0])), v0, 0.0])  # a heading given with whole turns
     reach_m, steps = samples * dt * max(v0, v_ref) + horizon_m, range(step0, step0 + samples + 1)
     check_drivable(net, road, first, goals, obstacles, float(x0[0]), reach_m, steps, kappa_max, ego)
+    check_goal_ahead(None if extent is None else extent[0], s_centre)
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return CrScenario(
         name,

@@ -20,6 +20,10 @@ Rules (tested in tests/test_commonroad.py):
   passing beside it, and keeps a vehicle closing from behind (it would reach the ego at its own speed); a slower
   vehicle ahead comes before one beside at the same speed. Without the ego's motion: by the Euclidean distance of
   the centres at that step.
+- **Oncoming traffic beyond the band** (``separated_oncoming``; where the road bound is the chassis' corners): a
+  vehicle heading against the road whose rectangle stays outside the road's band now and at every stage of its
+  prediction gets no slot. The band's rows keep the ego's chassis inside the band, so they already keep it apart;
+  its ellipse, grown by the ego's circle, would reach across a lane of a two-way street and leave no room to pass.
 - **Empty slots**: a neutral opponent, a 4 m x 2 m box 1 km beyond the road's bounding box (south-west of it),
   heading 0, standing: it never constrains the plan (the conventional fit leaves it out).
 """
@@ -162,19 +166,48 @@ def obstacle_from(ob, dt: float) -> CrObstacle:
 
 
 def select_opponents(
-    obstacles, step: int, ego_xy, n_slots: int, ego_motion=None, offsets=None, N: int = 0, v_ref: float = 0.0
+    obstacles,
+    step: int,
+    ego_xy,
+    n_slots: int,
+    ego_motion=None,
+    offsets=None,
+    N: int = 0,
+    v_ref: float = 0.0,
+    band_road=None,
 ) -> tuple[int | None, ...]:
     """Indices into ``obstacles`` of the ``n_slots`` present obstacles nearest to ``ego_xy`` at ``step`` (ties by
     id); ``None`` for the slots left empty. With the ego's ``ego_motion`` (speed, heading): nearest by their closest
     approach over the horizon's ``N`` stages (stage k ``offsets[k]`` steps on, default k), the ego along its heading
-    at its own speed and at ``v_ref`` where that is faster (the nearer of the two), the obstacles as predicted."""
+    at its own speed and at ``v_ref`` where that is faster (the nearer of the two), the obstacles as predicted.
+    ``band_road``: a road whose band keeps the ego's chassis; its ``separated_oncoming`` vehicles are left out."""
     cand = []
     for i, ob in enumerate(obstacles):
-        if ob.present(step):
+        if ob.present(step) and not (band_road is not None and separated_oncoming(ob, band_road, step, offsets, N)):
             cand.append((_relevance(ob, step, ego_xy, ego_motion, v_ref, offsets, N), ob.id, i))
     cand.sort()
     chosen = [i for _, _, i in cand[:n_slots]]
     return tuple(chosen) + (None,) * (n_slots - len(chosen))
+
+
+def separated_oncoming(ob, road, step: int, offsets=None, N: int = 0) -> bool:
+    """The vehicle heads more than 90 degrees against ``road`` and its rectangle lies beside the road's band (on one
+    side, within the road's length) at ``step`` and at each of the horizon's ``N`` stages (stage k ``offsets[k]``
+    steps on, default k), as predicted (module docstring)."""
+    if ob.static or road.n_min is None or road.n_max is None:
+        return False
+    p = ob.pose(step)
+    if abs(math.remainder(float(np.ravel(road.to_frenet(p[0], p[1], p[2])[2])[0]), 2 * math.pi)) <= math.pi / 2:
+        return False  # (most vehicles: one projection)
+    on = [0] + [k if offsets is None else int(offsets[k]) for k in range(1, N + 1)]
+    c = np.array([ob.pose(step + m) for m in on])
+    s, n, a = road.to_frenet(c[:, 0], c[:, 1], c[:, 2])
+    a = np.remainder(np.asarray(a) + np.pi, 2 * np.pi) - np.pi
+    half = 0.5 * ob.length * np.abs(np.sin(a)) + 0.5 * ob.width * np.abs(np.cos(a))  # across the road
+    lo, hi = np.interp(s, road.s, road.n_min), np.interp(s, road.s, road.n_max)
+    beside = (n - half >= hi) | (n + half <= lo)
+    within = (s > road.s[0]) & (s < road.s[-1])
+    return bool(np.all((np.abs(a) > math.pi / 2) & beside & within))
 
 
 def _relevance(ob, step: int, ego_xy, ego_motion, v_ref: float, offsets, N: int) -> float:
@@ -207,14 +240,16 @@ def neutral_pose(road) -> np.ndarray:
     return np.array([float(np.min(road.gx)) - NEUTRAL_DISTANCE, float(np.min(road.gy)) - NEUTRAL_DISTANCE, 0.0])
 
 
-def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None, ego_motion=None):
+def opponent_horizon(sc, step: int, ego_xy, n_slots: int, N: int, offsets=None, ego_motion=None, separated=False):
     """The solver's opponents at closed-loop sample ``step`` (scenario step ``sc.first_step + step``): centre poses
     (N+1, n_slots, 3) over the horizon (stage k: ``offsets[k]`` scenario steps later, default k), shapes
     (n_slots, 3) [length, width, offset 0], the chosen obstacles' ids
     (None for an empty slot); ``ego_motion``: the ego's (speed, heading) for the relevance rule
-    (``select_opponents``, with the scenario's ``v_ref``)."""
+    (``select_opponents``, with the scenario's ``v_ref``); ``separated``: the chassis' corners bound the band, so the
+    ``separated_oncoming`` vehicles get no slot."""
     t0 = sc.first_step + step
-    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots, ego_motion, offsets, N, sc.v_ref)
+    band = sc.road if separated else None
+    idx = select_opponents(sc.obstacles, t0, ego_xy, n_slots, ego_motion, offsets, N, sc.v_ref, band)
     poses = np.zeros((N + 1, n_slots, 3))
     shapes = np.zeros((n_slots, 3))
     ids: list[int | None] = []
