@@ -100,9 +100,8 @@ def load_scenario(
     v_goal, g_src = v_ref, v_src
     timing = timing_of(pp, dt, None if extent is None else extent[0], v0, limit, v_max)
     if goal_sn is not None:  # the distance along the reference path (the straight line's above only sized the horizon)
-        d_goal = goal_sn[0] - s_centre
-        v_goal, g_src = goal_speed(pp, v0, dt, d_goal, limit, v_max)
-        v_ref, v_src = goal_speed(pp, v0, dt, d_goal, limit, v_max, near=False)
+        v_goal, g_src = goal_speed(pp, v0, dt, goal_sn[0] - s_centre, limit, v_max)
+        v_ref, v_src = goal_speed(pp, v0, dt, goal_sn[0] - s_centre, limit, v_max, near=False)
     if info["path_ahead_m"] < horizon_m:
         raise ScenarioRefused(
             f"{name}: the reference path reaches {info['path_ahead_m']:.0f} m ahead of the ego, "

@@ -272,8 +272,7 @@ def _drive(
     it: Iterable[int] = range(K)
     if progress:
         it = extras.progress(it, desc=f"{problem.name} {sc.name}", unit="sample", leave=False)
-    half_l = problem.ego.l / 2
-    corners = problem.bounds.road_bound == "corners"  # the band keeps the chassis: oncoming traffic beside it is apart
+    half_l, offsets, corners = problem.ego.l / 2, problem.horizon.offsets, problem.bounds.road_bound == "corners"
     goal = sc.planning_problem if states is None else None
     seen = seen_traffic(plant.spec, sc)  # the obstacles as the solver sees them at a sample (``sim.cr_prediction``)
     for j in it:
@@ -303,9 +302,7 @@ def _drive(
             )
         loop.v_refs.append(float(v_ref))
         ego = (float(x[3]), rphi)  # the relevance rule's speed and heading (``select_opponents``)
-        poses, shapes, ids = cr.opponent_horizon(
-            seen(sc, j), j, centre, n_slots, N, problem.horizon.offsets, ego, corners
-        )
+        poses, shapes, ids = cr.opponent_horizon(seen(sc, j), j, centre, n_slots, N, offsets, ego, corners)
         shapes_in.set(j, shapes, sc, ids, x)
         loop.slot_ids.append([-1 if i is None else int(i) for i in ids])
         xm = plant.measure(x) if states is None else x  # what the controller measures
