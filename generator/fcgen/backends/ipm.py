@@ -48,8 +48,9 @@ VERIFY_ENVELOPE = True
 """fcgen verify may solve a lockstep sample's QP again (this backend keeps nothing between solves): where the C's
 solution parts from the reference's beyond ``VERIFY_SOLUTION_TOL``, the reference solves it again with its measured
 state changed at rounding level (``verify_envelope.solution_envelope``) and the sample passes within twice how far its
-own solution moved. The penalties of truck_conventional_hyperplane_ipm_safe (1e8, 3e8) make some of its warm QPs move
-that much: C vs Python up to 5.3e-5 in the iterate (seed 3), the reference from itself more (measured at a3cce0f)."""
+own solution moved. Some warm QPs of truck_conventional_hyperplane_ipm_safe (penalties 1e8, 3e8) move that much (200
+samples, measured at a3cce0f): C vs Python up to 5.3e-5 in the iterate (seed 3, sample 3), the reference from itself
+there 3.4e-5 under a 1e-15 change of its measured state (docs/verification.md)."""
 
 VERIFY_FREE_TOL = 1e-6
 """... and for the QP primal of variables without cost curvature (the paper's free hyperplanes): in those directions
