@@ -10,7 +10,9 @@ Two comparisons on one seeded scenario:
    solution ``z``, ``y``, the SQP iterate (states and controls over the horizon) and ``u0``, plus the exit code, QP
    status and QP iteration count. Then the reference takes over the C's committed plan and duals (``_resync``), so
    every sample compares the one-step map from the same start over the whole run: a backend whose C and Python agree
-   to rounding only (the IPM) cannot drift into a different run where the problem amplifies rounding.
+   to rounding only (the IPM) cannot drift into a different run where the problem amplifies rounding. Where such a
+   backend's solution parts beyond its tolerance on a sample, the sample is held to twice the reference's own move
+   on that QP under a rounding-level change of its measured state (``verify_envelope.solution_envelope``).
 2. **Independent closed loops**: the Python plant driven by the C controller vs driven by the Python controller, each
    on its own: the ego's trajectory (each Frenet state relative to ``max(1, max |state|)`` over the run), the applied
    controls, QP iterations and statuses, exit codes. Where these part beyond the tolerances, the reference runs again
@@ -320,7 +322,13 @@ def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     _lockstep(pb, replace(sc, road=road, samples=min(sc.samples, STRAIGHT_SAMPLES)), ocp, cs, probe)
     for key, src in (("straight_q", "q"), ("straight_u0", "u0")):
         ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
+            p.max_diff,
+            p.sample,
+            p.compared,
+            p.envelope,
+            p.beyond,
+        )
 
 
 def stage_probe_inputs(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -345,7 +353,13 @@ def _stage_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     run_closed_loop(pb, short, controller=_Lockstep(sv, cs, probe), ocp=ocp)
     for key, src in (("stage_params", "params"), ("stage_q", "q"), ("stage_u0", "u0")):
         ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
+            p.max_diff,
+            p.sample,
+            p.compared,
+            p.envelope,
+            p.beyond,
+        )
 
 
 _SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
