@@ -29,6 +29,7 @@ from fcgen.verify import (
     rel_diff,
     verify,
 )
+from fcgen.verify_report import Check
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -137,6 +138,82 @@ def test_verify_free_hyperplanes_lockstep_exact_closed_loops_within_the_envelope
     assert tr.envelope > 100 * tr.tol, tr  # ... and so does the reference from itself (1e-2)
     assert rep.passed, rep.format()
     assert any("envelope" in n for n in rep.notes)
+
+
+def test_verify_conventional_hyperplane_ipm_safe_within_the_lockstep_envelope(gen_root: Path) -> None:
+    """truck_conventional_hyperplane_ipm_safe, seed 3: at sample 3 the C's QP solution parts from the reference's far
+    beyond the IPM's 1e-7 (the iterate by 5.3e-5 at a3cce0f, on bit-identical QP data and the same iteration count),
+    and so does the reference from itself when its measured state is scaled by 1 + 1e-15 (3.4e-5): the sample is
+    held to twice that envelope and passes."""
+    rep = verify(_gen(gen_root, "truck_conventional_hyperplane_ipm_safe"), seed=3, samples=4, closed_loop=False)
+    print(rep.format())
+    for key in ("q_fb", "l_fb", "u_fb", "qp_iter", "qp_status"):
+        assert rep.check(key).max_diff == 0, rep.check(key)
+    w = rep.check("w")
+    assert w.sample == 3 and w.max_diff > 100 * w.tol, w  # beyond the plain tolerance: verify failed here before
+    assert w.envelope > 100 * w.tol and w.max_diff <= ENVELOPE_FACTOR * w.envelope and w.beyond == 0, w
+    assert rep.passed, rep.format()
+    assert any("lockstep's QP solutions part" in n for n in rep.notes)
+
+
+def test_verify_lockstep_envelope_does_not_hide_a_c_that_differs(gen_root: Path, tmp_path: Path) -> None:
+    """The same preset with the reference's steering-rate weight 1.5x the C's (2 samples): the solutions part by far
+    more than the reference moves under rounding-level changes, so the samples fail despite their envelopes."""
+    d = tmp_path / "other_weight"
+    shutil.copytree(_gen(gen_root, "truck_conventional_hyperplane_ipm_safe"), d, ignore=shutil.ignore_patterns("build"))
+    text = (d / "problem.py").read_text()
+    assert "2000000.0)" in text
+    (d / "problem.py").write_text(text.replace("2000000.0)", "3000000.0)"))
+    rep = verify(d, seed=3, samples=2, closed_loop=False)
+    assert not rep.passed
+    for key in ("z", "u0"):
+        c = rep.check(key)
+        assert c.beyond > 0 and c.max_diff > 10 * ENVELOPE_FACTOR * c.envelope and not c.passed, (key, c)
+
+
+@pytest.mark.parametrize(
+    "name,amplifies",
+    [
+        ("truck_lifted_ellipse_ipm", False),
+        ("car_direct_elimination_hyperplane_ipm_safe", False),
+        ("truck_conventional_hyperplane_ipm_safe", True),
+    ],
+)
+def test_solution_envelope_solves_the_feedback_qp_again(monkeypatch, name: str, amplifies: bool) -> None:
+    """With a zero perturbation the envelope's QP is the feedback's, bit for bit (every formulation's embedding), and
+    the reference's plan is left as it was; at rounding level the lifted and DE presets move by less than 1e-10, the
+    conventional safe hyperplanes (seed 3, sample 3) by more than 1e-6 in the iterate (measured: 1.7e-5)."""
+    import fcgen.verify_envelope as ve
+    from fcgen.sim.closedloop import ReferenceController, run_closed_loop
+    from fcgen.sim.scenario import make_scenario
+
+    pb = preset(name)
+    ocp = build_ocp(pb)
+    sv = RtiSolver(ocp)
+    sc = make_scenario(name.split("_")[0], 3, n_opp=pb.opponents.count, samples=4, dt=pb.horizon.dt)
+    run_closed_loop(pb, sc, controller=ReferenceController(ocp, sv), ocp=ocp)
+    w, z, y = sv.w.copy(), np.array(sv.z), sv.y.copy()
+    monkeypatch.setattr(ve, "ENVELOPE_EPS", (0.0,))
+    assert ve.solution_envelope(sv) == dict.fromkeys(ve.SOLUTION_KEYS, 0.0)
+    monkeypatch.undo()
+    env = ve.solution_envelope(sv)
+    assert np.array_equal(sv.w, w) and np.array_equal(sv.z, z) and np.array_equal(sv.y, y)
+    if amplifies:
+        assert env["w"] > 1e-6, env
+    else:
+        assert max(env.values()) < 1e-10, env
+
+
+def test_a_lockstep_sample_is_held_to_its_own_envelope() -> None:
+    """One sample's envelope does not excuse another sample's difference (hand-set values)."""
+    c = Check("w", "feedback", "iterate x, u", 1e-7)
+    c.update(5e-7, 0, envelope=1e-6)  # within 2x its own envelope
+    assert c.passed and c.allowed == 2e-6 and c.beyond == 0
+    c.update(3e-7, 1)  # below the run's largest allowance, but no envelope of its own: beyond 1e-7
+    assert c.max_diff == 5e-7 and c.beyond == 1 and not c.passed
+    c = Check("w", "feedback", "iterate x, u", 1e-7)
+    c.update(5e-7, 0, envelope=2e-7)  # 2.5x its envelope
+    assert not c.passed and c.beyond == 1
 
 
 @pytest.mark.parametrize("name", ["truck_lifted_hyperplane_ipm_safe", "car_direct_elimination_ellipse_safe"])

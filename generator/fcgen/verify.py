@@ -10,7 +10,9 @@ Two comparisons on one seeded scenario:
    solution ``z``, ``y``, the SQP iterate (states and controls over the horizon) and ``u0``, plus the exit code, QP
    status and QP iteration count. Then the reference takes over the C's committed plan and duals (``_resync``), so
    every sample compares the one-step map from the same start over the whole run: a backend whose C and Python agree
-   to rounding only (the IPM) cannot drift into a different run where the problem amplifies rounding.
+   to rounding only (the IPM) cannot drift into a different run where the problem amplifies rounding. Where such a
+   backend's solution parts beyond its tolerance on a sample, the sample is held to twice the reference's own move
+   on that QP under a rounding-level change of its measured state (``verify_envelope.solution_envelope``).
 2. **Independent closed loops**: the Python plant driven by the C controller vs driven by the Python controller, each
    on its own: the ego's trajectory (each Frenet state relative to ``max(1, max |state|)`` over the run), the applied
    controls, QP iterations and statuses, exit codes. Where these part beyond the tolerances, the reference runs again
@@ -42,14 +44,12 @@ from .sim.closedloop import PlantSpec, ReferenceController, run_closed_loop
 from .sim.runlog import summary
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
+from .verify_envelope import ENVELOPE_EPS, SOLUTION_KEYS, rel_diff, solution_envelope
 from .verify_report import ENVELOPE_FACTOR, Check, VerifyReport
 
 TOL_QP_DATA = 1e-12
 TOL_SOLUTION = 1e-9
 TOL_TRAJECTORY = 1e-6
-ENVELOPE_EPS = (1e-15, -1e-15, 1e-13, -1e-13)
-"""Relative perturbations of the measured state with which the reference drives the plant again where the independent
-closed loops part beyond the tolerance: how far the reference parts from itself under rounding-level changes."""
 STRAIGHT_SAMPLES = 10
 """Samples of the straight-road lockstep (``_straight_probe``)."""
 CLOSED_LOOP = ("trajectory", "cl_control", "cl_qp_iter", "cl_exit_code")
@@ -98,26 +98,6 @@ def _clearance_diff(c: float, r: float, plan: np.ndarray) -> float:
     if math.isinf(c) or math.isinf(r):
         return rel_diff(c, r)
     return abs(c - r) / max(1.0, abs(r), float(np.max(np.abs(plan[:, 0]), initial=0.0)))
-
-
-def rel_diff(c, r) -> float:
-    """``max |c - r| / max(1, max |r|)`` over the finite entries of ``r`` (0 for empty arrays; inf if only one side
-    is NaN). An entry at the "no bound" marker (``|r| >= INF``, a QP's infinite bound) must be matched exactly and
-    stays out of the scale: a scale of 1e30 would hide any difference of the finite bounds beside it."""
-    c = np.asarray(c, dtype=float).ravel()
-    r = np.asarray(r, dtype=float).ravel()
-    if c.shape != r.shape:
-        raise ValueError(f"shape mismatch: C {c.shape} vs reference {r.shape}")
-    if r.size == 0:
-        return 0.0
-    both_nan = np.isnan(c) & np.isnan(r)
-    unbounded = np.abs(r) >= INF
-    d = np.where(both_nan, 0.0, np.abs(c - r))
-    d = np.where(unbounded, np.where(c == r, 0.0, np.inf), d)
-    d = np.where(np.isnan(d), np.inf, d)
-    finite = np.isfinite(r) & ~unbounded
-    scale = max(1.0, float(np.max(np.abs(np.where(finite, r, 0.0)), initial=0.0)))
-    return float(np.max(d)) / scale
 
 
 def _clip(a) -> np.ndarray:
@@ -181,6 +161,7 @@ class _Lockstep:
         self.ref, self.cs, self.checks = ref, cs, checks
         self.ref_ctrl = ReferenceController(ref.ocp, ref)
         self.j = 0
+        self.envelope = bool(getattr(backend_module(ref.qp_opts.backend), "VERIFY_ENVELOPE", False))
 
     def _upd(self, key: str, diff: float) -> None:
         self.checks[key].update(diff, self.j)
@@ -235,19 +216,31 @@ class _Lockstep:
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
             self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
             self._upd("u_fb", rel_diff(qp["u"], _clip(sv.u)))
-            free, z = sv.lay.P_diag == 0.0, np.asarray(sv.z)
-            self._upd("z", rel_diff(qp["z"][~free], z[~free]))
-            self._upd("z_free", rel_diff(qp["z"][free], z[free]))
-            self._upd("y", rel_diff(qp["y"], sv.y))
-            w_c = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
-            w_r = np.concatenate([sv.states().ravel(), sv.controls().ravel()])
-            self._upd("w", rel_diff(w_c, w_r))
-            self._upd("u0", rel_diff(c_res.u, res.u))
+            self._solution(qp, c_res, res)
             self._upd("max_slack", rel_diff(c_res.max_slack, res.max_slack))
         if not rc and not rc_py:
             self._resync(c_res.exit_code == 0, st_c)
         self.j += 1
         return res
+
+    def _solution(self, qp: dict, c_res: StepResult, res: StepResult) -> None:
+        """The QP's solution, the iterate and u0, C vs reference; where one parts beyond its tolerance and the backend
+        allows it (``VERIFY_ENVELOPE``), each held to ``ENVELOPE_FACTOR`` times this sample's envelope if larger."""
+        sv, cs = self.ref, self.cs
+        free, z = sv.lay.P_diag == 0.0, np.asarray(sv.z)
+        c_plan = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
+        diffs = {
+            "z": rel_diff(qp["z"][~free], z[~free]),
+            "z_free": rel_diff(qp["z"][free], z[free]),
+            "y": rel_diff(qp["y"], sv.y),
+            "w": rel_diff(c_plan, np.concatenate([sv.states().ravel(), sv.controls().ravel()])),
+            "u0": rel_diff(c_res.u, res.u),
+        }
+        env = dict.fromkeys(diffs, 0.0)
+        if self.envelope and any(d > self.checks[k].tol for k, d in diffs.items()):
+            env = solution_envelope(sv)
+        for k, d in diffs.items():
+            self.checks[k].update(d, self.j, env[k])
 
     def _resync(self, c_ok: bool, st_c) -> None:
         """The reference continues from the C's committed plan, duals and unusable-QP count, as the C computed them
@@ -329,7 +322,13 @@ def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     _lockstep(pb, replace(sc, road=road, samples=min(sc.samples, STRAIGHT_SAMPLES)), ocp, cs, probe)
     for key, src in (("straight_q", "q"), ("straight_u0", "u0")):
         ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
+            p.max_diff,
+            p.sample,
+            p.compared,
+            p.envelope,
+            p.beyond,
+        )
 
 
 def stage_probe_inputs(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -354,7 +353,13 @@ def _stage_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     run_closed_loop(pb, short, controller=_Lockstep(sv, cs, probe), ocp=ocp)
     for key, src in (("stage_params", "params"), ("stage_q", "q"), ("stage_u0", "u0")):
         ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
+            p.max_diff,
+            p.sample,
+            p.compared,
+            p.envelope,
+            p.beyond,
+        )
 
 
 _SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
@@ -429,6 +434,12 @@ def verify(
     checks = _checks(pb.qp.backend)
     log_py = _lockstep(pb, sc, ocp, cs, checks, plant)
     nz = int(log_py.meta["extra"]["exit_codes_nonzero"])
+    if any(checks[k].envelope for k in SOLUTION_KEYS):
+        rep.notes.append(
+            "the lockstep's QP solutions part beyond the tolerance on some samples; there the reference solved that "
+            f"QP again with its measured state scaled by 1 {', '.join(f'{e:+.0e}' for e in ENVELOPE_EPS)} and each "
+            f"such sample is allowed {ENVELOPE_FACTOR:g}x how far that moved its own solution (its 'envelope')"
+        )
     _straight_probe(pb, sc, ocp, cs, checks)
     _stage_probe(pb, sc, ocp, cs, checks)
     if closed_loop:

@@ -26,7 +26,8 @@ class Check:
     sample: int = -1  # sample of the largest difference (-1: none / all zero)
     count: int = 0  # for mismatch counts: samples that differ
     compared: int = 0  # samples compared
-    envelope: float = 0.0  # closed loops: the reference's own difference under ENVELOPE_EPS (0: not measured)
+    envelope: float = 0.0  # the reference's own difference under ENVELOPE_EPS (0: not measured)
+    beyond: int = 0  # lockstep samples beyond their own allowance, max(tol, ENVELOPE_FACTOR x their envelope)
 
     @property
     def allowed(self) -> float:
@@ -35,9 +36,11 @@ class Check:
 
     @property
     def passed(self) -> bool:
-        return bool(self.max_diff <= self.allowed)  # NaN fails
+        return bool(self.max_diff <= self.allowed) and not self.beyond  # NaN fails
 
-    def update(self, diff: float, sample: int) -> None:
+    def update(self, diff: float, sample: int, envelope: float = 0.0) -> None:
+        """One lockstep sample's difference and (where measured) that sample's envelope: each sample is held to its
+        own allowance, so one sample's envelope cannot excuse another's difference."""
         self.compared += 1
         if self.key in _COUNTS:
             if diff:
@@ -47,6 +50,8 @@ class Check:
             self.max_diff = float(self.count)
             return
         diff = math.inf if math.isnan(diff) else float(diff)
+        self.envelope = max(self.envelope, envelope)
+        self.beyond += int(diff > max(self.tol, ENVELOPE_FACTOR * envelope))
         if diff > self.max_diff:
             self.max_diff, self.sample = diff, sample
 
@@ -115,7 +120,7 @@ class VerifyReport:
                     diff,
                     str(c.sample) if c.sample >= 0 else "-",
                     tol,
-                    "ok" if c.passed else "FAIL",
+                    "ok" if c.passed else (f"FAIL ({c.beyond} beyond)" if c.beyond and c.envelope else "FAIL"),
                 )
             )
         w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
