@@ -320,15 +320,7 @@ def _straight_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     road = replace(sc.road, kappa=np.zeros_like(sc.road.kappa))
     probe = _checks(pb.qp.backend)
     _lockstep(pb, replace(sc, road=road, samples=min(sc.samples, STRAIGHT_SAMPLES)), ocp, cs, probe)
-    for key, src in (("straight_q", "q"), ("straight_u0", "u0")):
-        ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
-            p.max_diff,
-            p.sample,
-            p.compared,
-            p.envelope,
-            p.beyond,
-        )
+    _take(checks, probe, (("straight_q", "q"), ("straight_u0", "u0")))
 
 
 def stage_probe_inputs(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -351,15 +343,15 @@ def _stage_probe(pb: Problem, sc, ocp, cs, checks: dict[str, Check]) -> None:
     probe = _checks(pb.qp.backend)
     short = replace(sc, samples=min(sc.samples, STRAIGHT_SAMPLES))
     run_closed_loop(pb, short, controller=_Lockstep(sv, cs, probe), ocp=ocp)
-    for key, src in (("stage_params", "params"), ("stage_q", "q"), ("stage_u0", "u0")):
+    _take(checks, probe, (("stage_params", "params"), ("stage_q", "q"), ("stage_u0", "u0")))
+
+
+def _take(checks: dict[str, Check], probe: dict[str, Check], pairs) -> None:
+    """A probe's results into the report's rows: ``checks[key]`` gets ``probe[src]``'s for each ``(key, src)``."""
+    for key, src in pairs:
         ch, p = checks[key], probe[src]
-        ch.max_diff, ch.sample, ch.compared, ch.envelope, ch.beyond = (
-            p.max_diff,
-            p.sample,
-            p.compared,
-            p.envelope,
-            p.beyond,
-        )
+        ch.max_diff, ch.sample, ch.compared = p.max_diff, p.sample, p.compared
+        ch.envelope, ch.beyond = p.envelope, p.beyond
 
 
 _SUMMARY_KEYS = (("progress", "progress"), ("collisions", "n_collision_samples"), ("qp_iter_mean", "qp_iter_mean"))
