@@ -277,8 +277,8 @@ def test_a_closed_loop_on_the_scenario_c_equals_python(straight, solver_dir, tmp
 
 def test_simulate_and_campaign_commands(straight, tmp_path):
     """``fcgen simulate --commonroad`` prints both verdicts and writes the log, the solution and the picture; a
-    scenario it cannot drive is one line, exit 1; ``campaign --commonroad`` runs a folder (one refused) into rows and a
-    summary."""
+    scenario it cannot drive is one line, exit 1; ``campaign --commonroad`` runs a folder (one refused) into rows, each
+    naming its profile, and a summary."""
     from fcgen.cli import main
 
     folder = tmp_path / "scenarios"
@@ -339,6 +339,7 @@ def test_simulate_and_campaign_commands(straight, tmp_path):
 
     df = pd.read_parquet(out / "commonroad.parquet")
     assert sorted(df.status) == ["ran", "refused"]
+    assert list(df.profile) == ["paper", "paper"]  # each row names its profile (the report's planner column)
     assert "horizon" in df[df.status == "refused"].reason.iloc[0]
     assert bool(df[df.status == "ran"].agree.iloc[0])
     assert "Agreement: 1 of 1 runs" in (out / "commonroad.md").read_text()

@@ -158,3 +158,15 @@ def test_a_rows_planner_by_its_problems_name():
     for name in (PAPER, "car_lift_el_ipm_cb", "car_lift_el_ipm_e2"):
         assert planner_of(name, "c") == "fcgen paper", name
     assert planner_of(PEER, "peer") == "reactive planner"
+
+
+def test_a_rows_planner_by_its_profile_column():
+    """A row that names its profile is counted by it whatever its problem's name (a problem of the user's own, a
+    variant suffix the name rule does not know); a row without one (written before the column) by its name."""
+    from fcgen.report.cr_planners import planner_of
+
+    assert planner_of("my_problem_x7", "c", "safe") == "fcgen safe"
+    assert planner_of("car_lift_el_ipm_safe_x7", "c", "paper") == "fcgen paper"
+    assert planner_of("car_lift_el_ipm_safe", "c", None) == "fcgen safe"
+    assert planner_of("car_lift_el_ipm_safe", "c", float("nan")) == "fcgen safe"  # a missing cell read back
+    assert planner_of(PEER, "peer", "safe") == "reactive planner"

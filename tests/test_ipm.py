@@ -11,6 +11,7 @@ import pytest
 
 from fcgen.backends import QP_NONFINITE, QP_PRIMAL_INFEASIBLE, QP_SOLVED, make_backend
 from fcgen.backends.ipm import Backend as IpmBackend
+from fcgen.backends.ipm import IpmSettings
 from fcgen.backends.osqp import osqp_settings
 from fcgen.dsl import Horizon, QpOptions
 from fcgen.ocp import INF, build_ocp
@@ -216,35 +217,58 @@ def test_ipm_equals_osqp_on_closed_loop_qps(sc, form, ob):
     assert compared == len(qps) >= 3
 
 
+def test_ipm_scaled_start_by_hand():
+    """The scaled start on a closed-loop QP's sides, by hand (the centring off): lam0 = max(lw, lam_min / max(1, -b))
+    on every side (lw its warm multiplier, -b its slack at z = 0), t0 = max(-b, t_min / max(1, lam0)) on a soft row's
+    slack bound and max(-b, t_min) elsewhere; the floor start lam0 = max(lw, lam_min), t0 = max(-b, t_min). The
+    slack's floor is what sets some sides' lam0 (the test is not vacuous)."""
+    pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
+    ref, qps = closed_loop_qps(pb, samples=3)
+    l, u, y_warm = qps[-1][3:6]
+    for scaled in (False, True):
+        be = IpmBackend(ref.lay, IPM, IpmSettings(scaled_start=scaled, lam_center=0.0))
+        sv = be.sv
+        sign = sv.side_sign.astype(float)
+        b = np.where(sign > 0, l[sv.side_row], -u[sv.side_row])
+        _, t, lam, _ = be._start(b, y_warm)
+        by_slack = 0
+        for j in range(len(b)):
+            lw, slack = float(-sign[j] * y_warm[sv.side_row[j]]), float(-b[j])
+            floor = 0.1 / max(1.0, slack) if scaled else 0.1
+            by_slack += scaled and lw < floor < 0.1
+            assert lam[j] == max(lw, floor)
+            t_floor = 0.1 / max(1.0, lam[j]) if scaled and be.slack_bound_side[j] else 0.1
+            assert t[j] == max(slack, t_floor)
+        assert by_slack > 0 if scaled else by_slack == 0
+
+
 def test_ipm_scaled_start_same_solution_fewer_iterations():
-    """The scaled start (a soft row's slack bound at t0 = max(-b, t_min / max(1, lam0)): no such initial t lam above
-    t_min) and the floor start (every side at max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT points of
-    one objective value); on the safe profile's QPs, whose soft rows' slack bounds carry multipliers near their L1
-    weights (1e8, 1e6), the scaled start needs fewer iterations in all, and with the rows' multipliers below 1 both
-    starts are the same iterate (bit for bit)."""
+    """The scaled start (``test_ipm_scaled_start_by_hand``: no floored initial t lam above t_min or lam_min) and the
+    floor start (every side at lam >= lam_min, t >= max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT
+    points of one objective value); on the safe profile's QPs, whose soft rows' slack bounds carry multipliers near
+    their L1 weights (1e8, 1e6), the scaled start needs fewer iterations in all from the warm duals (the closed loop's
+    start). From a cold start (no warm multiplier) both reach the optimum too; there it saves nothing (207 against 200
+    iterations on these 12 QPs), and the RTI budget caps a cold start either way."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
     ref, qps = closed_loop_qps(pb, samples=12)
     lay = ref.lay
     tight = {s: IpmBackend(lay, QpOptions(backend="ipm", ipm_tol=1e-8, ipm_scaled_start=s)) for s in (False, True)}
     rt = {s: IpmBackend(lay, QpOptions(backend="ipm", ipm_scaled_start=s)) for s in (False, True)}
-    iters = {False: 0, True: 0}
+    iters = {(s, w): 0 for s in (False, True) for w in ("warm", "cold")}
     for P_x, A_x, q, l, u, y_warm, _ in qps:
-        res = {}
         for s in (False, True):
             for be in (tight[s], rt[s]):
                 be.set_matrices(P_x, A_x, q)
-            res[s] = tight[s].solve(q, l, u, y_warm, 200)
-            assert res[s].status == QP_SOLVED
-            iters[s] += rt[s].solve(q, l, u, y_warm, 60).iter
-        for r in res.values():  # both KKT points of the QP, of the same objective (its primal need not be unique)
-            r_d, viol, comp = kkt(lay, P_x, A_x, q, l, u, r.z, r.y)
-            assert r_d < 1e-7 and viol < 1e-7 and comp < 1e-6, (r_d, viol, comp)
-        obj = [0.5 * r.z @ (P_x * r.z) + q @ r.z for r in res.values()]
-        assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))  # the gap: ~400 pairs of t lam <= 1e-8
-        cold = (np.zeros_like(y_warm),) * 2  # no warm multipliers: every lam0 = lam_min < 1, the same start
-        a, b = (rt[s].solve(q, l, u, cold[0], 60) for s in (False, True))
-        assert a.iter == b.iter and np.array_equal(a.z, b.z)
-    assert iters[True] < iters[False], iters
+        for w, y0 in (("warm", y_warm), ("cold", np.zeros_like(y_warm))):
+            res = {s: tight[s].solve(q, l, u, y0, 200) for s in (False, True)}
+            for s, r in res.items():  # both KKT points of the QP, of the same objective (its primal need not be unique)
+                assert r.status == QP_SOLVED
+                r_d, viol, comp = kkt(lay, P_x, A_x, q, l, u, r.z, r.y)
+                assert r_d < 1e-7 and viol < 1e-7 and comp < 1e-6, (r_d, viol, comp)
+                iters[s, w] += rt[s].solve(q, l, u, y0, 60).iter
+            obj = [0.5 * r.z @ (P_x * r.z) + q @ r.z for r in res.values()]
+            assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))  # the gap: ~400 pairs of t lam <= 1e-8
+    assert iters[True, "warm"] < iters[False, "warm"], iters
 
 
 def test_ipm_through_make_backend_and_reset():

@@ -5663,7 +5663,20 @@ static inline ipm_real_t ipm_t2_start(ipm_real_t b, ipm_real_t lam) {
   return ((-b) > f) ? (-b) : f;
 }
 
-/* the sides' b and initial t, lam (lam from the warm duals, at least IPM_LAM_MIN; t at least IPM_T_MIN), no step */
+/* a side's initial lam from its warm multiplier lw and its b (the slack at z = 0 is -b): max(lw, IPM_LAM_MIN /
+ * max(1, -b)) with IPM_SCALED_START (a side far from its bound starts with t lam at most IPM_LAM_MIN, not
+ * IPM_LAM_MIN (-b), which would set mu0 and, through the centring, every multiplier), else max(lw, IPM_LAM_MIN) */
+static inline ipm_real_t ipm_lam_start(ipm_real_t b, ipm_real_t lw) {
+#if IPM_SCALED_START
+  const ipm_real_t f = IPM_LAM_MIN / (((-b) > IPM_ONE) ? (-b) : IPM_ONE);
+#else
+  const ipm_real_t f = IPM_LAM_MIN;
+  (void)b;
+#endif
+  return (lw > f) ? lw : f;
+}
+
+/* the sides' b and initial t, lam (lam from the warm duals, ipm_lam_start; t at least IPM_T_MIN), no step */
 static void ipm_start_sides(const ipm_real_t *l, const ipm_real_t *u, const ipm_real_t *y_warm) {
   int j;
   for (j = 0; j < IPM_NSIDE; ++j) {
@@ -5674,7 +5687,7 @@ static void ipm_start_sides(const ipm_real_t *l, const ipm_real_t *u, const ipm_
     IPM_W.dt[j] = REAL_0; /* no step taken yet (IPM_W.aff[3] = 0): ipm_check takes the last step */
     IPM_W.dlam[j] = REAL_0;
     IPM_W.t[j] = ((-b) > IPM_T_MIN) ? (-b) : IPM_T_MIN;
-    IPM_W.lam[j] = (lw > IPM_LAM_MIN) ? lw : IPM_LAM_MIN;
+    IPM_W.lam[j] = ipm_lam_start(b, lw);
   }
 }
 
@@ -5705,8 +5718,8 @@ static void ipm_start_soft_rows(const ipm_real_t *q, const ipm_real_t *l, const 
       IPM_SR.b1[j] = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
       IPM_SR.b2[j] = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
       IPM_SR.t1[j] = ((-IPM_SR.b1[j]) > IPM_T_MIN) ? (-IPM_SR.b1[j]) : IPM_T_MIN;
-      IPM_SR.l1[j] = (lw1 > IPM_LAM_MIN) ? lw1 : IPM_LAM_MIN;
-      IPM_SR.l2[j] = (lw2 > IPM_LAM_MIN) ? lw2 : IPM_LAM_MIN;
+      IPM_SR.l1[j] = ipm_lam_start(IPM_SR.b1[j], lw1);
+      IPM_SR.l2[j] = ipm_lam_start(IPM_SR.b2[j], lw2);
       IPM_SR.t2[j] = ipm_t2_start(IPM_SR.b2[j], IPM_SR.l2[j]);
       IPM_SR.qs[j] = q[IPM_SR_SVAR[j]];
     }

@@ -254,7 +254,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
     ("QpOptions", "ipm_scaled_start"): (
         "-",
         "True / False",
-        "IPM: soft rows' slack bounds start at t = max(-b, t_min / max(1, lam)) (paper presets: False)",
+        "IPM: every side's lam starts at max(lw, lam_min / max(1, -b)), the soft rows' slack bounds' t at "
+        "max(-b, t_min / max(1, lam)) (paper presets: False)",
     ),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
     ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),

@@ -116,11 +116,8 @@ class RtiSolver(StageInputsMixin):
         self.prepared = False
         self.cold = False
         self.status = Status()
-        self.q = np.zeros(lay.n)
-        self.q_fb = np.zeros(lay.n)
-        self.l = np.zeros(lay.m)
-        self.u = np.zeros(lay.m)
-        self.g = np.zeros(lay.m)
+        self.q, self.q_fb = np.zeros(lay.n), np.zeros(lay.n)
+        self.l, self.u, self.g = np.zeros(lay.m), np.zeros(lay.m), np.zeros(lay.m)
         self.A_data = np.zeros(lay.nnz_A)
         self.z: np.ndarray | None = None
         self.s0_guess = 0.0
@@ -266,9 +263,10 @@ class RtiSolver(StageInputsMixin):
     def _stage(w: np.ndarray, lay: QpLayout, k: int) -> np.ndarray:
         return w[lay.var_off[k] : lay.var_off[k + 1]]
 
-    def _stage_w(self, k: int) -> np.ndarray:
-        assert self.w is not None, "no plan yet"
-        return self._stage(self.w, self.lay, k)
+    def _stage_w(self, k: int, w: np.ndarray | None = None) -> np.ndarray:
+        w = self.w if w is None else w
+        assert w is not None, "no plan yet"
+        return self._stage(w, self.lay, k)
 
     # -- initial guess -----------------------------------------------------------------------------
     def initial_guess(self) -> tuple[np.ndarray, np.ndarray]:
@@ -376,9 +374,7 @@ class RtiSolver(StageInputsMixin):
         self.x_plan = self.delay_line.predict(self.x0, self._road_params)  # x0 itself without a delay
         if not np.all(np.isfinite(self.x_plan)):
             raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
-        p0 = self.stage_params(0, self.x_plan[0])
-        x0_full = np.array(ocp.init_state(self.x_plan, p0)).ravel()
-        q = self.q + lay.q_ds0 * (self.x_plan[0] - self.s0_guess)
+        x0_full, q, cap = self.embedding(self.x_plan)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
@@ -387,9 +383,7 @@ class RtiSolver(StageInputsMixin):
         self.u[ir] = self.l[ir]
         self.q_fb = q
         self.prepared = False
-        res = self.qp.solve(
-            q, self.l, self.u, self.y_prep, cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts)
-        )
+        res = self.qp.solve(q, self.l, self.u, self.y_prep, cap)
         qs = res.status
         if res.z is not None:
             self.z = res.z
@@ -408,11 +402,10 @@ class RtiSolver(StageInputsMixin):
             self.y = res.y
         else:  # the step is not taken: the plan becomes the prepared (shifted) guess
             self.w, self.y = self.w_prep.copy(), self.y_prep.copy()
-        w = self.w
-        assert w is not None
-        self.u_applied, st.u_violation = project_control(w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
+        assert self.w is not None
+        self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
-        self._a_lat_guard(st, p0[ocp.p_road])
+        self._a_lat_guard(st, self.stage_params(0, self.x_plan[0])[ocp.p_road])
         self._plan_check(st)
         self.delay_line.push(self.u_applied)
         st.exit_code = EXIT_CODES.index(code)
@@ -426,6 +419,12 @@ class RtiSolver(StageInputsMixin):
                 f"{res.raw_status}{why}): step not taken, fallback control",
             )
         return self.u0()
+
+    def embedding(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """``feedback``'s QP data for the measured (or predicted) state x: the lifted initial state, q, the cap."""
+        x0_full = np.array(self.ocp.init_state(x, self.stage_params(0, x[0]))).ravel()
+        cap = cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts)
+        return x0_full, self.q + self.lay.q_ds0 * (x[0] - self.s0_guess), cap
 
     def _a_lat_guard(self, st: Status, p_road: np.ndarray) -> None:
         """The a_lat guard on get_u0 (``plan_check.a_lat_guard``) with the plant's step from the plan's start."""
@@ -442,38 +441,39 @@ class RtiSolver(StageInputsMixin):
         return np.array(self._plant(self.x_plan, u, p_road)).ravel().tolist()
 
     def _plan_check(self, st: Status) -> None:
-        """The plan's clearance to each opponent's rectangle at every stage (``Ocp.plan_clearance`` on the road the
-        preparation planned with, ``self.P``), its verdict (``plan_verdict``), braking where it says so."""
+        """The plan's clearances (``plan_clearances``), their verdict (``plan_verdict``), braking where it says so."""
         ocp, pb = self.ocp, self.ocp.problem
         best, best_k, react = math.inf, -1, False
         if pb.opponents.count:
-            P = np.stack([np.concatenate([self.P[k][ocp.p_road], self._stage_rest(k)]) for k in range(ocp.N + 1)], 1)
-            shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
-            C, A = (np.array(a) for a in self._plan_clearance(self.states().T, P, self.opp.T, shape))
+            C, A = self.plan_clearances()
             self.stage_clearance = np.min(C, axis=0)
             best, best_k, react = plan_verdict(C, A, [True] * (ocp.N + 1), min(pb.plan_check.react_stages, ocp.N))
         st.plan_clearance, st.plan_clearance_stage, st.plan_reaction = best, best_k, int(react)
         if react:
             self.u_applied[0] = braking_control(pb, self.x_plan)
 
+    def plan_clearances(self, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Each opponent's clearance to the plan (or the iterate ``w``) and its ``ahead``, (n_opp, N + 1) each
+        (``Ocp.plan_clearance`` on the road the preparation planned with, ``self.P``; ``states(w)`` likewise)."""
+        ocp = self.ocp
+        P = np.stack([np.concatenate([self.P[k][ocp.p_road], self._stage_rest(k)]) for k in range(ocp.N + 1)], 1)
+        shape = np.tile(self.opp_shape.reshape(-1, 1), (1, ocp.N + 1))
+        C, A = self._plan_clearance(self.states(w).T, P, self.opp.T, shape)
+        return np.array(C), np.array(A)
+
     # -- outputs ------------------------------------------------------------------------------------
     def u0(self) -> np.ndarray:
         """The control to apply (the C get_u0): the plan's u0 projected on the input box; zeros before any."""
         return self.u_applied.copy()
 
-    def states(self) -> np.ndarray:
-        return np.stack([self._stage_w(k)[: self.ocp.nx] for k in range(self.ocp.N + 1)])
+    def states(self, w: np.ndarray | None = None) -> np.ndarray:
+        return np.stack([self._stage_w(k, w)[: self.ocp.nx] for k in range(self.ocp.N + 1)])
 
-    def controls(self) -> np.ndarray:
-        return np.stack([self._stage_w(k)[self.ocp.nx : self.ocp.nx + self.ocp.nu] for k in range(self.ocp.N)])
+    def controls(self, w: np.ndarray | None = None) -> np.ndarray:
+        return np.stack([self._stage_w(k, w)[self.ocp.nx : self.ocp.nx + self.ocp.nu] for k in range(self.ocp.N)])
 
-    def slacks(self) -> np.ndarray:
-        ocp = self.ocp
-        out = []
-        for k in range(1, ocp.N + 1):
-            wk = self._stage_w(k)
-            out.append(wk[-ocp.n_sigma :])
-        return np.stack(out)
+    def slacks(self, w: np.ndarray | None = None) -> np.ndarray:
+        return np.stack([self._stage_w(k, w)[-self.ocp.n_sigma :] for k in range(1, self.ocp.N + 1)])
 
     def step(self, x0) -> np.ndarray:
         """One RTI sample: prepare (first time with the given state), then feedback with it."""

@@ -44,7 +44,7 @@ from .sim.closedloop import PlantSpec, ReferenceController, run_closed_loop
 from .sim.runlog import summary
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
-from .verify_envelope import ENVELOPE_EPS, SOLUTION_KEYS, rel_diff, solution_envelope
+from .verify_envelope import ENVELOPE_EPS, SOLUTION_KEYS, clearance_diff, rel_diff, solution_envelope
 from .verify_report import ENVELOPE_FACTOR, Check, VerifyReport
 
 TOL_QP_DATA = 1e-12
@@ -86,18 +86,6 @@ QUANTITIES: tuple[tuple[str, str, float, str], ...] = (
     ("cl_qp_iter", "closed-loop", 0, "QP iter/status mismatches"),
     ("cl_exit_code", "closed-loop", 0, "non-zero exit codes, C minus Python"),
 )
-
-
-def _clearance_diff(c: float, r: float, plan: np.ndarray) -> float:
-    """The plan check's clearance, C vs reference, at the scale of the positions it is computed from: ``|c - r| /
-    max(1, |r|, max |s_k|)``. The plans are compared relative to their largest state (the arc length s, hundreds of
-    metres: the iterate's row of the table); a length built from those positions inherits their rounding, so relative
-    to max(1, |r|) alone it was held 100-1000x tighter than the plan it is measured on."""
-    if c == r:
-        return 0.0
-    if math.isinf(c) or math.isinf(r):
-        return rel_diff(c, r)
-    return abs(c - r) / max(1.0, abs(r), float(np.max(np.abs(plan[:, 0]), initial=0.0)))
 
 
 def _clip(a) -> np.ndarray:
@@ -194,6 +182,7 @@ class _Lockstep:
         self._upd("qp_status", float(c_res.qp_status != res.qp_status))
         self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
         st_c, st_py = cs.status(), sv.status
+        iterate = {}  # what is computed from the iterate: held to the sample's envelope with the solution
         if c_res.exit_code == res.exit_code:  # the same outcome: the same plan check (or none, kept as it was)
             both_inf = math.isinf(st_c.plan_clearance) and math.isinf(st_py.plan_clearance)
             clr_tol = self.checks["plan_clearance"].tol
@@ -207,25 +196,28 @@ class _Lockstep:
                     )
                 ),
             )
-            self._upd(
-                "plan_clearance",
-                0.0 if both_inf else _clearance_diff(st_c.plan_clearance, st_py.plan_clearance, sv.states()),
+            iterate["plan_clearance"] = (
+                0.0 if both_inf else clearance_diff(st_c.plan_clearance, st_py.plan_clearance, sv.states())
             )
         if not c_res.exit_code and not res.exit_code:
             qp = cs.get_qp()
             self._upd("q_fb", rel_diff(qp["q"], sv.q_fb))
             self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
             self._upd("u_fb", rel_diff(qp["u"], _clip(sv.u)))
-            self._solution(qp, c_res, res)
-            self._upd("max_slack", rel_diff(c_res.max_slack, res.max_slack))
+            iterate["max_slack"] = rel_diff(c_res.max_slack, res.max_slack)
+            self._solution(qp, c_res, res, iterate)
+        else:
+            for k, d in iterate.items():
+                self._upd(k, d)
         if not rc and not rc_py:
             self._resync(c_res.exit_code == 0, st_c)
         self.j += 1
         return res
 
-    def _solution(self, qp: dict, c_res: StepResult, res: StepResult) -> None:
-        """The QP's solution, the iterate and u0, C vs reference; where one parts beyond its tolerance and the backend
-        allows it (``VERIFY_ENVELOPE``), each held to ``ENVELOPE_FACTOR`` times this sample's envelope if larger."""
+    def _solution(self, qp: dict, c_res: StepResult, res: StepResult, iterate: dict[str, float]) -> None:
+        """The QP's solution, the iterate and u0, C vs reference, and ``iterate``'s differences of what is computed
+        from the iterate (largest slack, plan clearance); where one parts beyond its tolerance and the backend allows
+        it (``VERIFY_ENVELOPE``), each held to ``ENVELOPE_FACTOR`` times this sample's envelope if larger."""
         sv, cs = self.ref, self.cs
         free, z = sv.lay.P_diag == 0.0, np.asarray(sv.z)
         c_plan = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
@@ -235,6 +227,7 @@ class _Lockstep:
             "y": rel_diff(qp["y"], sv.y),
             "w": rel_diff(c_plan, np.concatenate([sv.states().ravel(), sv.controls().ravel()])),
             "u0": rel_diff(c_res.u, res.u),
+            **iterate,
         }
         env = dict.fromkeys(diffs, 0.0)
         if self.envelope and any(d > self.checks[k].tol for k, d in diffs.items()):

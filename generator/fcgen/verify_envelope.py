@@ -3,18 +3,20 @@ when its measured state changes at rounding level, and the relative difference e
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .ocp import INF
-from .qp_outcome import cold_max_iter, warm_max_iter
 from .reference import RtiSolver
 
 ENVELOPE_EPS = (1e-15, -1e-15, 1e-13, -1e-13)
 """Relative perturbations of the measured state with which the reference drives the plant again where the independent
 closed loops part beyond the tolerance, and solves a lockstep sample's QP again where the solutions do
 (``solution_envelope``): how far the reference parts from itself under rounding-level changes."""
-SOLUTION_KEYS = ("z", "z_free", "y", "w", "u0")
-"""The lockstep's quantities that may be held to a sample's envelope (``solution_envelope``)."""
+SOLUTION_KEYS = ("z", "z_free", "y", "w", "u0", "max_slack", "plan_clearance")
+"""The lockstep's quantities that may be held to a sample's envelope (``solution_envelope``): the QP's solution, the
+iterate and u0, and what is computed from the iterate alone (its largest slack, the plan check's clearance)."""
 
 
 def rel_diff(c, r) -> float:
@@ -37,37 +39,58 @@ def rel_diff(c, r) -> float:
     return float(np.max(d)) / scale
 
 
+def clearance_diff(c: float, r: float, plan: np.ndarray) -> float:
+    """The plan check's clearance, C vs reference, at the scale of the positions it is computed from: ``|c - r| /
+    max(1, |r|, max |s_k|)``. The plans are compared relative to their largest state (the arc length s, hundreds of
+    metres: the iterate's row of the table); a length built from those positions inherits their rounding, so relative
+    to max(1, |r|) alone it was held 100-1000x tighter than the plan it is measured on."""
+    if c == r:
+        return 0.0
+    if math.isinf(c) or math.isinf(r):
+        return rel_diff(c, r)
+    return abs(c - r) / max(1.0, abs(r), float(np.max(np.abs(plan[:, 0]), initial=0.0)))
+
+
+def iterate_outputs(sv: RtiSolver, w: np.ndarray) -> tuple[float, float]:
+    """The largest slack and the plan check's clearance (inf without opponents) of the reference's iterate ``w``, as
+    ``feedback`` reports them for its plan."""
+    slack = float(np.max(sv.slacks(w), initial=0.0))
+    return slack, float(np.min(sv.plan_clearances(w)[0])) if sv.ocp.problem.opponents.count else math.inf
+
+
 def plan_vector(sv: RtiSolver, w: np.ndarray) -> np.ndarray:
-    """The states and controls of the reference's iterate ``w`` (``states()``, ``controls()`` flattened)."""
-    nx, nu, N = sv.ocp.nx, sv.ocp.nu, sv.ocp.N
-    st = [sv._stage(w, sv.lay, k) for k in range(N + 1)]
-    return np.concatenate([np.ravel([s[:nx] for s in st]), np.ravel([s[nx : nx + nu] for s in st[:N]])])
+    """The states and controls of the reference's iterate ``w`` (``states(w)``, ``controls(w)`` flattened)."""
+    return np.concatenate([sv.states(w).ravel(), sv.controls(w).ravel()])
 
 
 def solution_envelope(sv: RtiSolver) -> dict[str, float]:
     """How far the reference's own solution of this sample's QP moves when its measured state is scaled by ``1 +
-    eps`` (``ENVELOPE_EPS``): the same QP solved again with that state embedded as ``RtiSolver.feedback`` does, from
-    the same warm start and iteration cap; per lockstep key, the largest difference from the reference's solution."""
+    eps`` (``ENVELOPE_EPS``): the same QP solved again with that state embedded as ``RtiSolver.feedback`` does
+    (``RtiSolver.embedding``), from the same warm start; per lockstep key, the largest difference from the
+    reference's solution."""
     ocp, lay = sv.ocp, sv.lay
     assert sv.w is not None, "no plan yet"
     ir, free, z, w = lay.init_rows, lay.P_diag == 0.0, np.asarray(sv.z), plan_vector(sv, sv.w)
-    cap, u0 = cold_max_iter(sv.qp_opts) if sv.cold else warm_max_iter(sv.qp_opts), ocp.nx * (ocp.N + 1)
+    u0, (slack, clear), states = ocp.nx * (ocp.N + 1), iterate_outputs(sv, sv.w), sv.states()
     env = dict.fromkeys(SOLUTION_KEYS, 0.0)
     for eps in ENVELOPE_EPS:
-        x = sv.x_plan * (1.0 + eps)
+        x0_full, q, cap = sv.embedding(sv.x_plan * (1.0 + eps))
         l, u = sv.l.copy(), sv.u.copy()
-        l[ir] = np.array(ocp.init_state(x, sv.stage_params(0, x[0]))).ravel() / lay.D[: ocp.nx] - sv.g[ir]
+        l[ir] = x0_full / lay.D[: ocp.nx] - sv.g[ir]
         u[ir] = l[ir]
-        r = sv.qp.solve(sv.q + lay.q_ds0 * (x[0] - sv.s0_guess), l, u, sv.y_prep, cap)
+        r = sv.qp.solve(q, l, u, sv.y_prep, cap)
         if r.z is None or r.y is None:
             continue
-        w_e = plan_vector(sv, sv.w_prep + lay.D * r.z)  # its first control at u0
+        w_full = sv.w_prep + lay.D * r.z
+        w_e, (slack_e, clear_e) = plan_vector(sv, w_full), iterate_outputs(sv, w_full)  # w_e: its first control at u0
         for k, d in (
             ("z", rel_diff(r.z[~free], z[~free])),
             ("z_free", rel_diff(r.z[free], z[free])),
             ("y", rel_diff(r.y, sv.y)),
             ("w", rel_diff(w_e, w)),
             ("u0", rel_diff(w_e[u0 : u0 + ocp.nu], w[u0 : u0 + ocp.nu])),
+            ("max_slack", rel_diff(slack_e, slack)),
+            ("plan_clearance", clearance_diff(clear_e, clear, states)),
         ):
             env[k] = max(env[k], d)
     return env

@@ -77,9 +77,8 @@ class IpmSettings:
     lam_max: float = 1e10  # a multiplier beyond it: primal infeasible
     alpha_min: float = 1e-12  # a step below it: numerical trouble
     warm: bool = True  # initial multipliers from the shifted duals (else lam = lam_min, nu = 0)
-    scaled_start: bool = (
-        False  # a soft row's slack bound starts at t = max(-b, t_min / max(1, lam)), not max(-b, t_min)
-    )
+    scaled_start: bool = False  # lam = max(lw, lam_min / max(1, -b)) on every side and a soft row's slack bound at
+    # t = max(-b, t_min / max(1, lam)) (lw the warm multiplier, -b the slack at z = 0); else lam_min and t_min floors
 
 
 def _fwd(L: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -328,11 +327,13 @@ class Backend:
         sv, st = self.sv, self.set
         rows, sign = sv.side_row, sv.side_sign.astype(float)
         yw = np.zeros(self.lay.m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
-        lam = np.maximum(-sign * yw[rows], st.lam_min)
-        t = np.maximum(
-            -b,
-            np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min) if st.scaled_start else st.t_min,
-        )
+        lw = -sign * yw[rows]
+        if st.scaled_start:  # a floored lam scaled by its side's slack at z = 0; a slack bound's t by its lam
+            lam = np.maximum(lw, st.lam_min / np.maximum(1.0, -b))
+            t = np.maximum(-b, np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min))
+        else:
+            lam = np.maximum(lw, st.lam_min)
+            t = np.maximum(-b, st.t_min)
         lam = np.maximum(lam, (st.lam_center * (float(t @ lam) / len(rows))) / t)  # a centred start (IpmSettings)
         return np.zeros(self.lay.n), t, lam, yw[sv.eq_all].copy()
 

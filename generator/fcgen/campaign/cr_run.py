@@ -128,6 +128,7 @@ def failed_row(task: CrTask, error: str) -> dict:
         dataset=dataset_of(task.path),
         file=Path(task.path).name,
         problem=_problem_name(task.config),
+        profile=task.config.profile,
         controller=task.config.controller,
         traffic=task.traffic,
         prediction=task.config.plant.prediction,

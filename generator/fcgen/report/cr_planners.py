@@ -27,12 +27,15 @@ MEASURES = (
 )
 
 
-def planner_of(problem: str, controller: str) -> str:
-    """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else fcgen's profile: the
-    safe profile's problems end in ``_safe`` (``presets.preset``), or have it before a campaign's variant suffix
-    (``_cb`` the corners' band, ``_e<N>`` ego circles, ``_d<N>`` delay compensation); the paper profile's do not."""
+def planner_of(problem: str, controller: str, profile=None) -> str:
+    """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else fcgen's profile, the
+    row's ``profile`` (``safe`` or ``paper``); rows written before that column by the problem's name: the safe
+    profile's problems end in ``_safe`` (``presets.preset``), or have it before a campaign's variant suffix (``_cb``
+    the corners' band, ``_e<N>`` ego circles, ``_d<N>`` delay compensation); the paper profile's do not."""
     if controller == "peer":
         return PLANNERS[2]
+    if profile in ("safe", "paper"):
+        return PLANNERS[0] if profile == "safe" else PLANNERS[1]
     return PLANNERS[0] if re.search(r"_safe(_(cb|e\d|d\d))*$", str(problem)) else PLANNERS[1]
 
 
@@ -79,7 +82,8 @@ def side_by_side(df, dataset: str, traffic: str) -> list[str]:
 def planner_section(df) -> list[str]:
     """The report's section: per traffic mode every data set's table, then all data sets'; other planners' rows
     (another configuration than a profile's) are counted under their own ``fcgen NAME`` and not shown here."""
-    df = df.assign(planner=[planner_of(p, c) for p, c in zip(df.problem, df.controller, strict=True)])
+    prof = df.profile if "profile" in df else [None] * len(df)
+    df = df.assign(planner=[planner_of(*r) for r in zip(df.problem, df.controller, prof, strict=True)])
     lines = [
         "## Planners side by side",
         "",
