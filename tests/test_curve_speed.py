@@ -203,7 +203,8 @@ def _plan_only(pb):
 
 def _max_abs_a_lat(tmp_path, scenario: str, seed: int, pb, **references) -> dict[str, float]:
     """The campaign's closed loop of ``seed`` in C with ``pb`` ("on") and with each of ``references`` instead of its
-    reference, without the a_lat guard: the largest |a_lat| of each (none of them may collide)."""
+    reference, without the a_lat guard: the largest |a_lat| of each (none of them may collide), and each one's
+    progress under ``<tag>_progress``."""
     out = {}
     for tag, ref in (("on", pb.reference), *references.items()):
         p = _plan_only(pb).with_(name=f"cs_{tag}", reference=ref)
@@ -214,6 +215,7 @@ def _max_abs_a_lat(tmp_path, scenario: str, seed: int, pb, **references) -> dict
         log = run_closed_loop(p, sc, controller=cs)
         assert not log.collision.any(), tag
         out[tag] = float(np.max(np.abs(log.a_lat)))
+        out[f"{tag}_progress"] = float(log.ego_frenet[-1, 0] - log.ego_frenet[0, 0])
     return out
 
 
@@ -232,13 +234,15 @@ def test_the_plan_slows_down_for_the_bend_instead_of_paying_the_a_lat_slack(tmp_
 @needs_cc
 def test_with_traffic_near_the_plan_the_ego_does_not_count_on_the_line_across_the_bend(tmp_path):
     """Truck scenario, direct elimination, 7 covering circles, IPM, campaign seed 20: with trucks near the plan the ego
-    cannot take the line across a bend that curve_a_lat = 8 on the centre line counts on. Without the traffic rule its
-    |a_lat| reaches 10.2 m/s^2 (a safe grid without the rule, measured for commit d6dac44); with it (a truck within
-    6 m of the plan: 6.5 m/s^2 on the centre line) at most 5.05."""
+    cannot take the line across a bend that curve_a_lat = 8 on the centre line counts on. With the traffic rule (a
+    truck within 6 m of the plan: 6.5 m/s^2 on the centre line) its |a_lat| stays at most 5.05, and the rule acts
+    here: the capped speed near the trucks costs progress (365.7 against 369.9 m at 9fbfbba). Without the rule
+    this run's |a_lat| reached 10.2 m/s^2 with the IPM's start before 9fbfbba (measured for commit d6dac44); since
+    the scaled start's multiplier floor no seed 0-499 of this configuration exceeds 6 m/s^2 without it."""
     pb = Config("truck", "direct_elimination", "circles", 7, backend="ipm", profile="safe").problem()  # the grid's
     out = _max_abs_a_lat(tmp_path, "truck", 20, pb, never=replace(pb.reference, curve_traffic_clearance=0.0))
     assert out["on"] <= 5.05, out
-    assert out["never"] > 6.5, out
+    assert out["on_progress"] < out["never_progress"] - 2.0, out
 
 
 @needs_cc
