@@ -247,7 +247,7 @@ def test_ipm_scaled_start_same_solution_fewer_iterations():
     floor start (every side at lam >= lam_min, t >= max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT
     points of one objective value); on the safe profile's QPs, whose soft rows' slack bounds carry multipliers near
     their L1 weights (1e8, 1e6), the scaled start needs fewer iterations in all from the warm duals (the closed loop's
-    start). From a cold start (no warm multiplier) both reach the optimum too; there it saves nothing (207 against 200
+    start). From a cold start (no warm multiplier) both reach the optimum too; there it costs a little (207 against 200
     iterations on these 12 QPs), and the RTI budget caps a cold start either way."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
     ref, qps = closed_loop_qps(pb, samples=12)

@@ -374,7 +374,8 @@ class RtiSolver(StageInputsMixin):
         self.x_plan = self.delay_line.predict(self.x0, self._road_params)  # x0 itself without a delay
         if not np.all(np.isfinite(self.x_plan)):
             raise self._fail("ERR_NONFINITE_STATE", "the delay compensation's prediction is not finite")
-        x0_full, q, cap = self.embedding(self.x_plan)
+        p0 = self.stage_params(0, self.x_plan[0])
+        x0_full, q, cap = self.embedding(self.x_plan, p0)
         if not (np.all(np.isfinite(x0_full)) and np.all(np.isfinite(q))):
             raise self._fail("ERR_NONFINITE_STATE", "the state gives a non-finite QP (embedding or cost)")
         # commit: the sample is consumed
@@ -405,7 +406,7 @@ class RtiSolver(StageInputsMixin):
         assert self.w is not None
         self.u_applied, st.u_violation = project_control(self.w[lay.var_off[0] + ocp.nx :][: ocp.nu], *self._box)
         st.u_projected = int(st.u_violation > 0.0)
-        self._a_lat_guard(st, self.stage_params(0, self.x_plan[0])[ocp.p_road])
+        self._a_lat_guard(st, p0[ocp.p_road])
         self._plan_check(st)
         self.delay_line.push(self.u_applied)
         st.exit_code = EXIT_CODES.index(code)
@@ -420,9 +421,9 @@ class RtiSolver(StageInputsMixin):
             )
         return self.u0()
 
-    def embedding(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-        """``feedback``'s QP data for the measured (or predicted) state x: the lifted initial state, q, the cap."""
-        x0_full = np.array(self.ocp.init_state(x, self.stage_params(0, x[0]))).ravel()
+    def embedding(self, x: np.ndarray, p0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """``feedback``'s QP data for the measured state x (stage parameters p0 if known): x lifted, q, the cap."""
+        x0_full = np.array(self.ocp.init_state(x, self.stage_params(0, x[0]) if p0 is None else p0)).ravel()
         cap = cold_max_iter(self.qp_opts) if self.cold else warm_max_iter(self.qp_opts)
         return x0_full, self.q + self.lay.q_ds0 * (x[0] - self.s0_guess), cap
 

@@ -27,7 +27,7 @@ MEASURES = (
 )
 
 
-def planner_of(problem: str, controller: str, profile=None) -> str:
+def planner_of(problem: str, controller: str, profile: object = None) -> str:
     """A row's planner: ``reactive planner`` for the peer's rows (controller ``peer``), else fcgen's profile, the
     row's ``profile`` (``safe`` or ``paper``); rows written before that column by the problem's name: the safe
     profile's problems end in ``_safe`` (``presets.preset``), or have it before a campaign's variant suffix (``_cb``
