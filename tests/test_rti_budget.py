@@ -55,7 +55,7 @@ def test_measured_presets_and_campaign_runs_share_the_budget():
     from fcgen.campaign.grid import Config
     from fcgen.presets import IPM_RTI_BUDGET
 
-    assert IPM_RTI_BUDGET[("paper", "lifted", "ellipse")] == 10
+    assert IPM_RTI_BUDGET[("paper", "lifted", "ellipse")] == 7
     for sc in ("car", "truck"):
         for f in ("conventional", "direct_elimination", "lifted"):
             for o, n in (("ellipse", 0), ("hyperplane", 0)):

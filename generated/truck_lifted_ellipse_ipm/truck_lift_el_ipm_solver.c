@@ -15,8 +15,8 @@
 #define QP_INF ((truck_lift_el_ipm_real_t)1e+30) /* bounds beyond +-QP_INF are infinite (clipped to it, as the backends do) */
 #define FLOOR floor /* floor of double */
 #define REAL_0 ((truck_lift_el_ipm_real_t)0.0) /* zero of the real type (no promotion to double in float) */
-#define MAX_ITER 10 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
-#define MAX_ITER_COLD 10 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
+#define MAX_ITER 7 /* a warm-started QP's cap: qp.max_iter, at most the RTI budget */
+#define MAX_ITER_COLD 7 /* a cold-started QP's cap (no shifted guess): qp.max_iter_cold, at most the budget */
 #define N_REF 0.0
 #define V_REF 40.0
 #define DT ((truck_lift_el_ipm_real_t)0.1) /* the shooting interval (set_reference: s_ref,k = s0 + (k DT) v_ref) */

@@ -31,7 +31,7 @@ extern "C" {
 #define TRUCK_LIFT_EL_IPM_QP_NNZ_A 3368 /* nonzeros of the QP constraint matrix */
 #define TRUCK_LIFT_EL_IPM_NNZ_J 3368 /* stacked stage-Jacobian nonzeros */
 #define TRUCK_LIFT_EL_IPM_COLD_RESTART_AFTER 3 /* unusable QPs in a row after which prepare cold-starts (qp.cold_restart_after; 0: never) */
-#define TRUCK_LIFT_EL_IPM_RTI_BUDGET 10 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
+#define TRUCK_LIFT_EL_IPM_RTI_BUDGET 7 /* the most QP iterations one feedback runs, cold starts included (qp.rti_budget or the backend's default) */
 #define TRUCK_LIFT_EL_IPM_WORKSPACE_BYTES 264728 /* static RAM on an LP64 target: solver + QP backend workspaces (+ alignment padding) */
 #define TRUCK_LIFT_EL_IPM_USE_FLOAT 0 /* 1: generated for float */
 
