@@ -129,6 +129,8 @@ def safe_plan_check(formulation) -> PlanCheck:
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
     ("paper", "lifted", "ellipse"): 7,
     ("paper", "direct_elimination", "ellipse"): 7,
+    ("safe", "lifted", "ellipse"): 7,
+    ("safe", "direct_elimination", "ellipse"): 7,
 }
 """The IPM's RTI budget of the configurations (profile, formulation, obstacles) where it was measured to leave the
 closed loop where it was (``benchmarks/rti_budget.py``: progress within 0.1 % of the default budget's and no new
