@@ -221,25 +221,39 @@ def test_ipm_scaled_start_by_hand():
     """The scaled start on a closed-loop QP's sides, by hand (the centring off): lam0 = max(lw, lam_min / max(1, -b))
     on every side (lw its warm multiplier, -b its slack at z = 0), t0 = max(-b, t_min / max(1, lam0)) on a soft row's
     slack bound and max(-b, t_min) elsewhere; the floor start lam0 = max(lw, lam_min), t0 = max(-b, t_min). The
-    slack's floor is what sets some sides' lam0 (the test is not vacuous)."""
+    slack's floor is what sets some sides' lam0 (the test is not vacuous). From a cold start (no warm multiplier) the
+    scaled start gives a slack's bound (a row of A with one entry, c, on a slack variable) lw = q_s / c, and that side
+    the slack bound's t0; the floor start keeps lw = 0."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
     ref, qps = closed_loop_qps(pb, samples=3)
-    l, u, y_warm = qps[-1][3:6]
+    P_x, A_x, q, l, u, y_warm = qps[-1][:6]
+    A = ref.lay.A_pattern(A_x).tocsr()
+    sv0 = stage_view(ref.lay)
+    slack_vars = {int(v) for v in sv0.vmap[:, sv0.nx + sv0.NU :].ravel() if v >= 0}  # a stage's [x, u, slacks]
     for scaled in (False, True):
         be = IpmBackend(ref.lay, IPM, IpmSettings(scaled_start=scaled, lam_center=0.0))
+        be.set_matrices(P_x, A_x, q)
         sv = be.sv
         sign = sv.side_sign.astype(float)
         b = np.where(sign > 0, l[sv.side_row], -u[sv.side_row])
-        _, t, lam, _ = be._start(b, y_warm)
-        by_slack = 0
-        for j in range(len(b)):
-            lw, slack = float(-sign[j] * y_warm[sv.side_row[j]]), float(-b[j])
-            floor = 0.1 / max(1.0, slack) if scaled else 0.1
-            by_slack += scaled and lw < floor < 0.1
-            assert lam[j] == max(lw, floor)
-            t_floor = 0.1 / max(1.0, lam[j]) if scaled and be.slack_bound_side[j] else 0.1
-            assert t[j] == max(slack, t_floor)
-        assert by_slack > 0 if scaled else by_slack == 0
+        for warm in (True, False):
+            yw = y_warm if warm else np.zeros_like(y_warm)
+            _, t, lam, _ = be._start(q, b, yw)
+            by_slack = cold = 0
+            for j in range(len(b)):
+                lw, slack = float(-sign[j] * yw[sv.side_row[j]]), float(-b[j])
+                cols = A.indices[A.indptr[sv.side_row[j]] : A.indptr[sv.side_row[j] + 1]]
+                bound = len(cols) == 1 and int(cols[0]) in slack_vars
+                c = sign[j] * A[sv.side_row[j], cols[0]] if bound else 0.0
+                if scaled and bound and lw == 0.0 and c > 0.0:
+                    lw, cold = q[cols[0]] / c, cold + 1
+                floor = 0.1 / max(1.0, slack) if scaled else 0.1
+                by_slack += scaled and lw < floor < 0.1
+                assert lam[j] == max(lw, floor)
+                scaled_t = scaled and (be.slack_bound_side[j] or (bound and not warm and c > 0.0))
+                assert t[j] == max(slack, 0.1 / max(1.0, lam[j]) if scaled_t else 0.1)
+            assert by_slack > 0 if scaled else by_slack == 0
+            assert cold == (0 if warm or not scaled else 160)  # the 120 soft rows' and the 40 a_lat rows' slacks
 
 
 def test_ipm_scaled_start_same_solution_fewer_iterations():
@@ -247,8 +261,9 @@ def test_ipm_scaled_start_same_solution_fewer_iterations():
     floor start (every side at lam >= lam_min, t >= max(-b, t_min)) reach the same QP optimum (at ipm_tol 1e-8: KKT
     points of one objective value); on the safe profile's QPs, whose soft rows' slack bounds carry multipliers near
     their L1 weights (1e8, 1e6), the scaled start needs fewer iterations in all from the warm duals (the closed loop's
-    start). From a cold start (no warm multiplier) both reach the optimum too; there it costs a little (207 against 200
-    iterations on these 12 QPs), and the RTI budget caps a cold start either way."""
+    start). From a cold start (no warm multiplier) both reach the optimum too, and the scaled start's slack bounds at
+    their slacks' costs (``test_ipm_scaled_start_by_hand``) take most of the floor start's iterations away (38 against
+    200 on these 12 QPs, as many as from the warm duals)."""
     pb = paper_problem("truck", "lifted", "ellipse", profile="safe", qp=IPM)
     ref, qps = closed_loop_qps(pb, samples=12)
     lay = ref.lay
@@ -269,6 +284,7 @@ def test_ipm_scaled_start_same_solution_fewer_iterations():
             obj = [0.5 * r.z @ (P_x * r.z) + q @ r.z for r in res.values()]
             assert abs(obj[0] - obj[1]) <= 1e-5 * max(1.0, abs(obj[1]))  # the gap: ~400 pairs of t lam <= 1e-8
     assert iters[True, "warm"] < iters[False, "warm"], iters
+    assert 2 * iters[True, "cold"] < iters[False, "cold"], iters
 
 
 def test_ipm_through_make_backend_and_reset():

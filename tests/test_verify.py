@@ -29,7 +29,7 @@ from fcgen.verify import (
     verify,
 )
 from fcgen.verify_envelope import clearance_diff
-from fcgen.verify_report import Check
+from fcgen.verify_report import Check, iterations_differ
 
 pytestmark = pytest.mark.skipif(any(shutil.which(t) is None for t in ("gcc", "make")), reason="needs gcc and make")
 
@@ -141,21 +141,32 @@ def test_verify_free_hyperplanes_lockstep_exact_closed_loops_within_the_envelope
 
 
 def test_verify_conventional_hyperplane_ipm_safe_within_the_lockstep_envelope(gen_root: Path) -> None:
-    """truck_conventional_hyperplane_ipm_safe, seed 4: at sample 22 the C's QP solution parts from the reference's far
-    beyond the IPM's 1e-7 (the iterate by 6.1e-4 at 9fbfbba, on bit-identical QP data and the same iteration count),
-    and so does the reference from itself when its measured state changes at rounding level (4.0e-3): the sample is
-    held to twice that envelope and passes; so is its largest slack (1.1e-7 apart, beyond the fixed 1e-7)."""
-    rep = verify(_gen(gen_root, "truck_conventional_hyperplane_ipm_safe"), seed=4, samples=23, closed_loop=False)
+    """truck_conventional_hyperplane_ipm_safe, seed 3: at sample 6 the C's QP solution parts from the reference's far
+    beyond the IPM's 1e-7 (the iterate by 1.9e-5 at e8bcb15, on bit-identical QP data and the same iteration count),
+    and so does the reference from itself when its measured state changes at rounding level (3.5e-4): the sample is
+    held to twice that envelope and passes; the largest slack is held to the sample's envelope alike (within it)."""
+    rep = verify(_gen(gen_root, "truck_conventional_hyperplane_ipm_safe"), seed=3, samples=7, closed_loop=False)
     print(rep.format())
     for key in ("q_fb", "l_fb", "u_fb", "qp_iter", "qp_status"):
         assert rep.check(key).max_diff == 0, rep.check(key)
     w = rep.check("w")
-    assert w.sample == 22 and w.max_diff > 100 * w.tol, w  # beyond the plain tolerance: verify failed here before
+    assert w.sample == 6 and w.max_diff > 100 * w.tol, w  # beyond the plain tolerance: verify failed here before
     assert w.envelope > 100 * w.tol and w.max_diff <= ENVELOPE_FACTOR * w.envelope and w.beyond == 0, w
     slack = rep.check("max_slack")
-    assert slack.sample == 22 and slack.max_diff > slack.tol and slack.envelope > slack.max_diff and slack.passed
+    assert slack.envelope > 0 and slack.max_diff <= max(slack.tol, ENVELOPE_FACTOR * slack.envelope) and slack.passed
     assert rep.passed, rep.format()
     assert any("lockstep's QP solutions part" in n for n in rep.notes)
+
+
+def test_iteration_counts_are_held_to_the_reference_s_own_spread() -> None:
+    """A lockstep sample's QP iteration counts may differ by as much as ENVELOPE_FACTOR times the reference's own
+    count moves under the envelope's changes, and by nothing where no envelope was measured (hand-set values; seed 0
+    of truck_conventional_hyperplane_ipm_safe at e8bcb15 has one such sample of 100, sample 40)."""
+    assert not iterations_differ(37, 37, 0.0)
+    assert iterations_differ(38, 37, 0.0)  # no envelope: any difference counts
+    assert not iterations_differ(39, 37, 1.0)  # within 2x a spread of 1
+    assert iterations_differ(40, 37, 1.0)
+    assert iterations_differ(34, 37, 1.0)
 
 
 def test_verify_lockstep_envelope_does_not_hide_a_c_that_differs(gen_root: Path, tmp_path: Path) -> None:
@@ -178,7 +189,7 @@ def test_verify_lockstep_envelope_does_not_hide_a_c_that_differs(gen_root: Path,
     [
         ("truck_lifted_ellipse_ipm", 3, 4, False),
         ("car_direct_elimination_hyperplane_ipm_safe", 3, 4, False),
-        ("truck_conventional_hyperplane_ipm_safe", 4, 23, True),
+        ("truck_conventional_hyperplane_ipm_safe", 3, 7, True),
     ],
 )
 def test_solution_envelope_solves_the_feedback_qp_again(
@@ -186,8 +197,8 @@ def test_solution_envelope_solves_the_feedback_qp_again(
 ) -> None:
     """With a zero perturbation the envelope's QP is the feedback's, bit for bit (every formulation's embedding;
     the largest slack and the plan clearance of its iterate too), and the reference's plan is left as it was; at
-    rounding level the lifted and DE presets move by less than 1e-10, the conventional safe hyperplanes (seed 4,
-    sample 22) by more than 1e-7 in the iterate (measured at 9fbfbba: 8.5e-7)."""
+    rounding level the lifted and DE presets move by less than 1e-10, the conventional safe hyperplanes (seed 3,
+    sample 6) by more than 1e-7 in the iterate (measured at e8bcb15: 3.5e-4)."""
     import fcgen.verify_envelope as ve
     from fcgen.sim.closedloop import ReferenceController, run_closed_loop
     from fcgen.sim.scenario import make_scenario
@@ -199,7 +210,7 @@ def test_solution_envelope_solves_the_feedback_qp_again(
     run_closed_loop(pb, sc, controller=ReferenceController(ocp, sv), ocp=ocp)
     w, z, y = sv.w.copy(), np.array(sv.z), sv.y.copy()
     monkeypatch.setattr(ve, "ENVELOPE_EPS", (0.0,))
-    assert ve.solution_envelope(sv) == dict.fromkeys(ve.SOLUTION_KEYS, 0.0)
+    assert ve.solution_envelope(sv) == dict.fromkeys((*ve.SOLUTION_KEYS, "qp_iter"), 0.0)
     monkeypatch.undo()
     env = ve.solution_envelope(sv)
     assert np.array_equal(sv.w, w) and np.array_equal(sv.z, z) and np.array_equal(sv.y, y)

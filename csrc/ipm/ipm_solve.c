@@ -123,7 +123,30 @@ static void ipm_start_sides(const ipm_real_t *l, const ipm_real_t *u, const ipm_
   }
 }
 
-/* the soft rows' b and initial iterates (as the sides'; the slack z_s = 0), no step */
+/* with IPM_SCALED_START, a slack's bound without a warm lam (0: a cold start) starts at the slack's cost over the
+ * bound's coefficient, q_s / c: the multiplier the bound carries while the slack's row is inactive (the slack's
+ * stationarity P_s s + q_s - c lam = 0 at s = 0, the row's lam 0), not at the floor, from which an L1 weight's
+ * multiplier takes the IPM many steps to climb; its t as a soft row's slack bound's (ipm_t2_start) */
+static void ipm_start_slack_bounds(const ipm_real_t *q, const ipm_real_t *y_warm) {
+#if IPM_SCALED_START
+  int i;
+  for (i = 0; i < IPM_NSB; ++i) {
+    const int j = IPM_SB_SIDE[i];
+    const ipm_real_t lw = (IPM_WARM != 0) ? ((-IPM_SIDE_SIGN[j]) * y_warm[IPM_SIDE_ROW[j]]) : REAL_0;
+    const ipm_real_t c = IPM_SIDE_SG[j] * IPM_W.Ax[IPM_SB_A[i]];
+    if ((lw == REAL_0) && (c > REAL_0)) {
+      IPM_W.lam[j] = ipm_lam_start(IPM_W.bs[j], q[IPM_SB_VAR[i]] / c);
+      IPM_W.t[j] = ipm_t2_start(IPM_W.bs[j], IPM_W.lam[j]);
+    }
+  }
+#else
+  (void)q;
+  (void)y_warm;
+#endif
+}
+
+/* the soft rows' b and initial iterates (as the sides'; the slack z_s = 0; a slack bound without a warm lam as in
+ * ipm_start_slack_bounds), no step */
 static void ipm_start_soft_rows(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t *u,
                                 const ipm_real_t *y_warm) {
   int j;
@@ -146,7 +169,12 @@ static void ipm_start_soft_rows(const ipm_real_t *q, const ipm_real_t *l, const 
       IPM_SR.qs[j] = REAL_0;
     } else {
       const ipm_real_t lw1 = (IPM_WARM != 0) ? ((-IPM_SR_SIGN[j]) * y_warm[r]) : REAL_0;
-      const ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
+      ipm_real_t lw2 = (IPM_WARM != 0) ? ((-IPM_SR_BSIGN[j]) * y_warm[rb]) : REAL_0;
+#if IPM_SCALED_START
+      if ((lw2 == REAL_0) && (IPM_SR.bb[j] > REAL_0)) { /* no warm lam (a cold start): see ipm_start_slack_bounds */
+        lw2 = q[IPM_SR_SVAR[j]] / IPM_SR.bb[j];
+      }
+#endif
       IPM_SR.b1[j] = (IPM_SR_SIGN[j] > 0) ? l[r] : (-u[r]);
       IPM_SR.b2[j] = (IPM_SR_BSIGN[j] > 0) ? l[rb] : (-u[rb]);
       IPM_SR.t1[j] = ((-IPM_SR.b1[j]) > IPM_T_MIN) ? (-IPM_SR.b1[j]) : IPM_T_MIN;
@@ -190,6 +218,7 @@ static int qpb_solve(const ipm_real_t *q, const ipm_real_t *l, const ipm_real_t 
   int it = 0;
   int raw = IPM_GOING;
   ipm_start_sides(l, u, y_warm);
+  ipm_start_slack_bounds(q, y_warm);
   ipm_start_soft_rows(q, l, u, y_warm);
   IPM_W.aff[3] = REAL_0;
   ipm_centre();

@@ -255,7 +255,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "-",
         "True / False",
         "IPM: every side's lam starts at max(lw, lam_min / max(1, -b)), the soft rows' slack bounds' t at "
-        "max(-b, t_min / max(1, lam)) (paper presets: False)",
+        "max(-b, t_min / max(1, lam)); a slack's bound without a warm lam (a cold start) at its slack's cost "
+        "(paper presets: False)",
     ),
     ("RoadWindow", "ds"): ("m", "[0.1, 20]", "road sample spacing"),
     ("RoadWindow", "length"): ("m", ">= 4 ds and >= v_max N dt + 4 ds", "road length the solver accepts"),

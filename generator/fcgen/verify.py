@@ -45,7 +45,7 @@ from .sim.runlog import summary
 from .sim.scenario import make_scenario
 from .solver_folder import FolderLike, SolverFolder, as_folder, read_folder
 from .verify_envelope import ENVELOPE_EPS, SOLUTION_KEYS, clearance_diff, rel_diff, solution_envelope
-from .verify_report import ENVELOPE_FACTOR, Check, VerifyReport
+from .verify_report import ENVELOPE_FACTOR, Check, VerifyReport, iterations_differ
 
 TOL_QP_DATA = 1e-12
 TOL_SOLUTION = 1e-9
@@ -180,7 +180,6 @@ class _Lockstep:
         c_res = cs.feedback_phase(x0, rc)
         self._upd("exit_code", float(c_res.exit_code != res.exit_code))  # the reference and C share EXIT_CODES
         self._upd("qp_status", float(c_res.qp_status != res.qp_status))
-        self._upd("qp_iter", float(c_res.qp_iter != res.qp_iter))
         st_c, st_py = cs.status(), sv.status
         iterate = {}  # what is computed from the iterate: held to the sample's envelope with the solution
         if c_res.exit_code == res.exit_code:  # the same outcome: the same plan check (or none, kept as it was)
@@ -205,19 +204,23 @@ class _Lockstep:
             self._upd("l_fb", rel_diff(qp["l"], _clip(sv.l)))
             self._upd("u_fb", rel_diff(qp["u"], _clip(sv.u)))
             iterate["max_slack"] = rel_diff(c_res.max_slack, res.max_slack)
-            self._solution(qp, c_res, res, iterate)
+            spread = self._solution(qp, c_res, res, iterate)
         else:
+            spread = 0.0
             for k, d in iterate.items():
                 self._upd(k, d)
+        # an iteration count the reference's own moves by under rounding-level changes (this sample's envelope)
+        self._upd("qp_iter", float(iterations_differ(c_res.qp_iter, res.qp_iter, spread)))
         if not rc and not rc_py:
             self._resync(c_res.exit_code == 0, st_c)
         self.j += 1
         return res
 
-    def _solution(self, qp: dict, c_res: StepResult, res: StepResult, iterate: dict[str, float]) -> None:
+    def _solution(self, qp: dict, c_res: StepResult, res: StepResult, iterate: dict[str, float]) -> float:
         """The QP's solution, the iterate and u0, C vs reference, and ``iterate``'s differences of what is computed
         from the iterate (largest slack, plan clearance); where one parts beyond its tolerance and the backend allows
-        it (``VERIFY_ENVELOPE``), each held to ``ENVELOPE_FACTOR`` times this sample's envelope if larger."""
+        it (``VERIFY_ENVELOPE``), each held to ``ENVELOPE_FACTOR`` times this sample's envelope if larger. Returns
+        how far that envelope moves the reference's iteration count (0 where it was not measured)."""
         sv, cs = self.ref, self.cs
         free, z = sv.lay.P_diag == 0.0, np.asarray(sv.z)
         c_plan = np.concatenate([cs.states().ravel(), cs.controls().ravel()])
@@ -229,11 +232,12 @@ class _Lockstep:
             "u0": rel_diff(c_res.u, res.u),
             **iterate,
         }
-        env = dict.fromkeys(diffs, 0.0)
+        env = dict.fromkeys((*diffs, "qp_iter"), 0.0)
         if self.envelope and any(d > self.checks[k].tol for k, d in diffs.items()):
             env = solution_envelope(sv)
         for k, d in diffs.items():
             self.checks[k].update(d, self.j, env[k])
+        return env["qp_iter"]
 
     def _resync(self, c_ok: bool, st_c) -> None:
         """The reference continues from the C's committed plan, duals and unusable-QP count, as the C computed them

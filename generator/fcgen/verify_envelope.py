@@ -67,18 +67,19 @@ def solution_envelope(sv: RtiSolver) -> dict[str, float]:
     """How far the reference's own solution of this sample's QP moves when its measured state is scaled by ``1 +
     eps`` (``ENVELOPE_EPS``): the same QP solved again with that state embedded as ``RtiSolver.feedback`` does
     (``RtiSolver.embedding``), from the same warm start; per lockstep key, the largest difference from the
-    reference's solution."""
+    reference's solution, and under ``qp_iter`` the most its iteration count moves."""
     ocp, lay = sv.ocp, sv.lay
     assert sv.w is not None, "no plan yet"
     ir, free, z, w = lay.init_rows, lay.P_diag == 0.0, np.asarray(sv.z), plan_vector(sv, sv.w)
     u0, (slack, clear), states = ocp.nx * (ocp.N + 1), iterate_outputs(sv, sv.w), sv.states()
-    env = dict.fromkeys(SOLUTION_KEYS, 0.0)
+    env = dict.fromkeys((*SOLUTION_KEYS, "qp_iter"), 0.0)
     for eps in ENVELOPE_EPS:
         x0_full, q, cap = sv.embedding(sv.x_plan * (1.0 + eps))
         l, u = sv.l.copy(), sv.u.copy()
         l[ir] = x0_full / lay.D[: ocp.nx] - sv.g[ir]
         u[ir] = l[ir]
         r = sv.qp.solve(q, l, u, sv.y_prep, cap)
+        env["qp_iter"] = max(env["qp_iter"], float(abs(r.iter - sv.status.qp_iter)))
         if r.z is None or r.y is None:
             continue
         w_full = sv.w_prep + lay.D * r.z

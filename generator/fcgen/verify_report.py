@@ -14,6 +14,12 @@ ENVELOPE_FACTOR = 2.0
 _COUNTS = {"exit_code", "qp_status", "qp_iter", "plan_check", "cl_qp_iter", "cl_exit_code"}
 
 
+def iterations_differ(c_iter: int, ref_iter: int, spread: float) -> bool:
+    """A lockstep sample's QP iteration counts differ beyond ``ENVELOPE_FACTOR`` times how far the reference's own
+    count moves under the envelope's rounding-level changes (``spread``; 0 where not measured: any difference)."""
+    return abs(c_iter - ref_iter) > ENVELOPE_FACTOR * spread
+
+
 @dataclass
 class Check:
     """One compared quantity: the largest difference over the run, where it occurred, its tolerance."""

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..qp import QpLayout, split_soft_rows, stage_view
+from ..qp import QpLayout, slack_bound_sides, split_soft_rows, stage_view
 from . import QP_MAX_ITER, QP_NONFINITE, QP_NUMERICAL, QP_PRIMAL_INFEASIBLE, QP_SOLVED, QpResult
 from .ipm_tables import IpmTables
 
@@ -114,6 +114,7 @@ class Backend:
         self.set = settings or ipm_settings(opts)
         # the sides of the soft rows' slack bounds (the C's IPM_SR t2): where scaled_start applies
         self.slack_bound_side = np.isin(self.sv.side_row, split_soft_rows(layout, self.sv)[1].brow)
+        self.slack_sides = slack_bound_sides(self.sv)  # every slack's bound: a cold start's lam (cold_slack_lam)
         self.trace: list | None = None  # set to [] to record (|r_d|, |r_eq|, |r_p|, max t lam, mu) per iteration
         self.reset()
 
@@ -298,7 +299,7 @@ class Backend:
         rows, sign = sv.side_row, sv.side_sign.astype(float)
         b = np.where(sign > 0, l[rows], -u[rows])
         b_eq = l[sv.eq_all]
-        z, t, lam, nu = self._start(b, y_warm)
+        z, t, lam, nu = self._start(q, b, y_warm)
         raw = 2
         it = 0
         while True:
@@ -321,7 +322,7 @@ class Backend:
             it += 1
         return QpResult(RAW_TO_QP[raw - 1], raw, it, z, self._compose_y(lam, nu))
 
-    def _start(self, b: np.ndarray, y_warm) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _start(self, q, b: np.ndarray, y_warm) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The initial iterate z = 0, the sides' t and lam (a centred start, lam from the warm duals), the equality
         rows' nu."""
         sv, st = self.sv, self.set
@@ -329,8 +330,9 @@ class Backend:
         yw = np.zeros(self.lay.m) if y_warm is None or not st.warm else np.asarray(y_warm, dtype=float)
         lw = -sign * yw[rows]
         if st.scaled_start:  # a floored lam scaled by its side's slack at z = 0; a slack bound's t by its lam
+            lw, cold = cold_slack_lam(lw, sign, q, self.Ax, self.slack_sides)
             lam = np.maximum(lw, st.lam_min / np.maximum(1.0, -b))
-            t = np.maximum(-b, np.where(self.slack_bound_side, st.t_min / np.maximum(1.0, lam), st.t_min))
+            t = np.maximum(-b, np.where(self.slack_bound_side | cold, st.t_min / np.maximum(1.0, lam), st.t_min))
         else:
             lam = np.maximum(lw, st.lam_min)
             t = np.maximum(-b, st.t_min)
@@ -415,6 +417,19 @@ class Backend:
         dt = sign * adz[rows] + r_p
         dlam = -(rc + lam * dt) * inv_t
         return dz, dnu, dt, dlam
+
+
+def cold_slack_lam(lw: np.ndarray, sign: np.ndarray, q, ax: np.ndarray, slack_sides) -> tuple[np.ndarray, np.ndarray]:
+    """The sides' warm multipliers ``lw``, where a slack's bound has none (0: a cold start) its slack's cost over the
+    bound's coefficient, the multiplier the bound carries while the slack's row is inactive (``slack_bound_sides``);
+    and the mask of those sides (the C's ``ipm_start_sides`` and ``ipm_start_soft_rows``)."""
+    side, var, dat = slack_sides
+    c = sign[side] * ax[dat]
+    hit = (lw[side] == 0.0) & (c > 0.0)
+    out, cold = lw.copy(), np.zeros(lw.shape, dtype=bool)
+    out[side[hit]] = np.asarray(q, dtype=float)[var[hit]] / c[hit]
+    cold[side[hit]] = True
+    return out, cold
 
 
 def _max_step(t: np.ndarray, lam: np.ndarray, dt: np.ndarray, dlam: np.ndarray) -> float:

@@ -20,7 +20,7 @@ from ..backends import QP_STATUSES, BackendFiles
 from ..backends.ipm import RAW_STATUS, RAW_TO_QP, ipm_settings
 from ..backends.ipm_tables import IpmTables
 from ..c_literals import c_list, c_real
-from ..qp import QpLayout, SoftRows, StageView, split_soft_rows, stage_view
+from ..qp import QpLayout, SoftRows, StageView, slack_bound_sides, split_soft_rows, stage_view
 from .ipm_kernels import dense_kernels, fg_kernels, gen_kernels, sr_kernels, u_kernels
 from .ipm_layout import (
     SR_FIELDS,
@@ -190,6 +190,9 @@ def _stage_tables(layout: QpLayout, p: _Plan) -> list[tuple[str, Any, str]]:
         ("IPM_BOX_ROW", sv.box_rows, "box row"),
         ("IPM_BOX_VAR", sv.box_var, "its variable"),
         ("IPM_BOX_A", sv.box_a, "its data index"),
+        ("IPM_SB_SIDE", slack_bound_sides(sv)[0], "the sides on a slack's bound (qp.slack_bound_sides)"),
+        ("IPM_SB_VAR", slack_bound_sides(sv)[1], "the slack"),
+        ("IPM_SB_A", slack_bound_sides(sv)[2], "the data index of the bound's coefficient"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"),
         ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
@@ -271,6 +274,7 @@ def _sizes(layout: QpLayout, p: _Plan) -> dict[str, Any]:
         "NIN": len(tab.in_rows),
         "NEQ": len(sv.eq_all),
         "NBOX": len(sv.box_rows),
+        "NSB": len(slack_bound_sides(sv)[0]),
         "NGA": len(tab.gen_xu_v),
         "NSR": sr.count,
         "NSRP": int(p.run_ptr[-1]),
@@ -319,6 +323,8 @@ def codegen_context(ocp, layout: QpLayout, opts: QpOptions) -> dict:
     tables = _stage_tables(layout, p) + _soft_row_tables(p)
     if sv.NE == 0:  # the C has the stage-equality code only with stage equalities
         tables = [t for t in tables if not t[0].startswith("IPM_EQ_") or t[0] == "IPM_EQ_ALL"]
+    if not ipm_settings(opts).scaled_start:  # the slack bounds' cold start is the scaled start's
+        tables = [t for t in tables if not t[0].startswith("IPM_SB_")]
     u_dense = NU <= U_KERNEL_MAX
     if u_dense:  # R factored for all inputs at once (u_kernels): the blocks' table is not read
         tables = [t for t in tables if t[0] != "IPM_UB"]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .layout import BAND_ROW_SIDES, BAND_SCALE, QpLayout, assert_finite_bounds, build_layout, shift_fields, shifted
 from .soft_rows import SoftRows, split_soft_rows
-from .stage_view import StageView, stage_view
+from .stage_view import StageView, slack_bound_sides, stage_view
 
 __all__ = [
     "BAND_ROW_SIDES",
@@ -22,6 +22,7 @@ __all__ = [
     "build_layout",
     "shift_fields",
     "shifted",
+    "slack_bound_sides",
     "split_soft_rows",
     "stage_view",
 ]

@@ -246,3 +246,15 @@ def stage_view(lay: QpLayout) -> StageView:
         as_int(rc.sides_sign)[order],
         eq_all,
     )
+
+
+def slack_bound_sides(sv: StageView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inequality sides on a slack's bound (a box row on a slack variable): the side, the slack's variable and the
+    data index of the bound row's coefficient. An interior-point start gives such a side without a warm multiplier the
+    slack's cost over that coefficient, the multiplier it carries while the slack's row is inactive."""
+    slack = {int(v) for v in sv.vmap[:, sv.nx + sv.NU :].ravel() if v >= 0}
+    box = {int(r): (int(v), int(a)) for r, v, a in zip(sv.box_rows, sv.box_var, sv.box_a) if int(v) in slack}
+    sides = [j for j, r in enumerate(sv.side_row) if int(r) in box]
+    var = [box[int(sv.side_row[j])][0] for j in sides]
+    dat = [box[int(sv.side_row[j])][1] for j in sides]
+    return np.array(sides, dtype=np.int64), np.array(var, dtype=np.int64), np.array(dat, dtype=np.int64)
