@@ -50,7 +50,7 @@ def test_default_budget_is_the_backends():
 
 def test_measured_presets_and_campaign_runs_share_the_budget():
     """IPM_RTI_BUDGET's configurations: their _ipm preset and the campaign's IPM run of them carry the budget (one
-    problem, the one fcgen wcet bounds); the other configurations keep the default; OSQP's
+    problem, the one fcgen wcet bounds); the safe profile and the other configurations keep the default; OSQP's
     presets and campaign runs carry OSQP_MAX_ITER's cap."""
     from fcgen.campaign.grid import Config
     from fcgen.presets import IPM_RTI_BUDGET
@@ -63,8 +63,7 @@ def test_measured_presets_and_campaign_runs_share_the_budget():
                 pb = preset(f"{sc}_{f}_{o}_ipm")
                 assert pb.qp.rti_budget == want and pb.qp.budget == (want or RTI_BUDGET_DEFAULT["ipm"])
                 assert Config(sc, f, o, n, backend="ipm").problem().qp == pb.qp
-                safe = IPM_RTI_BUDGET.get(("safe", f, o))  # the safe ellipse's DE and lifted: 7 since the cold start
-                assert preset(f"{sc}_{f}_{o}_ipm_safe").qp == QpOptions(backend="ipm", rti_budget=safe)
+                assert preset(f"{sc}_{f}_{o}_ipm_safe").qp == QpOptions(backend="ipm")
                 # the paper's OSQP presets: the defaults but the IPM's start (the paper profile's, no effect on OSQP)
                 # and the measured ADMM cap (35 with the ellipse, 60 with the hyperplanes), as their campaign runs
                 cap = {"ellipse": 35, "hyperplane": 60}[o]

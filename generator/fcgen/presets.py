@@ -129,14 +129,11 @@ def safe_plan_check(formulation) -> PlanCheck:
 IPM_RTI_BUDGET: dict[tuple[str, str, str], int] = {
     ("paper", "lifted", "ellipse"): 7,
     ("paper", "direct_elimination", "ellipse"): 7,
-    ("safe", "lifted", "ellipse"): 7,
-    ("safe", "direct_elimination", "ellipse"): 7,
 }
 """The IPM's RTI budget of the configurations (profile, formulation, obstacles) where it was measured to leave the
 closed loop where it was (``benchmarks/rti_budget.py``: progress within 0.1 % of the default budget's and no new
-collision on 100 seeds x 200 samples of the car and the truck; the safe profile's on its grid's 2,000 runs of them,
-whose first QP the IPM's cold start keeps within 7; docs/wcet.md): what their ``_ipm`` presets and the campaign's IPM
-runs use. Every other configuration keeps ``QpOptions``' default (``RTI_BUDGET_DEFAULT``)."""
+collision on 100 seeds x 200 samples of the car and the truck; docs/wcet.md): what their ``_ipm`` presets and the
+campaign's IPM runs use. Every other configuration keeps ``QpOptions``' default (``RTI_BUDGET_DEFAULT``)."""
 
 
 def preset_qp(backend: str, formulation: str, obstacles: str, profile: str = "paper") -> QpOptions:
