@@ -422,7 +422,7 @@ class Backend:
 def cold_slack_lam(lw: np.ndarray, sign: np.ndarray, q, ax: np.ndarray, slack_sides) -> tuple[np.ndarray, np.ndarray]:
     """The sides' warm multipliers ``lw``, where a slack's bound has none (0: a cold start) its slack's cost over the
     bound's coefficient, the multiplier the bound carries while the slack's row is inactive (``slack_bound_sides``);
-    and the mask of those sides (the C's ``ipm_start_sides`` and ``ipm_start_soft_rows``)."""
+    and the mask of those sides (the C's ``ipm_start_slack_bounds`` and ``ipm_start_soft_rows``)."""
     side, var, dat = slack_sides
     c = sign[side] * ax[dat]
     hit = (lw[side] == 0.0) & (c > 0.0)
