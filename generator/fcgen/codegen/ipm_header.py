@@ -95,6 +95,7 @@ class _Plan:
     gen_k: dict
     run_ptr: np.ndarray  # padded_runs
     pad: Callable[..., np.ndarray]
+    sb: tuple  # slack_bound_sides: side, slack, data index
 
 
 def _plan(layout: QpLayout) -> _Plan:
@@ -115,6 +116,7 @@ def _plan(layout: QpLayout) -> _Plan:
     if not (np.all(sv.side_sign[pairs] > 0) and np.all(sv.side_sign[pairs + 1] < 0)):
         raise ValueError("a two-sided inequality row's sides must be lower, then upper (the C's pair loops assume it)")
     return _Plan(
+        sb=slack_bound_sides(sv),
         sv=sv,
         sr=sr,
         tab=tab,
@@ -190,9 +192,9 @@ def _stage_tables(layout: QpLayout, p: _Plan) -> list[tuple[str, Any, str]]:
         ("IPM_BOX_ROW", sv.box_rows, "box row"),
         ("IPM_BOX_VAR", sv.box_var, "its variable"),
         ("IPM_BOX_A", sv.box_a, "its data index"),
-        ("IPM_SB_SIDE", slack_bound_sides(sv)[0], "the sides on a slack's bound (qp.slack_bound_sides)"),
-        ("IPM_SB_VAR", slack_bound_sides(sv)[1], "the slack"),
-        ("IPM_SB_A", slack_bound_sides(sv)[2], "the data index of the bound's coefficient"),
+        ("IPM_SB_SIDE", p.sb[0], "the sides on a slack's bound (qp.slack_bound_sides)"),
+        ("IPM_SB_VAR", p.sb[1], "the slack"),
+        ("IPM_SB_A", p.sb[2], "the data index of the bound's coefficient"),
         ("IPM_SIDE_ROW", sv.side_row, "row of inequality side j"),
         ("IPM_EQ_ALL", sv.eq_all, "equality rows"),
         ("IPM_FREE", np.flatnonzero(tab.free_inputs), "inputs without cost (proximal weight)"),
@@ -274,7 +276,7 @@ def _sizes(layout: QpLayout, p: _Plan) -> dict[str, Any]:
         "NIN": len(tab.in_rows),
         "NEQ": len(sv.eq_all),
         "NBOX": len(sv.box_rows),
-        "NSB": len(slack_bound_sides(sv)[0]),
+        "NSB": len(p.sb[0]),
         "NGA": len(tab.gen_xu_v),
         "NSR": sr.count,
         "NSRP": int(p.run_ptr[-1]),
