@@ -53,7 +53,9 @@ def opponents(pb, j: int) -> np.ndarray:
 def run(name: str, budget: int, samples: int) -> dict:
     """The reference and the C side by side with ``qp.rti_budget = budget``."""
     base = preset(name)
-    pb = dataclasses.replace(base, name=f"b{budget}_{base.name[:20]}", qp=dataclasses.replace(base.qp, rti_budget=budget))
+    pb = dataclasses.replace(
+        base, name=f"b{budget}_{base.name[:20]}", qp=dataclasses.replace(base.qp, rti_budget=budget)
+    )
     ocp = build_ocp(pb)
     road = road_of(pb)
     shapes = np.array([obs.opponent_shape(pb.obstacles, pb.ego, ln, wd, off) for ln, wd, off in SHAPES])
