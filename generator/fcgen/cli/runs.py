@@ -152,6 +152,9 @@ def simulate(
         fail(f"the run stopped: {exc}")
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
+    ended = log.meta["extra"].get("ended_early")
+    if ended:
+        click.echo(f"the run ended after {ended['sample']} of {samples} samples: {ended['reason']}")
     if not spec.is_default:
         click.echo(plant_line(spec, log, pb.bounds.a_lat_max))
     if out:
