@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 from fcgen.backends import QP_USABLE
 from fcgen.ocp import road_window_samples
 from fcgen.presets import paper_problem
-from fcgen.road import LeftRoad, Road
+from fcgen.road import FrenetSingular, LeftRoad, Road
 from fcgen.sim.closedloop import WINDOW_BEHIND, Plant, opponent_params, run_closed_loop
 from fcgen.sim.plants import PlantSpec
 from fcgen.sim.runlog import RunLog, compare, summary
@@ -91,6 +91,16 @@ def test_plant_road_stepper_is_step(quick_run):
     off[0] = sc.road.s0  # the plant's window starts one sample behind the state's segment: before the road
     with pytest.raises(LeftRoad, match="outside the road"):
         plant.step(off, log.control[0], sc.road)
+    # near the road's centre of curvature (1 - n kappa = 0.05 <= FRENET_MIN = 0.1, kappa at the state's segment
+    # start) the Frenet state is near its singularity: the closed loop's plant refuses to step it; at 0.2 it steps
+    i = int(np.argmax(np.abs(sc.road.kappa[10:-10]))) + 10
+    near = log.ego_frenet[0].copy()
+    near[0] = sc.road.s0 + (i + 0.5) * sc.road.ds
+    near[1] = 0.95 / sc.road.kappa[i]
+    with pytest.raises(FrenetSingular, match="centre of curvature"):
+        step(near, log.control[0])
+    near[1] = 0.8 / sc.road.kappa[i]
+    assert np.all(np.isfinite(step(near, log.control[0])))
 
 
 @pytest.mark.parametrize("spec", [None, PlantSpec(latency=1)], ids=["model", "latency"])

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..dsl import Problem
-from ..road import LeftRoad, Road
+from ..road import FrenetSingular, LeftRoad, Road
 from .plants import PlantSpec
 from .plants.actuation import Actuation
 from .plants.mapping import model_lateral_acceleration
@@ -29,9 +29,11 @@ class PerturbedRun:
     ended: dict | None = None  # the run ended early (``left_road``)
 
 
-def left_road(j: int, x: np.ndarray, road: Road) -> dict:
-    """How a run ends whose state ``x`` at sample ``j`` has left the road (``road.LeftRoad``): the samples it keeps
-    (``j``: the last state the run logs is ``x``) and why."""
+def left_road(j: int, x: np.ndarray, road: Road, exc: LeftRoad) -> dict:
+    """How a run ends whose state ``x`` at sample ``j`` has left the road (``exc``): the samples it keeps (``j``: the
+    last state the run logs is ``x``) and why."""
+    if isinstance(exc, FrenetSingular):
+        return {"sample": j, "reason": str(exc)}
     reason = f"the ego's s = {float(x[0]):.2f} m left the road [{road.s0:.1f}, {road.s_end:.1f}] m"
     return {"sample": j, "reason": reason}
 
@@ -68,8 +70,8 @@ def run_perturbed(problem: Problem, sc, spec: PlantSpec, solve, model_step, add=
                 xn, info = cr.step((float(u[0]), float(u[1])))
                 run.xs[j + 1] = xn
                 a_lat[j], cut[j] = info.a_lat, info.cut
-        except LeftRoad:
-            run.ended, K = left_road(j, x, sc.road), j
+        except LeftRoad as exc:
+            run.ended, K = left_road(j, x, sc.road, exc), j
             break
     if run.ended is not None:  # the samples up to the last state known
         run.xs, run.us, run.applied, run.results = run.xs[: K + 1], run.us[:K], run.applied[:K], run.results[:K]
