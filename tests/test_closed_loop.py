@@ -12,8 +12,9 @@ from scipy.integrate import solve_ivp
 from fcgen.backends import QP_USABLE
 from fcgen.ocp import road_window_samples
 from fcgen.presets import paper_problem
-from fcgen.road import Road
-from fcgen.sim.closedloop import Plant, opponent_params, run_closed_loop
+from fcgen.road import FrenetSingular, LeftRoad, Road
+from fcgen.sim.closedloop import WINDOW_BEHIND, Plant, opponent_params, run_closed_loop
+from fcgen.sim.plants import PlantSpec
 from fcgen.sim.runlog import RunLog, compare, summary
 from fcgen.sim.scenario import OPP_SPEED, OpponentParams, make_scenario
 
@@ -85,8 +86,41 @@ def test_plant_road_stepper_is_step(quick_run):
         assert step(x, u).tobytes() == plant.step(x, u, sc.road).tobytes()
     off = log.ego_frenet[0].copy()
     off[0] = sc.road.s_end
-    with pytest.raises(ValueError, match="outside the road"):
+    with pytest.raises(LeftRoad, match="outside the road"):
         step(off, log.control[0])
+    off[0] = sc.road.s0  # the plant's window starts one sample behind the state's segment: before the road
+    with pytest.raises(LeftRoad, match="outside the road"):
+        plant.step(off, log.control[0], sc.road)
+    # near the road's centre of curvature (1 - n kappa = 0.05 <= FRENET_MIN = 0.1, kappa at the state's segment
+    # start) the Frenet state is near its singularity: the closed loop's plant refuses to step it; at 0.2 it steps
+    i = int(np.argmax(np.abs(sc.road.kappa[10:-10]))) + 10
+    near = log.ego_frenet[0].copy()
+    near[0] = sc.road.s0 + (i + 0.5) * sc.road.ds
+    near[1] = 0.95 / sc.road.kappa[i]
+    with pytest.raises(FrenetSingular, match="centre of curvature"):
+        step(near, log.control[0])
+    near[1] = 0.8 / sc.road.kappa[i]
+    assert np.all(np.isfinite(step(near, log.control[0])))
+
+
+@pytest.mark.parametrize("spec", [None, PlantSpec(latency=1)], ids=["model", "latency"])
+def test_a_run_that_leaves_the_road_ends_there(spec):
+    """A 500 m road (s from -50 to 450 m) and a car at 15 m/s: the solver's window of 141 samples of 2 m from 50 m
+    behind the ego leaves the road once s > 220 m, about 15 s in. The run ends at that sample instead of raising:
+    the log keeps the samples before it (states up to that one, whose window is the first outside), says so in
+    ``meta.extra.ended_early``, and its figures are those of the shorter run."""
+    pb = paper_problem("car", "lifted", "ellipse")
+    sc = make_scenario("car", 0, samples=200, road_length=500.0)
+    reach = sc.road.s_end - (pb.road.samples - 1) * pb.road.ds + WINDOW_BEHIND  # 450 - 280 + 50 = 220 m
+    log = run_closed_loop(pb, sc, plant=spec)
+    ended = log.meta["extra"]["ended_early"]
+    K = log.n_controls
+    assert 100 < K < 200 and ended["sample"] == K and len(log.ego_frenet) == K + 1
+    s = log.ego_frenet[:, 0]
+    assert s[K] > reach >= s[K - 1]  # the first state whose window leaves the road is the last one logged
+    assert f"s = {s[K]:.2f} m left the road [-50.0, 450.0] m" in ended["reason"]
+    assert summary(log)["progress"] == pytest.approx(s[K] - s[0])
+    assert np.all(np.isfinite(log.ego_frenet)) and not log.collision.any()
 
 
 def test_opponent_tables_are_kept_per_scenario_on_a_read_only_road(quick_run):

@@ -199,6 +199,9 @@ def make_row(
     row["exit_codes_nonzero"] = int(log.meta["extra"].get("exit_codes_nonzero", 0))
     row["plan_reactions"] = int(log.meta["extra"].get("plan_reactions", 0))  # samples the plan check braked
     row["a_lat_guards"] = int(log.meta["extra"].get("a_lat_guards", 0))  # samples the a_lat guard acted
+    ended = log.meta["extra"].get("ended_early")
+    if ended:  # the ego left the road: the run's samples before it (n_controls)
+        row["ended_early_sample"] = int(ended["sample"])
     row.update(_alat_outcome(np.asarray(log.a_lat), problem.bounds.a_lat_max))
     if log.a_lat_model is not None:  # a perturbed run: the plant's a_lat above, the model formula's here
         row.update(_plant_columns(log, problem.bounds.a_lat_max))

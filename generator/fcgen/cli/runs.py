@@ -147,11 +147,14 @@ def simulate(
         fail("--planning-problem, --solution, --animate and --traffic go with --commonroad")
     sc = make_scenario(scenario, seed, n_opp=pb.opponents.count, samples=samples, dt=pb.horizon.dt)
     try:
-        log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec)
+        log = run_closed_loop(pb, sc, controller=ctrl, progress=sys.stderr.isatty(), plant=spec, exit_codes=True)
     except FloatingPointError as exc:  # the plant left its domain (sim.plants.commonroad_vm): a status, not a trace
         fail(f"the run stopped: {exc}")
     s = summary(log)
     click.echo(f"{pb.name} | {scenario} seed {seed} | {fmt_summary(s)}")
+    ended = log.meta["extra"].get("ended_early")
+    if ended:
+        click.echo(f"the run ended after {ended['sample']} of {samples} samples: {ended['reason']}")
     if not spec.is_default:
         click.echo(plant_line(spec, log, pb.bounds.a_lat_max))
     if out:

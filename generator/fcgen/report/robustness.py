@@ -172,9 +172,26 @@ def _shares(g: pd.DataFrame) -> tuple[float, float]:
     return f["ego"] / max(1, f["runs"]), (0.0 if f["over05"] != f["over05"] else f["over05"])
 
 
+TICK_WORDS = (
+    ("st+lat1comp+noise+", "st+lat1c+noise+"),
+    ("constant-velocity", "CV"),
+    ("constant-acceleration", "CA"),
+    ("lane-following", "LF"),
+    ("+margin1", "+m1"),
+)
+"""The plot's short tick labels of the magnitudes (the tables keep the full names)."""
+
+
+def _tick(magnitude: str) -> str:
+    for long, short in TICK_WORDS:
+        magnitude = magnitude.replace(long, short)
+    return magnitude
+
+
 def plot(df: pd.DataFrame, out_dir) -> list:
     """``robustness.png``/``.svg``: per axis, the ego's collisions and the a_lat excess against the magnitude (the
-    unperturbed cell first), one line per configuration, the magnitude where it first breaks circled."""
+    unperturbed cell first; ``TICK_WORDS`` shorten the ticks), one line per configuration (the legend below), the
+    magnitude where it first breaks circled."""
     if "plant" not in df.columns or df["plant"].isna().all():
         return []
     from pathlib import Path
@@ -183,7 +200,7 @@ def plot(df: pd.DataFrame, out_dir) -> list:
 
     df = split_keys(df)
     axes = [a for a in dict.fromkeys(c.axis for c in cells()) if a != "none" and (df["axis"] == a).any()]
-    fig = Figure(figsize=(3.2 * len(axes), 5.6))
+    fig = Figure(figsize=(3.2 * len(axes), 6.4))
     FigureCanvasAgg(fig)
     grid = fig.subplots(2, len(axes), squeeze=False)
     for i, axis in enumerate(axes):
@@ -202,9 +219,10 @@ def plot(df: pd.DataFrame, out_dir) -> list:
                     grid[row][i].plot([br], [ys[xs.index(br)]], "o", mfc="none", ms=10, color=line.get_color())
         for row, label in ((0, "ego-caused collisions [% of runs]"), (1, "|a_lat| > bound + 0.5 [% of samples]")):
             ax = grid[row][i]
-            ax.set_xticks(range(len(mags)), mags, rotation=60, fontsize=6)
+            ax.set_xticks(range(len(mags)), [_tick(m) for m in mags], rotation=60, fontsize=6)
             ax.set_ylabel(label if i == 0 else "", fontsize=7)
         grid[0][i].set_title(axis, fontsize=9)
-    grid[0][0].legend(fontsize=5)
-    fig.tight_layout()
+    handles, labels = grid[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.08, 1.0, 1.0))
     return _save(fig, Path(out_dir) / "robustness")

@@ -17,8 +17,8 @@ from ..dsl import Problem, Vehicle
 from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
-from ..road import Road, RoadWindowParams
-from .perturbed import PerturbedRun, perturbed_fields, perturbed_meta, run_perturbed
+from ..road import FRENET_MIN, FrenetSingular, LeftRoad, Road, RoadWindowParams
+from .perturbed import PerturbedRun, left_road, perturbed_fields, perturbed_meta, run_perturbed
 from .plants import PlantSpec
 from .prediction import opponent_horizon
 from .runlog import RunLog, make_meta
@@ -44,8 +44,9 @@ class Controller(Protocol):
 
 
 def solver_window(problem: Problem, road: Road, x: np.ndarray) -> Road:
-    """The road window the solver gets at measured state ``x``: from ``WINDOW_BEHIND`` m behind the ego on."""
-    return road.window(x[0] - WINDOW_BEHIND, problem.road.samples)
+    """The road window the solver gets at measured state ``x``: from ``WINDOW_BEHIND`` m behind the ego on, from the
+    road's start at the latest (raises ``road.LeftRoad`` past its end)."""
+    return road.window(max(float(x[0]) - WINDOW_BEHIND, road.s0), problem.road.samples)
 
 
 class PlanLog:
@@ -70,6 +71,11 @@ class PlanLog:
         self.controls.append(np.asarray(us, dtype=float))
         if self.plan == "full":
             self.states.append(np.asarray(xs, dtype=float))
+
+    def truncate(self, K: int) -> None:
+        """Keep the first ``K`` samples (a run that ended early)."""
+        self.K, self.exit_code = K, self.exit_code[:K]
+        del self.states[K:], self.controls[K:]
 
     def fields(self) -> dict:
         """The optional ``RunLog`` fields."""
@@ -207,7 +213,8 @@ class Plant:
     def road_stepper(self, road: Road):
         """``step`` on one road as a function ``step(x, u)`` (the same values, bit for bit) that copies the packed
         window parameters from a table of every window of ``road`` (built here, once) instead of packing them per
-        call; it returns the plant's output buffer, overwritten by the next call."""
+        call; it returns the plant's output buffer, overwritten by the next call. The closed loop's plant on the
+        paper's roads: a state at the road's centre of curvature raises ``road.FrenetSingular`` (``_check_frenet``)."""
         rp, K = self.road_params, self.road_params.samples
         table = _window_table(road, K) if _frozen(road) else _build_window_table(road, K)
         n = len(table)
@@ -221,13 +228,25 @@ class Plant:
             if 0 <= i0 < n:
                 pb[:] = table[i0]
             else:
-                rp.pack_into(pb, road, i0)  # raises its ValueError
+                rp.pack_into(pb, road, i0)  # raises road.LeftRoad
+            _check_frenet(x, pb)
             ev()
             if out.item(3) < 0.0 <= x.item(3):  # standstill (rolls_back): the vehicle stops, it does not roll back
                 return stopped(pr, K, x, u, pb, out)
             return out
 
         return step
+
+
+def _check_frenet(x: np.ndarray, p: np.ndarray) -> None:
+    """Raise ``road.FrenetSingular`` where ``x`` is at the road's centre of curvature: 1 - n kappa <= ``FRENET_MIN``,
+    kappa the window's sample at the start of ``x``'s segment (``p[3]``: the window starts one sample behind it)."""
+    gap = 1.0 - x.item(1) * p.item(3)
+    if gap <= FRENET_MIN:
+        raise FrenetSingular(
+            f"the ego at s = {x.item(0):.2f} m, n = {x.item(1):.2f} m reached the road's centre of curvature "
+            f"(1 - n kappa = {gap:.3f})"
+        )
 
 
 def _frozen(road: Road) -> bool:
@@ -331,6 +350,7 @@ def _run_log(
     store_exit_codes: bool,
     with_plan_fields: bool,
     pert: tuple[PlantSpec, PerturbedRun] | None = None,
+    ended: dict | None = None,
 ) -> RunLog:
     """The run log of a finished closed loop: the per-sample statistics of ``results`` (and their exit codes into
     ``planlog`` when ``store_exit_codes``: no plan was logged), the Cartesian poses, the collisions on the true
@@ -359,7 +379,10 @@ def _run_log(
     opp_dims = [dims(problem.opponents.vehicle)] * len(sc.opp_s0)
     coll = collisions_over_run(ego_cart, dims(problem.ego), opp_cart, opp_dims).any(axis=1)
     a_lat = xs[:, 3] ** 2 * np.tan(xs[:, 4]) / problem.ego.l if pert is None else np.asarray(pert[1].a_lat)
-    meta = _meta(problem, sc, kind, planlog, results, perturbed_meta(*pert) if pert is not None else {})
+    more = perturbed_meta(*pert) if pert is not None else {}
+    if ended is not None:
+        more["ended_early"] = ended
+    meta = _meta(problem, sc, kind, planlog, results, more)
     road_dict = {
         "s": road.s,
         "kappa": road.kappa,
@@ -447,18 +470,26 @@ def run_closed_loop(
     pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
     if pert is not None:  # another plant or perturbations: that loop instead of this one
         xs, us, results, it = pert.xs, pert.us, pert.results, range(0)
+    ended = None if pert is None else pert.ended
     for j in it:
         x = xs[j]
-        if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
-            r = step(x, x.item(0) - WINDOW_BEHIND, horizon(j + problem.delay))
-        else:
-            r = controller.step(x, solver_window(problem, road, x), horizon(j + problem.delay))
-        u = us[j]
-        u[:] = r.u
-        if add is not None:
-            add(j, controller, r)
-        results.append(r)
-        xs[j + 1] = plant_step(x, u)
+        try:
+            if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
+                r = step(x, max(x.item(0) - WINDOW_BEHIND, road.s0), horizon(j + problem.delay))
+            else:
+                r = controller.step(x, solver_window(problem, road, x), horizon(j + problem.delay))
+            us[j] = r.u
+            if add is not None:
+                add(j, controller, r)
+            results.append(r)
+            xs[j + 1] = plant_step(x, us[j])
+        except LeftRoad as exc:  # the solver's window or the plant's: the run ends at sample j
+            ended = left_road(j, x, road, exc)
+            break
+    if ended is not None:  # the run ends with the last sample whose next state is known
+        K = ended["sample"]
+        xs, us, results = xs[: K + 1], us[:K], results[:K]
+        planlog.truncate(K)
     with_plan_fields = exit_codes or plan != "none"
     return _run_log(
         problem,
@@ -472,4 +503,5 @@ def run_closed_loop(
         add is None,
         with_plan_fields,
         None if pert is None else (spec, pert),
+        ended,
     )

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..dsl import Problem
+from ..road import FrenetSingular, LeftRoad, Road
 from .plants import PlantSpec
 from .plants.actuation import Actuation
 from .plants.mapping import model_lateral_acceleration
@@ -25,6 +26,16 @@ class PerturbedRun:
     a_lat: np.ndarray | None = None
     a_lat_model: np.ndarray | None = None
     cut: np.ndarray | None = None
+    ended: dict | None = None  # the run ended early (``left_road``)
+
+
+def left_road(j: int, x: np.ndarray, road: Road, exc: LeftRoad) -> dict:
+    """How a run ends whose state ``x`` at sample ``j`` has left the road (``exc``): the samples it keeps (``j``: the
+    last state the run logs is ``x``) and why."""
+    if isinstance(exc, FrenetSingular):
+        return {"sample": j, "reason": str(exc)}
+    reason = f"the ego's s = {float(x[0]):.2f} m left the road [{road.s0:.1f}, {road.s_end:.1f}] m"
+    return {"sample": j, "reason": reason}
 
 
 def run_perturbed(problem: Problem, sc, spec: PlantSpec, solve, model_step, add=None) -> PerturbedRun:
@@ -44,20 +55,27 @@ def run_perturbed(problem: Problem, sc, spec: PlantSpec, solve, model_step, add=
     wheelbase = problem.ego.l
     for j in range(K):
         x = run.xs[j]
-        r = solve(j, act.measure(x))
-        run.us[j] = r.u
-        if add is not None:
-            add(j, r)
-        run.results.append(r)
-        u = run.applied[j] = act.actuate(r.u, float(x[4]))
-        a_model[j] = model_lateral_acceleration(float(x[3]), float(x[4]), wheelbase)
-        if cr is None:
-            run.xs[j + 1] = model_step(x, u)
-            a_lat[j] = a_model[j]
-        else:
-            xn, info = cr.step((float(u[0]), float(u[1])))
-            run.xs[j + 1] = xn
-            a_lat[j], cut[j] = info.a_lat, info.cut
+        try:  # the solver's window (its start kept on the road) or the plant's can leave the road (road.LeftRoad)
+            r = solve(j, act.measure(x))
+            run.us[j] = r.u
+            if add is not None:
+                add(j, r)
+            run.results.append(r)
+            u = run.applied[j] = act.actuate(r.u, float(x[4]))
+            a_model[j] = model_lateral_acceleration(float(x[3]), float(x[4]), wheelbase)
+            if cr is None:
+                run.xs[j + 1] = model_step(x, u)
+                a_lat[j] = a_model[j]
+            else:
+                xn, info = cr.step((float(u[0]), float(u[1])))
+                run.xs[j + 1] = xn
+                a_lat[j], cut[j] = info.a_lat, info.cut
+        except LeftRoad as exc:
+            run.ended, K = left_road(j, x, sc.road, exc), j
+            break
+    if run.ended is not None:  # the samples up to the last state known
+        run.xs, run.us, run.applied, run.results = run.xs[: K + 1], run.us[:K], run.applied[:K], run.results[:K]
+        a_lat, a_model, cut = a_lat[: K + 1], a_model[: K + 1], cut[:K]
     xK = run.xs[K]
     a_model[K] = model_lateral_acceleration(float(xK[3]), float(xK[4]), wheelbase)
     last = run.applied[K - 1] if K else np.zeros(2)
