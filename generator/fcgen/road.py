@@ -400,6 +400,18 @@ def straight_road(length: float = 1600.0, ds: float = 2.0, s0: float = 0.0) -> R
 # --- CasADi: the same formula on a short local window of samples ---------------------------------
 
 
+def check_frenet(x: np.ndarray, p: np.ndarray) -> None:
+    """Raise ``FrenetSingular`` where the Frenet state ``x`` is at the road's centre of curvature: 1 - n kappa <=
+    ``FRENET_MIN``, kappa the sample at the start of ``x``'s segment in the packed window ``p`` that starts one sample
+    behind it (``p[3]``, ``RoadWindowParams``)."""
+    gap = 1.0 - x.item(1) * p.item(3)
+    if gap <= FRENET_MIN:
+        raise FrenetSingular(
+            f"the ego at s = {x.item(0):.2f} m, n = {x.item(1):.2f} m reached the road's centre of curvature "
+            f"(1 - n kappa = {gap:.3f})"
+        )
+
+
 @dataclass(frozen=True)
 class RoadWindowParams:
     """Layout of a local road window inside a stage's parameter vector: [s_w0, ds, kappa, phi, gx, gy]."""

@@ -17,7 +17,7 @@ from ..dsl import Problem, Vehicle
 from ..ocp import Ocp, build_ocp, road_window_samples
 from ..plant import plant_function
 from ..reference import RtiSolver, SolverError
-from ..road import FRENET_MIN, FrenetSingular, LeftRoad, Road, RoadWindowParams
+from ..road import LeftRoad, Road, RoadWindowParams, check_frenet
 from .perturbed import PerturbedRun, left_road, perturbed_fields, perturbed_meta, run_perturbed
 from .plants import PlantSpec
 from .prediction import opponent_horizon
@@ -214,7 +214,8 @@ class Plant:
         """``step`` on one road as a function ``step(x, u)`` (the same values, bit for bit) that copies the packed
         window parameters from a table of every window of ``road`` (built here, once) instead of packing them per
         call; it returns the plant's output buffer, overwritten by the next call. The closed loop's plant on the
-        paper's roads: a state at the road's centre of curvature raises ``road.FrenetSingular`` (``_check_frenet``)."""
+        paper's roads: a state at the road's centre of curvature raises ``road.FrenetSingular``
+        (``road.check_frenet``)."""
         rp, K = self.road_params, self.road_params.samples
         table = _window_table(road, K) if _frozen(road) else _build_window_table(road, K)
         n = len(table)
@@ -229,24 +230,13 @@ class Plant:
                 pb[:] = table[i0]
             else:
                 rp.pack_into(pb, road, i0)  # raises road.LeftRoad
-            _check_frenet(x, pb)
+            check_frenet(x, pb)
             ev()
             if out.item(3) < 0.0 <= x.item(3):  # standstill (rolls_back): the vehicle stops, it does not roll back
                 return stopped(pr, K, x, u, pb, out)
             return out
 
         return step
-
-
-def _check_frenet(x: np.ndarray, p: np.ndarray) -> None:
-    """Raise ``road.FrenetSingular`` where ``x`` is at the road's centre of curvature: 1 - n kappa <= ``FRENET_MIN``,
-    kappa the window's sample at the start of ``x``'s segment (``p[3]``: the window starts one sample behind it)."""
-    gap = 1.0 - x.item(1) * p.item(3)
-    if gap <= FRENET_MIN:
-        raise FrenetSingular(
-            f"the ego at s = {x.item(0):.2f} m, n = {x.item(1):.2f} m reached the road's centre of curvature "
-            f"(1 - n kappa = {gap:.3f})"
-        )
 
 
 def _frozen(road: Road) -> bool:
