@@ -170,6 +170,11 @@ def test_report_section_counts_by_cell_and_names_where_each_axis_first_breaks(tm
     assert f"| {base} | prediction | constant-velocity | 2 | 1 | 1 | 0.00 % |" in text
     assert f"| {base} | latency | 1+comp | 2 | 0 | 0 | 0.00 % | 90.0 | -10.0 % | 90.0 % | 2 | 0 |" in text
     assert f"- {base}: latency at 2, prediction at constant-velocity" in text
+    assert "ended early" not in text  # no run left the road
+    df.loc[df["config"] == base + "/model+lat2", "ended_early_sample"] = [166.0, None]
+    text = "\n".join(section(df))
+    assert f"- {base}/model+lat2 seed 0: after 166 of 200 samples" in text.split("ended early")[1]
+    assert f"{base}/model+lat2 seed 1: after" not in text
     assert section(df[df["config"] == base]) == []  # no perturbed rows: no section
     assert [p.name for p in plot(df, tmp_path)] == ["robustness.png", "robustness.svg"]
     assert plot(df[df["config"] == base], tmp_path / "none") == []

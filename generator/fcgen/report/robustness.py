@@ -102,9 +102,27 @@ def section(df: pd.DataFrame) -> list[str]:
         "",
         *breaks,
         "",
+        *_ended_early(df),
         *envelope(df),
     ]
     return lines
+
+
+def _ended_early(df: pd.DataFrame) -> list[str]:
+    """The runs that ended before their samples because the ego left the road (``ended_early_sample``), a line
+    each; none without such runs."""
+    if "ended_early_sample" not in df.columns or df["ended_early_sample"].isna().all():
+        return []
+    ended = df[df["ended_early_sample"].notna()].sort_values(["config", "seed"])
+    return [
+        "Runs that ended early, the ego off the road (their figures are those of the samples before):",
+        "",
+        *(
+            f"- {r.config} seed {int(r.seed)}: after {int(r.ended_early_sample)} of {int(r.samples)} samples"
+            for r in ended.itertuples()
+        ),
+        "",
+    ]
 
 
 #: the envelope's rows: (label, axis, whether a magnitude belongs to the row); latency split by compensation
