@@ -49,6 +49,19 @@ def solver_window(problem: Problem, road: Road, x: np.ndarray) -> Road:
     return road.window(max(float(x[0]) - WINDOW_BEHIND, road.s0), problem.road.samples)
 
 
+def _solver_call(problem: Problem, road: Road, controller, step, horizon):
+    """``solve(j, x)``: the controller's step at sample ``j`` on measured state ``x`` with ``solver_window``'s window
+    (through the controller's ``window_stepper`` ``step`` where it has one: the same window without building it)."""
+
+    def solve(j: int, x: np.ndarray) -> StepResult:
+        s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)
+        if step is not None:
+            return step(x, s_start, horizon(j + problem.delay))
+        return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
+
+    return solve
+
+
 class PlanLog:
     """Collects the optional run-log fields of each sample: exit code and (``plan``) the planned trajectory."""
 
@@ -405,17 +418,9 @@ def _run_log(
     )
 
 
-def _perturbed(problem: Problem, sc: Scenario, spec: PlantSpec, controller, step, horizon, plant_step, add):
+def _perturbed(problem: Problem, sc: Scenario, spec: PlantSpec, controller, solve, plant_step, add):
     """``run_closed_loop``'s samples with ``spec``'s plant and perturbations (``sim.perturbed``): the same controller
-    calls on the measured state, the window from the road's start at the latest (a noisy s there)."""
-    road = sc.road
-
-    def solve(j: int, x: np.ndarray) -> StepResult:
-        s_start = max(x.item(0) - WINDOW_BEHIND, road.s0)
-        if step is not None:
-            return step(x, s_start, horizon(j + problem.delay))
-        return controller.step(x, road.window(s_start, problem.road.samples), horizon(j + problem.delay))
-
+    calls (``solve``) on the measured state."""
     hook = (lambda j, r: add(j, controller, r)) if add else None
     return run_perturbed(problem, sc, spec, solve, lambda x, u: plant_step(x, u).copy(), hook)
 
@@ -457,17 +462,15 @@ def run_closed_loop(
     plant_step, results = model_plant.road_stepper(road), []
     horizon = opponent_horizon(problem, sc, spec, opp_params, controller)  # the truth, or its prediction
     add = planlog.add if plan != "none" else None  # without a plan: the exit codes are stored after the loop
-    pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, step, horizon, plant_step, add)
+    solve = _solver_call(problem, road, controller, step, horizon)
+    pert = None if spec.is_default else _perturbed(problem, sc, spec, controller, solve, plant_step, add)
     if pert is not None:  # another plant or perturbations: that loop instead of this one
         xs, us, results, it = pert.xs, pert.us, pert.results, range(0)
     ended = None if pert is None else pert.ended
     for j in it:
         x = xs[j]
         try:
-            if step is not None:  # = controller.step(x, solver_window(problem, road, x), ...) without the window
-                r = step(x, max(x.item(0) - WINDOW_BEHIND, road.s0), horizon(j + problem.delay))
-            else:
-                r = controller.step(x, solver_window(problem, road, x), horizon(j + problem.delay))
+            r = solve(j, x)
             us[j] = r.u
             if add is not None:
                 add(j, controller, r)
