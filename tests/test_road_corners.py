@@ -141,14 +141,15 @@ def test_the_corner_rows_take_the_band():
     assert sides == {"road_front_left": 1, "road_rear_left": 1, "road_front_right": 0, "road_rear_right": 0}
     assert len(lay.band_rows) == 4 * pb.horizon.N
     ahead = {nm.split("[")[0]: float(d) for nm, d in zip(names, lay.band_ds, strict=True)}
-    assert ahead == pytest.approx({"road_front_left": 3.7, "road_rear_left": -0.3, "road_front_right": 3.7,
-                                   "road_rear_right": -0.3})  # the chassis' front and rear ahead of the rear axle
+    assert ahead == pytest.approx(
+        {"road_front_left": 3.7, "road_rear_left": -0.3, "road_front_right": 3.7, "road_rear_right": -0.3}
+    )  # the chassis' front and rear ahead of the rear axle
 
 
 def test_each_corner_takes_the_band_at_its_own_s():
-    """A band narrowing along the road (upper edge 4 - s / 100, lower edge its negative): each corner row's upper or lower bound in the
-    reference's QP is the band at the stage's s plus the corner's position ahead of the rear axle (3.7 m for the
-    front, -0.3 m for the rear), so the front corners meet the narrower band."""
+    """A band narrowing along the road (upper edge 4 - s / 100, lower edge its negative): each corner row's upper or
+    lower bound in the reference's QP is the band at the stage's s plus the corner's position ahead of the rear axle
+    (3.7 m for the front, -0.3 m for the rear), so the front corners meet the narrower band."""
     pb = _corners(preset("car_lifted_ellipse_ipm_safe"))
     ocp = build_ocp(pb)
     lay = build_layout(ocp)

@@ -43,7 +43,9 @@ def road_rows(pb: Problem, n, alpha, sigma, kappa, kappa_at=None) -> list[tuple]
         points = [("road_lo", n, 0), ("road_hi", n, 1)]
     else:
         left = (1, 1, 0, 0)
-        points = [(name, c, side) for name, c, side in zip(CORNER_ROWS, corner_n(n, alpha, pb.ego, kappa, kappa_at), left)]
+        points = [
+            (name, c, side) for name, c, side in zip(CORNER_ROWS, corner_n(n, alpha, pb.ego, kappa, kappa_at), left)
+        ]
     rows = []
     for name, c, side in points:
         if side == 0:

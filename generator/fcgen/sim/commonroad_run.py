@@ -10,10 +10,11 @@ n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), 
 (``set_reference_stages``).
 
 The solver's lateral bound (``Bounds.road_bound``) on the chassis' corners gets the drivable band shrunk by
-``CORNER_MARGIN`` (each corner's row takes it at the corner's own ``s``); on the rear axle, the band shrunk by half the ego's width plus ``HEADING_MARGIN`` (what a heading
-of up to ~4 degrees adds at the chassis' front corners). The problem's road band ``Bounds.n_min``/``n_max`` stays
-what it is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
-``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
+``CORNER_MARGIN`` (each corner's row takes it at the corner's own ``s``); on the rear axle, the band shrunk by half the
+ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners). The
+problem's road band ``Bounds.n_min``/``n_max`` stays what it is: where the scenario's band is wider, the solver gets it
+cut to that (stated in the log's ``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt``
+(else the scenario is refused).
 """
 
 from __future__ import annotations
