@@ -146,26 +146,39 @@ def test_the_corner_rows_take_the_band():
     )  # the chassis' front and rear ahead of the rear axle
 
 
-def test_each_corner_takes_the_band_at_its_own_s():
+def test_each_corner_takes_the_band_at_its_own_s(tmp_path):
     """A band narrowing along the road (upper edge 4 - s / 100, lower edge its negative): each corner row's upper or
     lower bound in the reference's QP is the band at the stage's s plus the corner's position ahead of the rear axle
-    (3.7 m for the front, -0.3 m for the rear), so the front corners meet the narrower band."""
+    (3.7 m for the front, -0.3 m for the rear), so the front corners meet the narrower band; the C builds the same
+    bounds (its BAND_DS table)."""
+    from fcgen.build import build
+    from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
+
     pb = _corners(preset("car_lifted_ellipse_ipm_safe"))
     ocp = build_ocp(pb)
     lay = build_layout(ocp)
     base = Road.from_curvature(np.zeros(150), pb.road.ds)  # 300 m
     edge = 4.0 - base.s / 100.0
-    road = Road(base.s0, base.ds, base.kappa, base.phi, base.gx, base.gy, -edge, edge)
+    road = Road(base.s0, base.ds, base.kappa, base.phi, base.gx, base.gy, -edge, edge).window(10.0, pb.road.samples)
+    far = np.tile([-5000.0, -5000.0, 0.0], (ocp.N + 1, pb.opponents.count, 1))
+    x0 = np.array([20.0, 0.0, 0.0, 10.0, 0.0])
     sv = RtiSolver(ocp)
-    sv.set_road(road.window(10.0, pb.road.samples))
-    sv.set_opponents(np.tile([-5000.0, -5000.0, 0.0], (ocp.N + 1, pb.opponents.count, 1)))
-    sv.set_state(np.array([20.0, 0.0, 0.0, 10.0, 0.0]))
+    sv.set_road(road)
+    sv.set_opponents(far)
+    sv.set_state(x0)
     sv.prepare()
     for (row, k, side), d in zip(lay.band_rows, lay.band_ds, strict=True):
         s_k = float(sv.w_prep[lay.s_vars[k]])
         want = (4.0 - (s_k + d) / 100.0) * (1 if side == 1 else -1)
         got = (sv.u if side == 1 else sv.l)[row] + sv.g[row]
         assert got * BAND_SCALE == pytest.approx(want, abs=1e-12), lay.row_names[row]
+    cs = CSolver(build(generate(pb.with_(name="corners"), tmp_path / "g").out_dir))
+    assert cs.init() == 0 and cs.set_road(road) == 0 and cs.set_opponents(far) == 0
+    assert cs.set_state(x0) == 0 and cs.prepare() == 0
+    qp = cs.get_qp()
+    np.testing.assert_allclose(qp["l"], sv.l, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(qp["u"], sv.u, rtol=0, atol=1e-12)
 
 
 def _drive_left(pb, edge: float, rear_inset: float, samples: int = 50) -> np.ndarray:
