@@ -56,6 +56,19 @@ def test_the_corners_are_the_chassis_rectangles(alpha):
     assert sorted(float(v) for v in corner_n(0.7, alpha, CAR)) == pytest.approx(ys, abs=1e-12)
 
 
+def _projected_corners(road: Road, s0: float, n0: float, alpha: float) -> list[float]:
+    """The n of the chassis rectangle's corners (``CORNERS``' order) for a rear axle at (s0, n0, alpha), projected
+    onto ``road`` (``Road.to_frenet``): the second construction the corners' offsets are checked against."""
+    x, y, phi = road.to_cartesian(np.array([s0]), np.array([n0]), np.array([alpha]))
+    sh = obs.chassis_shape(float(x[0]), float(y[0]), float(phi[0]), CAR)
+    c, sn = math.cos(sh.angle), math.sin(sh.angle)
+    got = []
+    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):
+        px, py = sh.cx + sx * sh.L * c - sy * sh.W * sn, sh.cy + sx * sh.L * sn + sy * sh.W * c
+        got.append(float(road.to_frenet(np.array([px]), np.array([py]), np.array([0.0]), np.array([s0]))[1][0]))
+    return got
+
+
 @pytest.mark.parametrize("kappa", [-0.02, 0.01])
 @pytest.mark.parametrize("alpha", [-0.25, 0.1])
 def test_the_corners_on_a_bend(kappa, alpha):
@@ -63,13 +76,7 @@ def test_the_corners_on_a_bend(kappa, alpha):
     the road (``Road.to_frenet``) within what the second-order distance leaves (0.5 mm)."""
     road = Road.from_curvature(np.full(201, kappa), 1.0)
     s0, n0 = 60.0, 0.8
-    x, y, phi = road.to_cartesian(np.array([s0]), np.array([n0]), np.array([alpha]))
-    sh = obs.chassis_shape(float(x[0]), float(y[0]), float(phi[0]), CAR)
-    c, sn = math.cos(sh.angle), math.sin(sh.angle)
-    got = []
-    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):  # CORNERS' order
-        px, py = sh.cx + sx * sh.L * c - sy * sh.W * sn, sh.cy + sx * sh.L * sn + sy * sh.W * c
-        got.append(float(road.to_frenet(np.array([px]), np.array([py]), np.array([0.0]), np.array([s0]))[1][0]))
+    got = _projected_corners(road, s0, n0, alpha)
     want = [float(v) for v in corner_n(n0, alpha, CAR, kappa)]
     np.testing.assert_allclose(want, got, atol=5e-4)
     flat = [float(v) for v in corner_n(n0, alpha, CAR)]
@@ -84,13 +91,7 @@ def test_the_corners_on_a_clothoid(s0, n0, alpha):
     and more."""
     s = np.arange(0.0, 201.0)
     road = Road.from_curvature(-0.002 * (s - 40.0), 1.0)
-    x, y, phi = road.to_cartesian(np.array([s0]), np.array([n0]), np.array([alpha]))
-    sh = obs.chassis_shape(float(x[0]), float(y[0]), float(phi[0]), CAR)
-    c, sn = math.cos(sh.angle), math.sin(sh.angle)
-    got = []
-    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):  # CORNERS' order
-        px, py = sh.cx + sx * sh.L * c - sy * sh.W * sn, sh.cy + sx * sh.L * sn + sy * sh.W * c
-        got.append(float(road.to_frenet(np.array([px]), np.array([py]), np.array([0.0]), np.array([s0]))[1][0]))
+    got = _projected_corners(road, s0, n0, alpha)
     k0 = float(road.eval(s0)[0])
     ahead = [float(v) for v in corner_n(n0, alpha, CAR, k0, lambda d: float(road.eval(s0 + d)[0]))]
     np.testing.assert_allclose(ahead, got, atol=1.5e-3)
