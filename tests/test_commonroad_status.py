@@ -38,6 +38,19 @@ def test_the_summary_counts_samples_without_a_solution_and_takes_the_slack_over_
     assert "without a solution" not in fmt_summary(s)
 
 
+def test_a_run_without_any_solution_has_no_largest_slack_rather_than_nan():
+    """Every sample infeasible (a start whose band leaves the chassis no room): the summary's largest slack is
+    None, printed ``none``, never ``nan``."""
+    f = make_fields(k=3, n_opp=1)
+    f["max_slack"] = np.full(3, math.nan)
+    f["exit_code"] = np.full(3, INFEASIBLE)
+    s = summary(RunLog(**f))
+    assert s["max_slack"] is None and s["samples_unsolved"] == 3
+    line = fmt_summary(s)
+    assert "max slack none over the solved samples (3 without a solution: ERR_QP_INFEASIBLE x3)" in line
+    assert "nan" not in line
+
+
 def _result(code: int, slack: float) -> StepResult:
     return StepResult(np.zeros(2), code, 0, 0, 0.0, 0.0, slack)
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from fcgen import obstacles as obs
+from fcgen.commonroad.band import SolverBand
 from fcgen.dsl import Bounds, DirectElimination, Lifted, ProblemError, Vehicle
 from fcgen.models import CORNERS, corner_n
 from fcgen.ocp import build_ocp
@@ -55,6 +56,19 @@ def test_the_corners_are_the_chassis_rectangles(alpha):
     assert sorted(float(v) for v in corner_n(0.7, alpha, CAR)) == pytest.approx(ys, abs=1e-12)
 
 
+def _projected_corners(road: Road, s0: float, n0: float, alpha: float) -> list[float]:
+    """The n of the chassis rectangle's corners (``CORNERS``' order) for a rear axle at (s0, n0, alpha), projected
+    onto ``road`` (``Road.to_frenet``): the second construction the corners' offsets are checked against."""
+    x, y, phi = road.to_cartesian(np.array([s0]), np.array([n0]), np.array([alpha]))
+    sh = obs.chassis_shape(float(x[0]), float(y[0]), float(phi[0]), CAR)
+    c, sn = math.cos(sh.angle), math.sin(sh.angle)
+    got = []
+    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):
+        px, py = sh.cx + sx * sh.L * c - sy * sh.W * sn, sh.cy + sx * sh.L * sn + sy * sh.W * c
+        got.append(float(road.to_frenet(np.array([px]), np.array([py]), np.array([0.0]), np.array([s0]))[1][0]))
+    return got
+
+
 @pytest.mark.parametrize("kappa", [-0.02, 0.01])
 @pytest.mark.parametrize("alpha", [-0.25, 0.1])
 def test_the_corners_on_a_bend(kappa, alpha):
@@ -62,17 +76,27 @@ def test_the_corners_on_a_bend(kappa, alpha):
     the road (``Road.to_frenet``) within what the second-order distance leaves (0.5 mm)."""
     road = Road.from_curvature(np.full(201, kappa), 1.0)
     s0, n0 = 60.0, 0.8
-    x, y, phi = road.to_cartesian(np.array([s0]), np.array([n0]), np.array([alpha]))
-    sh = obs.chassis_shape(float(x[0]), float(y[0]), float(phi[0]), CAR)
-    c, sn = math.cos(sh.angle), math.sin(sh.angle)
-    got = []
-    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):  # CORNERS' order
-        px, py = sh.cx + sx * sh.L * c - sy * sh.W * sn, sh.cy + sx * sh.L * sn + sy * sh.W * c
-        got.append(float(road.to_frenet(np.array([px]), np.array([py]), np.array([0.0]), np.array([s0]))[1][0]))
+    got = _projected_corners(road, s0, n0, alpha)
     want = [float(v) for v in corner_n(n0, alpha, CAR, kappa)]
     np.testing.assert_allclose(want, got, atol=5e-4)
     flat = [float(v) for v in corner_n(n0, alpha, CAR)]
     assert max(abs(a - b) for a, b in zip(flat, got, strict=True)) > 0.02  # the curvature term matters here
+
+
+@pytest.mark.parametrize("s0, n0, alpha", [(45.0, 0.8, 0.1), (50.0, -0.5, -0.2), (38.0, 0.3, 0.2)])
+def test_the_corners_on_a_clothoid(s0, n0, alpha):
+    """A clothoid (curvature -0.002 (s - 40) per metre: a left bend turning into a right one at s = 40 m): with the
+    curvature ahead (``kappa_at``, Simpson's over each corner's half length) the offsets match the chassis
+    rectangle's corners projected onto the road within 1.5 mm; the curvature at the rear axle alone leaves 1.5 cm
+    and more."""
+    s = np.arange(0.0, 201.0)
+    road = Road.from_curvature(-0.002 * (s - 40.0), 1.0)
+    got = _projected_corners(road, s0, n0, alpha)
+    k0 = float(road.eval(s0)[0])
+    ahead = [float(v) for v in corner_n(n0, alpha, CAR, k0, lambda d: float(road.eval(s0 + d)[0]))]
+    np.testing.assert_allclose(ahead, got, atol=1.5e-3)
+    at_rear = [float(v) for v in corner_n(n0, alpha, CAR, k0)]
+    assert max(abs(a - b) for a, b in zip(at_rear, got, strict=True)) > 0.015
 
 
 @pytest.mark.parametrize(
@@ -117,6 +141,45 @@ def test_the_corner_rows_take_the_band():
     sides = {nm.split("[")[0]: int(sd) for nm, (_, _, sd) in zip(names, lay.band_rows, strict=True)}
     assert sides == {"road_front_left": 1, "road_rear_left": 1, "road_front_right": 0, "road_rear_right": 0}
     assert len(lay.band_rows) == 4 * pb.horizon.N
+    ahead = {nm.split("[")[0]: float(d) for nm, d in zip(names, lay.band_ds, strict=True)}
+    assert ahead == pytest.approx(
+        {"road_front_left": 3.7, "road_rear_left": -0.3, "road_front_right": 3.7, "road_rear_right": -0.3}
+    )  # the chassis' front and rear ahead of the rear axle
+
+
+def test_each_corner_takes_the_band_at_its_own_s(tmp_path):
+    """A band narrowing along the road (upper edge 4 - s / 100, lower edge its negative): each corner row's upper or
+    lower bound in the reference's QP is the band at the stage's s plus the corner's position ahead of the rear axle
+    (3.7 m for the front, -0.3 m for the rear), so the front corners meet the narrower band; the C builds the same
+    bounds (its BAND_DS table)."""
+    from fcgen.build import build
+    from fcgen.codegen.generate import generate
+    from fcgen.csolver import CSolver
+
+    pb = _corners(preset("car_lifted_ellipse_ipm_safe"))
+    ocp = build_ocp(pb)
+    lay = build_layout(ocp)
+    base = Road.from_curvature(np.zeros(150), pb.road.ds)  # 300 m
+    edge = 4.0 - base.s / 100.0
+    road = Road(base.s0, base.ds, base.kappa, base.phi, base.gx, base.gy, -edge, edge).window(10.0, pb.road.samples)
+    far = np.tile([-5000.0, -5000.0, 0.0], (ocp.N + 1, pb.opponents.count, 1))
+    x0 = np.array([20.0, 0.0, 0.0, 10.0, 0.0])
+    sv = RtiSolver(ocp)
+    sv.set_road(road)
+    sv.set_opponents(far)
+    sv.set_state(x0)
+    sv.prepare()
+    for (row, k, side), d in zip(lay.band_rows, lay.band_ds, strict=True):
+        s_k = float(sv.w_prep[lay.s_vars[k]])
+        want = (4.0 - (s_k + d) / 100.0) * (1 if side == 1 else -1)
+        got = (sv.u if side == 1 else sv.l)[row] + sv.g[row]
+        assert got * BAND_SCALE == pytest.approx(want, abs=1e-12), lay.row_names[row]
+    cs = CSolver(build(generate(pb.with_(name="corners"), tmp_path / "g").out_dir))
+    assert cs.init() == 0 and cs.set_road(road) == 0 and cs.set_opponents(far) == 0
+    assert cs.set_state(x0) == 0 and cs.prepare() == 0
+    qp = cs.get_qp()
+    np.testing.assert_allclose(qp["l"], sv.l, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(qp["u"], sv.u, rtol=0, atol=1e-12)
 
 
 def _drive_left(pb, edge: float, rear_inset: float, samples: int = 50) -> np.ndarray:
@@ -222,12 +285,24 @@ def test_the_corners_way_back_by_hand():
     assert hi4[s == 100.0][0] == pytest.approx(1.05 + BACK_ROOM)
 
 
+def test_the_corners_way_back_holds_the_front_corner():
+    """Band [-1, 1] on a straight road, the rear axle at s = 100 m, n = 0.2, straight: the left corners at
+    0.2 + 0.95 = 1.15 lie beyond the upper edge, so the edge moves out to them up to the front corner's s
+    (100 + 3.7 m, where its row takes the band) and returns to the band beyond it."""
+    road = Road.from_curvature(np.zeros(301), 1.0)
+    band = SolverBand("road_back", [], road, 0.15, (-10.0, 10.0), 2.0, 0.95, 1.7, True)
+    win = road.window(80.0, 120)
+    win = Road(win.s0, win.ds, win.kappa, win.phi, win.gx, win.gy, np.full(120, -1.0), np.full(120, 1.0))
+    assert band.set(win, np.array([100.0, 0.2, 0.0, 10.0, 0.0]), 0.0)
+    hi = dict(zip(win.s.tolist(), win.n_max.tolist(), strict=True))
+    assert hi[100.0] == hi[103.0] == pytest.approx(1.15)
+    assert 1.0 < hi[110.0] < 1.15 and hi[150.0] == 1.0
+
+
 def test_the_corners_motion_on_a_straight_road():
     """Heading 0.1 rad, steering angle 0, 10 m/s on a straight road: the heading does not change, so the outermost
     corner on either side moves sin(0.1) towards +n per metre along the road (the signed change of n: towards the
     upper edge, away from the lower one)."""
-    from fcgen.commonroad.band import SolverBand
-
     road = Road.from_curvature(np.zeros(301), 1.0)
     band = SolverBand("lanes", [], road, 0.15, (-10.0, 10.0), 2.0, 0.95, 1.7, True)
     (n_lo, n_hi), (d_lo, d_hi) = band.corner_motion(np.array([50.0, 0.4, 0.1, 10.0, 0.0]))

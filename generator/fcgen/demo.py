@@ -9,7 +9,7 @@ from .codegen.generate import generate
 from .presets import preset
 from .sim.closedloop import run_closed_loop
 from .sim.harness import firmware_sim
-from .sim.runlog import RunLog, compare, summary
+from .sim.runlog import RunLog, compare, fmt_slack, summary
 from .sim.scenario import make_scenario
 from .solver_folder import read_folder
 
@@ -80,7 +80,7 @@ class DemoResult:
         statuses = sorted({k for _, c in cols for k in c["qp_status_counts"]})
         for st in statuses:
             row(f"QP status {st} [samples]", lambda s, st=st: f"{s['qp_status_counts'].get(st, 0)}")
-        row("largest soft-constraint slack [row's unit]", lambda s: f"{s['max_slack']:.3g}")
+        row("largest soft-constraint slack [row's unit]", lambda s: fmt_slack(s["max_slack"]))
         row("largest |a_lat| [m/s^2] (bound 5)", lambda s: f"{s['max_abs_a_lat']:.2f}")
         n = len(rows[0])
         w = [max(len(r[i]) for r in rows) for i in range(n)]

@@ -214,8 +214,8 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "-",
         "'rear_axle' or 'corners'",
         "what n_min/n_max and the road's band bound: the rear axle's n (a box bound), or the chassis' four corners "
-        "(one row each, n + x_c sin(alpha) +- (w_ch/2) cos(alpha) with the road's curvature; 4 rows per stage, "
-        "about 1.1x the instructions per RTI)",
+        "(one row each, n + x_c sin(alpha) +- (w_ch/2) cos(alpha) with the road's curvature over the chassis; each "
+        "takes the road's band at its own s; 4 rows per stage, about 1.1x the instructions per RTI)",
     ),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),

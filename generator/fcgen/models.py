@@ -39,24 +39,27 @@ CORNERS = ("front_left", "rear_left", "front_right", "rear_right")
 """The chassis' corners in the order of ``corner_n`` (left: towards +n)."""
 
 
-def corner_n(n, alpha, veh: Vehicle, kappa=0.0) -> list:
+def corner_n(n, alpha, veh: Vehicle, kappa=0.0, kappa_at=None) -> list:
     """The lateral offsets of the chassis' four corners (``CORNERS``) for a rear axle at ``n`` with heading ``alpha``
-    to a road of curvature ``kappa`` (at the rear axle's ``s``): ``m - kappa d_t^2 / (2 (1 - kappa m))``,
+    to a road of curvature ``kappa`` (at the rear axle's ``s``): ``m - k d_t^2 / (2 (1 - k m))``,
     ``m = n + d_n``, with the corner at
     ``d_t = x_c cos(alpha) -+ (w_ch/2) sin(alpha)`` along the road's tangent and ``d_n = x_c sin(alpha) +-
     (w_ch/2) cos(alpha)`` along its normal, the front and rear of the chassis at ``x_c = l/2 +- l_ch/2`` ahead of the
-    rear axle. Approximated: the road a circle over the chassis' length (its curvature at the rear axle), the
-    distance to it to second order in ``kappa d_t`` (error ``kappa^3 d_t^4 / 8``: 0.2 mm at 3.7 m on a radius of
-    50 m)."""
+    rear axle. ``k``: the road's curvature over the chassis; ``kappa`` alone (``kappa_at`` None): the road a circle,
+    its curvature at the rear axle (error ``kappa^3 d_t^4 / 8``: 0.2 mm at 3.7 m on a radius of 50 m); with
+    ``kappa_at(d)``, the curvature ``d`` metres ahead: Simpson's ``(kappa + 2 kappa_at(x_c / 2)) / 3``, the road's
+    offset from its tangent ``int_0^d (d - u) kappa(u) du`` exact for a curvature linear along the chassis."""
     half_w = veh.w_ch / 2
     s_a, c_a = ca.sin(alpha), ca.cos(alpha)
     x_front, x_rear = veh.l / 2 + veh.l_ch / 2, veh.l / 2 - veh.l_ch / 2
+    k_of = {x: kappa if kappa_at is None else (kappa + 2 * kappa_at(x / 2)) / 3 for x in (x_front, x_rear)}
     out = []
     for side in (1, -1):
         for x_c in (x_front, x_rear):
             d_t = x_c * c_a - side * half_w * s_a
             m = n + x_c * s_a + side * half_w * c_a
-            out.append(m - kappa * d_t * d_t / (2 * (1 - kappa * m)))
+            k = k_of[x_c]
+            out.append(m - k * d_t * d_t / (2 * (1 - k * m)))
     return out
 
 

@@ -250,8 +250,14 @@ def _a_lat_and_road_rows(pb: Problem, st: _Stage, a: ca.SX) -> list[tuple]:
         ("a_lat_lo", (a + sgs[0]) / bnd.a_lat_max, -lim, INF),
         ("a_lat_hi", (a - sgs[0]) / bnd.a_lat_max, -INF, lim),
     ]
-    kappa = casadi_road(xs[0], st.p_road, st.rp.samples)[0] if bnd.road_bound == "corners" else 0.0
-    return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, kappa)
+    if bnd.road_bound != "corners":
+        return rows + road_rows(pb, xs[1], xs[2], sgs[1] if pb.soft.soft_road else None, 0.0)
+
+    def kappa_at(d):  # the road's curvature d metres ahead of the rear axle's s
+        return casadi_road(xs[0] + d, st.p_road, st.rp.samples)[0]
+
+    sigma = sgs[1] if pb.soft.soft_road else None
+    return rows + road_rows(pb, xs[1], xs[2], sigma, kappa_at(0.0), kappa_at)
 
 
 def _ego_pose(st: _Stage) -> tuple[Any, Any, Any]:

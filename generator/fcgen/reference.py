@@ -342,8 +342,8 @@ class RtiSolver(StageInputsMixin):
         road = self.road
         assert road is not None  # stage_params checked it
         if road.n_min is not None:  # the road's band at each stage's s (held for the QP: no d/ds)
-            for row, k, side in lay.band_rows:
-                band = road.band_at(float(w[lay.s_vars[k]]))
+            for (row, k, side), ds in zip(lay.band_rows, lay.band_ds, strict=True):
+                band = road.band_at(float(w[lay.s_vars[k]]) + float(ds))
                 assert band is not None
                 (self.l if side == 0 else self.u)[row] = band[side] / lay.band_scale - g[row]
         if restart:  # as reset() would: the backend restored before its use

@@ -20,9 +20,19 @@ BAND_SIDES = {"road_lo": (0,), "road_hi": (1,)} | {
 """Row name -> the sides of the road's band it takes (0: lower <- n_min, 1: upper <- n_max)."""
 
 
-def road_rows(pb: Problem, n, alpha, sigma, kappa) -> list[tuple]:
+def band_ahead(pb: Problem, name: str) -> float:
+    """How far ahead of the stage's ``s`` the row ``name`` takes the road's band (m): a corner's row at the corner's
+    own ``s`` (its chassis position ``x_c`` ahead of the rear axle, the heading's share left out), the rear axle's at
+    the stage's ``s``."""
+    if name not in CORNER_ROWS:
+        return 0.0
+    veh = pb.ego
+    return veh.l / 2 + (veh.l_ch / 2 if "front" in name else -veh.l_ch / 2)
+
+
+def road_rows(pb: Problem, n, alpha, sigma, kappa, kappa_at=None) -> list[tuple]:
     """The road's rows of a stage at rear-axle offset ``n``, heading ``alpha`` to the road of curvature ``kappa`` there
-    (``models.corner_n``): with ``soft_road`` on
+    (``kappa_at(d)``: ``d`` ahead; ``models.corner_n``): with ``soft_road`` on
     the slack ``sigma`` (else hard); the rear axle's two rows, or one per corner (left corners: the upper edge, right
     corners: the lower one). None for the rear axle's hard bound (a box row)."""
     bnd, soft = pb.bounds, pb.soft.soft_road
@@ -33,7 +43,9 @@ def road_rows(pb: Problem, n, alpha, sigma, kappa) -> list[tuple]:
         points = [("road_lo", n, 0), ("road_hi", n, 1)]
     else:
         left = (1, 1, 0, 0)
-        points = [(name, c, side) for name, c, side in zip(CORNER_ROWS, corner_n(n, alpha, pb.ego, kappa), left)]
+        points = [
+            (name, c, side) for name, c, side in zip(CORNER_ROWS, corner_n(n, alpha, pb.ego, kappa, kappa_at), left)
+        ]
     rows = []
     for name, c, side in points:
         if side == 0:

@@ -22,7 +22,7 @@ from ..build import build
 from ..csolver import CSolver
 from ..ocp import build_ocp
 from ..sim.closedloop import run_closed_loop
-from ..sim.runlog import qp_status_name, summary
+from ..sim.runlog import fmt_slack, qp_status_name, summary
 from ..sim.scenario import make_scenario
 from ..solver_folder import FolderLike, as_folder
 from ..verify import infer_scenario
@@ -94,7 +94,7 @@ def aggregate(logs: list) -> dict:
             "progress_mean": mean("progress"),
             "collision_samples": int(sum(r["collision_samples"] for r in runs)),
             "runs_with_collision": int(sum(r["collision_samples"] > 0 for r in runs)),
-            "max_slack": float(np.max([r["max_slack"] for r in runs])),
+            "max_slack": max((r["max_slack"] for r in runs if r["max_slack"] is not None), default=None),
             "max_abs_a_lat": float(np.max([r["max_abs_a_lat"] for r in runs])),
             "nonzero_exit_codes": int(sum(r["nonzero_exit_codes"] for r in runs)),
         },
@@ -261,7 +261,7 @@ def format_bench(res: dict) -> str:
                 ", ".join(f"{k} {v}" for k, v in r["qp_status_counts"].items()),
                 f"{q['progress_mean']:.2f}",
                 f"{q['collision_samples']} (in {q['runs_with_collision']} of {r['runs']} runs)",
-                f"{q['max_slack']:.3g}",
+                fmt_slack(q["max_slack"]),
                 f"{q['max_abs_a_lat']:.2f}",
             )
         )

@@ -11,6 +11,7 @@ import click
 from click.core import ParameterSource
 
 from ..presets import SCENARIOS
+from ..sim.runlog import fmt_slack
 from ..targets import TARGETS
 
 OWN_SCENARIO = "default: the problem's own (from its opponent vehicle)"
@@ -97,7 +98,7 @@ def fmt_summary(s: dict) -> str:
         f"progress {s['progress']:.2f} m | collisions {s['n_collision_samples']} samples | "
         f"solver time mean {t['mean']:.2f} ms, median {t['median']:.2f} ms, max {t['max']:.2f} ms | "
         f"QP iterations mean {s['qp_iter_mean']:.0f}, max {s['qp_iter_max']} | "
-        f"QP status {s['qp_status_counts']} | max slack {s['max_slack']:.3g}{_unsolved(s)} | "
+        f"QP status {s['qp_status_counts']} | max slack {fmt_slack(s['max_slack'])}{_unsolved(s)} | "
         f"max |a_lat| {s['max_abs_a_lat']:.2f} m/s^2"
     )
 

@@ -254,6 +254,8 @@ def _tables(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any]:
     }
     if ocp.p_dt is not None:  # unequal intervals: each stage's length is a parameter (Ocp.stage_dt)
         real_tables["STAGE_DT"] = ocp.stage_dt()
+    if np.any(lay.band_ds != 0.0):  # corners' rows: each takes the band at its own s (QpLayout.band_ds)
+        real_tables["BAND_DS"] = lay.band_ds
     for t in (lay.L, lay.U):
         if np.any(np.abs(t) > INF):
             raise AssertionError("bounds beyond the QP infinity INF")
@@ -399,6 +401,7 @@ def _problem_context(problem: Problem, ocp: Ocp, lay: QpLayout) -> dict[str, Any
         "stage_opp": "ws.opp_stage" if ocp.fit is not None else None,
         "shape_dim": max(1, n_opp * ocp.n_opp_shape),
         "n_band": len(lay.band_rows),
+        "band_s": " + BAND_DS[i]" if np.any(lay.band_ds != 0.0) else "",
         "band_scale": c_real(lay.band_scale),
         "n_min": c_real(problem.bounds.n_min),
         "n_max": c_real(problem.bounds.n_max),

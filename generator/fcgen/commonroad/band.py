@@ -25,12 +25,12 @@ Rules (tested in tests/test_commonroad_band.py):
   it gives the plan room beyond the band wherever the ego heads towards an edge, which the plan uses (measured:
   more road departures, docs/commonroad.md).
 - **With the corners' band** (``Bounds.road_bound = "corners"``, ``SolverBand.corners``): the reference points are
-  the outermost corner on each side; their band is the narrowest over the chassis' length (``chassis_reach``); an
-  edge moves only where such a corner is beyond it or its own path over ``CORNER_STEP`` (its lateral speed from the
-  heading and the yaw rate at the held steering angle: what the next sample brings whatever the plan) crosses it, to
-  that path without ``BACK_ROOM`` (a corner at the edge is where the band lets the car drive: room beyond it, or the
-  rear axle's straight path over ``BACK_STEP``, was used sample after sample); after a sample without a solution, as
-  for the rear axle.
+  the outermost corner on each side; each corner's row takes the band at its own ``s`` (``road_rows.band_ahead``);
+  an edge moves only where such a corner is beyond it or its own path over ``CORNER_STEP`` (its lateral speed from
+  the heading and the yaw rate at the held steering angle: what the next sample brings whatever the plan) crosses
+  it, to that path without ``BACK_ROOM`` (a corner at the edge is where the band lets the car drive: room beyond it,
+  or the rear axle's straight path over ``BACK_STEP``, was used sample after sample), from the front corners' ``s``
+  back; after a sample without a solution, as for the rear axle.
 """
 
 from __future__ import annotations
@@ -138,18 +138,6 @@ BAND_RULES = ("road", "road_back", "lanes")
 lanes in use with the way back (the default)."""
 
 
-def chassis_reach(s: np.ndarray, lo: np.ndarray, hi: np.ndarray, behind: float, ahead: float) -> tuple:
-    """The band a chassis from ``behind`` to ``ahead`` metres of a point at ``s`` keeps on the road samples ``s``
-    (ascending): at each sample the narrowest of the band over that stretch (the corners' rows take the band at the
-    rear axle's ``s``)."""
-    s, lo, hi = np.asarray(s, dtype=float), np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    out_lo, out_hi = lo.copy(), hi.copy()
-    for d in np.unique(np.r_[np.linspace(behind, ahead, 9), 0.0]):
-        out_lo = np.maximum(out_lo, np.interp(s + d, s, lo))
-        out_hi = np.minimum(out_hi, np.interp(s + d, s, hi))
-    return out_lo, out_hi
-
-
 @dataclass(frozen=True, eq=False)
 class SolverBand:
     """What the solver's band at a sample is made of: the rule (``BAND_RULES``), the lanes, the road's band, the
@@ -182,11 +170,15 @@ class SolverBand:
         there move outwards per metre along the road over ``CORNER_STEP`` (Euler, steering angle held)."""
         s, n, a, v, d = (float(e) for e in x[:5])
         kappa = float(self.road.eval(s)[0])
-        c0 = np.array([float(c) for c in corner_n(n, a, self.vehicle, kappa)])
+
+        def kappa_at(d: float) -> float:
+            return float(self.road.eval(s + d)[0])
+
+        c0 = np.array([float(c) for c in corner_n(n, a, self.vehicle, kappa, kappa_at)])
         t = CORNER_STEP
         s_dot = v * np.cos(a) / (1.0 - n * kappa)
         a1 = a + t * (v * np.tan(d) / (2.0 * self.to_centre) - kappa * s_dot)
-        c1 = np.array([float(c) for c in corner_n(n + t * v * np.sin(a), a1, self.vehicle, kappa)])
+        c1 = np.array([float(c) for c in corner_n(n + t * v * np.sin(a), a1, self.vehicle, kappa, kappa_at)])
         path = max(v * t, 1e-9)
         lo_i, hi_i = 2 + int(np.argmin(c0[2:])), int(np.argmax(c0[:2]))
         return (float(c0[lo_i]), float(c0[hi_i])), (
@@ -211,9 +203,6 @@ class SolverBand:
             reach = self.half_length * abs(np.sin(a)) + self.half_width * np.cos(a)
             centres = lanes_in_use(self.lanes, s_c, n_c - reach, n_c + reach, target)
             lo_l, hi_l = lane_band(self.lanes, s_win, centres, road_lo, road_hi)
-            if self.corners:
-                behind, ahead = self.to_centre - self.half_length, self.to_centre + self.half_length
-                lo_l, hi_l = chassis_reach(s_win, lo_l, hi_l, behind, ahead)
             lo = np.maximum(lo_l + self.inset, self.n_bounds[0])
             hi = np.minimum(hi_l - self.inset, self.n_bounds[1])
             narrow = ~(lo < hi)  # a lane narrower than the chassis there: the road's band
@@ -221,10 +210,11 @@ class SolverBand:
         else:
             lo, hi = win.n_min, win.n_max
         n0: float | tuple[float, float] = float(x[1])
-        drift = None
-        if self.corners:  # the outermost corner on each side, and its lateral speed
+        drift, s0 = None, float(x[0])
+        if self.corners:  # the outermost corner on each side, and its lateral speed; from the front corners' s back
             n0, drift = self.corner_motion(x)
-        lo, hi, moved = way_back(s_win, lo, hi, float(x[0]), n0, float(x[2]), float(x[3]), heading, drift)
+            s0 += self.to_centre + self.half_length
+        lo, hi, moved = way_back(s_win, lo, hi, s0, n0, float(x[2]), float(x[3]), heading, drift)
         win.n_min[:] = np.maximum(lo, self.n_bounds[0])
         win.n_max[:] = np.minimum(hi, self.n_bounds[1])
         return moved

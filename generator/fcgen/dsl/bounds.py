@@ -18,8 +18,8 @@ class Bounds:
 
     ``road_bound``: what the road band bounds. ``"rear_axle"`` (the paper's, the default): the reference point's n, a
     box bound. ``"corners"``: the chassis' four corners, ``n + x_c sin(alpha) +- (w_ch/2) cos(alpha)`` with the front
-    and rear of the chassis at ``x_c`` from the rear axle (``models.corner_n``), one linearised row per corner
-    (docs/problem_reference.md).
+    and rear of the chassis at ``x_c`` from the rear axle (``models.corner_n``), one linearised row per corner, each
+    taking the road's band at its own ``s`` (docs/problem_reference.md).
 
     ``a_lat_margin``: the plan keeps |a_lat| this far inside ``a_lat_max``. The default (the safe profile's, 0.05 m/s^2)
     absorbs what one real-time iteration's linearization leaves where the plan holds the bound: on the safe grid it

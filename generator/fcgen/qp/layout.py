@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..ocp import INF, STATE_SCALE, Ocp
-from ..road_rows import BAND_SIDES
+from ..road_rows import BAND_SIDES, band_ahead
 
 # Rows whose bound comes from the road's drivable band (Road.n_min/n_max) at the stage's s when the road has one:
 # row name -> the sides it takes (0: lower <- n_min, 1: upper <- n_max); every such row is the rear axle's or a
@@ -45,7 +45,8 @@ class QpLayout:
     row_shift: np.ndarray  # shifted duals: y_new[i] = y_old[row_shift[i]] (stride 1; ``shifted``)
     var_names: tuple[str, ...]
     row_names: tuple[str, ...]
-    band_rows: np.ndarray  # (rows, 3): [row, stage k, side] taking the road band at s_k (BAND_ROW_SIDES)
+    band_rows: np.ndarray  # (rows, 3): [row, stage k, side] taking the road band at s_k + band_ds (BAND_ROW_SIDES)
+    band_ds: np.ndarray  # (rows,): how far ahead of s_k each takes it (road_rows.band_ahead: a corner's own s)
     band_scale: float = BAND_SCALE
     shift_fraction: float = 1.0  # a sample is this fraction of a coarse interval: 1 / stride (1: none)
     shift_split_var: int = 0  # the variables before it (fine stages) take the next stage's entry exactly
@@ -151,6 +152,8 @@ def build_layout(ocp: Ocp) -> QpLayout:
         for side in BAND_ROW_SIDES.get(nm, ())
     ]
     band_rows = np.array(band, dtype=np.int64).reshape(-1, 3)
+    names = [st.row_names for st in stages]
+    band_ds = np.array([band_ahead(ocp.problem, names[k][r - row_off[k]]) for r, k, _ in band], dtype=float)
     return QpLayout(
         n,
         m,
@@ -172,6 +175,7 @@ def build_layout(ocp: Ocp) -> QpLayout:
         var_names,
         row_names,
         band_rows,
+        band_ds,
         **shift_fields(ocp.problem.horizon, var_off, row_off),
     )
 

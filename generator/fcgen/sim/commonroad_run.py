@@ -10,11 +10,11 @@ n_ref)``: the goal's speed and the target lane's centre (``commonroad.lanes``), 
 (``set_reference_stages``).
 
 The solver's lateral bound (``Bounds.road_bound``) on the chassis' corners gets the drivable band shrunk by
-``CORNER_MARGIN``, at each sample the narrowest of the band over the chassis' length (its rows take the band at the
-rear axle's ``s``); on the rear axle, the band shrunk by half the ego's width plus ``HEADING_MARGIN`` (what a heading
-of up to ~4 degrees adds at the chassis' front corners). The problem's road band ``Bounds.n_min``/``n_max`` stays
-what it is: where the scenario's band is wider, the solver gets it cut to that (stated in the log's
-``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt`` (else the scenario is refused).
+``CORNER_MARGIN`` (each corner's row takes it at the corner's own ``s``); on the rear axle, the band shrunk by half the
+ego's width plus ``HEADING_MARGIN`` (what a heading of up to ~4 degrees adds at the chassis' front corners). The
+problem's road band ``Bounds.n_min``/``n_max`` stays what it is: where the scenario's band is wider, the solver gets it
+cut to that (stated in the log's ``extra.commonroad.band_cut``). A scenario's time step must be the problem's ``dt``
+(else the scenario is refused).
 """
 
 from __future__ import annotations
@@ -93,16 +93,11 @@ def band_inset(problem: Problem) -> float:
 
 
 def scenario_road(problem: Problem, sc) -> tuple[Road, float]:
-    """The scenario's road with the band the solver's road rows get (``band_inset``; the corners': the narrowest over
-    the chassis' length), cut to the problem's ``Bounds`` (the solver refuses a wider one); and how much was cut at
-    most (m, 0: none)."""
-    from ..commonroad.band import chassis_reach
-
-    road, b, ego = sc.road, problem.bounds, problem.ego
+    """The scenario's road with the band the solver's road rows get (``band_inset``), cut to the problem's ``Bounds``
+    (the solver refuses a wider one); and how much was cut at most (m, 0: none)."""
+    road, b = sc.road, problem.bounds
     inset = band_inset(problem)
     lo0, hi0 = road.n_min + inset, road.n_max - inset
-    if b.road_bound == "corners":
-        lo0, hi0 = chassis_reach(road.s, lo0, hi0, (ego.l - ego.l_ch) / 2, (ego.l + ego.l_ch) / 2)
     lo, hi = np.maximum(lo0, b.n_min), np.minimum(hi0, b.n_max)
     cut = float(max(np.max(lo - lo0), np.max(hi0 - hi), 0.0))
     if np.any(lo >= hi):

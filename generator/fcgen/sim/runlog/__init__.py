@@ -31,7 +31,7 @@ from .schema import (
     package_versions,
     qp_status_name,
 )
-from .stats import compare, summary
+from .stats import compare, fmt_slack, summary
 
 __all__ = [
     "CONTROLLER_KINDS",
@@ -45,6 +45,7 @@ __all__ = [
     "STATE_FIELDS",
     "RunLog",
     "compare",
+    "fmt_slack",
     "make_meta",
     "package_versions",
     "qp_status_name",

@@ -35,7 +35,7 @@ def summary(log: RunLog) -> dict[str, Any]:
     Keys: ``progress`` (final minus initial ``s``, m), ``s_final`` (m), ``n_states``, ``n_controls``,
     ``n_collision_samples``, ``time_total_ms`` / ``time_prepare_ms`` / ``time_feedback_ms`` (dicts with
     mean, median, p99, max in ms), ``qp_iter_mean``, ``qp_iter_max``, ``qp_status_counts`` (status name ->
-    count, names from ``QP_STATUS_NAMES``), ``max_slack`` (over the samples with a solution),
+    count, names from ``QP_STATUS_NAMES``), ``max_slack`` (over the samples with a solution; None without one),
     ``samples_unsolved`` (samples without a solution: their logged slack is not finite) and ``unsolved_exit_codes``
     (exit code name -> count of those samples, from the log's ``exit_code``; ``"unknown"`` without it),
     ``max_abs_a_lat`` (m/s^2). Statistics over an empty set are NaN (``qp_iter_max``: 0).
@@ -62,11 +62,16 @@ def summary(log: RunLog) -> dict[str, Any]:
         "qp_iter_mean": float(np.mean(log.qp_iter)) if k else math.nan,
         "qp_iter_max": int(np.max(log.qp_iter)) if k else 0,
         "qp_status_counts": dict(sorted(counts.items())),
-        "max_slack": float(np.max(slack[solved])) if solved.any() else math.nan,
+        "max_slack": float(np.max(slack[solved])) if solved.any() else None,
         "samples_unsolved": int(np.count_nonzero(~solved)),
         "unsolved_exit_codes": unsolved_exit_codes(log, ~solved),
         "max_abs_a_lat": float(np.max(np.abs(log.a_lat))),
     }
+
+
+def fmt_slack(value: float | None) -> str:
+    """A summary's ``max_slack`` as text: ``none`` where no sample had a solution."""
+    return "none" if value is None else f"{value:.3g}"
 
 
 def unsolved_exit_codes(log: RunLog, unsolved: NDArray[np.bool_]) -> dict[str, int]:
