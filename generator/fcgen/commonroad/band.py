@@ -171,8 +171,8 @@ class SolverBand:
         s, n, a, v, d = (float(e) for e in x[:5])
         kappa = float(self.road.eval(s)[0])
 
-        def kappa_at(d: float) -> float:
-            return float(self.road.eval(s + d)[0])
+        def kappa_at(ahead: float) -> float:
+            return float(self.road.eval(s + ahead)[0])
 
         c0 = np.array([float(c) for c in corner_n(n, a, self.vehicle, kappa, kappa_at)])
         t = CORNER_STEP
