@@ -68,7 +68,7 @@ def drive_power(mass: float) -> float:
     its acceleration above ``v_switch`` is at most ``a_max v_switch / v``, so ``F_d v <= m a_max v_switch``
     (``Bounds.P_d_max``)."""
     with require("commonroad", "the solution's vehicle parameters"):
-        from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # BMW 320i, the solution's VehicleType
+        from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # type: ignore[import-untyped]
 
     lon = parameters_vehicle2().longitudinal
     return float(mass * lon.a_max * lon.v_switch)
