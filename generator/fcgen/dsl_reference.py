@@ -217,6 +217,12 @@ FIELDS: dict[tuple[str, str], tuple[str, str, str]] = {
         "(one row each, n + x_c sin(alpha) +- (w_ch/2) cos(alpha) with the road's curvature over the chassis; each "
         "takes the road's band at its own s; 4 rows per stage, about 1.1x the instructions per RTI)",
     ),
+    ("Bounds", "P_d_max"): (
+        "W",
+        "None or > 0",
+        "the drive's power: one row F_d v <= P_d_max per stage 0..N-1 (None: no row; CommonRoad runs of the safe "
+        "profile: the solution's vehicle's m a_max v_switch, 97.6 kW for the BMW 320i at 1160 kg)",
+    ),
     ("SoftPenalties", "obstacle_l1"): ("-", ">= 0", "L1 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "obstacle_l2"): ("-", ">= 0", "L2 weight of the obstacle rows' slacks (times dt)"),
     ("SoftPenalties", "a_lat_l1"): ("-", ">= 0", "L1 weight of the a_lat rows' slacks (times dt)"),

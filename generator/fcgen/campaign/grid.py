@@ -33,6 +33,7 @@ class Config:
     delay: int = 0  # the solvers' delay compensation (Problem.delay), samples
     road_bound: str = "rear_axle"  # what the road band bounds (Bounds.road_bound): rear_axle | corners
     ego_circles: int = 1  # the circles covering the ego in the ellipse's rows (Ellipse.n_ego), ellipse only
+    drive_power: float = 0.0  # the drive's power row (Bounds.P_d_max), W; 0: none
 
     def __post_init__(self) -> None:
         if not isinstance(self.plant, PlantSpec):
@@ -46,6 +47,10 @@ class Config:
         _one_of("road_bound", self.road_bound, ROAD_BOUNDS)
         if not (isinstance(self.ego_circles, int) and 1 <= self.ego_circles <= 5):
             raise ProblemError(f"ego_circles = {self.ego_circles!r} is invalid: allowed an integer in [1, 5]")
+        if not (isinstance(self.drive_power, float) and 0.0 <= self.drive_power < float("inf")):
+            raise ProblemError(
+                f"drive_power = {self.drive_power!r} is invalid: allowed a finite float >= 0 W (0: none)"
+            )
         if self.ego_circles != 1 and self.obstacles != "ellipse":
             raise ProblemError(f"ego_circles = {self.ego_circles} is invalid: allowed 1 unless obstacles = 'ellipse'")
         if (self.obstacles == "circles") != (self.circles > 0):
@@ -66,7 +71,8 @@ class Config:
         key = key if self.plant.is_default else f"{key}/{self.plant.label()}"  # as before the plants
         key = key if not self.delay else f"{key}/comp{self.delay}"
         key = key if self.road_bound == "rear_axle" else f"{key}/{self.road_bound}"  # as before the corners
-        return key if self.ego_circles == 1 else f"{key}/ego{self.ego_circles}"  # as before the ego's circles
+        key = key if self.ego_circles == 1 else f"{key}/ego{self.ego_circles}"  # as before the ego's circles
+        return key if not self.drive_power else f"{key}/power{self.drive_power / 1e3:.1f}kW"  # as before the power
 
     def problem(self) -> Problem:
         """The paper problem of this configuration (the QP backend set when the DSL has the field)."""
@@ -91,6 +97,9 @@ class Config:
             pb = matched_problem(pb, "matched")
         if self.road_bound != "rear_axle":
             pb = pb.with_(bounds=replace(pb.bounds, road_bound=self.road_bound), name=f"{pb.name}_cb"[:31])
+        if self.drive_power:  # the name's last letter: car_lifted_ellipse_ipm_safe_cbp
+            name = f"{pb.name}p" if pb.name.endswith("_cb") else f"{pb.name}_p"
+            pb = pb.with_(bounds=replace(pb.bounds, P_d_max=self.drive_power), name=name[:31])
         if self.ego_circles != 1:
             n, ob = self.ego_circles, pb.obstacles
             assert isinstance(ob, Ellipse)  # __post_init__: ego circles with the ellipse only
@@ -104,7 +113,7 @@ class Config:
         """The row's configuration columns; a perturbed run's plant as columns ``plant``, ``plant_params``,
         ``latency``, ``steer_lag``, ``noise`` and ``prediction`` when predicted (a default run's row has none
         of them, as before the plants)."""
-        skip = ("plant", "delay", "road_bound", "ego_circles")
+        skip = ("plant", "delay", "road_bound", "ego_circles", "drive_power")
         d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
         if self.delay:
             d["delay"] = self.delay
@@ -112,6 +121,8 @@ class Config:
             d["road_bound"] = self.road_bound
         if self.ego_circles != 1:  # the rows of the ego's one circle: as before n_ego
             d["ego_circles"] = self.ego_circles
+        if self.drive_power:  # the rows without a power row: as before it
+            d["drive_power"] = self.drive_power
         if not self.plant.is_default:
             p = asdict(self.plant)
             d.update(
@@ -132,6 +143,24 @@ def default_road_bound(commonroad: bool, profile: str) -> str:
     """A campaign's road bound without ``--road-bound``: the chassis' corners for the safe profile on CommonRoad
     scenarios (docs/commonroad.md, "The corners' band, the safe profile's on CommonRoad"), else the presets' own."""
     return "corners" if commonroad and profile == "safe" else "rear_axle"
+
+
+def grid_extras(spec: PlantSpec, delay: int, road_bound: str | None, ego_circles: int, commonroad: bool, profile: str):
+    """``paper_grid``'s arguments after the profile: the plant, the delay, the road bound (None: its default), the
+    ego's circles and the drive power (``default_road_bound``, ``default_drive_power``)."""
+    bound = road_bound or default_road_bound(commonroad, profile)
+    return spec, delay, bound, ego_circles, default_drive_power(commonroad, profile)
+
+
+def default_drive_power(commonroad: bool, profile: str) -> float:
+    """A campaign's drive power (W): on CommonRoad scenarios the safe profile's plan keeps the acceleration the
+    solution's vehicle model allows (``commonroad.solution.drive_power``; docs/commonroad.md), else none (0)."""
+    if not (commonroad and profile == "safe"):
+        return 0.0
+    from ..commonroad.solution import drive_power
+    from ..dsl import Vehicle
+
+    return drive_power(Vehicle().m)
 
 
 def _one_of(field: str, value, allowed: tuple) -> None:
@@ -167,6 +196,7 @@ def paper_grid(
     delay: int = 0,
     road_bound: str = "rear_axle",
     ego_circles: int = 1,
+    drive_power: float = 0.0,
 ) -> list[Config]:
     """The configurations, scenario-major (the full paper grid: 2 x 3 x 4 = 24)."""
     out = []
@@ -177,7 +207,8 @@ def paper_grid(
                 for form in formulations:
                     spec = plant or PlantSpec()
                     circ = ego_circles if kind == "ellipse" else 1  # the ego's circles: the ellipse's rows only
-                    out.append(Config(sc, form, kind, n, controller, backend, profile, spec, delay, road_bound, circ))
+                    cfg = (controller, backend, profile, spec, delay, road_bound, circ, drive_power)
+                    out.append(Config(sc, form, kind, n, *cfg))
     if ego_circles != 1 and not any(c.ego_circles != 1 for c in out):
         raise ProblemError(f"ego_circles = {ego_circles} is invalid: allowed 1 unless the grid has the ellipse")
     return out

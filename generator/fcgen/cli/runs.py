@@ -329,7 +329,7 @@ def campaign(
 ):
     """The paper's grid of randomized closed loops (Table III, Fig. 3), in parallel, resumable, into Parquet."""
     from ..atomic import check_folder_target
-    from ..campaign.grid import default_road_bound
+    from ..campaign.grid import grid_extras
 
     spec = plant_spec(commonroad=bool(cr_dir))
     with warnings.catch_warnings(record=True) as caught:  # printed once, after the runs (the workers warn the same)
@@ -341,7 +341,7 @@ def campaign(
             controller,
             backend,
             profile,
-            (spec, delay, road_bound or default_road_bound(bool(cr_dir), profile), ego_circles),
+            grid_extras(spec, delay, road_bound, ego_circles, bool(cr_dir), profile),
         )
     seed_range = range(first_seed, first_seed + seeds)
     configs = robust_configs(configs, spec, delay, seed_range, samples, jobs, (out, clock), **robust)  # its grid

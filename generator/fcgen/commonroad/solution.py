@@ -63,6 +63,17 @@ def solution_of(sc, ego_states: np.ndarray):
     return Solution(sc.scenario.scenario_id, [pps])
 
 
+def drive_power(mass: float) -> float:
+    """The drive's power (W) of the solution's vehicle (the BMW 320i's longitudinal parameters) for a car of ``mass``:
+    its acceleration above ``v_switch`` is at most ``a_max v_switch / v``, so ``F_d v <= m a_max v_switch``
+    (``Bounds.P_d_max``)."""
+    with require("commonroad", "the solution's vehicle parameters"):
+        from vehiclemodels.parameters_vehicle2 import parameters_vehicle2  # type: ignore[import-untyped]
+
+    lon = parameters_vehicle2().longitudinal
+    return float(mass * lon.a_max * lon.v_switch)
+
+
 def _turns(sc, phi0: float) -> float:
     """The whole turns (a multiple of 2 pi) that bring ``phi0`` nearest the planning problem's initial orientation
     (fcgen's heading is the road's plus alpha in [-pi, pi]; a problem may give it with whole turns: -3.351 for

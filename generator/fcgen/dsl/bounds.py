@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .validation import check, finite, known_fields, positive
 
@@ -26,6 +26,11 @@ class Bounds:
     takes the samples above 5.05 m/s^2 from 1.03 % to 0.45 % (docs/safe_profile.md); the paper's presets keep 0. With
     intervals of several samples the plant's samples between the nodes overshoot more (0.15 m/s^2 kept 0.2 s
     intervals within 5.05 m/s^2 in all but 4 of 3,600 samples, docs/collisions.md).
+
+    ``P_d_max``: the drive's power, a row ``F_d v <= P_d_max`` per stage 0..N-1 (None, the presets': no row). A vehicle
+    model whose acceleration falls as ``a_max v_switch / v`` above ``v_switch`` (CommonRoad's) has the power
+    ``m a_max v_switch``: CommonRoad runs of the safe profile take it from the solution's vehicle
+    (``commonroad.solution.drive_power``).
     """
 
     F_d_max: float = 1e4
@@ -40,6 +45,7 @@ class Bounds:
     v_N_max: float = 15.0
     a_lat_margin: float = 0.05
     road_bound: str = "rear_axle"
+    P_d_max: float | None = field(default=None, metadata={"omit_default": True})
 
     def __post_init__(self) -> None:
         for f in ("F_d_max", "r_max", "delta_max", "a_lat_max"):
@@ -73,6 +79,12 @@ class Bounds:
             "bounds.n_min",
             self.n_min,
             f"< n_max = {self.n_max}",
+        )
+        check(
+            self.P_d_max is None or finite("bounds.P_d_max", self.P_d_max) > 0,
+            "bounds.P_d_max",
+            self.P_d_max,
+            "None (no power row) or > 0 W",
         )
         check(
             self.road_bound in ROAD_BOUNDS,
