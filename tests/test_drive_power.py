@@ -131,3 +131,24 @@ def test_a_campaigns_drive_power_names_its_problem_and_key():
     assert plain.problem().bounds.P_d_max is None and "drive_power" not in plain.as_dict()
     with pytest.raises(ProblemError, match=r"drive_power = -1.0 is invalid: allowed a finite float >= 0 W"):
         replace(cfg, drive_power=-1.0)
+
+
+def test_simulates_drive_power_option():
+    """``fcgen simulate --drive-power``: 'vehicle' or watts into ``Bounds.P_d_max``; anything else refused naming the
+    option and what it allows; a solver folder without the row refused for a problem with it."""
+    import click
+    from click.testing import CliRunner
+
+    from fcgen.cli import main
+    from fcgen.cli.options import same_bounds, with_band_and_circles
+
+    pytest.importorskip("vehiclemodels")
+    assert with_band_and_circles(SAFE, None, None, "vehicle").bounds.P_d_max == pytest.approx(POWER, rel=1e-12)
+    assert with_band_and_circles(SAFE, None, None, 5e4).bounds.P_d_max == 5e4
+    assert with_band_and_circles(SAFE, None, None).bounds.P_d_max is None  # the problem's own
+    for bad in ("0", "-3", "inf", "fast"):
+        res = CliRunner().invoke(main, ["simulate", "--drive-power", bad])
+        assert res.exit_code == 2 and "'vehicle' or a power > 0 W" in res.output, res.output
+    with pytest.raises(click.ClickException, match=r"--solver-dir d has P_d_max = None, unlike the problem"):
+        same_bounds(SAFE, _powered(SAFE), "d")
+    same_bounds(_powered(SAFE), _powered(SAFE), "d")  # the same row: accepted

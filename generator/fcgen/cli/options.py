@@ -303,11 +303,60 @@ def ego_circles_option(help: str, default: int | None = 1) -> Decorator:
     return click.option("--ego-circles", type=click.IntRange(1, 5), default=default, show_default=True, help=help)
 
 
-def with_band_and_circles(pb, road_bound: str | None, ego_circles: int | None):
-    """``pb`` with ``--road-bound`` and ``--ego-circles`` (``None``: the problem's own; more than one ego circle: an
-    ellipse's rows only)."""
+def _drive_power(ctx, param, value: str | None) -> str | float | None:
+    """``--drive-power``: None (the problem's own), ``vehicle`` or a power in W (> 0)."""
+    if value is None or value == "vehicle":
+        return value
+    try:
+        watts = float(value)
+    except ValueError:
+        watts = float("nan")
+    if not (0.0 < watts < float("inf")):
+        raise click.BadParameter(f"{value!r} is invalid: allowed 'vehicle' or a power > 0 W", ctx, param)
+    return watts
+
+
+def simulate_chassis_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``fcgen simulate``'s ``--road-bound``, ``--ego-circles`` and ``--drive-power`` (each: the problem's own by
+    default; with ``--controller c`` the solver folder's problem must have it)."""
+    f = click.option(
+        "--drive-power",
+        default=None,
+        metavar="W|vehicle",
+        callback=_drive_power,
+        help="the drive's power row F_d v <= W (Bounds.P_d_max); 'vehicle': the CommonRoad solution vehicle's "
+        "m a_max v_switch (97.6 kW for 1160 kg); default: the problem's own",
+    )(f)
+    f = ego_circles_option(
+        "the circles covering the ego in the ellipse's rows (Ellipse.n_ego); default: the problem's", None
+    )(f)
+    return road_bound_option(
+        "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
+        "problem's own (--controller c: the solver folder's must be it)"
+    )(f)
+
+
+def same_bounds(theirs, ours, solver_dir: str) -> None:
+    """Fail unless the solver folder's problem ``theirs`` has the road bound and drive power of the problem ``ours``."""
+    b, c = theirs.bounds, ours.bounds
+    if differ := [f"{n} = {getattr(b, n)!r}" for n in ("road_bound", "P_d_max") if getattr(b, n) != getattr(c, n)]:
+        fail(
+            f"--solver-dir {solver_dir} has {', '.join(differ)}, unlike the problem {ours.name!r}: generate the "
+            f"solver from the problem, or leave out --road-bound and --drive-power"
+        )
+
+
+def with_band_and_circles(pb, road_bound: str | None, ego_circles: int | None, drive_power: str | float | None = None):
+    """``pb`` with ``--road-bound``, ``--ego-circles`` and ``--drive-power`` (``None``: the problem's own; more than
+    one ego circle: an ellipse's rows only)."""
     if road_bound is not None:
         pb = pb.with_(bounds=replace(pb.bounds, road_bound=road_bound))
+    if drive_power is not None:
+        if drive_power == "vehicle":
+            from ..commonroad.solution import drive_power as vehicle_power
+
+            drive_power = vehicle_power(pb.ego.m)
+        pb = pb.with_(bounds=replace(pb.bounds, P_d_max=float(drive_power)))
     if ego_circles is not None:
         if pb.obstacles.kind != "ellipse":
             fail(f"--ego-circles {ego_circles}: allowed with the ellipse only (the problem's is {pb.obstacles.kind})")

@@ -27,10 +27,12 @@ from .options import (
     plant_options,
     plant_spec,
     road_bound_option,
+    same_bounds,
     samples_option,
     scenario_option,
     seed_option,
     seeds_option,
+    simulate_chassis_options,
     with_band_and_circles,
 )
 from .robust import robust_configs, robustness_options
@@ -93,11 +95,7 @@ from .robust import robust_configs, robustness_options
     default=None,
     help="with --commonroad: write the ego's trajectory as a CommonRoad solution file (XML)",
 )
-@road_bound_option(
-    "what the road band bounds (Bounds.road_bound): the rear axle or the chassis' four corners; default: the "
-    "problem's own (--controller c: the solver folder's must be it)"
-)
-@ego_circles_option("the circles covering the ego in the ellipse's rows (Ellipse.n_ego); default: the problem's", None)
+@simulate_chassis_options
 @plant_options
 @traffic_option()
 def simulate(
@@ -119,6 +117,7 @@ def simulate(
     cr_solution,
     road_bound,
     ego_circles,
+    drive_power,
     traffic,
 ):
     """Run one randomized closed-loop scenario (paper section V), or a CommonRoad scenario, and print its summary."""
@@ -138,7 +137,7 @@ def simulate(
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
     spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
-    pb = with_band_and_circles(pb, road_bound, ego_circles)
+    pb = with_band_and_circles(pb, road_bound, ego_circles, drive_power)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
@@ -190,11 +189,7 @@ def _controller(controller: str, pb, solver_dir: str | None, fmu_path: str | Non
                 f"--solver-dir {solver_dir} compensates delay = {folder.problem.delay} samples, the problem "
                 f"{pb.name!r} has delay = {pb.delay}: give --problem {Path(solver_dir) / 'problem.py'}"
             )
-        if folder.problem.bounds.road_bound != pb.bounds.road_bound:
-            fail(
-                f"--solver-dir {solver_dir} bounds road_bound = {folder.problem.bounds.road_bound!r}, the problem "
-                f"{pb.name!r} {pb.bounds.road_bound!r}: generate the solver from the problem, or leave out --road-bound"
-            )
+        same_bounds(folder.problem, pb, solver_dir)
         return CSolver.from_dir(folder)
     return None
 
