@@ -339,10 +339,14 @@ def simulate_chassis_options(f: Callable[..., Any]) -> Callable[..., Any]:
 def same_bounds(theirs, ours, solver_dir: str) -> None:
     """Fail unless the solver folder's problem ``theirs`` has the road bound and drive power of the problem ``ours``."""
     b, c = theirs.bounds, ours.bounds
-    if differ := [f"{n} = {getattr(b, n)!r}" for n in ("road_bound", "P_d_max") if getattr(b, n) != getattr(c, n)]:
+    names = [n for n in ("road_bound", "P_d_max") if getattr(b, n) != getattr(c, n)]
+    if names:
+        differ = "; ".join(
+            f"{n} = {getattr(b, n)!r} where the problem {ours.name!r} has {getattr(c, n)!r}" for n in names
+        )
         fail(
-            f"--solver-dir {solver_dir} has {', '.join(differ)}, unlike the problem {ours.name!r}: generate the "
-            f"solver from the problem, or leave out --road-bound and --drive-power"
+            f"--solver-dir {solver_dir} has {differ}: generate the solver from the problem, or leave out --road-bound "
+            f"and --drive-power"
         )
 
 
