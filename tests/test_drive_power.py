@@ -140,12 +140,12 @@ def test_simulates_drive_power_option():
     from click.testing import CliRunner
 
     from fcgen.cli import main
-    from fcgen.cli.options import same_bounds, with_band_and_circles
+    from fcgen.cli.options import same_bounds, with_chassis_options
 
     pytest.importorskip("vehiclemodels")
-    assert with_band_and_circles(SAFE, None, None, "vehicle").bounds.P_d_max == pytest.approx(POWER, rel=1e-12)
-    assert with_band_and_circles(SAFE, None, None, 5e4).bounds.P_d_max == 5e4
-    assert with_band_and_circles(SAFE, None, None).bounds.P_d_max is None  # the problem's own
+    assert with_chassis_options(SAFE, None, None, "vehicle").bounds.P_d_max == pytest.approx(POWER, rel=1e-12)
+    assert with_chassis_options(SAFE, None, None, 5e4).bounds.P_d_max == 5e4
+    assert with_chassis_options(SAFE, None, None).bounds.P_d_max is None  # the problem's own
     for bad in ("0", "-3", "inf", "fast"):
         res = CliRunner().invoke(main, ["simulate", "--drive-power", bad])
         assert res.exit_code == 2 and "'vehicle' or a power > 0 W" in res.output, res.output

@@ -350,7 +350,7 @@ def same_bounds(theirs, ours, solver_dir: str) -> None:
         )
 
 
-def with_band_and_circles(pb, road_bound: str | None, ego_circles: int | None, drive_power: str | float | None = None):
+def with_chassis_options(pb, road_bound: str | None, ego_circles: int | None, drive_power: str | float | None = None):
     """``pb`` with ``--road-bound``, ``--ego-circles`` and ``--drive-power`` (``None``: the problem's own; more than
     one ego circle: an ellipse's rows only)."""
     if road_bound is not None:

@@ -33,7 +33,7 @@ from .options import (
     seed_option,
     seeds_option,
     simulate_chassis_options,
-    with_band_and_circles,
+    with_chassis_options,
 )
 from .robust import robust_configs, robustness_options
 
@@ -137,7 +137,7 @@ def simulate(
         pb = load_problem(problem_spec) if problem_spec else paper_problem(scenario, formulation, obstacles, circles)
     spec = plant_spec(commonroad=bool(cr_file), commonroad_plant=True)
     pb = matched_for(pb, spec, controller)
-    pb = with_band_and_circles(pb, road_bound, ego_circles, drive_power)
+    pb = with_chassis_options(pb, road_bound, ego_circles, drive_power)
     ctrl = _controller(controller, pb, solver_dir, fmu_path)
     if cr_file:
         simulate_commonroad(pb, cr_file, cr_pp, samples, ctrl, out, plot, cr_solution, traffic, animate, spec)
